@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Configures and builds every CMake preset (or those named as arguments).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+presets=("$@")
+((${#presets[@]})) || presets=(host-debug host-release m4-core)
+for p in "${presets[@]}"; do
+  echo "== build: $p"
+  cmake --preset "$p" >/dev/null
+  cmake --build --preset "$p"
+done

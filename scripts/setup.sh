@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Installs what the project needs on a fresh Debian bookworm machine:
+# Debian packages (compilers, cmocka, the Cortex-M4 toolchain, QEMU,
+# user-mode Linux and can-utils for the vcan bus) and the Python venv in
+# .venv with the stewart tools. Idempotent: does nothing when all is there.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+apt_packages=(
+  cmake ninja-build gcc make pkg-config libcmocka-dev
+  gcc-arm-none-eabi libnewlib-arm-none-eabi libnewlib-dev qemu-system-arm
+  user-mode-linux kmod can-utils iproute2
+  clang libclang-rt-14-dev
+)
+missing=()
+for p in "${apt_packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if ((${#missing[@]})); then
+  echo "setup: installing Debian packages: ${missing[*]}"
+  sudo_cmd=()
+  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends \
+    "${missing[@]}" >/dev/null
+fi
+
+# The venv is rebuilt when the pinned dependencies change (stamp = hash of
+# tools/pyproject.toml).
+venv="$root/.venv"
+stamp="$venv/.stewart-stamp"
+want=$(sha256sum "$root/tools/pyproject.toml" | cut -d' ' -f1)
+if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  echo "setup: creating the Python venv in .venv"
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install -q --disable-pip-version-check -e "$root/tools[test]"
+  echo "$want" > "$stamp"
+fi

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# All tests, from a fresh machine: set-up, every build preset (host debug with
+# sanitizers, host release, Cortex-M4 cross build), the benchmarks' figures,
+# the C unit tests (ctest) and the Python tests (pytest).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+scripts/setup.sh
+scripts/build.sh
+scripts/bench.sh
+echo "== ctest (host-debug)"
+ctest --preset host-debug
+echo "== pytest"
+.venv/bin/pytest -q tests/python

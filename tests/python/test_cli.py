@@ -1,0 +1,30 @@
+"""The command line is installed and dispatches to its sub-commands."""
+
+import subprocess
+import sys
+
+from stewart import REPO_ROOT, cli
+
+
+def test_help_lists_commands(capsys):
+    parser = cli.build_parser()
+    parser.print_help()
+    out = capsys.readouterr().out
+    assert "info" in out
+
+
+def test_no_command_is_an_error():
+    assert cli.main([]) == 2
+
+
+def test_info_runs(capsys):
+    assert cli.main(["info"]) == 0
+    assert str(REPO_ROOT) in capsys.readouterr().out
+
+
+def test_entry_point_installed():
+    exe = REPO_ROOT / ".venv" / "bin" / "stewart"
+    assert exe.exists(), "the set-up installs the stewart entry point into .venv"
+    out = subprocess.run([str(exe), "--version"], capture_output=True, text=True, check=True)
+    assert out.stdout.startswith("stewart ")
+    assert sys.version_info >= (3, 11)

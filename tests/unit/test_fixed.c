@@ -1,0 +1,352 @@
+/*
+ * Unit tests of sp/fixed.h against long double references (64-bit mantissa:
+ * exact for every 62-bit product), over random inputs spread across the
+ * whole int32 range plus the edge values: zero, +-1, the extremes and the
+ * points where saturation starts.
+ *
+ * Allowed errors, in LSB of the result (the reference is the exact real
+ * result of the fixed-point inputs):
+ *   add, sub, neg, abs, rshift_round, isqrt64   exact (0 LSB after rounding)
+ *   mul, div, sqrt_q24, dot3                      0.5 LSB
+ *   sincos_q24                                    2 LSB of Q30 (1.9e-9)
+ * Saturation: a flag is set exactly when the exact result leaves int32.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include <cmocka.h>
+
+#include "sp/fixed.h"
+#include "test_util.h"
+
+#define N_RANDOM 200000
+#define TOL_HALF_LSB (0.5L + 1e-9L)
+#define TOL_SINCOS_LSB 2.0L
+
+static const int32_t edges[] = {0, 1, -1, 2, -2, 255, -256, 0x7FFF, -0x8000, SP_Q24_ONE,
+                                -SP_Q24_ONE, SP_Q30_ONE, -SP_Q30_ONE, INT32_MAX, INT32_MIN,
+                                INT32_MAX - 1, INT32_MIN + 1, 0x40000001, -0x40000001};
+#define N_EDGES (sizeof edges / sizeof edges[0])
+
+/* Reference narrowing: clamps and tells whether it clamped. */
+static long double clamp32(long double v, int *clamped)
+{
+    *clamped = 0;
+    if (v > (long double)INT32_MAX) {
+        *clamped = 1;
+        return (long double)INT32_MAX;
+    }
+    if (v < (long double)INT32_MIN) {
+        *clamped = 1;
+        return (long double)INT32_MIN;
+    }
+    return v;
+}
+
+/* Nearest, ties away from zero: the rounding the library promises. */
+static long double round_away(long double v)
+{
+    return (v < 0) ? -floorl(-v + 0.5L) : floorl(v + 0.5L);
+}
+
+static void check_exact_saturating(long double exact, int32_t got, sp_flags_t flags, const char *what,
+                                   int32_t a, int32_t b)
+{
+    int clamped;
+    long double want = clamp32(round_away(exact), &clamped);
+    if ((long double)got != want || ((flags & SP_FLAG_OVERFLOW) != 0u) != (clamped != 0)) {
+        fail_msg("%s(%ld, %ld): got %ld flags %u, want %.1Lf clamped %d", what, (long)a, (long)b,
+                 (long)got, (unsigned)flags, want, clamped);
+    }
+}
+
+static void test_add_sub_neg_abs(void **state)
+{
+    uint64_t rng = 1;
+    (void)state;
+    for (int i = 0; i < N_RANDOM + (int)(N_EDGES * N_EDGES); ++i) {
+        int32_t a;
+        int32_t b;
+        sp_flags_t f;
+        if (i < (int)(N_EDGES * N_EDGES)) {
+            a = edges[(size_t)i % N_EDGES];
+            b = edges[(size_t)i / N_EDGES];
+        } else {
+            a = (i & 1) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+            b = (i & 2) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        }
+        int32_t got;
+        f = 0u;
+        got = sp_add(a, b, &f);
+        check_exact_saturating((long double)a + b, got, f, "add", a, b);
+        f = 0u;
+        got = sp_sub(a, b, &f);
+        check_exact_saturating((long double)a - b, got, f, "sub", a, b);
+        f = 0u;
+        got = sp_neg(a, &f);
+        check_exact_saturating(-(long double)a, got, f, "neg", a, 0);
+        f = 0u;
+        got = sp_abs(a, &f);
+        check_exact_saturating(fabsl((long double)a), got, f, "abs", a, 0);
+    }
+}
+
+static void test_rshift_round(void **state)
+{
+    uint64_t rng = 2;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int64_t v = (int64_t)tu_next(&rng);
+        unsigned s = (unsigned)(tu_next(&rng) % 63u);
+        long double want;
+        if (i == 0) {
+            v = INT64_MIN;
+        } else if (i == 1) {
+            v = INT64_MAX;
+        } else if (i < 64) {
+            v = ((i & 1) ? 3 : -3) * (INT64_C(1) << (s > 0 ? s - 1 : 0)); /* ties */
+        }
+        want = round_away(TU_LDEXP(v, -(int)s));
+        assert_true((long double)sp_rshift_round(v, s) == want);
+    }
+    /* Ties go away from zero. */
+    assert_int_equal(sp_rshift_round(3, 1), 2);
+    assert_int_equal(sp_rshift_round(-3, 1), -2);
+    assert_int_equal(sp_rshift_round(1, 1), 1);
+    assert_int_equal(sp_rshift_round(-1, 1), -1);
+    assert_int_equal(sp_rshift_round(-5, 2), -1);
+}
+
+static void test_mul(void **state)
+{
+    static const unsigned shifts[] = {0u, 8u, 16u, 24u, 30u, 31u, 40u, 62u};
+    uint64_t rng = 3;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int32_t a = (i & 1) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        int32_t b = (i & 2) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        unsigned s = shifts[tu_next(&rng) % 8u];
+        sp_flags_t f = 0u;
+        int32_t got;
+        int clamped;
+        long double exact;
+        if (i < (int)(N_EDGES * N_EDGES)) {
+            a = edges[(size_t)i % N_EDGES];
+            b = edges[(size_t)i / N_EDGES];
+        }
+        got = sp_mul(a, b, s, &f);
+        exact = TU_LDEXP((long double)a * b, -(int)s);
+        (void)clamp32(exact, &clamped);
+        if (clamped) {
+            assert_true((f & SP_FLAG_OVERFLOW) != 0u);
+            assert_int_equal(got, exact > 0 ? INT32_MAX : INT32_MIN);
+        } else if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
+            fail_msg("mul(%ld, %ld, %u) = %ld, exact %.3Lf", (long)a, (long)b, s, (long)got, exact);
+        }
+    }
+    /* The Q wrappers keep their formats. */
+    assert_int_equal(sp_mul_q30(SP_Q30_ONE, SP_Q30_ONE / 2, NULL), SP_Q30_ONE / 2);
+    assert_int_equal(sp_mul_q24(3 * SP_Q24_ONE, -2 * SP_Q24_ONE, NULL), -6 * SP_Q24_ONE);
+}
+
+static void test_div(void **state)
+{
+    static const unsigned shifts[] = {0u, 8u, 16u, 24u, 30u, 31u, 40u};
+    uint64_t rng = 4;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int64_t num = (int64_t)((i & 1) ? tu_i32(&rng) : tu_i32_logscale(&rng));
+        int32_t den = (i & 2) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        unsigned s = shifts[tu_next(&rng) % 7u];
+        sp_flags_t f = 0u;
+        int32_t got;
+        long double exact;
+        int clamped;
+        if ((i % 5) == 0) {
+            /* wide numerators, up to the largest that the shift allows */
+            num = (int64_t)(tu_next(&rng) >> (1u + s + (unsigned)(tu_next(&rng) % (63u - s))));
+        }
+        if (den == 0) {
+            got = sp_div(num, den, s, &f);
+            assert_int_equal(got, 0);
+            assert_true((f & SP_FLAG_DOMAIN) != 0u);
+            continue;
+        }
+        got = sp_div(num, den, s, &f);
+        exact = TU_LDEXP((long double)num, (int)s) / (long double)den;
+        (void)clamp32(exact, &clamped);
+        if (clamped) {
+            assert_true((f & SP_FLAG_OVERFLOW) != 0u);
+            assert_int_equal(got, exact > 0 ? INT32_MAX : INT32_MIN);
+        } else {
+            assert_true(f == 0u);
+            if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
+                fail_msg("div(%lld, %ld, %u) = %ld, exact %.3Lf", (long long)num, (long)den, s,
+                         (long)got, exact);
+            }
+        }
+    }
+    /* Extremes: a 64-bit numerator far too large saturates, it never wraps. */
+    {
+        sp_flags_t f = 0u;
+        assert_int_equal(sp_div(INT64_MAX, 1, 24u, &f), INT32_MAX);
+        assert_true(f == SP_FLAG_OVERFLOW);
+        f = 0u;
+        assert_int_equal(sp_div(INT64_MIN, 1, 0u, &f), INT32_MIN);
+        assert_true(f == SP_FLAG_OVERFLOW);
+        f = 0u;
+        assert_int_equal(sp_div(INT32_MIN, -1, 0u, &f), INT32_MAX);
+        assert_true(f == SP_FLAG_OVERFLOW);
+        f = 0u;
+        assert_int_equal(sp_div_q24(SP_Q24_ONE, 3 * SP_Q24_ONE, &f), 5592405); /* 1/3 */
+        assert_true(f == 0u);
+    }
+}
+
+static void test_isqrt64(void **state)
+{
+    uint64_t rng = 5;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        uint64_t v = tu_next(&rng) >> (tu_next(&rng) % 64u);
+        uint32_t r;
+        if (i == 0) {
+            v = 0u;
+        } else if (i == 1) {
+            v = UINT64_MAX;
+        } else if (i < 1000) {
+            uint64_t k = (uint64_t)i;
+            v = k * k + (uint64_t)(i % 3) - 1u; /* around perfect squares */
+        }
+        r = sp_isqrt64(v);
+        if (v >= UINT64_C(0xFFFFFFFF00000000)) {
+            assert_int_equal(r, UINT32_MAX); /* sqrt rounds up to 2^32: saturated */
+            continue;
+        }
+        /* Exact check in integers: (r - 1/2)^2 <= v <= (r + 1/2)^2, i.e.
+         * r^2 - r < v + 1 and v <= r^2 + r (v, r integers). */
+        {
+            uint64_t rr = (uint64_t)r * r;
+            assert_true(v <= rr + r);
+            assert_true(r == 0u || rr - r <= v);
+        }
+    }
+}
+
+static void test_sqrt_q24(void **state)
+{
+    uint64_t rng = 6;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int32_t a = (i & 1) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        sp_flags_t f = 0u;
+        int32_t got = sp_sqrt_q24(a, &f);
+        if (a < 0) {
+            assert_int_equal(got, 0);
+            assert_true(f == SP_FLAG_DOMAIN);
+            continue;
+        }
+        assert_true(f == 0u);
+        if (fabsl((long double)got - sqrtl(TU_LDEXP(a, 24))) > TOL_HALF_LSB) {
+            fail_msg("sqrt_q24(%ld) = %ld", (long)a, (long)got);
+        }
+    }
+}
+
+static void test_sincos(void **state)
+{
+    uint64_t rng = 7;
+    long double worst = 0;
+    (void)state;
+    for (int i = 0; i < N_RANDOM + (int)N_EDGES + 8; ++i) {
+        int32_t a;
+        sp_q30_t s;
+        sp_q30_t c;
+        long double x;
+        long double es;
+        long double ec;
+        if (i < (int)N_EDGES) {
+            a = edges[i];
+        } else if (i < (int)N_EDGES + 8) {
+            a = (i - (int)N_EDGES - 4) * SP_Q24_HALF_PI; /* multiples of pi/2 */
+        } else if ((i & 3) == 0) {
+            a = tu_i32(&rng); /* the whole range, +-128 rad */
+        } else {
+            a = (int32_t)tu_uniform(&rng, -7.0 * SP_Q24_ONE, 7.0 * SP_Q24_ONE);
+        }
+        sp_sincos_q24(a, &s, &c);
+        x = TU_LDEXP(a, -24);
+        es = fabsl((long double)s - TU_LDEXP(sinl(x), 30));
+        ec = fabsl((long double)c - TU_LDEXP(cosl(x), 30));
+        if (es > worst) {
+            worst = es;
+        }
+        if (ec > worst) {
+            worst = ec;
+        }
+        if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
+            fail_msg("sincos(%ld): sin %ld (err %.2Lf LSB), cos %ld (err %.2Lf LSB)", (long)a,
+                     (long)s, es, (long)c, ec);
+        }
+    }
+    /* Either output may be omitted. */
+    sp_sincos_q24(SP_Q24_ONE, NULL, NULL);
+    print_message("sincos worst error %.2Lf LSB Q30\n", worst);
+}
+
+static void test_dot3(void **state)
+{
+    uint64_t rng = 8;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int32_t a[3];
+        int32_t b[3];
+        unsigned s = (unsigned)(tu_next(&rng) % 63u);
+        long double exact = 0;
+        sp_flags_t f = 0u;
+        int32_t got;
+        int clamped;
+        for (int k = 0; k < 3; ++k) {
+            a[k] = (i < 16) ? ((i & 1) ? INT32_MIN : INT32_MAX) : tu_i32(&rng);
+            b[k] = (i < 16) ? ((i & 2) ? INT32_MIN : INT32_MAX) : tu_i32_logscale(&rng);
+            exact += (long double)a[k] * b[k];
+        }
+        exact = TU_LDEXP(exact, -(int)s);
+        got = sp_dot3(a, b, s, &f);
+        (void)clamp32(exact, &clamped);
+        if (clamped) {
+            assert_true((f & SP_FLAG_OVERFLOW) != 0u);
+            assert_int_equal(got, exact > 0 ? INT32_MAX : INT32_MIN);
+        } else if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
+            fail_msg("dot3 shift %u = %ld, exact %.3Lf", s, (long)got, exact);
+        }
+    }
+}
+
+static void test_flags_status(void **state)
+{
+    (void)state;
+    assert_int_equal(sp_flags_status(0u), SP_OK);
+    assert_int_equal(sp_flags_status(SP_FLAG_OVERFLOW), SP_E_OVERFLOW);
+    assert_int_equal(sp_flags_status(SP_FLAG_DOMAIN | SP_FLAG_OVERFLOW), SP_E_DOMAIN);
+    assert_string_equal(sp_status_name(SP_E_SINGULAR), "singular");
+    assert_string_equal(sp_status_name((sp_status_t)99), "unknown");
+    /* A NULL flag word is allowed. */
+    assert_int_equal(sp_add(INT32_MAX, 1, NULL), INT32_MAX);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_add_sub_neg_abs), cmocka_unit_test(test_rshift_round),
+        cmocka_unit_test(test_mul),             cmocka_unit_test(test_div),
+        cmocka_unit_test(test_isqrt64),         cmocka_unit_test(test_sqrt_q24),
+        cmocka_unit_test(test_sincos),          cmocka_unit_test(test_dot3),
+        cmocka_unit_test(test_flags_status),
+    };
+    return cmocka_run_group_tests_name("fixed", tests, NULL, NULL);
+}

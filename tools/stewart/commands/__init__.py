@@ -1,0 +1,1 @@
+"""Sub-commands of ``stewart``: one module each, each with ``register(subparsers)``."""
