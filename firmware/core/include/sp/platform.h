@@ -1,0 +1,56 @@
+/*
+ * sp/platform.h - the platform description the core computes with.
+ *
+ * One source of truth: config/platform_default.json. The build generates
+ * sp_platform_default (sp_platform_default.c) from that file with
+ * tools/stewart/gen_platform.py, so the firmware and the host tools cannot
+ * disagree. Frames and conventions follow the paper (NOTES.md section 1):
+ * base frame at the base centroid o, z up; motion frame at the platform
+ * centroid o'.
+ */
+#ifndef SP_PLATFORM_H
+#define SP_PLATFORM_H
+
+#include "sp/fixed.h"
+
+#define SP_LEGS 6
+
+/** Pose of the motion frame: position of o' in the base frame and the
+ *  paper's roll, pitch, yaw (eq 2). pos in m, rpy in rad, both Q24. */
+typedef struct {
+    sp_q24_t pos[3]; /**< x, y, z of o' in the base frame, m, Q24 */
+    sp_q24_t rpy[3]; /**< roll phi, pitch theta, yaw psi, rad, Q24 */
+} sp_pose_t;
+
+/** A pose with its first and second time derivatives (what the reference
+ *  generator produces each tick). */
+typedef struct {
+    sp_pose_t pose;
+    sp_q24_t vel[3];      /**< dx/dt, dy/dt, dz/dt, m/s, Q24 */
+    sp_q24_t rpy_rate[3]; /**< d(roll, pitch, yaw)/dt, rad/s, Q24 */
+    sp_q24_t acc[3];      /**< d2(x, y, z)/dt2, m/s^2, Q24 */
+    sp_q24_t rpy_acc[3];  /**< d2(roll, pitch, yaw)/dt2, rad/s^2, Q24 */
+} sp_motion_t;
+
+/** Geometry, inertia and limits of one 6-6 platform. */
+typedef struct {
+    sp_q24_t base_joint[SP_LEGS][3];     /**< B_i, base frame, m, Q24 */
+    sp_q24_t platform_joint[SP_LEGS][3]; /**< A_im, motion frame, m, Q24 */
+    sp_q16_t mass;                       /**< moving mass, kg, Q16 (< 32768 kg) */
+    sp_q16_t inertia[3][3];              /**< about o', motion frame, kg m^2, Q16 */
+    sp_q24_t gravity;                    /**< g along -z of the base frame, m/s^2, Q24 */
+    sp_pose_t home;                      /**< neutral pose */
+    sp_pose_t park;                      /**< parked pose */
+    sp_q24_t leg_length_min;             /**< joint-to-joint length at the lower stop, m, Q24 */
+    sp_q24_t leg_length_max;             /**< joint-to-joint length at the upper stop, m, Q24 */
+    sp_q8_t force_max;                   /**< largest commanded |cylinder force|, N, Q8 */
+    sp_q24_t leg_velocity_max;           /**< largest commanded |leg rate|, m/s, Q24 */
+    sp_pose_t workspace_min;             /**< pose limits relative to home, m / rad, Q24 */
+    sp_pose_t workspace_max;             /**< pose limits relative to home, m / rad, Q24 */
+} sp_platform_t;
+
+/** The default platform, generated at build time from
+ *  config/platform_default.json. */
+extern const sp_platform_t sp_platform_default;
+
+#endif /* SP_PLATFORM_H */
