@@ -8,6 +8,7 @@
  * result of the fixed-point inputs):
  *   add, sub, neg, abs, rshift_round, isqrt64   exact (0 LSB after rounding)
  *   mul, div, sqrt_q24, dot3                      0.5 LSB
+ *   mul64, div64                                  exact rounding (vs 128-bit integers)
  *   sincos_q24                                    2 LSB of Q30 (1.9e-9)
  * Saturation: a flag is set exactly when the exact result leaves int32.
  */
@@ -339,6 +340,107 @@ static void test_flags_status(void **state)
     assert_int_equal(sp_add(INT32_MAX, 1, NULL), INT32_MAX);
 }
 
+/* Exact 128-bit references for the 64-bit helpers (GCC/Clang on 64-bit hosts). */
+__extension__ typedef __int128 i128;
+
+static i128 ref_round_shift(i128 v, unsigned s)
+{
+    i128 mag = v < 0 ? -v : v;
+    i128 q = (s == 0u) ? mag : ((mag + ((i128)1 << (s - 1u))) >> s);
+    return v < 0 ? -q : q;
+}
+
+static int64_t ref_sat64(i128 v, int *clamped)
+{
+    *clamped = (v > (i128)INT64_MAX || v < (i128)INT64_MIN);
+    if (v > (i128)INT64_MAX) {
+        return INT64_MAX;
+    }
+    if (v < (i128)INT64_MIN) {
+        return INT64_MIN;
+    }
+    return (int64_t)v;
+}
+
+static int64_t rand_i64_logscale(uint64_t *rng)
+{
+    uint64_t r = tu_next(rng);
+    unsigned bits = (unsigned)(tu_next(rng) % 64u);
+    int64_t v = (int64_t)(r >> (64u - (bits == 0u ? 1u : bits)) >> 1);
+    return (tu_next(rng) & 1u) ? -v : v;
+}
+
+static void test_mul64(void **state)
+{
+    uint64_t rng = 9;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int64_t x = (i < 4) ? ((i & 1) ? INT64_MIN : INT64_MAX) : rand_i64_logscale(&rng);
+        int32_t k = (i < 4) ? ((i & 2) ? INT32_MIN : INT32_MAX) : tu_i32_logscale(&rng);
+        unsigned s = (unsigned)(tu_next(&rng) % 63u);
+        sp_flags_t f = 0u;
+        int clamped;
+        int64_t got = sp_mul64(x, k, s, &f);
+        int64_t want = ref_sat64(ref_round_shift((i128)x * k, s), &clamped);
+        if (got != want || ((f & SP_FLAG_OVERFLOW) != 0u) != (clamped != 0)) {
+            fail_msg("mul64(%lld, %ld, %u) = %lld, want %lld (clamped %d)", (long long)x, (long)k, s,
+                     (long long)got, (long long)want, clamped);
+        }
+    }
+}
+
+static void test_div64(void **state)
+{
+    uint64_t rng = 10;
+    (void)state;
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int64_t n = (i < 4) ? ((i & 1) ? INT64_MIN : INT64_MAX) : rand_i64_logscale(&rng);
+        int32_t d = (i < 4) ? ((i & 2) ? -1 : 1) : tu_i32_logscale(&rng);
+        unsigned s = (unsigned)(tu_next(&rng) % 63u);
+        sp_flags_t f = 0u;
+        int64_t got = sp_div64(n, d, s, &f);
+        i128 num;
+        i128 mag;
+        i128 dm;
+        i128 q;
+        int clamped;
+        int64_t want;
+        if (d == 0) {
+            assert_true(got == 0 && f == SP_FLAG_DOMAIN);
+            continue;
+        }
+        num = (i128)n * ((i128)1 << s);
+        mag = num < 0 ? -num : num;
+        dm = d < 0 ? -(i128)d : (i128)d;
+        q = (mag + dm / 2) / dm; /* ties away from zero (d odd: no tie) */
+        if ((dm % 2) == 0 && (mag % dm) * 2 == dm) {
+            q = mag / dm + 1;
+        }
+        if ((n < 0) != (d < 0)) {
+            q = -q;
+        }
+        want = ref_sat64(q, &clamped);
+        if (got != want || ((f & SP_FLAG_OVERFLOW) != 0u) != (clamped != 0)) {
+            fail_msg("div64(%lld, %ld, %u) = %lld, want %lld (clamped %d)", (long long)n, (long)d, s,
+                     (long long)got, (long long)want, clamped);
+        }
+    }
+}
+
+static void test_add64_narrow(void **state)
+{
+    sp_flags_t f = 0u;
+    (void)state;
+    assert_true(sp_add64(INT64_MAX, 1, &f) == INT64_MAX && f == SP_FLAG_OVERFLOW);
+    f = 0u;
+    assert_true(sp_add64(INT64_MIN, -1, &f) == INT64_MIN && f == SP_FLAG_OVERFLOW);
+    f = 0u;
+    assert_true(sp_add64(-5, 7, &f) == 2 && f == 0u);
+    assert_true(sp_narrow(INT64_C(3) << 40, 8u, &f) == INT32_MAX && f == SP_FLAG_OVERFLOW);
+    f = 0u;
+    assert_true(sp_narrow(-(INT64_C(5) << 7), 8u, &f) == -3 && f == 0u); /* -2.5 -> -3 */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -346,7 +448,8 @@ int main(void)
         cmocka_unit_test(test_mul),             cmocka_unit_test(test_div),
         cmocka_unit_test(test_isqrt64),         cmocka_unit_test(test_sqrt_q24),
         cmocka_unit_test(test_sincos),          cmocka_unit_test(test_dot3),
-        cmocka_unit_test(test_flags_status),
+        cmocka_unit_test(test_flags_status),    cmocka_unit_test(test_mul64),
+        cmocka_unit_test(test_div64),           cmocka_unit_test(test_add64_narrow),
     };
     return cmocka_run_group_tests_name("fixed", tests, NULL, NULL);
 }

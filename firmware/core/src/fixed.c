@@ -283,3 +283,128 @@ int32_t sp_dot3(const int32_t a[3], const int32_t b[3], unsigned shift, sp_flags
     }
     return sp_sat32(hq, flags);
 }
+
+int64_t sp_add64(int64_t a, int64_t b, sp_flags_t *flags)
+{
+    if (b > 0 && a > INT64_MAX - b) {
+        set_flag(flags, SP_FLAG_OVERFLOW);
+        return INT64_MAX;
+    }
+    if (b < 0 && a < INT64_MIN - b) {
+        set_flag(flags, SP_FLAG_OVERFLOW);
+        return INT64_MIN;
+    }
+    return a + b;
+}
+
+int32_t sp_narrow(int64_t v, unsigned shift, sp_flags_t *flags)
+{
+    return sp_sat32(sp_rshift_round(v, shift), flags);
+}
+
+/* A sign and a magnitude to int64, saturating: -2^63 is representable,
+ * +2^63 is not. */
+static int64_t sat_signed_mag(uint64_t mag, int neg, sp_flags_t *flags)
+{
+    if (neg) {
+        if (mag > (UINT64_C(1) << 63)) {
+            set_flag(flags, SP_FLAG_OVERFLOW);
+            return INT64_MIN;
+        }
+        return (mag == (UINT64_C(1) << 63)) ? INT64_MIN : -(int64_t)mag;
+    }
+    if (mag > (uint64_t)INT64_MAX) {
+        set_flag(flags, SP_FLAG_OVERFLOW);
+        return INT64_MAX;
+    }
+    return (int64_t)mag;
+}
+
+int64_t sp_mul64(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags)
+{
+    uint64_t xm = (x < 0) ? (uint64_t)0 - (uint64_t)x : (uint64_t)x;
+    uint64_t km = (k < 0) ? (uint64_t)0 - (uint64_t)(int64_t)k : (uint64_t)k; /* <= 2^31 */
+    int neg = ((x < 0) != (k < 0)) ? 1 : 0;
+    /* xm * km = (xh * 2^32 + xl) * km = ph * 2^32 + pl, all parts < 2^64 */
+    uint64_t pl = (xm & 0xFFFFFFFFu) * km; /* < 2^63 */
+    uint64_t ph = (xm >> 32) * km;         /* < 2^63 */
+    uint64_t hi;                           /* product = hi * 2^32 + lo32 */
+    uint64_t lo32;
+    uint64_t q;
+    uint64_t rem;
+    uint64_t half;
+
+    ph += pl >> 32;
+    lo32 = pl & 0xFFFFFFFFu;
+    hi = ph; /* product = hi * 2^32 + lo32, hi < 2^64 */
+    if (shift > 62u) {
+        shift = 62u;
+    }
+    /* q = floor(product / 2^shift), rem = product mod 2^shift. */
+    if (shift >= 32u) {
+        unsigned s2 = shift - 32u;
+        q = (s2 == 0u) ? hi : (hi >> s2);
+        rem = ((s2 == 0u) ? 0u : ((hi & ((UINT64_C(1) << s2) - 1u)) << 32)) | lo32;
+    } else {
+        if (shift > 0u && (hi >> (64u - 32u + shift)) != 0u) {
+            q = UINT64_MAX; /* product / 2^shift >= 2^64 */
+            rem = 0u;
+        } else if (shift == 0u && (hi >> 32) != 0u) {
+            q = UINT64_MAX;
+            rem = 0u;
+        } else {
+            q = (hi << (32u - shift)) | (lo32 >> shift);
+            rem = (shift == 0u) ? 0u : (lo32 & ((UINT64_C(1) << shift) - 1u));
+        }
+    }
+    if (shift > 0u) {
+        half = UINT64_C(1) << (shift - 1u);
+        if (rem >= half && q != UINT64_MAX) {
+            q += 1u; /* nearest, ties away from zero (on the magnitude) */
+        }
+    }
+    return sat_signed_mag(q, neg, flags);
+}
+
+int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
+{
+    uint64_t n;
+    uint64_t d;
+    uint64_t q;
+    uint64_t r;
+    unsigned i;
+    int neg;
+
+    if (den == 0) {
+        set_flag(flags, SP_FLAG_DOMAIN);
+        return 0;
+    }
+    if (shift > 62u) {
+        shift = 62u;
+    }
+    neg = ((num < 0) != (den < 0)) ? 1 : 0;
+    n = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
+    d = (den < 0) ? (uint64_t)0 - (uint64_t)(int64_t)den : (uint64_t)den;
+    q = n / d;
+    r = n % d; /* r < d <= 2^31 */
+    /* Append `shift` zero bits to the dividend, a few at a time: each round
+     * shifts by at most 31 bits so that r << s stays below 2^62. */
+    i = shift;
+    while (i > 0u) { /* at most 3 rounds */
+        unsigned s = (i > 31u) ? 31u : i;
+        uint64_t rs;
+        if (q > (UINT64_C(1) << (63u - s))) { /* q << s > 2^63: beyond int64 */
+            set_flag(flags, SP_FLAG_OVERFLOW);
+            return neg ? INT64_MIN : INT64_MAX;
+        }
+        rs = r << s;
+        q = (q << s) + rs / d;
+        r = rs % d;
+        i -= s;
+    }
+    /* Round to nearest, ties away from zero: compare 2r with d. */
+    if (2u * r >= d) {
+        q += 1u; /* q <= 2^63 + 2^31 here: cannot wrap */
+    }
+    return sat_signed_mag(q, neg, flags);
+}

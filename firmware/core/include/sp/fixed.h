@@ -154,4 +154,29 @@ void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out);
  */
 int32_t sp_dot3(const int32_t a[3], const int32_t b[3], unsigned shift, sp_flags_t *flags);
 
+/* ---- 64-bit intermediates (dynamics, linear solve) ----------------------- */
+
+/** a + b in int64, saturating at INT64_MIN / INT64_MAX (SP_FLAG_OVERFLOW). */
+int64_t sp_add64(int64_t a, int64_t b, sp_flags_t *flags);
+
+/**
+ * round(x * k / 2^shift) for a 64-bit x and a 32-bit k, 0 <= shift <= 62,
+ * computed exactly through a 96-bit split product; the result saturates at
+ * the int64 extremes (SP_FLAG_OVERFLOW). Error <= 0.5 LSB.
+ * Typical use: scale an int64 Q24 force by a Q30 or Q28 coefficient.
+ */
+int64_t sp_mul64(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags);
+
+/**
+ * round(num * 2^shift / den) for a 64-bit num and a 32-bit den,
+ * 0 <= shift <= 62, exact long division; saturates at the int64 extremes
+ * (SP_FLAG_OVERFLOW). den == 0 returns 0 with SP_FLAG_DOMAIN.
+ * Error <= 0.5 LSB.
+ */
+int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags);
+
+/** Narrow an int64 to int32 after a rounding right shift (0..62), saturating
+ *  (SP_FLAG_OVERFLOW): sp_sat32(sp_rshift_round(v, shift)). */
+int32_t sp_narrow(int64_t v, unsigned shift, sp_flags_t *flags);
+
 #endif /* SP_FIXED_H */
