@@ -1,0 +1,45 @@
+/*
+ * sp/dynamics.h - the cylinder forces a motion requires (the paper's
+ * translational and rotational dynamics, eqs 7 and 8/13-15, with the full
+ * inertia tensor), and the leg limit checks.
+ */
+#ifndef SP_DYNAMICS_H
+#define SP_DYNAMICS_H
+
+#include "sp/kinematics.h"
+
+/**
+ * Inverse dynamics: the six cylinder forces F_i (N, Q8; positive pushes the
+ * platform away from the base, along l_i) that produce the given motion of
+ * the platform under gravity (0, 0, -m g) and an external force L at the
+ * centroid o' (N, Q8, base frame; may be NULL for none). Solves
+ *   sum F_i u_i                 = m a - L + (0, 0, m g)          (base frame)
+ *   sum F_i (A_im T) x u_i      = R (I dw/dt + w x (I w))        (base frame)
+ * where w, dw/dt are the body rates of eq (10) and R = T^T, by pivoted
+ * Gaussian elimination in 64-bit intermediates (forces carried in Q24).
+ * ik must be the inverse kinematics of motion->pose.
+ * Errors: SP_E_ARG (NULL), SP_E_SINGULAR (pose at or near a singularity:
+ * smallest pivot below 1e-3), SP_E_OVERFLOW (an intermediate or a force
+ * saturated: |F| >= 8.4 MN). On error the forces are zeroed.
+ */
+sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS]);
+
+/** Bits of a leg limit report: leg i sets bit i. */
+typedef struct {
+    uint32_t too_short;  /**< length < leg_length_min */
+    uint32_t too_long;   /**< length > leg_length_max */
+    uint32_t too_fast;   /**< |rate| > leg_velocity_max (only when rates given) */
+    uint32_t over_force; /**< |force| > force_max (only when forces given) */
+} sp_leg_limits_t;
+
+/**
+ * Checks leg lengths (m, Q24) and, when not NULL, leg rates (m/s, Q24) and
+ * cylinder forces (N, Q8) against the platform's limits. Returns SP_OK when
+ * all are inside, SP_E_RANGE otherwise (the report says which leg and why),
+ * SP_E_ARG on NULL platform, length or report.
+ */
+sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
+                          const sp_q24_t rate[SP_LEGS], const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report);
+
+#endif /* SP_DYNAMICS_H */

@@ -1,0 +1,134 @@
+/*
+ * sp/kinematics.h - the paper's leg kinematics (eqs 1, 2, 10), the leg
+ * Jacobian, and forward kinematics, in fixed point.
+ *
+ * Conventions (NOTES.md section 1). The paper writes vectors as rows: a point
+ * with motion-frame coordinates a sits at a T + R in the base frame, so the
+ * rows of T are the platform axes in base coordinates, and T^T is the usual
+ * column-vector rotation Rz(yaw) Ry(pitch) Rx(roll) from the motion frame to
+ * the base frame.
+ *
+ * All functions are pure: inputs -> outputs, no hidden state, no allocation.
+ */
+#ifndef SP_KINEMATICS_H
+#define SP_KINEMATICS_H
+
+#include "sp/fixed.h"
+#include "sp/platform.h"
+
+/** The paper's orientation matrix T (eq 2), Q30. T[r][c]: row r is the
+ *  motion frame's axis r (i, j, k) in base coordinates. */
+typedef struct {
+    sp_q30_t t[3][3];
+} sp_rot_t;
+
+/** Inverse kinematics of one pose. */
+typedef struct {
+    sp_rot_t rot;                        /**< T of the pose */
+    sp_q24_t arm[SP_LEGS][3];            /**< A_im T: platform joint relative to o', base frame, m, Q24 */
+    sp_q24_t leg[SP_LEGS][3];            /**< l_i = A_im T + R - B_i (eq 1), base frame, m, Q24 */
+    sp_q24_t length[SP_LEGS];            /**< |l_i|, m, Q24 */
+    sp_q30_t unit[SP_LEGS][3];           /**< l_i / |l_i|, base frame, Q30 */
+} sp_ik_t;
+
+/** The leg Jacobian: row i = [u_i, (A_im T) x u_i], base frame, Q28.
+ *  d|l_i| = row_i . [dR ; dw] for a small translation dR (m) and a small
+ *  rotation dw (rad, base frame). Its transpose maps the six cylinder forces
+ *  to the wrench on the platform about o'. Entries must stay below 8 in
+ *  magnitude (platform joints closer than ~8 m to o'); else SP_E_OVERFLOW. */
+typedef struct {
+    int32_t j[SP_LEGS][6];
+} sp_jacobian_t;
+
+/**
+ * T from roll, pitch, yaw (rad, Q24, any value in the Q24 range) (eq 2).
+ * Entries are within 3 LSB of Q30 of the exact T of the Q24 angles.
+ * Returns SP_E_ARG on NULL pointers, else SP_OK (cannot overflow: every
+ * entry is a product of sines and cosines).
+ */
+sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot);
+
+/**
+ * Inverse kinematics (eq 1) of a pose: leg vectors, lengths, unit vectors.
+ * Lengths are within 1 LSB of Q24 (60 nm) plus 1e-9 of the platform radius
+ * of the exact value. Returns SP_E_ARG on NULL pointers, SP_E_RANGE if a leg
+ * vector component reaches 64 m or a leg is shorter than 1 mm (no direction),
+ * SP_E_OVERFLOW if an intermediate saturated. Stroke limits are not checked
+ * here (see sp_check_legs).
+ */
+sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik);
+
+/**
+ * Stretch of each leg from its length at the home pose: length - home length
+ * (m, Q24). home_ik is the inverse kinematics of platform->home.
+ * Saturates (SP_E_OVERFLOW) only for lengths beyond +-128 m.
+ */
+sp_status_t sp_leg_stretch(const sp_ik_t *ik, const sp_ik_t *home_ik, sp_q24_t stretch[SP_LEGS]);
+
+/**
+ * Body angular velocity omega (eq 10) and its exact time derivative, in the
+ * motion frame (rad/s and rad/s^2, Q24), from the Euler angles (rad), their
+ * rates (rad/s) and accelerations (rad/s^2), all Q24. The derivative keeps
+ * the angle-rate product terms. Saturates (SP_E_OVERFLOW) beyond +-128.
+ */
+sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                          sp_q24_t omega[3], sp_q24_t omega_dot[3]);
+
+/**
+ * Leg extension rates d|l_i|/dt (m/s, Q24) = u_i . (v + w x (A_im T)), with
+ * w the angular velocity in the base frame, from the pose's inverse
+ * kinematics, the linear velocity of o' (m/s, Q24) and the Euler angle rates
+ * (rad/s, Q24). Saturates (SP_E_OVERFLOW) beyond +-128 m/s.
+ */
+sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t rpy[3], const sp_q24_t vel[3],
+                         const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS]);
+
+/** Builds the leg Jacobian of a pose from its inverse kinematics. */
+sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac);
+
+/**
+ * Solves the 6x6 system M x = b (or M^T x = b when transpose != 0) by
+ * Gaussian elimination with partial pivoting. M in Q28, b and x in the same
+ * (any) Q format, int64. A pivot below SP_PIVOT_MIN (1e-3 in Q28) means a
+ * singular or ill-conditioned matrix: SP_E_SINGULAR and x is zeroed.
+ * Intermediates that saturate give SP_E_OVERFLOW (x zeroed).
+ */
+#define SP_PIVOT_MIN ((int32_t)268435) /* 1e-3 in Q28 */
+sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
+/** Options of the forward kinematics. */
+typedef struct {
+    uint32_t max_iterations; /**< Newton steps allowed (1..20) */
+    sp_q24_t tolerance;      /**< converged when every |length residual| <= this, m, Q24 */
+    sp_q24_t max_jump_pos;   /**< largest accepted distance of the result from the guess, m, Q24 */
+    sp_q24_t max_jump_rot;   /**< largest accepted angle change from the guess, rad, Q24 */
+} sp_fk_options_t;
+
+/** Defaults: 8 iterations, 0.25 um tolerance, 50 mm and 50 mrad jumps. */
+void sp_fk_default_options(sp_fk_options_t *opt);
+
+/** What the forward kinematics did. */
+typedef struct {
+    uint32_t iterations;     /**< Newton steps taken (Jacobian solves) */
+    sp_q24_t residual;       /**< largest |length residual| at the result, m, Q24 */
+} sp_fk_info_t;
+
+/**
+ * Forward kinematics: the pose whose legs have the given lengths (m, Q24),
+ * by Newton-Raphson from `guess` (the previous tick's pose), with the exact
+ * Jacobian. On SP_OK, *pose is the solution and *ik its inverse kinematics.
+ * Errors (pose is then set to the guess, never to a half-converged value):
+ *   SP_E_NO_CONVERGENCE  residual above tolerance after max_iterations, or
+ *                        the iteration diverged until a value saturated;
+ *   SP_E_SINGULAR        the Jacobian is singular on the way;
+ *   SP_E_DISCONTINUITY   converged, but farther from the guess than allowed
+ *                        (another assembly mode or a lost tick);
+ *   SP_E_ARG / SP_E_RANGE / SP_E_OVERFLOW from the steps.
+ * info (may be NULL) reports iterations and the final residual in all cases.
+ * Bounded: at most max_iterations (<= 20) IK + solve steps.
+ */
+sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
+                                  const sp_pose_t *guess, const sp_fk_options_t *opt, sp_pose_t *pose,
+                                  sp_ik_t *ik, sp_fk_info_t *info);
+
+#endif /* SP_KINEMATICS_H */

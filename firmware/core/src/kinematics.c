@@ -1,0 +1,425 @@
+#include "sp/kinematics.h"
+
+#define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
+#define LEG_LENGTH_MIN INT32_C(16777)        /* 1 mm in Q24 */
+#define COS_PITCH_MIN INT32_C(10737418)      /* 0.01 in Q30 */
+
+/* Q30 x Q30 -> Q30 for values bounded by 1 (sines, cosines and their
+ * products): cannot saturate. */
+static int32_t mul30(int32_t a, int32_t b)
+{
+    return (int32_t)sp_rshift_round((int64_t)a * b, 30u);
+}
+
+sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
+{
+    sp_q30_t sr;
+    sp_q30_t cr;
+    sp_q30_t sp;
+    sp_q30_t cp;
+    sp_q30_t sy;
+    sp_q30_t cy;
+    sp_q30_t spsr;
+    sp_q30_t spcr;
+
+    if (rpy == NULL || rot == NULL) {
+        return SP_E_ARG;
+    }
+    sp_sincos_q24(rpy[0], &sr, &cr);
+    sp_sincos_q24(rpy[1], &sp, &cp);
+    sp_sincos_q24(rpy[2], &sy, &cy);
+    spsr = mul30(sp, sr);
+    spcr = mul30(sp, cr);
+    /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
+     * column-vector rotation. */
+    rot->t[0][0] = mul30(cy, cp);
+    rot->t[0][1] = mul30(sy, cp);
+    rot->t[0][2] = -sp;
+    rot->t[1][0] = mul30(cy, spsr) - mul30(sy, cr);
+    rot->t[1][1] = mul30(sy, spsr) + mul30(cy, cr);
+    rot->t[1][2] = mul30(cp, sr);
+    rot->t[2][0] = mul30(cy, spcr) + mul30(sy, sr);
+    rot->t[2][1] = mul30(sy, spcr) - mul30(cy, sr);
+    rot->t[2][2] = mul30(cp, cr);
+    return SP_OK;
+}
+
+sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+{
+    sp_flags_t flags = 0u;
+    sp_status_t st;
+    unsigned i;
+    unsigned c;
+
+    if (platform == NULL || pose == NULL || ik == NULL) {
+        return SP_E_ARG;
+    }
+    st = sp_orientation(pose->rpy, &ik->rot);
+    if (st != SP_OK) {
+        return st;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        int64_t len2 = 0;
+        for (c = 0u; c < 3u; ++c) {
+            const int32_t col[3] = {ik->rot.t[0][c], ik->rot.t[1][c], ik->rot.t[2][c]};
+            /* (A_im T)_c = sum_r a_r T[r][c]: Q24 x Q30 >> 30 -> Q24 */
+            ik->arm[i][c] = sp_dot3(platform->platform_joint[i], col, 30u, &flags);
+            ik->leg[i][c] =
+                sp_sub(sp_add(ik->arm[i][c], pose->pos[c], &flags), platform->base_joint[i][c], &flags);
+            if (ik->leg[i][c] >= LEG_COMPONENT_MAX || ik->leg[i][c] <= -LEG_COMPONENT_MAX) {
+                return SP_E_RANGE;
+            }
+            len2 += (int64_t)ik->leg[i][c] * ik->leg[i][c]; /* < 3 * 2^60 */
+        }
+        ik->length[i] = (sp_q24_t)sp_isqrt64((uint64_t)len2); /* Q48 -> Q24, < 2^31 */
+        if (ik->length[i] < LEG_LENGTH_MIN) {
+            return SP_E_RANGE;
+        }
+        for (c = 0u; c < 3u; ++c) {
+            ik->unit[i][c] = sp_div(ik->leg[i][c], ik->length[i], 30u, &flags);
+        }
+    }
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_leg_stretch(const sp_ik_t *ik, const sp_ik_t *home_ik, sp_q24_t stretch[SP_LEGS])
+{
+    sp_flags_t flags = 0u;
+    unsigned i;
+
+    if (ik == NULL || home_ik == NULL || stretch == NULL) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        stretch[i] = sp_sub(ik->length[i], home_ik->length[i], &flags);
+    }
+    return sp_flags_status(flags);
+}
+
+/* Accumulates v (Q24) x c (Q30) into a Q54 int64 sum, saturating. */
+static void acc_term(int64_t *acc, int32_t v, int32_t c, sp_flags_t *flags)
+{
+    *acc = sp_add64(*acc, (int64_t)v * c, flags);
+}
+
+sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                          sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    sp_flags_t flags = 0u;
+    sp_q30_t sr;
+    sp_q30_t cr;
+    sp_q30_t sp;
+    sp_q30_t cp;
+    sp_q24_t dr;
+    sp_q24_t dp;
+    sp_q24_t dy;
+    sp_q24_t dp_dr;
+    sp_q24_t dy_dp;
+    sp_q24_t dy_dr;
+    int64_t a;
+
+    if (rpy == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
+        return SP_E_ARG;
+    }
+    sp_sincos_q24(rpy[0], &sr, &cr);
+    sp_sincos_q24(rpy[1], &sp, &cp);
+    dr = rpy_rate[0];
+    dp = rpy_rate[1];
+    dy = rpy_rate[2];
+
+    /* eq (10) */
+    a = 0;
+    acc_term(&a, dr, SP_Q30_ONE, &flags);
+    acc_term(&a, dy, -sp, &flags);
+    omega[0] = sp_narrow(a, 30u, &flags);
+    a = 0;
+    acc_term(&a, dp, cr, &flags);
+    acc_term(&a, dy, mul30(cp, sr), &flags);
+    omega[1] = sp_narrow(a, 30u, &flags);
+    a = 0;
+    acc_term(&a, dp, -sr, &flags);
+    acc_term(&a, dy, mul30(cp, cr), &flags);
+    omega[2] = sp_narrow(a, 30u, &flags);
+
+    /* d/dt of eq (10): the angle accelerations plus the products of rates. */
+    dp_dr = sp_mul_q24(dp, dr, &flags);
+    dy_dp = sp_mul_q24(dy, dp, &flags);
+    dy_dr = sp_mul_q24(dy, dr, &flags);
+    a = 0;
+    acc_term(&a, rpy_acc[0], SP_Q30_ONE, &flags);
+    acc_term(&a, rpy_acc[2], -sp, &flags);
+    acc_term(&a, dy_dp, -cp, &flags);
+    omega_dot[0] = sp_narrow(a, 30u, &flags);
+    a = 0;
+    acc_term(&a, rpy_acc[1], cr, &flags);
+    acc_term(&a, dp_dr, -sr, &flags);
+    acc_term(&a, rpy_acc[2], mul30(cp, sr), &flags);
+    acc_term(&a, dy_dp, -mul30(sp, sr), &flags);
+    acc_term(&a, dy_dr, mul30(cp, cr), &flags);
+    omega_dot[1] = sp_narrow(a, 30u, &flags);
+    a = 0;
+    acc_term(&a, rpy_acc[1], -sr, &flags);
+    acc_term(&a, dp_dr, -cr, &flags);
+    acc_term(&a, rpy_acc[2], mul30(cp, cr), &flags);
+    acc_term(&a, dy_dp, -mul30(sp, cr), &flags);
+    acc_term(&a, dy_dr, -mul30(cp, sr), &flags);
+    omega_dot[2] = sp_narrow(a, 30u, &flags);
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t rpy[3], const sp_q24_t vel[3],
+                         const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS])
+{
+    sp_flags_t flags = 0u;
+    sp_q30_t sy;
+    sp_q30_t cy;
+    sp_q24_t w[3];
+    unsigned i;
+    unsigned c;
+
+    if (ik == NULL || rpy == NULL || vel == NULL || rpy_rate == NULL || rate == NULL) {
+        return SP_E_ARG;
+    }
+    sp_sincos_q24(rpy[2], &sy, &cy);
+    /* Angular velocity in the base frame for Z-Y-X angles:
+     * w = roll_rate * (R e_x) + pitch_rate * (Rz e_y) + yaw_rate * e_z,
+     * and R e_x is row 0 of T. */
+    for (c = 0u; c < 3u; ++c) {
+        int64_t a = (int64_t)rpy_rate[0] * ik->rot.t[0][c];
+        if (c == 0u) {
+            a += (int64_t)rpy_rate[1] * -sy;
+        } else if (c == 1u) {
+            a += (int64_t)rpy_rate[1] * cy;
+        } else {
+            a += (int64_t)rpy_rate[2] * SP_Q30_ONE;
+        }
+        w[c] = sp_narrow(a, 30u, &flags);
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        sp_q24_t v[3];
+        /* joint velocity v + w x r, Q24 x Q24 -> Q24 */
+        v[0] = sp_add(vel[0], sp_narrow((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags), &flags);
+        v[1] = sp_add(vel[1], sp_narrow((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags), &flags);
+        v[2] = sp_add(vel[2], sp_narrow((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags), &flags);
+        rate[i] = sp_dot3(ik->unit[i], v, 30u, &flags);
+    }
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
+{
+    sp_flags_t flags = 0u;
+    unsigned i;
+
+    if (ik == NULL || jac == NULL) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        const sp_q30_t *u = ik->unit[i];
+        jac->j[i][0] = (int32_t)sp_rshift_round(u[0], 2u); /* Q30 -> Q28 */
+        jac->j[i][1] = (int32_t)sp_rshift_round(u[1], 2u);
+        jac->j[i][2] = (int32_t)sp_rshift_round(u[2], 2u);
+        /* r x u: Q24 x Q30 = Q54 -> Q28 */
+        jac->j[i][3] = sp_narrow((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1], 26u, &flags);
+        jac->j[i][4] = sp_narrow((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2], 26u, &flags);
+        jac->j[i][5] = sp_narrow((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0], 26u, &flags);
+    }
+    return sp_flags_status(flags);
+}
+
+static int32_t abs32(int32_t v)
+{
+    return (v < 0) ? ((v == INT32_MIN) ? INT32_MAX : -v) : v;
+}
+
+sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    int32_t a[SP_LEGS][SP_LEGS];
+    int64_t r[SP_LEGS];
+    sp_flags_t flags = 0u;
+    unsigned i;
+    unsigned j;
+    unsigned k;
+
+    if (m == NULL || b == NULL || x == NULL) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        for (j = 0u; j < SP_LEGS; ++j) {
+            a[i][j] = transpose ? m->j[j][i] : m->j[i][j];
+        }
+        r[i] = b[i];
+        x[i] = 0;
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        unsigned p = k;
+        for (i = k + 1u; i < SP_LEGS; ++i) {
+            if (abs32(a[i][k]) > abs32(a[p][k])) {
+                p = i;
+            }
+        }
+        if (abs32(a[p][k]) < SP_PIVOT_MIN) {
+            return SP_E_SINGULAR;
+        }
+        if (p != k) {
+            int64_t tr = r[k];
+            r[k] = r[p];
+            r[p] = tr;
+            for (j = 0u; j < SP_LEGS; ++j) {
+                int32_t t = a[k][j];
+                a[k][j] = a[p][j];
+                a[p][j] = t;
+            }
+        }
+        for (i = k + 1u; i < SP_LEGS; ++i) {
+            /* multiplier |l| <= 1 thanks to the pivoting, Q30 */
+            int32_t l = sp_div(a[i][k], a[k][k], 30u, &flags);
+            if (l == 0) {
+                continue;
+            }
+            for (j = k + 1u; j < SP_LEGS; ++j) {
+                a[i][j] = sp_sub(a[i][j], sp_mul(l, a[k][j], 30u, &flags), &flags);
+            }
+            a[i][k] = 0;
+            r[i] = sp_add64(r[i], -sp_mul64(r[k], l, 30u, &flags), &flags);
+        }
+    }
+    for (k = SP_LEGS; k-- > 0u;) {
+        int64_t s = r[k];
+        for (j = k + 1u; j < SP_LEGS; ++j) {
+            s = sp_add64(s, -sp_mul64(x[j], a[k][j], 28u, &flags), &flags);
+        }
+        x[k] = sp_div64(s, a[k][k], 28u, &flags);
+    }
+    if (flags != 0u) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            x[i] = 0;
+        }
+        return sp_flags_status(flags);
+    }
+    return SP_OK;
+}
+
+void sp_fk_default_options(sp_fk_options_t *opt)
+{
+    if (opt == NULL) {
+        return;
+    }
+    opt->max_iterations = 8u;
+    opt->tolerance = 4;              /* 0.24 um */
+    opt->max_jump_pos = 838861;      /* 50 mm */
+    opt->max_jump_rot = 838861;      /* 50 mrad */
+}
+
+static int32_t max_abs_diff(int32_t a, int32_t b)
+{
+    int64_t d = (int64_t)a - b;
+    d = d < 0 ? -d : d;
+    return d > INT32_MAX ? INT32_MAX : (int32_t)d;
+}
+
+sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
+                                  const sp_pose_t *guess, const sp_fk_options_t *opt, sp_pose_t *pose,
+                                  sp_ik_t *ik, sp_fk_info_t *info)
+{
+    sp_pose_t q;
+    sp_jacobian_t jac;
+    sp_fk_info_t local_info;
+    sp_status_t st = SP_OK;
+    uint32_t it = 0u;
+    unsigned i;
+
+    if (info == NULL) {
+        info = &local_info;
+    }
+    info->iterations = 0u;
+    info->residual = INT32_MAX;
+    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL || ik == NULL ||
+        opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
+        return SP_E_ARG;
+    }
+    q = *guess;
+    for (;;) { /* bounded: at most max_iterations + 1 passes */
+        int64_t neg_res[SP_LEGS];
+        int64_t delta[SP_LEGS];
+        sp_q24_t worst = 0;
+        sp_flags_t flags = 0u;
+        sp_q30_t sy;
+        sp_q30_t cy;
+        sp_q30_t sp;
+        sp_q30_t cp;
+        int64_t wx;
+        int64_t wy;
+        sp_q24_t d_roll;
+
+        st = sp_inverse_kinematics(platform, &q, ik);
+        if (st != SP_OK) {
+            break;
+        }
+        for (i = 0u; i < SP_LEGS; ++i) {
+            sp_q24_t e = sp_sub(ik->length[i], length[i], &flags);
+            int32_t ae = max_abs_diff(e, 0);
+            worst = ae > worst ? ae : worst;
+            neg_res[i] = -(int64_t)e;
+        }
+        info->residual = worst;
+        if (worst <= opt->tolerance) {
+            st = SP_OK;
+            break;
+        }
+        if (it >= opt->max_iterations) {
+            st = SP_E_NO_CONVERGENCE;
+            break;
+        }
+        st = sp_jacobian(ik, &jac);
+        if (st == SP_OK) {
+            st = sp_solve6(&jac, 0, neg_res, delta);
+        }
+        if (st != SP_OK) {
+            break;
+        }
+        ++it;
+        /* delta = [dR (m); dw (rad, base frame)], Q24. Translation first. */
+        for (i = 0u; i < 3u; ++i) {
+            q.pos[i] = sp_add(q.pos[i], sp_sat32(delta[i], &flags), &flags);
+        }
+        /* Small rotation dw to Euler increments (inverse of the map used in
+         * sp_leg_rates): d_roll = (cy wx + sy wy) / cp,
+         * d_pitch = -sy wx + cy wy, d_yaw = wz + sp d_roll. */
+        sp_sincos_q24(q.rpy[1], &sp, &cp);
+        sp_sincos_q24(q.rpy[2], &sy, &cy);
+        if (cp < COS_PITCH_MIN) {
+            st = SP_E_SINGULAR;
+            break;
+        }
+        wx = delta[3];
+        wy = delta[4];
+        d_roll = sp_sat32(sp_div64(sp_add64(sp_mul64(wx, cy, 0u, &flags), sp_mul64(wy, sy, 0u, &flags), &flags),
+                                   cp, 0u, &flags),
+                          &flags);
+        q.rpy[0] = sp_add(q.rpy[0], d_roll, &flags);
+        q.rpy[1] = sp_add(q.rpy[1],
+                          sp_sat32(sp_add64(sp_mul64(wx, -sy, 30u, &flags), sp_mul64(wy, cy, 30u, &flags), &flags),
+                                   &flags),
+                          &flags);
+        q.rpy[2] = sp_add(q.rpy[2], sp_add(sp_sat32(delta[5], &flags), sp_mul(d_roll, sp, 30u, &flags), &flags),
+                          &flags);
+        if (flags != 0u) {
+            st = SP_E_NO_CONVERGENCE; /* the iteration diverged until it saturated */
+            break;
+        }
+    }
+    info->iterations = it;
+    if (st == SP_OK) {
+        for (i = 0u; i < 3u; ++i) {
+            if (max_abs_diff(q.pos[i], guess->pos[i]) > opt->max_jump_pos ||
+                max_abs_diff(q.rpy[i], guess->rpy[i]) > opt->max_jump_rot) {
+                st = SP_E_DISCONTINUITY;
+            }
+        }
+    }
+    *pose = (st == SP_OK) ? q : *guess;
+    return st;
+}
