@@ -1,0 +1,253 @@
+"""The platform config: one JSON file describes a 6-6 platform.
+
+This module reads and validates it; everything else (the host tools, the
+float64 model, the firmware's generated default, the plant) takes the
+validated ``Platform``. It uses the standard library only, because the
+firmware build runs it before any virtual environment exists.
+
+Every problem is reported as a ``ConfigError`` whose message names the file
+and the key (for example ``platform_default.json: inertia[1][2]: ...``);
+nothing here raises anything else for a bad file.
+
+Units are SI and angles radians. Keys (see config/README.md for the default):
+
+- ``base_joints``: six [x, y, z], base frame, origin at the base centroid, m
+- ``platform_joints``: six [x, y, z], motion frame, origin at o', m
+- ``mass`` (kg), ``inertia`` (3x3 about o' in the motion frame, kg m^2)
+- ``gravity`` (m/s^2, optional, default 9.80665)
+- ``home``, ``park``: [x, y, z, roll, pitch, yaw]
+- ``leg_length_min``, ``leg_length_max`` (m, joint to joint)
+- ``force_max`` (N), ``leg_velocity_max`` (m/s)
+- ``workspace``: {"min": [6], "max": [6]}, pose limits relative to home
+- ``hydraulic``, ``sensors``: plant parameters (host_sim), see config/README.md
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+LEGS = 6
+
+
+class ConfigError(ValueError):
+    """A config file that cannot be used; the message names file and key."""
+
+
+# Limits that the firmware's Q formats impose (see firmware/core/include/sp/platform.h).
+_Q24_MAX = 127.0          # m, rad (Q24 in int32 holds +-128)
+_MASS_MAX = 32767.0       # kg (Q16)
+_INERTIA_MAX = 32767.0    # kg m^2 (Q16)
+_FORCE_MAX = 8.0e6        # N (Q8)
+
+HYDRAULIC_KEYS = {
+    # key: (min exclusive or inclusive, max, description)
+    "piston_diameter": (1e-3, 1.0, "m"),
+    "rod_diameter": (0.0, 1.0, "m"),
+    "dead_volume": (0.0, 1.0, "m^3"),
+    "piston_mass": (0.0, 1e4, "kg"),
+    "bulk_modulus": (1e7, 1e11, "Pa"),
+    "supply_pressure": (1e5, 1e8, "Pa"),
+    "tank_pressure": (0.0, 1e7, "Pa"),
+    "valve_rated_flow": (1e-6, 1.0, "m^3/s"),
+    "valve_rated_pressure_drop": (1e4, 1e8, "Pa"),
+    "valve_natural_frequency": (1.0, 2000.0, "Hz"),
+    "valve_damping": (0.05, 5.0, "-"),
+    "leakage_coefficient": (0.0, 1e-8, "m^3/(s Pa)"),
+    "viscous_friction": (0.0, 1e7, "N s/m"),
+    "coulomb_friction": (0.0, 1e6, "N"),
+    "end_cushion_length": (0.0, 0.5, "m"),
+    "end_stop_stiffness": (1e3, 1e12, "N/m"),
+    "end_stop_damping": (0.0, 1e10, "N s/m"),
+}
+
+SENSOR_KEYS = {
+    "length_resolution": (1e-9, 1e-2, "m"),
+    "pressure_resolution": (1.0, 1e6, "Pa"),
+    "pressure_noise": (0.0, 1e7, "Pa"),
+}
+
+
+@dataclass
+class Platform:
+    name: str
+    base_joints: list[list[float]]
+    platform_joints: list[list[float]]
+    mass: float
+    inertia: list[list[float]]
+    gravity: float
+    home: list[float]
+    park: list[float]
+    leg_length_min: float
+    leg_length_max: float
+    force_max: float
+    leg_velocity_max: float
+    workspace_min: list[float]
+    workspace_max: list[float]
+    hydraulic: dict[str, float] = field(default_factory=dict)
+    sensors: dict[str, float] = field(default_factory=dict)
+    source: str = "<dict>"
+
+
+def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ConfigError(f"{where}: expected a number, got {json.dumps(v)[:40]}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise ConfigError(f"{where}: expected a finite number, got {v}")
+    if positive and x <= 0.0:
+        raise ConfigError(f"{where}: must be positive, got {x:g}")
+    if lo is not None and x < lo:
+        raise ConfigError(f"{where}: {x:g} is below the allowed minimum {lo:g}")
+    if hi is not None and x > hi:
+        raise ConfigError(f"{where}: {x:g} is above the allowed maximum {hi:g}")
+    return x
+
+
+def _vector(where: str, v, n: int, lo=None, hi=None) -> list[float]:
+    if not isinstance(v, list) or len(v) != n:
+        raise ConfigError(f"{where}: expected a list of {n} numbers, got {json.dumps(v)[:60]}")
+    return [_number(f"{where}[{i}]", x, lo, hi) for i, x in enumerate(v)]
+
+
+def _matrix(where: str, v, rows: int, cols: int, lo=None, hi=None) -> list[list[float]]:
+    if not isinstance(v, list) or len(v) != rows:
+        raise ConfigError(f"{where}: expected {rows} rows of {cols} numbers")
+    return [_vector(f"{where}[{r}]", row, cols, lo, hi) for r, row in enumerate(v)]
+
+
+def _require(d: dict, key: str, where: str = ""):
+    if key not in d:
+        raise ConfigError(f"{where}{key}: missing")
+    return d[key]
+
+
+def _rot(rpy):
+    """Column-vector rotation motion -> base, Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr = math.cos(rpy[0]), math.sin(rpy[0])
+    cp, sp = math.cos(rpy[1]), math.sin(rpy[1])
+    cy, sy = math.cos(rpy[2]), math.sin(rpy[2])
+    return [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
+
+
+def leg_lengths(p: Platform, pose) -> list[float]:
+    """Joint-to-joint leg lengths at a pose (a minimal check used by the
+    validator; the full model is stewart.model)."""
+    r = _rot(pose[3:])
+    out = []
+    for a, b in zip(p.platform_joints, p.base_joints):
+        v = [sum(r[i][k] * a[k] for k in range(3)) + pose[i] - b[i] for i in range(3)]
+        out.append(math.sqrt(sum(c * c for c in v)))
+    return out
+
+
+def _symmetric_positive_definite(m) -> bool:
+    if any(abs(m[i][j] - m[j][i]) > 1e-9 * max(1.0, abs(m[i][j])) for i in range(3) for j in range(3)):
+        return False
+    a, b, c = m[0][0], m[0][1], m[0][2]
+    e, f, i = m[1][1], m[1][2], m[2][2]
+    d1 = a
+    d2 = a * e - b * b
+    d3 = a * (e * i - f * f) - b * (b * i - f * c) + c * (b * f - e * c)
+    return d1 > 0 and d2 > 0 and d3 > 0
+
+
+def from_dict(d, source: str = "<dict>") -> Platform:
+    """Validates a parsed config; raises ConfigError naming the key."""
+    pre = f"{source}: "
+    try:
+        return _from_dict(d)
+    except ConfigError as e:
+        raise ConfigError(pre + str(e)) from None
+
+
+def _from_dict(d) -> Platform:
+    if not isinstance(d, dict):
+        raise ConfigError("the top level must be a JSON object")
+    name = d.get("name", "unnamed")
+    if not isinstance(name, str):
+        raise ConfigError("name: expected a string")
+    base = _matrix("base_joints", _require(d, "base_joints"), LEGS, 3, -_Q24_MAX, _Q24_MAX)
+    plat = _matrix("platform_joints", _require(d, "platform_joints"), LEGS, 3, -_Q24_MAX, _Q24_MAX)
+    mass = _number("mass", _require(d, "mass"), hi=_MASS_MAX, positive=True)
+    inertia = _matrix("inertia", _require(d, "inertia"), 3, 3, -_INERTIA_MAX, _INERTIA_MAX)
+    if not _symmetric_positive_definite(inertia):
+        raise ConfigError("inertia: must be symmetric and positive definite")
+    ev = [inertia[0][0], inertia[1][1], inertia[2][2]]
+    if ev[0] + ev[1] < ev[2] or ev[1] + ev[2] < ev[0] or ev[0] + ev[2] < ev[1]:
+        raise ConfigError("inertia: diagonal violates the triangle inequality (not a rigid body)")
+    gravity = _number("gravity", d.get("gravity", 9.80665), 0.0, 100.0)
+    home = _vector("home", _require(d, "home"), 6, -_Q24_MAX, _Q24_MAX)
+    park = _vector("park", d.get("park", home), 6, -_Q24_MAX, _Q24_MAX)
+    for k in range(3, 6):
+        if abs(home[k]) > 1.2:
+            raise ConfigError(f"home[{k}]: angle {home[k]:g} rad is beyond 1.2 rad")
+    lmin = _number("leg_length_min", _require(d, "leg_length_min"), hi=_Q24_MAX, positive=True)
+    lmax = _number("leg_length_max", _require(d, "leg_length_max"), hi=_Q24_MAX, positive=True)
+    if lmax <= lmin:
+        raise ConfigError(f"leg_length_max: {lmax:g} must exceed leg_length_min {lmin:g}")
+    fmax = _number("force_max", _require(d, "force_max"), hi=_FORCE_MAX, positive=True)
+    vmax = _number("leg_velocity_max", d.get("leg_velocity_max", 1.0), hi=100.0, positive=True)
+    ws = d.get("workspace", {"min": [-0.1] * 3 + [-0.1] * 3, "max": [0.1] * 3 + [0.1] * 3})
+    if not isinstance(ws, dict):
+        raise ConfigError("workspace: expected an object with min and max")
+    wmin = _vector("workspace.min", _require(ws, "min", "workspace."), 6, -_Q24_MAX, _Q24_MAX)
+    wmax = _vector("workspace.max", _require(ws, "max", "workspace."), 6, -_Q24_MAX, _Q24_MAX)
+    for k in range(6):
+        if not wmin[k] <= 0.0 <= wmax[k]:
+            raise ConfigError(f"workspace: min[{k}] <= 0 <= max[{k}] is required (limits are relative to home)")
+        if k >= 3 and max(-wmin[k], wmax[k]) > 1.2:
+            raise ConfigError(f"workspace: angle limit {k} beyond 1.2 rad (Euler angles near gimbal lock)")
+    hyd = {}
+    if "hydraulic" in d:
+        h = d["hydraulic"]
+        if not isinstance(h, dict):
+            raise ConfigError("hydraulic: expected an object")
+        for key, (lo, hi, _unit) in HYDRAULIC_KEYS.items():
+            hyd[key] = _number(f"hydraulic.{key}", _require(h, key, "hydraulic."), lo, hi)
+        if hyd["rod_diameter"] >= hyd["piston_diameter"]:
+            raise ConfigError("hydraulic.rod_diameter: must be smaller than piston_diameter")
+        if hyd["tank_pressure"] >= hyd["supply_pressure"]:
+            raise ConfigError("hydraulic.tank_pressure: must be below supply_pressure")
+    sens = {}
+    if "sensors" in d:
+        s = d["sensors"]
+        if not isinstance(s, dict):
+            raise ConfigError("sensors: expected an object")
+        for key, (lo, hi, _unit) in SENSOR_KEYS.items():
+            sens[key] = _number(f"sensors.{key}", _require(s, key, "sensors."), lo, hi)
+        seed = s.get("seed", 1)
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ConfigError("sensors.seed: expected a non-negative integer")
+        sens["seed"] = seed
+    p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
+                 wmin, wmax, hyd, sens)
+    for label, pose in (("home", home), ("park", park)):
+        for i, length in enumerate(leg_lengths(p, pose)):
+            if not lmin <= length <= lmax:
+                raise ConfigError(
+                    f"{label}: leg {i + 1} is {length:.4f} m long there, outside the stroke "
+                    f"[leg_length_min {lmin:g}, leg_length_max {lmax:g}]")
+    return p
+
+
+def load(path) -> Platform:
+    """Reads and validates a config file; raises ConfigError naming the key."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot read: {e.strerror}") from None
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ConfigError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
+    p = from_dict(d, str(path))
+    p.source = str(path)
+    return p
