@@ -1,0 +1,586 @@
+#include "sp/controller.h"
+
+#define MODE_TRIG 0u
+#define MODE_MOVE 1u
+#define MODE_STREAM 2u
+#define LEG_LIMIT_TOLERANCE INT32_C(83886) /* 5 mm beyond a stroke end, Q24 */
+
+const char *sp_state_name(sp_state_t state)
+{
+    switch (state) {
+    case SP_STATE_IDLE:
+        return "idle";
+    case SP_STATE_ENGAGING:
+        return "engaging";
+    case SP_STATE_READY:
+        return "ready";
+    case SP_STATE_RUNNING:
+        return "running";
+    case SP_STATE_PARKING:
+        return "parking";
+    case SP_STATE_FAULT:
+        return "fault";
+    case SP_STATE_ESTOP:
+        return "estop";
+    default:
+        return "unknown";
+    }
+}
+
+sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform)
+{
+    unsigned a;
+    if (cfg == NULL || platform == NULL) {
+        return SP_E_ARG;
+    }
+    cfg->platform = platform;
+    cfg->tick_us = 1000u;
+    for (a = 0u; a < SP_AXIS_COUNT; ++a) {
+        cfg->move.vel_max[a] = SP_Q24_ONE / 4;
+        cfg->move.acc_max[a] = SP_Q24_ONE;
+        cfg->move.jerk_max[a] = 5 * SP_Q24_ONE;
+    }
+    cfg->fade_ticks = 2000u;
+    cfg->feedback_timeout_ticks = 2u;
+    cfg->divergence_pos = 419430; /* 25 mm */
+    cfg->divergence_rot = 419430; /* 25 mrad */
+    cfg->stroke_margin = 167772;  /* 10 mm */
+    cfg->stream_omega = 10 * SP_Q24_ONE;
+    cfg->force_feedforward = 1u;
+    return SP_OK;
+}
+
+sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
+{
+    unsigned i;
+    if (ctrl == NULL || cfg == NULL || cfg->platform == NULL) {
+        return SP_E_ARG;
+    }
+    ctrl->state = SP_STATE_IDLE;
+    ctrl->faults = 0u;
+    ctrl->tick = 0u;
+    ctrl->seen_mask = 0u;
+    ctrl->estimate = cfg->platform->park;
+    ctrl->estimate_valid = 0u;
+    ctrl->mode = MODE_TRIG;
+    ctrl->park_after = 0u;
+    ctrl->stream_stopping = 0u;
+    ctrl->have_setpoint = 0u;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        ctrl->missed[i] = 0u;
+        ctrl->last_length[i] = 0;
+        ctrl->setpoint[i].length = 0;
+        ctrl->setpoint[i].velocity = 0;
+        ctrl->setpoint[i].force = 0;
+    }
+    ctrl->trig.centre = cfg->platform->home;
+    ctrl->trig.axis = SP_AXIS_X;
+    ctrl->trig.amplitude = 0;
+    ctrl->trig.omega = 0;
+    ctrl->trig.phase_step = 0u;
+    ctrl->trig.phase = 0u;
+    ctrl->trig.fade_ticks = 1u;
+    ctrl->trig.tick = 0u;
+    ctrl->trig.stop_tick = UINT32_MAX;
+    ctrl->trig.finished = 1;
+    ctrl->move.duration_ticks = 0u;
+    ctrl->move.tick = 0u;
+    ctrl->move.from = cfg->platform->park;
+    ctrl->move.to = cfg->platform->park;
+    return SP_OK;
+}
+
+static void motion_at_rest(sp_motion_t *m, const sp_pose_t *pose)
+{
+    unsigned k;
+    m->pose = *pose;
+    for (k = 0u; k < 3u; ++k) {
+        m->vel[k] = 0;
+        m->rpy_rate[k] = 0;
+        m->acc[k] = 0;
+        m->rpy_acc[k] = 0;
+    }
+}
+
+static int32_t absdiff(int32_t a, int32_t b)
+{
+    int64_t d = (int64_t)a - b;
+    d = d < 0 ? -d : d;
+    return d > INT32_MAX ? INT32_MAX : (int32_t)d;
+}
+
+/* Is the pose inside the workspace box (relative to home)? */
+static int in_workspace(const sp_platform_t *p, const sp_pose_t *pose)
+{
+    unsigned a;
+    for (a = 0u; a < 6u; ++a) {
+        int64_t rel = (int64_t)sp_pose_axis(pose, (sp_axis_t)a) - sp_pose_axis(&p->home, (sp_axis_t)a);
+        if (rel < sp_pose_axis(&p->workspace_min, (sp_axis_t)a) ||
+            rel > sp_pose_axis(&p->workspace_max, (sp_axis_t)a)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Is the pose reachable: in the workspace and every leg inside its stroke
+ * less the margin? */
+static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose)
+{
+    const sp_platform_t *p = cfg->platform;
+    sp_ik_t ik;
+    unsigned i;
+    if (!in_workspace(p, pose) || sp_inverse_kinematics(p, pose, &ik) != SP_OK) {
+        return 0;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (ik.length[i] < p->leg_length_min + cfg->stroke_margin ||
+            ik.length[i] > p->leg_length_max - cfg->stroke_margin) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Setpoints of a reference motion, with every limit checked. Returns
+ * SP_E_RANGE for a reference outside the limits, another error for a
+ * computation failure; the setpoints are written only on SP_OK. */
+static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t *ref, sp_setpoint_t sp[SP_LEGS])
+{
+    const sp_platform_t *p = cfg->platform;
+    sp_ik_t ik;
+    sp_q24_t rate[SP_LEGS];
+    sp_q8_t force[SP_LEGS];
+    sp_leg_limits_t lim;
+    sp_status_t st;
+    unsigned i;
+
+    if (!in_workspace(p, &ref->pose)) {
+        return SP_E_RANGE;
+    }
+    st = sp_inverse_kinematics(p, &ref->pose, &ik);
+    if (st == SP_OK) {
+        st = sp_leg_rates(&ik, ref->pose.rpy, ref->vel, ref->rpy_rate, rate);
+    }
+    if (st == SP_OK) {
+        st = sp_inverse_dynamics(p, ref, &ik, NULL, force);
+    }
+    if (st != SP_OK) {
+        return st;
+    }
+    st = sp_check_legs(p, ik.length, rate, force, &lim);
+    if (st != SP_OK) {
+        return st;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (ik.length[i] < p->leg_length_min + cfg->stroke_margin ||
+            ik.length[i] > p->leg_length_max - cfg->stroke_margin) {
+            return SP_E_RANGE;
+        }
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        sp[i].length = ik.length[i];
+        sp[i].velocity = rate[i];
+        sp[i].force = cfg->force_feedforward ? force[i] : 0;
+    }
+    return SP_OK;
+}
+
+/* The reaction to a fault: park when only the reference was at fault (the
+ * feedback and the drives are trustworthy), otherwise hold. */
+static void raise_fault(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, uint32_t fault)
+{
+    uint32_t before = ctrl->faults;
+    ctrl->faults |= fault;
+    if (ctrl->state == SP_STATE_ESTOP || (before != 0u && ctrl->state == SP_STATE_FAULT && ctrl->faults == before)) {
+        return;
+    }
+    ctrl->state = (fault == SP_FAULT_ESTOP) ? SP_STATE_ESTOP : SP_STATE_FAULT;
+    ctrl->move.duration_ticks = 0u;
+    ctrl->move.tick = 0u;
+    if (ctrl->faults == SP_FAULT_REFERENCE && ctrl->estimate_valid) {
+        /* controlled park from where the platform is commanded to be */
+        if (sp_move_plan(&ctrl->move, &ctrl->reference.pose, &cfg->platform->park, &cfg->move, cfg->tick_us) !=
+            SP_OK) {
+            ctrl->move.duration_ticks = 0u;
+        }
+    }
+}
+
+static int park_reaction_active(const sp_ctrl_t *ctrl)
+{
+    return ctrl->state == SP_STATE_FAULT && ctrl->faults == SP_FAULT_REFERENCE && ctrl->move.duration_ticks > 0u;
+}
+
+static int start_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *from, const sp_pose_t *to)
+{
+    return sp_move_plan(&ctrl->move, from, to, &cfg->move, cfg->tick_us) == SP_OK;
+}
+
+/* Stream filter: per axis a critically damped second-order follower of the
+ * target, a = w^2 (target - x) - 2 w v, with the move limits on velocity and
+ * acceleration. Position and velocity integrate in Q48 so that the slow
+ * final approach is not lost to rounding. */
+static void stream_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *flags)
+{
+    int32_t dt = (int32_t)(((int64_t)cfg->tick_us << 24) / 1000000); /* s, Q24 */
+    int32_t w = cfg->stream_omega;
+    int32_t w2 = sp_mul_q24(w, w, flags);
+    unsigned a;
+    for (a = 0u; a < 6u; ++a) {
+        sp_q24_t *x = (a < 3u) ? &ctrl->stream.pose.pos[a] : &ctrl->stream.pose.rpy[a - 3u];
+        sp_q24_t *v = (a < 3u) ? &ctrl->stream.vel[a] : &ctrl->stream.rpy_rate[a - 3u];
+        sp_q24_t *acc = (a < 3u) ? &ctrl->stream.acc[a] : &ctrl->stream.rpy_acc[a - 3u];
+        int64_t vmax = (int64_t)cfg->move.vel_max[a] << 24;
+        int32_t amax = cfg->move.acc_max[a];
+        int32_t err = sp_narrow(((int64_t)sp_pose_axis(&ctrl->stream_target, (sp_axis_t)a) << 24) - ctrl->stream_x[a],
+                                24u, flags);
+        int32_t vq = sp_narrow(ctrl->stream_v[a], 24u, flags);
+        int32_t acmd = sp_sub(sp_mul_q24(w2, err, flags), sp_mul_q24(2 * w, vq, flags), flags);
+        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+        ctrl->stream_v[a] = sp_add64(ctrl->stream_v[a], (int64_t)acmd * dt, flags); /* Q48 */
+        ctrl->stream_v[a] = ctrl->stream_v[a] > vmax ? vmax : (ctrl->stream_v[a] < -vmax ? -vmax : ctrl->stream_v[a]);
+        ctrl->stream_x[a] = sp_add64(ctrl->stream_x[a], sp_mul64(ctrl->stream_v[a], dt, 24u, flags), flags);
+        *acc = acmd;
+        *v = sp_narrow(ctrl->stream_v[a], 24u, flags);
+        *x = sp_narrow(ctrl->stream_x[a], 24u, flags);
+    }
+}
+
+/* Within 1 um (1 urad) of the pose and slower than 1 um/s on every axis. */
+static int stream_settled(const sp_motion_t *m, const sp_pose_t *pose)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (absdiff(m->pose.pos[k], pose->pos[k]) > 16 || absdiff(m->pose.rpy[k], pose->rpy[k]) > 16 ||
+            absdiff(m->vel[k], 0) > 16 || absdiff(m->rpy_rate[k], 0) > 16) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, int comms_ok,
+                           uint8_t *rejected)
+{
+    const sp_platform_t *p = cfg->platform;
+    const sp_ctrl_cmd_t *cmd = &in->cmd;
+    int ok = 1;
+    unsigned i;
+
+    switch (cmd->type) {
+    case SP_CMD_NONE:
+        return;
+    case SP_CMD_ESTOP:
+        raise_fault(cfg, ctrl, SP_FAULT_ESTOP);
+        return;
+    case SP_CMD_ENGAGE:
+        ok = ctrl->state == SP_STATE_IDLE && comms_ok && ctrl->estimate_valid &&
+             start_move(cfg, ctrl, &ctrl->estimate, &p->home);
+        if (ok) {
+            ctrl->state = SP_STATE_ENGAGING;
+        }
+        break;
+    case SP_CMD_RUN_TRIG:
+        ok = ctrl->state == SP_STATE_READY;
+        if (ok) {
+            sp_pose_t lo = p->home;
+            sp_pose_t hi = p->home;
+            unsigned a = (unsigned)cmd->axis;
+            ok = a < 6u;
+            if (ok) {
+                sp_q24_t *l = (a < 3u) ? &lo.pos[a] : &lo.rpy[a - 3u];
+                sp_q24_t *h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
+                *l = sp_sub(*l, cmd->amplitude, NULL);
+                *h = sp_add(*h, cmd->amplitude, NULL);
+                ok = pose_reachable(cfg, &lo) && pose_reachable(cfg, &hi) &&
+                     sp_trig_start(&ctrl->trig, &p->home, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
+                                   cfg->fade_ticks) == SP_OK;
+            }
+        }
+        if (ok) {
+            ctrl->mode = MODE_TRIG;
+            ctrl->park_after = 0u;
+            ctrl->state = SP_STATE_RUNNING;
+        }
+        break;
+    case SP_CMD_MOVE_TO:
+        ok = ctrl->state == SP_STATE_READY && pose_reachable(cfg, &cmd->target) &&
+             start_move(cfg, ctrl, &ctrl->reference.pose, &cmd->target);
+        if (ok) {
+            ctrl->mode = MODE_MOVE;
+            ctrl->park_after = 0u;
+            ctrl->state = SP_STATE_RUNNING;
+        }
+        break;
+    case SP_CMD_STREAM:
+        ok = ctrl->state == SP_STATE_READY;
+        if (ok) {
+            ctrl->mode = MODE_STREAM;
+            ctrl->park_after = 0u;
+            ctrl->stream = ctrl->reference;
+            ctrl->stream_target = ctrl->reference.pose;
+            ctrl->stream_stopping = 0u;
+            for (i = 0u; i < 6u; ++i) {
+                ctrl->stream_x[i] = (int64_t)sp_pose_axis(&ctrl->reference.pose, (sp_axis_t)i) << 24;
+                ctrl->stream_v[i] = 0;
+            }
+            ctrl->state = SP_STATE_RUNNING;
+        }
+        break;
+    case SP_CMD_STOP:
+    case SP_CMD_PARK:
+        if (ctrl->state == SP_STATE_RUNNING) {
+            ctrl->park_after = (cmd->type == SP_CMD_PARK) ? 1u : ctrl->park_after;
+            if (ctrl->mode == MODE_TRIG) {
+                sp_trig_stop(&ctrl->trig);
+            } else if (ctrl->mode == MODE_STREAM) {
+                ctrl->stream_target = p->home; /* settle back to home, then end */
+                ctrl->stream_stopping = 1u;
+            }
+        } else if (cmd->type == SP_CMD_PARK && (ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_ENGAGING)) {
+            ok = start_move(cfg, ctrl, &ctrl->reference.pose, &p->park);
+            if (ok) {
+                ctrl->state = SP_STATE_PARKING;
+            }
+        } else {
+            ok = 0;
+        }
+        break;
+    case SP_CMD_RESET:
+        ok = (ctrl->state == SP_STATE_FAULT || ctrl->state == SP_STATE_ESTOP) && comms_ok && ctrl->estimate_valid;
+        if (ok) {
+            ok = start_move(cfg, ctrl, &ctrl->estimate, &p->home);
+        }
+        if (ok) {
+            ctrl->faults = 0u;
+            ctrl->state = SP_STATE_ENGAGING;
+        }
+        break;
+    default:
+        ok = 0;
+        break;
+    }
+    if (!ok) {
+        *rejected = 1u;
+    }
+}
+
+sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in,
+                         sp_ctrl_output_t *out)
+{
+    const sp_platform_t *p;
+    sp_flags_t flags = 0u;
+    sp_motion_t ref;
+    sp_setpoint_t sp[SP_LEGS];
+    uint32_t all = (UINT32_C(1) << SP_LEGS) - 1u;
+    int comms_ok = 1;
+    int drive_fault = 0;
+    int active;
+    int hold = 0;
+    uint8_t rejected = 0u;
+    uint32_t fk_iterations = 0u;
+    unsigned i;
+
+    if (cfg == NULL || ctrl == NULL || in == NULL || out == NULL || cfg->platform == NULL) {
+        return SP_E_ARG;
+    }
+    p = cfg->platform;
+    if (ctrl->tick < UINT32_MAX) {
+        ++ctrl->tick;
+    }
+    active = ctrl->state == SP_STATE_ENGAGING || ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_RUNNING ||
+             ctrl->state == SP_STATE_PARKING || park_reaction_active(ctrl);
+
+    /* 1. Feedback supervision. */
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_drive_feedback_t *fb = &in->drive[i];
+        if (fb->fresh) {
+            ctrl->missed[i] = 0u;
+            ctrl->seen_mask |= UINT32_C(1) << i;
+            ctrl->last_length[i] = fb->length;
+            if (fb->faults != 0u) {
+                drive_fault = 1;
+            }
+        } else if (ctrl->missed[i] < UINT32_MAX) {
+            ++ctrl->missed[i];
+        }
+        if ((ctrl->seen_mask & (UINT32_C(1) << i)) == 0u || ctrl->missed[i] >= cfg->feedback_timeout_ticks) {
+            comms_ok = 0;
+        }
+    }
+    if (active && !comms_ok) {
+        raise_fault(cfg, ctrl, SP_FAULT_FEEDBACK_TIMEOUT);
+    }
+    if (active && drive_fault) {
+        raise_fault(cfg, ctrl, SP_FAULT_DRIVE);
+    }
+
+    /* 2. Pose estimate from the measured lengths, warm-started. */
+    if (ctrl->seen_mask == all) {
+        sp_fk_options_t opt;
+        sp_fk_info_t info;
+        sp_pose_t est;
+        sp_ik_t ik;
+        sp_status_t st;
+        sp_fk_default_options(&opt);
+        if (!ctrl->estimate_valid) {
+            /* cold start from the parked pose, no continuity to check */
+            opt.max_iterations = 20u;
+            opt.max_jump_pos = INT32_MAX;
+            opt.max_jump_rot = INT32_MAX;
+        }
+        st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park, &opt,
+                                   &est, &ik, &info);
+        fk_iterations = info.iterations;
+        if (st == SP_OK) {
+            ctrl->estimate = est;
+            ctrl->estimate_valid = 1u;
+        } else {
+            ctrl->estimate_valid = 0u;
+            if (active) {
+                raise_fault(cfg, ctrl, SP_FAULT_FK);
+            }
+        }
+        for (i = 0u; i < SP_LEGS; ++i) {
+            if (active && (ctrl->last_length[i] < p->leg_length_min - LEG_LIMIT_TOLERANCE ||
+                           ctrl->last_length[i] > p->leg_length_max + LEG_LIMIT_TOLERANCE)) {
+                raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
+            }
+        }
+    }
+
+    /* 3. The operator's command. */
+    handle_command(cfg, ctrl, in, comms_ok, &rejected);
+    if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == MODE_STREAM && in->stream_fresh) {
+        sp_pose_t t = in->stream_target;
+        if (pose_reachable(cfg, &t)) {
+            ctrl->stream_target = t;
+        } else {
+            rejected = 1u; /* never passed on: the previous target stays */
+        }
+    }
+
+    /* 4. The reference of this tick. */
+    switch (ctrl->state) {
+    case SP_STATE_ENGAGING:
+    case SP_STATE_PARKING: {
+        int done = 0;
+        flags |= (sp_move_step(&ctrl->move, cfg->tick_us, &ref, &done) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+        if (done) {
+            ctrl->state = (ctrl->state == SP_STATE_ENGAGING) ? SP_STATE_READY : SP_STATE_IDLE;
+        }
+        break;
+    }
+    case SP_STATE_RUNNING:
+        if (ctrl->mode == MODE_TRIG) {
+            flags |= (sp_trig_step(&ctrl->trig, cfg->tick_us, &ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+            if (ctrl->trig.finished) {
+                ctrl->state = SP_STATE_READY;
+            }
+        } else if (ctrl->mode == MODE_MOVE) {
+            int done = 0;
+            flags |= (sp_move_step(&ctrl->move, cfg->tick_us, &ref, &done) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+            if (done) {
+                ctrl->state = SP_STATE_READY;
+            }
+        } else {
+            stream_step(cfg, ctrl, &flags);
+            ref = ctrl->stream;
+            if (ctrl->stream_stopping && stream_settled(&ref, &p->home)) {
+                motion_at_rest(&ref, &p->home);
+                ctrl->state = SP_STATE_READY;
+            }
+        }
+        if (ctrl->state == SP_STATE_READY && ctrl->park_after) {
+            ctrl->park_after = 0u;
+            if (start_move(cfg, ctrl, &ref.pose, &p->park)) {
+                ctrl->state = SP_STATE_PARKING;
+            }
+        }
+        break;
+    case SP_STATE_READY:
+        motion_at_rest(&ref, &ctrl->reference.pose);
+        break;
+    case SP_STATE_FAULT:
+        if (park_reaction_active(ctrl)) {
+            int done = 0;
+            flags |= (sp_move_step(&ctrl->move, cfg->tick_us, &ref, &done) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+            if (done) {
+                ctrl->move.duration_ticks = 0u; /* parked: hold there, still latched */
+            }
+        } else {
+            hold = 1;
+            motion_at_rest(&ref, &ctrl->reference.pose);
+        }
+        break;
+    case SP_STATE_ESTOP:
+        hold = 1;
+        motion_at_rest(&ref, &ctrl->reference.pose);
+        break;
+    case SP_STATE_IDLE:
+    default:
+        hold = 1;
+        motion_at_rest(&ref, ctrl->estimate_valid ? &ctrl->estimate : &p->park);
+        break;
+    }
+
+    /* 5. Setpoints: every reference is checked against the limits; one that
+     * fails is never passed on. */
+    if (hold) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            if (ctrl->state == SP_STATE_IDLE || !ctrl->have_setpoint) {
+                ctrl->setpoint[i].length = ctrl->last_length[i];
+                ctrl->setpoint[i].force = 0;
+            }
+            ctrl->setpoint[i].velocity = 0;
+        }
+        ctrl->reference = ref;
+    } else {
+        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, &ref, sp) : SP_E_OVERFLOW;
+        if (st == SP_OK) {
+            for (i = 0u; i < SP_LEGS; ++i) {
+                ctrl->setpoint[i] = sp[i];
+            }
+            ctrl->have_setpoint = 1u;
+            ctrl->reference = ref;
+        } else {
+            raise_fault(cfg, ctrl, (st == SP_E_RANGE) ? SP_FAULT_REFERENCE : SP_FAULT_COMPUTE);
+            for (i = 0u; i < SP_LEGS; ++i) {
+                ctrl->setpoint[i].velocity = 0; /* hold the last valid lengths */
+            }
+            motion_at_rest(&ctrl->reference, &ctrl->reference.pose);
+        }
+    }
+
+    /* 6. Divergence of the estimate from the reference. */
+    if ((ctrl->state == SP_STATE_ENGAGING || ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_RUNNING ||
+         ctrl->state == SP_STATE_PARKING) &&
+        ctrl->estimate_valid) {
+        for (i = 0u; i < 3u; ++i) {
+            if (absdiff(ctrl->estimate.pos[i], ctrl->reference.pose.pos[i]) > cfg->divergence_pos ||
+                absdiff(ctrl->estimate.rpy[i], ctrl->reference.pose.rpy[i]) > cfg->divergence_rot) {
+                raise_fault(cfg, ctrl, SP_FAULT_DIVERGENCE);
+                break;
+            }
+        }
+    }
+
+    /* 7. Outputs. */
+    for (i = 0u; i < SP_LEGS; ++i) {
+        out->setpoint[i] = ctrl->setpoint[i];
+    }
+    out->drive_mode = (ctrl->state == SP_STATE_IDLE || ctrl->state == SP_STATE_ESTOP ||
+                       (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
+                          ? SP_DRIVE_HOLD
+                          : SP_DRIVE_ACTIVE;
+    out->state = ctrl->state;
+    out->faults = ctrl->faults;
+    out->tick = ctrl->tick;
+    out->estimate = ctrl->estimate;
+    out->estimate_valid = ctrl->estimate_valid;
+    out->reference = ctrl->reference;
+    out->fk_iterations = fk_iterations;
+    out->cmd_rejected = rejected;
+    return SP_OK;
+}

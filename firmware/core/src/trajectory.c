@@ -1,0 +1,287 @@
+#include "sp/trajectory.h"
+
+#define TWO_PI_Q24 INT64_C(105414357)   /* 2 pi in Q24 */
+#define TWO_PI_Q28 INT32_C(1686629713)  /* 2 pi in Q28 */
+#define US_PER_S INT64_C(1000000)
+#define MOVE_MAX_MS UINT64_C(600000) /* 10 minutes */
+
+sp_q24_t sp_pose_axis(const sp_pose_t *pose, sp_axis_t axis)
+{
+    unsigned a = (unsigned)axis;
+    if (pose == NULL || a >= 6u) {
+        return 0;
+    }
+    return (a < 3u) ? pose->pos[a] : pose->rpy[a - 3u];
+}
+
+static sp_q24_t *axis_ref(sp_pose_t *pose, unsigned a)
+{
+    return (a < 3u) ? &pose->pos[a] : &pose->rpy[a - 3u];
+}
+
+static sp_q24_t *vec_ref(sp_motion_t *m, unsigned a, int order)
+{
+    if (order == 1) {
+        return (a < 3u) ? &m->vel[a] : &m->rpy_rate[a - 3u];
+    }
+    return (a < 3u) ? &m->acc[a] : &m->rpy_acc[a - 3u];
+}
+
+/* Motion sample at rest at `pose`. */
+static void at_rest(sp_motion_t *m, const sp_pose_t *pose)
+{
+    unsigned k;
+    m->pose = *pose;
+    for (k = 0u; k < 3u; ++k) {
+        m->vel[k] = 0;
+        m->rpy_rate[k] = 0;
+        m->acc[k] = 0;
+        m->rpy_acc[k] = 0;
+    }
+}
+
+/* Quintic smoothstep at u (Q30, 0..1): E in Q30, E' = dE/du and
+ * E'' = d2E/du2 in Q24 (their peaks, 1.875 and 5.77, exceed Q30's range). */
+static void smoothstep(int32_t u, int32_t *e, int32_t *de, int32_t *dde)
+{
+    int64_t one = INT64_C(1) << 30;
+    int64_t uu = u;
+    int64_t v = one - uu;                               /* 1 - u */
+    int64_t u2 = sp_rshift_round(uu * uu, 30u);         /* u^2 */
+    int64_t u3 = sp_rshift_round(u2 * uu, 30u);         /* u^3 */
+    int64_t v2 = sp_rshift_round(v * v, 30u);           /* (1-u)^2 */
+    /* E = u^3 (10 - 15u + 6u^2) */
+    int64_t poly = 10 * one - 15 * uu + 6 * u2;
+    *e = (int32_t)sp_rshift_round(u3 * poly, 30u);
+    /* E' = 30 u^2 (1-u)^2 */
+    *de = (int32_t)sp_rshift_round(30 * sp_rshift_round(u2 * v2, 30u), 6u);
+    /* E'' = 60 u (1-u) (1-2u) */
+    *dde = (int32_t)sp_rshift_round(60 * sp_rshift_round(sp_rshift_round(uu * v, 30u) * (one - 2 * uu), 30u), 6u);
+}
+
+sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis, sp_q24_t amplitude,
+                          sp_q24_t frequency_hz, uint32_t tick_us, uint32_t fade_ticks)
+{
+    int64_t step;
+
+    if (g == NULL) {
+        return SP_E_ARG;
+    }
+    g->finished = 1;
+    g->tick = 0u;
+    g->phase = 0u;
+    g->stop_tick = UINT32_MAX;
+    if (centre == NULL) {
+        return SP_E_ARG;
+    }
+    g->centre = *centre;
+    if ((unsigned)axis >= 6u || tick_us < 1u || tick_us > 100000u ||
+        (uint64_t)fade_ticks * tick_us < 100000u || (uint64_t)fade_ticks * tick_us > 60000000u ||
+        frequency_hz <= 0 || frequency_hz > 10 * SP_Q24_ONE || amplitude > SP_Q24_ONE ||
+        amplitude < -SP_Q24_ONE) {
+        return SP_E_ARG;
+    }
+    /* turns per tick = f * tick_us / 1e6, in 2^-32 turn; below half a turn */
+    step = ((int64_t)frequency_hz * tick_us * 256 + US_PER_S / 2) / US_PER_S;
+    if (step <= 0 || step >= (INT64_C(1) << 31)) {
+        return SP_E_ARG;
+    }
+    g->axis = axis;
+    g->amplitude = amplitude;
+    g->omega = sp_mul(frequency_hz, TWO_PI_Q28, 28u, NULL);
+    g->phase_step = (uint32_t)step;
+    g->fade_ticks = fade_ticks;
+    g->finished = 0;
+    return SP_OK;
+}
+
+void sp_trig_stop(sp_trig_t *g)
+{
+    if (g != NULL && g->stop_tick == UINT32_MAX) {
+        /* a stop during the fade-in waits for it to end, so the envelope's
+         * rate never reverses abruptly */
+        g->stop_tick = (g->tick > g->fade_ticks) ? g->tick : g->fade_ticks;
+    }
+}
+
+sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
+{
+    sp_flags_t flags = 0u;
+    int32_t u;
+    int32_t e;
+    int32_t de;
+    int32_t dde;
+    int32_t rate;   /* du/dt, 1/s, Q24 */
+    int32_t theta;  /* phase, rad, Q24 */
+    sp_q30_t s;
+    sp_q30_t c;
+    int64_t pos;
+    int64_t vel;
+    int64_t acc;
+    unsigned a;
+
+    if (g == NULL || out == NULL || tick_us < 1u) {
+        return SP_E_ARG;
+    }
+    at_rest(out, &g->centre);
+    if (g->finished) {
+        return SP_OK;
+    }
+    /* envelope position u (Q30) and its sign of motion */
+    rate = sp_sat32(((INT64_C(1) << 24) * US_PER_S) / ((int64_t)g->fade_ticks * tick_us), &flags);
+    if (g->stop_tick != UINT32_MAX && g->tick >= g->stop_tick) {
+        uint32_t k = g->tick - g->stop_tick;
+        if (k >= g->fade_ticks) {
+            g->finished = 1;
+            return SP_OK;
+        }
+        u = (int32_t)(((int64_t)(g->fade_ticks - k) << 30) / g->fade_ticks);
+        rate = -rate;
+    } else if (g->tick < g->fade_ticks) {
+        u = (int32_t)(((int64_t)g->tick << 30) / g->fade_ticks);
+    } else {
+        u = SP_Q30_ONE;
+        rate = 0;
+    }
+    smoothstep(u, &e, &de, &dde);
+    /* e' = E'(u) du/dt, e'' = E''(u) (du/dt)^2, Q24 */
+    de = sp_mul(de, rate, 24u, &flags);
+    dde = sp_mul(sp_mul(dde, rate, 24u, &flags), rate, 24u, &flags);
+    if (rate == 0) {
+        de = 0;
+        dde = 0;
+    }
+
+    theta = (int32_t)sp_rshift_round((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
+    sp_sincos_q24(theta, &s, &c);
+
+    /* offset = A s e; velocity = A (w c e + s e');
+     * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24. */
+    pos = sp_rshift_round((int64_t)sp_mul(s, e, 30u, &flags), 6u);             /* s e, Q24 */
+    vel = sp_rshift_round((int64_t)sp_mul(sp_mul(g->omega, c, 30u, &flags), e, 30u, &flags), 0u) +
+          sp_mul(de, s, 30u, &flags);
+    acc = -(int64_t)sp_mul(sp_mul(sp_mul_q24(g->omega, g->omega, &flags), s, 30u, &flags), e, 30u, &flags) +
+          2 * (int64_t)sp_mul(sp_mul(g->omega, c, 30u, &flags), de, 24u, &flags) + sp_mul(dde, s, 30u, &flags);
+
+    a = (unsigned)g->axis;
+    *axis_ref(&out->pose, a) = sp_add(*axis_ref(&out->pose, a), sp_mul_q24(g->amplitude, sp_sat32(pos, &flags), &flags),
+                                      &flags);
+    *vec_ref(out, a, 1) = sp_mul_q24(g->amplitude, sp_sat32(vel, &flags), &flags);
+    *vec_ref(out, a, 2) = sp_mul_q24(g->amplitude, sp_sat32(acc, &flags), &flags);
+
+    g->phase += g->phase_step; /* modulo one turn by design */
+    if (g->tick < UINT32_MAX) {
+        ++g->tick;
+    }
+    return sp_flags_status(flags);
+}
+
+/* Smallest r with r^3 >= v (v < 2^63); bounded bisection. */
+static uint64_t icbrt_ceil(uint64_t v)
+{
+    uint64_t lo = 0u;
+    uint64_t hi = 2097152u; /* 2^21: hi^3 = 2^63 */
+    while (lo < hi) { /* at most 22 steps */
+        uint64_t mid = (lo + hi) / 2u;
+        if (mid * mid * mid >= v) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *to,
+                         const sp_move_limits_t *lim, uint32_t tick_us)
+{
+    uint64_t t_ms = 0u;
+    unsigned a;
+
+    if (mv == NULL || from == NULL || to == NULL || lim == NULL || tick_us < 1u || tick_us > 100000u) {
+        return SP_E_ARG;
+    }
+    mv->from = *from;
+    mv->to = *from;
+    mv->duration_ticks = 0u;
+    mv->tick = 0u;
+    for (a = 0u; a < 6u; ++a) {
+        int64_t d = (int64_t)sp_pose_axis(to, (sp_axis_t)a) - sp_pose_axis(from, (sp_axis_t)a);
+        uint64_t dm = (uint64_t)(d < 0 ? -d : d); /* Q24, < 2^32 */
+        uint64_t t;
+        if (lim->vel_max[a] <= 0 || lim->acc_max[a] <= 0 || lim->jerk_max[a] <= 0) {
+            return SP_E_ARG;
+        }
+        if (dm == 0u) {
+            continue;
+        }
+        /* velocity: T = 1.875 D / v, ms */
+        t = (dm * 1875u + (uint64_t)lim->vel_max[a] - 1u) / (uint64_t)lim->vel_max[a];
+        t_ms = t > t_ms ? t : t_ms;
+        /* acceleration: T^2 = 5.7735 D / a; in ms^2: 5773503 D / a */
+        t = (dm * 5773503u + (uint64_t)lim->acc_max[a] - 1u) / (uint64_t)lim->acc_max[a];
+        if (t > MOVE_MAX_MS * MOVE_MAX_MS) {
+            return SP_E_RANGE;
+        }
+        {
+            uint64_t r = sp_isqrt64(t);
+            r += (r * r < t) ? 1u : 0u;
+            t_ms = r > t_ms ? r : t_ms;
+        }
+        /* jerk: T^3 = 60 D / j; in ms^3: 6e10 D / j. D < 16 m keeps the
+         * product below 2^64. */
+        if (dm >= (UINT64_C(1) << 28)) {
+            return SP_E_RANGE;
+        }
+        t = (dm * UINT64_C(60000000000) + (uint64_t)lim->jerk_max[a] - 1u) / (uint64_t)lim->jerk_max[a];
+        if (t > MOVE_MAX_MS * MOVE_MAX_MS * MOVE_MAX_MS) {
+            return SP_E_RANGE;
+        }
+        t = icbrt_ceil(t);
+        t_ms = t > t_ms ? t : t_ms;
+    }
+    if (t_ms > MOVE_MAX_MS) {
+        return SP_E_RANGE;
+    }
+    mv->to = *to;
+    mv->duration_ticks = (uint32_t)((t_ms * 1000u + tick_us - 1u) / tick_us);
+    return SP_OK;
+}
+
+sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int *done)
+{
+    sp_flags_t flags = 0u;
+    int32_t u;
+    int32_t e;
+    int32_t de;
+    int32_t dde;
+    int32_t rate;
+    unsigned a;
+
+    if (mv == NULL || out == NULL || done == NULL || tick_us < 1u) {
+        return SP_E_ARG;
+    }
+    if (mv->tick >= mv->duration_ticks) {
+        at_rest(out, &mv->to);
+        *done = 1;
+        return SP_OK;
+    }
+    *done = 0;
+    at_rest(out, &mv->from);
+    u = (int32_t)(((int64_t)mv->tick << 30) / mv->duration_ticks);
+    rate = sp_sat32(((INT64_C(1) << 24) * US_PER_S) / ((int64_t)mv->duration_ticks * tick_us), &flags);
+    smoothstep(u, &e, &de, &dde);
+    for (a = 0u; a < 6u; ++a) {
+        int64_t d = (int64_t)sp_pose_axis(&mv->to, (sp_axis_t)a) - sp_pose_axis(&mv->from, (sp_axis_t)a);
+        sp_q24_t *p = axis_ref(&out->pose, a);
+        /* D E'(u) first, then the time scale: a short move has a large
+         * rate but a small distance, and neither product saturates. */
+        int32_t dv = sp_narrow(d * de, 24u, &flags);
+        int32_t da = sp_narrow(d * dde, 24u, &flags);
+        *p = sp_sat32(*p + sp_rshift_round(d * e, 30u), &flags);
+        *vec_ref(out, a, 1) = sp_narrow((int64_t)dv * rate, 24u, &flags);
+        *vec_ref(out, a, 2) = sp_narrow((int64_t)sp_narrow((int64_t)da * rate, 24u, &flags) * rate, 24u, &flags);
+    }
+    ++mv->tick;
+    return sp_flags_status(flags);
+}

@@ -1,0 +1,424 @@
+/*
+ * Unit tests of the controller step (sp/controller.h) and the reference
+ * generators (sp/trajectory.h) on the default platform, closed around an
+ * ideal plant in the test: each drive reaches its length setpoint by the
+ * next tick (or, where a test says so, does not). The plant simulator and
+ * the CAN bus are exercised by the integration tests; here the logic is.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "sp/controller.h"
+
+static double f24(int32_t v)
+{
+    return (double)v / 16777216.0;
+}
+static int32_t q24(double v)
+{
+    return (int32_t)llround(v * 16777216.0);
+}
+
+typedef struct {
+    sp_ctrl_config_t cfg;
+    sp_ctrl_t ctrl;
+    sp_ctrl_input_t in;
+    sp_ctrl_output_t out;
+    sp_q24_t plant_length[SP_LEGS];
+    int silent[SP_LEGS];
+    int frozen; /* 1: the plant ignores the setpoints */
+} rig_t;
+
+static void rig_init(rig_t *r)
+{
+    sp_ik_t ik;
+    memset(r, 0, sizeof *r);
+    assert_int_equal(sp_ctrl_default_config(&r->cfg, &sp_platform_default), SP_OK);
+    assert_int_equal(sp_ctrl_init(&r->ctrl, &r->cfg), SP_OK);
+    /* the plant starts parked */
+    assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik), SP_OK);
+    memcpy(r->plant_length, ik.length, sizeof r->plant_length);
+}
+
+/* One tick: feedback from the plant, the controller step, the plant moves. */
+static void rig_tick(rig_t *r, sp_cmd_type_t cmd)
+{
+    for (int i = 0; i < SP_LEGS; ++i) {
+        r->in.drive[i].fresh = (uint8_t)(r->silent[i] ? 0u : 1u);
+        r->in.drive[i].length = r->plant_length[i];
+        r->in.drive[i].force = 0;
+    }
+    r->in.cmd.type = cmd;
+    assert_int_equal(sp_ctrl_step(&r->cfg, &r->ctrl, &r->in, &r->out), SP_OK);
+    r->in.cmd.type = SP_CMD_NONE;
+    r->in.stream_fresh = 0u;
+    if (!r->frozen && r->out.drive_mode == SP_DRIVE_ACTIVE) {
+        for (int i = 0; i < SP_LEGS; ++i) {
+            r->plant_length[i] = r->out.setpoint[i].length;
+        }
+    }
+}
+
+static void run_until(rig_t *r, sp_state_t state, int max_ticks)
+{
+    for (int n = 0; n < max_ticks; ++n) {
+        if (r->out.state == state) {
+            return;
+        }
+        rig_tick(r, SP_CMD_NONE);
+    }
+    fail_msg("state %s not reached in %d ticks (now %s, faults 0x%x)", sp_state_name(state), max_ticks,
+             sp_state_name(r->out.state), r->out.faults);
+}
+
+static void engage(rig_t *r)
+{
+    rig_tick(r, SP_CMD_NONE);
+    assert_int_equal(r->out.state, SP_STATE_IDLE);
+    assert_true(r->out.estimate_valid);
+    rig_tick(r, SP_CMD_ENGAGE);
+    assert_int_equal(r->out.cmd_rejected, 0);
+    assert_int_equal(r->out.state, SP_STATE_ENGAGING);
+    run_until(r, SP_STATE_READY, 20000);
+}
+
+static void test_engage_run_park(void **state)
+{
+    static rig_t r;
+    double peak = 0;
+    double prev_acc = 0;
+    double worst_jerk = 0;
+    double worst_err = 0;
+    int ticks = 0;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    /* the estimate is home */
+    for (int k = 0; k < 3; ++k) {
+        assert_true(fabs(f24(r.out.estimate.pos[k]) - f24(sp_platform_default.home.pos[k])) < 1e-6);
+        assert_true(fabs(f24(r.out.estimate.rpy[k]) - f24(sp_platform_default.home.rpy[k])) < 5e-6);
+    }
+    /* the paper's surge: 90 mm, 0.5 Hz */
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.09);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    for (; ticks < 8000; ++ticks) {
+        double x = f24(r.out.reference.pose.pos[0]);
+        double acc = f24(r.out.reference.acc[0]);
+        peak = fabs(x) > peak ? fabs(x) : peak;
+        if (ticks > 0) {
+            double jerk = fabs(acc - prev_acc) / 1e-3;
+            worst_jerk = jerk > worst_jerk ? jerk : worst_jerk;
+        }
+        prev_acc = acc;
+        /* the ideal plant is one tick behind the reference */
+        {
+            double e = fabs(f24(r.out.estimate.pos[0]) - x);
+            worst_err = e > worst_err ? e : worst_err;
+        }
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.faults, 0u);
+    }
+    assert_true(fabs(peak - 0.09) < 1e-4);
+    /* smooth: the jerk of 0.09 sin(pi t) is 0.09 pi^3 = 2.8 m/s^3; the fades add a little */
+    assert_true(worst_jerk < 6.0);
+    assert_true(worst_err < 0.09 * 3.14159265358979 * 1e-3 * 1.05);
+    rig_tick(&r, SP_CMD_STOP);
+    run_until(&r, SP_STATE_READY, 3000);
+    assert_true(fabs(f24(r.out.reference.pose.pos[0]) - f24(sp_platform_default.home.pos[0])) < 1e-6);
+    rig_tick(&r, SP_CMD_PARK);
+    assert_int_equal(r.out.state, SP_STATE_PARKING);
+    run_until(&r, SP_STATE_IDLE, 20000);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+    for (int k = 0; k < 3; ++k) {
+        assert_true(fabs(f24(r.out.estimate.pos[k]) - f24(sp_platform_default.park.pos[k])) < 1e-6);
+    }
+    print_message("surge: peak %.6f m, worst jerk %.3f m/s^3, worst lag %.3g m\n", peak, worst_jerk, worst_err);
+}
+
+static void test_silent_drive_faults_within_3_ticks(void **state)
+{
+    static rig_t r;
+    sp_setpoint_t held[SP_LEGS];
+    int n;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    r.in.cmd.axis = SP_AXIS_YAW;
+    r.in.cmd.amplitude = q24(0.09);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    for (n = 0; n < 2500; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    r.silent[3] = 1;
+    for (n = 1; n <= 3; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        if (r.out.state == SP_STATE_FAULT) {
+            break;
+        }
+    }
+    assert_true(n <= 3);
+    print_message("silent drive: fault after %d tick(s)\n", n);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    assert_true((r.out.faults & SP_FAULT_FEEDBACK_TIMEOUT) != 0u);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+    memcpy(held, r.out.setpoint, sizeof held);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(held[i].velocity, 0);
+    }
+    /* latched: the fault stays even when the drive talks again, and the
+     * setpoints stay frozen */
+    r.silent[3] = 0;
+    for (n = 0; n < 100; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    assert_memory_equal(held, r.out.setpoint, sizeof held);
+    /* reset: re-engages to home from where the platform is */
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.faults, 0u);
+    run_until(&r, SP_STATE_READY, 20000);
+
+}
+
+static void test_reset_refused_while_silent(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    r.silent[0] = 1;
+    for (int n = 0; n < 5; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+}
+
+static void test_rejects_out_of_limit_commands(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    /* ENGAGE before any feedback: refused */
+    r.silent[0] = 1;
+    rig_tick(&r, SP_CMD_ENGAGE);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_IDLE);
+    r.silent[0] = 0;
+    engage(&r);
+    /* 0.8 m of surge leaves the workspace: refused, nothing moves */
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.8);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    /* a frequency of 0 Hz: refused */
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = 0;
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    /* a move target outside the workspace: refused */
+    r.in.cmd.target = sp_platform_default.home;
+    r.in.cmd.target.pos[2] += q24(2.0);
+    rig_tick(&r, SP_CMD_MOVE_TO);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    /* RUN while not READY: refused */
+    rig_tick(&r, SP_CMD_PARK);
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_PARKING);
+}
+
+static void test_move_and_stream(void **state)
+{
+    static rig_t r;
+    sp_pose_t target;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    target = sp_platform_default.home;
+    target.pos[1] += q24(0.1);
+    target.rpy[2] += q24(0.05);
+    r.in.cmd.target = target;
+    rig_tick(&r, SP_CMD_MOVE_TO);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    run_until(&r, SP_STATE_READY, 20000);
+    assert_memory_equal(&r.out.reference.pose, &target, sizeof target);
+    /* the move kept within its limits */
+    /* stream: a reachable target is followed, an unreachable one refused */
+    rig_tick(&r, SP_CMD_STREAM);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    r.in.stream_target = sp_platform_default.home;
+    r.in.stream_target.pos[0] += q24(0.05);
+    r.in.stream_fresh = 1u;
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (int n = 0; n < 3000; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_true(fabs(f24(r.out.reference.pose.pos[0]) - f24(sp_platform_default.home.pos[0]) - 0.05) < 1e-5);
+    r.in.stream_target.pos[0] += q24(3.0);
+    r.in.stream_fresh = 1u;
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    rig_tick(&r, SP_CMD_STOP);
+    run_until(&r, SP_STATE_READY, 10000);
+    assert_int_equal(r.out.faults, 0u);
+}
+
+static void test_estop_and_divergence(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+    assert_true((r.out.faults & SP_FAULT_ESTOP) != 0u);
+    rig_tick(&r, SP_CMD_ENGAGE);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    rig_tick(&r, SP_CMD_RESET);
+    run_until(&r, SP_STATE_READY, 20000);
+
+    /* a plant that stops following: the divergence fault latches */
+    r.in.cmd.axis = SP_AXIS_Z;
+    r.in.cmd.amplitude = q24(0.09);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    r.frozen = 1;
+    run_until(&r, SP_STATE_FAULT, 3000);
+    assert_true((r.out.faults & SP_FAULT_DIVERGENCE) != 0u);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+}
+
+static void test_fk_failure_faults(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    /* one leg reads 0.3 m longer than possible with the others: no pose */
+    r.frozen = 1;
+    r.plant_length[2] += q24(0.3);
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    assert_true((r.out.faults & (SP_FAULT_FK | SP_FAULT_DIVERGENCE)) != 0u);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+}
+
+static void test_trig_generator(void **state)
+{
+    sp_trig_t g;
+    sp_motion_t m;
+    double prev_x = 0;
+    double prev_v = 0;
+    (void)state;
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 1000u),
+                     SP_OK);
+    /* velocity and acceleration are the derivatives of position */
+    for (int n = 0; n < 6000; ++n) {
+        double x;
+        double v;
+        double a;
+        if (n == 4000) {
+            sp_trig_stop(&g);
+        }
+        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+        x = f24(m.pose.pos[0] - sp_platform_default.home.pos[0]);
+        v = f24(m.vel[0]);
+        a = f24(m.acc[0]);
+        if (n > 0 && !g.finished) {
+            assert_true(fabs((x - prev_x) / 1e-3 - (v + prev_v) / 2) < 2e-4);
+            (void)a;
+        }
+        prev_x = x;
+        prev_v = v;
+    }
+    assert_true(g.finished);
+    assert_int_equal(m.pose.pos[0], sp_platform_default.home.pos[0]);
+    assert_int_equal(m.vel[0], 0);
+    /* bad arguments */
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), 0, 1000u, 1000u), SP_E_ARG);
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(2.0), q24(1), 1000u, 1000u),
+                     SP_E_ARG);
+    assert_int_equal(sp_trig_start(&g, NULL, SP_AXIS_X, q24(0.09), q24(1), 1000u, 1000u), SP_E_ARG);
+}
+
+static void test_move_respects_limits(void **state)
+{
+    sp_move_t mv;
+    sp_move_limits_t lim;
+    sp_motion_t m;
+    sp_pose_t to = sp_platform_default.home;
+    double vmax = 0;
+    double amax = 0;
+    double jmax = 0;
+    double prev_a = 0;
+    int done = 0;
+    int n = 0;
+    (void)state;
+    for (int a = 0; a < 6; ++a) {
+        lim.vel_max[a] = q24(0.25);
+        lim.acc_max[a] = q24(1.0);
+        lim.jerk_max[a] = q24(5.0);
+    }
+    assert_int_equal(sp_move_plan(&mv, &sp_platform_default.park, &to, &lim, 1000u), SP_OK);
+    while (!done) {
+        double v;
+        double a;
+        assert_int_equal(sp_move_step(&mv, 1000u, &m, &done), SP_OK);
+        v = fabs(f24(m.vel[2]));
+        a = f24(m.acc[2]);
+        vmax = v > vmax ? v : vmax;
+        amax = fabs(a) > amax ? fabs(a) : amax;
+        if (n > 0 && !done) {
+            double j = fabs(a - prev_a) / 1e-3;
+            jmax = j > jmax ? j : jmax;
+        }
+        prev_a = a;
+        assert_true(++n < 100000);
+    }
+    assert_memory_equal(&m.pose, &to, sizeof to);
+    assert_true(vmax <= 0.25 * 1.001);
+    assert_true(amax <= 1.0 * 1.001);
+    assert_true(jmax <= 5.0 * 1.01);
+    lim.vel_max[0] = 0;
+    assert_int_equal(sp_move_plan(&mv, &sp_platform_default.park, &to, &lim, 1000u), SP_E_ARG);
+    print_message("engage move: %d ticks, peak %.3f m/s %.3f m/s^2 %.3f m/s^3\n", n, vmax, amax, jmax);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_trig_generator),
+        cmocka_unit_test(test_move_respects_limits),
+        cmocka_unit_test(test_engage_run_park),
+        cmocka_unit_test(test_silent_drive_faults_within_3_ticks),
+        cmocka_unit_test(test_reset_refused_while_silent),
+        cmocka_unit_test(test_rejects_out_of_limit_commands),
+        cmocka_unit_test(test_move_and_stream),
+        cmocka_unit_test(test_estop_and_divergence),
+        cmocka_unit_test(test_fk_failure_faults),
+    };
+    return cmocka_run_group_tests_name("controller", tests, NULL, NULL);
+}
