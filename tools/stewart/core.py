@@ -1,0 +1,298 @@
+"""The fixed-point firmware core, called from Python through ctypes.
+
+This is the same C code that runs on the controller (``firmware/core``),
+built as a shared library by the host-release preset
+(``build/host-release/firmware/libsp_core.so``). Values cross the boundary
+in the core's Q formats; this module converts them to and from SI floats.
+Set ``STEWART_CORE_LIB`` to use another build of the library.
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import REPO_ROOT
+
+LEGS = 6
+Q24 = float(1 << 24)
+Q30 = float(1 << 30)
+Q16 = float(1 << 16)
+Q8 = float(1 << 8)
+
+STATUS_NAMES = {
+    0: "ok",
+    1: "overflow",
+    2: "domain",
+    3: "bad-argument",
+    4: "singular",
+    5: "out-of-range",
+    6: "no-convergence",
+    7: "discontinuity",
+}
+
+I32 = C.c_int32
+V3 = I32 * 3
+
+
+class Pose(C.Structure):
+    _fields_ = [("pos", V3), ("rpy", V3)]
+
+
+class Motion(C.Structure):
+    _fields_ = [
+        ("pose", Pose),
+        ("vel", V3),
+        ("rpy_rate", V3),
+        ("acc", V3),
+        ("rpy_acc", V3),
+    ]
+
+
+class PlatformStruct(C.Structure):
+    _fields_ = [
+        ("base_joint", V3 * LEGS),
+        ("platform_joint", V3 * LEGS),
+        ("mass", I32),
+        ("inertia", V3 * 3),
+        ("gravity", I32),
+        ("home", Pose),
+        ("park", Pose),
+        ("leg_length_min", I32),
+        ("leg_length_max", I32),
+        ("force_max", I32),
+        ("leg_velocity_max", I32),
+        ("workspace_min", Pose),
+        ("workspace_max", Pose),
+    ]
+
+
+class Rot(C.Structure):
+    _fields_ = [("t", V3 * 3)]
+
+
+class IK(C.Structure):
+    _fields_ = [
+        ("rot", Rot),
+        ("arm", V3 * LEGS),
+        ("leg", V3 * LEGS),
+        ("length", I32 * LEGS),
+        ("unit", V3 * LEGS),
+    ]
+
+
+class FkOptions(C.Structure):
+    _fields_ = [
+        ("max_iterations", C.c_uint32),
+        ("tolerance", I32),
+        ("max_jump_pos", I32),
+        ("max_jump_rot", I32),
+    ]
+
+
+class FkInfo(C.Structure):
+    _fields_ = [("iterations", C.c_uint32), ("residual", I32)]
+
+
+class LegLimits(C.Structure):
+    _fields_ = [
+        ("too_short", C.c_uint32),
+        ("too_long", C.c_uint32),
+        ("too_fast", C.c_uint32),
+        ("over_force", C.c_uint32),
+    ]
+
+
+class CoreError(RuntimeError):
+    """The shared library is missing or does not match this module."""
+
+
+def library_path() -> Path:
+    env = os.environ.get("STEWART_CORE_LIB")
+    if env:
+        return Path(env)
+    return REPO_ROOT / "build" / "host-release" / "firmware" / "libsp_core.so"
+
+
+_LIB = None
+
+
+def lib() -> C.CDLL:
+    """Loads the core library once (raises CoreError with the fix if absent)."""
+    global _LIB
+    if _LIB is not None:
+        return _LIB
+    path = library_path()
+    if not path.exists():
+        raise CoreError(
+            f"{path} not found: build it with `scripts/build.sh host-release` "
+            "(or run scripts/test.sh)"
+        )
+    L = C.CDLL(str(path))
+    P = C.POINTER
+    L.sp_inverse_kinematics.argtypes = [P(PlatformStruct), P(Pose), P(IK)]
+    L.sp_inverse_dynamics.argtypes = [P(PlatformStruct), P(Motion), P(IK), P(V3), P(I32 * LEGS)]
+    L.sp_leg_rates.argtypes = [P(IK), P(V3), P(V3), P(V3), P(I32 * LEGS)]
+    L.sp_leg_stretch.argtypes = [P(IK), P(IK), P(I32 * LEGS)]
+    L.sp_body_rates.argtypes = [P(V3), P(V3), P(V3), P(V3), P(V3)]
+    L.sp_forward_kinematics.argtypes = [
+        P(PlatformStruct), P(I32 * LEGS), P(Pose), P(FkOptions), P(Pose), P(IK), P(FkInfo)
+    ]
+    L.sp_fk_default_options.argtypes = [P(FkOptions)]
+    L.sp_fk_default_options.restype = None
+    L.sp_check_legs.argtypes = [P(PlatformStruct), P(I32 * LEGS), P(I32 * LEGS), P(I32 * LEGS), P(LegLimits)]
+    L.sp_orientation.argtypes = [P(V3), P(Rot)]
+    for name in ("sp_inverse_kinematics", "sp_inverse_dynamics", "sp_leg_rates", "sp_leg_stretch",
+                 "sp_body_rates", "sp_forward_kinematics", "sp_check_legs", "sp_orientation"):
+        getattr(L, name).restype = C.c_int
+    _LIB = L
+    return L
+
+
+def status_name(code: int) -> str:
+    return STATUS_NAMES.get(code, f"status-{code}")
+
+
+def _q(v: float, scale: float) -> int:
+    """SI float -> Q integer, rounded to nearest, saturated to int32."""
+    if not math.isfinite(v):
+        raise ValueError(f"not a finite number: {v}")
+    r = round(v * scale)
+    return max(-(1 << 31), min((1 << 31) - 1, r))
+
+
+def q24(v: float) -> int:
+    return _q(v, Q24)
+
+
+def pose_struct(pose6) -> Pose:
+    p = Pose()
+    for k in range(3):
+        p.pos[k] = q24(pose6[k])
+        p.rpy[k] = q24(pose6[3 + k])
+    return p
+
+
+def pose_tuple(p: Pose) -> tuple[float, ...]:
+    return tuple([p.pos[k] / Q24 for k in range(3)] + [p.rpy[k] / Q24 for k in range(3)])
+
+
+def platform_struct(platform) -> PlatformStruct:
+    """The core's platform struct from a validated config (stewart.config),
+    quantized exactly as the firmware's generated default is."""
+    from . import gen_platform
+
+    ints = gen_platform.quantize(platform)
+    s = PlatformStruct()
+    for i in range(LEGS):
+        for c in range(3):
+            s.base_joint[i][c] = ints["base_joint"][i][c]
+            s.platform_joint[i][c] = ints["platform_joint"][i][c]
+    s.mass = ints["mass"]
+    for r in range(3):
+        for c in range(3):
+            s.inertia[r][c] = ints["inertia"][r][c]
+    s.gravity = ints["gravity"]
+    for name in ("home", "park", "workspace_min", "workspace_max"):
+        dst = getattr(s, name)
+        vals = ints[name]
+        for k in range(3):
+            dst.pos[k] = vals[k]
+            dst.rpy[k] = vals[3 + k]
+    s.leg_length_min = ints["leg_length_min"]
+    s.leg_length_max = ints["leg_length_max"]
+    s.force_max = ints["force_max"]
+    s.leg_velocity_max = ints["leg_velocity_max"]
+    return s
+
+
+@dataclass
+class CalcResult:
+    status: str
+    length: list[float] | None = None
+    stretch: list[float] | None = None
+    force: list[float] | None = None
+    leg_rate: list[float] | None = None
+
+
+class Core:
+    """The firmware core bound to one platform."""
+
+    def __init__(self, platform):
+        self.L = lib()
+        self.platform = platform
+        self.ps = platform_struct(platform)
+        self.home_ik = IK()
+        st = self.L.sp_inverse_kinematics(C.byref(self.ps), C.byref(self.ps.home), C.byref(self.home_ik))
+        if st != 0:
+            raise CoreError(f"inverse kinematics of the home pose failed: {status_name(st)}")
+
+    def inverse_kinematics(self, pose6):
+        ik = IK()
+        st = self.L.sp_inverse_kinematics(C.byref(self.ps), C.byref(pose_struct(pose6)), C.byref(ik))
+        return st, ik
+
+    def calc(self, pose6, vel=(0, 0, 0), rpy_rate=(0, 0, 0), acc=(0, 0, 0), rpy_acc=(0, 0, 0),
+             ext_force=(0, 0, 0)) -> CalcResult:
+        """Leg lengths, stretch, leg rates and cylinder forces of one motion
+        sample, by the fixed-point core. status is the first problem found:
+        a computation error leaves the numbers out; a limit violation
+        (out-of-range) keeps them."""
+        m = Motion()
+        m.pose = pose_struct(pose6)
+        for k in range(3):
+            m.vel[k] = q24(vel[k])
+            m.rpy_rate[k] = q24(rpy_rate[k])
+            m.acc[k] = q24(acc[k])
+            m.rpy_acc[k] = q24(rpy_acc[k])
+        ext = V3(*[_q(f, Q8) for f in ext_force])
+        ik = IK()
+        st = self.L.sp_inverse_kinematics(C.byref(self.ps), C.byref(m.pose), C.byref(ik))
+        if st != 0:
+            return CalcResult(status_name(st))
+        stretch = (I32 * LEGS)()
+        st = self.L.sp_leg_stretch(C.byref(ik), C.byref(self.home_ik), C.byref(stretch))
+        if st != 0:
+            return CalcResult(status_name(st))
+        rates = (I32 * LEGS)()
+        st = self.L.sp_leg_rates(C.byref(ik), C.byref(m.pose.rpy), C.byref(m.vel), C.byref(m.rpy_rate),
+                                 C.byref(rates))
+        if st != 0:
+            return CalcResult(status_name(st))
+        forces = (I32 * LEGS)()
+        st = self.L.sp_inverse_dynamics(C.byref(self.ps), C.byref(m), C.byref(ik), C.byref(ext), C.byref(forces))
+        if st != 0:
+            return CalcResult(status_name(st))
+        limits = LegLimits()
+        st = self.L.sp_check_legs(C.byref(self.ps), ik.length, rates, forces, C.byref(limits))
+        return CalcResult(
+            status_name(st),
+            [ik.length[i] / Q24 for i in range(LEGS)],
+            [stretch[i] / Q24 for i in range(LEGS)],
+            [forces[i] / Q8 for i in range(LEGS)],
+            [rates[i] / Q24 for i in range(LEGS)],
+        )
+
+    def forward_kinematics(self, lengths, guess6=None, max_iterations=None, max_jump_pos=None,
+                           max_jump_rot=None):
+        """Pose from six leg lengths (m) by the core's Newton-Raphson, from
+        guess6 (default: home). Returns (status, pose6 or None, iterations)."""
+        opt = FkOptions()
+        self.L.sp_fk_default_options(C.byref(opt))
+        if max_iterations is not None:
+            opt.max_iterations = max_iterations
+        if max_jump_pos is not None:
+            opt.max_jump_pos = q24(max_jump_pos)
+        if max_jump_rot is not None:
+            opt.max_jump_rot = q24(max_jump_rot)
+        ls = (I32 * LEGS)(*[q24(v) for v in lengths])
+        guess = self.ps.home if guess6 is None else pose_struct(guess6)
+        out = Pose()
+        ik = IK()
+        info = FkInfo()
+        st = self.L.sp_forward_kinematics(C.byref(self.ps), C.byref(ls), C.byref(guess), C.byref(opt),
+                                          C.byref(out), C.byref(ik), C.byref(info))
+        return status_name(st), (pose_tuple(out) if st == 0 else None), info.iterations
