@@ -9,3 +9,5 @@ for b in build/host-release/bench/bench_*; do
   echo "== benchmark: $(basename "$b")"
   "$b"
 done
+echo "== accuracy: fixed-point core vs float64 model (stewart accuracy)"
+.venv/bin/stewart accuracy
