@@ -32,6 +32,9 @@ STATUS_NAMES = {
     5: "out-of-range",
     6: "no-convergence",
     7: "discontinuity",
+    8: "bad-frame",
+    9: "io-error",
+    10: "busy",
 }
 
 I32 = C.c_int32

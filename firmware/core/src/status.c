@@ -19,6 +19,12 @@ const char *sp_status_name(sp_status_t status)
         return "no-convergence";
     case SP_E_DISCONTINUITY:
         return "discontinuity";
+    case SP_E_FRAME:
+        return "bad-frame";
+    case SP_E_IO:
+        return "io-error";
+    case SP_E_BUSY:
+        return "busy";
     default:
         return "unknown";
     }
