@@ -70,6 +70,8 @@ class PlatformStruct(C.Structure):
         ("leg_velocity_max", I32),
         ("workspace_min", Pose),
         ("workspace_max", Pose),
+        ("piston_area", I32),
+        ("annulus_area", I32),
     ]
 
 
@@ -209,6 +211,8 @@ def platform_struct(platform) -> PlatformStruct:
     s.leg_length_max = ints["leg_length_max"]
     s.force_max = ints["force_max"]
     s.leg_velocity_max = ints["leg_velocity_max"]
+    s.piston_area = ints["piston_area"]
+    s.annulus_area = ints["annulus_area"]
     return s
 
 

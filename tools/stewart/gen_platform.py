@@ -21,6 +21,9 @@ if __package__ in (None, ""):
 else:
     from . import config as cfg
 
+import math
+
+Q30 = 1 << 30
 Q24 = 1 << 24
 Q16 = 1 << 16
 Q8 = 1 << 8
@@ -50,7 +53,21 @@ def quantize(p: cfg.Platform) -> dict:
         "leg_velocity_max": _q(p.leg_velocity_max, Q24, "leg_velocity_max"),
         "workspace_min": [_q(v, Q24, "workspace.min") for v in p.workspace_min],
         "workspace_max": [_q(v, Q24, "workspace.max") for v in p.workspace_max],
+        "piston_area": _q(piston_area(p), Q30, "hydraulic.piston_diameter"),
+        "annulus_area": _q(annulus_area(p), Q30, "hydraulic.rod_diameter"),
     }
+
+
+def piston_area(p: cfg.Platform) -> float:
+    """Piston-side area, m^2 (0 without a hydraulic section)."""
+    d = p.hydraulic.get("piston_diameter", 0.0)
+    return math.pi * d * d / 4.0
+
+
+def annulus_area(p: cfg.Platform) -> float:
+    """Rod-side (annulus) area, m^2 (0 without a hydraulic section)."""
+    r = p.hydraulic.get("rod_diameter", 0.0)
+    return max(0.0, piston_area(p) - math.pi * r * r / 4.0) if p.hydraulic else 0.0
 
 
 def _pose(v) -> str:
@@ -81,6 +98,8 @@ const sp_platform_t sp_platform_default = {{
     .leg_velocity_max = {q["leg_velocity_max"]},
     .workspace_min = {_pose(q["workspace_min"])},
     .workspace_max = {_pose(q["workspace_max"])},
+    .piston_area = {q["piston_area"]},
+    .annulus_area = {q["annulus_area"]},
 }};
 """
 

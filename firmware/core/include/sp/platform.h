@@ -47,6 +47,8 @@ typedef struct {
     sp_q24_t leg_velocity_max;           /**< largest commanded |leg rate|, m/s, Q24 */
     sp_pose_t workspace_min;             /**< pose limits relative to home, m / rad, Q24 */
     sp_pose_t workspace_max;             /**< pose limits relative to home, m / rad, Q24 */
+    sp_q30_t piston_area;                /**< cylinder piston-side area, m^2, Q30 (0: unknown) */
+    sp_q30_t annulus_area;               /**< cylinder rod-side (annulus) area, m^2, Q30 */
 } sp_platform_t;
 
 /** The default platform, generated at build time from
