@@ -15,6 +15,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h> /* memcpy and memset, used by the generated CAN code */
 #pragma GCC poison float double
 #pragma GCC poison malloc calloc realloc free aligned_alloc
 #endif

@@ -1,0 +1,128 @@
+/*
+ * sp/protocol.h - the CAN protocol (protocol/stewart.dbc) in the core's
+ * fixed-point units. Bit packing is generated from the DBC at build time by
+ * cantools (integer signals only); this layer adds the unit conversions,
+ * range checks, and the E2E counter and CRC (sp/e2e.h).
+ *
+ * Encoders: message struct -> sealed frame (counter and CRC filled in).
+ * They return SP_OK, or SP_E_RANGE when a value did not fit its signal and
+ * was saturated to the signal's limit (the frame is still valid and sent).
+ * Decoders: frame -> message struct, checking identifier, length, CRC and
+ * every enumerated or bounded signal; SP_E_FRAME with *error saying why.
+ * Decoders never touch *msg on error. The alive counter is returned for
+ * the caller's per-sender sequence check (sp_e2e_rx_check).
+ *
+ * Units on the bus: lengths and positions 1 um, angles 1 urad, velocities
+ * 5e-5 m/s, forces 0.02 N, pressures 10 kPa, amplitude 1e-5 m or rad,
+ * frequency 1 mHz, times 1 ms. Conversions round to nearest.
+ */
+#ifndef SP_PROTOCOL_H
+#define SP_PROTOCOL_H
+
+#include "sp/can.h"
+#include "sp/controller.h"
+#include "sp/e2e.h"
+
+#define SP_ID_SYNC 0x010u
+#define SP_ID_AXIS_SETPOINTS 0x020u
+#define SP_ID_AXIS_FEEDBACK_1 0x031u /* slots 1..3: 0x031..0x033 */
+#define SP_ID_OP_COMMAND 0x040u
+#define SP_ID_OP_TARGET_POSE 0x050u
+#define SP_ID_CTRL_STATUS 0x100u
+#define SP_ID_CTRL_MONITOR 0x101u
+#define SP_AXIS_SLOTS 3u
+
+/** Why a frame was rejected. */
+typedef enum {
+    SP_PROTO_OK = 0,
+    SP_PROTO_UNKNOWN_ID = 1,
+    SP_PROTO_BAD_LENGTH = 2,
+    SP_PROTO_BAD_CRC = 3,
+    SP_PROTO_OUT_OF_RANGE = 4,
+    SP_PROTO_REPEATED = 5,
+    SP_PROTO_WRONG_SEQUENCE = 6,
+    SP_PROTO_WRONG_BUS = 7,
+    SP_PROTO_ERRORS = 8
+} sp_proto_error_t;
+
+/** Short constant name of a rejection reason ("bad-crc", ...). */
+const char *sp_proto_error_name(sp_proto_error_t e);
+
+/** Drive states in AXIS_FEEDBACK (CiA 408 spirit). */
+typedef enum { SP_DRIVE_STATE_INIT = 0, SP_DRIVE_STATE_HOLD = 1, SP_DRIVE_STATE_ACTIVE = 2, SP_DRIVE_STATE_FAULT = 3 } sp_drive_state_t;
+
+typedef struct {
+    uint32_t tick;
+    uint8_t hold; /**< 1: every drive holds now */
+} sp_msg_sync_t;
+
+typedef struct {
+    uint32_t tick;
+    uint8_t mode;                          /**< sp_drive_mode_t */
+    sp_setpoint_t setpoint[SP_AXIS_SLOTS]; /**< slots 1..3 of the bus */
+} sp_msg_setpoints_t;
+
+typedef struct {
+    sp_q24_t length;       /**< m, Q24 */
+    uint32_t pressure_a;   /**< piston side, Pa */
+    uint32_t pressure_b;   /**< rod side, Pa */
+    uint8_t state;         /**< sp_drive_state_t */
+    uint8_t faults;        /**< drive fault bits */
+    uint16_t tick_echo;    /**< low 16 bits of the SYNC tick sampled at */
+} sp_msg_feedback_t;
+
+typedef struct {
+    uint8_t command;     /**< sp_cmd_type_t, or 9 = SET_FEEDFORWARD */
+    uint8_t axis;        /**< sp_axis_t */
+    sp_q24_t amplitude;  /**< m or rad, Q24 */
+    sp_q24_t frequency;  /**< Hz, Q24 */
+    uint32_t fade_ms;    /**< fade time, ms (0: the controller's default) */
+    uint8_t option;
+} sp_msg_command_t;
+
+#define SP_CMD_SET_FEEDFORWARD 9u
+
+typedef struct {
+    uint32_t tick;
+    uint8_t state;
+    uint16_t faults;
+    uint8_t fk_iterations;
+    uint8_t estimate_valid;
+    uint8_t cmd_rejected;
+    uint8_t drive_mode;
+    uint8_t feedforward;
+    sp_pose_t estimate;
+} sp_msg_status_t;
+
+typedef struct {
+    uint32_t tick;
+    sp_pose_t reference;
+    sp_q24_t length_sp[SP_LEGS];
+    sp_q8_t force_ff[SP_LEGS];
+} sp_msg_monitor_t;
+
+sp_status_t sp_proto_encode_sync(const sp_msg_sync_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
+sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
+/** slot 1..3 selects the identifier 0x031..0x033. */
+sp_status_t sp_proto_encode_feedback(const sp_msg_feedback_t *m, uint8_t slot, uint8_t counter, uint8_t bus,
+                                     sp_can_frame_t *f);
+sp_status_t sp_proto_encode_command(const sp_msg_command_t *m, uint8_t counter, sp_can_frame_t *f);
+sp_status_t sp_proto_encode_target(const sp_pose_t *m, uint8_t counter, sp_can_frame_t *f);
+sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp_can_frame_t *f);
+sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, sp_can_frame_t *f);
+
+sp_status_t sp_proto_decode_sync(const sp_can_frame_t *f, sp_msg_sync_t *m, uint8_t *counter, sp_proto_error_t *error);
+sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_t *m, uint8_t *counter,
+                                      sp_proto_error_t *error);
+/** *slot gets 1..3 from the identifier. */
+sp_status_t sp_proto_decode_feedback(const sp_can_frame_t *f, sp_msg_feedback_t *m, uint8_t *slot, uint8_t *counter,
+                                     sp_proto_error_t *error);
+sp_status_t sp_proto_decode_command(const sp_can_frame_t *f, sp_msg_command_t *m, uint8_t *counter,
+                                    sp_proto_error_t *error);
+sp_status_t sp_proto_decode_target(const sp_can_frame_t *f, sp_pose_t *m, uint8_t *counter, sp_proto_error_t *error);
+sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, uint8_t *counter,
+                                   sp_proto_error_t *error);
+sp_status_t sp_proto_decode_monitor(const sp_can_frame_t *f, sp_msg_monitor_t *m, uint8_t *counter,
+                                    sp_proto_error_t *error);
+
+#endif /* SP_PROTOCOL_H */

@@ -1,0 +1,524 @@
+#include "sp/protocol.h"
+
+#include "stewart_can.h"
+
+/* round(v * num / den) to nearest, ties away from zero; |v * num| < 2^62. */
+static int64_t muldiv(int64_t v, int64_t num, int64_t den)
+{
+    int64_t p = v * num;
+    return p >= 0 ? (p + den / 2) / den : -((-p + den / 2) / den);
+}
+
+static int64_t clamp(int64_t v, int64_t lo, int64_t hi, int *sat)
+{
+    if (v < lo) {
+        *sat = 1;
+        return lo;
+    }
+    if (v > hi) {
+        *sat = 1;
+        return hi;
+    }
+    return v;
+}
+
+static sp_q24_t to_q24(int64_t v)
+{
+    int dummy = 0;
+    return (sp_q24_t)clamp(v, INT32_MIN, INT32_MAX, &dummy);
+}
+
+/* Q24 <-> bus units. 1 um (1e-6): 2^24 / 1e6 = 262144 / 15625. */
+#define I24_MAX 8388607
+#define I24_MIN (-8388608)
+static uint32_t q24_to_um_u24(sp_q24_t q, int *sat) { return (uint32_t)clamp(muldiv(q, 15625, 262144), 0, 16777215, sat); }
+static int32_t q24_to_um_i24(sp_q24_t q, int *sat) { return (int32_t)clamp(muldiv(q, 15625, 262144), I24_MIN, I24_MAX, sat); }
+static sp_q24_t um_to_q24(int64_t raw) { return to_q24(muldiv(raw, 262144, 15625)); }
+/* 5e-5 m/s: 2^24 * 5e-5 = 524288 / 625 */
+static int16_t q24_to_vel(sp_q24_t q, int *sat) { return (int16_t)clamp(muldiv(q, 625, 524288), INT16_MIN, INT16_MAX, sat); }
+static sp_q24_t vel_to_q24(int64_t raw) { return to_q24(muldiv(raw, 524288, 625)); }
+/* 0.02 N in Q8: 0.02 * 256 = 128 / 25 */
+static int32_t q8_to_force(sp_q8_t q, int *sat) { return (int32_t)clamp(muldiv(q, 25, 128), I24_MIN, I24_MAX, sat); }
+static sp_q8_t force_to_q8(int64_t raw) { return (sp_q8_t)to_q24(muldiv(raw, 128, 25)); }
+/* 1e-5 (amplitude): 2^24 * 1e-5 = 524288 / 3125 */
+static int32_t q24_to_amp(sp_q24_t q, int *sat) { return (int32_t)clamp(muldiv(q, 3125, 524288), I24_MIN, I24_MAX, sat); }
+static sp_q24_t amp_to_q24(int64_t raw) { return to_q24(muldiv(raw, 524288, 3125)); }
+/* 1e-3 Hz: 2^24 * 1e-3 = 2097152 / 125 */
+static uint16_t q24_to_freq(sp_q24_t q, int *sat) { return (uint16_t)clamp(muldiv(q, 125, 2097152), 0, UINT16_MAX, sat); }
+static sp_q24_t freq_to_q24(int64_t raw) { return to_q24(muldiv(raw, 2097152, 125)); }
+
+const char *sp_proto_error_name(sp_proto_error_t e)
+{
+    switch (e) {
+    case SP_PROTO_OK:
+        return "ok";
+    case SP_PROTO_UNKNOWN_ID:
+        return "unknown-id";
+    case SP_PROTO_BAD_LENGTH:
+        return "bad-length";
+    case SP_PROTO_BAD_CRC:
+        return "bad-crc";
+    case SP_PROTO_OUT_OF_RANGE:
+        return "out-of-range";
+    case SP_PROTO_REPEATED:
+        return "repeated";
+    case SP_PROTO_WRONG_SEQUENCE:
+        return "wrong-sequence";
+    case SP_PROTO_WRONG_BUS:
+        return "wrong-bus";
+    default:
+        return "unknown";
+    }
+}
+
+static sp_status_t finish(sp_can_frame_t *f, uint32_t id, uint8_t bus, int packed, uint8_t len, int sat)
+{
+    if (packed != (int)len) {
+        return SP_E_ARG;
+    }
+    f->id = id;
+    f->bus = bus;
+    f->len = len;
+    f->flags = SP_CAN_FLAG_FD | SP_CAN_FLAG_BRS;
+    if (sp_e2e_seal(f) != SP_OK) {
+        return SP_E_ARG;
+    }
+    return sat ? SP_E_RANGE : SP_OK;
+}
+
+static void clear(sp_can_frame_t *f)
+{
+    for (uint32_t i = 0; i < SP_CAN_MAX_DATA; i++) {
+        f->data[i] = 0u;
+    }
+}
+
+/* Identifier, length and CRC: the checks every decoder starts with. */
+static sp_status_t precheck(const sp_can_frame_t *f, uint32_t id, uint8_t len, sp_proto_error_t *error)
+{
+    sp_proto_error_t e = SP_PROTO_OK;
+    if (f == NULL || f->id != id) {
+        e = SP_PROTO_UNKNOWN_ID;
+    } else if (f->len != len) {
+        e = SP_PROTO_BAD_LENGTH;
+    } else if (sp_e2e_check_crc(f) != SP_OK) {
+        e = SP_PROTO_BAD_CRC;
+    }
+    if (error != NULL) {
+        *error = e;
+    }
+    return e == SP_PROTO_OK ? SP_OK : SP_E_FRAME;
+}
+
+static sp_status_t reject(sp_proto_error_t *error, sp_proto_error_t why)
+{
+    if (error != NULL) {
+        *error = why;
+    }
+    return SP_E_FRAME;
+}
+
+static void pose_to_bus(const sp_pose_t *p, int32_t out[6], int *sat)
+{
+    for (uint32_t k = 0; k < 3u; k++) {
+        out[k] = q24_to_um_i24(p->pos[k], sat);
+        out[3u + k] = q24_to_um_i24(p->rpy[k], sat);
+    }
+}
+
+static void pose_from_bus(const int32_t in[6], sp_pose_t *p)
+{
+    for (uint32_t k = 0; k < 3u; k++) {
+        p->pos[k] = um_to_q24(in[k]);
+        p->rpy[k] = um_to_q24(in[3u + k]);
+    }
+}
+
+/* ---- SYNC ---- */
+sp_status_t sp_proto_encode_sync(const sp_msg_sync_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    struct stewart_can_sync_t s;
+    (void)stewart_can_sync_init(&s);
+    s.tick = m->tick;
+    s.hold = m->hold ? 1u : 0u;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    clear(f);
+    return finish(f, SP_ID_SYNC, bus, stewart_can_sync_pack(f->data, &s, SP_CAN_MAX_DATA), STEWART_CAN_SYNC_LENGTH, 0);
+}
+
+sp_status_t sp_proto_decode_sync(const sp_can_frame_t *f, sp_msg_sync_t *m, uint8_t *counter, sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_SYNC, STEWART_CAN_SYNC_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_sync_t s;
+    if (stewart_can_sync_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    m->tick = s.tick;
+    m->hold = s.hold;
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- AXIS_SETPOINTS ---- */
+sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL || m->mode > 1u) {
+        return SP_E_ARG;
+    }
+    struct stewart_can_axis_setpoints_t s;
+    int sat = 0;
+    (void)stewart_can_axis_setpoints_init(&s);
+    s.tick = m->tick;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.mode = m->mode;
+    s.length_1 = q24_to_um_u24(m->setpoint[0].length, &sat);
+    s.velocity_1 = q24_to_vel(m->setpoint[0].velocity, &sat);
+    s.force_1 = q8_to_force(m->setpoint[0].force, &sat);
+    s.length_2 = q24_to_um_u24(m->setpoint[1].length, &sat);
+    s.velocity_2 = q24_to_vel(m->setpoint[1].velocity, &sat);
+    s.force_2 = q8_to_force(m->setpoint[1].force, &sat);
+    s.length_3 = q24_to_um_u24(m->setpoint[2].length, &sat);
+    s.velocity_3 = q24_to_vel(m->setpoint[2].velocity, &sat);
+    s.force_3 = q8_to_force(m->setpoint[2].force, &sat);
+    clear(f);
+    return finish(f, SP_ID_AXIS_SETPOINTS, bus, stewart_can_axis_setpoints_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_AXIS_SETPOINTS_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_t *m, uint8_t *counter,
+                                      sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_AXIS_SETPOINTS, STEWART_CAN_AXIS_SETPOINTS_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_axis_setpoints_t s;
+    if (stewart_can_axis_setpoints_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    if (s.mode > 1u) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->tick = s.tick;
+    m->mode = s.mode;
+    m->setpoint[0].length = um_to_q24(s.length_1);
+    m->setpoint[0].velocity = vel_to_q24(s.velocity_1);
+    m->setpoint[0].force = force_to_q8(s.force_1);
+    m->setpoint[1].length = um_to_q24(s.length_2);
+    m->setpoint[1].velocity = vel_to_q24(s.velocity_2);
+    m->setpoint[1].force = force_to_q8(s.force_2);
+    m->setpoint[2].length = um_to_q24(s.length_3);
+    m->setpoint[2].velocity = vel_to_q24(s.velocity_3);
+    m->setpoint[2].force = force_to_q8(s.force_3);
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- AXIS_FEEDBACK_1..3 (same layout, one identifier per slot) ---- */
+sp_status_t sp_proto_encode_feedback(const sp_msg_feedback_t *m, uint8_t slot, uint8_t counter, uint8_t bus,
+                                     sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL || slot < 1u || slot > SP_AXIS_SLOTS || m->state > 3u) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    struct stewart_can_axis_feedback_1_t s;
+    (void)stewart_can_axis_feedback_1_init(&s);
+    s.length = q24_to_um_u24(m->length, &sat);
+    s.pressure_a = (uint16_t)clamp(((int64_t)m->pressure_a + 5000) / 10000, 0, 4095, &sat);
+    s.pressure_b = (uint16_t)clamp(((int64_t)m->pressure_b + 5000) / 10000, 0, 4095, &sat);
+    s.state = m->state;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.faults = m->faults;
+    s.tick_echo = m->tick_echo;
+    clear(f);
+    int n;
+    if (slot == 1u) {
+        n = stewart_can_axis_feedback_1_pack(f->data, &s, SP_CAN_MAX_DATA);
+    } else if (slot == 2u) {
+        struct stewart_can_axis_feedback_2_t s2 = {s.length, s.pressure_a, s.pressure_b, s.state,
+                                                   s.counter, s.faults, s.tick_echo, 0u};
+        n = stewart_can_axis_feedback_2_pack(f->data, &s2, SP_CAN_MAX_DATA);
+    } else {
+        struct stewart_can_axis_feedback_3_t s3 = {s.length, s.pressure_a, s.pressure_b, s.state,
+                                                   s.counter, s.faults, s.tick_echo, 0u};
+        n = stewart_can_axis_feedback_3_pack(f->data, &s3, SP_CAN_MAX_DATA);
+    }
+    return finish(f, SP_ID_AXIS_FEEDBACK_1 + slot - 1u, bus, n, STEWART_CAN_AXIS_FEEDBACK_1_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_feedback(const sp_can_frame_t *f, sp_msg_feedback_t *m, uint8_t *slot, uint8_t *counter,
+                                     sp_proto_error_t *error)
+{
+    if (m == NULL || slot == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (f == NULL || f->id < SP_ID_AXIS_FEEDBACK_1 || f->id >= SP_ID_AXIS_FEEDBACK_1 + SP_AXIS_SLOTS) {
+        return reject(error, SP_PROTO_UNKNOWN_ID);
+    }
+    if (precheck(f, f->id, STEWART_CAN_AXIS_FEEDBACK_1_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    uint8_t s_slot = (uint8_t)(f->id - SP_ID_AXIS_FEEDBACK_1 + 1u);
+    struct stewart_can_axis_feedback_1_t s;
+    int r;
+    if (s_slot == 1u) {
+        r = stewart_can_axis_feedback_1_unpack(&s, f->data, f->len);
+    } else if (s_slot == 2u) {
+        struct stewart_can_axis_feedback_2_t s2;
+        r = stewart_can_axis_feedback_2_unpack(&s2, f->data, f->len);
+        s.length = s2.length;
+        s.pressure_a = s2.pressure_a;
+        s.pressure_b = s2.pressure_b;
+        s.state = s2.state;
+        s.counter = s2.counter;
+        s.faults = s2.faults;
+        s.tick_echo = s2.tick_echo;
+    } else {
+        struct stewart_can_axis_feedback_3_t s3;
+        r = stewart_can_axis_feedback_3_unpack(&s3, f->data, f->len);
+        s.length = s3.length;
+        s.pressure_a = s3.pressure_a;
+        s.pressure_b = s3.pressure_b;
+        s.state = s3.state;
+        s.counter = s3.counter;
+        s.faults = s3.faults;
+        s.tick_echo = s3.tick_echo;
+    }
+    if (r != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    if (s.state > 3u) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->length = um_to_q24(s.length);
+    m->pressure_a = (uint32_t)s.pressure_a * 10000u;
+    m->pressure_b = (uint32_t)s.pressure_b * 10000u;
+    m->state = s.state;
+    m->faults = s.faults;
+    m->tick_echo = s.tick_echo;
+    *slot = s_slot;
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- OP_COMMAND ---- */
+sp_status_t sp_proto_encode_command(const sp_msg_command_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL || m->command > SP_CMD_SET_FEEDFORWARD || m->axis > 5u || m->option > 1u) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    struct stewart_can_op_command_t s;
+    (void)stewart_can_op_command_init(&s);
+    s.command = m->command;
+    s.axis = m->axis;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.amplitude = q24_to_amp(m->amplitude, &sat);
+    s.frequency = q24_to_freq(m->frequency, &sat);
+    s.fade_time = (uint16_t)clamp(m->fade_ms, 0, UINT16_MAX, &sat);
+    s.option = m->option;
+    clear(f);
+    return finish(f, SP_ID_OP_COMMAND, SP_BUS_OPS, stewart_can_op_command_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_OP_COMMAND_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_command(const sp_can_frame_t *f, sp_msg_command_t *m, uint8_t *counter,
+                                    sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_OP_COMMAND, STEWART_CAN_OP_COMMAND_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_op_command_t s;
+    if (stewart_can_op_command_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    if (s.command > SP_CMD_SET_FEEDFORWARD || s.axis > 5u || s.option > 1u) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->command = s.command;
+    m->axis = s.axis;
+    m->amplitude = amp_to_q24(s.amplitude);
+    m->frequency = freq_to_q24(s.frequency);
+    m->fade_ms = s.fade_time;
+    m->option = s.option;
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- OP_TARGET_POSE ---- */
+sp_status_t sp_proto_encode_target(const sp_pose_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    int32_t v[6];
+    pose_to_bus(m, v, &sat);
+    struct stewart_can_op_target_pose_t s;
+    (void)stewart_can_op_target_pose_init(&s);
+    s.x = v[0];
+    s.y = v[1];
+    s.z = v[2];
+    s.roll = v[3];
+    s.pitch = v[4];
+    s.yaw = v[5];
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    clear(f);
+    return finish(f, SP_ID_OP_TARGET_POSE, SP_BUS_OPS, stewart_can_op_target_pose_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_OP_TARGET_POSE_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_target(const sp_can_frame_t *f, sp_pose_t *m, uint8_t *counter, sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_OP_TARGET_POSE, STEWART_CAN_OP_TARGET_POSE_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_op_target_pose_t s;
+    if (stewart_can_op_target_pose_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
+    pose_from_bus(v, m);
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- CTRL_STATUS ---- */
+sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL || m->state > 6u) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    int32_t v[6];
+    pose_to_bus(&m->estimate, v, &sat);
+    struct stewart_can_ctrl_status_t s;
+    (void)stewart_can_ctrl_status_init(&s);
+    s.tick = m->tick;
+    s.state = m->state;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.faults = m->faults;
+    s.fk_iterations = (uint8_t)clamp(m->fk_iterations, 0, 15, &sat);
+    s.estimate_valid = m->estimate_valid ? 1u : 0u;
+    s.cmd_rejected = m->cmd_rejected ? 1u : 0u;
+    s.drive_mode = m->drive_mode ? 1u : 0u;
+    s.feed_forward = m->feedforward ? 1u : 0u;
+    s.x = v[0];
+    s.y = v[1];
+    s.z = v[2];
+    s.roll = v[3];
+    s.pitch = v[4];
+    s.yaw = v[5];
+    clear(f);
+    return finish(f, SP_ID_CTRL_STATUS, SP_BUS_OPS, stewart_can_ctrl_status_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_CTRL_STATUS_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, uint8_t *counter,
+                                   sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_CTRL_STATUS, STEWART_CAN_CTRL_STATUS_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_ctrl_status_t s;
+    if (stewart_can_ctrl_status_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    if (s.state > 6u) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->tick = s.tick;
+    m->state = s.state;
+    m->faults = s.faults;
+    m->fk_iterations = s.fk_iterations;
+    m->estimate_valid = s.estimate_valid;
+    m->cmd_rejected = s.cmd_rejected;
+    m->drive_mode = s.drive_mode;
+    m->feedforward = s.feed_forward;
+    const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
+    pose_from_bus(v, &m->estimate);
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- CTRL_MONITOR ---- */
+sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    int32_t v[6];
+    pose_to_bus(&m->reference, v, &sat);
+    struct stewart_can_ctrl_monitor_t s;
+    (void)stewart_can_ctrl_monitor_init(&s);
+    s.tick = m->tick;
+    s.ref_x = v[0];
+    s.ref_y = v[1];
+    s.ref_z = v[2];
+    s.ref_roll = v[3];
+    s.ref_pitch = v[4];
+    s.ref_yaw = v[5];
+    s.length_sp_1 = q24_to_um_u24(m->length_sp[0], &sat);
+    s.length_sp_2 = q24_to_um_u24(m->length_sp[1], &sat);
+    s.length_sp_3 = q24_to_um_u24(m->length_sp[2], &sat);
+    s.length_sp_4 = q24_to_um_u24(m->length_sp[3], &sat);
+    s.length_sp_5 = q24_to_um_u24(m->length_sp[4], &sat);
+    s.length_sp_6 = q24_to_um_u24(m->length_sp[5], &sat);
+    s.force_ff_1 = q8_to_force(m->force_ff[0], &sat);
+    s.force_ff_2 = q8_to_force(m->force_ff[1], &sat);
+    s.force_ff_3 = q8_to_force(m->force_ff[2], &sat);
+    s.force_ff_4 = q8_to_force(m->force_ff[3], &sat);
+    s.force_ff_5 = q8_to_force(m->force_ff[4], &sat);
+    s.force_ff_6 = q8_to_force(m->force_ff[5], &sat);
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    clear(f);
+    return finish(f, SP_ID_CTRL_MONITOR, SP_BUS_OPS, stewart_can_ctrl_monitor_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_CTRL_MONITOR_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_monitor(const sp_can_frame_t *f, sp_msg_monitor_t *m, uint8_t *counter,
+                                    sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_CTRL_MONITOR, STEWART_CAN_CTRL_MONITOR_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_ctrl_monitor_t s;
+    if (stewart_can_ctrl_monitor_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    m->tick = s.tick;
+    const int32_t v[6] = {s.ref_x, s.ref_y, s.ref_z, s.ref_roll, s.ref_pitch, s.ref_yaw};
+    pose_from_bus(v, &m->reference);
+    const uint32_t len[6] = {s.length_sp_1, s.length_sp_2, s.length_sp_3, s.length_sp_4, s.length_sp_5, s.length_sp_6};
+    const int32_t frc[6] = {s.force_ff_1, s.force_ff_2, s.force_ff_3, s.force_ff_4, s.force_ff_5, s.force_ff_6};
+    for (uint32_t i = 0; i < SP_LEGS; i++) {
+        m->length_sp[i] = um_to_q24(len[i]);
+        m->force_ff[i] = force_to_q8(frc[i]);
+    }
+    *counter = s.counter;
+    return SP_OK;
+}
