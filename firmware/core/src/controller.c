@@ -295,7 +295,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
                 *h = sp_add(*h, cmd->amplitude, NULL);
                 ok = pose_reachable(cfg, &lo) && pose_reachable(cfg, &hi) &&
                      sp_trig_start(&ctrl->trig, &p->home, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
-                                   cfg->fade_ticks) == SP_OK;
+                                   cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) == SP_OK;
             }
         }
         if (ok) {

@@ -68,6 +68,7 @@ typedef struct {
     sp_axis_t axis;        /**< RUN_TRIG: axis */
     sp_q24_t amplitude;    /**< RUN_TRIG: m or rad, Q24 */
     sp_q24_t frequency;    /**< RUN_TRIG: Hz, Q24 */
+    uint32_t fade_ticks;   /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
     sp_pose_t target;      /**< MOVE_TO: absolute pose */
 } sp_ctrl_cmd_t;
 

@@ -1,0 +1,90 @@
+/*
+ * sp/node.h - the controller as a CAN node: received frames in, frames to
+ * send out, around one sp_ctrl_step per tick. Portable and pure: the port
+ * moves frames between the buses and these functions.
+ *
+ * Cycle (CiA 408 spirit: setpoints take effect on the next SYNC):
+ *  - sp_node_receive() for every received frame: decoded and checked
+ *    (identifier, bus, length, CRC, ranges, alive counter per sender); a bad
+ *    frame is counted by reason and dropped, never reaches the controller.
+ *  - sp_node_tick() once per tick: runs the controller step on the feedback
+ *    of the last SYNC, then emits AXIS_SETPOINTS on both axis buses, SYNC
+ *    (only when the node is the cycle master: real-time mode), CTRL_STATUS
+ *    and CTRL_MONITOR on the ops bus.
+ *  - Feedback counts as fresh only if its TickEcho matches the last SYNC (sent
+ *    by us, or, in lockstep, received from the plant).
+ */
+#ifndef SP_NODE_H
+#define SP_NODE_H
+
+#include "sp/protocol.h"
+
+#define SP_NODE_MAX_TX 8u     /**< frames sp_node_tick emits at most */
+#define SP_NODE_CMD_QUEUE 4u  /**< operator commands held (one is executed per tick) */
+
+typedef struct {
+    sp_ctrl_config_t ctrl;  /**< controller tuning (force_feedforward may change by command) */
+    uint8_t sync_master;    /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
+} sp_node_config_t;
+
+typedef struct {
+    uint32_t accepted;                 /**< frames used */
+    uint32_t rejected[SP_PROTO_ERRORS];/**< dropped frames by sp_proto_error_t */
+    uint32_t lost;                     /**< frames missed according to alive counters */
+    uint32_t stale;                    /**< valid feedback that answered an older SYNC */
+    uint32_t saturated;                /**< values clipped to a signal's range on send */
+    uint32_t cmd_overflow;             /**< commands refused: queue full (an ESTOP never is) */
+} sp_node_stats_t;
+
+typedef struct {
+    sp_ctrl_t ctrl;
+    sp_ctrl_input_t in;                 /**< gathered for the next tick */
+    sp_ctrl_output_t out;               /**< of the last tick */
+    sp_e2e_rx_t rx_feedback[SP_LEGS];
+    sp_e2e_rx_t rx_sync[2];
+    sp_e2e_rx_t rx_command;
+    sp_e2e_rx_t rx_target;
+    uint8_t tx_counter_sync[2];
+    uint8_t tx_counter_setpoints[2];
+    uint8_t tx_counter_status;
+    uint8_t tx_counter_monitor;
+    uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
+    uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
+    uint8_t sync_valid;                 /**< a SYNC has been sent or received */
+    sp_msg_command_t cmd_queue[SP_NODE_CMD_QUEUE]; /**< commands waiting, one per tick */
+    uint8_t cmd_head;
+    uint8_t cmd_count;
+    sp_pose_t target;                   /**< last OP_TARGET_POSE */
+    sp_node_stats_t stats;
+    const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
+    uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */
+} sp_node_t;
+
+/** Defaults for a platform: sp_ctrl_default_config, sync_master = 1. */
+sp_status_t sp_node_default_config(sp_node_config_t *cfg, const sp_platform_t *platform);
+
+/** Resets the node and its controller (IDLE, no faults, counters at 0). */
+sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg);
+
+/**
+ * Takes one received frame. SP_OK if it was used; SP_E_FRAME if it was
+ * rejected (counted in stats.rejected by reason; *why says which, if not
+ * NULL); SP_E_ARG for NULL pointers. Frames the controller does not consume
+ * (its own transmissions, other nodes' traffic) are SP_PROTO_UNKNOWN_ID.
+ * Nothing in a rejected frame reaches the controller.
+ */
+sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_proto_error_t *why);
+
+/** Lockstep: 1 when SYNC(tick) has arrived on both axis buses since the
+ *  last tick and *tick tells which; 0 otherwise. */
+int sp_node_cycle_ready(const sp_node_t *node, uint32_t *tick);
+
+/**
+ * One control tick: the controller step, then the frames to send
+ * (out[0..*n)), at most SP_NODE_MAX_TX. cfg may be updated (SET_FEEDFORWARD).
+ * Returns SP_OK, or SP_E_ARG for NULL pointers. Controller faults are in
+ * node->out, not in the status.
+ */
+sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n);
+
+#endif /* SP_NODE_H */

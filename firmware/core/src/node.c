@@ -1,0 +1,321 @@
+#include "sp/node.h"
+
+static void inc(uint32_t *c)
+{
+    if (*c < UINT32_MAX) {
+        (*c)++;
+    }
+}
+
+sp_status_t sp_node_default_config(sp_node_config_t *cfg, const sp_platform_t *platform)
+{
+    if (cfg == NULL || platform == NULL) {
+        return SP_E_ARG;
+    }
+    memset(cfg, 0, sizeof *cfg);
+    cfg->sync_master = 1u;
+    return sp_ctrl_default_config(&cfg->ctrl, platform);
+}
+
+sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg)
+{
+    if (node == NULL || cfg == NULL) {
+        return SP_E_ARG;
+    }
+    memset(node, 0, sizeof *node);
+    if (cfg->ctrl.platform == NULL) {
+        return SP_E_ARG;
+    }
+    node->target = cfg->ctrl.platform->home;
+    node->ctrl_platform = cfg->ctrl.platform;
+    node->ctrl_sync_master = cfg->sync_master;
+    return sp_ctrl_init(&node->ctrl, &cfg->ctrl);
+}
+
+static sp_status_t reject(sp_node_t *node, sp_proto_error_t e, sp_proto_error_t *why)
+{
+    if ((unsigned)e < SP_PROTO_ERRORS) {
+        inc(&node->stats.rejected[e]);
+    }
+    if (why != NULL) {
+        *why = e;
+    }
+    return SP_E_FRAME;
+}
+
+/* Alive-counter check; SP_PROTO_OK when the frame may be used. */
+static sp_proto_error_t sequence(sp_node_t *node, sp_e2e_rx_t *rx, uint8_t counter)
+{
+    uint8_t before = rx->last;
+    sp_e2e_result_t r = sp_e2e_rx_check(rx, counter);
+    if (r == SP_E2E_REPEATED) {
+        return SP_PROTO_REPEATED;
+    }
+    if (r == SP_E2E_WRONG_SEQ) {
+        return SP_PROTO_WRONG_SEQUENCE;
+    }
+    if (r == SP_E2E_OK_LOST) {
+        uint32_t lost = (uint32_t)((counter - before - 1u) & 0x0Fu);
+        node->stats.lost = (node->stats.lost > UINT32_MAX - lost) ? UINT32_MAX : node->stats.lost + lost;
+    }
+    return SP_PROTO_OK;
+}
+
+/* Cylinder force from the chamber pressures, N, Q8: pA*A_A - pB*A_B. */
+static sp_q8_t force_from_pressures(const sp_platform_t *p, uint32_t pa, uint32_t pb)
+{
+    int64_t f30 = (int64_t)pa * p->piston_area - (int64_t)pb * p->annulus_area; /* N, Q30 */
+    int64_t f8 = (f30 >= 0) ? (f30 + (INT64_C(1) << 21)) >> 22 : -((-f30 + (INT64_C(1) << 21)) >> 22);
+    if (f8 > INT32_MAX) {
+        return INT32_MAX;
+    }
+    if (f8 < INT32_MIN) {
+        return INT32_MIN;
+    }
+    return (sp_q8_t)f8;
+}
+
+static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
+{
+    sp_proto_error_t e = SP_PROTO_OK;
+    uint8_t counter = 0u;
+    uint8_t b = (uint8_t)(f->bus - SP_BUS_AXIS_A);
+    if (f->id == SP_ID_SYNC) {
+        sp_msg_sync_t m;
+        if (sp_proto_decode_sync(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = sequence(node, &node->rx_sync[b], counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        if (!node->sync_valid || m.tick != node->sync_tick) {
+            node->sync_seen[0] = 0u;
+            node->sync_seen[1] = 0u;
+        }
+        node->sync_tick = m.tick;
+        node->sync_valid = 1u;
+        node->sync_seen[b] = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
+    sp_msg_feedback_t m;
+    uint8_t slot = 0u;
+    if (sp_proto_decode_feedback(f, &m, &slot, &counter, &e) != SP_OK) {
+        return reject(node, e, why);
+    }
+    uint32_t leg = (uint32_t)b * SP_AXIS_SLOTS + slot - 1u;
+    e = sequence(node, &node->rx_feedback[leg], counter);
+    if (e != SP_PROTO_OK) {
+        return reject(node, e, why);
+    }
+    if (!node->sync_valid || m.tick_echo != (uint16_t)(node->sync_tick & 0xFFFFu)) {
+        inc(&node->stats.stale); /* valid, but it answers another cycle: not used */
+        if (why != NULL) {
+            *why = SP_PROTO_OK;
+        }
+        return SP_OK;
+    }
+    sp_drive_feedback_t *d = &node->in.drive[leg];
+    d->fresh = 1u;
+    d->length = m.length;
+    d->force = force_from_pressures(node->ctrl_platform, m.pressure_a, m.pressure_b);
+    d->faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? 0x80u : 0u));
+    inc(&node->stats.accepted);
+    return SP_OK;
+}
+
+static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
+{
+    sp_proto_error_t e = SP_PROTO_OK;
+    uint8_t counter = 0u;
+    if (f->id == SP_ID_OP_COMMAND) {
+        sp_msg_command_t m;
+        if (sp_proto_decode_command(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = sequence(node, &node->rx_command, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        if (node->cmd_count >= SP_NODE_CMD_QUEUE) {
+            if (m.command != SP_CMD_ESTOP) {
+                inc(&node->stats.cmd_overflow);
+                return SP_E_BUSY;
+            }
+            /* an emergency stop replaces the newest waiting command */
+            node->cmd_count--;
+        }
+        node->cmd_queue[(node->cmd_head + node->cmd_count) % SP_NODE_CMD_QUEUE] = m;
+        node->cmd_count++;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
+    if (f->id == SP_ID_OP_TARGET_POSE) {
+        sp_pose_t pose;
+        if (sp_proto_decode_target(f, &pose, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = sequence(node, &node->rx_target, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        node->target = pose;
+        node->in.stream_target = pose;
+        node->in.stream_fresh = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
+    return reject(node, SP_PROTO_UNKNOWN_ID, why);
+}
+
+static int is_axis_id(uint32_t id)
+{
+    return id == SP_ID_SYNC || (id >= SP_ID_AXIS_FEEDBACK_1 && id < SP_ID_AXIS_FEEDBACK_1 + SP_AXIS_SLOTS);
+}
+
+sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_proto_error_t *why)
+{
+    if (node == NULL || frame == NULL) {
+        return SP_E_ARG;
+    }
+    if (why != NULL) {
+        *why = SP_PROTO_OK;
+    }
+    if (frame->len > SP_CAN_MAX_DATA) {
+        return reject(node, SP_PROTO_BAD_LENGTH, why);
+    }
+    if (is_axis_id(frame->id)) {
+        if (frame->bus != SP_BUS_AXIS_A && frame->bus != SP_BUS_AXIS_B) {
+            return reject(node, SP_PROTO_WRONG_BUS, why);
+        }
+        if (frame->id == SP_ID_SYNC && node->ctrl_sync_master) {
+            return reject(node, SP_PROTO_UNKNOWN_ID, why); /* another cycle master on the bus */
+        }
+        return receive_axis(node, frame, why);
+    }
+    if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE) {
+        if (frame->bus != SP_BUS_OPS) {
+            return reject(node, SP_PROTO_WRONG_BUS, why);
+        }
+        return receive_ops(node, frame, why);
+    }
+    return reject(node, SP_PROTO_UNKNOWN_ID, why);
+}
+
+int sp_node_cycle_ready(const sp_node_t *node, uint32_t *tick)
+{
+    if (node == NULL || !node->sync_valid || !node->sync_seen[0] || !node->sync_seen[1]) {
+        return 0;
+    }
+    if (tick != NULL) {
+        *tick = node->sync_tick;
+    }
+    return 1;
+}
+
+static void count_send(sp_node_t *node, sp_status_t st, uint32_t *n)
+{
+    if (st == SP_E_RANGE) {
+        inc(&node->stats.saturated);
+    }
+    if (st == SP_OK || st == SP_E_RANGE) {
+        (*n)++;
+    }
+}
+
+sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n)
+{
+    if (cfg == NULL || node == NULL || out == NULL || n == NULL || cfg->ctrl.platform == NULL) {
+        return SP_E_ARG;
+    }
+    *n = 0u;
+    node->ctrl_platform = cfg->ctrl.platform;
+    node->ctrl_sync_master = cfg->sync_master;
+
+    /* The next operator command, if any. */
+    uint8_t ff_rejected = 0u;
+    memset(&node->in.cmd, 0, sizeof node->in.cmd);
+    if (node->cmd_count > 0u) {
+        const sp_msg_command_t *c = &node->cmd_queue[node->cmd_head];
+        node->cmd_head = (uint8_t)((node->cmd_head + 1u) % SP_NODE_CMD_QUEUE);
+        node->cmd_count--;
+        if (c->command == SP_CMD_SET_FEEDFORWARD) {
+            /* a tuning switch: only while no motion is under way */
+            if (node->ctrl.state == SP_STATE_IDLE || node->ctrl.state == SP_STATE_READY) {
+                cfg->ctrl.force_feedforward = c->option;
+            } else {
+                ff_rejected = 1u;
+            }
+        } else {
+            node->in.cmd.type = (sp_cmd_type_t)c->command;
+            node->in.cmd.axis = (sp_axis_t)c->axis;
+            node->in.cmd.amplitude = c->amplitude;
+            node->in.cmd.frequency = c->frequency;
+            node->in.cmd.fade_ticks = cfg->ctrl.tick_us ? (uint32_t)(((uint64_t)c->fade_ms * 1000u) / cfg->ctrl.tick_us) : 0u;
+            node->in.cmd.target = node->target;
+        }
+    }
+
+    sp_status_t st = sp_ctrl_step(&cfg->ctrl, &node->ctrl, &node->in, &node->out);
+    if (st != SP_OK) {
+        return st;
+    }
+    if (ff_rejected) {
+        node->out.cmd_rejected = 1u;
+    }
+    for (uint32_t i = 0; i < SP_LEGS; i++) {
+        node->in.drive[i].fresh = 0u;
+    }
+    node->in.stream_fresh = 0u;
+
+    /* Setpoints for the cycle that the next SYNC starts. */
+    uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
+    for (uint8_t b = 0; b < 2u; b++) {
+        sp_msg_setpoints_t m;
+        m.tick = tick;
+        m.mode = (uint8_t)node->out.drive_mode;
+        for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
+            m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
+        }
+        count_send(node, sp_proto_encode_setpoints(&m, node->tx_counter_setpoints[b]++, (uint8_t)(SP_BUS_AXIS_A + b),
+                                                   &out[*n]), n);
+        node->tx_counter_setpoints[b] &= 0x0Fu;
+    }
+    if (cfg->sync_master) {
+        for (uint8_t b = 0; b < 2u; b++) {
+            sp_msg_sync_t m = {tick, node->out.state == SP_STATE_ESTOP ? 1u : 0u};
+            count_send(node, sp_proto_encode_sync(&m, node->tx_counter_sync[b]++, (uint8_t)(SP_BUS_AXIS_A + b),
+                                                  &out[*n]), n);
+            node->tx_counter_sync[b] &= 0x0Fu;
+        }
+        node->sync_tick = tick;
+        node->sync_valid = 1u;
+    }
+    node->sync_seen[0] = 0u;
+    node->sync_seen[1] = 0u;
+
+    sp_msg_status_t s;
+    s.tick = node->out.tick;
+    s.state = (uint8_t)node->out.state;
+    s.faults = (uint16_t)(node->out.faults & 0xFFFFu);
+    s.fk_iterations = (uint8_t)(node->out.fk_iterations > 15u ? 15u : node->out.fk_iterations);
+    s.estimate_valid = node->out.estimate_valid;
+    s.cmd_rejected = node->out.cmd_rejected;
+    s.drive_mode = (uint8_t)node->out.drive_mode;
+    s.feedforward = cfg->ctrl.force_feedforward;
+    s.estimate = node->out.estimate;
+    count_send(node, sp_proto_encode_status(&s, node->tx_counter_status++, &out[*n]), n);
+    node->tx_counter_status &= 0x0Fu;
+
+    sp_msg_monitor_t mon;
+    mon.tick = node->out.tick;
+    mon.reference = node->out.reference.pose;
+    for (uint32_t i = 0; i < SP_LEGS; i++) {
+        mon.length_sp[i] = node->out.setpoint[i].length;
+        mon.force_ff[i] = node->out.setpoint[i].force;
+    }
+    count_send(node, sp_proto_encode_monitor(&mon, node->tx_counter_monitor++, &out[*n]), n);
+    node->tx_counter_monitor &= 0x0Fu;
+    return SP_OK;
+}
