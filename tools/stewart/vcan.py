@@ -1,0 +1,654 @@
+"""Run a command with virtual CAN buses (vcan0..vcanN-1) up, on any Linux.
+
+Two back ends:
+
+``host``
+    The host kernel has vcan: the interfaces already exist, or
+    ``ip link add dev vcanK type vcan`` works (root). The command runs
+    directly; interfaces this module created are deleted afterwards.
+
+``uml``
+    The host kernel has no CAN. Debian's ``user-mode-linux`` boots a Linux
+    kernel as an ordinary process with the host's file system as its root
+    (hostfs). A generated init script (PID 1) mounts /proc, /sys and a tmpfs
+    on /dev/shm, brings up the loopback, loads can, can-raw, can-dev and vcan
+    from ``/usr/lib/uml/modules/<UML kernel version>/kernel``, creates the
+    buses, then runs the command in the caller's working directory with the
+    caller's environment. The command's stdout and stderr leave the UML on
+    two consoles of their own (tty1, tty2) and are relayed live; kernel and
+    boot messages go to a separate log that is shown only when the UML fails.
+    The command's exit status comes back through a status file in a
+    temporary directory (hostfs), so it cannot be confused with a crash.
+
+Common to both: stdin of the command is /dev/null; a time limit kills the
+whole process group (a UML is many host processes, all in one session that
+this module creates); nothing is left running afterwards.
+
+Exit status of :func:`run`: the command's status (128+N when it died of
+signal N), 124 when the time limit was reached, 125 when the buses could not
+be set up (message on stderr), 127 when the command was not found (host
+back end; inside UML the shell reports 127 itself).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Callable, Sequence
+
+#: Exit statuses of our own (the same conventions as timeout(1) and env(1)).
+EXIT_TIMEOUT = 124
+EXIT_SETUP = 125
+EXIT_NOT_FOUND = 127
+
+#: MTU of a vcan interface: classic CAN frames / CAN FD frames.
+MTU_CLASSIC = 16
+MTU_FD = 72
+
+UML_BINARY = "linux.uml"
+UML_MODULES_ROOT = Path("/usr/lib/uml/modules")
+#: Modules loaded inside the UML, in dependency order (path under kernel/,
+#: without the .ko suffix, which may carry a compression extension).
+UML_MODULES = (
+    "net/can/can",
+    "net/can/can-raw",
+    "drivers/net/can/dev/can-dev",
+    "drivers/net/can/vcan",
+)
+#: Loaded when present; python-can's periodic sending uses the BCM socket.
+UML_OPTIONAL_MODULES = ("net/can/can-bcm",)
+#: Host programs the init script runs inside the UML (through hostfs).
+UML_TOOLS = ("sh", "mount", "insmod", "ip", "stty", "cat")
+INSTALL_HINT = ("install the Debian packages user-mode-linux, kmod and iproute2 "
+                "(apt-get install user-mode-linux kmod iproute2)")
+
+#: Environment variables not copied into the UML: set by the shell or by us.
+_ENV_SKIP = {"PWD", "OLDPWD", "SHLVL", "_"}
+_ENV_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: Characters allowed in paths that go on the UML kernel command line.
+_SAFE_PATH = re.compile(r"^[A-Za-z0-9_./+-]+$")
+_MEM = re.compile(r"^([0-9]+)([KMG]?)$", re.IGNORECASE)
+
+#: Grace period between SIGTERM and SIGKILL for the host back end (s).
+_KILL_GRACE = 5.0
+_POLL = 0.01
+
+
+class VcanError(RuntimeError):
+    """The buses cannot be provided: the message says why and what to do."""
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def interface_names(count: int) -> list[str]:
+    """``["vcan0", ..., "vcan<count-1>"]``; ``count`` must be 1..64."""
+    if not 1 <= count <= 64:
+        raise VcanError(f"bus count must be 1..64, not {count}")
+    return [f"vcan{i}" for i in range(count)]
+
+
+def parse_mem(text: str) -> int:
+    """Bytes of a UML memory size such as ``512M`` (suffix K, M or G)."""
+    m = _MEM.match(text.strip())
+    if not m:
+        raise VcanError(f"bad memory size {text!r}: use e.g. 512M")
+    scale = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30}[m.group(2).upper()]
+    value = int(m.group(1)) * scale
+    if value < (64 << 20):
+        raise VcanError(f"memory size {text!r} is below 64M: the UML would not boot")
+    return value
+
+
+def _ip_binary() -> str | None:
+    return shutil.which("ip") or next(
+        (p for p in ("/usr/sbin/ip", "/sbin/ip", "/usr/bin/ip", "/bin/ip") if os.access(p, os.X_OK)),
+        None)
+
+
+def _ip(*args: str) -> subprocess.CompletedProcess:
+    exe = _ip_binary()
+    if exe is None:
+        raise VcanError("the ip command is missing: install iproute2")
+    return subprocess.run([exe, *args], stdin=subprocess.DEVNULL, capture_output=True,
+                          text=True, check=False)
+
+
+def _host_link_mtu(name: str) -> int | None:
+    """MTU of host interface ``name``, None when it does not exist."""
+    try:
+        return int(Path(f"/sys/class/net/{name}/mtu").read_text().strip())
+    except (OSError, ValueError):
+        return None
+
+
+def uml_module_dir() -> Path:
+    """The UML kernel's module tree (``.../<version>/kernel``) holding vcan.
+
+    The version is the UML kernel's own, not the host's ``uname -r``.
+    Raises :class:`VcanError` when there is none.
+    """
+    if not UML_MODULES_ROOT.is_dir():
+        raise VcanError(f"{UML_MODULES_ROOT} is missing: {INSTALL_HINT}")
+    found = sorted(d / "kernel" for d in UML_MODULES_ROOT.iterdir()
+                   if list((d / "kernel" / "drivers/net/can").glob("vcan.ko*")))
+    if not found:
+        raise VcanError(f"no vcan module under {UML_MODULES_ROOT}: {INSTALL_HINT}")
+    return found[-1]
+
+
+def _uml_problem() -> str | None:
+    """Why the UML back end cannot work here, or None when it can."""
+    if shutil.which(UML_BINARY) is None:
+        return f"{UML_BINARY} is not installed: {INSTALL_HINT}"
+    try:
+        uml_module_dir()
+    except VcanError as e:
+        return str(e)
+    path = "/usr/sbin:/usr/bin:/sbin:/bin"
+    missing = [t for t in UML_TOOLS if shutil.which(t, path=path) is None]
+    if missing:
+        return f"programs needed inside the UML are missing: {', '.join(missing)}: {INSTALL_HINT}"
+    return None
+
+
+def _host_problem(count: int) -> str | None:
+    """Why the host back end cannot work, or None when it can.
+
+    True when vcan0..vcan<count-1> all exist, or when a probe interface can
+    be created (and is deleted again).
+    """
+    names = interface_names(count)
+    if all(_host_link_mtu(n) is not None for n in names):
+        return None
+    if _ip_binary() is None:
+        return "the ip command is missing (iproute2)"
+    probe = f"svprobe{os.getpid() % 100000}"
+    r = _ip("link", "add", "dev", probe, "type", "vcan")
+    if r.returncode != 0:
+        return f"the host cannot create vcan interfaces ({r.stderr.strip() or 'ip failed'})"
+    _ip("link", "del", "dev", probe)
+    return None
+
+
+def backend_available(count: int = 3) -> str:
+    """The back end :func:`run` would use: ``"host"`` or ``"uml"``.
+
+    Raises :class:`VcanError` naming the reasons (and the Debian package to
+    install) when neither works.
+    """
+    host = _host_problem(count)
+    if host is None:
+        return "host"
+    uml = _uml_problem()
+    if uml is None:
+        return "uml"
+    raise VcanError(f"no vcan back end: {host}; and {uml}")
+
+
+# ------------------------------------------------------ process handling
+
+
+def _wait_exit(pid: int, deadline: float | None) -> bool:
+    """Wait until ``pid`` (our child) has exited, without reaping it (so its
+    pid, which is also the process-group id, cannot be reused yet). True when
+    it exited before ``deadline`` (time.monotonic())."""
+    while True:
+        try:
+            info = os.waitid(os.P_PID, pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except ChildProcessError:
+            return True
+        if info is not None:
+            return True
+        if deadline is not None and time.monotonic() >= deadline:
+            return False
+        time.sleep(_POLL)
+
+
+def _killpg(pgid: int, sig: int) -> None:
+    try:
+        os.killpg(pgid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def _reap_group(pgid: int, deadline: float) -> None:
+    """Reap our children in process group ``pgid`` (killed already) until
+    none is left or ``deadline`` (time.monotonic()) passes."""
+    while True:
+        try:
+            pid, _ = os.waitpid(-pgid, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            if time.monotonic() >= deadline:
+                return
+            time.sleep(_POLL)
+
+
+class _Subreaper:
+    """While active, orphans of our descendants are re-parented to this
+    process (prctl PR_SET_CHILD_SUBREAPER) rather than to PID 1, which in
+    some containers never reaps them: killed UML helpers would stay zombies.
+    Best effort: a no-op where prctl is unavailable."""
+
+    SET, GET = 36, 37
+
+    def __enter__(self) -> "_Subreaper":
+        self.prctl = None
+        try:
+            prctl = ctypes.CDLL(None, use_errno=True).prctl
+            old = ctypes.c_int(0)
+            if (prctl(self.GET, ctypes.byref(old), 0, 0, 0) == 0 and old.value == 0
+                    and prctl(self.SET, ctypes.c_ulong(1), 0, 0, 0) == 0):
+                self.prctl = prctl
+        except (OSError, AttributeError):
+            pass
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.prctl is not None:
+            self.prctl(self.SET, ctypes.c_ulong(0), 0, 0, 0)
+
+
+def _status_of(returncode: int) -> int:
+    """A Popen returncode as a shell exit status (signal N -> 128+N)."""
+    return 128 - returncode if returncode < 0 else returncode
+
+
+class _Interrupted(Exception):
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+class _Signals:
+    """Turns SIGINT/SIGTERM/SIGHUP into :class:`_Interrupted` while active
+    (main thread only; elsewhere a no-op) so the group is always cleaned."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+    def __enter__(self) -> "_Signals":
+        self.old: dict[int, object] = {}
+        if threading.current_thread() is threading.main_thread():
+            for s in self.SIGNALS:
+                self.old[s] = signal.signal(s, self._raise)
+        return self
+
+    @staticmethod
+    def _raise(signum: int, frame: object) -> None:
+        del frame
+        raise _Interrupted(signum)
+
+    def __exit__(self, *exc: object) -> None:
+        for s, h in self.old.items():
+            signal.signal(s, h)  # type: ignore[arg-type]
+
+
+def _writer(stream) -> Callable[[bytes], None]:
+    """A function writing raw bytes to ``stream`` at once (binary buffer when
+    it has one, else decoded text), ignoring a closed reader."""
+    buf = getattr(stream, "buffer", None)
+
+    def write(data: bytes) -> None:
+        try:
+            if buf is not None:
+                buf.write(data)
+                buf.flush()
+            else:
+                stream.write(data.decode("utf-8", "replace"))
+                stream.flush()
+        except (BrokenPipeError, ValueError, OSError):
+            pass
+
+    return write
+
+
+def _pump(fd: int, sink: Callable[[bytes], None]) -> None:
+    """Copy from pipe ``fd`` to ``sink`` until end of file; closes ``fd``."""
+    try:
+        while True:
+            try:
+                data = os.read(fd, 65536)
+            except InterruptedError:
+                continue
+            except OSError:
+                break
+            if not data:
+                break
+            sink(data)
+    finally:
+        os.close(fd)
+
+
+# ------------------------------------------------------------------- host
+
+
+def _run_host(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict) -> int:
+    created: list[str] = []
+    restore_mtu: dict[str, int] = {}
+    want = MTU_FD if fd else MTU_CLASSIC
+    try:
+        for name in interface_names(count):
+            mtu = _host_link_mtu(name)
+            if mtu is None:
+                r = _ip("link", "add", "dev", name, "type", "vcan")
+                if r.returncode != 0:
+                    raise VcanError(f"cannot create {name}: {r.stderr.strip()}")
+                created.append(name)
+                steps = [("link", "set", "dev", name, "mtu", str(want))]
+            elif fd and mtu != MTU_FD:
+                restore_mtu[name] = mtu
+                steps = [("link", "set", "dev", name, "down"),
+                         ("link", "set", "dev", name, "mtu", str(MTU_FD))]
+            else:
+                steps = []
+            steps.append(("link", "set", "dev", name, "up"))
+            for step in steps:
+                r = _ip(*step)
+                if r.returncode != 0:
+                    raise VcanError(f"ip {' '.join(step)}: {r.stderr.strip()}")
+        env = dict(env, STEWART_VCAN="host")
+        with _Subreaper():
+            try:
+                proc = subprocess.Popen(list(argv), stdin=subprocess.DEVNULL, env=env,
+                                        start_new_session=True)
+            except FileNotFoundError:
+                print(f"stewart vcan: {argv[0]}: command not found", file=sys.stderr)
+                return EXIT_NOT_FOUND
+            except PermissionError as e:
+                print(f"stewart vcan: {argv[0]}: {e.strerror}", file=sys.stderr)
+                return 126
+            return _supervise(proc, timeout, grace=_KILL_GRACE)[0]
+    finally:
+        for name in created:
+            _ip("link", "del", "dev", name)
+        for name, mtu in restore_mtu.items():
+            _ip("link", "set", "dev", name, "down")
+            _ip("link", "set", "dev", name, "mtu", str(mtu))
+            _ip("link", "set", "dev", name, "up")
+
+
+def _supervise(proc: subprocess.Popen, timeout: float, grace: float) -> tuple[int, bool]:
+    """Wait for ``proc`` (leader of its own session) with a time limit, then
+    kill whatever is left of its process group. Returns (exit status, True)
+    when it ended by itself, else (EXIT_TIMEOUT or 128+signal, False) when
+    the limit or a signal to us ended it."""
+    deadline = time.monotonic() + timeout
+    status: int | None = None
+    try:
+        with _Signals():
+            if not _wait_exit(proc.pid, deadline):
+                print(f"stewart vcan: time limit of {timeout:g} s reached: killing the command",
+                      file=sys.stderr)
+                status = EXIT_TIMEOUT
+                if grace > 0:
+                    _killpg(proc.pid, signal.SIGTERM)
+                    _wait_exit(proc.pid, time.monotonic() + grace)
+    except _Interrupted as e:
+        status = 128 + e.signum
+        if grace > 0:
+            _killpg(proc.pid, e.signum)
+            _wait_exit(proc.pid, time.monotonic() + grace)
+    finally:
+        # The leader is a zombie or still running: its pid (= group id)
+        # cannot have been reused, so this reaches only our processes.
+        _killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        _reap_group(proc.pid, time.monotonic() + 10.0)
+    if status is None:
+        return _status_of(proc.returncode), True
+    return status, False
+
+
+# -------------------------------------------------------------------- UML
+
+
+def _init_script(argv: Sequence[str], names: list[str], mtu: int, cwd: str,
+                 env: dict, state: str, module_dir: Path, tty_out: bool = False,
+                 tty_err: bool = False) -> str:
+    q = shlex.quote
+    lines = [
+        "#!/bin/sh",
+        "# Generated by stewart vcan: PID 1 of a user-mode Linux.",
+        "PATH=/usr/sbin:/usr/bin:/sbin:/bin",
+        "export PATH",
+        f"S={q(state)}",
+        "halt() {",
+        "  echo \"$1\" > /proc/exitcode 2>/dev/null",
+        "  poweroff -f >/dev/null 2>&1",
+        "  echo o > /proc/sysrq-trigger 2>/dev/null",
+        "  while :; do sleep 1; done",
+        "}",
+        "fail() {",
+        "  echo \"stewart vcan (uml): $*\" >&2",
+        "  echo \"setup-failed $*\" > \"$S/status\"",
+        f"  halt {EXIT_SETUP}",
+        "}",
+        "mount -t proc proc /proc || fail 'mount /proc'",
+        "mount -t sysfs sysfs /sys || fail 'mount /sys'",
+        "[ -d /dev/shm ] || mkdir -p /dev/shm",
+        "mount -t tmpfs -o mode=1777 tmpfs /dev/shm || fail 'mount /dev/shm'",
+        # The UML kernel's own version (not the host's).
+        "read V < /proc/sys/kernel/osrelease",
+        f"K={q(str(module_dir.parent.parent))}/$V/kernel",
+        "load() { for f in \"$K/$1\".ko*; do insmod \"$f\"; return $?; done; return 1; }",
+    ]
+    lines += [f"load {q(m)} || fail 'insmod {m}'" for m in UML_MODULES]
+    lines += [f"load {q(m)} 2>/dev/null" for m in UML_OPTIONAL_MODULES]
+    # One ip process for all links (each process start costs ~40 ms in UML).
+    batch = ["link set dev lo up"]
+    for n in names:
+        batch += [f"link add dev {n} type vcan", f"link set dev {n} mtu {mtu}",
+                  f"link set dev {n} up"]
+    lines += ["ip -batch - <<'EOF' || fail 'ip: loopback and vcan set-up'", *batch, "EOF"]
+    # Raw output on the command's consoles (else LF becomes CR LF).
+    lines += [
+        "stty -opost < /dev/tty1 || fail 'stty tty1'",
+        "stty -opost < /dev/tty2 || fail 'stty tty2'",
+        "O=/dev/tty1 E=/dev/tty2 co= ce=",
+    ]
+    # Where the caller's stream is not a terminal, the command gets a pipe
+    # (as it would on the host: no colours, block buffering), copied by cat.
+    if not tty_out:
+        lines += ["mkfifo /dev/shm/.stewart-out || fail mkfifo",
+                  "cat /dev/shm/.stewart-out > /dev/tty1 & co=$!",
+                  "O=/dev/shm/.stewart-out"]
+    if not tty_err:
+        lines += ["mkfifo /dev/shm/.stewart-err || fail mkfifo",
+                  "cat /dev/shm/.stewart-err > /dev/tty2 & ce=$!",
+                  "E=/dev/shm/.stewart-err"]
+    lines += [
+        "read up idle < /proc/uptime",
+        "echo \"$up\" > \"$S/booted\"",
+        "(",
+        "  unset HOME TERM",
+    ]
+    for k, v in env.items():
+        lines.append(f"  export {k}={q(v)}")
+    lines += [
+        f"  export PWD={q(cwd)}",
+        f"  cd {q(cwd)} || exit {EXIT_SETUP}",
+        "  exec " + " ".join(q(a) for a in argv),
+        ") < /dev/null > \"$O\" 2> \"$E\"",
+        "rc=$?",
+        # Whatever the command left running dies now (so the copies see the
+        # end of their pipes); the copies drain, then the UML powers off.
+        "for p in /proc/[0-9]*; do",
+        "  p=${p#/proc/}",
+        "  case \" 1 $co $ce \" in *\" $p \"*) ;; *) kill -9 \"$p\" 2>/dev/null;; esac",
+        "done",
+        "[ -z \"$co$ce\" ] || wait $co $ce",
+        "echo \"rc $rc\" > \"$S/status\"",
+        "halt $rc",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _uml_env(mem: int, scratch: str) -> dict:
+    """Environment of the linux.uml process itself. UML backs its memory
+    with a file in $TMPDIR, else /dev/shm: use /dev/shm when it has room,
+    else the scratch directory (a small /dev/shm, e.g. in containers, would
+    make the UML die of SIGBUS)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("TMPDIR", "TMP", "TEMP")}
+    try:
+        shm_free = shutil.disk_usage("/dev/shm").free
+    except OSError:
+        shm_free = 0
+    env["TMPDIR"] = "/dev/shm" if shm_free >= mem + (64 << 20) else scratch
+    return env
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+def _make_state_dir() -> str:
+    """A private temporary directory whose path is safe on the kernel
+    command line (no spaces or quotes)."""
+    for base in (None, "/tmp"):
+        d = tempfile.mkdtemp(prefix="stewart-vcan-", dir=base)
+        if _SAFE_PATH.match(d):
+            return d
+        os.rmdir(d)
+    raise VcanError("cannot make a temporary directory with a plain path")
+
+
+def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict,
+             mem: int, verbose: bool) -> int:
+    problem = _uml_problem()
+    if problem:
+        raise VcanError(problem)
+    names = interface_names(count)
+    cwd = os.getcwd()
+    state = _make_state_dir()
+    log: list[bytes] = []
+    try:
+        inner_env = {k: v for k, v in env.items()
+                     if _ENV_NAME.match(k) and k not in _ENV_SKIP}
+        inner_env.setdefault("TMPDIR", "/tmp")
+        inner_env["STEWART_VCAN"] = "uml"
+        init = Path(state) / "init"
+        init.write_text(_init_script(argv, names, MTU_FD if fd else MTU_CLASSIC, cwd,
+                                     inner_env, state, uml_module_dir(),
+                                     _isatty(sys.stdout), _isatty(sys.stderr)),
+                        encoding="utf-8", errors="surrogateescape")
+        init.chmod(0o700)
+
+        out_r, out_w = os.pipe()
+        err_r, err_w = os.pipe()
+        log_r, log_w = os.pipe()
+        cmd = [
+            shutil.which(UML_BINARY) or UML_BINARY,
+            "quiet", "loglevel=3", f"mem={mem // (1 << 20)}M",
+            "root=/dev/root", "rootfstype=hostfs", "hostfs=/", "rw",
+            f"init={init}", f"uml_dir={state}",
+            "con=null", "con0=null,fd:1", f"con1=null,fd:{out_w}", f"con2=null,fd:{err_w}",
+        ]
+        t0 = time.monotonic()
+        with _Subreaper():
+            try:
+                proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=log_w,
+                                        stderr=log_w, pass_fds=(out_w, err_w),
+                                        env=_uml_env(mem, state), start_new_session=True)
+            except OSError:
+                for r in (out_r, err_r, log_r):
+                    os.close(r)
+                raise
+            finally:
+                for w in (out_w, err_w, log_w):
+                    os.close(w)
+            if verbose:
+                print(f"stewart vcan: uml: linux.uml pid {proc.pid} (process group {proc.pid})",
+                      file=sys.stderr)
+            pumps = [
+                threading.Thread(target=_pump, args=(out_r, _writer(sys.stdout)), daemon=True),
+                threading.Thread(target=_pump, args=(err_r, _writer(sys.stderr)), daemon=True),
+                threading.Thread(target=_pump, args=(log_r, log.append), daemon=True),
+            ]
+            for p in pumps:
+                p.start()
+            status, ended = _supervise(proc, timeout, grace=0.0)
+        for p in pumps:
+            p.join(timeout=5.0)
+        wall = time.monotonic() - t0
+
+        result = (Path(state) / "status")
+        text = result.read_text().split() if result.exists() else []
+        if not ended:
+            return status
+        if len(text) == 2 and text[0] == "rc" and text[1].isdigit():
+            rc = int(text[1])
+            if verbose:
+                booted = (Path(state) / "booted").read_text().split()[0]
+                print(f"stewart vcan: uml: buses up {booted} s after kernel start; "
+                      f"{wall:.2f} s in all; exit status {rc}", file=sys.stderr)
+                _show_log(log)
+            return rc
+        print("stewart vcan: the user-mode Linux did not run the command to its end "
+              f"(linux.uml exit status {status}); its log:", file=sys.stderr)
+        _show_log(log)
+        return EXIT_SETUP
+    finally:
+        shutil.rmtree(state, ignore_errors=True)
+
+
+def _show_log(log: list[bytes]) -> None:
+    text = b"".join(log).decode("utf-8", "replace").replace("\r\n", "\n")
+    for line in text.splitlines()[-60:]:
+        print(f"  | {line}", file=sys.stderr)
+
+
+# -------------------------------------------------------------------- API
+
+
+def run(argv: Sequence[str], count: int = 3, fd: bool = True, timeout: float = 600,
+        backend: str = "auto", mem: str = "512M", verbose: bool = False) -> int:
+    """Run ``argv`` with vcan0..vcan<count-1> up; return its exit status.
+
+    ``fd``: MTU 72 (CAN FD) instead of 16. ``timeout``: seconds for
+    everything (boot included), after which all is killed and 124 returned.
+    ``backend``: ``"auto"``, ``"host"`` or ``"uml"``. ``mem``: UML memory.
+    The command inherits the working directory and environment; its stdin is
+    /dev/null; its stdout/stderr go to ours as they come. Set-up failures
+    print a message and return 125 (``VcanError`` is raised only for bad
+    arguments and when no back end exists).
+    """
+    argv = list(argv)
+    if not argv:
+        raise VcanError("no command given")
+    if timeout <= 0:
+        raise VcanError("the time limit must be positive")
+    interface_names(count)
+    mem_bytes = parse_mem(mem)
+    if backend == "auto":
+        backend = backend_available(count)
+    env = dict(os.environ)
+    if backend == "host":
+        try:
+            return _run_host(argv, count, fd, timeout, env)
+        except VcanError as e:
+            print(f"stewart vcan: host: {e}", file=sys.stderr)
+            return EXIT_SETUP
+    if backend == "uml":
+        return _run_uml(argv, count, fd, timeout, env, mem_bytes, verbose)
+    raise VcanError(f"unknown back end {backend!r}: use auto, host or uml")
+
+
+def host_has_vcan() -> bool:
+    """True when the host back end works for three buses (used by tests)."""
+    return _host_problem(3) is None
