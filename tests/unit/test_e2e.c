@@ -26,8 +26,8 @@ static sp_can_frame_t frame(uint32_t id, uint8_t len, uint8_t seed)
     f.id = id;
     f.len = len;
     f.flags = SP_CAN_FLAG_FD | SP_CAN_FLAG_BRS;
-    for (uint8_t i = 0; i < len; i++) {
-        f.data[i] = (uint8_t)(seed * 31u + i * 7u);
+    for (uint32_t i = 0; i < SP_CAN_MAX_DATA; i++) {
+        f.data[i] = (i < len) ? (uint8_t)(seed * 31u + i * 7u) : 0u;
     }
     return f;
 }
