@@ -1,0 +1,82 @@
+"""``stewart busload``: frame bit counts and the per-bus load of the shipped DBC."""
+
+import subprocess
+
+import pytest
+
+from stewart import REPO_ROOT, cli
+from stewart.commands import busload_cmd as bl
+
+
+def test_classic_formula_matches_notes():
+    assert bl.classic_frame_bits(8) == 135  # NOTES.md section 3
+    assert bl.classic_frame_bits(0) == 47 + 8  # 47 + floor(33 / 4)
+
+
+# Hand-computed worst case, CAN FD base frame with BRS:
+# nominal 17 + 4 stuff + 13 = 34; data ESI + DLC + 8n, + floor((5 + 8n) / 4) dynamic stuff,
+# + 4 stuff count, + CRC 17 (n <= 16) or 21, + 6 or 7 fixed stuff bits.
+#   n = 8:  69 + 17 + 4 + 17 + 6 = 113
+#   n = 12: 101 + 25 + 4 + 17 + 6 = 153
+#   n = 32: 261 + 65 + 4 + 21 + 7 = 358
+#   n = 64: 517 + 129 + 4 + 21 + 7 = 678
+@pytest.mark.parametrize("n, data_bits", [(8, 113), (12, 153), (32, 358), (64, 678)])
+def test_fd_bits_hand_computed(n, data_bits):
+    assert bl.fd_frame_bits(n) == (34, data_bits)
+
+
+def test_fd_time_at_1m_5m():
+    assert bl.frame_time_us(8, True, 1e6, 5e6) == pytest.approx(34 + 113 / 5)
+    assert bl.frame_time_us(64, True, 1e6, 5e6) == pytest.approx(34 + 678 / 5)
+    assert bl.frame_time_us(8, False, 1e6, 5e6) == pytest.approx(135)
+
+
+def test_fd_lengths_round_up_to_a_dlc():
+    assert bl.fd_payload_length(9) == 12
+    assert bl.fd_frame_bits(9) == bl.fd_frame_bits(12)
+    assert bl.fd_payload_length(33) == 48
+    with pytest.raises(ValueError):
+        bl.fd_payload_length(65)
+
+
+def _table():
+    import cantools
+
+    db = cantools.database.load_file(str(REPO_ROOT / "protocol" / "stewart.dbc"), strict=True)
+    return bl.load_table(db, 1e6, 5e6)
+
+
+def test_shipped_dbc_within_50_percent_per_bus():
+    table = _table()
+    assert set(table) == {"ops", "axis_a", "axis_b"}
+    loads = {bus: bl.bus_load_percent(rows) for bus, rows in table.items()}
+    # SYNC 8 + setpoints 32 + 3 x feedback 12 bytes; command 12 + pose 24 + status 32 + monitor 64
+    assert loads["axis_a"] == pytest.approx((5 * 34 + (113 + 358 + 3 * 153) / 5) / 10, abs=1e-9)
+    assert loads["ops"] == pytest.approx((4 * 34 + (153 + 278 + 358 + 678) / 5) / 10, abs=1e-9)
+    assert loads["axis_a"] == loads["axis_b"]
+    assert all(v <= 50.0 for v in loads.values()), loads
+    single, drives = bl.single_bus_rows(table)
+    assert bl.bus_load_percent(single) > 100.0  # why there are three buses
+    assert bl.bus_load_percent(drives) > 50.0
+
+
+def test_cli_passes_and_fails_on_a_tight_limit(capsys):
+    assert cli.main(["busload"]) == 0
+    out = capsys.readouterr().out
+    assert "35.6 %" in out and "42.9 %" in out
+    assert cli.main(["busload", "--limit", "40"]) == 1  # ops at 42.9 % is above
+    assert cli.main(["busload", "--limit", "30"]) == 1
+
+
+def test_cli_exit_status_of_the_installed_command():
+    exe = REPO_ROOT / ".venv" / "bin" / "stewart"
+    ok = subprocess.run([str(exe), "busload"], capture_output=True, text=True)
+    assert ok.returncode == 0, ok.stderr
+    tight = subprocess.run([str(exe), "busload", "--limit", "10"], capture_output=True, text=True)
+    assert tight.returncode == 1 and "above" in tight.stderr
+
+
+def test_slower_bit_rate_overloads(tmp_path):
+    # classic-like data rate: the same frames at 1 Mbit/s data phase exceed 50 %
+    assert cli.main(["busload", "--data", "1e6"]) == 1
+    assert cli.main(["busload", "--dbc", str(tmp_path / "missing.dbc")]) == 2

@@ -1,0 +1,192 @@
+"""``stewart busload``: worst-case load of each CAN bus per millisecond, from the DBC.
+
+Bits of one frame, 11-bit ID, ``n`` data bytes, worst-case bit stuffing:
+
+* classic CAN (NOTES.md section 3): ``47 + 8n + floor((34 + 8n - 1) / 4)`` bits,
+  all at the nominal rate;
+* CAN FD with bit-rate switch (ISO 11898-1:2015 frame layout):
+
+  - nominal rate: 17 arbitration bits (SOF, 11-bit ID, RRS, IDE, FDF, res,
+    BRS) + ``floor((17 - 1) / 4) = 4`` dynamic stuff bits + 13 bits after the
+    CRC (CRC delimiter, ACK slot, ACK delimiter, 7 EOF, 3 intermission; the
+    delimiter counted at the nominal rate, an upper bound) = 34 bits;
+  - data rate: ESI + 4 DLC + ``8n`` data bits + ``floor((5 + 8n) / 4)`` dynamic
+    stuff bits (the continuation of the worst-case run from the arbitration
+    field), + 4 stuff-count bits + CRC (17 bits up to 16 data bytes, 21
+    above) + fixed stuff bits (one before the stuff count and one after every
+    4 bits: 6 for CRC-17, 7 for CRC-21).
+
+A frame whose period is ``p`` ms costs ``t / p`` us per ms; the load of a bus
+is the sum over its messages (a message on several buses counts on each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+#: CAN FD payload lengths (the DLC codes 0..15).
+FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
+FD_ARBITRATION_BITS = 17
+FD_ARBITRATION_STUFF = (FD_ARBITRATION_BITS - 1) // 4
+FD_TAIL_BITS = 13
+
+
+def fd_payload_length(n: int) -> int:
+    """Smallest CAN FD payload length that holds ``n`` bytes."""
+    for length in FD_LENGTHS:
+        if length >= n:
+            return length
+    raise ValueError(f"{n} bytes do not fit a CAN FD frame")
+
+
+def classic_frame_bits(n: int) -> int:
+    """Worst-case bits of a classic CAN base frame with ``n`` (0..8) data bytes."""
+    if not 0 <= n <= 8:
+        raise ValueError("classic CAN frames carry 0..8 bytes")
+    return 47 + 8 * n + (34 + 8 * n - 1) // 4
+
+
+def fd_frame_bits(n: int) -> tuple[int, int]:
+    """Worst-case (nominal-rate bits, data-rate bits) of a CAN FD base frame
+    with bit-rate switch and ``n`` data bytes (rounded up to a DLC length)."""
+    n = fd_payload_length(n)
+    nominal = FD_ARBITRATION_BITS + FD_ARBITRATION_STUFF + FD_TAIL_BITS
+    dynamic = 1 + 4 + 8 * n           # ESI, DLC, data
+    dynamic_stuff = dynamic // 4
+    crc = 17 if n <= 16 else 21
+    fixed_stuff = math.ceil((4 + crc) / 4)
+    data = dynamic + dynamic_stuff + 4 + crc + fixed_stuff
+    return nominal, data
+
+
+def frame_time_us(n: int, is_fd: bool, nominal: float, data: float) -> float:
+    """Worst-case duration of one frame in microseconds."""
+    if is_fd:
+        bn, bd = fd_frame_bits(n)
+        return (bn / nominal + bd / data) * 1e6
+    return classic_frame_bits(n) / nominal * 1e6
+
+
+@dataclass
+class Row:
+    bus: str
+    frame_id: int
+    name: str
+    length: int
+    is_fd: bool
+    period_ms: float
+    bits_nominal: int
+    bits_data: int
+    us_per_frame: float
+    us_per_ms: float
+
+
+def _bus_names(message) -> list[str]:
+    dbc = getattr(message, "dbc", None)
+    attr = dbc.attributes.get("Bus") if dbc is not None else None
+    text = str(attr.value) if attr is not None else ""
+    names = [b.strip() for b in text.split(",") if b.strip()]
+    return names or ["(no bus)"]
+
+
+def load_table(db, nominal: float, data: float) -> dict[str, list[Row]]:
+    """Rows per bus (in DBC order of first appearance)."""
+    out: dict[str, list[Row]] = {}
+    for m in db.messages:
+        period = float(m.cycle_time) if m.cycle_time else 1.0
+        if m.is_fd:
+            bn, bd = fd_frame_bits(m.length)
+        else:
+            bn, bd = classic_frame_bits(m.length), 0
+        t = frame_time_us(m.length, m.is_fd, nominal, data)
+        for bus in _bus_names(m):
+            out.setdefault(bus, []).append(
+                Row(bus, m.frame_id, m.name, m.length, m.is_fd, period, bn, bd, t, t / period))
+    return out
+
+
+def bus_load_percent(rows: list[Row]) -> float:
+    """Worst-case share of each millisecond the rows occupy, in %."""
+    return sum(r.us_per_ms for r in rows) / 1000.0 * 100.0
+
+
+def single_bus_rows(table: dict[str, list[Row]]) -> tuple[list[Row], list[Row]]:
+    """The rows of all buses as if on one bus, SYNC sent once: (everything,
+    the axis buses' traffic only)."""
+    everything: list[Row] = []
+    drives: list[Row] = []
+    seen_sync = False
+    for bus, rows in table.items():
+        for r in rows:
+            if r.name == "SYNC":
+                if seen_sync:
+                    continue
+                seen_sync = True
+            everything.append(r)
+            if bus.startswith("axis"):
+                drives.append(r)
+    return everything, drives
+
+
+def format_report(table: dict[str, list[Row]], nominal: float, data: float,
+                  limit: float) -> tuple[str, bool]:
+    """Markdown-style report and whether every bus is within ``limit`` %."""
+    lines = [f"Worst-case CAN load per 1 ms: nominal {nominal / 1e6:g} Mbit/s, "
+             f"data {data / 1e6:g} Mbit/s (CAN FD frames with bit-rate switch), "
+             f"limit {limit:g} %", ""]
+    ok = True
+    for bus, rows in table.items():
+        lines.append(f"bus {bus}")
+        lines.append("| ID | message | bytes | period ms | bits nominal | bits data "
+                     "| us/frame | us per ms |")
+        lines.append("|---|---|---|---|---|---|---|---|")
+        for r in rows:
+            lines.append(f"| 0x{r.frame_id:03X} | {r.name} | {r.length}{'' if r.is_fd else ' (classic)'} "
+                         f"| {r.period_ms:g} | {r.bits_nominal} | {r.bits_data} "
+                         f"| {r.us_per_frame:.1f} | {r.us_per_ms:.1f} |")
+        pct = bus_load_percent(rows)
+        verdict = "ok" if pct <= limit else "OVER LIMIT"
+        ok = ok and pct <= limit
+        lines.append(f"| | **total** | | | | | | **{sum(r.us_per_ms for r in rows):.1f} us "
+                     f"= {pct:.1f} %** ({verdict}) |")
+        lines.append("")
+    single, drives = single_bus_rows(table)
+    lines.append("Why several buses: the same traffic on a single bus would cost "
+                 f"{bus_load_percent(single):.1f} % (everything, one SYNC) or "
+                 f"{bus_load_percent(drives):.1f} % (one SYNC, the setpoints and the "
+                 "feedback of all six drives), because every frame pays "
+                 f"{fd_frame_bits(0)[0]} bits at the nominal rate.")
+    return "\n".join(lines), ok
+
+
+def run(args: argparse.Namespace) -> int:
+    import cantools
+
+    from ..protocol import DBC_PATH
+
+    path = Path(args.dbc) if args.dbc else DBC_PATH
+    try:
+        db = cantools.database.load_file(str(path), strict=True)
+    except Exception as exc:  # noqa: BLE001 - any load failure is a usage error
+        print(f"stewart busload: cannot load {path}: {exc}", file=sys.stderr)
+        return 2
+    table = load_table(db, args.nominal, args.data)
+    text, ok = format_report(table, args.nominal, args.data, args.limit)
+    print(text)
+    if not ok:
+        print(f"stewart busload: a bus is above {args.limit:g} %", file=sys.stderr)
+    return 0 if ok else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("busload", help="worst-case CAN bus load per 1 ms from the DBC",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--dbc", help="DBC file (default: protocol/stewart.dbc)")
+    p.add_argument("--nominal", type=float, default=1e6, help="arbitration bit rate, bit/s")
+    p.add_argument("--data", type=float, default=5e6, help="CAN FD data-phase bit rate, bit/s")
+    p.add_argument("--limit", type=float, default=50.0, help="highest acceptable load, %%")
+    p.set_defaults(func=run)
