@@ -68,6 +68,7 @@ sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cf
         if (ioctl(fd, SIOCGIFINDEX, &ifr) < 0) {
             return fail(p, "no interface", c->ifname);
         }
+        int ifindex = ifr.ifr_ifindex; /* the next ioctl reuses the union */
         if (ioctl(fd, SIOCGIFMTU, &ifr) < 0 || ifr.ifr_mtu != (int)CANFD_MTU) {
             errno = EPROTONOSUPPORT;
             return fail(p, "not a CAN FD interface (mtu 72 needed):", c->ifname);
@@ -95,7 +96,7 @@ sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cf
         struct sockaddr_can addr;
         memset(&addr, 0, sizeof addr);
         addr.can_family = AF_CAN;
-        addr.can_ifindex = ifr.ifr_ifindex;
+        addr.can_ifindex = ifindex;
         if (bind(fd, (struct sockaddr *)&addr, sizeof addr) < 0) {
             return fail(p, "bind to", c->ifname);
         }

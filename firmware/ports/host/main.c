@@ -1,0 +1,232 @@
+/*
+ * sp_controller - the firmware's controller on a Linux host: the portable
+ * node (sp/node.h) on SocketCAN, at 1 kHz.
+ *
+ *   sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep]
+ *                 [--ticks N] [--no-feedforward] [--timeout-ms MS]
+ *
+ * Real-time mode (default): the controller is the cycle master; an
+ * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
+ * counted and reported. Lockstep mode: the plant sends SYNC and sets the
+ * pace; each tick runs when SYNC has arrived on both axis buses, which makes
+ * runs deterministic. Ends after N ticks (0: until SIGINT/SIGTERM) or when
+ * the plant has been silent for --timeout-ms in lockstep; prints a summary.
+ * Exit status: 0 normal end, 1 I/O or set-up error, 2 usage.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "socketcan.h"
+#include "sp/node.h"
+
+static volatile sig_atomic_t g_stop = 0;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    g_stop = 1;
+}
+
+static int64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static void usage(void)
+{
+    fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
+                    "                     [--no-feedforward] [--timeout-ms MS]\n");
+}
+
+typedef struct {
+    uint64_t ticks;
+    uint64_t misses;
+    int64_t worst_ns;
+    int64_t sum_ns;
+    uint64_t tx_busy;
+} run_stats_t;
+
+static void drain(sp_can_port_t *port, sp_node_t *node)
+{
+    sp_can_frame_t rx[32];
+    for (int rounds = 0; rounds < 64; rounds++) {
+        uint32_t got = 0;
+        (void)port->receive(port->ctx, rx, 32u, &got);
+        for (uint32_t k = 0; k < got; k++) {
+            (void)sp_node_receive(node, &rx[k], NULL);
+        }
+        if (got < 32u) {
+            break;
+        }
+    }
+}
+
+static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, run_stats_t *rs)
+{
+    sp_can_frame_t tx[SP_NODE_MAX_TX];
+    uint32_t n = 0, sent = 0;
+    int64_t t0 = now_ns();
+    (void)sp_node_tick(cfg, node, tx, &n);
+    int64_t dt = now_ns() - t0;
+    rs->sum_ns += dt;
+    if (dt > rs->worst_ns) {
+        rs->worst_ns = dt;
+    }
+    if (port->send(port->ctx, tx, n, &sent) != SP_OK || sent != n) {
+        rs->tx_busy++;
+    }
+    rs->ticks++;
+}
+
+int main(int argc, char **argv)
+{
+    const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
+    int lockstep = 0, ff = 1;
+    unsigned long long max_ticks = 0;
+    long timeout_ms = 5000;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
+        if (strcmp(a, "--lockstep") == 0) {
+            lockstep = 1;
+        } else if (strcmp(a, "--no-feedforward") == 0) {
+            ff = 0;
+        } else if (v != NULL && strcmp(a, "--ops") == 0) {
+            ifs[0] = v, i++;
+        } else if (v != NULL && strcmp(a, "--axis-a") == 0) {
+            ifs[1] = v, i++;
+        } else if (v != NULL && strcmp(a, "--axis-b") == 0) {
+            ifs[2] = v, i++;
+        } else if (v != NULL && strcmp(a, "--ticks") == 0) {
+            char *end;
+            max_ticks = strtoull(v, &end, 10), i++;
+            if (*end != '\0') {
+                usage();
+                return 2;
+            }
+        } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
+            char *end;
+            timeout_ms = strtol(v, &end, 10), i++;
+            if (*end != '\0' || timeout_ms <= 0) {
+                usage();
+                return 2;
+            }
+        } else {
+            usage();
+            return 2;
+        }
+    }
+
+    static sp_node_config_t cfg;
+    static sp_node_t node;
+    if (sp_node_default_config(&cfg, &sp_platform_default) != SP_OK) {
+        fprintf(stderr, "sp_controller: the default platform is not usable\n");
+        return 1;
+    }
+    cfg.sync_master = (uint8_t)(lockstep ? 0 : 1);
+    cfg.ctrl.force_feedforward = (uint8_t)ff;
+    (void)sp_node_init(&node, &cfg);
+
+    /* The controller listens to what is addressed to it. */
+    sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
+    memset(bc, 0, sizeof bc);
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){ifs[0], {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE}, 2u};
+    for (int b = 1; b <= 2; b++) {
+        bc[b] = (sp_socketcan_bus_cfg_t){ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, lockstep ? 4u : 3u};
+        if (!lockstep) { /* we are the cycle master: only feedback */
+            bc[b].rx_ids[0] = 0x31u, bc[b].rx_ids[1] = 0x32u, bc[b].rx_ids[2] = 0x33u;
+        }
+    }
+    static sp_socketcan_t sc;
+    if (sp_socketcan_open(&sc, bc) != SP_OK) {
+        fprintf(stderr, "sp_controller: %s\n", sc.error);
+        return 1;
+    }
+    sp_can_port_t port = sp_socketcan_port(&sc);
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s\n", lockstep ? "lockstep" : "real-time",
+            ifs[0], ifs[1], ifs[2], ff ? "on" : "off");
+
+    run_stats_t rs;
+    memset(&rs, 0, sizeof rs);
+    int rc = 0;
+    if (!lockstep) {
+        struct timespec next;
+        clock_gettime(CLOCK_MONOTONIC, &next);
+        while (!g_stop && (max_ticks == 0 || rs.ticks < max_ticks)) {
+            next.tv_nsec += 1000000;
+            if (next.tv_nsec >= 1000000000) {
+                next.tv_nsec -= 1000000000;
+                next.tv_sec++;
+            }
+            int r;
+            do {
+                r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL);
+            } while (r == EINTR && !g_stop);
+            /* late by more than a tick: count the missed deadlines, skip ahead */
+            struct timespec now;
+            clock_gettime(CLOCK_MONOTONIC, &now);
+            int64_t late = ((int64_t)now.tv_sec - next.tv_sec) * 1000000000 + (now.tv_nsec - next.tv_nsec);
+            if (late > 1000000) {
+                uint64_t missed = (uint64_t)(late / 1000000);
+                rs.misses += missed;
+                next = now;
+            }
+            drain(&port, &node);
+            tick(&port, &cfg, &node, &rs);
+        }
+    } else {
+        struct pollfd pfd[SP_CAN_BUSES];
+        for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
+            pfd[b].fd = sp_socketcan_fd(&sc, b);
+            pfd[b].events = POLLIN;
+        }
+        int64_t last_sync = now_ns();
+        while (!g_stop && (max_ticks == 0 || rs.ticks < max_ticks)) {
+            int r = poll(pfd, SP_CAN_BUSES, 100);
+            if (r < 0 && errno != EINTR) {
+                perror("sp_controller: poll");
+                rc = 1;
+                break;
+            }
+            drain(&port, &node);
+            uint32_t t;
+            if (sp_node_cycle_ready(&node, &t)) {
+                tick(&port, &cfg, &node, &rs);
+                last_sync = now_ns();
+            } else if (now_ns() - last_sync > (int64_t)timeout_ms * 1000000) {
+                fprintf(stderr, "sp_controller: no SYNC from the plant for %ld ms, stopping\n", timeout_ms);
+                break;
+            }
+        }
+    }
+
+    printf("sp_controller summary: ticks %llu, state %s, faults 0x%04x, deadline misses %llu, "
+           "tick compute mean %lld ns worst %lld ns, tx busy %llu\n",
+           (unsigned long long)rs.ticks, sp_state_name(node.out.state), (unsigned)node.out.faults,
+           (unsigned long long)rs.misses, rs.ticks ? (long long)(rs.sum_ns / (int64_t)rs.ticks) : 0LL,
+           (long long)rs.worst_ns, (unsigned long long)rs.tx_busy);
+    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u", node.stats.accepted,
+           node.stats.lost, node.stats.stale, node.stats.saturated);
+    for (int e = 1; e < SP_PROTO_ERRORS; e++) {
+        printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), node.stats.rejected[e]);
+    }
+    printf("\n");
+    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
+        sp_bus_status_t bs;
+        (void)port.bus_status(port.ctx, b, &bs);
+        printf("sp_controller bus %s: tx %u rx %u dropped %u overruns %u error frames %u bus-off %u\n", ifs[b],
+               bs.tx_frames, bs.rx_frames, bs.tx_dropped, bs.rx_overruns, bs.error_frames, bs.bus_off);
+    }
+    sp_socketcan_close(&sc);
+    return rc;
+}
