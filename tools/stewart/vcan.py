@@ -334,7 +334,8 @@ def _pump(fd: int, sink: Callable[[bytes], None]) -> None:
 # ------------------------------------------------------------------- host
 
 
-def _run_host(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict) -> int:
+def _run_host(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict,
+              verbose: bool = False) -> int:
     created: list[str] = []
     restore_mtu: dict[str, int] = {}
     want = MTU_FD if fd else MTU_CLASSIC
@@ -369,6 +370,9 @@ def _run_host(argv: Sequence[str], count: int, fd: bool, timeout: float, env: di
             except PermissionError as e:
                 print(f"stewart vcan: {argv[0]}: {e.strerror}", file=sys.stderr)
                 return 126
+            if verbose:
+                print(f"stewart vcan: host: command pid {proc.pid} (process group {proc.pid}); "
+                      f"created {' '.join(created) or 'no interface'}", file=sys.stderr)
             return _supervise(proc, timeout, grace=_KILL_GRACE)[0]
     finally:
         for name in created:
@@ -640,7 +644,7 @@ def run(argv: Sequence[str], count: int = 3, fd: bool = True, timeout: float = 6
     env = dict(os.environ)
     if backend == "host":
         try:
-            return _run_host(argv, count, fd, timeout, env)
+            return _run_host(argv, count, fd, timeout, env, verbose)
         except VcanError as e:
             print(f"stewart vcan: host: {e}", file=sys.stderr)
             return EXIT_SETUP
