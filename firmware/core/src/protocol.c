@@ -30,12 +30,12 @@ static sp_q24_t to_q24(int64_t v)
 
 /* Q24 <-> bus units. 1 um (1e-6): 2^24 / 1e6 = 262144 / 15625. */
 #define I24_MAX 8388607
-#define I24_MIN (-8388608)
+#define I24_MIN (-8388607) /* signed ranges are symmetric: the DBC's minimum */
 static uint32_t q24_to_um_u24(sp_q24_t q, int *sat) { return (uint32_t)clamp(muldiv(q, 15625, 262144), 0, 16777215, sat); }
 static int32_t q24_to_um_i24(sp_q24_t q, int *sat) { return (int32_t)clamp(muldiv(q, 15625, 262144), I24_MIN, I24_MAX, sat); }
 static sp_q24_t um_to_q24(int64_t raw) { return to_q24(muldiv(raw, 262144, 15625)); }
 /* 5e-5 m/s: 2^24 * 5e-5 = 524288 / 625 */
-static int16_t q24_to_vel(sp_q24_t q, int *sat) { return (int16_t)clamp(muldiv(q, 625, 524288), INT16_MIN, INT16_MAX, sat); }
+static int16_t q24_to_vel(sp_q24_t q, int *sat) { return (int16_t)clamp(muldiv(q, 625, 524288), -INT16_MAX, INT16_MAX, sat); }
 static sp_q24_t vel_to_q24(int64_t raw) { return to_q24(muldiv(raw, 524288, 625)); }
 /* 0.02 N in Q8: 0.02 * 256 = 128 / 25 */
 static int32_t q8_to_force(sp_q8_t q, int *sat) { return (int32_t)clamp(muldiv(q, 25, 128), I24_MIN, I24_MAX, sat); }
@@ -46,6 +46,17 @@ static sp_q24_t amp_to_q24(int64_t raw) { return to_q24(muldiv(raw, 524288, 3125
 /* 1e-3 Hz: 2^24 * 1e-3 = 2097152 / 125 */
 static uint16_t q24_to_freq(sp_q24_t q, int *sat) { return (uint16_t)clamp(muldiv(q, 125, 2097152), 0, UINT16_MAX, sat); }
 static sp_q24_t freq_to_q24(int64_t raw) { return to_q24(muldiv(raw, 2097152, 125)); }
+
+/* 1 if any signed raw value is the (excluded) most negative one. */
+static int below_i24(const int32_t *v, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        if (v[i] < I24_MIN) {
+            return 1;
+        }
+    }
+    return 0;
+}
 
 const char *sp_proto_error_name(sp_proto_error_t e)
 {
@@ -206,7 +217,9 @@ sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_
     if (stewart_can_axis_setpoints_unpack(&s, f->data, f->len) != 0) {
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
-    if (s.mode > 1u) {
+    const int32_t forces[3] = {s.force_1, s.force_2, s.force_3};
+    if (s.mode > 1u || s.velocity_1 < -INT16_MAX || s.velocity_2 < -INT16_MAX || s.velocity_3 < -INT16_MAX ||
+        below_i24(forces, 3u)) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
     m->tick = s.tick;
@@ -346,7 +359,7 @@ sp_status_t sp_proto_decode_command(const sp_can_frame_t *f, sp_msg_command_t *m
     if (stewart_can_op_command_unpack(&s, f->data, f->len) != 0) {
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
-    if (s.command > SP_CMD_SET_FEEDFORWARD || s.axis > 5u || s.option > 1u) {
+    if (s.command > SP_CMD_SET_FEEDFORWARD || s.axis > 5u || s.option > 1u || below_i24(&s.amplitude, 1u)) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
     m->command = s.command;
@@ -395,6 +408,9 @@ sp_status_t sp_proto_decode_target(const sp_can_frame_t *f, sp_pose_t *m, uint8_
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
     const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
+    if (below_i24(v, 6u)) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
     pose_from_bus(v, m);
     *counter = s.counter;
     return SP_OK;
@@ -444,7 +460,8 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
     if (stewart_can_ctrl_status_unpack(&s, f->data, f->len) != 0) {
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
-    if (s.state > 6u) {
+    const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
+    if (s.state > 6u || s.fk_iterations > 15u || below_i24(v, 6u)) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
     m->tick = s.tick;
@@ -455,7 +472,6 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
     m->cmd_rejected = s.cmd_rejected;
     m->drive_mode = s.drive_mode;
     m->feedforward = s.feed_forward;
-    const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
     pose_from_bus(v, &m->estimate);
     *counter = s.counter;
     return SP_OK;
@@ -510,11 +526,14 @@ sp_status_t sp_proto_decode_monitor(const sp_can_frame_t *f, sp_msg_monitor_t *m
     if (stewart_can_ctrl_monitor_unpack(&s, f->data, f->len) != 0) {
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
-    m->tick = s.tick;
     const int32_t v[6] = {s.ref_x, s.ref_y, s.ref_z, s.ref_roll, s.ref_pitch, s.ref_yaw};
+    const int32_t frc[6] = {s.force_ff_1, s.force_ff_2, s.force_ff_3, s.force_ff_4, s.force_ff_5, s.force_ff_6};
+    if (below_i24(v, 6u) || below_i24(frc, 6u)) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->tick = s.tick;
     pose_from_bus(v, &m->reference);
     const uint32_t len[6] = {s.length_sp_1, s.length_sp_2, s.length_sp_3, s.length_sp_4, s.length_sp_5, s.length_sp_6};
-    const int32_t frc[6] = {s.force_ff_1, s.force_ff_2, s.force_ff_3, s.force_ff_4, s.force_ff_5, s.force_ff_6};
     for (uint32_t i = 0; i < SP_LEGS; i++) {
         m->length_sp[i] = um_to_q24(len[i]);
         m->force_ff[i] = force_to_q8(frc[i]);
