@@ -12,5 +12,6 @@ echo "== ctest (host-debug)"
 ctest --preset host-debug
 echo "== pytest"
 .venv/bin/pytest -q tests/python
+scripts/fuzz.sh 10
 echo "== bus tests over SocketCAN vcan (user-mode Linux where the kernel has no CAN)"
 .venv/bin/stewart vcan --fd -- .venv/bin/pytest -q tests/bus
