@@ -588,7 +588,7 @@ def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dic
                 p.start()
             status, ended = _supervise(proc, timeout, grace=0.0)
         for p in pumps:
-            p.join(timeout=5.0)
+            p.join(timeout=60.0)
         wall = time.monotonic() - t0
 
         result = (Path(state) / "status")
