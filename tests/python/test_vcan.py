@@ -217,3 +217,12 @@ def test_bad_arguments():
     with pytest.raises(vcan.VcanError):
         vcan.run(["true"], mem="lots")
     assert vcan.parse_mem("512M") == 512 << 20
+
+
+def test_python_api_in_process(capsys):
+    rc = vcan.run(["sh", "-c", "echo api $(cat /sys/class/net/vcan1/mtu); echo e >&2; exit 3"],
+                  count=2, fd=True, timeout=RUN_LIMIT)
+    assert rc == 3
+    out, err = capsys.readouterr()
+    assert out == "api 72\n"
+    assert err == "e\n"

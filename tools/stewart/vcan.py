@@ -299,6 +299,10 @@ def _writer(stream) -> Callable[[bytes], None]:
     """A function writing raw bytes to ``stream`` at once (binary buffer when
     it has one, else decoded text), ignoring a closed reader."""
     buf = getattr(stream, "buffer", None)
+    try:
+        stream.flush()  # what was printed before comes first
+    except (ValueError, OSError):
+        pass
 
     def write(data: bytes) -> None:
         try:
