@@ -1,0 +1,298 @@
+/*
+ * icount.c - instructions executed by the fixed-point core on a Cortex-M4
+ * (QEMU mps2-an386 under -icount shift=7,sleep=off; m4_count.h): inverse
+ * kinematics, leg rates, inverse dynamics, forward kinematics warm-started
+ * about one tick away, the fixed-point primitives they are made of, and the
+ * whole controller tick over the golden scenario (ENGAGE, the paper's 90 mm
+ * 0.5 Hz surge, PARK; ideal plant), by state, against the budget of issue 7
+ * (<= 10,000 instructions per tick). Also the stack the tick uses (measured
+ * high-water mark) and the controller's RAM. The motions are the first
+ * ones of golden.c (same generator, same seed). scripts/m4_bench.sh runs it next to icount_float.c.
+ * Exit status: 0, or 3 if the counter's calibration failed.
+ */
+#include "m4_count.h"
+#include "m4_io.h"
+#include "m4_vectors.h"
+#include "sp_mps2.h"
+
+#include "sp/controller.h"
+#include "sp/dynamics.h"
+#include "sp/kinematics.h"
+
+#define N_MOTIONS 2000u
+#define N_PRIM 1000u
+#define TICK_BUDGET 10000u
+#define FK_IT_ROWS 4u /* 0, 1, 2, 3 or more Newton steps */
+
+static sp_motion_t motions[N_MOTIONS];
+static sp_pose_t guesses[N_MOTIONS];
+static sp_ik_t ik;
+static sp_ik_t fk_ik;
+static volatile int32_t sink;
+
+/* The measured calls: never inlined, never analysed across (NOTES.md 5). */
+__attribute__((noipa)) static sp_status_t run_ik(const sp_pose_t *pose, sp_ik_t *out)
+{
+    return sp_inverse_kinematics(&sp_platform_default, pose, out);
+}
+
+__attribute__((noipa)) static sp_status_t run_rates(const sp_motion_t *m, const sp_ik_t *in, sp_q24_t *rate)
+{
+    return sp_leg_rates(in, m->pose.rpy, m->vel, m->rpy_rate, rate);
+}
+
+__attribute__((noipa)) static sp_status_t run_id(const sp_motion_t *m, const sp_ik_t *in, sp_q8_t *force)
+{
+    return sp_inverse_dynamics(&sp_platform_default, m, in, NULL, force);
+}
+
+__attribute__((noipa)) static sp_status_t run_fk(const sp_q24_t *length, const sp_pose_t *guess,
+                                                 const sp_fk_options_t *opt, sp_pose_t *pose, sp_fk_info_t *info)
+{
+    return sp_forward_kinematics(&sp_platform_default, length, guess, opt, pose, &fk_ik, info);
+}
+
+__attribute__((noipa)) static sp_status_t run_tick(m4_scenario_t *s)
+{
+    return sp_ctrl_step(&s->cfg, &s->ctrl, &s->in, &s->out);
+}
+
+__attribute__((noipa)) static void run_sincos(sp_q24_t a, sp_q30_t *s, sp_q30_t *c)
+{
+    sp_sincos_q24(a, s, c);
+}
+
+__attribute__((noipa)) static int32_t run_div(int64_t n, int32_t d, sp_flags_t *fl)
+{
+    return sp_div(n, d, 30u, fl);
+}
+
+__attribute__((noipa)) static int64_t run_div64(int64_t n, int32_t d, sp_flags_t *fl)
+{
+    return sp_div64(n, d, 28u, fl);
+}
+
+__attribute__((noipa)) static int64_t run_mul64(int64_t x, int32_t k, sp_flags_t *fl)
+{
+    return sp_mul64(x, k, 30u, fl);
+}
+
+__attribute__((noipa)) static uint32_t run_isqrt(uint64_t v)
+{
+    return sp_isqrt64(v);
+}
+
+__attribute__((noipa)) static int32_t run_dot3(const int32_t *a, const int32_t *b, sp_flags_t *fl)
+{
+    return sp_dot3(a, b, 30u, fl);
+}
+
+static void primitives(m4_rng_t *rng)
+{
+    m4_stat_t s[6];
+    sp_flags_t fl = 0u;
+    uint32_t n;
+    unsigned k;
+
+    for (k = 0u; k < 6u; ++k) {
+        m4_stat_reset(&s[k]);
+    }
+    /* Arguments of the sizes the kinematics uses: angles within +-pi,
+     * a Q24 leg component over a Q24 length (unit vectors), Q24 forces over
+     * Q28 pivots, squared lengths (Q48), Q30 x Q24 dot products. */
+    for (n = 0u; n < N_PRIM; ++n) {
+        sp_q30_t sn;
+        sp_q30_t cs;
+        int32_t a[3];
+        int32_t b[3];
+        int32_t len = 33554432 + m4_rng_range(rng, 16777216); /* 1..3 m */
+        int32_t comp = m4_rng_range(rng, len);
+        int64_t wide = (int64_t)m4_rng_range(rng, 1 << 30) * 4096; /* Q24 force up to ~5 MN */
+        int32_t piv = 67108864 + m4_rng_range(rng, 67108864);      /* Q28 0..0.5 */
+        uint32_t net;
+        for (k = 0u; k < 3u; ++k) {
+            a[k] = m4_rng_range(rng, 1 << 30);
+            b[k] = m4_rng_range(rng, 1 << 26);
+        }
+        M4_MEASURE(net, run_sincos(m4_rng_range(rng, 52707178), &sn, &cs));
+        m4_stat_add(&s[0], net);
+        M4_MEASURE(net, sink = run_div(comp, len, &fl));
+        m4_stat_add(&s[1], net);
+        M4_MEASURE(net, sink = (int32_t)run_div64(wide, piv, &fl));
+        m4_stat_add(&s[2], net);
+        M4_MEASURE(net, sink = (int32_t)run_mul64(wide, a[0], &fl));
+        m4_stat_add(&s[3], net);
+        M4_MEASURE(net, sink = (int32_t)run_isqrt((uint64_t)len * (uint64_t)len));
+        m4_stat_add(&s[4], net);
+        M4_MEASURE(net, sink = run_dot3(a, b, &fl));
+        m4_stat_add(&s[5], net);
+        sink = sn + cs;
+    }
+    m4_stat_print("sincos", "sp_sincos_q24 (|angle| <= pi)", &s[0]);
+    m4_stat_print("div", "sp_div (Q24 / Q24 -> Q30, unit vector)", &s[1]);
+    m4_stat_print("div64", "sp_div64 (shift 28, back substitution)", &s[2]);
+    m4_stat_print("mul64", "sp_mul64 (shift 30)", &s[3]);
+    m4_stat_print("isqrt64", "sp_isqrt64 (a squared length, Q48)", &s[4]);
+    m4_stat_print("dot3", "sp_dot3 (shift 30)", &s[5]);
+}
+
+static void kinematics(void)
+{
+    m4_stat_t s_ik;
+    m4_stat_t s_rates;
+    m4_stat_t s_id;
+    m4_stat_t s_fk;
+    m4_stat_t s_fk_it[FK_IT_ROWS];
+    sp_fk_options_t opt;
+    uint32_t failures = 0u;
+    uint32_t n;
+    unsigned k;
+
+    sp_fk_default_options(&opt);
+    m4_stat_reset(&s_ik);
+    m4_stat_reset(&s_rates);
+    m4_stat_reset(&s_id);
+    m4_stat_reset(&s_fk);
+    for (k = 0u; k < FK_IT_ROWS; ++k) {
+        m4_stat_reset(&s_fk_it[k]);
+    }
+    for (n = 0u; n < N_MOTIONS; ++n) {
+        sp_q24_t rate[SP_LEGS];
+        sp_q8_t force[SP_LEGS];
+        sp_pose_t pose;
+        sp_fk_info_t info;
+        sp_status_t st[4];
+        uint32_t net;
+
+        M4_MEASURE(net, st[0] = run_ik(&motions[n].pose, &ik));
+        m4_stat_add(&s_ik, net);
+        M4_MEASURE(net, st[1] = run_rates(&motions[n], &ik, rate));
+        m4_stat_add(&s_rates, net);
+        M4_MEASURE(net, st[2] = run_id(&motions[n], &ik, force));
+        m4_stat_add(&s_id, net);
+        M4_MEASURE(net, st[3] = run_fk(ik.length, &guesses[n], &opt, &pose, &info));
+        m4_stat_add(&s_fk, net);
+        m4_stat_add(&s_fk_it[info.iterations < FK_IT_ROWS ? info.iterations : FK_IT_ROWS - 1u], net);
+        for (k = 0u; k < 4u; ++k) {
+            failures += (st[k] != SP_OK) ? 1u : 0u;
+        }
+        sink = rate[0] + force[0] + pose.pos[0];
+    }
+    m4_stat_print("ik", "sp_inverse_kinematics", &s_ik);
+    m4_stat_print("rates", "sp_leg_rates (after IK)", &s_rates);
+    m4_stat_print("id", "sp_inverse_dynamics (after IK)", &s_id);
+    m4_stat_print("fk", "sp_forward_kinematics (warm, +-1 mm/mrad)", &s_fk);
+    m4_stat_print("fk_1", "  of which 1 Newton step", &s_fk_it[1]);
+    m4_stat_print("fk_2", "  of which 2 Newton steps", &s_fk_it[2]);
+    m4_stat_print("fk_3", "  of which 3 or more Newton steps", &s_fk_it[3]);
+    if (failures != 0u) {
+        m4_out_str("warning: ");
+        m4_out_u32(failures);
+        m4_out_str(" of these calls did not return SP_OK");
+        m4_out_nl();
+    }
+}
+
+static void controller(void)
+{
+    static m4_scenario_t sc;
+    m4_stat_t by_state[7];
+    m4_stat_t all;
+    uintptr_t top;
+    uint32_t stack;
+    uint32_t over = 0u;
+    unsigned k;
+    static const char *const names[7] = {
+        "tick in IDLE", "tick in ENGAGING", "tick in READY", "tick in RUNNING (the surge)",
+        "tick in PARKING", "tick in FAULT", "tick in ESTOP",
+    };
+    static const char *const keys[7] = {
+        "tick_idle", "tick_engaging", "tick_ready", "tick_running", "tick_parking", "tick_fault", "tick_estop",
+    };
+
+    for (k = 0u; k < 7u; ++k) {
+        m4_stat_reset(&by_state[k]);
+    }
+    m4_stat_reset(&all);
+    (void)m4_scenario_init(&sc, &sp_platform_default);
+    sp_mps2_stack_paint();
+    top = sp_mps2_stack_pointer();
+    while (m4_scenario_prepare(&sc)) {
+        sp_state_t before = sc.ctrl.state;
+        uint32_t net;
+        M4_MEASURE(net, sink = (int32_t)run_tick(&sc));
+        if ((unsigned)before < 7u) {
+            m4_stat_add(&by_state[before], net);
+        }
+        m4_stat_add(&all, net);
+        over += (net > TICK_BUDGET * 16u) ? 1u : 0u;
+        m4_scenario_finish(&sc);
+    }
+    stack = sp_mps2_stack_used(top);
+    for (k = 0u; k < 7u; ++k) {
+        if (by_state[k].calls != 0u) {
+            m4_stat_print(keys[k], names[k], &by_state[k]);
+        }
+    }
+    m4_stat_print("tick_all", "tick, every state", &all);
+    m4_out_str("scenario: ");
+    m4_out_u32(sc.ticks);
+    m4_out_str(" ticks, final state ");
+    m4_out_str(sp_state_name(sc.out.state));
+    m4_out_str(", faults");
+    m4_out_hex(sc.out.faults);
+    m4_out_nl();
+    m4_out_str("budget: whole tick <= ");
+    m4_out_u32(TICK_BUDGET);
+    m4_out_str(" instructions: RUNNING mean ");
+    m4_out_fix16(m4_stat_mean16(&by_state[SP_STATE_RUNNING]));
+    m4_out_str(", max ");
+    m4_out_fix16(by_state[SP_STATE_RUNNING].max16);
+    m4_out_str("; any state max ");
+    m4_out_fix16(all.max16);
+    m4_out_str(" -> ");
+    m4_out_str(over == 0u ? "within budget" : "OVER BUDGET in ");
+    if (over != 0u) {
+        m4_out_u32(over);
+        m4_out_str(" ticks");
+    }
+    m4_out_nl();
+    m4_out_str("stack: sp_ctrl_step used at most ");
+    m4_out_u32(stack);
+    m4_out_str(" bytes (high-water mark over the scenario, call included)");
+    m4_out_nl();
+    m4_out_str("RAM of the controller: sp_ctrl_t ");
+    m4_out_u32((uint32_t)sizeof(sp_ctrl_t));
+    m4_out_str(" + sp_ctrl_config_t ");
+    m4_out_u32((uint32_t)sizeof(sp_ctrl_config_t));
+    m4_out_str(" + input ");
+    m4_out_u32((uint32_t)sizeof(sp_ctrl_input_t));
+    m4_out_str(" + output ");
+    m4_out_u32((uint32_t)sizeof(sp_ctrl_output_t));
+    m4_out_str(" bytes");
+    m4_out_nl();
+}
+
+int main(void)
+{
+    m4_rng_t rng;
+    uint32_t n;
+
+    m4_out_str("== Cortex-M4 instruction counts, fixed point (QEMU mps2-an386, -icount shift=7,sleep=off; "
+               "soft-float ABI; compiled for " M4_OPTIMISATION ")");
+    m4_out_nl();
+    if (m4_count_init() != 0) {
+        (void)m4_out_flush();
+        return 3;
+    }
+    m4_rng_seed(&rng, M4_SEED);
+    for (n = 0u; n < N_MOTIONS; ++n) {
+        m4_random_motion(&rng, &sp_platform_default, &motions[n]);
+        m4_nearby_pose(&rng, &motions[n].pose, &guesses[n]);
+    }
+    m4_stat_header();
+    kinematics();
+    primitives(&rng);
+    controller();
+    return m4_out_flush() == 0 ? 0 : 2;
+}

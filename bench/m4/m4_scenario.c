@@ -1,0 +1,75 @@
+/*
+ * m4_scenario.c - the controller scenario of the bench/m4 programs
+ * (m4_vectors.h): ENGAGE, the paper's surge, PARK, with an ideal plant.
+ */
+#include "m4_vectors.h"
+
+#include "sp/kinematics.h"
+
+sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform)
+{
+    sp_ik_t park;
+    sp_status_t st;
+    unsigned i;
+    uint8_t *bytes = (uint8_t *)s;
+
+    for (i = 0u; i < sizeof *s; ++i) {
+        bytes[i] = 0u; /* inputs, outputs, counters and padding all zero */
+    }
+    st = sp_ctrl_default_config(&s->cfg, platform);
+    if (st == SP_OK) {
+        st = sp_ctrl_init(&s->ctrl, &s->cfg);
+    }
+    if (st == SP_OK) {
+        st = sp_inverse_kinematics(platform, &platform->park, &park);
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        s->in.drive[i].length = (st == SP_OK) ? park.length[i] : 0;
+    }
+    return st;
+}
+
+int m4_scenario_prepare(m4_scenario_t *s)
+{
+    unsigned i;
+    if (s->ticks >= M4_MAX_TICKS || s->tail >= M4_TAIL_TICKS) {
+        return 0;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        s->in.drive[i].fresh = 1u;
+    }
+    s->in.cmd.type = SP_CMD_NONE;
+    if (s->ticks == 1u) {
+        s->in.cmd.type = SP_CMD_ENGAGE;
+    } else if (!s->run_sent && s->ticks > 1u && s->out.state == SP_STATE_READY) {
+        s->in.cmd.type = SP_CMD_RUN_TRIG;
+        s->in.cmd.axis = SP_AXIS_X;
+        s->in.cmd.amplitude = 1509949; /* 90 mm */
+        s->in.cmd.frequency = SP_Q24_ONE / 2; /* 0.5 Hz */
+        s->run_sent = 1u;
+    } else if (s->run_sent && !s->park_sent && s->running_ticks >= M4_RUN_TICKS) {
+        s->in.cmd.type = SP_CMD_PARK;
+        s->park_sent = 1u;
+    }
+    return 1;
+}
+
+void m4_scenario_finish(m4_scenario_t *s)
+{
+    unsigned i;
+    ++s->ticks;
+    if ((unsigned)s->out.state < 32u) {
+        s->visited |= UINT32_C(1) << (unsigned)s->out.state;
+    }
+    if (s->out.state == SP_STATE_RUNNING) {
+        ++s->running_ticks;
+    }
+    if (s->park_sent && s->out.state == SP_STATE_IDLE) {
+        ++s->tail;
+    }
+    if (s->out.drive_mode == SP_DRIVE_ACTIVE) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            s->in.drive[i].length = s->out.setpoint[i].length;
+        }
+    }
+}

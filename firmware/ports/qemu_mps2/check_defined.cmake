@@ -1,0 +1,18 @@
+# Script mode: fails if FILE (an executable) defines a symbol matching REGEX
+# in full (e.g. heap code, or soft-float helpers in a hard-float program).
+execute_process(COMMAND ${NM} ${FILE} OUTPUT_VARIABLE symbols RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "${NM} ${FILE} failed (${rc})")
+endif()
+string(REPLACE "\n" ";" lines "${symbols}")
+set(hits "")
+foreach(line IN LISTS lines)
+  if(line MATCHES "^[0-9a-fA-F]+ [A-Za-z] (${REGEX})$")
+    list(APPEND hits "${CMAKE_MATCH_1}")
+  endif()
+endforeach()
+if(hits)
+  list(REMOVE_DUPLICATES hits)
+  string(REPLACE ";" " " hits "${hits}")
+  message(FATAL_ERROR "${FILE} contains forbidden code: ${hits}")
+endif()
