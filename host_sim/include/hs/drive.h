@@ -1,0 +1,116 @@
+/*
+ * hs/drive.h - the axis drive of one cylinder, in the spirit of a CiA 408
+ * servo valve in axis-position mode: it receives a setpoint (length,
+ * velocity and force) once per cycle, runs its position loop at every
+ * substep of the plant, and reports a state and fault bits.
+ *
+ * States (values as the DBC's DriveState):
+ *   INIT   (0) before the first setpoint: valve at null (cylinder locked by
+ *              its oil, drifting only by leakage).
+ *   HOLD   (1) position loop on the length latched on entering HOLD.
+ *   ACTIVE (2) position loop on the setpoint, interpolated within the cycle
+ *              with its velocity: target = length + velocity * age.
+ *   FAULT  (3) valve at null; left only by hs_drive_clear_faults (-> INIT).
+ * Requests (the DBC's Mode): HS_REQ_HOLD (0), HS_REQ_ACTIVE (1).
+ *   INIT/HOLD/ACTIVE + HOLD request   -> HOLD (latches the measured length)
+ *   INIT/HOLD + ACTIVE request        -> ACTIVE, unless the timeout bit is
+ *                                        latched (then HOLD: clear it first)
+ *   FAULT + any request               -> FAULT
+ * Watchdog: in ACTIVE, each cycle that starts without a new setpoint counts;
+ * after timeout_cycles such cycles in a row the drive enters HOLD and sets
+ * HS_FAULT_TIMEOUT. Until then it keeps extrapolating the last setpoint.
+ *
+ * Control law (every substep, h seconds):
+ *   e   = target - L_measured                           (m)
+ *   e_F = F_ref - (p_A A_A - p_B A_B)_measured           (N)
+ *   y   = e_F - lp,  lp += h w_hp (e_F - lp)             (high-pass of e_F)
+ *   u   = kp e + ff_gain * hs_cyl_velocity_command(v_sp, F_sp) + kf y,  |u| <= 1
+ * F_ref is the force setpoint in ACTIVE and the force measured on entering
+ * HOLD. The velocity feed-forward is the flow the setpoint velocity needs at
+ * the load pressure of the force setpoint; the high-passed force error is a
+ * dynamic pressure feedback that damps the oil-column resonance and builds
+ * the pressure a force change needs without offsetting the position.
+ * Faults: |e| > following_error_max in ACTIVE -> FAULT + HS_FAULT_FOLLOWING.
+ */
+#ifndef HS_DRIVE_H
+#define HS_DRIVE_H
+
+#include "hs/params.h"
+
+typedef enum {
+    HS_DRIVE_INIT = 0,
+    HS_DRIVE_HOLD = 1,
+    HS_DRIVE_ACTIVE = 2,
+    HS_DRIVE_FAULT = 3
+} hs_drive_state_t;
+
+typedef enum {
+    HS_REQ_HOLD = 0,
+    HS_REQ_ACTIVE = 1
+} hs_drive_request_t;
+
+/* Fault bits (the DBC's Faults signal). Latched until hs_drive_clear_faults. */
+#define HS_FAULT_TIMEOUT 0x01u   /**< bit 0: no setpoint for timeout_cycles (-> HOLD) */
+#define HS_FAULT_FOLLOWING 0x02u /**< bit 1: following error (-> FAULT) */
+#define HS_FAULT_END_STOP 0x04u  /**< bit 2: cylinder beyond a stroke end (warning) */
+#define HS_FAULT_SENSOR 0x08u    /**< bit 3: length sensor implausible (-> FAULT) */
+#define HS_FAULT_VALVE 0x10u     /**< bit 4: valve fault (-> FAULT; raised from outside) */
+#define HS_FAULT_PRESSURE 0x20u  /**< bit 5: a chamber pressure at 0 or at the relief limit (warning) */
+#define HS_FAULT_COMM 0x40u      /**< bit 6: communication (E2E) fault (warning; raised by the bus layer) */
+#define HS_FAULT_INTERNAL 0x80u  /**< bit 7: non-finite state (-> FAULT) */
+/** Bits whose occurrence puts the drive in FAULT. */
+#define HS_FAULTS_SEVERE (HS_FAULT_FOLLOWING | HS_FAULT_SENSOR | HS_FAULT_VALVE | HS_FAULT_INTERNAL)
+
+typedef struct {
+    hs_drive_state_t state;
+    uint32_t faults;            /**< latched fault bits */
+    hs_drive_request_t request; /**< last requested mode */
+    double sp_length;           /**< last length setpoint, m */
+    double sp_velocity;         /**< last velocity setpoint, m/s */
+    double sp_force;            /**< last force setpoint, N */
+    double sp_age;              /**< time since the start of the setpoint's cycle, s */
+    int fresh;                  /**< a setpoint arrived since the last cycle start */
+    uint32_t missed;            /**< consecutive ACTIVE cycles without a setpoint */
+    double hold_length;         /**< target in HOLD, m */
+    double hold_force;          /**< force reference in HOLD, N */
+    double force_lp;            /**< low-pass state of the force error, N */
+    int lp_valid;               /**< force_lp is initialised */
+    double ff_command;          /**< velocity feed-forward of the current setpoint (cached), -1..1 */
+    int ff_valid;               /**< ff_command belongs to the current setpoint */
+    double command;             /**< last valve command, -1..1 */
+    double error;               /**< last position error, m */
+} hs_drive_t;
+
+/** A drive in INIT with no faults. */
+void hs_drive_init(hs_drive_t *d);
+
+/**
+ * Stores a setpoint (length m, velocity m/s, force N, requested mode) for
+ * the next cycle. HS_E_ARG for NULL, a non-finite value or an unknown mode
+ * (the setpoint is then ignored: it does not feed the watchdog).
+ */
+hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, double force,
+                              hs_drive_request_t mode);
+
+/**
+ * Start of a cycle: applies the request of a fresh setpoint (state
+ * transitions), runs the watchdog. meas_length (m) and meas_force (N) are
+ * the drive's current measurements, latched when entering HOLD.
+ */
+void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_length, double meas_force);
+
+/**
+ * One control substep of h seconds: returns the valve command (-1..1) from
+ * the measured length (m) and chamber pressures (Pa); 0 in INIT and FAULT.
+ * Checks the following error. Advances the setpoint age by h.
+ */
+double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_params_t *c, double meas_length,
+                       double meas_pa, double meas_pb, double h);
+
+/** Sets fault bits (e.g. HS_FAULT_COMM from the bus layer); severe bits put the drive in FAULT. */
+void hs_drive_raise(hs_drive_t *d, uint32_t bits);
+
+/** Clears all fault bits; FAULT -> INIT (valve at null until the next setpoint). */
+void hs_drive_clear_faults(hs_drive_t *d);
+
+#endif /* HS_DRIVE_H */

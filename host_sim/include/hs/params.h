@@ -1,0 +1,160 @@
+/*
+ * hs/params.h - parameters of the plant simulator.
+ *
+ * Two layers:
+ *  - hs_config_t mirrors config/platform_default.json key for key (SI units,
+ *    radians). hs_config_default is generated from that file at build time by
+ *    tools/stewart/gen_plant.py (which validates it with stewart.config), so
+ *    the plant, the firmware and the host tools read the same numbers.
+ *  - hs_params_t is what the plant computes with: areas, volumes, valve
+ *    coefficients and the drive gains derived from the config by
+ *    hs_params_from_config(). Tests may build a config by hand, or edit any
+ *    field of hs_params_t after deriving it (it is plain data, copied into the
+ *    plant by hs_plant_init).
+ *
+ * Frames (NOTES.md section 1): base frame at the base centroid o, z up;
+ * motion frame at the platform centroid o'; pose = [x, y, z, roll, pitch,
+ * yaw] with the column rotation motion->base R = Rz(yaw) Ry(pitch) Rx(roll).
+ */
+#ifndef HS_PARAMS_H
+#define HS_PARAMS_H
+
+#include <stdint.h>
+
+#include "hs/status.h"
+
+#define HS_LEGS 6
+
+/** config "hydraulic" section (see config/README.md), SI units. */
+typedef struct {
+    double piston_diameter;           /**< bore, m */
+    double rod_diameter;              /**< m, < bore */
+    double dead_volume;               /**< oil volume of each chamber at its stroke end (lines, ports), m^3 */
+    double piston_mass;               /**< piston + rod, kg (informational: leg masses are neglected) */
+    double bulk_modulus;              /**< effective oil bulk modulus, Pa */
+    double supply_pressure;           /**< Pa */
+    double tank_pressure;             /**< Pa */
+    double valve_rated_flow;          /**< flow per metering land at full opening and rated drop, m^3/s */
+    double valve_rated_pressure_drop; /**< drop per land at which the rated flow is given, Pa */
+    double valve_natural_frequency;   /**< spool natural frequency, Hz */
+    double valve_damping;             /**< spool damping ratio */
+    double leakage_coefficient;       /**< internal (piston) leakage A<->B, m^3/(s Pa) */
+    double viscous_friction;          /**< N s/m */
+    double coulomb_friction;          /**< N */
+    double end_cushion_length;        /**< length of the cushioned zone before each stroke end, m */
+    double end_stop_stiffness;        /**< N/m, beyond the stroke ends */
+    double end_stop_damping;          /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
+} hs_hydraulic_config_t;
+
+/** config "sensors" section. */
+typedef struct {
+    double length_resolution;   /**< leg length quantum, m */
+    double pressure_resolution; /**< chamber pressure quantum, Pa */
+    double pressure_noise;      /**< standard deviation of the pressure noise, Pa */
+    uint64_t seed;              /**< seed of the noise generator */
+} hs_sensor_config_t;
+
+/** The platform config file, key for key. */
+typedef struct {
+    const char *name;
+    double base_joints[HS_LEGS][3];     /**< B_i, base frame, m */
+    double platform_joints[HS_LEGS][3]; /**< A_im, motion frame, m */
+    double mass;                        /**< kg */
+    double inertia[3][3];               /**< about o', motion frame, kg m^2 */
+    double gravity;                     /**< m/s^2 along -z of the base frame */
+    double home[6];                     /**< pose */
+    double park[6];                     /**< pose */
+    double leg_length_min;              /**< joint-to-joint length at the lower stop, m */
+    double leg_length_max;              /**< joint-to-joint length at the upper stop, m */
+    double force_max;                   /**< N */
+    double leg_velocity_max;            /**< m/s */
+    hs_hydraulic_config_t hydraulic;
+    hs_sensor_config_t sensors;
+} hs_config_t;
+
+/** The default config, generated at build time from config/platform_default.json. */
+extern const hs_config_t hs_config_default;
+
+/** One cylinder with its servo valve, derived (see hs_params_from_config). */
+typedef struct {
+    double area_a;               /**< piston-side area pi D^2/4, m^2 */
+    double area_b;               /**< rod-side (annulus) area pi (D^2 - d^2)/4, m^2 */
+    double length_min;           /**< joint-to-joint length at stroke 0, m */
+    double stroke;               /**< usable stroke leg_length_max - leg_length_min, m */
+    double dead_volume_a;        /**< chamber A volume at stroke 0, m^3 */
+    double dead_volume_b;        /**< chamber B volume at full stroke, m^3 */
+    double piston_mass;          /**< kg, informational (not integrated) */
+    double bulk_modulus;         /**< Pa */
+    double supply_pressure;      /**< Pa */
+    double tank_pressure;        /**< Pa */
+    double pressure_max;         /**< chamber pressures are clamped to [0, pressure_max], Pa */
+    double valve_gain;           /**< K = rated flow / sqrt(rated drop), m^3/(s sqrt(Pa)) per land at full opening */
+    double valve_transition;     /**< orifice laminar transition pressure p_t (hs/cylinder.h), Pa */
+    double valve_omega;          /**< spool natural frequency, rad/s */
+    double valve_damping;        /**< spool damping ratio */
+    double leakage;              /**< m^3/(s Pa) */
+    double viscous_friction;     /**< N s/m */
+    double coulomb_friction;     /**< N */
+    double coulomb_velocity;     /**< Coulomb smoothing: full friction from |v| = v_s on (hs/cylinder.h), m/s */
+    double cushion_length;       /**< m */
+    double stop_stiffness;       /**< N/m */
+    double stop_damping;         /**< N s/m */
+} hs_cyl_params_t;
+
+/** Sensor model of every axis. */
+typedef struct {
+    double length_resolution;   /**< m, > 0 */
+    double pressure_resolution; /**< Pa, > 0 */
+    double pressure_noise;      /**< Pa (standard deviation), >= 0 */
+    uint64_t seed;
+} hs_sensor_params_t;
+
+/** Axis drive (position loop of each cylinder), see hs/drive.h. */
+typedef struct {
+    double kp;                  /**< valve command per metre of position error, 1/m */
+    double kf;                  /**< valve command per newton of high-passed force error, 1/N */
+    double force_highpass;      /**< corner of the high-pass on the force error, rad/s */
+    double ff_gain;             /**< scale of the velocity feed-forward (1 = the valve/cylinder model inverse) */
+    double following_error_max; /**< |position error| above which the drive faults, m */
+    uint32_t timeout_cycles;    /**< cycles without a setpoint in ACTIVE before HOLD + timeout bit, >= 1 */
+} hs_drive_params_t;
+
+/** Everything the plant needs. */
+typedef struct {
+    double base_joint[HS_LEGS][3];     /**< B_i, base frame, m */
+    double platform_joint[HS_LEGS][3]; /**< A_im, motion frame, m */
+    double mass;                       /**< moving mass, kg, > 0 */
+    double inertia[3][3];              /**< about o', motion frame, kg m^2, symmetric positive definite */
+    double gravity;                    /**< m/s^2, >= 0 */
+    double leg_length_min;             /**< m */
+    double leg_length_max;             /**< m */
+    double home[6];                    /**< neutral pose */
+    hs_cyl_params_t cyl[HS_LEGS];
+    hs_sensor_params_t sensors;
+    hs_drive_params_t drive;
+    uint32_t substeps;                 /**< RK4 steps per cycle, 1..1000 (default 10: 10 kHz at 1 ms) */
+} hs_params_t;
+
+/**
+ * Derives the plant parameters from a config: areas from the diameters,
+ * chamber dead volumes, valve coefficient K = Q_rated / sqrt(dp_rated),
+ * spool frequency in rad/s, pressure clamp at 1.2 x supply, laminar
+ * transition 1 bar, Coulomb smoothing 1 mm/s, and the drive gains from the
+ * hydraulic natural frequency at mid stroke with a sixth of the moving mass
+ * per cylinder (docs/plant.md: position loop gain w_h / 4, pressure
+ * feedback for a damping ratio of about 0.5). 10 substeps per cycle.
+ * Returns HS_E_ARG for NULL or a config that hs_params_check rejects.
+ */
+hs_status_t hs_params_from_config(const hs_config_t *config, hs_params_t *params);
+
+/** hs_params_from_config(&hs_config_default, params). */
+hs_status_t hs_params_default(hs_params_t *params);
+
+/**
+ * Checks that every value is finite and in its physical range (positive
+ * masses, areas, volumes; symmetric positive definite inertia; supply above
+ * tank; stroke positive; substeps 1..1000; ...). HS_OK or HS_E_ARG.
+ */
+hs_status_t hs_params_check(const hs_params_t *params);
+
+#endif /* HS_PARAMS_H */

@@ -1,0 +1,205 @@
+/*
+ * hs/plant.h - the simulated hydraulic hexapod: a 6-DOF rigid body driven by
+ * six cylinders (hs/cylinder.h) under their axis drives (hs/drive.h), with
+ * gravity, an external constant wrench and a spring-damper contact, and the
+ * drives' sensors (hs/sensor.h). Physics only: the bus binding calls this API.
+ *
+ * Rigid body (docs/plant.md): state p (o' in the base frame), v = p', unit
+ * quaternion q (motion -> base), w (angular velocity in the motion frame).
+ *   m v' = sum_i F_i u_i + (0, 0, -m g) + F_ext + F_contact
+ *   I w' = R^T (sum_i (R a_i) x F_i u_i + M_ext + r_c x F_contact) - w x (I w)
+ *   q'   = q (0, w) / 2,  p' = v
+ * with u_i the unit vector of leg i (from base joint B_i to platform joint
+ * p + R a_i), F_i the cylinder force along it (positive pushes out), I the
+ * full inertia tensor about o' in the motion frame. Leg masses are neglected,
+ * as in the paper and in the firmware's inverse dynamics (docs/plant.md says
+ * why). Integration: classic RK4, `substeps` fixed steps per cycle (default
+ * 10: 10 kHz for 1 ms cycles), quaternion renormalised after every step;
+ * the drives run once per substep with their command held over the step.
+ *
+ * Actuation modes: HS_ACT_HYDRAULIC (default: valves, chambers, friction,
+ * end stops; forces follow from the pressures) and HS_ACT_IDEAL (the six
+ * forces set by hs_plant_set_forces act exactly; no friction, no end stops;
+ * the hydraulic states are frozen and the drives do not run).
+ *
+ * Legs are indexed 0..5 here (legs 1..6 of the DBC). The plant is a plain
+ * struct: no heap, no globals, no clock; the same calls give bit-identical
+ * results.
+ */
+#ifndef HS_PLANT_H
+#define HS_PLANT_H
+
+#include <stdint.h>
+
+#include "hs/cylinder.h"
+#include "hs/drive.h"
+#include "hs/params.h"
+#include "hs/sensor.h"
+
+/* Layout of the integrated state vector. */
+#define HS_X_POS 0                 /**< p, m (3) */
+#define HS_X_VEL 3                 /**< v, m/s (3) */
+#define HS_X_QUAT 6                /**< q = [w, x, y, z] (4) */
+#define HS_X_OMEGA 10              /**< w, body frame, rad/s (3) */
+#define HS_X_CYL 13                /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
+#define HS_NX (HS_X_CYL + 4 * HS_LEGS)
+
+typedef enum {
+    HS_ACT_HYDRAULIC = 0,
+    HS_ACT_IDEAL = 1
+} hs_actuation_t;
+
+typedef enum {
+    HS_CONTACT_NONE = 0,
+    HS_CONTACT_PLANE = 1, /**< unilateral: pushes the point out of the half space behind a plane */
+    HS_CONTACT_POINT = 2  /**< bilateral: a spring-damper from the point to a fixed anchor */
+} hs_contact_kind_t;
+
+/** A spring-damper contact between a point of the platform and the world. */
+typedef struct {
+    hs_contact_kind_t kind;
+    double point[3];  /**< the contact point on the platform, motion frame, m */
+    double normal[3]; /**< PLANE: normal (base frame, normalised by the plant) pointing into free space */
+    double offset;    /**< PLANE: the surface is {x : normal . x = offset}, m */
+    double anchor[3]; /**< POINT: anchor of the spring, base frame, m */
+    double stiffness; /**< N/m, >= 0 */
+    double damping;   /**< N s/m, >= 0 (PLANE: the total normal force never pulls) */
+} hs_contact_t;
+
+/** What a drive sends after each cycle (quantised, with noise). */
+typedef struct {
+    double length;             /**< measured leg length = length_counts * resolution, m */
+    int64_t length_counts;     /**< length in units of the length resolution */
+    double pressure_a;         /**< measured chamber A pressure = counts * resolution, Pa (>= 0) */
+    double pressure_b;         /**< measured chamber B pressure, Pa (>= 0) */
+    int64_t pressure_a_counts; /**< pressure_a in units of the pressure resolution */
+    int64_t pressure_b_counts;
+    hs_drive_state_t state;
+    uint32_t faults;           /**< HS_FAULT_* bits */
+    uint64_t cycle;            /**< cycles completed when sampled */
+} hs_feedback_t;
+
+/** The true state, for tests, logs and plots. */
+typedef struct {
+    double time;               /**< s since init */
+    uint64_t cycle;            /**< cycles completed */
+    double pose[6];            /**< x, y, z (m), roll, pitch, yaw (rad) */
+    double quat[4];            /**< unit quaternion motion -> base, [w, x, y, z] */
+    double vel[3];             /**< velocity of o', base frame, m/s */
+    double omega_body[3];      /**< angular velocity, motion frame, rad/s */
+    double omega_base[3];      /**< angular velocity, base frame, rad/s */
+    double length[HS_LEGS];    /**< leg lengths, m */
+    double rate[HS_LEGS];      /**< leg extension rates, m/s */
+    double force[HS_LEGS];     /**< cylinder forces on the platform along the legs, N */
+    double pa[HS_LEGS];        /**< chamber pressures, Pa (frozen in ideal mode) */
+    double pb[HS_LEGS];
+    double spool[HS_LEGS];     /**< spool positions, -1..1 */
+    double valve_cmd[HS_LEGS]; /**< drive outputs of the last substep */
+    double contact_force[3];   /**< force of the contact on the platform, base frame, N */
+} hs_state_t;
+
+/** Energies (J). total = kinetic + gravity + oil + springs. */
+typedef struct {
+    double kinetic; /**< m v^2 / 2 + w^T I w / 2 */
+    double gravity; /**< m g z */
+    double oil;     /**< compressed oil (hs_cyl_oil_energy), hydraulic mode only */
+    double springs; /**< end-stop springs (hydraulic mode) and the contact spring */
+    double total;
+} hs_energy_t;
+
+/** The plant. Treat as opaque; use the functions. */
+typedef struct {
+    hs_params_t par;
+    hs_actuation_t act;
+    double x[HS_NX];
+    double ideal_force[HS_LEGS];
+    double ext_force[3];
+    double ext_moment[3];
+    hs_contact_t contact;
+    hs_drive_t drive[HS_LEGS];
+    double valve_cmd[HS_LEGS];
+    hs_rng_t rng;
+    hs_feedback_t fb[HS_LEGS];
+    double inertia_inv[3][3];
+    double inv_mass;
+    double time;
+    uint64_t cycle;
+} hs_plant_t;
+
+/**
+ * Starts the plant at rest at `pose` (x, y, z m; roll, pitch, yaw rad):
+ * hydraulic mode, no external load, no contact, every drive in INIT, spools
+ * at null, and the chambers pre-pressurised (hs_cyl_holding_pressures) with
+ * the static forces that hold the pose against gravity, which are also the
+ * initial ideal forces. Seeds the noise, samples the first feedback.
+ * Errors: HS_E_ARG (NULL, bad params: hs_params_check), HS_E_RANGE (a leg
+ * outside its stroke by more than the cushion length, or non-finite pose),
+ * HS_E_SINGULAR (no static forces at that pose). The plant is unusable on error.
+ */
+hs_status_t hs_plant_init(hs_plant_t *plant, const hs_params_t *params, const double pose[6]);
+
+/** Selects the actuation (HS_ACT_HYDRAULIC or HS_ACT_IDEAL). HS_E_ARG otherwise. */
+hs_status_t hs_plant_set_actuation(hs_plant_t *plant, hs_actuation_t mode);
+
+/** Sets the velocity of o' (base frame, m/s) and the body angular velocity
+ *  (motion frame, rad/s). HS_E_ARG on NULL or non-finite values. */
+hs_status_t hs_plant_set_twist(hs_plant_t *plant, const double vel[3], const double omega_body[3]);
+
+/** Constant external force at o' (N) and moment about o' (N m), base frame;
+ *  either may be NULL for zero. HS_E_ARG on non-finite values. */
+hs_status_t hs_plant_set_wrench(hs_plant_t *plant, const double force[3], const double moment[3]);
+
+/** Installs a contact (NULL or kind NONE removes it). HS_E_ARG for a
+ *  negative stiffness/damping, a zero normal or non-finite values. */
+hs_status_t hs_plant_set_contact(hs_plant_t *plant, const hs_contact_t *contact);
+
+/**
+ * Re-computes the static forces at the current pose for gravity, the
+ * external wrench and the contact's elastic force, and sets the ideal forces
+ * and (at rest, valves at null) the chamber pressures to hold them.
+ * HS_E_SINGULAR near a singular pose.
+ */
+hs_status_t hs_plant_rebalance(hs_plant_t *plant);
+
+/**
+ * Setpoint of drive `leg` (0..5) for the next cycle: length (m), velocity
+ * (m/s), force feed-forward (N, positive pushes out), requested mode. Feeds
+ * the watchdog. HS_E_ARG for a bad leg, non-finite values or an unknown mode.
+ */
+hs_status_t hs_plant_set_setpoint(hs_plant_t *plant, int leg, double length, double velocity, double force,
+                                  hs_drive_request_t mode);
+
+/** Ideal-mode cylinder forces (N, positive pushes out), held until changed.
+ *  HS_E_ARG on NULL or non-finite values. */
+hs_status_t hs_plant_set_forces(hs_plant_t *plant, const double force[HS_LEGS]);
+
+/** Raises fault bits on a drive (HS_FAULT_COMM from the bus layer, or a
+ *  fault injection); severe bits put it in FAULT. HS_E_ARG for a bad leg. */
+hs_status_t hs_plant_raise_faults(hs_plant_t *plant, int leg, uint32_t bits);
+
+/** Clears a drive's fault bits (FAULT -> INIT). HS_E_ARG for a bad leg. */
+hs_status_t hs_plant_clear_faults(hs_plant_t *plant, int leg);
+
+/**
+ * Advances one cycle of dt seconds (0 < dt <= 0.1): drive cycle logic
+ * (requests, watchdog), then `substeps` RK4 steps each preceded by the
+ * drives' sensor sampling and control update, then the feedback sampling.
+ * If the state becomes non-finite, the offending substep is undone, every
+ * drive gets HS_FAULT_INTERNAL and HS_E_NUMERIC is returned.
+ */
+hs_status_t hs_plant_step(hs_plant_t *plant, double dt);
+
+/** The feedback of drive `leg` sampled at the end of the last cycle (or at
+ *  init). HS_E_ARG for NULL or a bad leg. */
+hs_status_t hs_plant_feedback(const hs_plant_t *plant, int leg, hs_feedback_t *fb);
+
+/** The true state (see hs_state_t). HS_E_ARG on NULL. */
+hs_status_t hs_plant_state(const hs_plant_t *plant, hs_state_t *st);
+
+/** The true pose [x, y, z, roll, pitch, yaw]. HS_E_ARG on NULL. */
+hs_status_t hs_plant_pose(const hs_plant_t *plant, double pose[6]);
+
+/** Energies of the current state. HS_E_ARG on NULL. */
+hs_status_t hs_plant_energy(const hs_plant_t *plant, hs_energy_t *e);
+
+#endif /* HS_PLANT_H */

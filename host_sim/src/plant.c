@@ -1,0 +1,689 @@
+/* plant.c - the simulated hydraulic hexapod (hs/plant.h). */
+#include "hs/plant.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "cyl_model.h"
+
+#include "hs/kin.h"
+
+/* What one evaluation of the right-hand side computes besides dx. */
+typedef struct {
+    double length[HS_LEGS];
+    double rate[HS_LEGS];
+    double force[HS_LEGS];
+    double contact[3];
+} aux_t;
+
+static void cross(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* m is a row-major 3x3 matrix (&a[0][0]). */
+static void mat_vec(const double *m, const double v[3], double out[3])
+{
+    for (int r = 0; r < 3; ++r) {
+        out[r] = m[3 * r] * v[0] + m[3 * r + 1] * v[1] + m[3 * r + 2] * v[2];
+    }
+}
+
+static void mat_t_vec(const double *m, const double v[3], double out[3])
+{
+    for (int c = 0; c < 3; ++c) {
+        out[c] = m[c] * v[0] + m[3 + c] * v[1] + m[6 + c] * v[2];
+    }
+}
+
+static int invert3(double m[3][3], double out[3][3])
+{
+    double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1];
+    double c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2];
+    double c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
+    double det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
+    if (!(fabs(det) > 0.0) || !isfinite(det)) {
+        return 0;
+    }
+    out[0][0] = c00 / det;
+    out[1][0] = c01 / det;
+    out[2][0] = c02 / det;
+    out[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det;
+    out[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det;
+    out[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det;
+    out[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det;
+    out[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det;
+    out[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det;
+    return 1;
+}
+
+/* Force of the contact on the platform (base frame) at contact point
+ * position pc and velocity vc; elastic-only when vc is NULL. */
+static void contact_force(const hs_contact_t *ct, const double pc[3], const double vc[3], double f[3])
+{
+    f[0] = f[1] = f[2] = 0.0;
+    if (ct->kind == HS_CONTACT_PLANE) {
+        double pen = ct->offset - (ct->normal[0] * pc[0] + ct->normal[1] * pc[1] + ct->normal[2] * pc[2]);
+        if (pen > 0.0) {
+            double vn = (vc != NULL) ? ct->normal[0] * vc[0] + ct->normal[1] * vc[1] + ct->normal[2] * vc[2] : 0.0;
+            double fn = ct->stiffness * pen - ct->damping * vn;
+            if (fn > 0.0) {
+                for (int k = 0; k < 3; ++k) {
+                    f[k] = fn * ct->normal[k];
+                }
+            }
+        }
+    } else if (ct->kind == HS_CONTACT_POINT) {
+        for (int k = 0; k < 3; ++k) {
+            f[k] = -ct->stiffness * (pc[k] - ct->anchor[k]) - ((vc != NULL) ? ct->damping * vc[k] : 0.0);
+        }
+    }
+}
+
+/* Right-hand side: dx = f(x) with valve commands u (hydraulic mode). */
+static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS], double *dx, aux_t *aux)
+{
+    const hs_params_t *p = &pl->par;
+    const double *v = &x[HS_X_VEL];
+    const double *q = &x[HS_X_QUAT];
+    const double *w = &x[HS_X_OMEGA];
+    double r[3][3], wb[3], f[3], tau[3], taub[3], iw[3], gyro[3], rhs[3], dw[3];
+
+    hs_rot_from_quat(q, r);
+    mat_vec(&r[0][0], w, wb);
+    f[0] = pl->ext_force[0];
+    f[1] = pl->ext_force[1];
+    f[2] = pl->ext_force[2] - p->mass * p->gravity;
+    tau[0] = pl->ext_moment[0];
+    tau[1] = pl->ext_moment[1];
+    tau[2] = pl->ext_moment[2];
+
+    /* Three passes over the legs (geometry, cylinders, wrench): the legs are
+     * independent, so the square roots and divisions of different legs
+     * overlap in the processor instead of forming one long chain. */
+    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS];
+    for (int i = 0; i < HS_LEGS; ++i) {
+        double l[3], wxa[3], inv;
+        mat_vec(&r[0][0], p->platform_joint[i], arm[i]);
+        cross(wb, arm[i], wxa);
+        for (int k = 0; k < 3; ++k) {
+            l[k] = x[HS_X_POS + k] + arm[i][k] - p->base_joint[i][k];
+        }
+        len[i] = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+        inv = 1.0 / len[i];
+        ldot[i] = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            un[i][k] = l[k] * inv;
+            ldot[i] += un[i][k] * (v[k] + wxa[k]);
+        }
+    }
+    if (pl->act == HS_ACT_HYDRAULIC) {
+        for (int i = 0; i < HS_LEGS; ++i) {
+            const double *xc = &x[HS_X_CYL + 4 * i];
+            double *dc = &dx[HS_X_CYL + 4 * i];
+            hs_cyl_state_t st = {xc[0], xc[1], xc[2], xc[3]};
+            hs_cyl_eval_t ev;
+            hs__cyl_eval(&p->cyl[i], &st, len[i] - p->cyl[i].length_min, ldot[i], u[i], &ev);
+            fi[i] = ev.force;
+            dc[0] = ev.dpa;
+            dc[1] = ev.dpb;
+            dc[2] = ev.dxv;
+            dc[3] = ev.dxv_rate;
+        }
+    } else {
+        for (int i = 0; i < HS_LEGS; ++i) {
+            double *dc = &dx[HS_X_CYL + 4 * i];
+            fi[i] = pl->ideal_force[i];
+            dc[0] = dc[1] = dc[2] = dc[3] = 0.0;
+        }
+    }
+    for (int i = 0; i < HS_LEGS; ++i) {
+        double fv[3], m[3];
+        for (int k = 0; k < 3; ++k) {
+            fv[k] = fi[i] * un[i][k];
+            f[k] += fv[k];
+        }
+        cross(arm[i], fv, m);
+        for (int k = 0; k < 3; ++k) {
+            tau[k] += m[k];
+        }
+    }
+    if (aux != NULL) {
+        for (int i = 0; i < HS_LEGS; ++i) {
+            aux->length[i] = len[i];
+            aux->rate[i] = ldot[i];
+            aux->force[i] = fi[i];
+        }
+    }
+
+    if (pl->contact.kind != HS_CONTACT_NONE) {
+        double ca[3], pc[3], vc[3], wxa[3], fc[3], m[3];
+        mat_vec(&r[0][0], pl->contact.point, ca);
+        cross(wb, ca, wxa);
+        for (int k = 0; k < 3; ++k) {
+            pc[k] = x[HS_X_POS + k] + ca[k];
+            vc[k] = v[k] + wxa[k];
+        }
+        contact_force(&pl->contact, pc, vc, fc);
+        cross(ca, fc, m);
+        for (int k = 0; k < 3; ++k) {
+            f[k] += fc[k];
+            tau[k] += m[k];
+        }
+        if (aux != NULL) {
+            memcpy(aux->contact, fc, sizeof fc);
+        }
+    } else if (aux != NULL) {
+        aux->contact[0] = aux->contact[1] = aux->contact[2] = 0.0;
+    }
+
+    for (int k = 0; k < 3; ++k) {
+        dx[HS_X_POS + k] = v[k];
+        dx[HS_X_VEL + k] = f[k] * pl->inv_mass;
+    }
+    mat_t_vec(&r[0][0], tau, taub);
+    mat_vec(&p->inertia[0][0], w, iw);
+    cross(w, iw, gyro);
+    for (int k = 0; k < 3; ++k) {
+        rhs[k] = taub[k] - gyro[k];
+    }
+    mat_vec(&pl->inertia_inv[0][0], rhs, dw);
+    for (int k = 0; k < 3; ++k) {
+        dx[HS_X_OMEGA + k] = dw[k];
+    }
+    dx[HS_X_QUAT + 0] = -0.5 * (q[1] * w[0] + q[2] * w[1] + q[3] * w[2]);
+    dx[HS_X_QUAT + 1] = 0.5 * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1]);
+    dx[HS_X_QUAT + 2] = 0.5 * (q[0] * w[1] + q[3] * w[0] - q[1] * w[2]);
+    dx[HS_X_QUAT + 3] = 0.5 * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0]);
+}
+
+static const double zero_u[HS_LEGS] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+
+static double measure_pressure(hs_plant_t *pl, double p)
+{
+    const hs_sensor_params_t *s = &pl->par.sensors;
+    double m = p + s->pressure_noise * hs_rng_gauss(&pl->rng);
+    return (m > 0.0) ? m : 0.0;
+}
+
+static void sample_feedback(hs_plant_t *pl, const aux_t *aux)
+{
+    const hs_sensor_params_t *s = &pl->par.sensors;
+    for (int i = 0; i < HS_LEGS; ++i) {
+        hs_feedback_t *fb = &pl->fb[i];
+        double pa, pb;
+        if (pl->act == HS_ACT_HYDRAULIC) {
+            pa = pl->x[HS_X_CYL + 4 * i];
+            pb = pl->x[HS_X_CYL + 4 * i + 1];
+        } else {
+            hs_cyl_holding_pressures(&pl->par.cyl[i], pl->ideal_force[i], &pa, &pb);
+        }
+        fb->length_counts = hs_quantize(aux->length[i], s->length_resolution);
+        fb->length = (double)fb->length_counts * s->length_resolution;
+        fb->pressure_a_counts = hs_quantize(measure_pressure(pl, pa), s->pressure_resolution);
+        fb->pressure_b_counts = hs_quantize(measure_pressure(pl, pb), s->pressure_resolution);
+        fb->pressure_a = (double)fb->pressure_a_counts * s->pressure_resolution;
+        fb->pressure_b = (double)fb->pressure_b_counts * s->pressure_resolution;
+        fb->state = pl->drive[i].state;
+        fb->faults = pl->drive[i].faults;
+        fb->cycle = pl->cycle;
+    }
+}
+
+static int state_finite(const double *x)
+{
+    for (int k = 0; k < HS_NX; ++k) {
+        if (!isfinite(x[k])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static void clamp_state(hs_plant_t *pl)
+{
+    double *q = &pl->x[HS_X_QUAT];
+    double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (n > 0.0) {
+        for (int k = 0; k < 4; ++k) {
+            q[k] /= n;
+        }
+    }
+    for (int i = 0; i < HS_LEGS; ++i) {
+        double pmax = pl->par.cyl[i].pressure_max;
+        for (int k = 0; k < 2; ++k) {
+            double *pp = &pl->x[HS_X_CYL + 4 * i + k];
+            if (*pp < 0.0) {
+                *pp = 0.0;
+            } else if (*pp > pmax) {
+                *pp = pmax;
+            }
+        }
+    }
+}
+
+/* Static forces at the current pose for gravity, the external wrench and the
+ * contact's elastic force. */
+static hs_status_t current_static_forces(const hs_plant_t *pl, double force[HS_LEGS])
+{
+    double pose[6], fext[3], mext[3];
+    hs_plant_pose(pl, pose);
+    memcpy(fext, pl->ext_force, sizeof fext);
+    memcpy(mext, pl->ext_moment, sizeof mext);
+    if (pl->contact.kind != HS_CONTACT_NONE) {
+        double r[3][3], arm[3], pc[3], fc[3], m[3];
+        hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+        mat_vec(&r[0][0], pl->contact.point, arm);
+        for (int k = 0; k < 3; ++k) {
+            pc[k] = pl->x[HS_X_POS + k] + arm[k];
+        }
+        contact_force(&pl->contact, pc, NULL, fc);
+        cross(arm, fc, m);
+        for (int k = 0; k < 3; ++k) {
+            fext[k] += fc[k];
+            mext[k] += m[k];
+        }
+    }
+    return hs_static_forces(&pl->par, pose, fext, mext, force);
+}
+
+static void set_holding(hs_plant_t *pl, const double force[HS_LEGS])
+{
+    for (int i = 0; i < HS_LEGS; ++i) {
+        double *xc = &pl->x[HS_X_CYL + 4 * i];
+        pl->ideal_force[i] = force[i];
+        hs_cyl_holding_pressures(&pl->par.cyl[i], force[i], &xc[0], &xc[1]);
+        xc[2] = 0.0;
+        xc[3] = 0.0;
+        pl->valve_cmd[i] = 0.0;
+    }
+}
+
+hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const double pose[6])
+{
+    double force[HS_LEGS], len[HS_LEGS];
+    aux_t aux;
+    double dx[HS_NX];
+    hs_status_t st;
+    if (pl == NULL || params == NULL || pose == NULL) {
+        return HS_E_ARG;
+    }
+    if (hs_params_check(params) != HS_OK) {
+        return HS_E_ARG;
+    }
+    for (int k = 0; k < 6; ++k) {
+        if (!isfinite(pose[k])) {
+            return HS_E_RANGE;
+        }
+    }
+    memset(pl, 0, sizeof *pl);
+    pl->par = *params;
+    pl->act = HS_ACT_HYDRAULIC;
+    if (!invert3(pl->par.inertia, pl->inertia_inv)) {
+        return HS_E_ARG;
+    }
+    pl->inv_mass = 1.0 / pl->par.mass;
+    hs_leg_lengths(&pl->par, pose, len);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        const hs_cyl_params_t *c = &pl->par.cyl[i];
+        double s = len[i] - c->length_min;
+        if (s < -c->cushion_length || s > c->stroke + c->cushion_length) {
+            return HS_E_RANGE;
+        }
+    }
+    for (int k = 0; k < 3; ++k) {
+        pl->x[HS_X_POS + k] = pose[k];
+    }
+    hs_quat_from_rpy(&pose[3], &pl->x[HS_X_QUAT]);
+    st = hs_static_forces(&pl->par, pose, NULL, NULL, force);
+    if (st != HS_OK) {
+        return st;
+    }
+    set_holding(pl, force);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        hs_drive_init(&pl->drive[i]);
+    }
+    hs_rng_seed(&pl->rng, pl->par.sensors.seed);
+    derivs(pl, pl->x, zero_u, dx, &aux);
+    sample_feedback(pl, &aux);
+    return HS_OK;
+}
+
+hs_status_t hs_plant_set_actuation(hs_plant_t *pl, hs_actuation_t mode)
+{
+    if (pl == NULL || (mode != HS_ACT_HYDRAULIC && mode != HS_ACT_IDEAL)) {
+        return HS_E_ARG;
+    }
+    pl->act = mode;
+    return HS_OK;
+}
+
+static int finite3(const double *v)
+{
+    return v == NULL || (isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]));
+}
+
+hs_status_t hs_plant_set_twist(hs_plant_t *pl, const double vel[3], const double omega_body[3])
+{
+    if (pl == NULL || vel == NULL || omega_body == NULL || !finite3(vel) || !finite3(omega_body)) {
+        return HS_E_ARG;
+    }
+    for (int k = 0; k < 3; ++k) {
+        pl->x[HS_X_VEL + k] = vel[k];
+        pl->x[HS_X_OMEGA + k] = omega_body[k];
+    }
+    return HS_OK;
+}
+
+hs_status_t hs_plant_set_wrench(hs_plant_t *pl, const double force[3], const double moment[3])
+{
+    if (pl == NULL || !finite3(force) || !finite3(moment)) {
+        return HS_E_ARG;
+    }
+    for (int k = 0; k < 3; ++k) {
+        pl->ext_force[k] = (force != NULL) ? force[k] : 0.0;
+        pl->ext_moment[k] = (moment != NULL) ? moment[k] : 0.0;
+    }
+    return HS_OK;
+}
+
+hs_status_t hs_plant_set_contact(hs_plant_t *pl, const hs_contact_t *ct)
+{
+    hs_contact_t c;
+    if (pl == NULL) {
+        return HS_E_ARG;
+    }
+    if (ct == NULL || ct->kind == HS_CONTACT_NONE) {
+        memset(&pl->contact, 0, sizeof pl->contact);
+        return HS_OK;
+    }
+    c = *ct;
+    if ((c.kind != HS_CONTACT_PLANE && c.kind != HS_CONTACT_POINT) || !finite3(c.point) || !finite3(c.normal) ||
+        !finite3(c.anchor) || !isfinite(c.offset) || !(c.stiffness >= 0.0) || !(c.damping >= 0.0) ||
+        !isfinite(c.stiffness) || !isfinite(c.damping)) {
+        return HS_E_ARG;
+    }
+    if (c.kind == HS_CONTACT_PLANE) {
+        double n = sqrt(c.normal[0] * c.normal[0] + c.normal[1] * c.normal[1] + c.normal[2] * c.normal[2]);
+        if (!(n > 0.0)) {
+            return HS_E_ARG;
+        }
+        for (int k = 0; k < 3; ++k) {
+            c.normal[k] /= n;
+        }
+    }
+    pl->contact = c;
+    return HS_OK;
+}
+
+hs_status_t hs_plant_rebalance(hs_plant_t *pl)
+{
+    double force[HS_LEGS];
+    hs_status_t st;
+    if (pl == NULL) {
+        return HS_E_ARG;
+    }
+    st = current_static_forces(pl, force);
+    if (st != HS_OK) {
+        return st;
+    }
+    set_holding(pl, force);
+    return HS_OK;
+}
+
+static int bad_leg(const hs_plant_t *pl, int leg)
+{
+    return pl == NULL || leg < 0 || leg >= HS_LEGS;
+}
+
+hs_status_t hs_plant_set_setpoint(hs_plant_t *pl, int leg, double length, double velocity, double force,
+                                  hs_drive_request_t mode)
+{
+    if (bad_leg(pl, leg)) {
+        return HS_E_ARG;
+    }
+    return hs_drive_setpoint(&pl->drive[leg], length, velocity, force, mode);
+}
+
+hs_status_t hs_plant_set_forces(hs_plant_t *pl, const double force[HS_LEGS])
+{
+    if (pl == NULL || force == NULL) {
+        return HS_E_ARG;
+    }
+    for (int i = 0; i < HS_LEGS; ++i) {
+        if (!isfinite(force[i])) {
+            return HS_E_ARG;
+        }
+    }
+    memcpy(pl->ideal_force, force, sizeof pl->ideal_force);
+    return HS_OK;
+}
+
+hs_status_t hs_plant_raise_faults(hs_plant_t *pl, int leg, uint32_t bits)
+{
+    if (bad_leg(pl, leg)) {
+        return HS_E_ARG;
+    }
+    hs_drive_raise(&pl->drive[leg], bits);
+    pl->fb[leg].state = pl->drive[leg].state;
+    pl->fb[leg].faults = pl->drive[leg].faults;
+    return HS_OK;
+}
+
+hs_status_t hs_plant_clear_faults(hs_plant_t *pl, int leg)
+{
+    if (bad_leg(pl, leg)) {
+        return HS_E_ARG;
+    }
+    hs_drive_clear_faults(&pl->drive[leg]);
+    pl->fb[leg].state = pl->drive[leg].state;
+    pl->fb[leg].faults = pl->drive[leg].faults;
+    return HS_OK;
+}
+
+/* Warnings and sensor plausibility after a substep (hydraulic mode). */
+static void check_axes(hs_plant_t *pl, const aux_t *aux)
+{
+    for (int i = 0; i < HS_LEGS; ++i) {
+        const hs_cyl_params_t *c = &pl->par.cyl[i];
+        const double *xc = &pl->x[HS_X_CYL + 4 * i];
+        double s = aux->length[i] - c->length_min;
+        uint32_t bits = 0u;
+        if (s < 0.0 || s > c->stroke) {
+            bits |= HS_FAULT_END_STOP;
+        }
+        if (s < -0.1 || s > c->stroke + 0.1) {
+            bits |= HS_FAULT_SENSOR; /* beyond any physical travel: the sensor reading cannot be right */
+        }
+        if (xc[0] <= 0.0 || xc[1] <= 0.0 || xc[0] >= c->pressure_max || xc[1] >= c->pressure_max) {
+            bits |= HS_FAULT_PRESSURE;
+        }
+        if (bits != 0u) {
+            hs_drive_raise(&pl->drive[i], bits);
+        }
+    }
+}
+
+hs_status_t hs_plant_step(hs_plant_t *pl, double dt)
+{
+    double k1[HS_NX], k2[HS_NX], k3[HS_NX], k4[HS_NX], xt[HS_NX], x0[HS_NX];
+    aux_t aux;
+    double h;
+    uint32_t n;
+    if (pl == NULL || !(dt > 0.0) || !(dt <= 0.1)) {
+        return HS_E_ARG;
+    }
+    n = pl->par.substeps;
+    h = dt / (double)n;
+
+    for (int i = 0; i < HS_LEGS; ++i) {
+        const hs_cyl_params_t *c = &pl->par.cyl[i];
+        double fm = pl->fb[i].pressure_a * c->area_a - pl->fb[i].pressure_b * c->area_b;
+        hs_drive_cycle(&pl->drive[i], &pl->par.drive, pl->fb[i].length, fm);
+    }
+
+    for (uint32_t s = 0; s < n; ++s) {
+        memcpy(x0, pl->x, sizeof x0);
+        derivs(pl, pl->x, zero_u, k1, &aux);
+        if (pl->act == HS_ACT_HYDRAULIC) {
+            const hs_sensor_params_t *sp = &pl->par.sensors;
+            check_axes(pl, &aux);
+            for (int i = 0; i < HS_LEGS; ++i) {
+                const hs_cyl_params_t *c = &pl->par.cyl[i];
+                double lm = (double)hs_quantize(aux.length[i], sp->length_resolution) * sp->length_resolution;
+                double pa = (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i]),
+                                                sp->pressure_resolution) * sp->pressure_resolution;
+                double pb = (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i + 1]),
+                                                sp->pressure_resolution) * sp->pressure_resolution;
+                double u = hs_drive_update(&pl->drive[i], &pl->par.drive, c, lm, pa, pb, h);
+                pl->valve_cmd[i] = u;
+                /* k1 was evaluated with u = 0; the spool equation is linear in u */
+                k1[HS_X_CYL + 4 * i + 3] += c->valve_omega * c->valve_omega * u;
+            }
+        }
+        for (int k = 0; k < HS_NX; ++k) {
+            xt[k] = pl->x[k] + 0.5 * h * k1[k];
+        }
+        derivs(pl, xt, pl->valve_cmd, k2, NULL);
+        for (int k = 0; k < HS_NX; ++k) {
+            xt[k] = pl->x[k] + 0.5 * h * k2[k];
+        }
+        derivs(pl, xt, pl->valve_cmd, k3, NULL);
+        for (int k = 0; k < HS_NX; ++k) {
+            xt[k] = pl->x[k] + h * k3[k];
+        }
+        derivs(pl, xt, pl->valve_cmd, k4, NULL);
+        for (int k = 0; k < HS_NX; ++k) {
+            pl->x[k] += h / 6.0 * (k1[k] + 2.0 * k2[k] + 2.0 * k3[k] + k4[k]);
+        }
+        if (!state_finite(pl->x)) {
+            memcpy(pl->x, x0, sizeof x0);
+            for (int i = 0; i < HS_LEGS; ++i) {
+                hs_drive_raise(&pl->drive[i], HS_FAULT_INTERNAL);
+                pl->fb[i].state = pl->drive[i].state;
+                pl->fb[i].faults = pl->drive[i].faults;
+            }
+            return HS_E_NUMERIC;
+        }
+        clamp_state(pl);
+        pl->time += h;
+    }
+    pl->cycle++;
+    derivs(pl, pl->x, pl->valve_cmd, k1, &aux);
+    if (pl->act == HS_ACT_HYDRAULIC) {
+        check_axes(pl, &aux);
+    }
+    sample_feedback(pl, &aux);
+    return HS_OK;
+}
+
+hs_status_t hs_plant_feedback(const hs_plant_t *pl, int leg, hs_feedback_t *fb)
+{
+    if (bad_leg(pl, leg) || fb == NULL) {
+        return HS_E_ARG;
+    }
+    *fb = pl->fb[leg];
+    return HS_OK;
+}
+
+hs_status_t hs_plant_pose(const hs_plant_t *pl, double pose[6])
+{
+    double r[3][3];
+    if (pl == NULL || pose == NULL) {
+        return HS_E_ARG;
+    }
+    hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+    for (int k = 0; k < 3; ++k) {
+        pose[k] = pl->x[HS_X_POS + k];
+    }
+    hs_rpy_from_rot((const double(*)[3])r, &pose[3]);
+    return HS_OK;
+}
+
+hs_status_t hs_plant_state(const hs_plant_t *pl, hs_state_t *st)
+{
+    double dx[HS_NX], r[3][3];
+    aux_t aux;
+    if (pl == NULL || st == NULL) {
+        return HS_E_ARG;
+    }
+    derivs(pl, pl->x, pl->valve_cmd, dx, &aux);
+    st->time = pl->time;
+    st->cycle = pl->cycle;
+    hs_plant_pose(pl, st->pose);
+    for (int k = 0; k < 4; ++k) {
+        st->quat[k] = pl->x[HS_X_QUAT + k];
+    }
+    hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+    for (int k = 0; k < 3; ++k) {
+        st->vel[k] = pl->x[HS_X_VEL + k];
+        st->omega_body[k] = pl->x[HS_X_OMEGA + k];
+        st->contact_force[k] = aux.contact[k];
+    }
+    mat_vec(&r[0][0], st->omega_body, st->omega_base);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        st->length[i] = aux.length[i];
+        st->rate[i] = aux.rate[i];
+        st->force[i] = aux.force[i];
+        st->pa[i] = pl->x[HS_X_CYL + 4 * i];
+        st->pb[i] = pl->x[HS_X_CYL + 4 * i + 1];
+        st->spool[i] = pl->x[HS_X_CYL + 4 * i + 2];
+        st->valve_cmd[i] = pl->valve_cmd[i];
+    }
+    return HS_OK;
+}
+
+hs_status_t hs_plant_energy(const hs_plant_t *pl, hs_energy_t *e)
+{
+    const hs_params_t *p;
+    double dx[HS_NX], r[3][3], iw[3];
+    aux_t aux;
+    const double *v, *w;
+    if (pl == NULL || e == NULL) {
+        return HS_E_ARG;
+    }
+    p = &pl->par;
+    v = &pl->x[HS_X_VEL];
+    w = &pl->x[HS_X_OMEGA];
+    mat_vec(&p->inertia[0][0], w, iw);
+    e->kinetic = 0.5 * p->mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) +
+                 0.5 * (w[0] * iw[0] + w[1] * iw[1] + w[2] * iw[2]);
+    e->gravity = p->mass * p->gravity * pl->x[HS_X_POS + 2];
+    e->oil = 0.0;
+    e->springs = 0.0;
+    derivs(pl, pl->x, pl->valve_cmd, dx, &aux);
+    if (pl->act == HS_ACT_HYDRAULIC) {
+        for (int i = 0; i < HS_LEGS; ++i) {
+            const hs_cyl_params_t *c = &p->cyl[i];
+            double s = aux.length[i] - c->length_min;
+            e->oil += hs_cyl_oil_energy(c, s, pl->x[HS_X_CYL + 4 * i], pl->x[HS_X_CYL + 4 * i + 1]);
+            e->springs += hs_cyl_stop_energy(c, s);
+        }
+    }
+    if (pl->contact.kind != HS_CONTACT_NONE) {
+        const hs_contact_t *ct = &pl->contact;
+        double arm[3], pc[3];
+        hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+        mat_vec(&r[0][0], ct->point, arm);
+        for (int k = 0; k < 3; ++k) {
+            pc[k] = pl->x[HS_X_POS + k] + arm[k];
+        }
+        if (ct->kind == HS_CONTACT_PLANE) {
+            double pen = ct->offset - (ct->normal[0] * pc[0] + ct->normal[1] * pc[1] + ct->normal[2] * pc[2]);
+            if (pen > 0.0) {
+                e->springs += 0.5 * ct->stiffness * pen * pen;
+            }
+        } else {
+            double d2 = 0.0;
+            for (int k = 0; k < 3; ++k) {
+                d2 += (pc[k] - ct->anchor[k]) * (pc[k] - ct->anchor[k]);
+            }
+            e->springs += 0.5 * ct->stiffness * d2;
+        }
+    }
+    e->total = e->kinetic + e->gravity + e->oil + e->springs;
+    return HS_OK;
+}
