@@ -57,6 +57,27 @@ __attribute__((noipa)) static sp_status_t run_tick(m4_scenario_t *s)
     return sp_ctrl_step(&s->cfg, &s->ctrl, &s->in, &s->out);
 }
 
+__attribute__((noipa)) static sp_status_t run_orientation(const sp_q24_t *rpy, sp_rot_t *rot)
+{
+    return sp_orientation(rpy, rot);
+}
+
+__attribute__((noipa)) static sp_status_t run_body_rates(const sp_motion_t *m, sp_q24_t *w, sp_q24_t *wd)
+{
+    return sp_body_rates(m->pose.rpy, m->rpy_rate, m->rpy_acc, w, wd);
+}
+
+__attribute__((noipa)) static sp_status_t run_jacobian(const sp_ik_t *in, sp_jacobian_t *jac)
+{
+    return sp_jacobian(in, jac);
+}
+
+__attribute__((noipa)) static sp_status_t run_solve6(const sp_jacobian_t *jac, int transpose, const int64_t *b,
+                                                     int64_t *x)
+{
+    return sp_solve6(jac, transpose, b, x);
+}
+
 __attribute__((noipa)) static void run_sincos(sp_q24_t a, sp_q30_t *s, sp_q30_t *c)
 {
     sp_sincos_q24(a, s, c);
@@ -136,6 +157,49 @@ static void primitives(m4_rng_t *rng)
     m4_stat_print("dot3", "sp_dot3 (shift 30)", &s[5]);
 }
 
+/* The parts the kinematics are made of, on the same motions. */
+static void parts(m4_rng_t *rng)
+{
+    m4_stat_t s[5];
+    uint32_t n;
+    unsigned k;
+
+    for (k = 0u; k < 5u; ++k) {
+        m4_stat_reset(&s[k]);
+    }
+    for (n = 0u; n < N_MOTIONS; ++n) {
+        sp_rot_t rot;
+        sp_q24_t w[3];
+        sp_q24_t wd[3];
+        sp_jacobian_t jac;
+        int64_t b[SP_LEGS];
+        int64_t x[SP_LEGS];
+        uint32_t net;
+        (void)sp_inverse_kinematics(&sp_platform_default, &motions[n].pose, &ik);
+        for (k = 0u; k < SP_LEGS; ++k) {
+            /* a right-hand side of the inverse dynamics' size: up to 50 kN
+             * or 50 kN m in Q24 */
+            b[k] = (int64_t)m4_rng_range(rng, 1 << 30) * 800;
+        }
+        M4_MEASURE(net, sink = (int32_t)run_orientation(motions[n].pose.rpy, &rot));
+        m4_stat_add(&s[0], net);
+        M4_MEASURE(net, sink = (int32_t)run_body_rates(&motions[n], w, wd));
+        m4_stat_add(&s[1], net);
+        M4_MEASURE(net, sink = (int32_t)run_jacobian(&ik, &jac));
+        m4_stat_add(&s[2], net);
+        M4_MEASURE(net, sink = (int32_t)run_solve6(&jac, 1, b, x));
+        m4_stat_add(&s[3], net);
+        M4_MEASURE(net, sink = (int32_t)run_solve6(&jac, 0, b, x));
+        m4_stat_add(&s[4], net);
+        sink = rot.t[0][0] + w[0] + wd[0] + (int32_t)x[0];
+    }
+    m4_stat_print("orientation", "sp_orientation (3 sincos, T)", &s[0]);
+    m4_stat_print("body_rates", "sp_body_rates (2 sincos)", &s[1]);
+    m4_stat_print("jacobian", "sp_jacobian", &s[2]);
+    m4_stat_print("solve6_t", "sp_solve6, transposed (inverse dynamics)", &s[3]);
+    m4_stat_print("solve6", "sp_solve6 (one FK Newton step)", &s[4]);
+}
+
 static void kinematics(void)
 {
     m4_stat_t s_ik;
@@ -198,6 +262,7 @@ static void controller(void)
     static m4_scenario_t sc;
     m4_stat_t by_state[7];
     m4_stat_t all;
+    uint32_t running_fk[4] = {0u, 0u, 0u, 0u};
     uintptr_t top;
     uint32_t stack;
     uint32_t over = 0u;
@@ -225,6 +290,9 @@ static void controller(void)
             m4_stat_add(&by_state[before], net);
         }
         m4_stat_add(&all, net);
+        if (before == SP_STATE_RUNNING) {
+            running_fk[sc.out.fk_iterations < 3u ? sc.out.fk_iterations : 3u]++;
+        }
         over += (net > TICK_BUDGET * 16u) ? 1u : 0u;
         m4_scenario_finish(&sc);
     }
@@ -241,6 +309,15 @@ static void controller(void)
     m4_out_str(sp_state_name(sc.out.state));
     m4_out_str(", faults");
     m4_out_hex(sc.out.faults);
+    m4_out_nl();
+    m4_out_str("FK Newton steps in the RUNNING ticks: 0: ");
+    m4_out_u32(running_fk[0]);
+    m4_out_str(", 1: ");
+    m4_out_u32(running_fk[1]);
+    m4_out_str(", 2: ");
+    m4_out_u32(running_fk[2]);
+    m4_out_str(", 3 or more: ");
+    m4_out_u32(running_fk[3]);
     m4_out_nl();
     m4_out_str("budget: whole tick <= ");
     m4_out_u32(TICK_BUDGET);
@@ -292,6 +369,7 @@ int main(void)
     }
     m4_stat_header();
     kinematics();
+    parts(&rng);
     primitives(&rng);
     controller();
     return m4_out_flush() == 0 ? 0 : 2;
