@@ -6,11 +6,12 @@
 
 #include "hs/cylinder.h"
 
-void hs_drive_init(hs_drive_t *d)
+void hs_drive_init(hs_drive_t *d, double force0)
 {
     memset(d, 0, sizeof *d);
     d->state = HS_DRIVE_INIT;
     d->request = HS_REQ_HOLD;
+    d->meas_lp = force0;
 }
 
 hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, double force, hs_drive_request_t mode)
@@ -29,15 +30,13 @@ hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, dou
     return HS_OK;
 }
 
-static void enter_hold(hs_drive_t *d, double meas_length, double meas_force)
+static void enter_hold(hs_drive_t *d, double meas_length)
 {
     d->state = HS_DRIVE_HOLD;
     d->hold_length = meas_length;
-    d->hold_force = meas_force;
-    d->lp_valid = 0;
 }
 
-void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_length, double meas_force)
+void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_length)
 {
     if (d->fresh) {
         d->fresh = 0;
@@ -48,10 +47,10 @@ void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_leng
         if (d->request == HS_REQ_ACTIVE && (d->faults & HS_FAULT_TIMEOUT) == 0u) {
             if (d->state != HS_DRIVE_ACTIVE) {
                 d->state = HS_DRIVE_ACTIVE;
-                d->lp_valid = 0;
+                d->ref_valid = 0;
             }
         } else if (d->state != HS_DRIVE_HOLD) {
-            enter_hold(d, meas_length, meas_force);
+            enter_hold(d, meas_length);
         }
         return;
     }
@@ -61,7 +60,7 @@ void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_leng
         }
         if (d->missed >= dp->timeout_cycles) {
             d->faults |= HS_FAULT_TIMEOUT;
-            enter_hold(d, meas_length, meas_force);
+            enter_hold(d, meas_length);
         }
     }
 }
@@ -69,23 +68,30 @@ void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_leng
 double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_params_t *c, double meas_length,
                        double meas_pa, double meas_pb, double h)
 {
-    double target, fref, uff = 0.0;
+    double target, uff = 0.0, hp_ref = 0.0, hp_meas, u;
     double fm = meas_pa * c->area_a - meas_pb * c->area_b;
-    double ef, y, u, k;
+    double k = h * dp->force_highpass;
+    k = (k < 1.0) ? k : 1.0;
 
     d->sp_age += h;
+    hp_meas = fm - d->meas_lp;
+    d->meas_lp += k * hp_meas;
     if (d->state == HS_DRIVE_HOLD) {
         target = d->hold_length;
-        fref = d->hold_force;
     } else if (d->state == HS_DRIVE_ACTIVE) {
         double age = d->sp_age - h; /* the target of this substep's start */
         target = d->sp_length + d->sp_velocity * age;
-        fref = d->sp_force;
         if (!d->ff_valid) {
             d->ff_command = hs_cyl_velocity_command(c, d->sp_velocity, d->sp_force);
             d->ff_valid = 1;
         }
         uff = dp->ff_gain * d->ff_command;
+        if (!d->ref_valid) {
+            d->ref_lp = d->sp_force;
+            d->ref_valid = 1;
+        }
+        hp_ref = d->sp_force - d->ref_lp;
+        d->ref_lp += k * hp_ref;
     } else {
         d->command = 0.0;
         d->error = 0.0;
@@ -97,15 +103,7 @@ double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_
         d->command = 0.0;
         return 0.0;
     }
-    ef = fref - fm;
-    if (!d->lp_valid) {
-        d->force_lp = ef;
-        d->lp_valid = 1;
-    }
-    y = ef - d->force_lp;
-    k = h * dp->force_highpass;
-    d->force_lp += ((k < 1.0) ? k : 1.0) * (ef - d->force_lp);
-    u = dp->kp * d->error + uff + dp->kf * y;
+    u = dp->kp * d->error + uff + dp->kf * (hp_ref - hp_meas);
     if (u != u) {
         u = 0.0; /* NaN: the plant flags it as an internal fault */
     } else if (u > 1.0) {

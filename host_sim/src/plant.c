@@ -344,7 +344,7 @@ hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const doubl
     }
     set_holding(pl, force);
     for (int i = 0; i < HS_LEGS; ++i) {
-        hs_drive_init(&pl->drive[i]);
+        hs_drive_init(&pl->drive[i], force[i]);
     }
     hs_rng_seed(&pl->rng, pl->par.sensors.seed);
     derivs(pl, pl->x, zero_u, dx, &aux);
@@ -520,9 +520,7 @@ hs_status_t hs_plant_step(hs_plant_t *pl, double dt)
     h = dt / (double)n;
 
     for (int i = 0; i < HS_LEGS; ++i) {
-        const hs_cyl_params_t *c = &pl->par.cyl[i];
-        double fm = pl->fb[i].pressure_a * c->area_a - pl->fb[i].pressure_b * c->area_b;
-        hs_drive_cycle(&pl->drive[i], &pl->par.drive, pl->fb[i].length, fm);
+        hs_drive_cycle(&pl->drive[i], &pl->par.drive, pl->fb[i].length);
     }
 
     for (uint32_t s = 0; s < n; ++s) {

@@ -21,15 +21,19 @@
  * HS_FAULT_TIMEOUT. Until then it keeps extrapolating the last setpoint.
  *
  * Control law (every substep, h seconds):
- *   e   = target - L_measured                           (m)
- *   e_F = F_ref - (p_A A_A - p_B A_B)_measured           (N)
- *   y   = e_F - lp,  lp += h w_hp (e_F - lp)             (high-pass of e_F)
- *   u   = kp e + ff_gain * hs_cyl_velocity_command(v_sp, F_sp) + kf y,  |u| <= 1
- * F_ref is the force setpoint in ACTIVE and the force measured on entering
- * HOLD. The velocity feed-forward is the flow the setpoint velocity needs at
- * the load pressure of the force setpoint; the high-passed force error is a
- * dynamic pressure feedback that damps the oil-column resonance and builds
- * the pressure a force change needs without offsetting the position.
+ *   e   = target - L_measured                              (m)
+ *   F_m = (p_A A_A - p_B A_B)_measured                      (N)
+ *   HP(x) = x - LP(x), LP(x) += h w_hp (x - LP(x))          (first-order high-pass)
+ *   u   = kp e + ff_gain * hs_cyl_velocity_command(v_sp, F_sp) + kf (HP(F_sp) - HP(F_m))
+ *   |u| <= 1
+ * The velocity feed-forward is the flow the setpoint velocity needs at the
+ * load pressure of the force setpoint. The high-passed force terms are a
+ * dynamic pressure feedback: they damp the oil-column resonance and build
+ * the pressure a change of the force setpoint needs, without offsetting the
+ * position by a steady force (a steady model error, the leakage). The
+ * low-pass of F_m runs in every state, from the force given at init, so a
+ * noisy first sample does not bias it; the one of F_sp restarts at the
+ * setpoint on entering ACTIVE (HP(F_sp) = 0 in HOLD).
  * Faults: |e| > following_error_max in ACTIVE -> FAULT + HS_FAULT_FOLLOWING.
  */
 #ifndef HS_DRIVE_H
@@ -72,17 +76,18 @@ typedef struct {
     int fresh;                  /**< a setpoint arrived since the last cycle start */
     uint32_t missed;            /**< consecutive ACTIVE cycles without a setpoint */
     double hold_length;         /**< target in HOLD, m */
-    double hold_force;          /**< force reference in HOLD, N */
-    double force_lp;            /**< low-pass state of the force error, N */
-    int lp_valid;               /**< force_lp is initialised */
+    double meas_lp;             /**< low-pass of the measured force, N */
+    double ref_lp;              /**< low-pass of the force setpoint, N */
+    int ref_valid;              /**< ref_lp is initialised (0 after entering ACTIVE) */
     double ff_command;          /**< velocity feed-forward of the current setpoint (cached), -1..1 */
     int ff_valid;               /**< ff_command belongs to the current setpoint */
     double command;             /**< last valve command, -1..1 */
     double error;               /**< last position error, m */
 } hs_drive_t;
 
-/** A drive in INIT with no faults. */
-void hs_drive_init(hs_drive_t *d);
+/** A drive in INIT with no faults; force0 (N) is the cylinder force at
+ *  start, the initial value of the measured-force low-pass. */
+void hs_drive_init(hs_drive_t *d, double force0);
 
 /**
  * Stores a setpoint (length m, velocity m/s, force N, requested mode) for
@@ -94,15 +99,16 @@ hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, dou
 
 /**
  * Start of a cycle: applies the request of a fresh setpoint (state
- * transitions), runs the watchdog. meas_length (m) and meas_force (N) are
- * the drive's current measurements, latched when entering HOLD.
+ * transitions), runs the watchdog. meas_length (m) is the drive's current
+ * length measurement, latched as the target when entering HOLD.
  */
-void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_length, double meas_force);
+void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_length);
 
 /**
  * One control substep of h seconds: returns the valve command (-1..1) from
- * the measured length (m) and chamber pressures (Pa); 0 in INIT and FAULT.
- * Checks the following error. Advances the setpoint age by h.
+ * the measured length (m) and chamber pressures (Pa); 0 in INIT and FAULT
+ * (the measured-force low-pass still runs). Checks the following error.
+ * Advances the setpoint age by h.
  */
 double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_params_t *c, double meas_length,
                        double meas_pa, double meas_pb, double h);
