@@ -1,9 +1,11 @@
 /*
  * bench_plant - speed of the plant simulator alone (no bus): simulated
  * seconds per wall-clock second in hydraulic mode, six cylinders under
- * their drives in ACTIVE, following a 0.5 Hz sinusoid that moves all six
- * pose axes (setpoints from the plant's own double-precision leg lengths,
- * rates by central difference and quasi-static forces). 1 ms cycles with the
+ * their drives in ACTIVE, following a 0.5 Hz cosine that moves all six
+ * pose axes by 30-50 mm / rad from rest (setpoints from the plant's own
+ * double-precision leg lengths, rates by central difference, forces for
+ * gravity and the translational inertia; the rotational inertia is left to
+ * the position loop). 1 ms cycles with the
  * default 10 RK4 substeps each. Prints the best of several runs (the
  * machine is shared) and the tracking error as a sanity check. Not a test.
  */
@@ -28,12 +30,18 @@ static double clock_s(clockid_t id)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static void pose_at(const hs_params_t *p, double t, double pose[6])
+/* All six axes: offset_k = A_k (1 - cos(2 pi 0.5 t)) with alternating signs
+ * (starts at rest); acc: the translational acceleration. */
+static void pose_at(const hs_params_t *p, double t, double pose[6], double acc[3])
 {
     static const double amp[6] = {0.05, 0.04, 0.03, 0.03, 0.03, 0.04};
-    double s = sin(TWO_PI * 0.5 * t);
+    double w = TWO_PI * 0.5;
     for (int k = 0; k < 6; ++k) {
-        pose[k] = p->home[k] + amp[k] * s * ((k % 2) ? -1.0 : 1.0);
+        double sign = (k % 2) ? -1.0 : 1.0;
+        pose[k] = p->home[k] + sign * amp[k] * (1.0 - cos(w * t));
+        if (k < 3) {
+            acc[k] = sign * amp[k] * w * w * cos(w * t);
+        }
     }
 }
 
@@ -52,14 +60,17 @@ int main(void)
         return 1;
     }
     for (int n = 0; n < CYCLES; ++n) {
-        double t = n * DT, pose[6], lp[HS_LEGS], lm[HS_LEGS];
-        pose_at(&p, t, pose);
-        hs_leg_lengths(&p, pose, sp_len[n]);
-        hs_static_forces(&p, pose, NULL, NULL, sp_force[n]);
-        pose_at(&p, t + 1e-5, pose);
+        double t = n * DT, pose[6], acc[3], lp[HS_LEGS], lm[HS_LEGS], fext[3];
+        pose_at(&p, t + 1e-5, pose, acc);
         hs_leg_lengths(&p, pose, lp);
-        pose_at(&p, t - 1e-5, pose);
+        pose_at(&p, t - 1e-5, pose, acc);
         hs_leg_lengths(&p, pose, lm);
+        pose_at(&p, t, pose, acc);
+        hs_leg_lengths(&p, pose, sp_len[n]);
+        for (int k = 0; k < 3; ++k) {
+            fext[k] = -p.mass * acc[k]; /* d'Alembert: translational inertia only */
+        }
+        hs_static_forces(&p, pose, fext, NULL, sp_force[n]);
         for (int i = 0; i < HS_LEGS; ++i) {
             sp_vel[n][i] = (lp[i] - lm[i]) / 2e-5;
         }

@@ -48,7 +48,7 @@ void hs_rot_from_quat(const double q[4], double r[3][3])
     r[2][2] = 1.0 - s * (x * x + y * y);
 }
 
-void hs_rpy_from_rot(const double r[3][3], double rpy[3])
+void hs_rpy_from_rot(double r[3][3], double rpy[3])
 {
     double s = -r[2][0];
     if (s > 1.0) {
@@ -107,7 +107,7 @@ hs_status_t hs_leg_lengths(const hs_params_t *params, const double pose[6], doub
     return HS_OK;
 }
 
-hs_status_t hs_solve6(const double a_in[6][6], const double b_in[6], double x[6])
+hs_status_t hs_solve6(double a_in[6][6], const double b_in[6], double x[6])
 {
     double a[6][6];
     double b[6];
@@ -199,5 +199,5 @@ hs_status_t hs_static_forces(const hs_params_t *params, const double pose[6], co
         b[3 + k] = (ext_moment != NULL) ? -ext_moment[k] : 0.0;
     }
     b[2] += params->mass * params->gravity;
-    return hs_solve6((const double(*)[6])a, b, force);
+    return hs_solve6(a, b, force);
 }

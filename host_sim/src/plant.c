@@ -597,7 +597,7 @@ hs_status_t hs_plant_pose(const hs_plant_t *pl, double pose[6])
     for (int k = 0; k < 3; ++k) {
         pose[k] = pl->x[HS_X_POS + k];
     }
-    hs_rpy_from_rot((const double(*)[3])r, &pose[3]);
+    hs_rpy_from_rot(r, &pose[3]);
     return HS_OK;
 }
 

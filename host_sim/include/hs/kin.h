@@ -27,8 +27,9 @@ void hs_rot_from_quat(const double q[4], double r[3][3]);
 
 /** Roll, pitch, yaw of R (pitch in [-pi/2, pi/2], roll and yaw in
  *  (-pi, pi]). At |pitch| = pi/2 (gimbal lock of the angles, not of the
- *  plant) yaw is set to 0 and roll carries the rotation. */
-void hs_rpy_from_rot(const double r[3][3], double rpy[3]);
+ *  plant) yaw is set to 0 and roll carries the rotation. r is not modified
+ *  (not declared const: C99 would not convert double[3][3] to it). */
+void hs_rpy_from_rot(double r[3][3], double rpy[3]);
 
 /** Body angular velocity (motion frame, rad/s) from Euler angles and their
  *  rates (eq 10 of the paper for R = Rz Ry Rx). */
@@ -43,10 +44,10 @@ hs_status_t hs_leg_lengths(const hs_params_t *params, const double pose[6], doub
 
 /**
  * Solves A x = b (6x6, row-major a[row][col]) by Gaussian elimination with
- * partial pivoting, on copies (inputs untouched). A pivot below 1e-12 times
- * the largest |entry| gives HS_E_SINGULAR and x = 0.
+ * partial pivoting, on copies (a and b are not modified). A pivot below
+ * 1e-12 times the largest |entry| gives HS_E_SINGULAR and x = 0.
  */
-hs_status_t hs_solve6(const double a[6][6], const double b[6], double x[6]);
+hs_status_t hs_solve6(double a[6][6], const double b[6], double x[6]);
 
 /**
  * The six cylinder forces (N, positive pushes the platform away from the
