@@ -35,6 +35,9 @@
  *       leakage, friction and sensor noise: within 5 um for 10 s (the
  *       leakage needs a steady valve opening, which the proportional loop
  *       gets from about 2 um of error).
+ * Also the rigid body's own conservation laws (free tumbling body: angular
+ * momentum and energy; constant wrench: momentum = F t, angular momentum =
+ * M t) and the contact (resting on a plane; energy with a point spring).
  */
 #include <math.h>
 #include <setjmp.h>
@@ -326,6 +329,185 @@ static void test_rest_hydraulic_hold(void **state)
     }
 }
 
+
+/* Angular momentum about o' in the base frame: R I w. */
+static void angular_momentum(const hs_plant_t *pl, const hs_params_t *p, double h[3])
+{
+    hs_state_t st;
+    double r[3][3], iw[3];
+    hs_plant_state(pl, &st);
+    hs_rot_from_quat(st.quat, r);
+    for (int k = 0; k < 3; ++k) {
+        iw[k] = p->inertia[k][0] * st.omega_body[0] + p->inertia[k][1] * st.omega_body[1] +
+                p->inertia[k][2] * st.omega_body[2];
+    }
+    for (int k = 0; k < 3; ++k) {
+        h[k] = r[k][0] * iw[0] + r[k][1] * iw[1] + r[k][2] * iw[2];
+    }
+}
+
+/* Rigid body alone (ideal mode, zero leg forces, no gravity): a body
+ * spinning about no principal axis tumbles (gyroscopic term, full inertia
+ * with a product of inertia); its angular momentum in the base frame and its
+ * kinetic energy stay constant within 1e-9 relative over 10 s, and its
+ * quaternion stays unit. Then a constant external wrench: linear momentum
+ * grows as F t and angular momentum as M t (exact laws, within 1e-9). */
+static void test_rigid_body_laws(void **state)
+{
+    hs_params_t p;
+    double zero[HS_LEGS] = {0, 0, 0, 0, 0, 0};
+    double v0[3] = {0.0, 0.0, 0.0}, w0[3] = {0.5, -0.3, 0.8};
+    double h0[3], h[3], dh = 0.0, de = 0.0, hn;
+    hs_energy_t e0, e;
+    (void)state;
+    assert_int_equal(hs_params_default(&p), HS_OK);
+    p.gravity = 0.0;
+    assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
+    assert_int_equal(hs_plant_set_actuation(&plant, HS_ACT_IDEAL), HS_OK);
+    assert_int_equal(hs_plant_set_forces(&plant, zero), HS_OK);
+    assert_int_equal(hs_plant_set_twist(&plant, v0, w0), HS_OK);
+    angular_momentum(&plant, &p, h0);
+    hs_plant_energy(&plant, &e0);
+    hn = sqrt(h0[0] * h0[0] + h0[1] * h0[1] + h0[2] * h0[2]);
+    for (int n = 0; n < 10000; ++n) {
+        hs_state_t st;
+        double qn;
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+        angular_momentum(&plant, &p, h);
+        hs_plant_energy(&plant, &e);
+        for (int k = 0; k < 3; ++k) {
+            dh = fmax(dh, fabs(h[k] - h0[k]));
+        }
+        de = fmax(de, fabs(e.kinetic - e0.kinetic));
+        hs_plant_state(&plant, &st);
+        qn = st.quat[0] * st.quat[0] + st.quat[1] * st.quat[1] + st.quat[2] * st.quat[2] + st.quat[3] * st.quat[3];
+        assert_true(fabs(qn - 1.0) < 1e-12);
+    }
+    printf("  free tumbling body, 10 s: angular momentum drift %.2e of %.1f N m s, energy drift %.2e of %.3f J\n",
+           dh, hn, de, e0.kinetic);
+    assert_true(dh < 1e-9 * hn);
+    assert_true(de < 1e-9 * e0.kinetic);
+    {
+        /* the body really tumbled: body rates changed (not a principal axis) */
+        hs_state_t st;
+        hs_plant_state(&plant, &st);
+        assert_true(fabs(st.omega_body[0] - w0[0]) > 1e-3);
+    }
+
+    /* constant external wrench from rest */
+    {
+        double f[3] = {120.0, -80.0, 40.0}, m[3] = {30.0, 50.0, -70.0}, w00[3] = {0, 0, 0};
+        double t = 2.0, pose0[6], pose1[6];
+        assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
+        hs_plant_set_actuation(&plant, HS_ACT_IDEAL);
+        hs_plant_set_forces(&plant, zero);
+        hs_plant_set_twist(&plant, v0, w00);
+        assert_int_equal(hs_plant_set_wrench(&plant, f, m), HS_OK);
+        hs_plant_pose(&plant, pose0);
+        for (int n = 0; n < 2000; ++n) {
+            assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+        }
+        hs_plant_pose(&plant, pose1);
+        angular_momentum(&plant, &p, h);
+        for (int k = 0; k < 3; ++k) {
+            hs_state_t st;
+            hs_plant_state(&plant, &st);
+            assert_true(fabs(p.mass * st.vel[k] - f[k] * t) < 1e-9 * fabs(f[k] * t));
+            assert_true(fabs(pose1[k] - pose0[k] - 0.5 * f[k] / p.mass * t * t) < 1e-12);
+            assert_true(fabs(h[k] - m[k] * t) < 1e-9 * 100.0);
+        }
+    }
+}
+
+/* Contact. A plane under a point below o' (platform in ideal mode with no
+ * leg forces): the platform falls on it and comes to rest where the spring
+ * carries the weight: contact force m g within 0.1 %, penetration m g / k.
+ * A bilateral point spring without damping: kinetic + gravity + spring
+ * energy conserved within 1e-9 relative over 5 s. */
+static void test_contact(void **state)
+{
+    hs_params_t p;
+    hs_contact_t ct;
+    hs_state_t st;
+    double zero[HS_LEGS] = {0, 0, 0, 0, 0, 0}, pose[6];
+    (void)state;
+    assert_int_equal(hs_params_default(&p), HS_OK);
+    memset(&ct, 0, sizeof ct);
+    ct.kind = HS_CONTACT_PLANE;
+    ct.point[2] = -0.3;
+    ct.normal[2] = 2.0; /* normalised by the plant */
+    ct.offset = p.home[2] - 0.3 - 0.001; /* 1 mm below the point */
+    ct.stiffness = 5e6;
+    ct.damping = 2e5;
+    assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
+    hs_plant_set_actuation(&plant, HS_ACT_IDEAL);
+    hs_plant_set_forces(&plant, zero);
+    assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_OK);
+    for (int n = 0; n < 3000; ++n) {
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+    }
+    hs_plant_state(&plant, &st);
+    hs_plant_pose(&plant, pose);
+    printf("  resting on a plane: contact force %.2f N (weight %.2f N), sunk %.4f mm into it\n",
+           st.contact_force[2], p.mass * p.gravity, (ct.offset - (pose[2] - 0.3)) * 1e3);
+    assert_true(fabs(st.contact_force[2] / (p.mass * p.gravity) - 1.0) < 1e-3);
+    assert_true(fabs(st.contact_force[0]) < 1e-6 && fabs(st.contact_force[1]) < 1e-6);
+    assert_true(fabs((ct.offset - (pose[2] - 0.3)) - p.mass * p.gravity / ct.stiffness) < 1e-6);
+
+    /* Hydraulic mode (valves at null, no leakage) at that pose with the
+     * contact carrying the weight: after hs_plant_rebalance the cylinders
+     * carry nothing and the platform stays within 1 um; without it the
+     * cylinders hold the weight too and the platform jumps up. */
+    for (int rebalance = 1; rebalance >= 0; --rebalance) {
+        double before[6], after[6], moved = 0.0;
+        hs_params_t q = p;
+        for (int i = 0; i < HS_LEGS; ++i) {
+            q.cyl[i].leakage = 0.0;
+        }
+        assert_int_equal(hs_plant_init(&plant, &q, pose), HS_OK);
+        assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_OK);
+        if (rebalance) {
+            assert_int_equal(hs_plant_rebalance(&plant), HS_OK);
+        }
+        hs_plant_pose(&plant, before);
+        for (int n = 0; n < 500; ++n) {
+            assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+            hs_plant_pose(&plant, after);
+            moved = fmax(moved, pt_pos_error(before, after));
+        }
+        printf("  hydraulic on the plane, %s: moved up to %.3f um\n", rebalance ? "rebalanced" : "not rebalanced",
+               moved * 1e6);
+        assert_true(rebalance ? moved < 1e-6 : moved > 1e-4);
+    }
+
+    /* bilateral point spring, no damping: energy conserved */
+    {
+        hs_energy_t e0, e;
+        double v[3] = {0.05, -0.02, 0.01}, w[3] = {0.02, 0.0, -0.03}, drift = 0.0;
+        memset(&ct, 0, sizeof ct);
+        ct.kind = HS_CONTACT_POINT;
+        ct.point[0] = 0.8;
+        ct.anchor[0] = 0.8;
+        ct.anchor[2] = p.home[2];
+        ct.stiffness = 1e5;
+        p.gravity = 0.0;
+        assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
+        hs_plant_set_actuation(&plant, HS_ACT_IDEAL);
+        hs_plant_set_forces(&plant, zero);
+        assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_OK);
+        hs_plant_set_twist(&plant, v, w);
+        hs_plant_energy(&plant, &e0);
+        for (int n = 0; n < 5000; ++n) {
+            assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+            hs_plant_energy(&plant, &e);
+            drift = fmax(drift, fabs(e.total - e0.total));
+        }
+        printf("  point spring, 5 s: energy %.4f J, drift %.2e J\n", e0.total, drift);
+        assert_true(e.springs > 0.0);
+        assert_true(drift < 1e-9 * e0.total);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -339,6 +521,8 @@ int main(void)
         cmocka_unit_test(test_energy_conserved_closed_valves),
         cmocka_unit_test(test_rest_ideal_static_forces),
         cmocka_unit_test(test_rest_hydraulic_hold),
+        cmocka_unit_test(test_rigid_body_laws),
+        cmocka_unit_test(test_contact),
     };
     return cmocka_run_group_tests_name("plant_physics", tests, NULL, NULL);
 }
