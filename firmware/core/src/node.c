@@ -96,6 +96,13 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
         node->sync_tick = m.tick;
         node->sync_valid = 1u;
         node->sync_seen[b] = 1u;
+        /* lockstep: feedback sent just before this SYNC belongs to its cycle */
+        for (uint32_t i = 0; i < SP_LEGS; i++) {
+            if (node->early_valid[i] && node->early_echo[i] == (uint16_t)(m.tick & 0xFFFFu)) {
+                node->in.drive[i] = node->early[i];
+            }
+            node->early_valid[i] = 0u;
+        }
         inc(&node->stats.accepted);
         return SP_OK;
     }
@@ -109,18 +116,26 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     if (e != SP_PROTO_OK) {
         return reject(node, e, why);
     }
-    if (!node->sync_valid || m.tick_echo != (uint16_t)(node->sync_tick & 0xFFFFu)) {
+    sp_drive_feedback_t d;
+    d.fresh = 1u;
+    d.length = m.length;
+    d.force = force_from_pressures(node->ctrl_platform, m.pressure_a, m.pressure_b);
+    d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? 0x80u : 0u));
+    if (node->sync_valid && m.tick_echo == (uint16_t)(node->sync_tick & 0xFFFFu)) {
+        node->in.drive[leg] = d;
+    } else if (!node->ctrl_sync_master &&
+               (!node->sync_valid || m.tick_echo == (uint16_t)((node->sync_tick + 1u) & 0xFFFFu))) {
+        /* lockstep: the plant samples, sends the feedback, then SYNC closes the cycle */
+        node->early[leg] = d;
+        node->early_echo[leg] = m.tick_echo;
+        node->early_valid[leg] = 1u;
+    } else {
         inc(&node->stats.stale); /* valid, but it answers another cycle: not used */
         if (why != NULL) {
             *why = SP_PROTO_OK;
         }
         return SP_OK;
     }
-    sp_drive_feedback_t *d = &node->in.drive[leg];
-    d->fresh = 1u;
-    d->length = m.length;
-    d->force = force_from_pressures(node->ctrl_platform, m.pressure_a, m.pressure_b);
-    d->faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? 0x80u : 0u));
     inc(&node->stats.accepted);
     return SP_OK;
 }
@@ -296,7 +311,7 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     node->sync_seen[1] = 0u;
 
     sp_msg_status_t s;
-    s.tick = node->out.tick;
+    s.tick = tick;
     s.state = (uint8_t)node->out.state;
     s.faults = (uint16_t)(node->out.faults & 0xFFFFu);
     s.fk_iterations = (uint8_t)(node->out.fk_iterations > 15u ? 15u : node->out.fk_iterations);
@@ -309,7 +324,7 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     node->tx_counter_status &= 0x0Fu;
 
     sp_msg_monitor_t mon;
-    mon.tick = node->out.tick;
+    mon.tick = tick;
     mon.reference = node->out.reference.pose;
     for (uint32_t i = 0; i < SP_LEGS; i++) {
         mon.length_sp[i] = node->out.setpoint[i].length;

@@ -201,6 +201,11 @@ int main(int argc, char **argv)
             drain(&port, &node);
             uint32_t t;
             if (sp_node_cycle_ready(&node, &t)) {
+                /* Frames the plant sent before this SYNC (an operator command
+                 * on the ops bus) are queued by now even if the first drain
+                 * read the ops socket before they arrived: take them, so that
+                 * a command always lands in the same tick. */
+                drain(&port, &node);
                 tick(&port, &cfg, &node, &rs);
                 last_sync = now_ns();
             } else if (now_ns() - last_sync > (int64_t)timeout_ms * 1000000) {

@@ -12,7 +12,11 @@
  *    (only when the node is the cycle master: real-time mode), CTRL_STATUS
  *    and CTRL_MONITOR on the ops bus.
  *  - Feedback counts as fresh only if its TickEcho matches the last SYNC (sent
- *    by us, or, in lockstep, received from the plant).
+ *    by us, or, in lockstep, received from the plant). In lockstep the plant
+ *    sends each cycle's feedback just before its SYNC, which closes the cycle:
+ *    feedback for the next tick is held until that SYNC arrives.
+ *  - CTRL_STATUS and CTRL_MONITOR carry the tick of the setpoints they go
+ *    with (the SYNC tick in lockstep), so that a log lines them up.
  */
 #ifndef SP_NODE_H
 #define SP_NODE_H
@@ -51,6 +55,9 @@ typedef struct {
     uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
     uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
     uint8_t sync_valid;                 /**< a SYNC has been sent or received */
+    sp_drive_feedback_t early[SP_LEGS]; /**< lockstep: feedback waiting for the SYNC of its cycle */
+    uint16_t early_echo[SP_LEGS];
+    uint8_t early_valid[SP_LEGS];
     sp_msg_command_t cmd_queue[SP_NODE_CMD_QUEUE]; /**< commands waiting, one per tick */
     uint8_t cmd_head;
     uint8_t cmd_count;
