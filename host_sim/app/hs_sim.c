@@ -498,41 +498,46 @@ static void progress_line(sim_t *s, uint64_t tick)
 static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms)
 {
     struct pollfd pfd[SP_CAN_BUSES];
-    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
-        pfd[b].fd = sp_socketcan_fd(&s->sc, b);
+    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) { /* one socket serves all buses */
+        pfd[b].fd = b == 0 ? sp_socketcan_fd(&s->sc, b) : -1;
         pfd[b].events = POLLIN;
     }
     static sp_can_frame_t keep[4 * RX_BUF];
     uint32_t nkeep = 0;
-    int64_t deadline = now_ns() + (int64_t)timeout_ms * 1000000;
+    long waited_ms = 0; /* no clock reads per cycle: each one is a system call in user-mode Linux */
     s->status_seen = 0;
     s->monitor_seen = 0;
     for (;;) {
-        sp_can_frame_t rx[RX_BUF];
-        uint32_t got = 0;
-        (void)s->port.receive(s->port.ctx, rx, RX_BUF, &got);
-        for (uint32_t k = 0; k < got; k++) {
-            take_frame(s, &rx[k]);
-            if (nkeep < 4 * RX_BUF) {
-                keep[nkeep++] = rx[k];
-            }
-        }
-        int done = hs_bus_cycle_complete(&s->bus) && s->status_seen && s->status_tick == tick && s->monitor_seen &&
-                   s->monitor_tick == tick;
-        if (done) {
-            break;
-        }
-        if (got == RX_BUF) {
-            continue;
-        }
-        int64_t left = deadline - now_ns();
-        if (left <= 0 || g_stop) {
-            return 3;
-        }
-        int r = poll(pfd, SP_CAN_BUSES, (int)(left / 1000000 + 1));
+        /* the controller answers after our SYNC: wait first, then read */
+        int r = poll(pfd, SP_CAN_BUSES, 100);
         if (r < 0 && errno != EINTR) {
             perror("hs_sim: poll");
             return -1;
+        }
+        if (r == 0) {
+            waited_ms += 100;
+            if (waited_ms >= timeout_ms) {
+                return 3;
+            }
+        }
+        if (g_stop) {
+            return 3;
+        }
+        uint32_t got = 0;
+        do {
+            sp_can_frame_t rx[RX_BUF];
+            got = 0;
+            (void)s->port.receive(s->port.ctx, rx, RX_BUF, &got);
+            for (uint32_t k = 0; k < got; k++) {
+                take_frame(s, &rx[k]);
+                if (nkeep < 4 * RX_BUF) {
+                    keep[nkeep++] = rx[k];
+                }
+            }
+        } while (got == RX_BUF);
+        if (hs_bus_cycle_complete(&s->bus) && s->status_seen && s->status_tick == tick && s->monitor_seen &&
+            s->monitor_tick == tick) {
+            break;
         }
     }
     /* the same order every run: bus by bus, and within a bus as the controller sent them */
@@ -679,11 +684,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "hs_sim: cannot write %s: %s\n", log_path, strerror(errno));
         return 1;
     }
+    static char log_buf[1 << 20], truth_buf[1 << 20]; /* few write calls: each is slow in user-mode Linux */
+    if (s.log != NULL) {
+        (void)setvbuf(s.log, log_buf, _IOFBF, sizeof log_buf);
+    }
     if (truth_path != NULL) {
         if ((s.truth = fopen(truth_path, "w")) == NULL) {
             fprintf(stderr, "hs_sim: cannot write %s: %s\n", truth_path, strerror(errno));
             return 1;
         }
+        (void)setvbuf(s.truth, truth_buf, _IOFBF, sizeof truth_buf);
         fprintf(s.truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
                          "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6\n");
     }
@@ -733,8 +743,8 @@ int main(int argc, char **argv)
                     break;
                 }
                 struct pollfd pfd[SP_CAN_BUSES];
-                for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
-                    pfd[b].fd = sp_socketcan_fd(&s.sc, b);
+                for (uint8_t b = 0; b < SP_CAN_BUSES; b++) { /* one socket serves all buses */
+                    pfd[b].fd = b == 0 ? sp_socketcan_fd(&s.sc, b) : -1;
                     pfd[b].events = POLLIN;
                 }
                 struct timespec ts = {(time_t)(left / 1000000000), (long)(left % 1000000000)};

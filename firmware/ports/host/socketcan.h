@@ -2,6 +2,13 @@
  * socketcan.h - the host port's CAN: Linux SocketCAN raw sockets, CAN FD,
  * non-blocking, batched with sendmmsg/recvmmsg, one socket per bus.
  * Implements sp_can_port_t (sp/port.h).
+ *
+ * One socket serves all three buses: it is bound to every CAN interface
+ * (ifindex 0), each received frame names its interface, each sent frame is
+ * addressed to its bus's interface. A whole tick's frames therefore go out
+ * in one sendmmsg and come in with one recvmmsg, in the order they were
+ * sent across buses; that halves the system calls per tick, which is what
+ * limits the speed inside user-mode Linux.
  */
 #ifndef SP_SOCKETCAN_H
 #define SP_SOCKETCAN_H
@@ -18,28 +25,32 @@ typedef struct {
 } sp_socketcan_bus_cfg_t;
 
 typedef struct {
-    int fd[SP_CAN_BUSES];           /**< -1 when the bus is unused */
+    int fd;                          /**< the one raw socket, bound to every CAN interface; -1 when closed */
+    int ifindex[SP_CAN_BUSES];       /**< interface of each bus; 0: bus unused */
+    uint32_t rx_ids[SP_CAN_BUSES][SP_SOCKETCAN_MAX_FILTERS];
+    uint32_t n_rx_ids[SP_CAN_BUSES];
     sp_bus_status_t st[SP_CAN_BUSES];
-    uint32_t last_drops[SP_CAN_BUSES];
-    char error[128];                /**< the last error, for the operator */
+    uint32_t last_drops;             /**< the kernel's drop counter of the socket */
+    char error[128];                 /**< the last error, for the operator */
 } sp_socketcan_t;
 
 /**
- * Opens one raw CAN FD socket per configured bus, bound to its interface,
- * non-blocking, with receive filters for rx_ids, all error frames enabled and
- * the kernel's drop counter (SO_RXQ_OVFL) on. On failure closes what it
- * opened, writes the reason to p->error and returns SP_E_IO (interface
- * missing, no CAN FD MTU) or SP_E_ARG (bad arguments).
+ * Opens the raw CAN FD socket for the configured buses (ifname NULL: unused),
+ * non-blocking, with a receive filter on every bus's rx_ids (checked again per
+ * bus on receipt), all error frames enabled and the kernel's drop counter
+ * (SO_RXQ_OVFL) on. On failure closes the socket, writes the reason to
+ * p->error and returns SP_E_IO (interface missing, no CAN FD MTU, two buses on
+ * one interface) or SP_E_ARG (bad arguments).
  */
 sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cfg[SP_CAN_BUSES]);
 
-/** Closes every socket; safe to call twice. */
+/** Closes the socket; safe to call twice. */
 void sp_socketcan_close(sp_socketcan_t *p);
 
 /** The sp_can_port_t view of an open port (ctx = p). */
 sp_can_port_t sp_socketcan_port(sp_socketcan_t *p);
 
-/** File descriptor of a bus (for poll()), -1 if unused. */
+/** File descriptor to poll() for a bus (the same for every bus), -1 if the bus is unused. */
 int sp_socketcan_fd(const sp_socketcan_t *p, uint8_t bus);
 
 #endif /* SP_SOCKETCAN_H */
