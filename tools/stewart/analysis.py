@@ -960,16 +960,14 @@ def plot_tracking(data: LogData, seg: Segment, path: str | Path,
     a1.grid(alpha=0.3)
     err = tracking_error(data, delay_ticks)
     for a in range(6):
-        esc = 1e3
-        if a == ax_i:
-            a2.plot(t, err[m, a] * esc, lw=1.6, color="C3",
-                    label=f"{AXES[a]} [{axis_unit(a)}]")
-        else:
-            a2.plot(t, err[m, a] * esc, lw=0.6, alpha=0.7, label=f"{AXES[a]} [{axis_unit(a)}]")
+        bold = a == ax_i
+        a2.plot(t, err[m, a] * 1e3, color=f"C{a}", lw=1.6 if bold else 0.6,
+                alpha=1.0 if bold else 0.7, label=f"{AXES[a]} [{axis_unit(a)}]")
     if data.truth is not None:
         et = tracking_error(data, delay_ticks, pose=data.truth["pose"])
         a2.plot(t, et[m, ax_i] * 1e3, lw=0.8, ls=":", color="k", label=f"{AXES[ax_i]}, truth")
     a2.set_ylabel(f"estimate(t) - reference(t-{delay_ticks}) [mm, mrad]")
+    a2.ticklabel_format(axis="y", useOffset=False)
     a2.set_xlabel("time since the segment start [s]")
     a2.legend(ncol=4, fontsize=7)
     a2.grid(alpha=0.3)
@@ -1040,6 +1038,7 @@ def plot_compare(runs: list[tuple[str, LogData, Segment]], path: str | Path,
                 label=f"{name}: {seg.label} (RMS {_fmt(st['rms'])} {axis_unit(ax_i)})")
     ax.set_xlabel("time since the segment start [s]")
     ax.set_ylabel(f"tracking error [mm, mrad] (delay {delay_ticks} tick)")
+    ax.ticklabel_format(axis="y", useOffset=False)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
