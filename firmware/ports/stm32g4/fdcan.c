@@ -1,0 +1,421 @@
+/*
+ * fdcan.c - the three FDCAN controllers of the STM32G474 as the CAN port
+ * (sp/port.h), polled once per tick, no interrupts. Written from RM0440's
+ * FDCAN chapter (registers, message RAM, operating modes).
+ *
+ * Bus -> controller -> pins (NUCLEO-G474RE; docs/stm32g4.md):
+ *   ops    FDCAN1  PA11 RX, PA12 TX  AF9
+ *   axis_a FDCAN2  PB12 RX, PB13 TX  AF9
+ *   axis_b FDCAN3  PA8  RX, PA15 TX  AF11
+ *
+ * Bit timing from the 170 MHz kernel clock, prescaler 1 in both phases
+ * (one time quantum = 1/170 MHz = 5.88 ns):
+ *   nominal 1 Mbit/s: 170 tq = 1 sync + 135 (TSEG1) + 34 (TSEG2), sample
+ *     point 136/170 = 80.0 %, SJW 34;
+ *   data 5 Mbit/s: 34 tq = 1 + 26 + 7, sample point 27/34 = 79.4 %, SJW 7;
+ *   transmitter delay compensation on, offset TDCO = 27 kernel clocks (the
+ *     data-phase sample point), filter window off (TDCF = 0).
+ *
+ * Message RAM (fixed on the G4, 212 words per controller): 28 standard
+ * filters, 8 extended, Rx FIFO 0 and 1 of 3 elements, Tx event FIFO of 3,
+ * Tx FIFO of 3; every Rx/Tx element is 18 words (64 data bytes).
+ * Receive filters (everything else is rejected by the hardware):
+ *   ops:  OP_TARGET_POSE (0x050) -> FIFO 0, OP_COMMAND (0x040) -> FIFO 1
+ *   axis: AXIS_FEEDBACK 0x031, 0x032 -> FIFO 0, 0x033 -> FIFO 1
+ * so that no FIFO receives more than 2 of the frames that arrive in one
+ * tick. Transmit: Tx FIFO mode, frames leave in the order they were queued
+ * (AXIS_SETPOINTS before SYNC; a Tx queue would send the lower identifier,
+ * SYNC, first). sp_node_tick emits 2 frames per bus and tick; the FIFO holds 3.
+ */
+#include <string.h>
+
+#include <stddef.h>
+
+#include "g4_regs.h"
+#include "sp_g4.h"
+
+/* ---- bit timing ---------------------------------------------------------- */
+#define NBRP 1u
+#define NTSEG1 135u
+#define NTSEG2 34u
+#define NSJW 34u
+#define DBRP 1u
+#define DTSEG1 26u
+#define DTSEG2 7u
+#define DSJW 7u
+#define TDCO (DBRP * (1u + DTSEG1)) /* data sample point, in kernel clocks */
+#define TDCF 0u
+
+/* Compile-time checks: exact bit rates, register field ranges. */
+typedef char sp_g4_check_nominal_rate[(SP_G4_FDCAN_HZ / (NBRP * (1u + NTSEG1 + NTSEG2)) == 1000000u &&
+                                       SP_G4_FDCAN_HZ % (NBRP * (1u + NTSEG1 + NTSEG2)) == 0u) ? 1 : -1];
+typedef char sp_g4_check_data_rate[(SP_G4_FDCAN_HZ / (DBRP * (1u + DTSEG1 + DTSEG2)) == 5000000u &&
+                                    SP_G4_FDCAN_HZ % (DBRP * (1u + DTSEG1 + DTSEG2)) == 0u) ? 1 : -1];
+typedef char sp_g4_check_fields[(NBRP <= 512u && NTSEG1 >= 2u && NTSEG1 <= 256u && NTSEG2 >= 2u &&
+                                 NTSEG2 <= 128u && NSJW <= NTSEG2 && DBRP <= 32u && DTSEG1 <= 32u &&
+                                 DTSEG2 <= 16u && DSJW <= DTSEG2 && TDCO <= 127u) ? 1 : -1];
+
+#define NBTP_VALUE (((NSJW - 1u) << 25) | ((NBRP - 1u) << 16) | ((NTSEG1 - 1u) << 8) | (NTSEG2 - 1u))
+#define DBTP_VALUE (FDCAN_DBTP_TDC | ((DBRP - 1u) << 16) | ((DTSEG1 - 1u) << 8) | ((DTSEG2 - 1u) << 4) | (DSJW - 1u))
+#define TDCR_VALUE ((TDCO << 8) | TDCF)
+
+/* ---- message RAM elements ------------------------------------------------- */
+/* Standard filter element word (RM0440, FDCAN standard message ID filter element):
+ * SFT[31:30] 01 = dual ID (SFID1 or SFID2), SFEC[29:27] 001 = store in Rx
+ * FIFO 0, 010 = Rx FIFO 1, SFID1[26:16], SFID2[10:0]. */
+#define SFT_DUAL (1u << 30)
+#define SFEC_FIFO0 (1u << 27)
+#define SFEC_FIFO1 (2u << 27)
+#define STD_FILTER(sfec, id1, id2) (SFT_DUAL | (sfec) | ((uint32_t)(id1) << 16) | (uint32_t)(id2))
+/* Rx/Tx element header: word 0 ESI 31, XTD 30, RTR 29, standard ID [28:18];
+ * word 1 FDF 21, BRS 20, DLC [19:16] (Tx: EFC 23 = 0, no Tx event). */
+#define ELEM_XTD (1u << 30)
+#define ELEM_RTR (1u << 29)
+#define ELEM_ID_SHIFT 18u
+#define ELEM_FDF (1u << 21)
+#define ELEM_BRS (1u << 20)
+#define ELEM_DLC_SHIFT 16u
+
+static const uint32_t k_base[SP_CAN_BUSES] = {G4_FDCAN1, G4_FDCAN2, G4_FDCAN3};
+
+static uint32_t ram(uint8_t bus)
+{
+    return G4_SRAMCAN + (uint32_t)bus * G4_SRAMCAN_SIZE;
+}
+
+static const uint8_t k_dlc_len[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64};
+
+/* DLC of a payload length; 0xFF for a length CAN FD cannot carry. */
+static uint8_t len_to_dlc(uint8_t len)
+{
+    for (uint8_t d = 0; d < 16u; d++) {
+        if (k_dlc_len[d] == len) {
+            return d;
+        }
+    }
+    return 0xFFu;
+}
+
+static void inc(uint32_t *c, uint32_t by)
+{
+    *c = (*c > UINT32_MAX - by) ? UINT32_MAX : *c + by;
+}
+
+static int wait_cccr(uint32_t base, uint32_t mask, uint32_t value)
+{
+    for (uint32_t i = 0; i < 100000u; i++) {
+        if ((FDCAN_CCCR(base) & mask) == value) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Pin p of port to alternate function af, push-pull, no pull (the
+ * transceiver drives RX), speed "high" (01 = medium would also carry
+ * 5 Mbit/s edges; 10 = high keeps the TX edge sharp). */
+static void pin_af(uint32_t port, uint32_t p, uint32_t af)
+{
+    GPIO_MODER(port) = (GPIO_MODER(port) & ~(3u << (2u * p))) | (2u << (2u * p));
+    GPIO_OTYPER(port) &= ~(1u << p);
+    GPIO_OSPEEDR(port) = (GPIO_OSPEEDR(port) & ~(3u << (2u * p))) | (2u << (2u * p));
+    GPIO_PUPDR(port) &= ~(3u << (2u * p));
+    if (p < 8u) {
+        GPIO_AFRL(port) = (GPIO_AFRL(port) & ~(0xFu << (4u * p))) | (af << (4u * p));
+    } else {
+        GPIO_AFRH(port) = (GPIO_AFRH(port) & ~(0xFu << (4u * (p - 8u)))) | (af << (4u * (p - 8u)));
+    }
+}
+
+static sp_status_t init_one(uint8_t bus)
+{
+    uint32_t b = k_base[bus];
+    uint32_t r = ram(bus);
+
+    /* Initialisation mode (INIT is 1 after reset), then configuration
+     * change enable. */
+    FDCAN_CCCR(b) |= FDCAN_CCCR_INIT;
+    if (!wait_cccr(b, FDCAN_CCCR_INIT, FDCAN_CCCR_INIT)) {
+        return SP_E_IO;
+    }
+    FDCAN_CCCR(b) |= FDCAN_CCCR_CCE;
+    if (!wait_cccr(b, FDCAN_CCCR_CCE, FDCAN_CCCR_CCE)) {
+        return SP_E_IO;
+    }
+    /* CAN FD with bit rate switch; automatic retransmission on (stale frames
+     * are cancelled each tick instead); protocol exception handling default. */
+    FDCAN_CCCR(b) = FDCAN_CCCR_INIT | FDCAN_CCCR_CCE | FDCAN_CCCR_FDOE | FDCAN_CCCR_BRSE;
+    FDCAN_NBTP(b) = NBTP_VALUE;
+    FDCAN_DBTP(b) = DBTP_VALUE;
+    FDCAN_TDCR(b) = TDCR_VALUE;
+
+    /* The message RAM is undefined after power-on: clear this controller's
+     * 212 words before writing filters. */
+    for (uint32_t off = 0; off < G4_SRAMCAN_SIZE; off += 4u) {
+        SP_REG(r + off) = 0u;
+    }
+    if (bus == SP_BUS_OPS) {
+        SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, 0x050u, 0x050u); /* OP_TARGET_POSE */
+        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x040u, 0x040u); /* OP_COMMAND */
+    } else {
+        SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, 0x031u, 0x032u); /* AXIS_FEEDBACK slots 1, 2 */
+        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x033u, 0x033u); /* AXIS_FEEDBACK slot 3 */
+    }
+    /* Two standard filters, no extended; reject non-matching and remote
+     * frames; both Rx FIFOs in blocking mode (a full FIFO loses the new
+     * frame and sets RF0L / RF1L, counted as an overrun). */
+    FDCAN_RXGFC(b) = (2u << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) | FDCAN_RXGFC_ANFS_REJECT |
+                     FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
+    FDCAN_TXBC(b) = 0u; /* TFQM = 0: Tx FIFO */
+    FDCAN_IE(b) = 0u;   /* polled: no interrupt */
+    FDCAN_ILE(b) = 0u;
+    FDCAN_IR(b) = 0xFFFFFFFFu; /* clear every flag (write 1 to clear) */
+
+    /* Normal operation: clearing INIT also clears CCE; the controller joins
+     * the bus after 11 recessive bits. */
+    FDCAN_CCCR(b) &= ~(FDCAN_CCCR_INIT | FDCAN_CCCR_CCE);
+    if (!wait_cccr(b, FDCAN_CCCR_INIT, 0u)) {
+        return SP_E_IO;
+    }
+    return SP_OK;
+}
+
+sp_status_t sp_g4_can_init(sp_g4_can_t *can)
+{
+    if (can == NULL) {
+        return SP_E_ARG;
+    }
+    memset(can, 0, sizeof *can);
+
+    RCC_AHB2ENR |= RCC_AHB2ENR_GPIOAEN | RCC_AHB2ENR_GPIOBEN;
+    RCC_APB1ENR1 |= RCC_APB1ENR1_FDCANEN;
+    (void)RCC_APB1ENR1;
+    RCC_APB1RSTR1 |= RCC_APB1RSTR1_FDCANRST; /* the three controllers to their reset state */
+    RCC_APB1RSTR1 &= ~RCC_APB1RSTR1_FDCANRST;
+
+    pin_af(G4_GPIOA, 11u, 9u); /* FDCAN1_RX */
+    pin_af(G4_GPIOA, 12u, 9u); /* FDCAN1_TX */
+    pin_af(G4_GPIOB, 12u, 9u); /* FDCAN2_RX */
+    pin_af(G4_GPIOB, 13u, 9u); /* FDCAN2_TX */
+    pin_af(G4_GPIOA, 8u, 11u); /* FDCAN3_RX */
+    pin_af(G4_GPIOA, 15u, 11u);/* FDCAN3_TX (PA15 leaves JTDI; SWD stays on PA13/PA14) */
+
+    /* CKDIV is written only while FDCAN1 is in initialisation mode (after
+     * reset it is): kernel clock / 1. */
+    FDCAN_CKDIV = 0u;
+
+    for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
+        sp_status_t s = init_one(bus);
+        if (s != SP_OK) {
+            return s;
+        }
+    }
+    return SP_OK;
+}
+
+/* Copies one frame into the controller's Tx FIFO. SP_E_BUSY when full. */
+static sp_status_t put(uint8_t bus, const sp_can_frame_t *f)
+{
+    uint32_t b = k_base[bus];
+    uint8_t dlc = len_to_dlc(f->len);
+    if (f->id > 0x7FFu || dlc == 0xFFu || (dlc > 8u && (f->flags & SP_CAN_FLAG_FD) == 0u)) {
+        return SP_E_ARG;
+    }
+    uint32_t fqs = FDCAN_TXFQS(b);
+    if ((fqs & FDCAN_TXFQS_TFQF) != 0u) {
+        return SP_E_BUSY;
+    }
+    uint32_t pi = (fqs >> 16) & 3u;
+    if (pi >= SRAMCAN_FIFO_DEPTH) {
+        return SP_E_IO;
+    }
+    uint32_t e = ram(bus) + SRAMCAN_TFQSA + pi * SRAMCAN_ELEM;
+    uint32_t w1 = (uint32_t)dlc << ELEM_DLC_SHIFT;
+    if ((f->flags & SP_CAN_FLAG_FD) != 0u) {
+        w1 |= ELEM_FDF;
+        if ((f->flags & SP_CAN_FLAG_BRS) != 0u) {
+            w1 |= ELEM_BRS;
+        }
+    }
+    SP_REG(e) = f->id << ELEM_ID_SHIFT;
+    SP_REG(e + 4u) = w1;
+    uint32_t words = ((uint32_t)f->len + 3u) / 4u;
+    for (uint32_t w = 0; w < words; w++) {
+        const uint8_t *d = &f->data[4u * w];
+        SP_REG(e + 8u + 4u * w) = (uint32_t)d[0] | ((uint32_t)d[1] << 8) | ((uint32_t)d[2] << 16) |
+                                  ((uint32_t)d[3] << 24);
+    }
+    FDCAN_TXBAR(b) = 1u << pi;
+    return SP_OK;
+}
+
+static sp_status_t can_send(void *ctx, const sp_can_frame_t *frames, uint32_t n, uint32_t *sent)
+{
+    sp_g4_can_t *can = (sp_g4_can_t *)ctx;
+    if (can == NULL || sent == NULL || (frames == NULL && n > 0u)) {
+        return SP_E_ARG;
+    }
+    *sent = 0;
+    sp_status_t result = SP_OK;
+    for (uint32_t k = 0; k < n; k++) {
+        const sp_can_frame_t *f = &frames[k];
+        if (f->bus >= SP_CAN_BUSES) {
+            result = SP_E_ARG;
+            continue;
+        }
+        sp_bus_status_t *st = &can->status[f->bus];
+        sp_status_t s = (st->bus_off != 0u) ? SP_E_IO : put(f->bus, f);
+        if (s == SP_OK) {
+            inc(&st->tx_frames, 1u);
+            (*sent)++;
+        } else {
+            inc(&st->tx_dropped, 1u);
+            if (result == SP_OK || s == SP_E_IO) {
+                result = s;
+            }
+        }
+    }
+    return result;
+}
+
+/* Moves one element of Rx FIFO `fifo` (0/1) of `bus` into *f; 0 if empty. */
+static int take(uint8_t bus, uint32_t fifo, sp_can_frame_t *f)
+{
+    uint32_t b = k_base[bus];
+    uint32_t st = (fifo == 0u) ? FDCAN_RXF0S(b) : FDCAN_RXF1S(b);
+    if ((st & 0xFu) == 0u) {
+        return 0;
+    }
+    uint32_t gi = (st >> 8) & 3u;
+    if (gi >= SRAMCAN_FIFO_DEPTH) {
+        return 0;
+    }
+    uint32_t e = ram(bus) + ((fifo == 0u) ? SRAMCAN_RF0SA : SRAMCAN_RF1SA) + gi * SRAMCAN_ELEM;
+    uint32_t w0 = SP_REG(e);
+    uint32_t w1 = SP_REG(e + 4u);
+    memset(f, 0, sizeof *f);
+    f->id = (w0 >> ELEM_ID_SHIFT) & 0x7FFu;
+    f->bus = bus;
+    f->len = k_dlc_len[(w1 >> ELEM_DLC_SHIFT) & 0xFu];
+    if ((w1 & ELEM_FDF) != 0u) {
+        f->flags = (uint8_t)(SP_CAN_FLAG_FD | (((w1 & ELEM_BRS) != 0u) ? SP_CAN_FLAG_BRS : 0u));
+    } else if (f->len > 8u) {
+        f->len = 8u; /* classic CAN: DLC 9..15 still means 8 bytes */
+    }
+    uint32_t words = ((uint32_t)f->len + 3u) / 4u;
+    for (uint32_t w = 0; w < words; w++) {
+        uint32_t v = SP_REG(e + 8u + 4u * w);
+        for (uint32_t i = 0; i < 4u && 4u * w + i < f->len; i++) {
+            f->data[4u * w + i] = (uint8_t)(v >> (8u * i));
+        }
+    }
+    if (fifo == 0u) {
+        FDCAN_RXF0A(b) = gi;
+    } else {
+        FDCAN_RXF1A(b) = gi;
+    }
+    /* Extended or remote frames are rejected by the filters; drop any that
+     * would get through as if it had never arrived. */
+    return ((w0 & (ELEM_XTD | ELEM_RTR)) != 0u) ? 2 : 1;
+}
+
+static sp_status_t can_receive(void *ctx, sp_can_frame_t *frames, uint32_t max, uint32_t *got)
+{
+    sp_g4_can_t *can = (sp_g4_can_t *)ctx;
+    if (can == NULL || got == NULL || (frames == NULL && max > 0u)) {
+        return SP_E_ARG;
+    }
+    *got = 0;
+    /* At most 3 elements per FIFO, 2 FIFOs, 3 controllers: 18 takes. */
+    for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
+        uint32_t b = k_base[bus];
+        uint32_t ir = FDCAN_IR(b) & (FDCAN_IR_RF0L | FDCAN_IR_RF1L);
+        if (ir != 0u) {
+            FDCAN_IR(b) = ir;
+            inc(&can->status[bus].rx_overruns, ((ir & FDCAN_IR_RF0L) != 0u ? 1u : 0u) +
+                                                   ((ir & FDCAN_IR_RF1L) != 0u ? 1u : 0u));
+        }
+        for (uint32_t fifo = 0; fifo < 2u; fifo++) {
+            for (uint32_t k = 0; k < SRAMCAN_FIFO_DEPTH && *got < max; k++) {
+                int t = take(bus, fifo, &frames[*got]);
+                if (t == 0) {
+                    break;
+                }
+                inc(&can->status[bus].rx_frames, 1u);
+                if (t == 1) {
+                    (*got)++;
+                }
+            }
+        }
+    }
+    return SP_OK;
+}
+
+static sp_status_t can_bus_status(void *ctx, uint8_t bus, sp_bus_status_t *status)
+{
+    sp_g4_can_t *can = (sp_g4_can_t *)ctx;
+    if (can == NULL || status == NULL || bus >= SP_CAN_BUSES) {
+        return SP_E_ARG;
+    }
+    *status = can->status[bus];
+    return SP_OK;
+}
+
+sp_can_port_t sp_g4_can_port(sp_g4_can_t *can)
+{
+    sp_can_port_t p;
+    p.ctx = can;
+    p.send = can_send;
+    p.receive = can_receive;
+    p.bus_status = can_bus_status;
+    return p;
+}
+
+static uint32_t popcount3(uint32_t v)
+{
+    return (v & 1u) + ((v >> 1) & 1u) + ((v >> 2) & 1u);
+}
+
+void sp_g4_can_service(sp_g4_can_t *can)
+{
+    if (can == NULL) {
+        return;
+    }
+    for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
+        uint32_t b = k_base[bus];
+        sp_bus_status_t *st = &can->status[bus];
+
+        uint32_t pending = FDCAN_TXBRP(b) & 7u;
+        if (pending != 0u) {
+            FDCAN_TXBCR(b) = pending; /* a frame in transmission completes or fails first */
+            inc(&st->tx_dropped, popcount3(pending));
+            inc(&can->tx_stale_cancelled[bus], popcount3(pending));
+        }
+
+        inc(&st->error_frames, (FDCAN_ECR(b) >> FDCAN_ECR_CEL_SHIFT) & 0xFFu); /* reading clears CEL */
+        uint32_t psr = FDCAN_PSR(b); /* (reading also resets the last error codes) */
+        st->error_passive = (uint8_t)((psr & FDCAN_PSR_EP) != 0u);
+        st->bus_off = (uint8_t)((psr & FDCAN_PSR_BO) != 0u);
+
+        /* Bus-off puts the controller in initialisation mode; leaving it
+         * starts the recovery (128 x 11 recessive bits). */
+        if (st->bus_off != 0u && (FDCAN_CCCR(b) & FDCAN_CCCR_INIT) != 0u) {
+            if (can->recover_wait[bus] == 0u) {
+                FDCAN_CCCR(b) &= ~FDCAN_CCCR_INIT;
+                inc(&can->bus_off_recoveries[bus], 1u);
+                can->recover_wait[bus] = 100u;
+            } else {
+                can->recover_wait[bus]--;
+            }
+        }
+    }
+}
+
+void sp_g4_can_silence(void)
+{
+    for (uint32_t bus = 0; bus < SP_CAN_BUSES; bus++) {
+        uint32_t b = (bus == 0u) ? G4_FDCAN1 : (bus == 1u) ? G4_FDCAN2 : G4_FDCAN3;
+        FDCAN_TXBCR(b) = 7u;
+        FDCAN_CCCR(b) |= FDCAN_CCCR_INIT;
+    }
+}
