@@ -2,7 +2,8 @@
  * clock.c - 170 MHz from the NUCLEO-G474RE's 24 MHz crystal (RM0440
  * chapter 7, RCC; chapter 6, PWR; chapter 3, flash access control).
  *
- *   HSE 24 MHz / M 6 = 4 MHz PLL input (allowed 2.66..16 MHz)
+ *   HSE 24 MHz / M 6 = 4 MHz PLL input (allowed 2.66..16 MHz; 8 MHz / 2 with
+ *     the SP_G4_HSE_MCO_8MHZ option)
  *   x N 85 = 340 MHz VCO (allowed 96..344 MHz)
  *   / R 2 = 170 MHz SYSCLK = HCLK = PCLK1 = PCLK2
  *   / Q 2 = 170 MHz FDCAN kernel clock
@@ -17,6 +18,17 @@
  */
 #include "g4_regs.h"
 #include "sp_g4.h"
+
+/* Board option: -DSP_G4_HSE_MCO_8MHZ for a NUCLEO modified to take the
+ * ST-LINK's 8 MHz MCO on PF0 (HSE bypass) instead of the 24 MHz crystal;
+ * M becomes 2 so that the PLL input stays 4 MHz and nothing else changes. */
+#if defined(SP_G4_HSE_MCO_8MHZ)
+#define HSE_BYPASS RCC_CR_HSEBYP
+#define PLLM_DIV 2u
+#else
+#define HSE_BYPASS 0u
+#define PLLM_DIV 6u
+#endif
 
 /* Spin bounds: at most 16 MHz (HSI16, reset clock) or 170 MHz, a few cycles
  * per iteration. HSE start-up is a few ms on this board; the bound is about
@@ -45,9 +57,10 @@ sp_status_t sp_g4_clock_init(void)
     RCC_APB1ENR1 |= RCC_APB1ENR1_PWREN;
     (void)RCC_APB1ENR1; /* read back: the enable takes effect before PWR is touched */
 
-    /* Crystal (not bypass): the NUCLEO-G474RE has X3 = 24 MHz; the ST-LINK's
-     * MCO is not connected to PF0 by default (see docs/stm32g4.md). */
-    RCC_CR = (RCC_CR & ~RCC_CR_HSEBYP) | RCC_CR_HSEON;
+    /* Crystal (not bypass) by default: the NUCLEO-G474RE has X3 = 24 MHz
+     * (see docs/stm32g4.md). HSEBYP may only change while the HSE is off. */
+    RCC_CR = (RCC_CR & ~(RCC_CR_HSEBYP | RCC_CR_HSEON)) | HSE_BYPASS;
+    RCC_CR |= RCC_CR_HSEON;
     if (!wait_set(&RCC_CR, RCC_CR_HSERDY, RCC_CR_HSERDY, SPIN_HSE)) {
         RCC_CR &= ~RCC_CR_HSEON;
         return SP_E_IO;
@@ -72,7 +85,7 @@ sp_status_t sp_g4_clock_init(void)
     if (!wait_set(&RCC_CR, RCC_CR_PLLRDY, 0u, SPIN_SHORT)) {
         return SP_E_IO;
     }
-    RCC_PLLCFGR = RCC_PLLCFGR_PLLSRC_HSE | (5u << RCC_PLLCFGR_PLLM_SHIFT) | (85u << RCC_PLLCFGR_PLLN_SHIFT) |
+    RCC_PLLCFGR = RCC_PLLCFGR_PLLSRC_HSE | ((PLLM_DIV - 1u) << RCC_PLLCFGR_PLLM_SHIFT) | (85u << RCC_PLLCFGR_PLLN_SHIFT) |
                   RCC_PLLCFGR_PLLREN | (0u << RCC_PLLCFGR_PLLR_SHIFT) | RCC_PLLCFGR_PLLQEN |
                   (0u << RCC_PLLCFGR_PLLQ_SHIFT);
     RCC_CR |= RCC_CR_PLLON;

@@ -145,6 +145,11 @@ static sp_status_t init_one(uint8_t bus)
     /* CAN FD with bit rate switch; automatic retransmission on (stale frames
      * are cancelled each tick instead); protocol exception handling default. */
     FDCAN_CCCR(b) = FDCAN_CCCR_INIT | FDCAN_CCCR_CCE | FDCAN_CCCR_FDOE | FDCAN_CCCR_BRSE;
+    if (bus == 0u) {
+        /* The shared clock divider is writable while FDCAN1 has INIT and
+         * CCE set: kernel clock / 1 (its reset value, made explicit). */
+        FDCAN_CKDIV = 0u;
+    }
     FDCAN_NBTP(b) = NBTP_VALUE;
     FDCAN_DBTP(b) = DBTP_VALUE;
     FDCAN_TDCR(b) = TDCR_VALUE;
@@ -199,10 +204,6 @@ sp_status_t sp_g4_can_init(sp_g4_can_t *can)
     pin_af(G4_GPIOB, 13u, 9u); /* FDCAN2_TX */
     pin_af(G4_GPIOA, 8u, 11u); /* FDCAN3_RX */
     pin_af(G4_GPIOA, 15u, 11u);/* FDCAN3_TX (PA15 leaves JTDI; SWD stays on PA13/PA14) */
-
-    /* CKDIV is written only while FDCAN1 is in initialisation mode (after
-     * reset it is): kernel clock / 1. */
-    FDCAN_CKDIV = 0u;
 
     for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
         sp_status_t s = init_one(bus);
