@@ -123,15 +123,15 @@ def build_log(ticks, segments, *, ifaces=("vcan0", "vcan1", "vcan2"), ff_on=(Tru
     return lines, truth
 
 
-SURGE = {"axis": 0, "amp": 0.09, "freq": 1.0, "start": 300, "end": 1299, "stop": 800, "ff": True}
-YAW = {"axis": 5, "amp": 0.05, "freq": 2.0, "start": 1500, "end": 2299, "ff": False}
+SURGE = {"axis": 0, "amp": 0.09, "freq": 1.0, "start": 200, "end": 899, "stop": 600, "ff": True}
+YAW = {"axis": 5, "amp": 0.05, "freq": 2.0, "start": 1000, "end": 1499, "ff": False}
 
 
 @pytest.fixture(scope="module")
 def run2():
     """Two segments (surge ff on, yaw ff off), with truth."""
-    lines, truth = build_log(range(0, 2500), [SURGE, YAW], with_truth=True,
-                             skip_feedback={(1000, 4)})
+    lines, truth = build_log(range(0, 1600), [SURGE, YAW], with_truth=True,
+                             skip_feedback={(700, 4)})
     data = an.read_log(lines, platform=PLATFORM)
     tr = {"tick": np.array([r[0] for r in truth]), "pose": np.array([r[1:7] for r in truth]),
           "length": np.array([r[7:13] for r in truth]), "force": np.array([r[13:19] for r in truth])}
@@ -163,15 +163,18 @@ def test_bus_map():
         an.parse_bus_map("foo=can0")
     with pytest.raises(ValueError):
         an.parse_bus_map("ops")
+    with pytest.raises(ValueError, match="two buses"):
+        an.parse_bus_map("ops=vcan1")
+    assert an.parse_bus_map("ops=vcan2,axis_b=vcan0")["vcan0"] == "axis_b"
 
 
 # -- decoding -----------------------------------------------------------------------
 
 def test_decoded_rows_match_what_was_encoded(run2):
     data, _, _ = run2
-    assert len(data) == 2500 and data.ticks[0] == 0 and data.ticks[-1] == 2499
+    assert len(data) == 1600 and data.ticks[0] == 0 and data.ticks[-1] == 1599
     assert data.stats.bad_frames == 0 and data.stats.malformed == 0 and data.stats.lost == 0
-    assert data.stats.setpoint_checked == 2500 and data.stats.setpoint_mismatch == 0
+    assert data.stats.setpoint_checked == 1600 and data.stats.setpoint_mismatch == 0
     k = int(data.index_of([555])[0])
     ref = ref_pose(555, [SURGE, YAW])
     est = ref_pose(554, [SURGE, YAW]) + OFFSET
@@ -185,7 +188,7 @@ def test_decoded_rows_match_what_was_encoded(run2):
     assert data.state_name(k) == "RUNNING" and data.feedforward[k] == 1
     assert data.state_name(0) == "READY"
     # feedback left out: that leg alone is missing at that tick
-    k = int(data.index_of([1000])[0])
+    k = int(data.index_of([700])[0])
     assert math.isnan(data.length[k, 3]) and not np.isnan(np.delete(data.length[k], 3)).any()
 
 
@@ -195,7 +198,7 @@ def test_signals_csv(run2, tmp_path):
     an.write_signals_csv(data, path)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == 2500
+    assert len(rows) == 1600
     r = rows[555]
     assert r["tick"] == "555" and r["time_s"] == "0.555" and r["state"] == "RUNNING"
     assert r["faults"] == "0" and r["drive_mode"] == "ACTIVE" and r["feedforward"] == "1"
@@ -205,8 +208,8 @@ def test_signals_csv(run2, tmp_path):
     assert r["drive_state1"] == "ACTIVE" and r["drive_faults6"] == "0"
     assert abs(float(r["truth_x"]) - (ref_pose(554, [SURGE])[0] + OFFSET[0])) < 1e-9
     assert abs(float(r["truth_force3"]) - (FORCE + 2)) < 1e-3
-    assert rows[1000]["length4"] == "" and rows[1000]["stretch4"] == "" and rows[1000]["force4"] == ""
-    assert rows[1000]["length5"] != ""
+    assert rows[700]["length4"] == "" and rows[700]["stretch4"] == "" and rows[700]["force4"] == ""
+    assert rows[700]["length5"] != ""
     for col in an.signal_columns(True):
         assert col in rows[0]
 
@@ -216,13 +219,19 @@ def test_signals_csv(run2, tmp_path):
 def test_segments_found_and_labelled(run2):
     data, _, _ = run2
     segs = an.find_segments(data)
-    assert [(s.start, s.end) for s in segs] == [(300, 1299), (1500, 2299)]
+    assert [(s.start, s.end) for s in segs] == [(200, 899), (1000, 1499)]
     assert segs[0].label == "surge x 0.090 m 1 Hz ff=on"
     assert segs[1].label == "yaw 0.050 rad 2 Hz ff=off"
     assert segs[0].command == "RUN_TRIG" and segs[0].axis == 0 and segs[1].axis == 5
-    assert segs[0].stop_tick == 800 and segs[1].stop_tick is None
+    assert segs[0].stop_tick == 600 and segs[1].stop_tick is None
     assert segs[0].fade_time == pytest.approx(0.5)
-    assert segs[0].steady() == (800, 800) or segs[0].steady() == (300, 1299)
+    # fade-in (0.5 s) longer than the run before STOP: no steady part, the whole segment
+    assert segs[0].steady() == (200, 899)
+    seg = an.Segment(1, 1000, 5000, command="RUN_TRIG", axis=0, amplitude=0.1, frequency=1.0,
+                     fade_time=0.5, stop_tick=4000)
+    assert seg.steady() == (1500, 4000) and an.figure_window(seg) == (3001, 4000)
+    seg.stop_tick = None
+    assert seg.steady() == (1500, 4500)
 
 
 def test_tracking_error_one_tick_delay(run2):
@@ -235,7 +244,7 @@ def test_tracking_error_one_tick_delay(run2):
         assert m["error"][name]["rms"] == pytest.approx(abs(OFFSET[a]) * 1e3, abs=tol), name
         assert m["error"][name]["mean"] == pytest.approx(OFFSET[a] * 1e3, abs=tol), name
         assert m["error"][name]["max"] == pytest.approx(abs(OFFSET[a]) * 1e3, abs=tol), name
-        assert m["error"][name]["n"] == 1000
+        assert m["error"][name]["n"] == 700
     assert m["moving_axis_error"]["unit"] == "mm"
     assert m["error"]["yaw"]["unit"] == "mrad"
     # truth is the unquantised estimate: one rounding of the reference
@@ -264,11 +273,11 @@ def test_summary(run2):
     data, _, _ = run2
     s = an.summarize(data)
     assert s["final_state"] == "READY" and s["states"] == ["READY", "RUNNING", "READY", "RUNNING", "READY"]
-    assert s["bad_frames"] == 0 and s["faults_seen"] == [] and s["duration_s"] == pytest.approx(2.5)
+    assert s["bad_frames"] == 0 and s["faults_seen"] == [] and s["duration_s"] == pytest.approx(1.6)
     assert len(s["segments"]) == 2 and s["segments"][1]["feedforward"] == "off"
     assert [c["command"] for c in s["commands"]] == ["SET_FEEDFORWARD", "RUN_TRIG", "STOP",
                                                     "SET_FEEDFORWARD", "RUN_TRIG"]
-    assert s["commands"][1]["tick"] == 300
+    assert s["commands"][1]["tick"] == 200
     text = an.format_summary(s)
     assert "segment 1: surge x 0.090 m 1 Hz ff=on" in text and "RMS 0.500 mm" in text
     json.dumps(an._clean(s), allow_nan=False)
@@ -343,7 +352,7 @@ def test_truth_csv_with_and_without_header(tmp_path, run2):
 
 # -- the command line ---------------------------------------------------------------
 
-SHORT = {"axis": 0, "amp": 0.09, "freq": 2.0, "start": 100, "end": 699, "stop": 400}
+SHORT = {"axis": 0, "amp": 0.09, "freq": 4.0, "start": 50, "end": 449, "stop": 250}
 
 
 def _write(path, lines):
@@ -353,8 +362,8 @@ def _write(path, lines):
 def test_cli_analyze_with_truth_and_compare(tmp_path, capsys):
     on = dict(SHORT, ff=True)
     off = dict(SHORT, ff=False)
-    lines1, truth = build_log(range(0, 800), [on], with_truth=True)
-    lines2, _ = build_log(range(0, 800), [off])
+    lines1, truth = build_log(range(0, 500), [on], with_truth=True)
+    lines2, _ = build_log(range(0, 500), [off])
     log1, log2, tpath = tmp_path / "on.log", tmp_path / "off.log", tmp_path / "truth.csv"
     _write(log1, lines1)
     _write(log2, lines2 + ["broken line"])
@@ -371,15 +380,15 @@ def test_cli_analyze_with_truth_and_compare(tmp_path, capsys):
                  "compare1.png", "run2/signals.csv", "run2/seg1_tracking.png"):
         assert (out / name).stat().st_size > 1000 or name.endswith(".json"), name
     s = json.loads((out / "summary.json").read_text())
-    assert s["segments"][0]["label"] == "surge x 0.090 m 2 Hz ff=on"
+    assert s["segments"][0]["label"] == "surge x 0.090 m 4 Hz ff=on"
     assert s["segments"][0]["moving_axis_error"]["rms"] == pytest.approx(0.5, abs=1e-3)
     assert s["segments"][0]["moving_axis_truth_error"]["rms"] == pytest.approx(0.5, abs=1e-3)
     assert s["truth"] is True and s["bad_frames"] == 0
     s2 = json.loads((out / "run2" / "summary.json").read_text())
     assert s2["malformed_lines"] == 1 and s2["segments"][0]["feedforward"] == "off"
-    assert "segment 1: surge x 0.090 m 2 Hz ff=on" in text
-    assert "segment 1: surge x 0.090 m 2 Hz ff=off" in text
-    assert "compare 1: surge x 0.090 m 2 Hz ff=on vs surge x 0.090 m 2 Hz ff=off" in text
+    assert "segment 1: surge x 0.090 m 4 Hz ff=on" in text
+    assert "segment 1: surge x 0.090 m 4 Hz ff=off" in text
+    assert "compare 1: surge x 0.090 m 4 Hz ff=on vs surge x 0.090 m 4 Hz ff=off" in text
 
 
 def test_cli_analyze_usage_errors(tmp_path, capsys):

@@ -166,6 +166,9 @@ def parse_bus_map(text: str | None) -> dict[str, str]:
                 raise ValueError(f"--bus: {part!r} is not BUS=IFACE with BUS one of "
                                  f"{', '.join(pr.BUSES)}")
             ifaces[bus] = iface
+    if len(set(ifaces.values())) != len(ifaces):
+        raise ValueError(f"--bus: two buses on one interface: "
+                         f"{', '.join(f'{b}={i}' for b, i in ifaces.items())}")
     out = {iface: bus for bus, iface in ifaces.items()}
     for bus in pr.BUSES:
         out.setdefault(bus, bus)
