@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# The main job: the closed-loop demo (firmware + simulated hexapod over vcan).
-# Until the controller and the plant exist (issues 5 and 6), it builds
-# everything and says what it will run.
+# The main job: the firmware's controller (host build) commands the simulated
+# hydraulic hexapod over three CAN FD buses (vcan; user-mode Linux where the
+# kernel has no CAN) in deterministic lockstep: engage, the paper's surge and
+# yaw (90 mm / 0.09 rad, 0.5 Hz), park. Writes the CAN log, a CSV of decoded
+# signals, plots and a summary of the figures into out/demo/.
+# Extra arguments go to `stewart demo` (e.g. --quick, --out DIR).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 scripts/setup.sh
 scripts/build.sh host-release
-echo "demo: the closed-loop run (engage, surge 90 mm 0.5 Hz, yaw 90 mm 0.5 Hz, park over vcan)"
-echo "demo: is not built yet; the fixed-point figures so far:"
-scripts/bench.sh
+exec .venv/bin/stewart demo "$@"

@@ -1,0 +1,145 @@
+"""``stewart demo``: the main job. The firmware's controller (host build)
+commands the simulated hydraulic hexapod over three CAN FD buses (vcan, in
+user-mode Linux where the kernel has no CAN), in lockstep: engage, the
+paper's surge (90 mm, 0.5 Hz), its yaw (0.09 rad, 0.5 Hz), park.
+
+Runs: ``main`` (force feed-forward on), ``ff_off`` (the same without the
+paper's inverse dynamics) and ``main_repeat`` (main again, for the
+determinism check). Writes into OUT (default out/demo):
+
+  main.log              CAN log of all three buses, candump -L format, simulated time
+  main.truth.csv        the plant's true pose, leg lengths and forces per tick
+  signals.csv           the log decoded with protocol/stewart.dbc, one row per tick
+  seg1_tracking.png     surge: reference vs measured pose, tracking error
+  seg1_cylinders.png    surge: stretch and force of all six cylinders (feed-forward vs plant)
+  seg2_*.png            the same for yaw
+  compare1.png, compare2.png   tracking error with feed-forward on and off
+  summary.json, demo_summary.txt   the figures
+  ff_off/, ff_off.log, main_repeat.log, *.plant.txt, *.controller.txt, *.scenario
+
+Exit status: 0 all runs ended as planned and the logs are clean and
+deterministic; 1 otherwise (the figures are still printed); 2 not built.
+"""
+
+from __future__ import annotations
+
+import argparse
+import filecmp
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from .. import REPO_ROOT
+
+
+def _tick_compute(build: Path) -> str | None:
+    bench = build / "bench" / "bench_kinematics"
+    if not bench.exists():
+        return None
+    try:
+        out = subprocess.run([str(bench)], capture_output=True, text=True, timeout=120).stdout
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    for line in out.splitlines():
+        if line.startswith("controller tick"):
+            return line.strip()
+    return None
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import analysis as an
+    from .. import closedloop as cl
+
+    out = Path(args.out)
+    build = Path(args.build)
+    try:
+        cl.Binaries.find(build)
+    except FileNotFoundError as exc:
+        print(f"stewart demo: {exc}", file=sys.stderr)
+        return 2
+    cycles = 2 if args.quick else 4
+    scenario = cl.paper_scenario(amplitude=0.09, frequency=0.5, cycles=cycles, fade=1.0)
+    specs = [cl.RunSpec("main", scenario)]
+    if not args.no_compare:
+        specs.append(cl.RunSpec("ff_off", scenario, feedforward=False))
+    if not args.no_determinism:
+        specs.append(cl.RunSpec("main_repeat", scenario))
+    print(f"demo: {len(specs)} lockstep run(s) of {cycles / 0.5 + 2:.0f} s of motion each "
+          f"({', '.join(s.name for s in specs)}), output in {out}/", flush=True)
+    t0 = time.monotonic()
+    results = {r.spec.name: r for r in cl.run(specs, out, build=build, progress=True, timeout=args.timeout)}
+    t_runs = time.monotonic() - t0
+    ok = all(r.ok for r in results.values())
+    for r in results.values():
+        if not r.ok:
+            print(f"demo: run {r.spec.name} failed (hs_sim exit {r.plant_rc}); see {out}/{r.spec.name}.plant.txt",
+                  file=sys.stderr)
+    main = results["main"]
+    if not main.log.exists():
+        return 1
+
+    print("demo: decoding the CAN log and drawing the plots", flush=True)
+    res = an.analyze(main.log, out, truth=main.truth if main.truth.exists() else None)
+    lines = [an.format_summary(res.summary), ""]
+    figures: dict = {"runs": {n: r.figures for n, r in results.items()}}
+    seg_on = {s.index: an.segment_metrics(res.data, s) for s in res.segments}
+    figures["segments"] = {}
+    if "ff_off" in results and results["ff_off"].log.exists():
+        res2 = an.analyze(results["ff_off"].log, out / "ff_off", truth=results["ff_off"].truth)
+        for k, (s1, s2) in enumerate(an.match_segments(res.segments, res2.segments), start=1):
+            path = out / f"compare{k}.png"
+            an.plot_compare([("ff on", res.data, s1), ("ff off", res2.data, s2)], path)
+            m1 = an.segment_metrics(res.data, s1)["moving_axis_error"]
+            m2 = an.segment_metrics(res2.data, s2)["moving_axis_error"]
+            figures["segments"][s1.label] = {"ff_on": m1, "ff_off": m2}
+            if m1 and m2:
+                lines.append(f"{s1.label.replace(' ff=on', '')}: tracking error RMS {m1['rms']:.3f} {m1['unit']} "
+                             f"with force feed-forward, {m2['rms']:.3f} without (max {m1['max']:.3f} vs "
+                             f"{m2['max']:.3f}): {m2['rms'] / m1['rms']:.1f}x better -> {path}")
+        ok = ok and not (res2.summary["bad_frames"] or res2.summary["malformed_lines"])
+    else:
+        for s in res.segments:
+            figures["segments"][s.label] = {"ff_on": seg_on[s.index]["moving_axis_error"]}
+    f = main.figures
+    if f:
+        lines.append(f"lockstep speed inside {'vcan' if cl.vcan_present() else 'user-mode Linux (stewart vcan)'}: "
+                     f"{f['simulated_s']:.1f} s simulated in {f['wall_s']:.1f} s wall = {f['speed']:.2f}x real time "
+                     f"(controller + plant + log, 1 kHz)")
+    if "main_repeat" in results:
+        same = main.log.exists() and results["main_repeat"].log.exists() and \
+            filecmp.cmp(main.log, results["main_repeat"].log, shallow=False)
+        figures["deterministic"] = same
+        lines.append("determinism: two lockstep runs gave " +
+                     ("byte-identical CAN logs" if same else "DIFFERENT CAN logs") +
+                     f" ({main.log.stat().st_size} bytes)")
+        ok = ok and same
+    tc = _tick_compute(build)
+    if tc:
+        lines.append(f"host benchmark: {tc}")
+        figures["tick_compute"] = tc
+    lines.append(f"files: CAN log {main.log}, CSV {out / 'signals.csv'}, plots {out}/*.png "
+                 f"(runs took {t_runs:.0f} s)")
+    ok = ok and not (res.summary["bad_frames"] or res.summary["malformed_lines"])
+    ok = ok and res.summary.get("final_state") == "IDLE" and not res.summary.get("faults_seen")
+    text = "\n".join(lines)
+    print()
+    print(text)
+    (out / "demo_summary.txt").write_text(text + "\n")
+    (out / "demo_figures.json").write_text(json.dumps(figures, indent=1, default=str) + "\n")
+    print("demo: " + ("done" if ok else "FINISHED WITH PROBLEMS (see above)"))
+    return 0 if ok else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("demo", help="the closed-loop demo: controller + simulated hexapod over vcan, plots",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--out", default=str(REPO_ROOT / "out" / "demo"), help="output directory (default out/demo)")
+    p.add_argument("--build", default=str(REPO_ROOT / "build" / "host-release"),
+                   help="build directory with sp_controller and hs_sim (default build/host-release)")
+    p.add_argument("--quick", action="store_true", help="two periods per motion instead of four")
+    p.add_argument("--no-compare", action="store_true", help="skip the run without force feed-forward")
+    p.add_argument("--no-determinism", action="store_true", help="skip the repeated run")
+    p.add_argument("--timeout", type=float, default=1800, help="seconds for all runs (default 1800)")
+    p.set_defaults(func=run)
