@@ -65,6 +65,16 @@ static sp_status_t tick_wait(void *ctx, uint32_t *missed)
     if (missed == NULL) {
         return SP_E_ARG;
     }
+    /* The tick we wait for (g_next) has already begun: the last cycle
+     * overran. Its boundary and any later one that passed are counted as
+     * missed, and we wait for the next boundary, so that cycles (and SYNC)
+     * always start on a SysTick edge, never late. */
+    uint32_t now = g_ticks;
+    *missed = 0u;
+    if ((int32_t)(now - g_next) >= 0) {
+        *missed = now - g_next + 1u;
+        g_next = now + 1u;
+    }
     /* Sleep until g_ticks reaches g_next. Interrupts are masked around the
      * test and the WFI, so a SysTick between them still wakes the WFI (a
      * pending interrupt ends WFI even while PRIMASK is set) and cannot be
@@ -77,13 +87,10 @@ static sp_status_t tick_wait(void *ctx, uint32_t *missed)
         }
         __asm__ volatile("cpsie i\n\tisb" ::: "memory");
         if (ahead <= 0) {
-            uint32_t now = g_ticks;
-            *missed = now - g_next; /* ticks that passed before we came back */
-            g_next = now + 1u;
+            g_next++;
             return SP_OK;
         }
     }
-    *missed = 0u;
     return SP_E_IO;
 }
 

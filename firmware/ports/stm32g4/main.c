@@ -7,8 +7,9 @@
  * sample the bus health; move every received frame into sp_node_receive;
  * sp_node_tick; queue its frames (AXIS_SETPOINTS then SYNC on each axis
  * bus, CTRL_STATUS and CTRL_MONITOR on ops); kick the watchdog. The tick
- * comes from SysTick; a tick that starts late is counted as missed, never
- * run twice.
+ * comes from SysTick; a cycle always starts on a SysTick edge: when one
+ * overruns its millisecond, the ticks it overlapped are skipped and counted
+ * as missed (never run late, never run twice).
  *
  * LD2: blinks at 1 Hz while the controller has no fault, at 5 Hz with a
  * controller fault (node.out.faults); steady on in the safe state

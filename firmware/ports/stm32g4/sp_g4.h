@@ -42,9 +42,12 @@ void sp_g4_led_set(int on);
 /** Starts SysTick at SP_G4_TICK_HZ from the 170 MHz core clock and the DWT
  *  cycle counter (cycles are read with sp_g4_cycles). */
 void sp_g4_tick_init(void);
-/** The tick port: wait() sleeps (WFI) until the next SysTick; *missed counts
- *  ticks that elapsed while the caller was busy. SP_E_IO if SysTick stopped
- *  (no tick within 2^20 wake-ups). */
+/** The tick port: wait() sleeps (WFI) until the next SysTick edge and
+ *  returns right after it. If the tick it should have waited for had already
+ *  begun (the caller's last cycle overran), that tick and any later one that
+ *  passed are skipped and counted in *missed, and it waits for the next
+ *  edge: cycles always start on an edge. SP_E_IO if SysTick stopped (no tick
+ *  within 2^20 wake-ups). */
 sp_tick_port_t sp_g4_tick_port(void);
 /** Ticks since sp_g4_tick_init (wraps at 2^32, 49 days). */
 uint32_t sp_g4_ticks(void);
