@@ -116,15 +116,17 @@ static int wait_cccr(uint32_t base, uint32_t mask, uint32_t value)
  * 5 Mbit/s edges; 10 = high keeps the TX edge sharp). */
 static void pin_af(uint32_t port, uint32_t p, uint32_t af)
 {
-    GPIO_MODER(port) = (GPIO_MODER(port) & ~(3u << (2u * p))) | (2u << (2u * p));
-    GPIO_OTYPER(port) &= ~(1u << p);
-    GPIO_OSPEEDR(port) = (GPIO_OSPEEDR(port) & ~(3u << (2u * p))) | (2u << (2u * p));
-    GPIO_PUPDR(port) &= ~(3u << (2u * p));
+    /* Function, type, speed and pull first, the mode last: the pin never
+     * drives a wrong function in between. */
     if (p < 8u) {
         GPIO_AFRL(port) = (GPIO_AFRL(port) & ~(0xFu << (4u * p))) | (af << (4u * p));
     } else {
         GPIO_AFRH(port) = (GPIO_AFRH(port) & ~(0xFu << (4u * (p - 8u)))) | (af << (4u * (p - 8u)));
     }
+    GPIO_OTYPER(port) &= ~(1u << p);
+    GPIO_OSPEEDR(port) = (GPIO_OSPEEDR(port) & ~(3u << (2u * p))) | (2u << (2u * p));
+    GPIO_PUPDR(port) &= ~(3u << (2u * p));
+    GPIO_MODER(port) = (GPIO_MODER(port) & ~(3u << (2u * p))) | (2u << (2u * p));
 }
 
 static sp_status_t init_one(uint8_t bus)

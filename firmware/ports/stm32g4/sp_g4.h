@@ -46,8 +46,9 @@ void sp_g4_tick_init(void);
  *  returns right after it. If the tick it should have waited for had already
  *  begun (the caller's last cycle overran), that tick and any later one that
  *  passed are skipped and counted in *missed, and it waits for the next
- *  edge: cycles always start on an edge. SP_E_IO if SysTick stopped (no tick
- *  within 2^20 wake-ups). */
+ *  edge: cycles always start on an edge. SP_E_IO after 2^20 wake-ups
+ *  without a tick (spurious wake-ups only: a stopped SysTick leaves WFI
+ *  asleep, and the independent watchdog, no longer kicked, resets the chip). */
 sp_tick_port_t sp_g4_tick_port(void);
 /** Ticks since sp_g4_tick_init (wraps at 2^32, 49 days). */
 uint32_t sp_g4_ticks(void);
