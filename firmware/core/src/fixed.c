@@ -1,20 +1,25 @@
-#include "sp/fixed.h"
+#include "fixed_inline.h"
 
 /* pi/2 with 52 fractional bits, rounded to nearest (for angle reduction). */
 #define HALF_PI_Q52 INT64_C(7074237752028440)
+/* 2/pi with 31 fractional bits, rounded to nearest. */
+#define INV_HALF_PI_Q31 INT64_C(1367130551)
 
-/* 1/k! in Q30, rounded to nearest (Taylor coefficients). */
-#define INV_FACT2 INT32_C(536870912)
-#define INV_FACT3 INT32_C(178956971)
-#define INV_FACT4 INT32_C(44739243)
-#define INV_FACT5 INT32_C(8947849)
-#define INV_FACT6 INT32_C(1491308)
-#define INV_FACT7 INT32_C(213044)
-#define INV_FACT8 INT32_C(26631)
-#define INV_FACT9 INT32_C(2959)
-#define INV_FACT10 INT32_C(296)
-#define INV_FACT11 INT32_C(27)
-#define INV_FACT12 INT32_C(2)
+/* Taylor coefficients of (sin r - r) / r^3 = A0 + A1 r^2 + ... + A4 r^8 and
+ * (cos r - 1) / r^2 = B0 + B1 r^2 + ... + B5 r^10, each rounded to nearest
+ * in the Q format its Horner step needs (one bit more per level, because
+ * every step multiplies by r^2 in Q31 and keeps the high word). */
+#define SIN_A0 INT32_C(-1431655765) /* -1/3!  Q33 */
+#define SIN_A1 INT32_C(143165577)   /*  1/5!  Q34 */
+#define SIN_A2 INT32_C(-6817408)    /* -1/7!  Q35 */
+#define SIN_A3 INT32_C(189372)      /*  1/9!  Q36 */
+#define SIN_A4 INT32_C(-3443)       /* -1/11! Q37 */
+#define COS_B0 INT32_MIN            /* -1/2!  Q32 */
+#define COS_B1 INT32_C(357913941)   /*  1/4!  Q33 */
+#define COS_B2 INT32_C(-23860929)   /* -1/6!  Q34 */
+#define COS_B3 INT32_C(852176)      /*  1/8!  Q35 */
+#define COS_B4 INT32_C(-18937)      /* -1/10! Q36 */
+#define COS_B5 INT32_C(287)         /*  1/12! Q37 */
 
 static void set_flag(sp_flags_t *flags, sp_flags_t f)
 {
@@ -78,25 +83,28 @@ int64_t sp_rshift_round(int64_t v, unsigned shift)
     if (shift > 62u) {
         shift = 62u;
     }
-    /* Work on the magnitude so that rounding is symmetric and no shift of a
-     * negative value (implementation-defined in C99) is needed. */
-    mag = (v < 0) ? (uint64_t)0 - (uint64_t)v : (uint64_t)v;
+    if (v <= INT64_C(0x3FFFFFFFFFFFFFFF)) {
+        /* |v + 2^(shift-1)| stays below 2^63: one add and a shift */
+        return spi_rsr(v, shift);
+    }
+    mag = (uint64_t)v;
     half = (uint64_t)1 << (shift - 1u);
     mag = (mag >> shift) + (((mag & ((half << 1) - 1u)) >= half) ? 1u : 0u);
-    /* mag <= 2^63 >> 1 (+1): always fits in int64. */
-    return (v < 0) ? -(int64_t)mag : (int64_t)mag;
+    return (int64_t)mag;
 }
 
 int32_t sp_mul(int32_t a, int32_t b, unsigned shift, sp_flags_t *flags)
 {
-    return sp_sat32(sp_rshift_round((int64_t)a * (int64_t)b, shift), flags);
+    /* |a b| <= 2^62: spi_rsr's precondition holds for every shift */
+    int64_t p = (int64_t)a * (int64_t)b;
+    return sp_sat32((shift == 0u) ? p : spi_rsr(p, (shift > 62u) ? 62u : shift), flags);
 }
 
 int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
 {
     uint64_t n;
-    uint64_t d;
-    uint64_t q;
+    uint32_t d;
+    uint32_t q;
     int neg;
 
     if (den == 0) {
@@ -108,42 +116,87 @@ int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     }
     neg = ((num < 0) != (den < 0)) ? 1 : 0;
     n = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
-    d = (den < 0) ? (uint64_t)0 - (uint64_t)(int64_t)den : (uint64_t)den;
+    d = (den < 0) ? (uint32_t)0 - (uint32_t)den : (uint32_t)den;
     if (n > (UINT64_C(0x7FFFFFFFFFFFFFFF) >> shift)) {
         /* n * 2^shift >= 2^63 and d <= 2^31: |quotient| >= 2^32. */
         set_flag(flags, SP_FLAG_OVERFLOW);
         return neg ? INT32_MIN : INT32_MAX;
     }
-    /* n << shift < 2^63 and d / 2 < 2^31: the sum cannot wrap. Adding d/2
-     * rounds ties away from zero. */
-    q = ((n << shift) + (d >> 1)) / d;
+    /* q = floor((n 2^shift + floor(d/2)) / d): nearest, ties away from zero.
+     * The sum is below 2^63 + 2^31 and cannot wrap. */
+    n = (n << shift) + (d >> 1);
+    if ((n >> 32) >= d) {
+        set_flag(flags, SP_FLAG_OVERFLOW); /* quotient >= 2^32 */
+        return neg ? INT32_MIN : INT32_MAX;
+    }
+    q = spi_udiv64_32(n, d, NULL);
     return sp_sat32(neg ? -(int64_t)q : (int64_t)q, flags);
+}
+
+/* ceil(sqrt((i + 1) 2^25 - 1)) for i = 32..127, at most 65535: a seed from
+ * above for the square root of a 32-bit value t in [2^30, 2^32) with
+ * t >> 25 == i. */
+static const uint16_t isqrt_seed[96] = {
+    33277u, 33777u, 34270u, 34756u, 35236u, 35709u, 36175u, 36636u, 37091u, 37541u, 37985u, 38424u,
+    38859u, 39288u, 39713u, 40133u, 40549u, 40960u, 41368u, 41772u, 42171u, 42567u, 42960u, 43348u,
+    43734u, 44116u, 44494u, 44870u, 45242u, 45612u, 45978u, 46341u, 46702u, 47060u, 47415u, 47768u,
+    48118u, 48465u, 48810u, 49152u, 49493u, 49830u, 50166u, 50499u, 50831u, 51160u, 51486u, 51811u,
+    52134u, 52455u, 52774u, 53091u, 53406u, 53719u, 54030u, 54340u, 54648u, 54954u, 55259u, 55561u,
+    55862u, 56162u, 56460u, 56756u, 57051u, 57344u, 57636u, 57927u, 58216u, 58503u, 58789u, 59074u,
+    59357u, 59639u, 59920u, 60199u, 60477u, 60754u, 61030u, 61304u, 61577u, 61849u, 62119u, 62389u,
+    62657u, 62924u, 63191u, 63455u, 63719u, 63982u, 64244u, 64504u, 64764u, 65022u, 65280u, 65535u,
+};
+
+/* floor(sqrt(v)) for v != 0. Normalise v by an even shift so that its top
+ * word t is in [2^30, 2^32); a table seed and two integer Newton steps give
+ * s = floor(sqrt(t)) (from above, so never below it; one correction); one
+ * more division extends s by 16 bits (a Newton step on the remainder), and
+ * an exact comparison of squares fixes the last +-2. */
+static uint32_t isqrt64_floor(uint64_t v)
+{
+    unsigned z = spi_clz64(v) & ~1u;
+    uint64_t vn = v << z;
+    uint32_t t = (uint32_t)(vn >> 32);
+    uint32_t lo = (uint32_t)vn;
+    uint32_t s = isqrt_seed[(t >> 25) - 32u];
+    uint32_t rem;
+    uint64_t r;
+    unsigned k;
+
+    s = (s + t / s) >> 1;
+    s = (s + t / s) >> 1;
+    for (k = 0u; k < 2u && s * s > t; ++k) { /* s <= 65535: s * s fits */
+        --s;
+    }
+    rem = t - s * s; /* in [0, 2s] */
+    /* (rem 2^15 + lo / 2^17) < 2^32 since rem <= 2s < 2^17 */
+    r = ((uint64_t)s << 16) + (((rem << 15) + (lo >> 17)) / s);
+    if (r > 0xFFFFFFFFu) {
+        r = 0xFFFFFFFFu;
+    }
+    for (k = 0u; k < 4u && r * r > vn; ++k) { /* r < 2^32: r * r fits */
+        --r;
+    }
+    for (k = 0u; k < 4u && r < 0xFFFFFFFFu && (r + 1u) * (r + 1u) <= vn; ++k) {
+        ++r;
+    }
+    /* floor(sqrt(v)) = floor(floor(sqrt(vn)) / 2^(z/2)) */
+    return (uint32_t)(r >> (z >> 1));
 }
 
 uint32_t sp_isqrt64(uint64_t v)
 {
-    uint64_t rem = v;
-    uint64_t root = 0u;
-    uint64_t bit = (uint64_t)1 << 62;
+    uint32_t root;
 
-    while (bit > rem) { /* at most 32 steps */
-        bit >>= 2;
+    if (v == 0u) {
+        return 0u;
     }
-    while (bit != 0u) { /* at most 32 steps */
-        if (rem >= root + bit) {
-            rem -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
-        }
-        bit >>= 2;
-    }
-    /* root = floor(sqrt(v)), rem = v - root^2. sqrt(v) >= root + 1/2 exactly
-     * when v > root^2 + root, i.e. rem > root. */
-    if (rem > root && root < UINT32_MAX) {
+    root = isqrt64_floor(v);
+    /* sqrt(v) >= root + 1/2 exactly when v > root^2 + root. */
+    if (v - (uint64_t)root * root > root && root < UINT32_MAX) {
         root += 1u;
     }
-    return (uint32_t)root;
+    return root;
 }
 
 sp_q24_t sp_sqrt_q24(sp_q24_t a, sp_flags_t *flags)
@@ -156,64 +209,61 @@ sp_q24_t sp_sqrt_q24(sp_q24_t a, sp_flags_t *flags)
     return (sp_q24_t)sp_isqrt64((uint64_t)a << 24);
 }
 
-/* Q30 x Q30 -> Q30 without a flag word: only used inside the polynomial
- * evaluation, where every operand is bounded by 1 and cannot saturate. */
-static int32_t mul30(int32_t a, int32_t b)
+/* round(a b / 2^32): the high word of a 32x32 product, rounded. */
+SPI_INLINE int32_t mulhi(int32_t a, int32_t b)
 {
-    return (int32_t)sp_rshift_round((int64_t)a * (int64_t)b, 30u);
+    return (int32_t)(((int64_t)a * b + INT64_C(0x80000000)) >> 32);
 }
 
 void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
 {
     int64_t x52 = (int64_t)angle * (INT64_C(1) << 28); /* |x52| < 2^59 */
-    int64_t n;
+    int32_t n;
     int32_t r;
     int32_t r2;
     int32_t p;
     int32_t s;
     int32_t c;
-    int32_t quadrant;
 
-    /* n = round(x / (pi/2)); |n| <= 82, so n * HALF_PI_Q52 cannot overflow. */
-    if (x52 >= 0) {
-        n = (x52 + HALF_PI_Q52 / 2) / HALF_PI_Q52;
-    } else {
-        n = -((-x52 + HALF_PI_Q52 / 2) / HALF_PI_Q52);
-    }
-    /* r in [-pi/4, pi/4], from Q52 to Q30. */
-    r = (int32_t)sp_rshift_round(x52 - n * HALF_PI_Q52, 22u);
-    r2 = mul30(r, r);
+    /* n = round(x / (pi/2)) by a multiplication with 2/pi (Q24 x Q31 =
+     * Q55); it may be off by one where x / (pi/2) is within 2^-24 of a
+     * half-integer, which only moves r a hair beyond pi/4, inside the
+     * polynomials' accuracy. |n| <= 82, so n * HALF_PI_Q52 cannot overflow. */
+    n = (int32_t)spi_rsr((int64_t)angle * INV_HALF_PI_Q31, 55u);
+    /* r in [-pi/4, pi/4] (+ 1e-7), from Q52 to Q31: |r| < 0.79 * 2^31. */
+    r = (int32_t)spi_rsr(x52 - (int64_t)n * HALF_PI_Q52, 21u);
+    r2 = (int32_t)spi_rsr((int64_t)r * r, 31u); /* r^2, Q31, < 0.62 */
 
-    /* sin r = r (1 - r^2/3! + r^4/5! - ... - r^10/11!), Horner in r^2. */
-    p = -INV_FACT11;
-    p = INV_FACT9 + mul30(r2, p);
-    p = -INV_FACT7 + mul30(r2, p);
-    p = INV_FACT5 + mul30(r2, p);
-    p = -INV_FACT3 + mul30(r2, p);
-    p = SP_Q30_ONE + mul30(r2, p);
-    s = mul30(r, p);
+    /* sin r = r + r^3 (A0 + r^2 (A1 + ... )): Horner in r^2, each step
+     * one rounded high-word multiply; then from Q31 to Q30. */
+    p = SIN_A4;
+    p = SIN_A3 + mulhi(r2, p);
+    p = SIN_A2 + mulhi(r2, p);
+    p = SIN_A1 + mulhi(r2, p);
+    p = SIN_A0 + mulhi(r2, p);            /* Q33 */
+    p = mulhi(r, mulhi(r2, p));           /* r^3 (...), Q31 */
+    s = (int32_t)(((int64_t)r + p + 1) >> 1); /* Q31 -> Q30 */
 
-    /* cos r = 1 - r^2/2! + r^4/4! - ... + r^12/12!. */
-    p = INV_FACT12;
-    p = -INV_FACT10 + mul30(r2, p);
-    p = INV_FACT8 + mul30(r2, p);
-    p = -INV_FACT6 + mul30(r2, p);
-    p = INV_FACT4 + mul30(r2, p);
-    p = -INV_FACT2 + mul30(r2, p);
-    c = SP_Q30_ONE + mul30(r2, p);
+    /* cos r = 1 + r^2 (B0 + r^2 (B1 + ...)). */
+    p = COS_B5;
+    p = COS_B4 + mulhi(r2, p);
+    p = COS_B3 + mulhi(r2, p);
+    p = COS_B2 + mulhi(r2, p);
+    p = COS_B1 + mulhi(r2, p);
+    p = COS_B0 + mulhi(r2, p);            /* Q32, in [-2^31, -0.47 * 2^32] */
+    c = SP_Q30_ONE + (int32_t)(((int64_t)mulhi(r2, p) + 1) >> 1); /* Q31 -> Q30 */
 
-    quadrant = (int32_t)(((n % 4) + 4) % 4);
-    switch (quadrant) {
-    case 1: /* x = r + pi/2 */
+    switch ((uint32_t)n & 3u) { /* n mod 4 for either sign */
+    case 1u: /* x = r + pi/2 */
         p = s;
         s = c;
         c = -p;
         break;
-    case 2: /* x = r + pi */
+    case 2u: /* x = r + pi */
         s = -s;
         c = -c;
         break;
-    case 3: /* x = r + 3pi/2 */
+    case 3u: /* x = r + 3pi/2 */
         p = s;
         s = -c;
         c = p;
@@ -229,38 +279,20 @@ void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
     }
 }
 
-/* Floor division by 2^t (0 <= t <= 62) with the remainder in [0, 2^t). */
-static int64_t floor_div_pow2(int64_t v, unsigned t, int64_t *rem)
-{
-    int64_t d = INT64_C(1) << t;
-    int64_t q = v / d;
-    int64_t r = v - q * d;
-
-    if (r < 0) {
-        q -= 1;
-        r += d;
-    }
-    *rem = r;
-    return q;
-}
-
 int32_t sp_dot3(const int32_t a[3], const int32_t b[3], unsigned shift, sp_flags_t *flags)
 {
     /* Each product is within [-2^62, 2^62]; three of them can exceed int64.
-     * Sum exact halves instead: p = 2h + r with r in {0, 1}. */
-    int64_t h = 0;
-    int64_t r = 0;
+     * Sum exact halves instead: p = 2h + r with r in {0, 1} (an arithmetic
+     * shift is a floor division by 2). */
+    int64_t p0 = (int64_t)a[0] * b[0];
+    int64_t p1 = (int64_t)a[1] * b[1];
+    int64_t p2 = (int64_t)a[2] * b[2];
+    int64_t h = (p0 >> 1) + (p1 >> 1) + (p2 >> 1);
+    int64_t r = (p0 & 1) + (p1 & 1) + (p2 & 1);
     int64_t hq;
-    int64_t hr;
     int64_t rem;
     int64_t half;
-    unsigned k;
 
-    for (k = 0u; k < 3u; ++k) {
-        int64_t rk;
-        h += floor_div_pow2((int64_t)a[k] * (int64_t)b[k], 1u, &rk);
-        r += rk;
-    }
     /* total = 2h + r, |h| <= 3 * 2^61 + 1, r in [0, 3]. */
     h += r >> 1;
     r &= 1;
@@ -275,8 +307,8 @@ int32_t sp_dot3(const int32_t a[3], const int32_t b[3], unsigned shift, sp_flags
         shift = 62u;
     }
     /* total / 2^shift = hq + (2 hr + r) / 2^shift with 0 <= 2 hr + r < 2^shift. */
-    hq = floor_div_pow2(h, shift - 1u, &hr);
-    rem = 2 * hr + r;
+    hq = h >> (shift - 1u);
+    rem = 2 * (h & ((INT64_C(1) << (shift - 1u)) - 1)) + r;
     half = INT64_C(1) << (shift - 1u);
     if (rem > half || (rem == half && hq >= 0)) {
         hq += 1; /* nearest, ties away from zero */
@@ -320,7 +352,9 @@ static int64_t sat_signed_mag(uint64_t mag, int neg, sp_flags_t *flags)
     return (int64_t)mag;
 }
 
-int64_t sp_mul64(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags)
+/* round(x k / 2^shift) on the magnitudes, for any shift in [0, 62]
+ * (the general case; sp_mul64 uses it for shifts above 32). */
+static int64_t mul64_wide(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags)
 {
     uint64_t xm = (x < 0) ? (uint64_t)0 - (uint64_t)x : (uint64_t)x;
     uint64_t km = (k < 0) ? (uint64_t)0 - (uint64_t)(int64_t)k : (uint64_t)k; /* <= 2^31 */
@@ -366,12 +400,46 @@ int64_t sp_mul64(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags)
     return sat_signed_mag(q, neg, flags);
 }
 
+int64_t sp_mul64(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags)
+{
+    /* x k = ph 2^32 + pl with ph = (x >> 32) k and pl = (x mod 2^32) k,
+     * two 32x32 products. For shift <= 32, floor(x k / 2^shift) =
+     * ph 2^(32 - shift) + floor(pl / 2^shift) exactly, and the bits of pl
+     * below the shift decide the rounding. */
+    int64_t ph;
+    int64_t pl;
+    int64_t q;
+    int64_t rem;
+    int64_t half;
+    unsigned up;
+
+    if (shift > 32u) {
+        return mul64_wide(x, k, shift, flags);
+    }
+    ph = (int64_t)(int32_t)(x >> 32) * k;         /* |ph| <= 2^62 */
+    pl = (int64_t)(uint32_t)(x & 0xFFFFFFFF) * k; /* |pl| < 2^63 */
+    up = 32u - shift;
+    if (ph > (INT64_MAX >> (up + 1u)) || ph < (INT64_MIN >> (up + 1u)) || shift == 0u) {
+        /* the result may come near the int64 limits: exact general path */
+        return mul64_wide(x, k, shift, flags);
+    }
+    /* |ph 2^up| < 2^62 and |pl / 2^shift| < 2^62: no overflow below */
+    q = ph * ((int64_t)1 << up) + (pl >> shift);
+    half = (int64_t)1 << (shift - 1u);
+    rem = pl & ((half << 1) - 1);
+    if (rem > half || (rem == half && q >= 0)) {
+        q += 1; /* nearest, ties away from zero */
+    }
+    return q;
+}
+
 int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
 {
     uint64_t n;
-    uint64_t d;
+    uint32_t d;
     uint64_t q;
-    uint64_t r;
+    uint32_t r;
+    uint32_t nh;
     unsigned i;
     int neg;
 
@@ -384,26 +452,26 @@ int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     }
     neg = ((num < 0) != (den < 0)) ? 1 : 0;
     n = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
-    d = (den < 0) ? (uint64_t)0 - (uint64_t)(int64_t)den : (uint64_t)den;
-    q = n / d;
-    r = n % d; /* r < d <= 2^31 */
-    /* Append `shift` zero bits to the dividend, a few at a time: each round
-     * shifts by at most 31 bits so that r << s stays below 2^62. */
+    d = (den < 0) ? (uint32_t)0 - (uint32_t)den : (uint32_t)den;
+    /* n / d in two 32-bit digits: the high digit by a 32/32 division, the
+     * low one with the remainder in front (r < d: the quotient fits). */
+    nh = (uint32_t)(n >> 32);
+    q = (uint64_t)(nh / d) << 32;
+    r = nh % d;
+    q |= spi_udiv64_32(((uint64_t)r << 32) | (n & 0xFFFFFFFFu), d, &r);
+    /* Append `shift` zero bits to the dividend, at most 31 at a time. */
     i = shift;
     while (i > 0u) { /* at most 3 rounds */
         unsigned s = (i > 31u) ? 31u : i;
-        uint64_t rs;
         if (q > (UINT64_C(1) << (63u - s))) { /* q << s > 2^63: beyond int64 */
             set_flag(flags, SP_FLAG_OVERFLOW);
             return neg ? INT64_MIN : INT64_MAX;
         }
-        rs = r << s;
-        q = (q << s) + rs / d;
-        r = rs % d;
+        q = (q << s) + spi_udiv64_32((uint64_t)r << s, d, &r);
         i -= s;
     }
     /* Round to nearest, ties away from zero: compare 2r with d. */
-    if (2u * r >= d) {
+    if (2u * (uint64_t)r >= d) {
         q += 1u; /* q <= 2^63 + 2^31 here: cannot wrap */
     }
     return sat_signed_mag(q, neg, flags);

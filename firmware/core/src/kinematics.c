@@ -1,15 +1,10 @@
 #include "sp/kinematics.h"
 
+#include "fixed_inline.h"
+
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
 #define LEG_LENGTH_MIN INT32_C(16777)        /* 1 mm in Q24 */
 #define COS_PITCH_MIN INT32_C(10737418)      /* 0.01 in Q30 */
-
-/* Q30 x Q30 -> Q30 for values bounded by 1 (sines, cosines and their
- * products): cannot saturate. */
-static int32_t mul30(int32_t a, int32_t b)
-{
-    return (int32_t)sp_rshift_round((int64_t)a * b, 30u);
-}
 
 sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
 {
@@ -28,28 +23,78 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
     sp_sincos_q24(rpy[0], &sr, &cr);
     sp_sincos_q24(rpy[1], &sp, &cp);
     sp_sincos_q24(rpy[2], &sy, &cy);
-    spsr = mul30(sp, sr);
-    spcr = mul30(sp, cr);
+    spsr = spi_mul30(sp, sr);
+    spcr = spi_mul30(sp, cr);
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
-    rot->t[0][0] = mul30(cy, cp);
-    rot->t[0][1] = mul30(sy, cp);
+    rot->t[0][0] = spi_mul30(cy, cp);
+    rot->t[0][1] = spi_mul30(sy, cp);
     rot->t[0][2] = -sp;
-    rot->t[1][0] = mul30(cy, spsr) - mul30(sy, cr);
-    rot->t[1][1] = mul30(sy, spsr) + mul30(cy, cr);
-    rot->t[1][2] = mul30(cp, sr);
-    rot->t[2][0] = mul30(cy, spcr) + mul30(sy, sr);
-    rot->t[2][1] = mul30(sy, spcr) - mul30(cy, sr);
-    rot->t[2][2] = mul30(cp, cr);
+    rot->t[1][0] = spi_mul30(cy, spsr) - spi_mul30(sy, cr);
+    rot->t[1][1] = spi_mul30(sy, spsr) + spi_mul30(cy, cr);
+    rot->t[1][2] = spi_mul30(cp, sr);
+    rot->t[2][0] = spi_mul30(cy, spcr) + spi_mul30(sy, sr);
+    rot->t[2][1] = spi_mul30(sy, spcr) - spi_mul30(cy, sr);
+    rot->t[2][2] = spi_mul30(cp, cr);
     return SP_OK;
+}
+
+/* Inverse kinematics of a pose whose orientation ik->rot is already set:
+ * arms, legs, lengths and, when `units` is non-zero, the unit vectors.
+ * Every leg costs three 3-term dot products (exact 64-bit sums), one square
+ * root and, for the unit vectors, one reciprocal and three multiplies. */
+static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, int units)
+{
+    sp_flags_t flags = 0u;
+    unsigned i;
+    unsigned c;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const int32_t *a = platform->platform_joint[i];
+        uint64_t len2 = 0u;
+        uint32_t len;
+        for (c = 0u; c < 3u; ++c) {
+            /* (A_im T)_c = sum_r a_r T[r][c]: Q24 x Q30, the exact sum of
+             * three products below 3 (2^31 (2^30 + 3)) < 2^63, then >> 30.
+             * T's columns are unit vectors: |arm| <= |a| (1 + 2^-28). */
+            int64_t acc = (int64_t)a[0] * ik->rot.t[0][c] + (int64_t)a[1] * ik->rot.t[1][c] +
+                          (int64_t)a[2] * ik->rot.t[2][c];
+            int64_t leg;
+            ik->arm[i][c] = spi_sat(spi_rsr(acc, 30u), &flags);
+            leg = (int64_t)ik->arm[i][c] + pose->pos[c] - platform->base_joint[i][c];
+            if (leg >= LEG_COMPONENT_MAX || leg <= -LEG_COMPONENT_MAX) {
+                return SP_E_RANGE;
+            }
+            ik->leg[i][c] = (sp_q24_t)leg;
+            len2 += (uint64_t)(leg * leg); /* < 3 * 2^60 */
+        }
+        len = sp_isqrt64(len2); /* Q48 -> Q24, < 2^31 */
+        ik->length[i] = (sp_q24_t)len;
+        if (ik->length[i] < LEG_LENGTH_MIN) {
+            return SP_E_RANGE;
+        }
+        if (units) {
+            /* u = l / |l| (Q24 / Q24 -> Q30) with one reciprocal: 1/|l| =
+             * inv / 2^sh, then u_c = l_c inv / 2^(sh - 30). inv is never
+             * above the exact reciprocal and has 31 significant bits: the
+             * error is below 1.5 LSB of Q30 and |u_c| <= 2^30. */
+            unsigned sh;
+            int32_t inv = spi_recip(len, &sh);
+            for (c = 0u; c < 3u; ++c) {
+                ik->unit[i][c] = (sp_q30_t)spi_rsr((int64_t)ik->leg[i][c] * inv, sh - 30u);
+            }
+        } else {
+            ik->unit[i][0] = 0;
+            ik->unit[i][1] = 0;
+            ik->unit[i][2] = 0;
+        }
+    }
+    return sp_flags_status(flags);
 }
 
 sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
 {
-    sp_flags_t flags = 0u;
     sp_status_t st;
-    unsigned i;
-    unsigned c;
 
     if (platform == NULL || pose == NULL || ik == NULL) {
         return SP_E_ARG;
@@ -58,28 +103,7 @@ sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t
     if (st != SP_OK) {
         return st;
     }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        int64_t len2 = 0;
-        for (c = 0u; c < 3u; ++c) {
-            const int32_t col[3] = {ik->rot.t[0][c], ik->rot.t[1][c], ik->rot.t[2][c]};
-            /* (A_im T)_c = sum_r a_r T[r][c]: Q24 x Q30 >> 30 -> Q24 */
-            ik->arm[i][c] = sp_dot3(platform->platform_joint[i], col, 30u, &flags);
-            ik->leg[i][c] =
-                sp_sub(sp_add(ik->arm[i][c], pose->pos[c], &flags), platform->base_joint[i][c], &flags);
-            if (ik->leg[i][c] >= LEG_COMPONENT_MAX || ik->leg[i][c] <= -LEG_COMPONENT_MAX) {
-                return SP_E_RANGE;
-            }
-            len2 += (int64_t)ik->leg[i][c] * ik->leg[i][c]; /* < 3 * 2^60 */
-        }
-        ik->length[i] = (sp_q24_t)sp_isqrt64((uint64_t)len2); /* Q48 -> Q24, < 2^31 */
-        if (ik->length[i] < LEG_LENGTH_MIN) {
-            return SP_E_RANGE;
-        }
-        for (c = 0u; c < 3u; ++c) {
-            ik->unit[i][c] = sp_div(ik->leg[i][c], ik->length[i], 30u, &flags);
-        }
-    }
-    return sp_flags_status(flags);
+    return ik_legs(platform, pose, ik, 1);
 }
 
 sp_status_t sp_leg_stretch(const sp_ik_t *ik, const sp_ik_t *home_ik, sp_q24_t stretch[SP_LEGS])
@@ -134,11 +158,11 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     omega[0] = sp_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, dp, cr, &flags);
-    acc_term(&a, dy, mul30(cp, sr), &flags);
+    acc_term(&a, dy, spi_mul30(cp, sr), &flags);
     omega[1] = sp_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, dp, -sr, &flags);
-    acc_term(&a, dy, mul30(cp, cr), &flags);
+    acc_term(&a, dy, spi_mul30(cp, cr), &flags);
     omega[2] = sp_narrow(a, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
@@ -153,16 +177,16 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     a = 0;
     acc_term(&a, rpy_acc[1], cr, &flags);
     acc_term(&a, dp_dr, -sr, &flags);
-    acc_term(&a, rpy_acc[2], mul30(cp, sr), &flags);
-    acc_term(&a, dy_dp, -mul30(sp, sr), &flags);
-    acc_term(&a, dy_dr, mul30(cp, cr), &flags);
+    acc_term(&a, rpy_acc[2], spi_mul30(cp, sr), &flags);
+    acc_term(&a, dy_dp, -spi_mul30(sp, sr), &flags);
+    acc_term(&a, dy_dr, spi_mul30(cp, cr), &flags);
     omega_dot[1] = sp_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[1], -sr, &flags);
     acc_term(&a, dp_dr, -cr, &flags);
-    acc_term(&a, rpy_acc[2], mul30(cp, cr), &flags);
-    acc_term(&a, dy_dp, -mul30(sp, cr), &flags);
-    acc_term(&a, dy_dr, -mul30(cp, sr), &flags);
+    acc_term(&a, rpy_acc[2], spi_mul30(cp, cr), &flags);
+    acc_term(&a, dy_dp, -spi_mul30(sp, cr), &flags);
+    acc_term(&a, dy_dr, -spi_mul30(cp, sr), &flags);
     omega_dot[2] = sp_narrow(a, 30u, &flags);
     return sp_flags_status(flags);
 }
@@ -218,26 +242,32 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
         const sp_q30_t *u = ik->unit[i];
-        jac->j[i][0] = (int32_t)sp_rshift_round(u[0], 2u); /* Q30 -> Q28 */
-        jac->j[i][1] = (int32_t)sp_rshift_round(u[1], 2u);
-        jac->j[i][2] = (int32_t)sp_rshift_round(u[2], 2u);
-        /* r x u: Q24 x Q30 = Q54 -> Q28 */
-        jac->j[i][3] = sp_narrow((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1], 26u, &flags);
-        jac->j[i][4] = sp_narrow((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2], 26u, &flags);
-        jac->j[i][5] = sp_narrow((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0], 26u, &flags);
+        jac->j[i][0] = (int32_t)spi_rsr(u[0], 2u); /* Q30 -> Q28 */
+        jac->j[i][1] = (int32_t)spi_rsr(u[1], 2u);
+        jac->j[i][2] = (int32_t)spi_rsr(u[2], 2u);
+        /* r x u: Q24 x Q30 = Q54 -> Q28; each difference of two products
+         * is below 2^63 */
+        jac->j[i][3] = spi_sat(spi_rsr((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1], 26u), &flags);
+        jac->j[i][4] = spi_sat(spi_rsr((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2], 26u), &flags);
+        jac->j[i][5] = spi_sat(spi_rsr((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0], 26u), &flags);
     }
     return sp_flags_status(flags);
 }
 
-static int32_t abs32(int32_t v)
+/* |v| as an unsigned magnitude (|INT32_MIN| = 2^31 fits). */
+SPI_INLINE uint32_t mag32(int32_t v)
 {
-    return (v < 0) ? ((v == INT32_MIN) ? INT32_MAX : -v) : v;
+    return (v < 0) ? (uint32_t)0 - (uint32_t)v : (uint32_t)v;
 }
+
+#define RHS_MAX (INT64_C(1) << 56) /* |b| below this: no overflow in the elimination */
 
 sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
     int32_t a[SP_LEGS][SP_LEGS];
     int64_t r[SP_LEGS];
+    int32_t inv[SP_LEGS];
+    unsigned zk[SP_LEGS];
     sp_flags_t flags = 0u;
     unsigned i;
     unsigned j;
@@ -247,51 +277,90 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
         return SP_E_ARG;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        for (j = 0u; j < SP_LEGS; ++j) {
-            a[i][j] = transpose ? m->j[j][i] : m->j[i][j];
+        if (transpose) {
+            for (j = 0u; j < SP_LEGS; ++j) {
+                a[i][j] = m->j[j][i];
+            }
+        } else {
+            for (j = 0u; j < SP_LEGS; ++j) {
+                a[i][j] = m->j[i][j];
+            }
         }
         r[i] = b[i];
         x[i] = 0;
+        if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
+            return SP_E_OVERFLOW;
+        }
     }
     for (k = 0u; k < SP_LEGS; ++k) {
+        int32_t *rowk = a[k];
         unsigned p = k;
+        uint32_t best = mag32(rowk[k]);
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            if (abs32(a[i][k]) > abs32(a[p][k])) {
+            uint32_t v = mag32(a[i][k]);
+            if (v > best) {
+                best = v;
                 p = i;
             }
         }
-        if (abs32(a[p][k]) < SP_PIVOT_MIN) {
+        if (best < (uint32_t)SP_PIVOT_MIN) {
             return SP_E_SINGULAR;
         }
         if (p != k) {
             int64_t tr = r[k];
             r[k] = r[p];
             r[p] = tr;
-            for (j = 0u; j < SP_LEGS; ++j) {
-                int32_t t = a[k][j];
-                a[k][j] = a[p][j];
+            for (j = k; j < SP_LEGS; ++j) {
+                int32_t t = rowk[j];
+                rowk[j] = a[p][j];
                 a[p][j] = t;
             }
         }
+        /* One reciprocal per pivot. With z = clz(|a_kk|) - 1, the pivot
+         * normalised to [2^30, 2^31) is |a_kk| 2^z and inv ~= 2^61 /
+         * (|a_kk| 2^z) in (2^30, 2^31) (never above; 2^-28), the sign
+         * folded in. best < 2^31 unless a saturated entry is the pivot;
+         * that case is flagged. */
+        if (best > 0x7FFFFFFFu) {
+            flags |= SP_FLAG_OVERFLOW;
+            best = 0x7FFFFFFFu;
+        }
+        {
+            unsigned z = spi_clz32(best) - 1u; /* in [0, 12] for best >= 2^18 */
+            uint32_t q = spi_recip_norm(best << (z + 1u)); /* 2^62 / (best 2^(z+1)) */
+            if (q > 0x7FFFFFFFu) {
+                q = 0x7FFFFFFFu; /* a power of two: error 2^-31 */
+            }
+            zk[k] = z;
+            inv[k] = (rowk[k] < 0) ? -(int32_t)q : (int32_t)q;
+        }
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            /* multiplier |l| <= 1 thanks to the pivoting, Q30 */
-            int32_t l = sp_div(a[i][k], a[k][k], 30u, &flags);
+            int32_t *rowi = a[i];
+            /* multiplier l = a_ik / a_kk in Q30 = (a_ik 2^z) inv / 2^31:
+             * |a_ik| <= |a_kk| keeps a_ik 2^z in int32, and inv rounds
+             * toward zero, so |l| <= 2^30. */
+            int32_t l = (int32_t)spi_rsr_up((int64_t)(rowi[k] * (INT32_C(1) << zk[k])) * inv[k], 31u);
             if (l == 0) {
                 continue;
             }
+            rowi[k] = 0;
             for (j = k + 1u; j < SP_LEGS; ++j) {
-                a[i][j] = sp_sub(a[i][j], sp_mul(l, a[k][j], 30u, &flags), &flags);
+                /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
+                rowi[j] = spi_sub_sat(rowi[j], (int32_t)spi_rsr_up((int64_t)l * rowk[j], 30u), &flags);
             }
-            a[i][k] = 0;
-            r[i] = sp_add64(r[i], -sp_mul64(r[k], l, 30u, &flags), &flags);
+            /* |r| < 2^56 at the start and at most doubles per column:
+             * below 2^62 at the end, no overflow */
+            r[i] -= spi_mul64_q30(r[k], l);
         }
     }
     for (k = SP_LEGS; k-- > 0u;) {
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            s = sp_add64(s, -sp_mul64(x[j], a[k][j], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_rs(x[j], a[k][j], 28u, &flags), &flags);
         }
-        x[k] = sp_div64(s, a[k][k], 28u, &flags);
+        /* x_k = s 2^28 / a_kk = s 2^28 2^z inv / 2^61 = s inv / 2^(33 - z),
+         * 33 - z in [21, 33] */
+        x[k] = (zk[k] == 0u) ? sp_mul64(s, inv[k], 33u, &flags) : spi_mul64_rs(s, inv[k], 33u - zk[k], &flags);
     }
     if (flags != 0u) {
         for (i = 0u; i < SP_LEGS; ++i) {

@@ -140,8 +140,10 @@ sp_q24_t sp_sqrt_q24(sp_q24_t a, sp_flags_t *flags);
 
 /**
  * Sine and cosine of an angle in radians (Q24, the whole int32 range:
- * |angle| < 128 rad), in Q30. Reduction by pi/2 in 52 fractional bits, then
- * Taylor polynomials on [-pi/4, pi/4] with 64-bit intermediates.
+ * |angle| < 128 rad), in Q30. The quadrant comes from a multiplication by
+ * 2/pi, the reduction by pi/2 is done in 52 fractional bits, then Taylor
+ * polynomials on [-pi/4, pi/4] (to r^11 and r^12) by Horner steps of
+ * rounded 32x32 high-word products. No division.
  * Error: at most 2 LSB of Q30 (1.9e-9) against the exact value of the Q24
  * input. Cannot fail; either output pointer may be NULL.
  */

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Instruction profile of the controller tick on the Cortex-M4 (QEMU): runs
+# sp_m4_profile.elf (profile.c: the first ticks of the golden scenario) with
+# QEMU's translation-block trace and prints the instructions executed per
+# function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N]
+set -euo pipefail
+dir=${1:-build/m4-core}
+top=${2:-25}
+elf=$dir/bench/m4/sp_m4_profile.elf
+[ -f "$elf" ] || { echo "profile: $elf is missing (build the m4-core preset)" >&2; exit 1; }
+log=$(mktemp -d)
+trap 'rm -rf "$log"' EXIT
+mkfifo "$log/fifo"
+awk '
+  /^IN:/ { intb = 1; start = ""; n = 0; fn = $2; next }
+  intb && /^0x[0-9a-f]+:/ { if (start == "") start = substr($1, 1, length($1) - 1); n++; next }
+  intb && /^$/ { if (start != "") { size[start] = n; func[start] = fn }; intb = 0; next }
+  /^Trace/ { split($0, f, "/"); a = "0x" f[2]; cnt[a]++; next }
+  END {
+    for (a in cnt) { k = (a in func) ? func[a] : "?"; per[k] += cnt[a] * size[a]; tot += cnt[a] * size[a] }
+    printf "%-28s %12s %6s\n", "function", "instructions", "%"
+    for (k in per) printf "%-28s %12d %6.1f\n", k, per[k], 100 * per[k] / tot | "sort -k2 -nr | head -'"$top"'"
+    close("sort -k2 -nr | head -'"$top"'")
+    printf "%-28s %12d\n", "total", tot
+  }' "$log/fifo" &
+qemu-system-arm -M mps2-an386 -display none -monitor none -serial none \
+  -semihosting-config enable=on,target=native -kernel "$elf" \
+  -d in_asm,exec,nochain -D "$log/fifo" </dev/null >/dev/null
+wait
