@@ -10,6 +10,9 @@ controller and stops the platform within 3 ticks.
 
 from __future__ import annotations
 
+import re
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -120,3 +123,30 @@ def test_silent_drive_faults_and_stops_within_3_ticks(runs):
           f"last second {rest:.3f} mm")
     assert coast < STOP_DISTANCE_MM
     assert rest < AT_REST_MM
+
+
+def test_real_time_mode_exchanges_frames(tmp_path):
+    """Real time (the controller is the cycle master, the plant follows the
+    wall clock) for 1.5 s at rest: both sides accept every frame the other
+    sends. Supervision is relaxed (--feedback-timeout) because user-mode
+    Linux cannot keep 1 ms deadlines; tracking is measured in lockstep."""
+    bins = cl.Binaries.find()
+    ctl = subprocess.Popen([str(bins.controller), "--feedback-timeout", "200"], stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True)
+    try:
+        plant = subprocess.run([str(bins.plant), "--ticks", "1500", "--log", str(tmp_path / "rt.log")],
+                               capture_output=True, text=True, timeout=60)
+    finally:
+        ctl.terminate()
+        ctl_out = ctl.communicate(timeout=10)[0]
+    assert plant.returncode == 0, plant.stderr
+    m = re.search(r"setpoints accepted (\d+), lost \d+, stale \d+, ignored \d+(.*)", plant.stdout)
+    accepted, rejections = int(m.group(1)), m.group(2)
+    print(plant.stdout, ctl_out)
+    assert accepted > 1000            # two frames per controller tick, most of 1.5 s
+    assert all(int(n) == 0 for n in re.findall(r" (\d+)", rejections.split(", ops")[0]))
+    fr = re.search(r"sp_controller frames: accepted (\d+)(.*)", ctl_out)
+    assert int(fr.group(1)) > 3000    # six feedback frames per answered SYNC
+    assert "bad-crc 0" in fr.group(2) and "wrong-sequence 0" in fr.group(2) and "out-of-range 0" in fr.group(2)
+    data = an.read_log(tmp_path / "rt.log")
+    assert data.stats.bad_frames == 0

@@ -4,6 +4,7 @@
  *
  *   sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep]
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
+ *                 [--feedback-timeout TICKS]
  *
  * Real-time mode (default): the controller is the cycle master; an
  * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
@@ -11,6 +12,9 @@
  * pace; each tick runs when SYNC has arrived on both axis buses, which makes
  * runs deterministic. Ends after N ticks (0: until SIGINT/SIGTERM) or when
  * the plant has been silent for --timeout-ms in lockstep; prints a summary.
+ * --feedback-timeout relaxes the drive supervision (default 2 ticks: a
+ * silent drive faults the controller on the third tick); only for hosts
+ * that cannot keep 1 ms deadlines, such as user-mode Linux in real time.
  * The compute time of each tick is measured in real-time mode, and in
  * lockstep only with --timing (two clock reads per tick, which cost a system
  * call each inside user-mode Linux).
@@ -46,7 +50,7 @@ static int64_t now_ns(void)
 static void usage(void)
 {
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
-                    "                     [--no-feedforward] [--timeout-ms MS] [--timing]\n");
+                    "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n");
 }
 
 typedef struct {
@@ -97,6 +101,7 @@ int main(int argc, char **argv)
 {
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
     int lockstep = 0, ff = 1, timing = 0;
+    long fb_timeout = 0;
     unsigned long long max_ticks = 0;
     long timeout_ms = 5000;
     for (int i = 1; i < argc; i++) {
@@ -121,6 +126,13 @@ int main(int argc, char **argv)
                 usage();
                 return 2;
             }
+        } else if (v != NULL && strcmp(a, "--feedback-timeout") == 0) {
+            char *end;
+            fb_timeout = strtol(v, &end, 10), i++;
+            if (*end != '\0' || fb_timeout < 1 || fb_timeout > 1000) {
+                usage();
+                return 2;
+            }
         } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
             char *end;
             timeout_ms = strtol(v, &end, 10), i++;
@@ -142,6 +154,9 @@ int main(int argc, char **argv)
     }
     cfg.sync_master = (uint8_t)(lockstep ? 0 : 1);
     cfg.ctrl.force_feedforward = (uint8_t)ff;
+    if (fb_timeout > 0) {
+        cfg.ctrl.feedback_timeout_ticks = (uint32_t)fb_timeout;
+    }
     (void)sp_node_init(&node, &cfg);
 
     /* The controller listens to what is addressed to it. */

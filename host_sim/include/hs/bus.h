@@ -62,7 +62,8 @@ hs_status_t hs_bus_cycle_frames(hs_bus_t *bus, const hs_plant_t *plant, uint32_t
  * an accepted alive counter and in-range values is applied to the three
  * drives of that bus (hs_plant_set_setpoint: length m, velocity m/s, force N,
  * mode) whatever its tick, since a drive follows the newest setpoint; it is
- * counted as stale if its tick is not the current cycle's. A rejected frame
+ * counted as stale if its tick is neither the current cycle's nor the next
+ * one's (in real time the controller sends setpoints just before their SYNC). A rejected frame
  * raises HS_FAULT_COMM on the drives of its bus (a warning bit; the drives'
  * setpoint watchdog does the rest) and is counted by reason. Frames with
  * other identifiers are counted as ignored. Returns HS_OK if the frame was
