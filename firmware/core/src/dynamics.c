@@ -1,5 +1,7 @@
 #include "sp/dynamics.h"
 
+#include "fixed_inline.h"
+
 /* I v for I in Q16 (kg m^2) and v in Q24: Q40 sums narrowed to Q24, int64. */
 static void inertia_times(const sp_q16_t inertia[3][3], const sp_q24_t v[3], int64_t out[3], sp_flags_t *flags)
 {
@@ -8,9 +10,9 @@ static void inertia_times(const sp_q16_t inertia[3][3], const sp_q24_t v[3], int
     for (r = 0u; r < 3u; ++r) {
         int64_t a = 0;
         for (c = 0u; c < 3u; ++c) {
-            a = sp_add64(a, (int64_t)inertia[r][c] * v[c], flags);
+            a = spi_add64(a, (int64_t)inertia[r][c] * v[c], flags);
         }
-        out[r] = sp_rshift_round(a, 16u);
+        out[r] = spi_rshift(a, 16u);
     }
 }
 
@@ -45,12 +47,12 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
     }
     /* Translation (eq 7): sum F_i u_i = m a - L + m g e_z, N in Q24. */
     for (k = 0u; k < 3u; ++k) {
-        int64_t v = sp_rshift_round((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
+        int64_t v = spi_rsr((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
         if (k == 2u) {
-            v = sp_add64(v, sp_rshift_round((int64_t)platform->mass * platform->gravity, 16u), &flags);
+            v = spi_add64(v, spi_rsr((int64_t)platform->mass * platform->gravity, 16u), &flags);
         }
         if (ext_force != NULL) {
-            v = sp_add64(v, -((int64_t)ext_force[k] * 65536), &flags); /* Q8 -> Q24 */
+            v = spi_add64(v, -((int64_t)ext_force[k] * 65536), &flags); /* Q8 -> Q24 */
         }
         b[k] = v;
     }
@@ -58,23 +60,24 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
      * frame, N m in Q24, then into the base frame with R = T^T. */
     inertia_times(platform->inertia, omega, h, &flags);
     inertia_times(platform->inertia, omega_dot, i_wdot, &flags);
-    torque_body[0] = sp_add64(i_wdot[0],
-                              sp_add64(sp_mul64(h[2], omega[1], 24u, &flags), -sp_mul64(h[1], omega[2], 24u, &flags),
-                                       &flags),
-                              &flags);
-    torque_body[1] = sp_add64(i_wdot[1],
-                              sp_add64(sp_mul64(h[0], omega[2], 24u, &flags), -sp_mul64(h[2], omega[0], 24u, &flags),
-                                       &flags),
-                              &flags);
-    torque_body[2] = sp_add64(i_wdot[2],
-                              sp_add64(sp_mul64(h[1], omega[0], 24u, &flags), -sp_mul64(h[0], omega[1], 24u, &flags),
-                                       &flags),
-                              &flags);
+    /* w x (I w): int64 (Q24) times Q24, two 32x32 products each */
+    torque_body[0] = spi_add64(i_wdot[0],
+                               spi_add64(spi_mul64_rs(h[2], omega[1], 24u, &flags),
+                                         -spi_mul64_rs(h[1], omega[2], 24u, &flags), &flags),
+                               &flags);
+    torque_body[1] = spi_add64(i_wdot[1],
+                               spi_add64(spi_mul64_rs(h[0], omega[2], 24u, &flags),
+                                         -spi_mul64_rs(h[2], omega[0], 24u, &flags), &flags),
+                               &flags);
+    torque_body[2] = spi_add64(i_wdot[2],
+                               spi_add64(spi_mul64_rs(h[1], omega[0], 24u, &flags),
+                                         -spi_mul64_rs(h[0], omega[1], 24u, &flags), &flags),
+                               &flags);
     for (k = 0u; k < 3u; ++k) {
         int64_t v = 0;
         for (c = 0u; c < 3u; ++c) {
             /* (R tau)_k = sum_c R[k][c] tau_c = sum_c T[c][k] tau_c */
-            v = sp_add64(v, sp_mul64(torque_body[c], ik->rot.t[c][k], 30u, &flags), &flags);
+            v = spi_add64(v, spi_mul64_rs(torque_body[c], ik->rot.t[c][k], 30u, &flags), &flags);
         }
         b[3u + k] = v;
     }
@@ -90,7 +93,7 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
         return st;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        force[k] = sp_narrow(f[k], 16u, &flags); /* Q24 -> Q8 */
+        force[k] = spi_narrow(f[k], 16u, &flags); /* Q24 -> Q8 */
     }
     if (flags != 0u) {
         for (k = 0u; k < SP_LEGS; ++k) {

@@ -76,6 +76,19 @@ SPI_INLINE int64_t spi_rsr_up(int64_t v, unsigned s)
     return (v + (INT64_C(1) << (s - 1u))) >> s;
 }
 
+/* sp_rshift_round for any int64 v and 1 <= s <= 62: inline unless v is
+ * within 2^62 of INT64_MAX (then the exact library path). */
+SPI_INLINE int64_t spi_rshift(int64_t v, unsigned s)
+{
+    return (v > INT64_C(0x3FFFFFFFFFFFFFFF)) ? sp_rshift_round(v, s) : spi_rsr(v, s);
+}
+
+/* sp_narrow for any int64 v and 1 <= s <= 62: round(v / 2^s) saturated. */
+SPI_INLINE int32_t spi_narrow(int64_t v, unsigned s, sp_flags_t *flags)
+{
+    return spi_sat(spi_rshift(v, s), flags);
+}
+
 /* round(a * b / 2^s), saturated (1 <= s <= 62). */
 SPI_INLINE int32_t spi_mul(int32_t a, int32_t b, unsigned s, sp_flags_t *flags)
 {

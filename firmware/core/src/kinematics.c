@@ -6,25 +6,18 @@
 #define LEG_LENGTH_MIN INT32_C(16777)        /* 1 mm in Q24 */
 #define COS_PITCH_MIN INT32_C(10737418)      /* 0.01 in Q30 */
 
-sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
+/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw. */
+static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
 {
-    sp_q30_t sr;
-    sp_q30_t cr;
-    sp_q30_t sp;
-    sp_q30_t cp;
-    sp_q30_t sy;
-    sp_q30_t cy;
-    sp_q30_t spsr;
-    sp_q30_t spcr;
+    sp_q30_t sr = sc[0];
+    sp_q30_t cr = sc[1];
+    sp_q30_t sp = sc[2];
+    sp_q30_t cp = sc[3];
+    sp_q30_t sy = sc[4];
+    sp_q30_t cy = sc[5];
+    sp_q30_t spsr = spi_mul30(sp, sr);
+    sp_q30_t spcr = spi_mul30(sp, cr);
 
-    if (rpy == NULL || rot == NULL) {
-        return SP_E_ARG;
-    }
-    sp_sincos_q24(rpy[0], &sr, &cr);
-    sp_sincos_q24(rpy[1], &sp, &cp);
-    sp_sincos_q24(rpy[2], &sy, &cy);
-    spsr = spi_mul30(sp, sr);
-    spcr = spi_mul30(sp, cr);
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
     rot->t[0][0] = spi_mul30(cy, cp);
@@ -36,14 +29,32 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
     rot->t[2][0] = spi_mul30(cy, spcr) + spi_mul30(sy, sr);
     rot->t[2][1] = spi_mul30(sy, spcr) - spi_mul30(cy, sr);
     rot->t[2][2] = spi_mul30(cp, cr);
+}
+
+/* T of the angles, keeping their sines and cosines in sc. */
+static void orientation_sc(const sp_q24_t rpy[3], sp_rot_t *rot, sp_q30_t sc[6])
+{
+    sp_sincos_q24(rpy[0], &sc[0], &sc[1]);
+    sp_sincos_q24(rpy[1], &sc[2], &sc[3]);
+    sp_sincos_q24(rpy[2], &sc[4], &sc[5]);
+    rot_from_sincos(sc, rot);
+}
+
+sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
+{
+    sp_q30_t sc[6];
+
+    if (rpy == NULL || rot == NULL) {
+        return SP_E_ARG;
+    }
+    orientation_sc(rpy, rot, sc);
     return SP_OK;
 }
 
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
- * arms, legs, lengths and, when `units` is non-zero, the unit vectors.
- * Every leg costs three 3-term dot products (exact 64-bit sums), one square
- * root and, for the unit vectors, one reciprocal and three multiplies. */
-static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, int units)
+ * arms, legs and lengths. Every leg costs three 3-term dot products (exact
+ * 64-bit sums) and one square root. */
+static sp_status_t ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
 {
     sp_flags_t flags = 0u;
     unsigned i;
@@ -52,7 +63,6 @@ static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose,
     for (i = 0u; i < SP_LEGS; ++i) {
         const int32_t *a = platform->platform_joint[i];
         uint64_t len2 = 0u;
-        uint32_t len;
         for (c = 0u; c < 3u; ++c) {
             /* (A_im T)_c = sum_r a_r T[r][c]: Q24 x Q30, the exact sum of
              * three products below 3 (2^31 (2^30 + 3)) < 2^63, then >> 30.
@@ -68,28 +78,31 @@ static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose,
             ik->leg[i][c] = (sp_q24_t)leg;
             len2 += (uint64_t)(leg * leg); /* < 3 * 2^60 */
         }
-        len = sp_isqrt64(len2); /* Q48 -> Q24, < 2^31 */
-        ik->length[i] = (sp_q24_t)len;
+        ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* Q48 -> Q24, < 2^31 */
         if (ik->length[i] < LEG_LENGTH_MIN) {
             return SP_E_RANGE;
         }
-        if (units) {
-            /* u = l / |l| (Q24 / Q24 -> Q30) with one reciprocal: 1/|l| =
-             * inv / 2^sh, then u_c = l_c inv / 2^(sh - 30). inv is never
-             * above the exact reciprocal and has 31 significant bits: the
-             * error is below 1.5 LSB of Q30 and |u_c| <= 2^30. */
-            unsigned sh;
-            int32_t inv = spi_recip(len, &sh);
-            for (c = 0u; c < 3u; ++c) {
-                ik->unit[i][c] = (sp_q30_t)spi_rsr((int64_t)ik->leg[i][c] * inv, sh - 30u);
-            }
-        } else {
-            ik->unit[i][0] = 0;
-            ik->unit[i][1] = 0;
-            ik->unit[i][2] = 0;
-        }
     }
     return sp_flags_status(flags);
+}
+
+/* The unit vectors u = l / |l| (Q24 / Q24 -> Q30) of a successful
+ * ik_lengths, with one reciprocal per leg: 1/|l| = inv / 2^sh, then
+ * u_c = l_c inv / 2^(sh - 30). inv is never above the exact reciprocal and
+ * has 31 significant bits (relative error below 2^-28): the error is at
+ * most 3 LSB of Q30 and |u_c| <= 2^30. */
+static void ik_units(sp_ik_t *ik)
+{
+    unsigned i;
+    unsigned c;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        unsigned sh;
+        int32_t inv = spi_recip((uint32_t)ik->length[i], &sh); /* length in [2^14, 2^31) */
+        for (c = 0u; c < 3u; ++c) {
+            ik->unit[i][c] = (sp_q30_t)spi_rsr_up((int64_t)ik->leg[i][c] * inv, sh - 30u);
+        }
+    }
 }
 
 sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
@@ -100,10 +113,13 @@ sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t
         return SP_E_ARG;
     }
     st = sp_orientation(pose->rpy, &ik->rot);
-    if (st != SP_OK) {
-        return st;
+    if (st == SP_OK) {
+        st = ik_lengths(platform, pose, ik);
     }
-    return ik_legs(platform, pose, ik, 1);
+    if (st == SP_OK) {
+        ik_units(ik);
+    }
+    return st;
 }
 
 sp_status_t sp_leg_stretch(const sp_ik_t *ik, const sp_ik_t *home_ik, sp_q24_t stretch[SP_LEGS])
@@ -121,9 +137,9 @@ sp_status_t sp_leg_stretch(const sp_ik_t *ik, const sp_ik_t *home_ik, sp_q24_t s
 }
 
 /* Accumulates v (Q24) x c (Q30) into a Q54 int64 sum, saturating. */
-static void acc_term(int64_t *acc, int32_t v, int32_t c, sp_flags_t *flags)
+SPI_INLINE void acc_term(int64_t *acc, int32_t v, int32_t c, sp_flags_t *flags)
 {
-    *acc = sp_add64(*acc, (int64_t)v * c, flags);
+    *acc = spi_add64(*acc, (int64_t)v * c, flags);
 }
 
 sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
@@ -155,39 +171,39 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     a = 0;
     acc_term(&a, dr, SP_Q30_ONE, &flags);
     acc_term(&a, dy, -sp, &flags);
-    omega[0] = sp_narrow(a, 30u, &flags);
+    omega[0] = spi_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, dp, cr, &flags);
     acc_term(&a, dy, spi_mul30(cp, sr), &flags);
-    omega[1] = sp_narrow(a, 30u, &flags);
+    omega[1] = spi_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, dp, -sr, &flags);
     acc_term(&a, dy, spi_mul30(cp, cr), &flags);
-    omega[2] = sp_narrow(a, 30u, &flags);
+    omega[2] = spi_narrow(a, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
-    dp_dr = sp_mul_q24(dp, dr, &flags);
-    dy_dp = sp_mul_q24(dy, dp, &flags);
-    dy_dr = sp_mul_q24(dy, dr, &flags);
+    dp_dr = spi_mul(dp, dr, 24u, &flags);
+    dy_dp = spi_mul(dy, dp, 24u, &flags);
+    dy_dr = spi_mul(dy, dr, 24u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[0], SP_Q30_ONE, &flags);
     acc_term(&a, rpy_acc[2], -sp, &flags);
     acc_term(&a, dy_dp, -cp, &flags);
-    omega_dot[0] = sp_narrow(a, 30u, &flags);
+    omega_dot[0] = spi_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[1], cr, &flags);
     acc_term(&a, dp_dr, -sr, &flags);
     acc_term(&a, rpy_acc[2], spi_mul30(cp, sr), &flags);
     acc_term(&a, dy_dp, -spi_mul30(sp, sr), &flags);
     acc_term(&a, dy_dr, spi_mul30(cp, cr), &flags);
-    omega_dot[1] = sp_narrow(a, 30u, &flags);
+    omega_dot[1] = spi_narrow(a, 30u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[1], -sr, &flags);
     acc_term(&a, dp_dr, -cr, &flags);
     acc_term(&a, rpy_acc[2], spi_mul30(cp, cr), &flags);
     acc_term(&a, dy_dp, -spi_mul30(sp, cr), &flags);
     acc_term(&a, dy_dr, -spi_mul30(cp, sr), &flags);
-    omega_dot[2] = sp_narrow(a, 30u, &flags);
+    omega_dot[2] = spi_narrow(a, 30u, &flags);
     return sp_flags_status(flags);
 }
 
@@ -217,16 +233,20 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t rpy[3], const sp_q24_
         } else {
             a += (int64_t)rpy_rate[2] * SP_Q30_ONE;
         }
-        w[c] = sp_narrow(a, 30u, &flags);
+        w[c] = spi_sat(spi_rsr(a, 30u), &flags); /* two products: below 2^63 */
     }
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
         sp_q24_t v[3];
         /* joint velocity v + w x r, Q24 x Q24 -> Q24 */
-        v[0] = sp_add(vel[0], sp_narrow((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags), &flags);
-        v[1] = sp_add(vel[1], sp_narrow((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags), &flags);
-        v[2] = sp_add(vel[2], sp_narrow((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags), &flags);
-        rate[i] = sp_dot3(ik->unit[i], v, 30u, &flags);
+        v[0] = spi_add(vel[0], spi_sat(spi_rsr((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), &flags), &flags);
+        v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), &flags), &flags);
+        v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), &flags), &flags);
+        /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
+        rate[i] = spi_sat(spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
+                                      (int64_t)ik->unit[i][2] * v[2],
+                                  30u),
+                          &flags);
     }
     return sp_flags_status(flags);
 }
@@ -396,6 +416,8 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
     sp_pose_t q;
     sp_jacobian_t jac;
     sp_fk_info_t local_info;
+    sp_ik_t work;
+    sp_ik_t *w = (ik != NULL) ? ik : &work;
     sp_status_t st = SP_OK;
     uint32_t it = 0u;
     unsigned i;
@@ -405,7 +427,7 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
     }
     info->iterations = 0u;
     info->residual = INT32_MAX;
-    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL || ik == NULL ||
+    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL ||
         opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
         return SP_E_ARG;
     }
@@ -413,28 +435,32 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
     for (;;) { /* bounded: at most max_iterations + 1 passes */
         int64_t neg_res[SP_LEGS];
         int64_t delta[SP_LEGS];
+        sp_q30_t sc[6]; /* sin, cos of roll, pitch, yaw of q */
         sp_q24_t worst = 0;
         sp_flags_t flags = 0u;
-        sp_q30_t sy;
-        sp_q30_t cy;
-        sp_q30_t sp;
-        sp_q30_t cp;
-        int64_t wx;
-        int64_t wy;
-        sp_q24_t d_roll;
+        int32_t d[SP_LEGS];
+        int32_t d_roll;
+        unsigned sh;
+        int32_t inv;
 
-        st = sp_inverse_kinematics(platform, &q, ik);
+        /* lengths only: the unit vectors are needed for a Jacobian or for
+         * the caller's ik, not for the convergence test */
+        orientation_sc(q.rpy, &w->rot, sc);
+        st = ik_lengths(platform, &q, w);
         if (st != SP_OK) {
             break;
         }
         for (i = 0u; i < SP_LEGS; ++i) {
-            sp_q24_t e = sp_sub(ik->length[i], length[i], &flags);
+            sp_q24_t e = spi_sub(w->length[i], length[i], &flags);
             int32_t ae = max_abs_diff(e, 0);
             worst = ae > worst ? ae : worst;
             neg_res[i] = -(int64_t)e;
         }
         info->residual = worst;
         if (worst <= opt->tolerance) {
+            if (ik != NULL) {
+                ik_units(ik);
+            }
             st = SP_OK;
             break;
         }
@@ -442,7 +468,8 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
             st = SP_E_NO_CONVERGENCE;
             break;
         }
-        st = sp_jacobian(ik, &jac);
+        ik_units(w);
+        st = sp_jacobian(w, &jac);
         if (st == SP_OK) {
             st = sp_solve6(&jac, 0, neg_res, delta);
         }
@@ -450,31 +477,30 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
             break;
         }
         ++it;
-        /* delta = [dR (m); dw (rad, base frame)], Q24. Translation first. */
+        /* delta = [dR (m); dw (rad, base frame)], Q24: a step of 128 m or
+         * 128 rad means the iteration diverged. */
+        for (i = 0u; i < SP_LEGS; ++i) {
+            d[i] = spi_sat(delta[i], &flags);
+        }
         for (i = 0u; i < 3u; ++i) {
-            q.pos[i] = sp_add(q.pos[i], sp_sat32(delta[i], &flags), &flags);
+            q.pos[i] = spi_add(q.pos[i], d[i], &flags);
         }
         /* Small rotation dw to Euler increments (inverse of the map used in
-         * sp_leg_rates): d_roll = (cy wx + sy wy) / cp,
-         * d_pitch = -sy wx + cy wy, d_yaw = wz + sp d_roll. */
-        sp_sincos_q24(q.rpy[1], &sp, &cp);
-        sp_sincos_q24(q.rpy[2], &sy, &cy);
-        if (cp < COS_PITCH_MIN) {
+         * sp_leg_rates), with the sines of q's own orientation:
+         * d_roll = (cy wx + sy wy) / cp, d_pitch = -sy wx + cy wy,
+         * d_yaw = wz + sp d_roll. */
+        if (sc[3] < COS_PITCH_MIN) {
             st = SP_E_SINGULAR;
             break;
         }
-        wx = delta[3];
-        wy = delta[4];
-        d_roll = sp_sat32(sp_div64(sp_add64(sp_mul64(wx, cy, 0u, &flags), sp_mul64(wy, sy, 0u, &flags), &flags),
-                                   cp, 0u, &flags),
-                          &flags);
-        q.rpy[0] = sp_add(q.rpy[0], d_roll, &flags);
-        q.rpy[1] = sp_add(q.rpy[1],
-                          sp_sat32(sp_add64(sp_mul64(wx, -sy, 30u, &flags), sp_mul64(wy, cy, 30u, &flags), &flags),
-                                   &flags),
-                          &flags);
-        q.rpy[2] = sp_add(q.rpy[2], sp_add(sp_sat32(delta[5], &flags), sp_mul(d_roll, sp, 30u, &flags), &flags),
-                          &flags);
+        inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
+        d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv,
+                                      sh - 30u, &flags),
+                         &flags);
+        q.rpy[0] = spi_add(q.rpy[0], d_roll, &flags);
+        q.rpy[1] = spi_add(q.rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags),
+                           &flags);
+        q.rpy[2] = spi_add(q.rpy[2], spi_add(d[5], spi_mul(d_roll, sc[2], 30u, &flags), &flags), &flags);
         if (flags != 0u) {
             st = SP_E_NO_CONVERGENCE; /* the iteration diverged until it saturated */
             break;

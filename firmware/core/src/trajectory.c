@@ -1,5 +1,7 @@
 #include "sp/trajectory.h"
 
+#include "fixed_inline.h"
+
 #define TWO_PI_Q24 INT64_C(105414357)   /* 2 pi in Q24 */
 #define TWO_PI_Q28 INT32_C(1686629713)  /* 2 pi in Q28 */
 #define US_PER_S INT64_C(1000000)
@@ -42,21 +44,31 @@ static void at_rest(sp_motion_t *m, const sp_pose_t *pose)
 
 /* Quintic smoothstep at u (Q30, 0..1): E in Q30, E' = dE/du and
  * E'' = d2E/du2 in Q24 (their peaks, 1.875 and 5.77, exceed Q30's range). */
+/* floor(n / d) for d != 0 without a 64-bit library division when the
+ * quotient fits 32 bits (the tick's cases); exactly n / d in every case. */
+static uint64_t udiv64(uint64_t n, uint32_t d)
+{
+    if ((n >> 32) < d) {
+        return spi_udiv64_32(n, d, NULL);
+    }
+    return n / d;
+}
+
 static void smoothstep(int32_t u, int32_t *e, int32_t *de, int32_t *dde)
 {
     int64_t one = INT64_C(1) << 30;
     int64_t uu = u;
     int64_t v = one - uu;                               /* 1 - u */
-    int64_t u2 = sp_rshift_round(uu * uu, 30u);         /* u^2 */
-    int64_t u3 = sp_rshift_round(u2 * uu, 30u);         /* u^3 */
-    int64_t v2 = sp_rshift_round(v * v, 30u);           /* (1-u)^2 */
+    int64_t u2 = spi_rsr(uu * uu, 30u);         /* u^2 */
+    int64_t u3 = spi_rsr(u2 * uu, 30u);         /* u^3 */
+    int64_t v2 = spi_rsr(v * v, 30u);           /* (1-u)^2 */
     /* E = u^3 (10 - 15u + 6u^2) */
     int64_t poly = 10 * one - 15 * uu + 6 * u2;
-    *e = (int32_t)sp_rshift_round(u3 * poly, 30u);
+    *e = (int32_t)spi_rsr(u3 * poly, 30u);
     /* E' = 30 u^2 (1-u)^2 */
-    *de = (int32_t)sp_rshift_round(30 * sp_rshift_round(u2 * v2, 30u), 6u);
+    *de = (int32_t)spi_rsr(30 * spi_rsr(u2 * v2, 30u), 6u);
     /* E'' = 60 u (1-u) (1-2u) */
-    *dde = (int32_t)sp_rshift_round(60 * sp_rshift_round(sp_rshift_round(uu * v, 30u) * (one - 2 * uu), 30u), 6u);
+    *dde = (int32_t)spi_rsr(60 * spi_rsr(spi_rsr(uu * v, 30u) * (one - 2 * uu), 30u), 6u);
 }
 
 sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis, sp_q24_t amplitude,
@@ -128,17 +140,18 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
         return SP_OK;
     }
     /* envelope position u (Q30) and its sign of motion */
-    rate = sp_sat32(((INT64_C(1) << 24) * US_PER_S) / ((int64_t)g->fade_ticks * tick_us), &flags);
+    /* fade_ticks * tick_us is in [1e5, 6e7] (sp_trig_start): fits 32 bits */
+    rate = sp_sat32((int64_t)udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, g->fade_ticks * tick_us), &flags);
     if (g->stop_tick != UINT32_MAX && g->tick >= g->stop_tick) {
         uint32_t k = g->tick - g->stop_tick;
         if (k >= g->fade_ticks) {
             g->finished = 1;
             return SP_OK;
         }
-        u = (int32_t)(((int64_t)(g->fade_ticks - k) << 30) / g->fade_ticks);
+        u = (int32_t)udiv64((uint64_t)(g->fade_ticks - k) << 30, g->fade_ticks);
         rate = -rate;
     } else if (g->tick < g->fade_ticks) {
-        u = (int32_t)(((int64_t)g->tick << 30) / g->fade_ticks);
+        u = (int32_t)udiv64((uint64_t)g->tick << 30, g->fade_ticks);
     } else {
         u = SP_Q30_ONE;
         rate = 0;
@@ -268,19 +281,25 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
     }
     *done = 0;
     at_rest(out, &mv->from);
-    u = (int32_t)(((int64_t)mv->tick << 30) / mv->duration_ticks);
-    rate = sp_sat32(((INT64_C(1) << 24) * US_PER_S) / ((int64_t)mv->duration_ticks * tick_us), &flags);
+    u = (int32_t)udiv64((uint64_t)mv->tick << 30, mv->duration_ticks);
+    {
+        uint64_t dt_us = (uint64_t)mv->duration_ticks * tick_us;
+        uint64_t r = (dt_us <= UINT32_MAX) ? udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, (uint32_t)dt_us)
+                                           : ((UINT64_C(1) << 24) * (uint64_t)US_PER_S) / dt_us;
+        rate = sp_sat32((int64_t)(r > (uint64_t)INT64_MAX ? (uint64_t)INT64_MAX : r), &flags);
+    }
     smoothstep(u, &e, &de, &dde);
     for (a = 0u; a < 6u; ++a) {
         int64_t d = (int64_t)sp_pose_axis(&mv->to, (sp_axis_t)a) - sp_pose_axis(&mv->from, (sp_axis_t)a);
         sp_q24_t *p = axis_ref(&out->pose, a);
         /* D E'(u) first, then the time scale: a short move has a large
          * rate but a small distance, and neither product saturates. */
-        int32_t dv = sp_narrow(d * de, 24u, &flags);
-        int32_t da = sp_narrow(d * dde, 24u, &flags);
-        *p = sp_sat32(*p + sp_rshift_round(d * e, 30u), &flags);
-        *vec_ref(out, a, 1) = sp_narrow((int64_t)dv * rate, 24u, &flags);
-        *vec_ref(out, a, 2) = sp_narrow((int64_t)sp_narrow((int64_t)da * rate, 24u, &flags) * rate, 24u, &flags);
+        /* |d| < 2^33 and the factors are int32: products below 2^63 - 2^32 */
+        int32_t dv = spi_narrow(d * de, 24u, &flags);
+        int32_t da = spi_narrow(d * dde, 24u, &flags);
+        *p = sp_sat32(*p + spi_rshift(d * e, 30u), &flags);
+        *vec_ref(out, a, 1) = spi_sat(spi_rsr((int64_t)dv * rate, 24u), &flags);
+        *vec_ref(out, a, 2) = spi_sat(spi_rsr((int64_t)spi_sat(spi_rsr((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
     }
     ++mv->tick;
     return sp_flags_status(flags);

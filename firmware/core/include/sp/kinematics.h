@@ -119,7 +119,9 @@ typedef struct {
 /**
  * Forward kinematics: the pose whose legs have the given lengths (m, Q24),
  * by Newton-Raphson from `guess` (the previous tick's pose), with the exact
- * Jacobian. On SP_OK, *pose is the solution and *ik its inverse kinematics.
+ * Jacobian. On SP_OK, *pose is the solution and, when ik is not NULL, *ik
+ * its inverse kinematics (pass NULL when only the pose is wanted: the unit
+ * vectors of the final pose are then not computed).
  * Errors (pose is then set to the guess, never to a half-converged value):
  *   SP_E_NO_CONVERGENCE  residual above tolerance after max_iterations, or
  *                        the iteration diverged until a value saturated;
