@@ -421,7 +421,6 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         sp_fk_options_t opt;
         sp_fk_info_t info;
         sp_pose_t est;
-        sp_ik_t ik;
         sp_status_t st;
         sp_fk_default_options(&opt);
         if (!ctrl->estimate_valid) {
@@ -431,7 +430,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
             opt.max_jump_rot = INT32_MAX;
         }
         st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park, &opt,
-                                   &est, &ik, &info);
+                                   &est, NULL, &info); /* pose only: no unit vectors */
         fk_iterations = info.iterations;
         if (st == SP_OK) {
             ctrl->estimate = est;
