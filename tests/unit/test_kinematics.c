@@ -377,6 +377,18 @@ static void test_solve6(void **state)
     memset(&m, 0, sizeof m);
     assert_int_equal(sp_solve6(&m, 0, b, x), SP_E_SINGULAR);
     assert_int_equal(sp_solve6(NULL, 0, b, x), SP_E_ARG);
+    /* a right-hand side of 2^56 or more is refused (x zeroed) */
+    for (int i = 0; i < 6; ++i) {
+        for (int j = 0; j < 6; ++j) {
+            m.j[i][j] = (i == j) ? (1 << 28) : 0;
+        }
+        b[i] = 1000;
+    }
+    assert_int_equal(sp_solve6(&m, 0, b, x), SP_OK);
+    assert_true(x[0] == 1000 && x[5] == 1000);
+    b[3] = -((int64_t)1 << 56);
+    assert_int_equal(sp_solve6(&m, 0, b, x), SP_E_OVERFLOW);
+    assert_true(x[0] == 0 && x[3] == 0 && x[5] == 0);
 }
 
 static void test_forward_kinematics(void **state)
@@ -418,6 +430,19 @@ static void test_forward_kinematics(void **state)
         assert_int_equal(sp_forward_kinematics(&p, l, &guess, &opt, &out, &ik_out, &info), SP_OK);
         assert_true(info.iterations <= 3u);
         worst_warm = info.iterations > worst_warm ? info.iterations : worst_warm;
+        {
+            /* the pose alone (ik NULL): the same pose, iterations and
+             * residual; the caller's ik is the pose's full IK */
+            sp_pose_t out2;
+            sp_fk_info_t info2;
+            sp_ik_t ik_check;
+            assert_int_equal(sp_forward_kinematics(&p, l, &guess, &opt, &out2, NULL, &info2), SP_OK);
+            assert_memory_equal(&out2, &out, sizeof out);
+            assert_int_equal(info2.iterations, info.iterations);
+            assert_int_equal(info2.residual, info.residual);
+            assert_int_equal(sp_inverse_kinematics(&p, &out, &ik_check), SP_OK);
+            assert_memory_equal(&ik_check, &ik_out, sizeof ik_check);
+        }
         for (int k = 0; k < 3; ++k) {
             double ep = fabs(f24(out.pos[k]) - q[k]);
             double er = fabs(f24(out.rpy[k]) - q[3 + k]);

@@ -308,8 +308,10 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
         }
         r[i] = b[i];
         x[i] = 0;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
         if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
-            return SP_E_OVERFLOW;
+            return SP_E_OVERFLOW; /* x is zeroed */
         }
     }
     for (k = 0u; k < SP_LEGS; ++k) {
