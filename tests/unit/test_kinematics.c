@@ -476,6 +476,176 @@ static void test_forward_kinematics(void **state)
                   worst_cold, worst_pos, worst_rot);
 }
 
+/* The factorisation used twice per tick by the controller: sp_lu6_solve is
+ * sp_solve6 bit for bit; sp_lu6_solve_transposed solves M^T x = b from M's
+ * factors, against the exact solution (same bound as sp_solve6) and within
+ * a few LSB of sp_solve6(M, transposed). */
+static void test_lu6(void **state)
+{
+    uint64_t rng = 23;
+    sp_jacobian_t m;
+    sp_lu6_t lu;
+    int64_t b[6];
+    int64_t x[6];
+    int64_t x2[6];
+    int64_t worst_lsb = 0;
+    double worst_err = 0;
+    double worst_err2 = 0;
+    (void)state;
+    for (int n = 0; n < 2000; ++n) {
+        double md[6][6];
+        double xd[6];
+        for (int i = 0; i < 6; ++i) {
+            for (int j = 0; j < 6; ++j) {
+                /* a row permutation of a diagonally dominant matrix:
+                 * well conditioned, and the pivoting swaps rows */
+                md[i][j] = tu_uniform(&rng, -0.3, 0.3) + (i == (j + n) % 6 ? 2.0 : 0.0);
+                m.j[i][j] = (int32_t)llround(md[i][j] * 268435456.0);
+                md[i][j] = m.j[i][j] / 268435456.0;
+            }
+            xd[i] = tu_uniform(&rng, -1e5, 1e5);
+        }
+        for (int tr = 0; tr < 2; ++tr) {
+            for (int i = 0; i < 6; ++i) {
+                double s = 0;
+                for (int j = 0; j < 6; ++j) {
+                    s += (tr ? md[j][i] : md[i][j]) * xd[j];
+                }
+                b[i] = llround(s * 16777216.0);
+            }
+            assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+            assert_int_equal(sp_solve6(&m, tr, b, x2), SP_OK);
+            if (tr == 0) {
+                assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+                assert_memory_equal(x, x2, sizeof x);
+            } else {
+                assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_OK);
+                for (int i = 0; i < 6; ++i) {
+                    int64_t d = x[i] - x2[i];
+                    d = d < 0 ? -d : d;
+                    worst_lsb = d > worst_lsb ? d : worst_lsb;
+                    /* the bound of test_solve6 */
+                    double e = fabs((double)x[i] / 16777216.0 - xd[i]);
+                    double e2 = fabs((double)x2[i] / 16777216.0 - xd[i]);
+                    worst_err = e > worst_err ? e : worst_err;
+                    worst_err2 = e2 > worst_err2 ? e2 : worst_err2;
+                    if (e >= 1e-8 * 1e5 + 1e-6) {
+                        fail_msg("lu6 transposed n=%d x[%d]=%.9f want %.9f solve6 %.9f", n, i, (double)x[i] / 16777216.0, xd[i], (double)x2[i] / 16777216.0);
+                    }
+                }
+            }
+        }
+    }
+    print_message("lu6: transposed solve vs sp_solve6(M^T): worst %lld LSB of Q24 (|x| up to 1e5); worst error "
+                  "%.3g (sp_solve6 %.3g)\n",
+                  (long long)worst_lsb, worst_err, worst_err2);
+    /* errors: singular, range, invalid factorisation */
+    for (int j = 0; j < 6; ++j) {
+        m.j[5][j] = m.j[4][j];
+    }
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_E_SINGULAR);
+    assert_int_equal(lu.valid, 0);
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_ARG);
+    assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_E_ARG);
+    assert_true(x[0] == 0 && x[5] == 0);
+    for (int i = 0; i < 6; ++i) {
+        for (int j = 0; j < 6; ++j) {
+            m.j[i][j] = (i == j) ? (1 << 28) : 0;
+        }
+        b[i] = 1000;
+    }
+    assert_int_equal(sp_lu6_factor(&m, 1, &lu), SP_OK);
+    b[2] = (int64_t)1 << 56;
+    assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_E_OVERFLOW);
+    assert_true(x[0] == 0 && x[2] == 0);
+    assert_int_equal(sp_lu6_factor(NULL, 0, &lu), SP_E_ARG);
+}
+
+/* Chord forward kinematics as the controller uses it: the factorisation of
+ * J^T at another pose up to 1 mm / 1 mrad away (last tick's reference), the
+ * guess up to 1 mm / 1 mrad away with its cached lengths and sines. Same
+ * accuracy bounds as sp_forward_kinematics, at most 3 steps. */
+static void test_fk_chord(void **state)
+{
+    uint64_t rng = 29;
+    sp_fk_options_t opt;
+    uint32_t worst_it = 0;
+    double worst_pos = 0;
+    double worst_rot = 0;
+    (void)state;
+    sp_fk_default_options(&opt);
+    for (int n = 0; n < N_POSES; ++n) {
+        sp_platform_t p;
+        double hz;
+        sp_pose_t truth;
+        sp_pose_t guess;
+        sp_pose_t near;
+        sp_pose_t out;
+        sp_pose_t out_newton;
+        sp_ik_t ik;
+        sp_jacobian_t jac;
+        sp_lu6_t lu;
+        sp_fk_cache_t cache;
+        sp_fk_cache_t check;
+        sp_fk_info_t info;
+        double q[6];
+        double len[6], unit[6][3], arm[6][3];
+        sp_q24_t l[6];
+        random_platform(&rng, &p, &hz);
+        random_pose(&rng, hz, &truth, q);
+        ik_d(&p, q, len, unit, arm);
+        for (int i = 0; i < 6; ++i) {
+            l[i] = q24(len[i]);
+        }
+        guess = truth;
+        near = truth;
+        for (int k = 0; k < 3; ++k) {
+            guess.pos[k] += q24(tu_uniform(&rng, -1e-3, 1e-3));
+            guess.rpy[k] += q24(tu_uniform(&rng, -1e-3, 1e-3));
+            near.pos[k] += q24(tu_uniform(&rng, -1e-3, 1e-3));
+            near.rpy[k] += q24(tu_uniform(&rng, -1e-3, 1e-3));
+        }
+        assert_int_equal(sp_inverse_kinematics(&p, &near, &ik), SP_OK);
+        assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+        assert_int_equal(sp_lu6_factor(&jac, 1, &lu), SP_OK);
+        assert_int_equal(sp_fk_cache_of(&p, &guess, &cache), SP_OK);
+        assert_int_equal(sp_fk_chord(&p, l, &guess, &lu, &opt, &cache, &out, &info), SP_OK);
+        assert_true(info.iterations <= 3u);
+        assert_true(info.residual <= opt.tolerance);
+        worst_it = info.iterations > worst_it ? info.iterations : worst_it;
+        /* the cache now belongs to the result */
+        assert_int_equal(sp_fk_cache_of(&p, &out, &check), SP_OK);
+        assert_memory_equal(&check, &cache, sizeof check);
+        assert_int_equal(sp_forward_kinematics(&p, l, &guess, &opt, &out_newton, NULL, NULL), SP_OK);
+        for (int k = 0; k < 3; ++k) {
+            double ep = fabs(f24(out.pos[k]) - q[k]);
+            double er = fabs(f24(out.rpy[k]) - q[3 + k]);
+            worst_pos = ep > worst_pos ? ep : worst_pos;
+            worst_rot = er > worst_rot ? er : worst_rot;
+            assert_true(ep < 1e-6);
+            assert_true(er < 5e-6);
+        }
+        /* far from the truth with a tight step limit: no convergence, the
+         * guess returned and the cache untouched */
+        if (n == 0) {
+            sp_fk_options_t one = opt;
+            sp_fk_cache_t before;
+            sp_pose_t far = truth;
+            far.pos[0] += q24(0.02);
+            assert_int_equal(sp_fk_cache_of(&p, &far, &cache), SP_OK);
+            before = cache;
+            one.max_iterations = 1u;
+            assert_int_equal(sp_fk_chord(&p, l, &far, &lu, &one, &cache, &out, &info), SP_E_NO_CONVERGENCE);
+            assert_memory_equal(&out, &far, sizeof out);
+            assert_memory_equal(&cache, &before, sizeof cache);
+            lu.valid = 0u;
+            assert_int_equal(sp_fk_chord(&p, l, &far, &lu, &opt, &cache, &out, &info), SP_E_ARG);
+            assert_int_equal(sp_fk_chord(&p, l, &far, NULL, &opt, &cache, &out, &info), SP_E_ARG);
+        }
+    }
+    print_message("FK chord: worst iterations %u; worst error %.3g m, %.3g rad\n", worst_it, worst_pos, worst_rot);
+}
+
 static void test_forward_kinematics_failures(void **state)
 {
     uint64_t rng = 18;
@@ -536,6 +706,15 @@ static void test_inverse_dynamics(void **state)
         }
         assert_int_equal(sp_inverse_kinematics(&p, &m.pose, &ik), SP_OK);
         assert_int_equal(sp_inverse_dynamics(&p, &m, &ik, ext, f), SP_OK);
+        {
+            /* the variant that keeps the factorisation: the same forces */
+            sp_lu6_t lu;
+            sp_q8_t f2[6];
+            assert_int_equal(sp_inverse_dynamics_lu(&p, &m, &ik, ext, f2, &lu), SP_OK);
+            assert_memory_equal(f2, f, sizeof f2);
+            assert_int_equal(lu.valid, 1);
+            assert_int_equal(sp_inverse_dynamics_lu(&p, &m, &ik, ext, f2, NULL), SP_E_ARG);
+        }
         ik_d(&p, q, len, unit, arm);
         rot_d(&q[3], r);
         {
@@ -627,6 +806,8 @@ int main(void)
         cmocka_unit_test(test_body_rates),
         cmocka_unit_test(test_solve6),
         cmocka_unit_test(test_forward_kinematics),
+        cmocka_unit_test(test_lu6),
+        cmocka_unit_test(test_fk_chord),
         cmocka_unit_test(test_forward_kinematics_failures),
         cmocka_unit_test(test_inverse_dynamics),
         cmocka_unit_test(test_check_legs),

@@ -66,6 +66,8 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->park_after = 0u;
     ctrl->stream_stopping = 0u;
     ctrl->have_setpoint = 0u;
+    ctrl->fk_cache_valid = 0u;
+    ctrl->ref_lu.valid = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->missed[i] = 0u;
         ctrl->last_length[i] = 0;
@@ -109,6 +111,23 @@ static int32_t absdiff(int32_t a, int32_t b)
     return d > INT32_MAX ? INT32_MAX : (int32_t)d;
 }
 
+/* Chord FK: at most this many steps with the stale factorisation, which
+ * must have been taken within CHORD_NEAR (10 mm, 10 mrad, Q24) of the
+ * guess; otherwise full Newton. */
+#define CHORD_MAX_STEPS 4u
+#define CHORD_NEAR INT32_C(167772)
+
+static int near_pose(const sp_pose_t *a, const sp_pose_t *b)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (absdiff(a->pos[k], b->pos[k]) > CHORD_NEAR || absdiff(a->rpy[k], b->rpy[k]) > CHORD_NEAR) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* Is the pose inside the workspace box (relative to home)? */
 static int in_workspace(const sp_platform_t *p, const sp_pose_t *pose)
 {
@@ -145,7 +164,8 @@ static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose)
 /* Setpoints of a reference motion, with every limit checked. Returns
  * SP_E_RANGE for a reference outside the limits, another error for a
  * computation failure; the setpoints are written only on SP_OK. */
-static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t *ref, sp_setpoint_t sp[SP_LEGS])
+static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t *ref, sp_setpoint_t sp[SP_LEGS],
+                                 sp_lu6_t *lu)
 {
     const sp_platform_t *p = cfg->platform;
     sp_ik_t ik;
@@ -163,7 +183,7 @@ static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t 
         st = sp_leg_rates(&ik, ref->pose.rpy, ref->vel, ref->rpy_rate, rate);
     }
     if (st == SP_OK) {
-        st = sp_inverse_dynamics(p, ref, &ik, NULL, force);
+        st = sp_inverse_dynamics_lu(p, ref, &ik, NULL, force, lu);
     }
     if (st != SP_OK) {
         return st;
@@ -429,14 +449,32 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
             opt.max_jump_pos = INT32_MAX;
             opt.max_jump_rot = INT32_MAX;
         }
-        st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park, &opt,
-                                   &est, NULL, &info); /* pose only: no unit vectors */
+        st = SP_E_NO_CONVERGENCE;
+        info.iterations = 0u;
+        if (ctrl->estimate_valid && ctrl->fk_cache_valid && ctrl->ref_lu.valid &&
+            near_pose(&ctrl->estimate, &ctrl->reference.pose)) {
+            /* chord steps with last tick's factorisation of J^T (at last
+             * tick's reference, within CHORD_NEAR of the guess), from the
+             * estimate's cached lengths: no Jacobian, no factorisation, and
+             * no IK at the guess */
+            sp_fk_options_t copt = opt;
+            copt.max_iterations = CHORD_MAX_STEPS;
+            st = sp_fk_chord(p, ctrl->last_length, &ctrl->estimate, &ctrl->ref_lu, &copt, &ctrl->fk_cache, &est,
+                             &info);
+        }
+        if (st != SP_OK) {
+            /* full Newton from the guess, then the cache of the result */
+            st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park,
+                                       &opt, &est, NULL, &info); /* pose only: no unit vectors */
+            ctrl->fk_cache_valid = (st == SP_OK && sp_fk_cache_of(p, &est, &ctrl->fk_cache) == SP_OK) ? 1u : 0u;
+        }
         fk_iterations = info.iterations;
         if (st == SP_OK) {
             ctrl->estimate = est;
             ctrl->estimate_valid = 1u;
         } else {
             ctrl->estimate_valid = 0u;
+            ctrl->fk_cache_valid = 0u;
             if (active) {
                 raise_fault(cfg, ctrl, SP_FAULT_FK);
             }
@@ -535,8 +573,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
             ctrl->setpoint[i].velocity = 0;
         }
         ctrl->reference = ref;
+        ctrl->ref_lu.valid = 0u; /* no factorisation at this reference */
     } else {
-        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, &ref, sp) : SP_E_OVERFLOW;
+        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, &ref, sp, &ctrl->ref_lu) : SP_E_OVERFLOW;
         if (st == SP_OK) {
             for (i = 0u; i < SP_LEGS; ++i) {
                 ctrl->setpoint[i] = sp[i];
@@ -544,6 +583,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
             ctrl->have_setpoint = 1u;
             ctrl->reference = ref;
         } else {
+            ctrl->ref_lu.valid = 0u; /* the reference stays the previous one */
             raise_fault(cfg, ctrl, (st == SP_E_RANGE) ? SP_FAULT_REFERENCE : SP_FAULT_COMPUTE);
             for (i = 0u; i < SP_LEGS; ++i) {
                 ctrl->setpoint[i].velocity = 0; /* hold the last valid lengths */

@@ -19,6 +19,13 @@ static void inertia_times(const sp_q16_t inertia[3][3], const sp_q24_t v[3], int
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                 const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS])
 {
+    sp_lu6_t lu;
+    return sp_inverse_dynamics_lu(platform, motion, ik, ext_force, force, &lu);
+}
+
+sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                   const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu)
+{
     sp_flags_t flags = 0u;
     sp_jacobian_t jac;
     sp_q24_t omega[3];
@@ -32,9 +39,10 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
     unsigned k;
     unsigned c;
 
-    if (force == NULL) {
+    if (force == NULL || lu == NULL) {
         return SP_E_ARG;
     }
+    lu->valid = 0u;
     for (k = 0u; k < SP_LEGS; ++k) {
         force[k] = 0;
     }
@@ -88,7 +96,15 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
     if (st != SP_OK) {
         return st;
     }
-    st = sp_solve6(&jac, 1, b, f);
+    for (k = 0u; k < SP_LEGS; ++k) {
+        if (b[k] >= (INT64_C(1) << 56) || b[k] <= -(INT64_C(1) << 56)) {
+            return SP_E_OVERFLOW; /* sp_solve6's range */
+        }
+    }
+    st = sp_lu6_factor(&jac, 1, lu);
+    if (st == SP_OK) {
+        st = sp_lu6_solve(lu, b, f); /* = sp_solve6(&jac, 1, b, f) */
+    }
     if (st != SP_OK) {
         return st;
     }

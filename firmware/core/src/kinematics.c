@@ -282,44 +282,28 @@ SPI_INLINE uint32_t mag32(int32_t v)
 
 #define RHS_MAX (INT64_C(1) << 56) /* |b| below this: no overflow in the elimination */
 
-sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
 {
-    int32_t a[SP_LEGS][SP_LEGS];
-    int64_t r[SP_LEGS];
-    int32_t inv[SP_LEGS];
-    unsigned zk[SP_LEGS];
     sp_flags_t flags = 0u;
     unsigned i;
     unsigned j;
     unsigned k;
 
-    if (m == NULL || b == NULL || x == NULL) {
+    if (m == NULL || lu == NULL) {
         return SP_E_ARG;
     }
+    lu->valid = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
-        if (transpose) {
-            for (j = 0u; j < SP_LEGS; ++j) {
-                a[i][j] = m->j[j][i];
-            }
-        } else {
-            for (j = 0u; j < SP_LEGS; ++j) {
-                a[i][j] = m->j[i][j];
-            }
-        }
-        r[i] = b[i];
-        x[i] = 0;
-    }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
-            return SP_E_OVERFLOW; /* x is zeroed */
+        for (j = 0u; j < SP_LEGS; ++j) {
+            lu->a[i][j] = transpose ? m->j[j][i] : m->j[i][j];
         }
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        int32_t *rowk = a[k];
+        int32_t *rowk = lu->a[k];
         unsigned p = k;
         uint32_t best = mag32(rowk[k]);
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            uint32_t v = mag32(a[i][k]);
+            uint32_t v = mag32(lu->a[i][k]);
             if (v > best) {
                 best = v;
                 p = i;
@@ -328,14 +312,13 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
         if (best < (uint32_t)SP_PIVOT_MIN) {
             return SP_E_SINGULAR;
         }
+        lu->perm[k] = (uint8_t)p;
         if (p != k) {
-            int64_t tr = r[k];
-            r[k] = r[p];
-            r[p] = tr;
-            for (j = k; j < SP_LEGS; ++j) {
+            /* whole rows, the stored multipliers included: P A = L U */
+            for (j = 0u; j < SP_LEGS; ++j) {
                 int32_t t = rowk[j];
-                rowk[j] = a[p][j];
-                a[p][j] = t;
+                rowk[j] = lu->a[p][j];
+                lu->a[p][j] = t;
             }
         }
         /* One reciprocal per pivot. With z = clz(|a_kk|) - 1, the pivot
@@ -353,36 +336,101 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
             if (q > 0x7FFFFFFFu) {
                 q = 0x7FFFFFFFu; /* a power of two: error 2^-31 */
             }
-            zk[k] = z;
-            inv[k] = (rowk[k] < 0) ? -(int32_t)q : (int32_t)q;
+            lu->zk[k] = (uint8_t)z;
+            lu->inv[k] = (rowk[k] < 0) ? -(int32_t)q : (int32_t)q;
         }
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            int32_t *rowi = a[i];
+            int32_t *rowi = lu->a[i];
             /* multiplier l = a_ik / a_kk in Q30 = (a_ik 2^z) inv / 2^31:
              * |a_ik| <= |a_kk| keeps a_ik 2^z in int32, and inv rounds
-             * toward zero, so |l| <= 2^30. */
-            int32_t l = (int32_t)spi_rsr_up((int64_t)(rowi[k] * (INT32_C(1) << zk[k])) * inv[k], 31u);
+             * toward zero, so |l| <= 2^30. Stored in place of a_ik. */
+            int32_t l = (int32_t)spi_rsr_up((int64_t)(rowi[k] * (INT32_C(1) << lu->zk[k])) * lu->inv[k], 31u);
+            rowi[k] = l;
             if (l == 0) {
                 continue;
             }
-            rowi[k] = 0;
             for (j = k + 1u; j < SP_LEGS; ++j) {
                 /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
                 rowi[j] = spi_sub_sat(rowi[j], (int32_t)spi_rsr_up((int64_t)l * rowk[j], 30u), &flags);
             }
+        }
+    }
+    if (flags != 0u) {
+        return sp_flags_status(flags);
+    }
+    lu->valid = 1u;
+    return SP_OK;
+}
+
+/* x_k = s 2^28 / a_kk = s 2^28 2^z inv / 2^61 = s inv / 2^(33 - z),
+ * 33 - z in [21, 33] */
+SPI_INLINE int64_t lu_div_pivot(const sp_lu6_t *lu, unsigned k, int64_t s, sp_flags_t *flags)
+{
+    return (lu->zk[k] == 0u) ? sp_mul64(s, lu->inv[k], 33u, flags)
+                             : spi_mul64_rs(s, lu->inv[k], 33u - lu->zk[k], flags);
+}
+
+static sp_status_t lu_check_rhs(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    sp_status_t st = SP_OK;
+    unsigned i;
+
+    if (lu == NULL || b == NULL || x == NULL) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
+            st = SP_E_OVERFLOW;
+        }
+    }
+    if (!lu->valid) {
+        st = SP_E_ARG;
+    }
+    if (st != SP_OK) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            x[i] = 0;
+        }
+    }
+    return st;
+}
+
+sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    int64_t r[SP_LEGS];
+    sp_flags_t flags = 0u;
+    unsigned i;
+    unsigned j;
+    unsigned k;
+    sp_status_t st = lu_check_rhs(lu, b, x);
+
+    if (st != SP_OK) {
+        return st;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        r[i] = b[i];
+        x[i] = 0;
+    }
+    for (k = 0u; k < SP_LEGS; ++k) { /* r = P b */
+        unsigned p = lu->perm[k];
+        int64_t tr = r[k];
+        r[k] = r[p];
+        r[p] = tr;
+    }
+    for (k = 0u; k < SP_LEGS; ++k) { /* L y = P b, y in r */
+        for (i = k + 1u; i < SP_LEGS; ++i) {
             /* |r| < 2^56 at the start and at most doubles per column:
              * below 2^62 at the end, no overflow */
-            r[i] -= spi_mul64_q30(r[k], l);
+            if (lu->a[i][k] != 0) {
+                r[i] -= spi_mul64_q30(r[k], lu->a[i][k]);
+            }
         }
     }
     for (k = SP_LEGS; k-- > 0u;) {
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            s = spi_add64(s, -spi_mul64_rs(x[j], a[k][j], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_rs(x[j], lu->a[k][j], 28u, &flags), &flags);
         }
-        /* x_k = s 2^28 / a_kk = s 2^28 2^z inv / 2^61 = s inv / 2^(33 - z),
-         * 33 - z in [21, 33] */
-        x[k] = (zk[k] == 0u) ? sp_mul64(s, inv[k], 33u, &flags) : spi_mul64_rs(s, inv[k], 33u - zk[k], &flags);
+        x[k] = lu_div_pivot(lu, k, s, &flags);
     }
     if (flags != 0u) {
         for (i = 0u; i < SP_LEGS; ++i) {
@@ -391,6 +439,81 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
         return sp_flags_status(flags);
     }
     return SP_OK;
+}
+
+#define LT_MAX (INT64_C(1) << 61) /* spi_mul64_q30's range */
+
+sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    int64_t y[SP_LEGS];
+    sp_flags_t flags = 0u;
+    unsigned i;
+    unsigned j;
+    unsigned k;
+    sp_status_t st = lu_check_rhs(lu, b, x);
+
+    if (st != SP_OK) {
+        return st;
+    }
+    /* A = P^T L U, so A^T x = b is U^T (L^T P x) = b. U^T y = b, forward: */
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t s = b[k];
+        for (j = 0u; j < k; ++j) {
+            s = spi_add64(s, -spi_mul64_rs(y[j], lu->a[j][k], 28u, &flags), &flags);
+        }
+        y[k] = lu_div_pivot(lu, k, s, &flags);
+    }
+    /* L^T z = y, backward (unit diagonal, multipliers Q30, |l| <= 1): */
+    for (k = SP_LEGS; k-- > 0u;) {
+        int64_t s = y[k];
+        for (i = k + 1u; i < SP_LEGS; ++i) {
+            if (lu->a[i][k] != 0) {
+                if (y[i] >= LT_MAX || y[i] <= -LT_MAX) {
+                    flags |= SP_FLAG_OVERFLOW;
+                } else {
+                    s = spi_add64(s, -spi_mul64_q30(y[i], lu->a[i][k]), &flags);
+                }
+            }
+        }
+        y[k] = s;
+    }
+    /* x = P^T z: the row swaps undone in reverse order */
+    for (k = SP_LEGS; k-- > 0u;) {
+        unsigned p = lu->perm[k];
+        if (p != k) {
+            int64_t t = y[k];
+            y[k] = y[p];
+            y[p] = t;
+        }
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        x[i] = (flags != 0u) ? 0 : y[i];
+    }
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    sp_lu6_t lu;
+    sp_status_t st;
+    unsigned i;
+
+    if (m == NULL || b == NULL || x == NULL) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        x[i] = 0;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
+            return SP_E_OVERFLOW; /* x is zeroed */
+        }
+    }
+    st = sp_lu6_factor(m, transpose, &lu);
+    if (st != SP_OK) {
+        return st;
+    }
+    return sp_lu6_solve(&lu, b, x);
 }
 
 void sp_fk_default_options(sp_fk_options_t *opt)
@@ -409,6 +532,57 @@ static int32_t max_abs_diff(int32_t a, int32_t b)
     int64_t d = (int64_t)a - b;
     d = d < 0 ? -d : d;
     return d > INT32_MAX ? INT32_MAX : (int32_t)d;
+}
+
+/* One Newton (or chord) update of q by delta = [dR (m); dw (rad, base
+ * frame)], Q24, with sc the sines and cosines of q's own orientation.
+ * SP_E_SINGULAR near pitch = +-90 degrees, SP_E_NO_CONVERGENCE when a value
+ * saturated (the iteration diverged). */
+static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const sp_q30_t sc[6])
+{
+    sp_flags_t flags = 0u;
+    int32_t d[SP_LEGS];
+    int32_t d_roll;
+    unsigned sh;
+    int32_t inv;
+    unsigned i;
+
+    /* a step of 128 m or 128 rad means the iteration diverged */
+    for (i = 0u; i < SP_LEGS; ++i) {
+        d[i] = spi_sat(delta[i], &flags);
+    }
+    for (i = 0u; i < 3u; ++i) {
+        q->pos[i] = spi_add(q->pos[i], d[i], &flags);
+    }
+    /* Small rotation dw to Euler increments (inverse of the map used in
+     * sp_leg_rates), with the sines of q's own orientation:
+     * d_roll = (cy wx + sy wy) / cp, d_pitch = -sy wx + cy wy,
+     * d_yaw = wz + sp d_roll. */
+    if (sc[3] < COS_PITCH_MIN) {
+        return SP_E_SINGULAR;
+    }
+    inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
+    d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u,
+                                  &flags),
+                     &flags);
+    q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
+    q->rpy[1] = spi_add(q->rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags),
+                        &flags);
+    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul(d_roll, sc[2], 30u, &flags), &flags), &flags);
+    return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
+}
+
+/* Is every axis of q within the allowed jump of the guess? */
+static sp_status_t fk_jump_check(const sp_pose_t *q, const sp_pose_t *guess, const sp_fk_options_t *opt)
+{
+    unsigned i;
+    for (i = 0u; i < 3u; ++i) {
+        if (max_abs_diff(q->pos[i], guess->pos[i]) > opt->max_jump_pos ||
+            max_abs_diff(q->rpy[i], guess->rpy[i]) > opt->max_jump_rot) {
+            return SP_E_DISCONTINUITY;
+        }
+    }
+    return SP_OK;
 }
 
 sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
@@ -440,10 +614,6 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
         sp_q30_t sc[6]; /* sin, cos of roll, pitch, yaw of q */
         sp_q24_t worst = 0;
         sp_flags_t flags = 0u;
-        int32_t d[SP_LEGS];
-        int32_t d_roll;
-        unsigned sh;
-        int32_t inv;
 
         /* lengths only: the unit vectors are needed for a Jacobian or for
          * the caller's ik, not for the convergence test */
@@ -479,44 +649,109 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
             break;
         }
         ++it;
-        /* delta = [dR (m); dw (rad, base frame)], Q24: a step of 128 m or
-         * 128 rad means the iteration diverged. */
-        for (i = 0u; i < SP_LEGS; ++i) {
-            d[i] = spi_sat(delta[i], &flags);
-        }
-        for (i = 0u; i < 3u; ++i) {
-            q.pos[i] = spi_add(q.pos[i], d[i], &flags);
-        }
-        /* Small rotation dw to Euler increments (inverse of the map used in
-         * sp_leg_rates), with the sines of q's own orientation:
-         * d_roll = (cy wx + sy wy) / cp, d_pitch = -sy wx + cy wy,
-         * d_yaw = wz + sp d_roll. */
-        if (sc[3] < COS_PITCH_MIN) {
-            st = SP_E_SINGULAR;
-            break;
-        }
-        inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
-        d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv,
-                                      sh - 30u, &flags),
-                         &flags);
-        q.rpy[0] = spi_add(q.rpy[0], d_roll, &flags);
-        q.rpy[1] = spi_add(q.rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags),
-                           &flags);
-        q.rpy[2] = spi_add(q.rpy[2], spi_add(d[5], spi_mul(d_roll, sc[2], 30u, &flags), &flags), &flags);
-        if (flags != 0u) {
-            st = SP_E_NO_CONVERGENCE; /* the iteration diverged until it saturated */
+        st = fk_update(&q, delta, sc);
+        if (st != SP_OK) {
             break;
         }
     }
     info->iterations = it;
     if (st == SP_OK) {
-        for (i = 0u; i < 3u; ++i) {
-            if (max_abs_diff(q.pos[i], guess->pos[i]) > opt->max_jump_pos ||
-                max_abs_diff(q.rpy[i], guess->rpy[i]) > opt->max_jump_rot) {
-                st = SP_E_DISCONTINUITY;
-            }
-        }
+        st = fk_jump_check(&q, guess, opt);
     }
     *pose = (st == SP_OK) ? q : *guess;
+    return st;
+}
+
+sp_status_t sp_fk_cache_of(const sp_platform_t *platform, const sp_pose_t *pose, sp_fk_cache_t *cache)
+{
+    sp_ik_t w;
+    sp_status_t st;
+    unsigned i;
+
+    if (platform == NULL || pose == NULL || cache == NULL) {
+        return SP_E_ARG;
+    }
+    orientation_sc(pose->rpy, &w.rot, cache->sc);
+    st = ik_lengths(platform, pose, &w);
+    for (i = 0u; i < SP_LEGS; ++i) {
+        cache->length[i] = (st == SP_OK) ? w.length[i] : 0;
+    }
+    return st;
+}
+
+sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                        const sp_lu6_t *lu_t, const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose,
+                        sp_fk_info_t *info)
+{
+    sp_pose_t q;
+    sp_fk_cache_t c;
+    sp_fk_info_t local_info;
+    sp_ik_t w;
+    sp_status_t st = SP_OK;
+    uint32_t it = 0u;
+    unsigned i;
+
+    if (info == NULL) {
+        info = &local_info;
+    }
+    info->iterations = 0u;
+    info->residual = INT32_MAX;
+    if (platform == NULL || length == NULL || guess == NULL || lu_t == NULL || opt == NULL || cache == NULL ||
+        pose == NULL || opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
+        return SP_E_ARG;
+    }
+    q = *guess;
+    c = *cache;
+    for (;;) { /* bounded: at most max_iterations + 1 passes */
+        int64_t neg_res[SP_LEGS];
+        int64_t delta[SP_LEGS];
+        sp_q24_t worst = 0;
+        sp_flags_t flags = 0u;
+
+        for (i = 0u; i < SP_LEGS; ++i) {
+            sp_q24_t e = spi_sub(c.length[i], length[i], &flags);
+            int32_t ae = max_abs_diff(e, 0);
+            worst = ae > worst ? ae : worst;
+            neg_res[i] = -(int64_t)e;
+        }
+        info->residual = worst;
+        if (worst <= opt->tolerance) {
+            st = SP_OK;
+            break;
+        }
+        if (it >= opt->max_iterations) {
+            st = SP_E_NO_CONVERGENCE;
+            break;
+        }
+        /* J delta = -residual with J = (J^T)^T: the transposed solve of
+         * the caller's factorisation of J^T */
+        st = sp_lu6_solve_transposed(lu_t, neg_res, delta);
+        if (st != SP_OK) {
+            break;
+        }
+        ++it;
+        st = fk_update(&q, delta, c.sc);
+        if (st != SP_OK) {
+            break;
+        }
+        orientation_sc(q.rpy, &w.rot, c.sc);
+        st = ik_lengths(platform, &q, &w);
+        if (st != SP_OK) {
+            break;
+        }
+        for (i = 0u; i < SP_LEGS; ++i) {
+            c.length[i] = w.length[i];
+        }
+    }
+    info->iterations = it;
+    if (st == SP_OK) {
+        st = fk_jump_check(&q, guess, opt);
+    }
+    if (st == SP_OK) {
+        *pose = q;
+        *cache = c;
+    } else {
+        *pose = *guess;
+    }
     return st;
 }

@@ -148,6 +148,10 @@ typedef struct {
     sp_motion_t reference;     /**< last accepted reference */
     sp_setpoint_t setpoint[SP_LEGS];
     uint8_t have_setpoint;
+    uint8_t fk_cache_valid;    /**< fk_cache holds the lengths and sines of `estimate` */
+    sp_fk_cache_t fk_cache;    /**< the estimate's lengths and sines, for the next tick's FK */
+    sp_lu6_t ref_lu;           /**< factorisation of J^T at `reference.pose` (valid flag inside), from the
+                                    inverse dynamics: the next tick's FK steps solve with it */
 } sp_ctrl_t;
 
 /**

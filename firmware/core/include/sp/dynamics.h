@@ -25,6 +25,16 @@
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                 const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS]);
 
+/**
+ * sp_inverse_dynamics (same forces, bit for bit, same errors), also
+ * returning the factorisation of J^T it solved with in *lu (lu->valid is 1
+ * only on SP_OK; SP_E_ARG if lu is NULL). The transposed solve of *lu
+ * (sp_lu6_solve_transposed) then solves J x = b at no new factorisation,
+ * e.g. for the next tick's forward kinematics (sp_fk_chord).
+ */
+sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                   const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu);
+
 /** Bits of a leg limit report: leg i sets bit i. */
 typedef struct {
     uint32_t too_short;  /**< length < leg_length_min */

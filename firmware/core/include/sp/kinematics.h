@@ -99,6 +99,46 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac);
 #define SP_PIVOT_MIN ((int32_t)268435) /* 1e-3 in Q28 */
 sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
 
+/** A pivoted LU factorisation of a 6x6 matrix A in Q28, as sp_solve6
+ *  computes it: P A = L U. a holds U on and above the diagonal (Q28) and
+ *  L's multipliers below it (Q30, |l| <= 1, unit diagonal implied); perm[k]
+ *  is the row swapped with row k at step k; inv and zk are each pivot's
+ *  normalised reciprocal (see sp_solve6). valid is 1 only after a
+ *  successful sp_lu6_factor. */
+typedef struct {
+    int32_t a[SP_LEGS][SP_LEGS];
+    int32_t inv[SP_LEGS];
+    uint8_t zk[SP_LEGS];
+    uint8_t perm[SP_LEGS];
+    uint8_t valid;
+} sp_lu6_t;
+
+/**
+ * Factorises A = M (transpose == 0) or A = M^T (transpose != 0), M in Q28,
+ * exactly as sp_solve6 does. Errors: SP_E_ARG (NULL), SP_E_SINGULAR (a
+ * pivot below SP_PIVOT_MIN), SP_E_OVERFLOW (an eliminated entry saturated);
+ * lu->valid is then 0.
+ */
+sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
+
+/**
+ * Solves A x = b with a factorisation of A: bit-identical to sp_solve6 on
+ * the same matrix and b. b and x in the same (any) Q format, int64,
+ * |b| < 2^56. Errors (x zeroed): SP_E_ARG (NULL or lu not valid),
+ * SP_E_OVERFLOW (b out of range or an intermediate saturated).
+ */
+sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
+/**
+ * Solves A^T x = b with a factorisation of A (U^T, then L^T, then the row
+ * swaps undone): the transposed system at the cost of one solve, no new
+ * factorisation. Same formats, ranges and errors as sp_lu6_solve. Not
+ * bit-identical to sp_solve6 on A^T (a different rounding order), but as
+ * accurate: within a few parts in 10^9 of |x| of the exact solution for a
+ * well-conditioned A (tests/unit/test_kinematics.c, test_lu6).
+ */
+sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
 /** Options of the forward kinematics. */
 typedef struct {
     uint32_t max_iterations; /**< Newton steps allowed (1..20) */
@@ -135,5 +175,39 @@ typedef struct {
 sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
                                   const sp_pose_t *guess, const sp_fk_options_t *opt, sp_pose_t *pose,
                                   sp_ik_t *ik, sp_fk_info_t *info);
+
+/** What the chord forward kinematics keeps of a pose between calls: its
+ *  leg lengths (m, Q24) and the sines and cosines of roll, pitch, yaw
+ *  (Q30), exactly as the IK of that pose computes them. */
+typedef struct {
+    sp_q24_t length[SP_LEGS];
+    sp_q30_t sc[6];
+} sp_fk_cache_t;
+
+/**
+ * Fills *cache for `pose` (one orientation and one IK of the lengths).
+ * Errors: SP_E_ARG (NULL), SP_E_RANGE (a leg out of range: lengths zeroed).
+ */
+sp_status_t sp_fk_cache_of(const sp_platform_t *platform, const sp_pose_t *pose, sp_fk_cache_t *cache);
+
+/**
+ * Forward kinematics by chord (quasi-Newton) steps: like
+ * sp_forward_kinematics, but every step solves with one fixed
+ * factorisation lu_t of J^T (sp_lu6_factor(jac, 1, ..)) taken at a pose
+ * near the solution (at 1 kHz, the previous tick's reference) instead of
+ * building and factorising the Jacobian at each iterate, and the first pass
+ * takes the guess's lengths and sines from *cache (sp_fk_cache_of(guess) or
+ * the previous successful call) instead of an IK. The convergence test is
+ * the same (every |length residual| <= opt->tolerance), so the accuracy is
+ * the same; only the number of steps can grow with the distance between
+ * the factorisation's pose and the solution (linear instead of quadratic
+ * convergence). On SP_OK, *pose is the solution and *cache is updated to
+ * it; on error *pose is the guess and *cache is unchanged. Errors as
+ * sp_forward_kinematics (SP_E_ARG also for an invalid lu_t). Bounded: at
+ * most max_iterations (<= 20) solves and IKs.
+ */
+sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                        const sp_lu6_t *lu_t, const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose,
+                        sp_fk_info_t *info);
 
 #endif /* SP_KINEMATICS_H */
