@@ -29,7 +29,10 @@ static hs_status_t check_cyl(const hs_cyl_params_t *c)
         !finite_pos(c->valve_transition) || !finite_pos(c->valve_omega) || !finite_pos(c->valve_damping) ||
         !finite_nonneg(c->leakage) || !finite_nonneg(c->viscous_friction) || !finite_nonneg(c->coulomb_friction) ||
         !finite_pos(c->coulomb_velocity) || !finite_nonneg(c->cushion_length) ||
-        !(c->cushion_length < 0.5 * c->stroke) || !finite_pos(c->stop_stiffness) || !finite_nonneg(c->stop_damping)) {
+        !(c->cushion_length < 0.5 * c->stroke) || !finite_pos(c->stop_stiffness) || !finite_nonneg(c->stop_damping) ||
+        !finite_nonneg(c->cylinder_mass) || !finite_nonneg(c->cylinder_com) || !finite_nonneg(c->rod_mass) ||
+        !finite_nonneg(c->rod_com) || !(c->cylinder_com <= c->length_min + c->stroke) ||
+        !(c->rod_com <= c->length_min + c->stroke)) {
         return HS_E_ARG;
     }
     return HS_OK;
@@ -132,6 +135,10 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     c.cushion_length = h->end_cushion_length;
     c.stop_stiffness = h->end_stop_stiffness;
     c.stop_damping = h->end_stop_damping;
+    c.cylinder_mass = h->cylinder_mass;
+    c.cylinder_com = h->cylinder_com;
+    c.rod_mass = h->rod_mass;
+    c.rod_com = h->rod_com;
     for (int i = 0; i < HS_LEGS; ++i) {
         p->cyl[i] = c;
     }

@@ -83,6 +83,152 @@ static void contact_force(const hs_contact_t *ct, const double pc[3], const doub
     }
 }
 
+/* Leg masses (docs/plant.md "Leg masses"). Leg i is two point masses on
+ * its axis u = (A - B)/L: the cylinder body m_c at B + d_c u and the rod
+ * m_r at A - d_r u, so its configuration follows from the platform joint A
+ * alone. By virtual work the leg acts on the platform at A with
+ *   F = -M a_A + b,   M = m_r u u^T + mu P,   mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2,
+ *   b = -(d_c/L) m_c P (d_c beta + g e_z) - m_r S (-d_r beta + g e_z),
+ * P = I - u u^T, S = I - (d_r/L) P, and beta = u'' - P a_A / L the
+ * velocity part of u'' = (P a_A - 2 L' u' - (|v_A|^2 - L'^2)/L u) / L.
+ * This function computes M and b from u, L and the joint velocity v_A
+ * (base frame); va = NULL means at rest. */
+static void leg_mass_terms(const hs_cyl_params_t *c, const double un[3], double len, const double *va, double g,
+                           double mm[3][3], double b[3])
+{
+    double mc = c->cylinder_mass, dc = c->cylinder_com, mr = c->rod_mass, dr = c->rod_com;
+    double mu = (mc * dc * dc + mr * (len - dr) * (len - dr)) / (len * len);
+    double beta[3] = {0.0, 0.0, 0.0}, y1[3], y2[3], py1[3], py2[3], d1, d2;
+    for (int r = 0; r < 3; ++r) {
+        for (int k = 0; k < 3; ++k) {
+            mm[r][k] = (mr - mu) * un[r] * un[k] + ((r == k) ? mu : 0.0);
+        }
+    }
+    if (va != NULL) {
+        double ld = un[0] * va[0] + un[1] * va[1] + un[2] * va[2];
+        double vn2 = va[0] * va[0] + va[1] * va[1] + va[2] * va[2] - ld * ld;
+        for (int k = 0; k < 3; ++k) {
+            double ud = (va[k] - ld * un[k]) / len;
+            beta[k] = -(2.0 * ld * ud + vn2 / len * un[k]) / len;
+        }
+    }
+    for (int k = 0; k < 3; ++k) {
+        y1[k] = dc * beta[k];
+        y2[k] = -dr * beta[k];
+    }
+    y1[2] += g;
+    y2[2] += g;
+    d1 = un[0] * y1[0] + un[1] * y1[1] + un[2] * y1[2];
+    d2 = un[0] * y2[0] + un[1] * y2[1] + un[2] * y2[2];
+    for (int k = 0; k < 3; ++k) {
+        py1[k] = y1[k] - d1 * un[k];
+        py2[k] = y2[k] - d2 * un[k];
+        b[k] = -(dc / len) * mc * py1[k] - mr * (y2[k] - (dr / len) * py2[k]);
+    }
+}
+
+/* Geometry of leg i at state x: arm R a_i, unit vector, length and (if va
+ * is not NULL) the platform joint's velocity, all base frame. */
+static void leg_geometry(const hs_plant_t *pl, const double *x, double r[3][3], int i, double arm[3], double un[3],
+                         double *len, double *va)
+{
+    const hs_params_t *p = &pl->par;
+    double l[3];
+    mat_vec(&r[0][0], p->platform_joint[i], arm);
+    for (int k = 0; k < 3; ++k) {
+        l[k] = x[HS_X_POS + k] + arm[k] - p->base_joint[i][k];
+    }
+    *len = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+    for (int k = 0; k < 3; ++k) {
+        un[k] = l[k] / *len;
+    }
+    if (va != NULL) {
+        double wb[3], wxa[3];
+        mat_vec(&r[0][0], &x[HS_X_OMEGA], wb);
+        cross(wb, arm, wxa);
+        for (int k = 0; k < 3; ++k) {
+            va[k] = x[HS_X_VEL + k] + wxa[k];
+        }
+    }
+}
+
+/* With leg masses: solves the coupled platform + legs equations for
+ * v' and the base-frame angular acceleration (docs/plant.md). f, tau: the
+ * wrench of everything else (base frame, at o'). Returns 0 if singular. */
+static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3],
+                      double arms[HS_LEGS][3], double uns[HS_LEGS][3], const double lens[HS_LEGS], const double f[3],
+                      const double tau[3], double acc[6])
+{
+    const hs_params_t *p = &pl->par;
+    double a[6][6], rhs[6], ri[3][3], ib[3][3], ibw[3], gyro[3];
+    /* I_base = R I R^T */
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            ri[j][k] = r[j][0] * p->inertia[0][k] + r[j][1] * p->inertia[1][k] + r[j][2] * p->inertia[2][k];
+        }
+    }
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            ib[j][k] = ri[j][0] * r[k][0] + ri[j][1] * r[k][1] + ri[j][2] * r[k][2];
+        }
+    }
+    memset(a, 0, sizeof a);
+    for (int j = 0; j < 3; ++j) {
+        a[j][j] = p->mass;
+        for (int k = 0; k < 3; ++k) {
+            a[3 + j][3 + k] = ib[j][k];
+        }
+    }
+    mat_vec(&ib[0][0], wb, ibw);
+    cross(wb, ibw, gyro);
+    for (int k = 0; k < 3; ++k) {
+        rhs[k] = f[k];
+        rhs[3 + k] = tau[k] - gyro[k];
+    }
+    for (int i = 0; i < HS_LEGS; ++i) {
+        const double *arm = arms[i];
+        double va[3], mm[3][3], b[3], kk[3][3], mk[3][3], wxa[3], cen[3], fb[3], m[3];
+        cross(wb, arm, wxa);
+        for (int k = 0; k < 3; ++k) {
+            va[k] = x[HS_X_VEL + k] + wxa[k];
+        }
+        leg_mass_terms(&p->cyl[i], uns[i], lens[i], va, p->gravity, mm, b);
+        /* a_A = v' + K w' + w x (w x arm), K = -[arm]x */
+        kk[0][0] = 0.0;
+        kk[0][1] = arm[2];
+        kk[0][2] = -arm[1];
+        kk[1][0] = -arm[2];
+        kk[1][1] = 0.0;
+        kk[1][2] = arm[0];
+        kk[2][0] = arm[1];
+        kk[2][1] = -arm[0];
+        kk[2][2] = 0.0;
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                mk[j][k] = mm[j][0] * kk[0][k] + mm[j][1] * kk[1][k] + mm[j][2] * kk[2][k];
+            }
+        }
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                a[j][k] += mm[j][k];
+                a[j][3 + k] += mk[j][k];
+                a[3 + k][j] += mk[j][k];
+                a[3 + j][3 + k] += kk[0][j] * mk[0][k] + kk[1][j] * mk[1][k] + kk[2][j] * mk[2][k];
+            }
+        }
+        cross(wb, wxa, cen);
+        for (int k = 0; k < 3; ++k) {
+            fb[k] = b[k] - (mm[k][0] * cen[0] + mm[k][1] * cen[1] + mm[k][2] * cen[2]);
+        }
+        cross(arm, fb, m);
+        for (int k = 0; k < 3; ++k) {
+            rhs[k] += fb[k];
+            rhs[3 + k] += m[k];
+        }
+    }
+    return hs_solve6(a, rhs, acc) == HS_OK;
+}
+
 /* Right-hand side: dx = f(x) with valve commands u (hydraulic mode). */
 static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS], double *dx, aux_t *aux)
 {
@@ -180,19 +326,36 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
         aux->contact[0] = aux->contact[1] = aux->contact[2] = 0.0;
     }
 
-    for (int k = 0; k < 3; ++k) {
-        dx[HS_X_POS + k] = v[k];
-        dx[HS_X_VEL + k] = f[k] * pl->inv_mass;
-    }
-    mat_t_vec(&r[0][0], tau, taub);
-    mat_vec(&p->inertia[0][0], w, iw);
-    cross(w, iw, gyro);
-    for (int k = 0; k < 3; ++k) {
-        rhs[k] = taub[k] - gyro[k];
-    }
-    mat_vec(&pl->inertia_inv[0][0], rhs, dw);
-    for (int k = 0; k < 3; ++k) {
-        dx[HS_X_OMEGA + k] = dw[k];
+    if (pl->legs_on) {
+        double acc[6];
+        if (!legs_accel(pl, x, r, wb, arm, un, len, f, tau, acc)) {
+            for (int k = 0; k < 6; ++k) {
+                acc[k] = NAN; /* the step sees a non-finite state: HS_E_NUMERIC */
+            }
+        }
+        for (int k = 0; k < 3; ++k) {
+            dx[HS_X_POS + k] = v[k];
+            dx[HS_X_VEL + k] = acc[k];
+        }
+        mat_t_vec(&r[0][0], &acc[3], dw);
+        for (int k = 0; k < 3; ++k) {
+            dx[HS_X_OMEGA + k] = dw[k];
+        }
+    } else {
+        for (int k = 0; k < 3; ++k) {
+            dx[HS_X_POS + k] = v[k];
+            dx[HS_X_VEL + k] = f[k] * pl->inv_mass;
+        }
+        mat_t_vec(&r[0][0], tau, taub);
+        mat_vec(&p->inertia[0][0], w, iw);
+        cross(w, iw, gyro);
+        for (int k = 0; k < 3; ++k) {
+            rhs[k] = taub[k] - gyro[k];
+        }
+        mat_vec(&pl->inertia_inv[0][0], rhs, dw);
+        for (int k = 0; k < 3; ++k) {
+            dx[HS_X_OMEGA + k] = dw[k];
+        }
     }
     dx[HS_X_QUAT + 0] = -0.5 * (q[1] * w[0] + q[2] * w[1] + q[3] * w[2]);
     dx[HS_X_QUAT + 1] = 0.5 * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1]);
@@ -265,14 +428,35 @@ static void clamp_state(hs_plant_t *pl)
     }
 }
 
-/* Static forces at the current pose for gravity, the external wrench and the
- * contact's elastic force. */
+/* Adds the wrench of the legs' weight on the platform at rest (force at o'
+ * and moment about o', base frame) at the current pose. */
+static void add_leg_gravity(const hs_plant_t *pl, double fext[3], double mext[3])
+{
+    double r[3][3];
+    hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        double arm[3], un[3], len, mm[3][3], b[3], m[3];
+        leg_geometry(pl, pl->x, r, i, arm, un, &len, NULL);
+        leg_mass_terms(&pl->par.cyl[i], un, len, NULL, pl->par.gravity, mm, b);
+        cross(arm, b, m);
+        for (int k = 0; k < 3; ++k) {
+            fext[k] += b[k];
+            mext[k] += m[k];
+        }
+    }
+}
+
+/* Static forces at the current pose for gravity, the external wrench, the
+ * contact's elastic force and (if on) the legs' weight. */
 static hs_status_t current_static_forces(const hs_plant_t *pl, double force[HS_LEGS])
 {
     double pose[6], fext[3], mext[3];
     hs_plant_pose(pl, pose);
     memcpy(fext, pl->ext_force, sizeof fext);
     memcpy(mext, pl->ext_moment, sizeof mext);
+    if (pl->legs_on) {
+        add_leg_gravity(pl, fext, mext);
+    }
     if (pl->contact.kind != HS_CONTACT_NONE) {
         double r[3][3], arm[3], pc[3], fc[3], m[3];
         hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
@@ -338,7 +522,18 @@ hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const doubl
         pl->x[HS_X_POS + k] = pose[k];
     }
     hs_quat_from_rpy(&pose[3], &pl->x[HS_X_QUAT]);
-    st = hs_static_forces(&pl->par, pose, NULL, NULL, force);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        if (pl->par.cyl[i].cylinder_mass > 0.0 || pl->par.cyl[i].rod_mass > 0.0) {
+            pl->legs_on = 1;
+        }
+    }
+    if (pl->legs_on) {
+        double fext[3] = {0.0, 0.0, 0.0}, mext[3] = {0.0, 0.0, 0.0};
+        add_leg_gravity(pl, fext, mext);
+        st = hs_static_forces(&pl->par, pose, fext, mext, force);
+    } else {
+        st = hs_static_forces(&pl->par, pose, NULL, NULL, force);
+    }
     if (st != HS_OK) {
         return st;
     }
@@ -680,6 +875,19 @@ hs_status_t hs_plant_energy(const hs_plant_t *pl, hs_energy_t *e)
                 d2 += (pc[k] - ct->anchor[k]) * (pc[k] - ct->anchor[k]);
             }
             e->springs += 0.5 * ct->stiffness * d2;
+        }
+    }
+    if (pl->legs_on) {
+        hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+        for (int i = 0; i < HS_LEGS; ++i) {
+            const hs_cyl_params_t *c = &p->cyl[i];
+            double arm[3], un[3], len, va[3], mm[3][3], b[3], mv[3];
+            leg_geometry(pl, pl->x, r, i, arm, un, &len, va);
+            leg_mass_terms(c, un, len, NULL, 0.0, mm, b);
+            mat_vec(&mm[0][0], va, mv);
+            e->kinetic += 0.5 * (va[0] * mv[0] + va[1] * mv[1] + va[2] * mv[2]);
+            e->gravity += p->gravity * (c->cylinder_mass * (p->base_joint[i][2] + c->cylinder_com * un[2]) +
+                                        c->rod_mass * (pl->x[HS_X_POS + 2] + arm[2] - c->rod_com * un[2]));
         }
     }
     e->total = e->kinetic + e->gravity + e->oil + e->springs;

@@ -19,7 +19,9 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
 - ``leg_length_min``, ``leg_length_max`` (m, joint to joint)
 - ``force_max`` (N), ``leg_velocity_max`` (m/s)
 - ``workspace``: {"min": [6], "max": [6]}, pose limits relative to home
-- ``hydraulic``, ``sensors``: plant parameters (host_sim), see config/README.md
+- ``hydraulic``, ``sensors``: plant parameters (host_sim), see config/README.md;
+  ``hydraulic`` may add the optional leg masses ``cylinder_mass``,
+  ``cylinder_com``, ``rod_mass``, ``rod_com`` (absent = 0 = neglected)
 """
 
 from __future__ import annotations
@@ -61,6 +63,17 @@ HYDRAULIC_KEYS = {
     "end_cushion_length": (0.0, 0.5, "m"),
     "end_stop_stiffness": (1e3, 1e12, "N/m"),
     "end_stop_damping": (0.0, 1e10, "N s/m"),
+}
+
+# Optional leg masses (host_sim plant only; absent = 0 = neglected, the
+# default). Each leg is two point masses on its axis: the cylinder body at
+# cylinder_com from the base joint, the rod + piston at rod_com from the
+# platform joint towards the base (docs/plant.md "Leg masses").
+HYDRAULIC_OPTIONAL_KEYS = {
+    "cylinder_mass": (0.0, 1e4, "kg"),
+    "cylinder_com": (0.0, _Q24_MAX, "m"),
+    "rod_mass": (0.0, 1e4, "kg"),
+    "rod_com": (0.0, _Q24_MAX, "m"),
 }
 
 SENSOR_KEYS = {
@@ -215,6 +228,11 @@ def _from_dict(d) -> Platform:
             raise ConfigError("hydraulic.rod_diameter: must be smaller than piston_diameter")
         if hyd["tank_pressure"] >= hyd["supply_pressure"]:
             raise ConfigError("hydraulic.tank_pressure: must be below supply_pressure")
+        for key, (lo, hi, _unit) in HYDRAULIC_OPTIONAL_KEYS.items():
+            hyd[key] = _number(f"hydraulic.{key}", h.get(key, 0.0), lo, hi)
+        for key in ("cylinder_com", "rod_com"):
+            if hyd[key] > lmax:
+                raise ConfigError(f"hydraulic.{key}: {hyd[key]:g} m is beyond leg_length_max {lmax:g}")
     sens = {}
     if "sensors" in d:
         s = d["sensors"]

@@ -30,7 +30,7 @@ typedef struct {
     double piston_diameter;           /**< bore, m */
     double rod_diameter;              /**< m, < bore */
     double dead_volume;               /**< oil volume of each chamber at its stroke end (lines, ports), m^3 */
-    double piston_mass;               /**< piston + rod, kg (informational: leg masses are neglected) */
+    double piston_mass;               /**< piston + rod, kg (sets the drive gains only; leg masses: rod_mass below) */
     double bulk_modulus;              /**< effective oil bulk modulus, Pa */
     double supply_pressure;           /**< Pa */
     double tank_pressure;             /**< Pa */
@@ -44,6 +44,12 @@ typedef struct {
     double end_cushion_length;        /**< length of the cushioned zone before each stroke end, m */
     double end_stop_stiffness;        /**< N/m, beyond the stroke ends */
     double end_stop_damping;          /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
+    /* Optional leg masses (config keys may be absent: 0 = off, the default;
+     * docs/plant.md "Leg masses"). Each leg is two point masses on its axis. */
+    double cylinder_mass;             /**< cylinder body (barrel), kg, >= 0 */
+    double cylinder_com;              /**< its centre of mass from the base joint B_i along the leg, m, >= 0 */
+    double rod_mass;                  /**< rod + piston (sliding part), kg, >= 0 */
+    double rod_com;                   /**< its centre of mass from the platform joint towards the base, m, >= 0 */
 } hs_hydraulic_config_t;
 
 /** config "sensors" section. */
@@ -83,7 +89,7 @@ typedef struct {
     double stroke;               /**< usable stroke leg_length_max - leg_length_min, m */
     double dead_volume_a;        /**< chamber A volume at stroke 0, m^3 */
     double dead_volume_b;        /**< chamber B volume at full stroke, m^3 */
-    double piston_mass;          /**< kg, informational (not integrated) */
+    double piston_mass;          /**< kg, drive gains only (not integrated; see rod_mass) */
     double bulk_modulus;         /**< Pa */
     double supply_pressure;      /**< Pa */
     double tank_pressure;        /**< Pa */
@@ -99,6 +105,12 @@ typedef struct {
     double cushion_length;       /**< m */
     double stop_stiffness;       /**< N/m */
     double stop_damping;         /**< N s/m */
+    /* Leg masses (docs/plant.md "Leg masses"): all 0 = neglected (default,
+     * as the firmware's inverse dynamics). Point masses on the leg axis. */
+    double cylinder_mass;        /**< cylinder body, kg, >= 0 */
+    double cylinder_com;         /**< its centre from the base joint along the leg, m, 0..length_min + stroke */
+    double rod_mass;             /**< rod + piston, kg, >= 0 (independent of piston_mass, which only sets the drive gains) */
+    double rod_com;              /**< its centre from the platform joint towards the base, m, 0..length_min + stroke */
 } hs_cyl_params_t;
 
 /** Sensor model of every axis. */
@@ -153,7 +165,8 @@ hs_status_t hs_params_default(hs_params_t *params);
 /**
  * Checks that every value is finite and in its physical range (positive
  * masses, areas, volumes; symmetric positive definite inertia; supply above
- * tank; stroke positive; substeps 1..1000; ...). HS_OK or HS_E_ARG.
+ * tank; stroke positive; substeps 1..1000; leg masses >= 0 with their
+ * centres 0..leg length max from their joints; ...). HS_OK or HS_E_ARG.
  */
 hs_status_t hs_params_check(const hs_params_t *params);
 

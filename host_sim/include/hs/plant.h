@@ -11,10 +11,14 @@
  *   q'   = q (0, w) / 2,  p' = v
  * with u_i the unit vector of leg i (from base joint B_i to platform joint
  * p + R a_i), F_i the cylinder force along it (positive pushes out), I the
- * full inertia tensor about o' in the motion frame. Leg masses are neglected,
- * as in the paper and in the firmware's inverse dynamics (docs/plant.md says
- * why). Integration: classic RK4, `substeps` fixed steps per cycle (default
- * 10: 10 kHz for 1 ms cycles), quaternion renormalised after every step;
+ * full inertia tensor about o' in the motion frame. Leg masses are neglected
+ * by default, as in the paper and in the firmware's inverse dynamics
+ * (docs/plant.md says why); with cylinder_mass or rod_mass > 0 in the
+ * cylinder params each leg adds two point masses on its axis, coupled to
+ * the platform by virtual work (docs/plant.md "Leg masses"), and the static
+ * forces of init and rebalance include the legs' weight. Integration:
+ * classic RK4, `substeps` fixed steps per cycle (default 10: 10 kHz for
+ * 1 ms cycles), quaternion renormalised after every step;
  * the drives run once per substep with their command held over the step.
  *
  * Actuation modes: HS_ACT_HYDRAULIC (default: valves, chambers, friction,
@@ -100,8 +104,8 @@ typedef struct {
 
 /** Energies (J). total = kinetic + gravity + oil + springs. */
 typedef struct {
-    double kinetic; /**< m v^2 / 2 + w^T I w / 2 */
-    double gravity; /**< m g z */
+    double kinetic; /**< m v^2 / 2 + w^T I w / 2 (+ the legs' kinetic energy, leg masses on) */
+    double gravity; /**< m g z (+ the legs' m g z, leg masses on) */
     double oil;     /**< compressed oil (hs_cyl_oil_energy), hydraulic mode only */
     double springs; /**< end-stop springs (hydraulic mode) and the contact spring */
     double total;
@@ -124,6 +128,7 @@ typedef struct {
     double inv_mass;
     double time;
     uint64_t cycle;
+    int legs_on; /**< some leg mass > 0 (set by hs_plant_init from the params) */
 } hs_plant_t;
 
 /**
@@ -155,7 +160,8 @@ hs_status_t hs_plant_set_contact(hs_plant_t *plant, const hs_contact_t *contact)
 
 /**
  * Re-computes the static forces at the current pose for gravity, the
- * external wrench and the contact's elastic force, and sets the ideal forces
+ * external wrench, the contact's elastic force and the legs' weight (leg
+ * masses on), and sets the ideal forces
  * and (at rest, valves at null) the chamber pressures to hold them.
  * HS_E_SINGULAR near a singular pose.
  */
