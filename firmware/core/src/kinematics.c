@@ -492,6 +492,106 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     return sp_flags_status(flags);
 }
 
+#define S32_TOP 26u                 /* the scaled right-hand side: max |b| in [2^26, 2^27) */
+#define S32_MAX (INT64_C(1) << 29)  /* every intermediate below this, else the int64 solve */
+
+/* round(v / 2^s) narrowed to an intermediate of the 32-bit solve: 0 when it
+ * is not below S32_MAX (the caller then falls back). */
+SPI_INLINE int32_t s32_take(int64_t v, unsigned s, int *ok)
+{
+    int64_t r = spi_rsr(v, s);
+    if (r >= S32_MAX || r <= -S32_MAX) {
+        *ok = 0;
+        return 0;
+    }
+    return (int32_t)r;
+}
+
+/* The block exponent e of the 32-bit solves: max |b| 2^e in [2^26, 2^27).
+ * Returns 0 when b is 0 or out of sp_lu6_solve's range. */
+static int s32_exponent(const int64_t b[SP_LEGS], int *e)
+{
+    uint64_t m = 0u;
+    unsigned i;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        uint64_t a = (b[i] < 0) ? (uint64_t)0 - (uint64_t)b[i] : (uint64_t)b[i];
+        m = a > m ? a : m;
+    }
+    if (m == 0u || m >= (UINT64_C(1) << 56)) {
+        return 0;
+    }
+    *e = (int)spi_clz64(m) - (int)(63u - S32_TOP);
+    return 1;
+}
+
+/* b 2^e 2^f, rounded, as int64 (|.| < 2^(27 + f)). */
+SPI_INLINE int64_t s32_scale_in(int64_t b, int e, unsigned f)
+{
+    return ((e >= 0) ? b * (INT64_C(1) << e) : spi_rsr(b, (unsigned)-e)) * (INT64_C(1) << f);
+}
+
+/* y 2^-e, rounded. */
+SPI_INLINE int64_t s32_scale_out(int32_t y, int e)
+{
+    return (e > 0) ? spi_rsr(y, (unsigned)e) : (int64_t)y * (INT64_C(1) << -e);
+}
+
+/*
+ * sp_lu6_solve_transposed in 32-bit intermediates, block-scaled: b is
+ * scaled by 2^e so that max |b| is in [2^26, 2^27) (a few LSB of b lost
+ * only when max |b| >= 2^27), every product is one 32x32->64 multiply
+ * accumulated exactly in int64, and every intermediate must stay below
+ * 2^29 (a growth of at least 4; sums of six products of int32 and 2^29 fit
+ * int64). Returns 0, x untouched, when one does not (or b is 0): the caller
+ * then uses the int64 solve. For the chord FK, whose right-hand side (a
+ * length residual) is small: the steps keep 26 significant bits.
+ */
+static int lu_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    int32_t y[SP_LEGS];
+    int ok = 1;
+    int e;
+    unsigned i;
+    unsigned j;
+    unsigned k;
+
+    if (!s32_exponent(b, &e)) {
+        return 0;
+    }
+    /* U^T y = b 2^e, forward: y_k = (b_k - sum_j U_jk y_j / 2^28) / U_kk */
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t acc = s32_scale_in(b[k], e, 28u);
+        int32_t sk;
+        for (j = 0u; j < k; ++j) {
+            acc -= (int64_t)lu->a[j][k] * y[j]; /* |.| < 2^60 each, 6 of them fit */
+        }
+        sk = s32_take(acc, 28u, &ok);
+        /* y_k = sk 2^28 / a_kk = sk inv / 2^(33 - z) */
+        y[k] = s32_take((int64_t)sk * lu->inv[k], 33u - lu->zk[k], &ok);
+    }
+    /* L^T z = y, backward, multipliers Q30 */
+    for (k = SP_LEGS; k-- > 0u;) {
+        int64_t acc = (int64_t)y[k] * (INT64_C(1) << 30);
+        for (i = k + 1u; i < SP_LEGS; ++i) {
+            acc -= (int64_t)lu->a[i][k] * y[i];
+        }
+        y[k] = s32_take(acc, 30u, &ok);
+    }
+    if (!ok) {
+        return 0;
+    }
+    for (k = SP_LEGS; k-- > 0u;) {
+        unsigned p = lu->perm[k];
+        int32_t t = y[k];
+        y[k] = y[p];
+        y[p] = t;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        x[i] = s32_scale_out(y[i], e);
+    }
+    return 1;
+}
+
 sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
     sp_lu6_t lu;
@@ -725,7 +825,8 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
         }
         /* J delta = -residual with J = (J^T)^T: the transposed solve of
          * the caller's factorisation of J^T */
-        st = sp_lu6_solve_transposed(lu_t, neg_res, delta);
+        st = (lu_t->valid && lu_solve_t32(lu_t, neg_res, delta)) ? SP_OK
+                                                                : sp_lu6_solve_transposed(lu_t, neg_res, delta);
         if (st != SP_OK) {
             break;
         }
