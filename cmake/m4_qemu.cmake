@@ -47,7 +47,7 @@ if(CMAKE_CROSSCOMPILING)
     add_custom_command(TARGET ${name} POST_BUILD
       COMMAND ${CMAKE_COMMAND} -DNM=${CMAKE_NM} -DFILE=$<TARGET_FILE:${name}>
         "-DREGEX=malloc|_malloc_r|calloc|realloc|free|_free_r|_sbrk|_sbrk_r"
-        -P ${SP_MPS2_DIR}/check_defined.cmake
+        -DDEFINED_SYMBOLS=1 -P ${PROJECT_SOURCE_DIR}/cmake/check_symbols.cmake
       COMMENT "Checking ${name} for heap code"
       VERBATIM)
   endfunction()

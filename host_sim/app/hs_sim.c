@@ -497,11 +497,7 @@ static void progress_line(sim_t *s, uint64_t tick)
 /* Lockstep: one cycle's wait for the controller's answer. 0 ok, 3 silent, -1 error. */
 static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms)
 {
-    struct pollfd pfd[SP_CAN_BUSES];
-    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) { /* one socket serves all buses */
-        pfd[b].fd = b == 0 ? sp_socketcan_fd(&s->sc, b) : -1;
-        pfd[b].events = POLLIN;
-    }
+    struct pollfd pfd = {sp_socketcan_fd(&s->sc), POLLIN, 0}; /* one socket serves all buses */
     static sp_can_frame_t keep[4 * RX_BUF];
     uint32_t nkeep = 0;
     long waited_ms = 0; /* no clock reads per cycle: each one is a system call in user-mode Linux */
@@ -509,7 +505,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms
     s->monitor_seen = 0;
     for (;;) {
         /* the controller answers after our SYNC: wait first, then read */
-        int r = poll(pfd, SP_CAN_BUSES, 100);
+        int r = poll(&pfd, 1, 100);
         if (r < 0 && errno != EINTR) {
             perror("hs_sim: poll");
             return -1;
@@ -742,13 +738,9 @@ int main(int argc, char **argv)
                 if (left <= 0 || g_stop) {
                     break;
                 }
-                struct pollfd pfd[SP_CAN_BUSES];
-                for (uint8_t b = 0; b < SP_CAN_BUSES; b++) { /* one socket serves all buses */
-                    pfd[b].fd = b == 0 ? sp_socketcan_fd(&s.sc, b) : -1;
-                    pfd[b].events = POLLIN;
-                }
+                struct pollfd pfd = {sp_socketcan_fd(&s.sc), POLLIN, 0};
                 struct timespec ts = {(time_t)(left / 1000000000), (long)(left % 1000000000)};
-                (void)ppoll(pfd, SP_CAN_BUSES, &ts, NULL);
+                (void)ppoll(&pfd, 1, &ts, NULL);
             }
         }
         write_truth(&s, tick);

@@ -20,8 +20,10 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
     from stewart import config as cfg  # noqa: E402
+    from stewart.gen_platform import run_generator  # noqa: E402
 else:
     from . import config as cfg
+    from .gen_platform import run_generator
 
 
 def _d(v: float) -> str:
@@ -91,20 +93,7 @@ const hs_config_t hs_config_default = {{
 
 
 def main(argv: list[str]) -> int:
-    if len(argv) != 2:
-        print("usage: gen_plant.py CONFIG.json OUT.c", file=sys.stderr)
-        return 2
-    try:
-        p = cfg.load(argv[0])
-        text = c_source(p)
-    except cfg.ConfigError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
-    out = Path(argv[1])
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if not out.exists() or out.read_text() != text:
-        out.write_text(text)
-    return 0
+    return run_generator(argv, c_source, "gen_plant.py")
 
 
 if __name__ == "__main__":

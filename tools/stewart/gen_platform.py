@@ -104,13 +104,14 @@ const sp_platform_t sp_platform_default = {{
 """
 
 
-def main(argv: list[str]) -> int:
+def run_generator(argv: list[str], c_source, prog: str) -> int:
+    """CONFIG.json OUT.c -> OUT.c = c_source(config), rewritten only when it
+    changes (so the build does not recompile). 2 usage, 1 bad config."""
     if len(argv) != 2:
-        print("usage: gen_platform.py CONFIG.json OUT.c", file=sys.stderr)
+        print(f"usage: {prog} CONFIG.json OUT.c", file=sys.stderr)
         return 2
     try:
-        p = cfg.load(argv[0])
-        text = c_source(p)
+        text = c_source(cfg.load(argv[0]))
     except cfg.ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
@@ -119,6 +120,10 @@ def main(argv: list[str]) -> int:
     if not out.exists() or out.read_text() != text:
         out.write_text(text)
     return 0
+
+
+def main(argv: list[str]) -> int:
+    return run_generator(argv, c_source, "gen_platform.py")
 
 
 if __name__ == "__main__":

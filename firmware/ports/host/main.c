@@ -209,14 +209,10 @@ int main(int argc, char **argv)
             tick(&port, &cfg, &node, &rs, 1);
         }
     } else {
-        struct pollfd pfd[SP_CAN_BUSES];
-        for (uint8_t b = 0; b < SP_CAN_BUSES; b++) { /* one socket serves all buses */
-            pfd[b].fd = b == 0 ? sp_socketcan_fd(&sc, b) : -1;
-            pfd[b].events = POLLIN;
-        }
+        struct pollfd pfd = {sp_socketcan_fd(&sc), POLLIN, 0}; /* one socket serves all buses */
         long silent_ms = 0; /* no clock reads per tick: inside user-mode Linux each one is a system call */
         while (!g_stop && (max_ticks == 0 || rs.ticks < max_ticks)) {
-            int r = poll(pfd, SP_CAN_BUSES, 100);
+            int r = poll(&pfd, 1, 100);
             if (r < 0 && errno != EINTR) {
                 perror("sp_controller: poll");
                 rc = 1;

@@ -116,9 +116,9 @@ sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cf
     return SP_OK;
 }
 
-int sp_socketcan_fd(const sp_socketcan_t *p, uint8_t bus)
+int sp_socketcan_fd(const sp_socketcan_t *p)
 {
-    return (p == NULL || bus >= SP_CAN_BUSES || p->ifindex[bus] == 0) ? -1 : p->fd;
+    return p == NULL ? -1 : p->fd;
 }
 
 static sp_status_t sc_send(void *ctx, const sp_can_frame_t *frames, uint32_t n, uint32_t *sent)

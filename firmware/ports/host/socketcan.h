@@ -50,7 +50,7 @@ void sp_socketcan_close(sp_socketcan_t *p);
 /** The sp_can_port_t view of an open port (ctx = p). */
 sp_can_port_t sp_socketcan_port(sp_socketcan_t *p);
 
-/** File descriptor to poll() for a bus (the same for every bus), -1 if the bus is unused. */
-int sp_socketcan_fd(const sp_socketcan_t *p, uint8_t bus);
+/** The socket's file descriptor, to poll() for frames of any bus; -1 when closed. */
+int sp_socketcan_fd(const sp_socketcan_t *p);
 
 #endif /* SP_SOCKETCAN_H */
