@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Instruction profile of the controller tick on the Cortex-M4 (QEMU): runs
-# sp_m4_profile.elf (profile.c: the first ticks of the golden scenario) with
+# sp_m4_profile.elf (profile.c: 300 RUNNING ticks of the golden scenario) with
 # QEMU's translation-block trace and prints the instructions executed per
 # function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N]
 set -euo pipefail
@@ -13,6 +13,7 @@ trap 'rm -rf "$log"' EXIT
 mkfifo "$log/fifo"
 awk '
   /^IN:/ { intb = 1; start = ""; n = 0; fn = $2; next }
+  /^Trace/ && !on { split($0, f, "/"); if (func["0x" f[2]] == "profile_begin") on = 1; else next }
   intb && /^0x[0-9a-f]+:/ { if (start == "") start = substr($1, 1, length($1) - 1); n++; next }
   intb && /^$/ { if (start != "") { size[start] = n; func[start] = fn }; intb = 0; next }
   /^Trace/ { split($0, f, "/"); a = "0x" f[2]; cnt[a]++; next }
@@ -22,6 +23,7 @@ awk '
     for (k in per) printf "%-28s %12d %6.1f\n", k, per[k], 100 * per[k] / tot | "sort -k2 -nr | head -'"$top"'"
     close("sort -k2 -nr | head -'"$top"'")
     printf "%-28s %12d\n", "total", tot
+    printf "%-28s %12d\n", "per tick", tot / 300
   }' "$log/fifo" &
 qemu-system-arm -M mps2-an386 -display none -monitor none -serial none \
   -semihosting-config enable=on,target=native -kernel "$elf" \

@@ -82,6 +82,7 @@ class Rot(C.Structure):
 class IK(C.Structure):
     _fields_ = [
         ("rot", Rot),
+        ("sc", I32 * 6),
         ("arm", V3 * LEGS),
         ("leg", V3 * LEGS),
         ("length", I32 * LEGS),

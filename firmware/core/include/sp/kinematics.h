@@ -25,6 +25,7 @@ typedef struct {
 /** Inverse kinematics of one pose. */
 typedef struct {
     sp_rot_t rot;                        /**< T of the pose */
+    sp_q30_t sc[6];                      /**< sin, cos of roll, pitch, yaw, Q30 (what T is built from) */
     sp_q24_t arm[SP_LEGS][3];            /**< A_im T: platform joint relative to o', base frame, m, Q24 */
     sp_q24_t leg[SP_LEGS][3];            /**< l_i = A_im T + R - B_i (eq 1), base frame, m, Q24 */
     sp_q24_t length[SP_LEGS];            /**< |l_i|, m, Q24 */

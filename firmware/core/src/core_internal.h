@@ -1,0 +1,30 @@
+/*
+ * core_internal.h - functions shared between the core's source files
+ * (kinematics.c, lu6.c, fk.c) that are not part of the public API.
+ */
+#ifndef SP_CORE_INTERNAL_H
+#define SP_CORE_INTERNAL_H
+
+#include "sp/kinematics.h"
+
+/* T of the angles (rad, Q24), keeping their sines and cosines in sc =
+ * {sin, cos} of roll, pitch, yaw (Q30). Cannot fail. */
+void spi_orientation_sc(const sp_q24_t rpy[3], sp_rot_t *rot, sp_q30_t sc[6]);
+
+/* Inverse kinematics of a pose whose orientation ik->rot is already set:
+ * arms, legs and lengths (not the unit vectors). SP_E_RANGE for a leg
+ * component of 64 m or more or a leg shorter than 1 mm, SP_E_OVERFLOW if an
+ * arm saturated. */
+sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik);
+
+/* The unit vectors of a successful spi_ik_lengths (Q30, within 3 LSB).
+ * Cannot fail. */
+void spi_ik_units(sp_ik_t *ik);
+
+/* sp_lu6_solve_transposed in 32-bit intermediates, block-scaled (lu6.c):
+ * returns 1 and x on success, 0 (x untouched) when an intermediate would
+ * leave the 32-bit range or b is 0 or out of range: the caller then uses
+ * the int64 solve. */
+int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
+#endif /* SP_CORE_INTERNAL_H */

@@ -1,0 +1,246 @@
+#include "sp/kinematics.h"
+
+#include "core_internal.h"
+#include "fixed_inline.h"
+
+#define COS_PITCH_MIN INT32_C(10737418) /* 0.01 in Q30 */
+
+void sp_fk_default_options(sp_fk_options_t *opt)
+{
+    if (opt == NULL) {
+        return;
+    }
+    opt->max_iterations = 8u;
+    opt->tolerance = 4;              /* 0.24 um */
+    opt->max_jump_pos = 838861;      /* 50 mm */
+    opt->max_jump_rot = 838861;      /* 50 mrad */
+}
+
+static int32_t max_abs_diff(int32_t a, int32_t b)
+{
+    int64_t d = (int64_t)a - b;
+    d = d < 0 ? -d : d;
+    return d > INT32_MAX ? INT32_MAX : (int32_t)d;
+}
+
+/* One Newton (or chord) update of q by delta = [dR (m); dw (rad, base
+ * frame)], Q24, with sc the sines and cosines of q's own orientation.
+ * SP_E_SINGULAR near pitch = +-90 degrees, SP_E_NO_CONVERGENCE when a value
+ * saturated (the iteration diverged). */
+static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const sp_q30_t sc[6])
+{
+    sp_flags_t flags = 0u;
+    int32_t d[SP_LEGS];
+    int32_t d_roll;
+    unsigned sh;
+    int32_t inv;
+    unsigned i;
+
+    /* a step of 128 m or 128 rad means the iteration diverged */
+    for (i = 0u; i < SP_LEGS; ++i) {
+        d[i] = spi_sat(delta[i], &flags);
+    }
+    for (i = 0u; i < 3u; ++i) {
+        q->pos[i] = spi_add(q->pos[i], d[i], &flags);
+    }
+    /* Small rotation dw to Euler increments (inverse of the map used in
+     * sp_leg_rates), with the sines of q's own orientation:
+     * d_roll = (cy wx + sy wy) / cp, d_pitch = -sy wx + cy wy,
+     * d_yaw = wz + sp d_roll. */
+    if (sc[3] < COS_PITCH_MIN) {
+        return SP_E_SINGULAR;
+    }
+    inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
+    d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u,
+                                  &flags),
+                     &flags);
+    q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
+    q->rpy[1] = spi_add(q->rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags),
+                        &flags);
+    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul(d_roll, sc[2], 30u, &flags), &flags), &flags);
+    return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
+}
+
+/* Is every axis of q within the allowed jump of the guess? */
+static sp_status_t fk_jump_check(const sp_pose_t *q, const sp_pose_t *guess, const sp_fk_options_t *opt)
+{
+    unsigned i;
+    for (i = 0u; i < 3u; ++i) {
+        if (max_abs_diff(q->pos[i], guess->pos[i]) > opt->max_jump_pos ||
+            max_abs_diff(q->rpy[i], guess->rpy[i]) > opt->max_jump_rot) {
+            return SP_E_DISCONTINUITY;
+        }
+    }
+    return SP_OK;
+}
+
+sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
+                                  const sp_pose_t *guess, const sp_fk_options_t *opt, sp_pose_t *pose,
+                                  sp_ik_t *ik, sp_fk_info_t *info)
+{
+    sp_pose_t q;
+    sp_jacobian_t jac;
+    sp_fk_info_t local_info;
+    sp_ik_t work;
+    sp_ik_t *w = (ik != NULL) ? ik : &work;
+    sp_status_t st = SP_OK;
+    uint32_t it = 0u;
+    unsigned i;
+
+    if (info == NULL) {
+        info = &local_info;
+    }
+    info->iterations = 0u;
+    info->residual = INT32_MAX;
+    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL ||
+        opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
+        return SP_E_ARG;
+    }
+    q = *guess;
+    for (;;) { /* bounded: at most max_iterations + 1 passes */
+        int64_t neg_res[SP_LEGS];
+        int64_t delta[SP_LEGS];
+        sp_q24_t worst = 0;
+        sp_flags_t flags = 0u;
+
+        /* lengths only: the unit vectors are needed for a Jacobian or for
+         * the caller's ik, not for the convergence test */
+        spi_orientation_sc(q.rpy, &w->rot, w->sc);
+        st = spi_ik_lengths(platform, &q, w);
+        if (st != SP_OK) {
+            break;
+        }
+        for (i = 0u; i < SP_LEGS; ++i) {
+            sp_q24_t e = spi_sub(w->length[i], length[i], &flags);
+            int32_t ae = max_abs_diff(e, 0);
+            worst = ae > worst ? ae : worst;
+            neg_res[i] = -(int64_t)e;
+        }
+        info->residual = worst;
+        if (worst <= opt->tolerance) {
+            if (ik != NULL) {
+                spi_ik_units(ik);
+            }
+            st = SP_OK;
+            break;
+        }
+        if (it >= opt->max_iterations) {
+            st = SP_E_NO_CONVERGENCE;
+            break;
+        }
+        spi_ik_units(w);
+        st = sp_jacobian(w, &jac);
+        if (st == SP_OK) {
+            st = sp_solve6(&jac, 0, neg_res, delta);
+        }
+        if (st != SP_OK) {
+            break;
+        }
+        ++it;
+        st = fk_update(&q, delta, w->sc);
+        if (st != SP_OK) {
+            break;
+        }
+    }
+    info->iterations = it;
+    if (st == SP_OK) {
+        st = fk_jump_check(&q, guess, opt);
+    }
+    *pose = (st == SP_OK) ? q : *guess;
+    return st;
+}
+
+sp_status_t sp_fk_cache_of(const sp_platform_t *platform, const sp_pose_t *pose, sp_fk_cache_t *cache)
+{
+    sp_ik_t w;
+    sp_status_t st;
+    unsigned i;
+
+    if (platform == NULL || pose == NULL || cache == NULL) {
+        return SP_E_ARG;
+    }
+    spi_orientation_sc(pose->rpy, &w.rot, cache->sc);
+    st = spi_ik_lengths(platform, pose, &w);
+    for (i = 0u; i < SP_LEGS; ++i) {
+        cache->length[i] = (st == SP_OK) ? w.length[i] : 0;
+    }
+    return st;
+}
+
+sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                        const sp_lu6_t *lu_t, const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose,
+                        sp_fk_info_t *info)
+{
+    sp_pose_t q;
+    sp_fk_cache_t c;
+    sp_fk_info_t local_info;
+    sp_ik_t w;
+    sp_status_t st = SP_OK;
+    uint32_t it = 0u;
+    unsigned i;
+
+    if (info == NULL) {
+        info = &local_info;
+    }
+    info->iterations = 0u;
+    info->residual = INT32_MAX;
+    if (platform == NULL || length == NULL || guess == NULL || lu_t == NULL || opt == NULL || cache == NULL ||
+        pose == NULL || opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
+        return SP_E_ARG;
+    }
+    q = *guess;
+    c = *cache;
+    for (;;) { /* bounded: at most max_iterations + 1 passes */
+        int64_t neg_res[SP_LEGS];
+        int64_t delta[SP_LEGS];
+        sp_q24_t worst = 0;
+        sp_flags_t flags = 0u;
+
+        for (i = 0u; i < SP_LEGS; ++i) {
+            sp_q24_t e = spi_sub(c.length[i], length[i], &flags);
+            int32_t ae = max_abs_diff(e, 0);
+            worst = ae > worst ? ae : worst;
+            neg_res[i] = -(int64_t)e;
+        }
+        info->residual = worst;
+        if (worst <= opt->tolerance) {
+            st = SP_OK;
+            break;
+        }
+        if (it >= opt->max_iterations) {
+            st = SP_E_NO_CONVERGENCE;
+            break;
+        }
+        /* J delta = -residual with J = (J^T)^T: the transposed solve of
+         * the caller's factorisation of J^T */
+        st = (lu_t->valid && spi_lu6_solve_t32(lu_t, neg_res, delta)) ? SP_OK
+                                                                : sp_lu6_solve_transposed(lu_t, neg_res, delta);
+        if (st != SP_OK) {
+            break;
+        }
+        ++it;
+        st = fk_update(&q, delta, c.sc);
+        if (st != SP_OK) {
+            break;
+        }
+        spi_orientation_sc(q.rpy, &w.rot, c.sc);
+        st = spi_ik_lengths(platform, &q, &w);
+        if (st != SP_OK) {
+            break;
+        }
+        for (i = 0u; i < SP_LEGS; ++i) {
+            c.length[i] = w.length[i];
+        }
+    }
+    info->iterations = it;
+    if (st == SP_OK) {
+        st = fk_jump_check(&q, guess, opt);
+    }
+    if (st == SP_OK) {
+        *pose = q;
+        *cache = c;
+    } else {
+        *pose = *guess;
+    }
+    return st;
+}
