@@ -164,7 +164,7 @@ static void poses(m4_rng_t *rng, pose_summary_t *sum)
         m4_out_words(omega_dot, 3u);
         m4_out_nl();
 
-        st = sp_leg_rates(&ik, m.pose.rpy, m.vel, m.rpy_rate, rate);
+        st = sp_leg_rates(&ik, m.vel, m.rpy_rate, rate);
         sum->rates_ok += (st == SP_OK) ? 1u : 0u;
         record("rates", n, (int32_t)st);
         m4_out_words(rate, SP_LEGS);

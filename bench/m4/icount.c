@@ -38,7 +38,7 @@ __attribute__((noipa)) static sp_status_t run_ik(const sp_pose_t *pose, sp_ik_t 
 
 __attribute__((noipa)) static sp_status_t run_rates(const sp_motion_t *m, const sp_ik_t *in, sp_q24_t *rate)
 {
-    return sp_leg_rates(in, m->pose.rpy, m->vel, m->rpy_rate, rate);
+    return sp_leg_rates(in, m->vel, m->rpy_rate, rate);
 }
 
 __attribute__((noipa)) static sp_status_t run_id(const sp_motion_t *m, const sp_ik_t *in, sp_q8_t *force)

@@ -199,7 +199,7 @@ static void test_closed_loop_surge(void **state)
         pt_motion(p.home, &surge, n * 1e-3, pose, vel, acc);
         pt_to_sp_motion(pose, vel, acc, &mo);
         assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &mo.pose, &ik), SP_OK);
-        assert_int_equal(sp_leg_rates(&ik, mo.pose.rpy, mo.vel, mo.rpy_rate, rate), SP_OK);
+        assert_int_equal(sp_leg_rates(&ik, mo.vel, mo.rpy_rate, rate), SP_OK);
         assert_int_equal(sp_inverse_dynamics(&sp_platform_default, &mo, &ik, NULL, fq), SP_OK);
         for (int i = 0; i < HS_LEGS; ++i) {
             assert_int_equal(hs_plant_set_setpoint(&plant, i, ik.length[i] / 16777216.0, rate[i] / 16777216.0,

@@ -262,7 +262,7 @@ static void test_leg_rates_and_stretch(void **state)
             rate[k] = q24(tu_uniform(&rng, -1.0, 1.0));
         }
         assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
-        assert_int_equal(sp_leg_rates(&ik, pose.rpy, vel, rate, legrate), SP_OK);
+        assert_int_equal(sp_leg_rates(&ik, vel, rate, legrate), SP_OK);
         /* central difference of the double IK along the motion */
         for (int k = 0; k < 3; ++k) {
             q2[k] = q[k] + f24(vel[k]) * dt;

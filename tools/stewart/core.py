@@ -141,7 +141,7 @@ def lib() -> C.CDLL:
     P = C.POINTER
     L.sp_inverse_kinematics.argtypes = [P(PlatformStruct), P(Pose), P(IK)]
     L.sp_inverse_dynamics.argtypes = [P(PlatformStruct), P(Motion), P(IK), P(V3), P(I32 * LEGS)]
-    L.sp_leg_rates.argtypes = [P(IK), P(V3), P(V3), P(V3), P(I32 * LEGS)]
+    L.sp_leg_rates.argtypes = [P(IK), P(V3), P(V3), P(I32 * LEGS)]
     L.sp_leg_stretch.argtypes = [P(IK), P(IK), P(I32 * LEGS)]
     L.sp_body_rates.argtypes = [P(V3), P(V3), P(V3), P(V3), P(V3)]
     L.sp_forward_kinematics.argtypes = [
@@ -266,7 +266,7 @@ class Core:
         if st != 0:
             return CalcResult(status_name(st))
         rates = (I32 * LEGS)()
-        st = self.L.sp_leg_rates(C.byref(ik), C.byref(m.pose.rpy), C.byref(m.vel), C.byref(m.rpy_rate),
+        st = self.L.sp_leg_rates(C.byref(ik), C.byref(m.vel), C.byref(m.rpy_rate),
                                  C.byref(rates))
         if st != 0:
             return CalcResult(status_name(st))

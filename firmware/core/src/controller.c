@@ -180,7 +180,7 @@ static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t 
     }
     st = sp_inverse_kinematics(p, &ref->pose, &ik);
     if (st == SP_OK) {
-        st = sp_leg_rates(&ik, ref->pose.rpy, ref->vel, ref->rpy_rate, rate);
+        st = sp_leg_rates(&ik, ref->vel, ref->rpy_rate, rate);
     }
     if (st == SP_OK) {
         st = sp_inverse_dynamics_lu(p, ref, &ik, NULL, force, lu);

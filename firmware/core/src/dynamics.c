@@ -49,7 +49,7 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     if (platform == NULL || motion == NULL || ik == NULL) {
         return SP_E_ARG;
     }
-    st = sp_body_rates(motion->pose.rpy, motion->rpy_rate, motion->rpy_acc, omega, omega_dot);
+    st = sp_body_rates_sc(ik->sc, motion->rpy_rate, motion->rpy_acc, omega, omega_dot);
     if (st != SP_OK) {
         return st;
     }

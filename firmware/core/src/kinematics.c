@@ -143,6 +143,21 @@ SPI_INLINE void acc_term(int64_t *acc, int32_t v, int32_t c, sp_flags_t *flags)
 sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
                           sp_q24_t omega[3], sp_q24_t omega_dot[3])
 {
+    sp_q30_t sc[6];
+
+    if (rpy == NULL) {
+        return SP_E_ARG;
+    }
+    sp_sincos_q24(rpy[0], &sc[0], &sc[1]);
+    sp_sincos_q24(rpy[1], &sc[2], &sc[3]);
+    sc[4] = 0; /* yaw does not enter */
+    sc[5] = SP_Q30_ONE;
+    return sp_body_rates_sc(sc, rpy_rate, rpy_acc, omega, omega_dot);
+}
+
+sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
     sp_flags_t flags = 0u;
     sp_q30_t sr;
     sp_q30_t cr;
@@ -156,11 +171,13 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     sp_q24_t dy_dr;
     int64_t a;
 
-    if (rpy == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
+    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
         return SP_E_ARG;
     }
-    sp_sincos_q24(rpy[0], &sr, &cr);
-    sp_sincos_q24(rpy[1], &sp, &cp);
+    sr = sc[0];
+    cr = sc[1];
+    sp = sc[2];
+    cp = sc[3];
     dr = rpy_rate[0];
     dp = rpy_rate[1];
     dy = rpy_rate[2];
@@ -205,8 +222,8 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     return sp_flags_status(flags);
 }
 
-sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t rpy[3], const sp_q24_t vel[3],
-                         const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS])
+sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3],
+                         sp_q24_t rate[SP_LEGS])
 {
     sp_flags_t flags = 0u;
     sp_q30_t sy;
@@ -215,10 +232,11 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t rpy[3], const sp_q24_
     unsigned i;
     unsigned c;
 
-    if (ik == NULL || rpy == NULL || vel == NULL || rpy_rate == NULL || rate == NULL) {
+    if (ik == NULL || vel == NULL || rpy_rate == NULL || rate == NULL) {
         return SP_E_ARG;
     }
-    sp_sincos_q24(rpy[2], &sy, &cy);
+    sy = ik->sc[4];
+    cy = ik->sc[5];
     /* Angular velocity in the base frame for Z-Y-X angles:
      * w = roll_rate * (R e_x) + pitch_rate * (Rz e_y) + yaw_rate * e_z,
      * and R e_x is row 0 of T. */

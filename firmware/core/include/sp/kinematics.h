@@ -76,13 +76,24 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
                           sp_q24_t omega[3], sp_q24_t omega_dot[3]);
 
 /**
+ * sp_body_rates from the sines and cosines sc = {sin, cos} of roll, pitch,
+ * yaw (Q30, as in sp_ik_t.sc) instead of the angles: no sine is computed.
+ * Bit-identical to sp_body_rates for the sines of the same angles (yaw's
+ * are not used). Same units, ranges and errors.
+ */
+sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                             sp_q24_t omega[3], sp_q24_t omega_dot[3]);
+
+/**
  * Leg extension rates d|l_i|/dt (m/s, Q24) = u_i . (v + w x (A_im T)), with
  * w the angular velocity in the base frame, from the pose's inverse
- * kinematics, the linear velocity of o' (m/s, Q24) and the Euler angle rates
- * (rad/s, Q24). Saturates (SP_E_OVERFLOW) beyond +-128 m/s.
+ * kinematics (sp_inverse_kinematics or sp_forward_kinematics: its T, arms,
+ * unit vectors and the yaw's sine and cosine in sc), the linear velocity of
+ * o' (m/s, Q24) and the Euler angle rates (rad/s, Q24). Saturates
+ * (SP_E_OVERFLOW) beyond +-128 m/s.
  */
-sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t rpy[3], const sp_q24_t vel[3],
-                         const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS]);
+sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3],
+                         sp_q24_t rate[SP_LEGS]);
 
 /** Builds the leg Jacobian of a pose from its inverse kinematics. */
 sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac);
