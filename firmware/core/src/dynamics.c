@@ -2,18 +2,55 @@
 
 #include "fixed_inline.h"
 
-/* I v for I in Q16 (kg m^2) and v in Q24: Q40 sums narrowed to Q24, int64. */
-static void inertia_times(const sp_q16_t inertia[3][3], const sp_q24_t v[3], int64_t out[3], sp_flags_t *flags)
+/* a + b, setting *ovf when the sum leaves int64 (the value is then
+ * meaningless and the caller fails): ADDS/ADCS and one branch. */
+SPI_INLINE int64_t add_ck(int64_t a, int64_t b, int *ovf)
+{
+#if defined(__GNUC__)
+    int64_t r;
+    if (__builtin_add_overflow(a, b, &r)) {
+        *ovf = 1;
+    }
+    return r;
+#else
+    sp_flags_t f = 0u;
+    int64_t r = spi_add64(a, b, &f);
+    *ovf |= (f != 0u);
+    return r;
+#endif
+}
+
+/* I v for I in Q16 (kg m^2) and v in Q24: Q40 sums (each product at most
+ * 2^62; an overflowing sum sets *ovf) narrowed to Q24: |out| < 3 2^46. */
+static void inertia_times(const sp_q16_t inertia[3][3], const sp_q24_t v[3], int64_t out[3], int *ovf)
 {
     unsigned r;
-    unsigned c;
     for (r = 0u; r < 3u; ++r) {
-        int64_t a = 0;
-        for (c = 0u; c < 3u; ++c) {
-            a = spi_add64(a, (int64_t)inertia[r][c] * v[c], flags);
-        }
+        int64_t a = (int64_t)inertia[r][0] * v[0];
+        a = add_ck(a, (int64_t)inertia[r][1] * v[1], ovf);
+        a = add_ck(a, (int64_t)inertia[r][2] * v[2], ovf);
         out[r] = spi_rshift(a, 16u);
     }
+}
+
+/* round(x w / 2^24), ties up, for |x| < 2^48 and any int32 w, exactly:
+ * x = xh 2^24 + xl with 0 <= xl < 2^24, so x w / 2^24 = xh w + xl w / 2^24
+ * and only the second part is rounded. |xh w| < 2^55, the result < 2^55. */
+SPI_INLINE int64_t mul48_q24(int64_t x, int32_t w)
+{
+    int32_t xh = (int32_t)(x >> 24);
+    int32_t xl = (int32_t)(x & 0xFFFFFF);
+    return (int64_t)xh * w + (((int64_t)xl * w + (INT64_C(1) << 23)) >> 24);
+}
+
+/* round(x t / 2^30), ties up, for |x| < 2^58 and |t| <= 2^30 + 2^8 (an
+ * entry of T), exactly, as spi_mul64_rs(x, t, 30u) computes it: x = xh 2^30
+ * + xl with 0 <= xl < 2^30; |xh t| < 2^59. */
+SPI_INLINE int64_t mul58_q30(int64_t x, int32_t t)
+{
+    int32_t xh = (int32_t)(x >> 30);
+    int32_t xl = (int32_t)(x & 0x3FFFFFFF);
+    return (int64_t)xh * t + (((int64_t)xl * t + (INT64_C(1) << 29)) >> 30);
 }
 
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -37,7 +74,7 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     int64_t f[SP_LEGS];
     sp_status_t st;
     unsigned k;
-    unsigned c;
+    int ovf = 0;
 
     if (force == NULL || lu == NULL) {
         return SP_E_ARG;
@@ -53,44 +90,36 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     if (st != SP_OK) {
         return st;
     }
-    /* Translation (eq 7): sum F_i u_i = m a - L + m g e_z, N in Q24. */
+    /* Translation (eq 7): sum F_i u_i = m a - L + m g e_z, N in Q24. Each
+     * term is below 2^47 in magnitude (Q16 x Q24 >> 16, Q8 << 16): the sum
+     * cannot overflow. */
     for (k = 0u; k < 3u; ++k) {
         int64_t v = spi_rsr((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
         if (k == 2u) {
-            v = spi_add64(v, spi_rsr((int64_t)platform->mass * platform->gravity, 16u), &flags);
+            v += spi_rsr((int64_t)platform->mass * platform->gravity, 16u);
         }
         if (ext_force != NULL) {
-            v = spi_add64(v, -((int64_t)ext_force[k] * 65536), &flags); /* Q8 -> Q24 */
+            v -= (int64_t)ext_force[k] * 65536; /* Q8 -> Q24 */
         }
         b[k] = v;
     }
     /* Rotation (eq 8 with the full tensor): I dw/dt + w x (I w), motion
-     * frame, N m in Q24, then into the base frame with R = T^T. */
-    inertia_times(platform->inertia, omega, h, &flags);
-    inertia_times(platform->inertia, omega_dot, i_wdot, &flags);
-    /* w x (I w): int64 (Q24) times Q24, two 32x32 products each */
-    torque_body[0] = spi_add64(i_wdot[0],
-                               spi_add64(spi_mul64_rs(h[2], omega[1], 24u, &flags),
-                                         -spi_mul64_rs(h[1], omega[2], 24u, &flags), &flags),
-                               &flags);
-    torque_body[1] = spi_add64(i_wdot[1],
-                               spi_add64(spi_mul64_rs(h[0], omega[2], 24u, &flags),
-                                         -spi_mul64_rs(h[2], omega[0], 24u, &flags), &flags),
-                               &flags);
-    torque_body[2] = spi_add64(i_wdot[2],
-                               spi_add64(spi_mul64_rs(h[1], omega[0], 24u, &flags),
-                                         -spi_mul64_rs(h[0], omega[1], 24u, &flags), &flags),
-                               &flags);
+     * frame, N m in Q24, then into the base frame with R = T^T. h and
+     * I dw/dt are below 3 2^46, each product term of w x h below 2^55,
+     * torque_body below 2^57 and R tau below 3 2^57 (|T| entries <= 1):
+     * exact int64 arithmetic, no saturation needed after inertia_times. */
+    inertia_times(platform->inertia, omega, h, &ovf);
+    inertia_times(platform->inertia, omega_dot, i_wdot, &ovf);
+    torque_body[0] = i_wdot[0] + (mul48_q24(h[2], omega[1]) - mul48_q24(h[1], omega[2]));
+    torque_body[1] = i_wdot[1] + (mul48_q24(h[0], omega[2]) - mul48_q24(h[2], omega[0]));
+    torque_body[2] = i_wdot[2] + (mul48_q24(h[1], omega[0]) - mul48_q24(h[0], omega[1]));
     for (k = 0u; k < 3u; ++k) {
-        int64_t v = 0;
-        for (c = 0u; c < 3u; ++c) {
-            /* (R tau)_k = sum_c R[k][c] tau_c = sum_c T[c][k] tau_c */
-            v = spi_add64(v, spi_mul64_rs(torque_body[c], ik->rot.t[c][k], 30u, &flags), &flags);
-        }
-        b[3u + k] = v;
+        /* (R tau)_k = sum_c R[k][c] tau_c = sum_c T[c][k] tau_c */
+        b[3u + k] = mul58_q30(torque_body[0], ik->rot.t[0][k]) + mul58_q30(torque_body[1], ik->rot.t[1][k]) +
+                    mul58_q30(torque_body[2], ik->rot.t[2][k]);
     }
-    if (flags != 0u) {
-        return sp_flags_status(flags);
+    if (ovf) {
+        return SP_E_OVERFLOW;
     }
     st = sp_jacobian(ik, &jac);
     if (st != SP_OK) {

@@ -116,6 +116,14 @@ void sp_trig_stop(sp_trig_t *g)
     }
 }
 
+/* The envelope's rate during a fade, 1/s in Q24: 1 / (fade_ticks tick_us
+ * 1e-6 s); fade_ticks * tick_us is in [1e5, 6e7] (sp_trig_start), so the
+ * product fits 32 bits and the quotient is below 2^24 * 10. */
+static int32_t fade_rate(const sp_trig_t *g, uint32_t tick_us, sp_flags_t *flags)
+{
+    return spi_sat((int64_t)udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, g->fade_ticks * tick_us), flags);
+}
+
 sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
 {
     sp_flags_t flags = 0u;
@@ -125,6 +133,7 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     int32_t dde;
     int32_t rate;   /* du/dt, 1/s, Q24 */
     int32_t theta;  /* phase, rad, Q24 */
+    int32_t wc;     /* omega cos(theta), rad/s, Q24 */
     sp_q30_t s;
     sp_q30_t c;
     int64_t pos;
@@ -139,9 +148,8 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     if (g->finished) {
         return SP_OK;
     }
-    /* envelope position u (Q30) and its sign of motion */
-    /* fade_ticks * tick_us is in [1e5, 6e7] (sp_trig_start): fits 32 bits */
-    rate = sp_sat32((int64_t)udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, g->fade_ticks * tick_us), &flags);
+    /* envelope position u (Q30), its rate du/dt and the smoothstep of u;
+     * at full amplitude (u = 1) E = 1 and E' = E'' = 0 exactly */
     if (g->stop_tick != UINT32_MAX && g->tick >= g->stop_tick) {
         uint32_t k = g->tick - g->stop_tick;
         if (k >= g->fade_ticks) {
@@ -149,38 +157,41 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
             return SP_OK;
         }
         u = (int32_t)udiv64((uint64_t)(g->fade_ticks - k) << 30, g->fade_ticks);
-        rate = -rate;
+        rate = -fade_rate(g, tick_us, &flags);
     } else if (g->tick < g->fade_ticks) {
         u = (int32_t)udiv64((uint64_t)g->tick << 30, g->fade_ticks);
+        rate = fade_rate(g, tick_us, &flags);
     } else {
         u = SP_Q30_ONE;
         rate = 0;
     }
-    smoothstep(u, &e, &de, &dde);
-    /* e' = E'(u) du/dt, e'' = E''(u) (du/dt)^2, Q24 */
-    de = sp_mul(de, rate, 24u, &flags);
-    dde = sp_mul(sp_mul(dde, rate, 24u, &flags), rate, 24u, &flags);
     if (rate == 0) {
+        e = SP_Q30_ONE;
         de = 0;
         dde = 0;
+    } else {
+        smoothstep(u, &e, &de, &dde);
+        /* e' = E'(u) du/dt, e'' = E''(u) (du/dt)^2, Q24 */
+        de = spi_mul(de, rate, 24u, &flags);
+        dde = spi_mul(spi_mul(dde, rate, 24u, &flags), rate, 24u, &flags);
     }
 
-    theta = (int32_t)sp_rshift_round((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
+    theta = (int32_t)spi_rsr((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
     sp_sincos_q24(theta, &s, &c);
 
     /* offset = A s e; velocity = A (w c e + s e');
      * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24. */
-    pos = sp_rshift_round((int64_t)sp_mul(s, e, 30u, &flags), 6u);             /* s e, Q24 */
-    vel = sp_rshift_round((int64_t)sp_mul(sp_mul(g->omega, c, 30u, &flags), e, 30u, &flags), 0u) +
-          sp_mul(de, s, 30u, &flags);
-    acc = -(int64_t)sp_mul(sp_mul(sp_mul_q24(g->omega, g->omega, &flags), s, 30u, &flags), e, 30u, &flags) +
-          2 * (int64_t)sp_mul(sp_mul(g->omega, c, 30u, &flags), de, 24u, &flags) + sp_mul(dde, s, 30u, &flags);
+    wc = spi_mul(g->omega, c, 30u, &flags);
+    pos = spi_rsr((int64_t)spi_mul(s, e, 30u, &flags), 6u); /* s e, Q24 */
+    vel = (int64_t)spi_mul(wc, e, 30u, &flags) + spi_mul(de, s, 30u, &flags);
+    acc = -(int64_t)spi_mul(spi_mul(spi_mul(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e, 30u, &flags) +
+          2 * (int64_t)spi_mul(wc, de, 24u, &flags) + spi_mul(dde, s, 30u, &flags);
 
     a = (unsigned)g->axis;
-    *axis_ref(&out->pose, a) = sp_add(*axis_ref(&out->pose, a), sp_mul_q24(g->amplitude, sp_sat32(pos, &flags), &flags),
-                                      &flags);
-    *vec_ref(out, a, 1) = sp_mul_q24(g->amplitude, sp_sat32(vel, &flags), &flags);
-    *vec_ref(out, a, 2) = sp_mul_q24(g->amplitude, sp_sat32(acc, &flags), &flags);
+    *axis_ref(&out->pose, a) =
+        spi_add(*axis_ref(&out->pose, a), spi_mul(g->amplitude, spi_sat(pos, &flags), 24u, &flags), &flags);
+    *vec_ref(out, a, 1) = spi_mul(g->amplitude, spi_sat(vel, &flags), 24u, &flags);
+    *vec_ref(out, a, 2) = spi_mul(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
 
     g->phase += g->phase_step; /* modulo one turn by design */
     if (g->tick < UINT32_MAX) {
