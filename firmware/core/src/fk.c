@@ -23,6 +23,22 @@ static int32_t max_abs_diff(int32_t a, int32_t b)
     return d > INT32_MAX ? INT32_MAX : (int32_t)d;
 }
 
+/* The length residuals l - length (Q24, saturated) into neg_res (negated,
+ * int64) and the largest |residual| (saturated to INT32_MAX). */
+static sp_q24_t fk_residuals(const sp_q24_t l[SP_LEGS], const sp_q24_t length[SP_LEGS], int64_t neg_res[SP_LEGS])
+{
+    sp_flags_t flags = 0u;
+    uint32_t worst = 0u;
+    unsigned i;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        int32_t e = spi_sub_sat(l[i], length[i], &flags);
+        uint32_t ae = (e < 0) ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
+        worst = ae > worst ? ae : worst;
+        neg_res[i] = -(int64_t)e;
+    }
+    return (worst > (uint32_t)INT32_MAX) ? INT32_MAX : (sp_q24_t)worst;
+}
+
 /* One Newton (or chord) update of q by delta = [dR (m); dw (rad, base
  * frame)], Q24, with sc the sines and cosines of q's own orientation.
  * SP_E_SINGULAR near pitch = +-90 degrees, SP_E_NO_CONVERGENCE when a value
@@ -85,7 +101,6 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
     sp_ik_t *w = (ik != NULL) ? ik : &work;
     sp_status_t st = SP_OK;
     uint32_t it = 0u;
-    unsigned i;
 
     if (info == NULL) {
         info = &local_info;
@@ -100,8 +115,7 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
     for (;;) { /* bounded: at most max_iterations + 1 passes */
         int64_t neg_res[SP_LEGS];
         int64_t delta[SP_LEGS];
-        sp_q24_t worst = 0;
-        sp_flags_t flags = 0u;
+        sp_q24_t worst;
 
         /* lengths only: the unit vectors are needed for a Jacobian or for
          * the caller's ik, not for the convergence test */
@@ -110,12 +124,7 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
         if (st != SP_OK) {
             break;
         }
-        for (i = 0u; i < SP_LEGS; ++i) {
-            sp_q24_t e = spi_sub(w->length[i], length[i], &flags);
-            int32_t ae = max_abs_diff(e, 0);
-            worst = ae > worst ? ae : worst;
-            neg_res[i] = -(int64_t)e;
-        }
+        worst = fk_residuals(w->length, length, neg_res);
         info->residual = worst;
         if (worst <= opt->tolerance) {
             if (ik != NULL) {
@@ -193,15 +202,8 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
     for (;;) { /* bounded: at most max_iterations + 1 passes */
         int64_t neg_res[SP_LEGS];
         int64_t delta[SP_LEGS];
-        sp_q24_t worst = 0;
-        sp_flags_t flags = 0u;
+        sp_q24_t worst = fk_residuals(c.length, length, neg_res);
 
-        for (i = 0u; i < SP_LEGS; ++i) {
-            sp_q24_t e = spi_sub(c.length[i], length[i], &flags);
-            int32_t ae = max_abs_diff(e, 0);
-            worst = ae > worst ? ae : worst;
-            neg_res[i] = -(int64_t)e;
-        }
         info->residual = worst;
         if (worst <= opt->tolerance) {
             st = SP_OK;
