@@ -132,10 +132,11 @@ static int near_pose(const sp_pose_t *a, const sp_pose_t *b)
 static int in_workspace(const sp_platform_t *p, const sp_pose_t *pose)
 {
     unsigned a;
-    for (a = 0u; a < 6u; ++a) {
-        int64_t rel = (int64_t)sp_pose_axis(pose, (sp_axis_t)a) - sp_pose_axis(&p->home, (sp_axis_t)a);
-        if (rel < sp_pose_axis(&p->workspace_min, (sp_axis_t)a) ||
-            rel > sp_pose_axis(&p->workspace_max, (sp_axis_t)a)) {
+    for (a = 0u; a < 3u; ++a) {
+        int64_t rel = (int64_t)pose->pos[a] - p->home.pos[a];
+        int64_t relr = (int64_t)pose->rpy[a] - p->home.rpy[a];
+        if (rel < p->workspace_min.pos[a] || rel > p->workspace_max.pos[a] || relr < p->workspace_min.rpy[a] ||
+            relr > p->workspace_max.rpy[a]) {
             return 0;
         }
     }
@@ -171,7 +172,6 @@ static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t 
     sp_ik_t ik;
     sp_q24_t rate[SP_LEGS];
     sp_q8_t force[SP_LEGS];
-    sp_leg_limits_t lim;
     sp_status_t st;
     unsigned i;
 
@@ -188,13 +188,11 @@ static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t 
     if (st != SP_OK) {
         return st;
     }
-    st = sp_check_legs(p, ik.length, rate, force, &lim);
-    if (st != SP_OK) {
-        return st;
-    }
+    /* the limits of sp_check_legs, with the stroke margin on the lengths */
     for (i = 0u; i < SP_LEGS; ++i) {
         if (ik.length[i] < p->leg_length_min + cfg->stroke_margin ||
-            ik.length[i] > p->leg_length_max - cfg->stroke_margin) {
+            ik.length[i] > p->leg_length_max - cfg->stroke_margin || rate[i] > p->leg_velocity_max ||
+            rate[i] < -p->leg_velocity_max || force[i] > p->force_max || force[i] < -p->force_max) {
             return SP_E_RANGE;
         }
     }
@@ -392,7 +390,6 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     const sp_platform_t *p;
     sp_flags_t flags = 0u;
     sp_motion_t ref;
-    sp_setpoint_t sp[SP_LEGS];
     uint32_t all = (UINT32_C(1) << SP_LEGS) - 1u;
     int comms_ok = 1;
     int drive_fault = 0;
@@ -575,11 +572,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         ctrl->reference = ref;
         ctrl->ref_lu.valid = 0u; /* no factorisation at this reference */
     } else {
-        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, &ref, sp, &ctrl->ref_lu) : SP_E_OVERFLOW;
+        /* written only when every limit holds */
+        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, &ref, ctrl->setpoint, &ctrl->ref_lu) : SP_E_OVERFLOW;
         if (st == SP_OK) {
-            for (i = 0u; i < SP_LEGS; ++i) {
-                ctrl->setpoint[i] = sp[i];
-            }
             ctrl->have_setpoint = 1u;
             ctrl->reference = ref;
         } else {
