@@ -1,5 +1,7 @@
 #include "sp/controller.h"
 
+#include "core_internal.h"
+
 #define MODE_TRIG 0u
 #define MODE_MOVE 1u
 #define MODE_STREAM 2u
@@ -150,7 +152,11 @@ static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose)
     const sp_platform_t *p = cfg->platform;
     sp_ik_t ik;
     unsigned i;
-    if (!in_workspace(p, pose) || sp_inverse_kinematics(p, pose, &ik) != SP_OK) {
+    if (!in_workspace(p, pose)) {
+        return 0;
+    }
+    spi_orientation_sc(pose->rpy, &ik.rot, ik.sc);
+    if (spi_ik_lengths(p, pose, &ik) != SP_OK) { /* the lengths only: no unit vectors needed */
         return 0;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
