@@ -229,6 +229,8 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
     mv->to = *from;
     mv->duration_ticks = 0u;
     mv->tick = 0u;
+    mv->rate_tick_us = 0u;
+    mv->rate = 0;
     for (a = 0u; a < 6u; ++a) {
         int64_t d = (int64_t)sp_pose_axis(to, (sp_axis_t)a) - sp_pose_axis(from, (sp_axis_t)a);
         uint64_t dm = (uint64_t)(d < 0 ? -d : d); /* Q24, < 2^32 */
@@ -293,22 +295,43 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
     *done = 0;
     at_rest(out, &mv->from);
     u = (int32_t)udiv64((uint64_t)mv->tick << 30, mv->duration_ticks);
-    {
+    if (mv->tick == 0u || mv->rate_tick_us != tick_us) {
+        /* once per move (and whenever the tick length changes) */
         uint64_t dt_us = (uint64_t)mv->duration_ticks * tick_us;
         uint64_t r = (dt_us <= UINT32_MAX) ? udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, (uint32_t)dt_us)
                                            : ((UINT64_C(1) << 24) * (uint64_t)US_PER_S) / dt_us;
-        rate = sp_sat32((int64_t)(r > (uint64_t)INT64_MAX ? (uint64_t)INT64_MAX : r), &flags);
+        mv->rate = sp_sat32((int64_t)(r > (uint64_t)INT64_MAX ? (uint64_t)INT64_MAX : r), &flags);
+        mv->rate_tick_us = (flags == 0u) ? tick_us : 0u; /* a saturated rate is not kept */
     }
+    rate = mv->rate;
     smoothstep(u, &e, &de, &dde);
     for (a = 0u; a < 6u; ++a) {
-        int64_t d = (int64_t)sp_pose_axis(&mv->to, (sp_axis_t)a) - sp_pose_axis(&mv->from, (sp_axis_t)a);
-        sp_q24_t *p = axis_ref(&out->pose, a);
-        /* D E'(u) first, then the time scale: a short move has a large
-         * rate but a small distance, and neither product saturates. */
-        /* |d| < 2^33 and the factors are int32: products below 2^63 - 2^32 */
-        int32_t dv = spi_narrow(d * de, 24u, &flags);
-        int32_t da = spi_narrow(d * dde, 24u, &flags);
-        *p = sp_sat32(*p + spi_rshift(d * e, 30u), &flags);
+        int32_t from = (a < 3u) ? mv->from.pos[a] : mv->from.rpy[a - 3u];
+        int32_t to = (a < 3u) ? mv->to.pos[a] : mv->to.rpy[a - 3u];
+        int64_t d = (int64_t)to - from;
+        int32_t dv;
+        int32_t da;
+        int64_t dp;
+        if (d >= INT32_MIN && d <= INT32_MAX) {
+            /* the common case, |d| < 128 m or rad: 32x32 products, the
+             * same values as below */
+            int32_t d32 = (int32_t)d;
+            dv = spi_sat(spi_rsr((int64_t)d32 * de, 24u), &flags);
+            da = spi_sat(spi_rsr((int64_t)d32 * dde, 24u), &flags);
+            dp = spi_rsr((int64_t)d32 * e, 30u);
+        } else {
+            /* D E'(u) first, then the time scale: a short move has a large
+             * rate but a small distance, and neither product saturates.
+             * |d| < 2^33 and the factors are int32: products below
+             * 2^63 - 2^32 */
+            dv = spi_narrow(d * de, 24u, &flags);
+            da = spi_narrow(d * dde, 24u, &flags);
+            dp = spi_rshift(d * e, 30u);
+        }
+        {
+            sp_q24_t *p = axis_ref(&out->pose, a);
+            *p = spi_sat(*p + dp, &flags);
+        }
         *vec_ref(out, a, 1) = spi_sat(spi_rsr((int64_t)dv * rate, 24u), &flags);
         *vec_ref(out, a, 2) = spi_sat(spi_rsr((int64_t)spi_sat(spi_rsr((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
     }

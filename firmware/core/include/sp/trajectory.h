@@ -90,6 +90,8 @@ typedef struct {
     sp_pose_t to;
     uint32_t duration_ticks; /**< 0 for a null move */
     uint32_t tick;
+    uint32_t rate_tick_us;   /**< the tick length rate was computed for (0: none) */
+    sp_q24_t rate;           /**< du/dt = 1 / duration, 1/s, Q24 (kept by sp_move_step) */
 } sp_move_t;
 
 /**
