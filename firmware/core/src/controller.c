@@ -1,6 +1,7 @@
 #include "sp/controller.h"
 
 #include "core_internal.h"
+#include "fixed_inline.h"
 
 #define MODE_TRIG 0u
 #define MODE_MOVE 1u
@@ -106,11 +107,12 @@ static void motion_at_rest(sp_motion_t *m, const sp_pose_t *pose)
     }
 }
 
-static int32_t absdiff(int32_t a, int32_t b)
+/* Is |a - b| above the limit (a negative limit: always)? The distance is
+ * exact in uint32 for any two int32. */
+SPI_INLINE int farther(int32_t a, int32_t b, int32_t limit)
 {
-    int64_t d = (int64_t)a - b;
-    d = d < 0 ? -d : d;
-    return d > INT32_MAX ? INT32_MAX : (int32_t)d;
+    uint32_t d = (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
+    return limit < 0 || d > (uint32_t)limit;
 }
 
 /* Chord FK: at most this many steps with the stale factorisation, which
@@ -123,7 +125,7 @@ static int near_pose(const sp_pose_t *a, const sp_pose_t *b)
 {
     unsigned k;
     for (k = 0u; k < 3u; ++k) {
-        if (absdiff(a->pos[k], b->pos[k]) > CHORD_NEAR || absdiff(a->rpy[k], b->rpy[k]) > CHORD_NEAR) {
+        if (farther(a->pos[k], b->pos[k], CHORD_NEAR) || farther(a->rpy[k], b->rpy[k], CHORD_NEAR)) {
             return 0;
         }
     }
@@ -195,17 +197,23 @@ static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t 
         return st;
     }
     /* the limits of sp_check_legs, with the stroke margin on the lengths */
-    for (i = 0u; i < SP_LEGS; ++i) {
-        if (ik.length[i] < p->leg_length_min + cfg->stroke_margin ||
-            ik.length[i] > p->leg_length_max - cfg->stroke_margin || rate[i] > p->leg_velocity_max ||
-            rate[i] < -p->leg_velocity_max || force[i] > p->force_max || force[i] < -p->force_max) {
-            return SP_E_RANGE;
+    {
+        const sp_q24_t lmin = p->leg_length_min + cfg->stroke_margin;
+        const sp_q24_t lmax = p->leg_length_max - cfg->stroke_margin;
+        const sp_q24_t vmax = p->leg_velocity_max;
+        const sp_q8_t fmax = p->force_max;
+        const int ff = cfg->force_feedforward != 0;
+        for (i = 0u; i < SP_LEGS; ++i) {
+            if (ik.length[i] < lmin || ik.length[i] > lmax || rate[i] > vmax || rate[i] < -vmax || force[i] > fmax ||
+                force[i] < -fmax) {
+                return SP_E_RANGE;
+            }
         }
-    }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        sp[i].length = ik.length[i];
-        sp[i].velocity = rate[i];
-        sp[i].force = cfg->force_feedforward ? force[i] : 0;
+        for (i = 0u; i < SP_LEGS; ++i) {
+            sp[i].length = ik.length[i];
+            sp[i].velocity = rate[i];
+            sp[i].force = ff ? force[i] : 0;
+        }
     }
     return SP_OK;
 }
@@ -276,8 +284,8 @@ static int stream_settled(const sp_motion_t *m, const sp_pose_t *pose)
 {
     unsigned k;
     for (k = 0u; k < 3u; ++k) {
-        if (absdiff(m->pose.pos[k], pose->pos[k]) > 16 || absdiff(m->pose.rpy[k], pose->rpy[k]) > 16 ||
-            absdiff(m->vel[k], 0) > 16 || absdiff(m->rpy_rate[k], 0) > 16) {
+        if (farther(m->pose.pos[k], pose->pos[k], 16) || farther(m->pose.rpy[k], pose->rpy[k], 16) ||
+            farther(m->vel[k], 0, 16) || farther(m->rpy_rate[k], 0, 16)) {
             return 0;
         }
     }
@@ -598,8 +606,8 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
          ctrl->state == SP_STATE_PARKING) &&
         ctrl->estimate_valid) {
         for (i = 0u; i < 3u; ++i) {
-            if (absdiff(ctrl->estimate.pos[i], ctrl->reference.pose.pos[i]) > cfg->divergence_pos ||
-                absdiff(ctrl->estimate.rpy[i], ctrl->reference.pose.rpy[i]) > cfg->divergence_rot) {
+            if (farther(ctrl->estimate.pos[i], ctrl->reference.pose.pos[i], cfg->divergence_pos) ||
+                farther(ctrl->estimate.rpy[i], ctrl->reference.pose.rpy[i], cfg->divergence_rot)) {
                 raise_fault(cfg, ctrl, SP_FAULT_DIVERGENCE);
                 break;
             }
