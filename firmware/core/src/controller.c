@@ -474,10 +474,19 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
                              &info);
         }
         if (st != SP_OK) {
-            /* full Newton from the guess, then the cache of the result */
+            /* full Newton from the guess; the cache of the result from the
+             * IK of its last pass (lengths and sines, exactly what
+             * sp_fk_cache_of computes) */
+            sp_ik_t fik;
             st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park,
-                                       &opt, &est, NULL, &info); /* pose only: no unit vectors */
-            ctrl->fk_cache_valid = (st == SP_OK && sp_fk_cache_of(p, &est, &ctrl->fk_cache) == SP_OK) ? 1u : 0u;
+                                       &opt, &est, &fik, &info);
+            if (st == SP_OK) {
+                for (i = 0u; i < SP_LEGS; ++i) {
+                    ctrl->fk_cache.length[i] = fik.length[i];
+                    ctrl->fk_cache.sc[i] = fik.sc[i];
+                }
+            }
+            ctrl->fk_cache_valid = (st == SP_OK) ? 1u : 0u;
         }
         fk_iterations = info.iterations;
         if (st == SP_OK) {
