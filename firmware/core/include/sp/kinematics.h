@@ -112,9 +112,10 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac);
 sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
 
 /** A pivoted LU factorisation of a 6x6 matrix A in Q28, as sp_solve6
- *  computes it: P A = L U. a holds U on and above the diagonal (Q28) and
- *  L's multipliers below it (Q30, |l| <= 1, unit diagonal implied); perm[k]
- *  is the row swapped with row k at step k; inv and zk are each pivot's
+ *  computes it: P A = L U, with (P A)_k = A_perm[k] (the k-th pivot row is
+ *  row perm[k] of A; the rows are not moved). a[perm[k]] holds row k of U
+ *  on and above the diagonal (Q28) and row k of L's multipliers below it
+ *  (Q30, |l| <= 1, unit diagonal implied); inv and zk are each pivot's
  *  normalised reciprocal (see sp_solve6). valid is 1 only after a
  *  successful sp_lu6_factor. */
 typedef struct {
@@ -129,7 +130,10 @@ typedef struct {
  * Factorises A = M (transpose == 0) or A = M^T (transpose != 0), M in Q28,
  * exactly as sp_solve6 does. Errors: SP_E_ARG (NULL), SP_E_SINGULAR (a
  * pivot below SP_PIVOT_MIN), SP_E_OVERFLOW (an eliminated entry saturated);
- * lu->valid is then 0.
+ * lu->valid is then 0. Each eliminated entry is a_ij - round(l a_kj / 2^30)
+ * (ties up), exact apart from that rounding; a step whose entries are known
+ * to stay below 2^31 (a running bound: the matrix's largest entry plus each
+ * pivot row's largest) runs without saturation checks, with the same bits.
  */
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
 
