@@ -6,6 +6,8 @@
  *    bits for matrices that take the unchecked 4a path (entries below 2),
  *    the unchecked 64-bit path (pivot rows up to 3.9) and the checked path
  *    (entries near 8), and SP_E_OVERFLOW where an entry saturates;
+ *  - sp_lu6_solve (32-bit path) against the exact solution, and its int64
+ *    fallback where an intermediate leaves the 32-bit range;
  *  - the 32-bit transposed solve (spi_lu6_solve_t32) against the exact
  *    solution and sp_lu6_solve_transposed, and its refusal (the int64
  *    fallback) when an intermediate leaves its range.
@@ -237,10 +239,95 @@ static void test_solve_t32(void **state)
     }
 }
 
+/* sp_lu6_solve: the 32-bit path within 3e-8 of max |x| of the exact
+ * solution (x ~ b / 2 here: |x| up to 1e5, and small x), and the int64
+ * fallback (exact here) when x would pass 2^29 at b's scale. */
+static void test_solve32(void **state)
+{
+    uint64_t rng = 41;
+    sp_jacobian_t m;
+    double md[6][6];
+    sp_lu6_t lu;
+    double worst = 0;
+    (void)state;
+    for (int n = 0; n < 2000; ++n) {
+        double xd[6];
+        int64_t b[6];
+        int64_t x[6];
+        double mag = (n & 1) ? 1e5 : 1.0;
+        random_matrix(&rng, 1.0, n, &m, md);
+        for (int i = 0; i < 6; ++i) {
+            xd[i] = tu_uniform(&rng, -mag, mag);
+        }
+        for (int i = 0; i < 6; ++i) {
+            double s = 0;
+            for (int j = 0; j < 6; ++j) {
+                s += md[i][j] * xd[j];
+            }
+            b[i] = llround(s * Q24);
+        }
+        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+        for (int i = 0; i < 6; ++i) {
+            double e = fabs((double)x[i] / Q24 - xd[i]);
+            worst = e / mag > worst ? e / mag : worst;
+            if (e >= 3e-8 * mag + 1e-7) {
+                fail_msg("solve32 n=%d x[%d]=%.9f want %.9f", n, i, (double)x[i] / Q24, xd[i]);
+            }
+        }
+    }
+    print_message("solve: worst error %.3g of max |x|\n", worst);
+    {
+        /* x_5 = 512 b_5: x' = 512 max |b'| > 2^29, the int64 solve */
+        int64_t b[6] = {1000, -1000, 0, 0, 0, 1000000};
+        int64_t x[6];
+        memset(&m, 0, sizeof m);
+        for (int i = 0; i < 6; ++i) {
+            m.j[i][i] = 1 << 28;
+        }
+        m.j[5][5] = 1 << 19;
+        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+        assert_true(x[0] == 1000 && x[1] == -1000 && x[2] == 0 && x[5] == 512000000);
+        /* growth in L: 1 on the diagonal, -1 below it: y_i = b_i + the
+         * y above, 2^i b for equal b: past 2^30 at b's 2^28 */
+        memset(&m, 0, sizeof m);
+        for (int i = 0; i < 6; ++i) {
+            m.j[i][i] = 1 << 28;
+            for (int j = 0; j < i; ++j) {
+                m.j[i][j] = -(1 << 28);
+            }
+        }
+        for (int i = 0; i < 6; ++i) {
+            b[i] = (int64_t)1 << 40;
+        }
+        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+        for (int i = 0; i < 6; ++i) {
+            /* the int64 solve: within 1e-8 (the reciprocals' 2^-28) */
+            double want = ldexp(1.0, 40 + i);
+            assert_true(fabs((double)x[i] - want) < 1e-8 * want);
+        }
+        /* b = 0: x = 0; |b| >= 2^56: SP_E_OVERFLOW, x zeroed */
+        memset(b, 0, sizeof b);
+        x[0] = 5;
+        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+        assert_true(x[0] == 0 && x[5] == 0);
+        b[3] = -((int64_t)1 << 56);
+        x[0] = 5;
+        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_OVERFLOW);
+        assert_true(x[0] == 0 && x[3] == 0);
+        lu.valid = 0;
+        b[3] = 1;
+        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_ARG);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_factor_paths),
+        cmocka_unit_test(test_solve32),
         cmocka_unit_test(test_solve_t32),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -250,8 +250,8 @@ static sp_status_t lu_check_rhs(const sp_lu6_t *lu, const int64_t b[SP_LEGS], in
     return st;
 }
 
-/* sp_lu6_solve in int64 intermediates (checked). lu and b already
- * checked. */
+/* sp_lu6_solve in int64 intermediates (checked): the fallback of the
+ * 32-bit solve. lu and b already checked. */
 static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
     int64_t r[SP_LEGS];
@@ -291,20 +291,34 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
     return SP_OK;
 }
 
-/*
- * round(v / 2^s) (ties away from zero, as spi_rsr) as an intermediate of
- * the 32-bit solves, which must be below 2^lim in magnitude: sets bits in
- * *chk when it is not (the caller then falls back to int64). v + 2^(s+lim)
- * + 2^(s-1) must not overflow (|v| < 2^62.9 here). The result is
- * in [-2^lim, 2^lim) in any case (its low lim + 1 bits, offset), so that
- * the bounds below hold on the way to a fallback too.
- */
-SPI_INLINE int32_t nar32(int64_t v, unsigned s, unsigned lim, uint32_t *chk)
+/* round(v / 2^s) with ties up into *r when it is below 2^lim in magnitude
+ * (v + 2^(s-1) + 2^(s+lim) must not overflow); returns 0 otherwise. A
+ * branch per value instead of a flag word: the compiler then keeps no
+ * word of a check alive to the end. */
+SPI_INLINE int nar_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
 {
-    uint64_t t = (uint64_t)((v + (((INT64_C(1) << (s - 1u)) + (INT64_C(1) << (s + lim))) - (v < 0 ? 1 : 0))) >> s);
+    uint64_t t = (uint64_t)v + ((UINT64_C(1) << (s - 1u)) + (UINT64_C(1) << (s + lim)));
+    uint32_t lo = (uint32_t)(t >> s);
+    if (((uint32_t)(t >> 32) >> s) != 0u || (lo >> (lim + 1u)) != 0u) {
+        return 0;
+    }
+    *r = (int32_t)lo - (INT32_C(1) << lim);
+    return 1;
+}
+
+/* nar_ok(v, s, 30, r) for a variable shift s in [2, 31], in 32-bit
+ * operations (the bias 2^(s-1) + 2^(s+30) is one bit in each word). */
+SPI_INLINE int nar30v_ok(int64_t v, unsigned s, int32_t *r)
+{
+    uint64_t t = (uint64_t)v + (((uint64_t)(UINT32_C(1) << (s - 2u)) << 32) | (UINT32_C(1) << (s - 1u)));
     uint32_t lo = (uint32_t)t;
-    *chk |= (uint32_t)(t >> 32) | (lo >> (lim + 1u));
-    return (int32_t)(lo & ((UINT32_C(2) << lim) - 1u)) - (INT32_C(1) << lim);
+    uint32_t hi = (uint32_t)(t >> 32);
+    uint32_t q = (lo >> s) | (hi << (32u - s)); /* t / 2^s modulo 2^32 */
+    if ((hi >> s) != 0u || (q >> 31) != 0u) {
+        return 0;
+    }
+    *r = (int32_t)q - (INT32_C(1) << 30);
+    return 1;
 }
 
 /* The block exponent e of the 32-bit solves for max |b| = m (0 < m <
@@ -314,24 +328,121 @@ SPI_INLINE int s32_exponent(uint64_t m, unsigned top)
     return (int)spi_clz64(m) - (int)(63u - top);
 }
 
-/* b 2^e 2^f, rounded, as int64 (|.| < 2^(top + 1 + f)). */
-SPI_INLINE int64_t s32_scale_in(int64_t b, int e, unsigned f)
+/* b 2^e as int32 into bs (in b's order), for max |b| 2^e below 2^(top+1):
+ * exact for e >= 0, else round(b / 2^-e) with ties up (-e in [1, 31]). */
+SPI_INLINE void s32_scale_in(const int64_t b[SP_LEGS], int e, int32_t bs[SP_LEGS])
 {
-    return ((e >= 0) ? b * (INT64_C(1) << e) : spi_rsr(b, (unsigned)-e)) * (INT64_C(1) << f);
+    unsigned i;
+    if (e >= 0) {
+        LU_UNROLL
+        for (i = 0u; i < SP_LEGS; ++i) {
+            bs[i] = (int32_t)((uint32_t)b[i] << e);
+        }
+    } else {
+        unsigned sh = (unsigned)-e;
+        LU_UNROLL
+        for (i = 0u; i < SP_LEGS; ++i) {
+            uint64_t t = (uint64_t)b[i] + (UINT64_C(1) << (sh - 1u));
+            bs[i] = (int32_t)(((uint32_t)t >> sh) | ((uint32_t)(t >> 32) << (32u - sh)));
+        }
+    }
 }
 
-/* y 2^-e, rounded. */
-SPI_INLINE int64_t s32_scale_out(int32_t y, int e)
+/* x[perm[k]] (x[k] when perm is NULL) = w_k 2^-e: exact for e <= 0
+ * (-e <= 29, |w| < 2^30: below 2^59), else round(w_k / 2^e), ties up
+ * (e <= 28: no overflow). */
+SPI_INLINE void s32_scale_out(const int32_t w[SP_LEGS], int e, const uint8_t *perm, int64_t x[SP_LEGS])
 {
-    return (e > 0) ? spi_rsr(y, (unsigned)e) : (int64_t)y * (INT64_C(1) << -e);
+    unsigned k;
+    if (e > 0) {
+        LU_UNROLL
+        for (k = 0u; k < SP_LEGS; ++k) {
+            x[perm != NULL ? perm[k] : k] = (int64_t)((w[k] + (INT32_C(1) << (e - 1))) >> e);
+        }
+    } else {
+        LU_UNROLL
+        for (k = 0u; k < SP_LEGS; ++k) {
+            x[perm != NULL ? perm[k] : k] = (int64_t)w[k] * (INT64_C(1) << -e);
+        }
+    }
+}
+
+/*
+ * sp_lu6_solve in 32-bit intermediates, block-scaled. b' = b 2^e with
+ * max |b'| in [2^28, 2^29) (b rounded when max |b| >= 2^29), x' = x 2^e.
+ * L y = P b', forward, every y below 2^30 in magnitude:
+ * y_i 2^30 - sum_k l_ik y_k is exact in int64 (|l| <= 2^30: five products
+ * up to 2^60, and 2^59). U x' = y, backward, every x' below 2^29:
+ * s_k = y_k 2^28 - sum_j u_kj x'_j is exact (|u| <= 2^31: five products up
+ * to 2^60, and 2^58), then x'_k = s_k / a_kk = round(s_k / 2^(30 - z))
+ * inv / 2^31, the first factor below 2^30 (the pivot's exponent taken out
+ * first, so that it keeps as many bits as x'). Each step rounds once
+ * (within 2^-29 of max |b'|, the reciprocal within 2^-28): x is within a
+ * few 2^-28 max |b| of the exact solution times the growth of the
+ * elimination. For the inverse dynamics (J^T f = wrench) max |x| is
+ * typically 1/4 to 2 max |b|. Returns 0 (x untouched) when an
+ * intermediate leaves its range: the caller then solves in int64.
+ */
+static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64_t x[SP_LEGS])
+{
+    const int32_t *u[SP_LEGS];
+    int32_t bs[SP_LEGS];
+    int32_t y[SP_LEGS];
+    int32_t w[SP_LEGS];
+    int32_t sk;
+    unsigned i;
+    unsigned j;
+    unsigned k;
+
+    LU_UNROLL
+    for (k = 0u; k < SP_LEGS; ++k) {
+        u[k] = lu->a[lu->perm[k]];
+    }
+    s32_scale_in(b, e, bs);
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        int64_t acc = 0;
+        LU_UNROLL
+        for (k = 0u; k < i; ++k) {
+            acc += (int64_t)u[i][k] * y[k];
+        }
+        if (!nar_ok((int64_t)bs[lu->perm[i]] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
+            return 0;
+        }
+    }
+    LU_UNROLL
+    for (k = SP_LEGS; k-- > 0u;) {
+        int64_t acc = 0;
+        LU_UNROLL
+        for (j = k + 1u; j < SP_LEGS; ++j) {
+            acc += (int64_t)u[k][j] * w[j];
+        }
+        if (!nar30v_ok((int64_t)y[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
+            !nar_ok((int64_t)sk * lu->inv[k], 31u, 29u, &w[k])) {
+            return 0;
+        }
+    }
+    s32_scale_out(w, e, NULL, x);
+    return 1;
 }
 
 sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
-    sp_status_t st = lu_check_rhs(lu, b, x);
+    uint64_t m;
+    unsigned i;
 
-    if (st != SP_OK) {
-        return st;
+    if (lu == NULL || b == NULL || x == NULL) {
+        return SP_E_ARG;
+    }
+    m = max_abs64(b);
+    if (m >= (uint64_t)RHS_MAX || !lu->valid || m == 0u) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            x[i] = 0;
+        }
+        return !lu->valid ? SP_E_ARG : (m != 0u) ? SP_E_OVERFLOW : SP_OK;
+    }
+    if (lu_solve32(lu, b, s32_exponent(m, 28u), x)) {
+        return SP_OK;
     }
     return lu_solve64(lu, b, x);
 }
@@ -382,19 +493,23 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
 
 /*
  * sp_lu6_solve_transposed in 32-bit intermediates, block-scaled: b is
- * scaled by 2^e so that max |b| is in [2^26, 2^27) (a few LSB of b lost
- * only when max |b| >= 2^27), every product is one 32x32->64 multiply
- * accumulated exactly in int64, and every intermediate must stay below
- * 2^29 (a growth of at least 4; sums of six products of int32 and 2^29 fit
- * int64). Returns 0, x untouched, when one does not (or b is 0): the caller
- * then uses the int64 solve. For the chord FK, whose right-hand side (a
- * length residual) is small: the steps keep 26 significant bits.
+ * scaled by 2^e so that max |b| is in [2^26, 2^27) (rounded only when
+ * max |b| >= 2^27), every product is one 32x32->64 multiply accumulated
+ * exactly in int64, and every intermediate must stay below 2^29 (a growth
+ * of at least 4). U^T y = b', forward: s_k = b'_k 2^28 - sum_j u_jk y_j
+ * (five products up to 2^60, and 2^55), y_k = round(s_k / 2^(30 - z))
+ * inv / 2^31 as in lu_solve32; L^T v = y, backward: v_k = y_k - sum_i
+ * l_ik v_i / 2^30 (five products up to 2^59). Returns 0, x untouched,
+ * when an intermediate does not fit (or b is 0): the caller then uses the
+ * int64 solve. For the chord FK, whose right-hand side (a length
+ * residual) is small: the steps keep 26 significant bits.
  */
 int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
     const int32_t *u[SP_LEGS];
+    int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
-    uint32_t chk = 0u;
+    int32_t sk;
     uint64_t m = max_abs64(b);
     int e;
     unsigned i;
@@ -405,24 +520,23 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         return 0;
     }
     e = s32_exponent(m, 26u);
+    s32_scale_in(b, e, bs);
     LU_UNROLL
     for (k = 0u; k < SP_LEGS; ++k) {
         u[k] = lu->a[lu->perm[k]];
     }
-    /* U^T y = b 2^e, forward: y_k = (b_k - sum_j U_jk y_j / 2^28) / U_kk */
     LU_UNROLL
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t acc = 0;
-        int32_t sk;
         LU_UNROLL
         for (j = 0u; j < k; ++j) {
-            acc += (int64_t)u[j][k] * y[j]; /* |.| <= 2^60 each, 5 of them and 2^55 fit */
+            acc += (int64_t)u[j][k] * y[j];
         }
-        sk = nar32(s32_scale_in(b[k], e, 28u) - acc, 28u, 29u, &chk);
-        /* y_k = sk 2^28 / a_kk = sk inv / 2^(33 - z) */
-        y[k] = nar32((int64_t)sk * lu->inv[k], 33u - lu->zk[k], 29u, &chk);
+        if (!nar30v_ok((int64_t)bs[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
+            !nar_ok((int64_t)sk * lu->inv[k], 31u, 29u, &y[k])) {
+            return 0;
+        }
     }
-    /* L^T z = y, backward, multipliers Q30 */
     LU_UNROLL
     for (k = SP_LEGS; k-- > 0u;) {
         int64_t acc = 0;
@@ -430,15 +544,11 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         for (i = k + 1u; i < SP_LEGS; ++i) {
             acc += (int64_t)u[i][k] * y[i];
         }
-        y[k] = nar32((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &chk);
+        if (!nar_ok((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &y[k])) {
+            return 0;
+        }
     }
-    if (chk != 0u) {
-        return 0;
-    }
-    LU_UNROLL
-    for (k = 0u; k < SP_LEGS; ++k) {
-        x[lu->perm[k]] = s32_scale_out(y[k], e);
-    }
+    s32_scale_out(y, e, lu->perm, x);
     return 1;
 }
 
