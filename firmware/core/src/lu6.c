@@ -49,9 +49,9 @@ SPI_INLINE uint64_t max_abs64(const int64_t b[SP_LEGS])
  *
  * *bound is at least every |entry| of the rows r[k..5] in the columns
  * k..5 (0x80000000 once it is not known to be below 2^31). With |l| <= 1
- * (Q30) the rounded product round(l a_kj) is at most |a_kj| <= umax, the
- * largest |a_kj| of the pivot row right of the pivot, so every new entry is
- * at most *bound + umax: when that is below 2^31, no subtraction of this
+ * (Q30) the rounded product round(l a_kj) is at most |a_kj| <= umax + 1,
+ * umax bounding the pivot row right of the pivot, so every new entry is
+ * at most *bound + umax + 1: when that is below 2^31, no subtraction of this
  * step can overflow and the inner loop runs unchecked (32x32->64 product,
  * rounded shift, subtraction); else each subtraction saturates and flags,
  * with the same rounding (the same bits whenever nothing saturates).
@@ -108,13 +108,15 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
     if (k + 1u >= SP_LEGS) {
         return 1;
     }
+    /* v ^ (v >> 31) is |v| for v >= 0 and |v| - 1 below: their OR bounds
+     * the pivot row's entries (|a_kj| <= umax + 1), and it is below 2^29
+     * exactly when every a_kj is in [-2^29, 2^29) */
     LU_UNROLL
     for (j = k + 1u; j < SP_LEGS; ++j) {
-        uint32_t v = mag32(rk[j]);
-        umax = (v > umax) ? v : umax;
+        umax |= (uint32_t)(rk[j] ^ (rk[j] >> 31));
     }
-    if (*bound <= 0x7FFFFFFFu && umax <= 0x7FFFFFFFu - *bound) {
-        *bound += umax;
+    if (*bound < 0x7FFFFFFFu && umax < 0x7FFFFFFFu - *bound) {
+        *bound += umax + 1u;
         if (umax < (UINT32_C(1) << 29)) {
             /* the pivot row times 4 fits int32: round(l a_kj / 2^30) =
              * round(l (4 a_kj) / 2^32) = hi + (bit 31 of lo), the words
@@ -148,7 +150,7 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
             ri[k] = l;
             LU_UNROLL
             for (j = k + 1u; j < SP_LEGS; ++j) {
-                /* |round(l a_kj / 2^30)| <= |a_kj| <= umax and |r_ij| <=
+                /* |round(l a_kj / 2^30)| <= |a_kj| <= umax + 1, |r_ij| <=
                  * the old bound: the difference stays below 2^31 */
                 ri[j] -= (int32_t)(((int64_t)l * rk[j] + (INT64_C(1) << 29)) >> 30);
             }
