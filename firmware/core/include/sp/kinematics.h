@@ -137,8 +137,9 @@ typedef struct {
  * pivot below SP_PIVOT_MIN), SP_E_OVERFLOW (an eliminated entry saturated);
  * lu->valid is then 0. Each eliminated entry is a_ij - round(l a_kj / 2^30)
  * (ties up), exact apart from that rounding; a step whose entries are known
- * to stay below 2^31 (a running bound: the matrix's largest entry plus each
- * pivot row's largest) runs without saturation checks, with the same bits.
+ * to stay below 2^31 (a running upper bound of their magnitudes: the
+ * matrix's, plus each pivot row's) runs without saturation checks, with the
+ * same bits.
  */
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
 
