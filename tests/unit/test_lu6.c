@@ -31,7 +31,8 @@
 #define Q24 16777216.0
 
 /* The elimination as it was written before the fast paths: rows swapped,
- * every subtraction saturated and flagged. Uses the pivots' reciprocals
+ * every subtraction saturated and flagged (the pivot chosen as
+ * sp_lu6_factor does). Uses the pivots' reciprocals
  * of lu (checked separately against 2^61 / (|a_kk| 2^z)). Returns the
  * rows in pivot order in a, the original index of pivot row k in perm. */
 static int ref_factor(const sp_jacobian_t *m, int transpose, const sp_lu6_t *lu, int32_t a[6][6], int perm[6])
@@ -45,13 +46,16 @@ static int ref_factor(const sp_jacobian_t *m, int transpose, const sp_lu6_t *lu,
     }
     for (int k = 0; k < 6; ++k) {
         int p = k;
-        int64_t best = llabs((long long)a[k][k]);
+        int64_t key = llabs((long long)a[k][k]) - (a[k][k] < 0);
+        int64_t best;
         for (int i = k + 1; i < 6; ++i) {
-            if (llabs((long long)a[i][k]) > best) {
-                best = llabs((long long)a[i][k]);
+            /* the first largest |a_ik| - (a_ik < 0) */
+            if (llabs((long long)a[i][k]) - (a[i][k] < 0) > key) {
+                key = llabs((long long)a[i][k]) - (a[i][k] < 0);
                 p = i;
             }
         }
+        best = llabs((long long)a[p][k]);
         if (best < SP_PIVOT_MIN) {
             return -1;
         }

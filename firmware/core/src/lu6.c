@@ -62,30 +62,28 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
     unsigned p = k;
     unsigned i;
     unsigned j;
-    uint32_t best = mag32(r[k][k]);
+    uint32_t best = (uint32_t)(r[k][k] ^ (r[k][k] >> 31));
     uint32_t umax = 0u;
     int32_t inv;
     unsigned z;
 
+    /* the pivot: the first largest of v ^ (v >> 31) (|v|, less 1 when v
+     * is negative: one instruction), within 1 of the largest |a_ik| */
     LU_UNROLL
     for (i = k + 1u; i < SP_LEGS; ++i) {
-        uint32_t v = mag32(r[i][k]);
+        uint32_t v = (uint32_t)(r[i][k] ^ (r[i][k] >> 31));
         if (v > best) {
             best = v;
             p = i;
         }
     }
+    rk = r[p];
+    best = mag32(rk[k]);
     if (best < (uint32_t)SP_PIVOT_MIN) {
         return 0;
     }
-    rk = r[p];
-    if (p != k) { /* the rows' pointers and indices swapped, not the rows */
-        uint8_t t = lu->perm[k];
-        lu->perm[k] = lu->perm[p];
-        lu->perm[p] = t;
-        r[p] = r[k];
-        r[k] = rk;
-    }
+    r[p] = r[k]; /* the rows' pointers swapped, not the rows */
+    r[k] = rk;
     /* One reciprocal per pivot. With z = clz(|a_kk|) - 1, the pivot
      * normalised to [2^30, 2^31) is |a_kk| 2^z and inv ~= 2^61 /
      * (|a_kk| 2^z) in (2^30, 2^31) (never above; 2^-28), the sign
@@ -207,12 +205,15 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
         r[i] = lu->a[i];
-        lu->perm[i] = (uint8_t)i;
     }
     if (!lu_step(lu, r, 0u, &bound, &flags) || !lu_step(lu, r, 1u, &bound, &flags) ||
         !lu_step(lu, r, 2u, &bound, &flags) || !lu_step(lu, r, 3u, &bound, &flags) ||
         !lu_step(lu, r, 4u, &bound, &flags) || !lu_step(lu, r, 5u, &bound, &flags)) {
         return SP_E_SINGULAR;
+    }
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) { /* pivot row i is row perm[i] of A */
+        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)lu->a) / sizeof lu->a[0]);
     }
     if (flags != 0u) {
         return sp_flags_status(flags);
