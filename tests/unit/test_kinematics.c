@@ -339,6 +339,7 @@ static void test_solve6(void **state)
     sp_jacobian_t m;
     int64_t b[6];
     int64_t x[6];
+    double worst = 0;
     (void)state;
     for (int n = 0; n < 2000; ++n) {
         double md[6][6];
@@ -362,13 +363,18 @@ static void test_solve6(void **state)
             }
             assert_int_equal(sp_solve6(&m, tr, b, x), SP_OK);
             for (int i = 0; i < 6; ++i) {
-                /* relative 1e-8: the Q28 matrix is rounded at 2^-29 */
-                if (fabs((double)x[i] / 16777216.0 - xd[i]) >= 1e-8 * 1e5 + 1e-6) {
+                /* relative 3e-8 of max |x| (1e5): the solve's 32-bit path
+                 * rounds b to 29 and x to 27 to 28 significant bits
+                 * (x ~ b / 2 here); the int64 path was within 1e-8 */
+                double e = fabs((double)x[i] / 16777216.0 - xd[i]);
+                worst = e > worst ? e : worst;
+                if (e >= 3e-8 * 1e5 + 1e-6) {
                     fail_msg("solve6 n=%d tr=%d x[%d]=%.9f want %.9f", n, tr, i, (double)x[i] / 16777216.0, xd[i]);
                 }
             }
         }
     }
+    print_message("solve6: worst error %.3g (|x| up to 1e5)\n", worst);
     /* two equal rows: singular */
     for (int j = 0; j < 6; ++j) {
         m.j[5][j] = m.j[4][j];

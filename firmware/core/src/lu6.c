@@ -3,86 +3,217 @@
 #include "core_internal.h"
 #include "fixed_inline.h"
 
+/* The loops below have constant bounds once lu_step is inlined for a
+ * constant k: unrolled by hand through the pragma (GCC; -Os would keep the
+ * loops). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define LU_UNROLL _Pragma("GCC unroll 6")
+#else
+#define LU_UNROLL
+#endif
+
+/* The multiplier l = round(a_ik 2^z inv / 2^31) (ties up) in Q30, from
+ * the product's two words: a 32-bit value the compiler multiplies with
+ * one SMULL/SMLAL (computed as an int64 shift, it may keep the 64-bit
+ * value and multiply 64x32). */
+SPI_INLINE int32_t lu_multiplier(int32_t a, unsigned z, int32_t inv)
+{
+    int64_t p = (int64_t)(a * (INT32_C(1) << z)) * inv + (INT64_C(1) << 30);
+    return (int32_t)(((uint32_t)p >> 31) | ((uint32_t)(p >> 32) << 1));
+}
+
 /* |v| as an unsigned magnitude (|INT32_MIN| = 2^31 fits). */
 SPI_INLINE uint32_t mag32(int32_t v)
 {
     return (v < 0) ? (uint32_t)0 - (uint32_t)v : (uint32_t)v;
 }
 
+/* max |b_i| as an unsigned magnitude. */
+SPI_INLINE uint64_t max_abs64(const int64_t b[SP_LEGS])
+{
+    uint64_t m = 0u;
+    unsigned i;
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        uint64_t a = (b[i] < 0) ? (uint64_t)0 - (uint64_t)b[i] : (uint64_t)b[i];
+        m = (a > m) ? a : m;
+    }
+    return m;
+}
+
 #define RHS_MAX (INT64_C(1) << 56) /* |b| below this: no overflow in the elimination */
+
+/*
+ * Step k of the elimination on the rows r[k..5] (pointers into lu->a, in
+ * pivot order so far). Returns 0 for a pivot below SP_PIVOT_MIN.
+ *
+ * *bound is at least every |entry| of the rows r[k..5] in the columns
+ * k..5 (0x80000000 once it is not known to be below 2^31). With |l| <= 1
+ * (Q30) the rounded product round(l a_kj) is at most |a_kj| <= umax + 1,
+ * umax bounding the pivot row right of the pivot, so every new entry is
+ * at most *bound + umax + 1: when that is below 2^31, no subtraction of this
+ * step can overflow and the inner loop runs unchecked (32x32->64 product,
+ * rounded shift, subtraction); else each subtraction saturates and flags,
+ * with the same rounding (the same bits whenever nothing saturates).
+ */
+SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *bound, sp_flags_t *flags)
+{
+    int32_t *rk;
+    unsigned p = k;
+    unsigned i;
+    unsigned j;
+    uint32_t best = (uint32_t)(r[k][k] ^ (r[k][k] >> 31));
+    uint32_t umax = 0u;
+    int32_t inv;
+    unsigned z;
+
+    /* the pivot: the first largest of v ^ (v >> 31) (|v|, less 1 when v
+     * is negative: one instruction), within 1 of the largest |a_ik| */
+    LU_UNROLL
+    for (i = k + 1u; i < SP_LEGS; ++i) {
+        uint32_t v = (uint32_t)(r[i][k] ^ (r[i][k] >> 31));
+        if (v > best) {
+            best = v;
+            p = i;
+        }
+    }
+    rk = r[p];
+    best = mag32(rk[k]);
+    if (best < (uint32_t)SP_PIVOT_MIN) {
+        return 0;
+    }
+    r[p] = r[k]; /* the rows' pointers swapped, not the rows */
+    r[k] = rk;
+    /* One reciprocal per pivot. With z = clz(|a_kk|) - 1, the pivot
+     * normalised to [2^30, 2^31) is |a_kk| 2^z and inv ~= 2^61 /
+     * (|a_kk| 2^z) in (2^30, 2^31) (never above; 2^-28), the sign
+     * folded in. best < 2^31 unless a saturated entry is the pivot;
+     * that case is flagged. */
+    if (best > 0x7FFFFFFFu) {
+        *flags |= SP_FLAG_OVERFLOW;
+        best = 0x7FFFFFFFu;
+    }
+    z = spi_clz32(best) - 1u; /* in [0, 12] for best >= 2^18 */
+    {
+        uint32_t q = spi_recip_norm(best << (z + 1u)); /* 2^62 / (best 2^(z+1)) */
+        if (q > 0x7FFFFFFFu) {
+            q = 0x7FFFFFFFu; /* a power of two: error 2^-31 */
+        }
+        inv = (rk[k] < 0) ? -(int32_t)q : (int32_t)q;
+    }
+    lu->zk[k] = (uint8_t)z;
+    lu->inv[k] = inv;
+    if (k + 1u >= SP_LEGS) {
+        return 1;
+    }
+    /* v ^ (v >> 31) is |v| for v >= 0 and |v| - 1 below: their OR bounds
+     * the pivot row's entries (|a_kj| <= umax + 1), and it is below 2^29
+     * exactly when every a_kj is in [-2^29, 2^29) */
+    LU_UNROLL
+    for (j = k + 1u; j < SP_LEGS; ++j) {
+        umax |= (uint32_t)(rk[j] ^ (rk[j] >> 31));
+    }
+    if (*bound < 0x7FFFFFFFu && umax < 0x7FFFFFFFu - *bound) {
+        *bound += umax + 1u;
+        if (umax < (UINT32_C(1) << 29)) {
+            /* the pivot row times 4 fits int32: round(l a_kj / 2^30) =
+             * round(l (4 a_kj) / 2^32) = hi + (bit 31 of lo), the words
+             * of one 32x32->64 product (the same bits as below) */
+            int32_t a4[SP_LEGS];
+            LU_UNROLL
+            for (j = k + 1u; j < SP_LEGS; ++j) {
+                a4[j] = (int32_t)((uint32_t)rk[j] << 2);
+            }
+            LU_UNROLL
+            for (i = k + 1u; i < SP_LEGS; ++i) {
+                int32_t *ri = r[i];
+                int32_t l = lu_multiplier(ri[k], z, inv);
+                ri[k] = l;
+                LU_UNROLL
+                for (j = k + 1u; j < SP_LEGS; ++j) {
+                    int64_t pr = (int64_t)l * a4[j];
+                    /* |hi| <= |a_kj|: no overflow, as below */
+                    ri[j] = ri[j] - (int32_t)(pr >> 32) - (int32_t)((uint32_t)pr >> 31);
+                }
+            }
+            return 1;
+        }
+        LU_UNROLL
+        for (i = k + 1u; i < SP_LEGS; ++i) {
+            int32_t *ri = r[i];
+            /* multiplier l = a_ik / a_kk in Q30 = (a_ik 2^z) inv / 2^31:
+             * |a_ik| <= |a_kk| keeps a_ik 2^z in int32, and inv rounds
+             * toward zero, so |l| <= 2^30. Stored in place of a_ik. */
+            int32_t l = lu_multiplier(ri[k], z, inv);
+            ri[k] = l;
+            LU_UNROLL
+            for (j = k + 1u; j < SP_LEGS; ++j) {
+                /* |round(l a_kj / 2^30)| <= |a_kj| <= umax + 1, |r_ij| <=
+                 * the old bound: the difference stays below 2^31 */
+                ri[j] -= (int32_t)(((int64_t)l * rk[j] + (INT64_C(1) << 29)) >> 30);
+            }
+        }
+    } else {
+        *bound = 0x80000000u;
+        for (i = k + 1u; i < SP_LEGS; ++i) {
+            int32_t *ri = r[i];
+            int32_t l = lu_multiplier(ri[k], z, inv);
+            ri[k] = l;
+            for (j = k + 1u; j < SP_LEGS; ++j) {
+                /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
+                ri[j] = spi_sub_sat(ri[j], (int32_t)spi_rsr_up((int64_t)l * rk[j], 30u), flags);
+            }
+        }
+    }
+    return 1;
+}
 
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
 {
+    int32_t *r[SP_LEGS];
     sp_flags_t flags = 0u;
+    uint32_t any = 0u;
+    uint32_t bound;
     unsigned i;
     unsigned j;
-    unsigned k;
 
     if (m == NULL || lu == NULL) {
         return SP_E_ARG;
     }
     lu->valid = 0u;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        for (j = 0u; j < SP_LEGS; ++j) {
-            lu->a[i][j] = transpose ? m->j[j][i] : m->j[i][j];
+    /* The copy, and an upper bound of its magnitudes: v ^ (v >> 31) is |v|
+     * for v >= 0 and |v| - 1 below, so every |entry| <= (their OR) + 1. */
+    if (transpose) { /* the controller's case: rows unrolled, constant offsets */
+        for (i = 0u; i < SP_LEGS; ++i) {
+            LU_UNROLL
+            for (j = 0u; j < SP_LEGS; ++j) {
+                int32_t v = m->j[j][i];
+                lu->a[i][j] = v;
+                any |= (uint32_t)(v ^ (v >> 31));
+            }
+        }
+    } else {
+        const int32_t *src = &m->j[0][0];
+        int32_t *dst = &lu->a[0][0];
+        for (i = 0u; i < SP_LEGS * SP_LEGS; ++i) {
+            int32_t v = src[i];
+            dst[i] = v;
+            any |= (uint32_t)(v ^ (v >> 31));
         }
     }
-    for (k = 0u; k < SP_LEGS; ++k) {
-        int32_t *rowk = lu->a[k];
-        unsigned p = k;
-        uint32_t best = mag32(rowk[k]);
-        for (i = k + 1u; i < SP_LEGS; ++i) {
-            uint32_t v = mag32(lu->a[i][k]);
-            if (v > best) {
-                best = v;
-                p = i;
-            }
-        }
-        if (best < (uint32_t)SP_PIVOT_MIN) {
-            return SP_E_SINGULAR;
-        }
-        lu->perm[k] = (uint8_t)p;
-        if (p != k) {
-            /* whole rows, the stored multipliers included: P A = L U */
-            for (j = 0u; j < SP_LEGS; ++j) {
-                int32_t t = rowk[j];
-                rowk[j] = lu->a[p][j];
-                lu->a[p][j] = t;
-            }
-        }
-        /* One reciprocal per pivot. With z = clz(|a_kk|) - 1, the pivot
-         * normalised to [2^30, 2^31) is |a_kk| 2^z and inv ~= 2^61 /
-         * (|a_kk| 2^z) in (2^30, 2^31) (never above; 2^-28), the sign
-         * folded in. best < 2^31 unless a saturated entry is the pivot;
-         * that case is flagged. */
-        if (best > 0x7FFFFFFFu) {
-            flags |= SP_FLAG_OVERFLOW;
-            best = 0x7FFFFFFFu;
-        }
-        {
-            unsigned z = spi_clz32(best) - 1u; /* in [0, 12] for best >= 2^18 */
-            uint32_t q = spi_recip_norm(best << (z + 1u)); /* 2^62 / (best 2^(z+1)) */
-            if (q > 0x7FFFFFFFu) {
-                q = 0x7FFFFFFFu; /* a power of two: error 2^-31 */
-            }
-            lu->zk[k] = (uint8_t)z;
-            lu->inv[k] = (rowk[k] < 0) ? -(int32_t)q : (int32_t)q;
-        }
-        for (i = k + 1u; i < SP_LEGS; ++i) {
-            int32_t *rowi = lu->a[i];
-            /* multiplier l = a_ik / a_kk in Q30 = (a_ik 2^z) inv / 2^31:
-             * |a_ik| <= |a_kk| keeps a_ik 2^z in int32, and inv rounds
-             * toward zero, so |l| <= 2^30. Stored in place of a_ik. */
-            int32_t l = (int32_t)spi_rsr_up((int64_t)(rowi[k] * (INT32_C(1) << lu->zk[k])) * lu->inv[k], 31u);
-            rowi[k] = l;
-            if (l == 0) {
-                continue;
-            }
-            for (j = k + 1u; j < SP_LEGS; ++j) {
-                /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
-                rowi[j] = spi_sub_sat(rowi[j], (int32_t)spi_rsr_up((int64_t)l * rowk[j], 30u), &flags);
-            }
-        }
+    bound = any + 1u; /* <= 2^31 */
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        r[i] = lu->a[i];
+    }
+    if (!lu_step(lu, r, 0u, &bound, &flags) || !lu_step(lu, r, 1u, &bound, &flags) ||
+        !lu_step(lu, r, 2u, &bound, &flags) || !lu_step(lu, r, 3u, &bound, &flags) ||
+        !lu_step(lu, r, 4u, &bound, &flags) || !lu_step(lu, r, 5u, &bound, &flags)) {
+        return SP_E_SINGULAR;
+    }
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) { /* pivot row i is row perm[i] of A */
+        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)lu->a) / sizeof lu->a[0]);
     }
     if (flags != 0u) {
         return sp_flags_status(flags);
@@ -99,6 +230,7 @@ SPI_INLINE int64_t lu_div_pivot(const sp_lu6_t *lu, unsigned k, int64_t s, sp_fl
                              : spi_mul64_rs(s, lu->inv[k], 33u - lu->zk[k], flags);
 }
 
+/* The checks common to the solves: SP_OK, or the error with x zeroed. */
 static sp_status_t lu_check_rhs(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
     sp_status_t st = SP_OK;
@@ -107,10 +239,8 @@ static sp_status_t lu_check_rhs(const sp_lu6_t *lu, const int64_t b[SP_LEGS], in
     if (lu == NULL || b == NULL || x == NULL) {
         return SP_E_ARG;
     }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
-            st = SP_E_OVERFLOW;
-        }
+    if (max_abs64(b) >= (uint64_t)RHS_MAX) {
+        st = SP_E_OVERFLOW;
     }
     if (!lu->valid) {
         st = SP_E_ARG;
@@ -123,41 +253,35 @@ static sp_status_t lu_check_rhs(const sp_lu6_t *lu, const int64_t b[SP_LEGS], in
     return st;
 }
 
-sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+/* sp_lu6_solve in int64 intermediates (checked): the fallback of the
+ * 32-bit solve. lu and b already checked. */
+static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
     int64_t r[SP_LEGS];
     sp_flags_t flags = 0u;
     unsigned i;
     unsigned j;
     unsigned k;
-    sp_status_t st = lu_check_rhs(lu, b, x);
 
-    if (st != SP_OK) {
-        return st;
-    }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        r[i] = b[i];
-        x[i] = 0;
-    }
     for (k = 0u; k < SP_LEGS; ++k) { /* r = P b */
-        unsigned p = lu->perm[k];
-        int64_t tr = r[k];
-        r[k] = r[p];
-        r[p] = tr;
+        r[k] = b[lu->perm[k]];
+        x[k] = 0;
     }
     for (k = 0u; k < SP_LEGS; ++k) { /* L y = P b, y in r */
         for (i = k + 1u; i < SP_LEGS; ++i) {
             /* |r| < 2^56 at the start and at most doubles per column:
              * below 2^62 at the end, no overflow */
-            if (lu->a[i][k] != 0) {
-                r[i] -= spi_mul64_q30(r[k], lu->a[i][k]);
+            int32_t l = lu->a[lu->perm[i]][k];
+            if (l != 0) {
+                r[i] -= spi_mul64_q30(r[k], l);
             }
         }
     }
     for (k = SP_LEGS; k-- > 0u;) {
+        const int32_t *uk = lu->a[lu->perm[k]];
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            s = spi_add64(s, -spi_mul64_rs(x[j], lu->a[k][j], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_rs(x[j], uk[j], 28u, &flags), &flags);
         }
         x[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -168,6 +292,162 @@ sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x
         return sp_flags_status(flags);
     }
     return SP_OK;
+}
+
+/* round(v / 2^s) with ties up into *r when it is below 2^lim in magnitude
+ * (v + 2^(s-1) + 2^(s+lim) must not overflow); returns 0 otherwise. A
+ * branch per value instead of a flag word: the compiler then keeps no
+ * word of a check alive to the end. */
+SPI_INLINE int nar_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
+{
+    uint64_t t = (uint64_t)v + ((UINT64_C(1) << (s - 1u)) + (UINT64_C(1) << (s + lim)));
+    uint32_t lo = (uint32_t)(t >> s);
+    if (((uint32_t)(t >> 32) >> s) != 0u || (lo >> (lim + 1u)) != 0u) {
+        return 0;
+    }
+    *r = (int32_t)lo - (INT32_C(1) << lim);
+    return 1;
+}
+
+/* nar_ok(v, s, 30, r) for a variable shift s in [2, 31], in 32-bit
+ * operations (the bias 2^(s-1) + 2^(s+30) is one bit in each word). */
+SPI_INLINE int nar30v_ok(int64_t v, unsigned s, int32_t *r)
+{
+    uint64_t t = (uint64_t)v + (((uint64_t)(UINT32_C(1) << (s - 2u)) << 32) | (UINT32_C(1) << (s - 1u)));
+    uint32_t lo = (uint32_t)t;
+    uint32_t hi = (uint32_t)(t >> 32);
+    uint32_t q = (lo >> s) | (hi << (32u - s)); /* t / 2^s modulo 2^32 */
+    if ((hi >> s) != 0u || (q >> 31) != 0u) {
+        return 0;
+    }
+    *r = (int32_t)q - (INT32_C(1) << 30);
+    return 1;
+}
+
+/* The block exponent e of the 32-bit solves for max |b| = m (0 < m <
+ * 2^56): max |b| 2^e in [2^top, 2^(top+1)). */
+SPI_INLINE int s32_exponent(uint64_t m, unsigned top)
+{
+    return (int)spi_clz64(m) - (int)(63u - top);
+}
+
+/* b 2^e as int32 into bs (in b's order), for max |b| 2^e below 2^(top+1):
+ * exact for e >= 0, else round(b / 2^-e) with ties up (-e in [1, 31]). */
+SPI_INLINE void s32_scale_in(const int64_t b[SP_LEGS], int e, int32_t bs[SP_LEGS])
+{
+    unsigned i;
+    if (e >= 0) {
+        LU_UNROLL
+        for (i = 0u; i < SP_LEGS; ++i) {
+            bs[i] = (int32_t)((uint32_t)b[i] << e);
+        }
+    } else {
+        unsigned sh = (unsigned)-e;
+        LU_UNROLL
+        for (i = 0u; i < SP_LEGS; ++i) {
+            uint64_t t = (uint64_t)b[i] + (UINT64_C(1) << (sh - 1u));
+            bs[i] = (int32_t)(((uint32_t)t >> sh) | ((uint32_t)(t >> 32) << (32u - sh)));
+        }
+    }
+}
+
+/* x[perm[k]] (x[k] when perm is NULL) = w_k 2^-e: exact for e <= 0
+ * (-e <= 29, |w| < 2^30: below 2^59), else round(w_k / 2^e), ties up
+ * (e <= 28: no overflow). */
+SPI_INLINE void s32_scale_out(const int32_t w[SP_LEGS], int e, const uint8_t *perm, int64_t x[SP_LEGS])
+{
+    unsigned k;
+    if (e > 0) {
+        LU_UNROLL
+        for (k = 0u; k < SP_LEGS; ++k) {
+            x[perm != NULL ? perm[k] : k] = (int64_t)((w[k] + (INT32_C(1) << (e - 1))) >> e);
+        }
+    } else {
+        LU_UNROLL
+        for (k = 0u; k < SP_LEGS; ++k) {
+            x[perm != NULL ? perm[k] : k] = (int64_t)w[k] * (INT64_C(1) << -e);
+        }
+    }
+}
+
+/*
+ * sp_lu6_solve in 32-bit intermediates, block-scaled. b' = b 2^e with
+ * max |b'| in [2^28, 2^29) (b rounded when max |b| >= 2^29), x' = x 2^e.
+ * L y = P b', forward, every y below 2^30 in magnitude:
+ * y_i 2^30 - sum_k l_ik y_k is exact in int64 (|l| <= 2^30: five products
+ * up to 2^60, and 2^59). U x' = y, backward, every x' below 2^29:
+ * s_k = y_k 2^28 - sum_j u_kj x'_j is exact (|u| <= 2^31: five products up
+ * to 2^60, and 2^58), then x'_k = s_k / a_kk = round(s_k / 2^(30 - z))
+ * inv / 2^31, the first factor below 2^30 (the pivot's exponent taken out
+ * first, so that it keeps as many bits as x'). Each step rounds once
+ * (within 2^-29 of max |b'|, the reciprocal within 2^-28): x is within a
+ * few 2^-28 max |b| of the exact solution times the growth of the
+ * elimination. For the inverse dynamics (J^T f = wrench) max |x| is
+ * typically 1/4 to 2 max |b|. Returns 0 (x untouched) when an
+ * intermediate leaves its range: the caller then solves in int64.
+ */
+static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64_t x[SP_LEGS])
+{
+    const int32_t *u[SP_LEGS];
+    int32_t bs[SP_LEGS];
+    int32_t y[SP_LEGS];
+    int32_t w[SP_LEGS];
+    int32_t sk;
+    unsigned i;
+    unsigned j;
+    unsigned k;
+
+    LU_UNROLL
+    for (k = 0u; k < SP_LEGS; ++k) {
+        u[k] = lu->a[lu->perm[k]];
+    }
+    s32_scale_in(b, e, bs);
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        int64_t acc = 0;
+        LU_UNROLL
+        for (k = 0u; k < i; ++k) {
+            acc += (int64_t)u[i][k] * y[k];
+        }
+        if (!nar_ok((int64_t)bs[lu->perm[i]] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
+            return 0;
+        }
+    }
+    LU_UNROLL
+    for (k = SP_LEGS; k-- > 0u;) {
+        int64_t acc = 0;
+        LU_UNROLL
+        for (j = k + 1u; j < SP_LEGS; ++j) {
+            acc += (int64_t)u[k][j] * w[j];
+        }
+        if (!nar30v_ok((int64_t)y[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
+            !nar_ok((int64_t)sk * lu->inv[k], 31u, 29u, &w[k])) {
+            return 0;
+        }
+    }
+    s32_scale_out(w, e, NULL, x);
+    return 1;
+}
+
+sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    uint64_t m;
+    unsigned i;
+
+    if (lu == NULL || b == NULL || x == NULL) {
+        return SP_E_ARG;
+    }
+    m = max_abs64(b);
+    if (m >= (uint64_t)RHS_MAX || !lu->valid || m == 0u) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            x[i] = 0;
+        }
+        return !lu->valid ? SP_E_ARG : (m != 0u) ? SP_E_OVERFLOW : SP_OK;
+    }
+    if (lu_solve32(lu, b, s32_exponent(m, 28u), x)) {
+        return SP_OK;
+    }
+    return lu_solve64(lu, b, x);
 }
 
 #define LT_MAX (INT64_C(1) << 61) /* spi_mul64_q30's range */
@@ -188,7 +468,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t s = b[k];
         for (j = 0u; j < k; ++j) {
-            s = spi_add64(s, -spi_mul64_rs(y[j], lu->a[j][k], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_rs(y[j], lu->a[lu->perm[j]][k], 28u, &flags), &flags);
         }
         y[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -196,128 +476,82 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = SP_LEGS; k-- > 0u;) {
         int64_t s = y[k];
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            if (lu->a[i][k] != 0) {
+            int32_t l = lu->a[lu->perm[i]][k];
+            if (l != 0) {
                 if (y[i] >= LT_MAX || y[i] <= -LT_MAX) {
                     flags |= SP_FLAG_OVERFLOW;
                 } else {
-                    s = spi_add64(s, -spi_mul64_q30(y[i], lu->a[i][k]), &flags);
+                    s = spi_add64(s, -spi_mul64_q30(y[i], l), &flags);
                 }
             }
         }
         y[k] = s;
     }
-    /* x = P^T z: the row swaps undone in reverse order */
-    for (k = SP_LEGS; k-- > 0u;) {
-        unsigned p = lu->perm[k];
-        if (p != k) {
-            int64_t t = y[k];
-            y[k] = y[p];
-            y[p] = t;
-        }
-    }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        x[i] = (flags != 0u) ? 0 : y[i];
+    /* x = P^T z: (P x)_k = x_perm[k] */
+    for (k = 0u; k < SP_LEGS; ++k) {
+        x[lu->perm[k]] = (flags != 0u) ? 0 : y[k];
     }
     return sp_flags_status(flags);
 }
 
-#define S32_TOP 26u                 /* the scaled right-hand side: max |b| in [2^26, 2^27) */
-#define S32_MAX (INT64_C(1) << 29)  /* every intermediate below this, else the int64 solve */
-
-/* round(v / 2^s) narrowed to an intermediate of the 32-bit solve: 0 when it
- * is not below S32_MAX (the caller then falls back). */
-SPI_INLINE int32_t s32_take(int64_t v, unsigned s, int *ok)
-{
-    int64_t r = spi_rsr(v, s);
-    if (r >= S32_MAX || r <= -S32_MAX) {
-        *ok = 0;
-        return 0;
-    }
-    return (int32_t)r;
-}
-
-/* The block exponent e of the 32-bit solves: max |b| 2^e in [2^26, 2^27).
- * Returns 0 when b is 0 or out of sp_lu6_solve's range. */
-static int s32_exponent(const int64_t b[SP_LEGS], int *e)
-{
-    uint64_t m = 0u;
-    unsigned i;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        uint64_t a = (b[i] < 0) ? (uint64_t)0 - (uint64_t)b[i] : (uint64_t)b[i];
-        m = a > m ? a : m;
-    }
-    if (m == 0u || m >= (UINT64_C(1) << 56)) {
-        return 0;
-    }
-    *e = (int)spi_clz64(m) - (int)(63u - S32_TOP);
-    return 1;
-}
-
-/* b 2^e 2^f, rounded, as int64 (|.| < 2^(27 + f)). */
-SPI_INLINE int64_t s32_scale_in(int64_t b, int e, unsigned f)
-{
-    return ((e >= 0) ? b * (INT64_C(1) << e) : spi_rsr(b, (unsigned)-e)) * (INT64_C(1) << f);
-}
-
-/* y 2^-e, rounded. */
-SPI_INLINE int64_t s32_scale_out(int32_t y, int e)
-{
-    return (e > 0) ? spi_rsr(y, (unsigned)e) : (int64_t)y * (INT64_C(1) << -e);
-}
-
 /*
  * sp_lu6_solve_transposed in 32-bit intermediates, block-scaled: b is
- * scaled by 2^e so that max |b| is in [2^26, 2^27) (a few LSB of b lost
- * only when max |b| >= 2^27), every product is one 32x32->64 multiply
- * accumulated exactly in int64, and every intermediate must stay below
- * 2^29 (a growth of at least 4; sums of six products of int32 and 2^29 fit
- * int64). Returns 0, x untouched, when one does not (or b is 0): the caller
- * then uses the int64 solve. For the chord FK, whose right-hand side (a
- * length residual) is small: the steps keep 26 significant bits.
+ * scaled by 2^e so that max |b| is in [2^26, 2^27) (rounded only when
+ * max |b| >= 2^27), every product is one 32x32->64 multiply accumulated
+ * exactly in int64, and every intermediate must stay below 2^29 (a growth
+ * of at least 4). U^T y = b', forward: s_k = b'_k 2^28 - sum_j u_jk y_j
+ * (five products up to 2^60, and 2^55), y_k = round(s_k / 2^(30 - z))
+ * inv / 2^31 as in lu_solve32; L^T v = y, backward: v_k = y_k - sum_i
+ * l_ik v_i / 2^30 (five products up to 2^59). Returns 0, x untouched,
+ * when an intermediate does not fit (or b is 0): the caller then uses the
+ * int64 solve. For the chord FK, whose right-hand side (a length
+ * residual) is small: the steps keep 26 significant bits.
  */
 int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
+    const int32_t *u[SP_LEGS];
+    int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
-    int ok = 1;
+    int32_t sk;
+    uint64_t m = max_abs64(b);
     int e;
     unsigned i;
     unsigned j;
     unsigned k;
 
-    if (!s32_exponent(b, &e)) {
+    if (m == 0u || m >= (uint64_t)RHS_MAX) {
         return 0;
     }
-    /* U^T y = b 2^e, forward: y_k = (b_k - sum_j U_jk y_j / 2^28) / U_kk */
+    e = s32_exponent(m, 26u);
+    s32_scale_in(b, e, bs);
+    LU_UNROLL
     for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t acc = s32_scale_in(b[k], e, 28u);
-        int32_t sk;
+        u[k] = lu->a[lu->perm[k]];
+    }
+    LU_UNROLL
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t acc = 0;
+        LU_UNROLL
         for (j = 0u; j < k; ++j) {
-            acc -= (int64_t)lu->a[j][k] * y[j]; /* |.| < 2^60 each, 6 of them fit */
+            acc += (int64_t)u[j][k] * y[j];
         }
-        sk = s32_take(acc, 28u, &ok);
-        /* y_k = sk 2^28 / a_kk = sk inv / 2^(33 - z) */
-        y[k] = s32_take((int64_t)sk * lu->inv[k], 33u - lu->zk[k], &ok);
+        if (!nar30v_ok((int64_t)bs[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
+            !nar_ok((int64_t)sk * lu->inv[k], 31u, 29u, &y[k])) {
+            return 0;
+        }
     }
-    /* L^T z = y, backward, multipliers Q30 */
+    LU_UNROLL
     for (k = SP_LEGS; k-- > 0u;) {
-        int64_t acc = (int64_t)y[k] * (INT64_C(1) << 30);
+        int64_t acc = 0;
+        LU_UNROLL
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            acc -= (int64_t)lu->a[i][k] * y[i];
+            acc += (int64_t)u[i][k] * y[i];
         }
-        y[k] = s32_take(acc, 30u, &ok);
+        if (!nar_ok((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &y[k])) {
+            return 0;
+        }
     }
-    if (!ok) {
-        return 0;
-    }
-    for (k = SP_LEGS; k-- > 0u;) {
-        unsigned p = lu->perm[k];
-        int32_t t = y[k];
-        y[k] = y[p];
-        y[p] = t;
-    }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        x[i] = s32_scale_out(y[i], e);
-    }
+    s32_scale_out(y, e, lu->perm, x);
     return 1;
 }
 
@@ -333,10 +567,8 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
     for (i = 0u; i < SP_LEGS; ++i) {
         x[i] = 0;
     }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        if (b[i] >= RHS_MAX || b[i] <= -RHS_MAX) {
-            return SP_E_OVERFLOW; /* x is zeroed */
-        }
+    if (max_abs64(b) >= (uint64_t)RHS_MAX) {
+        return SP_E_OVERFLOW; /* x is zeroed */
     }
     st = sp_lu6_factor(m, transpose, &lu);
     if (st != SP_OK) {
