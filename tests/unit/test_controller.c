@@ -6,6 +6,7 @@
  * the CAN bus are exercised by the integration tests; here the logic is.
  */
 #include <math.h>
+#include <stdlib.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -283,6 +284,34 @@ static void test_move_and_stream(void **state)
     rig_tick(&r, SP_CMD_STOP);
     run_until(&r, SP_STATE_READY, 10000);
     assert_int_equal(r.out.faults, 0u);
+
+    /* STOP while targets are still streamed, the first one in the same
+     * tick: they are refused and the platform settles home (a target
+     * taken after STOP used to replace home, and RUNNING never ended) */
+    rig_tick(&r, SP_CMD_STREAM);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    r.in.stream_target = sp_platform_default.home;
+    r.in.stream_target.pos[0] += q24(0.04);
+    r.in.stream_fresh = 1u;
+    rig_tick(&r, SP_CMD_NONE);
+    for (int n = 0; n < 1000; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    r.in.stream_target.pos[1] += q24(0.04);
+    r.in.stream_fresh = 1u;
+    rig_tick(&r, SP_CMD_STOP);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    for (int n = 0; n < 100; ++n) {
+        r.in.stream_fresh = 1u;
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.cmd_rejected, 1);
+    }
+    run_until(&r, SP_STATE_READY, 10000);
+    assert_int_equal(r.out.faults, 0u);
+    for (int k = 0; k < 3; ++k) {
+        assert_true(abs(r.out.reference.pose.pos[k] - sp_platform_default.home.pos[k]) <= 16); /* 1 um */
+        assert_true(abs(r.out.reference.pose.rpy[k] - sp_platform_default.home.rpy[k]) <= 16);
+    }
 }
 
 /* The controller's estimate (chord FK with the last reference's

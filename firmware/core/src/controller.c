@@ -511,7 +511,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     handle_command(cfg, ctrl, in, comms_ok, &rejected);
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == MODE_STREAM && in->stream_fresh) {
         sp_pose_t t = in->stream_target;
-        if (pose_reachable(cfg, &t)) {
+        if (ctrl->stream_stopping) {
+            rejected = 1u; /* after STOP or PARK the target stays home, whatever is still streamed */
+        } else if (pose_reachable(cfg, &t)) {
             ctrl->stream_target = t;
         } else {
             rejected = 1u; /* never passed on: the previous target stays */
