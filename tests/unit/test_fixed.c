@@ -236,6 +236,38 @@ static void test_isqrt64(void **state)
             assert_true(r == 0u || rr - r <= v);
         }
     }
+    /* The ends of every seed interval (top word t = k 2^24 and
+     * (k + 1) 2^24 - 1, k = 64..255) with the low word 0 and all ones, at
+     * every even normalising shift: the Newton step from each seed and the
+     * 16-bit extension at their extremes, and exact squares around them. */
+    for (uint64_t k = 64u; k < 256u; ++k) {
+        uint64_t ends[4];
+        ends[0] = (k << 56);
+        ends[1] = (k << 56) | UINT64_C(0xFFFFFFFF);
+        ends[2] = (((k + 1u) << 56) - 1u) & UINT64_C(0xFFFFFFFF00000000);
+        ends[3] = ((k + 1u) << 56) - 1u;
+        for (int e = 0; e < 4; ++e) {
+            for (unsigned sh = 0u; sh < 64u; sh += 2u) {
+                uint64_t v = ends[e] >> sh;
+                uint32_t r = sp_isqrt64(v);
+                uint64_t rr = (uint64_t)r * r;
+                if (v >= UINT64_C(0xFFFFFFFF00000000)) {
+                    assert_int_equal(r, UINT32_MAX);
+                    continue;
+                }
+                assert_true(v <= rr + r);
+                assert_true(r == 0u || rr - r <= v);
+            }
+        }
+        {
+            uint64_t s = (uint64_t)sp_isqrt64(k << 56); /* a root near the interval start */
+            for (uint64_t d = s - 2u; d <= s + 2u && d < UINT64_C(0x100000000); ++d) {
+                assert_int_equal(sp_isqrt64(d * d), (uint32_t)d);
+                assert_int_equal(sp_isqrt64(d * d + d), (uint32_t)d);     /* below d + 1/2 */
+                assert_int_equal(sp_isqrt64(d * d + d + 1u), (uint32_t)(d + 1u)); /* above */
+            }
+        }
+    }
 }
 
 static void test_sqrt_q24(void **state)

@@ -22,6 +22,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -234,6 +235,95 @@ static void test_ik_rejects_bad_input(void **state)
         p.platform_joint[0][c] = p.base_joint[0][c];
     }
     assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+}
+
+/* The IK's paths off the common one: legs shorter than 2^16 LSB (3.9 mm,
+ * the square root's small-argument path) down to the 1 mm minimum; leg
+ * components whose int32 intermediate pos - b overflows although the leg is
+ * in range (the int64 path); an arm that saturates (SP_E_OVERFLOW). */
+static void test_ik_edge_paths(void **state)
+{
+    sp_platform_t p;
+    sp_pose_t pose;
+    sp_ik_t ik;
+    (void)state;
+    memset(&p, 0, sizeof p);
+    memset(&pose, 0, sizeof pose);
+    /* every leg along x, 2 mm (small-argument root), 1.5 mm, 0.9 mm */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][1] = q24(0.1 * i);
+        p.base_joint[i][1] = q24(0.1 * i);
+        p.base_joint[i][0] = -q24(0.002);
+    }
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(ik.length[i], q24(0.002));
+        assert_true(ik.unit[i][0] <= (INT32_C(1) << 30) && ik.unit[i][0] >= (INT32_C(1) << 30) - 3); /* 3 LSB */
+        assert_int_equal(ik.unit[i][1], 0);
+    }
+    p.base_joint[3][0] = -q24(0.0015);
+    p.base_joint[3][2] = q24(0.0002);
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    assert_true(fabs(f24(ik.length[3]) - sqrt(0.0015 * 0.0015 + 0.0002 * 0.0002)) < 0.5 / 16777216.0 + 1e-12);
+    p.base_joint[3][0] = -q24(0.0009);
+    p.base_joint[3][2] = 0;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+
+    /* x: pos - b = 2^31 - 1 + 2^30 - 10 leaves int32, arm -2^31 brings the
+     * leg back to 2^30 - 11 (just under 64 m); then the mirror image */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MIN;
+        p.base_joint[i][0] = -(INT32_C(1) << 30) + 10;
+    }
+    pose.pos[0] = INT32_MAX;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(ik.arm[i][0], INT32_MIN);
+        assert_int_equal(ik.leg[i][0], (INT32_C(1) << 30) - 11);
+        assert_int_equal(ik.length[i], (INT32_C(1) << 30) - 11);
+    }
+    p.base_joint[0][0] -= 12; /* leg 0 reaches 64 m: out of range */
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MAX;
+        p.base_joint[i][0] = (INT32_C(1) << 30) - 10;
+    }
+    pose.pos[0] = INT32_MIN;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    assert_int_equal(ik.leg[0][0], -(INT32_C(1) << 30) + 9);
+
+    /* an arm of 128 m * sqrt(2) at yaw 45 degrees saturates; its leg stays
+     * in range, so the IK completes with SP_E_OVERFLOW */
+    memset(&pose, 0, sizeof pose);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MAX;
+        p.platform_joint[i][1] = INT32_MAX;
+        p.platform_joint[i][2] = 0;
+        p.base_joint[i][0] = 0;
+        p.base_joint[i][1] = INT32_MAX - q24(1.0);
+        p.base_joint[i][2] = 0;
+    }
+    pose.rpy[2] = q24(45.0 * DEG);
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_OVERFLOW);
+    assert_true(abs(ik.arm[0][0]) < 256); /* 128 m (cos 45 - sin 45) */
+    assert_int_equal(ik.arm[0][1], INT32_MAX);
+    assert_true(abs(ik.length[0] - q24(1.0)) < 256);
+    pose.rpy[2] = -q24(45.0 * DEG); /* the x component saturates */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.base_joint[i][0] = INT32_MAX - q24(1.0);
+        p.base_joint[i][1] = 0;
+    }
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_OVERFLOW);
+    assert_int_equal(ik.arm[0][0], INT32_MAX);
+    /* and negative: a joint at (-128 m, -128 m), base at (-127 m, 0) */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MIN;
+        p.platform_joint[i][1] = INT32_MIN;
+        p.base_joint[i][0] = INT32_MIN + q24(1.0);
+    }
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_OVERFLOW);
+    assert_int_equal(ik.arm[0][0], INT32_MIN);
+    assert_true(abs(ik.length[0] - q24(1.0)) < 256);
 }
 
 static void test_leg_rates_and_stretch(void **state)
@@ -802,6 +892,7 @@ int main(void)
         cmocka_unit_test(test_orientation),
         cmocka_unit_test(test_inverse_kinematics),
         cmocka_unit_test(test_ik_rejects_bad_input),
+        cmocka_unit_test(test_ik_edge_paths),
         cmocka_unit_test(test_leg_rates_and_stretch),
         cmocka_unit_test(test_body_rates),
         cmocka_unit_test(test_solve6),

@@ -51,56 +51,129 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
     return SP_OK;
 }
 
+#if defined(__GNUC__)
+#define SPI_UNLIKELY(x) __builtin_expect((x), 0)
+#else
+#define SPI_UNLIKELY(x) (x)
+#endif
+
+/* l = am + pos_c - b_c if |l| < 2^30 (64 m), else returns 0. */
+SPI_INLINE int leg_component(int32_t am, int32_t pos_c, int32_t b_c, int32_t *leg)
+{
+#if defined(__GNUC__)
+    int32_t d;
+    int32_t l;
+    /* int32 arithmetic with the overflow flag; the int64 path below only
+     * when an intermediate leaves int32 */
+    if (!SPI_UNLIKELY(__builtin_sub_overflow(pos_c, b_c, &d) || __builtin_add_overflow(am, d, &l))) {
+        /* |l| < 2^30 exactly when l + 2^30 - 1 is in [0, 2^31 - 1) */
+        if ((uint32_t)l + UINT32_C(0x3FFFFFFF) >= UINT32_C(0x7FFFFFFF)) {
+            return 0;
+        }
+        *leg = l;
+        return 1;
+    }
+#endif
+    {
+        int64_t l64 = (int64_t)am + pos_c - b_c;
+        if (l64 >= LEG_COMPONENT_MAX || l64 <= -LEG_COMPONENT_MAX) {
+            return 0;
+        }
+        *leg = (int32_t)l64;
+        return 1;
+    }
+}
+
+/* The arm (A_im T)_c = sum_r a_r T[r][c] of one leg (Q24 x Q30: the exact
+ * sum of three products, below 3 * 2^31 (2^30 + 3) < 2^63, plus the
+ * rounding half, then >> 30, ties up; saturated and flagged beyond int32.
+ * T's columns are unit vectors, so |arm| <= |a| (1 + 2^-28)). */
+SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsigned c, sp_flags_t *flags)
+{
+    int64_t acc = (int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] +
+                  (INT64_C(1) << 29);
+    uint32_t hi = (uint32_t)((uint64_t)acc >> 32);
+    /* acc >> 30 fits int32 exactly when hi is in [-2^29, 2^29) */
+    if (SPI_UNLIKELY(((hi + (UINT32_C(1) << 29)) >> 30) != 0u)) {
+        *flags |= SP_FLAG_OVERFLOW;
+        return (acc < 0) ? INT32_MIN : INT32_MAX;
+    }
+    return (int32_t)(acc >> 30);
+}
+
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
  * arms, legs and lengths. Every leg costs three 3-term dot products (exact
- * 64-bit sums) and one square root. */
+ * 64-bit sums, rounded) and one correctly rounded square root of the exact
+ * |l|^2. */
 sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
 {
     sp_flags_t flags = 0u;
     unsigned i;
-    unsigned c;
 
     for (i = 0u; i < SP_LEGS; ++i) {
         const int32_t *a = platform->platform_joint[i];
-        uint64_t len2 = 0u;
-        for (c = 0u; c < 3u; ++c) {
-            /* (A_im T)_c = sum_r a_r T[r][c]: Q24 x Q30, the exact sum of
-             * three products below 3 (2^31 (2^30 + 3)) < 2^63, then >> 30.
-             * T's columns are unit vectors: |arm| <= |a| (1 + 2^-28). */
-            int64_t acc = (int64_t)a[0] * ik->rot.t[0][c] + (int64_t)a[1] * ik->rot.t[1][c] +
-                          (int64_t)a[2] * ik->rot.t[2][c];
-            int64_t leg;
-            ik->arm[i][c] = spi_sat(spi_rsr(acc, 30u), &flags);
-            leg = (int64_t)ik->arm[i][c] + pose->pos[c] - platform->base_joint[i][c];
-            if (leg >= LEG_COMPONENT_MAX || leg <= -LEG_COMPONENT_MAX) {
+        const int32_t *b = platform->base_joint[i];
+        int32_t l0;
+        int32_t l1;
+        int32_t l2;
+        uint64_t len2;
+        uint32_t hi;
+
+        ik->arm[i][0] = arm_component(a, &ik->rot, 0u, &flags);
+        ik->arm[i][1] = arm_component(a, &ik->rot, 1u, &flags);
+        ik->arm[i][2] = arm_component(a, &ik->rot, 2u, &flags);
+        if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
+            !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
+            !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
+            return SP_E_RANGE;
+        }
+        ik->leg[i][0] = l0;
+        ik->leg[i][1] = l1;
+        ik->leg[i][2] = l2;
+        /* |l|^2, Q48: each |l_c| < 2^30, so the sum is below 3 * 2^60 */
+        len2 = (uint64_t)((int64_t)l0 * l0 + (int64_t)l1 * l1 + (int64_t)l2 * l2);
+        hi = (uint32_t)(len2 >> 32);
+        if (hi != 0u) {
+            /* |l| >= 2^16 (3.9 mm), above the 1 mm minimum. len2 2^z with z
+             * even has its top word in [2^30, 2^32); hi < 3 * 2^28 makes
+             * z >= 2. r = floor(sqrt(len2 2^z)), and floor(2 |l|) =
+             * r >> (z/2 - 1); round(|l|) = (floor(2 |l|) + 1) >> 1 (no
+             * ties: |l|^2 is an integer). Below 2^31. */
+            unsigned z = spi_clz32(hi) & ~1u;
+            uint32_t lo = (uint32_t)len2;
+            uint32_t r = spi_sqrt_norm((hi << z) | (lo >> (32u - z)), lo << z);
+            ik->length[i] = (sp_q24_t)(((r >> ((z >> 1) - 1u)) + 1u) >> 1);
+        } else {
+            ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* below 2^16 */
+            if (ik->length[i] < LEG_LENGTH_MIN) {
                 return SP_E_RANGE;
             }
-            ik->leg[i][c] = (sp_q24_t)leg;
-            len2 += (uint64_t)(leg * leg); /* < 3 * 2^60 */
-        }
-        ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* Q48 -> Q24, < 2^31 */
-        if (ik->length[i] < LEG_LENGTH_MIN) {
-            return SP_E_RANGE;
         }
     }
     return sp_flags_status(flags);
 }
 
 /* The unit vectors u = l / |l| (Q24 / Q24 -> Q30) of a successful
- * ik_lengths, with one reciprocal per leg: 1/|l| = inv / 2^sh, then
- * u_c = l_c inv / 2^(sh - 30). inv is never above the exact reciprocal and
- * has 31 significant bits (relative error below 2^-28): the error is at
- * most 3 LSB of Q30 and |u_c| <= 2^30. */
+ * ik_lengths, with one reciprocal per leg: 1/|l| = inv 2^z / 2^62 with
+ * z = clz(|l|), so u_c = l_c inv 2^z / 2^32 = (l_c 2^(z-1)) inv / 2^31,
+ * rounded (ties up). |l_c| <= |l| (the rounded length is at least the
+ * floor of the root) < 2^(32-z), so l_c 2^(z-1) fits int32: a constant
+ * shift. inv is never above the exact reciprocal and has 31 significant
+ * bits (relative error below 2^-28): the error is at most 3 LSB of Q30 and
+ * |u_c| <= 2^30. */
 void spi_ik_units(sp_ik_t *ik)
 {
     unsigned i;
     unsigned c;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        unsigned sh;
-        int32_t inv = spi_recip((uint32_t)ik->length[i], &sh); /* length in [2^14, 2^31) */
+        uint32_t m = (uint32_t)ik->length[i]; /* in [2^14, 2^31) */
+        unsigned z = spi_clz32(m);            /* >= 1 */
+        uint32_t q = spi_recip_norm(m << z);
+        int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
         for (c = 0u; c < 3u; ++c) {
-            ik->unit[i][c] = (sp_q30_t)spi_rsr_up((int64_t)ik->leg[i][c] * inv, sh - 30u);
+            int32_t lz = ik->leg[i][c] * (INT32_C(1) << (z - 1u)); /* exact, see above */
+            ik->unit[i][c] = (sp_q30_t)(((int64_t)lz * inv + (INT64_C(1) << 30)) >> 31);
         }
     }
 }
