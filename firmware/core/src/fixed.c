@@ -133,6 +133,12 @@ int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     return sp_sat32(neg ? -(int64_t)q : (int64_t)q, flags);
 }
 
+int32_t spi_sat_slow(int64_t acc, sp_flags_t *flags)
+{
+    *flags |= SP_FLAG_OVERFLOW;
+    return (acc < 0) ? INT32_MIN : INT32_MAX;
+}
+
 /* Seeds of the square root of a 32-bit t in [2^30, 2^32):
  * spi_sqrt_seed[k - 64] is the square root of the geometric middle of
  * [k 2^24, (k + 1) 2^24), k = t >> 24 in [64, 256), to nearest. One Newton

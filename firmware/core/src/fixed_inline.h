@@ -254,21 +254,32 @@ SPI_INLINE int32_t spi_recip(uint32_t m, unsigned *sh)
     return (int32_t)q;
 }
 
+/* The saturated value of spi_sat_shift, out of line (fixed.c): sets
+ * SP_FLAG_OVERFLOW, returns INT32_MIN for a negative acc, else INT32_MAX. */
+int32_t spi_sat_slow(int64_t acc, sp_flags_t *flags)
+#if defined(__GNUC__)
+    __attribute__((cold, noinline))
+#endif
+    ;
+
 /*
  * floor(acc / 2^s) narrowed to int32 for 1 <= s <= 31, saturating and
  * flagging (flags must not be NULL): the caller adds 2^(s-1) to acc first
  * for round to nearest (ties up). acc / 2^s fits int32 exactly when acc is
  * in [-2^(31+s), 2^(31+s)), i.e. when its high word is in
- * [-2^(s-1), 2^(s-1)): one addition and one comparison on that word.
+ * [-2^(s-1), 2^(s-1)): one addition and one comparison on that word, and
+ * the rare saturation out of line.
  */
 SPI_INLINE int32_t spi_sat_shift(int64_t acc, unsigned s, sp_flags_t *flags)
 {
     uint32_t hi = (uint32_t)((uint64_t)acc >> 32);
+    /* the low word of acc >> s, as int32 (GCC and Clang convert modulo
+     * 2^32); exact when in range, replaced when not */
+    int32_t r = (int32_t)(acc >> s);
     if (((hi + (UINT32_C(1) << (s - 1u))) >> s) != 0u) {
-        *flags |= SP_FLAG_OVERFLOW;
-        return (acc < 0) ? INT32_MIN : INT32_MAX;
+        r = spi_sat_slow(acc, flags);
     }
-    return (int32_t)(acc >> s); /* in range: the conversion is exact */
+    return r;
 }
 
 /* The square roots' seed table (fixed.c), see spi_sqrt_norm. */

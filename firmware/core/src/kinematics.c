@@ -6,7 +6,24 @@
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
 #define LEG_LENGTH_MIN INT32_C(16777)        /* 1 mm in Q24 */
 
-/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw. */
+/* round(a b / 2^30) and round((a b + c d) / 2^30), ties up, for sines,
+ * cosines and their rounded products (|a|, |b|, |c|, |d| <= 2^30 + 2): the
+ * sums are below 2^62 and, for the entries of T below, the results below
+ * 2^31 (each is a product or a dot product of unit vectors, to within a
+ * few LSB). */
+SPI_INLINE int32_t mul30u(int32_t a, int32_t b)
+{
+    return (int32_t)(((int64_t)a * b + (INT64_C(1) << 29)) >> 30);
+}
+
+SPI_INLINE int32_t dot30u(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+    return (int32_t)(((int64_t)a * b + (int64_t)c * d + (INT64_C(1) << 29)) >> 30);
+}
+
+/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (from
+ * sp_sincos_q24: each within 1.05 LSB of Q30, at most 2^30 + 1). Entries
+ * with two terms are rounded once, from the exact sum. */
 static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
 {
     sp_q30_t sr = sc[0];
@@ -15,20 +32,20 @@ static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
     sp_q30_t cp = sc[3];
     sp_q30_t sy = sc[4];
     sp_q30_t cy = sc[5];
-    sp_q30_t spsr = spi_mul30(sp, sr);
-    sp_q30_t spcr = spi_mul30(sp, cr);
+    sp_q30_t spsr = mul30u(sp, sr);
+    sp_q30_t spcr = mul30u(sp, cr);
 
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
-    rot->t[0][0] = spi_mul30(cy, cp);
-    rot->t[0][1] = spi_mul30(sy, cp);
+    rot->t[0][0] = mul30u(cy, cp);
+    rot->t[0][1] = mul30u(sy, cp);
     rot->t[0][2] = -sp;
-    rot->t[1][0] = spi_mul30(cy, spsr) - spi_mul30(sy, cr);
-    rot->t[1][1] = spi_mul30(sy, spsr) + spi_mul30(cy, cr);
-    rot->t[1][2] = spi_mul30(cp, sr);
-    rot->t[2][0] = spi_mul30(cy, spcr) + spi_mul30(sy, sr);
-    rot->t[2][1] = spi_mul30(sy, spcr) - spi_mul30(cy, sr);
-    rot->t[2][2] = spi_mul30(cp, cr);
+    rot->t[1][0] = dot30u(cy, spsr, -sy, cr);
+    rot->t[1][1] = dot30u(sy, spsr, cy, cr);
+    rot->t[1][2] = mul30u(cp, sr);
+    rot->t[2][0] = dot30u(cy, spcr, sy, sr);
+    rot->t[2][1] = dot30u(sy, spcr, -cy, sr);
+    rot->t[2][2] = mul30u(cp, cr);
 }
 
 /* T of the angles, keeping their sines and cosines in sc. */
@@ -53,8 +70,10 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
 
 #if defined(__GNUC__)
 #define SPI_UNLIKELY(x) __builtin_expect((x), 0)
+#define SPI_COLD __attribute__((cold, noinline))
 #else
 #define SPI_UNLIKELY(x) (x)
+#define SPI_COLD
 #endif
 
 /* l = am + pos_c - b_c if |l| < 2^30 (64 m), else returns 0. */
@@ -92,13 +111,7 @@ SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsign
 {
     int64_t acc = (int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] +
                   (INT64_C(1) << 29);
-    uint32_t hi = (uint32_t)((uint64_t)acc >> 32);
-    /* acc >> 30 fits int32 exactly when hi is in [-2^29, 2^29) */
-    if (SPI_UNLIKELY(((hi + (UINT32_C(1) << 29)) >> 30) != 0u)) {
-        *flags |= SP_FLAG_OVERFLOW;
-        return (acc < 0) ? INT32_MIN : INT32_MAX;
-    }
-    return (int32_t)(acc >> 30);
+    return spi_sat_shift(acc, 30u, flags);
 }
 
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
@@ -228,8 +241,9 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     return sp_body_rates_sc(sc, rpy_rate, rpy_acc, omega, omega_dot);
 }
 
-sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
-                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+/* sp_body_rates_sc for any sc: every sum saturating. */
+SPI_COLD static sp_status_t body_rates_wide(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                                   sp_q24_t omega[3], sp_q24_t omega_dot[3])
 {
     sp_flags_t flags = 0u;
     sp_q30_t sr;
@@ -244,9 +258,6 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     sp_q24_t dy_dr;
     int64_t a;
 
-    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
-        return SP_E_ARG;
-    }
     sr = sc[0];
     cr = sc[1];
     sp = sc[2];
@@ -295,6 +306,103 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     return sp_flags_status(flags);
 }
 
+/* (sin, cos) of one angle with s^2 + c^2 <= (2^30 + 4)^2 (sp_sincos_q24's
+ * are within 1.05 LSB each: s^2 + c^2 <= (2^30 + 2)^2). */
+SPI_INLINE int unit_pair(sp_q30_t s, sp_q30_t c)
+{
+    return (uint64_t)((int64_t)s * s + (int64_t)c * c) <= (UINT64_C(1) << 60) + (UINT64_C(1) << 33) + 16u;
+}
+
+sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    sp_flags_t flags = 0u;
+    sp_q30_t sr;
+    sp_q30_t cr;
+    sp_q30_t sp;
+    sp_q30_t cp;
+    sp_q30_t cpsr;
+    sp_q30_t cpcr;
+    sp_q30_t spsr;
+    sp_q30_t spcr;
+    int64_t dr;
+    int64_t dp;
+    int64_t dy;
+    sp_q24_t dp_dr;
+    sp_q24_t dy_dp;
+    sp_q24_t dy_dr;
+    const int64_t half = INT64_C(1) << 29;
+
+    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
+        return SP_E_ARG;
+    }
+    sr = sc[0];
+    cr = sc[1];
+    sp = sc[2];
+    cp = sc[3];
+    if (!unit_pair(sr, cr) || !unit_pair(sp, cp)) {
+        return body_rates_wide(sc, rpy_rate, rpy_acc, omega, omega_dot);
+    }
+    /* Every row below is a sum of products x_k c_k with |x_k| <= 2^31 and
+     * coefficient groups of norm at most K = 2^30 + 4 ((cr, sr), (cp, sp),
+     * and (cp sr, sp sr, cp cr) whose squared norm is
+     * sr^2 (cp^2 + sp^2) + cp^2 cr^2 <= K^2 (sr^2 + cr^2) / 2^60 <= K^2, up
+     * to the products' rounding): by Cauchy-Schwarz each sum is below
+     * (1 + sqrt 2 + sqrt 3) 2^31 K < 2^63. Each is rounded once (ties up),
+     * saturated (SP_E_OVERFLOW) beyond int32. */
+    cpsr = mul30u(cp, sr);
+    cpcr = mul30u(cp, cr);
+    spsr = mul30u(sp, sr);
+    spcr = mul30u(sp, cr);
+    dr = rpy_rate[0];
+    dp = rpy_rate[1];
+    dy = rpy_rate[2];
+
+    /* eq (10) */
+    omega[0] = spi_sat_shift(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
+    omega[1] = spi_sat_shift(dp * cr + dy * cpsr + half, 30u, &flags);
+    omega[2] = spi_sat_shift(dy * cpcr - dp * sr + half, 30u, &flags);
+
+    /* d/dt of eq (10): the angle accelerations plus the products of rates. */
+    dp_dr = spi_mul((int32_t)dp, (int32_t)dr, 24u, &flags);
+    dy_dp = spi_mul((int32_t)dy, (int32_t)dp, 24u, &flags);
+    dy_dr = spi_mul((int32_t)dy, (int32_t)dr, 24u, &flags);
+    omega_dot[0] = spi_sat_shift((int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp -
+                                     (int64_t)dy_dp * cp + half,
+                                 30u, &flags);
+    omega_dot[1] = spi_sat_shift((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
+                                     (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
+                                 30u, &flags);
+    omega_dot[2] = spi_sat_shift((int64_t)rpy_acc[2] * cpcr - (int64_t)rpy_acc[1] * sr - (int64_t)dp_dr * cr -
+                                     (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
+                                 30u, &flags);
+    return sp_flags_status(flags);
+}
+
+/* sp_leg_rates' legs for any w (|w_c| up to 2^31): each step rounded and
+ * saturated on its own (the path for |w_c| >= 64 rad/s). */
+SPI_COLD static void leg_rates_wide(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t w[3], sp_q24_t rate[SP_LEGS],
+                           sp_flags_t *flags)
+{
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        sp_q24_t v[3];
+        /* joint velocity v + w x r, Q24 x Q24 -> Q24; |w_c| < 2^31 (a
+         * saturated w_c is at most 2^31 - 1 or exactly -2^31, and one product of a
+         * difference is then below 2^62 in magnitude): below 2^63 */
+        v[0] = spi_add(vel[0], spi_sat(spi_rsr((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), flags), flags);
+        v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), flags), flags);
+        v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), flags), flags);
+        /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
+        rate[i] = spi_sat(spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
+                                      (int64_t)ik->unit[i][2] * v[2],
+                                  30u),
+                          flags);
+    }
+}
+
 sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3],
                          sp_q24_t rate[SP_LEGS])
 {
@@ -302,6 +410,7 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
     sp_q30_t sy;
     sp_q30_t cy;
     sp_q24_t w[3];
+    int64_t vb[3];
     unsigned i;
     unsigned c;
 
@@ -312,30 +421,36 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
     cy = ik->sc[5];
     /* Angular velocity in the base frame for Z-Y-X angles:
      * w = roll_rate * (R e_x) + pitch_rate * (Rz e_y) + yaw_rate * e_z,
-     * and R e_x is row 0 of T. */
+     * and R e_x is row 0 of T. Two Q24 x Q30 products: below 2^63. */
+    w[0] = spi_sat_shift((int64_t)rpy_rate[0] * ik->rot.t[0][0] - (int64_t)rpy_rate[1] * sy + (INT64_C(1) << 29),
+                         30u, &flags);
+    w[1] = spi_sat_shift((int64_t)rpy_rate[0] * ik->rot.t[0][1] + (int64_t)rpy_rate[1] * cy + (INT64_C(1) << 29),
+                         30u, &flags);
+    w[2] = spi_sat_shift((int64_t)rpy_rate[0] * ik->rot.t[0][2] + (int64_t)rpy_rate[2] * SP_Q30_ONE +
+                             (INT64_C(1) << 29),
+                         30u, &flags);
     for (c = 0u; c < 3u; ++c) {
-        int64_t a = (int64_t)rpy_rate[0] * ik->rot.t[0][c];
-        if (c == 0u) {
-            a += (int64_t)rpy_rate[1] * -sy;
-        } else if (c == 1u) {
-            a += (int64_t)rpy_rate[1] * cy;
-        } else {
-            a += (int64_t)rpy_rate[2] * SP_Q30_ONE;
+        if (w[c] >= (INT32_C(1) << 30) || w[c] <= -(INT32_C(1) << 30)) {
+            leg_rates_wide(ik, vel, w, rate, &flags);
+            return sp_flags_status(flags);
         }
-        w[c] = spi_sat(spi_rsr(a, 30u), &flags); /* two products: below 2^63 */
+        vb[c] = (int64_t)vel[c] * (INT64_C(1) << 24) + (INT64_C(1) << 23); /* |vb| < 2^55 + 2^23 */
     }
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
-        sp_q24_t v[3];
-        /* joint velocity v + w x r, Q24 x Q24 -> Q24 */
-        v[0] = spi_add(vel[0], spi_sat(spi_rsr((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), &flags), &flags);
-        v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), &flags), &flags);
-        v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), &flags), &flags);
+        const sp_q30_t *u = ik->unit[i];
+        sp_q24_t v0;
+        sp_q24_t v1;
+        sp_q24_t v2;
+        /* joint velocity v + w x r (Q24 x Q24 -> Q24) in one sum, rounded
+         * once: |w_c| < 2^30, |r_c| <= 2^31, so w x r is below 2^62 and the
+         * sum with v 2^24 below 2^63 */
+        v0 = spi_sat_shift(vb[0] + (int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags);
+        v1 = spi_sat_shift(vb[1] + (int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags);
+        v2 = spi_sat_shift(vb[2] + (int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags);
         /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
-        rate[i] = spi_sat(spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
-                                      (int64_t)ik->unit[i][2] * v[2],
-                                  30u),
-                          &flags);
+        rate[i] = spi_sat_shift((int64_t)u[0] * v0 + (int64_t)u[1] * v1 + (int64_t)u[2] * v2 + (INT64_C(1) << 29),
+                                30u, &flags);
     }
     return sp_flags_status(flags);
 }
@@ -349,16 +464,19 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
         return SP_E_ARG;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        const sp_q24_t *r = ik->arm[i];
-        const sp_q30_t *u = ik->unit[i];
-        jac->j[i][0] = (int32_t)spi_rsr(u[0], 2u); /* Q30 -> Q28 */
-        jac->j[i][1] = (int32_t)spi_rsr(u[1], 2u);
-        jac->j[i][2] = (int32_t)spi_rsr(u[2], 2u);
-        /* r x u: Q24 x Q30 = Q54 -> Q28; each difference of two products
-         * is below 2^63 */
-        jac->j[i][3] = spi_sat(spi_rsr((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1], 26u), &flags);
-        jac->j[i][4] = spi_sat(spi_rsr((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2], 26u), &flags);
-        jac->j[i][5] = spi_sat(spi_rsr((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0], 26u), &flags);
+        const int32_t r[3] = {ik->arm[i][0], ik->arm[i][1], ik->arm[i][2]};
+        const int32_t u[3] = {ik->unit[i][0], ik->unit[i][1], ik->unit[i][2]};
+        /* Q30 -> Q28 rounded (ties up): floor((floor(u/2) + 1) / 2) =
+         * floor((u + 2) / 4), with no overflow for any int32 u */
+        jac->j[i][0] = ((u[0] >> 1) + 1) >> 1;
+        jac->j[i][1] = ((u[1] >> 1) + 1) >> 1;
+        jac->j[i][2] = ((u[2] >> 1) + 1) >> 1;
+        /* r x u: Q24 x Q30 = Q54 -> Q28; a difference of two int32 products
+         * stays within 2^63 - 2^31 (only -2^31 * -2^31 reaches 2^62), and
+         * the rounding half 2^25 keeps it below 2^63 */
+        jac->j[i][3] = spi_sat_shift((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][4] = spi_sat_shift((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][5] = spi_sat_shift((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), 26u, &flags);
     }
     return sp_flags_status(flags);
 }
