@@ -326,6 +326,32 @@ static void test_sincos(void **state)
                      (long)s, es, (long)c, ec);
         }
     }
+    /* Around every odd multiple of pi/4 in the Q24 range, where the
+     * quadrant's rounding may go either way, and the range ends: the
+     * reduction's 32-bit arithmetic modulo 2^32 at |n| up to 82. */
+    for (int k = -163; k <= 163; k += 2) {
+        long double m = (long double)k * 0.785398163397448309615660845819875721L * 16777216.0L;
+        for (int d = -3; d <= 3; ++d) {
+            long double al = roundl(m) + d;
+            int32_t a;
+            sp_q30_t s;
+            sp_q30_t c;
+            long double es;
+            long double ec;
+            if (al > (long double)INT32_MAX || al < (long double)INT32_MIN) {
+                continue;
+            }
+            a = (int32_t)al;
+            sp_sincos_q24(a, &s, &c);
+            es = fabsl((long double)s - TU_LDEXP(sinl(TU_LDEXP(a, -24)), 30));
+            ec = fabsl((long double)c - TU_LDEXP(cosl(TU_LDEXP(a, -24)), 30));
+            worst = (es > worst) ? es : worst;
+            worst = (ec > worst) ? ec : worst;
+            if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
+                fail_msg("sincos(%ld): err %.2Lf, %.2Lf LSB", (long)a, es, ec);
+            }
+        }
+    }
     /* Either output may be omitted. */
     sp_sincos_q24(SP_Q24_ONE, NULL, NULL);
     print_message("sincos worst error %.2Lf LSB Q30\n", worst);

@@ -1,7 +1,9 @@
 #include "fixed_inline.h"
 
-/* pi/2 with 52 fractional bits, rounded to nearest (for angle reduction). */
-#define HALF_PI_Q52 INT64_C(7074237752028440)
+/* pi/2 2^31 = HALF_PI_HI + HALF_PI_LO / 2^24: the high part rounded to
+ * nearest (32 bits, unsigned), the remainder 0.1305 in Q24, to nearest. */
+#define HALF_PI_HI UINT32_C(3373259426)
+#define HALF_PI_LO INT32_C(2189506)
 /* 2/pi with 31 fractional bits, rounded to nearest. */
 #define INV_HALF_PI_Q31 INT64_C(1367130551)
 
@@ -211,9 +213,15 @@ SPI_INLINE int32_t mulhi(int32_t a, int32_t b)
     return (int32_t)(((int64_t)a * b + INT64_C(0x80000000)) >> 32);
 }
 
+/* The int32 of a uint32 modulo 2^32, without an implementation-defined
+ * conversion (the compiler emits nothing). */
+SPI_INLINE int32_t u32_to_i32(uint32_t u)
+{
+    return (u <= 0x7FFFFFFFu) ? (int32_t)u : -(int32_t)(~u) - 1;
+}
+
 void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
 {
-    int64_t x52 = (int64_t)angle * (INT64_C(1) << 28); /* |x52| < 2^59 */
     int32_t n;
     int32_t r;
     int32_t r2;
@@ -222,13 +230,20 @@ void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
     int32_t c;
 
     /* n = round(x / (pi/2)) by a multiplication with 2/pi (Q24 x Q31 =
-     * Q55); it may be off by one where x / (pi/2) is within 2^-24 of a
-     * half-integer, which only moves r a hair beyond pi/4, inside the
-     * polynomials' accuracy. |n| <= 82, so n * HALF_PI_Q52 cannot overflow. */
-    n = (int32_t)spi_rsr((int64_t)angle * INV_HALF_PI_Q31, 55u);
-    /* r in [-pi/4, pi/4] (+ 1e-7), from Q52 to Q31: |r| < 0.79 * 2^31. */
-    r = (int32_t)spi_rsr(x52 - (int64_t)n * HALF_PI_Q52, 21u);
-    r2 = (int32_t)spi_rsr((int64_t)r * r, 31u); /* r^2, Q31, < 0.62 */
+     * Q55, rounded from the high word: floor((hi + 2^22) / 2^23) is
+     * floor((x 2/pi 2^55 + 2^54) / 2^55), ties up); it may be off by one
+     * where x / (pi/2) is within 2^-24 of a half-integer, which only moves
+     * r a hair beyond pi/4, inside the polynomials' accuracy. |n| <= 82. */
+    n = (int32_t)(((int64_t)angle * INV_HALF_PI_Q31 + (INT64_C(1) << 54)) >> 55);
+    /* r = x - n pi/2 in Q31, |r| <= pi/4 (+ 1e-7) < 0.79 * 2^31, in 32-bit
+     * arithmetic modulo 2^32 (exact, since the true value fits int32):
+     * x 2^7 exactly, minus n HALF_PI_HI (pi/2 2^31 rounded, 32 bits),
+     * minus n HALF_PI_LO (the remainder pi/2 2^31 - HALF_PI_HI, 0.1305, in
+     * Q24) rounded. The only rounding is the last one's, 0.5 LSB of Q31;
+     * the constants' own errors times |n| stay below 2^-20 LSB. */
+    r = u32_to_i32(((uint32_t)angle << 7) - (uint32_t)n * HALF_PI_HI);
+    r -= (n * HALF_PI_LO + (INT32_C(1) << 23)) >> 24;
+    r2 = (int32_t)(((int64_t)r * r + (INT64_C(1) << 30)) >> 31); /* r^2, Q31, < 0.62 */
 
     /* sin r = r + r^3 (A0 + r^2 (A1 + ... )): Horner in r^2, each step
      * one rounded high-word multiply; then from Q31 to Q30. */
@@ -238,7 +253,7 @@ void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
     p = SIN_A1 + mulhi(r2, p);
     p = SIN_A0 + mulhi(r2, p);            /* Q33 */
     p = mulhi(r, mulhi(r2, p));           /* r^3 (...), Q31 */
-    s = (int32_t)(((int64_t)r + p + 1) >> 1); /* Q31 -> Q30 */
+    s = (r + p + 1) >> 1;                 /* Q31 -> Q30; |r + p| <= |r| < 2^31 */
 
     /* cos r = 1 + r^2 (B0 + r^2 (B1 + ...)). */
     p = COS_B5;
@@ -247,7 +262,7 @@ void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
     p = COS_B2 + mulhi(r2, p);
     p = COS_B1 + mulhi(r2, p);
     p = COS_B0 + mulhi(r2, p);            /* Q32, in [-2^31, -0.47 * 2^32] */
-    c = SP_Q30_ONE + (int32_t)(((int64_t)mulhi(r2, p) + 1) >> 1); /* Q31 -> Q30 */
+    c = SP_Q30_ONE + ((mulhi(r2, p) + 1) >> 1); /* Q31 -> Q30; r^2 (...) in (-2^30, 0] */
 
     switch ((uint32_t)n & 3u) { /* n mod 4 for either sign */
     case 1u: /* x = r + pi/2 */
