@@ -124,7 +124,9 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
     unsigned i;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        const int32_t *a = platform->platform_joint[i];
+        /* copies: the stores to ik below could alias the platform */
+        const int32_t a[3] = {platform->platform_joint[i][0], platform->platform_joint[i][1],
+                              platform->platform_joint[i][2]};
         const int32_t *b = platform->base_joint[i];
         int32_t l0;
         int32_t l1;
@@ -364,9 +366,9 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     omega[2] = spi_sat_shift(dy * cpcr - dp * sr + half, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
-    dp_dr = spi_mul((int32_t)dp, (int32_t)dr, 24u, &flags);
-    dy_dp = spi_mul((int32_t)dy, (int32_t)dp, 24u, &flags);
-    dy_dr = spi_mul((int32_t)dy, (int32_t)dr, 24u, &flags);
+    dp_dr = spi_sat_shift(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
+    dy_dp = spi_sat_shift(dy * dp + (INT64_C(1) << 23), 24u, &flags);
+    dy_dr = spi_sat_shift(dy * dr + (INT64_C(1) << 23), 24u, &flags);
     omega_dot[0] = spi_sat_shift((int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp -
                                      (int64_t)dy_dp * cp + half,
                                  30u, &flags);
