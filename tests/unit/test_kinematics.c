@@ -292,6 +292,26 @@ static void test_ik_edge_paths(void **state)
     assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
     assert_int_equal(ik.leg[0][0], -(INT32_C(1) << 30) + 9);
 
+    /* the 64 m limit exactly, on the int32 path, in each component and
+     * either sign: +-(2^30 - 1) is accepted, +-2^30 is not */
+    memset(&pose, 0, sizeof pose);
+    for (int c = 0; c < 3; ++c) {
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            for (int i = 0; i < SP_LEGS; ++i) {
+                for (int k = 0; k < 3; ++k) {
+                    p.platform_joint[i][k] = 0;
+                    p.base_joint[i][k] = 0;
+                }
+                p.base_joint[i][c] = -sgn * ((INT32_C(1) << 30) - 1);
+            }
+            assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+            assert_int_equal(ik.leg[5][c], sgn * ((INT32_C(1) << 30) - 1));
+            assert_int_equal(ik.length[5], (INT32_C(1) << 30) - 1);
+            p.base_joint[4][c] = -sgn * (INT32_C(1) << 30);
+            assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+        }
+    }
+
     /* an arm of 128 m * sqrt(2) at yaw 45 degrees saturates; its leg stays
      * in range, so the IK completes with SP_E_OVERFLOW */
     memset(&pose, 0, sizeof pose);

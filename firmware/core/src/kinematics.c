@@ -76,7 +76,10 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
 #define SPI_COLD
 #endif
 
-/* l = am + pos_c - b_c if |l| < 2^30 (64 m), else returns 0. */
+/* *leg = l = am + pos_c - b_c and 1 when l fits int32 (the int64 path,
+ * taken when an int32 intermediate overflows, checks |l| < 2^30 itself);
+ * 0 when l is out of that range. On the int32 path the caller tests
+ * |l| < 2^30 (64 m) on the three components at once (range_bits). */
 SPI_INLINE int leg_component(int32_t am, int32_t pos_c, int32_t b_c, int32_t *leg)
 {
 #if defined(__GNUC__)
@@ -85,10 +88,6 @@ SPI_INLINE int leg_component(int32_t am, int32_t pos_c, int32_t b_c, int32_t *le
     /* int32 arithmetic with the overflow flag; the int64 path below only
      * when an intermediate leaves int32 */
     if (!SPI_UNLIKELY(__builtin_sub_overflow(pos_c, b_c, &d) || __builtin_add_overflow(am, d, &l))) {
-        /* |l| < 2^30 exactly when l + 2^30 - 1 is in [0, 2^31 - 1) */
-        if ((uint32_t)l + UINT32_C(0x3FFFFFFF) >= UINT32_C(0x7FFFFFFF)) {
-            return 0;
-        }
         *leg = l;
         return 1;
     }
@@ -101,6 +100,17 @@ SPI_INLINE int leg_component(int32_t am, int32_t pos_c, int32_t b_c, int32_t *le
         *leg = (int32_t)l64;
         return 1;
     }
+}
+
+/* y = l + (l < 0 ? -1 : 0) + 2^30 modulo 2^32 has its top bit clear
+ * exactly when -2^30 < l < 2^30: l in [0, 2^30) gives [2^30, 2^31),
+ * l in (-2^30, 0) gives [0, 2^30 - 1); l in [2^30, 2^31) gives
+ * [2^31, 3 2^30), l = -2^30 gives 2^32 - 1, l in [-2^31, -2^30) gives
+ * [3 2^30 - 1, 2^32 - 1). So the OR of three has its top bit clear exactly
+ * when all three are in range. */
+SPI_INLINE uint32_t range_bits(int32_t l)
+{
+    return (uint32_t)l + (uint32_t)(l >> 31) + UINT32_C(0x40000000);
 }
 
 /* The arm (A_im T)_c = sum_r a_r T[r][c] of one leg (Q24 x Q30: the exact
@@ -141,6 +151,9 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
             !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
             !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
             return SP_E_RANGE;
+        }
+        if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
+            return SP_E_RANGE; /* a component reaches 64 m */
         }
         ik->leg[i][0] = l0;
         ik->leg[i][1] = l1;
