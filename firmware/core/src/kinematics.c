@@ -192,17 +192,17 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
 void spi_ik_units(sp_ik_t *ik)
 {
     unsigned i;
-    unsigned c;
 
     for (i = 0u; i < SP_LEGS; ++i) {
         uint32_t m = (uint32_t)ik->length[i]; /* in [2^14, 2^31) */
         unsigned z = spi_clz32(m);            /* >= 1 */
         uint32_t q = spi_recip_norm(m << z);
         int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
-        for (c = 0u; c < 3u; ++c) {
-            int32_t lz = ik->leg[i][c] * (INT32_C(1) << (z - 1u)); /* exact, see above */
-            ik->unit[i][c] = (sp_q30_t)(((int64_t)lz * inv + (INT64_C(1) << 30)) >> 31);
-        }
+        int32_t sc = INT32_C(1) << (z - 1u);
+        /* l_c 2^(z-1) is exact, see above; unrolled */
+        ik->unit[i][0] = (sp_q30_t)(((int64_t)(ik->leg[i][0] * sc) * inv + (INT64_C(1) << 30)) >> 31);
+        ik->unit[i][1] = (sp_q30_t)(((int64_t)(ik->leg[i][1] * sc) * inv + (INT64_C(1) << 30)) >> 31);
+        ik->unit[i][2] = (sp_q30_t)(((int64_t)(ik->leg[i][2] * sc) * inv + (INT64_C(1) << 30)) >> 31);
     }
 }
 
