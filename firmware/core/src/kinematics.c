@@ -422,8 +422,7 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
                          sp_q24_t rate[SP_LEGS])
 {
     sp_flags_t flags = 0u;
-    sp_q30_t sy;
-    sp_q30_t cy;
+    int64_t a[3];
     sp_q24_t w[3];
     int64_t vb[3];
     unsigned i;
@@ -432,23 +431,27 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
     if (ik == NULL || vel == NULL || rpy_rate == NULL || rate == NULL) {
         return SP_E_ARG;
     }
-    sy = ik->sc[4];
-    cy = ik->sc[5];
     /* Angular velocity in the base frame for Z-Y-X angles:
      * w = roll_rate * (R e_x) + pitch_rate * (Rz e_y) + yaw_rate * e_z,
-     * and R e_x is row 0 of T. Two Q24 x Q30 products: below 2^63. */
-    w[0] = spi_sat_shift((int64_t)rpy_rate[0] * ik->rot.t[0][0] - (int64_t)rpy_rate[1] * sy + (INT64_C(1) << 29),
-                         30u, &flags);
-    w[1] = spi_sat_shift((int64_t)rpy_rate[0] * ik->rot.t[0][1] + (int64_t)rpy_rate[1] * cy + (INT64_C(1) << 29),
-                         30u, &flags);
-    w[2] = spi_sat_shift((int64_t)rpy_rate[0] * ik->rot.t[0][2] + (int64_t)rpy_rate[2] * SP_Q30_ONE +
-                             (INT64_C(1) << 29),
-                         30u, &flags);
-    for (c = 0u; c < 3u; ++c) {
-        if (w[c] >= (INT32_C(1) << 30) || w[c] <= -(INT32_C(1) << 30)) {
-            leg_rates_wide(ik, vel, w, rate, &flags);
-            return sp_flags_status(flags);
+     * and R e_x is row 0 of T, Rz e_y = (-sin yaw, cos yaw, 0). Two Q24 x
+     * Q30 products: below 2^63. */
+    a[0] = (int64_t)rpy_rate[0] * ik->rot.t[0][0] - (int64_t)rpy_rate[1] * ik->sc[4] + (INT64_C(1) << 29);
+    a[1] = (int64_t)rpy_rate[0] * ik->rot.t[0][1] + (int64_t)rpy_rate[1] * ik->sc[5] + (INT64_C(1) << 29);
+    a[2] = (int64_t)rpy_rate[0] * ik->rot.t[0][2] + (int64_t)rpy_rate[2] * SP_Q30_ONE + (INT64_C(1) << 29);
+    /* w_c = a_c / 2^30 is in [-2^30, 2^30) (64 rad/s) exactly when a_c's
+     * high word is in [-2^28, 2^28): all three in one test */
+    if (((((uint32_t)((uint64_t)a[0] >> 32) + (UINT32_C(1) << 28)) |
+          ((uint32_t)((uint64_t)a[1] >> 32) + (UINT32_C(1) << 28)) |
+          ((uint32_t)((uint64_t)a[2] >> 32) + (UINT32_C(1) << 28))) >>
+         29) != 0u) {
+        for (c = 0u; c < 3u; ++c) {
+            w[c] = spi_sat_shift(a[c], 30u, &flags);
         }
+        leg_rates_wide(ik, vel, w, rate, &flags);
+        return sp_flags_status(flags);
+    }
+    for (c = 0u; c < 3u; ++c) {
+        w[c] = (int32_t)(a[c] >> 30);                                       /* exact, in range */
         vb[c] = (int64_t)vel[c] * (INT64_C(1) << 24) + (INT64_C(1) << 23); /* |vb| < 2^55 + 2^23 */
     }
     for (i = 0u; i < SP_LEGS; ++i) {
@@ -458,8 +461,8 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
         sp_q24_t v1;
         sp_q24_t v2;
         /* joint velocity v + w x r (Q24 x Q24 -> Q24) in one sum, rounded
-         * once: |w_c| < 2^30, |r_c| <= 2^31, so w x r is below 2^62 and the
-         * sum with v 2^24 below 2^63 */
+         * once: |w_c| <= 2^30, |r_c| <= 2^31, so w x r is at most 2^62
+         * and the sum with v 2^24 below 2^63 */
         v0 = spi_sat_shift(vb[0] + (int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags);
         v1 = spi_sat_shift(vb[1] + (int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags);
         v2 = spi_sat_shift(vb[2] + (int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags);
