@@ -236,6 +236,38 @@ static void test_isqrt64(void **state)
             assert_true(r == 0u || rr - r <= v);
         }
     }
+    /* The ends of every seed interval (top word t = k 2^24 and
+     * (k + 1) 2^24 - 1, k = 64..255) with the low word 0 and all ones, at
+     * every even normalising shift: the Newton step from each seed and the
+     * 16-bit extension at their extremes, and exact squares around them. */
+    for (uint64_t k = 64u; k < 256u; ++k) {
+        uint64_t ends[4];
+        ends[0] = (k << 56);
+        ends[1] = (k << 56) | UINT64_C(0xFFFFFFFF);
+        ends[2] = (((k + 1u) << 56) - 1u) & UINT64_C(0xFFFFFFFF00000000);
+        ends[3] = ((k + 1u) << 56) - 1u;
+        for (int e = 0; e < 4; ++e) {
+            for (unsigned sh = 0u; sh < 64u; sh += 2u) {
+                uint64_t v = ends[e] >> sh;
+                uint32_t r = sp_isqrt64(v);
+                uint64_t rr = (uint64_t)r * r;
+                if (v >= UINT64_C(0xFFFFFFFF00000000)) {
+                    assert_int_equal(r, UINT32_MAX);
+                    continue;
+                }
+                assert_true(v <= rr + r);
+                assert_true(r == 0u || rr - r <= v);
+            }
+        }
+        {
+            uint64_t s = (uint64_t)sp_isqrt64(k << 56); /* a root near the interval start */
+            for (uint64_t d = s - 2u; d <= s + 2u && d < UINT64_C(0x100000000); ++d) {
+                assert_int_equal(sp_isqrt64(d * d), (uint32_t)d);
+                assert_int_equal(sp_isqrt64(d * d + d), (uint32_t)d);     /* below d + 1/2 */
+                assert_int_equal(sp_isqrt64(d * d + d + 1u), (uint32_t)(d + 1u)); /* above */
+            }
+        }
+    }
 }
 
 static void test_sqrt_q24(void **state)
@@ -292,6 +324,32 @@ static void test_sincos(void **state)
         if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
             fail_msg("sincos(%ld): sin %ld (err %.2Lf LSB), cos %ld (err %.2Lf LSB)", (long)a,
                      (long)s, es, (long)c, ec);
+        }
+    }
+    /* Around every odd multiple of pi/4 in the Q24 range, where the
+     * quadrant's rounding may go either way, and the range ends: the
+     * reduction's 32-bit arithmetic modulo 2^32 at |n| up to 82. */
+    for (int k = -163; k <= 163; k += 2) {
+        long double m = (long double)k * 0.785398163397448309615660845819875721L * 16777216.0L;
+        for (int d = -3; d <= 3; ++d) {
+            long double al = roundl(m) + d;
+            int32_t a;
+            sp_q30_t s;
+            sp_q30_t c;
+            long double es;
+            long double ec;
+            if (al > (long double)INT32_MAX || al < (long double)INT32_MIN) {
+                continue;
+            }
+            a = (int32_t)al;
+            sp_sincos_q24(a, &s, &c);
+            es = fabsl((long double)s - TU_LDEXP(sinl(TU_LDEXP(a, -24)), 30));
+            ec = fabsl((long double)c - TU_LDEXP(cosl(TU_LDEXP(a, -24)), 30));
+            worst = (es > worst) ? es : worst;
+            worst = (ec > worst) ? ec : worst;
+            if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
+                fail_msg("sincos(%ld): err %.2Lf, %.2Lf LSB", (long)a, es, ec);
+            }
         }
     }
     /* Either output may be omitted. */

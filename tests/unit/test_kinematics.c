@@ -22,6 +22,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -236,6 +237,115 @@ static void test_ik_rejects_bad_input(void **state)
     assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
 }
 
+/* The IK's paths off the common one: legs shorter than 2^16 LSB (3.9 mm,
+ * the square root's small-argument path) down to the 1 mm minimum; leg
+ * components whose int32 intermediate pos - b overflows although the leg is
+ * in range (the int64 path); an arm that saturates (SP_E_OVERFLOW). */
+static void test_ik_edge_paths(void **state)
+{
+    sp_platform_t p;
+    sp_pose_t pose;
+    sp_ik_t ik;
+    (void)state;
+    memset(&p, 0, sizeof p);
+    memset(&pose, 0, sizeof pose);
+    /* every leg along x, 2 mm (small-argument root), 1.5 mm, 0.9 mm */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][1] = q24(0.1 * i);
+        p.base_joint[i][1] = q24(0.1 * i);
+        p.base_joint[i][0] = -q24(0.002);
+    }
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(ik.length[i], q24(0.002));
+        assert_true(ik.unit[i][0] <= (INT32_C(1) << 30) && ik.unit[i][0] >= (INT32_C(1) << 30) - 3); /* 3 LSB */
+        assert_int_equal(ik.unit[i][1], 0);
+    }
+    p.base_joint[3][0] = -q24(0.0015);
+    p.base_joint[3][2] = q24(0.0002);
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    assert_true(fabs(f24(ik.length[3]) - sqrt(0.0015 * 0.0015 + 0.0002 * 0.0002)) < 0.5 / 16777216.0 + 1e-12);
+    p.base_joint[3][0] = -q24(0.0009);
+    p.base_joint[3][2] = 0;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+
+    /* x: pos - b = 2^31 - 1 + 2^30 - 10 leaves int32, arm -2^31 brings the
+     * leg back to 2^30 - 11 (just under 64 m); then the mirror image */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MIN;
+        p.base_joint[i][0] = -(INT32_C(1) << 30) + 10;
+    }
+    pose.pos[0] = INT32_MAX;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(ik.arm[i][0], INT32_MIN);
+        assert_int_equal(ik.leg[i][0], (INT32_C(1) << 30) - 11);
+        assert_int_equal(ik.length[i], (INT32_C(1) << 30) - 11);
+    }
+    p.base_joint[0][0] -= 12; /* leg 0 reaches 64 m: out of range */
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MAX;
+        p.base_joint[i][0] = (INT32_C(1) << 30) - 10;
+    }
+    pose.pos[0] = INT32_MIN;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    assert_int_equal(ik.leg[0][0], -(INT32_C(1) << 30) + 9);
+
+    /* the 64 m limit exactly, on the int32 path, in each component and
+     * either sign: +-(2^30 - 1) is accepted, +-2^30 is not */
+    memset(&pose, 0, sizeof pose);
+    for (int c = 0; c < 3; ++c) {
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            for (int i = 0; i < SP_LEGS; ++i) {
+                for (int k = 0; k < 3; ++k) {
+                    p.platform_joint[i][k] = 0;
+                    p.base_joint[i][k] = 0;
+                }
+                p.base_joint[i][c] = -sgn * ((INT32_C(1) << 30) - 1);
+            }
+            assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+            assert_int_equal(ik.leg[5][c], sgn * ((INT32_C(1) << 30) - 1));
+            assert_int_equal(ik.length[5], (INT32_C(1) << 30) - 1);
+            p.base_joint[4][c] = -sgn * (INT32_C(1) << 30);
+            assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+        }
+    }
+
+    /* an arm of 128 m * sqrt(2) at yaw 45 degrees saturates; its leg stays
+     * in range, so the IK completes with SP_E_OVERFLOW */
+    memset(&pose, 0, sizeof pose);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MAX;
+        p.platform_joint[i][1] = INT32_MAX;
+        p.platform_joint[i][2] = 0;
+        p.base_joint[i][0] = 0;
+        p.base_joint[i][1] = INT32_MAX - q24(1.0);
+        p.base_joint[i][2] = 0;
+    }
+    pose.rpy[2] = q24(45.0 * DEG);
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_OVERFLOW);
+    assert_true(abs(ik.arm[0][0]) < 256); /* 128 m (cos 45 - sin 45) */
+    assert_int_equal(ik.arm[0][1], INT32_MAX);
+    assert_true(abs(ik.length[0] - q24(1.0)) < 256);
+    pose.rpy[2] = -q24(45.0 * DEG); /* the x component saturates */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.base_joint[i][0] = INT32_MAX - q24(1.0);
+        p.base_joint[i][1] = 0;
+    }
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_OVERFLOW);
+    assert_int_equal(ik.arm[0][0], INT32_MAX);
+    /* and negative: a joint at (-128 m, -128 m), base at (-127 m, 0) */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.platform_joint[i][0] = INT32_MIN;
+        p.platform_joint[i][1] = INT32_MIN;
+        p.base_joint[i][0] = INT32_MIN + q24(1.0);
+    }
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_OVERFLOW);
+    assert_int_equal(ik.arm[0][0], INT32_MIN);
+    assert_true(abs(ik.length[0] - q24(1.0)) < 256);
+}
+
 static void test_leg_rates_and_stretch(void **state)
 {
     uint64_t rng = 14;
@@ -331,6 +441,117 @@ static void test_body_rates(void **state)
             }
         }
     }
+}
+
+/* The rate functions' paths off the common one: sp_leg_rates with an
+ * angular velocity of 64 rad/s or more (each step saturating on its own)
+ * against the common path just below it, both against double; the
+ * saturations of either path; sp_body_rates_sc with sines and cosines off
+ * the unit circle (the saturating path); sp_jacobian beyond 8. */
+static void test_rates_wide_paths(void **state)
+{
+    sp_platform_t p;
+    sp_pose_t pose;
+    sp_ik_t ik;
+    sp_q24_t vel[3] = {0, 0, 0};
+    sp_q24_t rr[3] = {0, 0, 0};
+    sp_q24_t rate[SP_LEGS];
+    sp_jacobian_t jac;
+    const double yaw_rates[2] = {60.0, 100.0}; /* below, above 64 rad/s */
+    (void)state;
+    memset(&p, 0, sizeof p);
+    memset(&pose, 0, sizeof pose);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        double b = (60.0 * i + 10.0) * DEG;
+        double a = (60.0 * i - 10.0) * DEG;
+        p.base_joint[i][0] = q24(1.0 * cos(b));
+        p.base_joint[i][1] = q24(1.0 * sin(b));
+        p.platform_joint[i][0] = q24(0.6 * cos(a));
+        p.platform_joint[i][1] = q24(0.6 * sin(a));
+    }
+    pose.pos[2] = q24(1.0);
+    pose.rpy[0] = q24(0.1);
+    pose.rpy[1] = q24(-0.05);
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    for (int k = 0; k < 2; ++k) {
+        double w[3];
+        vel[0] = q24(0.5);
+        vel[2] = -q24(0.25);
+        rr[0] = q24(0.3);
+        rr[2] = q24(yaw_rates[k]);
+        assert_int_equal(sp_leg_rates(&ik, vel, rr, rate), SP_OK);
+        /* w = roll_rate (row 0 of T) + yaw_rate e_z (pitch rate 0) */
+        for (int c = 0; c < 3; ++c) {
+            w[c] = f24(rr[0]) * f30(ik.rot.t[0][c]);
+        }
+        w[2] += f24(rr[2]);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            double r[3], v[3], want = 0;
+            for (int c = 0; c < 3; ++c) {
+                r[c] = f24(ik.arm[i][c]);
+            }
+            v[0] = f24(vel[0]) + w[1] * r[2] - w[2] * r[1];
+            v[1] = f24(vel[1]) + w[2] * r[0] - w[0] * r[2];
+            v[2] = f24(vel[2]) + w[0] * r[1] - w[1] * r[0];
+            for (int c = 0; c < 3; ++c) {
+                want += f30(ik.unit[i][c]) * v[c];
+            }
+            assert_true(fabs(f24(rate[i]) - want) < 2e-7);
+        }
+    }
+    rr[2] = q24(120.0); /* 72 m/s at the joints: still in range */
+    assert_int_equal(sp_leg_rates(&ik, vel, rr, rate), SP_OK);
+    vel[1] = q24(100.0); /* 172 m/s: saturates on the wide path */
+    assert_int_equal(sp_leg_rates(&ik, vel, rr, rate), SP_E_OVERFLOW);
+    rr[2] = q24(60.0); /* 136 m/s: saturates on the common path */
+    assert_int_equal(sp_leg_rates(&ik, vel, rr, rate), SP_E_OVERFLOW);
+
+    /* body rates: roll 0 and pitch 0.2; the same with cos(roll) 8 LSB
+     * above 1 takes the saturating path and agrees to within 3 LSB */
+    {
+        sp_q30_t sc[6];
+        sp_q24_t d[3] = {q24(0.7), q24(-1.1), q24(2.3)};
+        sp_q24_t dd[3] = {q24(5.0), q24(-3.0), q24(9.0)};
+        sp_q24_t w1[3], wd1[3], w2[3], wd2[3];
+        sc[0] = 0;
+        sc[1] = INT32_C(1) << 30;
+        sp_sincos_q24(q24(0.2), &sc[2], &sc[3]);
+        sc[4] = 0;
+        sc[5] = INT32_C(1) << 30;
+        assert_int_equal(sp_body_rates_sc(sc, d, dd, w1, wd1), SP_OK);
+        sc[1] += 8;
+        assert_int_equal(sp_body_rates_sc(sc, d, dd, w2, wd2), SP_OK);
+        for (int k = 0; k < 3; ++k) {
+            assert_true(abs(w1[k] - w2[k]) <= 3 && abs(wd1[k] - wd2[k]) <= 3);
+        }
+        /* saturation on both paths */
+        d[0] = d[1] = d[2] = q24(100.0);
+        assert_int_equal(sp_body_rates_sc(sc, d, dd, w2, wd2), SP_E_OVERFLOW);
+        sc[1] -= 8;
+        assert_int_equal(sp_body_rates_sc(sc, d, dd, w1, wd1), SP_E_OVERFLOW);
+        /* and far off the circle, every input at its limit */
+        for (int k = 0; k < 6; ++k) {
+            sc[k] = INT32_MAX;
+        }
+        d[0] = d[1] = d[2] = INT32_MIN;
+        dd[0] = dd[1] = dd[2] = INT32_MIN;
+        assert_int_equal(sp_body_rates_sc(sc, d, dd, w2, wd2), SP_E_OVERFLOW);
+    }
+
+    /* a joint 10 m from o': the Jacobian's r x u reaches 10, beyond 8 */
+    assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+    ik.arm[2][0] = q24(10.0);
+    ik.arm[2][1] = 0;
+    ik.arm[2][2] = 0;
+    ik.unit[2][0] = 0;
+    ik.unit[2][1] = INT32_C(1) << 30;
+    ik.unit[2][2] = 0;
+    assert_int_equal(sp_jacobian(&ik, &jac), SP_E_OVERFLOW);
+    assert_int_equal(jac.j[2][5], INT32_MAX);
+    ik.unit[2][1] = -(INT32_C(1) << 30);
+    assert_int_equal(sp_jacobian(&ik, &jac), SP_E_OVERFLOW);
+    assert_int_equal(jac.j[2][5], INT32_MIN);
+    assert_int_equal(jac.j[2][1], -(INT32_C(1) << 28));
 }
 
 static void test_solve6(void **state)
@@ -808,8 +1029,10 @@ int main(void)
         cmocka_unit_test(test_orientation),
         cmocka_unit_test(test_inverse_kinematics),
         cmocka_unit_test(test_ik_rejects_bad_input),
+        cmocka_unit_test(test_ik_edge_paths),
         cmocka_unit_test(test_leg_rates_and_stretch),
         cmocka_unit_test(test_body_rates),
+        cmocka_unit_test(test_rates_wide_paths),
         cmocka_unit_test(test_solve6),
         cmocka_unit_test(test_forward_kinematics),
         cmocka_unit_test(test_lu6),

@@ -1,7 +1,9 @@
 #include "fixed_inline.h"
 
-/* pi/2 with 52 fractional bits, rounded to nearest (for angle reduction). */
-#define HALF_PI_Q52 INT64_C(7074237752028440)
+/* pi/2 2^31 = HALF_PI_HI + HALF_PI_LO / 2^24: the high part rounded to
+ * nearest (32 bits, unsigned), the remainder 0.1305 in Q24, to nearest. */
+#define HALF_PI_HI UINT32_C(3373259426)
+#define HALF_PI_LO INT32_C(2189506)
 /* 2/pi with 31 fractional bits, rounded to nearest. */
 #define INV_HALF_PI_Q31 INT64_C(1367130551)
 
@@ -133,65 +135,61 @@ int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     return sp_sat32(neg ? -(int64_t)q : (int64_t)q, flags);
 }
 
-/* ceil(sqrt((i + 1) 2^25 - 1)) for i = 32..127, at most 65535: a seed from
- * above for the square root of a 32-bit value t in [2^30, 2^32) with
- * t >> 25 == i. */
-static const uint16_t isqrt_seed[96] = {
-    33277u, 33777u, 34270u, 34756u, 35236u, 35709u, 36175u, 36636u, 37091u, 37541u, 37985u, 38424u,
-    38859u, 39288u, 39713u, 40133u, 40549u, 40960u, 41368u, 41772u, 42171u, 42567u, 42960u, 43348u,
-    43734u, 44116u, 44494u, 44870u, 45242u, 45612u, 45978u, 46341u, 46702u, 47060u, 47415u, 47768u,
-    48118u, 48465u, 48810u, 49152u, 49493u, 49830u, 50166u, 50499u, 50831u, 51160u, 51486u, 51811u,
-    52134u, 52455u, 52774u, 53091u, 53406u, 53719u, 54030u, 54340u, 54648u, 54954u, 55259u, 55561u,
-    55862u, 56162u, 56460u, 56756u, 57051u, 57344u, 57636u, 57927u, 58216u, 58503u, 58789u, 59074u,
-    59357u, 59639u, 59920u, 60199u, 60477u, 60754u, 61030u, 61304u, 61577u, 61849u, 62119u, 62389u,
-    62657u, 62924u, 63191u, 63455u, 63719u, 63982u, 64244u, 64504u, 64764u, 65022u, 65280u, 65535u,
-};
-
-/* floor(sqrt(v)) for v != 0. Normalise v by an even shift so that its top
- * word t is in [2^30, 2^32); a table seed and two integer Newton steps give
- * s = floor(sqrt(t)) (from above, so never below it; one correction); one
- * more division extends s by 16 bits (a Newton step on the remainder), and
- * an exact comparison of squares fixes the last +-2. */
-static uint32_t isqrt64_floor(uint64_t v)
+int32_t spi_sat_slow(int64_t acc, sp_flags_t *flags)
 {
-    unsigned z = spi_clz64(v) & ~1u;
-    uint64_t vn = v << z;
-    uint32_t t = (uint32_t)(vn >> 32);
-    uint32_t lo = (uint32_t)vn;
-    uint32_t s = isqrt_seed[(t >> 25) - 32u];
-    uint32_t rem;
-    uint64_t r;
-    unsigned k;
-
-    s = (s + t / s) >> 1;
-    s = (s + t / s) >> 1;
-    for (k = 0u; k < 2u && s * s > t; ++k) { /* s <= 65535: s * s fits */
-        --s;
-    }
-    rem = t - s * s; /* in [0, 2s] */
-    /* (rem 2^15 + lo / 2^17) < 2^32 since rem <= 2s < 2^17 */
-    r = ((uint64_t)s << 16) + (((rem << 15) + (lo >> 17)) / s);
-    if (r > 0xFFFFFFFFu) {
-        r = 0xFFFFFFFFu;
-    }
-    for (k = 0u; k < 4u && r * r > vn; ++k) { /* r < 2^32: r * r fits */
-        --r;
-    }
-    for (k = 0u; k < 4u && r < 0xFFFFFFFFu && (r + 1u) * (r + 1u) <= vn; ++k) {
-        ++r;
-    }
-    /* floor(sqrt(v)) = floor(floor(sqrt(vn)) / 2^(z/2)) */
-    return (uint32_t)(r >> (z >> 1));
+    *flags |= SP_FLAG_OVERFLOW;
+    return (acc < 0) ? INT32_MIN : INT32_MAX;
 }
+
+/* Seeds of the square root of a 32-bit t in [2^30, 2^32):
+ * spi_sqrt_seed[k - 64] is the square root of the geometric middle of
+ * [k 2^24, (k + 1) 2^24), k = t >> 24 in [64, 256), to nearest. One Newton
+ * step from it (spi_sqrt_norm) exceeds sqrt(t) by (seed - sqrt t)^2 /
+ * (2 seed), largest at an interval's ends and at most 0.25 there, so it
+ * lands on floor(sqrt t) or one above (test_fixed's test_isqrt64 checks
+ * every interval's ends). */
+const uint16_t spi_sqrt_seed[192] = {
+    32895u, 33149u, 33401u, 33652u, 33900u, 34147u, 34391u, 34634u, 34876u, 35115u, 35354u, 35590u,
+    35825u, 36058u, 36290u, 36521u, 36750u, 36977u, 37203u, 37428u, 37652u, 37874u, 38095u, 38314u,
+    38533u, 38750u, 38966u, 39180u, 39394u, 39606u, 39817u, 40028u, 40237u, 40444u, 40651u, 40857u,
+    41062u, 41266u, 41469u, 41670u, 41871u, 42071u, 42270u, 42468u, 42665u, 42861u, 43057u, 43251u,
+    43444u, 43637u, 43829u, 44020u, 44210u, 44399u, 44588u, 44776u, 44963u, 45149u, 45334u, 45519u,
+    45703u, 45886u, 46068u, 46250u, 46431u, 46612u, 46791u, 46970u, 47148u, 47326u, 47503u, 47679u,
+    47855u, 48030u, 48204u, 48378u, 48551u, 48723u, 48895u, 49066u, 49237u, 49407u, 49577u, 49746u,
+    49914u, 50082u, 50249u, 50416u, 50582u, 50747u, 50912u, 51077u, 51241u, 51404u, 51567u, 51730u,
+    51892u, 52053u, 52214u, 52374u, 52534u, 52694u, 52853u, 53011u, 53169u, 53327u, 53484u, 53640u,
+    53796u, 53952u, 54107u, 54262u, 54417u, 54571u, 54724u, 54877u, 55030u, 55182u, 55334u, 55485u,
+    55636u, 55787u, 55937u, 56087u, 56236u, 56385u, 56534u, 56682u, 56830u, 56977u, 57124u, 57271u,
+    57417u, 57563u, 57708u, 57854u, 57998u, 58143u, 58287u, 58431u, 58574u, 58717u, 58860u, 59002u,
+    59144u, 59286u, 59427u, 59568u, 59709u, 59849u, 59989u, 60129u, 60268u, 60407u, 60546u, 60684u,
+    60822u, 60960u, 61098u, 61235u, 61372u, 61508u, 61644u, 61780u, 61916u, 62051u, 62186u, 62321u,
+    62456u, 62590u, 62724u, 62857u, 62990u, 63124u, 63256u, 63389u, 63521u, 63653u, 63785u, 63916u,
+    64047u, 64178u, 64308u, 64439u, 64569u, 64699u, 64828u, 64957u, 65086u, 65215u, 65344u, 65472u,
+};
 
 uint32_t sp_isqrt64(uint64_t v)
 {
+    uint32_t hi = (uint32_t)(v >> 32);
+    uint32_t lo = (uint32_t)v;
     uint32_t root;
+    unsigned z;
 
     if (v == 0u) {
         return 0u;
     }
-    root = isqrt64_floor(v);
+    /* vn = v 2^z with z even and vn's top word t in [2^30, 2^32) */
+    if (hi != 0u) {
+        z = spi_clz32(hi) & ~1u; /* 0..30 */
+        hi = (hi << z) | ((lo >> 1) >> (31u - z));
+        lo <<= z;
+    } else {
+        z = spi_clz32(lo) & ~1u;
+        hi = lo << z;
+        lo = 0u;
+        z += 32u;
+    }
+    /* floor(sqrt(v)) = floor(floor(sqrt(vn)) / 2^(z/2)) */
+    root = spi_sqrt_norm(hi, lo) >> (z >> 1);
     /* sqrt(v) >= root + 1/2 exactly when v > root^2 + root. */
     if (v - (uint64_t)root * root > root && root < UINT32_MAX) {
         root += 1u;
@@ -215,9 +213,22 @@ SPI_INLINE int32_t mulhi(int32_t a, int32_t b)
     return (int32_t)(((int64_t)a * b + INT64_C(0x80000000)) >> 32);
 }
 
+/* floor(a b / 2^32): the high word alone (one SMMUL instead of a rounding
+ * SMLAL from 2^31), for the inner Horner steps. */
+SPI_INLINE int32_t mulhi_floor(int32_t a, int32_t b)
+{
+    return (int32_t)(((int64_t)a * b) >> 32);
+}
+
+/* The int32 of a uint32 modulo 2^32, without an implementation-defined
+ * conversion (the compiler emits nothing). */
+SPI_INLINE int32_t u32_to_i32(uint32_t u)
+{
+    return (u <= 0x7FFFFFFFu) ? (int32_t)u : -(int32_t)(~u) - 1;
+}
+
 void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
 {
-    int64_t x52 = (int64_t)angle * (INT64_C(1) << 28); /* |x52| < 2^59 */
     int32_t n;
     int32_t r;
     int32_t r2;
@@ -226,32 +237,45 @@ void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)
     int32_t c;
 
     /* n = round(x / (pi/2)) by a multiplication with 2/pi (Q24 x Q31 =
-     * Q55); it may be off by one where x / (pi/2) is within 2^-24 of a
-     * half-integer, which only moves r a hair beyond pi/4, inside the
-     * polynomials' accuracy. |n| <= 82, so n * HALF_PI_Q52 cannot overflow. */
-    n = (int32_t)spi_rsr((int64_t)angle * INV_HALF_PI_Q31, 55u);
-    /* r in [-pi/4, pi/4] (+ 1e-7), from Q52 to Q31: |r| < 0.79 * 2^31. */
-    r = (int32_t)spi_rsr(x52 - (int64_t)n * HALF_PI_Q52, 21u);
-    r2 = (int32_t)spi_rsr((int64_t)r * r, 31u); /* r^2, Q31, < 0.62 */
+     * Q55, rounded from the high word: floor((hi + 2^22) / 2^23) is
+     * floor((x 2/pi 2^55 + 2^54) / 2^55), ties up); it may be off by one
+     * where x / (pi/2) is within 2^-24 of a half-integer, which only moves
+     * r a hair beyond pi/4, inside the polynomials' accuracy. |n| <= 82. */
+    n = (int32_t)(((int64_t)angle * INV_HALF_PI_Q31 + (INT64_C(1) << 54)) >> 55);
+    /* r = x - n pi/2 in Q31, |r| <= pi/4 (+ 1e-7) < 0.79 * 2^31, in 32-bit
+     * arithmetic modulo 2^32 (exact, since the true value fits int32):
+     * x 2^7 exactly, minus n HALF_PI_HI (pi/2 2^31 rounded, 32 bits),
+     * minus n HALF_PI_LO (the remainder pi/2 2^31 - HALF_PI_HI, 0.1305, in
+     * Q24) rounded. The only rounding is the last one's, 0.5 LSB of Q31;
+     * the constants' own errors times |n| stay below 2^-20 LSB. */
+    r = u32_to_i32(((uint32_t)angle << 7) - (uint32_t)n * HALF_PI_HI);
+    r -= (n * HALF_PI_LO + (INT32_C(1) << 23)) >> 24;
+    r2 = (int32_t)(((int64_t)r * r + (INT64_C(1) << 30)) >> 31); /* r^2, Q31, < 0.62 */
 
     /* sin r = r + r^3 (A0 + r^2 (A1 + ... )): Horner in r^2, each step
-     * one rounded high-word multiply; then from Q31 to Q30. */
+     * one high-word multiply, truncated (floor, bias below 1 LSB of its
+     * level) inside the polynomial and rounded in the final products; then
+     * from Q31 to Q30. A level's error enters the next level as half an
+     * LSB times r^2 < 0.62, so the truncations add at most 1.45 LSB of Q33
+     * (sine) or Q32 (cosine) at the last level, times r^3 < 0.49 or
+     * r^2 < 0.62: below 0.1 and 0.23 LSB of Q30 (test_sincos: worst 1.03
+     * LSB in all, 1.08 with every step rounded). */
     p = SIN_A4;
-    p = SIN_A3 + mulhi(r2, p);
-    p = SIN_A2 + mulhi(r2, p);
-    p = SIN_A1 + mulhi(r2, p);
-    p = SIN_A0 + mulhi(r2, p);            /* Q33 */
+    p = SIN_A3 + mulhi_floor(r2, p);
+    p = SIN_A2 + mulhi_floor(r2, p);
+    p = SIN_A1 + mulhi_floor(r2, p);
+    p = SIN_A0 + mulhi_floor(r2, p);      /* Q33 */
     p = mulhi(r, mulhi(r2, p));           /* r^3 (...), Q31 */
-    s = (int32_t)(((int64_t)r + p + 1) >> 1); /* Q31 -> Q30 */
+    s = (r + p + 1) >> 1;                 /* Q31 -> Q30; |r + p| <= |r| < 2^31 */
 
     /* cos r = 1 + r^2 (B0 + r^2 (B1 + ...)). */
     p = COS_B5;
-    p = COS_B4 + mulhi(r2, p);
-    p = COS_B3 + mulhi(r2, p);
-    p = COS_B2 + mulhi(r2, p);
-    p = COS_B1 + mulhi(r2, p);
-    p = COS_B0 + mulhi(r2, p);            /* Q32, in [-2^31, -0.47 * 2^32] */
-    c = SP_Q30_ONE + (int32_t)(((int64_t)mulhi(r2, p) + 1) >> 1); /* Q31 -> Q30 */
+    p = COS_B4 + mulhi_floor(r2, p);
+    p = COS_B3 + mulhi_floor(r2, p);
+    p = COS_B2 + mulhi_floor(r2, p);
+    p = COS_B1 + mulhi_floor(r2, p);
+    p = COS_B0 + mulhi_floor(r2, p);      /* Q32, in [-2^31, -0.47 * 2^32] */
+    c = SP_Q30_ONE + ((mulhi(r2, p) + 1) >> 1); /* Q31 -> Q30; r^2 (...) in (-2^30, 0] */
 
     switch ((uint32_t)n & 3u) { /* n mod 4 for either sign */
     case 1u: /* x = r + pi/2 */

@@ -254,4 +254,68 @@ SPI_INLINE int32_t spi_recip(uint32_t m, unsigned *sh)
     return (int32_t)q;
 }
 
+/* The saturated value of spi_sat_shift, out of line (fixed.c): sets
+ * SP_FLAG_OVERFLOW, returns INT32_MIN for a negative acc, else INT32_MAX. */
+int32_t spi_sat_slow(int64_t acc, sp_flags_t *flags)
+#if defined(__GNUC__)
+    __attribute__((cold, noinline))
+#endif
+    ;
+
+/*
+ * floor(acc / 2^s) narrowed to int32 for 1 <= s <= 31, saturating and
+ * flagging (flags must not be NULL): the caller adds 2^(s-1) to acc first
+ * for round to nearest (ties up). acc / 2^s fits int32 exactly when acc is
+ * in [-2^(31+s), 2^(31+s)), i.e. when its high word is in
+ * [-2^(s-1), 2^(s-1)): one addition and one comparison on that word, and
+ * the rare saturation out of line.
+ */
+SPI_INLINE int32_t spi_sat_shift(int64_t acc, unsigned s, sp_flags_t *flags)
+{
+    uint32_t hi = (uint32_t)((uint64_t)acc >> 32);
+    /* the low word of acc >> s, as int32 (GCC and Clang convert modulo
+     * 2^32); exact when in range, replaced when not */
+    int32_t r = (int32_t)(acc >> s);
+    if (((hi + (UINT32_C(1) << (s - 1u))) >> s) != 0u) {
+        r = spi_sat_slow(acc, flags);
+    }
+    return r;
+}
+
+/* The square roots' seed table (fixed.c), see spi_sqrt_norm. */
+extern const uint16_t spi_sqrt_seed[192];
+
+/*
+ * floor(sqrt(t 2^32 + lo)) for t in [2^30, 2^32), exact. One Newton step
+ * s = (seed + t / s0) / 2 from the table gives floor(sqrt t) or one more
+ * (at most 65536); t - s^2 modulo 2^32 then has its top bit set exactly
+ * when s is one too many (the true difference is in (-2^31, 2^31)), and
+ * rem = t - s^2 is in [0, 2s]. One division extends s by 16 bits
+ * (Zimmermann's Karatsuba square root step): with
+ * q = floor((rem 2^16 + lo / 2^16) / (2s)) <= 2^16, r = s 2^16 + q is
+ * floor(sqrt) or one more (s >= 2^15 makes q^2 <= 2s 2^16), and one exact
+ * comparison of r^2 fixes it. rem 2^15 + lo / 2^17 < 2^32 since rem <= 2s.
+ * r = 2^32 (s = 65535, q = 2^16) wraps to 0: the floor is then 2^32 - 1.
+ */
+SPI_INLINE uint32_t spi_sqrt_norm(uint32_t t, uint32_t lo)
+{
+    uint32_t s = spi_sqrt_seed[(t >> 24) - 64u];
+    uint32_t q;
+    uint32_t r;
+
+    s = (s + t / s) >> 1;
+    if (((t - s * s) & 0x80000000u) != 0u) {
+        --s;
+    }
+    q = (((t - s * s) << 15) + (lo >> 17)) / s;
+    r = (s << 16) + q;
+    if (r < q) {
+        return 0xFFFFFFFFu;
+    }
+    if ((uint64_t)r * r > (((uint64_t)t << 32) | lo)) {
+        --r;
+    }
+    return r;
+}
+
 #endif /* SP_FIXED_INLINE_H */

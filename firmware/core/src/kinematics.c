@@ -6,7 +6,24 @@
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
 #define LEG_LENGTH_MIN INT32_C(16777)        /* 1 mm in Q24 */
 
-/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw. */
+/* round(a b / 2^30) and round((a b + c d) / 2^30), ties up, for sines,
+ * cosines and their rounded products (|a|, |b|, |c|, |d| <= 2^30 + 2): the
+ * sums are below 2^62 and, for the entries of T below, the results below
+ * 2^31 (each is a product or a dot product of unit vectors, to within a
+ * few LSB). */
+SPI_INLINE int32_t mul30u(int32_t a, int32_t b)
+{
+    return (int32_t)(((int64_t)a * b + (INT64_C(1) << 29)) >> 30);
+}
+
+SPI_INLINE int32_t dot30u(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+    return (int32_t)(((int64_t)a * b + (int64_t)c * d + (INT64_C(1) << 29)) >> 30);
+}
+
+/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (from
+ * sp_sincos_q24: each within 1.05 LSB of Q30, at most 2^30 + 1). Entries
+ * with two terms are rounded once, from the exact sum. */
 static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
 {
     sp_q30_t sr = sc[0];
@@ -15,20 +32,20 @@ static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
     sp_q30_t cp = sc[3];
     sp_q30_t sy = sc[4];
     sp_q30_t cy = sc[5];
-    sp_q30_t spsr = spi_mul30(sp, sr);
-    sp_q30_t spcr = spi_mul30(sp, cr);
+    sp_q30_t spsr = mul30u(sp, sr);
+    sp_q30_t spcr = mul30u(sp, cr);
 
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
-    rot->t[0][0] = spi_mul30(cy, cp);
-    rot->t[0][1] = spi_mul30(sy, cp);
+    rot->t[0][0] = mul30u(cy, cp);
+    rot->t[0][1] = mul30u(sy, cp);
     rot->t[0][2] = -sp;
-    rot->t[1][0] = spi_mul30(cy, spsr) - spi_mul30(sy, cr);
-    rot->t[1][1] = spi_mul30(sy, spsr) + spi_mul30(cy, cr);
-    rot->t[1][2] = spi_mul30(cp, sr);
-    rot->t[2][0] = spi_mul30(cy, spcr) + spi_mul30(sy, sr);
-    rot->t[2][1] = spi_mul30(sy, spcr) - spi_mul30(cy, sr);
-    rot->t[2][2] = spi_mul30(cp, cr);
+    rot->t[1][0] = dot30u(cy, spsr, -sy, cr);
+    rot->t[1][1] = dot30u(sy, spsr, cy, cr);
+    rot->t[1][2] = mul30u(cp, sr);
+    rot->t[2][0] = dot30u(cy, spcr, sy, sr);
+    rot->t[2][1] = dot30u(sy, spcr, -cy, sr);
+    rot->t[2][2] = mul30u(cp, cr);
 }
 
 /* T of the angles, keeping their sines and cosines in sc. */
@@ -51,57 +68,141 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)
     return SP_OK;
 }
 
+#if defined(__GNUC__)
+#define SPI_UNLIKELY(x) __builtin_expect((x), 0)
+#define SPI_COLD __attribute__((cold, noinline))
+#else
+#define SPI_UNLIKELY(x) (x)
+#define SPI_COLD
+#endif
+
+/* *leg = l = am + pos_c - b_c and 1 when l fits int32 (the int64 path,
+ * taken when an int32 intermediate overflows, checks |l| < 2^30 itself);
+ * 0 when l is out of that range. On the int32 path the caller tests
+ * |l| < 2^30 (64 m) on the three components at once (range_bits). */
+SPI_INLINE int leg_component(int32_t am, int32_t pos_c, int32_t b_c, int32_t *leg)
+{
+#if defined(__GNUC__)
+    int32_t d;
+    int32_t l;
+    /* int32 arithmetic with the overflow flag; the int64 path below only
+     * when an intermediate leaves int32 */
+    if (!SPI_UNLIKELY(__builtin_sub_overflow(pos_c, b_c, &d) || __builtin_add_overflow(am, d, &l))) {
+        *leg = l;
+        return 1;
+    }
+#endif
+    {
+        int64_t l64 = (int64_t)am + pos_c - b_c;
+        if (l64 >= LEG_COMPONENT_MAX || l64 <= -LEG_COMPONENT_MAX) {
+            return 0;
+        }
+        *leg = (int32_t)l64;
+        return 1;
+    }
+}
+
+/* y = l + (l < 0 ? -1 : 0) + 2^30 modulo 2^32 has its top bit clear
+ * exactly when -2^30 < l < 2^30: l in [0, 2^30) gives [2^30, 2^31),
+ * l in (-2^30, 0) gives [0, 2^30 - 1); l in [2^30, 2^31) gives
+ * [2^31, 3 2^30), l = -2^30 gives 2^32 - 1, l in [-2^31, -2^30) gives
+ * [3 2^30 - 1, 2^32 - 1). So the OR of three has its top bit clear exactly
+ * when all three are in range. */
+SPI_INLINE uint32_t range_bits(int32_t l)
+{
+    return (uint32_t)l + (uint32_t)(l >> 31) + UINT32_C(0x40000000);
+}
+
+/* The arm (A_im T)_c = sum_r a_r T[r][c] of one leg (Q24 x Q30: the exact
+ * sum of three products, below 3 * 2^31 (2^30 + 3) < 2^63, plus the
+ * rounding half, then >> 30, ties up; saturated and flagged beyond int32.
+ * T's columns are unit vectors, so |arm| <= |a| (1 + 2^-28)). */
+SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsigned c, sp_flags_t *flags)
+{
+    int64_t acc = (int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] +
+                  (INT64_C(1) << 29);
+    return spi_sat_shift(acc, 30u, flags);
+}
+
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
  * arms, legs and lengths. Every leg costs three 3-term dot products (exact
- * 64-bit sums) and one square root. */
+ * 64-bit sums, rounded) and one correctly rounded square root of the exact
+ * |l|^2. */
 sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
 {
     sp_flags_t flags = 0u;
     unsigned i;
-    unsigned c;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        const int32_t *a = platform->platform_joint[i];
-        uint64_t len2 = 0u;
-        for (c = 0u; c < 3u; ++c) {
-            /* (A_im T)_c = sum_r a_r T[r][c]: Q24 x Q30, the exact sum of
-             * three products below 3 (2^31 (2^30 + 3)) < 2^63, then >> 30.
-             * T's columns are unit vectors: |arm| <= |a| (1 + 2^-28). */
-            int64_t acc = (int64_t)a[0] * ik->rot.t[0][c] + (int64_t)a[1] * ik->rot.t[1][c] +
-                          (int64_t)a[2] * ik->rot.t[2][c];
-            int64_t leg;
-            ik->arm[i][c] = spi_sat(spi_rsr(acc, 30u), &flags);
-            leg = (int64_t)ik->arm[i][c] + pose->pos[c] - platform->base_joint[i][c];
-            if (leg >= LEG_COMPONENT_MAX || leg <= -LEG_COMPONENT_MAX) {
+        /* copies: the stores to ik below could alias the platform */
+        const int32_t a[3] = {platform->platform_joint[i][0], platform->platform_joint[i][1],
+                              platform->platform_joint[i][2]};
+        const int32_t *b = platform->base_joint[i];
+        int32_t l0;
+        int32_t l1;
+        int32_t l2;
+        uint64_t len2;
+        uint32_t hi;
+
+        ik->arm[i][0] = arm_component(a, &ik->rot, 0u, &flags);
+        ik->arm[i][1] = arm_component(a, &ik->rot, 1u, &flags);
+        ik->arm[i][2] = arm_component(a, &ik->rot, 2u, &flags);
+        if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
+            !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
+            !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
+            return SP_E_RANGE;
+        }
+        if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
+            return SP_E_RANGE; /* a component reaches 64 m */
+        }
+        ik->leg[i][0] = l0;
+        ik->leg[i][1] = l1;
+        ik->leg[i][2] = l2;
+        /* |l|^2, Q48: each |l_c| < 2^30, so the sum is below 3 * 2^60 */
+        len2 = (uint64_t)((int64_t)l0 * l0 + (int64_t)l1 * l1 + (int64_t)l2 * l2);
+        hi = (uint32_t)(len2 >> 32);
+        if (hi != 0u) {
+            /* |l| >= 2^16 (3.9 mm), above the 1 mm minimum. len2 2^z with z
+             * even has its top word in [2^30, 2^32); hi < 3 * 2^28 makes
+             * z >= 2. r = floor(sqrt(len2 2^z)), and floor(2 |l|) =
+             * r >> (z/2 - 1); round(|l|) = (floor(2 |l|) + 1) >> 1 (no
+             * ties: |l|^2 is an integer). Below 2^31. */
+            unsigned z = spi_clz32(hi) & ~1u;
+            uint32_t lo = (uint32_t)len2;
+            uint32_t r = spi_sqrt_norm((hi << z) | (lo >> (32u - z)), lo << z);
+            ik->length[i] = (sp_q24_t)(((r >> ((z >> 1) - 1u)) + 1u) >> 1);
+        } else {
+            ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* below 2^16 */
+            if (ik->length[i] < LEG_LENGTH_MIN) {
                 return SP_E_RANGE;
             }
-            ik->leg[i][c] = (sp_q24_t)leg;
-            len2 += (uint64_t)(leg * leg); /* < 3 * 2^60 */
-        }
-        ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* Q48 -> Q24, < 2^31 */
-        if (ik->length[i] < LEG_LENGTH_MIN) {
-            return SP_E_RANGE;
         }
     }
     return sp_flags_status(flags);
 }
 
 /* The unit vectors u = l / |l| (Q24 / Q24 -> Q30) of a successful
- * ik_lengths, with one reciprocal per leg: 1/|l| = inv / 2^sh, then
- * u_c = l_c inv / 2^(sh - 30). inv is never above the exact reciprocal and
- * has 31 significant bits (relative error below 2^-28): the error is at
- * most 3 LSB of Q30 and |u_c| <= 2^30. */
+ * ik_lengths, with one reciprocal per leg: 1/|l| = inv 2^z / 2^62 with
+ * z = clz(|l|), so u_c = l_c inv 2^z / 2^32 = (l_c 2^(z-1)) inv / 2^31,
+ * rounded (ties up). |l_c| <= |l| (the rounded length is at least the
+ * floor of the root) < 2^(32-z), so l_c 2^(z-1) fits int32: a constant
+ * shift. inv is never above the exact reciprocal and has 31 significant
+ * bits (relative error below 2^-28): the error is at most 3 LSB of Q30 and
+ * |u_c| <= 2^30. */
 void spi_ik_units(sp_ik_t *ik)
 {
     unsigned i;
-    unsigned c;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        unsigned sh;
-        int32_t inv = spi_recip((uint32_t)ik->length[i], &sh); /* length in [2^14, 2^31) */
-        for (c = 0u; c < 3u; ++c) {
-            ik->unit[i][c] = (sp_q30_t)spi_rsr_up((int64_t)ik->leg[i][c] * inv, sh - 30u);
-        }
+        uint32_t m = (uint32_t)ik->length[i]; /* in [2^14, 2^31) */
+        unsigned z = spi_clz32(m);            /* >= 1 */
+        uint32_t q = spi_recip_norm(m << z);
+        int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
+        int32_t sc = INT32_C(1) << (z - 1u);
+        /* l_c 2^(z-1) is exact, see above; unrolled */
+        ik->unit[i][0] = (sp_q30_t)(((int64_t)(ik->leg[i][0] * sc) * inv + (INT64_C(1) << 30)) >> 31);
+        ik->unit[i][1] = (sp_q30_t)(((int64_t)(ik->leg[i][1] * sc) * inv + (INT64_C(1) << 30)) >> 31);
+        ik->unit[i][2] = (sp_q30_t)(((int64_t)(ik->leg[i][2] * sc) * inv + (INT64_C(1) << 30)) >> 31);
     }
 }
 
@@ -155,8 +256,9 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
     return sp_body_rates_sc(sc, rpy_rate, rpy_acc, omega, omega_dot);
 }
 
-sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
-                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+/* sp_body_rates_sc for any sc: every sum saturating. */
+SPI_COLD static sp_status_t body_rates_wide(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                                   sp_q24_t omega[3], sp_q24_t omega_dot[3])
 {
     sp_flags_t flags = 0u;
     sp_q30_t sr;
@@ -171,9 +273,6 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     sp_q24_t dy_dr;
     int64_t a;
 
-    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
-        return SP_E_ARG;
-    }
     sr = sc[0];
     cr = sc[1];
     sp = sc[2];
@@ -222,47 +321,154 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     return sp_flags_status(flags);
 }
 
+/* (sin, cos) of one angle with s^2 + c^2 <= (2^30 + 4)^2 (sp_sincos_q24's
+ * are within 1.05 LSB each: s^2 + c^2 <= (2^30 + 2)^2). */
+SPI_INLINE int unit_pair(sp_q30_t s, sp_q30_t c)
+{
+    return (uint64_t)((int64_t)s * s + (int64_t)c * c) <= (UINT64_C(1) << 60) + (UINT64_C(1) << 33) + 16u;
+}
+
+sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    sp_flags_t flags = 0u;
+    sp_q30_t sr;
+    sp_q30_t cr;
+    sp_q30_t sp;
+    sp_q30_t cp;
+    sp_q30_t cpsr;
+    sp_q30_t cpcr;
+    sp_q30_t spsr;
+    sp_q30_t spcr;
+    int64_t dr;
+    int64_t dp;
+    int64_t dy;
+    sp_q24_t dp_dr;
+    sp_q24_t dy_dp;
+    sp_q24_t dy_dr;
+    const int64_t half = INT64_C(1) << 29;
+
+    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
+        return SP_E_ARG;
+    }
+    sr = sc[0];
+    cr = sc[1];
+    sp = sc[2];
+    cp = sc[3];
+    if (!unit_pair(sr, cr) || !unit_pair(sp, cp)) {
+        return body_rates_wide(sc, rpy_rate, rpy_acc, omega, omega_dot);
+    }
+    /* Every row below is a sum of products x_k c_k with |x_k| <= 2^31 and
+     * coefficient groups of norm at most K = 2^30 + 4 ((cr, sr), (cp, sp),
+     * and (cp sr, sp sr, cp cr) whose squared norm is
+     * sr^2 (cp^2 + sp^2) + cp^2 cr^2 <= K^2 (sr^2 + cr^2) / 2^60 <= K^2, up
+     * to the products' rounding): by Cauchy-Schwarz each sum is below
+     * (1 + sqrt 2 + sqrt 3) 2^31 K < 2^63. Each is rounded once (ties up),
+     * saturated (SP_E_OVERFLOW) beyond int32. */
+    cpsr = mul30u(cp, sr);
+    cpcr = mul30u(cp, cr);
+    spsr = mul30u(sp, sr);
+    spcr = mul30u(sp, cr);
+    dr = rpy_rate[0];
+    dp = rpy_rate[1];
+    dy = rpy_rate[2];
+
+    /* eq (10) */
+    omega[0] = spi_sat_shift(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
+    omega[1] = spi_sat_shift(dp * cr + dy * cpsr + half, 30u, &flags);
+    omega[2] = spi_sat_shift(dy * cpcr - dp * sr + half, 30u, &flags);
+
+    /* d/dt of eq (10): the angle accelerations plus the products of rates. */
+    dp_dr = spi_sat_shift(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
+    dy_dp = spi_sat_shift(dy * dp + (INT64_C(1) << 23), 24u, &flags);
+    dy_dr = spi_sat_shift(dy * dr + (INT64_C(1) << 23), 24u, &flags);
+    omega_dot[0] = spi_sat_shift((int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp -
+                                     (int64_t)dy_dp * cp + half,
+                                 30u, &flags);
+    omega_dot[1] = spi_sat_shift((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
+                                     (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
+                                 30u, &flags);
+    omega_dot[2] = spi_sat_shift((int64_t)rpy_acc[2] * cpcr - (int64_t)rpy_acc[1] * sr - (int64_t)dp_dr * cr -
+                                     (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
+                                 30u, &flags);
+    return sp_flags_status(flags);
+}
+
+/* sp_leg_rates' legs for any w (|w_c| up to 2^31): each step rounded and
+ * saturated on its own (the path for |w_c| >= 64 rad/s). */
+SPI_COLD static void leg_rates_wide(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t w[3], sp_q24_t rate[SP_LEGS],
+                           sp_flags_t *flags)
+{
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        sp_q24_t v[3];
+        /* joint velocity v + w x r, Q24 x Q24 -> Q24; |w_c| < 2^31 (a
+         * saturated w_c is at most 2^31 - 1 or exactly -2^31, and one product of a
+         * difference is then below 2^62 in magnitude): below 2^63 */
+        v[0] = spi_add(vel[0], spi_sat(spi_rsr((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), flags), flags);
+        v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), flags), flags);
+        v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), flags), flags);
+        /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
+        rate[i] = spi_sat(spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
+                                      (int64_t)ik->unit[i][2] * v[2],
+                                  30u),
+                          flags);
+    }
+}
+
 sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3],
                          sp_q24_t rate[SP_LEGS])
 {
     sp_flags_t flags = 0u;
-    sp_q30_t sy;
-    sp_q30_t cy;
+    int64_t a[3];
     sp_q24_t w[3];
+    int64_t vb[3];
     unsigned i;
     unsigned c;
 
     if (ik == NULL || vel == NULL || rpy_rate == NULL || rate == NULL) {
         return SP_E_ARG;
     }
-    sy = ik->sc[4];
-    cy = ik->sc[5];
     /* Angular velocity in the base frame for Z-Y-X angles:
      * w = roll_rate * (R e_x) + pitch_rate * (Rz e_y) + yaw_rate * e_z,
-     * and R e_x is row 0 of T. */
-    for (c = 0u; c < 3u; ++c) {
-        int64_t a = (int64_t)rpy_rate[0] * ik->rot.t[0][c];
-        if (c == 0u) {
-            a += (int64_t)rpy_rate[1] * -sy;
-        } else if (c == 1u) {
-            a += (int64_t)rpy_rate[1] * cy;
-        } else {
-            a += (int64_t)rpy_rate[2] * SP_Q30_ONE;
+     * and R e_x is row 0 of T, Rz e_y = (-sin yaw, cos yaw, 0). Two Q24 x
+     * Q30 products: below 2^63. */
+    a[0] = (int64_t)rpy_rate[0] * ik->rot.t[0][0] - (int64_t)rpy_rate[1] * ik->sc[4] + (INT64_C(1) << 29);
+    a[1] = (int64_t)rpy_rate[0] * ik->rot.t[0][1] + (int64_t)rpy_rate[1] * ik->sc[5] + (INT64_C(1) << 29);
+    a[2] = (int64_t)rpy_rate[0] * ik->rot.t[0][2] + (int64_t)rpy_rate[2] * SP_Q30_ONE + (INT64_C(1) << 29);
+    /* w_c = a_c / 2^30 is in [-2^30, 2^30) (64 rad/s) exactly when a_c's
+     * high word is in [-2^28, 2^28): all three in one test */
+    if (((((uint32_t)((uint64_t)a[0] >> 32) + (UINT32_C(1) << 28)) |
+          ((uint32_t)((uint64_t)a[1] >> 32) + (UINT32_C(1) << 28)) |
+          ((uint32_t)((uint64_t)a[2] >> 32) + (UINT32_C(1) << 28))) >>
+         29) != 0u) {
+        for (c = 0u; c < 3u; ++c) {
+            w[c] = spi_sat_shift(a[c], 30u, &flags);
         }
-        w[c] = spi_sat(spi_rsr(a, 30u), &flags); /* two products: below 2^63 */
+        leg_rates_wide(ik, vel, w, rate, &flags);
+        return sp_flags_status(flags);
+    }
+    for (c = 0u; c < 3u; ++c) {
+        w[c] = (int32_t)(a[c] >> 30);                                       /* exact, in range */
+        vb[c] = (int64_t)vel[c] * (INT64_C(1) << 24) + (INT64_C(1) << 23); /* |vb| < 2^55 + 2^23 */
     }
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
-        sp_q24_t v[3];
-        /* joint velocity v + w x r, Q24 x Q24 -> Q24 */
-        v[0] = spi_add(vel[0], spi_sat(spi_rsr((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), &flags), &flags);
-        v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), &flags), &flags);
-        v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), &flags), &flags);
+        const sp_q30_t *u = ik->unit[i];
+        sp_q24_t v0;
+        sp_q24_t v1;
+        sp_q24_t v2;
+        /* joint velocity v + w x r (Q24 x Q24 -> Q24) in one sum, rounded
+         * once: |w_c| <= 2^30, |r_c| <= 2^31, so w x r is at most 2^62
+         * and the sum with v 2^24 below 2^63 */
+        v0 = spi_sat_shift(vb[0] + (int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags);
+        v1 = spi_sat_shift(vb[1] + (int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags);
+        v2 = spi_sat_shift(vb[2] + (int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags);
         /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
-        rate[i] = spi_sat(spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
-                                      (int64_t)ik->unit[i][2] * v[2],
-                                  30u),
-                          &flags);
+        rate[i] = spi_sat_shift((int64_t)u[0] * v0 + (int64_t)u[1] * v1 + (int64_t)u[2] * v2 + (INT64_C(1) << 29),
+                                30u, &flags);
     }
     return sp_flags_status(flags);
 }
@@ -276,16 +482,19 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
         return SP_E_ARG;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        const sp_q24_t *r = ik->arm[i];
-        const sp_q30_t *u = ik->unit[i];
-        jac->j[i][0] = (int32_t)spi_rsr(u[0], 2u); /* Q30 -> Q28 */
-        jac->j[i][1] = (int32_t)spi_rsr(u[1], 2u);
-        jac->j[i][2] = (int32_t)spi_rsr(u[2], 2u);
-        /* r x u: Q24 x Q30 = Q54 -> Q28; each difference of two products
-         * is below 2^63 */
-        jac->j[i][3] = spi_sat(spi_rsr((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1], 26u), &flags);
-        jac->j[i][4] = spi_sat(spi_rsr((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2], 26u), &flags);
-        jac->j[i][5] = spi_sat(spi_rsr((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0], 26u), &flags);
+        const int32_t r[3] = {ik->arm[i][0], ik->arm[i][1], ik->arm[i][2]};
+        const int32_t u[3] = {ik->unit[i][0], ik->unit[i][1], ik->unit[i][2]};
+        /* Q30 -> Q28 rounded (ties up): floor((floor(u/2) + 1) / 2) =
+         * floor((u + 2) / 4), with no overflow for any int32 u */
+        jac->j[i][0] = ((u[0] >> 1) + 1) >> 1;
+        jac->j[i][1] = ((u[1] >> 1) + 1) >> 1;
+        jac->j[i][2] = ((u[2] >> 1) + 1) >> 1;
+        /* r x u: Q24 x Q30 = Q54 -> Q28; a difference of two int32 products
+         * stays within 2^63 - 2^31 (only -2^31 * -2^31 reaches 2^62), and
+         * the rounding half 2^25 keeps it below 2^63 */
+        jac->j[i][3] = spi_sat_shift((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][4] = spi_sat_shift((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][5] = spi_sat_shift((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), 26u, &flags);
     }
     return sp_flags_status(flags);
 }
