@@ -257,15 +257,76 @@ static void kinematics(void)
     }
 }
 
+/* The counts of one scenario run. */
+typedef struct {
+    m4_stat_t by_state[7];
+    m4_stat_t all;
+    uint32_t running_fk[4]; /* FK steps in RUNNING ticks: 0, 1, 2, 3 or more */
+    uint32_t over;          /* ticks over the budget */
+    uint32_t stack;         /* high-water mark of the stack, bytes */
+} scenario_counts_t;
+
+static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r)
+{
+    uintptr_t top;
+    unsigned k;
+
+    for (k = 0u; k < 7u; ++k) {
+        m4_stat_reset(&r->by_state[k]);
+    }
+    m4_stat_reset(&r->all);
+    for (k = 0u; k < 4u; ++k) {
+        r->running_fk[k] = 0u;
+    }
+    r->over = 0u;
+    (void)m4_scenario_init(sc, &sp_platform_default);
+    sc->motion = motion;
+    sp_mps2_stack_paint();
+    top = sp_mps2_stack_pointer();
+    while (m4_scenario_prepare(sc)) {
+        sp_state_t before = sc->ctrl.state;
+        uint32_t net;
+        M4_MEASURE(net, sink = (int32_t)run_tick(sc));
+        if ((unsigned)before < 7u) {
+            m4_stat_add(&r->by_state[before], net);
+        }
+        m4_stat_add(&r->all, net);
+        if (before == SP_STATE_RUNNING) {
+            r->running_fk[sc->out.fk_iterations < 3u ? sc->out.fk_iterations : 3u]++;
+        }
+        r->over += (net > TICK_BUDGET * 16u) ? 1u : 0u;
+        m4_scenario_finish(sc);
+    }
+    r->stack = sp_mps2_stack_used(top);
+}
+
+static void print_scenario_end(const m4_scenario_t *sc, const scenario_counts_t *r)
+{
+    m4_out_str("scenario: ");
+    m4_out_u32(sc->ticks);
+    m4_out_str(" ticks, final state ");
+    m4_out_str(sp_state_name(sc->out.state));
+    m4_out_str(", faults");
+    m4_out_hex(sc->out.faults);
+    m4_out_str("; FK steps in the RUNNING ticks: 0: ");
+    m4_out_u32(r->running_fk[0]);
+    m4_out_str(", 1: ");
+    m4_out_u32(r->running_fk[1]);
+    m4_out_str(", 2: ");
+    m4_out_u32(r->running_fk[2]);
+    m4_out_str(", 3 or more: ");
+    m4_out_u32(r->running_fk[3]);
+    m4_out_nl();
+}
+
 static void controller(void)
 {
     static m4_scenario_t sc;
-    m4_stat_t by_state[7];
-    m4_stat_t all;
-    uint32_t running_fk[4] = {0u, 0u, 0u, 0u};
-    uintptr_t top;
+    static scenario_counts_t surge;
+    static scenario_counts_t other[2];
+    uint32_t over;
+    uint32_t max16;
     uint32_t stack;
-    uint32_t over = 0u;
     unsigned k;
     static const char *const names[7] = {
         "tick in IDLE", "tick in ENGAGING", "tick in READY", "tick in RUNNING (the surge)",
@@ -275,58 +336,42 @@ static void controller(void)
         "tick_idle", "tick_engaging", "tick_ready", "tick_running", "tick_parking", "tick_fault", "tick_estop",
     };
 
+    /* the golden scenario: the surge */
+    run_scenario(&sc, M4_MOTION_SURGE, &surge);
     for (k = 0u; k < 7u; ++k) {
-        m4_stat_reset(&by_state[k]);
-    }
-    m4_stat_reset(&all);
-    (void)m4_scenario_init(&sc, &sp_platform_default);
-    sp_mps2_stack_paint();
-    top = sp_mps2_stack_pointer();
-    while (m4_scenario_prepare(&sc)) {
-        sp_state_t before = sc.ctrl.state;
-        uint32_t net;
-        M4_MEASURE(net, sink = (int32_t)run_tick(&sc));
-        if ((unsigned)before < 7u) {
-            m4_stat_add(&by_state[before], net);
-        }
-        m4_stat_add(&all, net);
-        if (before == SP_STATE_RUNNING) {
-            running_fk[sc.out.fk_iterations < 3u ? sc.out.fk_iterations : 3u]++;
-        }
-        over += (net > TICK_BUDGET * 16u) ? 1u : 0u;
-        m4_scenario_finish(&sc);
-    }
-    stack = sp_mps2_stack_used(top);
-    for (k = 0u; k < 7u; ++k) {
-        if (by_state[k].calls != 0u) {
-            m4_stat_print(keys[k], names[k], &by_state[k]);
+        if (surge.by_state[k].calls != 0u) {
+            m4_stat_print(keys[k], names[k], &surge.by_state[k]);
         }
     }
-    m4_stat_print("tick_all", "tick, every state", &all);
-    m4_out_str("scenario: ");
-    m4_out_u32(sc.ticks);
-    m4_out_str(" ticks, final state ");
-    m4_out_str(sp_state_name(sc.out.state));
-    m4_out_str(", faults");
-    m4_out_hex(sc.out.faults);
-    m4_out_nl();
-    m4_out_str("FK Newton steps in the RUNNING ticks: 0: ");
-    m4_out_u32(running_fk[0]);
-    m4_out_str(", 1: ");
-    m4_out_u32(running_fk[1]);
-    m4_out_str(", 2: ");
-    m4_out_u32(running_fk[2]);
-    m4_out_str(", 3 or more: ");
-    m4_out_u32(running_fk[3]);
-    m4_out_nl();
+    m4_stat_print("tick_all", "tick, every state", &surge.all);
+    print_scenario_end(&sc, &surge);
+    /* the same with a yaw motion and with streamed targets */
+    run_scenario(&sc, M4_MOTION_YAW, &other[0]);
+    m4_stat_print("tick_run_yaw", "tick in RUNNING (yaw 0.09 rad 0.5 Hz)", &other[0].by_state[SP_STATE_RUNNING]);
+    m4_stat_print("tick_all_yaw", "tick, every state (yaw scenario)", &other[0].all);
+    print_scenario_end(&sc, &other[0]);
+    run_scenario(&sc, M4_MOTION_STREAM, &other[1]);
+    m4_stat_print("tick_run_stream", "tick in RUNNING (STREAM, target every tick)", &other[1].by_state[SP_STATE_RUNNING]);
+    m4_stat_print("tick_all_stream", "tick, every state (stream scenario)", &other[1].all);
+    print_scenario_end(&sc, &other[1]);
+
+    over = surge.over + other[0].over + other[1].over;
+    max16 = surge.all.max16;
+    stack = surge.stack;
+    for (k = 0u; k < 2u; ++k) {
+        max16 = other[k].all.max16 > max16 ? other[k].all.max16 : max16;
+        stack = other[k].stack > stack ? other[k].stack : stack;
+    }
     m4_out_str("budget: whole tick <= ");
     m4_out_u32(TICK_BUDGET);
     m4_out_str(" instructions: RUNNING mean ");
-    m4_out_fix16(m4_stat_mean16(&by_state[SP_STATE_RUNNING]));
-    m4_out_str(", max ");
-    m4_out_fix16(by_state[SP_STATE_RUNNING].max16);
-    m4_out_str("; any state max ");
-    m4_out_fix16(all.max16);
+    m4_out_fix16(m4_stat_mean16(&surge.by_state[SP_STATE_RUNNING]));
+    m4_out_str(" (surge), ");
+    m4_out_fix16(m4_stat_mean16(&other[0].by_state[SP_STATE_RUNNING]));
+    m4_out_str(" (yaw), ");
+    m4_out_fix16(m4_stat_mean16(&other[1].by_state[SP_STATE_RUNNING]));
+    m4_out_str(" (stream); any tick of the three scenarios max ");
+    m4_out_fix16(max16);
     m4_out_str(" -> ");
     m4_out_str(over == 0u ? "within budget" : "OVER BUDGET in ");
     if (over != 0u) {
@@ -336,7 +381,7 @@ static void controller(void)
     m4_out_nl();
     m4_out_str("stack: sp_ctrl_step used at most ");
     m4_out_u32(stack);
-    m4_out_str(" bytes (high-water mark over the scenario, call included)");
+    m4_out_str(" bytes (high-water mark over the three scenarios, call included)");
     m4_out_nl();
     m4_out_str("RAM of the controller: sp_ctrl_t ");
     m4_out_u32((uint32_t)sizeof(sp_ctrl_t));

@@ -39,12 +39,26 @@ int m4_scenario_prepare(m4_scenario_t *s)
         s->in.drive[i].fresh = 1u;
     }
     s->in.cmd.type = SP_CMD_NONE;
+    s->in.stream_fresh = 0u;
+    if (s->motion == M4_MOTION_STREAM && s->run_sent && !s->park_sent) {
+        /* a target every tick, one of four poses around home for 500 ticks
+         * each: 40 mm in x and y, 0.04 rad in yaw */
+        static const int32_t dx[4] = {671089, 0, -671089, 0};
+        static const int32_t dy[4] = {0, 671089, 0, -671089};
+        static const int32_t dyaw[4] = {671089, -671089, 671089, -671089};
+        uint32_t q = (s->running_ticks / 500u) & 3u;
+        s->in.stream_fresh = 1u;
+        s->in.stream_target = s->cfg.platform->home;
+        s->in.stream_target.pos[0] += dx[q];
+        s->in.stream_target.pos[1] += dy[q];
+        s->in.stream_target.rpy[2] += dyaw[q];
+    }
     if (s->ticks == 1u) {
         s->in.cmd.type = SP_CMD_ENGAGE;
     } else if (!s->run_sent && s->ticks > 1u && s->out.state == SP_STATE_READY) {
-        s->in.cmd.type = SP_CMD_RUN_TRIG;
-        s->in.cmd.axis = SP_AXIS_X;
-        s->in.cmd.amplitude = 1509949; /* 90 mm */
+        s->in.cmd.type = (s->motion == M4_MOTION_STREAM) ? SP_CMD_STREAM : SP_CMD_RUN_TRIG;
+        s->in.cmd.axis = (s->motion == M4_MOTION_YAW) ? SP_AXIS_YAW : SP_AXIS_X;
+        s->in.cmd.amplitude = 1509949; /* 90 mm or 0.09 rad */
         s->in.cmd.frequency = SP_Q24_ONE / 2; /* 0.5 Hz */
         s->run_sent = 1u;
     } else if (s->run_sent && !s->park_sent && s->running_ticks >= M4_RUN_TICKS) {

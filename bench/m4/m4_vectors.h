@@ -57,10 +57,17 @@ void m4_nearby_pose(m4_rng_t *rng, const sp_pose_t *pose, sp_pose_t *guess);
 #define M4_TAIL_TICKS 10u
 
 /** The scenario: IDLE at the park pose; ENGAGE; once READY, RUN_TRIG on x
- *  (the paper's surge: 90 mm, 0.5 Hz); after M4_RUN_TICKS in RUNNING, PARK;
+ *  (the paper's surge: 90 mm, 0.5 Hz; or the motion set in `motion`); after
+ *  M4_RUN_TICKS in RUNNING, PARK;
  *  once IDLE, M4_TAIL_TICKS more ticks. Feedback is fresh every tick, with
  *  the lengths the previous tick commanded (the park lengths until the
  *  drives are active). */
+/** What the scenario runs once READY (set after m4_scenario_init; the golden
+ *  program runs only M4_MOTION_SURGE). */
+#define M4_MOTION_SURGE 0u  /**< RUN_TRIG x, 90 mm, 0.5 Hz */
+#define M4_MOTION_YAW 1u    /**< RUN_TRIG yaw, 0.09 rad, 0.5 Hz: every angle's sine changes */
+#define M4_MOTION_STREAM 2u /**< STREAM with a fresh target every tick: the reachability test each tick */
+
 typedef struct {
     sp_ctrl_config_t cfg;
     sp_ctrl_t ctrl;
@@ -72,6 +79,7 @@ typedef struct {
     uint32_t visited;       /**< bit s set once state s was output */
     uint8_t run_sent;
     uint8_t park_sent;
+    uint8_t motion;         /**< M4_MOTION_*, 0 after m4_scenario_init */
 } m4_scenario_t;
 
 /** Default config for `platform`, controller init, park-pose feedback.
