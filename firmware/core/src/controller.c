@@ -255,27 +255,31 @@ static int start_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pos
  * final approach is not lost to rounding. */
 static void stream_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *flags)
 {
-    int32_t dt = (int32_t)(((int64_t)cfg->tick_us << 24) / 1000000); /* s, Q24 */
+    /* dt in s, Q24: tick_us 2^24 / 10^6 fits 32 bits for any tick_us */
+    int32_t dt = (int32_t)spi_udiv64_32((uint64_t)cfg->tick_us << 24, 1000000u, NULL);
     int32_t w = cfg->stream_omega;
-    int32_t w2 = sp_mul_q24(w, w, flags);
+    int32_t w2 = spi_mul(w, w, 24u, flags);
+    int32_t w2x = spi_add(w, w, flags);
     unsigned a;
     for (a = 0u; a < 6u; ++a) {
         sp_q24_t *x = (a < 3u) ? &ctrl->stream.pose.pos[a] : &ctrl->stream.pose.rpy[a - 3u];
         sp_q24_t *v = (a < 3u) ? &ctrl->stream.vel[a] : &ctrl->stream.rpy_rate[a - 3u];
         sp_q24_t *acc = (a < 3u) ? &ctrl->stream.acc[a] : &ctrl->stream.rpy_acc[a - 3u];
-        int64_t vmax = (int64_t)cfg->move.vel_max[a] << 24;
+        sp_q24_t target = (a < 3u) ? ctrl->stream_target.pos[a] : ctrl->stream_target.rpy[a - 3u];
+        int64_t vmax = (int64_t)cfg->move.vel_max[a] * (INT64_C(1) << 24);
         int32_t amax = cfg->move.acc_max[a];
-        int32_t err = sp_narrow(((int64_t)sp_pose_axis(&ctrl->stream_target, (sp_axis_t)a) << 24) - ctrl->stream_x[a],
-                                24u, flags);
-        int32_t vq = sp_narrow(ctrl->stream_v[a], 24u, flags);
-        int32_t acmd = sp_sub(sp_mul_q24(w2, err, flags), sp_mul_q24(2 * w, vq, flags), flags);
+        int32_t err = spi_narrow(spi_add64((int64_t)target * (INT64_C(1) << 24), -ctrl->stream_x[a], flags), 24u, flags);
+        int32_t vq = spi_narrow(ctrl->stream_v[a], 24u, flags);
+        int32_t acmd = spi_sub(spi_mul(w2, err, 24u, flags), spi_mul(w2x, vq, 24u, flags), flags);
+        int64_t vn;
         acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-        ctrl->stream_v[a] = sp_add64(ctrl->stream_v[a], (int64_t)acmd * dt, flags); /* Q48 */
-        ctrl->stream_v[a] = ctrl->stream_v[a] > vmax ? vmax : (ctrl->stream_v[a] < -vmax ? -vmax : ctrl->stream_v[a]);
-        ctrl->stream_x[a] = sp_add64(ctrl->stream_x[a], sp_mul64(ctrl->stream_v[a], dt, 24u, flags), flags);
+        vn = spi_add64(ctrl->stream_v[a], (int64_t)acmd * dt, flags); /* Q48 */
+        vn = vn > vmax ? vmax : (vn < -vmax ? -vmax : vn);
+        ctrl->stream_v[a] = vn;
+        ctrl->stream_x[a] = spi_add64(ctrl->stream_x[a], spi_mul64_rs(vn, dt, 24u, flags), flags);
         *acc = acmd;
-        *v = sp_narrow(ctrl->stream_v[a], 24u, flags);
-        *x = sp_narrow(ctrl->stream_x[a], 24u, flags);
+        *v = spi_narrow(vn, 24u, flags);
+        *x = spi_narrow(ctrl->stream_x[a], 24u, flags);
     }
 }
 
