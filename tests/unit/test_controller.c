@@ -314,6 +314,75 @@ static void test_move_and_stream(void **state)
     }
 }
 
+/* Is the pose reachable by the controller's rule: inside the workspace box
+ * around home and every leg (its IK) inside the stroke less the margin?
+ * The reference for the streamed targets below. */
+static int expect_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *t)
+{
+    const sp_platform_t *p = cfg->platform;
+    sp_ik_t ik;
+    for (int k = 0; k < 3; ++k) {
+        int64_t dp = (int64_t)t->pos[k] - p->home.pos[k];
+        int64_t dr = (int64_t)t->rpy[k] - p->home.rpy[k];
+        if (dp < p->workspace_min.pos[k] || dp > p->workspace_max.pos[k] || dr < p->workspace_min.rpy[k] ||
+            dr > p->workspace_max.rpy[k]) {
+            return 0;
+        }
+    }
+    if (sp_inverse_kinematics(p, t, &ik) != SP_OK) {
+        return 0;
+    }
+    for (int i = 0; i < SP_LEGS; ++i) {
+        if (ik.length[i] < p->leg_length_min + cfg->stroke_margin ||
+            ik.length[i] > p->leg_length_max - cfg->stroke_margin) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Streamed targets are accepted exactly when they are reachable, whether
+ * the controller decides by its bound around the last reference (targets
+ * near it) or by the target's IK: 4000 random targets around the moving
+ * reference, at 1 um to 0.5 m (0.5 urad to 0.25 rad) from it, many of them
+ * beyond the strokes or the workspace. */
+static void test_stream_target_reachability(void **state)
+{
+    static rig_t r;
+    static const double scale[4] = {1e-6, 1e-3, 0.05, 0.5};
+    uint64_t rng = 12345u;
+    int accepted = 0;
+    int refused = 0;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    rig_tick(&r, SP_CMD_STREAM);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    for (int n = 0; n < 4000 && r.out.state == SP_STATE_RUNNING; ++n) {
+        sp_pose_t t = r.out.reference.pose;
+        double sc = scale[n & 3];
+        for (int k = 0; k < 3; ++k) {
+            rng = rng * 6364136223846793005u + 1442695040888963407u;
+            t.pos[k] += q24(sc * ((double)(rng >> 11) / 9007199254740992.0 * 2.0 - 1.0));
+            rng = rng * 6364136223846793005u + 1442695040888963407u;
+            t.rpy[k] += q24(0.5 * sc * ((double)(rng >> 11) / 9007199254740992.0 * 2.0 - 1.0));
+        }
+        r.in.stream_target = t;
+        r.in.stream_fresh = 1u;
+        rig_tick(&r, SP_CMD_NONE);
+        if (expect_reachable(&r.cfg, &t)) {
+            assert_int_equal(r.out.cmd_rejected, 0);
+            ++accepted;
+        } else {
+            assert_int_equal(r.out.cmd_rejected, 1);
+            ++refused;
+        }
+    }
+    print_message("stream targets: %d accepted, %d refused, state %s\n", accepted, refused,
+                  sp_state_name(r.out.state));
+    assert_true(accepted > 1000 && refused > 200);
+}
+
 /* The controller's estimate (chord FK with the last reference's
  * factorisation, from the cached lengths of the last estimate) against the
  * full Newton FK of the same lengths from the same guess, every tick of a
@@ -512,6 +581,7 @@ int main(void)
         cmocka_unit_test(test_reset_refused_while_silent),
         cmocka_unit_test(test_rejects_out_of_limit_commands),
         cmocka_unit_test(test_move_and_stream),
+        cmocka_unit_test(test_stream_target_reachability),
         cmocka_unit_test(test_estimate_matches_full_fk),
         cmocka_unit_test(test_estop_and_divergence),
         cmocka_unit_test(test_fk_failure_faults),

@@ -111,7 +111,7 @@ static void motion_at_rest(sp_motion_t *m, const sp_pose_t *pose)
  * exact in uint32 for any two int32. */
 SPI_INLINE int farther(int32_t a, int32_t b, int32_t limit)
 {
-    uint32_t d = (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
+    uint32_t d = (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a; /* exact */
     return limit < 0 || d > (uint32_t)limit;
 }
 
@@ -164,6 +164,63 @@ static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose)
     for (i = 0u; i < SP_LEGS; ++i) {
         if (ik.length[i] < p->leg_length_min + cfg->stroke_margin ||
             ik.length[i] > p->leg_length_max - cfg->stroke_margin) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* |a - b| for any two int32, exact. */
+SPI_INLINE uint32_t dist32(int32_t a, int32_t b)
+{
+    return (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
+}
+
+/* A sufficient test that a pose in the workspace is reachable, without its
+ * IK: the last reference's legs (its setpoint lengths, the IK of
+ * ctrl->reference.pose, valid while ref_lu is) are far enough inside the
+ * strokes that no leg can reach the margin on the way to `pose`. A leg's
+ * length changes by at most the distance its platform joint moves,
+ * |dp| + |a_i| |dR|, where |dR| <= |droll| + |dpitch| + |dyaw| (R is a
+ * product of three elementary rotations, each moving a vector by at most
+ * its angle times its length), |dp| <= |dx| + |dy| + |dz| and |a_i| <=
+ * |a_ix| + |a_iy| + |a_iz|. Both IKs round each length within 1 LSB (+1e-9
+ * of the radius): 4 LSB of margin. Returns 0 when the test is not
+ * conclusive (the caller then computes the IK). */
+static int reachable_near_reference(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *pose)
+{
+    const sp_platform_t *p = cfg->platform;
+    const sp_pose_t *r = &ctrl->reference.pose;
+    uint64_t dpos = 0u;
+    uint64_t drot = 0u;
+    uint64_t arm = 0u;
+    uint64_t delta;
+    int64_t lmin = (int64_t)p->leg_length_min + cfg->stroke_margin;
+    int64_t lmax = (int64_t)p->leg_length_max - cfg->stroke_margin;
+    unsigned k;
+
+    if (!ctrl->ref_lu.valid || !ctrl->have_setpoint) {
+        return 0;
+    }
+    for (k = 0u; k < 3u; ++k) {
+        dpos += dist32(pose->pos[k], r->pos[k]);
+        drot += dist32(pose->rpy[k], r->rpy[k]);
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        const sp_q24_t *a = p->platform_joint[k];
+        uint64_t l1 = (uint64_t)dist32(a[0], 0) + dist32(a[1], 0) + dist32(a[2], 0);
+        arm = l1 > arm ? l1 : arm;
+    }
+    if (drot >= (UINT64_C(1) << 31) || arm >= (UINT64_C(1) << 33)) {
+        return 0; /* more than 128 rad or a 512 m platform: not worth bounding */
+    }
+    delta = dpos + ((arm * drot) >> 24) + 5u; /* Q24 x Q24 -> Q24, truncated: +1 */
+    if (delta >= (UINT64_C(1) << 31)) {
+        return 0;
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t l = ctrl->setpoint[k].length;
+        if (l - (int64_t)delta < lmin || l + (int64_t)delta > lmax) {
             return 0;
         }
     }
@@ -517,7 +574,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         sp_pose_t t = in->stream_target;
         if (ctrl->stream_stopping) {
             rejected = 1u; /* after STOP or PARK the target stays home, whatever is still streamed */
-        } else if (pose_reachable(cfg, &t)) {
+        } else if (in_workspace(p, &t) && (reachable_near_reference(cfg, ctrl, &t) || pose_reachable(cfg, &t))) {
+            /* near the last reference (the usual stream), the bound decides
+             * without an IK; otherwise the IK of the target */
             ctrl->stream_target = t;
         } else {
             rejected = 1u; /* never passed on: the previous target stays */
