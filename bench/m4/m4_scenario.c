@@ -42,16 +42,19 @@ int m4_scenario_prepare(m4_scenario_t *s)
     s->in.stream_fresh = 0u;
     if (s->motion == M4_MOTION_STREAM && s->run_sent && !s->park_sent) {
         /* a target every tick, one of four poses around home for 500 ticks
-         * each: 40 mm in x and y, 0.04 rad in yaw */
-        static const int32_t dx[4] = {671089, 0, -671089, 0};
-        static const int32_t dy[4] = {0, 671089, 0, -671089};
-        static const int32_t dyaw[4] = {671089, -671089, 671089, -671089};
+         * each, all six axes moving: 40 mm in x and y, 20 mm in z, 0.02 rad
+         * in roll and pitch, 0.04 rad in yaw */
+        static const int32_t d40[4] = {671089, 0, -671089, 0};
+        static const int32_t d20[4] = {0, 335544, 0, -335544};
         uint32_t q = (s->running_ticks / 500u) & 3u;
         s->in.stream_fresh = 1u;
         s->in.stream_target = s->cfg.platform->home;
-        s->in.stream_target.pos[0] += dx[q];
-        s->in.stream_target.pos[1] += dy[q];
-        s->in.stream_target.rpy[2] += dyaw[q];
+        s->in.stream_target.pos[0] += d40[q];
+        s->in.stream_target.pos[1] += d40[(q + 1u) & 3u];
+        s->in.stream_target.pos[2] += d20[q];
+        s->in.stream_target.rpy[0] += d20[(q + 1u) & 3u];
+        s->in.stream_target.rpy[1] += d20[q];
+        s->in.stream_target.rpy[2] += d40[(q + 3u) & 3u];
     }
     if (s->ticks == 1u) {
         s->in.cmd.type = SP_CMD_ENGAGE;

@@ -15,6 +15,9 @@
 #ifndef PROFILE_TICKS
 #define PROFILE_TICKS 300u
 #endif
+#ifndef PROFILE_MOTION
+#define PROFILE_MOTION M4_MOTION_SURGE /* or M4_MOTION_YAW, M4_MOTION_STREAM */
+#endif
 
 static m4_scenario_t scenario;
 
@@ -32,6 +35,7 @@ int main(void)
     if (m4_scenario_init(&scenario, &sp_platform_default) != SP_OK) {
         return 1;
     }
+    scenario.motion = PROFILE_MOTION;
     while (n < PROFILE_TICKS && m4_scenario_prepare(&scenario)) {
         if (!started && scenario.out.state == SP_STATE_RUNNING) {
             profile_begin();

@@ -148,8 +148,8 @@ static int in_workspace(const sp_platform_t *p, const sp_pose_t *pose)
 }
 
 /* Is the pose reachable: in the workspace and every leg inside its stroke
- * less the margin? */
-static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose)
+ * less the margin? The leg lengths go to `length` when it is not NULL. */
+static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose, sp_q24_t length[SP_LEGS])
 {
     const sp_platform_t *p = cfg->platform;
     sp_ik_t ik;
@@ -166,6 +166,9 @@ static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose)
             ik.length[i] > p->leg_length_max - cfg->stroke_margin) {
             return 0;
         }
+        if (length != NULL) {
+            length[i] = ik.length[i];
+        }
     }
     return 1;
 }
@@ -177,20 +180,19 @@ SPI_INLINE uint32_t dist32(int32_t a, int32_t b)
 }
 
 /* A sufficient test that a pose in the workspace is reachable, without its
- * IK: the last reference's legs (its setpoint lengths, the IK of
- * ctrl->reference.pose, valid while ref_lu is) are far enough inside the
- * strokes that no leg can reach the margin on the way to `pose`. A leg's
- * length changes by at most the distance its platform joint moves,
- * |dp| + |a_i| |dR|, where |dR| <= |droll| + |dpitch| + |dyaw| (R is a
- * product of three elementary rotations, each moving a vector by at most
+ * IK: the legs of a base pose (`base_length`, its IK lengths) are far
+ * enough inside the strokes that no leg can reach the margin on the way to
+ * `pose`. A leg's length changes by at most the distance its platform joint
+ * moves, |dp| + |a_i| |dR|, where |dR| <= |droll| + |dpitch| + |dyaw| (R is
+ * a product of three elementary rotations, each moving a vector by at most
  * its angle times its length), |dp| <= |dx| + |dy| + |dz| and |a_i| <=
  * |a_ix| + |a_iy| + |a_iz|. Both IKs round each length within 1 LSB (+1e-9
  * of the radius): 4 LSB of margin. Returns 0 when the test is not
  * conclusive (the caller then computes the IK). */
-static int reachable_near_reference(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *pose)
+static int reachable_near(const sp_ctrl_config_t *cfg, const sp_pose_t *base, const sp_q24_t base_length[SP_LEGS],
+                          const sp_pose_t *pose)
 {
     const sp_platform_t *p = cfg->platform;
-    const sp_pose_t *r = &ctrl->reference.pose;
     uint64_t dpos = 0u;
     uint64_t drot = 0u;
     uint64_t arm = 0u;
@@ -199,12 +201,9 @@ static int reachable_near_reference(const sp_ctrl_config_t *cfg, const sp_ctrl_t
     int64_t lmax = (int64_t)p->leg_length_max - cfg->stroke_margin;
     unsigned k;
 
-    if (!ctrl->ref_lu.valid || !ctrl->have_setpoint) {
-        return 0;
-    }
     for (k = 0u; k < 3u; ++k) {
-        dpos += dist32(pose->pos[k], r->pos[k]);
-        drot += dist32(pose->rpy[k], r->rpy[k]);
+        dpos += dist32(pose->pos[k], base->pos[k]);
+        drot += dist32(pose->rpy[k], base->rpy[k]);
     }
     for (k = 0u; k < SP_LEGS; ++k) {
         const sp_q24_t *a = p->platform_joint[k];
@@ -219,11 +218,44 @@ static int reachable_near_reference(const sp_ctrl_config_t *cfg, const sp_ctrl_t
         return 0;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t l = ctrl->setpoint[k].length;
+        int64_t l = base_length[k];
         if (l - (int64_t)delta < lmin || l + (int64_t)delta > lmax) {
             return 0;
         }
     }
+    return 1;
+}
+
+/* Is a streamed target reachable? Decided by the bound around the last
+ * reference (its setpoint lengths are its IK while ref_lu is valid), or
+ * around the last target whose IK was computed, or else by the target's
+ * IK, which then becomes that anchor. */
+static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *t)
+{
+    sp_q24_t length[SP_LEGS];
+    unsigned i;
+    if (!in_workspace(cfg->platform, t)) {
+        return 0;
+    }
+    if (ctrl->ref_lu.valid && ctrl->have_setpoint) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            length[i] = ctrl->setpoint[i].length;
+        }
+        if (reachable_near(cfg, &ctrl->reference.pose, length, t)) {
+            return 1;
+        }
+    }
+    if (ctrl->stream_anchor_valid && reachable_near(cfg, &ctrl->stream_anchor, ctrl->stream_anchor_length, t)) {
+        return 1;
+    }
+    if (!pose_reachable(cfg, t, length)) {
+        return 0;
+    }
+    ctrl->stream_anchor = *t;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        ctrl->stream_anchor_length[i] = length[i];
+    }
+    ctrl->stream_anchor_valid = 1u;
     return 1;
 }
 
@@ -322,21 +354,34 @@ static void stream_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t
         sp_q24_t *x = (a < 3u) ? &ctrl->stream.pose.pos[a] : &ctrl->stream.pose.rpy[a - 3u];
         sp_q24_t *v = (a < 3u) ? &ctrl->stream.vel[a] : &ctrl->stream.rpy_rate[a - 3u];
         sp_q24_t *acc = (a < 3u) ? &ctrl->stream.acc[a] : &ctrl->stream.rpy_acc[a - 3u];
-        sp_q24_t target = (a < 3u) ? ctrl->stream_target.pos[a] : ctrl->stream_target.rpy[a - 3u];
+        int64_t target48 = (int64_t)((a < 3u) ? ctrl->stream_target.pos[a] : ctrl->stream_target.rpy[a - 3u]) *
+                           (INT64_C(1) << 24);
         int64_t vmax = (int64_t)cfg->move.vel_max[a] * (INT64_C(1) << 24);
         int32_t amax = cfg->move.acc_max[a];
-        int32_t err = spi_narrow(spi_add64((int64_t)target * (INT64_C(1) << 24), -ctrl->stream_x[a], flags), 24u, flags);
-        int32_t vq = spi_narrow(ctrl->stream_v[a], 24u, flags);
-        int32_t acmd = spi_sub(spi_mul(w2, err, 24u, flags), spi_mul(w2x, vq, 24u, flags), flags);
-        int64_t vn;
+        int64_t x48 = ctrl->stream_x[a];
+        int64_t v48 = ctrl->stream_v[a];
+        int32_t err;
+        int32_t acmd;
+        if (x48 == target48 && v48 == 0) {
+            /* at rest on the target: every term below is 0 */
+            *acc = 0;
+            *v = 0;
+            *x = (sp_q24_t)(x48 >> 24);
+            continue;
+        }
+        /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its
+         * Q24 value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
+        err = spi_narrow(spi_add64(target48, -x48, flags), 24u, flags);
+        acmd = spi_sub(spi_mul(w2, err, 24u, flags), spi_mul(w2x, (int32_t)spi_rsr(v48, 24u), 24u, flags), flags);
         acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-        vn = spi_add64(ctrl->stream_v[a], (int64_t)acmd * dt, flags); /* Q48 */
-        vn = vn > vmax ? vmax : (vn < -vmax ? -vmax : vn);
-        ctrl->stream_v[a] = vn;
-        ctrl->stream_x[a] = spi_add64(ctrl->stream_x[a], spi_mul64_rs(vn, dt, 24u, flags), flags);
+        v48 += (int64_t)acmd * dt; /* Q48 */
+        v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+        x48 = spi_add64(x48, spi_mul64_rs(v48, dt, 24u, flags), flags);
+        ctrl->stream_v[a] = v48;
+        ctrl->stream_x[a] = x48;
         *acc = acmd;
-        *v = spi_narrow(vn, 24u, flags);
-        *x = spi_narrow(ctrl->stream_x[a], 24u, flags);
+        *v = (sp_q24_t)spi_rsr(v48, 24u);
+        *x = spi_narrow(x48, 24u, flags);
     }
 }
 
@@ -386,7 +431,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
                 sp_q24_t *h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
                 *l = sp_sub(*l, cmd->amplitude, NULL);
                 *h = sp_add(*h, cmd->amplitude, NULL);
-                ok = pose_reachable(cfg, &lo) && pose_reachable(cfg, &hi) &&
+                ok = pose_reachable(cfg, &lo, NULL) && pose_reachable(cfg, &hi, NULL) &&
                      sp_trig_start(&ctrl->trig, &p->home, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
                                    cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) == SP_OK;
             }
@@ -398,7 +443,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
         }
         break;
     case SP_CMD_MOVE_TO:
-        ok = ctrl->state == SP_STATE_READY && pose_reachable(cfg, &cmd->target) &&
+        ok = ctrl->state == SP_STATE_READY && pose_reachable(cfg, &cmd->target, NULL) &&
              start_move(cfg, ctrl, &ctrl->reference.pose, &cmd->target);
         if (ok) {
             ctrl->mode = MODE_MOVE;
@@ -414,6 +459,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
             ctrl->stream = ctrl->reference;
             ctrl->stream_target = ctrl->reference.pose;
             ctrl->stream_stopping = 0u;
+            ctrl->stream_anchor_valid = 0u;
             for (i = 0u; i < 6u; ++i) {
                 ctrl->stream_x[i] = (int64_t)sp_pose_axis(&ctrl->reference.pose, (sp_axis_t)i) << 24;
                 ctrl->stream_v[i] = 0;
@@ -574,9 +620,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         sp_pose_t t = in->stream_target;
         if (ctrl->stream_stopping) {
             rejected = 1u; /* after STOP or PARK the target stays home, whatever is still streamed */
-        } else if (in_workspace(p, &t) && (reachable_near_reference(cfg, ctrl, &t) || pose_reachable(cfg, &t))) {
-            /* near the last reference (the usual stream), the bound decides
-             * without an IK; otherwise the IK of the target */
+        } else if (stream_target_reachable(cfg, ctrl, &t)) {
             ctrl->stream_target = t;
         } else {
             rejected = 1u; /* never passed on: the previous target stays */

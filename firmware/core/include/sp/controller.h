@@ -145,6 +145,9 @@ typedef struct {
     int64_t stream_x[6];       /**< stream filter position per axis, Q48 */
     int64_t stream_v[6];       /**< stream filter velocity per axis, Q48 */
     sp_pose_t stream_target;
+    sp_pose_t stream_anchor;   /**< the last streamed target whose IK was computed (reachable) */
+    sp_q24_t stream_anchor_length[SP_LEGS]; /**< its leg lengths, m, Q24 */
+    uint8_t stream_anchor_valid;
     sp_motion_t reference;     /**< last accepted reference */
     sp_setpoint_t setpoint[SP_LEGS];
     uint8_t have_setpoint;
