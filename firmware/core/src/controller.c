@@ -8,6 +8,12 @@
 #define MODE_STREAM 2u
 #define LEG_LIMIT_TOLERANCE INT32_C(83886) /* 5 mm beyond a stroke end, Q24 */
 
+/* |a - b| for any two int32, exact. */
+SPI_INLINE uint32_t dist32(int32_t a, int32_t b)
+{
+    return (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
+}
+
 const char *sp_state_name(sp_state_t state)
 {
     switch (state) {
@@ -92,6 +98,15 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->move.tick = 0u;
     ctrl->move.from = cfg->platform->park;
     ctrl->move.to = cfg->platform->park;
+    ctrl->move.rate_tick_us = 0u;
+    ctrl->move.rate = 0;
+    ctrl->stream_anchor_valid = 0u;
+    ctrl->joint_reach = 0u;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *a = cfg->platform->platform_joint[i];
+        uint64_t l1 = (uint64_t)dist32(a[0], 0) + dist32(a[1], 0) + dist32(a[2], 0);
+        ctrl->joint_reach = (l1 >= UINT32_MAX) ? UINT32_MAX : (l1 > ctrl->joint_reach ? (uint32_t)l1 : ctrl->joint_reach);
+    }
     return SP_OK;
 }
 
@@ -173,12 +188,6 @@ static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose, sp
     return 1;
 }
 
-/* |a - b| for any two int32, exact. */
-SPI_INLINE uint32_t dist32(int32_t a, int32_t b)
-{
-    return (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
-}
-
 /* A sufficient test that a pose in the workspace is reachable, without its
  * IK: the legs of a base pose (`base_length`, its IK lengths) are far
  * enough inside the strokes that no leg can reach the margin on the way to
@@ -186,16 +195,15 @@ SPI_INLINE uint32_t dist32(int32_t a, int32_t b)
  * moves, |dp| + |a_i| |dR|, where |dR| <= |droll| + |dpitch| + |dyaw| (R is
  * a product of three elementary rotations, each moving a vector by at most
  * its angle times its length), |dp| <= |dx| + |dy| + |dz| and |a_i| <=
- * |a_ix| + |a_iy| + |a_iz|. Both IKs round each length within 1 LSB (+1e-9
+ * |a_ix| + |a_iy| + |a_iz| <= arm (sp_ctrl_t.joint_reach). Both IKs round each length within 1 LSB (+1e-9
  * of the radius): 4 LSB of margin. Returns 0 when the test is not
  * conclusive (the caller then computes the IK). */
-static int reachable_near(const sp_ctrl_config_t *cfg, const sp_pose_t *base, const sp_q24_t base_length[SP_LEGS],
-                          const sp_pose_t *pose)
+static int reachable_near(const sp_ctrl_config_t *cfg, uint32_t arm, const sp_pose_t *base,
+                          const sp_q24_t base_length[SP_LEGS], const sp_pose_t *pose)
 {
     const sp_platform_t *p = cfg->platform;
     uint64_t dpos = 0u;
     uint64_t drot = 0u;
-    uint64_t arm = 0u;
     uint64_t delta;
     int64_t lmin = (int64_t)p->leg_length_min + cfg->stroke_margin;
     int64_t lmax = (int64_t)p->leg_length_max - cfg->stroke_margin;
@@ -205,15 +213,10 @@ static int reachable_near(const sp_ctrl_config_t *cfg, const sp_pose_t *base, co
         dpos += dist32(pose->pos[k], base->pos[k]);
         drot += dist32(pose->rpy[k], base->rpy[k]);
     }
-    for (k = 0u; k < SP_LEGS; ++k) {
-        const sp_q24_t *a = p->platform_joint[k];
-        uint64_t l1 = (uint64_t)dist32(a[0], 0) + dist32(a[1], 0) + dist32(a[2], 0);
-        arm = l1 > arm ? l1 : arm;
+    if (drot >= (UINT64_C(1) << 31) || arm == UINT32_MAX) {
+        return 0; /* more than 128 rad or a 256 m platform: not worth bounding */
     }
-    if (drot >= (UINT64_C(1) << 31) || arm >= (UINT64_C(1) << 33)) {
-        return 0; /* more than 128 rad or a 512 m platform: not worth bounding */
-    }
-    delta = dpos + ((arm * drot) >> 24) + 5u; /* Q24 x Q24 -> Q24, truncated: +1 */
+    delta = dpos + (((uint64_t)arm * drot) >> 24) + 5u; /* Q24 x Q24 -> Q24, truncated: +1 */
     if (delta >= (UINT64_C(1) << 31)) {
         return 0;
     }
@@ -241,11 +244,11 @@ static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
         for (i = 0u; i < SP_LEGS; ++i) {
             length[i] = ctrl->setpoint[i].length;
         }
-        if (reachable_near(cfg, &ctrl->reference.pose, length, t)) {
+        if (reachable_near(cfg, ctrl->joint_reach, &ctrl->reference.pose, length, t)) {
             return 1;
         }
     }
-    if (ctrl->stream_anchor_valid && reachable_near(cfg, &ctrl->stream_anchor, ctrl->stream_anchor_length, t)) {
+    if (ctrl->stream_anchor_valid && reachable_near(cfg, ctrl->joint_reach, &ctrl->stream_anchor, ctrl->stream_anchor_length, t)) {
         return 1;
     }
     if (!pose_reachable(cfg, t, length)) {

@@ -148,6 +148,8 @@ typedef struct {
     sp_pose_t stream_anchor;   /**< the last streamed target whose IK was computed (reachable) */
     sp_q24_t stream_anchor_length[SP_LEGS]; /**< its leg lengths, m, Q24 */
     uint8_t stream_anchor_valid;
+    uint32_t joint_reach;      /**< max over the platform joints of |a_x| + |a_y| + |a_z|, m, Q24
+                                    (set by sp_ctrl_init; UINT32_MAX: too large for the stream bound) */
     sp_motion_t reference;     /**< last accepted reference */
     sp_setpoint_t setpoint[SP_LEGS];
     uint8_t have_setpoint;
