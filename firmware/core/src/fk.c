@@ -16,13 +16,6 @@ void sp_fk_default_options(sp_fk_options_t *opt)
     opt->max_jump_rot = 838861;      /* 50 mrad */
 }
 
-static int32_t max_abs_diff(int32_t a, int32_t b)
-{
-    int64_t d = (int64_t)a - b;
-    d = d < 0 ? -d : d;
-    return d > INT32_MAX ? INT32_MAX : (int32_t)d;
-}
-
 /* The length residuals l - length (Q24, saturated) into neg_res (negated,
  * int64) and the largest |residual| (saturated to INT32_MAX). */
 static sp_q24_t fk_residuals(const sp_q24_t l[SP_LEGS], const sp_q24_t length[SP_LEGS], int64_t neg_res[SP_LEGS])
@@ -80,14 +73,22 @@ static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const s
 /* Is every axis of q within the allowed jump of the guess? */
 static sp_status_t fk_jump_check(const sp_pose_t *q, const sp_pose_t *guess, const sp_fk_options_t *opt)
 {
+    /* |a - b| exact in uint32; a negative limit rejects every pose, as the
+     * signed comparison did */
+    uint32_t jp = (opt->max_jump_pos < 0) ? 0u : (uint32_t)opt->max_jump_pos;
+    uint32_t jr = (opt->max_jump_rot < 0) ? 0u : (uint32_t)opt->max_jump_rot;
+    int neg = opt->max_jump_pos < 0 || opt->max_jump_rot < 0;
     unsigned i;
     for (i = 0u; i < 3u; ++i) {
-        if (max_abs_diff(q->pos[i], guess->pos[i]) > opt->max_jump_pos ||
-            max_abs_diff(q->rpy[i], guess->rpy[i]) > opt->max_jump_rot) {
+        uint32_t dp = (q->pos[i] > guess->pos[i]) ? (uint32_t)q->pos[i] - (uint32_t)guess->pos[i]
+                                                  : (uint32_t)guess->pos[i] - (uint32_t)q->pos[i];
+        uint32_t dr = (q->rpy[i] > guess->rpy[i]) ? (uint32_t)q->rpy[i] - (uint32_t)guess->rpy[i]
+                                                  : (uint32_t)guess->rpy[i] - (uint32_t)q->rpy[i];
+        if (dp > jp || dr > jr) {
             return SP_E_DISCONTINUITY;
         }
     }
-    return SP_OK;
+    return neg ? SP_E_DISCONTINUITY : SP_OK;
 }
 
 sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
