@@ -43,13 +43,14 @@ int m4_scenario_prepare(m4_scenario_t *s)
     if (s->motion == M4_MOTION_STREAM && s->run_sent && !s->park_sent) {
         /* a target every tick, one of four poses around home for 500 ticks
          * each, all six axes moving: 40 mm in x and y, 20 mm in z, 0.02 rad
-         * in roll and pitch, 0.04 rad in yaw */
+         * in roll and pitch, 0.04 rad in yaw; x also creeps by 1 um a tick,
+         * so no target repeats the one before */
         static const int32_t d40[4] = {671089, 0, -671089, 0};
         static const int32_t d20[4] = {0, 335544, 0, -335544};
         uint32_t q = (s->running_ticks / 500u) & 3u;
         s->in.stream_fresh = 1u;
         s->in.stream_target = s->cfg.platform->home;
-        s->in.stream_target.pos[0] += d40[q];
+        s->in.stream_target.pos[0] += d40[q] + (int32_t)(s->running_ticks % 500u) * 17; /* + 1 um a tick */
         s->in.stream_target.pos[1] += d40[(q + 1u) & 3u];
         s->in.stream_target.pos[2] += d20[q];
         s->in.stream_target.rpy[0] += d20[(q + 1u) & 3u];

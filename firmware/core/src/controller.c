@@ -229,14 +229,21 @@ static int reachable_near(const sp_ctrl_config_t *cfg, uint32_t arm, const sp_po
     return 1;
 }
 
-/* Is a streamed target reachable? Decided by the bound around the last
- * reference (its setpoint lengths are its IK while ref_lu is valid), or
+/* Is a streamed target reachable? The target in force again is; else
+ * decided by the bound around the last reference (its setpoint lengths are its IK while ref_lu is valid), or
  * around the last target whose IK was computed, or else by the target's
  * IK, which then becomes that anchor. */
 static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *t)
 {
     sp_q24_t length[SP_LEGS];
     unsigned i;
+    int same = 1;
+    for (i = 0u; i < 3u; ++i) {
+        same &= (t->pos[i] == ctrl->stream_target.pos[i]) & (t->rpy[i] == ctrl->stream_target.rpy[i]);
+    }
+    if (same) {
+        return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
+    }
     if (!in_workspace(cfg->platform, t)) {
         return 0;
     }
@@ -620,11 +627,11 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     /* 3. The operator's command. */
     handle_command(cfg, ctrl, in, comms_ok, &rejected);
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == MODE_STREAM && in->stream_fresh) {
-        sp_pose_t t = in->stream_target;
+        const sp_pose_t *t = &in->stream_target;
         if (ctrl->stream_stopping) {
             rejected = 1u; /* after STOP or PARK the target stays home, whatever is still streamed */
-        } else if (stream_target_reachable(cfg, ctrl, &t)) {
-            ctrl->stream_target = t;
+        } else if (stream_target_reachable(cfg, ctrl, t)) {
+            ctrl->stream_target = *t;
         } else {
             rejected = 1u; /* never passed on: the previous target stays */
         }
