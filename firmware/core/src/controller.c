@@ -59,6 +59,21 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     return SP_OK;
 }
 
+/* The int32 interval [*lo, *hi] of the poses whose axis value v has
+ * wmin <= v - home <= wmax (exactly; lo > hi when there is none). */
+static void ws_bounds(sp_q24_t home, sp_q24_t wmin, sp_q24_t wmax, sp_q24_t *lo, sp_q24_t *hi)
+{
+    int64_t l = (int64_t)home + wmin;
+    int64_t h = (int64_t)home + wmax;
+    if (l > h || l > INT32_MAX || h < INT32_MIN) {
+        *lo = INT32_MAX;
+        *hi = INT32_MIN;
+        return;
+    }
+    *lo = (l < INT32_MIN) ? INT32_MIN : (sp_q24_t)l;
+    *hi = (h > INT32_MAX) ? INT32_MAX : (sp_q24_t)h;
+}
+
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
 {
     unsigned i;
@@ -101,6 +116,12 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->move.rate_tick_us = 0u;
     ctrl->move.rate = 0;
     ctrl->stream_anchor_valid = 0u;
+    for (i = 0u; i < 3u; ++i) {
+        const sp_platform_t *p = cfg->platform;
+        ws_bounds(p->home.pos[i], p->workspace_min.pos[i], p->workspace_max.pos[i], &ctrl->ws_lo[i], &ctrl->ws_hi[i]);
+        ws_bounds(p->home.rpy[i], p->workspace_min.rpy[i], p->workspace_max.rpy[i], &ctrl->ws_lo[3u + i],
+                  &ctrl->ws_hi[3u + i]);
+    }
     ctrl->joint_reach = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *a = cfg->platform->platform_joint[i];
@@ -147,15 +168,14 @@ static int near_pose(const sp_pose_t *a, const sp_pose_t *b)
     return 1;
 }
 
-/* Is the pose inside the workspace box (relative to home)? */
-static int in_workspace(const sp_platform_t *p, const sp_pose_t *pose)
+/* Is the pose inside the workspace box (relative to home)? The box in
+ * absolute coordinates comes from sp_ctrl_init (ws_lo, ws_hi, ws_bounds). */
+static int in_workspace(const sp_ctrl_t *ctrl, const sp_pose_t *pose)
 {
     unsigned a;
     for (a = 0u; a < 3u; ++a) {
-        int64_t rel = (int64_t)pose->pos[a] - p->home.pos[a];
-        int64_t relr = (int64_t)pose->rpy[a] - p->home.rpy[a];
-        if (rel < p->workspace_min.pos[a] || rel > p->workspace_max.pos[a] || relr < p->workspace_min.rpy[a] ||
-            relr > p->workspace_max.rpy[a]) {
+        if (pose->pos[a] < ctrl->ws_lo[a] || pose->pos[a] > ctrl->ws_hi[a] || pose->rpy[a] < ctrl->ws_lo[3u + a] ||
+            pose->rpy[a] > ctrl->ws_hi[3u + a]) {
             return 0;
         }
     }
@@ -164,12 +184,13 @@ static int in_workspace(const sp_platform_t *p, const sp_pose_t *pose)
 
 /* Is the pose reachable: in the workspace and every leg inside its stroke
  * less the margin? The leg lengths go to `length` when it is not NULL. */
-static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_pose_t *pose, sp_q24_t length[SP_LEGS])
+static int pose_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *pose,
+                          sp_q24_t length[SP_LEGS])
 {
     const sp_platform_t *p = cfg->platform;
     sp_ik_t ik;
     unsigned i;
-    if (!in_workspace(p, pose)) {
+    if (!in_workspace(ctrl, pose)) {
         return 0;
     }
     spi_orientation_sc(pose->rpy, &ik.rot, ik.sc);
@@ -244,7 +265,7 @@ static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     if (same) {
         return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
     }
-    if (!in_workspace(cfg->platform, t)) {
+    if (!in_workspace(ctrl, t)) {
         return 0;
     }
     if (ctrl->ref_lu.valid && ctrl->have_setpoint) {
@@ -258,7 +279,7 @@ static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     if (ctrl->stream_anchor_valid && reachable_near(cfg, ctrl->joint_reach, &ctrl->stream_anchor, ctrl->stream_anchor_length, t)) {
         return 1;
     }
-    if (!pose_reachable(cfg, t, length)) {
+    if (!pose_reachable(cfg, ctrl, t, length)) {
         return 0;
     }
     ctrl->stream_anchor = *t;
@@ -272,7 +293,8 @@ static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
 /* Setpoints of a reference motion, with every limit checked. Returns
  * SP_E_RANGE for a reference outside the limits, another error for a
  * computation failure; the setpoints are written only on SP_OK. */
-static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t *ref, sp_setpoint_t sp[SP_LEGS],
+static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_motion_t *ref,
+                                 sp_setpoint_t sp[SP_LEGS],
                                  sp_lu6_t *lu)
 {
     const sp_platform_t *p = cfg->platform;
@@ -282,7 +304,7 @@ static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_motion_t 
     sp_status_t st;
     unsigned i;
 
-    if (!in_workspace(p, &ref->pose)) {
+    if (!in_workspace(ctrl, &ref->pose)) {
         return SP_E_RANGE;
     }
     st = sp_inverse_kinematics(p, &ref->pose, &ik);
@@ -441,7 +463,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
                 sp_q24_t *h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
                 *l = sp_sub(*l, cmd->amplitude, NULL);
                 *h = sp_add(*h, cmd->amplitude, NULL);
-                ok = pose_reachable(cfg, &lo, NULL) && pose_reachable(cfg, &hi, NULL) &&
+                ok = pose_reachable(cfg, ctrl, &lo, NULL) && pose_reachable(cfg, ctrl, &hi, NULL) &&
                      sp_trig_start(&ctrl->trig, &p->home, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
                                    cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) == SP_OK;
             }
@@ -453,7 +475,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
         }
         break;
     case SP_CMD_MOVE_TO:
-        ok = ctrl->state == SP_STATE_READY && pose_reachable(cfg, &cmd->target, NULL) &&
+        ok = ctrl->state == SP_STATE_READY && pose_reachable(cfg, ctrl, &cmd->target, NULL) &&
              start_move(cfg, ctrl, &ctrl->reference.pose, &cmd->target);
         if (ok) {
             ctrl->mode = MODE_MOVE;
@@ -715,7 +737,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         ctrl->ref_lu.valid = 0u; /* no factorisation at this reference */
     } else {
         /* written only when every limit holds */
-        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, &ref, ctrl->setpoint, &ctrl->ref_lu) : SP_E_OVERFLOW;
+        sp_status_t st = (flags == 0u) ? setpoints_for(cfg, ctrl, &ref, ctrl->setpoint, &ctrl->ref_lu) : SP_E_OVERFLOW;
         if (st == SP_OK) {
             ctrl->have_setpoint = 1u;
             ctrl->reference = ref;

@@ -150,6 +150,8 @@ typedef struct {
     uint8_t stream_anchor_valid;
     uint32_t joint_reach;      /**< max over the platform joints of |a_x| + |a_y| + |a_z|, m, Q24
                                     (set by sp_ctrl_init; UINT32_MAX: too large for the stream bound) */
+    sp_q24_t ws_lo[6];         /**< workspace box in absolute pose coordinates (x, y, z, roll, pitch, yaw), */
+    sp_q24_t ws_hi[6];         /**< home + workspace_min/max clamped to int32, set by sp_ctrl_init */
     sp_motion_t reference;     /**< last accepted reference */
     sp_setpoint_t setpoint[SP_LEGS];
     uint8_t have_setpoint;
