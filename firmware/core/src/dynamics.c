@@ -20,16 +20,25 @@ SPI_INLINE int64_t add_ck(int64_t a, int64_t b, int *ovf)
 #endif
 }
 
-/* I v for I in Q16 (kg m^2) and v in Q24: Q40 sums (each product at most
- * 2^62; an overflowing sum sets *ovf) narrowed to Q24: |out| < 3 2^46. */
-static void inertia_times(const sp_q16_t inertia[3][3], const sp_q24_t v[3], int64_t out[3], int *ovf)
+/* I w and I v for I in Q16 (kg m^2) and w, v in Q24, in one pass over I:
+ * Q40 sums (each product at most 2^62; an overflowing sum sets *ovf)
+ * narrowed to Q24: |out| < 3 2^46. */
+static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3], int64_t iw[3],
+                           int64_t iv[3], int *ovf)
 {
     unsigned r;
     for (r = 0u; r < 3u; ++r) {
-        int64_t a = (int64_t)inertia[r][0] * v[0];
-        a = add_ck(a, (int64_t)inertia[r][1] * v[1], ovf);
-        a = add_ck(a, (int64_t)inertia[r][2] * v[2], ovf);
-        out[r] = spi_rshift(a, 16u);
+        int32_t i0 = inertia[r][0];
+        int32_t i1 = inertia[r][1];
+        int32_t i2 = inertia[r][2];
+        int64_t a = (int64_t)i0 * w[0];
+        int64_t b = (int64_t)i0 * v[0];
+        a = add_ck(a, (int64_t)i1 * w[1], ovf);
+        b = add_ck(b, (int64_t)i1 * v[1], ovf);
+        a = add_ck(a, (int64_t)i2 * w[2], ovf);
+        b = add_ck(b, (int64_t)i2 * v[2], ovf);
+        iw[r] = spi_rshift(a, 16u);
+        iv[r] = spi_rshift(b, 16u);
     }
 }
 
@@ -108,8 +117,7 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
      * I dw/dt are below 3 2^46, each product term of w x h below 2^55,
      * torque_body below 2^57 and R tau below 3 2^57 (|T| entries <= 1):
      * exact int64 arithmetic, no saturation needed after inertia_times. */
-    inertia_times(platform->inertia, omega, h, &ovf);
-    inertia_times(platform->inertia, omega_dot, i_wdot, &ovf);
+    inertia_times2(platform->inertia, omega, omega_dot, h, i_wdot, &ovf);
     torque_body[0] = i_wdot[0] + (mul48_q24(h[2], omega[1]) - mul48_q24(h[1], omega[2]));
     torque_body[1] = i_wdot[1] + (mul48_q24(h[0], omega[2]) - mul48_q24(h[2], omega[0]));
     torque_body[2] = i_wdot[2] + (mul48_q24(h[1], omega[0]) - mul48_q24(h[0], omega[1]));
