@@ -374,6 +374,39 @@ static int start_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pos
  * target, a = w^2 (target - x) - 2 w v, with the move limits on velocity and
  * acceleration. Position and velocity integrate in Q48 so that the slow
  * final approach is not lost to rounding. */
+/* One axis of the stream filter: target (Q24), state x48, v48 (Q48),
+ * outputs x, v, acc (Q24). */
+SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t vel_max, int32_t amax, int32_t w2,
+                            int32_t w2x, int32_t dt, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc, sp_flags_t *flags)
+{
+    int64_t target48 = (int64_t)target * (INT64_C(1) << 24);
+    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t err;
+    int32_t acmd;
+    if (x48 == target48 && v48 == 0) {
+        /* at rest on the target: every term below is 0 */
+        *acc = 0;
+        *v = 0;
+        *x = target;
+        return;
+    }
+    /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
+     * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
+    err = spi_narrow(spi_add64(target48, -x48, flags), 24u, flags);
+    acmd = spi_sub(spi_mul(w2, err, 24u, flags), spi_mul(w2x, (int32_t)spi_rsr(v48, 24u), 24u, flags), flags);
+    acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+    v48 += (int64_t)acmd * dt; /* Q48 */
+    v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+    x48 = spi_add64(x48, spi_mul64_rs(v48, dt, 24u, flags), flags);
+    *v48p = v48;
+    *x48p = x48;
+    *acc = acmd;
+    *v = (sp_q24_t)spi_rsr(v48, 24u);
+    *x = spi_narrow(x48, 24u, flags);
+}
+
 static void stream_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *flags)
 {
     /* dt in s, Q24: tick_us 2^24 / 10^6 fits 32 bits for any tick_us */
@@ -381,39 +414,14 @@ static void stream_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t
     int32_t w = cfg->stream_omega;
     int32_t w2 = spi_mul(w, w, 24u, flags);
     int32_t w2x = spi_add(w, w, flags);
+    sp_motion_t *m = &ctrl->stream;
     unsigned a;
-    for (a = 0u; a < 6u; ++a) {
-        sp_q24_t *x = (a < 3u) ? &ctrl->stream.pose.pos[a] : &ctrl->stream.pose.rpy[a - 3u];
-        sp_q24_t *v = (a < 3u) ? &ctrl->stream.vel[a] : &ctrl->stream.rpy_rate[a - 3u];
-        sp_q24_t *acc = (a < 3u) ? &ctrl->stream.acc[a] : &ctrl->stream.rpy_acc[a - 3u];
-        int64_t target48 = (int64_t)((a < 3u) ? ctrl->stream_target.pos[a] : ctrl->stream_target.rpy[a - 3u]) *
-                           (INT64_C(1) << 24);
-        int64_t vmax = (int64_t)cfg->move.vel_max[a] * (INT64_C(1) << 24);
-        int32_t amax = cfg->move.acc_max[a];
-        int64_t x48 = ctrl->stream_x[a];
-        int64_t v48 = ctrl->stream_v[a];
-        int32_t err;
-        int32_t acmd;
-        if (x48 == target48 && v48 == 0) {
-            /* at rest on the target: every term below is 0 */
-            *acc = 0;
-            *v = 0;
-            *x = (sp_q24_t)(x48 >> 24);
-            continue;
-        }
-        /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its
-         * Q24 value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
-        err = spi_narrow(spi_add64(target48, -x48, flags), 24u, flags);
-        acmd = spi_sub(spi_mul(w2, err, 24u, flags), spi_mul(w2x, (int32_t)spi_rsr(v48, 24u), 24u, flags), flags);
-        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-        v48 += (int64_t)acmd * dt; /* Q48 */
-        v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
-        x48 = spi_add64(x48, spi_mul64_rs(v48, dt, 24u, flags), flags);
-        ctrl->stream_v[a] = v48;
-        ctrl->stream_x[a] = x48;
-        *acc = acmd;
-        *v = (sp_q24_t)spi_rsr(v48, 24u);
-        *x = spi_narrow(x48, 24u, flags);
+    for (a = 0u; a < 3u; ++a) {
+        stream_axis(ctrl->stream_target.pos[a], &ctrl->stream_x[a], &ctrl->stream_v[a], cfg->move.vel_max[a],
+                    cfg->move.acc_max[a], w2, w2x, dt, &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
+        stream_axis(ctrl->stream_target.rpy[a], &ctrl->stream_x[3u + a], &ctrl->stream_v[3u + a],
+                    cfg->move.vel_max[3u + a], cfg->move.acc_max[3u + a], w2, w2x, dt, &m->pose.rpy[a],
+                    &m->rpy_rate[a], &m->rpy_acc[a], flags);
     }
 }
 
