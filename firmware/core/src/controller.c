@@ -554,6 +554,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     uint32_t all = (UINT32_C(1) << SP_LEGS) - 1u;
     int comms_ok = 1;
     int drive_fault = 0;
+    int leg_out = 0; /* a measured length beyond a stroke end by more than the tolerance */
     int active;
     int hold = 0;
     uint8_t rejected = 0u;
@@ -571,20 +572,33 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
              ctrl->state == SP_STATE_PARKING || park_reaction_active(ctrl);
 
     /* 1. Feedback supervision. */
-    for (i = 0u; i < SP_LEGS; ++i) {
-        const sp_drive_feedback_t *fb = &in->drive[i];
-        if (fb->fresh) {
-            ctrl->missed[i] = 0u;
-            ctrl->seen_mask |= UINT32_C(1) << i;
-            ctrl->last_length[i] = fb->length;
-            if (fb->faults != 0u) {
-                drive_fault = 1;
+    {
+        uint32_t seen = ctrl->seen_mask;
+        uint32_t timeout = cfg->feedback_timeout_ticks;
+        /* the stroke ends widened by the tolerance, clamped to int32 (exact:
+         * no int32 length lies beyond a clamped end) */
+        int64_t lo64 = (int64_t)p->leg_length_min - LEG_LIMIT_TOLERANCE;
+        int64_t hi64 = (int64_t)p->leg_length_max + LEG_LIMIT_TOLERANCE;
+        int32_t lo = (lo64 < INT32_MIN) ? INT32_MIN : (int32_t)lo64;
+        int32_t hi = (hi64 > INT32_MAX) ? INT32_MAX : (int32_t)hi64;
+        for (i = 0u; i < SP_LEGS; ++i) {
+            const sp_drive_feedback_t *fb = &in->drive[i];
+            uint32_t missed = ctrl->missed[i];
+            if (fb->fresh) {
+                missed = 0u;
+                seen |= UINT32_C(1) << i;
+                ctrl->last_length[i] = fb->length;
+                drive_fault |= (fb->faults != 0u) ? 1 : 0;
+            } else if (missed < UINT32_MAX) {
+                ++missed;
             }
-        } else if (ctrl->missed[i] < UINT32_MAX) {
-            ++ctrl->missed[i];
+            ctrl->missed[i] = missed;
+            comms_ok &= (missed < timeout) ? 1 : 0;
+            leg_out |= (ctrl->last_length[i] < lo || ctrl->last_length[i] > hi) ? 1 : 0; /* the last measured length */
         }
-        if ((ctrl->seen_mask & (UINT32_C(1) << i)) == 0u || ctrl->missed[i] >= cfg->feedback_timeout_ticks) {
-            comms_ok = 0;
+        ctrl->seen_mask = seen;
+        if (seen != all) {
+            comms_ok = 0; /* a drive never heard from */
         }
     }
     if (active && !comms_ok) {
@@ -646,11 +660,8 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
                 raise_fault(cfg, ctrl, SP_FAULT_FK);
             }
         }
-        for (i = 0u; i < SP_LEGS; ++i) {
-            if (active && (ctrl->last_length[i] < p->leg_length_min - LEG_LIMIT_TOLERANCE ||
-                           ctrl->last_length[i] > p->leg_length_max + LEG_LIMIT_TOLERANCE)) {
-                raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
-            }
+        if (active && leg_out) {
+            raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
         }
     }
 
