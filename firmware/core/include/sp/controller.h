@@ -90,7 +90,9 @@ typedef struct {
     sp_drive_feedback_t drive[SP_LEGS];
     sp_ctrl_cmd_t cmd;
     uint8_t stream_fresh;   /**< 1 if a streamed target arrived */
-    sp_pose_t stream_target;
+    sp_pose_t stream_target; /**< RUNNING in STREAM: taken when reachable (in the workspace, every leg inside
+                                  its stroke less the margin), else refused (cmd_rejected, the previous target
+                                  stays); refused too once STOP or PARK has sent the filter home */
 } sp_ctrl_input_t;
 
 typedef struct {
