@@ -8,12 +8,6 @@
 #define MODE_STREAM 2u
 #define LEG_LIMIT_TOLERANCE INT32_C(83886) /* 5 mm beyond a stroke end, Q24 */
 
-/* |a - b| for any two int32, exact. */
-SPI_INLINE uint32_t dist32(int32_t a, int32_t b)
-{
-    return (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
-}
-
 const char *sp_state_name(sp_state_t state)
 {
     switch (state) {
@@ -125,7 +119,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->joint_reach = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *a = cfg->platform->platform_joint[i];
-        uint64_t l1 = (uint64_t)dist32(a[0], 0) + dist32(a[1], 0) + dist32(a[2], 0);
+        uint64_t l1 = (uint64_t)spi_dist32(a[0], 0) + spi_dist32(a[1], 0) + spi_dist32(a[2], 0);
         ctrl->joint_reach = (l1 >= UINT32_MAX) ? UINT32_MAX : (l1 > ctrl->joint_reach ? (uint32_t)l1 : ctrl->joint_reach);
     }
     return SP_OK;
@@ -147,8 +141,7 @@ static void motion_at_rest(sp_motion_t *m, const sp_pose_t *pose)
  * exact in uint32 for any two int32. */
 SPI_INLINE int farther(int32_t a, int32_t b, int32_t limit)
 {
-    uint32_t d = (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a; /* exact */
-    return limit < 0 || d > (uint32_t)limit;
+    return limit < 0 || spi_dist32(a, b) > (uint32_t)limit;
 }
 
 /* Chord FK: at most this many steps with the stale factorisation, which
@@ -231,8 +224,8 @@ static int reachable_near(const sp_ctrl_config_t *cfg, uint32_t arm, const sp_po
     unsigned k;
 
     for (k = 0u; k < 3u; ++k) {
-        dpos += dist32(pose->pos[k], base->pos[k]);
-        drot += dist32(pose->rpy[k], base->rpy[k]);
+        dpos += spi_dist32(pose->pos[k], base->pos[k]);
+        drot += spi_dist32(pose->rpy[k], base->rpy[k]);
     }
     if (drot >= (UINT64_C(1) << 31) || arm == UINT32_MAX) {
         return 0; /* more than 128 rad or a 256 m platform: not worth bounding */

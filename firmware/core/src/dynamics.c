@@ -42,24 +42,16 @@ static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], co
     }
 }
 
-/* round(x w / 2^24), ties up, for |x| < 2^48 and any int32 w, exactly:
- * x = xh 2^24 + xl with 0 <= xl < 2^24, so x w / 2^24 = xh w + xl w / 2^24
- * and only the second part is rounded. |xh w| < 2^55, the result < 2^55. */
-SPI_INLINE int64_t mul48_q24(int64_t x, int32_t w)
+/* round(x w / 2^s), ties up, exactly, for 1 <= s <= 30, any int32 w and
+ * |x| < 2^(31 + s): x = xh 2^s + xl with 0 <= xl < 2^s, so x w / 2^s =
+ * xh w + xl w / 2^s and only the second part is rounded (as
+ * spi_mul64_rs(x, w, s) computes it, without its range test). |xh w| <
+ * 2^62, the result too. */
+SPI_INLINE int64_t mul_split(int64_t x, int32_t w, unsigned s)
 {
-    int32_t xh = (int32_t)(x >> 24);
-    int32_t xl = (int32_t)(x & 0xFFFFFF);
-    return (int64_t)xh * w + (((int64_t)xl * w + (INT64_C(1) << 23)) >> 24);
-}
-
-/* round(x t / 2^30), ties up, for |x| < 2^58 and |t| <= 2^30 + 2^8 (an
- * entry of T), exactly, as spi_mul64_rs(x, t, 30u) computes it: x = xh 2^30
- * + xl with 0 <= xl < 2^30; |xh t| < 2^59. */
-SPI_INLINE int64_t mul58_q30(int64_t x, int32_t t)
-{
-    int32_t xh = (int32_t)(x >> 30);
-    int32_t xl = (int32_t)(x & 0x3FFFFFFF);
-    return (int64_t)xh * t + (((int64_t)xl * t + (INT64_C(1) << 29)) >> 30);
+    int32_t xh = (int32_t)(x >> s);
+    int32_t xl = (int32_t)(x & ((INT64_C(1) << s) - 1));
+    return (int64_t)xh * w + (((int64_t)xl * w + (INT64_C(1) << (s - 1u))) >> s);
 }
 
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -118,13 +110,13 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
      * torque_body below 2^57 and R tau below 3 2^57 (|T| entries <= 1):
      * exact int64 arithmetic, no saturation needed after inertia_times. */
     inertia_times2(platform->inertia, omega, omega_dot, h, i_wdot, &ovf);
-    torque_body[0] = i_wdot[0] + (mul48_q24(h[2], omega[1]) - mul48_q24(h[1], omega[2]));
-    torque_body[1] = i_wdot[1] + (mul48_q24(h[0], omega[2]) - mul48_q24(h[2], omega[0]));
-    torque_body[2] = i_wdot[2] + (mul48_q24(h[1], omega[0]) - mul48_q24(h[0], omega[1]));
+    torque_body[0] = i_wdot[0] + (mul_split(h[2], omega[1], 24u) - mul_split(h[1], omega[2], 24u));
+    torque_body[1] = i_wdot[1] + (mul_split(h[0], omega[2], 24u) - mul_split(h[2], omega[0], 24u));
+    torque_body[2] = i_wdot[2] + (mul_split(h[1], omega[0], 24u) - mul_split(h[0], omega[1], 24u));
     for (k = 0u; k < 3u; ++k) {
         /* (R tau)_k = sum_c R[k][c] tau_c = sum_c T[c][k] tau_c */
-        b[3u + k] = mul58_q30(torque_body[0], ik->rot.t[0][k]) + mul58_q30(torque_body[1], ik->rot.t[1][k]) +
-                    mul58_q30(torque_body[2], ik->rot.t[2][k]);
+        b[3u + k] = mul_split(torque_body[0], ik->rot.t[0][k], 30u) + mul_split(torque_body[1], ik->rot.t[1][k], 30u) +
+                    mul_split(torque_body[2], ik->rot.t[2][k], 30u);
     }
     if (ovf) {
         return SP_E_OVERFLOW;

@@ -102,6 +102,12 @@ SPI_INLINE int32_t spi_mul30(int32_t a, int32_t b)
     return (int32_t)spi_rsr((int64_t)a * b, 30u);
 }
 
+/* |a - b| for any two int32, exact in uint32. */
+SPI_INLINE uint32_t spi_dist32(int32_t a, int32_t b)
+{
+    return (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
+}
+
 /* a + b, saturated. */
 SPI_INLINE int32_t spi_add(int32_t a, int32_t b, sp_flags_t *flags)
 {
@@ -167,6 +173,29 @@ SPI_INLINE int64_t spi_mul64_rs(int64_t x, int32_t k, unsigned s, sp_flags_t *fl
     return ph * (INT64_C(1) << (32u - s)) + ((pl + (INT64_C(1) << (s - 1u))) >> s);
 }
 
+/* One 16-bit quotient digit of Knuth's algorithm D: (n 2^16 + low) /
+ * (d1 2^16 + d0) for a normalised divisor (d1 >= 2^15) and n below it, from
+ * the trial n / d1 with at most two corrections (the test against the
+ * two-digit divisor is exact, so no add-back is needed). */
+SPI_INLINE uint32_t spi_udiv_digit(uint32_t n, uint32_t d1, uint32_t d0, uint32_t low)
+{
+    uint32_t q = n / d1; /* <= 2^16 + 2 */
+    uint32_t r = n - q * d1;
+    unsigned k;
+    for (k = 0u; k < 2u; ++k) {
+        if (q > 0xFFFFu || q * d0 > ((r << 16) | low)) {
+            --q;
+            r += d1;
+            if (r > 0xFFFFu) {
+                break;
+            }
+        } else {
+            break;
+        }
+    }
+    return q;
+}
+
 /*
  * floor(n / d) and n mod d for n < d * 2^32 (the quotient fits 32 bits),
  * d != 0: Knuth's algorithm D with 16-bit digits, two 32/32 hardware
@@ -186,37 +215,11 @@ SPI_INLINE uint32_t spi_udiv64_32(uint64_t n, uint32_t d, uint32_t *rem)
     uint32_t n0 = n10 & 0xFFFFu;
     uint32_t q1;
     uint32_t q0;
-    uint32_t r;
     uint32_t n21;
-    unsigned k;
 
-    q1 = n32 / d1; /* <= 2^16 + 2 */
-    r = n32 - q1 * d1;
-    for (k = 0u; k < 2u; ++k) {
-        if (q1 > 0xFFFFu || q1 * d0 > ((r << 16) | n1)) {
-            --q1;
-            r += d1;
-            if (r > 0xFFFFu) {
-                break;
-            }
-        } else {
-            break;
-        }
-    }
+    q1 = spi_udiv_digit(n32, d1, d0, n1);
     n21 = (n32 << 16) + n1 - q1 * dn; /* exact modulo 2^32: the true value is < dn */
-    q0 = n21 / d1;
-    r = n21 - q0 * d1;
-    for (k = 0u; k < 2u; ++k) {
-        if (q0 > 0xFFFFu || q0 * d0 > ((r << 16) | n0)) {
-            --q0;
-            r += d1;
-            if (r > 0xFFFFu) {
-                break;
-            }
-        } else {
-            break;
-        }
-    }
+    q0 = spi_udiv_digit(n21, d1, d0, n0);
     if (rem != NULL) {
         *rem = ((n21 << 16) + n0 - q0 * dn) >> s;
     }

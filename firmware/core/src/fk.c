@@ -25,7 +25,7 @@ static sp_q24_t fk_residuals(const sp_q24_t l[SP_LEGS], const sp_q24_t length[SP
     unsigned i;
     for (i = 0u; i < SP_LEGS; ++i) {
         int32_t e = spi_sub_sat(l[i], length[i], &flags);
-        uint32_t ae = (e < 0) ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
+        uint32_t ae = spi_dist32(e, 0);
         worst = ae > worst ? ae : worst;
         neg_res[i] = -(int64_t)e;
     }
@@ -80,11 +80,7 @@ static sp_status_t fk_jump_check(const sp_pose_t *q, const sp_pose_t *guess, con
     int neg = opt->max_jump_pos < 0 || opt->max_jump_rot < 0;
     unsigned i;
     for (i = 0u; i < 3u; ++i) {
-        uint32_t dp = (q->pos[i] > guess->pos[i]) ? (uint32_t)q->pos[i] - (uint32_t)guess->pos[i]
-                                                  : (uint32_t)guess->pos[i] - (uint32_t)q->pos[i];
-        uint32_t dr = (q->rpy[i] > guess->rpy[i]) ? (uint32_t)q->rpy[i] - (uint32_t)guess->rpy[i]
-                                                  : (uint32_t)guess->rpy[i] - (uint32_t)q->rpy[i];
-        if (dp > jp || dr > jr) {
+        if (spi_dist32(q->pos[i], guess->pos[i]) > jp || spi_dist32(q->rpy[i], guess->rpy[i]) > jr) {
             return SP_E_DISCONTINUITY;
         }
     }

@@ -116,12 +116,20 @@ void sp_trig_stop(sp_trig_t *g)
     }
 }
 
-/* The envelope's rate during a fade, 1/s in Q24: 1 / (fade_ticks tick_us
- * 1e-6 s); fade_ticks * tick_us is in [1e5, 6e7] (sp_trig_start), so the
- * product fits 32 bits and the quotient is below 2^24 * 10. */
+/* 1 / duration in 1/s, Q24, for a duration of dt_us >= 1 us (floor;
+ * saturated, and flagged, above 128/s: durations below 7.8 ms). The
+ * quotient is below 2^45; the 32-bit division whenever dt_us fits 32 bits. */
+static int32_t inv_duration_q24(uint64_t dt_us, sp_flags_t *flags)
+{
+    uint64_t n = (UINT64_C(1) << 24) * (uint64_t)US_PER_S;
+    return spi_sat((int64_t)((dt_us <= UINT32_MAX) ? udiv64(n, (uint32_t)dt_us) : n / dt_us), flags);
+}
+
+/* The envelope's rate during a fade, 1/s in Q24: fade_ticks * tick_us is in
+ * [1e5, 6e7] (sp_trig_start). */
 static int32_t fade_rate(const sp_trig_t *g, uint32_t tick_us, sp_flags_t *flags)
 {
-    return spi_sat((int64_t)udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, g->fade_ticks * tick_us), flags);
+    return inv_duration_q24((uint64_t)g->fade_ticks * tick_us, flags);
 }
 
 sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
@@ -297,10 +305,7 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
     u = (int32_t)udiv64((uint64_t)mv->tick << 30, mv->duration_ticks);
     if (mv->tick == 0u || mv->rate_tick_us != tick_us) {
         /* once per move (and whenever the tick length changes) */
-        uint64_t dt_us = (uint64_t)mv->duration_ticks * tick_us;
-        uint64_t r = (dt_us <= UINT32_MAX) ? udiv64((UINT64_C(1) << 24) * (uint64_t)US_PER_S, (uint32_t)dt_us)
-                                           : ((UINT64_C(1) << 24) * (uint64_t)US_PER_S) / dt_us;
-        mv->rate = sp_sat32((int64_t)(r > (uint64_t)INT64_MAX ? (uint64_t)INT64_MAX : r), &flags);
+        mv->rate = inv_duration_q24((uint64_t)mv->duration_ticks * tick_us, &flags);
         mv->rate_tick_us = (flags == 0u) ? tick_us : 0u; /* a saturated rate is not kept */
     }
     rate = mv->rate;
