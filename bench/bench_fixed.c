@@ -29,10 +29,22 @@ static int32_t inputs_b[1024];
 
 typedef int32_t (*fn2_t)(int32_t, int32_t);
 
-static int32_t f_add(int32_t a, int32_t b) { return sp_add(a, b, NULL); }
-static int32_t f_mul_q24(int32_t a, int32_t b) { return sp_mul_q24(a, b, NULL); }
-static int32_t f_mul_q30(int32_t a, int32_t b) { return sp_mul_q30(a, b, NULL); }
-static int32_t f_div_q24(int32_t a, int32_t b) { return sp_div_q24(a, b | 1, NULL); }
+static int32_t f_add(int32_t a, int32_t b)
+{
+    return sp_add(a, b, NULL);
+}
+static int32_t f_mul_q24(int32_t a, int32_t b)
+{
+    return sp_mul_q24(a, b, NULL);
+}
+static int32_t f_mul_q30(int32_t a, int32_t b)
+{
+    return sp_mul_q30(a, b, NULL);
+}
+static int32_t f_div_q24(int32_t a, int32_t b)
+{
+    return sp_div_q24(a, b | 1, NULL);
+}
 static int32_t f_sqrt_q24(int32_t a, int32_t b)
 {
     (void)b;
@@ -95,8 +107,7 @@ int main(void)
         if (b != 0 && fabsl(TU_LDEXP(a, 24) / b) < 2e9L) {
             e_div = fmaxl(e_div, fabsl(sp_div_q24(a, b, NULL) - TU_LDEXP(a, 24) / b));
         }
-        e_sqrt = fmaxl(e_sqrt, fabsl(sp_sqrt_q24(big & INT32_MAX, NULL) -
-                                     sqrtl(TU_LDEXP(big & INT32_MAX, 24))));
+        e_sqrt = fmaxl(e_sqrt, fabsl(sp_sqrt_q24(big & INT32_MAX, NULL) - sqrtl(TU_LDEXP(big & INT32_MAX, 24))));
         sp_sincos_q24(big, &s, &c);
         x = TU_LDEXP(big, -24);
         e_sin = fmaxl(e_sin, fmaxl(fabsl(s - TU_LDEXP(sinl(x), 30)), fabsl(c - TU_LDEXP(cosl(x), 30))));

@@ -10,7 +10,7 @@ apt_packages=(
   cmake ninja-build gcc make pkg-config libcmocka-dev
   gcc-arm-none-eabi libnewlib-arm-none-eabi libnewlib-dev qemu-system-arm
   user-mode-linux kmod can-utils iproute2
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format
 )
 missing=()
 for p in "${apt_packages[@]}"; do

@@ -145,8 +145,7 @@ static void orientation(const float rpy[3], float t[3][3])
     t[2][2] = cp * cr;
 }
 
-sp_status_t m4f_inverse_kinematics(const m4f_platform_t *platform, const float pos[3], const float rpy[3],
-                                   m4f_ik_t *ik)
+sp_status_t m4f_inverse_kinematics(const m4f_platform_t *platform, const float pos[3], const float rpy[3], m4f_ik_t *ik)
 {
     unsigned i;
     unsigned c;

@@ -35,11 +35,11 @@ typedef struct {
 } m4f_motion_t;
 
 typedef struct {
-    float rot[3][3];          /**< T (eq 2) */
-    float arm[SP_LEGS][3];    /**< A_im T, m */
-    float leg[SP_LEGS][3];    /**< l_i (eq 1), m */
-    float length[SP_LEGS];    /**< |l_i|, m */
-    float unit[SP_LEGS][3];   /**< l_i / |l_i| */
+    float rot[3][3];        /**< T (eq 2) */
+    float arm[SP_LEGS][3];  /**< A_im T, m */
+    float leg[SP_LEGS][3];  /**< l_i (eq 1), m */
+    float length[SP_LEGS];  /**< |l_i|, m */
+    float unit[SP_LEGS][3]; /**< l_i / |l_i| */
 } m4f_ik_t;
 
 /** The fixed-point platform in float (SI units). */

@@ -30,7 +30,7 @@ static sp_ik_t ik;
 static sp_ik_t fk_ik;
 static volatile int32_t sink;
 
-/* The measured calls: never inlined, never analysed across (NOTES.md 5). */
+/* The measured calls: never inlined, never analysed across (docs/m4.md, Instruction counts). */
 __attribute__((noipa)) static sp_status_t run_ik(const sp_pose_t *pose, sp_ik_t *out)
 {
     return sp_inverse_kinematics(&sp_platform_default, pose, out);
@@ -329,8 +329,8 @@ static void controller(void)
     uint32_t stack;
     unsigned k;
     static const char *const names[7] = {
-        "tick in IDLE", "tick in ENGAGING", "tick in READY", "tick in RUNNING (the surge)",
-        "tick in PARKING", "tick in FAULT", "tick in ESTOP",
+        "tick in IDLE",    "tick in ENGAGING", "tick in READY", "tick in RUNNING (the surge)",
+        "tick in PARKING", "tick in FAULT",    "tick in ESTOP",
     };
     static const char *const keys[7] = {
         "tick_idle", "tick_engaging", "tick_ready", "tick_running", "tick_parking", "tick_fault", "tick_estop",
@@ -351,7 +351,8 @@ static void controller(void)
     m4_stat_print("tick_all_yaw", "tick, every state (yaw scenario)", &other[0].all);
     print_scenario_end(&sc, &other[0]);
     run_scenario(&sc, M4_MOTION_STREAM, &other[1]);
-    m4_stat_print("tick_run_stream", "tick in RUNNING (STREAM, target every tick)", &other[1].by_state[SP_STATE_RUNNING]);
+    m4_stat_print("tick_run_stream", "tick in RUNNING (STREAM, target every tick)",
+                  &other[1].by_state[SP_STATE_RUNNING]);
     m4_stat_print("tick_all_stream", "tick, every state (stream scenario)", &other[1].all);
     print_scenario_end(&sc, &other[1]);
 

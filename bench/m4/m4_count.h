@@ -1,7 +1,7 @@
 /*
  * m4_count.h - instruction counting on QEMU's mps2-an386 for the bench/m4
  * programs (icount.c, icount_float.c): SysTick under
- * `-icount shift=7,sleep=off` (sp_mps2.h, NOTES.md section 5), with the
+ * `-icount shift=7,sleep=off` (sp_mps2.h, docs/m4.md), with the
  * cost of the measurement itself calibrated and subtracted, and a
  * self-check on a block of exactly 1000 NOPs.
  *
@@ -51,11 +51,11 @@ uint32_t m4_count_net16(uint32_t counts);
 
 /** Runs `call` (a statement) between two counter reads; net16 receives the
  *  instructions x 16 it executed. */
-#define M4_MEASURE(net16, call)                                                                                    \
-    do {                                                                                                           \
-        uint32_t m4_t0_ = sp_mps2_counter_now();                                                                   \
-        call;                                                                                                      \
-        (net16) = m4_count_net16(sp_mps2_counter_elapsed(m4_t0_, sp_mps2_counter_now()));                          \
+#define M4_MEASURE(net16, call)                                                                                        \
+    do {                                                                                                               \
+        uint32_t m4_t0_ = sp_mps2_counter_now();                                                                       \
+        call;                                                                                                          \
+        (net16) = m4_count_net16(sp_mps2_counter_elapsed(m4_t0_, sp_mps2_counter_now()));                              \
     } while (0)
 
 /** Adds one measurement (instructions x 16). */

@@ -62,7 +62,7 @@ int m4_scenario_prepare(m4_scenario_t *s)
     } else if (!s->run_sent && s->ticks > 1u && s->out.state == SP_STATE_READY) {
         s->in.cmd.type = (s->motion == M4_MOTION_STREAM) ? SP_CMD_STREAM : SP_CMD_RUN_TRIG;
         s->in.cmd.axis = (s->motion == M4_MOTION_YAW) ? SP_AXIS_YAW : SP_AXIS_X;
-        s->in.cmd.amplitude = 1509949; /* 90 mm or 0.09 rad */
+        s->in.cmd.amplitude = 1509949;        /* 90 mm or 0.09 rad */
         s->in.cmd.frequency = SP_Q24_ONE / 2; /* 0.5 Hz */
         s->run_sent = 1u;
     } else if (s->run_sent && !s->park_sent && s->running_ticks >= M4_RUN_TICKS) {

@@ -30,13 +30,13 @@ uint32_t m4_rng_next(m4_rng_t *rng);
 int32_t m4_rng_range(m4_rng_t *rng, int32_t lim);
 
 /* The box of issue 7 around home, Q24. */
-#define M4_BOX_XY INT32_C(3355443)      /* 0.2 m */
-#define M4_BOX_Z INT32_C(2516582)       /* 0.15 m */
-#define M4_BOX_ANGLE INT32_C(4392264)   /* 15 deg = 0.2617994 rad */
-#define M4_BOX_RATE INT32_C(16777216)   /* 1 m/s, 1 rad/s */
-#define M4_BOX_ACC INT32_C(167772160)   /* 10 m/s^2, 10 rad/s^2 */
-#define M4_NEAR_POS INT32_C(16777)      /* 1 mm: warm-start offset */
-#define M4_NEAR_ANGLE INT32_C(16777)    /* 1 mrad */
+#define M4_BOX_XY INT32_C(3355443)    /* 0.2 m */
+#define M4_BOX_Z INT32_C(2516582)     /* 0.15 m */
+#define M4_BOX_ANGLE INT32_C(4392264) /* 15 deg = 0.2617994 rad */
+#define M4_BOX_RATE INT32_C(16777216) /* 1 m/s, 1 rad/s */
+#define M4_BOX_ACC INT32_C(167772160) /* 10 m/s^2, 10 rad/s^2 */
+#define M4_NEAR_POS INT32_C(16777)    /* 1 mm: warm-start offset */
+#define M4_NEAR_ANGLE INT32_C(16777)  /* 1 mrad */
 
 /** A motion with pose uniform in home +- (0.2, 0.2, 0.15 m, 15 deg x 3),
  *  rates in +-1 m/s and +-1 rad/s, accelerations in +-10 m/s^2, rad/s^2. */
@@ -79,7 +79,7 @@ typedef struct {
     uint32_t visited;       /**< bit s set once state s was output */
     uint8_t run_sent;
     uint8_t park_sent;
-    uint8_t motion;         /**< M4_MOTION_*, 0 after m4_scenario_init */
+    uint8_t motion; /**< M4_MOTION_*, 0 after m4_scenario_init */
 } m4_scenario_t;
 
 /** Default config for `platform`, controller init, park-pose feedback.

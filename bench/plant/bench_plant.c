@@ -113,15 +113,15 @@ int main(void)
             hs_feedback_t fb;
             hs_plant_feedback(&plant, i, &fb);
             if (fb.state != HS_DRIVE_ACTIVE) {
-                fprintf(stderr, "bench_plant: drive %d left ACTIVE (state %d, faults 0x%02x)\n", i + 1,
-                        (int)fb.state, (unsigned)fb.faults);
+                fprintf(stderr, "bench_plant: drive %d left ACTIVE (state %d, faults 0x%02x)\n", i + 1, (int)fb.state,
+                        (unsigned)fb.faults);
                 return 1;
             }
         }
     }
     printf("plant (hydraulic, 6 cylinders + drives, %u RK4 substeps per 1 ms cycle):\n", (unsigned)p.substeps);
-    printf("  %.1f simulated s per wall s (best of %d runs of %.0f s; %.2f us per cycle)\n",
-           CYCLES * DT / best, RUNS, CYCLES * DT, best / CYCLES * 1e6);
+    printf("  %.1f simulated s per wall s (best of %d runs of %.0f s; %.2f us per cycle)\n", CYCLES * DT / best, RUNS,
+           CYCLES * DT, best / CYCLES * 1e6);
     printf("  %.1f simulated s per CPU s (the same runs timed by process CPU time; the\n"
            "  wall figure is lower when other processes share the cores)\n",
            CYCLES * DT / best_cpu);

@@ -90,13 +90,13 @@ typedef struct {
     action_t a[MAX_ACTIONS];
     int n;
     int pc;
-    uint64_t until;  /* delay/wait: tick it ends (wait: deadline) */
-    int armed;       /* the current delay/wait has set `until` */
+    uint64_t until; /* delay/wait: tick it ends (wait: deadline) */
+    int armed;      /* the current delay/wait has set `until` */
 } scenario_t;
 
 static const char *const k_states[] = {"idle", "engaging", "ready", "running", "parking", "fault", "estop"};
-static const char *const k_cmds[] = {"NONE", "ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "STOP",
-                                     "PARK", "ESTOP", "RESET", "SET_FEEDFORWARD"};
+static const char *const k_cmds[] = {"NONE", "ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM",
+                                     "STOP", "PARK",   "ESTOP",    "RESET",   "SET_FEEDFORWARD"};
 static const char *const k_axes[] = {"x", "y", "z", "roll", "pitch", "yaw"};
 
 static int lookup(const char *s, const char *const *names, int n)
@@ -217,8 +217,9 @@ static int parse_line(char *line, action_t *a, char *err, size_t errlen)
         a->value[0] = 60.0;
         if (nt < 2 || nt > 3 || (a->state = lookup(tok[1], k_states, 7)) < 0 ||
             (nt == 3 && (parse_double(tok[2], &a->value[0]) != 0 || a->value[0] <= 0.0 || a->value[0] > 1.0e6))) {
-            snprintf(err, errlen, "wait needs a state (idle, engaging, ready, running, parking, fault, estop) "
-                                  "and optionally a timeout in seconds");
+            snprintf(err, errlen,
+                     "wait needs a state (idle, engaging, ready, running, parking, fault, estop) "
+                     "and optionally a timeout in seconds");
             return -1;
         }
     } else if (strcasecmp(kw, "silence") == 0 || strcasecmp(kw, "unsilence") == 0) {
@@ -301,7 +302,7 @@ typedef struct {
     FILE *log;
     FILE *truth;
     uint8_t cmd_counter, target_counter;
-    int status_state;          /* last CTRL_STATUS state, -1 none */
+    int status_state; /* last CTRL_STATUS state, -1 none */
     uint32_t status_faults;
     uint32_t status_tick, monitor_tick;
     uint8_t status_seen, monitor_seen;
@@ -423,7 +424,8 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             }
             if (s->status_state != a->state) {
                 if (tick >= sc->until) {
-                    fprintf(stderr, "hs_sim: scenario line %d: state %s not reached within %.3f s (now %s, faults 0x%04x)\n",
+                    fprintf(stderr,
+                            "hs_sim: scenario line %d: state %s not reached within %.3f s (now %s, faults 0x%04x)\n",
                             a->line, k_states[a->state], a->value[0],
                             s->status_state >= 0 ? k_states[s->status_state] : "unknown", (unsigned)s->status_faults);
                     return 4;
@@ -453,7 +455,10 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
         }
         if (a->kind == A_SILENCE || a->kind == A_UNSILENCE || a->kind == A_FAULT) {
             printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick,
-                   a->kind == A_SILENCE ? "silence" : a->kind == A_UNSILENCE ? "unsilence" : "fault", a->leg + 1);
+                   a->kind == A_SILENCE     ? "silence"
+                   : a->kind == A_UNSILENCE ? "unsilence"
+                                            : "fault",
+                   a->leg + 1);
             fflush(stdout);
         }
         sc->pc++;
@@ -489,7 +494,8 @@ static void progress_line(sim_t *s, uint64_t tick)
     double pose[6];
     (void)hs_plant_pose(&s->plant, pose);
     double wall = (double)(now_ns() - s->t0_ns) * 1e-9;
-    fprintf(stderr, "hs_sim: t=%8.3f s  controller %-8s  pose x %+7.4f y %+7.4f z %6.4f m  yaw %+7.4f rad  (%.1fx real time)\n",
+    fprintf(stderr,
+            "hs_sim: t=%8.3f s  controller %-8s  pose x %+7.4f y %+7.4f z %6.4f m  yaw %+7.4f rad  (%.1fx real time)\n",
             (double)tick / 1000.0, s->status_state >= 0 ? k_states[s->status_state] : "-", pose[0], pose[1], pose[2],
             pose[5], wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0);
 }
@@ -577,8 +583,7 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
                 sp_msg_sync_t m;
                 uint8_t ctr;
                 sp_proto_error_t why;
-                if (sp_proto_decode_sync(&rx[k], &m, &ctr, &why) == SP_OK &&
-                    (!*have_answered || m.tick != *answered)) {
+                if (sp_proto_decode_sync(&rx[k], &m, &ctr, &why) == SP_OK && (!*have_answered || m.tick != *answered)) {
                     sp_can_frame_t tx[HS_BUS_MAX_TX];
                     uint32_t n = 0;
                     (void)hs_bus_cycle_frames(&s->bus, &s->plant, m.tick, 0u, tx, &n);
@@ -665,9 +670,8 @@ int main(int argc, char **argv)
 
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s.ifs[0],
-                                              {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE},
-                                              4u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
+        s.ifs[0], {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE}, 4u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
     }
@@ -767,8 +771,11 @@ int main(int argc, char **argv)
     for (int i = 0; i < HS_LEGS; i++) {
         hs_feedback_t fb;
         (void)hs_plant_feedback(&s.plant, i, &fb);
-        printf(" %d:%s/0x%02x", i + 1, fb.state == HS_DRIVE_INIT ? "init" : fb.state == HS_DRIVE_HOLD ? "hold"
-                                            : fb.state == HS_DRIVE_ACTIVE ? "active" : "fault",
+        printf(" %d:%s/0x%02x", i + 1,
+               fb.state == HS_DRIVE_INIT     ? "init"
+               : fb.state == HS_DRIVE_HOLD   ? "hold"
+               : fb.state == HS_DRIVE_ACTIVE ? "active"
+                                             : "fault",
                (unsigned)fb.faults);
     }
     printf("\nhs_sim frames: setpoints accepted %u, lost %u, stale %u, ignored %u", s.bus.stats.accepted,

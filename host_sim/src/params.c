@@ -24,10 +24,10 @@ static hs_status_t check_cyl(const hs_cyl_params_t *c)
     if (!finite_pos(c->area_a) || !finite_pos(c->area_b) || !(c->area_b <= c->area_a) || !finite_pos(c->length_min) ||
         !finite_pos(c->stroke) || !finite_pos(c->dead_volume_a) || !finite_pos(c->dead_volume_b) ||
         !finite_nonneg(c->piston_mass) || !finite_pos(c->bulk_modulus) || !finite_pos(c->supply_pressure) ||
-        !finite_nonneg(c->tank_pressure) || !(c->tank_pressure < c->supply_pressure) ||
-        !isfinite(c->pressure_max) || !(c->pressure_max >= c->supply_pressure) || !finite_pos(c->valve_gain) ||
-        !finite_pos(c->valve_transition) || !finite_pos(c->valve_omega) || !finite_pos(c->valve_damping) ||
-        !finite_nonneg(c->leakage) || !finite_nonneg(c->viscous_friction) || !finite_nonneg(c->coulomb_friction) ||
+        !finite_nonneg(c->tank_pressure) || !(c->tank_pressure < c->supply_pressure) || !isfinite(c->pressure_max) ||
+        !(c->pressure_max >= c->supply_pressure) || !finite_pos(c->valve_gain) || !finite_pos(c->valve_transition) ||
+        !finite_pos(c->valve_omega) || !finite_pos(c->valve_damping) || !finite_nonneg(c->leakage) ||
+        !finite_nonneg(c->viscous_friction) || !finite_nonneg(c->coulomb_friction) ||
         !finite_pos(c->coulomb_velocity) || !finite_nonneg(c->cushion_length) ||
         !(c->cushion_length < 0.5 * c->stroke) || !finite_pos(c->stop_stiffness) || !finite_nonneg(c->stop_damping) ||
         !finite_nonneg(c->cylinder_mass) || !finite_nonneg(c->cylinder_com) || !finite_nonneg(c->rod_mass) ||
@@ -124,7 +124,8 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     c.supply_pressure = h->supply_pressure;
     c.tank_pressure = h->tank_pressure;
     c.pressure_max = 1.2 * h->supply_pressure;
-    c.valve_gain = (h->valve_rated_pressure_drop > 0.0) ? h->valve_rated_flow / sqrt(h->valve_rated_pressure_drop) : 0.0;
+    c.valve_gain =
+        (h->valve_rated_pressure_drop > 0.0) ? h->valve_rated_flow / sqrt(h->valve_rated_pressure_drop) : 0.0;
     c.valve_transition = 1.0e5;
     c.valve_omega = 2.0 * HS_PI * h->valve_natural_frequency;
     c.valve_damping = h->valve_damping;

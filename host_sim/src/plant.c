@@ -727,10 +727,12 @@ hs_status_t hs_plant_step(hs_plant_t *pl, double dt)
             for (int i = 0; i < HS_LEGS; ++i) {
                 const hs_cyl_params_t *c = &pl->par.cyl[i];
                 double lm = (double)hs_quantize(aux.length[i], sp->length_resolution) * sp->length_resolution;
-                double pa = (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i]),
-                                                sp->pressure_resolution) * sp->pressure_resolution;
-                double pb = (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i + 1]),
-                                                sp->pressure_resolution) * sp->pressure_resolution;
+                double pa =
+                    (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i]), sp->pressure_resolution) *
+                    sp->pressure_resolution;
+                double pb =
+                    (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i + 1]), sp->pressure_resolution) *
+                    sp->pressure_resolution;
                 double u = hs_drive_update(&pl->drive[i], &pl->par.drive, c, lm, pa, pb, h);
                 pl->valve_cmd[i] = u;
                 /* k1 was evaluated with u = 0; the spool equation is linear in u */
@@ -842,8 +844,8 @@ hs_status_t hs_plant_energy(const hs_plant_t *pl, hs_energy_t *e)
     v = &pl->x[HS_X_VEL];
     w = &pl->x[HS_X_OMEGA];
     mat_vec(&p->inertia[0][0], w, iw);
-    e->kinetic = 0.5 * p->mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) +
-                 0.5 * (w[0] * iw[0] + w[1] * iw[1] + w[2] * iw[2]);
+    e->kinetic =
+        0.5 * p->mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + 0.5 * (w[0] * iw[0] + w[1] * iw[1] + w[2] * iw[2]);
     e->gravity = p->mass * p->gravity * pl->x[HS_X_POS + 2];
     e->oil = 0.0;
     e->springs = 0.0;

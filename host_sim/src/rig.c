@@ -22,8 +22,8 @@ static void rig_derivs(const hs_rig_t *rig, const double *x, double u, double *d
 
 hs_status_t hs_rig_init(hs_rig_t *rig, const hs_cyl_params_t *cyl, double mass, double gravity, double stroke)
 {
-    if (rig == NULL || cyl == NULL || !(mass > 0.0) || !isfinite(mass) || !isfinite(gravity) ||
-        !(stroke >= 0.0) || !(stroke <= cyl->stroke)) {
+    if (rig == NULL || cyl == NULL || !(mass > 0.0) || !isfinite(mass) || !isfinite(gravity) || !(stroke >= 0.0) ||
+        !(stroke <= cyl->stroke)) {
         return HS_E_ARG;
     }
     memset(rig, 0, sizeof *rig);

@@ -46,8 +46,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             }
             for (uint32_t i = 0; i < SP_LEGS; i++) {
                 const sp_setpoint_t *s = &node.out.setpoint[i];
-                if (node.out.drive_mode == SP_DRIVE_ACTIVE &&
-                    (s->length < sp_platform_default.leg_length_min || s->length > sp_platform_default.leg_length_max)) {
+                if (node.out.drive_mode == SP_DRIVE_ACTIVE && (s->length < sp_platform_default.leg_length_min ||
+                                                               s->length > sp_platform_default.leg_length_max)) {
                     __builtin_trap();
                 }
             }

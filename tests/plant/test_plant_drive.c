@@ -283,14 +283,10 @@ static void test_arguments(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_watchdog),
-        cmocka_unit_test(test_watchdog_configured),
-        cmocka_unit_test(test_init_valve_null),
-        cmocka_unit_test(test_following_error),
-        cmocka_unit_test(test_raised_faults),
-        cmocka_unit_test(test_end_stop_bit),
-        cmocka_unit_test(test_numeric_failure),
-        cmocka_unit_test(test_arguments),
+        cmocka_unit_test(test_watchdog),        cmocka_unit_test(test_watchdog_configured),
+        cmocka_unit_test(test_init_valve_null), cmocka_unit_test(test_following_error),
+        cmocka_unit_test(test_raised_faults),   cmocka_unit_test(test_end_stop_bit),
+        cmocka_unit_test(test_numeric_failure), cmocka_unit_test(test_arguments),
     };
     return cmocka_run_group_tests_name("plant_drive", tests, NULL, NULL);
 }

@@ -235,10 +235,8 @@ static void test_closed_loop_surge(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_natural_frequency),
-        cmocka_unit_test(test_holding_pressures),
-        cmocka_unit_test(test_velocity_command),
-        cmocka_unit_test(test_end_stops),
+        cmocka_unit_test(test_natural_frequency), cmocka_unit_test(test_holding_pressures),
+        cmocka_unit_test(test_velocity_command),  cmocka_unit_test(test_end_stops),
         cmocka_unit_test(test_closed_loop_surge),
     };
     return cmocka_run_group_tests_name("plant_hydraulics", tests, NULL, NULL);

@@ -219,9 +219,8 @@ static void test_rest_with_legs(void **state)
 
 static void test_static_forces_free_body(void **state)
 {
-    static const double poses[3][6] = {{0.0, 0.0, 2.55, 0.0, 0.0, 0.0},
-                                       {0.2, -0.15, 2.4, 0.1, -0.08, 0.2},
-                                       {-0.3, 0.2, 2.8, -0.15, 0.12, -0.3}};
+    static const double poses[3][6] = {
+        {0.0, 0.0, 2.55, 0.0, 0.0, 0.0}, {0.2, -0.15, 2.4, 0.1, -0.08, 0.2}, {-0.3, 0.2, 2.8, -0.15, 0.12, -0.3}};
     hs_params_t p, p0;
     (void)state;
     assert_int_equal(hs_params_default(&p0), HS_OK);
@@ -341,8 +340,8 @@ static void masses_at(const hs_params_t *p, const double *x, int i, double arm[3
     double r[3][3], len;
     hs_rot_from_quat(&x[HS_X_QUAT], r);
     for (int j = 0; j < 3; ++j) {
-        arm[j] = r[j][0] * p->platform_joint[i][0] + r[j][1] * p->platform_joint[i][1] +
-                 r[j][2] * p->platform_joint[i][2];
+        arm[j] =
+            r[j][0] * p->platform_joint[i][0] + r[j][1] * p->platform_joint[i][1] + r[j][2] * p->platform_joint[i][2];
         l[j] = x[HS_X_POS + j] + arm[j] - p->base_joint[i][j];
     }
     len = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);

@@ -60,10 +60,10 @@
 static hs_plant_t plant;
 
 typedef struct {
-    double pos;   /* largest position error, m */
-    double rot;   /* largest orientation error, rad */
-    double corr;  /* largest |correction force|, N */
-    double fmax;  /* largest |core force|, N */
+    double pos;  /* largest position error, m */
+    double rot;  /* largest orientation error, rad */
+    double corr; /* largest |correction force|, N */
+    double fmax; /* largest |core force|, N */
 } track_t;
 
 /* Runs the ideal-force plant along a motion for `seconds`; k, c: correction
@@ -128,16 +128,15 @@ static void run_ideal(const pt_sines_t *m, double seconds, double k, double c, t
 
 static const pt_sines_t surge = {{0.09, 0, 0, 0, 0, 0}, {0.5, 0.5, 0.5, 0.5, 0.5, 0.5}, {0}};
 static const pt_sines_t yaw = {{0, 0, 0, 0, 0, 0.09}, {0.5, 0.5, 0.5, 0.5, 0.5, 0.5}, {0}};
-static const pt_sines_t six_axes = {{0.06, 0.05, 0.04, 0.05, 0.04, 0.06},
-                                    {0.5, 0.4, 0.7, 0.6, 0.45, 0.55},
-                                    {0.0, 0.5, 1.0, 1.5, 2.0, 2.5}};
+static const pt_sines_t six_axes = {
+    {0.06, 0.05, 0.04, 0.05, 0.04, 0.06}, {0.5, 0.4, 0.7, 0.6, 0.45, 0.55}, {0.0, 0.5, 1.0, 1.5, 2.0, 2.5}};
 
 static void check_open_loop(const char *name, const pt_sines_t *m)
 {
     track_t t;
     run_ideal(m, 2.0, 0.0, 0.0, &t);
-    printf("  %-9s open loop 2 s: position %.2f um, orientation %.2f urad (forces up to %.0f N)\n", name,
-           t.pos * 1e6, t.rot * 1e6, t.fmax);
+    printf("  %-9s open loop 2 s: position %.2f um, orientation %.2f urad (forces up to %.0f N)\n", name, t.pos * 1e6,
+           t.rot * 1e6, t.fmax);
     assert_true(t.pos < 1e-4);
     assert_true(t.rot < 1e-4);
 }
@@ -146,8 +145,8 @@ static void check_corrected(const char *name, const pt_sines_t *m)
 {
     track_t t;
     run_ideal(m, 10.0, 2e4, 2e3, &t);
-    printf("  %-9s corrected 10 s: position %.2f um, orientation %.2f urad, correction <= %.3f N of %.0f N\n",
-           name, t.pos * 1e6, t.rot * 1e6, t.corr, t.fmax);
+    printf("  %-9s corrected 10 s: position %.2f um, orientation %.2f urad, correction <= %.3f N of %.0f N\n", name,
+           t.pos * 1e6, t.rot * 1e6, t.corr, t.fmax);
     assert_true(t.pos < 1e-5);
     assert_true(t.rot < 1e-5);
     assert_true(t.corr < 0.1);
@@ -329,7 +328,6 @@ static void test_rest_hydraulic_hold(void **state)
     }
 }
 
-
 /* Angular momentum about o' in the base frame: R I w. */
 static void angular_momentum(const hs_plant_t *pl, const hs_params_t *p, double h[3])
 {
@@ -383,8 +381,8 @@ static void test_rigid_body_laws(void **state)
         qn = st.quat[0] * st.quat[0] + st.quat[1] * st.quat[1] + st.quat[2] * st.quat[2] + st.quat[3] * st.quat[3];
         assert_true(fabs(qn - 1.0) < 1e-12);
     }
-    printf("  free tumbling body, 10 s: angular momentum drift %.2e of %.1f N m s, energy drift %.2e of %.3f J\n",
-           dh, hn, de, e0.kinetic);
+    printf("  free tumbling body, 10 s: angular momentum drift %.2e of %.1f N m s, energy drift %.2e of %.3f J\n", dh,
+           hn, de, e0.kinetic);
     assert_true(dh < 1e-9 * hn);
     assert_true(de < 1e-9 * e0.kinetic);
     {
@@ -435,7 +433,7 @@ static void test_contact(void **state)
     memset(&ct, 0, sizeof ct);
     ct.kind = HS_CONTACT_PLANE;
     ct.point[2] = -0.3;
-    ct.normal[2] = 2.0; /* normalised by the plant */
+    ct.normal[2] = 2.0;                  /* normalised by the plant */
     ct.offset = p.home[2] - 0.3 - 0.001; /* 1 mm below the point */
     ct.stiffness = 5e6;
     ct.damping = 2e5;
@@ -448,8 +446,8 @@ static void test_contact(void **state)
     }
     hs_plant_state(&plant, &st);
     hs_plant_pose(&plant, pose);
-    printf("  resting on a plane: contact force %.2f N (weight %.2f N), sunk %.4f mm into it\n",
-           st.contact_force[2], p.mass * p.gravity, (ct.offset - (pose[2] - 0.3)) * 1e3);
+    printf("  resting on a plane: contact force %.2f N (weight %.2f N), sunk %.4f mm into it\n", st.contact_force[2],
+           p.mass * p.gravity, (ct.offset - (pose[2] - 0.3)) * 1e3);
     assert_true(fabs(st.contact_force[2] / (p.mass * p.gravity) - 1.0) < 1e-3);
     assert_true(fabs(st.contact_force[0]) < 1e-6 && fabs(st.contact_force[1]) < 1e-6);
     assert_true(fabs((ct.offset - (pose[2] - 0.3)) - p.mass * p.gravity / ct.stiffness) < 1e-6);

@@ -248,8 +248,7 @@ static void test_generated_config(void **state)
     assert_true(c->hydraulic.bulk_modulus > 0.0 && c->sensors.length_resolution > 0.0);
 
     assert_int_equal(hs_params_default(&p), HS_OK);
-    assert_true(fabs(p.cyl[0].area_a - PI / 4.0 * c->hydraulic.piston_diameter * c->hydraulic.piston_diameter) <
-                1e-15);
+    assert_true(fabs(p.cyl[0].area_a - PI / 4.0 * c->hydraulic.piston_diameter * c->hydraulic.piston_diameter) < 1e-15);
     assert_true(fabs(p.cyl[0].area_b - PI / 4.0 *
                                            (c->hydraulic.piston_diameter * c->hydraulic.piston_diameter -
                                             c->hydraulic.rod_diameter * c->hydraulic.rod_diameter)) < 1e-15);
@@ -369,14 +368,10 @@ static void test_determinism(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_length_quantisation),
-        cmocka_unit_test(test_pressure_quantisation),
-        cmocka_unit_test(test_noise_reproducible),
-        cmocka_unit_test(test_noise_statistics),
-        cmocka_unit_test(test_rng_gauss),
-        cmocka_unit_test(test_quantize),
-        cmocka_unit_test(test_generated_config),
-        cmocka_unit_test(test_geometry),
+        cmocka_unit_test(test_length_quantisation), cmocka_unit_test(test_pressure_quantisation),
+        cmocka_unit_test(test_noise_reproducible),  cmocka_unit_test(test_noise_statistics),
+        cmocka_unit_test(test_rng_gauss),           cmocka_unit_test(test_quantize),
+        cmocka_unit_test(test_generated_config),    cmocka_unit_test(test_geometry),
         cmocka_unit_test(test_determinism),
     };
     return cmocka_run_group_tests_name("plant_sensors", tests, NULL, NULL);

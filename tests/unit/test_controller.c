@@ -191,7 +191,6 @@ static void test_silent_drive_faults_within_3_ticks(void **state)
     assert_int_equal(r.out.cmd_rejected, 0);
     assert_int_equal(r.out.faults, 0u);
     run_until(&r, SP_STATE_READY, 20000);
-
 }
 
 static void test_reset_refused_while_silent(void **state)
@@ -378,8 +377,7 @@ static void test_stream_target_reachability(void **state)
             ++refused;
         }
     }
-    print_message("stream targets: %d accepted, %d refused, state %s\n", accepted, refused,
-                  sp_state_name(r.out.state));
+    print_message("stream targets: %d accepted, %d refused, state %s\n", accepted, refused, sp_state_name(r.out.state));
     assert_true(accepted > 1000 && refused > 200);
 }
 
@@ -429,8 +427,7 @@ static void test_estimate_matches_full_fk(void **state)
             }
             assert_int_equal(r.out.faults, 0u);
             assert_true(r.out.estimate_valid);
-            assert_int_equal(sp_forward_kinematics(&sp_platform_default, fed, &guess, &opt, &full, NULL, NULL),
-                             SP_OK);
+            assert_int_equal(sp_forward_kinematics(&sp_platform_default, fed, &guess, &opt, &full, NULL, NULL), SP_OK);
             for (int k = 0; k < 3; ++k) {
                 double ep = fabs(f24(r.out.estimate.pos[k]) - f24(full.pos[k]));
                 double er = fabs(f24(r.out.estimate.rpy[k]) - f24(full.rpy[k]));
@@ -497,8 +494,7 @@ static void test_trig_generator(void **state)
     double prev_x = 0;
     double prev_v = 0;
     (void)state;
-    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 1000u),
-                     SP_OK);
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 1000u), SP_OK);
     /* velocity and acceleration are the derivatives of position */
     for (int n = 0; n < 6000; ++n) {
         double x;
@@ -523,8 +519,7 @@ static void test_trig_generator(void **state)
     assert_int_equal(m.vel[0], 0);
     /* bad arguments */
     assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), 0, 1000u, 1000u), SP_E_ARG);
-    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(2.0), q24(1), 1000u, 1000u),
-                     SP_E_ARG);
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(2.0), q24(1), 1000u, 1000u), SP_E_ARG);
     assert_int_equal(sp_trig_start(&g, NULL, SP_AXIS_X, q24(0.09), q24(1), 1000u, 1000u), SP_E_ARG);
 }
 

@@ -78,16 +78,15 @@ static void test_counter_state_machine(void **state)
     sp_e2e_rx_t rx = {0, 0};
     assert_int_equal(sp_e2e_rx_check(&rx, 14), SP_E2E_INITIAL);
     assert_int_equal(sp_e2e_rx_check(&rx, 15), SP_E2E_OK);
-    assert_int_equal(sp_e2e_rx_check(&rx, 0), SP_E2E_OK);       /* wrap 15 -> 0 */
+    assert_int_equal(sp_e2e_rx_check(&rx, 0), SP_E2E_OK); /* wrap 15 -> 0 */
     assert_int_equal(sp_e2e_rx_check(&rx, 0), SP_E2E_REPEATED);
-    assert_int_equal(sp_e2e_rx_check(&rx, 2), SP_E2E_OK_LOST);  /* one lost */
-    assert_int_equal(sp_e2e_rx_check(&rx, 5), SP_E2E_OK_LOST);  /* two lost: delta 3 */
+    assert_int_equal(sp_e2e_rx_check(&rx, 2), SP_E2E_OK_LOST); /* one lost */
+    assert_int_equal(sp_e2e_rx_check(&rx, 5), SP_E2E_OK_LOST); /* two lost: delta 3 */
     assert_int_equal(sp_e2e_rx_check(&rx, 10), SP_E2E_WRONG_SEQ);
     assert_int_equal(sp_e2e_rx_check(&rx, 11), SP_E2E_INITIAL); /* resynchronised */
     assert_int_equal(sp_e2e_rx_check(&rx, 12), SP_E2E_OK);
-    assert_int_equal(sp_e2e_rx_check(&rx, 0x1D), SP_E2E_OK);    /* only 4 bits count */
-    assert_true(sp_e2e_accepted(SP_E2E_OK) && sp_e2e_accepted(SP_E2E_OK_LOST) &&
-                sp_e2e_accepted(SP_E2E_INITIAL));
+    assert_int_equal(sp_e2e_rx_check(&rx, 0x1D), SP_E2E_OK); /* only 4 bits count */
+    assert_true(sp_e2e_accepted(SP_E2E_OK) && sp_e2e_accepted(SP_E2E_OK_LOST) && sp_e2e_accepted(SP_E2E_INITIAL));
     assert_false(sp_e2e_accepted(SP_E2E_REPEATED) || sp_e2e_accepted(SP_E2E_WRONG_SEQ));
     assert_int_equal(sp_e2e_rx_check(NULL, 1), SP_E2E_WRONG_SEQ);
 }

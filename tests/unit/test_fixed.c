@@ -28,9 +28,10 @@
 #define TOL_HALF_LSB (0.5L + 1e-9L)
 #define TOL_SINCOS_LSB 2.0L
 
-static const int32_t edges[] = {0, 1, -1, 2, -2, 255, -256, 0x7FFF, -0x8000, SP_Q24_ONE,
-                                -SP_Q24_ONE, SP_Q30_ONE, -SP_Q30_ONE, INT32_MAX, INT32_MIN,
-                                INT32_MAX - 1, INT32_MIN + 1, 0x40000001, -0x40000001};
+static const int32_t edges[] = {
+    0,          1,           -1,         2,           -2,        255,       -256,          0x7FFF,        -0x8000,
+    SP_Q24_ONE, -SP_Q24_ONE, SP_Q30_ONE, -SP_Q30_ONE, INT32_MAX, INT32_MIN, INT32_MAX - 1, INT32_MIN + 1, 0x40000001,
+    -0x40000001};
 #define N_EDGES (sizeof edges / sizeof edges[0])
 
 /* Reference narrowing: clamps and tells whether it clamped. */
@@ -54,14 +55,14 @@ static long double round_away(long double v)
     return (v < 0) ? -floorl(-v + 0.5L) : floorl(v + 0.5L);
 }
 
-static void check_exact_saturating(long double exact, int32_t got, sp_flags_t flags, const char *what,
-                                   int32_t a, int32_t b)
+static void check_exact_saturating(long double exact, int32_t got, sp_flags_t flags, const char *what, int32_t a,
+                                   int32_t b)
 {
     int clamped;
     long double want = clamp32(round_away(exact), &clamped);
     if ((long double)got != want || ((flags & SP_FLAG_OVERFLOW) != 0u) != (clamped != 0)) {
-        fail_msg("%s(%ld, %ld): got %ld flags %u, want %.1Lf clamped %d", what, (long)a, (long)b,
-                 (long)got, (unsigned)flags, want, clamped);
+        fail_msg("%s(%ld, %ld): got %ld flags %u, want %.1Lf clamped %d", what, (long)a, (long)b, (long)got,
+                 (unsigned)flags, want, clamped);
     }
 }
 
@@ -186,8 +187,7 @@ static void test_div(void **state)
         } else {
             assert_true(f == 0u);
             if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
-                fail_msg("div(%lld, %ld, %u) = %ld, exact %.3Lf", (long long)num, (long)den, s,
-                         (long)got, exact);
+                fail_msg("div(%lld, %ld, %u) = %ld, exact %.3Lf", (long long)num, (long)den, s, (long)got, exact);
             }
         }
     }
@@ -263,7 +263,7 @@ static void test_isqrt64(void **state)
             uint64_t s = (uint64_t)sp_isqrt64(k << 56); /* a root near the interval start */
             for (uint64_t d = s - 2u; d <= s + 2u && d < UINT64_C(0x100000000); ++d) {
                 assert_int_equal(sp_isqrt64(d * d), (uint32_t)d);
-                assert_int_equal(sp_isqrt64(d * d + d), (uint32_t)d);     /* below d + 1/2 */
+                assert_int_equal(sp_isqrt64(d * d + d), (uint32_t)d);             /* below d + 1/2 */
                 assert_int_equal(sp_isqrt64(d * d + d + 1u), (uint32_t)(d + 1u)); /* above */
             }
         }
@@ -322,8 +322,8 @@ static void test_sincos(void **state)
             worst = ec;
         }
         if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
-            fail_msg("sincos(%ld): sin %ld (err %.2Lf LSB), cos %ld (err %.2Lf LSB)", (long)a,
-                     (long)s, es, (long)c, ec);
+            fail_msg("sincos(%ld): sin %ld (err %.2Lf LSB), cos %ld (err %.2Lf LSB)", (long)a, (long)s, es, (long)c,
+                     ec);
         }
     }
     /* Around every odd multiple of pi/4 in the Q24 range, where the
@@ -441,8 +441,8 @@ static void test_mul64(void **state)
         int64_t got = sp_mul64(x, k, s, &f);
         int64_t want = ref_sat64(ref_round_shift((i128)x * k, s), &clamped);
         if (got != want || ((f & SP_FLAG_OVERFLOW) != 0u) != (clamped != 0)) {
-            fail_msg("mul64(%lld, %ld, %u) = %lld, want %lld (clamped %d)", (long long)x, (long)k, s,
-                     (long long)got, (long long)want, clamped);
+            fail_msg("mul64(%lld, %ld, %u) = %lld, want %lld (clamped %d)", (long long)x, (long)k, s, (long long)got,
+                     (long long)want, clamped);
         }
     }
 }
@@ -479,8 +479,8 @@ static void test_div64(void **state)
         }
         want = ref_sat64(q, &clamped);
         if (got != want || ((f & SP_FLAG_OVERFLOW) != 0u) != (clamped != 0)) {
-            fail_msg("div64(%lld, %ld, %u) = %lld, want %lld (clamped %d)", (long long)n, (long)d, s,
-                     (long long)got, (long long)want, clamped);
+            fail_msg("div64(%lld, %ld, %u) = %lld, want %lld (clamped %d)", (long long)n, (long)d, s, (long long)got,
+                     (long long)want, clamped);
         }
     }
 }
@@ -502,12 +502,18 @@ static void test_add64_narrow(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_add_sub_neg_abs), cmocka_unit_test(test_rshift_round),
-        cmocka_unit_test(test_mul),             cmocka_unit_test(test_div),
-        cmocka_unit_test(test_isqrt64),         cmocka_unit_test(test_sqrt_q24),
-        cmocka_unit_test(test_sincos),          cmocka_unit_test(test_dot3),
-        cmocka_unit_test(test_flags_status),    cmocka_unit_test(test_mul64),
-        cmocka_unit_test(test_div64),           cmocka_unit_test(test_add64_narrow),
+        cmocka_unit_test(test_add_sub_neg_abs),
+        cmocka_unit_test(test_rshift_round),
+        cmocka_unit_test(test_mul),
+        cmocka_unit_test(test_div),
+        cmocka_unit_test(test_isqrt64),
+        cmocka_unit_test(test_sqrt_q24),
+        cmocka_unit_test(test_sincos),
+        cmocka_unit_test(test_dot3),
+        cmocka_unit_test(test_flags_status),
+        cmocka_unit_test(test_mul64),
+        cmocka_unit_test(test_div64),
+        cmocka_unit_test(test_add64_narrow),
     };
     return cmocka_run_group_tests_name("fixed", tests, NULL, NULL);
 }

@@ -693,14 +693,13 @@ static void test_forward_kinematics(void **state)
             /* the same with the default jump limits: a discontinuity, and
              * the output stays at the guess */
             if (fabs(q[0]) > 0.06 || fabs(q[1]) > 0.06 || fabs(q[2] - hz) > 0.06) {
-                assert_int_equal(sp_forward_kinematics(&p, l, &guess, &opt, &out, &ik_out, &info),
-                                 SP_E_DISCONTINUITY);
+                assert_int_equal(sp_forward_kinematics(&p, l, &guess, &opt, &out, &ik_out, &info), SP_E_DISCONTINUITY);
                 assert_memory_equal(&out, &guess, sizeof out);
             }
         }
     }
-    print_message("FK: worst warm iterations %u, cold %u; worst error %.3g m, %.3g rad\n", worst_warm,
-                  worst_cold, worst_pos, worst_rot);
+    print_message("FK: worst warm iterations %u, cold %u; worst error %.3g m, %.3g rad\n", worst_warm, worst_cold,
+                  worst_pos, worst_rot);
 }
 
 /* The factorisation used twice per tick by the controller: sp_lu6_solve is
@@ -757,7 +756,8 @@ static void test_lu6(void **state)
                     worst_err = e > worst_err ? e : worst_err;
                     worst_err2 = e2 > worst_err2 ? e2 : worst_err2;
                     if (e >= 1e-8 * 1e5 + 1e-6) {
-                        fail_msg("lu6 transposed n=%d x[%d]=%.9f want %.9f solve6 %.9f", n, i, (double)x[i] / 16777216.0, xd[i], (double)x2[i] / 16777216.0);
+                        fail_msg("lu6 transposed n=%d x[%d]=%.9f want %.9f solve6 %.9f", n, i,
+                                 (double)x[i] / 16777216.0, xd[i], (double)x2[i] / 16777216.0);
                     }
                 }
             }

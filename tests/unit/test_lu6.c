@@ -159,9 +159,9 @@ static void test_factor_paths(void **state)
         for (int i = 0; i < 6; ++i) {
             m.j[i][i] = 1 << 28;
         }
-        m.j[1][0] = -(1 << 28);             /* l = -1 for row 1 */
-        m.j[0][1] = INT32_MAX - 5;          /* row 0, the pivot row */
-        m.j[1][1] = INT32_MAX - 5;          /* + (INT32_MAX - 5) saturates */
+        m.j[1][0] = -(1 << 28);    /* l = -1 for row 1 */
+        m.j[0][1] = INT32_MAX - 5; /* row 0, the pivot row */
+        m.j[1][1] = INT32_MAX - 5; /* + (INT32_MAX - 5) saturates */
         check_factor(&m, 0);
         assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_E_OVERFLOW);
         assert_int_equal(lu.valid, 0);

@@ -84,8 +84,8 @@ static void rig_tick(rig_t *r)
         if (r->silent[i]) {
             continue;
         }
-        sp_msg_feedback_t fb = {r->length[i], 3000000u, 1000000u, SP_DRIVE_STATE_ACTIVE, 0u,
-                                (uint16_t)(sync_tick & 0xFFFFu)};
+        sp_msg_feedback_t fb = {r->length[i],          3000000u, 1000000u,
+                                SP_DRIVE_STATE_ACTIVE, 0u,       (uint16_t)(sync_tick & 0xFFFFu)};
         sp_can_frame_t f;
         sp_status_t st = sp_proto_encode_feedback(&fb, (uint8_t)(i % 3u + 1u), r->fb_counter[i]++,
                                                   (uint8_t)(SP_BUS_AXIS_A + i / 3u), &f);
@@ -214,8 +214,8 @@ static void test_stale_feedback_is_not_used(void **state)
     rig_tick(&r);
     rig_tick(&r);
     uint32_t before = r.node.stats.stale;
-    sp_msg_feedback_t fb = {r.length[0], 0u, 0u, SP_DRIVE_STATE_ACTIVE, 0u,
-                            (uint16_t)((r.node.sync_tick - 5u) & 0xFFFFu)};
+    sp_msg_feedback_t fb = {r.length[0],           0u, 0u,
+                            SP_DRIVE_STATE_ACTIVE, 0u, (uint16_t)((r.node.sync_tick - 5u) & 0xFFFFu)};
     sp_can_frame_t f;
     assert_int_equal(sp_proto_encode_feedback(&fb, 1, r.fb_counter[0]++, SP_BUS_AXIS_A, &f), SP_OK);
     assert_int_equal(sp_node_receive(&r.node, &f, NULL), SP_OK);
@@ -262,8 +262,9 @@ static void test_fuzz_receive_path(void **state)
     rig_init(&r);
     rig_tick(&r);
     uint64_t seed = 42;
-    const uint32_t ids[] = {SP_ID_SYNC, SP_ID_AXIS_SETPOINTS, 0x31, 0x32, 0x33, SP_ID_OP_COMMAND,
-                            SP_ID_OP_TARGET_POSE, SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR};
+    const uint32_t ids[] = {
+        SP_ID_SYNC,        SP_ID_AXIS_SETPOINTS, 0x31, 0x32, 0x33, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE,
+        SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR};
     uint32_t accepted = 0;
     for (int k = 0; k < 200000; k++) {
         sp_can_frame_t f;

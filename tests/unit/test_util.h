@@ -39,6 +39,6 @@ static inline int32_t tu_i32_logscale(uint64_t *state)
     return ((r >> 63) != 0u) ? -v : v;
 }
 
-#define TU_LDEXP(x, e) ((long double)(x) * powl(2.0L, (long double)(e)))
+#define TU_LDEXP(x, e) ((long double)(x)*powl(2.0L, (long double)(e)))
 
 #endif

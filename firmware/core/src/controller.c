@@ -120,7 +120,8 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *a = cfg->platform->platform_joint[i];
         uint64_t l1 = (uint64_t)spi_dist32(a[0], 0) + spi_dist32(a[1], 0) + spi_dist32(a[2], 0);
-        ctrl->joint_reach = (l1 >= UINT32_MAX) ? UINT32_MAX : (l1 > ctrl->joint_reach ? (uint32_t)l1 : ctrl->joint_reach);
+        ctrl->joint_reach =
+            (l1 >= UINT32_MAX) ? UINT32_MAX : (l1 > ctrl->joint_reach ? (uint32_t)l1 : ctrl->joint_reach);
     }
     return SP_OK;
 }
@@ -269,7 +270,8 @@ static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
             return 1;
         }
     }
-    if (ctrl->stream_anchor_valid && reachable_near(cfg, ctrl->joint_reach, &ctrl->stream_anchor, ctrl->stream_anchor_length, t)) {
+    if (ctrl->stream_anchor_valid &&
+        reachable_near(cfg, ctrl->joint_reach, &ctrl->stream_anchor, ctrl->stream_anchor_length, t)) {
         return 1;
     }
     if (!pose_reachable(cfg, ctrl, t, length)) {
@@ -287,8 +289,7 @@ static int stream_target_reachable(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
  * SP_E_RANGE for a reference outside the limits, another error for a
  * computation failure; the setpoints are written only on SP_OK. */
 static sp_status_t setpoints_for(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_motion_t *ref,
-                                 sp_setpoint_t sp[SP_LEGS],
-                                 sp_lu6_t *lu)
+                                 sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu)
 {
     const sp_platform_t *p = cfg->platform;
     sp_ik_t ik;
@@ -346,8 +347,7 @@ static void raise_fault(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, uint32_t f
     ctrl->move.tick = 0u;
     if (ctrl->faults == SP_FAULT_REFERENCE && ctrl->estimate_valid) {
         /* controlled park from where the platform is commanded to be */
-        if (sp_move_plan(&ctrl->move, &ctrl->reference.pose, &cfg->platform->park, &cfg->move, cfg->tick_us) !=
-            SP_OK) {
+        if (sp_move_plan(&ctrl->move, &ctrl->reference.pose, &cfg->platform->park, &cfg->move, cfg->tick_us) != SP_OK) {
             ctrl->move.duration_ticks = 0u;
         }
     }
@@ -413,8 +413,8 @@ static void stream_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t
         stream_axis(ctrl->stream_target.pos[a], &ctrl->stream_x[a], &ctrl->stream_v[a], cfg->move.vel_max[a],
                     cfg->move.acc_max[a], w2, w2x, dt, &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
         stream_axis(ctrl->stream_target.rpy[a], &ctrl->stream_x[3u + a], &ctrl->stream_v[3u + a],
-                    cfg->move.vel_max[3u + a], cfg->move.acc_max[3u + a], w2, w2x, dt, &m->pose.rpy[a],
-                    &m->rpy_rate[a], &m->rpy_acc[a], flags);
+                    cfg->move.vel_max[3u + a], cfg->move.acc_max[3u + a], w2, w2x, dt, &m->pose.rpy[a], &m->rpy_rate[a],
+                    &m->rpy_acc[a], flags);
     }
 }
 
@@ -538,8 +538,7 @@ static void handle_command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const s
     }
 }
 
-sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in,
-                         sp_ctrl_output_t *out)
+sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, sp_ctrl_output_t *out)
 {
     const sp_platform_t *p;
     sp_flags_t flags = 0u;
@@ -624,16 +623,15 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
              * no IK at the guess */
             sp_fk_options_t copt = opt;
             copt.max_iterations = CHORD_MAX_STEPS;
-            st = sp_fk_chord(p, ctrl->last_length, &ctrl->estimate, &ctrl->ref_lu, &copt, &ctrl->fk_cache, &est,
-                             &info);
+            st = sp_fk_chord(p, ctrl->last_length, &ctrl->estimate, &ctrl->ref_lu, &copt, &ctrl->fk_cache, &est, &info);
         }
         if (st != SP_OK) {
             /* full Newton from the guess; the cache of the result from the
              * IK of its last pass (lengths and sines, exactly what
              * sp_fk_cache_of computes) */
             sp_ik_t fik;
-            st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park,
-                                       &opt, &est, &fik, &info);
+            st = sp_forward_kinematics(p, ctrl->last_length, ctrl->estimate_valid ? &ctrl->estimate : &p->park, &opt,
+                                       &est, &fik, &info);
             if (st == SP_OK) {
                 for (i = 0u; i < SP_LEGS; ++i) {
                     ctrl->fk_cache.length[i] = fik.length[i];

@@ -149,8 +149,8 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     return SP_OK;
 }
 
-sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
-                          const sp_q24_t rate[SP_LEGS], const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report)
+sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
+                          const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report)
 {
     unsigned i;
 

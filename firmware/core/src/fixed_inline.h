@@ -155,7 +155,7 @@ SPI_INLINE int32_t spi_sub_sat(int32_t a, int32_t b, sp_flags_t *flags)
  * x k = (xh k) 2^32 + xl k, and 2^32 is a multiple of 2^30. */
 SPI_INLINE int64_t spi_mul64_q30(int64_t x, int32_t k)
 {
-    int64_t ph = (int64_t)(int32_t)(x >> 32) * k;      /* |ph| <= 2^59 */
+    int64_t ph = (int64_t)(int32_t)(x >> 32) * k;         /* |ph| <= 2^59 */
     int64_t pl = (int64_t)(uint32_t)(x & 0xFFFFFFFF) * k; /* |pl| < 2^62 */
     return ph * 4 + ((pl + (INT64_C(1) << 29)) >> 30);
 }
@@ -208,7 +208,7 @@ SPI_INLINE uint32_t spi_udiv64_32(uint64_t n, uint32_t d, uint32_t *rem)
     uint32_t dn = d << s;
     uint32_t d1 = dn >> 16;
     uint32_t d0 = dn & 0xFFFFu;
-    uint64_t nn = n << s; /* n < d 2^32, so n 2^s < dn 2^32 <= 2^64 */
+    uint64_t nn = n << s;                /* n < d 2^32, so n 2^s < dn 2^32 <= 2^64 */
     uint32_t n32 = (uint32_t)(nn >> 32); /* < dn */
     uint32_t n10 = (uint32_t)nn;
     uint32_t n1 = n10 >> 16;
@@ -235,7 +235,7 @@ SPI_INLINE uint32_t spi_udiv64_32(uint64_t n, uint32_t d, uint32_t *rem)
  */
 SPI_INLINE uint32_t spi_recip_norm(uint32_t mn)
 {
-    uint32_t y0 = 0xFFFFFFFFu / ((mn >> 16) + 1u); /* in [2^16 - 1, 2^17) */
+    uint32_t y0 = 0xFFFFFFFFu / ((mn >> 16) + 1u);        /* in [2^16 - 1, 2^17) */
     uint64_t e = (UINT64_C(1) << 48) - (uint64_t)mn * y0; /* in (0, 2^34) */
     return (y0 << 14) + (uint32_t)((e * y0) >> 34);
 }

@@ -11,9 +11,9 @@ void sp_fk_default_options(sp_fk_options_t *opt)
         return;
     }
     opt->max_iterations = 8u;
-    opt->tolerance = 4;              /* 0.24 um */
-    opt->max_jump_pos = 838861;      /* 50 mm */
-    opt->max_jump_rot = 838861;      /* 50 mrad */
+    opt->tolerance = 4;         /* 0.24 um */
+    opt->max_jump_pos = 838861; /* 50 mm */
+    opt->max_jump_rot = 838861; /* 50 mrad */
 }
 
 /* The length residuals l - length (Q24, saturated) into neg_res (negated,
@@ -60,12 +60,11 @@ static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const s
         return SP_E_SINGULAR;
     }
     inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
-    d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u,
-                                  &flags),
+    d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u, &flags),
                      &flags);
     q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
-    q->rpy[1] = spi_add(q->rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags),
-                        &flags);
+    q->rpy[1] =
+        spi_add(q->rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags), &flags);
     q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul(d_roll, sc[2], 30u, &flags), &flags), &flags);
     return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
 }
@@ -87,9 +86,8 @@ static sp_status_t fk_jump_check(const sp_pose_t *q, const sp_pose_t *guess, con
     return neg ? SP_E_DISCONTINUITY : SP_OK;
 }
 
-sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
-                                  const sp_pose_t *guess, const sp_fk_options_t *opt, sp_pose_t *pose,
-                                  sp_ik_t *ik, sp_fk_info_t *info)
+sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                                  const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *ik, sp_fk_info_t *info)
 {
     sp_pose_t q;
     sp_jacobian_t jac;
@@ -213,7 +211,7 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
         /* J delta = -residual with J = (J^T)^T: the transposed solve of
          * the caller's factorisation of J^T */
         st = (lu_t->valid && spi_lu6_solve_t32(lu_t, neg_res, delta)) ? SP_OK
-                                                                : sp_lu6_solve_transposed(lu_t, neg_res, delta);
+                                                                      : sp_lu6_solve_transposed(lu_t, neg_res, delta);
         if (st != SP_OK) {
             break;
         }

@@ -119,8 +119,8 @@ SPI_INLINE uint32_t range_bits(int32_t l)
  * T's columns are unit vectors, so |arm| <= |a| (1 + 2^-28)). */
 SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsigned c, sp_flags_t *flags)
 {
-    int64_t acc = (int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] +
-                  (INT64_C(1) << 29);
+    int64_t acc =
+        (int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] + (INT64_C(1) << 29);
     return spi_sat_shift(acc, 30u, flags);
 }
 
@@ -258,7 +258,7 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
 
 /* sp_body_rates_sc for any sc: every sum saturating. */
 SPI_COLD static sp_status_t body_rates_wide(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
-                                   sp_q24_t omega[3], sp_q24_t omega_dot[3])
+                                            sp_q24_t omega[3], sp_q24_t omega_dot[3])
 {
     sp_flags_t flags = 0u;
     sp_q30_t sr;
@@ -382,9 +382,8 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     dp_dr = spi_sat_shift(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
     dy_dp = spi_sat_shift(dy * dp + (INT64_C(1) << 23), 24u, &flags);
     dy_dr = spi_sat_shift(dy * dr + (INT64_C(1) << 23), 24u, &flags);
-    omega_dot[0] = spi_sat_shift((int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp -
-                                     (int64_t)dy_dp * cp + half,
-                                 30u, &flags);
+    omega_dot[0] = spi_sat_shift(
+        (int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp - (int64_t)dy_dp * cp + half, 30u, &flags);
     omega_dot[1] = spi_sat_shift((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
                                      (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
                                  30u, &flags);
@@ -396,8 +395,8 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
 
 /* sp_leg_rates' legs for any w (|w_c| up to 2^31): each step rounded and
  * saturated on its own (the path for |w_c| >= 64 rad/s). */
-SPI_COLD static void leg_rates_wide(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t w[3], sp_q24_t rate[SP_LEGS],
-                           sp_flags_t *flags)
+SPI_COLD static void leg_rates_wide(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t w[3],
+                                    sp_q24_t rate[SP_LEGS], sp_flags_t *flags)
 {
     unsigned i;
 
@@ -411,15 +410,14 @@ SPI_COLD static void leg_rates_wide(const sp_ik_t *ik, const sp_q24_t vel[3], co
         v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), flags), flags);
         v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), flags), flags);
         /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
-        rate[i] = spi_sat(spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
-                                      (int64_t)ik->unit[i][2] * v[2],
-                                  30u),
-                          flags);
+        rate[i] = spi_sat(
+            spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] + (int64_t)ik->unit[i][2] * v[2],
+                    30u),
+            flags);
     }
 }
 
-sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3],
-                         sp_q24_t rate[SP_LEGS])
+sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS])
 {
     sp_flags_t flags = 0u;
     int64_t a[3];
@@ -451,7 +449,7 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
         return sp_flags_status(flags);
     }
     for (c = 0u; c < 3u; ++c) {
-        w[c] = (int32_t)(a[c] >> 30);                                       /* exact, in range */
+        w[c] = (int32_t)(a[c] >> 30);                                      /* exact, in range */
         vb[c] = (int64_t)vel[c] * (INT64_C(1) << 24) + (INT64_C(1) << 23); /* |vb| < 2^55 + 2^23 */
     }
     for (i = 0u; i < SP_LEGS; ++i) {
@@ -467,8 +465,8 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
         v1 = spi_sat_shift(vb[1] + (int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags);
         v2 = spi_sat_shift(vb[2] + (int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags);
         /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
-        rate[i] = spi_sat_shift((int64_t)u[0] * v0 + (int64_t)u[1] * v1 + (int64_t)u[2] * v2 + (INT64_C(1) << 29),
-                                30u, &flags);
+        rate[i] = spi_sat_shift((int64_t)u[0] * v0 + (int64_t)u[1] * v1 + (int64_t)u[2] * v2 + (INT64_C(1) << 29), 30u,
+                                &flags);
     }
     return sp_flags_status(flags);
 }

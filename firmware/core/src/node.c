@@ -267,7 +267,8 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
             node->in.cmd.axis = (sp_axis_t)c->axis;
             node->in.cmd.amplitude = c->amplitude;
             node->in.cmd.frequency = c->frequency;
-            node->in.cmd.fade_ticks = cfg->ctrl.tick_us ? (uint32_t)(((uint64_t)c->fade_ms * 1000u) / cfg->ctrl.tick_us) : 0u;
+            node->in.cmd.fade_ticks =
+                cfg->ctrl.tick_us ? (uint32_t)(((uint64_t)c->fade_ms * 1000u) / cfg->ctrl.tick_us) : 0u;
             node->in.cmd.target = node->target;
         }
     }
@@ -293,15 +294,16 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
         for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
             m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
         }
-        count_send(node, sp_proto_encode_setpoints(&m, node->tx_counter_setpoints[b]++, (uint8_t)(SP_BUS_AXIS_A + b),
-                                                   &out[*n]), n);
+        count_send(
+            node,
+            sp_proto_encode_setpoints(&m, node->tx_counter_setpoints[b]++, (uint8_t)(SP_BUS_AXIS_A + b), &out[*n]), n);
         node->tx_counter_setpoints[b] &= 0x0Fu;
     }
     if (cfg->sync_master) {
         for (uint8_t b = 0; b < 2u; b++) {
             sp_msg_sync_t m = {tick, node->out.state == SP_STATE_ESTOP ? 1u : 0u};
-            count_send(node, sp_proto_encode_sync(&m, node->tx_counter_sync[b]++, (uint8_t)(SP_BUS_AXIS_A + b),
-                                                  &out[*n]), n);
+            count_send(node,
+                       sp_proto_encode_sync(&m, node->tx_counter_sync[b]++, (uint8_t)(SP_BUS_AXIS_A + b), &out[*n]), n);
             node->tx_counter_sync[b] &= 0x0Fu;
         }
         node->sync_tick = tick;

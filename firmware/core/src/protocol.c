@@ -31,21 +31,54 @@ static sp_q24_t to_q24(int64_t v)
 /* Q24 <-> bus units. 1 um (1e-6): 2^24 / 1e6 = 262144 / 15625. */
 #define I24_MAX 8388607
 #define I24_MIN (-8388607) /* signed ranges are symmetric: the DBC's minimum */
-static uint32_t q24_to_um_u24(sp_q24_t q, int *sat) { return (uint32_t)clamp(muldiv(q, 15625, 262144), 0, 16777215, sat); }
-static int32_t q24_to_um_i24(sp_q24_t q, int *sat) { return (int32_t)clamp(muldiv(q, 15625, 262144), I24_MIN, I24_MAX, sat); }
-static sp_q24_t um_to_q24(int64_t raw) { return to_q24(muldiv(raw, 262144, 15625)); }
+static uint32_t q24_to_um_u24(sp_q24_t q, int *sat)
+{
+    return (uint32_t)clamp(muldiv(q, 15625, 262144), 0, 16777215, sat);
+}
+static int32_t q24_to_um_i24(sp_q24_t q, int *sat)
+{
+    return (int32_t)clamp(muldiv(q, 15625, 262144), I24_MIN, I24_MAX, sat);
+}
+static sp_q24_t um_to_q24(int64_t raw)
+{
+    return to_q24(muldiv(raw, 262144, 15625));
+}
 /* 5e-5 m/s: 2^24 * 5e-5 = 524288 / 625 */
-static int16_t q24_to_vel(sp_q24_t q, int *sat) { return (int16_t)clamp(muldiv(q, 625, 524288), -INT16_MAX, INT16_MAX, sat); }
-static sp_q24_t vel_to_q24(int64_t raw) { return to_q24(muldiv(raw, 524288, 625)); }
+static int16_t q24_to_vel(sp_q24_t q, int *sat)
+{
+    return (int16_t)clamp(muldiv(q, 625, 524288), -INT16_MAX, INT16_MAX, sat);
+}
+static sp_q24_t vel_to_q24(int64_t raw)
+{
+    return to_q24(muldiv(raw, 524288, 625));
+}
 /* 0.02 N in Q8: 0.02 * 256 = 128 / 25 */
-static int32_t q8_to_force(sp_q8_t q, int *sat) { return (int32_t)clamp(muldiv(q, 25, 128), I24_MIN, I24_MAX, sat); }
-static sp_q8_t force_to_q8(int64_t raw) { return (sp_q8_t)to_q24(muldiv(raw, 128, 25)); }
+static int32_t q8_to_force(sp_q8_t q, int *sat)
+{
+    return (int32_t)clamp(muldiv(q, 25, 128), I24_MIN, I24_MAX, sat);
+}
+static sp_q8_t force_to_q8(int64_t raw)
+{
+    return (sp_q8_t)to_q24(muldiv(raw, 128, 25));
+}
 /* 1e-5 (amplitude): 2^24 * 1e-5 = 524288 / 3125 */
-static int32_t q24_to_amp(sp_q24_t q, int *sat) { return (int32_t)clamp(muldiv(q, 3125, 524288), I24_MIN, I24_MAX, sat); }
-static sp_q24_t amp_to_q24(int64_t raw) { return to_q24(muldiv(raw, 524288, 3125)); }
+static int32_t q24_to_amp(sp_q24_t q, int *sat)
+{
+    return (int32_t)clamp(muldiv(q, 3125, 524288), I24_MIN, I24_MAX, sat);
+}
+static sp_q24_t amp_to_q24(int64_t raw)
+{
+    return to_q24(muldiv(raw, 524288, 3125));
+}
 /* 1e-3 Hz: 2^24 * 1e-3 = 2097152 / 125 */
-static uint16_t q24_to_freq(sp_q24_t q, int *sat) { return (uint16_t)clamp(muldiv(q, 125, 2097152), 0, UINT16_MAX, sat); }
-static sp_q24_t freq_to_q24(int64_t raw) { return to_q24(muldiv(raw, 2097152, 125)); }
+static uint16_t q24_to_freq(sp_q24_t q, int *sat)
+{
+    return (uint16_t)clamp(muldiv(q, 125, 2097152), 0, UINT16_MAX, sat);
+}
+static sp_q24_t freq_to_q24(int64_t raw)
+{
+    return to_q24(muldiv(raw, 2097152, 125));
+}
 
 /* 1 if any signed raw value is the (excluded) most negative one. */
 static int below_i24(const int32_t *v, uint32_t n)
@@ -259,12 +292,12 @@ sp_status_t sp_proto_encode_feedback(const sp_msg_feedback_t *m, uint8_t slot, u
     if (slot == 1u) {
         n = stewart_can_axis_feedback_1_pack(f->data, &s, SP_CAN_MAX_DATA);
     } else if (slot == 2u) {
-        struct stewart_can_axis_feedback_2_t s2 = {s.length, s.pressure_a, s.pressure_b, s.state,
-                                                   s.counter, s.faults, s.tick_echo, 0u};
+        struct stewart_can_axis_feedback_2_t s2 = {s.length,  s.pressure_a, s.pressure_b, s.state,
+                                                   s.counter, s.faults,     s.tick_echo,  0u};
         n = stewart_can_axis_feedback_2_pack(f->data, &s2, SP_CAN_MAX_DATA);
     } else {
-        struct stewart_can_axis_feedback_3_t s3 = {s.length, s.pressure_a, s.pressure_b, s.state,
-                                                   s.counter, s.faults, s.tick_echo, 0u};
+        struct stewart_can_axis_feedback_3_t s3 = {s.length,  s.pressure_a, s.pressure_b, s.state,
+                                                   s.counter, s.faults,     s.tick_echo,  0u};
         n = stewart_can_axis_feedback_3_pack(f->data, &s3, SP_CAN_MAX_DATA);
     }
     return finish(f, SP_ID_AXIS_FEEDBACK_1 + slot - 1u, bus, n, STEWART_CAN_AXIS_FEEDBACK_1_LENGTH, sat);

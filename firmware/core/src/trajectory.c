@@ -2,8 +2,8 @@
 
 #include "fixed_inline.h"
 
-#define TWO_PI_Q24 INT64_C(105414357)   /* 2 pi in Q24 */
-#define TWO_PI_Q28 INT32_C(1686629713)  /* 2 pi in Q28 */
+#define TWO_PI_Q24 INT64_C(105414357)  /* 2 pi in Q24 */
+#define TWO_PI_Q28 INT32_C(1686629713) /* 2 pi in Q28 */
 #define US_PER_S INT64_C(1000000)
 #define MOVE_MAX_MS UINT64_C(600000) /* 10 minutes */
 
@@ -58,10 +58,10 @@ static void smoothstep(int32_t u, int32_t *e, int32_t *de, int32_t *dde)
 {
     int64_t one = INT64_C(1) << 30;
     int64_t uu = u;
-    int64_t v = one - uu;                               /* 1 - u */
-    int64_t u2 = spi_rsr(uu * uu, 30u);         /* u^2 */
-    int64_t u3 = spi_rsr(u2 * uu, 30u);         /* u^3 */
-    int64_t v2 = spi_rsr(v * v, 30u);           /* (1-u)^2 */
+    int64_t v = one - uu;               /* 1 - u */
+    int64_t u2 = spi_rsr(uu * uu, 30u); /* u^2 */
+    int64_t u3 = spi_rsr(u2 * uu, 30u); /* u^3 */
+    int64_t v2 = spi_rsr(v * v, 30u);   /* (1-u)^2 */
     /* E = u^3 (10 - 15u + 6u^2) */
     int64_t poly = 10 * one - 15 * uu + 6 * u2;
     *e = (int32_t)spi_rsr(u3 * poly, 30u);
@@ -87,10 +87,9 @@ sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis,
         return SP_E_ARG;
     }
     g->centre = *centre;
-    if ((unsigned)axis >= 6u || tick_us < 1u || tick_us > 100000u ||
-        (uint64_t)fade_ticks * tick_us < 100000u || (uint64_t)fade_ticks * tick_us > 60000000u ||
-        frequency_hz <= 0 || frequency_hz > 10 * SP_Q24_ONE || amplitude > SP_Q24_ONE ||
-        amplitude < -SP_Q24_ONE) {
+    if ((unsigned)axis >= 6u || tick_us < 1u || tick_us > 100000u || (uint64_t)fade_ticks * tick_us < 100000u ||
+        (uint64_t)fade_ticks * tick_us > 60000000u || frequency_hz <= 0 || frequency_hz > 10 * SP_Q24_ONE ||
+        amplitude > SP_Q24_ONE || amplitude < -SP_Q24_ONE) {
         return SP_E_ARG;
     }
     /* turns per tick = f * tick_us / 1e6, in 2^-32 turn; below half a turn */
@@ -139,9 +138,9 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     int32_t e;
     int32_t de;
     int32_t dde;
-    int32_t rate;   /* du/dt, 1/s, Q24 */
-    int32_t theta;  /* phase, rad, Q24 */
-    int32_t wc;     /* omega cos(theta), rad/s, Q24 */
+    int32_t rate;  /* du/dt, 1/s, Q24 */
+    int32_t theta; /* phase, rad, Q24 */
+    int32_t wc;    /* omega cos(theta), rad/s, Q24 */
     sp_q30_t s;
     sp_q30_t c;
     int64_t pos;
@@ -213,7 +212,7 @@ static uint64_t icbrt_ceil(uint64_t v)
 {
     uint64_t lo = 0u;
     uint64_t hi = 2097152u; /* 2^21: hi^3 = 2^63 */
-    while (lo < hi) { /* at most 22 steps */
+    while (lo < hi) {       /* at most 22 steps */
         uint64_t mid = (lo + hi) / 2u;
         if (mid * mid * mid >= v) {
             hi = mid;
@@ -224,8 +223,8 @@ static uint64_t icbrt_ceil(uint64_t v)
     return lo;
 }
 
-sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *to,
-                         const sp_move_limits_t *lim, uint32_t tick_us)
+sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *to, const sp_move_limits_t *lim,
+                         uint32_t tick_us)
 {
     uint64_t t_ms = 0u;
     unsigned a;
@@ -338,7 +337,8 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
             *p = spi_sat(*p + dp, &flags);
         }
         *vec_ref(out, a, 1) = spi_sat(spi_rsr((int64_t)dv * rate, 24u), &flags);
-        *vec_ref(out, a, 2) = spi_sat(spi_rsr((int64_t)spi_sat(spi_rsr((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
+        *vec_ref(out, a, 2) =
+            spi_sat(spi_rsr((int64_t)spi_sat(spi_rsr((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
     }
     ++mv->tick;
     return sp_flags_status(flags);

@@ -49,8 +49,9 @@ static int64_t now_ns(void)
 
 static void usage(void)
 {
-    fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
-                    "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n");
+    fprintf(stderr,
+            "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
+            "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n");
 }
 
 typedef struct {
@@ -242,8 +243,8 @@ int main(int argc, char **argv)
            (unsigned long long)rs.ticks, sp_state_name(node.out.state), (unsigned)node.out.faults,
            (unsigned long long)rs.misses, rs.timed ? (long long)(rs.sum_ns / (int64_t)rs.timed) : 0LL,
            (long long)rs.worst_ns, (unsigned long long)rs.timed, (unsigned long long)rs.tx_busy);
-    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u", node.stats.accepted,
-           node.stats.lost, node.stats.stale, node.stats.saturated);
+    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u", node.stats.accepted, node.stats.lost,
+           node.stats.stale, node.stats.saturated);
     for (int e = 1; e < SP_PROTO_ERRORS; e++) {
         printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), node.stats.rejected[e]);
     }

@@ -93,8 +93,7 @@ sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cf
     if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof on) < 0) {
         return fail(p, "CAN_RAW_FD_FRAMES", "");
     }
-    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, nflt ? (void *)flt : NULL,
-                   (socklen_t)(nflt * sizeof flt[0])) < 0) {
+    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, nflt ? (void *)flt : NULL, (socklen_t)(nflt * sizeof flt[0])) < 0) {
         return fail(p, "CAN_RAW_FILTER", "");
     }
     can_err_mask_t errmask = CAN_ERR_MASK;

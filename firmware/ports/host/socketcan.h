@@ -19,19 +19,19 @@
 #define SP_SOCKETCAN_BATCH 32u
 
 typedef struct {
-    const char *ifname;                         /**< e.g. "vcan1"; NULL: bus unused */
-    uint32_t rx_ids[SP_SOCKETCAN_MAX_FILTERS];  /**< identifiers to receive (exact match) */
-    uint32_t n_rx_ids;                          /**< 0: receive nothing but error frames */
+    const char *ifname;                        /**< e.g. "vcan1"; NULL: bus unused */
+    uint32_t rx_ids[SP_SOCKETCAN_MAX_FILTERS]; /**< identifiers to receive (exact match) */
+    uint32_t n_rx_ids;                         /**< 0: receive nothing but error frames */
 } sp_socketcan_bus_cfg_t;
 
 typedef struct {
-    int fd;                          /**< the one raw socket, bound to every CAN interface; -1 when closed */
-    int ifindex[SP_CAN_BUSES];       /**< interface of each bus; 0: bus unused */
+    int fd;                    /**< the one raw socket, bound to every CAN interface; -1 when closed */
+    int ifindex[SP_CAN_BUSES]; /**< interface of each bus; 0: bus unused */
     uint32_t rx_ids[SP_CAN_BUSES][SP_SOCKETCAN_MAX_FILTERS];
     uint32_t n_rx_ids[SP_CAN_BUSES];
     sp_bus_status_t st[SP_CAN_BUSES];
-    uint32_t last_drops;             /**< the kernel's drop counter of the socket */
-    char error[128];                 /**< the last error, for the operator */
+    uint32_t last_drops; /**< the kernel's drop counter of the socket */
+    char error[128];     /**< the last error, for the operator */
 } sp_socketcan_t;
 
 /**

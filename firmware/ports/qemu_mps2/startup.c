@@ -78,16 +78,19 @@ typedef void (*sp_mps2_vector_t)(void);
  * exceptions. No device interrupt is used, so the table stops there. */
 __attribute__((section(".vectors"), used)) static const sp_mps2_vector_t vectors[16] = {
     (sp_mps2_vector_t)(uintptr_t)sp_mps2_stack_top, /* initial SP */
-    sp_mps2_reset,                                    /* Reset */
-    sp_mps2_unexpected,                               /* NMI */
-    sp_mps2_fault,                                    /* HardFault */
-    sp_mps2_fault,                                    /* MemManage */
-    sp_mps2_fault,                                    /* BusFault */
-    sp_mps2_fault,                                    /* UsageFault */
-    0, 0, 0, 0,                                       /* reserved */
-    sp_mps2_unexpected,                               /* SVCall */
-    sp_mps2_unexpected,                               /* DebugMonitor */
-    0,                                                /* reserved */
-    sp_mps2_unexpected,                               /* PendSV */
-    sp_mps2_unexpected,                               /* SysTick */
+    sp_mps2_reset,                                  /* Reset */
+    sp_mps2_unexpected,                             /* NMI */
+    sp_mps2_fault,                                  /* HardFault */
+    sp_mps2_fault,                                  /* MemManage */
+    sp_mps2_fault,                                  /* BusFault */
+    sp_mps2_fault,                                  /* UsageFault */
+    0,
+    0,
+    0,
+    0,                  /* reserved */
+    sp_mps2_unexpected, /* SVCall */
+    sp_mps2_unexpected, /* DebugMonitor */
+    0,                  /* reserved */
+    sp_mps2_unexpected, /* PendSV */
+    sp_mps2_unexpected, /* SysTick */
 };

@@ -26,8 +26,8 @@ void sp_g4_led_set(int on)
 
 /* ---- tick ---------------------------------------------------------------- */
 
-static volatile uint32_t g_ticks;  /* incremented by SysTick only */
-static uint32_t g_next;            /* the tick the caller waits for next */
+static volatile uint32_t g_ticks; /* incremented by SysTick only */
+static uint32_t g_next;           /* the tick the caller waits for next */
 
 void sp_g4_systick_handler(void); /* vector table (startup.c) */
 void sp_g4_systick_handler(void)
@@ -42,7 +42,7 @@ void sp_g4_tick_init(void)
     DWT_CTRL |= DWT_CTRL_CYCCNTENA;
 
     SCB_SHPR3 = (SCB_SHPR3 & 0x00FFFFFFu) | (0x00u << 24); /* SysTick: highest configurable priority */
-    SYST_RVR = SP_G4_SYSCLK_HZ / SP_G4_TICK_HZ - 1u;      /* 169,999: fits 24 bits */
+    SYST_RVR = SP_G4_SYSCLK_HZ / SP_G4_TICK_HZ - 1u;       /* 169,999: fits 24 bits */
     SYST_CVR = 0u;
     g_ticks = 0u;
     g_next = 1u;

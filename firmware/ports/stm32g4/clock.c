@@ -85,9 +85,9 @@ sp_status_t sp_g4_clock_init(void)
     if (!wait_set(&RCC_CR, RCC_CR_PLLRDY, 0u, SPIN_SHORT)) {
         return SP_E_IO;
     }
-    RCC_PLLCFGR = RCC_PLLCFGR_PLLSRC_HSE | ((PLLM_DIV - 1u) << RCC_PLLCFGR_PLLM_SHIFT) | (85u << RCC_PLLCFGR_PLLN_SHIFT) |
-                  RCC_PLLCFGR_PLLREN | (0u << RCC_PLLCFGR_PLLR_SHIFT) | RCC_PLLCFGR_PLLQEN |
-                  (0u << RCC_PLLCFGR_PLLQ_SHIFT);
+    RCC_PLLCFGR = RCC_PLLCFGR_PLLSRC_HSE | ((PLLM_DIV - 1u) << RCC_PLLCFGR_PLLM_SHIFT) |
+                  (85u << RCC_PLLCFGR_PLLN_SHIFT) | RCC_PLLCFGR_PLLREN | (0u << RCC_PLLCFGR_PLLR_SHIFT) |
+                  RCC_PLLCFGR_PLLQEN | (0u << RCC_PLLCFGR_PLLQ_SHIFT);
     RCC_CR |= RCC_CR_PLLON;
     if (!wait_set(&RCC_CR, RCC_CR_PLLRDY, RCC_CR_PLLRDY, SPIN_SHORT)) {
         return SP_E_IO;
@@ -99,7 +99,7 @@ sp_status_t sp_g4_clock_init(void)
                   SPIN_SHORT)) {
         return SP_E_IO;
     }
-    delay_loops(200u); /* >= 1 us at 85 MHz (each iteration is several cycles) */
+    delay_loops(200u);               /* >= 1 us at 85 MHz (each iteration is several cycles) */
     RCC_CFGR &= ~RCC_CFGR_HPRE_MASK; /* HCLK = SYSCLK = 170 MHz */
 
     /* Clock security system: an HSE failure switches SYSCLK to HSI16 and

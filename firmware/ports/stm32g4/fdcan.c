@@ -48,12 +48,18 @@
 
 /* Compile-time checks: exact bit rates, register field ranges. */
 typedef char sp_g4_check_nominal_rate[(SP_G4_FDCAN_HZ / (NBRP * (1u + NTSEG1 + NTSEG2)) == 1000000u &&
-                                       SP_G4_FDCAN_HZ % (NBRP * (1u + NTSEG1 + NTSEG2)) == 0u) ? 1 : -1];
+                                       SP_G4_FDCAN_HZ % (NBRP * (1u + NTSEG1 + NTSEG2)) == 0u)
+                                          ? 1
+                                          : -1];
 typedef char sp_g4_check_data_rate[(SP_G4_FDCAN_HZ / (DBRP * (1u + DTSEG1 + DTSEG2)) == 5000000u &&
-                                    SP_G4_FDCAN_HZ % (DBRP * (1u + DTSEG1 + DTSEG2)) == 0u) ? 1 : -1];
-typedef char sp_g4_check_fields[(NBRP <= 512u && NTSEG1 >= 2u && NTSEG1 <= 256u && NTSEG2 >= 2u &&
-                                 NTSEG2 <= 128u && NSJW <= NTSEG2 && DBRP <= 32u && DTSEG1 <= 32u &&
-                                 DTSEG2 <= 16u && DSJW <= DTSEG2 && TDCO <= 127u) ? 1 : -1];
+                                    SP_G4_FDCAN_HZ % (DBRP * (1u + DTSEG1 + DTSEG2)) == 0u)
+                                       ? 1
+                                       : -1];
+typedef char sp_g4_check_fields[(NBRP <= 512u && NTSEG1 >= 2u && NTSEG1 <= 256u && NTSEG2 >= 2u && NTSEG2 <= 128u &&
+                                 NSJW <= NTSEG2 && DBRP <= 32u && DTSEG1 <= 32u && DTSEG2 <= 16u && DSJW <= DTSEG2 &&
+                                 TDCO <= 127u)
+                                    ? 1
+                                    : -1];
 
 #define NBTP_VALUE (((NSJW - 1u) << 25) | ((NBRP - 1u) << 16) | ((NTSEG1 - 1u) << 8) | (NTSEG2 - 1u))
 #define DBTP_VALUE (FDCAN_DBTP_TDC | ((DBRP - 1u) << 16) | ((DTSEG1 - 1u) << 8) | ((DTSEG2 - 1u) << 4) | (DSJW - 1u))
@@ -200,12 +206,12 @@ sp_status_t sp_g4_can_init(sp_g4_can_t *can)
     RCC_APB1RSTR1 |= RCC_APB1RSTR1_FDCANRST; /* the three controllers to their reset state */
     RCC_APB1RSTR1 &= ~RCC_APB1RSTR1_FDCANRST;
 
-    pin_af(G4_GPIOA, 11u, 9u); /* FDCAN1_RX */
-    pin_af(G4_GPIOA, 12u, 9u); /* FDCAN1_TX */
-    pin_af(G4_GPIOB, 12u, 9u); /* FDCAN2_RX */
-    pin_af(G4_GPIOB, 13u, 9u); /* FDCAN2_TX */
-    pin_af(G4_GPIOA, 8u, 11u); /* FDCAN3_RX */
-    pin_af(G4_GPIOA, 15u, 11u);/* FDCAN3_TX (PA15 leaves JTDI; SWD stays on PA13/PA14) */
+    pin_af(G4_GPIOA, 11u, 9u);  /* FDCAN1_RX */
+    pin_af(G4_GPIOA, 12u, 9u);  /* FDCAN1_TX */
+    pin_af(G4_GPIOB, 12u, 9u);  /* FDCAN2_RX */
+    pin_af(G4_GPIOB, 13u, 9u);  /* FDCAN2_TX */
+    pin_af(G4_GPIOA, 8u, 11u);  /* FDCAN3_RX */
+    pin_af(G4_GPIOA, 15u, 11u); /* FDCAN3_TX (PA15 leaves JTDI; SWD stays on PA13/PA14) */
 
     for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
         sp_status_t s = init_one(bus);
@@ -245,8 +251,8 @@ static sp_status_t put(uint8_t bus, const sp_can_frame_t *f)
     uint32_t words = ((uint32_t)f->len + 3u) / 4u;
     for (uint32_t w = 0; w < words; w++) {
         const uint8_t *d = &f->data[4u * w];
-        SP_REG(e + 8u + 4u * w) = (uint32_t)d[0] | ((uint32_t)d[1] << 8) | ((uint32_t)d[2] << 16) |
-                                  ((uint32_t)d[3] << 24);
+        SP_REG(e + 8u + 4u * w) =
+            (uint32_t)d[0] | ((uint32_t)d[1] << 8) | ((uint32_t)d[2] << 16) | ((uint32_t)d[3] << 24);
     }
     FDCAN_TXBAR(b) = 1u << pi;
     return SP_OK;
@@ -335,8 +341,8 @@ static sp_status_t can_receive(void *ctx, sp_can_frame_t *frames, uint32_t max, 
         uint32_t ir = FDCAN_IR(b) & (FDCAN_IR_RF0L | FDCAN_IR_RF1L);
         if (ir != 0u) {
             FDCAN_IR(b) = ir;
-            inc(&can->status[bus].rx_overruns, ((ir & FDCAN_IR_RF0L) != 0u ? 1u : 0u) +
-                                                   ((ir & FDCAN_IR_RF1L) != 0u ? 1u : 0u));
+            inc(&can->status[bus].rx_overruns,
+                ((ir & FDCAN_IR_RF0L) != 0u ? 1u : 0u) + ((ir & FDCAN_IR_RF1L) != 0u ? 1u : 0u));
         }
         for (uint32_t fifo = 0; fifo < 2u; fifo++) {
             for (uint32_t k = 0; k < SRAMCAN_FIFO_DEPTH && *got < max; k++) {

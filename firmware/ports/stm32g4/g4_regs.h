@@ -30,23 +30,23 @@
 #define RCC_CR_PLLON (1u << 24)
 #define RCC_CR_PLLRDY (1u << 25)
 #define RCC_CFGR SP_REG(G4_RCC + 0x08u)
-#define RCC_CFGR_SW_MASK 3u           /* SW[1:0] system clock switch */
+#define RCC_CFGR_SW_MASK 3u /* SW[1:0] system clock switch */
 #define RCC_CFGR_SW_HSI16 1u
 #define RCC_CFGR_SW_PLL 3u
-#define RCC_CFGR_SWS_SHIFT 2u         /* SWS[3:2] switch status, same coding */
-#define RCC_CFGR_HPRE_SHIFT 4u        /* HPRE[7:4]: 0xxx = /1, 1000 = /2 */
+#define RCC_CFGR_SWS_SHIFT 2u  /* SWS[3:2] switch status, same coding */
+#define RCC_CFGR_HPRE_SHIFT 4u /* HPRE[7:4]: 0xxx = /1, 1000 = /2 */
 #define RCC_CFGR_HPRE_MASK (0xFu << 4)
 #define RCC_CFGR_HPRE_DIV2 (0x8u << 4)
-#define RCC_CFGR_PPRE1_MASK (7u << 8) /* PPRE1[10:8]: 0xx = /1 */
-#define RCC_CFGR_PPRE2_MASK (7u << 11)/* PPRE2[13:11]: 0xx = /1 */
+#define RCC_CFGR_PPRE1_MASK (7u << 8)  /* PPRE1[10:8]: 0xx = /1 */
+#define RCC_CFGR_PPRE2_MASK (7u << 11) /* PPRE2[13:11]: 0xx = /1 */
 #define RCC_PLLCFGR SP_REG(G4_RCC + 0x0Cu)
-#define RCC_PLLCFGR_PLLSRC_HSE 3u     /* PLLSRC[1:0] = 11: HSE */
-#define RCC_PLLCFGR_PLLM_SHIFT 4u     /* PLLM[7:4]: divide by PLLM + 1 */
-#define RCC_PLLCFGR_PLLN_SHIFT 8u     /* PLLN[14:8]: multiply by PLLN (8..127) */
+#define RCC_PLLCFGR_PLLSRC_HSE 3u /* PLLSRC[1:0] = 11: HSE */
+#define RCC_PLLCFGR_PLLM_SHIFT 4u /* PLLM[7:4]: divide by PLLM + 1 */
+#define RCC_PLLCFGR_PLLN_SHIFT 8u /* PLLN[14:8]: multiply by PLLN (8..127) */
 #define RCC_PLLCFGR_PLLQEN (1u << 20)
-#define RCC_PLLCFGR_PLLQ_SHIFT 21u    /* PLLQ[22:21]: 00 = /2, 01 = /4, 10 = /6, 11 = /8 */
+#define RCC_PLLCFGR_PLLQ_SHIFT 21u /* PLLQ[22:21]: 00 = /2, 01 = /4, 10 = /6, 11 = /8 */
 #define RCC_PLLCFGR_PLLREN (1u << 24)
-#define RCC_PLLCFGR_PLLR_SHIFT 25u    /* PLLR[26:25]: same coding as PLLQ */
+#define RCC_PLLCFGR_PLLR_SHIFT 25u /* PLLR[26:25]: same coding as PLLQ */
 #define RCC_CIFR SP_REG(G4_RCC + 0x1Cu)
 #define RCC_CICR SP_REG(G4_RCC + 0x20u)
 #define RCC_CICR_CSSC (1u << 8)
@@ -62,24 +62,24 @@
 #define RCC_CCIPR_FDCANSEL_MASK (3u << 24) /* FDCANSEL[25:24]: 00 HSE, 01 PLL "Q", 10 PCLK1 */
 #define RCC_CCIPR_FDCANSEL_PLLQ (1u << 24)
 #define RCC_CSR SP_REG(G4_RCC + 0x94u)
-#define RCC_CSR_RMVF (1u << 23)       /* write 1: clear the reset flags */
+#define RCC_CSR_RMVF (1u << 23)         /* write 1: clear the reset flags */
 #define RCC_CSR_RESET_FLAGS 0xFE000000u /* OBL, PIN, BOR, SFT, IWDG, WWDG, LPWR reset flags [31:25] */
 #define RCC_CSR_IWDGRSTF (1u << 29)
 
 /* ---- PWR, power control (RM0440 6.4), base 0x4000 7000 ------------------ */
 #define G4_PWR 0x40007000u
 #define PWR_CR1 SP_REG(G4_PWR + 0x00u)
-#define PWR_CR1_VOS_MASK (3u << 9)    /* VOS[10:9]: 01 = range 1 (reset value) */
+#define PWR_CR1_VOS_MASK (3u << 9) /* VOS[10:9]: 01 = range 1 (reset value) */
 #define PWR_CR1_VOS_RANGE1 (1u << 9)
 #define PWR_SR2 SP_REG(G4_PWR + 0x14u)
-#define PWR_SR2_VOSF (1u << 10)       /* 1 while the regulator changes voltage */
+#define PWR_SR2_VOSF (1u << 10) /* 1 while the regulator changes voltage */
 #define PWR_CR5 SP_REG(G4_PWR + 0x80u)
-#define PWR_CR5_R1MODE (1u << 8)      /* 1 = range 1 normal, 0 = range 1 boost (needed above 150 MHz) */
+#define PWR_CR5_R1MODE (1u << 8) /* 1 = range 1 normal, 0 = range 1 boost (needed above 150 MHz) */
 
 /* ---- Flash interface (RM0440 3.7.1 FLASH_ACR), base 0x4002 2000 ---------- */
 #define G4_FLASH_R 0x40022000u
 #define FLASH_ACR SP_REG(G4_FLASH_R + 0x00u)
-#define FLASH_ACR_LATENCY_MASK 0xFu   /* LATENCY[3:0]: wait states */
+#define FLASH_ACR_LATENCY_MASK 0xFu /* LATENCY[3:0]: wait states */
 #define FLASH_ACR_PRFTEN (1u << 8)
 #define FLASH_ACR_ICEN (1u << 9)
 #define FLASH_ACR_DCEN (1u << 10)
@@ -110,7 +110,7 @@
 #define G4_FDCAN1 0x40006400u
 #define G4_FDCAN2 0x40006800u
 #define G4_FDCAN3 0x40006C00u
-#define G4_FDCAN_CONFIG 0x40006500u /* FDCAN_CKDIV (shared by the three instances) */
+#define G4_FDCAN_CONFIG 0x40006500u                 /* FDCAN_CKDIV (shared by the three instances) */
 #define FDCAN_CKDIV SP_REG(G4_FDCAN_CONFIG + 0x00u) /* PDIV[3:0]: 0000 = kernel clock / 1 */
 #define FDCAN_DBTP(b) SP_REG((b) + 0x00Cu)
 #define FDCAN_DBTP_TDC (1u << 23)
@@ -127,17 +127,17 @@
 #define FDCAN_PSR_BO (1u << 7)
 #define FDCAN_TDCR(b) SP_REG((b) + 0x048u) /* TDCF[6:0], TDCO[14:8] */
 #define FDCAN_IR(b) SP_REG((b) + 0x050u)
-#define FDCAN_IR_RF0L (1u << 2)  /* Rx FIFO 0 message lost (G4 bit layout) */
-#define FDCAN_IR_RF1L (1u << 5)  /* Rx FIFO 1 message lost */
+#define FDCAN_IR_RF0L (1u << 2) /* Rx FIFO 0 message lost (G4 bit layout) */
+#define FDCAN_IR_RF1L (1u << 5) /* Rx FIFO 1 message lost */
 #define FDCAN_IE(b) SP_REG((b) + 0x054u)
 #define FDCAN_ILE(b) SP_REG((b) + 0x05Cu)
 #define FDCAN_RXGFC(b) SP_REG((b) + 0x080u)
-#define FDCAN_RXGFC_RRFE (1u << 0) /* reject remote frames, extended */
-#define FDCAN_RXGFC_RRFS (1u << 1) /* reject remote frames, standard */
-#define FDCAN_RXGFC_ANFE_REJECT (2u << 2) /* non-matching extended frames: reject */
-#define FDCAN_RXGFC_ANFS_REJECT (2u << 4) /* non-matching standard frames: reject */
-#define FDCAN_RXGFC_LSS_SHIFT 16u  /* LSS[20:16]: standard filter elements in use (0..28) */
-#define FDCAN_RXGFC_LSE_SHIFT 24u  /* LSE[27:24]: extended filter elements in use (0..8) */
+#define FDCAN_RXGFC_RRFE (1u << 0)          /* reject remote frames, extended */
+#define FDCAN_RXGFC_RRFS (1u << 1)          /* reject remote frames, standard */
+#define FDCAN_RXGFC_ANFE_REJECT (2u << 2)   /* non-matching extended frames: reject */
+#define FDCAN_RXGFC_ANFS_REJECT (2u << 4)   /* non-matching standard frames: reject */
+#define FDCAN_RXGFC_LSS_SHIFT 16u           /* LSS[20:16]: standard filter elements in use (0..28) */
+#define FDCAN_RXGFC_LSE_SHIFT 24u           /* LSE[27:24]: extended filter elements in use (0..8) */
 #define FDCAN_RXF0S(b) SP_REG((b) + 0x090u) /* F0FL[3:0] fill level, F0GI[9:8] get index */
 #define FDCAN_RXF0A(b) SP_REG((b) + 0x094u)
 #define FDCAN_RXF1S(b) SP_REG((b) + 0x098u)
@@ -152,14 +152,14 @@
 /* FDCAN message RAM (RM0440, FDCAN chapter: message RAM): fixed layout, 212 words per instance,
  * instance n at 0x4000 A400 + n * 0x350. Offsets in bytes: */
 #define G4_SRAMCAN 0x4000A400u
-#define G4_SRAMCAN_SIZE 0x350u  /* 212 words */
-#define SRAMCAN_FLSSA 0x000u    /* 28 standard filters, 1 word each */
-#define SRAMCAN_FLESA 0x070u    /* 8 extended filters, 2 words each */
-#define SRAMCAN_RF0SA 0x0B0u    /* Rx FIFO 0: 3 elements */
-#define SRAMCAN_RF1SA 0x188u    /* Rx FIFO 1: 3 elements */
-#define SRAMCAN_TEFSA 0x260u    /* Tx event FIFO: 3 elements, 2 words each */
-#define SRAMCAN_TFQSA 0x278u    /* Tx FIFO/queue: 3 elements */
-#define SRAMCAN_ELEM 72u        /* Rx/Tx element: 2 header words + 64 data bytes = 18 words */
+#define G4_SRAMCAN_SIZE 0x350u /* 212 words */
+#define SRAMCAN_FLSSA 0x000u   /* 28 standard filters, 1 word each */
+#define SRAMCAN_FLESA 0x070u   /* 8 extended filters, 2 words each */
+#define SRAMCAN_RF0SA 0x0B0u   /* Rx FIFO 0: 3 elements */
+#define SRAMCAN_RF1SA 0x188u   /* Rx FIFO 1: 3 elements */
+#define SRAMCAN_TEFSA 0x260u   /* Tx event FIFO: 3 elements, 2 words each */
+#define SRAMCAN_TFQSA 0x278u   /* Tx FIFO/queue: 3 elements */
+#define SRAMCAN_ELEM 72u       /* Rx/Tx element: 2 header words + 64 data bytes = 18 words */
 #define SRAMCAN_FIFO_DEPTH 3u
 
 /* ---- Cortex-M4 system control space (ARMv7-M ARM B3.2, B3.3, C1.8) ------- */
@@ -171,8 +171,8 @@
 #define SCB_CFSR SP_REG(0xE000ED28u)
 #define SCB_HFSR SP_REG(0xE000ED2Cu)
 #define SCB_BFAR SP_REG(0xE000ED38u)
-#define SYST_CSR SP_REG(0xE000E010u)  /* ENABLE bit 0, TICKINT bit 1, CLKSOURCE bit 2 (core clock) */
-#define SYST_RVR SP_REG(0xE000E014u)  /* 24-bit reload */
+#define SYST_CSR SP_REG(0xE000E010u) /* ENABLE bit 0, TICKINT bit 1, CLKSOURCE bit 2 (core clock) */
+#define SYST_RVR SP_REG(0xE000E014u) /* 24-bit reload */
 #define SYST_CVR SP_REG(0xE000E018u)
 #define DEMCR SP_REG(0xE000EDFCu)
 #define DEMCR_TRCENA (1u << 24)

@@ -27,12 +27,12 @@
 #define RX_ROUNDS 4u /* 24 >= the 18 frames the 3 x 2 FIFOs of 3 can hold */
 
 typedef struct {
-    uint32_t ticks;          /**< cycles run */
-    uint32_t misses;         /**< tick deadlines that passed while a cycle ran */
-    uint32_t tx_busy;        /**< cycles whose frames were not all queued */
-    uint32_t cycles_last;    /**< core clock cycles of the last cycle (170 per us) */
-    uint32_t cycles_max;     /**< worst cycle since start-up */
-    uint32_t stack_max;      /**< main stack high-water mark, bytes (updated once a second) */
+    uint32_t ticks;       /**< cycles run */
+    uint32_t misses;      /**< tick deadlines that passed while a cycle ran */
+    uint32_t tx_busy;     /**< cycles whose frames were not all queued */
+    uint32_t cycles_last; /**< core clock cycles of the last cycle (170 per us) */
+    uint32_t cycles_max;  /**< worst cycle since start-up */
+    uint32_t stack_max;   /**< main stack high-water mark, bytes (updated once a second) */
 } sp_g4_stats_t;
 
 sp_g4_stats_t sp_g4_stats;

@@ -17,7 +17,7 @@
 
 /* ---- clocks (clock.c) ---- */
 
-#define SP_G4_HSE_HZ 24000000u    /**< NUCLEO-G474RE crystal X3 */
+#define SP_G4_HSE_HZ 24000000u     /**< NUCLEO-G474RE crystal X3 */
 #define SP_G4_SYSCLK_HZ 170000000u /**< SYSCLK = HCLK = PCLK1 = PCLK2 */
 #define SP_G4_FDCAN_HZ 170000000u  /**< FDCAN kernel clock (PLL "Q" output) */
 #define SP_G4_TICK_HZ 1000u        /**< control tick */
@@ -112,20 +112,20 @@ void sp_g4_can_silence(void);
 /** Why the port stopped (sp_g4_diag.reason). */
 typedef enum {
     SP_G4_STOP_NONE = 0,
-    SP_G4_STOP_FAULT = 1,     /**< HardFault / MemManage / BusFault / UsageFault */
-    SP_G4_STOP_NMI = 2,       /**< NMI (HSE failure detected by the clock security system) */
-    SP_G4_STOP_UNEXPECTED = 3,/**< an interrupt nobody enabled */
-    SP_G4_STOP_INIT = 4       /**< clock or CAN start-up failed */
+    SP_G4_STOP_FAULT = 1,      /**< HardFault / MemManage / BusFault / UsageFault */
+    SP_G4_STOP_NMI = 2,        /**< NMI (HSE failure detected by the clock security system) */
+    SP_G4_STOP_UNEXPECTED = 3, /**< an interrupt nobody enabled */
+    SP_G4_STOP_INIT = 4        /**< clock or CAN start-up failed */
 } sp_g4_stop_t;
 
 /** Kept across a reset (not zeroed at start-up) for post-mortem reading with
  *  a debugger; valid when magic == SP_G4_DIAG_MAGIC. */
 typedef struct {
     uint32_t magic;
-    uint32_t reason;   /**< sp_g4_stop_t */
+    uint32_t reason; /**< sp_g4_stop_t */
     uint32_t cfsr, hfsr, bfar;
-    uint32_t pc, lr;   /**< stacked by the faulting context (0 if its stack was unusable) */
-    uint32_t stops;    /**< stops since power-on */
+    uint32_t pc, lr; /**< stacked by the faulting context (0 if its stack was unusable) */
+    uint32_t stops;  /**< stops since power-on */
 } sp_g4_diag_t;
 #define SP_G4_DIAG_MAGIC 0x53504734u
 extern sp_g4_diag_t sp_g4_diag;

@@ -52,20 +52,22 @@ __attribute__((section(".vectors"), used)) static const sp_g4_vector_t sp_g4_vec
     [0] = (sp_g4_vector_t)(uintptr_t)sp_g4_stack_top, /* initial SP */
     [1] = sp_g4_reset,
     [2] = sp_g4_nmi,
-    [3] = sp_g4_fault_entry,  /* HardFault */
-    [4] = sp_g4_fault_entry,  /* MemManage */
-    [5] = sp_g4_fault_entry,  /* BusFault */
-    [6] = sp_g4_fault_entry,  /* UsageFault */
-    [11] = sp_g4_unexpected,  /* SVCall */
-    [12] = sp_g4_unexpected,  /* DebugMonitor */
-    [14] = sp_g4_unexpected,  /* PendSV */
+    [3] = sp_g4_fault_entry, /* HardFault */
+    [4] = sp_g4_fault_entry, /* MemManage */
+    [5] = sp_g4_fault_entry, /* BusFault */
+    [6] = sp_g4_fault_entry, /* UsageFault */
+    [11] = sp_g4_unexpected, /* SVCall */
+    [12] = sp_g4_unexpected, /* DebugMonitor */
+    [14] = sp_g4_unexpected, /* PendSV */
     [15] = sp_g4_systick_handler,
+/* clang-format off */
     /* device interrupts 0..101 (entries 16..117): none is enabled */
 #define V4(n) [n] = sp_g4_unexpected, [n + 1] = sp_g4_unexpected, [n + 2] = sp_g4_unexpected, [n + 3] = sp_g4_unexpected
     V4(16), V4(20), V4(24), V4(28), V4(32), V4(36), V4(40), V4(44), V4(48), V4(52), V4(56), V4(60), V4(64),
     V4(68), V4(72), V4(76), V4(80), V4(84), V4(88), V4(92), V4(96), V4(100), V4(104), V4(108), V4(112),
     [116] = sp_g4_unexpected, [117] = sp_g4_unexpected,
 #undef V4
+    /* clang-format on */
 };
 
 __attribute__((noreturn)) void sp_g4_reset(void)

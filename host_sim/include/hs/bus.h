@@ -36,9 +36,9 @@ typedef struct {
     uint8_t tx_counter_feedback[HS_LEGS];
     uint8_t tx_counter_sync[2];
     sp_e2e_rx_t rx_setpoints[2];
-    uint32_t tick;         /**< the current cycle (SYNC tick) */
+    uint32_t tick;            /**< the current cycle (SYNC tick) */
     uint8_t got_setpoints[2]; /**< setpoints for `tick` received on axis_a / axis_b */
-    uint8_t silent_mask;   /**< bit i: drive of leg i sends no feedback (fault injection) */
+    uint8_t silent_mask;      /**< bit i: drive of leg i sends no feedback (fault injection) */
     hs_bus_stats_t stats;
 } hs_bus_t;
 

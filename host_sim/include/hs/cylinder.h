@@ -35,21 +35,21 @@
 
 /** The integrated state of one cylinder. */
 typedef struct {
-    double pa;       /**< chamber A pressure, Pa */
-    double pb;       /**< chamber B pressure, Pa */
-    double xv;       /**< spool position, fraction of full opening (-1..1 nominal) */
-    double xv_rate;  /**< spool velocity, 1/s */
+    double pa;      /**< chamber A pressure, Pa */
+    double pb;      /**< chamber B pressure, Pa */
+    double xv;      /**< spool position, fraction of full opening (-1..1 nominal) */
+    double xv_rate; /**< spool velocity, 1/s */
 } hs_cyl_state_t;
 
 /** Result of one evaluation. */
 typedef struct {
-    double dpa, dpb;        /**< pressure rates, Pa/s */
-    double dxv, dxv_rate;   /**< spool velocity (1/s) and acceleration (1/s^2) */
-    double force;           /**< total force on the platform along the leg, N (positive pushes out) */
-    double pressure_force;  /**< p_A A_A - p_B A_B, N */
-    double friction;        /**< friction force (opposes s'), N: force includes -friction */
-    double stop;            /**< end stop + cushion force, N (included in force) */
-    double qa, qb;          /**< valve flows into chamber A and into chamber B, m^3/s */
+    double dpa, dpb;       /**< pressure rates, Pa/s */
+    double dxv, dxv_rate;  /**< spool velocity (1/s) and acceleration (1/s^2) */
+    double force;          /**< total force on the platform along the leg, N (positive pushes out) */
+    double pressure_force; /**< p_A A_A - p_B A_B, N */
+    double friction;       /**< friction force (opposes s'), N: force includes -friction */
+    double stop;           /**< end stop + cushion force, N (included in force) */
+    double qa, qb;         /**< valve flows into chamber A and into chamber B, m^3/s */
 } hs_cyl_eval_t;
 
 /**

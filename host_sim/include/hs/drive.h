@@ -41,17 +41,9 @@
 
 #include "hs/params.h"
 
-typedef enum {
-    HS_DRIVE_INIT = 0,
-    HS_DRIVE_HOLD = 1,
-    HS_DRIVE_ACTIVE = 2,
-    HS_DRIVE_FAULT = 3
-} hs_drive_state_t;
+typedef enum { HS_DRIVE_INIT = 0, HS_DRIVE_HOLD = 1, HS_DRIVE_ACTIVE = 2, HS_DRIVE_FAULT = 3 } hs_drive_state_t;
 
-typedef enum {
-    HS_REQ_HOLD = 0,
-    HS_REQ_ACTIVE = 1
-} hs_drive_request_t;
+typedef enum { HS_REQ_HOLD = 0, HS_REQ_ACTIVE = 1 } hs_drive_request_t;
 
 /* Fault bits (the DBC's Faults signal). Latched until hs_drive_clear_faults. */
 #define HS_FAULT_TIMEOUT 0x01u   /**< bit 0: no setpoint for timeout_cycles (-> HOLD) */
@@ -94,8 +86,7 @@ void hs_drive_init(hs_drive_t *d, double force0);
  * the next cycle. HS_E_ARG for NULL, a non-finite value or an unknown mode
  * (the setpoint is then ignored: it does not feed the watchdog).
  */
-hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, double force,
-                              hs_drive_request_t mode);
+hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, double force, hs_drive_request_t mode);
 
 /**
  * Start of a cycle: applies the request of a fresh setpoint (state

@@ -12,7 +12,7 @@
  *    field of hs_params_t after deriving it (it is plain data, copied into the
  *    plant by hs_plant_init).
  *
- * Frames (NOTES.md section 1): base frame at the base centroid o, z up;
+ * Frames (docs/model.md, Frames and pose): base frame at the base centroid o, z up;
  * motion frame at the platform centroid o'; pose = [x, y, z, roll, pitch,
  * yaw] with the column rotation motion->base R = Rz(yaw) Ry(pitch) Rx(roll).
  */
@@ -46,10 +46,10 @@ typedef struct {
     double end_stop_damping;          /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
     /* Optional leg masses (config keys may be absent: 0 = off, the default;
      * docs/plant.md "Leg masses"). Each leg is two point masses on its axis. */
-    double cylinder_mass;             /**< cylinder body (barrel), kg, >= 0 */
-    double cylinder_com;              /**< its centre of mass from the base joint B_i along the leg, m, >= 0 */
-    double rod_mass;                  /**< rod + piston (sliding part), kg, >= 0 */
-    double rod_com;                   /**< its centre of mass from the platform joint towards the base, m, >= 0 */
+    double cylinder_mass; /**< cylinder body (barrel), kg, >= 0 */
+    double cylinder_com;  /**< its centre of mass from the base joint B_i along the leg, m, >= 0 */
+    double rod_mass;      /**< rod + piston (sliding part), kg, >= 0 */
+    double rod_com;       /**< its centre of mass from the platform joint towards the base, m, >= 0 */
 } hs_hydraulic_config_t;
 
 /** config "sensors" section. */
@@ -83,34 +83,34 @@ extern const hs_config_t hs_config_default;
 
 /** One cylinder with its servo valve, derived (see hs_params_from_config). */
 typedef struct {
-    double area_a;               /**< piston-side area pi D^2/4, m^2 */
-    double area_b;               /**< rod-side (annulus) area pi (D^2 - d^2)/4, m^2 */
-    double length_min;           /**< joint-to-joint length at stroke 0, m */
-    double stroke;               /**< usable stroke leg_length_max - leg_length_min, m */
-    double dead_volume_a;        /**< chamber A volume at stroke 0, m^3 */
-    double dead_volume_b;        /**< chamber B volume at full stroke, m^3 */
-    double piston_mass;          /**< kg, drive gains only (not integrated; see rod_mass) */
-    double bulk_modulus;         /**< Pa */
-    double supply_pressure;      /**< Pa */
-    double tank_pressure;        /**< Pa */
-    double pressure_max;         /**< chamber pressures are clamped to [0, pressure_max], Pa */
-    double valve_gain;           /**< K = rated flow / sqrt(rated drop), m^3/(s sqrt(Pa)) per land at full opening */
-    double valve_transition;     /**< orifice laminar transition pressure p_t (hs/cylinder.h), Pa */
-    double valve_omega;          /**< spool natural frequency, rad/s */
-    double valve_damping;        /**< spool damping ratio */
-    double leakage;              /**< m^3/(s Pa) */
-    double viscous_friction;     /**< N s/m */
-    double coulomb_friction;     /**< N */
-    double coulomb_velocity;     /**< Coulomb smoothing: full friction from |v| = v_s on (hs/cylinder.h), m/s */
-    double cushion_length;       /**< m */
-    double stop_stiffness;       /**< N/m */
-    double stop_damping;         /**< N s/m */
+    double area_a;           /**< piston-side area pi D^2/4, m^2 */
+    double area_b;           /**< rod-side (annulus) area pi (D^2 - d^2)/4, m^2 */
+    double length_min;       /**< joint-to-joint length at stroke 0, m */
+    double stroke;           /**< usable stroke leg_length_max - leg_length_min, m */
+    double dead_volume_a;    /**< chamber A volume at stroke 0, m^3 */
+    double dead_volume_b;    /**< chamber B volume at full stroke, m^3 */
+    double piston_mass;      /**< kg, drive gains only (not integrated; see rod_mass) */
+    double bulk_modulus;     /**< Pa */
+    double supply_pressure;  /**< Pa */
+    double tank_pressure;    /**< Pa */
+    double pressure_max;     /**< chamber pressures are clamped to [0, pressure_max], Pa */
+    double valve_gain;       /**< K = rated flow / sqrt(rated drop), m^3/(s sqrt(Pa)) per land at full opening */
+    double valve_transition; /**< orifice laminar transition pressure p_t (hs/cylinder.h), Pa */
+    double valve_omega;      /**< spool natural frequency, rad/s */
+    double valve_damping;    /**< spool damping ratio */
+    double leakage;          /**< m^3/(s Pa) */
+    double viscous_friction; /**< N s/m */
+    double coulomb_friction; /**< N */
+    double coulomb_velocity; /**< Coulomb smoothing: full friction from |v| = v_s on (hs/cylinder.h), m/s */
+    double cushion_length;   /**< m */
+    double stop_stiffness;   /**< N/m */
+    double stop_damping;     /**< N s/m */
     /* Leg masses (docs/plant.md "Leg masses"): all 0 = neglected (default,
      * as the firmware's inverse dynamics). Point masses on the leg axis. */
-    double cylinder_mass;        /**< cylinder body, kg, >= 0 */
-    double cylinder_com;         /**< its centre from the base joint along the leg, m, 0..length_min + stroke */
-    double rod_mass;             /**< rod + piston, kg, >= 0 (independent of piston_mass, which only sets the drive gains) */
-    double rod_com;              /**< its centre from the platform joint towards the base, m, 0..length_min + stroke */
+    double cylinder_mass; /**< cylinder body, kg, >= 0 */
+    double cylinder_com;  /**< its centre from the base joint along the leg, m, 0..length_min + stroke */
+    double rod_mass;      /**< rod + piston, kg, >= 0 (independent of piston_mass, which only sets the drive gains) */
+    double rod_com;       /**< its centre from the platform joint towards the base, m, 0..length_min + stroke */
 } hs_cyl_params_t;
 
 /** Sensor model of every axis. */
@@ -144,7 +144,7 @@ typedef struct {
     hs_cyl_params_t cyl[HS_LEGS];
     hs_sensor_params_t sensors;
     hs_drive_params_t drive;
-    uint32_t substeps;                 /**< RK4 steps per cycle, 1..1000 (default 10: 10 kHz at 1 ms) */
+    uint32_t substeps; /**< RK4 steps per cycle, 1..1000 (default 10: 10 kHz at 1 ms) */
 } hs_params_t;
 
 /**

@@ -41,17 +41,14 @@
 #include "hs/sensor.h"
 
 /* Layout of the integrated state vector. */
-#define HS_X_POS 0                 /**< p, m (3) */
-#define HS_X_VEL 3                 /**< v, m/s (3) */
-#define HS_X_QUAT 6                /**< q = [w, x, y, z] (4) */
-#define HS_X_OMEGA 10              /**< w, body frame, rad/s (3) */
-#define HS_X_CYL 13                /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
+#define HS_X_POS 0    /**< p, m (3) */
+#define HS_X_VEL 3    /**< v, m/s (3) */
+#define HS_X_QUAT 6   /**< q = [w, x, y, z] (4) */
+#define HS_X_OMEGA 10 /**< w, body frame, rad/s (3) */
+#define HS_X_CYL 13   /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
 #define HS_NX (HS_X_CYL + 4 * HS_LEGS)
 
-typedef enum {
-    HS_ACT_HYDRAULIC = 0,
-    HS_ACT_IDEAL = 1
-} hs_actuation_t;
+typedef enum { HS_ACT_HYDRAULIC = 0, HS_ACT_IDEAL = 1 } hs_actuation_t;
 
 typedef enum {
     HS_CONTACT_NONE = 0,
@@ -79,23 +76,23 @@ typedef struct {
     int64_t pressure_a_counts; /**< pressure_a in units of the pressure resolution */
     int64_t pressure_b_counts;
     hs_drive_state_t state;
-    uint32_t faults;           /**< HS_FAULT_* bits */
-    uint64_t cycle;            /**< cycles completed when sampled */
+    uint32_t faults; /**< HS_FAULT_* bits */
+    uint64_t cycle;  /**< cycles completed when sampled */
 } hs_feedback_t;
 
 /** The true state, for tests, logs and plots. */
 typedef struct {
-    double time;               /**< s since init */
-    uint64_t cycle;            /**< cycles completed */
-    double pose[6];            /**< x, y, z (m), roll, pitch, yaw (rad) */
-    double quat[4];            /**< unit quaternion motion -> base, [w, x, y, z] */
-    double vel[3];             /**< velocity of o', base frame, m/s */
-    double omega_body[3];      /**< angular velocity, motion frame, rad/s */
-    double omega_base[3];      /**< angular velocity, base frame, rad/s */
-    double length[HS_LEGS];    /**< leg lengths, m */
-    double rate[HS_LEGS];      /**< leg extension rates, m/s */
-    double force[HS_LEGS];     /**< cylinder forces on the platform along the legs, N */
-    double pa[HS_LEGS];        /**< chamber pressures, Pa (frozen in ideal mode) */
+    double time;            /**< s since init */
+    uint64_t cycle;         /**< cycles completed */
+    double pose[6];         /**< x, y, z (m), roll, pitch, yaw (rad) */
+    double quat[4];         /**< unit quaternion motion -> base, [w, x, y, z] */
+    double vel[3];          /**< velocity of o', base frame, m/s */
+    double omega_body[3];   /**< angular velocity, motion frame, rad/s */
+    double omega_base[3];   /**< angular velocity, base frame, rad/s */
+    double length[HS_LEGS]; /**< leg lengths, m */
+    double rate[HS_LEGS];   /**< leg extension rates, m/s */
+    double force[HS_LEGS];  /**< cylinder forces on the platform along the legs, N */
+    double pa[HS_LEGS];     /**< chamber pressures, Pa (frozen in ideal mode) */
     double pb[HS_LEGS];
     double spool[HS_LEGS];     /**< spool positions, -1..1 */
     double valve_cmd[HS_LEGS]; /**< drive outputs of the last substep */

@@ -18,11 +18,11 @@
 
 typedef struct {
     hs_cyl_params_t cyl;
-    double mass;       /**< kg moved by the cylinder (load + piston) */
-    double gravity;    /**< acceleration opposing extension, m/s^2 (g for a vertical cylinder, 0 lying) */
-    double ext_force;  /**< constant external force along the axis, N (positive pushes out) */
+    double mass;      /**< kg moved by the cylinder (load + piston) */
+    double gravity;   /**< acceleration opposing extension, m/s^2 (g for a vertical cylinder, 0 lying) */
+    double ext_force; /**< constant external force along the axis, N (positive pushes out) */
     double x[HS_RIG_NX];
-    double time;       /**< s */
+    double time; /**< s */
 } hs_rig_t;
 
 /**

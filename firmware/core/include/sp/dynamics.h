@@ -49,7 +49,7 @@ typedef struct {
  * all are inside, SP_E_RANGE otherwise (the report says which leg and why),
  * SP_E_ARG on NULL platform, length or report.
  */
-sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
-                          const sp_q24_t rate[SP_LEGS], const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report);
+sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
+                          const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report);
 
 #endif /* SP_DYNAMICS_H */

@@ -50,8 +50,8 @@ typedef enum {
 
 /** Receiver state of one message from one sender. Zero-initialise it. */
 typedef struct {
-    uint8_t synced;  /**< 1 once a frame was accepted */
-    uint8_t last;    /**< counter of the last accepted frame */
+    uint8_t synced; /**< 1 once a frame was accepted */
+    uint8_t last;   /**< counter of the last accepted frame */
 } sp_e2e_rx_t;
 
 /** Classifies a received counter (0..15) and updates the state: accepted

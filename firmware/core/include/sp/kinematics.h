@@ -2,7 +2,7 @@
  * sp/kinematics.h - the paper's leg kinematics (eqs 1, 2, 10), the leg
  * Jacobian, and forward kinematics, in fixed point.
  *
- * Conventions (NOTES.md section 1). The paper writes vectors as rows: a point
+ * Conventions (docs/model.md, Frames and pose). The paper writes vectors as rows: a point
  * with motion-frame coordinates a sits at a T + R in the base frame, so the
  * rows of T are the platform axes in base coordinates, and T^T is the usual
  * column-vector rotation Rz(yaw) Ry(pitch) Rx(roll) from the motion frame to
@@ -24,12 +24,12 @@ typedef struct {
 
 /** Inverse kinematics of one pose. */
 typedef struct {
-    sp_rot_t rot;                        /**< T of the pose */
-    sp_q30_t sc[6];                      /**< sin, cos of roll, pitch, yaw, Q30 (what T is built from) */
-    sp_q24_t arm[SP_LEGS][3];            /**< A_im T: platform joint relative to o', base frame, m, Q24 */
-    sp_q24_t leg[SP_LEGS][3];            /**< l_i = A_im T + R - B_i (eq 1), base frame, m, Q24 */
-    sp_q24_t length[SP_LEGS];            /**< |l_i|, m, Q24 */
-    sp_q30_t unit[SP_LEGS][3];           /**< l_i / |l_i|, base frame, Q30 */
+    sp_rot_t rot;              /**< T of the pose */
+    sp_q30_t sc[6];            /**< sin, cos of roll, pitch, yaw, Q30 (what T is built from) */
+    sp_q24_t arm[SP_LEGS][3];  /**< A_im T: platform joint relative to o', base frame, m, Q24 */
+    sp_q24_t leg[SP_LEGS][3];  /**< l_i = A_im T + R - B_i (eq 1), base frame, m, Q24 */
+    sp_q24_t length[SP_LEGS];  /**< |l_i|, m, Q24 */
+    sp_q30_t unit[SP_LEGS][3]; /**< l_i / |l_i|, base frame, Q30 */
 } sp_ik_t;
 
 /** The leg Jacobian: row i = [u_i, (A_im T) x u_i], base frame, Q28.
@@ -97,8 +97,7 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
  * o' (m/s, Q24) and the Euler angle rates (rad/s, Q24). Saturates
  * (SP_E_OVERFLOW) beyond +-128 m/s.
  */
-sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3],
-                         sp_q24_t rate[SP_LEGS]);
+sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS]);
 
 /** Builds the leg Jacobian of a pose from its inverse kinematics. */
 sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac);
@@ -181,8 +180,8 @@ void sp_fk_default_options(sp_fk_options_t *opt);
 
 /** What the forward kinematics did. */
 typedef struct {
-    uint32_t iterations;     /**< Newton steps taken (Jacobian solves) */
-    sp_q24_t residual;       /**< largest |length residual| at the result, m, Q24 */
+    uint32_t iterations; /**< Newton steps taken (Jacobian solves) */
+    sp_q24_t residual;   /**< largest |length residual| at the result, m, Q24 */
 } sp_fk_info_t;
 
 /**
@@ -201,9 +200,8 @@ typedef struct {
  * info (may be NULL) reports iterations and the final residual in all cases.
  * Bounded: at most max_iterations (<= 20) IK + solve steps.
  */
-sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS],
-                                  const sp_pose_t *guess, const sp_fk_options_t *opt, sp_pose_t *pose,
-                                  sp_ik_t *ik, sp_fk_info_t *info);
+sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                                  const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *ik, sp_fk_info_t *info);
 
 /** What the chord forward kinematics keeps of a pose between calls: its
  *  leg lengths (m, Q24) and the sines and cosines of roll, pitch, yaw

@@ -23,27 +23,27 @@
 
 #include "sp/protocol.h"
 
-#define SP_NODE_MAX_TX 8u     /**< frames sp_node_tick emits at most */
-#define SP_NODE_CMD_QUEUE 4u  /**< operator commands held (one is executed per tick) */
+#define SP_NODE_MAX_TX 8u    /**< frames sp_node_tick emits at most */
+#define SP_NODE_CMD_QUEUE 4u /**< operator commands held (one is executed per tick) */
 
 typedef struct {
-    sp_ctrl_config_t ctrl;  /**< controller tuning (force_feedforward may change by command) */
-    uint8_t sync_master;    /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
+    sp_ctrl_config_t ctrl; /**< controller tuning (force_feedforward may change by command) */
+    uint8_t sync_master;   /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
 } sp_node_config_t;
 
 typedef struct {
-    uint32_t accepted;                 /**< frames used */
-    uint32_t rejected[SP_PROTO_ERRORS];/**< dropped frames by sp_proto_error_t */
-    uint32_t lost;                     /**< frames missed according to alive counters */
-    uint32_t stale;                    /**< valid feedback that answered an older SYNC */
-    uint32_t saturated;                /**< values clipped to a signal's range on send */
-    uint32_t cmd_overflow;             /**< commands refused: queue full (an ESTOP never is) */
+    uint32_t accepted;                  /**< frames used */
+    uint32_t rejected[SP_PROTO_ERRORS]; /**< dropped frames by sp_proto_error_t */
+    uint32_t lost;                      /**< frames missed according to alive counters */
+    uint32_t stale;                     /**< valid feedback that answered an older SYNC */
+    uint32_t saturated;                 /**< values clipped to a signal's range on send */
+    uint32_t cmd_overflow;              /**< commands refused: queue full (an ESTOP never is) */
 } sp_node_stats_t;
 
 typedef struct {
     sp_ctrl_t ctrl;
-    sp_ctrl_input_t in;                 /**< gathered for the next tick */
-    sp_ctrl_output_t out;               /**< of the last tick */
+    sp_ctrl_input_t in;   /**< gathered for the next tick */
+    sp_ctrl_output_t out; /**< of the last tick */
     sp_e2e_rx_t rx_feedback[SP_LEGS];
     sp_e2e_rx_t rx_sync[2];
     sp_e2e_rx_t rx_command;
@@ -61,7 +61,7 @@ typedef struct {
     sp_msg_command_t cmd_queue[SP_NODE_CMD_QUEUE]; /**< commands waiting, one per tick */
     uint8_t cmd_head;
     uint8_t cmd_count;
-    sp_pose_t target;                   /**< last OP_TARGET_POSE */
+    sp_pose_t target; /**< last OP_TARGET_POSE */
     sp_node_stats_t stats;
     const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
     uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */

@@ -49,7 +49,12 @@ typedef enum {
 const char *sp_proto_error_name(sp_proto_error_t e);
 
 /** Drive states in AXIS_FEEDBACK (CiA 408 spirit). */
-typedef enum { SP_DRIVE_STATE_INIT = 0, SP_DRIVE_STATE_HOLD = 1, SP_DRIVE_STATE_ACTIVE = 2, SP_DRIVE_STATE_FAULT = 3 } sp_drive_state_t;
+typedef enum {
+    SP_DRIVE_STATE_INIT = 0,
+    SP_DRIVE_STATE_HOLD = 1,
+    SP_DRIVE_STATE_ACTIVE = 2,
+    SP_DRIVE_STATE_FAULT = 3
+} sp_drive_state_t;
 
 typedef struct {
     uint32_t tick;
@@ -63,20 +68,20 @@ typedef struct {
 } sp_msg_setpoints_t;
 
 typedef struct {
-    sp_q24_t length;       /**< m, Q24 */
-    uint32_t pressure_a;   /**< piston side, Pa */
-    uint32_t pressure_b;   /**< rod side, Pa */
-    uint8_t state;         /**< sp_drive_state_t */
-    uint8_t faults;        /**< drive fault bits */
-    uint16_t tick_echo;    /**< low 16 bits of the SYNC tick sampled at */
+    sp_q24_t length;     /**< m, Q24 */
+    uint32_t pressure_a; /**< piston side, Pa */
+    uint32_t pressure_b; /**< rod side, Pa */
+    uint8_t state;       /**< sp_drive_state_t */
+    uint8_t faults;      /**< drive fault bits */
+    uint16_t tick_echo;  /**< low 16 bits of the SYNC tick sampled at */
 } sp_msg_feedback_t;
 
 typedef struct {
-    uint8_t command;     /**< sp_cmd_type_t, or 9 = SET_FEEDFORWARD */
-    uint8_t axis;        /**< sp_axis_t */
-    sp_q24_t amplitude;  /**< m or rad, Q24 */
-    sp_q24_t frequency;  /**< Hz, Q24 */
-    uint32_t fade_ms;    /**< fade time, ms (0: the controller's default) */
+    uint8_t command;    /**< sp_cmd_type_t, or 9 = SET_FEEDFORWARD */
+    uint8_t axis;       /**< sp_axis_t */
+    sp_q24_t amplitude; /**< m or rad, Q24 */
+    sp_q24_t frequency; /**< Hz, Q24 */
+    uint32_t fade_ms;   /**< fade time, ms (0: the controller's default) */
     uint8_t option;
 } sp_msg_command_t;
 

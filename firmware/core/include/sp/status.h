@@ -7,16 +7,16 @@
 /** Result of a core function. SP_OK is zero; every error is non-zero. */
 typedef enum {
     SP_OK = 0,
-    SP_E_OVERFLOW = 1, /**< an intermediate or result saturated */
-    SP_E_DOMAIN = 2,   /**< undefined operation (x/0, sqrt of a negative) */
-    SP_E_ARG = 3,      /**< NULL pointer or argument outside its documented range */
-    SP_E_SINGULAR = 4, /**< matrix singular or too ill-conditioned to trust */
-    SP_E_RANGE = 5,    /**< result outside the physical limits (stroke, workspace, force) */
+    SP_E_OVERFLOW = 1,       /**< an intermediate or result saturated */
+    SP_E_DOMAIN = 2,         /**< undefined operation (x/0, sqrt of a negative) */
+    SP_E_ARG = 3,            /**< NULL pointer or argument outside its documented range */
+    SP_E_SINGULAR = 4,       /**< matrix singular or too ill-conditioned to trust */
+    SP_E_RANGE = 5,          /**< result outside the physical limits (stroke, workspace, force) */
     SP_E_NO_CONVERGENCE = 6, /**< iteration did not converge within its bound */
     SP_E_DISCONTINUITY = 7,  /**< converged, but too far from the previous solution */
-    SP_E_FRAME = 8,    /**< a received frame was malformed, corrupted, stale or out of range */
-    SP_E_IO = 9,       /**< a port could not send or receive (bus off, socket error) */
-    SP_E_BUSY = 10     /**< a queue was full or nothing was ready; retry later */
+    SP_E_FRAME = 8,          /**< a received frame was malformed, corrupted, stale or out of range */
+    SP_E_IO = 9,             /**< a port could not send or receive (bus off, socket error) */
+    SP_E_BUSY = 10           /**< a queue was full or nothing was ready; retry later */
 } sp_status_t;
 
 /**

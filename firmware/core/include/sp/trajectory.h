@@ -38,16 +38,16 @@ sp_q24_t sp_pose_axis(const sp_pose_t *pose, sp_axis_t axis);
  * increment per tick: it wraps modulo one cycle by design, without drift.
  */
 typedef struct {
-    sp_pose_t centre;      /**< pose the motion is about */
-    sp_axis_t axis;        /**< which axis moves */
-    sp_q24_t amplitude;    /**< m or rad, Q24 */
-    sp_q24_t omega;        /**< 2 pi f, rad/s, Q24 */
-    uint32_t phase_step;   /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
-    uint32_t phase;        /**< current phase, 2^-32 turn */
-    uint32_t fade_ticks;   /**< fade-in and fade-out length, ticks */
-    uint32_t tick;         /**< ticks since start */
-    uint32_t stop_tick;    /**< tick at which the fade-out began (UINT32_MAX: none yet) */
-    int finished;          /**< 1 once the fade-out has ended: output is the centre, at rest */
+    sp_pose_t centre;    /**< pose the motion is about */
+    sp_axis_t axis;      /**< which axis moves */
+    sp_q24_t amplitude;  /**< m or rad, Q24 */
+    sp_q24_t omega;      /**< 2 pi f, rad/s, Q24 */
+    uint32_t phase_step; /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
+    uint32_t phase;      /**< current phase, 2^-32 turn */
+    uint32_t fade_ticks; /**< fade-in and fade-out length, ticks */
+    uint32_t tick;       /**< ticks since start */
+    uint32_t stop_tick;  /**< tick at which the fade-out began (UINT32_MAX: none yet) */
+    int finished;        /**< 1 once the fade-out has ended: output is the centre, at rest */
 } sp_trig_t;
 
 /**
@@ -90,8 +90,8 @@ typedef struct {
     sp_pose_t to;
     uint32_t duration_ticks; /**< 0 for a null move */
     uint32_t tick;
-    uint32_t rate_tick_us;   /**< the tick length rate was computed for (0: none) */
-    sp_q24_t rate;           /**< du/dt = 1 / duration, 1/s, Q24 (kept by sp_move_step) */
+    uint32_t rate_tick_us; /**< the tick length rate was computed for (0: none) */
+    sp_q24_t rate;         /**< du/dt = 1 / duration, 1/s, Q24 (kept by sp_move_step) */
 } sp_move_t;
 
 /**
@@ -99,8 +99,8 @@ typedef struct {
  * for NULL or non-positive limits, SP_E_RANGE if the move would take longer
  * than 10 minutes.
  */
-sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *to,
-                         const sp_move_limits_t *lim, uint32_t tick_us);
+sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *to, const sp_move_limits_t *lim,
+                         uint32_t tick_us);
 
 /** Motion sample of the current tick, then advances; *done = 1 once the
  *  target is reached (the sample is then the target at rest). */
