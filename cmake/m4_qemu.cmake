@@ -1,5 +1,5 @@
 # The portable core on a Cortex-M4 under QEMU (board mps2-an386; docs/m4.md,
-# NOTES.md section 5). Included once from the top-level CMakeLists.txt.
+# and its Instruction counts section). Included once from the top-level CMakeLists.txt.
 #   cross build (m4-core preset): the port (firmware/ports/qemu_mps2) and the
 #     bench/m4 programs as .elf images: golden vectors, instruction counts
 #     (fixed point, and the single-precision float reference);

@@ -9,7 +9,7 @@ from stewart.commands import busload_cmd as bl
 
 
 def test_classic_formula_matches_notes():
-    assert bl.classic_frame_bits(8) == 135  # NOTES.md section 3
+    assert bl.classic_frame_bits(8) == 135  # 11-bit ID, 8 bytes, worst-case stuffing
     assert bl.classic_frame_bits(0) == 47 + 8  # 47 + floor(33 / 4)
 
 

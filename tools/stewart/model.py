@@ -1,7 +1,7 @@
 """Independent float64 model of the paper's kinematics and dynamics (numpy).
 
 Written from the paper (Hitaka et al., eqs (1)-(15)) with the conventions of
-NOTES.md section 1, not from the C code: it is the reference that the
+docs/model.md (Frames and pose), not from the C code: it is the reference that the
 fixed-point firmware core is checked against, and what the plots overlay.
 
 Conventions: a pose is [x, y, z, roll phi, pitch theta, yaw psi] (m, rad).

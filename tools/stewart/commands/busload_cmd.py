@@ -2,7 +2,7 @@
 
 Bits of one frame, 11-bit ID, ``n`` data bytes, worst-case bit stuffing:
 
-* classic CAN (NOTES.md section 3): ``47 + 8n + floor((34 + 8n - 1) / 4)`` bits,
+* classic CAN (ISO 11898-1 base frame, worst-case stuffing): ``47 + 8n + floor((34 + 8n - 1) / 4)`` bits,
   all at the nominal rate;
 * CAN FD with bit-rate switch (ISO 11898-1:2015 frame layout):
 
