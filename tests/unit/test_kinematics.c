@@ -29,6 +29,7 @@
 
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
+#include "sp/limits.h"
 #include "test_util.h"
 
 #define N_POSES 3000

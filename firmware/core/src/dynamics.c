@@ -148,36 +148,3 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     }
     return SP_OK;
 }
-
-sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
-                          const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report)
-{
-    unsigned i;
-
-    if (platform == NULL || length == NULL || report == NULL) {
-        return SP_E_ARG;
-    }
-    report->too_short = 0u;
-    report->too_long = 0u;
-    report->too_fast = 0u;
-    report->over_force = 0u;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        uint32_t bit = UINT32_C(1) << i;
-        if (length[i] < platform->leg_length_min) {
-            report->too_short |= bit;
-        }
-        if (length[i] > platform->leg_length_max) {
-            report->too_long |= bit;
-        }
-        if (rate != NULL && (rate[i] > platform->leg_velocity_max || rate[i] < -platform->leg_velocity_max)) {
-            report->too_fast |= bit;
-        }
-        if (force != NULL && (force[i] > platform->force_max || force[i] < -platform->force_max)) {
-            report->over_force |= bit;
-        }
-    }
-    if ((report->too_short | report->too_long | report->too_fast | report->over_force) != 0u) {
-        return SP_E_RANGE;
-    }
-    return SP_OK;
-}

@@ -108,6 +108,13 @@ SPI_INLINE uint32_t spi_dist32(int32_t a, int32_t b)
     return (a > b) ? (uint32_t)a - (uint32_t)b : (uint32_t)b - (uint32_t)a;
 }
 
+/* Is |a - b| above the limit (a negative limit: always)? Exact for any
+ * two int32. */
+SPI_INLINE int spi_farther(int32_t a, int32_t b, int32_t limit)
+{
+    return limit < 0 || spi_dist32(a, b) > (uint32_t)limit;
+}
+
 /* a + b, saturated. */
 SPI_INLINE int32_t spi_add(int32_t a, int32_t b, sp_flags_t *flags)
 {

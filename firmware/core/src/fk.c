@@ -3,7 +3,7 @@
 #include "core_internal.h"
 #include "fixed_inline.h"
 
-#define COS_PITCH_MIN INT32_C(10737418) /* 0.01 in Q30 */
+#define COS_PITCH_MIN SP_Q30_MILLI(10) /* 0.01 */
 
 void sp_fk_default_options(sp_fk_options_t *opt)
 {
@@ -11,9 +11,9 @@ void sp_fk_default_options(sp_fk_options_t *opt)
         return;
     }
     opt->max_iterations = 8u;
-    opt->tolerance = 4;         /* 0.24 um */
-    opt->max_jump_pos = 838861; /* 50 mm */
-    opt->max_jump_rot = 838861; /* 50 mrad */
+    opt->tolerance = 4;                   /* 0.24 um */
+    opt->max_jump_pos = SP_Q24_MILLI(50); /* 50 mm */
+    opt->max_jump_rot = SP_Q24_MILLI(50); /* 50 mrad */
 }
 
 /* The length residuals l - length (Q24, saturated) into neg_res (negated,
@@ -86,27 +86,17 @@ static sp_status_t fk_jump_check(const sp_pose_t *q, const sp_pose_t *guess, con
     return neg ? SP_E_DISCONTINUITY : SP_OK;
 }
 
-sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
-                                  const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *ik, sp_fk_info_t *info)
+/* Newton-Raphson of sp_forward_kinematics into w (the IK of each iterate;
+ * its unit vectors at the solution only when `units`), after the caller
+ * checked the arguments and reset *info. */
+static sp_status_t fk_newton(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                             const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *w, int units, sp_fk_info_t *info)
 {
-    sp_pose_t q;
+    sp_pose_t q = *guess;
     sp_jacobian_t jac;
-    sp_fk_info_t local_info;
-    sp_ik_t work;
-    sp_ik_t *w = (ik != NULL) ? ik : &work;
     sp_status_t st = SP_OK;
     uint32_t it = 0u;
 
-    if (info == NULL) {
-        info = &local_info;
-    }
-    info->iterations = 0u;
-    info->residual = INT32_MAX;
-    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL ||
-        opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
-        return SP_E_ARG;
-    }
-    q = *guess;
     for (;;) { /* bounded: at most max_iterations + 1 passes */
         int64_t neg_res[SP_LEGS];
         int64_t delta[SP_LEGS];
@@ -122,8 +112,8 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
         worst = fk_residuals(w->length, length, neg_res);
         info->residual = worst;
         if (worst <= opt->tolerance) {
-            if (ik != NULL) {
-                spi_ik_units(ik);
+            if (units) {
+                spi_ik_units(w);
             }
             st = SP_OK;
             break;
@@ -151,6 +141,67 @@ sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t 
         st = fk_jump_check(&q, guess, opt);
     }
     *pose = (st == SP_OK) ? q : *guess;
+    return st;
+}
+
+/* The arguments of sp_forward_kinematics: SP_E_ARG when one is bad, after
+ * resetting *info. */
+static sp_status_t fk_check(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                            const sp_fk_options_t *opt, const sp_pose_t *pose, sp_fk_info_t *info)
+{
+    info->iterations = 0u;
+    info->residual = INT32_MAX;
+    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL ||
+        opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
+        return SP_E_ARG;
+    }
+    return SP_OK;
+}
+
+sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                                  const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *ik, sp_fk_info_t *info)
+{
+    sp_fk_info_t local_info;
+    sp_ik_t work;
+    sp_status_t st;
+
+    if (info == NULL) {
+        info = &local_info;
+    }
+    st = fk_check(platform, length, guess, opt, pose, info);
+    if (st != SP_OK) {
+        return st;
+    }
+    return fk_newton(platform, length, guess, opt, pose, (ik != NULL) ? ik : &work, ik != NULL, info);
+}
+
+sp_status_t sp_fk_newton_cached(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                                const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose, sp_fk_info_t *info)
+{
+    sp_fk_info_t local_info;
+    sp_ik_t work;
+    sp_status_t st;
+    unsigned i;
+
+    if (info == NULL) {
+        info = &local_info;
+    }
+    st = fk_check(platform, length, guess, opt, pose, info);
+    if (st == SP_OK && cache == NULL) {
+        st = SP_E_ARG;
+    }
+    if (st != SP_OK) {
+        return st;
+    }
+    st = fk_newton(platform, length, guess, opt, pose, &work, 0, info);
+    if (st == SP_OK) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            cache->length[i] = work.length[i];
+        }
+        for (i = 0u; i < 6u; ++i) {
+            cache->sc[i] = work.sc[i];
+        }
+    }
     return st;
 }
 

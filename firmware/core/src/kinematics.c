@@ -4,7 +4,7 @@
 #include "fixed_inline.h"
 
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
-#define LEG_LENGTH_MIN INT32_C(16777)        /* 1 mm in Q24 */
+#define LEG_LENGTH_MIN SP_Q24_MILLI(1)       /* 1 mm */
 
 /* round(a b / 2^30) and round((a b + c d) / 2^30), ties up, for sines,
  * cosines and their rounded products (|a|, |b|, |c|, |d| <= 2^30 + 2): the

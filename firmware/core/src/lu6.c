@@ -1,4 +1,4 @@
-#include "sp/kinematics.h"
+#include "sp/lu6.h"
 
 #include "core_internal.h"
 #include "fixed_inline.h"

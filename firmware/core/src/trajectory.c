@@ -29,8 +29,7 @@ static sp_q24_t *vec_ref(sp_motion_t *m, unsigned a, int order)
     return (a < 3u) ? &m->acc[a] : &m->rpy_acc[a - 3u];
 }
 
-/* Motion sample at rest at `pose`. */
-static void at_rest(sp_motion_t *m, const sp_pose_t *pose)
+void sp_motion_at_rest(sp_motion_t *m, const sp_pose_t *pose)
 {
     unsigned k;
     m->pose = *pose;
@@ -151,7 +150,7 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     if (g == NULL || out == NULL || tick_us < 1u) {
         return SP_E_ARG;
     }
-    at_rest(out, &g->centre);
+    sp_motion_at_rest(out, &g->centre);
     if (g->finished) {
         return SP_OK;
     }
@@ -295,12 +294,12 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
         return SP_E_ARG;
     }
     if (mv->tick >= mv->duration_ticks) {
-        at_rest(out, &mv->to);
+        sp_motion_at_rest(out, &mv->to);
         *done = 1;
         return SP_OK;
     }
     *done = 0;
-    at_rest(out, &mv->from);
+    sp_motion_at_rest(out, &mv->from);
     u = (int32_t)udiv64((uint64_t)mv->tick << 30, mv->duration_ticks);
     if (mv->tick == 0u || mv->rate_tick_us != tick_us) {
         /* once per move (and whenever the tick length changes) */

@@ -9,6 +9,24 @@
  * allocates nothing and never blocks; the port calls it and moves the
  * inputs and outputs between the structs and the CAN bus.
  *
+ * The tick, in order (controller.c), each job with its own state in
+ * sp_ctrl_t and its own module:
+ *   1. supervise   the drives' feedback: timeouts, drive faults, legs
+ *                  outside their stroke (sp_supervision_t);
+ *   2. estimate    the pose by forward kinematics (sp/estimate.h);
+ *   3. command     the operator's command and streamed target: the state
+ *                  machine below, the motion generators (sp/trajectory.h,
+ *                  sp/stream.h);
+ *   4. reference   this tick's reference motion, by state;
+ *   5. setpoints   the drives' setpoints of the reference with every limit
+ *                  checked (sp/setpoint.h, sp/limits.h); a reference
+ *                  outside the limits is never passed on;
+ *   6. divergence  of the estimate from the reference;
+ *   7. output.
+ * Values derived once from the config (the limits in absolute coordinates,
+ * the stream filter's gains) are prepared by sp_ctrl_init
+ * (sp_ctrl_prepared_t), apart from the tick's state.
+ *
  * States (what an operator of a motion base expects):
  *   IDLE      parked; drives hold. ENGAGE starts the engage move.
  *   ENGAGING  smooth move from the estimated (parked) pose to home.
@@ -27,7 +45,10 @@
 #define SP_CONTROLLER_H
 
 #include "sp/dynamics.h"
-#include "sp/kinematics.h"
+#include "sp/estimate.h"
+#include "sp/limits.h"
+#include "sp/setpoint.h"
+#include "sp/stream.h"
 #include "sp/trajectory.h"
 
 typedef enum {
@@ -96,12 +117,6 @@ typedef struct {
 } sp_ctrl_input_t;
 
 typedef struct {
-    sp_q24_t length;   /**< length setpoint, m, Q24 */
-    sp_q24_t velocity; /**< velocity feed-forward, m/s, Q24 */
-    sp_q8_t force;     /**< force feed-forward, N, Q8 */
-} sp_setpoint_t;
-
-typedef struct {
     sp_setpoint_t setpoint[SP_LEGS];
     sp_drive_mode_t drive_mode;
     sp_state_t state;
@@ -128,39 +143,46 @@ typedef struct {
     uint8_t force_feedforward;       /**< 1: send the inverse dynamics forces; 0: send 0 */
 } sp_ctrl_config_t;
 
+/** What RUNNING is executing. */
+typedef enum {
+    SP_MODE_TRIG = 0,  /**< the paper's trigonometric motion (RUN_TRIG), sp_ctrl_t.trig */
+    SP_MODE_MOVE = 1,  /**< a point-to-point move (MOVE_TO), sp_ctrl_t.move */
+    SP_MODE_STREAM = 2 /**< the stream filter (STREAM), sp_ctrl_t.stream */
+} sp_motion_mode_t;
+
+/** Values derived from the config by sp_ctrl_init, constant until the next
+ *  init (call sp_ctrl_init again after changing the config). */
+typedef struct {
+    sp_limits_t limits;       /**< workspace box, stroke, rate and force limits, joint reach */
+    sp_stream_gains_t stream; /**< the stream filter's dt and gains */
+} sp_ctrl_prepared_t;
+
+/** sp_supervision_t.seen_mask once every drive has been heard from. */
+#define SP_ALL_LEGS ((UINT32_C(1) << SP_LEGS) - 1u)
+
+/** Feedback supervision: what the step remembers of the drives' frames. */
+typedef struct {
+    uint32_t missed[SP_LEGS];      /**< ticks since leg i's last fresh frame (saturates) */
+    uint32_t seen_mask;            /**< drives heard from at least once (bit i: leg i) */
+    sp_q24_t last_length[SP_LEGS]; /**< the last measured lengths, m, Q24 */
+} sp_supervision_t;
+
 /** Controller state: everything the step remembers between ticks. */
 typedef struct {
+    sp_ctrl_prepared_t prep; /**< derived from the config at init */
     sp_state_t state;
-    uint32_t faults;
-    uint32_t tick;
-    uint32_t missed[SP_LEGS];
-    uint32_t seen_mask; /**< drives heard from at least once */
-    sp_q24_t last_length[SP_LEGS];
-    sp_pose_t estimate;
-    uint8_t estimate_valid;
-    uint8_t mode;            /**< RUNNING: 0 trig, 1 move, 2 stream */
-    uint8_t park_after;      /**< RUNNING: park once the motion ends */
-    uint8_t stream_stopping; /**< RUNNING stream: settling back to home */
-    sp_trig_t trig;
-    sp_move_t move;
-    sp_motion_t stream;  /**< stream filter output (pose, velocity, acceleration) */
-    int64_t stream_x[6]; /**< stream filter position per axis, Q48 */
-    int64_t stream_v[6]; /**< stream filter velocity per axis, Q48 */
-    sp_pose_t stream_target;
-    sp_pose_t stream_anchor;                /**< the last streamed target whose IK was computed (reachable) */
-    sp_q24_t stream_anchor_length[SP_LEGS]; /**< its leg lengths, m, Q24 */
-    uint8_t stream_anchor_valid;
-    uint32_t joint_reach;  /**< max over the platform joints of |a_x| + |a_y| + |a_z|, m, Q24
-                                    (set by sp_ctrl_init; UINT32_MAX: too large for the stream bound) */
-    sp_q24_t ws_lo[6];     /**< workspace box in absolute pose coordinates (x, y, z, roll, pitch, yaw), */
-    sp_q24_t ws_hi[6];     /**< home + workspace_min/max clamped to int32, set by sp_ctrl_init */
-    sp_motion_t reference; /**< last accepted reference */
-    sp_setpoint_t setpoint[SP_LEGS];
-    uint8_t have_setpoint;
-    uint8_t fk_cache_valid; /**< fk_cache holds the lengths and sines of `estimate` */
-    sp_fk_cache_t fk_cache; /**< the estimate's lengths and sines, for the next tick's FK */
-    sp_lu6_t ref_lu;        /**< factorisation of J^T at `reference.pose` (valid flag inside), from the
-                                    inverse dynamics: the next tick's FK steps solve with it */
+    uint32_t faults; /**< latched SP_FAULT_* bits */
+    uint32_t tick;   /**< ticks since init (saturates) */
+    sp_supervision_t sup;
+    sp_estimate_t est;               /**< the pose estimate, its FK cache and the factorisation at the reference */
+    sp_motion_mode_t mode;           /**< RUNNING: the motion executing */
+    uint8_t park_after;              /**< RUNNING: park once the motion ends */
+    sp_trig_t trig;                  /**< RUN_TRIG's generator */
+    sp_move_t move;                  /**< engage, park, MOVE_TO and the fault reaction's park move */
+    sp_stream_t stream;              /**< STREAM's filter */
+    sp_motion_t reference;           /**< the last accepted reference */
+    sp_setpoint_t setpoint[SP_LEGS]; /**< the last setpoints sent */
+    uint8_t have_setpoint;           /**< 1 once a reference passed every limit */
 } sp_ctrl_t;
 
 /**
@@ -171,7 +193,9 @@ typedef struct {
  */
 sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform);
 
-/** Resets the controller to IDLE with no faults and no estimate. */
+/** Resets the controller to IDLE with no faults and no estimate, and
+ *  derives ctrl->prep from cfg. SP_E_ARG on NULL or a config without
+ *  platform. */
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg);
 
 /**

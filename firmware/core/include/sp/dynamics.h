@@ -1,7 +1,7 @@
 /*
  * sp/dynamics.h - the cylinder forces a motion requires (the paper's
  * translational and rotational dynamics, eqs 7 and 8/13-15, with the full
- * inertia tensor), and the leg limit checks.
+ * inertia tensor). The leg limit checks are in sp/limits.h.
  */
 #ifndef SP_DYNAMICS_H
 #define SP_DYNAMICS_H
@@ -34,22 +34,5 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
  */
 sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                    const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu);
-
-/** Bits of a leg limit report: leg i sets bit i. */
-typedef struct {
-    uint32_t too_short;  /**< length < leg_length_min */
-    uint32_t too_long;   /**< length > leg_length_max */
-    uint32_t too_fast;   /**< |rate| > leg_velocity_max (only when rates given) */
-    uint32_t over_force; /**< |force| > force_max (only when forces given) */
-} sp_leg_limits_t;
-
-/**
- * Checks leg lengths (m, Q24) and, when not NULL, leg rates (m/s, Q24) and
- * cylinder forces (N, Q8) against the platform's limits. Returns SP_OK when
- * all are inside, SP_E_RANGE otherwise (the report says which leg and why),
- * SP_E_ARG on NULL platform, length or report.
- */
-sp_status_t sp_check_legs(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
-                          const sp_q8_t force[SP_LEGS], sp_leg_limits_t *report);
 
 #endif /* SP_DYNAMICS_H */

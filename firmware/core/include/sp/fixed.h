@@ -49,6 +49,13 @@ typedef uint32_t sp_flags_t;
 #define SP_Q16_ONE ((sp_q16_t)0x00010000)
 #define SP_Q8_ONE ((sp_q8_t)0x00000100)
 
+/** x thousandths (mm, mrad, mm/s, ...) in Q24, rounded to nearest (ties
+ *  away from zero): an integer constant expression, for |x| < 128000. */
+#define SP_Q24_MILLI(x) ((sp_q24_t)(((int64_t)(x)*SP_Q24_ONE + ((x) < 0 ? -500 : 500)) / 1000))
+
+/** x thousandths in Q30, rounded as SP_Q24_MILLI, for |x| < 2000. */
+#define SP_Q30_MILLI(x) ((sp_q30_t)(((int64_t)(x)*SP_Q30_ONE + ((x) < 0 ? -500 : 500)) / 1000))
+
 /** pi/2 in Q24 (1.5707963 rad), rounded to nearest. */
 #define SP_Q24_HALF_PI ((sp_q24_t)26353589)
 

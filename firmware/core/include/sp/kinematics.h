@@ -14,6 +14,7 @@
 #define SP_KINEMATICS_H
 
 #include "sp/fixed.h"
+#include "sp/lu6.h"
 #include "sp/platform.h"
 
 /** The paper's orientation matrix T (eq 2), Q30. T[r][c]: row r is the
@@ -31,15 +32,6 @@ typedef struct {
     sp_q24_t length[SP_LEGS];  /**< |l_i|, m, Q24 */
     sp_q30_t unit[SP_LEGS][3]; /**< l_i / |l_i|, base frame, Q30 */
 } sp_ik_t;
-
-/** The leg Jacobian: row i = [u_i, (A_im T) x u_i], base frame, Q28.
- *  d|l_i| = row_i . [dR ; dw] for a small translation dR (m) and a small
- *  rotation dw (rad, base frame). Its transpose maps the six cylinder forces
- *  to the wrench on the platform about o'. Entries must stay below 8 in
- *  magnitude (platform joints closer than ~8 m to o'); else SP_E_OVERFLOW. */
-typedef struct {
-    int32_t j[SP_LEGS][6];
-} sp_jacobian_t;
 
 /**
  * T from roll, pitch, yaw (rad, Q24, any value in the Q24 range) (eq 2).
@@ -99,73 +91,15 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
  */
 sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_t rpy_rate[3], sp_q24_t rate[SP_LEGS]);
 
-/** Builds the leg Jacobian of a pose from its inverse kinematics. */
+/**
+ * Builds the leg Jacobian of a pose from its inverse kinematics: row i =
+ * [u_i, (A_im T) x u_i], base frame, Q28 (sp_jacobian_t, sp/lu6.h).
+ * d|l_i| = row_i . [dR ; dw] for a small translation dR (m) and a small
+ * rotation dw (rad, base frame). Its transpose maps the six cylinder forces
+ * to the wrench on the platform about o'. Entries must stay below 8 in
+ * magnitude (platform joints closer than ~8 m to o'); else SP_E_OVERFLOW.
+ */
 sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac);
-
-/**
- * Solves the 6x6 system M x = b (or M^T x = b when transpose != 0) by
- * Gaussian elimination with partial pivoting. M in Q28, b and x in the same
- * (any) Q format, int64, |b| < 2^56 (else SP_E_OVERFLOW). A pivot below
- * SP_PIVOT_MIN (1e-3 in Q28) means a singular or ill-conditioned matrix:
- * SP_E_SINGULAR and x is zeroed. Intermediates that saturate give
- * SP_E_OVERFLOW (x zeroed). One reciprocal per pivot (31 bits, relative
- * error below 2^-28) replaces the divisions. The solve (sp_lu6_solve)
- * runs in 32-bit intermediates scaled to max |b| (29 significant bits of
- * b, x keeps as many relative to max |b|), with the int64 solve as its
- * fallback when an intermediate would leave its range: x is within a few
- * parts in 10^8 of max |b| of the exact solution for a well-conditioned M
- * (tests/unit/test_kinematics.c, test_solve6: below 1.5e-8 of max |x| for
- * |x| ~ |b| / 2).
- */
-#define SP_PIVOT_MIN ((int32_t)268435) /* 1e-3 in Q28 */
-sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
-
-/** A pivoted LU factorisation of a 6x6 matrix A in Q28, as sp_solve6
- *  computes it: P A = L U, with (P A)_k = A_perm[k] (the k-th pivot row is
- *  row perm[k] of A; the rows are not moved). a[perm[k]] holds row k of U
- *  on and above the diagonal (Q28) and row k of L's multipliers below it
- *  (Q30, |l| <= 1, unit diagonal implied); inv and zk are each pivot's
- *  normalised reciprocal (see sp_solve6). valid is 1 only after a
- *  successful sp_lu6_factor. */
-typedef struct {
-    int32_t a[SP_LEGS][SP_LEGS];
-    int32_t inv[SP_LEGS];
-    uint8_t zk[SP_LEGS];
-    uint8_t perm[SP_LEGS];
-    uint8_t valid;
-} sp_lu6_t;
-
-/**
- * Factorises A = M (transpose == 0) or A = M^T (transpose != 0), M in Q28,
- * exactly as sp_solve6 does. Errors: SP_E_ARG (NULL), SP_E_SINGULAR (a
- * pivot below SP_PIVOT_MIN), SP_E_OVERFLOW (an eliminated entry saturated);
- * lu->valid is then 0. Each eliminated entry is a_ij - round(l a_kj / 2^30)
- * (ties up), exact apart from that rounding; a step whose entries are known
- * to stay below 2^31 (a running upper bound of their magnitudes: the
- * matrix's, plus each pivot row's) runs without saturation checks, with the
- * same bits.
- */
-sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
-
-/**
- * Solves A x = b with a factorisation of A: bit-identical to sp_solve6 on
- * the same matrix and b (the accuracy stated there). b and x in the same
- * (any) Q format, int64, |b| < 2^56; b = 0 gives x = 0. Errors (x
- * zeroed): SP_E_ARG (NULL or lu not valid), SP_E_OVERFLOW (b out of range
- * or an intermediate of the int64 fallback saturated).
- */
-sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
-
-/**
- * Solves A^T x = b with a factorisation of A (U^T, then L^T, then the row
- * swaps undone): the transposed system at the cost of one solve, no new
- * factorisation. Same formats, ranges and errors as sp_lu6_solve. Not
- * bit-identical to sp_solve6 on A^T: int64 intermediates throughout
- * (no 32-bit path), within a few parts in 10^9 of |x| of the exact
- * solution for a well-conditioned A (tests/unit/test_kinematics.c,
- * test_lu6).
- */
-sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
 
 /** Options of the forward kinematics. */
 typedef struct {
@@ -216,6 +150,16 @@ typedef struct {
  * Errors: SP_E_ARG (NULL), SP_E_RANGE (a leg out of range: lengths zeroed).
  */
 sp_status_t sp_fk_cache_of(const sp_platform_t *platform, const sp_pose_t *pose, sp_fk_cache_t *cache);
+
+/**
+ * sp_forward_kinematics (the same pose, bit for bit, the same errors and
+ * info) that also fills *cache with the solution's leg lengths and sines,
+ * exactly as sp_fk_cache_of(solution) would, for the next call of
+ * sp_fk_chord; on error *cache is untouched. SP_E_ARG also for a NULL
+ * cache.
+ */
+sp_status_t sp_fk_newton_cached(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                                const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose, sp_fk_info_t *info);
 
 /**
  * Forward kinematics by chord (quasi-Newton) steps: like

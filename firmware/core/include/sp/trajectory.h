@@ -26,6 +26,10 @@ typedef enum {
 /** One pose axis of a sp_pose_t: pos[0..2] then rpy[0..2]. */
 sp_q24_t sp_pose_axis(const sp_pose_t *pose, sp_axis_t axis);
 
+/** *m becomes the motion at rest at `pose` (zero velocities and
+ *  accelerations). `pose` may be &m->pose. Cannot fail. */
+void sp_motion_at_rest(sp_motion_t *m, const sp_pose_t *pose);
+
 /* ---- the paper's trigonometric motion ---------------------------------- */
 
 /**

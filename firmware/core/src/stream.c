@@ -1,0 +1,147 @@
+#include "sp/stream.h"
+
+#include "fixed_inline.h"
+
+/* Settled: within 1 um (1 urad) and 1 um/s (1 urad/s), Q24. */
+#define STREAM_SETTLED INT32_C(16)
+
+sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega)
+{
+    if (g == NULL) {
+        return SP_E_ARG;
+    }
+    g->flags = 0u;
+    /* tick_us 2^24 / 10^6 < 2^32 / 10^6 2^24 fits 32 bits for any tick_us */
+    g->dt = (int32_t)spi_udiv64_32((uint64_t)tick_us << 24, 1000000u, NULL);
+    g->w2 = spi_mul(omega, omega, 24u, &g->flags);
+    g->two_w = spi_add(omega, omega, &g->flags);
+    return SP_OK;
+}
+
+void sp_stream_start(sp_stream_t *s, const sp_motion_t *from)
+{
+    unsigned i;
+    s->out = *from;
+    s->target = from->pose;
+    s->stopping = 0u;
+    s->anchor_valid = 0u;
+    for (i = 0u; i < 6u; ++i) {
+        s->x[i] = (int64_t)sp_pose_axis(&from->pose, (sp_axis_t)i) * (INT64_C(1) << 24);
+        s->v[i] = 0;
+    }
+}
+
+void sp_stream_stop(sp_stream_t *s, const sp_pose_t *home)
+{
+    s->target = *home;
+    s->stopping = 1u;
+}
+
+static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
+{
+    unsigned i;
+    int same = 1;
+    for (i = 0u; i < 3u; ++i) {
+        same &= (a->pos[i] == b->pos[i]) & (a->rpy[i] == b->rpy[i]);
+    }
+    return same;
+}
+
+/* Is a streamed target reachable (sp_stream_offer's rule)? */
+static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *t,
+                            const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS])
+{
+    sp_q24_t length[SP_LEGS];
+    unsigned i;
+    if (same_pose(t, &s->target)) {
+        return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
+    }
+    if (!sp_limits_in_workspace(lim, t)) {
+        return 0;
+    }
+    if (ref_length != NULL && sp_limits_reachable_near(lim, ref_pose, ref_length, t)) {
+        return 1;
+    }
+    if (s->anchor_valid && sp_limits_reachable_near(lim, &s->anchor, s->anchor_length, t)) {
+        return 1;
+    }
+    if (!sp_limits_legs_reachable(lim, platform, t, length)) {
+        return 0;
+    }
+    s->anchor = *t;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        s->anchor_length[i] = length[i];
+    }
+    s->anchor_valid = 1u;
+    return 1;
+}
+
+int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *target,
+                    const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS])
+{
+    if (s->stopping || !target_reachable(s, lim, platform, target, ref_pose, ref_length)) {
+        return 0;
+    }
+    s->target = *target;
+    return 1;
+}
+
+/* One axis of the filter: target (Q24), state x48, v48 (Q48), outputs x,
+ * v, acc (Q24). */
+SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t vel_max, int32_t amax,
+                            const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc, sp_flags_t *flags)
+{
+    int64_t target48 = (int64_t)target * (INT64_C(1) << 24);
+    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t err;
+    int32_t acmd;
+    if (x48 == target48 && v48 == 0) {
+        /* at rest on the target: every term below is 0 */
+        *acc = 0;
+        *v = 0;
+        *x = target;
+        return;
+    }
+    /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
+     * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
+    err = spi_narrow(spi_add64(target48, -x48, flags), 24u, flags);
+    acmd = spi_sub(spi_mul(g->w2, err, 24u, flags), spi_mul(g->two_w, (int32_t)spi_rsr(v48, 24u), 24u, flags), flags);
+    acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+    v48 += (int64_t)acmd * g->dt; /* Q48 */
+    v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+    x48 = spi_add64(x48, spi_mul64_rs(v48, g->dt, 24u, flags), flags);
+    *v48p = v48;
+    *x48p = x48;
+    *acc = acmd;
+    *v = (sp_q24_t)spi_rsr(v48, 24u);
+    *x = spi_narrow(x48, 24u, flags);
+}
+
+void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_flags_t *flags)
+{
+    sp_motion_t *m = &s->out;
+    unsigned a;
+    *flags |= g->flags;
+    for (a = 0u; a < 3u; ++a) {
+        stream_axis(s->target.pos[a], &s->x[a], &s->v[a], move->vel_max[a], move->acc_max[a], g, &m->pose.pos[a],
+                    &m->vel[a], &m->acc[a], flags);
+        stream_axis(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], move->vel_max[3u + a], move->acc_max[3u + a], g,
+                    &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+    }
+}
+
+int sp_stream_settled(const sp_stream_t *s, const sp_pose_t *pose)
+{
+    const sp_motion_t *m = &s->out;
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (spi_farther(m->pose.pos[k], pose->pos[k], STREAM_SETTLED) ||
+            spi_farther(m->pose.rpy[k], pose->rpy[k], STREAM_SETTLED) || spi_farther(m->vel[k], 0, STREAM_SETTLED) ||
+            spi_farther(m->rpy_rate[k], 0, STREAM_SETTLED)) {
+            return 0;
+        }
+    }
+    return 1;
+}
