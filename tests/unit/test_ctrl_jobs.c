@@ -1,0 +1,432 @@
+/*
+ * Unit tests of the controller's jobs on their own, on the default
+ * platform: the limits (sp/limits.h), the stream filter (sp/stream.h), the
+ * pose estimate (sp/estimate.h) and the setpoints of a reference
+ * (sp/setpoint.h). test_controller.c tests them together through
+ * sp_ctrl_step.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "sp/controller.h"
+#include "test_util.h"
+
+static const sp_platform_t *P = &sp_platform_default;
+
+static int32_t q24(double v)
+{
+    return (int32_t)llround(v * 16777216.0);
+}
+
+static sp_limits_t default_limits(void)
+{
+    sp_limits_t lim;
+    assert_int_equal(sp_limits_prepare(&lim, P, SP_Q24_MILLI(10)), SP_OK);
+    return lim;
+}
+
+/* A pose around home: up to d (m) and r (rad) on every axis. */
+static sp_pose_t random_pose(uint64_t *rng, double d, double r)
+{
+    sp_pose_t q = P->home;
+    for (int k = 0; k < 3; ++k) {
+        q.pos[k] += q24(tu_uniform(rng, -d, d));
+        q.rpy[k] += q24(tu_uniform(rng, -r, r));
+    }
+    return q;
+}
+
+/* ---- limits --------------------------------------------------------------- */
+
+static void test_limits_prepare(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    assert_int_equal(lim.length_min, P->leg_length_min + SP_Q24_MILLI(10));
+    assert_int_equal(lim.length_max, P->leg_length_max - SP_Q24_MILLI(10));
+    assert_int_equal(lim.measured_min, P->leg_length_min - SP_LEG_LIMIT_TOLERANCE);
+    assert_int_equal(lim.measured_max, P->leg_length_max + SP_LEG_LIMIT_TOLERANCE);
+    for (int a = 0; a < 3; ++a) {
+        assert_int_equal(lim.ws_lo[a], P->home.pos[a] + P->workspace_min.pos[a]);
+        assert_int_equal(lim.ws_hi[3 + a], P->home.rpy[a] + P->workspace_max.rpy[a]);
+    }
+    assert_true(lim.joint_reach > 0u && lim.joint_reach < UINT32_MAX);
+    assert_int_equal(sp_limits_prepare(NULL, P, 0), SP_E_ARG);
+    assert_int_equal(sp_limits_prepare(&lim, NULL, 0), SP_E_ARG);
+
+    /* a box beyond int32 is clamped; an inverted one holds no pose */
+    sp_platform_t p = *P;
+    p.home.pos[0] = INT32_MAX - 10;
+    p.workspace_max.pos[0] = 1000;
+    p.workspace_min.rpy[2] = 5;
+    p.workspace_max.rpy[2] = -5;
+    assert_int_equal(sp_limits_prepare(&lim, &p, 0), SP_OK);
+    assert_int_equal(lim.ws_hi[0], INT32_MAX);
+    assert_true(lim.ws_lo[5] > lim.ws_hi[5]);
+    assert_int_equal(sp_limits_in_workspace(&lim, &p.home), 0);
+
+    /* a margin wider than half the stroke rejects every leg */
+    assert_int_equal(sp_limits_prepare(&lim, P, (P->leg_length_max - P->leg_length_min) / 2 + 1), SP_OK);
+    sp_q24_t mid[SP_LEGS];
+    for (int i = 0; i < SP_LEGS; ++i) {
+        mid[i] = P->leg_length_min + (P->leg_length_max - P->leg_length_min) / 2;
+    }
+    assert_int_equal(sp_limits_lengths_ok(&lim, mid), 0);
+}
+
+static void test_limits_workspace_edges(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    for (int a = 0; a < 6; ++a) {
+        sp_pose_t q = P->home;
+        sp_q24_t *v = (a < 3) ? &q.pos[a] : &q.rpy[a - 3];
+        *v = lim.ws_hi[a];
+        assert_int_equal(sp_limits_in_workspace(&lim, &q), 1);
+        *v = lim.ws_hi[a] + 1;
+        assert_int_equal(sp_limits_in_workspace(&lim, &q), 0);
+        *v = lim.ws_lo[a];
+        assert_int_equal(sp_limits_in_workspace(&lim, &q), 1);
+        *v = lim.ws_lo[a] - 1;
+        assert_int_equal(sp_limits_in_workspace(&lim, &q), 0);
+    }
+}
+
+/* The bound never claims a pose reachable that the IK says is not, and
+ * the reachability of a pose is exactly its IK's verdict. */
+static void test_limits_reachable_near_is_sufficient(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    uint64_t rng = 0x5EEDu;
+    int near = 0;
+    int checked = 0;
+    for (int n = 0; n < 4000; ++n) {
+        sp_pose_t base = random_pose(&rng, 0.15, 0.2);
+        sp_q24_t base_len[SP_LEGS];
+        if (!sp_limits_pose_reachable(&lim, P, &base, base_len)) {
+            continue;
+        }
+        double step = pow(10.0, tu_uniform(&rng, -6.0, -1.0)); /* 1 um .. 0.1 m */
+        sp_pose_t q = base;
+        for (int k = 0; k < 3; ++k) {
+            q.pos[k] += q24(tu_uniform(&rng, -step, step));
+            q.rpy[k] += q24(tu_uniform(&rng, -step, step));
+        }
+        sp_ik_t ik;
+        int ik_ok = sp_inverse_kinematics(P, &q, &ik) == SP_OK && sp_limits_lengths_ok(&lim, ik.length);
+        int reach = sp_limits_legs_reachable(&lim, P, &q, NULL);
+        assert_int_equal(reach, ik_ok);
+        if (sp_limits_reachable_near(&lim, &base, base_len, &q)) {
+            assert_true(ik_ok);
+            ++near;
+        }
+        ++checked;
+    }
+    assert_true(checked > 2000);
+    assert_true(near > checked / 4); /* the bound decides most small steps */
+}
+
+static void test_limits_setpoints_and_measured(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    sp_q24_t len[SP_LEGS];
+    sp_q24_t rate[SP_LEGS] = {0};
+    sp_q8_t force[SP_LEGS] = {0};
+    for (int i = 0; i < SP_LEGS; ++i) {
+        len[i] = lim.length_min;
+    }
+    assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), 1);
+    len[3] = lim.length_min - 1;
+    assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), 0);
+    len[3] = lim.length_max;
+    rate[2] = -lim.rate_max;
+    force[5] = lim.force_max;
+    assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), 1);
+    rate[2] = -lim.rate_max - 1;
+    assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), 0);
+    rate[2] = 0;
+    force[5] = lim.force_max + 1;
+    assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), 0);
+
+    assert_int_equal(sp_limits_measured_out(&lim, P->leg_length_max + SP_LEG_LIMIT_TOLERANCE), 0);
+    assert_int_equal(sp_limits_measured_out(&lim, P->leg_length_max + SP_LEG_LIMIT_TOLERANCE + 1), 1);
+    assert_int_equal(sp_limits_measured_out(&lim, P->leg_length_min - SP_LEG_LIMIT_TOLERANCE - 1), 1);
+}
+
+/* ---- stream filter ---------------------------------------------------------- */
+
+static void test_stream_follows_within_limits(void **state)
+{
+    (void)state;
+    sp_ctrl_config_t cfg;
+    sp_stream_gains_t g;
+    sp_stream_t s;
+    sp_motion_t at_home;
+    sp_limits_t lim = default_limits();
+    assert_int_equal(sp_ctrl_default_config(&cfg, P), SP_OK);
+    assert_int_equal(sp_stream_gains(&g, cfg.tick_us, cfg.stream_omega), SP_OK);
+    assert_int_equal(g.flags, 0u);
+    assert_int_equal(g.dt, 16777); /* 1 ms in Q24 */
+    sp_motion_at_rest(&at_home, &P->home);
+    sp_stream_start(&s, &at_home);
+    assert_int_equal(sp_stream_settled(&s, &P->home), 1);
+
+    sp_pose_t target = P->home;
+    target.pos[0] += SP_Q24_MILLI(40);
+    target.rpy[2] += SP_Q24_MILLI(30);
+    assert_int_equal(sp_stream_offer(&s, &lim, P, &target, &P->home, NULL), 1);
+    sp_flags_t flags = 0u;
+    double vmax = 0.0;
+    double amax = 0.0;
+    for (int t = 0; t < 3000; ++t) {
+        sp_stream_step(&s, &g, &cfg.move, &flags);
+        vmax = fmax(vmax, fabs((double)s.out.vel[0]));
+        amax = fmax(amax, fabs((double)s.out.acc[0]));
+    }
+    assert_int_equal(flags, 0u);
+    assert_true(vmax <= (double)cfg.move.vel_max[0]);
+    assert_true(amax <= (double)cfg.move.acc_max[0]);
+    assert_true(vmax > 0.5 * (double)cfg.move.vel_max[0]); /* it did move */
+    assert_int_equal(sp_stream_settled(&s, &target), 1);
+    assert_int_equal(s.out.pose.pos[0], target.pos[0]);
+
+    /* after stop: the target is home and nothing more is taken */
+    sp_stream_stop(&s, &P->home);
+    assert_int_equal(sp_stream_offer(&s, &lim, P, &target, &P->home, NULL), 0);
+    assert_int_equal(s.target.pos[0], P->home.pos[0]);
+
+    /* a bandwidth whose square leaves Q24 flags every step */
+    assert_int_equal(sp_stream_gains(&g, 1000u, 100 * SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, SP_FLAG_OVERFLOW);
+    flags = 0u;
+    sp_stream_step(&s, &g, &cfg.move, &flags);
+    assert_int_equal(flags, SP_FLAG_OVERFLOW);
+    assert_int_equal(sp_stream_gains(NULL, 1000u, 0), SP_E_ARG);
+}
+
+static void test_stream_offer_rules(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    sp_stream_t s;
+    sp_motion_t at_home;
+    sp_q24_t home_len[SP_LEGS];
+    sp_motion_at_rest(&at_home, &P->home);
+    sp_stream_start(&s, &at_home);
+    assert_int_equal(sp_limits_pose_reachable(&lim, P, &P->home, home_len), 1);
+
+    /* near the reference: taken by the bound, no anchor made */
+    sp_pose_t t = P->home;
+    t.pos[2] += SP_Q24_MILLI(1);
+    assert_int_equal(sp_stream_offer(&s, &lim, P, &t, &P->home, home_len), 1);
+    assert_int_equal(s.anchor_valid, 0);
+    /* far (the bound is not conclusive) but reachable: its own IK decides
+     * and it becomes the anchor */
+    int found = 0;
+    for (int mrad = 20; mrad <= 500 && !found; mrad += 20) {
+        t = P->home;
+        t.rpy[2] += SP_Q24_MILLI(mrad);
+        found = !sp_limits_reachable_near(&lim, &P->home, home_len, &t) && sp_limits_pose_reachable(&lim, P, &t, NULL);
+    }
+    assert_true(found);
+    assert_int_equal(sp_stream_offer(&s, &lim, P, &t, &P->home, home_len), 1);
+    assert_int_equal(s.anchor_valid, 1);
+    assert_memory_equal(&s.anchor, &t, sizeof t);
+    /* outside the workspace: refused, the target in force stays */
+    sp_pose_t out = P->home;
+    out.pos[0] = lim.ws_hi[0] + 1;
+    assert_int_equal(sp_stream_offer(&s, &lim, P, &out, &P->home, home_len), 0);
+    assert_memory_equal(&s.target, &t, sizeof t);
+    /* the target in force again is taken without any test */
+    assert_int_equal(sp_stream_offer(&s, &lim, P, &t, &P->home, NULL), 1);
+}
+
+/* ---- estimate --------------------------------------------------------------- */
+
+static void test_estimate_cold_warm_and_failure(void **state)
+{
+    (void)state;
+    sp_estimate_t e;
+    sp_ik_t ik;
+    uint32_t it = 99u;
+    uint64_t rng = 42u;
+    sp_estimate_init(&e, &P->park);
+    assert_int_equal(e.valid, 0);
+
+    /* cold start far from the park pose, then a warm tick nearby */
+    sp_pose_t truth = random_pose(&rng, 0.1, 0.1);
+    assert_int_equal(sp_inverse_kinematics(P, &truth, &ik), SP_OK);
+    assert_int_equal(sp_estimate_step(P, &e, ik.length, &P->home, &it), SP_OK);
+    assert_int_equal(e.valid, 1);
+    assert_int_equal(e.cache_valid, 1);
+    assert_true(it >= 2u && it <= SP_ESTIMATE_COLD_STEPS);
+    for (int k = 0; k < 3; ++k) {
+        assert_true(labs((long)e.pose.pos[k] - truth.pos[k]) <= 17); /* 1 um */
+        assert_true(labs((long)e.pose.rpy[k] - truth.rpy[k]) <= 84); /* 5 urad */
+    }
+    sp_fk_cache_t want;
+    assert_int_equal(sp_fk_cache_of(P, &e.pose, &want), SP_OK);
+    assert_memory_equal(&e.cache, &want, sizeof want);
+
+    /* lengths no pose has: the estimate is lost, the last pose kept */
+    sp_pose_t last = e.pose;
+    sp_q24_t bad[SP_LEGS];
+    for (int i = 0; i < SP_LEGS; ++i) {
+        bad[i] = (i < 3) ? P->leg_length_min / 4 : P->leg_length_max * 4;
+    }
+    assert_int_not_equal(sp_estimate_step(P, &e, bad, &P->home, &it), SP_OK);
+    assert_int_equal(e.valid, 0);
+    assert_int_equal(e.cache_valid, 0);
+    assert_memory_equal(&e.pose, &last, sizeof last);
+}
+
+/* Chord steps with the factorisation at a nearby reference give the same
+ * pose as full Newton (same convergence test). */
+static void test_estimate_chord_matches_newton(void **state)
+{
+    (void)state;
+    uint64_t rng = 7u;
+    for (int n = 0; n < 200; ++n) {
+        sp_pose_t ref = random_pose(&rng, 0.1, 0.1);
+        sp_pose_t truth = ref;
+        truth.pos[n % 3] += q24(tu_uniform(&rng, -0.002, 0.002));
+        truth.rpy[(n + 1) % 3] += q24(tu_uniform(&rng, -0.002, 0.002));
+        sp_ik_t ik_ref;
+        sp_ik_t ik_truth;
+        sp_q8_t force[SP_LEGS];
+        sp_motion_t m;
+        sp_motion_at_rest(&m, &ref);
+        assert_int_equal(sp_inverse_kinematics(P, &ref, &ik_ref), SP_OK);
+        assert_int_equal(sp_inverse_kinematics(P, &truth, &ik_truth), SP_OK);
+
+        sp_estimate_t chord;
+        uint32_t it = 0u;
+        sp_estimate_init(&chord, &P->park);
+        chord.pose = ref; /* last tick's estimate: at the reference */
+        chord.valid = 1u;
+        assert_int_equal(sp_fk_cache_of(P, &ref, &chord.cache), SP_OK);
+        chord.cache_valid = 1u;
+        assert_int_equal(sp_inverse_dynamics_lu(P, &m, &ik_ref, NULL, force, &chord.ref_lu), SP_OK);
+        assert_int_equal(sp_estimate_step(P, &chord, ik_truth.length, &ref, &it), SP_OK);
+        assert_true(it >= 1u && it <= SP_ESTIMATE_CHORD_STEPS);
+
+        sp_estimate_t newton = chord;
+        newton.pose = ref;
+        newton.ref_lu.valid = 0u; /* no factorisation: full Newton */
+        assert_int_equal(sp_fk_cache_of(P, &ref, &newton.cache), SP_OK);
+        assert_int_equal(sp_estimate_step(P, &newton, ik_truth.length, &ref, &it), SP_OK);
+        for (int k = 0; k < 3; ++k) {
+            assert_true(labs((long)chord.pose.pos[k] - newton.pose.pos[k]) <=
+                        8); /* both within 0.25 um of the lengths */
+            assert_true(labs((long)chord.pose.rpy[k] - newton.pose.rpy[k]) <= 40);
+        }
+    }
+}
+
+/* sp_fk_newton_cached is sp_forward_kinematics with the cache of the
+ * result: the same pose and info, bit for bit, and sp_fk_cache_of's cache. */
+static void test_fk_newton_cached(void **state)
+{
+    (void)state;
+    uint64_t rng = 99u;
+    sp_fk_options_t opt;
+    sp_fk_default_options(&opt);
+    for (int n = 0; n < 500; ++n) {
+        sp_pose_t truth = random_pose(&rng, 0.15, 0.2);
+        sp_pose_t guess = truth;
+        guess.pos[n % 3] += q24(tu_uniform(&rng, -0.01, 0.01));
+        sp_ik_t ik;
+        if (sp_inverse_kinematics(P, &truth, &ik) != SP_OK) {
+            continue;
+        }
+        sp_pose_t a;
+        sp_pose_t b;
+        sp_fk_info_t ia;
+        sp_fk_info_t ib;
+        sp_fk_cache_t cache;
+        sp_fk_cache_t want;
+        sp_status_t sa = sp_forward_kinematics(P, ik.length, &guess, &opt, &a, NULL, &ia);
+        sp_status_t sb = sp_fk_newton_cached(P, ik.length, &guess, &opt, &cache, &b, &ib);
+        assert_int_equal(sa, sb);
+        assert_memory_equal(&a, &b, sizeof a);
+        assert_int_equal(ia.iterations, ib.iterations);
+        assert_int_equal(ia.residual, ib.residual);
+        if (sa == SP_OK) {
+            assert_int_equal(sp_fk_cache_of(P, &b, &want), SP_OK);
+            assert_memory_equal(&cache, &want, sizeof want);
+        }
+    }
+    sp_pose_t out;
+    sp_ik_t home_ik;
+    assert_int_equal(sp_inverse_kinematics(P, &P->home, &home_ik), SP_OK);
+    assert_int_equal(sp_fk_newton_cached(P, home_ik.length, &P->home, &opt, NULL, &out, NULL), SP_E_ARG);
+}
+
+/* ---- setpoints --------------------------------------------------------------- */
+
+static void test_setpoints_of(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    sp_setpoint_t sp[SP_LEGS];
+    sp_setpoint_t before[SP_LEGS];
+    sp_lu6_t lu;
+    sp_motion_t m;
+    sp_ik_t ik;
+    sp_q24_t rate[SP_LEGS];
+    sp_q8_t force[SP_LEGS];
+
+    sp_motion_at_rest(&m, &P->home);
+    m.vel[0] = SP_Q24_MILLI(100);
+    m.rpy_acc[2] = SP_Q24_ONE / 2;
+    assert_int_equal(sp_setpoints_of(P, &lim, &m, 1, sp, &lu), SP_OK);
+    assert_int_equal(lu.valid, 1);
+    assert_int_equal(sp_inverse_kinematics(P, &m.pose, &ik), SP_OK);
+    assert_int_equal(sp_leg_rates(&ik, m.vel, m.rpy_rate, rate), SP_OK);
+    assert_int_equal(sp_inverse_dynamics(P, &m, &ik, NULL, force), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(sp[i].length, ik.length[i]);
+        assert_int_equal(sp[i].velocity, rate[i]);
+        assert_int_equal(sp[i].force, force[i]);
+    }
+    assert_int_equal(sp_setpoints_of(P, &lim, &m, 0, sp, &lu), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(sp[i].force, 0);
+    }
+
+    /* outside the workspace, or too fast: SP_E_RANGE, setpoints untouched */
+    memcpy(before, sp, sizeof before);
+    m.pose.pos[1] = lim.ws_hi[1] + 1;
+    assert_int_equal(sp_setpoints_of(P, &lim, &m, 1, sp, &lu), SP_E_RANGE);
+    m.pose = P->home;
+    m.vel[2] = P->leg_velocity_max * 2;
+    assert_int_equal(sp_setpoints_of(P, &lim, &m, 1, sp, &lu), SP_E_RANGE);
+    assert_memory_equal(sp, before, sizeof before);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_limits_prepare),
+        cmocka_unit_test(test_limits_workspace_edges),
+        cmocka_unit_test(test_limits_reachable_near_is_sufficient),
+        cmocka_unit_test(test_limits_setpoints_and_measured),
+        cmocka_unit_test(test_stream_follows_within_limits),
+        cmocka_unit_test(test_stream_offer_rules),
+        cmocka_unit_test(test_estimate_cold_warm_and_failure),
+        cmocka_unit_test(test_estimate_chord_matches_newton),
+        cmocka_unit_test(test_fk_newton_cached),
+        cmocka_unit_test(test_setpoints_of),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
