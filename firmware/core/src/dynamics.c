@@ -37,17 +37,17 @@ static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], co
         b = add_ck(b, (int64_t)i1 * v[1], ovf);
         a = add_ck(a, (int64_t)i2 * w[2], ovf);
         b = add_ck(b, (int64_t)i2 * v[2], ovf);
-        iw[r] = spi_rshift(a, 16u);
-        iv[r] = spi_rshift(b, 16u);
+        iw[r] = spi_round_away64(a, 16u);
+        iv[r] = spi_round_away64(b, 16u);
     }
 }
 
 /* round(x w / 2^s), ties up, exactly, for 1 <= s <= 30, any int32 w and
  * |x| < 2^(31 + s): x = xh 2^s + xl with 0 <= xl < 2^s, so x w / 2^s =
  * xh w + xl w / 2^s and only the second part is rounded (as
- * spi_mul64_rs(x, w, s) computes it, without its range test). |xh w| <
+ * spi_mul64_up(x, w, s) computes it, without its range test). |xh w| <
  * 2^62, the result too. */
-SPI_INLINE int64_t mul_split(int64_t x, int32_t w, unsigned s)
+SPI_INLINE int64_t mul_split_up(int64_t x, int32_t w, unsigned s)
 {
     int32_t xh = (int32_t)(x >> s);
     int32_t xl = (int32_t)(x & ((INT64_C(1) << s) - 1));
@@ -95,9 +95,9 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
      * term is below 2^47 in magnitude (Q16 x Q24 >> 16, Q8 << 16): the sum
      * cannot overflow. */
     for (k = 0u; k < 3u; ++k) {
-        int64_t v = spi_rsr((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
+        int64_t v = spi_round_away((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
         if (k == 2u) {
-            v += spi_rsr((int64_t)platform->mass * platform->gravity, 16u);
+            v += spi_round_away((int64_t)platform->mass * platform->gravity, 16u);
         }
         if (ext_force != NULL) {
             v -= (int64_t)ext_force[k] * 65536; /* Q8 -> Q24 */
@@ -110,13 +110,14 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
      * torque_body below 2^57 and R tau below 3 2^57 (|T| entries <= 1):
      * exact int64 arithmetic, no saturation needed after inertia_times. */
     inertia_times2(platform->inertia, omega, omega_dot, h, i_wdot, &ovf);
-    torque_body[0] = i_wdot[0] + (mul_split(h[2], omega[1], 24u) - mul_split(h[1], omega[2], 24u));
-    torque_body[1] = i_wdot[1] + (mul_split(h[0], omega[2], 24u) - mul_split(h[2], omega[0], 24u));
-    torque_body[2] = i_wdot[2] + (mul_split(h[1], omega[0], 24u) - mul_split(h[0], omega[1], 24u));
+    torque_body[0] = i_wdot[0] + (mul_split_up(h[2], omega[1], 24u) - mul_split_up(h[1], omega[2], 24u));
+    torque_body[1] = i_wdot[1] + (mul_split_up(h[0], omega[2], 24u) - mul_split_up(h[2], omega[0], 24u));
+    torque_body[2] = i_wdot[2] + (mul_split_up(h[1], omega[0], 24u) - mul_split_up(h[0], omega[1], 24u));
     for (k = 0u; k < 3u; ++k) {
         /* (R tau)_k = sum_c R[k][c] tau_c = sum_c T[c][k] tau_c */
-        b[3u + k] = mul_split(torque_body[0], ik->rot.t[0][k], 30u) + mul_split(torque_body[1], ik->rot.t[1][k], 30u) +
-                    mul_split(torque_body[2], ik->rot.t[2][k], 30u);
+        b[3u + k] = mul_split_up(torque_body[0], ik->rot.t[0][k], 30u) +
+                    mul_split_up(torque_body[1], ik->rot.t[1][k], 30u) +
+                    mul_split_up(torque_body[2], ik->rot.t[2][k], 30u);
     }
     if (ovf) {
         return SP_E_OVERFLOW;
@@ -138,7 +139,7 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
         return st;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        force[k] = spi_narrow(f[k], 16u, &flags); /* Q24 -> Q8 */
+        force[k] = spi_narrow_away(f[k], 16u, &flags); /* Q24 -> Q8 */
     }
     if (flags != 0u) {
         for (k = 0u; k < SP_LEGS; ++k) {

@@ -87,7 +87,7 @@ int64_t sp_rshift_round(int64_t v, unsigned shift)
     }
     if (v <= INT64_C(0x3FFFFFFFFFFFFFFF)) {
         /* |v + 2^(shift-1)| stays below 2^63: one add and a shift */
-        return spi_rsr(v, shift);
+        return spi_round_away(v, shift);
     }
     mag = (uint64_t)v;
     half = (uint64_t)1 << (shift - 1u);
@@ -97,9 +97,9 @@ int64_t sp_rshift_round(int64_t v, unsigned shift)
 
 int32_t sp_mul(int32_t a, int32_t b, unsigned shift, sp_flags_t *flags)
 {
-    /* |a b| <= 2^62: spi_rsr's precondition holds for every shift */
+    /* |a b| <= 2^62: spi_round_away's precondition holds for every shift */
     int64_t p = (int64_t)a * (int64_t)b;
-    return sp_sat32((shift == 0u) ? p : spi_rsr(p, (shift > 62u) ? 62u : shift), flags);
+    return sp_sat32((shift == 0u) ? p : spi_round_away(p, (shift > 62u) ? 62u : shift), flags);
 }
 
 int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
@@ -205,10 +205,10 @@ sp_q24_t sp_sqrt_q24(sp_q24_t a, sp_flags_t *flags)
     return (sp_q24_t)sp_isqrt64((uint64_t)a << 24);
 }
 
-/* round(a b / 2^32): the high word of a 32x32 product, rounded. */
+/* round(a b / 2^32), ties up: the high word of a 32x32 product, rounded. */
 SPI_INLINE int32_t mulhi(int32_t a, int32_t b)
 {
-    return (int32_t)(((int64_t)a * b + INT64_C(0x80000000)) >> 32);
+    return (int32_t)spi_round_up((int64_t)a * b, 32u);
 }
 
 /* floor(a b / 2^32): the high word alone (one SMMUL instead of a rounding

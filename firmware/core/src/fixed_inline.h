@@ -8,6 +8,18 @@
  * them calls a 64-bit library division. Each states its input range; the
  * callers guarantee it.
  *
+ * Rounding: each narrowing helper's name says its tie rule.
+ *   *_away   round to nearest, ties away from zero: the public API's rule
+ *            (sp/fixed.h), symmetric about zero;
+ *   *_up     round to nearest, ties toward +infinity: one addition and a
+ *            shift, used inside the kinematics, the LU solver and the
+ *            dynamics, where an exact tie is rare and its direction does
+ *            not bias a result (the tests bound those results against
+ *            float64 references);
+ *   *_floor  toward -infinity (a caller adds 2^(s-1) first for ties up).
+ * Helpers that narrow to int32 saturate and flag; the others state the
+ * input range their callers guarantee.
+ *
  * Right shifts of negative int64 values: C99 leaves them
  * implementation-defined. GCC and Clang (the only compilers of this core,
  * host and arm-none-eabi) define them as arithmetic shifts, and the typedef
@@ -52,7 +64,7 @@ SPI_INLINE unsigned spi_clz64(uint64_t v)
 
 /* round(v / 2^s), ties away from zero, for 1 <= s <= 62 and
  * |v| <= 2^63 - 2^(s-1) (every product of two int32 qualifies). */
-SPI_INLINE int64_t spi_rsr(int64_t v, unsigned s)
+SPI_INLINE int64_t spi_round_away(int64_t v, unsigned s)
 {
     return (v + ((INT64_C(1) << (s - 1u)) - (v < 0 ? 1 : 0))) >> s;
 }
@@ -69,37 +81,52 @@ SPI_INLINE int32_t spi_sat(int64_t v, sp_flags_t *flags)
 }
 
 /* round(v / 2^s) with ties rounded up, for 1 <= s <= 62 and
- * v <= 2^63 - 2^(s-1): cheaper than spi_rsr where the direction of exact
+ * v <= 2^63 - 2^(s-1): cheaper than spi_round_away where the direction of exact
  * ties does not matter (inside the linear solve). */
-SPI_INLINE int64_t spi_rsr_up(int64_t v, unsigned s)
+SPI_INLINE int64_t spi_round_up(int64_t v, unsigned s)
 {
     return (v + (INT64_C(1) << (s - 1u))) >> s;
 }
 
 /* sp_rshift_round for any int64 v and 1 <= s <= 62: inline unless v is
  * within 2^62 of INT64_MAX (then the exact library path). */
-SPI_INLINE int64_t spi_rshift(int64_t v, unsigned s)
+SPI_INLINE int64_t spi_round_away64(int64_t v, unsigned s)
 {
-    return (v > INT64_C(0x3FFFFFFFFFFFFFFF)) ? sp_rshift_round(v, s) : spi_rsr(v, s);
+    return (v > INT64_C(0x3FFFFFFFFFFFFFFF)) ? sp_rshift_round(v, s) : spi_round_away(v, s);
 }
 
 /* sp_narrow for any int64 v and 1 <= s <= 62: round(v / 2^s) saturated. */
-SPI_INLINE int32_t spi_narrow(int64_t v, unsigned s, sp_flags_t *flags)
+SPI_INLINE int32_t spi_narrow_away(int64_t v, unsigned s, sp_flags_t *flags)
 {
-    return spi_sat(spi_rshift(v, s), flags);
+    return spi_sat(spi_round_away64(v, s), flags);
 }
 
 /* round(a * b / 2^s), saturated (1 <= s <= 62). */
-SPI_INLINE int32_t spi_mul(int32_t a, int32_t b, unsigned s, sp_flags_t *flags)
+SPI_INLINE int32_t spi_mul_away(int32_t a, int32_t b, unsigned s, sp_flags_t *flags)
 {
-    return spi_sat(spi_rsr((int64_t)a * b, s), flags);
+    return spi_sat(spi_round_away((int64_t)a * b, s), flags);
 }
 
 /* round(a * b / 2^30) for |a|, |b| <= 2^30 + small (sines, cosines, rotation
  * entries and their products): the result cannot leave int32. */
-SPI_INLINE int32_t spi_mul30(int32_t a, int32_t b)
+SPI_INLINE int32_t spi_mul30_away(int32_t a, int32_t b)
 {
-    return (int32_t)spi_rsr((int64_t)a * b, 30u);
+    return (int32_t)spi_round_away((int64_t)a * b, 30u);
+}
+
+/* round(a b / 2^30) and round((a b + c d) / 2^30), ties up, for sines,
+ * cosines and their rounded products (|a|, |b|, |c|, |d| <= 2^30 + 2): the
+ * sums are below 2^62 and, for the entries of T, the results below 2^31
+ * (each is a product or a dot product of unit vectors, to within a few
+ * LSB). */
+SPI_INLINE int32_t spi_mul30_up(int32_t a, int32_t b)
+{
+    return (int32_t)spi_round_up((int64_t)a * b, 30u);
+}
+
+SPI_INLINE int32_t spi_dot30_up(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+    return (int32_t)spi_round_up((int64_t)a * b + (int64_t)c * d, 30u);
 }
 
 /* |a - b| for any two int32, exact in uint32. */
@@ -160,7 +187,7 @@ SPI_INLINE int32_t spi_sub_sat(int32_t a, int32_t b, sp_flags_t *flags)
 /* round(x k / 2^30) for |x| < 2^61 and |k| <= 2^30, exact (ties up): the
  * result is at most |x|, no overflow. x = xh 2^32 + xl with xl unsigned:
  * x k = (xh k) 2^32 + xl k, and 2^32 is a multiple of 2^30. */
-SPI_INLINE int64_t spi_mul64_q30(int64_t x, int32_t k)
+SPI_INLINE int64_t spi_mul64_q30_up(int64_t x, int32_t k)
 {
     int64_t ph = (int64_t)(int32_t)(x >> 32) * k;         /* |ph| <= 2^59 */
     int64_t pl = (int64_t)(uint32_t)(x & 0xFFFFFFFF) * k; /* |pl| < 2^62 */
@@ -170,7 +197,7 @@ SPI_INLINE int64_t spi_mul64_q30(int64_t x, int32_t k)
 /* round(x k / 2^s) for int64 x, int32 k and 1 <= s <= 32 (ties up), or
  * sp_mul64's exact general path (ties away from zero, saturating) when the
  * result could come near 2^62. Two 32x32 products and a shift. */
-SPI_INLINE int64_t spi_mul64_rs(int64_t x, int32_t k, unsigned s, sp_flags_t *flags)
+SPI_INLINE int64_t spi_mul64_up(int64_t x, int32_t k, unsigned s, sp_flags_t *flags)
 {
     int64_t ph = (int64_t)(int32_t)(x >> 32) * k;         /* |ph| <= 2^62 */
     int64_t pl = (int64_t)(uint32_t)(x & 0xFFFFFFFF) * k; /* |pl| < 2^63 */
@@ -264,7 +291,7 @@ SPI_INLINE int32_t spi_recip(uint32_t m, unsigned *sh)
     return (int32_t)q;
 }
 
-/* The saturated value of spi_sat_shift, out of line (fixed.c): sets
+/* The saturated value of spi_narrow_floor, out of line (fixed.c): sets
  * SP_FLAG_OVERFLOW, returns INT32_MIN for a negative acc, else INT32_MAX. */
 int32_t spi_sat_slow(int64_t acc, sp_flags_t *flags)
 #if defined(__GNUC__)
@@ -280,7 +307,7 @@ int32_t spi_sat_slow(int64_t acc, sp_flags_t *flags)
  * [-2^(s-1), 2^(s-1)): one addition and one comparison on that word, and
  * the rare saturation out of line.
  */
-SPI_INLINE int32_t spi_sat_shift(int64_t acc, unsigned s, sp_flags_t *flags)
+SPI_INLINE int32_t spi_narrow_floor(int64_t acc, unsigned s, sp_flags_t *flags)
 {
     uint32_t hi = (uint32_t)((uint64_t)acc >> 32);
     /* the low word of acc >> s, as int32 (GCC and Clang convert modulo

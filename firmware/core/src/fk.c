@@ -60,12 +60,13 @@ static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const s
         return SP_E_SINGULAR;
     }
     inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
-    d_roll = spi_sat(spi_mul64_rs(spi_rsr((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u, &flags),
-                     &flags);
+    d_roll =
+        spi_sat(spi_mul64_up(spi_round_away((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u, &flags),
+                &flags);
     q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
     q->rpy[1] =
-        spi_add(q->rpy[1], spi_sat(spi_rsr((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags), &flags);
-    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul(d_roll, sc[2], 30u, &flags), &flags), &flags);
+        spi_add(q->rpy[1], spi_sat(spi_round_away((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags), &flags);
+    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul_away(d_roll, sc[2], 30u, &flags), &flags), &flags);
     return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
 }
 

@@ -6,21 +6,6 @@
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
 #define LEG_LENGTH_MIN SP_Q24_MILLI(1)       /* 1 mm */
 
-/* round(a b / 2^30) and round((a b + c d) / 2^30), ties up, for sines,
- * cosines and their rounded products (|a|, |b|, |c|, |d| <= 2^30 + 2): the
- * sums are below 2^62 and, for the entries of T below, the results below
- * 2^31 (each is a product or a dot product of unit vectors, to within a
- * few LSB). */
-SPI_INLINE int32_t mul30u(int32_t a, int32_t b)
-{
-    return (int32_t)(((int64_t)a * b + (INT64_C(1) << 29)) >> 30);
-}
-
-SPI_INLINE int32_t dot30u(int32_t a, int32_t b, int32_t c, int32_t d)
-{
-    return (int32_t)(((int64_t)a * b + (int64_t)c * d + (INT64_C(1) << 29)) >> 30);
-}
-
 /* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (from
  * sp_sincos_q24: each within 1.05 LSB of Q30, at most 2^30 + 1). Entries
  * with two terms are rounded once, from the exact sum. */
@@ -32,20 +17,20 @@ static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
     sp_q30_t cp = sc[3];
     sp_q30_t sy = sc[4];
     sp_q30_t cy = sc[5];
-    sp_q30_t spsr = mul30u(sp, sr);
-    sp_q30_t spcr = mul30u(sp, cr);
+    sp_q30_t spsr = spi_mul30_up(sp, sr);
+    sp_q30_t spcr = spi_mul30_up(sp, cr);
 
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
-    rot->t[0][0] = mul30u(cy, cp);
-    rot->t[0][1] = mul30u(sy, cp);
+    rot->t[0][0] = spi_mul30_up(cy, cp);
+    rot->t[0][1] = spi_mul30_up(sy, cp);
     rot->t[0][2] = -sp;
-    rot->t[1][0] = dot30u(cy, spsr, -sy, cr);
-    rot->t[1][1] = dot30u(sy, spsr, cy, cr);
-    rot->t[1][2] = mul30u(cp, sr);
-    rot->t[2][0] = dot30u(cy, spcr, sy, sr);
-    rot->t[2][1] = dot30u(sy, spcr, -cy, sr);
-    rot->t[2][2] = mul30u(cp, cr);
+    rot->t[1][0] = spi_dot30_up(cy, spsr, -sy, cr);
+    rot->t[1][1] = spi_dot30_up(sy, spsr, cy, cr);
+    rot->t[1][2] = spi_mul30_up(cp, sr);
+    rot->t[2][0] = spi_dot30_up(cy, spcr, sy, sr);
+    rot->t[2][1] = spi_dot30_up(sy, spcr, -cy, sr);
+    rot->t[2][2] = spi_mul30_up(cp, cr);
 }
 
 /* T of the angles, keeping their sines and cosines in sc. */
@@ -121,7 +106,7 @@ SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsign
 {
     int64_t acc =
         (int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] + (INT64_C(1) << 29);
-    return spi_sat_shift(acc, 30u, flags);
+    return spi_narrow_floor(acc, 30u, flags);
 }
 
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
@@ -285,39 +270,39 @@ SPI_COLD static sp_status_t body_rates_wide(const sp_q30_t sc[6], const sp_q24_t
     a = 0;
     acc_term(&a, dr, SP_Q30_ONE, &flags);
     acc_term(&a, dy, -sp, &flags);
-    omega[0] = spi_narrow(a, 30u, &flags);
+    omega[0] = spi_narrow_away(a, 30u, &flags);
     a = 0;
     acc_term(&a, dp, cr, &flags);
-    acc_term(&a, dy, spi_mul30(cp, sr), &flags);
-    omega[1] = spi_narrow(a, 30u, &flags);
+    acc_term(&a, dy, spi_mul30_away(cp, sr), &flags);
+    omega[1] = spi_narrow_away(a, 30u, &flags);
     a = 0;
     acc_term(&a, dp, -sr, &flags);
-    acc_term(&a, dy, spi_mul30(cp, cr), &flags);
-    omega[2] = spi_narrow(a, 30u, &flags);
+    acc_term(&a, dy, spi_mul30_away(cp, cr), &flags);
+    omega[2] = spi_narrow_away(a, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
-    dp_dr = spi_mul(dp, dr, 24u, &flags);
-    dy_dp = spi_mul(dy, dp, 24u, &flags);
-    dy_dr = spi_mul(dy, dr, 24u, &flags);
+    dp_dr = spi_mul_away(dp, dr, 24u, &flags);
+    dy_dp = spi_mul_away(dy, dp, 24u, &flags);
+    dy_dr = spi_mul_away(dy, dr, 24u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[0], SP_Q30_ONE, &flags);
     acc_term(&a, rpy_acc[2], -sp, &flags);
     acc_term(&a, dy_dp, -cp, &flags);
-    omega_dot[0] = spi_narrow(a, 30u, &flags);
+    omega_dot[0] = spi_narrow_away(a, 30u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[1], cr, &flags);
     acc_term(&a, dp_dr, -sr, &flags);
-    acc_term(&a, rpy_acc[2], spi_mul30(cp, sr), &flags);
-    acc_term(&a, dy_dp, -spi_mul30(sp, sr), &flags);
-    acc_term(&a, dy_dr, spi_mul30(cp, cr), &flags);
-    omega_dot[1] = spi_narrow(a, 30u, &flags);
+    acc_term(&a, rpy_acc[2], spi_mul30_away(cp, sr), &flags);
+    acc_term(&a, dy_dp, -spi_mul30_away(sp, sr), &flags);
+    acc_term(&a, dy_dr, spi_mul30_away(cp, cr), &flags);
+    omega_dot[1] = spi_narrow_away(a, 30u, &flags);
     a = 0;
     acc_term(&a, rpy_acc[1], -sr, &flags);
     acc_term(&a, dp_dr, -cr, &flags);
-    acc_term(&a, rpy_acc[2], spi_mul30(cp, cr), &flags);
-    acc_term(&a, dy_dp, -spi_mul30(sp, cr), &flags);
-    acc_term(&a, dy_dr, -spi_mul30(cp, sr), &flags);
-    omega_dot[2] = spi_narrow(a, 30u, &flags);
+    acc_term(&a, rpy_acc[2], spi_mul30_away(cp, cr), &flags);
+    acc_term(&a, dy_dp, -spi_mul30_away(sp, cr), &flags);
+    acc_term(&a, dy_dr, -spi_mul30_away(cp, sr), &flags);
+    omega_dot[2] = spi_narrow_away(a, 30u, &flags);
     return sp_flags_status(flags);
 }
 
@@ -365,31 +350,31 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
      * to the products' rounding): by Cauchy-Schwarz each sum is below
      * (1 + sqrt 2 + sqrt 3) 2^31 K < 2^63. Each is rounded once (ties up),
      * saturated (SP_E_OVERFLOW) beyond int32. */
-    cpsr = mul30u(cp, sr);
-    cpcr = mul30u(cp, cr);
-    spsr = mul30u(sp, sr);
-    spcr = mul30u(sp, cr);
+    cpsr = spi_mul30_up(cp, sr);
+    cpcr = spi_mul30_up(cp, cr);
+    spsr = spi_mul30_up(sp, sr);
+    spcr = spi_mul30_up(sp, cr);
     dr = rpy_rate[0];
     dp = rpy_rate[1];
     dy = rpy_rate[2];
 
     /* eq (10) */
-    omega[0] = spi_sat_shift(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
-    omega[1] = spi_sat_shift(dp * cr + dy * cpsr + half, 30u, &flags);
-    omega[2] = spi_sat_shift(dy * cpcr - dp * sr + half, 30u, &flags);
+    omega[0] = spi_narrow_floor(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
+    omega[1] = spi_narrow_floor(dp * cr + dy * cpsr + half, 30u, &flags);
+    omega[2] = spi_narrow_floor(dy * cpcr - dp * sr + half, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
-    dp_dr = spi_sat_shift(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
-    dy_dp = spi_sat_shift(dy * dp + (INT64_C(1) << 23), 24u, &flags);
-    dy_dr = spi_sat_shift(dy * dr + (INT64_C(1) << 23), 24u, &flags);
-    omega_dot[0] = spi_sat_shift(
+    dp_dr = spi_narrow_floor(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
+    dy_dp = spi_narrow_floor(dy * dp + (INT64_C(1) << 23), 24u, &flags);
+    dy_dr = spi_narrow_floor(dy * dr + (INT64_C(1) << 23), 24u, &flags);
+    omega_dot[0] = spi_narrow_floor(
         (int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp - (int64_t)dy_dp * cp + half, 30u, &flags);
-    omega_dot[1] = spi_sat_shift((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
-                                     (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
-                                 30u, &flags);
-    omega_dot[2] = spi_sat_shift((int64_t)rpy_acc[2] * cpcr - (int64_t)rpy_acc[1] * sr - (int64_t)dp_dr * cr -
-                                     (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
-                                 30u, &flags);
+    omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
+                                        (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
+                                    30u, &flags);
+    omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr - (int64_t)rpy_acc[1] * sr - (int64_t)dp_dr * cr -
+                                        (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
+                                    30u, &flags);
     return sp_flags_status(flags);
 }
 
@@ -406,14 +391,14 @@ SPI_COLD static void leg_rates_wide(const sp_ik_t *ik, const sp_q24_t vel[3], co
         /* joint velocity v + w x r, Q24 x Q24 -> Q24; |w_c| < 2^31 (a
          * saturated w_c is at most 2^31 - 1 or exactly -2^31, and one product of a
          * difference is then below 2^62 in magnitude): below 2^63 */
-        v[0] = spi_add(vel[0], spi_sat(spi_rsr((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), flags), flags);
-        v[1] = spi_add(vel[1], spi_sat(spi_rsr((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), flags), flags);
-        v[2] = spi_add(vel[2], spi_sat(spi_rsr((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), flags), flags);
+        v[0] = spi_add(vel[0], spi_sat(spi_round_away((int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u), flags), flags);
+        v[1] = spi_add(vel[1], spi_sat(spi_round_away((int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u), flags), flags);
+        v[2] = spi_add(vel[2], spi_sat(spi_round_away((int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u), flags), flags);
         /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
-        rate[i] = spi_sat(
-            spi_rsr((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] + (int64_t)ik->unit[i][2] * v[2],
-                    30u),
-            flags);
+        rate[i] = spi_sat(spi_round_away((int64_t)ik->unit[i][0] * v[0] + (int64_t)ik->unit[i][1] * v[1] +
+                                             (int64_t)ik->unit[i][2] * v[2],
+                                         30u),
+                          flags);
     }
 }
 
@@ -443,7 +428,7 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
           ((uint32_t)((uint64_t)a[2] >> 32) + (UINT32_C(1) << 28))) >>
          29) != 0u) {
         for (c = 0u; c < 3u; ++c) {
-            w[c] = spi_sat_shift(a[c], 30u, &flags);
+            w[c] = spi_narrow_floor(a[c], 30u, &flags);
         }
         leg_rates_wide(ik, vel, w, rate, &flags);
         return sp_flags_status(flags);
@@ -461,12 +446,12 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
         /* joint velocity v + w x r (Q24 x Q24 -> Q24) in one sum, rounded
          * once: |w_c| <= 2^30, |r_c| <= 2^31, so w x r is at most 2^62
          * and the sum with v 2^24 below 2^63 */
-        v0 = spi_sat_shift(vb[0] + (int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags);
-        v1 = spi_sat_shift(vb[1] + (int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags);
-        v2 = spi_sat_shift(vb[2] + (int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags);
+        v0 = spi_narrow_floor(vb[0] + (int64_t)w[1] * r[2] - (int64_t)w[2] * r[1], 24u, &flags);
+        v1 = spi_narrow_floor(vb[1] + (int64_t)w[2] * r[0] - (int64_t)w[0] * r[2], 24u, &flags);
+        v2 = spi_narrow_floor(vb[2] + (int64_t)w[0] * r[1] - (int64_t)w[1] * r[0], 24u, &flags);
         /* u . v with |u_c| <= 2^30: the exact sum is below 3 * 2^61 */
-        rate[i] = spi_sat_shift((int64_t)u[0] * v0 + (int64_t)u[1] * v1 + (int64_t)u[2] * v2 + (INT64_C(1) << 29), 30u,
-                                &flags);
+        rate[i] = spi_narrow_floor((int64_t)u[0] * v0 + (int64_t)u[1] * v1 + (int64_t)u[2] * v2 + (INT64_C(1) << 29),
+                                   30u, &flags);
     }
     return sp_flags_status(flags);
 }
@@ -490,9 +475,9 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
         /* r x u: Q24 x Q30 = Q54 -> Q28; a difference of two int32 products
          * stays within 2^63 - 2^31 (only -2^31 * -2^31 reaches 2^62), and
          * the rounding half 2^25 keeps it below 2^63 */
-        jac->j[i][3] = spi_sat_shift((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), 26u, &flags);
-        jac->j[i][4] = spi_sat_shift((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), 26u, &flags);
-        jac->j[i][5] = spi_sat_shift((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][3] = spi_narrow_floor((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][4] = spi_narrow_floor((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][5] = spi_narrow_floor((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), 26u, &flags);
     }
     return sp_flags_status(flags);
 }

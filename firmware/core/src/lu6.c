@@ -161,7 +161,7 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
             ri[k] = l;
             for (j = k + 1u; j < SP_LEGS; ++j) {
                 /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
-                ri[j] = spi_sub_sat(ri[j], (int32_t)spi_rsr_up((int64_t)l * rk[j], 30u), flags);
+                ri[j] = spi_sub_sat(ri[j], (int32_t)spi_round_up((int64_t)l * rk[j], 30u), flags);
             }
         }
     }
@@ -227,7 +227,7 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
 SPI_INLINE int64_t lu_div_pivot(const sp_lu6_t *lu, unsigned k, int64_t s, sp_flags_t *flags)
 {
     return (lu->zk[k] == 0u) ? sp_mul64(s, lu->inv[k], 33u, flags)
-                             : spi_mul64_rs(s, lu->inv[k], 33u - lu->zk[k], flags);
+                             : spi_mul64_up(s, lu->inv[k], 33u - lu->zk[k], flags);
 }
 
 /* The checks common to the solves: SP_OK, or the error with x zeroed. */
@@ -273,7 +273,7 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
              * below 2^62 at the end, no overflow */
             int32_t l = lu->a[lu->perm[i]][k];
             if (l != 0) {
-                r[i] -= spi_mul64_q30(r[k], l);
+                r[i] -= spi_mul64_q30_up(r[k], l);
             }
         }
     }
@@ -281,7 +281,7 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
         const int32_t *uk = lu->a[lu->perm[k]];
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            s = spi_add64(s, -spi_mul64_rs(x[j], uk[j], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_up(x[j], uk[j], 28u, &flags), &flags);
         }
         x[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -298,7 +298,7 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
  * (v + 2^(s-1) + 2^(s+lim) must not overflow); returns 0 otherwise. A
  * branch per value instead of a flag word: the compiler then keeps no
  * word of a check alive to the end. */
-SPI_INLINE int nar_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
+SPI_INLINE int narrow_up_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
 {
     uint64_t t = (uint64_t)v + ((UINT64_C(1) << (s - 1u)) + (UINT64_C(1) << (s + lim)));
     uint32_t lo = (uint32_t)(t >> s);
@@ -309,9 +309,9 @@ SPI_INLINE int nar_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
     return 1;
 }
 
-/* nar_ok(v, s, 30, r) for a variable shift s in [2, 31], in 32-bit
+/* narrow_up_ok(v, s, 30, r) for a variable shift s in [2, 31], in 32-bit
  * operations (the bias 2^(s-1) + 2^(s+30) is one bit in each word). */
-SPI_INLINE int nar30v_ok(int64_t v, unsigned s, int32_t *r)
+SPI_INLINE int narrow30_up_ok(int64_t v, unsigned s, int32_t *r)
 {
     uint64_t t = (uint64_t)v + (((uint64_t)(UINT32_C(1) << (s - 2u)) << 32) | (UINT32_C(1) << (s - 1u)));
     uint32_t lo = (uint32_t)t;
@@ -409,7 +409,7 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
         for (k = 0u; k < i; ++k) {
             acc += (int64_t)u[i][k] * y[k];
         }
-        if (!nar_ok((int64_t)bs[lu->perm[i]] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
+        if (!narrow_up_ok((int64_t)bs[lu->perm[i]] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
             return 0;
         }
     }
@@ -420,8 +420,8 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
         for (j = k + 1u; j < SP_LEGS; ++j) {
             acc += (int64_t)u[k][j] * w[j];
         }
-        if (!nar30v_ok((int64_t)y[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
-            !nar_ok((int64_t)sk * lu->inv[k], 31u, 29u, &w[k])) {
+        if (!narrow30_up_ok((int64_t)y[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
+            !narrow_up_ok((int64_t)sk * lu->inv[k], 31u, 29u, &w[k])) {
             return 0;
         }
     }
@@ -450,7 +450,7 @@ sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x
     return lu_solve64(lu, b, x);
 }
 
-#define LT_MAX (INT64_C(1) << 61) /* spi_mul64_q30's range */
+#define LT_MAX (INT64_C(1) << 61) /* spi_mul64_q30_up's range */
 
 sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
@@ -468,7 +468,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t s = b[k];
         for (j = 0u; j < k; ++j) {
-            s = spi_add64(s, -spi_mul64_rs(y[j], lu->a[lu->perm[j]][k], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_up(y[j], lu->a[lu->perm[j]][k], 28u, &flags), &flags);
         }
         y[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -481,7 +481,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
                 if (y[i] >= LT_MAX || y[i] <= -LT_MAX) {
                     flags |= SP_FLAG_OVERFLOW;
                 } else {
-                    s = spi_add64(s, -spi_mul64_q30(y[i], l), &flags);
+                    s = spi_add64(s, -spi_mul64_q30_up(y[i], l), &flags);
                 }
             }
         }
@@ -535,8 +535,8 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         for (j = 0u; j < k; ++j) {
             acc += (int64_t)u[j][k] * y[j];
         }
-        if (!nar30v_ok((int64_t)bs[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
-            !nar_ok((int64_t)sk * lu->inv[k], 31u, 29u, &y[k])) {
+        if (!narrow30_up_ok((int64_t)bs[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
+            !narrow_up_ok((int64_t)sk * lu->inv[k], 31u, 29u, &y[k])) {
             return 0;
         }
     }
@@ -547,7 +547,7 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         for (i = k + 1u; i < SP_LEGS; ++i) {
             acc += (int64_t)u[i][k] * y[i];
         }
-        if (!nar_ok((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &y[k])) {
+        if (!narrow_up_ok((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &y[k])) {
             return 0;
         }
     }

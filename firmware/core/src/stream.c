@@ -13,7 +13,7 @@ sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t ome
     g->flags = 0u;
     /* tick_us 2^24 / 10^6 < 2^32 / 10^6 2^24 fits 32 bits for any tick_us */
     g->dt = (int32_t)spi_udiv64_32((uint64_t)tick_us << 24, 1000000u, NULL);
-    g->w2 = spi_mul(omega, omega, 24u, &g->flags);
+    g->w2 = spi_mul_away(omega, omega, 24u, &g->flags);
     g->two_w = spi_add(omega, omega, &g->flags);
     return SP_OK;
 }
@@ -106,17 +106,18 @@ SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32
     }
     /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
      * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
-    err = spi_narrow(spi_add64(target48, -x48, flags), 24u, flags);
-    acmd = spi_sub(spi_mul(g->w2, err, 24u, flags), spi_mul(g->two_w, (int32_t)spi_rsr(v48, 24u), 24u, flags), flags);
+    err = spi_narrow_away(spi_add64(target48, -x48, flags), 24u, flags);
+    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags),
+                   spi_mul_away(g->two_w, (int32_t)spi_round_away(v48, 24u), 24u, flags), flags);
     acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
     v48 += (int64_t)acmd * g->dt; /* Q48 */
     v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
-    x48 = spi_add64(x48, spi_mul64_rs(v48, g->dt, 24u, flags), flags);
+    x48 = spi_add64(x48, spi_mul64_up(v48, g->dt, 24u, flags), flags);
     *v48p = v48;
     *x48p = x48;
     *acc = acmd;
-    *v = (sp_q24_t)spi_rsr(v48, 24u);
-    *x = spi_narrow(x48, 24u, flags);
+    *v = (sp_q24_t)spi_round_away(v48, 24u);
+    *x = spi_narrow_away(x48, 24u, flags);
 }
 
 void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_flags_t *flags)

@@ -57,17 +57,17 @@ static void smoothstep(int32_t u, int32_t *e, int32_t *de, int32_t *dde)
 {
     int64_t one = INT64_C(1) << 30;
     int64_t uu = u;
-    int64_t v = one - uu;               /* 1 - u */
-    int64_t u2 = spi_rsr(uu * uu, 30u); /* u^2 */
-    int64_t u3 = spi_rsr(u2 * uu, 30u); /* u^3 */
-    int64_t v2 = spi_rsr(v * v, 30u);   /* (1-u)^2 */
+    int64_t v = one - uu;                      /* 1 - u */
+    int64_t u2 = spi_round_away(uu * uu, 30u); /* u^2 */
+    int64_t u3 = spi_round_away(u2 * uu, 30u); /* u^3 */
+    int64_t v2 = spi_round_away(v * v, 30u);   /* (1-u)^2 */
     /* E = u^3 (10 - 15u + 6u^2) */
     int64_t poly = 10 * one - 15 * uu + 6 * u2;
-    *e = (int32_t)spi_rsr(u3 * poly, 30u);
+    *e = (int32_t)spi_round_away(u3 * poly, 30u);
     /* E' = 30 u^2 (1-u)^2 */
-    *de = (int32_t)spi_rsr(30 * spi_rsr(u2 * v2, 30u), 6u);
+    *de = (int32_t)spi_round_away(30 * spi_round_away(u2 * v2, 30u), 6u);
     /* E'' = 60 u (1-u) (1-2u) */
-    *dde = (int32_t)spi_rsr(60 * spi_rsr(spi_rsr(uu * v, 30u) * (one - 2 * uu), 30u), 6u);
+    *dde = (int32_t)spi_round_away(60 * spi_round_away(spi_round_away(uu * v, 30u) * (one - 2 * uu), 30u), 6u);
 }
 
 sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis, sp_q24_t amplitude,
@@ -178,26 +178,27 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     } else {
         smoothstep(u, &e, &de, &dde);
         /* e' = E'(u) du/dt, e'' = E''(u) (du/dt)^2, Q24 */
-        de = spi_mul(de, rate, 24u, &flags);
-        dde = spi_mul(spi_mul(dde, rate, 24u, &flags), rate, 24u, &flags);
+        de = spi_mul_away(de, rate, 24u, &flags);
+        dde = spi_mul_away(spi_mul_away(dde, rate, 24u, &flags), rate, 24u, &flags);
     }
 
-    theta = (int32_t)spi_rsr((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
+    theta = (int32_t)spi_round_away((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
     sp_sincos_q24(theta, &s, &c);
 
     /* offset = A s e; velocity = A (w c e + s e');
      * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24. */
-    wc = spi_mul(g->omega, c, 30u, &flags);
-    pos = spi_rsr((int64_t)spi_mul(s, e, 30u, &flags), 6u); /* s e, Q24 */
-    vel = (int64_t)spi_mul(wc, e, 30u, &flags) + spi_mul(de, s, 30u, &flags);
-    acc = -(int64_t)spi_mul(spi_mul(spi_mul(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e, 30u, &flags) +
-          2 * (int64_t)spi_mul(wc, de, 24u, &flags) + spi_mul(dde, s, 30u, &flags);
+    wc = spi_mul_away(g->omega, c, 30u, &flags);
+    pos = spi_round_away((int64_t)spi_mul_away(s, e, 30u, &flags), 6u); /* s e, Q24 */
+    vel = (int64_t)spi_mul_away(wc, e, 30u, &flags) + spi_mul_away(de, s, 30u, &flags);
+    acc = -(int64_t)spi_mul_away(spi_mul_away(spi_mul_away(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e, 30u,
+                                 &flags) +
+          2 * (int64_t)spi_mul_away(wc, de, 24u, &flags) + spi_mul_away(dde, s, 30u, &flags);
 
     a = (unsigned)g->axis;
     *axis_ref(&out->pose, a) =
-        spi_add(*axis_ref(&out->pose, a), spi_mul(g->amplitude, spi_sat(pos, &flags), 24u, &flags), &flags);
-    *vec_ref(out, a, 1) = spi_mul(g->amplitude, spi_sat(vel, &flags), 24u, &flags);
-    *vec_ref(out, a, 2) = spi_mul(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
+        spi_add(*axis_ref(&out->pose, a), spi_mul_away(g->amplitude, spi_sat(pos, &flags), 24u, &flags), &flags);
+    *vec_ref(out, a, 1) = spi_mul_away(g->amplitude, spi_sat(vel, &flags), 24u, &flags);
+    *vec_ref(out, a, 2) = spi_mul_away(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
 
     g->phase += g->phase_step; /* modulo one turn by design */
     if (g->tick < UINT32_MAX) {
@@ -319,25 +320,25 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
             /* the common case, |d| < 128 m or rad: 32x32 products, the
              * same values as below */
             int32_t d32 = (int32_t)d;
-            dv = spi_sat(spi_rsr((int64_t)d32 * de, 24u), &flags);
-            da = spi_sat(spi_rsr((int64_t)d32 * dde, 24u), &flags);
-            dp = spi_rsr((int64_t)d32 * e, 30u);
+            dv = spi_sat(spi_round_away((int64_t)d32 * de, 24u), &flags);
+            da = spi_sat(spi_round_away((int64_t)d32 * dde, 24u), &flags);
+            dp = spi_round_away((int64_t)d32 * e, 30u);
         } else {
             /* D E'(u) first, then the time scale: a short move has a large
              * rate but a small distance, and neither product saturates.
              * |d| < 2^33 and the factors are int32: products below
              * 2^63 - 2^32 */
-            dv = spi_narrow(d * de, 24u, &flags);
-            da = spi_narrow(d * dde, 24u, &flags);
-            dp = spi_rshift(d * e, 30u);
+            dv = spi_narrow_away(d * de, 24u, &flags);
+            da = spi_narrow_away(d * dde, 24u, &flags);
+            dp = spi_round_away64(d * e, 30u);
         }
         {
             sp_q24_t *p = axis_ref(&out->pose, a);
             *p = spi_sat(*p + dp, &flags);
         }
-        *vec_ref(out, a, 1) = spi_sat(spi_rsr((int64_t)dv * rate, 24u), &flags);
-        *vec_ref(out, a, 2) =
-            spi_sat(spi_rsr((int64_t)spi_sat(spi_rsr((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
+        *vec_ref(out, a, 1) = spi_sat(spi_round_away((int64_t)dv * rate, 24u), &flags);
+        *vec_ref(out, a, 2) = spi_sat(
+            spi_round_away((int64_t)spi_sat(spi_round_away((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
     }
     ++mv->tick;
     return sp_flags_status(flags);
