@@ -239,28 +239,22 @@ static void count_send(sp_node_t *node, sp_status_t st, uint32_t *n)
     }
 }
 
-sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n)
+/* The next queued operator command into node->in.cmd (none: SP_CMD_NONE).
+ * SET_FEEDFORWARD is a tuning switch, applied here and only while no motion
+ * is under way; returns 1 when it is refused. */
+static int take_command(sp_node_config_t *cfg, sp_node_t *node)
 {
-    if (cfg == NULL || node == NULL || out == NULL || n == NULL || cfg->ctrl.platform == NULL) {
-        return SP_E_ARG;
-    }
-    *n = 0u;
-    node->ctrl_platform = cfg->ctrl.platform;
-    node->ctrl_sync_master = cfg->sync_master;
-
-    /* The next operator command, if any. */
-    uint8_t ff_rejected = 0u;
+    int rejected = 0;
     memset(&node->in.cmd, 0, sizeof node->in.cmd);
     if (node->cmd_count > 0u) {
         const sp_msg_command_t *c = &node->cmd_queue[node->cmd_head];
         node->cmd_head = (uint8_t)((node->cmd_head + 1u) % SP_NODE_CMD_QUEUE);
         node->cmd_count--;
         if (c->command == SP_CMD_SET_FEEDFORWARD) {
-            /* a tuning switch: only while no motion is under way */
             if (node->ctrl.state == SP_STATE_IDLE || node->ctrl.state == SP_STATE_READY) {
                 cfg->ctrl.force_feedforward = c->option;
             } else {
-                ff_rejected = 1u;
+                rejected = 1;
             }
         } else {
             node->in.cmd.type = (sp_cmd_type_t)c->command;
@@ -272,21 +266,14 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
             node->in.cmd.target = node->target;
         }
     }
+    return rejected;
+}
 
-    sp_status_t st = sp_ctrl_step(&cfg->ctrl, &node->ctrl, &node->in, &node->out);
-    if (st != SP_OK) {
-        return st;
-    }
-    if (ff_rejected) {
-        node->out.cmd_rejected = 1u;
-    }
-    for (uint32_t i = 0; i < SP_LEGS; i++) {
-        node->in.drive[i].fresh = 0u;
-    }
-    node->in.stream_fresh = 0u;
-
-    /* Setpoints for the cycle that the next SYNC starts. */
-    uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
+/* The setpoints for the cycle that the next SYNC starts, one frame per axis
+ * bus, then (as the SYNC master) the SYNC frames. */
+static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick, sp_can_frame_t out[],
+                             uint32_t *n)
+{
     for (uint8_t b = 0; b < 2u; b++) {
         sp_msg_setpoints_t m;
         m.tick = tick;
@@ -311,7 +298,12 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     }
     node->sync_seen[0] = 0u;
     node->sync_seen[1] = 0u;
+}
 
+/* The controller's status and monitor frames to the operator bus. */
+static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick, sp_can_frame_t out[],
+                            uint32_t *n)
+{
     sp_msg_status_t s;
     s.tick = tick;
     s.state = (uint8_t)node->out.state;
@@ -334,5 +326,32 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     }
     count_send(node, sp_proto_encode_monitor(&mon, node->tx_counter_monitor++, &out[*n]), n);
     node->tx_counter_monitor &= 0x0Fu;
+}
+
+sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n)
+{
+    if (cfg == NULL || node == NULL || out == NULL || n == NULL || cfg->ctrl.platform == NULL) {
+        return SP_E_ARG;
+    }
+    *n = 0u;
+    node->ctrl_platform = cfg->ctrl.platform;
+    node->ctrl_sync_master = cfg->sync_master;
+
+    int ff_rejected = take_command(cfg, node);
+    sp_status_t st = sp_ctrl_step(&cfg->ctrl, &node->ctrl, &node->in, &node->out);
+    if (st != SP_OK) {
+        return st;
+    }
+    if (ff_rejected) {
+        node->out.cmd_rejected = 1u;
+    }
+    for (uint32_t i = 0; i < SP_LEGS; i++) {
+        node->in.drive[i].fresh = 0u;
+    }
+    node->in.stream_fresh = 0u;
+
+    uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
+    send_axis_frames(cfg, node, tick, out, n);
+    send_ops_frames(cfg, node, tick, out, n);
     return SP_OK;
 }
