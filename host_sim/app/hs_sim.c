@@ -44,7 +44,6 @@
 #include <inttypes.h>
 #include <math.h>
 #include <poll.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,24 +51,11 @@
 #include <time.h>
 
 #include "hs/bus.h"
+#include "host_os.h"
 #include "socketcan.h"
 
 #define MAX_ACTIONS 256
 #define RX_BUF 64
-
-static volatile sig_atomic_t g_stop = 0;
-static void on_signal(int sig)
-{
-    (void)sig;
-    g_stop = 1;
-}
-
-static int64_t now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
 
 /* ---- scenario ---------------------------------------------------------- */
 
@@ -493,7 +479,7 @@ static void progress_line(sim_t *s, uint64_t tick)
 {
     double pose[6];
     (void)hs_plant_pose(&s->plant, pose);
-    double wall = (double)(now_ns() - s->t0_ns) * 1e-9;
+    double wall = (double)(sp_host_now_ns() - s->t0_ns) * 1e-9;
     fprintf(stderr,
             "hs_sim: t=%8.3f s  controller %-8s  pose x %+7.4f y %+7.4f z %6.4f m  yaw %+7.4f rad  (%.1fx real time)\n",
             (double)tick / 1000.0, s->status_state >= 0 ? k_states[s->status_state] : "-", pose[0], pose[1], pose[2],
@@ -522,7 +508,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms
                 return 3;
             }
         }
-        if (g_stop) {
+        if (sp_host_stop_requested()) {
             return 3;
         }
         uint32_t got = 0;
@@ -576,7 +562,7 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
     do {
         got = 0;
         (void)s->port.receive(s->port.ctx, rx, RX_BUF, &got);
-        uint64_t t_us = (uint64_t)((now_ns() - s->t0_ns) / 1000);
+        uint64_t t_us = (uint64_t)((sp_host_now_ns() - s->t0_ns) / 1000);
         for (uint32_t k = 0; k < got; k++) {
             log_frame(s, &rx[k], t_us);
             if (rx[k].id == SP_ID_SYNC && rx[k].bus != SP_BUS_OPS) {
@@ -697,19 +683,20 @@ int main(int argc, char **argv)
         fprintf(s.truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
                          "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6\n");
     }
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
+    if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
+        perror("hs_sim: cannot catch SIGINT/SIGTERM");
+    }
     fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms\n",
             s.lockstep ? "lockstep" : "real-time", s.ifs[0], s.ifs[1], s.ifs[2], (unsigned)par.substeps);
 
     int rc = 0;
     uint64_t tick = 0;
-    s.t0_ns = now_ns();
+    s.t0_ns = sp_host_now_ns();
     int64_t next = s.t0_ns;
     uint32_t answered = 0;
     int have_answered = 0;
-    while (!g_stop && (max_ticks == 0 || tick < max_ticks)) {
-        uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((now_ns() - s.t0_ns) / 1000);
+    while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
+        uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
         if (s.have_scenario) {
             int r = run_scenario(&s, tick, t_us);
             if (r != 0) {
@@ -738,8 +725,8 @@ int main(int argc, char **argv)
             next += 1000000;
             for (;;) {
                 realtime_frames(&s, &answered, &have_answered);
-                int64_t left = next - now_ns();
-                if (left <= 0 || g_stop) {
+                int64_t left = next - sp_host_now_ns();
+                if (left <= 0 || sp_host_stop_requested()) {
                     break;
                 }
                 struct pollfd pfd = {sp_socketcan_fd(&s.sc), POLLIN, 0};
@@ -759,7 +746,7 @@ int main(int argc, char **argv)
             progress_line(&s, tick);
         }
     }
-    double wall = (double)(now_ns() - s.t0_ns) * 1e-9;
+    double wall = (double)(sp_host_now_ns() - s.t0_ns) * 1e-9;
     double pose[6];
     (void)hs_plant_pose(&s.plant, pose);
     printf("hs_sim summary: %s, cycles %" PRIu64 ", simulated %.3f s, wall %.3f s, %.2fx real time, exit %d\n",
