@@ -19,18 +19,10 @@
  * at once with the latest sampled feedback. Log timestamps are wall time
  * since the start.
  *
- * Scenario file (one action per line, '#' starts a comment; legs are 1..6):
- *   cmd NAME [axis=x|y|z|roll|pitch|yaw] [amplitude=A] [frequency=HZ] [fade=S] [option=0|1]
- *          NAME: ENGAGE RUN_TRIG MOVE_TO STREAM STOP PARK ESTOP RESET SET_FEEDFORWARD
- *   target X Y Z ROLL PITCH YAW    OP_TARGET_POSE (m, rad)
- *   delay S                        wait S seconds of simulated time
- *   wait STATE [S]                 until CTRL_STATUS reports STATE (idle, engaging,
- *                                  ready, running, parking, fault, estop); fails after S s (default 60)
- *   silence LEG                    the drive of LEG stops sending feedback
- *   unsilence LEG
- *   fault LEG BITS                 raises drive fault bits (hs/drive.h) on LEG
- *   mark TEXT                      prints TEXT with the tick (for logs and tests)
- *   end                            stops the run
+ * Scenario file (--scenario): one operator action per line (cmd, target,
+ * delay, wait, silence, unsilence, fault, mark, end); the language, its
+ * parser and player are in hs/scenario.h (host_sim/src/scenario.c), what
+ * each action does on the bus or to the plant is run_scenario below.
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
  * controller always executes them at the same tick.
  *
@@ -42,251 +34,23 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <inttypes.h>
-#include <math.h>
 #include <poll.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <time.h>
 
 #include "hs/bus.h"
+#include "hs/scenario.h"
+#include "host_os.h"
 #include "socketcan.h"
 
-#define MAX_ACTIONS 256
 #define RX_BUF 64
 
-static volatile sig_atomic_t g_stop = 0;
-static void on_signal(int sig)
+/* The name of a state CTRL_STATUS reported (-1: none yet), or `none`. */
+static const char *state_name(int state, const char *none)
 {
-    (void)sig;
-    g_stop = 1;
-}
-
-static int64_t now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
-/* ---- scenario ---------------------------------------------------------- */
-
-typedef enum { A_CMD, A_TARGET, A_DELAY, A_WAIT, A_SILENCE, A_UNSILENCE, A_FAULT, A_MARK, A_END } action_kind_t;
-
-typedef struct {
-    action_kind_t kind;
-    int line;
-    sp_msg_command_t cmd;
-    double value[6];
-    int state;
-    int leg;
-    uint32_t bits;
-    char text[96];
-} action_t;
-
-typedef struct {
-    action_t a[MAX_ACTIONS];
-    int n;
-    int pc;
-    uint64_t until; /* delay/wait: tick it ends (wait: deadline) */
-    int armed;      /* the current delay/wait has set `until` */
-} scenario_t;
-
-static const char *const k_states[] = {"idle", "engaging", "ready", "running", "parking", "fault", "estop"};
-static const char *const k_cmds[] = {"NONE", "ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM",
-                                     "STOP", "PARK",   "ESTOP",    "RESET",   "SET_FEEDFORWARD"};
-static const char *const k_axes[] = {"x", "y", "z", "roll", "pitch", "yaw"};
-
-static int lookup(const char *s, const char *const *names, int n)
-{
-    for (int i = 0; i < n; i++) {
-        if (strcasecmp(s, names[i]) == 0) {
-            return i;
-        }
-    }
-    return -1;
-}
-
-static int parse_double(const char *s, double *v)
-{
-    char *end;
-    errno = 0;
-    *v = strtod(s, &end);
-    return (errno == 0 && end != s && *end == '\0' && isfinite(*v)) ? 0 : -1;
-}
-
-static sp_q24_t q24_of(double v)
-{
-    double q = v * 16777216.0;
-    if (q > 2147483647.0) {
-        return INT32_MAX;
-    }
-    if (q < -2147483647.0) {
-        return -INT32_MAX;
-    }
-    return (sp_q24_t)llround(q);
-}
-
-static int parse_leg(const char *s, int *leg)
-{
-    double v;
-    if (s == NULL || parse_double(s, &v) != 0 || v < 1.0 || v > 6.0 || v != floor(v)) {
-        return -1;
-    }
-    *leg = (int)v - 1;
-    return 0;
-}
-
-/* Parses one line into *a. Returns 0 ok, 1 blank, -1 error (message in err). */
-static int parse_line(char *line, action_t *a, char *err, size_t errlen)
-{
-    char *hash = strchr(line, '#');
-    if (hash != NULL) {
-        *hash = '\0';
-    }
-    char *tok[10];
-    int nt = 0;
-    for (char *s = strtok(line, " \t\r\n"); s != NULL && nt < 10; s = strtok(NULL, " \t\r\n")) {
-        tok[nt++] = s;
-    }
-    if (nt == 0) {
-        return 1;
-    }
-    memset(a, 0, sizeof *a);
-    const char *kw = tok[0];
-    if (strcasecmp(kw, "cmd") == 0) {
-        if (nt < 2 || (a->cmd.command = (uint8_t)lookup(tok[1], k_cmds, 10), lookup(tok[1], k_cmds, 10) <= 0)) {
-            snprintf(err, errlen, "cmd needs a command name (ENGAGE, RUN_TRIG, ...)");
-            return -1;
-        }
-        a->kind = A_CMD;
-        for (int i = 2; i < nt; i++) {
-            char *eq = strchr(tok[i], '=');
-            double v = 0.0;
-            if (eq == NULL) {
-                snprintf(err, errlen, "expected key=value, got '%s'", tok[i]);
-                return -1;
-            }
-            *eq = '\0';
-            const char *key = tok[i], *val = eq + 1;
-            if (strcmp(key, "axis") == 0) {
-                int ax = lookup(val, k_axes, 6);
-                if (ax < 0) {
-                    snprintf(err, errlen, "unknown axis '%s'", val);
-                    return -1;
-                }
-                a->cmd.axis = (uint8_t)ax;
-            } else if (parse_double(val, &v) != 0) {
-                snprintf(err, errlen, "'%s' is not a number", val);
-                return -1;
-            } else if (strcmp(key, "amplitude") == 0) {
-                a->cmd.amplitude = q24_of(v);
-            } else if (strcmp(key, "frequency") == 0 && v >= 0.0) {
-                a->cmd.frequency = q24_of(v);
-            } else if (strcmp(key, "fade") == 0 && v >= 0.0 && v <= 65.0) {
-                a->cmd.fade_ms = (uint32_t)llround(v * 1000.0);
-            } else if (strcmp(key, "option") == 0 && (v == 0.0 || v == 1.0)) {
-                a->cmd.option = (uint8_t)v;
-            } else {
-                snprintf(err, errlen, "bad or out-of-range argument '%s'", key);
-                return -1;
-            }
-        }
-    } else if (strcasecmp(kw, "target") == 0) {
-        if (nt != 7) {
-            snprintf(err, errlen, "target needs 6 numbers: x y z roll pitch yaw");
-            return -1;
-        }
-        a->kind = A_TARGET;
-        for (int i = 0; i < 6; i++) {
-            if (parse_double(tok[i + 1], &a->value[i]) != 0 || fabs(a->value[i]) > 8.0) {
-                snprintf(err, errlen, "bad target value '%s'", tok[i + 1]);
-                return -1;
-            }
-        }
-    } else if (strcasecmp(kw, "delay") == 0) {
-        if (nt != 2 || parse_double(tok[1], &a->value[0]) != 0 || a->value[0] < 0.0 || a->value[0] > 1.0e6) {
-            snprintf(err, errlen, "delay needs seconds >= 0");
-            return -1;
-        }
-        a->kind = A_DELAY;
-    } else if (strcasecmp(kw, "wait") == 0) {
-        a->kind = A_WAIT;
-        a->value[0] = 60.0;
-        if (nt < 2 || nt > 3 || (a->state = lookup(tok[1], k_states, 7)) < 0 ||
-            (nt == 3 && (parse_double(tok[2], &a->value[0]) != 0 || a->value[0] <= 0.0 || a->value[0] > 1.0e6))) {
-            snprintf(err, errlen,
-                     "wait needs a state (idle, engaging, ready, running, parking, fault, estop) "
-                     "and optionally a timeout in seconds");
-            return -1;
-        }
-    } else if (strcasecmp(kw, "silence") == 0 || strcasecmp(kw, "unsilence") == 0) {
-        a->kind = (strcasecmp(kw, "silence") == 0) ? A_SILENCE : A_UNSILENCE;
-        if (nt != 2 || parse_leg(tok[1], &a->leg) != 0) {
-            snprintf(err, errlen, "%s needs a leg 1..6", kw);
-            return -1;
-        }
-    } else if (strcasecmp(kw, "fault") == 0) {
-        char *end;
-        a->kind = A_FAULT;
-        if (nt != 3 || parse_leg(tok[1], &a->leg) != 0) {
-            snprintf(err, errlen, "fault needs a leg 1..6 and fault bits");
-            return -1;
-        }
-        unsigned long bits = strtoul(tok[2], &end, 0);
-        if (*end != '\0' || bits == 0 || bits > 0xFFu) {
-            snprintf(err, errlen, "fault bits must be 1..0xff");
-            return -1;
-        }
-        a->bits = (uint32_t)bits;
-    } else if (strcasecmp(kw, "mark") == 0) {
-        a->kind = A_MARK;
-        for (int i = 1; i < nt; i++) {
-            if (i > 1) {
-                strncat(a->text, " ", sizeof a->text - strlen(a->text) - 1);
-            }
-            strncat(a->text, tok[i], sizeof a->text - strlen(a->text) - 1);
-        }
-    } else if (strcasecmp(kw, "end") == 0) {
-        a->kind = A_END;
-    } else {
-        snprintf(err, errlen, "unknown action '%s'", kw);
-        return -1;
-    }
-    return 0;
-}
-
-static int load_scenario(const char *path, scenario_t *sc)
-{
-    FILE *f = fopen(path, "r");
-    if (f == NULL) {
-        fprintf(stderr, "hs_sim: cannot open scenario %s: %s\n", path, strerror(errno));
-        return -1;
-    }
-    char line[512], err[160];
-    int ln = 0;
-    while (fgets(line, sizeof line, f) != NULL) {
-        ln++;
-        if (sc->n >= MAX_ACTIONS) {
-            fprintf(stderr, "hs_sim: %s:%d: more than %d actions\n", path, ln, MAX_ACTIONS);
-            fclose(f);
-            return -1;
-        }
-        int r = parse_line(line, &sc->a[sc->n], err, sizeof err);
-        if (r < 0) {
-            fprintf(stderr, "hs_sim: %s:%d: %s\n", path, ln, err);
-            fclose(f);
-            return -1;
-        }
-        if (r == 0) {
-            sc->a[sc->n].line = ln;
-            sc->n++;
-        }
-    }
-    fclose(f);
-    return 0;
+    return (state >= 0) ? sp_state_name((sp_state_t)state) : none;
 }
 
 /* ---- run state ---------------------------------------------------------- */
@@ -297,7 +61,7 @@ typedef struct {
     const char *ifs[SP_CAN_BUSES];
     hs_plant_t plant;
     hs_bus_t bus;
-    scenario_t scn;
+    hs_scenario_t scn;
     int have_scenario;
     FILE *log;
     FILE *truth;
@@ -374,96 +138,81 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
     (void)hs_bus_receive(&s->bus, &s->plant, f);
 }
 
-/* Runs the scenario's actions due at `tick`. Returns 0 go on, 1 end, 4 wait timeout, -1 error. */
+/* Carries out the scenario's actions due at `tick` (hs/scenario.h plays it).
+ * Returns 0 go on, 1 end, 4 wait timeout, -1 error. */
 static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
 {
-    scenario_t *sc = &s->scn;
-    for (int guard = 0; guard < MAX_ACTIONS + 1 && sc->pc < sc->n; guard++) {
-        action_t *a = &sc->a[sc->pc];
+    /* each round hands over one action: at most all of them, then the end */
+    for (int guard = 0; guard <= HS_SCENARIO_MAX_ACTIONS; guard++) {
+        const hs_action_t *a = NULL;
+        hs_scenario_next_t next = hs_scenario_next(&s->scn, tick, s->status_state, &a);
+        if (next == HS_SCENARIO_PENDING) {
+            return 0;
+        }
+        if (next == HS_SCENARIO_END) {
+            return 1;
+        }
+        if (next == HS_SCENARIO_TIMEOUT) {
+            fprintf(stderr, "hs_sim: scenario line %d: state %s not reached within %.3f s (now %s, faults 0x%04x)\n",
+                    a->line, sp_state_name(a->state), (double)a->ticks / 1000.0, state_name(s->status_state, "unknown"),
+                    (unsigned)s->status_faults);
+            return 4;
+        }
         switch (a->kind) {
-        case A_CMD: {
+        case HS_ACTION_CMD: {
             sp_can_frame_t f;
             (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f);
             s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
             if (s->progress) {
-                fprintf(stderr, "hs_sim: t=%8.3f s  command %s\n", (double)tick / 1000.0, k_cmds[a->cmd.command]);
+                fprintf(stderr, "hs_sim: t=%8.3f s  command %s\n", (double)tick / 1000.0,
+                        hs_scenario_command_name(a->cmd.command));
             }
             if (send_frames(s, &f, 1u, t_us) != 0) {
                 return -1;
             }
             break;
         }
-        case A_TARGET: {
-            sp_pose_t p;
-            for (int i = 0; i < 3; i++) {
-                p.pos[i] = q24_of(a->value[i]);
-                p.rpy[i] = q24_of(a->value[3 + i]);
-            }
+        case HS_ACTION_TARGET: {
             sp_can_frame_t f;
-            (void)sp_proto_encode_target(&p, s->target_counter, &f);
+            (void)sp_proto_encode_target(&a->target, s->target_counter, &f);
             s->target_counter = (uint8_t)((s->target_counter + 1u) & 0x0Fu);
             if (send_frames(s, &f, 1u, t_us) != 0) {
                 return -1;
             }
             break;
         }
-        case A_DELAY:
-            if (!sc->armed) {
-                sc->until = tick + (uint64_t)llround(a->value[0] * 1000.0);
-                sc->armed = 1;
-            }
-            if (tick < sc->until) {
-                return 0;
-            }
-            sc->armed = 0;
-            break;
-        case A_WAIT:
-            if (!sc->armed) {
-                sc->until = tick + (uint64_t)llround(a->value[0] * 1000.0);
-                sc->armed = 1;
-            }
-            if (s->status_state != a->state) {
-                if (tick >= sc->until) {
-                    fprintf(stderr,
-                            "hs_sim: scenario line %d: state %s not reached within %.3f s (now %s, faults 0x%04x)\n",
-                            a->line, k_states[a->state], a->value[0],
-                            s->status_state >= 0 ? k_states[s->status_state] : "unknown", (unsigned)s->status_faults);
-                    return 4;
-                }
-                return 0;
-            }
+        case HS_ACTION_WAIT:
             if (s->progress) {
-                fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, k_states[a->state]);
+                fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, sp_state_name(a->state));
             }
-            sc->armed = 0;
             break;
-        case A_SILENCE:
+        case HS_ACTION_SILENCE:
             s->bus.silent_mask = (uint8_t)(s->bus.silent_mask | (1u << a->leg));
             break;
-        case A_UNSILENCE:
+        case HS_ACTION_UNSILENCE:
             s->bus.silent_mask = (uint8_t)(s->bus.silent_mask & ~(1u << a->leg));
             break;
-        case A_FAULT:
+        case HS_ACTION_FAULT:
             (void)hs_plant_raise_faults(&s->plant, a->leg, a->bits);
             break;
-        case A_MARK:
+        case HS_ACTION_MARK:
             printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
             fflush(stdout);
             break;
-        case A_END:
-            return 1;
+        case HS_ACTION_DELAY:
+        case HS_ACTION_END:
+            break;
         }
-        if (a->kind == A_SILENCE || a->kind == A_UNSILENCE || a->kind == A_FAULT) {
+        if (a->kind == HS_ACTION_SILENCE || a->kind == HS_ACTION_UNSILENCE || a->kind == HS_ACTION_FAULT) {
             printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick,
-                   a->kind == A_SILENCE     ? "silence"
-                   : a->kind == A_UNSILENCE ? "unsilence"
-                                            : "fault",
+                   a->kind == HS_ACTION_SILENCE     ? "silence"
+                   : a->kind == HS_ACTION_UNSILENCE ? "unsilence"
+                                                    : "fault",
                    a->leg + 1);
             fflush(stdout);
         }
-        sc->pc++;
     }
-    return sc->pc >= sc->n ? 1 : 0;
+    return 0;
 }
 
 static void write_truth(sim_t *s, uint64_t tick)
@@ -493,11 +242,11 @@ static void progress_line(sim_t *s, uint64_t tick)
 {
     double pose[6];
     (void)hs_plant_pose(&s->plant, pose);
-    double wall = (double)(now_ns() - s->t0_ns) * 1e-9;
+    double wall = (double)(sp_host_now_ns() - s->t0_ns) * 1e-9;
     fprintf(stderr,
             "hs_sim: t=%8.3f s  controller %-8s  pose x %+7.4f y %+7.4f z %6.4f m  yaw %+7.4f rad  (%.1fx real time)\n",
-            (double)tick / 1000.0, s->status_state >= 0 ? k_states[s->status_state] : "-", pose[0], pose[1], pose[2],
-            pose[5], wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0);
+            (double)tick / 1000.0, state_name(s->status_state, "-"), pose[0], pose[1], pose[2], pose[5],
+            wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0);
 }
 
 /* Lockstep: one cycle's wait for the controller's answer. 0 ok, 3 silent, -1 error. */
@@ -522,7 +271,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms
                 return 3;
             }
         }
-        if (g_stop) {
+        if (sp_host_stop_requested()) {
             return 3;
         }
         uint32_t got = 0;
@@ -576,7 +325,7 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
     do {
         got = 0;
         (void)s->port.receive(s->port.ctx, rx, RX_BUF, &got);
-        uint64_t t_us = (uint64_t)((now_ns() - s->t0_ns) / 1000);
+        uint64_t t_us = (uint64_t)((sp_host_now_ns() - s->t0_ns) / 1000);
         for (uint32_t k = 0; k < got; k++) {
             log_frame(s, &rx[k], t_us);
             if (rx[k].id == SP_ID_SYNC && rx[k].bus != SP_BUS_OPS) {
@@ -643,7 +392,9 @@ int main(int argc, char **argv)
         }
     }
     if (scenario != NULL) {
-        if (load_scenario(scenario, &s.scn) != 0) {
+        hs_scenario_error_t err;
+        if (hs_scenario_load(&s.scn, scenario, &err) != HS_OK) {
+            fprintf(stderr, "hs_sim: %s\n", err.message);
             return 2;
         }
         s.have_scenario = 1;
@@ -697,19 +448,20 @@ int main(int argc, char **argv)
         fprintf(s.truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
                          "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6\n");
     }
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
+    if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
+        perror("hs_sim: cannot catch SIGINT/SIGTERM");
+    }
     fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms\n",
             s.lockstep ? "lockstep" : "real-time", s.ifs[0], s.ifs[1], s.ifs[2], (unsigned)par.substeps);
 
     int rc = 0;
     uint64_t tick = 0;
-    s.t0_ns = now_ns();
+    s.t0_ns = sp_host_now_ns();
     int64_t next = s.t0_ns;
     uint32_t answered = 0;
     int have_answered = 0;
-    while (!g_stop && (max_ticks == 0 || tick < max_ticks)) {
-        uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((now_ns() - s.t0_ns) / 1000);
+    while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
+        uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
         if (s.have_scenario) {
             int r = run_scenario(&s, tick, t_us);
             if (r != 0) {
@@ -738,8 +490,8 @@ int main(int argc, char **argv)
             next += 1000000;
             for (;;) {
                 realtime_frames(&s, &answered, &have_answered);
-                int64_t left = next - now_ns();
-                if (left <= 0 || g_stop) {
+                int64_t left = next - sp_host_now_ns();
+                if (left <= 0 || sp_host_stop_requested()) {
                     break;
                 }
                 struct pollfd pfd = {sp_socketcan_fd(&s.sc), POLLIN, 0};
@@ -759,7 +511,7 @@ int main(int argc, char **argv)
             progress_line(&s, tick);
         }
     }
-    double wall = (double)(now_ns() - s.t0_ns) * 1e-9;
+    double wall = (double)(sp_host_now_ns() - s.t0_ns) * 1e-9;
     double pose[6];
     (void)hs_plant_pose(&s.plant, pose);
     printf("hs_sim summary: %s, cycles %" PRIu64 ", simulated %.3f s, wall %.3f s, %.2fx real time, exit %d\n",
@@ -784,8 +536,8 @@ int main(int argc, char **argv)
         printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), s.bus.stats.rejected[e]);
     }
     printf(", ops rejected %" PRIu64 "\n", s.ops_rejected);
-    printf("hs_sim controller: last state %s, faults 0x%04x\n",
-           s.status_state >= 0 ? k_states[s.status_state] : "unknown", (unsigned)s.status_faults);
+    printf("hs_sim controller: last state %s, faults 0x%04x\n", state_name(s.status_state, "unknown"),
+           (unsigned)s.status_faults);
     if (s.log != NULL) {
         fclose(s.log);
     }

@@ -14,6 +14,10 @@ const char *hs_status_name(hs_status_t status)
         return "numeric";
     case HS_E_RANGE:
         return "range";
+    case HS_E_SYNTAX:
+        return "syntax";
+    case HS_E_IO:
+        return "io";
     default:
         return "unknown";
     }

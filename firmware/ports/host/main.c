@@ -23,29 +23,14 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <poll.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include "host_os.h"
 #include "socketcan.h"
 #include "sp/node.h"
-
-static volatile sig_atomic_t g_stop = 0;
-
-static void on_signal(int sig)
-{
-    (void)sig;
-    g_stop = 1;
-}
-
-static int64_t now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
 
 static void usage(void)
 {
@@ -82,10 +67,10 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
 {
     sp_can_frame_t tx[SP_NODE_MAX_TX];
     uint32_t n = 0, sent = 0;
-    int64_t t0 = timing ? now_ns() : 0;
+    int64_t t0 = timing ? sp_host_now_ns() : 0;
     (void)sp_node_tick(cfg, node, tx, &n);
     if (timing) {
-        int64_t dt = now_ns() - t0;
+        int64_t dt = sp_host_now_ns() - t0;
         rs->sum_ns += dt;
         rs->timed++;
         if (dt > rs->worst_ns) {
@@ -176,8 +161,9 @@ int main(int argc, char **argv)
         return 1;
     }
     sp_can_port_t port = sp_socketcan_port(&sc);
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
+    if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
+        perror("sp_controller: cannot catch SIGINT/SIGTERM");
+    }
     fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s\n", lockstep ? "lockstep" : "real-time",
             ifs[0], ifs[1], ifs[2], ff ? "on" : "off");
 
@@ -187,7 +173,7 @@ int main(int argc, char **argv)
     if (!lockstep) {
         struct timespec next;
         clock_gettime(CLOCK_MONOTONIC, &next);
-        while (!g_stop && (max_ticks == 0 || rs.ticks < max_ticks)) {
+        while (!sp_host_stop_requested() && (max_ticks == 0 || rs.ticks < max_ticks)) {
             next.tv_nsec += 1000000;
             if (next.tv_nsec >= 1000000000) {
                 next.tv_nsec -= 1000000000;
@@ -196,7 +182,7 @@ int main(int argc, char **argv)
             int r;
             do {
                 r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL);
-            } while (r == EINTR && !g_stop);
+            } while (r == EINTR && !sp_host_stop_requested());
             /* late by more than a tick: count the missed deadlines, skip ahead */
             struct timespec now;
             clock_gettime(CLOCK_MONOTONIC, &now);
@@ -212,7 +198,7 @@ int main(int argc, char **argv)
     } else {
         struct pollfd pfd = {sp_socketcan_fd(&sc), POLLIN, 0}; /* one socket serves all buses */
         long silent_ms = 0; /* no clock reads per tick: inside user-mode Linux each one is a system call */
-        while (!g_stop && (max_ticks == 0 || rs.ticks < max_ticks)) {
+        while (!sp_host_stop_requested() && (max_ticks == 0 || rs.ticks < max_ticks)) {
             int r = poll(&pfd, 1, 100);
             if (r < 0 && errno != EINTR) {
                 perror("sp_controller: poll");

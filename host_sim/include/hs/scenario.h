@@ -1,0 +1,152 @@
+/*
+ * hs/scenario.h - the operator scenario language of hs_sim: what the plant
+ * plays at exact ticks in a closed-loop run (docs/closed_loop.md, "Scenario
+ * files"). Parsing (from a string or a file) and playing (which action is
+ * due at which tick) are here; what an action does on the bus or to the
+ * plant is the program's part (host_sim/app/hs_sim.c).
+ *
+ * One action per line, '#' starts a comment (to the end of the line), words
+ * are separated by spaces or tabs; keywords, command names, axes and states
+ * are case-insensitive, the keys of `cmd` are lower case; legs are 1..6:
+ *
+ *   cmd NAME [axis=x|y|z|roll|pitch|yaw] [amplitude=A] [frequency=HZ] [fade=S] [option=0|1]
+ *          OP_COMMAND; NAME: ENGAGE RUN_TRIG MOVE_TO STREAM STOP PARK ESTOP
+ *          RESET SET_FEEDFORWARD. A: m or rad, |A| < 128; HZ: 0 <= HZ < 128;
+ *          S: fade time 0..65 s (0: the controller's default); each key once
+ *   target X Y Z ROLL PITCH YAW   OP_TARGET_POSE, m and rad, each |v| <= 8
+ *   delay S                       wait S seconds of simulated time, 0..1e6
+ *   wait STATE [S]                until CTRL_STATUS reports STATE (idle,
+ *                                 engaging, ready, running, parking, fault,
+ *                                 estop); times out after S s (0 < S <= 1e6,
+ *                                 default 60)
+ *   silence LEG / unsilence LEG   the drive of LEG stops / resumes sending feedback
+ *   fault LEG BITS                raises drive fault bits 1..0xff (hs/drive.h)
+ *   mark TEXT                     prints TEXT with the tick (for logs and tests)
+ *   end                           ends the run
+ *
+ * Actions run in order; there are no time stamps, only delays and waits, so
+ * there is no tick order to get wrong. Seconds become 1 ms ticks, rounded to
+ * the nearest tick; metres, radians and hertz become Q24 (rounded to
+ * nearest, ties away from zero).
+ *
+ * No heap, no globals: a scenario is one plain struct. Not thread-safe per
+ * struct.
+ */
+#ifndef HS_SCENARIO_H
+#define HS_SCENARIO_H
+
+#include <stdint.h>
+
+#include "hs/status.h"
+#include "sp/controller.h"
+#include "sp/protocol.h"
+
+#define HS_SCENARIO_MAX_ACTIONS 256           /**< actions in one scenario */
+#define HS_SCENARIO_MAX_LINE 510              /**< characters in one line, without its '\n' */
+#define HS_SCENARIO_MAX_WORDS 16              /**< words in one line (keyword included), comments excluded */
+#define HS_SCENARIO_MAX_TEXT 95               /**< characters of a mark's text (its words joined by one space) */
+#define HS_SCENARIO_ERROR_LEN 320             /**< size of hs_scenario_error_t.message, NUL included */
+#define HS_SCENARIO_WAIT_DEFAULT_TICKS 60000u /**< a wait's timeout when none is given: 60 s */
+
+typedef enum {
+    HS_ACTION_CMD = 0,   /**< send OP_COMMAND `cmd` */
+    HS_ACTION_TARGET,    /**< send OP_TARGET_POSE `target` */
+    HS_ACTION_DELAY,     /**< let `ticks` ticks pass */
+    HS_ACTION_WAIT,      /**< until the controller reports `state`, at most `ticks` ticks */
+    HS_ACTION_SILENCE,   /**< the drive of `leg` stops sending feedback */
+    HS_ACTION_UNSILENCE, /**< the drive of `leg` sends feedback again */
+    HS_ACTION_FAULT,     /**< raise drive fault `bits` on `leg` */
+    HS_ACTION_MARK,      /**< print `text` with the tick */
+    HS_ACTION_END        /**< end the run */
+} hs_action_kind_t;
+
+/** One parsed action. Only the fields of its kind are set; the others are 0. */
+typedef struct {
+    hs_action_kind_t kind;
+    int line; /**< line of the scenario it came from, 1-based */
+    /** CMD: command, axis (sp_axis_t), amplitude (Q24 m or rad), frequency (Q24 Hz), fade_ms (ms), option */
+    sp_msg_command_t cmd;
+    sp_pose_t target;                    /**< TARGET: pos (Q24 m), rpy (Q24 rad) */
+    uint64_t ticks;                      /**< DELAY: its length; WAIT: its timeout; 1 ms ticks */
+    sp_state_t state;                    /**< WAIT: the controller state awaited */
+    int leg;                             /**< SILENCE, UNSILENCE, FAULT: leg index 0..5 (written 1..6) */
+    uint32_t bits;                       /**< FAULT: drive fault bits, 0x01..0xff */
+    char text[HS_SCENARIO_MAX_TEXT + 1]; /**< MARK: the text, NUL-terminated (may be empty) */
+} hs_action_t;
+
+/** A parsed scenario and where its player stands. */
+typedef struct {
+    hs_action_t action[HS_SCENARIO_MAX_ACTIONS];
+    int n;          /**< actions parsed, 1..HS_SCENARIO_MAX_ACTIONS after a successful parse */
+    int pc;         /**< the next action to play */
+    uint64_t until; /**< the current delay's end tick, or the current wait's deadline */
+    int armed;      /**< 1: the current delay or wait has set `until` */
+} hs_scenario_t;
+
+/** Why a scenario was refused. */
+typedef struct {
+    int line;                            /**< the offending line, 1-based; 0: not one line's fault */
+    char message[HS_SCENARIO_ERROR_LEN]; /**< "NAME:LINE: what is wrong" (or "NAME: ..." when line is 0) */
+} hs_scenario_error_t;
+
+/**
+ * Parses a whole scenario from `text` (NUL-terminated; lines end with '\n',
+ * a '\r' before it counts as a space) into *sc, rewound to its first action.
+ * `name` names the text in error messages (a file name; NULL: "scenario").
+ *
+ * Returns HS_OK; HS_E_ARG if sc or text is NULL; HS_E_SYNTAX at the first
+ * line that is wrong (unknown action, command, key, axis or state, a
+ * missing or extra argument, a word that is not a number, a value out of
+ * its range, a line longer than HS_SCENARIO_MAX_LINE characters or with
+ * more than HS_SCENARIO_MAX_WORDS words, a mark text longer than
+ * HS_SCENARIO_MAX_TEXT, an action beyond HS_SCENARIO_MAX_ACTIONS), or when
+ * the text has no action at all (empty, or only comments and blank lines;
+ * err->line 0). On an error *err (if not NULL) names the line and says
+ * what is wrong, and *sc holds no actions (n = 0).
+ */
+hs_status_t hs_scenario_parse(hs_scenario_t *sc, const char *text, const char *name, hs_scenario_error_t *err);
+
+/**
+ * Reads and parses the scenario file `path`, as hs_scenario_parse with the
+ * path as the name. Returns HS_OK; HS_E_ARG if sc or path is NULL; HS_E_IO
+ * if the file cannot be opened or read (err->line 0, the message has the
+ * system's reason); HS_E_SYNTAX as hs_scenario_parse (also for a NUL
+ * character in a line).
+ */
+hs_status_t hs_scenario_load(hs_scenario_t *sc, const char *path, hs_scenario_error_t *err);
+
+/** Puts the player back at the first action (no delay or wait under way). No-op on NULL. */
+void hs_scenario_rewind(hs_scenario_t *sc);
+
+/** What hs_scenario_next says. */
+typedef enum {
+    HS_SCENARIO_DUE = 0,     /**< *action is due at this tick: carry it out, then call again */
+    HS_SCENARIO_PENDING = 1, /**< a delay or wait holds the rest back: call again next tick */
+    HS_SCENARIO_END = 2,     /**< an `end` action or the end of the scenario was reached */
+    HS_SCENARIO_TIMEOUT = 3  /**< *action, a wait, did not see its state within its timeout */
+} hs_scenario_next_t;
+
+/**
+ * Plays the scenario at `tick` (1 ms ticks of simulated time, never going
+ * back) given the controller state last reported (`state`: an sp_state_t
+ * value, or -1 when none has been reported yet).
+ *
+ * Call it until it returns anything but HS_SCENARIO_DUE. Each DUE hands
+ * over the next action in *action and moves past it, so every action is
+ * handed over exactly once, at the tick it is due: CMD, TARGET, SILENCE,
+ * UNSILENCE, FAULT and MARK at once; a DELAY of d ticks first seen at tick
+ * t when tick >= t + d (at once for d = 0); a WAIT first seen at tick t as
+ * soon as `state` equals its state, or HS_SCENARIO_TIMEOUT (and *action the
+ * wait) at tick >= t + timeout if it still does not. END and the end of
+ * the scenario return HS_SCENARIO_END (with *action the `end` action, or
+ * NULL), and keep returning it. The player does not move on after a
+ * TIMEOUT. *action is NULL for PENDING. Returns HS_SCENARIO_END, with
+ * *action NULL, on NULL arguments.
+ */
+hs_scenario_next_t hs_scenario_next(hs_scenario_t *sc, uint64_t tick, int state, const hs_action_t **action);
+
+/** Name of an OP_COMMAND command as a scenario writes it ("ENGAGE", ..., "SET_FEEDFORWARD";
+ *  "NONE" for 0); "unknown" otherwise. Never NULL. */
+const char *hs_scenario_command_name(uint8_t command);
+
+#endif /* HS_SCENARIO_H */

@@ -1,0 +1,591 @@
+/* scenario.c - the scenario language of hs_sim: parser, file reader, player (hs/scenario.h). */
+#define _POSIX_C_SOURCE 200809L
+#include "hs/scenario.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define WHY_LEN 200        /* what is wrong with a line, without its name and number */
+#define N_COMMANDS 10      /* OP_COMMAND values 0..SP_CMD_SET_FEEDFORWARD */
+#define MAX_SECONDS 1.0e6  /* longest delay or wait timeout */
+#define MAX_TARGET 8.0     /* largest |value| of a target pose, m or rad */
+#define MAX_FADE_S 65.0    /* longest fade, s */
+#define Q24_ONE 16777216.0 /* 1.0 in Q24 */
+#define COMMAND_LIST "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD"
+#define ACTION_LIST "cmd, target, delay, wait, silence, unsilence, fault, mark, end"
+#define KEY_LIST "axis, amplitude, frequency, fade, option"
+#define AXIS_LIST "x, y, z, roll, pitch, yaw"
+#define STATE_LIST "idle, engaging, ready, running, parking, fault, estop"
+
+/* Indexed by the OP_COMMAND value. The core names its states (sp_state_name)
+ * but not its commands (sp_cmd_type_t, SP_CMD_SET_FEEDFORWARD), and the
+ * header cantools generates from the DBC has only numeric choice macros, so
+ * the names are spelt here, tied to the core's values. */
+static const char *const k_commands[N_COMMANDS] = {
+    [SP_CMD_NONE] = "NONE",         [SP_CMD_ENGAGE] = "ENGAGE",
+    [SP_CMD_RUN_TRIG] = "RUN_TRIG", [SP_CMD_MOVE_TO] = "MOVE_TO",
+    [SP_CMD_STREAM] = "STREAM",     [SP_CMD_STOP] = "STOP",
+    [SP_CMD_PARK] = "PARK",         [SP_CMD_ESTOP] = "ESTOP",
+    [SP_CMD_RESET] = "RESET",       [SP_CMD_SET_FEEDFORWARD] = "SET_FEEDFORWARD"};
+
+static const char *const k_axes[SP_AXIS_COUNT] = {
+    [SP_AXIS_X] = "x",       [SP_AXIS_Y] = "y",         [SP_AXIS_Z] = "z",
+    [SP_AXIS_ROLL] = "roll", [SP_AXIS_PITCH] = "pitch", [SP_AXIS_YAW] = "yaw"};
+
+enum { KEY_AXIS, KEY_AMPLITUDE, KEY_FREQUENCY, KEY_FADE, KEY_OPTION, N_KEYS };
+static const char *const k_keys[N_KEYS] = {"axis", "amplitude", "frequency", "fade", "option"};
+
+#if defined(__GNUC__)
+static int fail(char why[WHY_LEN], const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+#endif
+
+/* Writes what is wrong into why; returns -1 (parse_line's error). */
+static int fail(char why[WHY_LEN], const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    (void)vsnprintf(why, WHY_LEN, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+/* Index of s in names[0..n) ignoring case, or -1. */
+static int lookup(const char *s, const char *const *names, int n)
+{
+    for (int i = 0; i < n; i++) {
+        if (strcasecmp(s, names[i]) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+static int lookup_state(const char *s)
+{
+    for (int i = SP_STATE_IDLE; i <= SP_STATE_ESTOP; i++) {
+        if (strcasecmp(s, sp_state_name((sp_state_t)i)) == 0) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+/* A whole word that is a finite number. 0 ok, -1 not. */
+static int parse_double(const char *s, double *v)
+{
+    char *end;
+    errno = 0;
+    *v = strtod(s, &end);
+    return (errno == 0 && end != s && *end == '\0' && isfinite(*v)) ? 0 : -1;
+}
+
+/* 1 if v converts to Q24 without saturating. */
+static int fits_q24(double v)
+{
+    return fabs(v * Q24_ONE) <= 2147483647.0;
+}
+
+/* v in Q24, rounded to nearest (ties away from zero), saturated. */
+static sp_q24_t q24_of(double v)
+{
+    double q = v * Q24_ONE;
+    if (q > 2147483647.0) {
+        return INT32_MAX;
+    }
+    if (q < -2147483647.0) {
+        return -INT32_MAX;
+    }
+    return (sp_q24_t)llround(q);
+}
+
+/* Seconds (0..MAX_SECONDS) to 1 ms ticks, rounded to nearest. */
+static uint64_t ticks_of(double seconds)
+{
+    return (uint64_t)llround(seconds * 1000.0);
+}
+
+/* A leg written 1..6 to its index 0..5. 0 ok, -1 not a leg. */
+static int parse_leg(const char *s, int *leg)
+{
+    double v;
+    if (parse_double(s, &v) != 0 || v < 1.0 || v > 6.0 || v != floor(v)) {
+        return -1;
+    }
+    *leg = (int)v - 1;
+    return 0;
+}
+
+static int is_space(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n';
+}
+
+/* Splits s in place into words. Returns their number, or -1 if there are more than max. */
+static int split_words(char *s, char *word[], int max)
+{
+    size_t len = strlen(s);
+    int n = 0, in_word = 0;
+    for (size_t i = 0; i < len; i++) {
+        if (is_space(s[i])) {
+            s[i] = '\0';
+            in_word = 0;
+        } else if (!in_word) {
+            if (n == max) {
+                return -1;
+            }
+            word[n++] = &s[i];
+            in_word = 1;
+        }
+    }
+    return n;
+}
+
+static int parse_cmd(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    if (nw < 2) {
+        return fail(why, "cmd needs a command name (" COMMAND_LIST ")");
+    }
+    int c = lookup(w[1], k_commands, N_COMMANDS);
+    if (c <= 0) {
+        return fail(why, "unknown command '%.40s' (" COMMAND_LIST ")", w[1]);
+    }
+    a->kind = HS_ACTION_CMD;
+    a->cmd.command = (uint8_t)c;
+    unsigned seen = 0u;
+    for (int i = 2; i < nw; i++) {
+        char *eq = strchr(w[i], '=');
+        if (eq == NULL) {
+            return fail(why, "expected key=value after the command name, got '%.40s'", w[i]);
+        }
+        *eq = '\0';
+        const char *key = w[i], *val = eq + 1;
+        int k = -1;
+        for (int j = 0; j < N_KEYS; j++) {
+            if (strcmp(key, k_keys[j]) == 0) {
+                k = j;
+            }
+        }
+        if (k < 0) {
+            return fail(why, "unknown argument '%.40s' (" KEY_LIST ")", key);
+        }
+        if (seen & (1u << k)) {
+            return fail(why, "argument '%s' given twice", key);
+        }
+        seen |= 1u << k;
+        if (k == KEY_AXIS) {
+            int ax = lookup(val, k_axes, SP_AXIS_COUNT);
+            if (ax < 0) {
+                return fail(why, "unknown axis '%.40s' (" AXIS_LIST ")", val);
+            }
+            a->cmd.axis = (uint8_t)ax;
+            continue;
+        }
+        double v;
+        if (parse_double(val, &v) != 0) {
+            return fail(why, "%s: '%.40s' is not a number", key, val);
+        }
+        switch (k) {
+        case KEY_AMPLITUDE:
+            if (!fits_q24(v)) {
+                return fail(why, "amplitude %.40s is out of range (|A| < 128 m or rad)", val);
+            }
+            a->cmd.amplitude = q24_of(v);
+            break;
+        case KEY_FREQUENCY:
+            if (v < 0.0 || !fits_q24(v)) {
+                return fail(why, "frequency %.40s is out of range (0 <= HZ < 128)", val);
+            }
+            a->cmd.frequency = q24_of(v);
+            break;
+        case KEY_FADE:
+            if (v < 0.0 || v > MAX_FADE_S) {
+                return fail(why, "fade %.40s is out of range (0..65 s)", val);
+            }
+            a->cmd.fade_ms = (uint32_t)llround(v * 1000.0);
+            break;
+        default: /* KEY_OPTION */
+            if (v != 0.0 && v != 1.0) {
+                return fail(why, "option must be 0 or 1, got '%.40s'", val);
+            }
+            a->cmd.option = (uint8_t)v;
+            break;
+        }
+    }
+    return 1;
+}
+
+static int parse_target(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    if (nw != 7) {
+        return fail(why, "target needs 6 numbers (x y z roll pitch yaw), got %d", nw - 1);
+    }
+    a->kind = HS_ACTION_TARGET;
+    for (int i = 0; i < 6; i++) {
+        double v;
+        if (parse_double(w[i + 1], &v) != 0) {
+            return fail(why, "target value '%.40s' is not a number", w[i + 1]);
+        }
+        if (fabs(v) > MAX_TARGET) {
+            return fail(why, "target value %.40s is out of range (|v| <= 8 m or rad)", w[i + 1]);
+        }
+        if (i < 3) {
+            a->target.pos[i] = q24_of(v);
+        } else {
+            a->target.rpy[i - 3] = q24_of(v);
+        }
+    }
+    return 1;
+}
+
+static int parse_delay(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    double v;
+    if (nw != 2) {
+        return fail(why, "delay needs one number of seconds (0..1e6), got %d arguments", nw - 1);
+    }
+    if (parse_double(w[1], &v) != 0) {
+        return fail(why, "delay: '%.40s' is not a number", w[1]);
+    }
+    if (v < 0.0 || v > MAX_SECONDS) {
+        return fail(why, "delay %.40s is out of range (0..1e6 s)", w[1]);
+    }
+    a->kind = HS_ACTION_DELAY;
+    a->ticks = ticks_of(v);
+    return 1;
+}
+
+static int parse_wait(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    if (nw < 2 || nw > 3) {
+        return fail(why, "wait needs a state (" STATE_LIST ") and optionally a timeout in seconds, got %d arguments",
+                    nw - 1);
+    }
+    int st = lookup_state(w[1]);
+    if (st < 0) {
+        return fail(why, "unknown state '%.40s' (" STATE_LIST ")", w[1]);
+    }
+    a->kind = HS_ACTION_WAIT;
+    a->state = (sp_state_t)st;
+    a->ticks = HS_SCENARIO_WAIT_DEFAULT_TICKS;
+    if (nw == 3) {
+        double v;
+        if (parse_double(w[2], &v) != 0) {
+            return fail(why, "wait timeout '%.40s' is not a number", w[2]);
+        }
+        if (v <= 0.0 || v > MAX_SECONDS) {
+            return fail(why, "wait timeout %.40s is out of range (0 < S <= 1e6 s)", w[2]);
+        }
+        a->ticks = ticks_of(v);
+    }
+    return 1;
+}
+
+/* silence, unsilence, fault */
+static int parse_drive(char **w, int nw, hs_action_kind_t kind, hs_action_t *a, char why[WHY_LEN])
+{
+    int want = (kind == HS_ACTION_FAULT) ? 3 : 2;
+    if (nw != want) {
+        return (kind == HS_ACTION_FAULT)
+                   ? fail(why, "fault needs a leg (1..6) and fault bits (1..0xff), got %d arguments", nw - 1)
+                   : fail(why, "%s needs one leg (1..6), got %d arguments", w[0], nw - 1);
+    }
+    a->kind = kind;
+    if (parse_leg(w[1], &a->leg) != 0) {
+        return fail(why, "leg '%.40s' is not one of 1..6", w[1]);
+    }
+    if (kind == HS_ACTION_FAULT) {
+        char *end;
+        errno = 0;
+        unsigned long bits = strtoul(w[2], &end, 0);
+        if (errno != 0 || end == w[2] || *end != '\0' || bits == 0u || bits > 0xFFu) {
+            return fail(why, "fault bits '%.40s' are not 1..0xff", w[2]);
+        }
+        a->bits = (uint32_t)bits;
+    }
+    return 1;
+}
+
+static int parse_mark(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    size_t len = 0;
+    a->kind = HS_ACTION_MARK;
+    for (int i = 1; i < nw; i++) {
+        size_t wl = strlen(w[i]);
+        size_t need = wl + (i > 1 ? 1u : 0u);
+        if (len + need > HS_SCENARIO_MAX_TEXT) {
+            return fail(why, "mark text longer than %d characters", HS_SCENARIO_MAX_TEXT);
+        }
+        if (i > 1) {
+            a->text[len++] = ' ';
+        }
+        memcpy(&a->text[len], w[i], wl);
+        len += wl;
+    }
+    a->text[len] = '\0';
+    return 1;
+}
+
+/* Parses one line (modified in place). 1: an action in *a, 0: blank or comment, -1: error (why). */
+static int parse_line(char *line, hs_action_t *a, char why[WHY_LEN])
+{
+    char *hash = strchr(line, '#');
+    if (hash != NULL) {
+        *hash = '\0';
+    }
+    char *w[HS_SCENARIO_MAX_WORDS];
+    int nw = split_words(line, w, HS_SCENARIO_MAX_WORDS);
+    if (nw < 0) {
+        return fail(why, "more than %d words", HS_SCENARIO_MAX_WORDS);
+    }
+    if (nw == 0) {
+        return 0;
+    }
+    memset(a, 0, sizeof *a);
+    const char *kw = w[0];
+    if (strcasecmp(kw, "cmd") == 0) {
+        return parse_cmd(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "target") == 0) {
+        return parse_target(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "delay") == 0) {
+        return parse_delay(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "wait") == 0) {
+        return parse_wait(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "silence") == 0) {
+        return parse_drive(w, nw, HS_ACTION_SILENCE, a, why);
+    }
+    if (strcasecmp(kw, "unsilence") == 0) {
+        return parse_drive(w, nw, HS_ACTION_UNSILENCE, a, why);
+    }
+    if (strcasecmp(kw, "fault") == 0) {
+        return parse_drive(w, nw, HS_ACTION_FAULT, a, why);
+    }
+    if (strcasecmp(kw, "mark") == 0) {
+        return parse_mark(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "end") == 0) {
+        if (nw != 1) {
+            return fail(why, "end takes no arguments, got %d", nw - 1);
+        }
+        a->kind = HS_ACTION_END;
+        return 1;
+    }
+    return fail(why, "unknown action '%.40s' (" ACTION_LIST ")", kw);
+}
+
+/* Fills *err (if any) with "name:line: why" and empties the scenario. Returns status. */
+static hs_status_t refuse(hs_scenario_t *sc, hs_status_t status, const char *name, int line, const char *why,
+                          hs_scenario_error_t *err)
+{
+    sc->n = 0;
+    hs_scenario_rewind(sc);
+    if (err != NULL) {
+        err->line = line;
+        if (line > 0) {
+            (void)snprintf(err->message, sizeof err->message, "%s:%d: %s", name, line, why);
+        } else {
+            (void)snprintf(err->message, sizeof err->message, "%s: %s", name, why);
+        }
+    }
+    return status;
+}
+
+static void start(hs_scenario_t *sc, hs_scenario_error_t *err)
+{
+    sc->n = 0;
+    hs_scenario_rewind(sc);
+    if (err != NULL) {
+        err->line = 0;
+        err->message[0] = '\0';
+    }
+}
+
+enum { LINE_WHOLE, LINE_TOO_LONG, LINE_NUL };
+
+/* One line (NUL-terminated in buf, which it modifies; `shape` says whether it could be read
+ * whole) appended to the scenario if it is an action. */
+static hs_status_t take_line(hs_scenario_t *sc, char *buf, int shape, const char *name, int ln,
+                             hs_scenario_error_t *err)
+{
+    char why[WHY_LEN];
+    hs_action_t a;
+    if (shape != LINE_WHOLE) {
+        if (shape == LINE_TOO_LONG) {
+            (void)snprintf(why, sizeof why, "line longer than %d characters", HS_SCENARIO_MAX_LINE);
+        } else {
+            (void)snprintf(why, sizeof why, "a NUL character in the line");
+        }
+        return refuse(sc, HS_E_SYNTAX, name, ln, why, err);
+    }
+    int r = parse_line(buf, &a, why);
+    if (r < 0) {
+        return refuse(sc, HS_E_SYNTAX, name, ln, why, err);
+    }
+    if (r == 0) {
+        return HS_OK;
+    }
+    if (sc->n >= HS_SCENARIO_MAX_ACTIONS) {
+        (void)snprintf(why, sizeof why, "more than %d actions", HS_SCENARIO_MAX_ACTIONS);
+        return refuse(sc, HS_E_SYNTAX, name, ln, why, err);
+    }
+    a.line = ln;
+    sc->action[sc->n++] = a;
+    return HS_OK;
+}
+
+static hs_status_t finish(hs_scenario_t *sc, const char *name, hs_scenario_error_t *err)
+{
+    if (sc->n == 0) {
+        return refuse(sc, HS_E_SYNTAX, name, 0, "no actions (the scenario is empty or only comments)", err);
+    }
+    return HS_OK;
+}
+
+hs_status_t hs_scenario_parse(hs_scenario_t *sc, const char *text, const char *name, hs_scenario_error_t *err)
+{
+    if (sc == NULL || text == NULL) {
+        return HS_E_ARG;
+    }
+    if (name == NULL) {
+        name = "scenario";
+    }
+    start(sc, err);
+    char buf[HS_SCENARIO_MAX_LINE + 1];
+    const char *p = text;
+    /* each round takes one line and moves p past it: at most strlen(text) rounds */
+    for (int ln = 1; *p != '\0'; ln++) {
+        const char *nl = strchr(p, '\n');
+        size_t len = (nl != NULL) ? (size_t)(nl - p) : strlen(p);
+        int shape = LINE_WHOLE;
+        if (len > HS_SCENARIO_MAX_LINE) {
+            shape = LINE_TOO_LONG;
+            buf[0] = '\0';
+        } else {
+            memcpy(buf, p, len);
+            buf[len] = '\0';
+        }
+        hs_status_t st = take_line(sc, buf, shape, name, ln, err);
+        if (st != HS_OK) {
+            return st;
+        }
+        p += len + ((nl != NULL) ? 1u : 0u);
+    }
+    return finish(sc, name, err);
+}
+
+hs_status_t hs_scenario_load(hs_scenario_t *sc, const char *path, hs_scenario_error_t *err)
+{
+    if (sc == NULL || path == NULL) {
+        return HS_E_ARG;
+    }
+    start(sc, err);
+    char why[WHY_LEN];
+    FILE *f = fopen(path, "r");
+    if (f == NULL) {
+        (void)snprintf(why, sizeof why, "cannot open the scenario: %s", strerror(errno));
+        return refuse(sc, HS_E_IO, path, 0, why, err);
+    }
+    char buf[HS_SCENARIO_MAX_LINE + 1];
+    size_t len = 0;
+    int ln = 1, overlong = 0, nul = 0;
+    hs_status_t st = HS_OK;
+    /* one character a round: as many rounds as the file has characters, plus one */
+    for (;;) {
+        int c = getc(f);
+        if (c == EOF && ferror(f)) {
+            (void)snprintf(why, sizeof why, "cannot read the scenario: %s", strerror(errno));
+            st = refuse(sc, HS_E_IO, path, 0, why, err);
+            break;
+        }
+        if (c == EOF && len == 0 && !overlong && !nul) {
+            break; /* no last line without '\n' */
+        }
+        if (c == EOF || c == '\n') {
+            buf[len] = '\0';
+            st = take_line(sc, buf, overlong ? LINE_TOO_LONG : (nul ? LINE_NUL : LINE_WHOLE), path, ln, err);
+            if (st != HS_OK || c == EOF) {
+                break;
+            }
+            ln++;
+            len = 0;
+            overlong = 0;
+            nul = 0;
+        } else if (c == '\0') {
+            nul = 1;
+        } else if (len < HS_SCENARIO_MAX_LINE) {
+            buf[len++] = (char)c;
+        } else {
+            overlong = 1;
+        }
+    }
+    (void)fclose(f);
+    return (st != HS_OK) ? st : finish(sc, path, err);
+}
+
+void hs_scenario_rewind(hs_scenario_t *sc)
+{
+    if (sc == NULL) {
+        return;
+    }
+    sc->pc = 0;
+    sc->until = 0;
+    sc->armed = 0;
+}
+
+hs_scenario_next_t hs_scenario_next(hs_scenario_t *sc, uint64_t tick, int state, const hs_action_t **action)
+{
+    if (action != NULL) {
+        *action = NULL;
+    }
+    if (sc == NULL || action == NULL || sc->pc < 0 || sc->pc >= sc->n) {
+        return HS_SCENARIO_END;
+    }
+    const hs_action_t *a = &sc->action[sc->pc];
+    switch (a->kind) {
+    case HS_ACTION_DELAY:
+        if (!sc->armed) {
+            sc->until = tick + a->ticks;
+            sc->armed = 1;
+        }
+        if (tick < sc->until) {
+            return HS_SCENARIO_PENDING;
+        }
+        sc->armed = 0;
+        break;
+    case HS_ACTION_WAIT:
+        if (!sc->armed) {
+            sc->until = tick + a->ticks;
+            sc->armed = 1;
+        }
+        if (state != (int)a->state) {
+            if (tick >= sc->until) {
+                *action = a;
+                return HS_SCENARIO_TIMEOUT;
+            }
+            return HS_SCENARIO_PENDING;
+        }
+        sc->armed = 0;
+        break;
+    case HS_ACTION_END:
+        *action = a;
+        return HS_SCENARIO_END;
+    default:
+        break;
+    }
+    sc->pc++;
+    *action = a;
+    return HS_SCENARIO_DUE;
+}
+
+const char *hs_scenario_command_name(uint8_t command)
+{
+    return (command < N_COMMANDS) ? k_commands[command] : "unknown";
+}
