@@ -16,8 +16,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from stewart import analysis as an
 from stewart import closedloop as cl
+from stewart.analysis import read_log
+from stewart.analysis.metrics import segment_metrics, summarize
+from stewart.analysis.names import DRIVE_MODES, STATES
+from stewart.analysis.segments import find_segments
+from stewart.analysis.truth import attach_truth, read_truth
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
@@ -57,20 +61,20 @@ def runs(tmp_path_factory):
 def surge(runs):
     r = runs["surge"]
     assert r.plant_rc == 0, r.plant_out[-2000:]
-    data = an.read_log(r.log)
-    an.attach_truth(data, an.read_truth(r.truth))
+    data = read_log(r.log)
+    attach_truth(data, read_truth(r.truth))
     return r, data
 
 
 def test_engages_tracks_surge_and_parks(surge):
     r, data = surge
     assert data.stats.bad_frames == 0 and data.stats.malformed == 0
-    summary = an.summarize(data)
+    summary = summarize(data)
     assert summary["states"] == ["ENGAGING", "READY", "RUNNING", "READY", "PARKING", "IDLE"]
     assert summary["faults_seen"] == []
-    segs = an.find_segments(data)
+    segs = find_segments(data)
     assert len(segs) == 1 and segs[0].axis == 0
-    m = an.segment_metrics(data, segs[0])["moving_axis_error"]
+    m = segment_metrics(data, segs[0])["moving_axis_error"]
     print(f"surge tracking error: RMS {m['rms']:.3f} mm, max {m['max']:.3f} mm")
     assert m["rms"] < SURGE_RMS_MM
     assert m["max"] < SURGE_MAX_MM
@@ -81,7 +85,7 @@ def test_engages_tracks_surge_and_parks(surge):
     # engaged at home, parked at the park pose (true pose of the plant)
     home = np.array([0, 0, 2.55, 0, 0, 0])
     park = np.array([0, 0, 2.0, 0, 0, 0])
-    ready = np.nonzero(data.state == 2)[0]
+    ready = np.nonzero(data.state == STATES.index("READY"))[0]
     assert len(ready)
     at_ready = data.truth["pose"][ready[0]]
     assert np.all(np.abs(at_ready[:3] - home[:3]) < POSE_MM * 1e-3), at_ready
@@ -101,17 +105,17 @@ def test_silent_drive_faults_and_stops_within_3_ticks(runs):
     r = runs["silent"]
     assert r.plant_rc == 0, r.plant_out[-2000:]
     silence = cl.marks(r.plant_out)["silence leg 3"]
-    data = an.read_log(r.log)
-    an.attach_truth(data, an.read_truth(r.truth))
+    data = read_log(r.log)
+    attach_truth(data, read_truth(r.truth))
     ticks = data.ticks
-    fault_rows = np.nonzero(data.state == 5)[0]
+    fault_rows = np.nonzero(data.state == STATES.index("FAULT"))[0]
     assert len(fault_rows), "the controller never faulted"
     first = fault_rows[0]
     assert ticks[first] - silence <= STOP_TICKS, (silence, ticks[first])
     # latched: FAULT to the end, with the feedback-timeout bit, drives told to hold
-    assert np.all(data.state[first:] == 5)
+    assert np.all(data.state[first:] == STATES.index("FAULT"))
     assert np.all(data.faults[first:] & 0x0001)
-    assert np.all(data.drive_mode[first:] == 0)
+    assert np.all(data.drive_mode[first:] == DRIVE_MODES.index("HOLD"))
     # the setpoints are frozen from the fault on
     sp = data.length_sp[first:]
     assert np.all(sp == sp[0])
@@ -148,5 +152,5 @@ def test_real_time_mode_exchanges_frames(tmp_path):
     fr = re.search(r"sp_controller frames: accepted (\d+)(.*)", ctl_out)
     assert int(fr.group(1)) > 3000    # six feedback frames per answered SYNC
     assert "bad-crc 0" in fr.group(2) and "wrong-sequence 0" in fr.group(2) and "out-of-range 0" in fr.group(2)
-    data = an.read_log(tmp_path / "rt.log")
+    data = read_log(tmp_path / "rt.log")
     assert data.stats.bad_frames == 0

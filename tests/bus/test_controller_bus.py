@@ -13,7 +13,7 @@ import can
 import pytest
 
 from stewart import REPO_ROOT, e2e
-from stewart.protocol import Protocol
+from stewart.protocol import Protocol, value_names
 
 NET = Path("/sys/class/net")
 pytestmark = pytest.mark.skipif(not (NET / "vcan0").exists(),
@@ -75,7 +75,8 @@ def test_controller_frames_decode_and_bad_frames_are_rejected():
                 statuses.append(r.signals)
     ticks = [s["Tick"] for s in statuses]
     assert len(ticks) >= 20 and all(b - a >= 1 for a, b in zip(ticks, ticks[1:]))
-    assert all(s["State"] == 0 for s in statuses)  # idle: no drives on this bus
+    states = value_names("CTRL_STATUS", "State")
+    assert all(states[s["State"]] == "IDLE" for s in statuses)  # no drives on this bus
     sync = [proto.decode(m.arbitration_id, bytes(m.data), check_counter=False)[1]
             for m in received["axis_a"] if m.arbitration_id == 0x10]
     assert sync and all(s["Hold"] == 0 for s in sync)

@@ -18,16 +18,24 @@ import math
 import numpy as np
 import pytest
 
-from stewart import analysis as an
 from stewart import cli
 from stewart import config as cfg
 from stewart import model
 from stewart import protocol as pr
+from stewart.analysis.csvout import signal_columns, write_signals_csv
+from stewart.analysis.decode import WRONG_BUS, hydraulic_areas, read_log
+from stewart.analysis.logfile import format_line, parse_bus_map, parse_line
+from stewart.analysis.metrics import format_summary, jsonable, segment_metrics, summarize, tracking_error
+from stewart.analysis.names import AXES
+from stewart.analysis.plots import figure_window
+from stewart.analysis.run import DEFAULT_PLATFORM
+from stewart.analysis.segments import Segment, find_segments
+from stewart.analysis.truth import TRUTH_COLUMNS, attach_truth, read_truth
 
-PLATFORM = cfg.load(an.DEFAULT_PLATFORM)
+PLATFORM = cfg.load(DEFAULT_PLATFORM)
 HOME = np.array(PLATFORM.home, dtype=float)
 HOME_LEN = model.inverse_kinematics(PLATFORM, HOME).lengths
-AP, AR = an.hydraulic_areas(PLATFORM)
+AP, AR = hydraulic_areas(PLATFORM)
 Q_POSE = 1e-6      # m or rad per LSB of the DBC's pose signals
 P_A = 10.0e6       # Pa, piston side (a multiple of the 10 kPa LSB)
 P_B = 4.5e6        # Pa, rod side
@@ -71,7 +79,7 @@ def build_log(ticks, segments, *, ifaces=("vcan0", "vcan1", "vcan2"), ff_on=(Tru
 
         def emit(bus, name, sig):
             m = p.message(name)
-            out.append(an.format_line(t, bus_if[bus], m.frame_id, p.encode(name, sig, bus=bus)))
+            out.append(format_line(t, bus_if[bus], m.frame_id, p.encode(name, sig, bus=bus)))
 
         for n, seg in enumerate(segments):
             if tick == seg["start"]:
@@ -80,7 +88,7 @@ def build_log(ticks, segments, *, ifaces=("vcan0", "vcan1", "vcan2"), ff_on=(Tru
                                                                  option=int(seg["ff"])))
                     p_ff = seg["ff"]
                 emit("ops", "OP_COMMAND", pr.command_signals(
-                    "RUN_TRIG", axis=an.AXES[seg["axis"]], amplitude=seg["amp"],
+                    "RUN_TRIG", axis=AXES[seg["axis"]], amplitude=seg["amp"],
                     frequency=seg["freq"], fade_time=0.5))
             if tick == seg.get("stop", -1):
                 emit("ops", "OP_COMMAND", pr.command_signals("STOP"))
@@ -132,40 +140,40 @@ def run2():
     """Two segments (surge ff on, yaw ff off), with truth."""
     lines, truth = build_log(range(0, 1600), [SURGE, YAW], with_truth=True,
                              skip_feedback={(700, 4)})
-    data = an.read_log(lines, platform=PLATFORM)
+    data = read_log(lines, platform=PLATFORM)
     tr = {"tick": np.array([r[0] for r in truth]), "pose": np.array([r[1:7] for r in truth]),
           "length": np.array([r[7:13] for r in truth]), "force": np.array([r[13:19] for r in truth])}
-    an.attach_truth(data, tr)
+    attach_truth(data, tr)
     return data, lines, truth
 
 
 # -- the log format -----------------------------------------------------------------
 
 def test_parse_line_fd_classic_and_malformed():
-    f = an.parse_line("(0000000001.234000) vcan0 100##1" + "00" * 32)
+    f = parse_line("(0000000001.234000) vcan0 100##1" + "00" * 32)
     assert (f.time, f.iface, f.frame_id, f.fd, f.flags, len(f.data)) == (1.234, "vcan0", 0x100, True, 1, 32)
-    f = an.parse_line("(1.5) can1 010#0102030405060708")
+    f = parse_line("(1.5) can1 010#0102030405060708")
     assert (f.frame_id, f.fd, f.data) == (0x10, False, bytes(range(1, 9)))
     for bad in ("", "garbage", "(1.0) vcan0 100##", "(1.0) vcan0 100#R", "(1.0) vcan0 100#123",
                 "(1.0) vcan0 100#GG", "(1.0) vcan0 100#" + "00" * 9, "vcan0 100#00"):
         with pytest.raises(ValueError):
-            an.parse_line(bad)
-    line = an.format_line(12.345678, "vcan2", 0x31, b"\x01\xab", fd=True)
+            parse_line(bad)
+    line = format_line(12.345678, "vcan2", 0x31, b"\x01\xab", fd=True)
     assert line == "(0000000012.345678) vcan2 031##101AB"
-    assert an.parse_line(line).data == b"\x01\xab"
+    assert parse_line(line).data == b"\x01\xab"
 
 
 def test_bus_map():
-    m = an.parse_bus_map("ops=can0,axis_a=can1,axis_b=can2")
+    m = parse_bus_map("ops=can0,axis_a=can1,axis_b=can2")
     assert m["can0"] == "ops" and m["can2"] == "axis_b" and m["axis_a"] == "axis_a"
-    assert an.parse_bus_map(None)["vcan1"] == "axis_a"
+    assert parse_bus_map(None)["vcan1"] == "axis_a"
     with pytest.raises(ValueError):
-        an.parse_bus_map("foo=can0")
+        parse_bus_map("foo=can0")
     with pytest.raises(ValueError):
-        an.parse_bus_map("ops")
+        parse_bus_map("ops")
     with pytest.raises(ValueError, match="two buses"):
-        an.parse_bus_map("ops=vcan1")
-    assert an.parse_bus_map("ops=vcan2,axis_b=vcan0")["vcan0"] == "axis_b"
+        parse_bus_map("ops=vcan1")
+    assert parse_bus_map("ops=vcan2,axis_b=vcan0")["vcan0"] == "axis_b"
 
 
 # -- decoding -----------------------------------------------------------------------
@@ -195,7 +203,7 @@ def test_decoded_rows_match_what_was_encoded(run2):
 def test_signals_csv(run2, tmp_path):
     data, _, _ = run2
     path = tmp_path / "signals.csv"
-    an.write_signals_csv(data, path)
+    write_signals_csv(data, path)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 1600
@@ -210,7 +218,7 @@ def test_signals_csv(run2, tmp_path):
     assert abs(float(r["truth_force3"]) - (FORCE + 2)) < 1e-3
     assert rows[700]["length4"] == "" and rows[700]["stretch4"] == "" and rows[700]["force4"] == ""
     assert rows[700]["length5"] != ""
-    for col in an.signal_columns(True):
+    for col in signal_columns(True):
         assert col in rows[0]
 
 
@@ -218,7 +226,7 @@ def test_signals_csv(run2, tmp_path):
 
 def test_segments_found_and_labelled(run2):
     data, _, _ = run2
-    segs = an.find_segments(data)
+    segs = find_segments(data)
     assert [(s.start, s.end) for s in segs] == [(200, 899), (1000, 1499)]
     assert segs[0].label == "surge x 0.090 m 1 Hz ff=on"
     assert segs[1].label == "yaw 0.050 rad 2 Hz ff=off"
@@ -227,20 +235,20 @@ def test_segments_found_and_labelled(run2):
     assert segs[0].fade_time == pytest.approx(0.5)
     # fade-in (0.5 s) longer than the run before STOP: no steady part, the whole segment
     assert segs[0].steady() == (200, 899)
-    seg = an.Segment(1, 1000, 5000, command="RUN_TRIG", axis=0, amplitude=0.1, frequency=1.0,
+    seg = Segment(1, 1000, 5000, command="RUN_TRIG", axis=0, amplitude=0.1, frequency=1.0,
                      fade_time=0.5, stop_tick=4000)
-    assert seg.steady() == (1500, 4000) and an.figure_window(seg) == (3001, 4000)
+    assert seg.steady() == (1500, 4000) and figure_window(seg) == (3001, 4000)
     seg.stop_tick = None
     assert seg.steady() == (1500, 4500)
 
 
 def test_tracking_error_one_tick_delay(run2):
     data, _, _ = run2
-    segs = an.find_segments(data)
-    m = an.segment_metrics(data, segs[0], delay_ticks=1)
+    segs = find_segments(data)
+    m = segment_metrics(data, segs[0], delay_ticks=1)
     # estimate = reference one tick earlier + OFFSET, quantised twice to 1 um
     tol = 2 * 0.5e-3 + 1e-9  # mm (two roundings of 0.5 um)
-    for a, name in enumerate(an.AXES):
+    for a, name in enumerate(AXES):
         assert m["error"][name]["rms"] == pytest.approx(abs(OFFSET[a]) * 1e3, abs=tol), name
         assert m["error"][name]["mean"] == pytest.approx(OFFSET[a] * 1e3, abs=tol), name
         assert m["error"][name]["max"] == pytest.approx(abs(OFFSET[a]) * 1e3, abs=tol), name
@@ -248,18 +256,18 @@ def test_tracking_error_one_tick_delay(run2):
     assert m["moving_axis_error"]["unit"] == "mm"
     assert m["error"]["yaw"]["unit"] == "mrad"
     # truth is the unquantised estimate: one rounding of the reference
-    for a, name in enumerate(an.AXES):
+    for a, name in enumerate(AXES):
         assert m["truth_error"][name]["max"] == pytest.approx(abs(OFFSET[a]) * 1e3, abs=0.5e-3 + 1e-9)
         assert m["estimation_error"][name]["max"] <= 0.5e-3 + 1e-9
     assert max(m["peak_force_measured_N"]) == pytest.approx(FORCE, abs=1e-6)
     assert max(m["peak_force_ff_N"]) == pytest.approx(25500.0, abs=1.0)
-    assert max(an.segment_metrics(data, segs[1])["peak_force_ff_N"]) == 0.0
+    assert max(segment_metrics(data, segs[1])["peak_force_ff_N"]) == 0.0
 
 
 def test_tracking_error_without_delay_sees_the_velocity_lag(run2):
     data, _, _ = run2
-    seg = an.find_segments(data)[0]
-    e = an.tracking_error(data, delay_ticks=0)[seg.mask(data), 0]
+    seg = find_segments(data)[0]
+    e = tracking_error(data, delay_ticks=0)[seg.mask(data), 0]
     t = (np.arange(seg.start, seg.end + 1) - seg.start) * 1e-3
     w = 2 * math.pi * SURGE["freq"]
     expect = OFFSET[0] + SURGE["amp"] * (np.sin(w * (t - 1e-3)) - np.sin(w * t))
@@ -271,16 +279,16 @@ def test_tracking_error_without_delay_sees_the_velocity_lag(run2):
 
 def test_summary(run2):
     data, _, _ = run2
-    s = an.summarize(data)
+    s = summarize(data)
     assert s["final_state"] == "READY" and s["states"] == ["READY", "RUNNING", "READY", "RUNNING", "READY"]
     assert s["bad_frames"] == 0 and s["faults_seen"] == [] and s["duration_s"] == pytest.approx(1.6)
     assert len(s["segments"]) == 2 and s["segments"][1]["feedforward"] == "off"
     assert [c["command"] for c in s["commands"]] == ["SET_FEEDFORWARD", "RUN_TRIG", "STOP",
                                                     "SET_FEEDFORWARD", "RUN_TRIG"]
     assert s["commands"][1]["tick"] == 200
-    text = an.format_summary(s)
+    text = format_summary(s)
     assert "segment 1: surge x 0.090 m 1 Hz ff=on" in text and "RMS 0.500 mm" in text
-    json.dumps(an._clean(s), allow_nan=False)
+    json.dumps(jsonable(s), allow_nan=False)
 
 
 # -- robustness ---------------------------------------------------------------------
@@ -303,11 +311,11 @@ def test_malformed_lines_and_bad_frames_are_counted_not_fatal():
             i = next(i for i, s in enumerate(out) if " vcan0 101##" in s)
             out.append(out[i][:-4])
     lines, _ = build_log(range(0, 100), [], tweak=tweak)
-    data = an.read_log(lines, platform=PLATFORM)
+    data = read_log(lines, platform=PLATFORM)
     st = data.stats
     assert st.malformed == 2
     assert st.rejected.get("bad-crc") == 1
-    assert st.rejected.get(an.WRONG_BUS) == 1
+    assert st.rejected.get(WRONG_BUS) == 1
     assert st.rejected.get("bad-length") == 1
     assert st.unknown_interface == 1
     assert st.bad_frames == 3
@@ -319,17 +327,17 @@ def test_malformed_lines_and_bad_frames_are_counted_not_fatal():
 
 def test_tick_echo_unwraps_across_65536_and_other_interface_names():
     lines, _ = build_log(range(65500, 65600), [], ifaces=("can0", "can1", "can2"))
-    data = an.read_log(lines, buses="ops=can0,axis_a=can1,axis_b=can2", platform=PLATFORM)
+    data = read_log(lines, buses="ops=can0,axis_a=can1,axis_b=can2", platform=PLATFORM)
     assert data.stats.bad_frames == 0 and data.stats.unknown_interface == 0
     assert data.ticks[0] == 65500 and data.ticks[-1] == 65599 and len(data) == 100
     assert not np.isnan(data.length).any()
-    default = an.read_log(lines, platform=PLATFORM)
+    default = read_log(lines, platform=PLATFORM)
     assert default.stats.unknown_interface == len(lines)
 
 
 def test_truth_csv_with_and_without_header(tmp_path, run2):
     _, _, truth = run2
-    cols = an.TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)]
+    cols = TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)]
     with_header = tmp_path / "t1.csv"
     with open(with_header, "w", newline="") as f:
         w = csv.writer(f)
@@ -340,14 +348,14 @@ def test_truth_csv_with_and_without_header(tmp_path, run2):
     with open(no_header, "w", newline="") as f:
         csv.writer(f).writerows(truth[:50])
     for path in (with_header, no_header):
-        t = an.read_truth(path)
+        t = read_truth(path)
         assert t["tick"].shape == (50,) and t["pose"].shape == (50, 6)
         np.testing.assert_allclose(t["force"][7], [FORCE + j for j in range(6)])
-    assert int(an.read_truth(with_header)["bad_rows"]) == 1
+    assert int(read_truth(with_header)["bad_rows"]) == 1
     bad = tmp_path / "t3.csv"
     bad.write_text("tick,x,y\n1,2,3\n")
     with pytest.raises(ValueError, match="len1"):
-        an.read_truth(bad)
+        read_truth(bad)
 
 
 # -- the command line ---------------------------------------------------------------
@@ -369,7 +377,7 @@ def test_cli_analyze_with_truth_and_compare(tmp_path, capsys):
     _write(log2, lines2 + ["broken line"])
     with open(tpath, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(an.TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)])
+        w.writerow(TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)])
         w.writerows(truth)
     out = tmp_path / "out"
     rc = cli.main(["analyze", str(log1), "--out", str(out), "--truth", str(tpath),

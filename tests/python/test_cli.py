@@ -1,9 +1,10 @@
 """The command line is installed and dispatches to its sub-commands."""
 
+import pkgutil
 import subprocess
 import sys
 
-from stewart import REPO_ROOT, cli
+from stewart import REPO_ROOT, cli, commands
 
 
 def test_help_lists_commands(capsys):
@@ -11,6 +12,12 @@ def test_help_lists_commands(capsys):
     parser.print_help()
     out = capsys.readouterr().out
     assert "info" in out
+
+
+def test_command_modules_follow_the_cmd_naming():
+    names = [m.name for m in pkgutil.iter_modules(commands.__path__)]
+    assert "info_cmd" in names
+    assert [n for n in names if not n.endswith("_cmd")] == []
 
 
 def test_no_command_is_an_error():

@@ -80,6 +80,20 @@ def test_dbc_scales_and_ranges_as_specified(proto):
     assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 9 and st.maximum == 6
 
 
+def test_value_names_are_the_dbc_value_tables(tmp_path):
+    assert pr.value_names("CTRL_STATUS", "State")[3] == "RUNNING"
+    assert pr.value_names("OP_COMMAND", "Command")[-1] == "SET_FEEDFORWARD"
+    assert pr.value_names("AXIS_FEEDBACK_3", "State") == ("INIT", "HOLD", "ACTIVE", "FAULT")
+    assert pr.axis_names() == ("x", "y", "z", "roll", "pitch", "yaw")
+    with pytest.raises(ValueError, match="SYNC.Tick has no value table"):
+        pr.value_names("SYNC", "Tick")
+    gap = tmp_path / "gap.dbc"
+    gap.write_text(pr.DBC_PATH.read_text().replace('VAL_ 256 State 6 "ESTOP" 5 "FAULT"',
+                                                   'VAL_ 256 State 6 "ESTOP"'))
+    with pytest.raises(ValueError, match="numbered 0..n-1"):
+        pr.value_names("CTRL_STATUS", "State", gap)
+
+
 def test_crc_is_last_bytes_and_kind_follows_length(proto):
     for name, info in proto.infos.items():
         assert info.crc_bytes == (1 if info.length <= 12 else 2), name

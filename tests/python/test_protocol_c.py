@@ -11,19 +11,14 @@ import json
 import pytest
 
 from stewart import REPO_ROOT
-from stewart.core import lib
+from stewart.core import CanFrame, lib
 
 VECTORS = json.loads((REPO_ROOT / "protocol" / "test_vectors.json").read_text())
 BUS = {"ops": 0, "axis_a": 1, "axis_b": 2}
 
 
-class Frame(C.Structure):
-    _fields_ = [("id", C.c_uint32), ("bus", C.c_uint8), ("len", C.c_uint8), ("flags", C.c_uint8),
-                ("data", C.c_uint8 * 64)]
-
-
 def frame(frame_id, data: bytes, bus=0):
-    f = Frame()
+    f = CanFrame()
     f.id = frame_id
     f.bus = bus
     f.len = len(data)
@@ -61,7 +56,7 @@ def c_roundtrip(L, vec):
         st = getattr(L, dec)(C.byref(f), msg, C.byref(counter), C.byref(err))
     if st != 0:
         return st, err.value, None
-    out = Frame()
+    out = CanFrame()
     if shape == "bus":
         st = getattr(L, enc)(msg, counter, C.c_uint8(1), C.byref(out))
     elif shape == "slot":

@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import REPO_ROOT
+from . import protocol as pr
 
 DEFAULT_BUILD = REPO_ROOT / "build" / "host-release"
-AXES = ("x", "y", "z", "roll", "pitch", "yaw")
+AXES = pr.axis_names()
 
 
 @dataclass

@@ -5,6 +5,13 @@ built as a shared library by the host-release preset
 (``build/host-release/firmware/libsp_core.so``). Values cross the boundary
 in the core's Q formats; this module converts them to and from SI floats.
 Set ``STEWART_CORE_LIB`` to use another build of the library.
+
+The ctypes Structures below mirror the core's C structs (:data:`MIRRORS`).
+The library exports the layout its compiler gave them (sizes, member
+offsets and sizes; ``firmware/core/abi/sp_abi.c``), and :func:`lib`
+compares every mirror with it when it loads the library: a mismatch is a
+:class:`CoreError` naming the struct and the member, never silently wrong
+numbers. Status names come from the core too (``sp_status_name``).
 """
 
 from __future__ import annotations
@@ -22,20 +29,6 @@ Q24 = float(1 << 24)
 Q30 = float(1 << 30)
 Q16 = float(1 << 16)
 Q8 = float(1 << 8)
-
-STATUS_NAMES = {
-    0: "ok",
-    1: "overflow",
-    2: "domain",
-    3: "bad-argument",
-    4: "singular",
-    5: "out-of-range",
-    6: "no-convergence",
-    7: "discontinuity",
-    8: "bad-frame",
-    9: "io-error",
-    10: "busy",
-}
 
 I32 = C.c_int32
 V3 = I32 * 3
@@ -112,8 +105,86 @@ class LegLimits(C.Structure):
     ]
 
 
+class CanFrame(C.Structure):
+    _fields_ = [("id", C.c_uint32), ("bus", C.c_uint8), ("len", C.c_uint8), ("flags", C.c_uint8),
+                ("data", C.c_uint8 * 64)]
+
+
+#: Each ctypes mirror and the C struct it mirrors.
+MIRRORS: dict[type, str] = {
+    Pose: "sp_pose_t",
+    Motion: "sp_motion_t",
+    PlatformStruct: "sp_platform_t",
+    Rot: "sp_rot_t",
+    IK: "sp_ik_t",
+    FkOptions: "sp_fk_options_t",
+    FkInfo: "sp_fk_info_t",
+    LegLimits: "sp_leg_limits_t",
+    CanFrame: "sp_can_frame_t",
+}
+
+
+class AbiMember(C.Structure):
+    """One row of the core's layout table (sp_abi_member_t, firmware/core/abi/sp_abi.h)."""
+
+    _fields_ = [("type", C.c_char_p), ("type_size", C.c_uint32), ("member", C.c_char_p),
+                ("offset", C.c_uint32), ("member_size", C.c_uint32)]
+
+
 class CoreError(RuntimeError):
     """The shared library is missing or does not match this module."""
+
+
+#: C struct name -> (sizeof, [(member, offsetof, sizeof member)]), as the core reports it.
+Layout = dict[str, tuple[int, list[tuple[str, int, int]]]]
+
+
+def core_layout(L: C.CDLL) -> Layout:
+    """The layout table the library exports (sp_abi_members)."""
+    try:
+        fn = L.sp_abi_members
+    except AttributeError:
+        raise CoreError("the core library exports no struct layout (sp_abi_members): "
+                        "rebuild it with `scripts/build.sh host-release`") from None
+    fn.argtypes = [C.POINTER(C.c_uint32), C.POINTER(C.c_uint32)]
+    fn.restype = C.POINTER(AbiMember)
+    count, row_size = C.c_uint32(), C.c_uint32()
+    rows = fn(C.byref(count), C.byref(row_size))
+    if row_size.value != C.sizeof(AbiMember):
+        raise CoreError(f"sp_abi_member_t is {row_size.value} bytes in the core library, "
+                        f"{C.sizeof(AbiMember)} in Python (AbiMember)")
+    out: Layout = {}
+    for i in range(count.value):
+        r = rows[i]
+        entry = out.setdefault(r.type.decode(), (r.type_size, []))
+        entry[1].append((r.member.decode(), r.offset, r.member_size))
+    return out
+
+
+def check_layout(layout: Layout, mirrors: dict[type, str] = MIRRORS) -> None:
+    """Raises CoreError, naming the struct and members, unless every mirror
+    has exactly the C struct's members, at its offsets and sizes, and its size."""
+    problems = []
+    for cls, c_name in mirrors.items():
+        where = f"{cls.__name__} (mirror of {c_name})"
+        if c_name not in layout:
+            problems.append(f"{where}: the core library has no layout of {c_name}")
+            continue
+        size, members = layout[c_name]
+        ours = {f[0]: getattr(cls, f[0]) for f in cls._fields_}
+        theirs = {m: (off, sz) for m, off, sz in members}
+        for m in [m for m in theirs if m not in ours]:
+            problems.append(f"{where}: member {m} missing in Python")
+        for m in [m for m in ours if m not in theirs]:
+            problems.append(f"{where}: member {m} is not in the C struct")
+        for m, (off, sz) in theirs.items():
+            if m in ours and (ours[m].offset, ours[m].size) != (off, sz):
+                problems.append(f"{where}: member {m} at offset {ours[m].offset}, {ours[m].size} bytes "
+                                f"in Python; offset {off}, {sz} bytes in C")
+        if C.sizeof(cls) != size:
+            problems.append(f"{where}: {C.sizeof(cls)} bytes in Python, {size} in C")
+    if problems:
+        raise CoreError("ctypes mirrors disagree with the core library:\n  " + "\n  ".join(problems))
 
 
 def library_path() -> Path:
@@ -138,7 +209,10 @@ def lib() -> C.CDLL:
             "(or run scripts/test.sh)"
         )
     L = C.CDLL(str(path))
+    check_layout(core_layout(L))
     P = C.POINTER
+    L.sp_status_name.argtypes = [C.c_int]
+    L.sp_status_name.restype = C.c_char_p
     L.sp_inverse_kinematics.argtypes = [P(PlatformStruct), P(Pose), P(IK)]
     L.sp_inverse_dynamics.argtypes = [P(PlatformStruct), P(Motion), P(IK), P(V3), P(I32 * LEGS)]
     L.sp_leg_rates.argtypes = [P(IK), P(V3), P(V3), P(I32 * LEGS)]
@@ -159,7 +233,10 @@ def lib() -> C.CDLL:
 
 
 def status_name(code: int) -> str:
-    return STATUS_NAMES.get(code, f"status-{code}")
+    """The core's name of a status code (sp_status_name: "ok", "singular",
+    "out-of-range", ...); ``status-N`` for a code the core does not know."""
+    name = lib().sp_status_name(code).decode()
+    return f"status-{code}" if name == "unknown" else name
 
 
 def _q(v: float, scale: float) -> int:

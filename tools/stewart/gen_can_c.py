@@ -7,6 +7,18 @@ Runs ``cantools generate_c_source --no-floating-point-numbers``. cantools
 the firmware core may not contain floating point, so this removes exactly
 those functions (prototype with its comment, and definition) and then fails
 if any ``double`` or ``float`` is left, rather than letting it through.
+
+It then appends to the header the scale ratios of the protocol layer
+(firmware/core/src/protocol.c) between the core's fixed-point values and the
+raw signals: for each family of signals in :data:`SCALES`, raw = value x
+NUM / DEN with NUM / DEN the reduced fraction (the core's LSB) / (the DBC
+factor), computed exactly from the factor as written in the DBC. The build
+fails with a message naming the signal when a family's signals disagree on
+factor or unit, a factor is not a positive decimal number, an offset is not
+zero, or NUM and DEN are too large for the core's 64-bit scaling.
+
+Runs with the plain system Python (no cantools module): the factors are read
+from the DBC's ``SG_`` lines, every one of which must parse.
 """
 
 from __future__ import annotations
@@ -14,9 +26,131 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+from dataclasses import dataclass
+from decimal import Decimal, InvalidOperation
+from fractions import Fraction
 from pathlib import Path
 
 NAME = "stewart_can"
+
+Q24 = Fraction(1, 1 << 24)
+Q8 = Fraction(1, 1 << 8)
+_POSE = "X|Y|Z|Roll|Pitch|Yaw"
+
+#: The scale families: (macro stem, the core value's unit in the macro name,
+#: the core value's LSB in the DBC unit, the DBC unit(s) the signals must
+#: have, the signals as (message regex, signal regex) pairs, each of which
+#: must match at least one signal).
+SCALES: tuple[tuple[str, str, Fraction, frozenset[str], tuple[tuple[str, str], ...]], ...] = (
+    ("LENGTH", "Q24_M", Q24, frozenset({"m"}),
+     (("AXIS_SETPOINTS", r"Length_\d"), (r"AXIS_FEEDBACK_\d", "Length"), ("CTRL_MONITOR", r"LengthSp_\d"))),
+    ("POSE", "Q24_M_RAD", Q24, frozenset({"m", "rad"}),
+     (("OP_TARGET_POSE", _POSE), ("CTRL_STATUS", _POSE), ("CTRL_MONITOR", f"Ref(?:{_POSE})"))),
+    ("VELOCITY", "Q24_MPS", Q24, frozenset({"m/s"}), (("AXIS_SETPOINTS", r"Velocity_\d"),)),
+    ("FORCE", "Q8_N", Q8, frozenset({"N"}), (("AXIS_SETPOINTS", r"Force_\d"), ("CTRL_MONITOR", r"ForceFf_\d"))),
+    ("PRESSURE", "PA", Fraction(1), frozenset({"Pa"}), ((r"AXIS_FEEDBACK_\d", "Pressure[AB]"),)),
+    ("AMPLITUDE", "Q24_M_RAD", Q24, frozenset({"m|rad"}), (("OP_COMMAND", "Amplitude"),)),
+    ("FREQUENCY", "Q24_HZ", Q24, frozenset({"Hz"}), (("OP_COMMAND", "Frequency"),)),
+    ("FADE_TIME", "MS", Fraction(1, 1000), frozenset({"s"}), (("OP_COMMAND", "FadeTime"),)),
+)
+#: The core's values are int32 and raw signals at most 32 bits; the protocol
+#: layer's muldiv() needs |value x NUM| and |raw x DEN| below 2^62.
+PRODUCT_LIMIT = 1 << 62
+VALUE_BITS = 31
+
+
+class ScaleError(ValueError):
+    """A DBC factor the generator cannot turn into an exact ratio."""
+
+
+@dataclass(frozen=True)
+class Signal:
+    message: str
+    name: str
+    length: int
+    factor: str
+    offset: str
+    unit: str
+
+
+_BO = re.compile(r"^BO_ \d+ (\w+)\s*:")
+_SG = re.compile(r'^SG_ (\w+) : \d+\|(\d+)@[01][+-] \(([^,()]+),([^,()]+)\) \[[^]]*\] "([^"]*)"')
+
+
+def read_signals(dbc_text: str) -> list[Signal]:
+    """Every signal of the DBC with its factor and offset as written."""
+    out: list[Signal] = []
+    message = None
+    for n, line in enumerate(dbc_text.splitlines(), start=1):
+        line = line.strip()
+        m = _BO.match(line)
+        if m:
+            message = m.group(1)
+            continue
+        if line.startswith("SG_ "):
+            m = _SG.match(line)
+            if m is None or message is None:
+                raise ScaleError(f"line {n}: cannot read this signal's factor: {line}")
+            out.append(Signal(message, m.group(1), int(m.group(2)), m.group(3).strip(), m.group(4).strip(),
+                              m.group(5)))
+    return out
+
+
+def _decimal(text: str, what: str) -> Fraction:
+    try:
+        d = Decimal(text)
+    except InvalidOperation:
+        raise ScaleError(f"{what} {text!r} is not a decimal number") from None
+    if not d.is_finite():
+        raise ScaleError(f"{what} {text!r} is not a finite number")
+    return Fraction(d)
+
+
+def scale_ratios(signals: list[Signal]) -> list[tuple[str, Fraction, str]]:
+    """(macro stem with unit, raw per core LSB as a reduced fraction, comment)
+    of each family of :data:`SCALES`; ScaleError says what is wrong."""
+    out = []
+    for stem, unit_name, lsb, units, patterns in SCALES:
+        members = []
+        for msg_re, sig_re in patterns:
+            found = [s for s in signals if re.fullmatch(msg_re, s.message) and re.fullmatch(sig_re, s.name)]
+            if not found:
+                raise ScaleError(f"{stem}: no signal {msg_re}.{sig_re} in the DBC")
+            members += found
+        first = members[0]
+        for s in members:
+            where = f"{stem}: {s.message}.{s.name}"
+            factor = _decimal(s.factor, f"{where}: factor")
+            if factor <= 0:
+                raise ScaleError(f"{where}: factor {s.factor} is not positive")
+            if _decimal(s.offset, f"{where}: offset") != 0:
+                raise ScaleError(f"{where}: offset {s.offset} is not 0 (the protocol layer scales only)")
+            if factor != _decimal(first.factor, "factor"):
+                raise ScaleError(f"{where}: factor {s.factor} differs from {first.message}.{first.name}'s "
+                                 f"{first.factor} (one ratio per family)")
+            if s.unit not in units:
+                raise ScaleError(f"{where}: unit {s.unit!r}, the core's value is in {' or '.join(sorted(units))}")
+        ratio = lsb / _decimal(first.factor, "factor")
+        widest = max(s.length for s in members)
+        if (ratio.numerator << VALUE_BITS) >= PRODUCT_LIMIT or (ratio.denominator << widest) >= PRODUCT_LIMIT:
+            raise ScaleError(f"{stem}: factor {first.factor} gives raw = value x {ratio.numerator} / "
+                             f"{ratio.denominator}, too large for the 64-bit scaling (value x NUM and raw x DEN "
+                             f"must stay below 2^62)")
+        messages = ", ".join(dict.fromkeys(s.message for s in members))
+        unit = " or ".join(sorted({s.unit for s in members}))
+        out.append((f"SP_CAN_{stem}_RAW_PER_{unit_name}", ratio,
+                    f"1 raw = {first.factor} {unit}: {len(members)} signal(s) of {messages}"))
+    return out
+
+
+def scale_header(signals: list[Signal]) -> str:
+    lines = ["/* Scale ratios of the protocol layer, generated by tools/stewart/gen_can_c.py from the",
+             " * DBC's factors: raw = value * NUM / DEN, value = raw * DEN / NUM (reduced fractions). */"]
+    for macro, ratio, comment in scale_ratios(signals):
+        lines.append(f"/* {comment} */")
+        lines.append(f"#define {macro}_NUM {ratio.numerator}")
+        lines.append(f"#define {macro}_DEN {ratio.denominator}")
+    return "\n".join(lines) + "\n\n"
 
 
 def strip_phys_range(text: str) -> str:
@@ -28,11 +162,19 @@ def strip_phys_range(text: str) -> str:
     return text
 
 
+_HEADER_END = "#ifdef __cplusplus\n}\n#endif\n\n#endif\n"
+
+
 def main(argv: list[str]) -> int:
     if len(argv) != 3:
         print("usage: gen_can_c.py CANTOOLS DBC OUTDIR", file=sys.stderr)
         return 2
     cantools, dbc, out = argv
+    try:
+        scales = scale_header(read_signals(Path(dbc).read_text()))
+    except ScaleError as exc:
+        print(f"error: {dbc}: {exc}", file=sys.stderr)
+        return 1
     outdir = Path(out)
     outdir.mkdir(parents=True, exist_ok=True)
     r = subprocess.run([cantools, "generate_c_source", "--no-floating-point-numbers", "--database-name", NAME,
@@ -49,6 +191,11 @@ def main(argv: list[str]) -> int:
             line = code[: bad.start()].count("\n") + 1
             print(f"error: {p}: floating point left in generated code near line {line}", file=sys.stderr)
             return 1
+        if suffix == ".h":
+            if not text.endswith(_HEADER_END):
+                print(f"error: {p}: does not end as cantools' headers do; cannot add the scales", file=sys.stderr)
+                return 1
+            text = text[: -len(_HEADER_END)] + scales + _HEADER_END
         p.write_text(text)
     return 0
 

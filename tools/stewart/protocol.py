@@ -20,6 +20,7 @@ range still advances the counter reference (it was sent by its sender).
 from __future__ import annotations
 
 import collections
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -313,6 +314,34 @@ class Protocol:
         """Forget every counter reference (receivers) and transmit counter."""
         self._rx.clear()
         self._tx.clear()
+
+
+# -- the DBC's value tables ----------------------------------------------------
+
+@functools.lru_cache(maxsize=None)
+def _database(dbc_path: str):
+    import cantools
+
+    return cantools.database.load_file(dbc_path, strict=True)
+
+
+@functools.lru_cache(maxsize=None)
+def value_names(message: str, signal: str, dbc_path: str | Path | None = None) -> tuple[str, ...]:
+    """The value table (``VAL_``) of a signal in the DBC as its names indexed
+    by raw value: ``value_names("CTRL_STATUS", "State")[3] == "RUNNING"``.
+    The table must cover 0..n-1 without gaps (ValueError otherwise)."""
+    path = str(dbc_path or DBC_PATH)
+    s = _database(path).get_message_by_name(message).get_signal_by_name(signal)
+    table = {int(k): str(v) for k, v in (s.choices or {}).items()}
+    if not table or sorted(table) != list(range(len(table))):
+        raise ValueError(f"{path}: {message}.{signal} has no value table numbered 0..n-1")
+    return tuple(table[i] for i in range(len(table)))
+
+
+def axis_names() -> tuple[str, ...]:
+    """The tools' pose axis names, x y z roll pitch yaw: OP_COMMAND.Axis's
+    value table in lower case."""
+    return tuple(a.lower() for a in value_names("OP_COMMAND", "Axis"))
 
 
 # -- helpers between physical values and the messages -------------------------

@@ -28,57 +28,78 @@ static sp_q24_t to_q24(int64_t v)
     return (sp_q24_t)clamp(v, INT32_MIN, INT32_MAX, &dummy);
 }
 
-/* Q24 <-> bus units. 1 um (1e-6): 2^24 / 1e6 = 262144 / 15625. */
+/* Core units <-> raw signals. The ratios SP_CAN_<family>_RAW_PER_<unit>_NUM / _DEN (raw = value * NUM / DEN)
+ * are generated from the DBC's factors into stewart_can.h (tools/stewart/gen_can_c.py). */
 #define I24_MAX 8388607
 #define I24_MIN (-8388607) /* signed ranges are symmetric: the DBC's minimum */
-static uint32_t q24_to_um_u24(sp_q24_t q, int *sat)
+static uint32_t q24_to_length(sp_q24_t q, int *sat)
 {
-    return (uint32_t)clamp(muldiv(q, 15625, 262144), 0, 16777215, sat);
+    return (uint32_t)clamp(muldiv(q, SP_CAN_LENGTH_RAW_PER_Q24_M_NUM, SP_CAN_LENGTH_RAW_PER_Q24_M_DEN), 0, 16777215,
+                           sat);
 }
-static int32_t q24_to_um_i24(sp_q24_t q, int *sat)
+static sp_q24_t length_to_q24(int64_t raw)
 {
-    return (int32_t)clamp(muldiv(q, 15625, 262144), I24_MIN, I24_MAX, sat);
+    return to_q24(muldiv(raw, SP_CAN_LENGTH_RAW_PER_Q24_M_DEN, SP_CAN_LENGTH_RAW_PER_Q24_M_NUM));
 }
-static sp_q24_t um_to_q24(int64_t raw)
+static int32_t q24_to_pose(sp_q24_t q, int *sat)
 {
-    return to_q24(muldiv(raw, 262144, 15625));
+    return (int32_t)clamp(muldiv(q, SP_CAN_POSE_RAW_PER_Q24_M_RAD_NUM, SP_CAN_POSE_RAW_PER_Q24_M_RAD_DEN), I24_MIN,
+                          I24_MAX, sat);
 }
-/* 5e-5 m/s: 2^24 * 5e-5 = 524288 / 625 */
+static sp_q24_t pose_to_q24(int64_t raw)
+{
+    return to_q24(muldiv(raw, SP_CAN_POSE_RAW_PER_Q24_M_RAD_DEN, SP_CAN_POSE_RAW_PER_Q24_M_RAD_NUM));
+}
 static int16_t q24_to_vel(sp_q24_t q, int *sat)
 {
-    return (int16_t)clamp(muldiv(q, 625, 524288), -INT16_MAX, INT16_MAX, sat);
+    return (int16_t)clamp(muldiv(q, SP_CAN_VELOCITY_RAW_PER_Q24_MPS_NUM, SP_CAN_VELOCITY_RAW_PER_Q24_MPS_DEN),
+                          -INT16_MAX, INT16_MAX, sat);
 }
 static sp_q24_t vel_to_q24(int64_t raw)
 {
-    return to_q24(muldiv(raw, 524288, 625));
+    return to_q24(muldiv(raw, SP_CAN_VELOCITY_RAW_PER_Q24_MPS_DEN, SP_CAN_VELOCITY_RAW_PER_Q24_MPS_NUM));
 }
-/* 0.02 N in Q8: 0.02 * 256 = 128 / 25 */
 static int32_t q8_to_force(sp_q8_t q, int *sat)
 {
-    return (int32_t)clamp(muldiv(q, 25, 128), I24_MIN, I24_MAX, sat);
+    return (int32_t)clamp(muldiv(q, SP_CAN_FORCE_RAW_PER_Q8_N_NUM, SP_CAN_FORCE_RAW_PER_Q8_N_DEN), I24_MIN, I24_MAX,
+                          sat);
 }
 static sp_q8_t force_to_q8(int64_t raw)
 {
-    return (sp_q8_t)to_q24(muldiv(raw, 128, 25));
+    return (sp_q8_t)to_q24(muldiv(raw, SP_CAN_FORCE_RAW_PER_Q8_N_DEN, SP_CAN_FORCE_RAW_PER_Q8_N_NUM));
 }
-/* 1e-5 (amplitude): 2^24 * 1e-5 = 524288 / 3125 */
 static int32_t q24_to_amp(sp_q24_t q, int *sat)
 {
-    return (int32_t)clamp(muldiv(q, 3125, 524288), I24_MIN, I24_MAX, sat);
+    return (int32_t)clamp(muldiv(q, SP_CAN_AMPLITUDE_RAW_PER_Q24_M_RAD_NUM, SP_CAN_AMPLITUDE_RAW_PER_Q24_M_RAD_DEN),
+                          I24_MIN, I24_MAX, sat);
 }
 static sp_q24_t amp_to_q24(int64_t raw)
 {
-    return to_q24(muldiv(raw, 524288, 3125));
+    return to_q24(muldiv(raw, SP_CAN_AMPLITUDE_RAW_PER_Q24_M_RAD_DEN, SP_CAN_AMPLITUDE_RAW_PER_Q24_M_RAD_NUM));
 }
-/* 1e-3 Hz: 2^24 * 1e-3 = 2097152 / 125 */
 static uint16_t q24_to_freq(sp_q24_t q, int *sat)
 {
-    return (uint16_t)clamp(muldiv(q, 125, 2097152), 0, UINT16_MAX, sat);
+    return (uint16_t)clamp(muldiv(q, SP_CAN_FREQUENCY_RAW_PER_Q24_HZ_NUM, SP_CAN_FREQUENCY_RAW_PER_Q24_HZ_DEN), 0,
+                           UINT16_MAX, sat);
 }
 static sp_q24_t freq_to_q24(int64_t raw)
 {
-    return to_q24(muldiv(raw, 2097152, 125));
+    return to_q24(muldiv(raw, SP_CAN_FREQUENCY_RAW_PER_Q24_HZ_DEN, SP_CAN_FREQUENCY_RAW_PER_Q24_HZ_NUM));
 }
+/* Pressures are whole pascals and 1 raw a whole number of them: the 1 kHz decode is a plain multiply. */
+typedef char sp_pressure_raw_is_whole_pa[(SP_CAN_PRESSURE_RAW_PER_PA_NUM == 1) ? 1 : -1];
+static uint16_t pa_to_pressure(uint32_t pa, int *sat)
+{
+    return (uint16_t)clamp(((int64_t)pa + SP_CAN_PRESSURE_RAW_PER_PA_DEN / 2) / SP_CAN_PRESSURE_RAW_PER_PA_DEN, 0, 4095,
+                           sat);
+}
+static uint32_t pressure_to_pa(uint16_t raw)
+{
+    return (uint32_t)raw * (uint32_t)SP_CAN_PRESSURE_RAW_PER_PA_DEN;
+}
+/* The fade time is whole milliseconds on both sides: raw = ms. */
+typedef char sp_fade_raw_is_ms[(SP_CAN_FADE_TIME_RAW_PER_MS_NUM == 1) ? 1 : -1];
+typedef char sp_fade_ms_is_raw[(SP_CAN_FADE_TIME_RAW_PER_MS_DEN == 1) ? 1 : -1];
 
 /* 1 if any signed raw value is the (excluded) most negative one. */
 static int below_i24(const int32_t *v, uint32_t n)
@@ -165,16 +186,16 @@ static sp_status_t reject(sp_proto_error_t *error, sp_proto_error_t why)
 static void pose_to_bus(const sp_pose_t *p, int32_t out[6], int *sat)
 {
     for (uint32_t k = 0; k < 3u; k++) {
-        out[k] = q24_to_um_i24(p->pos[k], sat);
-        out[3u + k] = q24_to_um_i24(p->rpy[k], sat);
+        out[k] = q24_to_pose(p->pos[k], sat);
+        out[3u + k] = q24_to_pose(p->rpy[k], sat);
     }
 }
 
 static void pose_from_bus(const int32_t in[6], sp_pose_t *p)
 {
     for (uint32_t k = 0; k < 3u; k++) {
-        p->pos[k] = um_to_q24(in[k]);
-        p->rpy[k] = um_to_q24(in[3u + k]);
+        p->pos[k] = pose_to_q24(in[k]);
+        p->rpy[k] = pose_to_q24(in[3u + k]);
     }
 }
 
@@ -223,13 +244,13 @@ sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t count
     s.tick = m->tick;
     s.counter = (uint8_t)(counter & 0x0Fu);
     s.mode = m->mode;
-    s.length_1 = q24_to_um_u24(m->setpoint[0].length, &sat);
+    s.length_1 = q24_to_length(m->setpoint[0].length, &sat);
     s.velocity_1 = q24_to_vel(m->setpoint[0].velocity, &sat);
     s.force_1 = q8_to_force(m->setpoint[0].force, &sat);
-    s.length_2 = q24_to_um_u24(m->setpoint[1].length, &sat);
+    s.length_2 = q24_to_length(m->setpoint[1].length, &sat);
     s.velocity_2 = q24_to_vel(m->setpoint[1].velocity, &sat);
     s.force_2 = q8_to_force(m->setpoint[1].force, &sat);
-    s.length_3 = q24_to_um_u24(m->setpoint[2].length, &sat);
+    s.length_3 = q24_to_length(m->setpoint[2].length, &sat);
     s.velocity_3 = q24_to_vel(m->setpoint[2].velocity, &sat);
     s.force_3 = q8_to_force(m->setpoint[2].force, &sat);
     clear(f);
@@ -257,13 +278,13 @@ sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_
     }
     m->tick = s.tick;
     m->mode = s.mode;
-    m->setpoint[0].length = um_to_q24(s.length_1);
+    m->setpoint[0].length = length_to_q24(s.length_1);
     m->setpoint[0].velocity = vel_to_q24(s.velocity_1);
     m->setpoint[0].force = force_to_q8(s.force_1);
-    m->setpoint[1].length = um_to_q24(s.length_2);
+    m->setpoint[1].length = length_to_q24(s.length_2);
     m->setpoint[1].velocity = vel_to_q24(s.velocity_2);
     m->setpoint[1].force = force_to_q8(s.force_2);
-    m->setpoint[2].length = um_to_q24(s.length_3);
+    m->setpoint[2].length = length_to_q24(s.length_3);
     m->setpoint[2].velocity = vel_to_q24(s.velocity_3);
     m->setpoint[2].force = force_to_q8(s.force_3);
     *counter = s.counter;
@@ -280,9 +301,9 @@ sp_status_t sp_proto_encode_feedback(const sp_msg_feedback_t *m, uint8_t slot, u
     int sat = 0;
     struct stewart_can_axis_feedback_1_t s;
     (void)stewart_can_axis_feedback_1_init(&s);
-    s.length = q24_to_um_u24(m->length, &sat);
-    s.pressure_a = (uint16_t)clamp(((int64_t)m->pressure_a + 5000) / 10000, 0, 4095, &sat);
-    s.pressure_b = (uint16_t)clamp(((int64_t)m->pressure_b + 5000) / 10000, 0, 4095, &sat);
+    s.length = q24_to_length(m->length, &sat);
+    s.pressure_a = pa_to_pressure(m->pressure_a, &sat);
+    s.pressure_b = pa_to_pressure(m->pressure_b, &sat);
     s.state = m->state;
     s.counter = (uint8_t)(counter & 0x0Fu);
     s.faults = m->faults;
@@ -347,9 +368,9 @@ sp_status_t sp_proto_decode_feedback(const sp_can_frame_t *f, sp_msg_feedback_t 
     if (s.state > 3u) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
-    m->length = um_to_q24(s.length);
-    m->pressure_a = (uint32_t)s.pressure_a * 10000u;
-    m->pressure_b = (uint32_t)s.pressure_b * 10000u;
+    m->length = length_to_q24(s.length);
+    m->pressure_a = pressure_to_pa(s.pressure_a);
+    m->pressure_b = pressure_to_pa(s.pressure_b);
     m->state = s.state;
     m->faults = s.faults;
     m->tick_echo = s.tick_echo;
@@ -528,12 +549,12 @@ sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, 
     s.ref_roll = v[3];
     s.ref_pitch = v[4];
     s.ref_yaw = v[5];
-    s.length_sp_1 = q24_to_um_u24(m->length_sp[0], &sat);
-    s.length_sp_2 = q24_to_um_u24(m->length_sp[1], &sat);
-    s.length_sp_3 = q24_to_um_u24(m->length_sp[2], &sat);
-    s.length_sp_4 = q24_to_um_u24(m->length_sp[3], &sat);
-    s.length_sp_5 = q24_to_um_u24(m->length_sp[4], &sat);
-    s.length_sp_6 = q24_to_um_u24(m->length_sp[5], &sat);
+    s.length_sp_1 = q24_to_length(m->length_sp[0], &sat);
+    s.length_sp_2 = q24_to_length(m->length_sp[1], &sat);
+    s.length_sp_3 = q24_to_length(m->length_sp[2], &sat);
+    s.length_sp_4 = q24_to_length(m->length_sp[3], &sat);
+    s.length_sp_5 = q24_to_length(m->length_sp[4], &sat);
+    s.length_sp_6 = q24_to_length(m->length_sp[5], &sat);
     s.force_ff_1 = q8_to_force(m->force_ff[0], &sat);
     s.force_ff_2 = q8_to_force(m->force_ff[1], &sat);
     s.force_ff_3 = q8_to_force(m->force_ff[2], &sat);
@@ -568,7 +589,7 @@ sp_status_t sp_proto_decode_monitor(const sp_can_frame_t *f, sp_msg_monitor_t *m
     pose_from_bus(v, &m->reference);
     const uint32_t len[6] = {s.length_sp_1, s.length_sp_2, s.length_sp_3, s.length_sp_4, s.length_sp_5, s.length_sp_6};
     for (uint32_t i = 0; i < SP_LEGS; i++) {
-        m->length_sp[i] = um_to_q24(len[i]);
+        m->length_sp[i] = length_to_q24(len[i]);
         m->force_ff[i] = force_to_q8(frc[i]);
     }
     *counter = s.counter;

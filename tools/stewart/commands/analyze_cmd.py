@@ -31,11 +31,15 @@ def _run_label(summary, fallback: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import analysis as an
     from .. import config as cfg
+    from ..analysis import analyze
+    from ..analysis.logfile import parse_bus_map
+    from ..analysis.metrics import format_summary, format_value, segment_metrics
+    from ..analysis.plots import plot_compare
+    from ..analysis.segments import match_segments
 
     try:
-        an.parse_bus_map(args.bus)
+        parse_bus_map(args.bus)
     except ValueError as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
@@ -44,40 +48,39 @@ def run(args: argparse.Namespace) -> int:
             print(f"stewart analyze: no such file: {path}", file=sys.stderr)
             return 2
     try:
-        res = an.analyze(args.log, args.out, truth=args.truth, platform=args.platform,
-                         delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots)
+        res = analyze(args.log, args.out, truth=args.truth, platform=args.platform,
+                      delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots)
     except (cfg.ConfigError, ValueError, OSError) as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
     results = [res]
-    print(an.format_summary(res.summary))
+    print(format_summary(res.summary))
     if args.compare:
         try:
-            res2 = an.analyze(args.compare, Path(args.out) / "run2", platform=args.platform,
-                              delay_ticks=args.delay_ticks, buses=args.bus,
-                              plots=not args.no_plots)
+            res2 = analyze(args.compare, Path(args.out) / "run2", platform=args.platform,
+                           delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots)
         except (cfg.ConfigError, ValueError, OSError) as exc:
             print(f"stewart analyze: {args.compare}: {exc}", file=sys.stderr)
             return 2
         results.append(res2)
         print()
-        print(an.format_summary(res2.summary))
+        print(format_summary(res2.summary))
         n1 = _run_label(res.summary, "run 1")
         n2 = _run_label(res2.summary, "run 2")
         if n1 == n2:
             n1, n2 = f"{n1} (run 1)", f"{n2} (run 2)"
-        pairs = an.match_segments(res.segments, res2.segments)
+        pairs = match_segments(res.segments, res2.segments)
         print()
         for k, (s1, s2) in enumerate(pairs, start=1):
             path = Path(args.out) / f"compare{k}.png"
             if not args.no_plots:
-                an.plot_compare([(n1, res.data, s1), (n2, res2.data, s2)], path, args.delay_ticks)
-            m1 = an.segment_metrics(res.data, s1, args.delay_ticks)["moving_axis_error"]
-            m2 = an.segment_metrics(res2.data, s2, args.delay_ticks)["moving_axis_error"]
+                plot_compare([(n1, res.data, s1), (n2, res2.data, s2)], path, args.delay_ticks)
+            m1 = segment_metrics(res.data, s1, args.delay_ticks)["moving_axis_error"]
+            m2 = segment_metrics(res2.data, s2, args.delay_ticks)["moving_axis_error"]
             line = f"compare {k}: {s1.label} vs {s2.label}"
             if m1 and m2:
-                line += (f": RMS {an._fmt(m1['rms'])} vs {an._fmt(m2['rms'])} {m1['unit']}, "
-                         f"max {an._fmt(m1['max'])} vs {an._fmt(m2['max'])} {m1['unit']}")
+                line += (f": RMS {format_value(m1['rms'])} vs {format_value(m2['rms'])} {m1['unit']}, "
+                         f"max {format_value(m1['max'])} vs {format_value(m2['max'])} {m1['unit']}")
             if not args.no_plots:
                 line += f" -> {path}"
             print(line)

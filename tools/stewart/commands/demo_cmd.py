@@ -49,8 +49,11 @@ def _tick_compute(build: Path) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import analysis as an
     from .. import closedloop as cl
+    from ..analysis import analyze
+    from ..analysis.metrics import format_summary, segment_metrics
+    from ..analysis.plots import plot_compare
+    from ..analysis.segments import match_segments
 
     out = Path(args.out)
     build = Path(args.build)
@@ -81,18 +84,18 @@ def run(args: argparse.Namespace) -> int:
         return 1
 
     print("demo: decoding the CAN log and drawing the plots", flush=True)
-    res = an.analyze(main.log, out, truth=main.truth if main.truth.exists() else None)
-    lines = [an.format_summary(res.summary), ""]
+    res = analyze(main.log, out, truth=main.truth if main.truth.exists() else None)
+    lines = [format_summary(res.summary), ""]
     figures: dict = {"runs": {n: r.figures for n, r in results.items()}}
-    seg_on = {s.index: an.segment_metrics(res.data, s) for s in res.segments}
+    seg_on = {s.index: segment_metrics(res.data, s) for s in res.segments}
     figures["segments"] = {}
     if "ff_off" in results and results["ff_off"].log.exists():
-        res2 = an.analyze(results["ff_off"].log, out / "ff_off", truth=results["ff_off"].truth)
-        for k, (s1, s2) in enumerate(an.match_segments(res.segments, res2.segments), start=1):
+        res2 = analyze(results["ff_off"].log, out / "ff_off", truth=results["ff_off"].truth)
+        for k, (s1, s2) in enumerate(match_segments(res.segments, res2.segments), start=1):
             path = out / f"compare{k}.png"
-            an.plot_compare([("ff on", res.data, s1), ("ff off", res2.data, s2)], path)
-            m1 = an.segment_metrics(res.data, s1)["moving_axis_error"]
-            m2 = an.segment_metrics(res2.data, s2)["moving_axis_error"]
+            plot_compare([("ff on", res.data, s1), ("ff off", res2.data, s2)], path)
+            m1 = segment_metrics(res.data, s1)["moving_axis_error"]
+            m2 = segment_metrics(res2.data, s2)["moving_axis_error"]
             figures["segments"][s1.label] = {"ff_on": m1, "ff_off": m2}
             if m1 and m2:
                 lines.append(f"{s1.label.replace(' ff=on', '')}: tracking error RMS {m1['rms']:.3f} {m1['unit']} "

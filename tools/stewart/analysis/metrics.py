@@ -1,0 +1,201 @@
+"""Figures of a run: the tracking error, per-segment metrics, the summary
+(``summary.json``) and its printed form.
+
+The tracking error is ``estimate(t) - reference(t - d)`` with d = 1 tick by
+default: the reference of tick t is commanded at tick t and the drives reach
+it one cycle later (docs/analysis.md).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from .. import protocol as pr
+from .decode import LogData
+from .names import AXES, STATES, TICK_S, axis_unit
+from .segments import Segment, find_segments
+
+#: Default delay of the tracking error, ticks (docs/analysis.md).
+DEFAULT_DELAY_TICKS = 1
+
+
+def _wrap(e: np.ndarray) -> np.ndarray:
+    """Angle differences into (-pi, pi]."""
+    return (e + np.pi) % (2 * np.pi) - np.pi
+
+
+def delayed(data: LogData, values: np.ndarray, delay_ticks: int) -> np.ndarray:
+    """values(t - delay) on each row's tick (NaN where the log has no such tick)."""
+    idx = data.index_of(data.ticks - int(delay_ticks))
+    out = np.full_like(values, np.nan, dtype=float)
+    ok = idx >= 0
+    out[ok] = values[idx[ok]]
+    return out
+
+
+def tracking_error(data: LogData, delay_ticks: int = DEFAULT_DELAY_TICKS,
+                   pose: np.ndarray | None = None) -> np.ndarray:
+    """(N, 6) error ``pose(t) - reference(t - d)``, m / rad (angles wrapped);
+    ``pose`` defaults to the controller's estimate (pass ``data.truth['pose']``
+    for the true tracking error)."""
+    p = data.estimate if pose is None else pose
+    e = p - delayed(data, data.reference, delay_ticks)
+    e[:, 3:] = _wrap(e[:, 3:])
+    return e
+
+
+def error_stats(e: np.ndarray, scale: float) -> dict[str, float | int]:
+    e = e[np.isfinite(e)]
+    if len(e) == 0:
+        return {"rms": None, "max": None, "mean": None, "n": 0}
+    return {"rms": float(np.sqrt(np.mean(e * e)) * scale), "max": float(np.max(np.abs(e)) * scale),
+            "mean": float(np.mean(e) * scale), "n": int(len(e))}
+
+
+def error_metrics(err: np.ndarray, mask: np.ndarray) -> dict[str, dict]:
+    """RMS, max |error| and mean per axis over the rows of ``mask`` (finite
+    values only; ``n`` of them), in mm / mrad."""
+    return {AXES[a]: dict(error_stats(err[mask, a], 1e3), unit=axis_unit(a)) for a in range(6)}
+
+
+def segment_metrics(data: LogData, seg: Segment, delay_ticks: int = DEFAULT_DELAY_TICKS) -> dict[str, Any]:
+    """Tracking error (estimate and, with truth, the true pose), estimation
+    error (estimate - truth, same tick) and peak forces of one segment."""
+    m = seg.mask(data)
+    out: dict[str, Any] = dict(seg.as_dict())
+    err = tracking_error(data, delay_ticks)
+    out["error"] = error_metrics(err, m)
+    out["moving_axis_error"] = out["error"][AXES[seg.axis]] if seg.axis is not None else None
+    a, b = seg.steady()
+    ms = (data.ticks >= a) & (data.ticks <= b)
+    out["steady_error"] = error_metrics(err, ms)
+    if data.truth is not None:
+        et = tracking_error(data, delay_ticks, pose=data.truth["pose"])
+        out["truth_error"] = error_metrics(et, m)
+        out["moving_axis_truth_error"] = (out["truth_error"][AXES[seg.axis]]
+                                          if seg.axis is not None else None)
+        ee = data.estimate - data.truth["pose"]
+        ee[:, 3:] = _wrap(ee[:, 3:])
+        out["estimation_error"] = error_metrics(ee, m)
+    ff = np.abs(data.force_ff[m])
+    fm = np.abs(data.force[m])
+    out["peak_force_ff_N"] = [float(np.nanmax(c)) if np.isfinite(c).any() else None for c in ff.T]
+    out["peak_force_measured_N"] = [float(np.nanmax(c)) if np.isfinite(c).any() else None for c in fm.T]
+    if data.truth is not None:
+        ft = np.abs(data.truth["force"][m])
+        out["peak_force_truth_N"] = [float(np.nanmax(c)) if np.isfinite(c).any() else None for c in ft.T]
+    d = data.force[m] - data.force_ff[m]
+    out["force_measured_minus_ff_rms_N"] = [error_stats(c, 1.0)["rms"] for c in d.T]
+    st = data.stretch[m]
+    out["stretch_range_mm"] = [[float(np.nanmin(c) * 1e3), float(np.nanmax(c) * 1e3)]
+                               if np.isfinite(c).any() else None for c in st.T]
+    return out
+
+
+def jsonable(obj):
+    """NaN and infinities -> None, numpy scalars -> Python (for JSON)."""
+    if isinstance(obj, dict):
+        return {k: jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def _max_or_none(v: list) -> float | None:
+    v = [x for x in v if x is not None]
+    return max(v) if v else None
+
+
+def summarize(data: LogData, segments: list[Segment] | None = None,
+              delay_ticks: int = DEFAULT_DELAY_TICKS) -> dict[str, Any]:
+    """Everything summary.json holds."""
+    if segments is None:
+        segments = find_segments(data)
+    faults = 0
+    for f in data.faults[data.faults >= 0]:
+        faults |= int(f)
+    dfaults = []
+    for j in range(6):
+        bits = 0
+        for f in data.drive_faults[:, j][data.drive_faults[:, j] >= 0]:
+            bits |= int(f)
+        dfaults.append(pr.fault_names(bits, pr.DRIVE_FAULTS))
+    known = np.nonzero(data.state >= 0)[0]
+    final = data.state_name(int(known[-1])) if len(known) else None
+    visited = []
+    for s in data.state[data.state >= 0]:
+        name = STATES[int(s)] if 0 <= s < len(STATES) else str(int(s))
+        if not visited or visited[-1] != name:
+            visited.append(name)
+    segs = [segment_metrics(data, s, delay_ticks) for s in segments]
+    return {
+        "log": data.source,
+        "ticks": {"first": int(data.ticks[0]) if len(data) else None,
+                  "last": int(data.ticks[-1]) if len(data) else None, "rows": len(data)},
+        "duration_s": float((data.ticks[-1] - data.ticks[0] + 1) * TICK_S) if len(data) else 0.0,
+        "delay_ticks": int(delay_ticks),
+        "frames": data.stats.as_dict(),
+        "bad_frames": data.stats.bad_frames,
+        "malformed_lines": data.stats.malformed,
+        "faults_seen": pr.fault_names(faults, pr.CONTROLLER_FAULTS),
+        "drive_faults_seen": {f"leg{j + 1}": dfaults[j] for j in range(6) if dfaults[j]},
+        "final_state": final,
+        "states": visited,
+        "commands": [c.as_dict() for c in data.commands],
+        "truth": data.truth is not None,
+        "segments": segs,
+        "peak_force_ff_N": _max_or_none([_max_or_none(s["peak_force_ff_N"]) for s in segs]),
+        "peak_force_measured_N": _max_or_none([_max_or_none(s["peak_force_measured_N"]) for s in segs]),
+    }
+
+
+def format_value(v, spec=".3f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def format_summary(summary: Mapping[str, Any]) -> str:
+    """The printed human summary."""
+    fr = summary["frames"]
+    lines = [f"log {summary['log']}: ticks {summary['ticks']['first']}..{summary['ticks']['last']} "
+             f"({summary['duration_s']:.3f} s), final state {summary['final_state']}",
+             f"frames: {fr['frames']} read, {fr['accepted']} accepted, bad {summary['bad_frames']}"
+             + (f" ({', '.join(f'{k} {v}' for k, v in fr['rejected'].items())})" if fr["rejected"] else "")
+             + f", malformed lines {fr['malformed_lines']}, lost {fr['lost_frames']}"
+             + (f", unknown interface {fr['unknown_interface']}" if fr["unknown_interface"] else "")
+             + (f", stale feedback {fr['stale_feedback']}" if fr["stale_feedback"] else ""),
+             f"states: {' -> '.join(summary['states']) or '-'}; controller faults seen: "
+             f"{', '.join(summary['faults_seen']) or 'none'}"
+             + ("; drive faults: " + ", ".join(f"{k} {'+'.join(v)}" for k, v in
+                                                summary["drive_faults_seen"].items())
+                if summary["drive_faults_seen"] else ""),
+             f"tracking error = estimate(t) - reference(t - {summary['delay_ticks']} tick)"]
+    if fr["setpoint_checked"] and fr["setpoint_mismatch"]:
+        lines.append(f"WARNING: CTRL_MONITOR and AXIS_SETPOINTS length setpoints differ on "
+                     f"{fr['setpoint_mismatch']} of {fr['setpoint_checked']} ticks")
+    if not summary["segments"]:
+        lines.append("no RUNNING segment")
+    for s in summary["segments"]:
+        lines.append(f"segment {s['index']}: {s['label']}, ticks {s['start_tick']}..{s['end_tick']} "
+                     f"({s['duration_s']:.3f} s)")
+        me = s["moving_axis_error"]
+        if me is not None:
+            lines.append(f"  moving axis {s['axis']}: RMS {format_value(me['rms'])} {me['unit']}, "
+                         f"max {format_value(me['max'])} {me['unit']}")
+            if s.get("moving_axis_truth_error"):
+                te = s["moving_axis_truth_error"]
+                lines.append(f"  against truth:  RMS {format_value(te['rms'])} {te['unit']}, "
+                             f"max {format_value(te['max'])} {te['unit']}")
+        lines.append("  all axes RMS/max: " + "; ".join(
+            f"{a} {format_value(v['rms'])}/{format_value(v['max'])} {v['unit']}"
+            for a, v in s["error"].items()))
+        peak_ff = format_value(_max_or_none(s["peak_force_ff_N"]), ".0f")
+        peak_measured = format_value(_max_or_none(s["peak_force_measured_N"]), ".0f")
+        lines.append(f"  peak force: feed-forward {peak_ff} N, measured {peak_measured} N")
+    return "\n".join(lines)

@@ -1,0 +1,62 @@
+"""``analyze()``: everything ``stewart analyze`` does for one log. Reads the
+log (and the plant's truth), finds the segments, and writes signals.csv,
+summary.json and the plots of each segment."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .. import REPO_ROOT
+from .. import config as cfg
+from .csvout import write_signals_csv
+from .decode import LogData, read_log
+from .metrics import DEFAULT_DELAY_TICKS, jsonable, summarize
+from .plots import plot_cylinders, plot_tracking
+from .segments import Segment, find_segments
+from .truth import attach_truth, read_truth
+
+DEFAULT_PLATFORM = REPO_ROOT / "config" / "platform_default.json"
+
+
+@dataclass
+class Analysis:
+    """What :func:`analyze` returns."""
+
+    data: LogData
+    segments: list[Segment]
+    summary: dict[str, Any]
+    files: list[Path]
+
+
+def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
+            platform: str | Path | None = None, delay_ticks: int = DEFAULT_DELAY_TICKS,
+            buses: str | None = None, plots: bool = True) -> Analysis:
+    """Reads ``log`` (and ``truth``), writes signals.csv, summary.json and the
+    plots into ``out``; returns the data, segments, summary and files."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    plat = cfg.load(platform or DEFAULT_PLATFORM)
+    data = read_log(log, buses=buses, platform=plat)
+    if truth is not None:
+        t = read_truth(truth)
+        attach_truth(data, t)
+    segs = find_segments(data)
+    summary = summarize(data, segs, delay_ticks)
+    if truth is not None:
+        summary["truth_file"] = str(truth)
+        summary["truth_bad_rows"] = int(t["bad_rows"])
+    files = [out / "signals.csv", out / "summary.json"]
+    write_signals_csv(data, files[0])
+    if plots:
+        for s in segs:
+            p1 = out / f"seg{s.index}_tracking.png"
+            p2 = out / f"seg{s.index}_cylinders.png"
+            plot_tracking(data, s, p1, delay_ticks)
+            plot_cylinders(data, s, p2)
+            files += [p1, p2]
+    summary["files"] = [str(f) for f in files]
+    files[1].write_text(json.dumps(jsonable(summary), indent=1, allow_nan=False) + "\n")
+    return Analysis(data, segs, summary, files)
