@@ -5,6 +5,7 @@
 #include "sp/can.h"
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
+#include "sp/limits.h"
 #include "sp/platform.h"
 
 /* The fields of the row of member m of struct type t (used inside braces). */
