@@ -41,8 +41,6 @@ void sp_motion_at_rest(sp_motion_t *m, const sp_pose_t *pose)
     }
 }
 
-/* Quintic smoothstep at u (Q30, 0..1): E in Q30, E' = dE/du and
- * E'' = d2E/du2 in Q24 (their peaks, 1.875 and 5.77, exceed Q30's range). */
 /* floor(n / d) for d != 0 without a 64-bit library division when the
  * quotient fits 32 bits (the tick's cases); exactly n / d in every case. */
 static uint64_t udiv64(uint64_t n, uint32_t d)
@@ -53,6 +51,8 @@ static uint64_t udiv64(uint64_t n, uint32_t d)
     return n / d;
 }
 
+/* Quintic smoothstep at u (Q30, 0..1): E in Q30, E' = dE/du and
+ * E'' = d2E/du2 in Q24 (their peaks, 1.875 and 5.77, exceed Q30's range). */
 static void smoothstep(int32_t u, int32_t *e, int32_t *de, int32_t *dde)
 {
     int64_t one = INT64_C(1) << 30;
