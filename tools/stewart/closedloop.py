@@ -2,7 +2,7 @@
 simulated hexapod (``hs_sim``) over vcan, in lockstep.
 
 The plant is the time master: it runs a *scenario* (operator commands, waits
-for controller states, fault injections; see ``host_sim/app/hs_sim.c``),
+for controller states, fault injections; see ``host_sim/include/hs/scenario.h``),
 writes the CAN log of all three buses in simulated time (candump -L format)
 and a CSV of its true state. Runs are deterministic: the same scenario gives
 the same log, byte for byte.
