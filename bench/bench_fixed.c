@@ -10,7 +10,7 @@
 #include <time.h>
 
 #include "sp/fixed.h"
-#include "../tests/unit/test_util.h"
+#include "../tests/support/test_util.h"
 
 #define N_ACC 1000000
 #define N_TIME 20000000

@@ -15,7 +15,7 @@
 #include "sp/controller.h"
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
-#include "../tests/unit/test_util.h"
+#include "../tests/support/test_util.h"
 
 #define N_POSES 4096
 #define N_REPEAT 50

@@ -23,8 +23,10 @@
 
 #include <cmocka.h>
 
+#include "assert_near.h"
 #include "float_ref.h"
 #include "m4_vectors.h"
+#include "ref_model.h"
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
 
@@ -43,26 +45,6 @@ typedef struct {
     double force_excess; /* max of |error| - (abs + rel |F|): <= 0 when inside */
     double force_abs;
 } errors_t;
-
-static double q24(int32_t v)
-{
-    return (double)v / 16777216.0;
-}
-
-static double q30(int32_t v)
-{
-    return (double)v / 1073741824.0;
-}
-
-static double q8(int32_t v)
-{
-    return (double)v / 256.0;
-}
-
-static double max_d(double a, double b)
-{
-    return a > b ? a : b;
-}
 
 /* Compares the float reference on `fmotion` with the core on `motion`. */
 static void compare(const m4f_platform_t *fp, const sp_motion_t *motion, const m4f_motion_t *fmotion, errors_t *e)
@@ -86,18 +68,18 @@ static void compare(const m4f_platform_t *fp, const sp_motion_t *motion, const m
         float fc;
         sp_sincos_q24(motion->pose.rpy[c], &s, &co);
         m4f_sincos(fmotion->rpy[c], &fs, &fc);
-        e->trig = max_d(e->trig, fabs((double)fs - q30(s)));
-        e->trig = max_d(e->trig, fabs((double)fc - q30(co)));
+        e->trig = fmax(e->trig, fabs((double)fs - ref_f30(s)));
+        e->trig = fmax(e->trig, fabs((double)fc - ref_f30(co)));
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        double f = q8(force[i]);
+        double f = ref_f8(force[i]);
         double err = fabs((double)fforce[i] - f);
-        e->length = max_d(e->length, fabs((double)fik.length[i] - q24(ik.length[i])));
+        e->length = fmax(e->length, fabs((double)fik.length[i] - ref_f24(ik.length[i])));
         for (c = 0u; c < 3u; ++c) {
-            e->unit = max_d(e->unit, fabs((double)fik.unit[i][c] - q30(ik.unit[i][c])));
+            e->unit = fmax(e->unit, fabs((double)fik.unit[i][c] - ref_f30(ik.unit[i][c])));
         }
-        e->force_abs = max_d(e->force_abs, err);
-        e->force_excess = max_d(e->force_excess, err - (TOL_FORCE_ABS + TOL_FORCE_REL * fabs(f)));
+        e->force_abs = fmax(e->force_abs, err);
+        e->force_excess = fmax(e->force_excess, err - (TOL_FORCE_ABS + TOL_FORCE_REL * fabs(f)));
     }
 }
 
@@ -122,9 +104,9 @@ static void test_float_reference_matches_core(void **state)
     }
     print_message("float reference vs core over %u motions: sin/cos %.2e, length %.2e m, unit %.2e, force %.3f N\n",
                   N_MOTIONS, e.trig, e.length, e.unit, e.force_abs);
-    assert_true(e.trig <= TOL_TRIG);
-    assert_true(e.length <= TOL_LENGTH);
-    assert_true(e.unit <= TOL_UNIT);
+    assert_near(e.trig, 0.0, TOL_TRIG, "worst sin/cos error");
+    assert_near(e.length, 0.0, TOL_LENGTH, "worst length error (m)");
+    assert_near(e.unit, 0.0, TOL_UNIT, "worst unit vector error");
     assert_true(e.force_excess <= 0.0);
 }
 
@@ -163,11 +145,11 @@ static void test_sincos_all_quadrants(void **state)
         float s;
         float c;
         m4f_sincos(x, &s, &c);
-        worst = max_d(worst, fabs((double)s - sin((double)x)));
-        worst = max_d(worst, fabs((double)c - cos((double)x)));
+        worst = fmax(worst, fabs((double)s - sin((double)x)));
+        worst = fmax(worst, fabs((double)c - cos((double)x)));
     }
     print_message("float sincos on [-10, 10] rad: max error %.2e\n", worst);
-    assert_true(worst <= TOL_TRIG_WIDE);
+    assert_near(worst, 0.0, TOL_TRIG_WIDE, "worst sin/cos error against libm");
 }
 
 int main(void)

@@ -1,8 +1,8 @@
 /*
  * plant_test_util.h - helpers shared by the plant tests: analytic
  * multi-sine motions about a pose (with exact velocities and
- * accelerations), conversions to the firmware core's Q formats, and
- * orientation errors.
+ * accelerations), motions in the firmware core's Q formats (the
+ * conversions of tests/support/ref_model.h), and orientation errors.
  */
 #ifndef PLANT_TEST_UTIL_H
 #define PLANT_TEST_UTIL_H
@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "hs/kin.h"
+#include "ref_model.h"
 #include "sp/platform.h"
 
 #define PT_TWO_PI 6.283185307179586
@@ -34,26 +35,16 @@ static inline void pt_motion(const double centre[6], const pt_sines_t *m, double
     }
 }
 
-static inline int32_t pt_q24(double v)
-{
-    return (int32_t)llround(v * 16777216.0);
-}
-
-static inline double pt_f8(int32_t v)
-{
-    return (double)v / 256.0;
-}
-
 /** A motion sample in the firmware core's formats (sp_motion_t, Q24). */
 static inline void pt_to_sp_motion(const double pose[6], const double vel[6], const double acc[6], sp_motion_t *out)
 {
     for (int k = 0; k < 3; ++k) {
-        out->pose.pos[k] = pt_q24(pose[k]);
-        out->pose.rpy[k] = pt_q24(pose[3 + k]);
-        out->vel[k] = pt_q24(vel[k]);
-        out->rpy_rate[k] = pt_q24(vel[3 + k]);
-        out->acc[k] = pt_q24(acc[k]);
-        out->rpy_acc[k] = pt_q24(acc[3 + k]);
+        out->pose.pos[k] = ref_q24(pose[k]);
+        out->pose.rpy[k] = ref_q24(pose[3 + k]);
+        out->vel[k] = ref_q24(vel[k]);
+        out->rpy_rate[k] = ref_q24(vel[3 + k]);
+        out->acc[k] = ref_q24(acc[k]);
+        out->rpy_acc[k] = ref_q24(acc[3 + k]);
     }
 }
 

@@ -28,6 +28,7 @@
 
 #include "hs/kin.h"
 #include "hs/plant.h"
+#include "assert_near.h"
 #include "plant_test_util.h"
 
 #define DT 1e-3
@@ -214,7 +215,7 @@ static void test_end_stop_bit(void **state)
         pose[2] += (params.leg_length_max + 0.001 - len[0]) * len[0] / (pose[2] + 0.25);
     }
     hs_leg_lengths(&params, pose, len);
-    assert_true(fabs(len[0] - params.leg_length_max - 0.001) < 1e-6);
+    assert_near(len[0], params.leg_length_max + 0.001, 1e-6, "leg 0 length past its maximum (m)");
     assert_int_equal(hs_plant_init(&plant, &params, pose), HS_OK);
     assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
     for (int i = 0; i < HS_LEGS; ++i) {

@@ -36,6 +36,7 @@
 #include "hs/kin.h"
 #include "hs/plant.h"
 #include "hs/rig.h"
+#include "assert_near.h"
 #include "plant_test_util.h"
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
@@ -94,8 +95,10 @@ static void test_natural_frequency(void **state)
         double wm = measured_w(&p.cyl[0], strokes[n], masses[n]);
         printf("  stroke %.1f m, mass %4.0f kg: textbook %.2f Hz, step response %.2f Hz (%+.2f %%)\n", strokes[n],
                masses[n], wt / (2 * PI), wm / (2 * PI), 100.0 * (wm / wt - 1.0));
-        assert_true(fabs(wm / wt - 1.0) < 0.10);
-        assert_true(fabs(hs_cyl_natural_frequency(&p.cyl[0], strokes[n], masses[n]) / wt - 1.0) < 1e-12);
+        assert_near(wm / wt, 1.0, 0.10, "stroke %.1f m, mass %.0f kg: step response / textbook frequency", strokes[n],
+                    masses[n]);
+        assert_near(hs_cyl_natural_frequency(&p.cyl[0], strokes[n], masses[n]) / wt, 1.0, 1e-12,
+                    "stroke %.1f m, mass %.0f kg: hs_cyl_natural_frequency / textbook", strokes[n], masses[n]);
     }
 }
 
@@ -110,8 +113,9 @@ static void test_holding_pressures(void **state)
     for (int n = 0; n < 5; ++n) {
         double pa, pb;
         hs_cyl_holding_pressures(c, forces[n], &pa, &pb);
-        assert_true(fabs(pa * c->area_a - pb * c->area_b - forces[n]) < 1e-6 * (1.0 + fabs(forces[n])));
-        assert_true(fabs(pa + pb - c->supply_pressure - c->tank_pressure) < 1e-3);
+        assert_near(pa * c->area_a - pb * c->area_b, forces[n], 1e-6 * (1.0 + fabs(forces[n])), "holding force %d (N)",
+                    n);
+        assert_near(pa + pb, c->supply_pressure + c->tank_pressure, 1e-3, "holding force %d: p_A + p_B (Pa)", n);
         assert_true(pa >= c->tank_pressure && pa <= c->supply_pressure);
     }
     /* beyond what the supply can hold: clamped to the extreme pressures */
@@ -140,7 +144,7 @@ static void test_velocity_command(void **state)
             assert_int_equal(hs_rig_step(&rig, u, 1e-4), HS_OK);
         }
         printf("  velocity %+.2f m/s asked (command %+.4f): %+.4f m/s\n", v, u, rig.x[HS_RIG_RATE]);
-        assert_true(fabs(rig.x[HS_RIG_RATE] / v - 1.0) < 0.03);
+        assert_near(rig.x[HS_RIG_RATE] / v, 1.0, 0.03, "velocity %+.2f m/s: reached / asked", v);
     }
     assert_true(hs_cyl_velocity_command(&p.cyl[0], 0.0, 1000.0) == 0.0);
     /* more force than the supply gives in that direction: saturated */
@@ -168,15 +172,15 @@ static void test_end_stops(void **state)
         }
         if (k == 29999) {
             /* stalled at the top: full supply on A, tank on B */
-            assert_true(fabs(rig.x[HS_RIG_RATE]) < 1e-4);
-            assert_true(fabs(rig.x[HS_RIG_CYL] - c->supply_pressure) < 0.01e6);
-            assert_true(fabs(rig.x[HS_RIG_CYL + 1] - c->tank_pressure) < 0.01e6);
+            assert_near(rig.x[HS_RIG_RATE], 0.0, 1e-4, "stalled at the top: rate (m/s)");
+            assert_near(rig.x[HS_RIG_CYL], c->supply_pressure, 0.01e6, "stalled at the top: p_A (Pa)");
+            assert_near(rig.x[HS_RIG_CYL + 1], c->tank_pressure, 0.01e6, "stalled at the top: p_B (Pa)");
         }
     }
     printf("  full valve into the ends: stroke %.4f .. %.4f m (stroke %.2f m)\n", s_min, s_max, c->stroke);
     assert_true(s_max > c->stroke && s_max < c->stroke + 0.002);
     assert_true(s_min < 0.0 && s_min > -0.002);
-    assert_true(fabs(rig.x[HS_RIG_RATE]) < 1e-4);
+    assert_near(rig.x[HS_RIG_RATE], 0.0, 1e-4, "stalled at the bottom: rate (m/s)");
 }
 
 static void test_closed_loop_surge(void **state)
@@ -203,7 +207,7 @@ static void test_closed_loop_surge(void **state)
         assert_int_equal(sp_inverse_dynamics(&sp_platform_default, &mo, &ik, NULL, fq), SP_OK);
         for (int i = 0; i < HS_LEGS; ++i) {
             assert_int_equal(hs_plant_set_setpoint(&plant, i, ik.length[i] / 16777216.0, rate[i] / 16777216.0,
-                                                   pt_f8(fq[i]), HS_REQ_ACTIVE),
+                                                   ref_f8(fq[i]), HS_REQ_ACTIVE),
                              HS_OK);
         }
         assert_int_equal(hs_plant_step(&plant, 1e-3), HS_OK);

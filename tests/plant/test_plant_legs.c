@@ -46,6 +46,7 @@
 
 #include "hs/kin.h"
 #include "hs/plant.h"
+#include "assert_near.h"
 #include "plant_test_util.h"
 
 #define DT 1e-3
@@ -276,7 +277,7 @@ static void test_static_forces_free_body(void **state)
                n, vert, vert0, vert - vert0, expect, worst_f, worst_m);
         assert_true(worst_f < 1e-6);
         assert_true(worst_m < 1e-6);
-        assert_true(fabs((vert - vert0) - expect) < 1e-6);
+        assert_near(vert - vert0, expect, 1e-6, "pose %d: vertical force of the legs' mass (N)", n);
         assert_true(vert - vert0 > 0.5 * 6.0 * M_ROD * g); /* really changed */
     }
 }
@@ -311,7 +312,8 @@ static void test_point_masses_at_joints_are_rigid(void **state)
     assert_int_equal(hs_plant_init(&plant, &p, pose), HS_OK);
     assert_int_equal(hs_plant_init(&plant2, &q, pose), HS_OK);
     for (int i = 0; i < HS_LEGS; ++i) {
-        assert_true(fabs(plant.ideal_force[i] - plant2.ideal_force[i]) < 1e-7 * fabs(plant2.ideal_force[i]));
+        assert_near(plant.ideal_force[i], plant2.ideal_force[i], 1e-7 * fabs(plant2.ideal_force[i]),
+                    "leg %d: ideal force with rods vs rods in the platform (N)", i);
         f[i] = plant2.ideal_force[i] * (1.0 + 0.002 * (double)(i - 2));
     }
     hs_plant_set_actuation(&plant, HS_ACT_IDEAL);

@@ -51,6 +51,7 @@
 
 #include "hs/kin.h"
 #include "hs/plant.h"
+#include "assert_near.h"
 #include "plant_test_util.h"
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
@@ -91,7 +92,7 @@ static void run_ideal(const pt_sines_t *m, double seconds, double k, double c, t
         assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &mo.pose, &ik), SP_OK);
         assert_int_equal(sp_inverse_dynamics(&sp_platform_default, &mo, &ik, NULL, fq), SP_OK);
         for (int i = 0; i < HS_LEGS; ++i) {
-            force[i] = pt_f8(fq[i]);
+            force[i] = ref_f8(fq[i]);
             if (fabs(force[i]) > out->fmax) {
                 out->fmax = fabs(force[i]);
             }
@@ -214,7 +215,7 @@ static void test_open_loop_detects_wrong_inertia(void **state)
         assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &mo.pose, &ik), SP_OK);
         assert_int_equal(sp_inverse_dynamics(&sp_platform_default, &mo, &ik, NULL, fq), SP_OK);
         for (int i = 0; i < HS_LEGS; ++i) {
-            force[i] = pt_f8(fq[i]);
+            force[i] = ref_f8(fq[i]);
         }
         hs_plant_set_forces(&plant, force);
         assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
@@ -287,7 +288,7 @@ static void test_rest_ideal_static_forces(void **state)
         assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &mo.pose, &ik), SP_OK);
         assert_int_equal(sp_inverse_dynamics(&sp_platform_default, &mo, &ik, NULL, fq), SP_OK);
         for (int i = 0; i < HS_LEGS; ++i) {
-            f[i] = pt_f8(fq[i]);
+            f[i] = ref_f8(fq[i]);
         }
     }
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
@@ -379,7 +380,7 @@ static void test_rigid_body_laws(void **state)
         de = fmax(de, fabs(e.kinetic - e0.kinetic));
         hs_plant_state(&plant, &st);
         qn = st.quat[0] * st.quat[0] + st.quat[1] * st.quat[1] + st.quat[2] * st.quat[2] + st.quat[3] * st.quat[3];
-        assert_true(fabs(qn - 1.0) < 1e-12);
+        assert_near(qn, 1.0, 1e-12, "step %d: |q|^2", n);
     }
     printf("  free tumbling body, 10 s: angular momentum drift %.2e of %.1f N m s, energy drift %.2e of %.3f J\n", dh,
            hn, de, e0.kinetic);
@@ -410,9 +411,9 @@ static void test_rigid_body_laws(void **state)
         for (int k = 0; k < 3; ++k) {
             hs_state_t st;
             hs_plant_state(&plant, &st);
-            assert_true(fabs(p.mass * st.vel[k] - f[k] * t) < 1e-9 * fabs(f[k] * t));
-            assert_true(fabs(pose1[k] - pose0[k] - 0.5 * f[k] / p.mass * t * t) < 1e-12);
-            assert_true(fabs(h[k] - m[k] * t) < 1e-9 * 100.0);
+            assert_near(p.mass * st.vel[k], f[k] * t, 1e-9 * fabs(f[k] * t), "momentum %d (N s)", k);
+            assert_near(pose1[k] - pose0[k], 0.5 * f[k] / p.mass * t * t, 1e-12, "displacement %d (m)", k);
+            assert_near(h[k], m[k] * t, 1e-9 * 100.0, "angular momentum %d (N m s)", k);
         }
     }
 }
@@ -448,9 +449,10 @@ static void test_contact(void **state)
     hs_plant_pose(&plant, pose);
     printf("  resting on a plane: contact force %.2f N (weight %.2f N), sunk %.4f mm into it\n", st.contact_force[2],
            p.mass * p.gravity, (ct.offset - (pose[2] - 0.3)) * 1e3);
-    assert_true(fabs(st.contact_force[2] / (p.mass * p.gravity) - 1.0) < 1e-3);
-    assert_true(fabs(st.contact_force[0]) < 1e-6 && fabs(st.contact_force[1]) < 1e-6);
-    assert_true(fabs((ct.offset - (pose[2] - 0.3)) - p.mass * p.gravity / ct.stiffness) < 1e-6);
+    assert_near(st.contact_force[2] / (p.mass * p.gravity), 1.0, 1e-3, "contact force / weight");
+    assert_near(st.contact_force[0], 0.0, 1e-6, "contact force x (N)");
+    assert_near(st.contact_force[1], 0.0, 1e-6, "contact force y (N)");
+    assert_near(ct.offset - (pose[2] - 0.3), p.mass * p.gravity / ct.stiffness, 1e-6, "sunk into the plane (m)");
 
     /* Hydraulic mode (valves at null, no leakage) at that pose with the
      * contact carrying the weight: after hs_plant_rebalance the cylinders

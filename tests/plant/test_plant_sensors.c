@@ -32,6 +32,7 @@
 #include "hs/kin.h"
 #include "hs/plant.h"
 #include "hs/sensor.h"
+#include "assert_near.h"
 #include "plant_test_util.h"
 #include "sp/kinematics.h"
 
@@ -76,7 +77,7 @@ static void test_length_quantisation(void **state)
                 assert_int_equal(hs_plant_feedback(&plant, i, &fb), HS_OK);
                 assert_true(fb.length_counts == (int64_t)llround(len[i] / res));
                 assert_true(fb.length == (double)fb.length_counts * res);
-                assert_true(fabs(fb.length - len[i]) <= 0.5 * res * (1.0 + 1e-9));
+                assert_near(fb.length, len[i], 0.5 * res * (1.0 + 1e-9), "pose %d: leg %d measured length (m)", n, i);
                 assert_int_equal(fb.cycle, 0);
             }
         }
@@ -178,8 +179,8 @@ static void test_noise_statistics(void **state)
     expect = sqrt(p.sensors.pressure_noise * p.sensors.pressure_noise +
                   p.sensors.pressure_resolution * p.sensors.pressure_resolution / 12.0);
     printf("  pressure noise: mean %.1f Pa, sd %.1f Pa (expected %.1f Pa)\n", sum, sigma, expect);
-    assert_true(fabs(sum) < 4.0 * expect / sqrt(2.0 * cycles));
-    assert_true(fabs(sigma / expect - 1.0) < 0.03);
+    assert_near(sum, 0.0, 4.0 * expect / sqrt(2.0 * cycles), "pressure noise mean (Pa)");
+    assert_near(sigma / expect, 1.0, 0.03, "pressure noise sd / expected");
 }
 
 static void test_rng_gauss(void **state)
@@ -200,8 +201,8 @@ static void test_rng_gauss(void **state)
     s /= n;
     s2 = s2 / n - s * s;
     printf("  gauss: mean %.4f, variance %.4f, largest |x| %.3f\n", s, s2, mx);
-    assert_true(fabs(s) < 0.01);
-    assert_true(fabs(s2 - 1.0) < 0.01);
+    assert_near(s, 0.0, 0.01, "gauss mean");
+    assert_near(s2, 1.0, 0.01, "gauss variance");
     assert_true(mx <= 3.4642 && mx > 3.0);
     /* known first outputs for seed 0: the generator is pinned */
     hs_rng_seed(&r, 0);
@@ -230,31 +231,34 @@ static void test_generated_config(void **state)
     (void)state;
     for (int i = 0; i < HS_LEGS; ++i) {
         for (int k = 0; k < 3; ++k) {
-            assert_int_equal(sp->base_joint[i][k], pt_q24(c->base_joints[i][k]));
-            assert_int_equal(sp->platform_joint[i][k], pt_q24(c->platform_joints[i][k]));
+            assert_int_equal(sp->base_joint[i][k], ref_q24(c->base_joints[i][k]));
+            assert_int_equal(sp->platform_joint[i][k], ref_q24(c->platform_joints[i][k]));
         }
     }
     for (int r = 0; r < 3; ++r) {
         for (int k = 0; k < 3; ++k) {
             assert_int_equal(sp->inertia[r][k], (int32_t)llround(c->inertia[r][k] * 65536.0));
         }
-        assert_int_equal(sp->home.pos[r], pt_q24(c->home[r]));
-        assert_int_equal(sp->home.rpy[r], pt_q24(c->home[3 + r]));
+        assert_int_equal(sp->home.pos[r], ref_q24(c->home[r]));
+        assert_int_equal(sp->home.rpy[r], ref_q24(c->home[3 + r]));
     }
     assert_int_equal(sp->mass, (int32_t)llround(c->mass * 65536.0));
-    assert_int_equal(sp->gravity, pt_q24(c->gravity));
-    assert_int_equal(sp->leg_length_min, pt_q24(c->leg_length_min));
-    assert_int_equal(sp->leg_length_max, pt_q24(c->leg_length_max));
+    assert_int_equal(sp->gravity, ref_q24(c->gravity));
+    assert_int_equal(sp->leg_length_min, ref_q24(c->leg_length_min));
+    assert_int_equal(sp->leg_length_max, ref_q24(c->leg_length_max));
     assert_true(c->hydraulic.bulk_modulus > 0.0 && c->sensors.length_resolution > 0.0);
 
     assert_int_equal(hs_params_default(&p), HS_OK);
-    assert_true(fabs(p.cyl[0].area_a - PI / 4.0 * c->hydraulic.piston_diameter * c->hydraulic.piston_diameter) < 1e-15);
-    assert_true(fabs(p.cyl[0].area_b - PI / 4.0 *
-                                           (c->hydraulic.piston_diameter * c->hydraulic.piston_diameter -
-                                            c->hydraulic.rod_diameter * c->hydraulic.rod_diameter)) < 1e-15);
-    assert_true(fabs(p.cyl[0].valve_gain * sqrt(c->hydraulic.valve_rated_pressure_drop) -
-                     c->hydraulic.valve_rated_flow) < 1e-15);
-    assert_true(fabs(p.cyl[5].stroke - (c->leg_length_max - c->leg_length_min)) < 1e-15);
+    assert_near(p.cyl[0].area_a, PI / 4.0 * c->hydraulic.piston_diameter * c->hydraulic.piston_diameter, 1e-15,
+                "piston area (m^2)");
+    assert_near(p.cyl[0].area_b,
+                PI / 4.0 *
+                    (c->hydraulic.piston_diameter * c->hydraulic.piston_diameter -
+                     c->hydraulic.rod_diameter * c->hydraulic.rod_diameter),
+                1e-15, "annulus area (m^2)");
+    assert_near(p.cyl[0].valve_gain * sqrt(c->hydraulic.valve_rated_pressure_drop), c->hydraulic.valve_rated_flow,
+                1e-15, "valve rated flow (m^3/s)");
+    assert_near(p.cyl[5].stroke, c->leg_length_max - c->leg_length_min, 1e-15, "stroke (m)");
     assert_true(p.sensors.seed == c->sensors.seed);
     assert_int_equal(p.substeps, 10u);
     assert_int_equal(p.drive.timeout_cycles, 3u);
@@ -281,12 +285,12 @@ static void test_geometry(void **state)
         hs_rot_from_quat(q, rq);
         for (int i = 0; i < 3; ++i) {
             for (int k = 0; k < 3; ++k) {
-                assert_true(fabs(re[i][k] - rq[i][k]) < 1e-14);
+                assert_near(re[i][k], rq[i][k], 1e-14, "pose %d: R[%d][%d] from rpy vs from the quaternion", n, i, k);
             }
         }
         hs_rpy_from_rot(re, back);
         for (int k = 0; k < 3; ++k) {
-            assert_true(fabs(back[k] - pose[3 + k]) < 1e-12);
+            assert_near(back[k], pose[3 + k], 1e-12, "pose %d: angle %d back from R", n, k);
         }
         /* body rates: R^T dR/dt = [w]x, by central difference */
         {
@@ -308,18 +312,18 @@ static void test_geometry(void **state)
                 }
             }
             hs_body_rates(&pose[3], rates, w);
-            assert_true(fabs(m[2][1] - w[0]) < 1e-7);
-            assert_true(fabs(m[0][2] - w[1]) < 1e-7);
-            assert_true(fabs(m[1][0] - w[2]) < 1e-7);
+            assert_near(m[2][1], w[0], 1e-7, "pose %d: w x", n);
+            assert_near(m[0][2], w[1], 1e-7, "pose %d: w y", n);
+            assert_near(m[1][0], w[2], 1e-7, "pose %d: w z", n);
             assert_int_equal(hs_euler_rates(&pose[3], w, rates_back), HS_OK);
             for (int k = 0; k < 3; ++k) {
-                assert_true(fabs(rates_back[k] - rates[k]) < 1e-12);
+                assert_near(rates_back[k], rates[k], 1e-12, "pose %d: Euler rate %d back from w", n, k);
             }
         }
         /* leg lengths against the core */
         for (int k = 0; k < 3; ++k) {
-            spp.pos[k] = pt_q24(pose[k]);
-            spp.rpy[k] = pt_q24(pose[3 + k]);
+            spp.pos[k] = ref_q24(pose[k]);
+            spp.rpy[k] = ref_q24(pose[3 + k]);
         }
         assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &spp, &ik), SP_OK);
         {
@@ -331,7 +335,7 @@ static void test_geometry(void **state)
             hs_leg_lengths(&p, qpose, len);
         }
         for (int i = 0; i < HS_LEGS; ++i) {
-            assert_true(fabs(len[i] - ik.length[i] / 16777216.0) < 1e-7);
+            assert_near(len[i], ref_f24(ik.length[i]), 1e-7, "pose %d: leg %d, plant vs core (m)", n, i);
         }
         /* static forces balance gravity: sum of vertical components */
         assert_int_equal(hs_static_forces(&p, pose, NULL, NULL, f), HS_OK);
@@ -345,7 +349,7 @@ static void test_geometry(void **state)
                 }
                 fz += f[i] * l[2] / len[i];
             }
-            assert_true(fabs(fz - p.mass * p.gravity) < 1e-3);
+            assert_near(fz, p.mass * p.gravity, 1e-3, "pose %d: vertical static force (N)", n);
         }
     }
 }

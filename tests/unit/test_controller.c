@@ -16,6 +16,7 @@
 
 #include <cmocka.h>
 
+#include "assert_near.h"
 #include "sp/controller.h"
 
 static double f24(int32_t v)
@@ -103,8 +104,8 @@ static void test_engage_run_park(void **state)
     engage(&r);
     /* the estimate is home */
     for (int k = 0; k < 3; ++k) {
-        assert_true(fabs(f24(r.out.estimate.pos[k]) - f24(sp_platform_default.home.pos[k])) < 1e-6);
-        assert_true(fabs(f24(r.out.estimate.rpy[k]) - f24(sp_platform_default.home.rpy[k])) < 5e-6);
+        assert_near(f24(r.out.estimate.pos[k]), f24(sp_platform_default.home.pos[k]), 1e-6, "estimate pos[%d]", k);
+        assert_near(f24(r.out.estimate.rpy[k]), f24(sp_platform_default.home.rpy[k]), 5e-6, "estimate rpy[%d]", k);
     }
     /* the paper's surge: 90 mm, 0.5 Hz */
     r.in.cmd.axis = SP_AXIS_X;
@@ -130,19 +131,19 @@ static void test_engage_run_park(void **state)
         rig_tick(&r, SP_CMD_NONE);
         assert_int_equal(r.out.faults, 0u);
     }
-    assert_true(fabs(peak - 0.09) < 1e-4);
+    assert_near(peak, 0.09, 1e-4, "peak of the surge (m)");
     /* smooth: the jerk of 0.09 sin(pi t) is 0.09 pi^3 = 2.8 m/s^3; the fades add a little */
     assert_true(worst_jerk < 6.0);
     assert_true(worst_err < 0.09 * 3.14159265358979 * 1e-3 * 1.05);
     rig_tick(&r, SP_CMD_STOP);
     run_until(&r, SP_STATE_READY, 3000);
-    assert_true(fabs(f24(r.out.reference.pose.pos[0]) - f24(sp_platform_default.home.pos[0])) < 1e-6);
+    assert_near(f24(r.out.reference.pose.pos[0]), f24(sp_platform_default.home.pos[0]), 1e-6, "reference x after STOP");
     rig_tick(&r, SP_CMD_PARK);
     assert_int_equal(r.out.state, SP_STATE_PARKING);
     run_until(&r, SP_STATE_IDLE, 20000);
     assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
     for (int k = 0; k < 3; ++k) {
-        assert_true(fabs(f24(r.out.estimate.pos[k]) - f24(sp_platform_default.park.pos[k])) < 1e-6);
+        assert_near(f24(r.out.estimate.pos[k]), f24(sp_platform_default.park.pos[k]), 1e-6, "parked pos[%d]", k);
     }
     print_message("surge: peak %.6f m, worst jerk %.3f m/s^3, worst lag %.3g m\n", peak, worst_jerk, worst_err);
 }
@@ -275,7 +276,8 @@ static void test_move_and_stream(void **state)
     for (int n = 0; n < 3000; ++n) {
         rig_tick(&r, SP_CMD_NONE);
     }
-    assert_true(fabs(f24(r.out.reference.pose.pos[0]) - f24(sp_platform_default.home.pos[0]) - 0.05) < 1e-5);
+    assert_near(f24(r.out.reference.pose.pos[0]) - f24(sp_platform_default.home.pos[0]), 0.05, 1e-5,
+                "reference x after the streamed target (from home)");
     r.in.stream_target.pos[0] += q24(3.0);
     r.in.stream_fresh = 1u;
     rig_tick(&r, SP_CMD_NONE);
@@ -508,7 +510,7 @@ static void test_trig_generator(void **state)
         v = f24(m.vel[0]);
         a = f24(m.acc[0]);
         if (n > 0 && !g.finished) {
-            assert_true(fabs((x - prev_x) / 1e-3 - (v + prev_v) / 2) < 2e-4);
+            assert_near((x - prev_x) / 1e-3, (v + prev_v) / 2, 2e-4, "tick %d: velocity vs position difference", n);
             (void)a;
         }
         prev_x = x;

@@ -21,6 +21,7 @@
 
 #include <cmocka.h>
 
+#include "assert_near.h"
 #include "sp/fixed.h"
 #include "test_util.h"
 
@@ -146,8 +147,8 @@ static void test_mul(void **state)
         if (clamped) {
             assert_true((f & SP_FLAG_OVERFLOW) != 0u);
             assert_int_equal(got, exact > 0 ? INT32_MAX : INT32_MIN);
-        } else if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
-            fail_msg("mul(%ld, %ld, %u) = %ld, exact %.3Lf", (long)a, (long)b, s, (long)got, exact);
+        } else {
+            assert_near(got, exact, TOL_HALF_LSB, "mul(%ld, %ld, %u)", (long)a, (long)b, s);
         }
     }
     /* The Q wrappers keep their formats. */
@@ -186,9 +187,7 @@ static void test_div(void **state)
             assert_int_equal(got, exact > 0 ? INT32_MAX : INT32_MIN);
         } else {
             assert_true(f == 0u);
-            if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
-                fail_msg("div(%lld, %ld, %u) = %ld, exact %.3Lf", (long long)num, (long)den, s, (long)got, exact);
-            }
+            assert_near(got, exact, TOL_HALF_LSB, "div(%lld, %ld, %u)", (long long)num, (long)den, s);
         }
     }
     /* Extremes: a 64-bit numerator far too large saturates, it never wraps. */
@@ -284,9 +283,7 @@ static void test_sqrt_q24(void **state)
             continue;
         }
         assert_true(f == 0u);
-        if (fabsl((long double)got - sqrtl(TU_LDEXP(a, 24))) > TOL_HALF_LSB) {
-            fail_msg("sqrt_q24(%ld) = %ld", (long)a, (long)got);
-        }
+        assert_near(got, sqrtl(TU_LDEXP(a, 24)), TOL_HALF_LSB, "sqrt_q24(%ld)", (long)a);
     }
 }
 
@@ -315,16 +312,10 @@ static void test_sincos(void **state)
         x = TU_LDEXP(a, -24);
         es = fabsl((long double)s - TU_LDEXP(sinl(x), 30));
         ec = fabsl((long double)c - TU_LDEXP(cosl(x), 30));
-        if (es > worst) {
-            worst = es;
-        }
-        if (ec > worst) {
-            worst = ec;
-        }
-        if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
-            fail_msg("sincos(%ld): sin %ld (err %.2Lf LSB), cos %ld (err %.2Lf LSB)", (long)a, (long)s, es, (long)c,
-                     ec);
-        }
+        worst = (es > worst) ? es : worst;
+        worst = (ec > worst) ? ec : worst;
+        assert_near(s, TU_LDEXP(sinl(x), 30), TOL_SINCOS_LSB, "sin of %ld (LSB)", (long)a);
+        assert_near(c, TU_LDEXP(cosl(x), 30), TOL_SINCOS_LSB, "cos of %ld (LSB)", (long)a);
     }
     /* Around every odd multiple of pi/4 in the Q24 range, where the
      * quadrant's rounding may go either way, and the range ends: the
@@ -347,9 +338,8 @@ static void test_sincos(void **state)
             ec = fabsl((long double)c - TU_LDEXP(cosl(TU_LDEXP(a, -24)), 30));
             worst = (es > worst) ? es : worst;
             worst = (ec > worst) ? ec : worst;
-            if (es > TOL_SINCOS_LSB || ec > TOL_SINCOS_LSB) {
-                fail_msg("sincos(%ld): err %.2Lf, %.2Lf LSB", (long)a, es, ec);
-            }
+            assert_near(s, TU_LDEXP(sinl(TU_LDEXP(a, -24)), 30), TOL_SINCOS_LSB, "sin of %ld (LSB)", (long)a);
+            assert_near(c, TU_LDEXP(cosl(TU_LDEXP(a, -24)), 30), TOL_SINCOS_LSB, "cos of %ld (LSB)", (long)a);
         }
     }
     /* Either output may be omitted. */
@@ -380,8 +370,8 @@ static void test_dot3(void **state)
         if (clamped) {
             assert_true((f & SP_FLAG_OVERFLOW) != 0u);
             assert_int_equal(got, exact > 0 ? INT32_MAX : INT32_MIN);
-        } else if (fabsl((long double)got - exact) > TOL_HALF_LSB) {
-            fail_msg("dot3 shift %u = %ld, exact %.3Lf", s, (long)got, exact);
+        } else {
+            assert_near(got, exact, TOL_HALF_LSB, "dot3 shift %u", s);
         }
     }
 }

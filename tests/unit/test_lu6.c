@@ -1,16 +1,21 @@
 /*
- * test_lu6.c - the 6x6 factorisation's and solves' fast paths against
- * their fallbacks and references:
- *  - sp_lu6_factor against a plain reference elimination (row swaps,
- *    saturating subtraction on every entry, the same rounding): the same
- *    bits for matrices that take the unchecked 4a path (entries below 2),
- *    the unchecked 64-bit path (pivot rows up to 3.9) and the checked path
- *    (entries near 8), and SP_E_OVERFLOW where an entry saturates;
- *  - sp_lu6_solve (32-bit path) against the exact solution, and its int64
- *    fallback where an intermediate leaves the 32-bit range;
- *  - the 32-bit transposed solve (spi_lu6_solve_t32) against the exact
- *    solution and sp_lu6_solve_transposed, and its refusal (the int64
- *    fallback) when an intermediate leaves its range.
+ * test_lu6.c - the 6x6 factorisation and solves, every fast routine against
+ * one plain reference, on thousands of seeded random systems:
+ *  - sp_lu6_factor against ref_factor, the elimination as written before
+ *    the fast paths (row swaps, saturating subtraction on every entry, the
+ *    same rounding): the same bits for matrices that take the unchecked 4a
+ *    path (entries below 2), the unchecked 64-bit path (pivot rows up to
+ *    3.9) and the checked path (entries near 8), and SP_E_OVERFLOW where
+ *    an entry saturates;
+ *  - the solves with a factorisation, sp_lu6_solve (32-bit, its int64
+ *    fallback), sp_lu6_solve_transposed (int64) and the chord FK's 32-bit
+ *    spi_lu6_solve_t32, against ref_solve: substitution with the same
+ *    factors in long double, dividing by the pivots exactly (the bounds at
+ *    test_solves_reference); sp_solve6 is sp_lu6_factor + sp_lu6_solve bit
+ *    for bit; on well-conditioned matrices the solutions are within the
+ *    header's bounds of the exact solution of the unfactored system;
+ *  - the fallbacks (the int64 solve, the 32-bit transposed solve's
+ *    refusal) on systems built to need them, and the errors.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -24,6 +29,7 @@
 #include <cmocka.h>
 
 #include "../../firmware/core/src/core_internal.h"
+#include "assert_near.h"
 #include "sp/kinematics.h"
 #include "test_util.h"
 
@@ -176,163 +182,312 @@ static void test_factor_paths(void **state)
     check_factor(&m, 0);
 }
 
-/* The 32-bit transposed solve: within the int64 solve's bound of the exact
- * solution on well-conditioned matrices (|x| up to 1e5 or small residuals),
- * and refused (the caller falls back) when an intermediate leaves 2^29. */
-static void test_solve_t32(void **state)
+/* The plain reference of the solves: A x = b (transpose == 0) or
+ * A^T x = b (transpose != 0) for the factorised A = P^T L U of lu, by
+ * substitution in long double with L (Q30) and U (Q28) as stored and an
+ * exact division by each pivot: the exact solution of the system the
+ * factors represent (to long double). b and x in the same Q format. */
+static void ref_solve(const sp_lu6_t *lu, int transpose, const int64_t b[6], long double x[6])
 {
-    uint64_t rng = 37;
-    sp_jacobian_t m;
-    double md[6][6];
-    sp_lu6_t lu;
-    double worst = 0;
-    (void)state;
-    for (int n = 0; n < 2000; ++n) {
-        double xd[6];
-        int64_t b[6];
-        int64_t x[6];
-        int64_t x64[6];
-        double mag = (n & 1) ? 1e5 : 1e-3; /* forces or FK steps */
-        random_matrix(&rng, 1.0, n, &m, md);
-        for (int i = 0; i < 6; ++i) {
-            xd[i] = tu_uniform(&rng, -mag, mag);
-        }
-        for (int i = 0; i < 6; ++i) {
-            double s = 0;
-            for (int j = 0; j < 6; ++j) {
-                s += md[j][i] * xd[j];
-            }
-            b[i] = llround(s * Q24);
-        }
-        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
-        assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 1);
-        assert_int_equal(sp_lu6_solve_transposed(&lu, b, x64), SP_OK);
-        for (int i = 0; i < 6; ++i) {
-            /* 26 significant bits of max |b|, a few roundings */
-            double e = fabs((double)x[i] / Q24 - xd[i]);
-            double tol = 1e-7 * mag + 2e-7;
-            worst = e / mag > worst ? e / mag : worst;
-            if (e >= tol) {
-                fail_msg("t32 n=%d x[%d]=%.9f want %.9f", n, i, (double)x[i] / Q24, xd[i]);
-            }
-            assert_true(fabs((double)(x[i] - x64[i]) / Q24) < tol);
+    long double l[6][6], u[6][6], y[6];
+    for (int k = 0; k < 6; ++k) { /* row k of L and U: pivot row k, row perm[k] of lu->a */
+        for (int j = 0; j < 6; ++j) {
+            int32_t v = lu->a[lu->perm[k]][j];
+            l[k][j] = (j < k) ? (long double)v / (1 << 30) : (j == k) ? 1.0L : 0.0L;
+            u[k][j] = (j >= k) ? (long double)v / (1 << 28) : 0.0L;
         }
     }
-    print_message("t32: worst error %.3g of max |x|\n", worst);
-    /* growth: a small pivot makes y = 512 max |b| (> 2^29 at max |b| in
-     * [2^26, 2^27)): refused, x untouched; the int64 solve is exact */
-    {
-        int64_t b[6] = {0, 0, 0, 0, 0, 1000000};
-        int64_t x[6] = {7, 7, 7, 7, 7, 7};
-        int64_t x64[6];
-        memset(&m, 0, sizeof m);
-        for (int i = 0; i < 6; ++i) {
-            m.j[i][i] = 1 << 28;
+    if (!transpose) {
+        for (int k = 0; k < 6; ++k) { /* L y = P b */
+            y[k] = (long double)b[lu->perm[k]];
+            for (int j = 0; j < k; ++j) {
+                y[k] -= l[k][j] * y[j];
+            }
         }
-        m.j[5][5] = 1 << 19; /* 2^-9: x_5 = 512 b_5 */
-        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
-        assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
-        assert_true(x[0] == 7 && x[5] == 7);
-        assert_int_equal(sp_lu6_solve_transposed(&lu, b, x64), SP_OK);
-        assert_true(x64[5] == 512000000 && x64[0] == 0);
-        /* b = 0 and |b| >= 2^56 are refused too */
-        b[5] = 0;
-        assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
-        b[5] = (int64_t)1 << 56;
-        assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
+        for (int k = 5; k >= 0; --k) { /* U x = y */
+            x[k] = y[k];
+            for (int j = k + 1; j < 6; ++j) {
+                x[k] -= u[k][j] * x[j];
+            }
+            x[k] /= u[k][k];
+        }
+    } else {
+        long double v[6];
+        for (int k = 0; k < 6; ++k) { /* U^T y = b */
+            y[k] = (long double)b[k];
+            for (int j = 0; j < k; ++j) {
+                y[k] -= u[j][k] * y[j];
+            }
+            y[k] /= u[k][k];
+        }
+        for (int k = 5; k >= 0; --k) { /* L^T v = y */
+            v[k] = y[k];
+            for (int i = k + 1; i < 6; ++i) {
+                v[k] -= l[i][k] * v[i];
+            }
+        }
+        for (int k = 0; k < 6; ++k) { /* x = P^T v */
+            x[lu->perm[k]] = v[k];
+        }
     }
 }
 
-/* sp_lu6_solve: the 32-bit path within 3e-8 of max |x| of the exact
- * solution (x ~ b / 2 here: |x| up to 1e5, and small x), and the int64
- * fallback (exact here) when x would pass 2^29 at b's scale. */
-static void test_solve32(void **state)
+static long double max_abs_ld(const long double v[6])
+{
+    long double m = 0;
+    for (int i = 0; i < 6; ++i) {
+        m = fabsl(v[i]) > m ? fabsl(v[i]) : m;
+    }
+    return m;
+}
+
+static int64_t max_abs_i64(const int64_t v[6])
+{
+    int64_t m = 0;
+    for (int i = 0; i < 6; ++i) {
+        m = llabs(v[i]) > m ? llabs(v[i]) : m;
+    }
+    return m;
+}
+
+/* A random, well-conditioned system: a row permutation of a diagonally
+ * dominant matrix M (random_matrix at a scale s: a diagonal of 2 s, within
+ * 0.3 s; five more entries per row and column, each within 0.3 s) of one of
+ * three kinds (kind 0: s = 1; 1: s = 2.5, entries up to 5.75; 2: s = 0.25,
+ * 0.1 or 0.05, so that |x| grows to 2 to 20 max |b|: the solves'
+ * fallbacks), a solution xd of magnitude 1e-3 to 1e5, and, in Q24, b =
+ * round(A xd) and bt = round(A^T xd) for A = M (transpose == 0) or M^T.
+ * Returns a bound of ||A^-1|| and ||A^-T|| (infinity norm): 1 / (1.7 s -
+ * 1.5 s), the margin of the dominance (Varah's bound). */
+static double random_system(uint64_t *rng, int kind, int transpose, sp_jacobian_t *m, double xd[6], int64_t b[6],
+                            int64_t bt[6])
+{
+    static const double small[3] = {0.25, 0.1, 0.05};
+    double md[6][6];
+    double mag = exp(tu_uniform(rng, log(1e-3), log(1e5)));
+    double scale = (kind == 0) ? 1.0 : (kind == 1) ? 2.5 : small[tu_next(rng) % 3u];
+    random_matrix(rng, scale, (int)(tu_next(rng) % 6u), m, md);
+    for (int i = 0; i < 6; ++i) {
+        xd[i] = tu_uniform(rng, -mag, mag);
+    }
+    for (int i = 0; i < 6; ++i) {
+        long double s = 0, st = 0;
+        for (int j = 0; j < 6; ++j) {
+            s += (long double)(transpose ? md[j][i] : md[i][j]) * xd[j];
+            st += (long double)(transpose ? md[i][j] : md[j][i]) * xd[j];
+        }
+        b[i] = llroundl(s * Q24);
+        bt[i] = llroundl(st * Q24);
+    }
+    return 1.0 / (0.2 * scale);
+}
+
+/*
+ * Every solve against ref_solve on 8000 random systems (random_system's
+ * three kinds, either factorisation, |x| from 1e-3 to 1e5), in LSB of b's
+ * Q format. The solves' errors are roundings of b and of the
+ * intermediates, carried to x by A^-1 (at most g = ||A^-1|| times them),
+ * and the reciprocals' 2^-28 per pivot, relative to x: with B = max |b|
+ * 2^-28, X = max |x| 2^-28 (x the reference) and E = g (B + 1) + X:
+ *  - sp_lu6_solve: within E (its 32-bit path rounds b and each
+ *    intermediate to 29 significant bits of max |b|; the int64 fallback,
+ *    taken when x passes 2^29 at b's scale, rounds each product);
+ *  - sp_solve6 on the same matrix: sp_lu6_solve's bits;
+ *  - sp_lu6_solve_transposed (int64 throughout): within 2 E;
+ *  - spi_lu6_solve_t32, when it accepts (27 significant bits of max |b|):
+ *    within 4 E; when it refuses, x untouched.
+ * The measured worst cases are printed (about half the bound). On kind 0,
+ * both solutions are also within the headers' bounds of the exact solution
+ * xd of the unfactored systems: 3e-8 max |xd| + 1e-6 (sp_lu6_solve,
+ * sp_solve6) and 1e-8 max |xd| + 1e-6 (sp_lu6_solve_transposed); b itself
+ * is rounded to Q24 (6e-8).
+ */
+static void test_solves_reference(void **state)
 {
     uint64_t rng = 41;
-    sp_jacobian_t m;
-    double md[6][6];
-    sp_lu6_t lu;
-    double worst = 0;
+    double worst[4] = {0, 0, 0, 0}; /* error / bound: solve, transposed, t32, vs xd */
+    int fallback64 = 0;
+    int refused = 0;
     (void)state;
-    for (int n = 0; n < 2000; ++n) {
+    for (int n = 0; n < 8000; ++n) {
+        sp_jacobian_t m;
+        sp_lu6_t lu;
         double xd[6];
-        int64_t b[6];
-        int64_t x[6];
-        double mag = (n & 1) ? 1e5 : 1.0;
-        random_matrix(&rng, 1.0, n, &m, md);
-        for (int i = 0; i < 6; ++i) {
-            xd[i] = tu_uniform(&rng, -mag, mag);
-        }
-        for (int i = 0; i < 6; ++i) {
-            double s = 0;
-            for (int j = 0; j < 6; ++j) {
-                s += md[i][j] * xd[j];
-            }
-            b[i] = llround(s * Q24);
-        }
-        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+        int64_t b[6], bt[6], x[6], x6[6], xt[6], x32[6];
+        long double want[6], want_t[6];
+        int kind = n % 3;
+        int tr = (n / 3) & 1;
+        long double err, err_t, tol;
+        int e;
+        double g = random_system(&rng, kind, tr, &m, xd, b, bt);
+        assert_int_equal(sp_lu6_factor(&m, tr, &lu), SP_OK);
+        ref_solve(&lu, 0, b, want);
+        ref_solve(&lu, 1, bt, want_t);
+        err = g * (ldexpl((long double)max_abs_i64(b), -28) + 1) + ldexpl(max_abs_ld(want), -28);
+        err_t = g * (ldexpl((long double)max_abs_i64(bt), -28) + 1) + ldexpl(max_abs_ld(want_t), -28);
+        /* the 32-bit solve's scale: max |b| 2^e in [2^28, 2^29) */
+        e = 28 - (int)floorl(log2l((long double)max_abs_i64(b)));
+        fallback64 += ldexpl(max_abs_ld(want), e) >= 0x1p29L;
+
         assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+        assert_int_equal(sp_solve6(&m, tr, b, x6), SP_OK);
+        assert_memory_equal(x6, x, sizeof x);
+        assert_int_equal(sp_lu6_solve_transposed(&lu, bt, xt), SP_OK);
         for (int i = 0; i < 6; ++i) {
-            double e = fabs((double)x[i] / Q24 - xd[i]);
-            worst = e / mag > worst ? e / mag : worst;
-            if (e >= 3e-8 * mag + 1e-7) {
-                fail_msg("solve32 n=%d x[%d]=%.9f want %.9f", n, i, (double)x[i] / Q24, xd[i]);
+            x32[i] = INT64_C(0x7777777777777777);
+        }
+        if (spi_lu6_solve_t32(&lu, bt, x32)) {
+            for (int i = 0; i < 6; ++i) {
+                worst[2] = fmax(worst[2], (double)(fabsl(x32[i] - want_t[i]) / (4 * err_t)));
+                assert_near(x32[i], want_t[i], 4 * err_t, "system %d (kind %d): t32 x[%d]", n, kind, i);
+            }
+        } else {
+            ++refused;
+            for (int i = 0; i < 6; ++i) {
+                assert_true(x32[i] == INT64_C(0x7777777777777777));
+            }
+        }
+        for (int i = 0; i < 6; ++i) {
+            worst[0] = fmax(worst[0], (double)(fabsl(x[i] - want[i]) / err));
+            assert_near(x[i], want[i], err, "system %d (kind %d): x[%d]", n, kind, i);
+            worst[1] = fmax(worst[1], (double)(fabsl(xt[i] - want_t[i]) / (2 * err_t)));
+            assert_near(xt[i], want_t[i], 2 * err_t, "system %d (kind %d): transposed x[%d]", n, kind, i);
+        }
+        if (kind == 0) {
+            /* both against the exact solution xd of the unfactored systems */
+            double big = 0;
+            for (int i = 0; i < 6; ++i) {
+                big = fmax(big, fabs(xd[i]));
+            }
+            for (int i = 0; i < 6; ++i) {
+                tol = 3e-8 * big + 1e-6;
+                worst[3] = fmax(worst[3], fabs((double)x[i] / Q24 - xd[i]) / (double)tol);
+                assert_near((double)x[i] / Q24, xd[i], tol, "system %d: x[%d] vs the exact solution", n, i);
+                tol = 1e-8 * big + 1e-6;
+                worst[3] = fmax(worst[3], fabs((double)xt[i] / Q24 - xd[i]) / (double)tol);
+                assert_near((double)xt[i] / Q24, xd[i], tol, "system %d: transposed x[%d] vs the exact solution", n, i);
             }
         }
     }
-    print_message("solve: worst error %.3g of max |x|\n", worst);
-    {
-        /* x_5 = 512 b_5: x' = 512 max |b'| > 2^29, the int64 solve */
-        int64_t b[6] = {1000, -1000, 0, 0, 0, 1000000};
-        int64_t x[6];
-        memset(&m, 0, sizeof m);
-        for (int i = 0; i < 6; ++i) {
-            m.j[i][i] = 1 << 28;
-        }
-        m.j[5][5] = 1 << 19;
-        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
-        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
-        assert_true(x[0] == 1000 && x[1] == -1000 && x[2] == 0 && x[5] == 512000000);
-        /* growth in L: 1 on the diagonal, -1 below it: y_i = b_i + the
-         * y above, 2^i b for equal b: past 2^30 at b's 2^28 */
-        memset(&m, 0, sizeof m);
-        for (int i = 0; i < 6; ++i) {
-            m.j[i][i] = 1 << 28;
-            for (int j = 0; j < i; ++j) {
-                m.j[i][j] = -(1 << 28);
-            }
-        }
-        for (int i = 0; i < 6; ++i) {
-            b[i] = (int64_t)1 << 40;
-        }
-        assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
-        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
-        for (int i = 0; i < 6; ++i) {
-            /* the int64 solve: within 1e-8 (the reciprocals' 2^-28) */
-            double want = ldexp(1.0, 40 + i);
-            assert_true(fabs((double)x[i] - want) < 1e-8 * want);
-        }
-        /* b = 0: x = 0; |b| >= 2^56: SP_E_OVERFLOW, x zeroed */
-        memset(b, 0, sizeof b);
-        x[0] = 5;
-        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
-        assert_true(x[0] == 0 && x[5] == 0);
-        b[3] = -((int64_t)1 << 56);
-        x[0] = 5;
-        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_OVERFLOW);
-        assert_true(x[0] == 0 && x[3] == 0);
-        lu.valid = 0;
-        b[3] = 1;
-        assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_ARG);
+    print_message("solves vs ref_solve over 8000 systems, worst error / bound: solve %.2f, transposed %.2f, t32 %.2f; "
+                  "vs the exact solution %.2f; int64 fallback %d, t32 refused %d\n",
+                  worst[0], worst[1], worst[2], worst[3], fallback64, refused);
+    assert_true(fallback64 > 200 && refused > 200);
+}
+
+/* The fallbacks on systems built to need them: x_5 = 512 b_5 (x' = 512
+ * max |b'| > 2^29: sp_lu6_solve's int64 solve, exact here; the 32-bit
+ * transposed solve refuses, x untouched); growth in L (1 on the diagonal,
+ * -1 below it: y_i = 2^i b for equal b, past 2^30 at b's 2^28: the int64
+ * solve, within the reciprocals' 2^-28); b = 0 (x = 0; refused by the
+ * 32-bit transposed solve) and |b| >= 2^56 (SP_E_OVERFLOW, x zeroed;
+ * refused). */
+static void test_solve_fallbacks(void **state)
+{
+    sp_jacobian_t m;
+    sp_lu6_t lu;
+    int64_t b[6] = {1000, -1000, 0, 0, 0, 1000000};
+    int64_t x[6];
+    (void)state;
+    memset(&m, 0, sizeof m);
+    for (int i = 0; i < 6; ++i) {
+        m.j[i][i] = 1 << 28;
     }
+    m.j[5][5] = 1 << 19; /* 2^-9 */
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+    assert_true(x[0] == 1000 && x[1] == -1000 && x[2] == 0 && x[5] == 512000000);
+    for (int i = 0; i < 6; ++i) {
+        x[i] = 7;
+    }
+    assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
+    assert_true(x[0] == 7 && x[5] == 7);
+    assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_OK);
+    assert_true(x[5] == 512000000 && x[0] == 1000);
+
+    memset(&m, 0, sizeof m);
+    for (int i = 0; i < 6; ++i) {
+        m.j[i][i] = 1 << 28;
+        for (int j = 0; j < i; ++j) {
+            m.j[i][j] = -(1 << 28);
+        }
+        b[i] = (int64_t)1 << 40;
+    }
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+    for (int i = 0; i < 6; ++i) {
+        double want = ldexp(1.0, 40 + i);
+        assert_near(x[i], want, 1e-8 * want, "L growth: x[%d]", i);
+    }
+
+    memset(b, 0, sizeof b);
+    x[0] = 5;
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+    assert_true(x[0] == 0 && x[5] == 0);
+    x[0] = 5;
+    assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
+    assert_true(x[0] == 5);
+    b[3] = -((int64_t)1 << 56);
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_OVERFLOW);
+    assert_true(x[0] == 0 && x[3] == 0);
+    x[0] = 5;
+    assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
+    assert_true(x[0] == 5);
+}
+
+/* The errors: a singular matrix (two equal rows; all zero) gives
+ * SP_E_SINGULAR and an invalid factorisation, which the solves refuse
+ * (SP_E_ARG, x zeroed); |b| >= 2^56 gives SP_E_OVERFLOW with x zeroed;
+ * NULL gives SP_E_ARG. */
+static void test_solve_errors(void **state)
+{
+    uint64_t rng = 23;
+    sp_jacobian_t m;
+    sp_lu6_t lu;
+    double md[6][6];
+    int64_t b[6] = {1000, 1000, 1000, 1000, 1000, 1000};
+    int64_t x[6];
+    (void)state;
+    random_matrix(&rng, 1.0, 0, &m, md);
+    for (int j = 0; j < 6; ++j) {
+        m.j[5][j] = m.j[4][j];
+    }
+    assert_int_equal(sp_solve6(&m, 0, b, x), SP_E_SINGULAR);
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_E_SINGULAR);
+    assert_int_equal(lu.valid, 0);
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_E_ARG);
+    assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_E_ARG);
+    assert_true(x[0] == 0 && x[5] == 0);
+    memset(&m, 0, sizeof m);
+    assert_int_equal(sp_solve6(&m, 0, b, x), SP_E_SINGULAR);
+    assert_int_equal(sp_solve6(NULL, 0, b, x), SP_E_ARG);
+    assert_int_equal(sp_lu6_factor(NULL, 0, &lu), SP_E_ARG);
+    assert_int_equal(sp_lu6_solve(NULL, b, x), SP_E_ARG);
+    assert_int_equal(sp_lu6_solve_transposed(NULL, b, x), SP_E_ARG);
+
+    for (int i = 0; i < 6; ++i) {
+        m.j[i][i] = 1 << 28;
+    }
+    assert_int_equal(sp_solve6(&m, 0, b, x), SP_OK);
+    assert_true(x[0] == 1000 && x[5] == 1000);
+    b[3] = -((int64_t)1 << 56);
+    assert_int_equal(sp_solve6(&m, 0, b, x), SP_E_OVERFLOW);
+    assert_true(x[0] == 0 && x[3] == 0 && x[5] == 0);
+    assert_int_equal(sp_lu6_factor(&m, 1, &lu), SP_OK);
+    b[3] = 1000;
+    b[2] = (int64_t)1 << 56;
+    x[0] = 5;
+    assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_E_OVERFLOW);
+    assert_true(x[0] == 0 && x[2] == 0);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_factor_paths),
-        cmocka_unit_test(test_solve32),
-        cmocka_unit_test(test_solve_t32),
+        cmocka_unit_test(test_solves_reference),
+        cmocka_unit_test(test_solve_fallbacks),
+        cmocka_unit_test(test_solve_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

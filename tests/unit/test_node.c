@@ -15,6 +15,7 @@
 
 #include <cmocka.h>
 
+#include "assert_near.h"
 #include "sp/node.h"
 #include "test_util.h"
 
@@ -122,7 +123,8 @@ static void test_engage_run_park_over_frames(void **state)
         rig_tick(&r);
     }
     /* the estimate (from 1 um feedback) follows the reference */
-    assert_true(fabs((double)(r.node.out.estimate.pos[0] - r.node.out.reference.pose.pos[0]) / 16777216.0) < 5e-3);
+    assert_near((double)r.node.out.estimate.pos[0] / 16777216.0, (double)r.node.out.reference.pose.pos[0] / 16777216.0,
+                5e-3, "estimate x vs reference x (m)");
     send_command(&r, SP_CMD_PARK);
     run_until(&r, SP_STATE_IDLE, 20000u);
     assert_int_equal(r.node.out.faults, 0u);
@@ -252,7 +254,7 @@ static void test_drive_pressures_become_forces(void **state)
     double an = a - 3.14159265358979 * 0.056 * 0.056 / 4.0;
     double expect = 3e6 * a - 1e6 * an;
     rig_tick(&r);
-    assert_true(fabs((double)r.node.in.drive[2].force / 256.0 - expect) < 1.0);
+    assert_near((double)r.node.in.drive[2].force / 256.0, expect, 1.0, "drive 2 force (N)");
 }
 
 static void test_fuzz_receive_path(void **state)

@@ -1,7 +1,7 @@
 /*
- * test_util.h - shared helpers of the unit tests: a seeded, portable random
- * generator (so every run checks the same inputs and a failure can be
- * replayed) and conversions between Q formats and long double references.
+ * test_util.h - shared helpers of the C tests and benchmarks: a seeded,
+ * portable random generator (so every run checks the same inputs and a
+ * failure can be replayed) and TU_LDEXP for long double references.
  */
 #ifndef TEST_UTIL_H
 #define TEST_UTIL_H
