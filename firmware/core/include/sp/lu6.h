@@ -32,8 +32,8 @@ typedef struct {
  * b, x keeps as many relative to max |b|), with the int64 solve as its
  * fallback when an intermediate would leave its range: x is within a few
  * parts in 10^8 of max |b| of the exact solution for a well-conditioned M
- * (tests/unit/test_kinematics.c, test_solve6: below 1.5e-8 of max |x| for
- * |x| ~ |b| / 2).
+ * (tests/unit/test_lu6.c, test_solves_reference, against a plain long
+ * double solve).
  */
 #define SP_PIVOT_MIN ((int32_t)268435) /* 1e-3 in Q28 */
 sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
@@ -80,8 +80,8 @@ sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x
  * factorisation. Same formats, ranges and errors as sp_lu6_solve. Not
  * bit-identical to sp_solve6 on A^T: int64 intermediates throughout
  * (no 32-bit path), within a few parts in 10^9 of |x| of the exact
- * solution for a well-conditioned A (tests/unit/test_kinematics.c,
- * test_lu6).
+ * solution for a well-conditioned A (tests/unit/test_lu6.c,
+ * test_solves_reference).
  */
 sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
 
