@@ -102,6 +102,24 @@ int32_t sp_mul(int32_t a, int32_t b, unsigned shift, sp_flags_t *flags)
     return sp_sat32((shift == 0u) ? p : spi_round_away(p, (shift > 62u) ? 62u : shift), flags);
 }
 
+/* The magnitudes and the sign of a quotient num / den (sp_div, sp_div64),
+ * the shift capped at 62. Returns 0 (SP_FLAG_DOMAIN) when den is 0. */
+SPI_INLINE int div_operands(int64_t num, int32_t den, unsigned *shift, uint64_t *n, uint32_t *d, int *neg,
+                            sp_flags_t *flags)
+{
+    if (den == 0) {
+        set_flag(flags, SP_FLAG_DOMAIN);
+        return 0;
+    }
+    if (*shift > 62u) {
+        *shift = 62u;
+    }
+    *neg = ((num < 0) != (den < 0)) ? 1 : 0;
+    *n = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
+    *d = (den < 0) ? (uint32_t)0 - (uint32_t)den : (uint32_t)den;
+    return 1;
+}
+
 int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
 {
     uint64_t n;
@@ -109,16 +127,9 @@ int32_t sp_div(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     uint32_t q;
     int neg;
 
-    if (den == 0) {
-        set_flag(flags, SP_FLAG_DOMAIN);
+    if (!div_operands(num, den, &shift, &n, &d, &neg, flags)) {
         return 0;
     }
-    if (shift > 62u) {
-        shift = 62u;
-    }
-    neg = ((num < 0) != (den < 0)) ? 1 : 0;
-    n = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
-    d = (den < 0) ? (uint32_t)0 - (uint32_t)den : (uint32_t)den;
     if (n > (UINT64_C(0x7FFFFFFFFFFFFFFF) >> shift)) {
         /* n * 2^shift >= 2^63 and d <= 2^31: |quotient| >= 2^32. */
         set_flag(flags, SP_FLAG_OVERFLOW);
@@ -465,16 +476,9 @@ int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     unsigned i;
     int neg;
 
-    if (den == 0) {
-        set_flag(flags, SP_FLAG_DOMAIN);
+    if (!div_operands(num, den, &shift, &n, &d, &neg, flags)) {
         return 0;
     }
-    if (shift > 62u) {
-        shift = 62u;
-    }
-    neg = ((num < 0) != (den < 0)) ? 1 : 0;
-    n = (num < 0) ? (uint64_t)0 - (uint64_t)num : (uint64_t)num;
-    d = (den < 0) ? (uint32_t)0 - (uint32_t)den : (uint32_t)den;
     /* n / d in two 32-bit digits: the high digit by a 32/32 division, the
      * low one with the remainder in front (r < d: the quotient fits). */
     nh = (uint32_t)(n >> 32);
