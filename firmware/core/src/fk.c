@@ -145,56 +145,39 @@ static sp_status_t fk_newton(const sp_platform_t *platform, const sp_q24_t lengt
     return st;
 }
 
-/* The arguments of sp_forward_kinematics: SP_E_ARG when one is bad, after
- * resetting *info. */
-static sp_status_t fk_check(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
-                            const sp_fk_options_t *opt, const sp_pose_t *pose, sp_fk_info_t *info)
+/* sp_forward_kinematics into w (units as fk_newton): info (may be NULL)
+ * reset, the arguments checked (args_ok 0: the caller found a bad one of
+ * its own), then Newton. */
+static sp_status_t fk_run(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
+                          const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *w, int units, int args_ok,
+                          sp_fk_info_t *info)
 {
+    sp_fk_info_t local_info;
+    if (info == NULL) {
+        info = &local_info;
+    }
     info->iterations = 0u;
     info->residual = INT32_MAX;
-    if (platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL ||
+    if (!args_ok || platform == NULL || length == NULL || guess == NULL || opt == NULL || pose == NULL ||
         opt->max_iterations < 1u || opt->max_iterations > 20u || opt->tolerance < 0) {
         return SP_E_ARG;
     }
-    return SP_OK;
+    return fk_newton(platform, length, guess, opt, pose, w, units, info);
 }
 
 sp_status_t sp_forward_kinematics(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
                                   const sp_fk_options_t *opt, sp_pose_t *pose, sp_ik_t *ik, sp_fk_info_t *info)
 {
-    sp_fk_info_t local_info;
     sp_ik_t work;
-    sp_status_t st;
-
-    if (info == NULL) {
-        info = &local_info;
-    }
-    st = fk_check(platform, length, guess, opt, pose, info);
-    if (st != SP_OK) {
-        return st;
-    }
-    return fk_newton(platform, length, guess, opt, pose, (ik != NULL) ? ik : &work, ik != NULL, info);
+    return fk_run(platform, length, guess, opt, pose, (ik != NULL) ? ik : &work, ik != NULL, 1, info);
 }
 
 sp_status_t sp_fk_newton_cached(const sp_platform_t *platform, const sp_q24_t length[SP_LEGS], const sp_pose_t *guess,
                                 const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose, sp_fk_info_t *info)
 {
-    sp_fk_info_t local_info;
     sp_ik_t work;
-    sp_status_t st;
     unsigned i;
-
-    if (info == NULL) {
-        info = &local_info;
-    }
-    st = fk_check(platform, length, guess, opt, pose, info);
-    if (st == SP_OK && cache == NULL) {
-        st = SP_E_ARG;
-    }
-    if (st != SP_OK) {
-        return st;
-    }
-    st = fk_newton(platform, length, guess, opt, pose, &work, 0, info);
+    sp_status_t st = fk_run(platform, length, guess, opt, pose, &work, 0, cache != NULL, info);
     if (st == SP_OK) {
         for (i = 0u; i < SP_LEGS; ++i) {
             cache->length[i] = work.length[i];
