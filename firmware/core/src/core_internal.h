@@ -1,6 +1,7 @@
 /*
  * core_internal.h - functions shared between the core's source files
- * (kinematics.c, lu6.c, fk.c) that are not part of the public API.
+ * (kinematics.c, lu6.c, fk.c, limits.c) that are not part of the public
+ * API.
  */
 #ifndef SP_CORE_INTERNAL_H
 #define SP_CORE_INTERNAL_H

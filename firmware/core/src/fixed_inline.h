@@ -1,7 +1,6 @@
 /*
  * fixed_inline.h - private inline helpers of the fixed-point core (not part
- * of the public API; included by fixed.c, kinematics.c, dynamics.c and
- * trajectory.c only).
+ * of the public API; included by the core's own .c files only).
  *
  * They are the cheap building blocks on a Cortex-M4: a 32x32->64 multiply
  * (SMULL/UMULL), shifts, CLZ and the 32/32 hardware divide (UDIV). None of
