@@ -13,7 +13,9 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
 
 - ``base_joints``: six [x, y, z], base frame, origin at the base centroid, m
 - ``platform_joints``: six [x, y, z], motion frame, origin at o', m
-- ``mass`` (kg), ``inertia`` (3x3 about o' in the motion frame, kg m^2)
+- ``mass`` (kg), ``inertia`` (3x3 about the centre of mass, axes of the
+  motion frame, kg m^2), ``center_of_mass`` ([x, y, z] in the motion frame,
+  m; optional, default o' = [0, 0, 0])
 - ``gravity`` (m/s^2, optional, default 9.80665)
 - ``home``, ``park``: [x, y, z, roll, pitch, yaw]
 - ``leg_length_min``, ``leg_length_max`` (m, joint to joint)
@@ -21,7 +23,9 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
 - ``workspace``: {"min": [6], "max": [6]}, pose limits relative to home
 - ``hydraulic``, ``sensors``: plant parameters (host_sim), see config/README.md;
   ``hydraulic`` may add the optional leg masses ``cylinder_mass``,
-  ``cylinder_com``, ``rod_mass``, ``rod_com`` (absent = 0 = neglected)
+  ``cylinder_com``, ``rod_mass``, ``rod_com`` (absent = 0 = neglected);
+  the friction keys (``FRICTION_KEYS``) take one number for every cylinder
+  or a list of six, one per leg, and are normalised to lists of six
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ _Q24_MAX = 127.0          # m, rad (Q24 in int32 holds +-128)
 _MASS_MAX = 32767.0       # kg (Q16)
 _INERTIA_MAX = 32767.0    # kg m^2 (Q16)
 _FORCE_MAX = 8.0e6        # N (Q8)
+_COM_MAX = 2.0            # m: a centre of mass farther from o' is a config error
 
 HYDRAULIC_KEYS = {
     # key: (min exclusive or inclusive, max, description)
@@ -58,8 +63,6 @@ HYDRAULIC_KEYS = {
     "valve_natural_frequency": (1.0, 2000.0, "Hz"),
     "valve_damping": (0.05, 5.0, "-"),
     "leakage_coefficient": (0.0, 1e-8, "m^3/(s Pa)"),
-    "viscous_friction": (0.0, 1e7, "N s/m"),
-    "coulomb_friction": (0.0, 1e6, "N"),
     "end_cushion_length": (0.0, 0.5, "m"),
     "end_stop_stiffness": (1e3, 1e12, "N/m"),
     "end_stop_damping": (0.0, 1e10, "N s/m"),
@@ -74,6 +77,25 @@ HYDRAULIC_OPTIONAL_KEYS = {
     "cylinder_com": (0.0, _Q24_MAX, "m"),
     "rod_mass": (0.0, 1e4, "kg"),
     "rod_com": (0.0, _Q24_MAX, "m"),
+}
+
+# Friction per cylinder: one number for all six or a list of six (leg 1
+# first); ``Platform.hydraulic`` holds them as lists of six. The firmware
+# compensates viscous + smoothed Coulomb friction; the plant adds the
+# break-away (static) force with its Stribeck curve. breakaway_friction is
+# optional (absent = the Coulomb level: no stiction) and must not be below
+# coulomb_friction.
+FRICTION_KEYS = {
+    "viscous_friction": (0.0, 1e7, "N s/m"),
+    "coulomb_friction": (0.0, 1e6, "N"),
+}
+FRICTION_OPTIONAL_KEYS = {
+    "breakaway_friction": (0.0, 1e6, "N"),
+}
+# Optional scalars of the friction curves, with their defaults.
+FRICTION_SHAPE_KEYS = {
+    "coulomb_velocity": (1e-6, 1.0, "m/s", 1.0e-3),   # Coulomb smoothing: full level from |v| = this
+    "stribeck_velocity": (1e-6, 1.0, "m/s", 5.0e-3),  # decay of the break-away excess
 }
 
 SENSOR_KEYS = {
@@ -99,9 +121,10 @@ class Platform:
     leg_velocity_max: float
     workspace_min: list[float]
     workspace_max: list[float]
-    hydraulic: dict[str, float] = field(default_factory=dict)
+    hydraulic: dict = field(default_factory=dict)
     sensors: dict[str, float] = field(default_factory=dict)
     source: str = "<dict>"
+    center_of_mass: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -123,6 +146,13 @@ def _vector(where: str, v, n: int, lo=None, hi=None) -> list[float]:
     if not isinstance(v, list) or len(v) != n:
         raise ConfigError(f"{where}: expected a list of {n} numbers, got {json.dumps(v)[:60]}")
     return [_number(f"{where}[{i}]", x, lo, hi) for i, x in enumerate(v)]
+
+
+def _per_leg(where: str, v, lo=None, hi=None) -> list[float]:
+    """One number for every leg, or a list of LEGS numbers."""
+    if isinstance(v, list):
+        return _vector(where, v, LEGS, lo, hi)
+    return [_number(where, v, lo, hi)] * LEGS
 
 
 def _matrix(where: str, v, rows: int, cols: int, lo=None, hi=None) -> list[list[float]]:
@@ -196,6 +226,7 @@ def _from_dict(d) -> Platform:
     if ev[0] + ev[1] < ev[2] or ev[1] + ev[2] < ev[0] or ev[0] + ev[2] < ev[1]:
         raise ConfigError("inertia: diagonal violates the triangle inequality (not a rigid body)")
     gravity = _number("gravity", d.get("gravity", 9.80665), 0.0, 100.0)
+    com = _vector("center_of_mass", d.get("center_of_mass", [0.0, 0.0, 0.0]), 3, -_COM_MAX, _COM_MAX)
     home = _vector("home", _require(d, "home"), 6, -_Q24_MAX, _Q24_MAX)
     park = _vector("park", d.get("park", home), 6, -_Q24_MAX, _Q24_MAX)
     for k in range(3, 6):
@@ -230,6 +261,16 @@ def _from_dict(d) -> Platform:
             raise ConfigError("hydraulic.tank_pressure: must be below supply_pressure")
         for key, (lo, hi, _unit) in HYDRAULIC_OPTIONAL_KEYS.items():
             hyd[key] = _number(f"hydraulic.{key}", h.get(key, 0.0), lo, hi)
+        for key, (lo, hi, _unit) in FRICTION_KEYS.items():
+            hyd[key] = _per_leg(f"hydraulic.{key}", _require(h, key, "hydraulic."), lo, hi)
+        for key, (lo, hi, _unit) in FRICTION_OPTIONAL_KEYS.items():
+            hyd[key] = _per_leg(f"hydraulic.{key}", h.get(key, hyd["coulomb_friction"]), lo, hi)
+        for i, (fs, fc) in enumerate(zip(hyd["breakaway_friction"], hyd["coulomb_friction"])):
+            if fs < fc:
+                raise ConfigError(f"hydraulic.breakaway_friction: leg {i + 1}: {fs:g} N is below "
+                                  f"its coulomb_friction {fc:g} N")
+        for key, (lo, hi, _unit, default) in FRICTION_SHAPE_KEYS.items():
+            hyd[key] = _number(f"hydraulic.{key}", h.get(key, default), lo, hi)
         for key in ("cylinder_com", "rod_com"):
             if hyd[key] > lmax:
                 raise ConfigError(f"hydraulic.{key}: {hyd[key]:g} m is beyond leg_length_max {lmax:g}")
@@ -245,7 +286,7 @@ def _from_dict(d) -> Platform:
             raise ConfigError("sensors.seed: expected a non-negative integer")
         sens["seed"] = seed
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
-                 wmin, wmax, hyd, sens)
+                 wmin, wmax, hyd, sens, center_of_mass=com)
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:
