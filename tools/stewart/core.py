@@ -65,6 +65,11 @@ class PlatformStruct(C.Structure):
         ("workspace_max", Pose),
         ("piston_area", I32),
         ("annulus_area", I32),
+        ("center_of_mass", V3),
+        ("leg_mass", I32 * 4),
+        ("viscous_friction", I32 * LEGS),
+        ("coulomb_friction", I32 * LEGS),
+        ("coulomb_velocity", I32),
     ]
 
 
@@ -291,6 +296,14 @@ def platform_struct(platform) -> PlatformStruct:
     s.leg_velocity_max = ints["leg_velocity_max"]
     s.piston_area = ints["piston_area"]
     s.annulus_area = ints["annulus_area"]
+    for k in range(3):
+        s.center_of_mass[k] = ints["center_of_mass"][k]
+    for k, key in enumerate(("cylinder_mass", "cylinder_com", "rod_mass", "rod_com")):
+        s.leg_mass[k] = ints["leg_mass"][key]
+    for i in range(LEGS):
+        s.viscous_friction[i] = ints["viscous_friction"][i]
+        s.coulomb_friction[i] = ints["coulomb_friction"][i]
+    s.coulomb_velocity = ints["coulomb_velocity"]
     return s
 
 

@@ -36,6 +36,11 @@ static const sp_abi_member_t sp_abi_table[] = {
     {SP_ABI_ROW(sp_platform_t, workspace_max)},
     {SP_ABI_ROW(sp_platform_t, piston_area)},
     {SP_ABI_ROW(sp_platform_t, annulus_area)},
+    {SP_ABI_ROW(sp_platform_t, center_of_mass)},
+    {SP_ABI_ROW(sp_platform_t, leg_mass)},
+    {SP_ABI_ROW(sp_platform_t, viscous_friction)},
+    {SP_ABI_ROW(sp_platform_t, coulomb_friction)},
+    {SP_ABI_ROW(sp_platform_t, coulomb_velocity)},
 
     {SP_ABI_ROW(sp_rot_t, t)},
 

@@ -54,6 +54,163 @@ SPI_INLINE int64_t mul_split_up(int64_t x, int32_t w, unsigned s)
     return (int64_t)xh * w + (((int64_t)xl * w + (INT64_C(1) << (s - 1u))) >> s);
 }
 
+/* round(a b / 2^s) (ties up) narrowed to int32, saturating and flagging:
+ * one SMULL, one add, the range test and a shift. */
+SPI_INLINE int32_t qmul(int32_t a, int32_t b, unsigned s, sp_flags_t *flags)
+{
+    return spi_narrow_floor((int64_t)a * b + (INT64_C(1) << (s - 1u)), s, flags);
+}
+
+/* a x b >> 24 (Q24 x Qn -> Qn), narrowed (flags on saturation). */
+static void cross24(const sp_q24_t a[3], const int32_t b[3], int32_t out[3], sp_flags_t *flags)
+{
+    out[0] = spi_narrow_floor((int64_t)a[1] * b[2] - (int64_t)a[2] * b[1] + (INT64_C(1) << 23), 24u, flags);
+    out[1] = spi_narrow_floor((int64_t)a[2] * b[0] - (int64_t)a[0] * b[2] + (INT64_C(1) << 23), 24u, flags);
+    out[2] = spi_narrow_floor((int64_t)a[0] * b[1] - (int64_t)a[1] * b[0] + (INT64_C(1) << 23), 24u, flags);
+}
+
+/* (R v)_k = sum_c T[c][k] v_c (motion frame -> base frame), Q30 x Qn -> Qn. */
+static void to_base(const sp_rot_t *rot, const int32_t v[3], int32_t out[3], sp_flags_t *flags)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        out[k] = spi_narrow_floor((int64_t)rot->t[0][k] * v[0] + (int64_t)rot->t[1][k] * v[1] +
+                                      (int64_t)rot->t[2][k] * v[2] + (INT64_C(1) << 29),
+                                  30u, flags);
+    }
+}
+
+/* The centre of mass c off o' (motion frame). About o', the platform then
+ * needs besides eqs (7) and (15) the force m R (w' x c + w x (w x c)) (base
+ * frame) and the body-frame moment m c x T (a + g e_z): the inertia of the
+ * offset mass as o' accelerates, and the moment of its weight. Adds the
+ * force to b[0..2] (N, Q24) and the moment to torque_body (N m, Q24). */
+static void com_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t w[3],
+                      const sp_q24_t wd[3], int64_t b[SP_LEGS], int64_t torque_body[3], sp_flags_t *flags)
+{
+    sp_q16_t mc[3]; /* first moment m c, kg m, Q16 */
+    sp_q16_t wc[3]; /* w x m c, kg m/s, Q16 */
+    sp_q16_t kb[3]; /* w' x m c + w x (w x m c), body frame, N, Q16 */
+    sp_q16_t t[3];
+    sp_q16_t kbase[3];
+    sp_q24_t ab[3]; /* T (a + g e_z), body frame, m/s^2, Q24 */
+    int64_t gz = (int64_t)m->acc[2] + p->gravity;
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        mc[k] = qmul(p->mass, p->center_of_mass[k], 24u, flags);
+    }
+    cross24(w, mc, wc, flags);
+    cross24(wd, mc, kb, flags);
+    cross24(w, wc, t, flags);
+    for (k = 0u; k < 3u; ++k) {
+        int64_t acc = (int64_t)ik->rot.t[k][0] * m->acc[0] + (int64_t)ik->rot.t[k][1] * m->acc[1];
+        kb[k] = spi_sat((int64_t)kb[k] + t[k], flags);
+        ab[k] = spi_narrow_floor(acc + (int64_t)ik->rot.t[k][2] * gz + (INT64_C(1) << 29), 30u, flags);
+    }
+    to_base(&ik->rot, kb, kbase, flags);
+    for (k = 0u; k < 3u; ++k) {
+        b[k] += (int64_t)kbase[k] * 256; /* Q16 -> Q24 */
+    }
+    /* m c x T (a + g e_z): Q16 x Q24 = Q40 -> Q24 */
+    torque_body[0] += spi_round_up((int64_t)mc[1] * ab[2] - (int64_t)mc[2] * ab[1], 16u);
+    torque_body[1] += spi_round_up((int64_t)mc[2] * ab[0] - (int64_t)mc[0] * ab[2], 16u);
+    torque_body[2] += spi_round_up((int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0], 16u);
+}
+
+/*
+ * Leg masses (sp_leg_mass_t; docs/model.md "Leg masses"). Leg i, of unit
+ * vector u, length L and rate L', with platform joint A (arm r from o',
+ * velocity v_A, acceleration a_A), acts on the platform with its cylinder
+ * force F_i u minus
+ *   h_i = mu a_A + c1 v_A + (0, 0, k_g g) + s_i u,
+ *   mu  = (m_c d_c^2 + m_r (L - d_r)^2) / L^2     (transverse inertia at A)
+ *   k_g = (m_c d_c + m_r (L - d_r)) / L           (weight carried at A)
+ *   c1  = -2 L' (m_c d_c^2 - m_r d_r (L - d_r)) / L^3
+ *   s_i = m_r (u.a_A + g u_z + d_r |u'|^2) - mu u.a_A - k_g g u_z - c1 L',
+ * with |u'|^2 = (|v_A|^2 - L'^2) / L^2 (moment balance of the leg about its
+ * base joint, and the rod's balance along its axis). The parts along u add
+ * to F_i directly (s_i); the rest adds its wrench about o' to b. This
+ * function adds sum_i (h_i - s_i u) and sum_i r_i x (h_i - s_i u) to b
+ * (N, N m, Q24) and returns s_i in axial (N, Q16). w, wd: the body rates.
+ */
+static void leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t w[3],
+                      const sp_q24_t wd[3], int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_flags_t *flags)
+{
+    const sp_leg_mass_t *lm = &p->leg_mass;
+    sp_q24_t wb[3];              /* angular velocity, base frame, rad/s, Q24 */
+    sp_q24_t ab[3];              /* angular acceleration, base frame, rad/s^2, Q24 */
+    int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
+    int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
+    sp_q16_t mcdc = qmul(lm->cylinder_mass, lm->cylinder_com, 24u, flags); /* kg m */
+    sp_q16_t mcdc2 = qmul(mcdc, lm->cylinder_com, 24u, flags);             /* kg m^2 */
+    unsigned i;
+    unsigned k;
+
+    to_base(&ik->rot, w, wb, flags);
+    to_base(&ik->rot, wd, ab, flags);
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        const sp_q30_t *u = ik->unit[i];
+        sp_q24_t wr[3], va[3], aa[3], t[3];
+        sp_q24_t ld, ua, vv, uzg, lr, acc_term;
+        sp_q30_t inv, inv2;
+        sp_q16_t mrlr, mu, kgm, c1, bq, hw[3];
+        unsigned sh;
+
+        /* 1/L in Q30 needs L > 0.5 m (a leg that short is flagged) */
+        if (ik->length[i] <= (INT32_C(1) << 23)) {
+            *flags |= SP_FLAG_OVERFLOW;
+            return;
+        }
+        cross24(wb, r, wr, flags);
+        cross24(ab, r, aa, flags);
+        cross24(wb, wr, t, flags);
+        for (k = 0u; k < 3u; ++k) {
+            va[k] = spi_sat((int64_t)m->vel[k] + wr[k], flags);
+            aa[k] = spi_sat((int64_t)m->acc[k] + aa[k] + t[k], flags);
+        }
+        ld = spi_narrow_floor(
+            (int64_t)u[0] * va[0] + (int64_t)u[1] * va[1] + (int64_t)u[2] * va[2] + (INT64_C(1) << 29), 30u, flags);
+        ua = spi_narrow_floor(
+            (int64_t)u[0] * aa[0] + (int64_t)u[1] * aa[1] + (int64_t)u[2] * aa[2] + (INT64_C(1) << 29), 30u, flags);
+        vv = spi_narrow_floor((int64_t)va[0] * va[0] + (int64_t)va[1] * va[1] + (int64_t)va[2] * va[2] -
+                                  (int64_t)ld * ld + (INT64_C(1) << 23),
+                              24u, flags);
+        if (vv < 0) {
+            vv = 0; /* |v_A|^2 >= L'^2 up to rounding */
+        }
+        inv = spi_recip((uint32_t)ik->length[i], &sh); /* 1/L = inv / 2^sh, sh in [54, 61] */
+        inv >>= (sh - 54u);                            /* Q30 */
+        inv2 = qmul(inv, inv, 30u, flags);
+        uzg = qmul(p->gravity, u[2], 30u, flags);
+        lr = spi_sat((int64_t)ik->length[i] - lm->rod_com, flags);
+        mrlr = qmul(lm->rod_mass, lr, 24u, flags);
+        mu = qmul(spi_sat((int64_t)mcdc2 + qmul(mrlr, lr, 24u, flags), flags), inv2, 30u, flags);
+        kgm = qmul(spi_sat((int64_t)mcdc + mrlr, flags), inv, 30u, flags);
+        bq = spi_sat((int64_t)mcdc2 - qmul(mrlr, lm->rod_com, 24u, flags), flags);
+        c1 = -qmul(qmul(qmul(bq, inv2, 30u, flags), inv, 30u, flags), ld, 23u, flags); /* -2 (B / L^3) L' */
+        acc_term = spi_sat((int64_t)ua + uzg + qmul(qmul(lm->rod_com, vv, 24u, flags), inv2, 30u, flags), flags);
+        axial[i] = spi_narrow_floor((int64_t)lm->rod_mass * acc_term - (int64_t)mu * ua - (int64_t)kgm * uzg -
+                                        (int64_t)c1 * ld + (INT64_C(1) << 23),
+                                    24u, flags);
+        for (k = 0u; k < 3u; ++k) {
+            int64_t v = (int64_t)mu * aa[k] + (int64_t)c1 * va[k];
+            if (k == 2u) {
+                v += (int64_t)kgm * p->gravity;
+            }
+            hw[k] = spi_narrow_floor(v + (INT64_C(1) << 23), 24u, flags);
+            fsum[k] += hw[k];
+        }
+        msum[0] += (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
+        msum[1] += (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
+        msum[2] += (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
+    }
+    for (k = 0u; k < 3u; ++k) {
+        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
+        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
+    }
+}
+
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                 const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS])
 {
@@ -73,9 +230,11 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     int64_t torque_body[3];
     int64_t b[SP_LEGS];
     int64_t f[SP_LEGS];
+    sp_q16_t axial[SP_LEGS] = {0, 0, 0, 0, 0, 0};
     sp_status_t st;
     unsigned k;
     int ovf = 0;
+    int legs_on;
 
     if (force == NULL || lu == NULL) {
         return SP_E_ARG;
@@ -87,6 +246,11 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     if (platform == NULL || motion == NULL || ik == NULL) {
         return SP_E_ARG;
     }
+    if (platform->leg_mass.cylinder_mass < 0 || platform->leg_mass.rod_mass < 0 ||
+        platform->leg_mass.cylinder_com < 0 || platform->leg_mass.rod_com < 0) {
+        return SP_E_ARG;
+    }
+    legs_on = (platform->leg_mass.cylinder_mass != 0 || platform->leg_mass.rod_mass != 0);
     st = sp_body_rates_sc(ik->sc, motion->rpy_rate, motion->rpy_acc, omega, omega_dot);
     if (st != SP_OK) {
         return st;
@@ -113,13 +277,19 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     torque_body[0] = i_wdot[0] + (mul_split_up(h[2], omega[1], 24u) - mul_split_up(h[1], omega[2], 24u));
     torque_body[1] = i_wdot[1] + (mul_split_up(h[0], omega[2], 24u) - mul_split_up(h[2], omega[0], 24u));
     torque_body[2] = i_wdot[2] + (mul_split_up(h[1], omega[0], 24u) - mul_split_up(h[0], omega[1], 24u));
+    if ((platform->center_of_mass[0] | platform->center_of_mass[1] | platform->center_of_mass[2]) != 0) {
+        com_terms(platform, ik, motion, omega, omega_dot, b, torque_body, &flags);
+    }
     for (k = 0u; k < 3u; ++k) {
         /* (R tau)_k = sum_c R[k][c] tau_c = sum_c T[c][k] tau_c */
         b[3u + k] = mul_split_up(torque_body[0], ik->rot.t[0][k], 30u) +
                     mul_split_up(torque_body[1], ik->rot.t[1][k], 30u) +
                     mul_split_up(torque_body[2], ik->rot.t[2][k], 30u);
     }
-    if (ovf) {
+    if (legs_on) {
+        leg_terms(platform, ik, motion, omega, omega_dot, b, axial, &flags);
+    }
+    if (ovf || flags != 0u) {
         return SP_E_OVERFLOW;
     }
     st = sp_jacobian(ik, &jac);
@@ -139,7 +309,8 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
         return st;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        force[k] = spi_narrow_away(f[k], 16u, &flags); /* Q24 -> Q8 */
+        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
+        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, &flags);
     }
     if (flags != 0u) {
         for (k = 0u; k < SP_LEGS; ++k) {

@@ -32,12 +32,24 @@ typedef struct {
     sp_q24_t rpy_acc[3];  /**< d2(roll, pitch, yaw)/dt2, rad/s^2, Q24 */
 } sp_motion_t;
 
+/** The mass of one leg as two point masses on its axis: the barrel, pivoting
+ *  about the base joint, and the rod with its piston, sliding in it and
+ *  pivoting with it (sp_inverse_dynamics). All zero: massless legs, as in
+ *  the paper. */
+typedef struct {
+    sp_q16_t cylinder_mass; /**< barrel, kg, Q16 */
+    sp_q24_t cylinder_com;  /**< barrel's centre from the base joint along the leg, m, Q24 */
+    sp_q16_t rod_mass;      /**< rod and piston, kg, Q16 */
+    sp_q24_t rod_com;       /**< rod's centre from the platform joint towards the base, m, Q24 */
+} sp_leg_mass_t;
+
 /** Geometry, inertia and limits of one 6-6 platform. */
 typedef struct {
     sp_q24_t base_joint[SP_LEGS][3];     /**< B_i, base frame, m, Q24 */
     sp_q24_t platform_joint[SP_LEGS][3]; /**< A_im, motion frame, m, Q24 */
     sp_q16_t mass;                       /**< moving mass, kg, Q16 (< 32768 kg) */
-    sp_q16_t inertia[3][3];              /**< about o', motion frame, kg m^2, Q16 */
+    sp_q16_t inertia[3][3];              /**< about o' (not the centre of mass), motion frame, kg m^2, Q16 */
+    sp_q24_t center_of_mass[3];          /**< centre of the moving mass, motion frame, m, Q24 */
     sp_q24_t gravity;                    /**< g along -z of the base frame, m/s^2, Q24 */
     sp_pose_t home;                      /**< neutral pose */
     sp_pose_t park;                      /**< parked pose */
@@ -49,6 +61,10 @@ typedef struct {
     sp_pose_t workspace_max;             /**< pose limits relative to home, m / rad, Q24 */
     sp_q30_t piston_area;                /**< cylinder piston-side area, m^2, Q30 (0: unknown) */
     sp_q30_t annulus_area;               /**< cylinder rod-side (annulus) area, m^2, Q30 */
+    sp_leg_mass_t leg_mass;              /**< every leg's mass (all zero: massless legs) */
+    sp_q8_t viscous_friction[SP_LEGS];   /**< cylinder i's viscous friction, N s/m, Q8 */
+    sp_q8_t coulomb_friction[SP_LEGS];   /**< cylinder i's Coulomb friction level, N, Q8 */
+    sp_q24_t coulomb_velocity;           /**< |leg rate| at which the Coulomb term is full, m/s, Q24 (> 0) */
 } sp_platform_t;
 
 /** The default platform, generated at build time from
