@@ -16,6 +16,8 @@
 
 #include <cmocka.h>
 
+#include "assert_near.h"
+#include "ref_model.h"
 #include "sp/controller.h"
 #include "test_util.h"
 
@@ -385,21 +387,37 @@ static void test_setpoints_of(void **state)
     sp_ik_t ik;
     sp_q24_t rate[SP_LEGS];
     sp_q8_t force[SP_LEGS];
+    sp_friction_t fr;
+    sp_model_t model;
+    sp_jacobian_t jac;
 
+    assert_int_equal(sp_friction_prepare(P, &fr), SP_OK);
     sp_motion_at_rest(&m, &P->home);
     m.vel[0] = SP_Q24_MILLI(100);
     m.rpy_acc[2] = SP_Q24_ONE / 2;
-    assert_int_equal(sp_setpoints_of(P, &lim, &m, 1, sp, &lu), SP_OK);
+    assert_int_equal(sp_setpoints_of(P, &lim, &fr, &m, SP_FF_DYNAMICS, sp, &lu, &model), SP_OK);
     assert_int_equal(lu.valid, 1);
     assert_int_equal(sp_inverse_kinematics(P, &m.pose, &ik), SP_OK);
     assert_int_equal(sp_leg_rates(&ik, m.vel, m.rpy_rate, rate), SP_OK);
     assert_int_equal(sp_inverse_dynamics(P, &m, &ik, NULL, force), SP_OK);
+    assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+    assert_memory_equal(&model.jac, &jac, sizeof jac);
     for (int i = 0; i < SP_LEGS; ++i) {
         assert_int_equal(sp[i].length, ik.length[i]);
         assert_int_equal(sp[i].velocity, rate[i]);
         assert_int_equal(sp[i].force, force[i]);
+        /* the model always carries the friction */
+        assert_int_equal(model.force[i], force[i] + sp_friction_force(&fr, (unsigned)i, rate[i]));
     }
-    assert_int_equal(sp_setpoints_of(P, &lim, &m, 0, sp, &lu), SP_OK);
+    assert_int_equal(sp_setpoints_of(P, &lim, &fr, &m, SP_FF_DYNAMICS | SP_FF_FRICTION, sp, &lu, &model), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(sp[i].force, model.force[i]);
+    }
+    assert_int_equal(sp_setpoints_of(P, &lim, &fr, &m, SP_FF_FRICTION, sp, &lu, &model), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(sp[i].force, sp_friction_force(&fr, (unsigned)i, rate[i]));
+    }
+    assert_int_equal(sp_setpoints_of(P, &lim, &fr, &m, 0u, sp, &lu, &model), SP_OK);
     for (int i = 0; i < SP_LEGS; ++i) {
         assert_int_equal(sp[i].force, 0);
     }
@@ -407,16 +425,99 @@ static void test_setpoints_of(void **state)
     /* outside the workspace, or too fast: SP_E_RANGE, setpoints untouched */
     memcpy(before, sp, sizeof before);
     m.pose.pos[1] = lim.ws_hi[1] + 1;
-    assert_int_equal(sp_setpoints_of(P, &lim, &m, 1, sp, &lu), SP_E_RANGE);
+    assert_int_equal(sp_setpoints_of(P, &lim, &fr, &m, SP_FF_DYNAMICS, sp, &lu, &model), SP_E_RANGE);
     m.pose = P->home;
     m.vel[2] = P->leg_velocity_max * 2;
-    assert_int_equal(sp_setpoints_of(P, &lim, &m, 1, sp, &lu), SP_E_RANGE);
+    assert_int_equal(sp_setpoints_of(P, &lim, &fr, &m, SP_FF_DYNAMICS, sp, &lu, &model), SP_E_RANGE);
     assert_memory_equal(sp, before, sizeof before);
+}
+
+/* ---- friction and the wrench estimate ------------------------------------------ */
+
+/* F = c_v v + F_c s(v / v_c): against the plain formula in double, over the
+ * ramp, its ends and beyond, within one Q8 LSB. */
+static void test_friction_force(void **state)
+{
+    (void)state;
+    sp_friction_t fr;
+    assert_int_equal(sp_friction_prepare(P, &fr), SP_OK);
+    for (int n = -3000; n <= 3000; ++n) {
+        sp_q24_t v = (sp_q24_t)(n * 1117); /* about +-0.2 m/s, through +-v_c */
+        for (unsigned i = 0u; i < SP_LEGS; ++i) {
+            double vd = ref_f24(v);
+            double x = vd / ref_f24(fr.velocity);
+            double want = ref_f8(fr.viscous[i]) * vd + ref_f8(fr.coulomb[i]) * (x > 1.0 ? 1.0 : (x < -1.0 ? -1.0 : x));
+            assert_near(ref_f8(sp_friction_force(&fr, i, v)), want, 0.01, "v %d leg %u", v, i);
+        }
+    }
+    {
+        sp_platform_t bad = *P;
+        bad.coulomb_friction[2] = -1;
+        assert_int_equal(sp_friction_prepare(&bad, &fr), SP_E_ARG);
+    }
+}
+
+/* A known wrench W on a platform at rest: measured forces F = F_model -
+ * J^-T W. The estimate finds W (raw on the first tick, then through the
+ * filter: a step of W settles as 1 - (1 - alpha)^n). */
+static void test_wrench_estimate(void **state)
+{
+    (void)state;
+    sp_ik_t ik;
+    sp_model_t model;
+    sp_wrench_t w;
+    sp_q30_t alpha;
+    sp_q8_t meas[SP_LEGS];
+    const double want[6] = {1500.0, -800.0, -5000.0, 300.0, -1200.0, 450.0};
+    int64_t rhs[6];
+    int64_t f[6];
+    sp_lu6_t lu;
+
+    assert_int_equal(sp_wrench_alpha(40 * SP_Q24_ONE, 1000u, &alpha), SP_OK);
+    /* alpha = w dt / (1 + w dt), w dt = 2 pi 40 / 1000 */
+    assert_near(ref_f30(alpha), 0.2513274 / 1.2513274, 1e-6, "alpha");
+    assert_int_equal(sp_wrench_alpha(0, 1000u, &alpha), SP_E_ARG);
+    assert_int_equal(sp_inverse_kinematics(P, &P->home, &ik), SP_OK);
+    assert_int_equal(sp_jacobian(&ik, &model.jac), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        model.force[i] = ref_q8(4000.0 + 100.0 * i);
+    }
+    /* J^T x = W for the forces the wrench takes off the cylinders */
+    for (int k = 0; k < 6; ++k) {
+        rhs[k] = (int64_t)llround(want[k] * 16777216.0);
+    }
+    assert_int_equal(sp_lu6_factor(&model.jac, 1, &lu), SP_OK);
+    assert_int_equal(sp_lu6_solve(&lu, rhs, f), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        meas[i] = (sp_q8_t)(model.force[i] - (int32_t)(f[i] / 65536));
+    }
+    sp_wrench_reset(&w);
+    sp_wrench_step(&w, &model, meas, alpha); /* keeps the model only */
+    assert_int_equal(w.valid, 0);
+    sp_wrench_step(&w, &model, meas, alpha);
+    assert_int_equal(w.valid, 1);
+    for (int k = 0; k < 6; ++k) {
+        assert_near(ref_f8(w.wrench[k]), want[k], 0.05, "first estimate, component %d", k);
+    }
+    /* the load goes away: the estimate decays with the filter */
+    for (int n = 1; n <= 20; ++n) {
+        sp_wrench_step(&w, &model, model.force, alpha);
+        for (int k = 0; k < 6; ++k) {
+            double decay = pow(1.0 - ref_f30(alpha), n);
+            assert_near(ref_f8(w.wrench[k]), want[k] * decay, 0.05 + 1e-6 * fabs(want[k]), "tick %d component %d", n,
+                        k);
+        }
+    }
+    /* no model: invalid at once */
+    sp_wrench_step(&w, NULL, meas, alpha);
+    assert_int_equal(w.valid, 0);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_friction_force),
+        cmocka_unit_test(test_wrench_estimate),
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),

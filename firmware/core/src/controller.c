@@ -44,19 +44,30 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->stroke_margin = SP_Q24_MILLI(10);  /* 10 mm */
     cfg->stream_omega = 10 * SP_Q24_ONE;
     cfg->force_feedforward = 1u;
+    cfg->friction_compensation = 1u;
+    cfg->wrench_cutoff_hz = 40 * SP_Q24_ONE;
     return SP_OK;
 }
 
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
 {
     const sp_platform_t *p;
+    sp_status_t st;
     unsigned i;
     if (ctrl == NULL || cfg == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
     }
     p = cfg->platform;
+    st = sp_friction_prepare(p, &ctrl->prep.friction);
+    if (st == SP_OK) {
+        st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
+    }
+    if (st != SP_OK) {
+        return st;
+    }
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
     (void)sp_stream_gains(&ctrl->prep.stream, cfg->tick_us, cfg->stream_omega);
+    sp_wrench_reset(&ctrl->wrench);
     ctrl->state = SP_STATE_IDLE;
     ctrl->faults = 0u;
     ctrl->tick = 0u;
@@ -68,6 +79,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
+        ctrl->sup.last_force[i] = 0;
         ctrl->setpoint[i].length = 0;
         ctrl->setpoint[i].velocity = 0;
         ctrl->setpoint[i].force = 0;
@@ -151,6 +163,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
             missed = 0u;
             seen |= UINT32_C(1) << i;
             sup->last_length[i] = fb->length;
+            sup->last_force[i] = fb->force;
             drive_fault |= (fb->faults != 0u) ? 1 : 0;
         } else if (missed < UINT32_MAX) {
             ++missed;
@@ -418,19 +431,21 @@ static void hold_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
 }
 
 /* Moving: the setpoints of the reference when every limit holds; a reference
- * that fails is never passed on (fault, the last valid lengths held at rest). */
-static void motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags)
+ * that fails is never passed on (fault, the last valid lengths held at rest).
+ * Returns 1 when ctrl->model is this tick's. */
+static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags)
 {
     sp_status_t st = SP_E_OVERFLOW;
+    unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
     unsigned i;
     if (flags == 0u) {
-        st = sp_setpoints_of(cfg->platform, &ctrl->prep.limits, ref, cfg->force_feedforward, ctrl->setpoint,
-                             &ctrl->est.ref_lu);
+        st = sp_setpoints_of(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
+                             &ctrl->est.ref_lu, &ctrl->model);
     }
     if (st == SP_OK) {
         ctrl->have_setpoint = 1u;
         ctrl->reference = *ref;
-        return;
+        return 1;
     }
     ctrl->est.ref_lu.valid = 0u; /* the reference stays the previous one */
     raise_fault(cfg, ctrl, (st == SP_E_RANGE) ? SP_FAULT_REFERENCE : SP_FAULT_COMPUTE);
@@ -438,9 +453,20 @@ static void motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const
         ctrl->setpoint[i].velocity = 0;
     }
     sp_motion_at_rest(&ctrl->reference, &ctrl->reference.pose);
+    return 0;
 }
 
-/* ---- 6. divergence, 7. outputs -------------------------------------------- */
+/* ---- 6. the external wrench ------------------------------------------------ */
+
+/* The estimate follows the measurements on ticks with a model of this
+ * tick's reference and every drive heard from; otherwise it is invalid. */
+static void wrench(sp_ctrl_t *ctrl, int have_model)
+{
+    int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
+    sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, ctrl->sup.last_force, ctrl->prep.wrench_alpha);
+}
+
+/* ---- 7. divergence, 8. outputs -------------------------------------------- */
 
 /* While engaged, an estimate farther from the reference than the config
  * allows on any axis is a fault (a saturated or blocked actuator). */
@@ -481,6 +507,10 @@ static void write_output(const sp_ctrl_t *ctrl, uint32_t fk_iterations, int reje
     out->reference = ctrl->reference;
     out->fk_iterations = fk_iterations;
     out->cmd_rejected = rejected ? 1u : 0u;
+    for (i = 0u; i < 6u; ++i) {
+        out->wrench[i] = ctrl->wrench.wrench[i];
+    }
+    out->wrench_valid = ctrl->wrench.valid;
 }
 
 /* ---- the tick -------------------------------------------------------------- */
@@ -494,6 +524,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     int comms_ok;
     int leg_out;
     int rejected;
+    int have_model = 0;
 
     if (cfg == NULL || ctrl == NULL || in == NULL || out == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
@@ -512,8 +543,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     if (reference(cfg, ctrl, &ref, &flags)) {
         hold_setpoints(ctrl, &ref);
     } else {
-        motion_setpoints(cfg, ctrl, &ref, flags);
+        have_model = motion_setpoints(cfg, ctrl, &ref, flags);
     }
+    wrench(ctrl, have_model);
     check_divergence(cfg, ctrl);
     write_output(ctrl, fk_iterations, rejected, out);
     return SP_OK;

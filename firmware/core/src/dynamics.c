@@ -221,8 +221,26 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
 sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                    const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu)
 {
-    sp_flags_t flags = 0u;
     sp_jacobian_t jac;
+    sp_status_t st = (ik != NULL) ? sp_jacobian(ik, &jac) : SP_E_ARG;
+    if (st != SP_OK && force != NULL && lu != NULL) {
+        unsigned k;
+        lu->valid = 0u;
+        for (k = 0u; k < SP_LEGS; ++k) {
+            force[k] = 0;
+        }
+    }
+    if (st != SP_OK) {
+        return (force == NULL || lu == NULL) ? SP_E_ARG : st;
+    }
+    return sp_inverse_dynamics_jac(platform, motion, ik, &jac, ext_force, force, lu);
+}
+
+sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                    const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                    sp_lu6_t *lu)
+{
+    sp_flags_t flags = 0u;
     sp_q24_t omega[3];
     sp_q24_t omega_dot[3];
     int64_t h[3];
@@ -243,7 +261,7 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     for (k = 0u; k < SP_LEGS; ++k) {
         force[k] = 0;
     }
-    if (platform == NULL || motion == NULL || ik == NULL) {
+    if (platform == NULL || motion == NULL || ik == NULL || jac == NULL) {
         return SP_E_ARG;
     }
     if (platform->leg_mass.cylinder_mass < 0 || platform->leg_mass.rod_mass < 0 ||
@@ -292,16 +310,12 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     if (ovf || flags != 0u) {
         return SP_E_OVERFLOW;
     }
-    st = sp_jacobian(ik, &jac);
-    if (st != SP_OK) {
-        return st;
-    }
     for (k = 0u; k < SP_LEGS; ++k) {
         if (b[k] >= (INT64_C(1) << 56) || b[k] <= -(INT64_C(1) << 56)) {
             return SP_E_OVERFLOW; /* sp_solve6's range */
         }
     }
-    st = sp_lu6_factor(&jac, 1, lu);
+    st = sp_lu6_factor(jac, 1, lu);
     if (st == SP_OK) {
         st = sp_lu6_solve(lu, b, f); /* = sp_solve6(&jac, 1, b, f) */
     }

@@ -37,6 +37,9 @@
 #define SPI_INLINE static inline
 #endif
 
+/* 2 pi in Q24 (105414357.4 rounded). */
+#define SPI_Q24_TWO_PI INT32_C(105414357)
+
 typedef char spi_asr_is_arithmetic[((INT64_C(-5) >> 1) == INT64_C(-3)) ? 1 : -1];
 
 /* Number of leading zero bits of a non-zero 32-bit value (CLZ). */

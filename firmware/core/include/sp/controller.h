@@ -21,8 +21,10 @@
  *   5. setpoints   the drives' setpoints of the reference with every limit
  *                  checked (sp/setpoint.h, sp/limits.h); a reference
  *                  outside the limits is never passed on;
- *   6. divergence  of the estimate from the reference;
- *   7. output.
+ *   6. wrench      the external wrench estimate from the measured cylinder
+ *                  forces and the model's (sp/wrench.h);
+ *   7. divergence  of the estimate from the reference;
+ *   8. output.
  * Values derived once from the config (the limits in absolute coordinates,
  * the stream filter's gains) are prepared by sp_ctrl_init
  * (sp_ctrl_prepared_t), apart from the tick's state.
@@ -50,6 +52,7 @@
 #include "sp/setpoint.h"
 #include "sp/stream.h"
 #include "sp/trajectory.h"
+#include "sp/wrench.h"
 
 typedef enum {
     SP_STATE_IDLE = 0,
@@ -125,8 +128,10 @@ typedef struct {
     sp_pose_t estimate;     /**< pose by forward kinematics */
     sp_motion_t reference;  /**< the reference of this tick */
     uint32_t fk_iterations; /**< this tick's Newton steps */
+    int32_t wrench[6];      /**< external wrench estimate (sp/wrench.h): force N, moment about o' N m, base frame, Q8 */
     uint8_t estimate_valid; /**< 1 once FK has a pose */
     uint8_t cmd_rejected;   /**< 1 if this tick's command was refused */
+    uint8_t wrench_valid;   /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard) */
 } sp_ctrl_output_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
@@ -141,6 +146,8 @@ typedef struct {
     sp_q24_t stroke_margin;          /**< references keep this far from the stroke ends, m, Q24 */
     sp_q24_t stream_omega;           /**< bandwidth of the stream filter, rad/s, Q24 */
     uint8_t force_feedforward;       /**< 1: send the inverse dynamics forces; 0: send 0 */
+    uint8_t friction_compensation;   /**< 1: add the cylinders' friction (sp_friction_t) to the force feed-forward */
+    sp_q24_t wrench_cutoff_hz;       /**< bandwidth of the wrench estimate's low-pass filter, Hz, Q24 */
 } sp_ctrl_config_t;
 
 /** What RUNNING is executing. */
@@ -155,6 +162,8 @@ typedef enum {
 typedef struct {
     sp_limits_t limits;       /**< workspace box, stroke, rate and force limits, joint reach */
     sp_stream_gains_t stream; /**< the stream filter's dt and gains */
+    sp_friction_t friction;   /**< the cylinders' friction model */
+    sp_q30_t wrench_alpha;    /**< the wrench filter's gain (sp_wrench_alpha) */
 } sp_ctrl_prepared_t;
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */
@@ -165,6 +174,7 @@ typedef struct {
     uint32_t missed[SP_LEGS];      /**< ticks since leg i's last fresh frame (saturates) */
     uint32_t seen_mask;            /**< drives heard from at least once (bit i: leg i) */
     sp_q24_t last_length[SP_LEGS]; /**< the last measured lengths, m, Q24 */
+    sp_q8_t last_force[SP_LEGS];   /**< the last measured cylinder forces, N, Q8 */
 } sp_supervision_t;
 
 /** Controller state: everything the step remembers between ticks. */
@@ -183,19 +193,23 @@ typedef struct {
     sp_motion_t reference;           /**< the last accepted reference */
     sp_setpoint_t setpoint[SP_LEGS]; /**< the last setpoints sent */
     uint8_t have_setpoint;           /**< 1 once a reference passed every limit */
+    sp_model_t model;                /**< the model forces and Jacobian of the last accepted reference */
+    sp_wrench_t wrench;              /**< the external wrench estimate */
 } sp_ctrl_t;
 
 /**
  * Defaults for `platform`: 1 ms tick; engage/park limits 0.25 m/s,
  * 1 m/s^2, 5 m/s^3 (0.25 rad/s, 1 rad/s^2, 5 rad/s^3); 2 s fades; feedback
  * timeout 2 ticks; divergence 25 mm / 25 mrad; 10 mm stroke margin; stream
- * filter 10 rad/s; force feed-forward on. SP_E_ARG on NULL.
+ * filter 10 rad/s; force feed-forward and friction compensation on; wrench
+ * estimate filtered at 40 Hz. SP_E_ARG on NULL.
  */
 sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform);
 
 /** Resets the controller to IDLE with no faults and no estimate, and
- *  derives ctrl->prep from cfg. SP_E_ARG on NULL or a config without
- *  platform. */
+ *  derives ctrl->prep from cfg. SP_E_ARG on NULL, a config without
+ *  platform, negative friction or a wrench cut-off <= 0; SP_E_RANGE for a
+ *  cut-off above 8 / (2 pi dt) (1.27 kHz at 1 ms). */
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg);
 
 /**

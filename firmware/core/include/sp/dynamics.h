@@ -10,17 +10,26 @@
 
 /**
  * Inverse dynamics: the six cylinder forces F_i (N, Q8; positive pushes the
- * platform away from the base, along l_i) that produce the given motion of
- * the platform under gravity (0, 0, -m g) and an external force L at the
- * centroid o' (N, Q8, base frame; may be NULL for none). Solves
+ * platform away from the base, along l_i; the force between barrel and rod,
+ * friction excluded) that produce the given motion of the platform under
+ * gravity (0, 0, -m g) and an external force L at o' (N, Q8, base frame;
+ * may be NULL for none). With massless legs and the centre of mass at o'
+ * (the paper's model) it solves
  *   sum F_i u_i                 = m a - L + (0, 0, m g)          (base frame)
  *   sum F_i (A_im T) x u_i      = R (I dw/dt + w x (I w))        (base frame)
  * where w, dw/dt are the body rates of eq (10) and R = T^T, by pivoted
  * Gaussian elimination in 64-bit intermediates (forces carried in Q24).
+ * A centre of mass c off o' adds m R (dw/dt x c + w x (w x c)) to the force
+ * and m c x T (a + g e_z) to the body moment; leg masses
+ * (platform->leg_mass) add each leg's reaction at its platform joint: its
+ * part along the leg goes to F_i, the rest to the wrench (docs/model.md,
+ * "Leg masses"). platform->inertia is about o'.
  * ik must be the inverse kinematics of motion->pose.
  * Errors: SP_E_ARG (NULL), SP_E_SINGULAR (pose at or near a singularity:
  * smallest pivot below 1e-3), SP_E_OVERFLOW (an intermediate or a force
- * saturated: |F| >= 8.4 MN). On error the forces are zeroed.
+ * saturated: |F| >= 8.4 MN; a leg of 0.5 m or less with leg masses).
+ * SP_E_ARG for a negative leg mass or centre. On error the forces are
+ * zeroed.
  */
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                 const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS]);
@@ -34,5 +43,14 @@ sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t
  */
 sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                    const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu);
+
+/**
+ * sp_inverse_dynamics_lu (same forces, bit for bit, same errors) with the
+ * Jacobian that the caller already built: jac must be sp_jacobian(ik).
+ * SP_E_ARG if jac is NULL.
+ */
+sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                    const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                    sp_lu6_t *lu);
 
 #endif /* SP_DYNAMICS_H */

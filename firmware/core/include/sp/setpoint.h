@@ -1,8 +1,10 @@
 /*
  * sp/setpoint.h - what the controller sends each axis drive every tick: the
  * leg length to follow, its rate as velocity feed-forward, and the cylinder
- * force the motion requires (the paper's inverse dynamics) as force
- * feed-forward, computed from a reference motion with every limit checked.
+ * force the motion requires (the inverse dynamics, with the legs' masses)
+ * plus the cylinders' friction as force feed-forward, computed from a
+ * reference motion with every limit checked. The model forces and the
+ * Jacobian they came from are kept for the wrench estimate (sp/wrench.h).
  */
 #ifndef SP_SETPOINT_H
 #define SP_SETPOINT_H
@@ -17,18 +19,54 @@ typedef struct {
     sp_q8_t force;     /**< force feed-forward, N, Q8 */
 } sp_setpoint_t;
 
+/** The cylinders' friction model, prepared once from the platform
+ *  (sp_friction_prepare): F = c_v v + F_c s(v / v_c), s(x) = x for
+ *  |x| <= 1, sign(x) beyond (a linear ramp through zero that saturates at
+ *  the Coulomb level), v the leg rate. */
+typedef struct {
+    sp_q8_t viscous[SP_LEGS]; /**< c_v, N s/m, Q8 */
+    sp_q8_t coulomb[SP_LEGS]; /**< F_c, N, Q8 */
+    sp_q8_t ramp[SP_LEGS];    /**< F_c / v_c, N s/m, Q8 (saturated at INT32_MAX) */
+    sp_q24_t velocity;        /**< v_c, m/s, Q24 (0: a step at v = 0) */
+} sp_friction_t;
+
+/** Prepares *fr from the platform's friction (viscous_friction,
+ *  coulomb_friction, coulomb_velocity). SP_E_ARG on NULL or a negative
+ *  value. */
+sp_status_t sp_friction_prepare(const sp_platform_t *platform, sp_friction_t *fr);
+
+/** Friction force of cylinder `leg` (0..5) at leg rate `rate` (m/s, Q24):
+ *  N, Q8, opposing the motion as a cylinder force (positive for a
+ *  extending leg). Saturates at the int32 range. */
+sp_q8_t sp_friction_force(const sp_friction_t *fr, unsigned leg, sp_q24_t rate);
+
+/** What the model says at the reference, for the wrench estimate. */
+typedef struct {
+    sp_q8_t force[SP_LEGS]; /**< the cylinder forces the reference needs: inverse dynamics + friction, N, Q8 */
+    sp_jacobian_t jac;      /**< the leg Jacobian at the reference pose (sp_jacobian) */
+} sp_model_t;
+
+/** Feed-forward switches (sp_setpoints_of's ff). */
+#define SP_FF_DYNAMICS 0x1u /**< send the inverse dynamics forces */
+#define SP_FF_FRICTION 0x2u /**< add the friction compensation */
+
 /**
  * The setpoints of a reference motion: the leg lengths of its pose (IK),
- * their rates (sp_leg_rates) and the cylinder forces of its motion
- * (sp_inverse_dynamics_lu, no external force), sent as 0 when
- * force_feedforward is 0. The factorisation of J^T at the pose goes to *lu
- * (valid only when the dynamics succeeded). Errors, with sp untouched:
+ * their rates (sp_leg_rates) and the force feed-forward: the cylinder
+ * forces of its motion (sp_inverse_dynamics_jac, no external force) when
+ * ff has SP_FF_DYNAMICS, plus the friction at the leg rates when ff has
+ * SP_FF_FRICTION (0 when ff is 0). *model gets the full model forces
+ * (dynamics + friction, whatever ff says) and the Jacobian; the
+ * factorisation of J^T at the pose goes to *lu (valid only when the
+ * dynamics succeeded). Errors, with sp untouched (and *model meaningless):
  * SP_E_RANGE for a pose outside the workspace box or a length, rate or
- * force outside sp_limits_setpoints_ok; the IK's, the rates' or the
- * dynamics' error when one fails (SP_E_RANGE, SP_E_OVERFLOW,
- * SP_E_SINGULAR).
+ * model force outside sp_limits_setpoints_ok (a motion that needs more
+ * force than the limit is refused, feed-forward or not); the
+ * IK's, the rates' or the dynamics' error when one fails (SP_E_RANGE,
+ * SP_E_OVERFLOW, SP_E_SINGULAR).
  */
-sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *lim, const sp_motion_t *ref,
-                            int force_feedforward, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu);
+sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *lim, const sp_friction_t *fr,
+                            const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
+                            sp_model_t *model);
 
 #endif /* SP_SETPOINT_H */

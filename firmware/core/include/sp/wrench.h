@@ -1,0 +1,54 @@
+/*
+ * sp/wrench.h - the external wrench estimate: the force and moment that the
+ * outside world exerts on the platform (base frame, moment about o'),
+ * measured through the cylinders every tick.
+ *
+ * The model forces F_model (sp_model_t: the inverse dynamics of the
+ * reference with the legs' masses, plus friction) are what the cylinders
+ * must push for the motion alone; the drives measure F (pressures times
+ * areas). Whatever the cylinders push beyond the model balances an
+ * external wrench W: J^T F + W = J^T F_model, so
+ *   W_raw = J^T (F_model - F),
+ * J the leg Jacobian at the reference (rows [u_i, r_i x u_i]). The model
+ * of the previous tick is used: the feedback of this tick was sampled
+ * after the drives applied the previous setpoints. W_raw is low-pass
+ * filtered (first order, backward Euler: W += alpha (W_raw - W) with
+ * alpha = w dt / (1 + w dt), w = 2 pi f_c), which sets the estimate's
+ * bandwidth and noise.
+ */
+#ifndef SP_WRENCH_H
+#define SP_WRENCH_H
+
+#include "sp/setpoint.h"
+
+/** The estimate and the model it compares the next measurement with. */
+typedef struct {
+    sp_q8_t model_force[SP_LEGS]; /**< the previous tick's model forces, N, Q8 */
+    int32_t wrench[6];            /**< filtered estimate: force N, moment N m, Q8 */
+    uint8_t have_model;           /**< 1 when model_force holds the previous tick's model */
+    uint8_t valid;                /**< 1 once the estimate follows the measurements */
+} sp_wrench_t;
+
+/** No model, no estimate (wrench zeroed). No-op on NULL. */
+void sp_wrench_reset(sp_wrench_t *w);
+
+/**
+ * The filter gain alpha (Q30) of cut-off frequency `hz` (Hz, Q24, > 0)
+ * at the tick `tick_us` (us): w dt / (1 + w dt). SP_E_ARG on NULL, a
+ * cut-off <= 0 or a tick of 0; SP_E_RANGE when w dt exceeds 8.
+ */
+sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
+
+/**
+ * One tick: with a model kept from the previous tick, `measured` the
+ * cylinder forces of this tick's feedback (N, Q8) and model->jac the
+ * Jacobian at this tick's reference, updates the estimate (the first one
+ * is taken unfiltered) and marks it valid; then keeps model->force for the
+ * next tick. model NULL (no model this tick): nothing kept, the estimate
+ * is invalid until two ticks with a model. |F_model - F| is clamped to
+ * 2 MN per cylinder; each component saturates at the int32 range of Q8
+ * (8.4 MN, 8.4 MN m).
+ */
+void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha);
+
+#endif /* SP_WRENCH_H */
