@@ -5,8 +5,9 @@ drives' noise (leg lengths to 1 um, forces with ~45 N of pressure noise).
 
 Tolerances are those of issue 14: mass 1 %, centre of mass 5 mm, inertia
 diagonal 5 %, friction 10 %. Measured on the 60 s plan (seed 1): mass within
-0.04 kg, centre of mass within 0.03 mm, inertia within 1.6 kg m^2, viscous
-friction within 6 N s/m, Coulomb within 0.6 N."""
+0.015 kg, centre of mass within 0.04 mm, inertia within 1.1 kg m^2, viscous
+friction within 8.4 N s/m, Coulomb within 0.9 N (each within 2.8 of its
+standard error)."""
 
 from __future__ import annotations
 
