@@ -68,8 +68,9 @@ HYDRAULIC_KEYS = {
     "end_stop_damping": (0.0, 1e10, "N s/m"),
 }
 
-# Optional leg masses (host_sim plant only; absent = 0 = neglected, the
-# default). Each leg is two point masses on its axis: the cylinder body at
+# Optional leg masses (the plant simulates them, the firmware's inverse
+# dynamics and the float64 model include them; absent = 0 = neglected, the
+# paper's model). Each leg is two point masses on its axis: the cylinder body at
 # cylinder_com from the base joint, the rod + piston at rod_com from the
 # platform joint towards the base (docs/plant.md "Leg masses").
 HYDRAULIC_OPTIONAL_KEYS = {
