@@ -14,6 +14,7 @@ typedef struct {
     double length[HS_LEGS];
     double rate[HS_LEGS];
     double force[HS_LEGS];
+    double friction[HS_LEGS];
     double contact[3];
 } aux_t;
 
@@ -250,7 +251,7 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
     /* Three passes over the legs (geometry, cylinders, wrench): the legs are
      * independent, so the square roots and divisions of different legs
      * overlap in the processor instead of forming one long chain. */
-    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS];
+    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS], ffr[HS_LEGS];
     for (int i = 0; i < HS_LEGS; ++i) {
         double l[3], wxa[3], inv;
         mat_vec(&r[0][0], p->platform_joint[i], arm[i]);
@@ -270,20 +271,24 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
         for (int i = 0; i < HS_LEGS; ++i) {
             const double *xc = &x[HS_X_CYL + 4 * i];
             double *dc = &dx[HS_X_CYL + 4 * i];
-            hs_cyl_state_t st = {xc[0], xc[1], xc[2], xc[3]};
+            hs_cyl_state_t st = {xc[0], xc[1], xc[2], xc[3], x[HS_X_BRISTLE + i]};
             hs_cyl_eval_t ev;
             hs__cyl_eval(&p->cyl[i], &st, len[i] - p->cyl[i].length_min, ldot[i], u[i], &ev);
             fi[i] = ev.force;
+            ffr[i] = ev.friction;
             dc[0] = ev.dpa;
             dc[1] = ev.dpb;
             dc[2] = ev.dxv;
             dc[3] = ev.dxv_rate;
+            dx[HS_X_BRISTLE + i] = ev.dz;
         }
     } else {
         for (int i = 0; i < HS_LEGS; ++i) {
             double *dc = &dx[HS_X_CYL + 4 * i];
             fi[i] = pl->ideal_force[i];
+            ffr[i] = 0.0;
             dc[0] = dc[1] = dc[2] = dc[3] = 0.0;
+            dx[HS_X_BRISTLE + i] = 0.0;
         }
     }
     for (int i = 0; i < HS_LEGS; ++i) {
@@ -302,6 +307,7 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
             aux->length[i] = len[i];
             aux->rate[i] = ldot[i];
             aux->force[i] = fi[i];
+            aux->friction[i] = ffr[i];
         }
     }
 
@@ -482,6 +488,7 @@ static void set_holding(hs_plant_t *pl, const double force[HS_LEGS])
         hs_cyl_holding_pressures(&pl->par.cyl[i], force[i], &xc[0], &xc[1]);
         xc[2] = 0.0;
         xc[3] = 0.0;
+        pl->x[HS_X_BRISTLE + i] = 0.0; /* the pressures hold it all */
         pl->valve_cmd[i] = 0.0;
     }
 }
@@ -823,6 +830,7 @@ hs_status_t hs_plant_state(const hs_plant_t *pl, hs_state_t *st)
         st->length[i] = aux.length[i];
         st->rate[i] = aux.rate[i];
         st->force[i] = aux.force[i];
+        st->friction[i] = aux.friction[i];
         st->pa[i] = pl->x[HS_X_CYL + 4 * i];
         st->pb[i] = pl->x[HS_X_CYL + 4 * i + 1];
         st->spool[i] = pl->x[HS_X_CYL + 4 * i + 2];
@@ -855,7 +863,8 @@ hs_status_t hs_plant_energy(const hs_plant_t *pl, hs_energy_t *e)
             const hs_cyl_params_t *c = &p->cyl[i];
             double s = aux.length[i] - c->length_min;
             e->oil += hs_cyl_oil_energy(c, s, pl->x[HS_X_CYL + 4 * i], pl->x[HS_X_CYL + 4 * i + 1]);
-            e->springs += hs_cyl_stop_energy(c, s);
+            double z = pl->x[HS_X_BRISTLE + i];
+            e->springs += hs_cyl_stop_energy(c, s) + 0.5 * c->bristle_stiffness * z * z;
         }
     }
     if (pl->contact.kind != HS_CONTACT_NONE) {

@@ -41,12 +41,13 @@
 #include "hs/sensor.h"
 
 /* Layout of the integrated state vector. */
-#define HS_X_POS 0    /**< p, m (3) */
-#define HS_X_VEL 3    /**< v, m/s (3) */
-#define HS_X_QUAT 6   /**< q = [w, x, y, z] (4) */
-#define HS_X_OMEGA 10 /**< w, body frame, rad/s (3) */
-#define HS_X_CYL 13   /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
-#define HS_NX (HS_X_CYL + 4 * HS_LEGS)
+#define HS_X_POS 0                            /**< p, m (3) */
+#define HS_X_VEL 3                            /**< v, m/s (3) */
+#define HS_X_QUAT 6                           /**< q = [w, x, y, z] (4) */
+#define HS_X_OMEGA 10                         /**< w, body frame, rad/s (3) */
+#define HS_X_CYL 13                           /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
+#define HS_X_BRISTLE (HS_X_CYL + 4 * HS_LEGS) /**< per leg i: LuGre bristle deflection z, m (hs/cylinder.h) */
+#define HS_NX (HS_X_BRISTLE + HS_LEGS)
 
 typedef enum { HS_ACT_HYDRAULIC = 0, HS_ACT_IDEAL = 1 } hs_actuation_t;
 
@@ -82,17 +83,19 @@ typedef struct {
 
 /** The true state, for tests, logs and plots. */
 typedef struct {
-    double time;            /**< s since init */
-    uint64_t cycle;         /**< cycles completed */
-    double pose[6];         /**< x, y, z (m), roll, pitch, yaw (rad) */
-    double quat[4];         /**< unit quaternion motion -> base, [w, x, y, z] */
-    double vel[3];          /**< velocity of o', base frame, m/s */
-    double omega_body[3];   /**< angular velocity, motion frame, rad/s */
-    double omega_base[3];   /**< angular velocity, base frame, rad/s */
-    double length[HS_LEGS]; /**< leg lengths, m */
-    double rate[HS_LEGS];   /**< leg extension rates, m/s */
-    double force[HS_LEGS];  /**< cylinder forces on the platform along the legs, N */
-    double pa[HS_LEGS];     /**< chamber pressures, Pa (frozen in ideal mode) */
+    double time;              /**< s since init */
+    uint64_t cycle;           /**< cycles completed */
+    double pose[6];           /**< x, y, z (m), roll, pitch, yaw (rad) */
+    double quat[4];           /**< unit quaternion motion -> base, [w, x, y, z] */
+    double vel[3];            /**< velocity of o', base frame, m/s */
+    double omega_body[3];     /**< angular velocity, motion frame, rad/s */
+    double omega_base[3];     /**< angular velocity, base frame, rad/s */
+    double length[HS_LEGS];   /**< leg lengths, m */
+    double rate[HS_LEGS];     /**< leg extension rates, m/s */
+    double force[HS_LEGS];    /**< cylinder forces on the platform along the legs, N */
+    double friction[HS_LEGS]; /**< cylinder friction forces (included in force with a minus sign; positive opposes
+                                   extension), N; 0 in ideal mode */
+    double pa[HS_LEGS];       /**< chamber pressures, Pa (frozen in ideal mode) */
     double pb[HS_LEGS];
     double spool[HS_LEGS];     /**< spool positions, -1..1 */
     double valve_cmd[HS_LEGS]; /**< drive outputs of the last substep */
@@ -104,7 +107,7 @@ typedef struct {
     double kinetic; /**< m v^2 / 2 + w^T I w / 2 (+ the legs' kinetic energy, leg masses on) */
     double gravity; /**< m g z (+ the legs' m g z, leg masses on) */
     double oil;     /**< compressed oil (hs_cyl_oil_energy), hydraulic mode only */
-    double springs; /**< end-stop springs (hydraulic mode) and the contact spring */
+    double springs; /**< end-stop springs and friction bristles sigma_0 z^2 / 2 (hydraulic mode), the contact spring */
     double total;
 } hs_energy_t;
 
