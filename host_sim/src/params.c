@@ -257,3 +257,32 @@ hs_status_t hs_params_default(hs_params_t *params)
 {
     return hs_params_from_config(&hs_config_default, params);
 }
+
+hs_status_t hs_params_add_mass(hs_params_t *p, double mass, const double point[3])
+{
+    double m1, c1[3], in1[3][3], r2;
+    if (p == NULL || point == NULL || !isfinite(mass) || !isfinite(point[0]) || !isfinite(point[1]) ||
+        !isfinite(point[2])) {
+        return HS_E_ARG;
+    }
+    m1 = p->mass + mass;
+    if (!(m1 > 0.0)) {
+        return HS_E_RANGE;
+    }
+    r2 = point[0] * point[0] + point[1] * point[1] + point[2] * point[2];
+    for (int k = 0; k < 3; ++k) {
+        c1[k] = (p->mass * p->com[k] + mass * point[k]) / m1;
+    }
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            in1[j][k] = p->inertia[j][k] + mass * ((j == k ? r2 : 0.0) - point[j] * point[k]);
+        }
+    }
+    if (hs_rigid_body_check(m1, c1, &in1[0][0]) != HS_OK) {
+        return HS_E_RANGE;
+    }
+    p->mass = m1;
+    memcpy(p->com, c1, sizeof c1);
+    memcpy(p->inertia, in1, sizeof in1);
+    return HS_OK;
+}

@@ -195,4 +195,14 @@ hs_status_t hs_params_check(const hs_params_t *params);
  */
 hs_status_t hs_rigid_body_check(double mass, const double com[3], const double *inertia_rows);
 
+/**
+ * Adds a rigid point mass `mass` (kg; negative removes one) at `point`
+ * (motion frame, m) to the moving body of `params`: mass, centre of mass
+ * (mass-weighted) and inertia about o' (+ mass (|r|^2 1 - r r^T)). The
+ * drive gains are not re-derived (a payload the drives were not tuned
+ * for). HS_E_ARG on NULL or non-finite values; HS_E_RANGE, params
+ * unchanged, if the result is not a rigid body (hs_rigid_body_check).
+ */
+hs_status_t hs_params_add_mass(hs_params_t *params, double mass, const double point[3]);
+
 #endif /* HS_PARAMS_H */
