@@ -282,7 +282,11 @@ hs_status_t hs_params_add_mass(hs_params_t *p, double mass, const double point[3
         return HS_E_RANGE;
     }
     p->mass = m1;
-    memcpy(p->com, c1, sizeof c1);
-    memcpy(p->inertia, in1, sizeof in1);
+    for (int j = 0; j < 3; ++j) {
+        p->com[j] = c1[j];
+        for (int k = 0; k < 3; ++k) {
+            p->inertia[j][k] = in1[j][k];
+        }
+    }
     return HS_OK;
 }
