@@ -4,7 +4,7 @@
  *
  *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
- *          [--timeout-ms MS] [--progress]
+ *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -20,20 +20,29 @@
  * since the start.
  *
  * Scenario file (--scenario): one operator action per line (cmd, target,
- * delay, wait, silence, unsilence, fault, mark, end); the language, its
+ * delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load,
+ * play); the language, its
  * parser and player are in hs/scenario.h (host_sim/src/scenario.c), what
  * each action does on the bus or to the plant is run_scenario below.
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
  * controller always executes them at the same tick.
  *
+ * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
+ * does not know, part of the platform from the start (hs_params_add_mass).
+ * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
+ * outside world's wrench on the platform (external + contact, base frame,
+ * moment about o') and each cylinder's friction (docs/closed_loop.md).
+ *
  * Exit status: 0 the run ended (ticks done or scenario end), 1 I/O or set-up
- * error, 2 usage or scenario syntax error, 3 the controller stopped
+ * error, 2 usage or scenario syntax error (or a load or play file refused
+ * while running), 3 the controller stopped
  * answering (lockstep), 4 a scenario wait timed out, 5 the plant's state
  * became non-finite.
  */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <inttypes.h>
+#include <math.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -74,6 +83,10 @@ typedef struct {
     int lockstep;
     int progress;
     int64_t t0_ns;
+    double wrench_from[6], wrench_to[6]; /* the external wrench's ramp (scenario `wrench`) */
+    uint64_t wrench_start, wrench_ticks;
+    hs_play_t play; /* scenario `play` under way (file open) */
+    uint64_t play_start;
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -138,8 +151,60 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
     (void)hs_bus_receive(&s->bus, &s->plant, f);
 }
 
+static sp_q24_t q24(double v)
+{
+    return (sp_q24_t)llround(v * 16777216.0);
+}
+
+static int send_target(sim_t *s, const sp_pose_t *pose, uint64_t t_us)
+{
+    sp_can_frame_t f;
+    (void)sp_proto_encode_target(pose, s->target_counter, &f);
+    s->target_counter = (uint8_t)((s->target_counter + 1u) & 0x0Fu);
+    return send_frames(s, &f, 1u, t_us);
+}
+
+/* One tick of a `play` under way: the pose at this tick as OP_TARGET_POSE;
+ * closes the file after the last row. 0 ok, 2 the file went bad, -1 I/O. */
+static int play_tick(sim_t *s, uint64_t tick, uint64_t t_us)
+{
+    double pose[6];
+    int done = 0;
+    hs_scenario_error_t err;
+    sp_pose_t p;
+    if (s->play.file == NULL) {
+        return 0;
+    }
+    if (hs_play_pose(&s->play, tick - s->play_start, pose, &done, &err) != HS_OK) {
+        fprintf(stderr, "hs_sim: %s\n", err.message);
+        hs_play_close(&s->play);
+        return 2;
+    }
+    for (int k = 0; k < 3; k++) {
+        p.pos[k] = q24(pose[k]);
+        p.rpy[k] = q24(pose[3 + k]);
+    }
+    if (done) {
+        hs_play_close(&s->play);
+    }
+    return send_target(s, &p, t_us) == 0 ? 0 : -1;
+}
+
+/* The external wrench at `tick` on its ramp. */
+static void wrench_tick(sim_t *s, uint64_t tick)
+{
+    double w[6], f = 1.0;
+    if (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks) {
+        f = (double)(tick - s->wrench_start) / (double)s->wrench_ticks;
+    }
+    for (int k = 0; k < 6; k++) {
+        w[k] = (f >= 1.0) ? s->wrench_to[k] : s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
+    }
+    (void)hs_plant_set_wrench(&s->plant, w, &w[3]);
+}
+
 /* Carries out the scenario's actions due at `tick` (hs/scenario.h plays it).
- * Returns 0 go on, 1 end, 4 wait timeout, -1 error. */
+ * Returns 0 go on, 1 end, 2 an action refused (load, contact), 4 wait timeout, -1 error. */
 static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
 {
     /* each round hands over one action: at most all of them, then the end */
@@ -172,12 +237,67 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             }
             break;
         }
-        case HS_ACTION_TARGET: {
-            sp_can_frame_t f;
-            (void)sp_proto_encode_target(&a->target, s->target_counter, &f);
-            s->target_counter = (uint8_t)((s->target_counter + 1u) & 0x0Fu);
-            if (send_frames(s, &f, 1u, t_us) != 0) {
+        case HS_ACTION_TARGET:
+            if (send_target(s, &a->target, t_us) != 0) {
                 return -1;
+            }
+            break;
+        case HS_ACTION_WRENCH:
+            /* from the wrench acting now (a ramp under way stops where it is) */
+            for (int k = 0; k < 3; k++) {
+                s->wrench_from[k] = s->plant.ext_force[k];
+                s->wrench_from[3 + k] = s->plant.ext_moment[k];
+            }
+            memcpy(s->wrench_to, a->wrench, sizeof s->wrench_to);
+            s->wrench_start = tick;
+            s->wrench_ticks = a->ticks;
+            wrench_tick(s, tick);
+            printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", tick, a->wrench[0],
+                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0);
+            break;
+        case HS_ACTION_CONTACT: {
+            hs_contact_t c;
+            memset(&c, 0, sizeof c);
+            c.kind = (a->contact.kind == 1)   ? HS_CONTACT_PLANE
+                     : (a->contact.kind == 2) ? HS_CONTACT_POINT
+                                              : HS_CONTACT_NONE;
+            memcpy(c.point, a->contact.point, sizeof c.point);
+            memcpy(c.normal, a->contact.normal, sizeof c.normal);
+            memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
+            c.offset = a->contact.offset;
+            c.stiffness = a->contact.stiffness;
+            c.damping = a->contact.damping;
+            if (hs_plant_set_contact(&s->plant, &c) != HS_OK) {
+                fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
+                return 2;
+            }
+            printf("hs_sim mark tick %" PRIu64 ": contact %s\n", tick,
+                   a->contact.kind == 1 ? "plane" : (a->contact.kind == 2 ? "point" : "off"));
+            break;
+        }
+        case HS_ACTION_LOAD:
+            if (hs_plant_add_mass(&s->plant, a->mass, a->point) != HS_OK) {
+                fprintf(stderr,
+                        "hs_sim: scenario line %d: load %g kg at (%g, %g, %g) m refused: the platform would not be a "
+                        "rigid body (mass %g kg now)\n",
+                        a->line, a->mass, a->point[0], a->point[1], a->point[2], s->plant.par.mass);
+                return 2;
+            }
+            printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", tick, a->mass, a->point[0], a->point[1],
+                   a->point[2]);
+            break;
+        case HS_ACTION_PLAY: {
+            hs_scenario_error_t err;
+            hs_play_close(&s->play);
+            if (hs_play_open(&s->play, a->path, &err) != HS_OK) {
+                fprintf(stderr, "hs_sim: scenario line %d: %s\n", a->line, err.message);
+                return 2;
+            }
+            s->play_start = tick;
+            printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", tick, a->path, (double)a->ticks / 1000.0);
+            int r = play_tick(s, tick, t_us);
+            if (r != 0) {
+                return r;
             }
             break;
         }
@@ -197,7 +317,6 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             break;
         case HS_ACTION_MARK:
             printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
-            fflush(stdout);
             break;
         case HS_ACTION_DELAY:
         case HS_ACTION_END:
@@ -209,8 +328,8 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
                    : a->kind == HS_ACTION_UNSILENCE ? "unsilence"
                                                     : "fault",
                    a->leg + 1);
-            fflush(stdout);
         }
+        fflush(stdout);
     }
     return 0;
 }
@@ -234,6 +353,12 @@ static void write_truth(sim_t *s, uint64_t tick)
     }
     for (int i = 0; i < HS_LEGS; i++) {
         fprintf(s->truth, ",%d", (int)s->plant.drive[i].state);
+    }
+    for (int k = 0; k < 6; k++) {
+        fprintf(s->truth, ",%.3f", st.wrench[k]);
+    }
+    for (int i = 0; i < HS_LEGS; i++) {
+        fprintf(s->truth, ",%.3f", st.friction[i]);
     }
     fputc('\n', s->truth);
 }
@@ -306,7 +431,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress]\n");
+                    "              [--progress] [--load MASS,X,Y,Z]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -315,6 +440,22 @@ static int parse_u64(const char *v, unsigned long long *out)
     errno = 0;
     *out = strtoull(v, &end, 0);
     return (errno == 0 && end != v && *end == '\0' && v[0] != '-') ? 0 : -1;
+}
+
+/* "MASS,X,Y,Z": four finite numbers. 0 ok, -1 not. */
+static int parse_load(const char *v, double out[4])
+{
+    const char *p = v;
+    for (int k = 0; k < 4; k++) {
+        char *end;
+        errno = 0;
+        out[k] = strtod(p, &end);
+        if (errno != 0 || end == p || !isfinite(out[k]) || *end != (k < 3 ? ',' : '\0')) {
+            return -1;
+        }
+        p = end + 1;
+    }
+    return 0;
 }
 
 /* Real time: answers SYNC(t) from the controller with the feedback of that instant. */
@@ -357,6 +498,8 @@ int main(int argc, char **argv)
     unsigned long long max_ticks = 0, seed = 0;
     int have_seed = 0;
     long timeout_ms = 2000;
+    double load[4] = {0.0, 0.0, 0.0, 0.0};
+    int have_load = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -384,6 +527,8 @@ int main(int argc, char **argv)
             max_ticks = u, i++;
         } else if (strcmp(a, "--seed") == 0 && parse_u64(v, &u) == 0) {
             seed = u, have_seed = 1, i++;
+        } else if (strcmp(a, "--load") == 0 && parse_load(v, load) == 0) {
+            have_load = 1, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
             timeout_ms = (long)u, i++;
         } else {
@@ -411,6 +556,11 @@ int main(int argc, char **argv)
     }
     if (have_seed) {
         par.sensors.seed = (uint64_t)seed;
+    }
+    if (have_load && hs_params_add_mass(&par, load[0], &load[1]) != HS_OK) {
+        fprintf(stderr, "hs_sim: --load %g,%g,%g,%g: the platform would not be a rigid body\n", load[0], load[1],
+                load[2], load[3]);
+        return 2;
     }
     hs_status_t hst = hs_plant_init(&s.plant, &par, hs_config_default.park);
     if (hst != HS_OK) {
@@ -446,13 +596,19 @@ int main(int argc, char **argv)
         }
         (void)setvbuf(s.truth, truth_buf, _IOFBF, sizeof truth_buf);
         fprintf(s.truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
-                         "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6\n");
+                         "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6,"
+                         "wrench_fx,wrench_fy,wrench_fz,wrench_mx,wrench_my,wrench_mz,"
+                         "friction1,friction2,friction3,friction4,friction5,friction6\n");
     }
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("hs_sim: cannot catch SIGINT/SIGTERM");
     }
     fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms\n",
             s.lockstep ? "lockstep" : "real-time", s.ifs[0], s.ifs[1], s.ifs[2], (unsigned)par.substeps);
+    if (have_load) {
+        fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",
+                load[0], load[1], load[2], load[3], par.mass, par.com[0], par.com[1], par.com[2]);
+    }
 
     int rc = 0;
     uint64_t tick = 0;
@@ -463,11 +619,15 @@ int main(int argc, char **argv)
     while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
         uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
         if (s.have_scenario) {
-            int r = run_scenario(&s, tick, t_us);
+            int r = play_tick(&s, tick, t_us); /* a play under way first: its last pose before what follows it */
+            if (r == 0) {
+                r = run_scenario(&s, tick, t_us);
+            }
             if (r != 0) {
-                rc = (r == 1) ? 0 : (r == 4 ? 4 : 1);
+                rc = (r == 1) ? 0 : ((r == 4 || r == 2) ? r : 1);
                 break;
             }
+            wrench_tick(&s, tick);
         }
         if (s.lockstep) {
             sp_can_frame_t tx[HS_BUS_MAX_TX];
@@ -544,6 +704,7 @@ int main(int argc, char **argv)
     if (s.truth != NULL) {
         fclose(s.truth);
     }
+    hs_play_close(&s.play);
     sp_socketcan_close(&s.sc);
     return rc;
 }

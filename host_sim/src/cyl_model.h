@@ -91,6 +91,30 @@ static inline double hs__stop_force(const hs_cyl_params_t *c, double s, double r
     return f;
 }
 
+/* Friction force (opposes the stroke rate; hs/cylinder.h) and the bristle
+ * deflection's rate dz. With sigma_0 = 0 the memoryless smoothed Coulomb
+ * term of before, with the Stribeck excess when F_s > F_c (exactly the old
+ * expression when F_s = F_c); with sigma_0 > 0 the LuGre model. */
+static inline double hs__friction(const hs_cyl_params_t *c, double z, double rate, double *dz)
+{
+    double fc = c->coulomb_friction;
+    double excess = c->breakaway_friction - fc;
+    if (c->bristle_stiffness > 0.0) {
+        double r = rate / c->stribeck_velocity;
+        double e = exp(-r * r);
+        double g = fc + excess * e; /* >= F_c > 0 (hs_params_check) */
+        double zd = rate - c->bristle_stiffness * fabs(rate) * z / g;
+        *dz = zd;
+        return c->bristle_stiffness * z + c->bristle_damping * e * zd + c->viscous_friction * rate;
+    }
+    *dz = 0.0;
+    if (excess > 0.0) {
+        double r = rate / c->stribeck_velocity;
+        fc += excess * exp(-r * r);
+    }
+    return c->viscous_friction * rate + fc * hs__smooth_sign(rate / c->coulomb_velocity);
+}
+
 static inline void hs__cyl_eval(const hs_cyl_params_t *c, const hs_cyl_state_t *st, double stroke, double rate,
                                 double u, hs_cyl_eval_t *out)
 {
@@ -133,7 +157,7 @@ static inline void hs__cyl_eval(const hs_cyl_params_t *c, const hs_cyl_state_t *
     out->qa = qa;
     out->qb = qb;
     out->pressure_force = pa * c->area_a - pb * c->area_b;
-    out->friction = c->viscous_friction * rate + c->coulomb_friction * hs__smooth_sign(rate / c->coulomb_velocity);
+    out->friction = hs__friction(c, st->z, rate, &out->dz);
     out->stop = hs__stop_force(c, stroke, rate);
     out->force = out->pressure_force - out->friction + out->stop;
 }

@@ -199,5 +199,14 @@ hs_status_t hs_static_forces(const hs_params_t *params, const double pose[6], co
         b[3 + k] = (ext_moment != NULL) ? -ext_moment[k] : 0.0;
     }
     b[2] += params->mass * params->gravity;
+    if (params->com[0] != 0.0 || params->com[1] != 0.0 || params->com[2] != 0.0) {
+        /* gravity at the centre of mass R c: its moment (R c) x (0, 0, -m g) is held too */
+        const double *c = params->com;
+        double mg = params->mass * params->gravity;
+        double rc0 = r[0][0] * c[0] + r[0][1] * c[1] + r[0][2] * c[2];
+        double rc1 = r[1][0] * c[0] + r[1][1] * c[1] + r[1][2] * c[2];
+        b[3] += mg * rc1;
+        b[4] -= mg * rc0;
+    }
     return hs_solve6(a, b, force);
 }

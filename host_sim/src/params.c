@@ -8,6 +8,10 @@
 #include "hs/cylinder.h"
 
 #define HS_PI 3.14159265358979323846
+/* max over v of |v| exp(-(v/v_s)^2) / v_s = exp(-1/2) / sqrt(2), rounded up */
+#define HS_FADE_PEAK 0.42889
+/* LuGre bristle deflection at the Coulomb level, F_c / sigma_0 (docs/plant.md) */
+#define HS_BRISTLE_DEFLECTION 1.0e-4
 
 static int finite_pos(double v)
 {
@@ -35,13 +39,80 @@ static hs_status_t check_cyl(const hs_cyl_params_t *c)
         !(c->rod_com <= c->length_min + c->stroke)) {
         return HS_E_ARG;
     }
+    /* friction: F_s >= F_c; LuGre needs F_c > 0 (g(v) >= F_c keeps z' bounded)
+     * and sigma_1 small enough to stay dissipative (hs/cylinder.h) */
+    if (!isfinite(c->breakaway_friction) || !(c->breakaway_friction >= c->coulomb_friction) ||
+        !finite_pos(c->stribeck_velocity) || !finite_nonneg(c->bristle_stiffness) ||
+        !finite_nonneg(c->bristle_damping)) {
+        return HS_E_ARG;
+    }
+    if (c->bristle_stiffness > 0.0 &&
+        (!(c->coulomb_friction > 0.0) ||
+         !(HS_FADE_PEAK * c->bristle_damping * c->stribeck_velocity <= 4.0 * c->coulomb_friction))) {
+        return HS_E_ARG;
+    }
+    return HS_OK;
+}
+
+/* Leading principal minors of a symmetric 3x3 matrix: d1, d2, d3. */
+static void minors(const double *m, double d[3])
+{
+    d[0] = m[0];
+    d[1] = m[0] * m[4] - m[1] * m[3];
+    d[2] = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) + m[2] * (m[3] * m[7] - m[4] * m[6]);
+}
+
+hs_status_t hs_rigid_body_check(double mass, const double com[3], const double *inertia_rows)
+{
+    double inertia[3][3];
+    double ic[3][3], sm[3][3], d[3], c2, half_tr, tol;
+    if (com == NULL || inertia_rows == NULL || !finite_pos(mass) || !isfinite(com[0]) || !isfinite(com[1]) ||
+        !isfinite(com[2])) {
+        return HS_E_ARG;
+    }
+    memcpy(inertia, inertia_rows, sizeof inertia);
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            if (!isfinite(inertia[r][c]) || fabs(inertia[r][c] - inertia[c][r]) > 1e-9 * (1.0 + fabs(inertia[r][c]))) {
+                return HS_E_ARG;
+            }
+        }
+    }
+    /* about the centre of mass (parallel axes), positive definite (Sylvester) */
+    c2 = com[0] * com[0] + com[1] * com[1] + com[2] * com[2];
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            ic[r][c] = inertia[r][c] - mass * ((r == c ? c2 : 0.0) - com[r] * com[c]);
+        }
+    }
+    minors(&ic[0][0], d);
+    if (!(d[0] > 0.0 && d[1] > 0.0 && d[2] > 0.0)) {
+        return HS_E_ARG;
+    }
+    /* the mass's second moment tr(I_c)/2 1 - I_c must be positive semi-definite
+     * (the principal moments obey the triangle inequality): all principal minors >= 0 */
+    half_tr = 0.5 * (ic[0][0] + ic[1][1] + ic[2][2]);
+    tol = 1e-9 * half_tr;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            sm[r][c] = (r == c ? half_tr : 0.0) - ic[r][c];
+        }
+    }
+    for (int k = 0; k < 3; ++k) {
+        int a = (k + 1) % 3, b = (k + 2) % 3;
+        if (sm[k][k] < -tol || sm[a][a] * sm[b][b] - sm[a][b] * sm[b][a] < -tol * half_tr) {
+            return HS_E_ARG;
+        }
+    }
+    minors(&sm[0][0], d);
+    if (d[2] < -tol * half_tr * half_tr) {
+        return HS_E_ARG;
+    }
     return HS_OK;
 }
 
 hs_status_t hs_params_check(const hs_params_t *p)
 {
-    const double *m;
-    double d2, d3;
     if (p == NULL) {
         return HS_E_ARG;
     }
@@ -64,19 +135,7 @@ hs_status_t hs_params_check(const hs_params_t *p)
         !isfinite(p->leg_length_max) || !(p->leg_length_max > p->leg_length_min)) {
         return HS_E_ARG;
     }
-    /* inertia: finite, symmetric, positive definite (Sylvester) */
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) {
-            if (!isfinite(p->inertia[r][c]) ||
-                fabs(p->inertia[r][c] - p->inertia[c][r]) > 1e-9 * (1.0 + fabs(p->inertia[r][c]))) {
-                return HS_E_ARG;
-            }
-        }
-    }
-    m = &p->inertia[0][0];
-    d2 = m[0] * m[4] - m[1] * m[3];
-    d3 = m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) + m[2] * (m[3] * m[7] - m[4] * m[6]);
-    if (!(m[0] > 0.0 && d2 > 0.0 && d3 > 0.0)) {
+    if (hs_rigid_body_check(p->mass, p->com, &p->inertia[0][0]) != HS_OK) {
         return HS_E_ARG;
     }
     if (!finite_pos(p->sensors.length_resolution) || !finite_pos(p->sensors.pressure_resolution) ||
@@ -106,6 +165,17 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     memcpy(p->base_joint, cf->base_joints, sizeof p->base_joint);
     memcpy(p->platform_joint, cf->platform_joints, sizeof p->platform_joint);
     memcpy(p->inertia, cf->inertia, sizeof p->inertia);
+    memcpy(p->com, cf->center_of_mass, sizeof p->com);
+    if (cf->center_of_mass[0] != 0.0 || cf->center_of_mass[1] != 0.0 || cf->center_of_mass[2] != 0.0) {
+        /* the config gives the inertia about c; the plant wants it about o' (parallel axes) */
+        const double *cm = cf->center_of_mass;
+        double c2 = cm[0] * cm[0] + cm[1] * cm[1] + cm[2] * cm[2];
+        for (int r = 0; r < 3; ++r) {
+            for (int k = 0; k < 3; ++k) {
+                p->inertia[r][k] += cf->mass * ((r == k ? c2 : 0.0) - cm[r] * cm[k]);
+            }
+        }
+    }
     memcpy(p->home, cf->home, sizeof p->home);
     p->mass = cf->mass;
     p->gravity = cf->gravity;
@@ -130,9 +200,8 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     c.valve_omega = 2.0 * HS_PI * h->valve_natural_frequency;
     c.valve_damping = h->valve_damping;
     c.leakage = h->leakage_coefficient;
-    c.viscous_friction = h->viscous_friction;
-    c.coulomb_friction = h->coulomb_friction;
-    c.coulomb_velocity = 1.0e-3;
+    c.coulomb_velocity = h->coulomb_velocity;
+    c.stribeck_velocity = h->stribeck_velocity;
     c.cushion_length = h->end_cushion_length;
     c.stop_stiffness = h->end_stop_stiffness;
     c.stop_damping = h->end_stop_damping;
@@ -140,8 +209,24 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     c.cylinder_com = h->cylinder_com;
     c.rod_mass = h->rod_mass;
     c.rod_com = h->rod_com;
+    m_leg = cf->mass / HS_LEGS + h->piston_mass;
     for (int i = 0; i < HS_LEGS; ++i) {
-        p->cyl[i] = c;
+        hs_cyl_params_t *ci = &p->cyl[i];
+        *ci = c;
+        ci->viscous_friction = h->viscous_friction[i];
+        ci->coulomb_friction = h->coulomb_friction[i];
+        ci->breakaway_friction = h->breakaway_friction[i];
+        /* LuGre (docs/plant.md "Friction"): sigma_0 puts the bristles' Coulomb-level
+         * deflection at 0.1 mm; sigma_1 damps them critically against a sixth of
+         * the moving mass, bounded to stay dissipative. No Coulomb level: memoryless. */
+        if (ci->coulomb_friction > 0.0) {
+            double s1max = 4.0 * ci->coulomb_friction / (HS_FADE_PEAK * ci->stribeck_velocity);
+            ci->bristle_stiffness = ci->coulomb_friction / HS_BRISTLE_DEFLECTION;
+            ci->bristle_damping = 2.0 * sqrt(ci->bristle_stiffness * m_leg);
+            if (ci->bristle_damping > s1max) {
+                ci->bristle_damping = s1max;
+            }
+        }
     }
 
     p->sensors.length_resolution = cf->sensors.length_resolution;
@@ -171,4 +256,37 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
 hs_status_t hs_params_default(hs_params_t *params)
 {
     return hs_params_from_config(&hs_config_default, params);
+}
+
+hs_status_t hs_params_add_mass(hs_params_t *p, double mass, const double point[3])
+{
+    double m1, c1[3], in1[3][3], r2;
+    if (p == NULL || point == NULL || !isfinite(mass) || !isfinite(point[0]) || !isfinite(point[1]) ||
+        !isfinite(point[2])) {
+        return HS_E_ARG;
+    }
+    m1 = p->mass + mass;
+    if (!(m1 > 0.0)) {
+        return HS_E_RANGE;
+    }
+    r2 = point[0] * point[0] + point[1] * point[1] + point[2] * point[2];
+    for (int k = 0; k < 3; ++k) {
+        c1[k] = (p->mass * p->com[k] + mass * point[k]) / m1;
+    }
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            in1[j][k] = p->inertia[j][k] + mass * ((j == k ? r2 : 0.0) - point[j] * point[k]);
+        }
+    }
+    if (hs_rigid_body_check(m1, c1, &in1[0][0]) != HS_OK) {
+        return HS_E_RANGE;
+    }
+    p->mass = m1;
+    for (int j = 0; j < 3; ++j) {
+        p->com[j] = c1[j];
+        for (int k = 0; k < 3; ++k) {
+            p->inertia[j][k] = in1[j][k];
+        }
+    }
+    return HS_OK;
 }

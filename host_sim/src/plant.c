@@ -14,7 +14,9 @@ typedef struct {
     double length[HS_LEGS];
     double rate[HS_LEGS];
     double force[HS_LEGS];
+    double friction[HS_LEGS];
     double contact[3];
+    double contact_moment[3]; /* about o', base frame */
 } aux_t;
 
 static void cross(const double a[3], const double b[3], double out[3])
@@ -152,9 +154,10 @@ static void leg_geometry(const hs_plant_t *pl, const double *x, double r[3][3], 
     }
 }
 
-/* With leg masses: solves the coupled platform + legs equations for
- * v' and the base-frame angular acceleration (docs/plant.md). f, tau: the
- * wrench of everything else (base frame, at o'). Returns 0 if singular. */
+/* With leg masses or a centre of mass off o': solves the coupled platform
+ * (+ legs) equations for v' and the base-frame angular acceleration
+ * (docs/plant.md). f, tau: the wrench of everything else (base frame, at
+ * o', gravity included). Returns 0 if singular. */
 static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3],
                       double arms[HS_LEGS][3], double uns[HS_LEGS][3], const double lens[HS_LEGS], const double f[3],
                       const double tau[3], double acc[6])
@@ -185,7 +188,29 @@ static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], con
         rhs[k] = f[k];
         rhs[3 + k] = tau[k] - gyro[k];
     }
-    for (int i = 0; i < HS_LEGS; ++i) {
+    if (pl->com_on) {
+        /* centre of mass at R c from o': m (v' + w' x rc + w x (w x rc)) = f,
+         * I w' + w x (I w) + m rc x v' = tau (about o', base frame) */
+        double rc[3], wxr[3], cen[3], mm = p->mass;
+        mat_vec(&r[0][0], p->com, rc);
+        a[0][4] += mm * rc[2];
+        a[0][5] -= mm * rc[1];
+        a[1][3] -= mm * rc[2];
+        a[1][5] += mm * rc[0];
+        a[2][3] += mm * rc[1];
+        a[2][4] -= mm * rc[0];
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                a[3 + k][j] = a[j][3 + k];
+            }
+        }
+        cross(wb, rc, wxr);
+        cross(wb, wxr, cen);
+        for (int k = 0; k < 3; ++k) {
+            rhs[k] -= mm * cen[k];
+        }
+    }
+    for (int i = 0; i < HS_LEGS && pl->legs_on; ++i) {
         const double *arm = arms[i];
         double va[3], mm[3][3], b[3], kk[3][3], mk[3][3], wxa[3], cen[3], fb[3], m[3];
         cross(wb, arm, wxa);
@@ -246,11 +271,18 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
     tau[0] = pl->ext_moment[0];
     tau[1] = pl->ext_moment[1];
     tau[2] = pl->ext_moment[2];
+    if (pl->com_on) {
+        /* gravity acts at the centre of mass R c: moment (R c) x (0, 0, -m g) */
+        double rc[3], mg = p->mass * p->gravity;
+        mat_vec(&r[0][0], p->com, rc);
+        tau[0] -= mg * rc[1];
+        tau[1] += mg * rc[0];
+    }
 
     /* Three passes over the legs (geometry, cylinders, wrench): the legs are
      * independent, so the square roots and divisions of different legs
      * overlap in the processor instead of forming one long chain. */
-    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS];
+    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS], ffr[HS_LEGS];
     for (int i = 0; i < HS_LEGS; ++i) {
         double l[3], wxa[3], inv;
         mat_vec(&r[0][0], p->platform_joint[i], arm[i]);
@@ -270,20 +302,24 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
         for (int i = 0; i < HS_LEGS; ++i) {
             const double *xc = &x[HS_X_CYL + 4 * i];
             double *dc = &dx[HS_X_CYL + 4 * i];
-            hs_cyl_state_t st = {xc[0], xc[1], xc[2], xc[3]};
+            hs_cyl_state_t st = {xc[0], xc[1], xc[2], xc[3], x[HS_X_BRISTLE + i]};
             hs_cyl_eval_t ev;
             hs__cyl_eval(&p->cyl[i], &st, len[i] - p->cyl[i].length_min, ldot[i], u[i], &ev);
             fi[i] = ev.force;
+            ffr[i] = ev.friction;
             dc[0] = ev.dpa;
             dc[1] = ev.dpb;
             dc[2] = ev.dxv;
             dc[3] = ev.dxv_rate;
+            dx[HS_X_BRISTLE + i] = ev.dz;
         }
     } else {
         for (int i = 0; i < HS_LEGS; ++i) {
             double *dc = &dx[HS_X_CYL + 4 * i];
             fi[i] = pl->ideal_force[i];
+            ffr[i] = 0.0;
             dc[0] = dc[1] = dc[2] = dc[3] = 0.0;
+            dx[HS_X_BRISTLE + i] = 0.0;
         }
     }
     for (int i = 0; i < HS_LEGS; ++i) {
@@ -302,6 +338,7 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
             aux->length[i] = len[i];
             aux->rate[i] = ldot[i];
             aux->force[i] = fi[i];
+            aux->friction[i] = ffr[i];
         }
     }
 
@@ -321,12 +358,14 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
         }
         if (aux != NULL) {
             memcpy(aux->contact, fc, sizeof fc);
+            memcpy(aux->contact_moment, m, sizeof m);
         }
     } else if (aux != NULL) {
         aux->contact[0] = aux->contact[1] = aux->contact[2] = 0.0;
+        aux->contact_moment[0] = aux->contact_moment[1] = aux->contact_moment[2] = 0.0;
     }
 
-    if (pl->legs_on) {
+    if (pl->legs_on || pl->com_on) {
         double acc[6];
         if (!legs_accel(pl, x, r, wb, arm, un, len, f, tau, acc)) {
             for (int k = 0; k < 6; ++k) {
@@ -482,6 +521,7 @@ static void set_holding(hs_plant_t *pl, const double force[HS_LEGS])
         hs_cyl_holding_pressures(&pl->par.cyl[i], force[i], &xc[0], &xc[1]);
         xc[2] = 0.0;
         xc[3] = 0.0;
+        pl->x[HS_X_BRISTLE + i] = 0.0; /* the pressures hold it all */
         pl->valve_cmd[i] = 0.0;
     }
 }
@@ -510,6 +550,7 @@ hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const doubl
         return HS_E_ARG;
     }
     pl->inv_mass = 1.0 / pl->par.mass;
+    pl->com_on = (pl->par.com[0] != 0.0 || pl->par.com[1] != 0.0 || pl->par.com[2] != 0.0);
     hs_leg_lengths(&pl->par, pose, len);
     for (int i = 0; i < HS_LEGS; ++i) {
         const hs_cyl_params_t *c = &pl->par.cyl[i];
@@ -626,6 +667,29 @@ hs_status_t hs_plant_rebalance(hs_plant_t *pl)
         return st;
     }
     set_holding(pl, force);
+    return HS_OK;
+}
+
+hs_status_t hs_plant_add_mass(hs_plant_t *pl, double mass, const double point[3])
+{
+    hs_params_t p;
+    double inv[3][3];
+    hs_status_t st;
+    if (pl == NULL) {
+        return HS_E_ARG;
+    }
+    p = pl->par;
+    st = hs_params_add_mass(&p, mass, point);
+    if (st != HS_OK) {
+        return st;
+    }
+    if (!invert3(p.inertia, inv)) {
+        return HS_E_RANGE;
+    }
+    pl->par = p;
+    memcpy(pl->inertia_inv, inv, sizeof inv);
+    pl->inv_mass = 1.0 / p.mass;
+    pl->com_on = (p.com[0] != 0.0 || p.com[1] != 0.0 || p.com[2] != 0.0);
     return HS_OK;
 }
 
@@ -817,12 +881,15 @@ hs_status_t hs_plant_state(const hs_plant_t *pl, hs_state_t *st)
         st->vel[k] = pl->x[HS_X_VEL + k];
         st->omega_body[k] = pl->x[HS_X_OMEGA + k];
         st->contact_force[k] = aux.contact[k];
+        st->wrench[k] = pl->ext_force[k] + aux.contact[k];
+        st->wrench[3 + k] = pl->ext_moment[k] + aux.contact_moment[k];
     }
     mat_vec(&r[0][0], st->omega_body, st->omega_base);
     for (int i = 0; i < HS_LEGS; ++i) {
         st->length[i] = aux.length[i];
         st->rate[i] = aux.rate[i];
         st->force[i] = aux.force[i];
+        st->friction[i] = aux.friction[i];
         st->pa[i] = pl->x[HS_X_CYL + 4 * i];
         st->pb[i] = pl->x[HS_X_CYL + 4 * i + 1];
         st->spool[i] = pl->x[HS_X_CYL + 4 * i + 2];
@@ -847,6 +914,16 @@ hs_status_t hs_plant_energy(const hs_plant_t *pl, hs_energy_t *e)
     e->kinetic =
         0.5 * p->mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) + 0.5 * (w[0] * iw[0] + w[1] * iw[1] + w[2] * iw[2]);
     e->gravity = p->mass * p->gravity * pl->x[HS_X_POS + 2];
+    if (pl->com_on) {
+        /* about o': m v . (w_b x R c) more kinetic energy; the centre of mass's height */
+        double rc[3], wb[3], wxr[3];
+        hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+        mat_vec(&r[0][0], p->com, rc);
+        mat_vec(&r[0][0], w, wb);
+        cross(wb, rc, wxr);
+        e->kinetic += p->mass * (v[0] * wxr[0] + v[1] * wxr[1] + v[2] * wxr[2]);
+        e->gravity += p->mass * p->gravity * rc[2];
+    }
     e->oil = 0.0;
     e->springs = 0.0;
     derivs(pl, pl->x, pl->valve_cmd, dx, &aux);
@@ -855,7 +932,8 @@ hs_status_t hs_plant_energy(const hs_plant_t *pl, hs_energy_t *e)
             const hs_cyl_params_t *c = &p->cyl[i];
             double s = aux.length[i] - c->length_min;
             e->oil += hs_cyl_oil_energy(c, s, pl->x[HS_X_CYL + 4 * i], pl->x[HS_X_CYL + 4 * i + 1]);
-            e->springs += hs_cyl_stop_energy(c, s);
+            double z = pl->x[HS_X_BRISTLE + i];
+            e->springs += hs_cyl_stop_energy(c, s) + 0.5 * c->bristle_stiffness * z * z;
         }
     }
     if (pl->contact.kind != HS_CONTACT_NONE) {

@@ -9,7 +9,7 @@
 
 static void rig_derivs(const hs_rig_t *rig, const double *x, double u, double *dx)
 {
-    hs_cyl_state_t st = {x[HS_RIG_CYL], x[HS_RIG_CYL + 1], x[HS_RIG_CYL + 2], x[HS_RIG_CYL + 3]};
+    hs_cyl_state_t st = {x[HS_RIG_CYL], x[HS_RIG_CYL + 1], x[HS_RIG_CYL + 2], x[HS_RIG_CYL + 3], x[HS_RIG_BRISTLE]};
     hs_cyl_eval_t ev;
     hs__cyl_eval(&rig->cyl, &st, x[HS_RIG_STROKE], x[HS_RIG_RATE], u, &ev);
     dx[HS_RIG_STROKE] = x[HS_RIG_RATE];
@@ -18,6 +18,7 @@ static void rig_derivs(const hs_rig_t *rig, const double *x, double u, double *d
     dx[HS_RIG_CYL + 1] = ev.dpb;
     dx[HS_RIG_CYL + 2] = ev.dxv;
     dx[HS_RIG_CYL + 3] = ev.dxv_rate;
+    dx[HS_RIG_BRISTLE] = ev.dz;
 }
 
 hs_status_t hs_rig_init(hs_rig_t *rig, const hs_cyl_params_t *cyl, double mass, double gravity, double stroke)
@@ -75,6 +76,7 @@ hs_status_t hs_rig_step(hs_rig_t *rig, double u, double h)
 
 void hs_rig_eval(const hs_rig_t *rig, double u, hs_cyl_eval_t *out)
 {
-    hs_cyl_state_t st = {rig->x[HS_RIG_CYL], rig->x[HS_RIG_CYL + 1], rig->x[HS_RIG_CYL + 2], rig->x[HS_RIG_CYL + 3]};
+    hs_cyl_state_t st = {rig->x[HS_RIG_CYL], rig->x[HS_RIG_CYL + 1], rig->x[HS_RIG_CYL + 2], rig->x[HS_RIG_CYL + 3],
+                         rig->x[HS_RIG_BRISTLE]};
     hs__cyl_eval(&rig->cyl, &st, rig->x[HS_RIG_STROKE], rig->x[HS_RIG_RATE], u, out);
 }

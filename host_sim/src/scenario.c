@@ -17,7 +17,12 @@
 #define MAX_FADE_S 65.0    /* longest fade, s */
 #define Q24_ONE 16777216.0 /* 1.0 in Q24 */
 #define COMMAND_LIST "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD"
-#define ACTION_LIST "cmd, target, delay, wait, silence, unsilence, fault, mark, end"
+#define ACTION_LIST "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play"
+#define MAX_WRENCH 1.0e6   /* largest |value| of a wrench, N or N m */
+#define MAX_GEOMETRY 100.0 /* largest |value| of a contact or load position, m */
+#define MAX_CONTACT 1.0e9  /* largest contact stiffness (N/m) and damping (N s/m) */
+#define MAX_LOAD 1.0e5     /* largest |mass| of a load, kg */
+#define PLAY_HEADER "t,x,y,z,roll,pitch,yaw"
 #define KEY_LIST "axis, amplitude, frequency, fade, option"
 #define AXIS_LIST "x, y, z, roll, pitch, yaw"
 #define STATE_LIST "idle, engaging, ready, running, parking, fault, estop"
@@ -330,8 +335,294 @@ static int parse_mark(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
     return 1;
 }
 
-/* Parses one line (modified in place). 1: an action in *a, 0: blank or comment, -1: error (why). */
-static int parse_line(char *line, hs_action_t *a, char why[WHY_LEN])
+/* Numbers w[from..from+n) into v, each |v| <= max. 0 ok, -1 (why). */
+static int parse_numbers(char **w, int from, int n, double max, const char *what, const char *unit, double *v,
+                         char why[WHY_LEN])
+{
+    for (int i = 0; i < n; i++) {
+        if (parse_double(w[from + i], &v[i]) != 0) {
+            return fail(why, "%s value '%.40s' is not a number", what, w[from + i]);
+        }
+        if (fabs(v[i]) > max) {
+            return fail(why, "%s value %.40s is out of range (|v| <= %g %s)", what, w[from + i], max, unit);
+        }
+    }
+    return 0;
+}
+
+/* key=value words w[from..nw): each of keys[] at most once, value in [0, max[k]].
+ * seen gets a bit per key found. 0 ok, -1 (why). */
+static int parse_keys(char **w, int from, int nw, const char *what, const char *const *keys, const double *max,
+                      int nkeys, double *vals, unsigned *seen, char why[WHY_LEN])
+{
+    *seen = 0u;
+    for (int i = from; i < nw; i++) {
+        char *eq = strchr(w[i], '=');
+        int k = -1;
+        double v;
+        if (eq == NULL) {
+            return fail(why, "%s: expected key=value, got '%.40s'", what, w[i]);
+        }
+        *eq = '\0';
+        for (int j = 0; j < nkeys; j++) {
+            if (strcmp(w[i], keys[j]) == 0) {
+                k = j;
+            }
+        }
+        if (k < 0) {
+            return fail(why, "%s: unknown argument '%.40s'", what, w[i]);
+        }
+        if (*seen & (1u << k)) {
+            return fail(why, "%s: argument '%s' given twice", what, keys[k]);
+        }
+        *seen |= 1u << k;
+        if (parse_double(eq + 1, &v) != 0) {
+            return fail(why, "%s: %s '%.40s' is not a number", what, keys[k], eq + 1);
+        }
+        if (v < 0.0 || v > max[k]) {
+            return fail(why, "%s: %s %.40s is out of range (0..%g)", what, keys[k], eq + 1, max[k]);
+        }
+        vals[k] = v;
+    }
+    return 0;
+}
+
+static int parse_wrench(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    static const char *const keys[1] = {"ramp"};
+    static const double max[1] = {MAX_SECONDS};
+    double ramp = 0.0;
+    unsigned seen;
+    int first_key;
+    a->kind = HS_ACTION_WRENCH;
+    if (nw >= 2 && strcasecmp(w[1], "off") == 0) {
+        first_key = 2;
+    } else {
+        int n = 0;
+        while (1 + n < nw && strchr(w[1 + n], '=') == NULL) {
+            n++;
+        }
+        if (n != 6) {
+            return fail(why, "wrench needs 6 numbers (fx fy fz mx my mz) or 'off', then optionally ramp=S; got %d", n);
+        }
+        if (parse_numbers(w, 1, 6, MAX_WRENCH, "wrench", "N or N m", a->wrench, why) != 0) {
+            return -1;
+        }
+        first_key = 7;
+    }
+    if (parse_keys(w, first_key, nw, "wrench", keys, max, 1, &ramp, &seen, why) != 0) {
+        return -1;
+    }
+    a->ticks = ticks_of(ramp);
+    return 1;
+}
+
+static int parse_contact(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    static const char *const keys[2] = {"stiffness", "damping"};
+    static const double max[2] = {MAX_CONTACT, MAX_CONTACT};
+    double v[7], kd[2] = {0.0, 0.0};
+    unsigned seen;
+    int plane, n;
+    hs_scenario_contact_t *c = &a->contact;
+    a->kind = HS_ACTION_CONTACT;
+    if (nw < 2) {
+        return fail(why, "contact needs plane, point or off");
+    }
+    if (strcasecmp(w[1], "off") == 0) {
+        if (nw != 2) {
+            return fail(why, "contact off takes no arguments, got %d", nw - 2);
+        }
+        return 1;
+    }
+    plane = strcasecmp(w[1], "plane") == 0;
+    if (!plane && strcasecmp(w[1], "point") != 0) {
+        return fail(why, "unknown contact '%.40s' (plane, point, off)", w[1]);
+    }
+    n = plane ? 7 : 6;
+    for (int i = 0; i < n; i++) {
+        if (2 + i >= nw || strchr(w[2 + i], '=') != NULL) {
+            return fail(why,
+                        plane ? "contact plane needs 7 numbers (nx ny nz offset px py pz), got %d"
+                              : "contact point needs 6 numbers (ax ay az px py pz), got %d",
+                        i);
+        }
+    }
+    if (parse_numbers(w, 2, n, MAX_GEOMETRY, plane ? "contact plane" : "contact point", "m", v, why) != 0) {
+        return -1;
+    }
+    if (parse_keys(w, 2 + n, nw, "contact", keys, max, 2, kd, &seen, why) != 0) {
+        return -1;
+    }
+    if (seen != 3u) {
+        return fail(why, "contact needs stiffness=K (N/m) and damping=D (N s/m)");
+    }
+    if (plane) {
+        c->kind = 1;
+        memcpy(c->normal, v, sizeof c->normal);
+        c->offset = v[3];
+        memcpy(c->point, &v[4], sizeof c->point);
+        if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) {
+            return fail(why, "contact plane: the normal is zero");
+        }
+    } else {
+        c->kind = 2;
+        memcpy(c->anchor, v, sizeof c->anchor);
+        memcpy(c->point, &v[3], sizeof c->point);
+    }
+    c->stiffness = kd[0];
+    c->damping = kd[1];
+    return 1;
+}
+
+static int parse_load(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    if (nw != 5) {
+        return fail(why, "load needs a mass (kg) and a point x y z (m, motion frame), got %d arguments", nw - 1);
+    }
+    a->kind = HS_ACTION_LOAD;
+    if (parse_numbers(w, 1, 1, MAX_LOAD, "load mass", "kg", &a->mass, why) != 0 ||
+        parse_numbers(w, 2, 3, MAX_GEOMETRY, "load point", "m", a->point, why) != 0) {
+        return -1;
+    }
+    if (a->mass == 0.0) {
+        return fail(why, "load mass is 0");
+    }
+    return 1;
+}
+
+/* ---- play files ---------------------------------------------------------- */
+
+/* Reads the next non-blank line of f into buf (newline and '\r' removed).
+ * 1 a line, 0 end of file, -1 error (why). */
+static int read_csv_line(FILE *f, char buf[HS_SCENARIO_MAX_LINE + 2], long *line, char why[WHY_LEN])
+{
+    for (;;) {
+        size_t len;
+        if (fgets(buf, HS_SCENARIO_MAX_LINE + 2, f) == NULL) {
+            return ferror(f) ? fail(why, "cannot read: %s", strerror(errno)) : 0;
+        }
+        (*line)++;
+        len = strlen(buf);
+        if (len > 0 && buf[len - 1] == '\n') {
+            buf[--len] = '\0';
+        } else if (!feof(f)) {
+            return fail(why, "line %ld longer than %d characters", *line, HS_SCENARIO_MAX_LINE);
+        }
+        while (len > 0 && is_space(buf[len - 1])) {
+            buf[--len] = '\0';
+        }
+        if (len > 0) {
+            return 1;
+        }
+    }
+}
+
+/* Next row of a play file: t (in ms) and the pose, checked against the
+ * previous t (prev_ms < 0: none). 1 a row, 0 end, -1 error (why). */
+static int read_play_row(FILE *f, long *line, double prev_ms, double row[7], char why[WHY_LEN])
+{
+    char buf[HS_SCENARIO_MAX_LINE + 2];
+    char *p;
+    int r = read_csv_line(f, buf, line, why);
+    if (r <= 0) {
+        return r;
+    }
+    p = buf;
+    for (int k = 0; k < 7; k++) {
+        char *end;
+        errno = 0;
+        row[k] = strtod(p, &end);
+        while (is_space(*end)) {
+            end++;
+        }
+        if (errno != 0 || end == p || !isfinite(row[k]) || *end != (k < 6 ? ',' : '\0')) {
+            return fail(why, "line %ld: expected 7 numbers t,x,y,z,roll,pitch,yaw", *line);
+        }
+        p = end + 1;
+    }
+    if (row[0] < 0.0 || row[0] > MAX_SECONDS) {
+        return fail(why, "line %ld: t %g is out of range (0..1e6 s)", *line, row[0]);
+    }
+    row[0] *= 1000.0;
+    if (prev_ms >= 0.0 && !(row[0] > prev_ms)) {
+        return fail(why, "line %ld: t %g s does not increase", *line, row[0] / 1000.0);
+    }
+    for (int k = 1; k < 7; k++) {
+        if (fabs(row[k]) > MAX_TARGET) {
+            return fail(why, "line %ld: pose value %g is out of range (|v| <= 8 m or rad)", *line, row[k]);
+        }
+    }
+    return 1;
+}
+
+static int read_play_header(FILE *f, long *line, char why[WHY_LEN])
+{
+    char buf[HS_SCENARIO_MAX_LINE + 2];
+    int r = read_csv_line(f, buf, line, why);
+    if (r < 0) {
+        return -1;
+    }
+    if (r == 0 || strcmp(buf, PLAY_HEADER) != 0) {
+        return fail(why, "line %ld: the header must be " PLAY_HEADER, *line);
+    }
+    return 0;
+}
+
+/* Checks a whole play file; *ticks: its duration in 1 ms ticks. 0 ok, -1 (why). */
+static int check_play_file(const char *path, uint64_t *ticks, char why[WHY_LEN])
+{
+    char inner[WHY_LEN];
+    double row[7], prev = -1.0;
+    long line = 0;
+    int r, rows = 0;
+    FILE *f = fopen(path, "r");
+    if (f == NULL) {
+        return fail(why, "play: cannot open '%.100s': %s", path, strerror(errno));
+    }
+    if (read_play_header(f, &line, inner) != 0) {
+        (void)fclose(f);
+        return fail(why, "play %.100s: %s", path, inner);
+    }
+    while ((r = read_play_row(f, &line, prev, row, inner)) == 1) {
+        prev = row[0];
+        rows++;
+    }
+    (void)fclose(f);
+    if (r < 0) {
+        return fail(why, "play %.100s: %s", path, inner);
+    }
+    if (rows == 0) {
+        return fail(why, "play %.100s: no rows after the header", path);
+    }
+    *ticks = (uint64_t)ceil(prev - 1e-6);
+    return 0;
+}
+
+static int parse_play(char **w, int nw, const char *dir, hs_action_t *a, char why[WHY_LEN])
+{
+    int n;
+    if (nw != 2) {
+        return fail(why, "play needs one file name (no spaces), got %d arguments", nw - 1);
+    }
+    a->kind = HS_ACTION_PLAY;
+    if (w[1][0] != '/' && dir != NULL && dir[0] != '\0') {
+        n = snprintf(a->path, sizeof a->path, "%s/%s", dir, w[1]);
+    } else {
+        n = snprintf(a->path, sizeof a->path, "%s", w[1]);
+    }
+    if (n < 0 || (size_t)n >= sizeof a->path) {
+        return fail(why, "play: the path is longer than %d characters", HS_SCENARIO_MAX_PATH);
+    }
+    if (check_play_file(a->path, &a->ticks, why) != 0) {
+        return -1;
+    }
+    return 1;
+}
+
+/* Parses one line (modified in place). 1: an action in *a, 0: blank or comment, -1: error (why).
+ * dir: where relative play files are (NULL: the working directory). */
+static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_LEN])
 {
     char *hash = strchr(line, '#');
     if (hash != NULL) {
@@ -370,6 +661,18 @@ static int parse_line(char *line, hs_action_t *a, char why[WHY_LEN])
     }
     if (strcasecmp(kw, "mark") == 0) {
         return parse_mark(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "wrench") == 0) {
+        return parse_wrench(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "contact") == 0) {
+        return parse_contact(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "load") == 0) {
+        return parse_load(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "play") == 0) {
+        return parse_play(w, nw, dir, a, why);
     }
     if (strcasecmp(kw, "end") == 0) {
         if (nw != 1) {
@@ -412,7 +715,7 @@ enum { LINE_WHOLE, LINE_TOO_LONG, LINE_NUL };
 
 /* One line (NUL-terminated in buf, which it modifies; `shape` says whether it could be read
  * whole) appended to the scenario if it is an action. */
-static hs_status_t take_line(hs_scenario_t *sc, char *buf, int shape, const char *name, int ln,
+static hs_status_t take_line(hs_scenario_t *sc, char *buf, int shape, const char *name, const char *dir, int ln,
                              hs_scenario_error_t *err)
 {
     char why[WHY_LEN];
@@ -425,7 +728,7 @@ static hs_status_t take_line(hs_scenario_t *sc, char *buf, int shape, const char
         }
         return refuse(sc, HS_E_SYNTAX, name, ln, why, err);
     }
-    int r = parse_line(buf, &a, why);
+    int r = parse_line(buf, dir, &a, why);
     if (r < 0) {
         return refuse(sc, HS_E_SYNTAX, name, ln, why, err);
     }
@@ -472,7 +775,7 @@ hs_status_t hs_scenario_parse(hs_scenario_t *sc, const char *text, const char *n
             memcpy(buf, p, len);
             buf[len] = '\0';
         }
-        hs_status_t st = take_line(sc, buf, shape, name, ln, err);
+        hs_status_t st = take_line(sc, buf, shape, name, NULL, ln, err);
         if (st != HS_OK) {
             return st;
         }
@@ -488,6 +791,19 @@ hs_status_t hs_scenario_load(hs_scenario_t *sc, const char *path, hs_scenario_er
     }
     start(sc, err);
     char why[WHY_LEN];
+    /* the scenario's directory, for relative play files */
+    char dir[HS_SCENARIO_MAX_PATH + 1] = "";
+    const char *slash = strrchr(path, '/');
+    if (slash != NULL) {
+        size_t dl = (size_t)(slash - path);
+        if (dl == 0) {
+            dl = 1; /* "/x.scn": the root */
+        }
+        if (dl < sizeof dir) {
+            memcpy(dir, path, dl);
+            dir[dl] = '\0';
+        }
+    }
     FILE *f = fopen(path, "r");
     if (f == NULL) {
         (void)snprintf(why, sizeof why, "cannot open the scenario: %s", strerror(errno));
@@ -510,7 +826,7 @@ hs_status_t hs_scenario_load(hs_scenario_t *sc, const char *path, hs_scenario_er
         }
         if (c == EOF || c == '\n') {
             buf[len] = '\0';
-            st = take_line(sc, buf, overlong ? LINE_TOO_LONG : (nul ? LINE_NUL : LINE_WHOLE), path, ln, err);
+            st = take_line(sc, buf, overlong ? LINE_TOO_LONG : (nul ? LINE_NUL : LINE_WHOLE), path, dir, ln, err);
             if (st != HS_OK || c == EOF) {
                 break;
             }
@@ -538,6 +854,7 @@ void hs_scenario_rewind(hs_scenario_t *sc)
     sc->pc = 0;
     sc->until = 0;
     sc->armed = 0;
+    sc->busy = 0;
 }
 
 hs_scenario_next_t hs_scenario_next(hs_scenario_t *sc, uint64_t tick, int state, const hs_action_t **action)
@@ -548,8 +865,14 @@ hs_scenario_next_t hs_scenario_next(hs_scenario_t *sc, uint64_t tick, int state,
     if (sc == NULL || action == NULL || sc->pc < 0 || sc->pc >= sc->n) {
         return HS_SCENARIO_END;
     }
+    if (tick < sc->busy) {
+        return HS_SCENARIO_PENDING; /* a play under way */
+    }
     const hs_action_t *a = &sc->action[sc->pc];
     switch (a->kind) {
+    case HS_ACTION_PLAY:
+        sc->busy = tick + a->ticks;
+        break;
     case HS_ACTION_DELAY:
         if (!sc->armed) {
             sc->until = tick + a->ticks;
@@ -588,4 +911,80 @@ hs_scenario_next_t hs_scenario_next(hs_scenario_t *sc, uint64_t tick, int state,
 const char *hs_scenario_command_name(uint8_t command)
 {
     return (command < N_COMMANDS) ? k_commands[command] : "unknown";
+}
+
+hs_status_t hs_play_open(hs_play_t *play, const char *path, hs_scenario_error_t *err)
+{
+    char why[WHY_LEN];
+    int r;
+    if (play == NULL || path == NULL) {
+        return HS_E_ARG;
+    }
+    memset(play, 0, sizeof *play);
+    play->file = fopen(path, "r");
+    if (play->file == NULL) {
+        (void)snprintf(why, sizeof why, "cannot open: %s", strerror(errno));
+        if (err != NULL) {
+            err->line = 0;
+            (void)snprintf(err->message, sizeof err->message, "%s: %s", path, why);
+        }
+        return HS_E_IO;
+    }
+    if (read_play_header(play->file, &play->line, why) != 0 ||
+        (r = read_play_row(play->file, &play->line, -1.0, play->row0, why)) <= 0 ||
+        (r = read_play_row(play->file, &play->line, play->row0[0], play->row1, why)) < 0) {
+        if (err != NULL) {
+            err->line = (int)play->line;
+            (void)snprintf(err->message, sizeof err->message, "%s: %s", path, why);
+        }
+        hs_play_close(play);
+        return HS_E_SYNTAX;
+    }
+    play->at_end = (r == 0);
+    return HS_OK;
+}
+
+hs_status_t hs_play_pose(hs_play_t *play, uint64_t ms, double pose[6], int *done, hs_scenario_error_t *err)
+{
+    char why[WHY_LEN];
+    double t = (double)ms;
+    if (play == NULL || pose == NULL || done == NULL || play->file == NULL) {
+        return HS_E_ARG;
+    }
+    /* each round moves one row on: at most as many rounds as the file has rows */
+    while (!play->at_end && play->row1[0] <= t + 1e-6) {
+        double next[7];
+        int r = read_play_row(play->file, &play->line, play->row1[0], next, why);
+        if (r < 0) {
+            if (err != NULL) {
+                err->line = (int)play->line;
+                (void)snprintf(err->message, sizeof err->message, "play: %s", why);
+            }
+            return HS_E_SYNTAX;
+        }
+        memcpy(play->row0, play->row1, sizeof play->row0);
+        if (r == 0) {
+            play->at_end = 1;
+        } else {
+            memcpy(play->row1, next, sizeof play->row1);
+        }
+    }
+    if (play->at_end || t <= play->row0[0]) {
+        memcpy(pose, &play->row0[1], 6 * sizeof pose[0]);
+    } else {
+        double f = (t - play->row0[0]) / (play->row1[0] - play->row0[0]);
+        for (int k = 0; k < 6; k++) {
+            pose[k] = play->row0[1 + k] + f * (play->row1[1 + k] - play->row0[1 + k]);
+        }
+    }
+    *done = play->at_end && t >= play->row0[0] - 1e-6;
+    return HS_OK;
+}
+
+void hs_play_close(hs_play_t *play)
+{
+    if (play != NULL && play->file != NULL) {
+        (void)fclose(play->file);
+        play->file = NULL;
+    }
 }

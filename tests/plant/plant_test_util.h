@@ -11,6 +11,7 @@
 #include <stdint.h>
 
 #include "hs/kin.h"
+#include "hs/params.h"
 #include "ref_model.h"
 #include "sp/platform.h"
 
@@ -72,6 +73,30 @@ static inline double pt_pos_error(const double a[3], const double b[3])
 {
     double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
     return sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+}
+
+/** No friction at all in any cylinder (viscous, Coulomb, break-away, bristles). */
+static inline void pt_no_friction(hs_params_t *p)
+{
+    for (int i = 0; i < HS_LEGS; ++i) {
+        p->cyl[i].viscous_friction = 0.0;
+        p->cyl[i].coulomb_friction = 0.0;
+        p->cyl[i].breakaway_friction = 0.0;
+        p->cyl[i].bristle_stiffness = 0.0;
+        p->cyl[i].bristle_damping = 0.0;
+    }
+}
+
+/** The friction of before issue 14: memoryless smoothed Coulomb (no bristles,
+ *  no break-away excess), 1 mm/s smoothing. */
+static inline void pt_memoryless_friction(hs_params_t *p)
+{
+    for (int i = 0; i < HS_LEGS; ++i) {
+        p->cyl[i].breakaway_friction = p->cyl[i].coulomb_friction;
+        p->cyl[i].bristle_stiffness = 0.0;
+        p->cyl[i].bristle_damping = 0.0;
+        p->cyl[i].coulomb_velocity = 1.0e-3;
+    }
 }
 
 #endif /* PLANT_TEST_UTIL_H */

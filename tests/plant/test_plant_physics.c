@@ -237,9 +237,8 @@ static void test_energy_conserved_closed_valves(void **state)
     assert_int_equal(hs_params_default(&p), HS_OK);
     for (int i = 0; i < HS_LEGS; ++i) {
         p.cyl[i].leakage = 0.0;
-        p.cyl[i].viscous_friction = 0.0;
-        p.cyl[i].coulomb_friction = 0.0;
     }
+    pt_no_friction(&p);
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
     assert_int_equal(hs_plant_set_twist(&plant, vel, omega), HS_OK);
     assert_int_equal(hs_plant_energy(&plant, &e0), HS_OK);

@@ -20,8 +20,16 @@
  *   names its line; a missing file is HS_E_IO.
  * - The player hands over each action once, at its tick: delays, waits
  *   (reached, or timed out), end, the end of the scenario, rewind.
+ * - wrench (6 numbers or off, ramp=S), contact (plane, point, off; stiffness
+ *   and damping required), load: values, ranges and every error message.
+ * - play: the CSV is checked at parse time (header, 7 numbers a row, t >= 0
+ *   increasing, pose ranges; errors name the file's line), a relative path
+ *   is taken from the scenario file's directory, the player holds the next
+ *   action until the last row's tick, and hs_play_pose holds the first
+ *   row, interpolates linearly and ends exactly on the last row.
  */
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -357,8 +365,9 @@ static void test_overlong_and_empty(void **state)
     assert_int_equal(hs_scenario_parse(NULL, "end", "t", &err), HS_E_ARG);
     assert_int_equal(hs_scenario_parse(&sc, NULL, "t", &err), HS_E_ARG);
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, &err), HS_E_SYNTAX);
-    assert_string_equal(err.message, "scenario:1: unknown action 'frob' "
-                                     "(cmd, target, delay, wait, silence, unsilence, fault, mark, end)");
+    assert_string_equal(
+        err.message, "scenario:1: unknown action 'frob' "
+                     "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play)");
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, NULL), HS_E_SYNTAX);
     assert_int_equal(hs_scenario_parse(&sc, "end", NULL, NULL), HS_OK);
     assert_int_equal(hs_scenario_load(&sc, NULL, &err), HS_E_ARG);
@@ -472,6 +481,142 @@ static void test_load_file(void **state)
                         "/nonexistent/dir/x.scenario: cannot open the scenario: No such file or directory");
 }
 
+static void expect_next(uint64_t tick, int ctrl_state, hs_scenario_next_t want, const hs_action_t *want_action);
+
+static void test_wrench_contact_load(void **state)
+{
+    (void)state;
+    const hs_action_t *a = one("wrench 100 -200 300.5 10 -20 30 ramp=0.25");
+    assert_int_equal(a->kind, HS_ACTION_WRENCH);
+    assert_true(a->wrench[0] == 100.0 && a->wrench[2] == 300.5 && a->wrench[5] == 30.0);
+    assert_int_equal(a->ticks, 250);
+    a = one("WRENCH off");
+    assert_int_equal(a->kind, HS_ACTION_WRENCH);
+    assert_true(a->wrench[0] == 0.0 && a->wrench[5] == 0.0);
+    assert_int_equal(a->ticks, 0);
+    a = one("wrench off ramp=2");
+    assert_int_equal(a->ticks, 2000);
+    refused("wrench 1 2 3", 1, "wrench needs 6 numbers (fx fy fz mx my mz) or 'off'");
+    refused("wrench 1 2 3 4 5 6 7", 1, "wrench needs 6 numbers");
+    refused("\nwrench 1 2 3 4 5 x", 2, "wrench value 'x' is not a number");
+    refused("wrench 1 2 3 4 5 2e6", 1, "wrench value 2e6 is out of range (|v| <= 1e+06 N or N m)");
+    refused("wrench 1 2 3 4 5 6 ramp=-1", 1, "wrench: ramp -1 is out of range (0..1e+06)");
+    refused("wrench off ramp=1 ramp=2", 1, "wrench: argument 'ramp' given twice");
+    refused("wrench off speed=1", 1, "wrench: unknown argument 'speed'");
+
+    a = one("contact plane 0 0 1 1.9 0.3 0 -0.25 stiffness=1e7 damping=2e4");
+    assert_int_equal(a->kind, HS_ACTION_CONTACT);
+    assert_int_equal(a->contact.kind, 1);
+    assert_true(a->contact.normal[2] == 1.0 && a->contact.offset == 1.9 && a->contact.point[0] == 0.3 &&
+                a->contact.point[2] == -0.25);
+    assert_true(a->contact.stiffness == 1e7 && a->contact.damping == 2e4);
+    a = one("contact point 0.5 0 2.4 0.5 0 -0.1 damping=100 stiffness=1e5");
+    assert_int_equal(a->contact.kind, 2);
+    assert_true(a->contact.anchor[0] == 0.5 && a->contact.anchor[2] == 2.4 && a->contact.point[2] == -0.1);
+    assert_true(a->contact.stiffness == 1e5 && a->contact.damping == 100.0);
+    a = one("contact off");
+    assert_int_equal(a->kind, HS_ACTION_CONTACT);
+    assert_int_equal(a->contact.kind, 0);
+    refused("contact", 1, "contact needs plane, point or off");
+    refused("contact wall 1 2 3", 1, "unknown contact 'wall' (plane, point, off)");
+    refused("contact off now", 1, "contact off takes no arguments");
+    refused("contact plane 0 0 1 1.9 0 0 stiffness=1 damping=1", 1, "contact plane needs 7 numbers");
+    refused("contact point 0 0 1 0 0 stiffness=1 damping=1", 1, "contact point needs 6 numbers");
+    refused("contact plane 0 0 0 1 0 0 0 stiffness=1 damping=1", 1, "the normal is zero");
+    refused("contact point 0 0 1 0 0 0 stiffness=2e9 damping=1", 1,
+            "contact: stiffness 2e9 is out of range (0..1e+09)");
+    refused("contact point 0 0 1 0 0 0 stiffness=1 damping=-1", 1, "contact: damping -1 is out of range");
+    refused("contact point 0 0 1 0 0 0 stiffness=1", 1, "contact needs stiffness=K (N/m) and damping=D (N s/m)");
+    refused("contact point 0 0 1 0 0 200 stiffness=1 damping=1", 1, "contact point value 200 is out of range");
+
+    a = one("load 300 0.2 0 -0.1");
+    assert_int_equal(a->kind, HS_ACTION_LOAD);
+    assert_true(a->mass == 300.0 && a->point[0] == 0.2 && a->point[2] == -0.1);
+    a = one("load -50 0 0 0");
+    assert_true(a->mass == -50.0);
+    refused("load 300 0.2 0", 1, "load needs a mass (kg) and a point x y z");
+    refused("load 2e5 0 0 0", 1, "load mass value 2e5 is out of range (|v| <= 100000 kg)");
+    refused("load 0 0 0 0", 1, "load mass is 0");
+    refused("load 1 0 nan 0", 1, "load point value 'nan' is not a number");
+}
+
+static void write_named(const char *path, const char *data)
+{
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    assert_int_equal(fputs(data, f) >= 0, 1);
+    assert_int_equal(fclose(f), 0);
+}
+
+static void test_play(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/hs_play_XXXXXX";
+    char csv[96], scn[96], text[160], msg[200];
+    assert_non_null(mkdtemp(dir));
+    (void)snprintf(csv, sizeof csv, "%s/motion.csv", dir);
+    (void)snprintf(scn, sizeof scn, "%s/run.scn", dir);
+    write_named(csv, "t,x,y,z,roll,pitch,yaw\n0.001,0,0,2.5,0,0,0\n0.011,0.01,0,2.5,0,0,-0.02\n\n"
+                     "0.0105e0,1,1,1,1,1,1\n");
+    /* t does not increase at line 5 */
+    (void)snprintf(text, sizeof text, "play %s\n", csv);
+    refused(text, 1, "does not increase");
+    (void)snprintf(msg, sizeof msg, "play %s: line 5: t 0.0105 s does not increase", csv);
+    assert_non_null(strstr(err.message, msg));
+
+    write_named(csv, "t,x,y,z,roll,pitch,yaw\r\n0.001,0,0,2.5,0,0,0\n0.011,0.01,0,2.5,0,0,-0.02\n"
+                     "0.0205,0.01,0.001,2.5,0,0,-0.02\n");
+    /* relative to the scenario file's directory */
+    write_named(scn, "play motion.csv\nmark after\n");
+    assert_int_equal(hs_scenario_load(&sc, scn, &err), HS_OK);
+    assert_int_equal(sc.action[0].kind, HS_ACTION_PLAY);
+    assert_string_equal(sc.action[0].path, csv);
+    assert_int_equal(sc.action[0].ticks, 21); /* the last row at 20.5 ms: finished at the 21st tick */
+    /* the player: the play at once, what follows when it is done */
+    expect_next(100, -1, HS_SCENARIO_DUE, &sc.action[0]);
+    expect_next(100, -1, HS_SCENARIO_PENDING, NULL);
+    expect_next(120, -1, HS_SCENARIO_PENDING, NULL);
+    expect_next(121, -1, HS_SCENARIO_DUE, &sc.action[1]);
+
+    /* streaming: first row held, linear between rows, the last row at the end */
+    hs_play_t pl;
+    double pose[6];
+    int done = -1;
+    assert_int_equal(hs_play_open(&pl, csv, &err), HS_OK);
+    assert_int_equal(hs_play_pose(&pl, 0, pose, &done, &err), HS_OK);
+    assert_true(pose[0] == 0.0 && pose[2] == 2.5 && done == 0);
+    assert_int_equal(hs_play_pose(&pl, 6, pose, &done, &err), HS_OK); /* halfway between 1 and 11 ms */
+    assert_true(fabs(pose[0] - 0.005) < 1e-15 && fabs(pose[5] + 0.01) < 1e-15 && done == 0);
+    assert_int_equal(hs_play_pose(&pl, 11, pose, &done, &err), HS_OK);
+    assert_true(pose[0] == 0.01 && pose[1] == 0.0 && done == 0);
+    assert_int_equal(hs_play_pose(&pl, 20, pose, &done, &err), HS_OK);
+    assert_true(fabs(pose[1] - 0.001 * 9.0 / 9.5) < 1e-15 && done == 0);
+    assert_int_equal(hs_play_pose(&pl, 21, pose, &done, &err), HS_OK);
+    assert_true(pose[1] == 0.001 && done == 1);
+    hs_play_close(&pl);
+    hs_play_close(&pl);
+
+    /* bad files */
+    (void)snprintf(text, sizeof text, "mark x\nplay %s/none.csv\n", dir);
+    refused(text, 2, "cannot open");
+    write_named(csv, "t,x,y,z\n0,0,0,0\n");
+    (void)snprintf(text, sizeof text, "play %s\n", csv);
+    refused(text, 1, "line 1: the header must be t,x,y,z,roll,pitch,yaw");
+    write_named(csv, "t,x,y,z,roll,pitch,yaw\n");
+    refused(text, 1, "no rows after the header");
+    write_named(csv, "t,x,y,z,roll,pitch,yaw\n0,0,0,2.5,0,0\n");
+    refused(text, 1, "line 2: expected 7 numbers t,x,y,z,roll,pitch,yaw");
+    write_named(csv, "t,x,y,z,roll,pitch,yaw\n-1,0,0,2.5,0,0,0\n");
+    refused(text, 1, "line 2: t -1 is out of range");
+    write_named(csv, "t,x,y,z,roll,pitch,yaw\n0,0,0,9,0,0,0\n");
+    refused(text, 1, "line 2: pose value 9 is out of range");
+    refused("play", 1, "play needs one file name");
+    assert_int_equal(hs_play_open(&pl, "/nonexistent/x.csv", &err), HS_E_IO);
+    (void)unlink(csv);
+    (void)unlink(scn);
+    (void)rmdir(dir);
+}
+
 static void expect_next(uint64_t tick, int ctrl_state, hs_scenario_next_t want, const hs_action_t *want_action)
 {
     static const hs_action_t dummy;
@@ -547,6 +692,8 @@ int main(void)
         cmocka_unit_test(test_action_limit),
         cmocka_unit_test(test_load_file),
         cmocka_unit_test(test_player),
+        cmocka_unit_test(test_wrench_contact_load),
+        cmocka_unit_test(test_play),
     };
     return cmocka_run_group_tests_name("scenario", tests, NULL, NULL);
 }

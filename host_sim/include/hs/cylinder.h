@@ -20,9 +20,23 @@
  *   Pressure rates are zeroed where they would push a pressure out of
  *   [0, pressure_max] (cavitation / relief); the integrator clamps too.
  *   Force on the platform along the leg:
- *     F = p_A A_A - p_B A_B - c_v s' - F_c sat(s' / v_s) + F_stop
- *   with sat(y) = y (3 - y^2) / 2 for |y| < 1 and sign(y) beyond (a smooth
- *   Coulomb friction: it reaches its full value at |s'| = v_s).
+ *     F = p_A A_A - p_B A_B - F_f + F_stop
+ *   Friction F_f (opposes s'), with the Stribeck curve
+ *     g(v) = F_c + (F_s - F_c) exp(-(v / v_s)^2)     (F_s: break-away level)
+ *   - bristle_stiffness sigma_0 > 0 (the default): LuGre, one state z per
+ *     cylinder (the mean bristle deflection, m):
+ *       z' = s' - sigma_0 |s'| z / g(s')
+ *       F_f = sigma_0 z + sigma_1 exp(-(s'/v_s)^2) z' + c_v s'
+ *     At rest the bristles hold any force below F_s as a spring (presliding
+ *     displacement z = F / sigma_0) that the pressures do not show; above it
+ *     the cylinder slips; steady sliding gives c_v v + sign(v) g(v). The
+ *     damping sigma_1 fades out above v_s, which keeps the friction
+ *     dissipative (with the bristle energy sigma_0 z^2 / 2 counted) as long as
+ *     0.429 sigma_1 v_s <= 4 F_c (hs_params_check).
+ *   - sigma_0 = 0: memoryless, F_f = c_v s' + g(s') sat(s' / v_c), with
+ *     sat(y) = y (3 - y^2) / 2 for |y| < 1 and sign(y) beyond (no stiction:
+ *     it vanishes at rest; with F_s = F_c the friction of before issue 14,
+ *     bit for bit).
  *   End stops: in the last `cushion_length` before each end, a cushion
  *   damping c_stop * depth / cushion_length acts while moving towards the
  *   end; beyond the end a spring-damper k_stop * d + c_stop * d' (never
@@ -39,12 +53,14 @@ typedef struct {
     double pb;      /**< chamber B pressure, Pa */
     double xv;      /**< spool position, fraction of full opening (-1..1 nominal) */
     double xv_rate; /**< spool velocity, 1/s */
+    double z;       /**< LuGre bristle deflection, m (0 and unused with bristle_stiffness 0) */
 } hs_cyl_state_t;
 
 /** Result of one evaluation. */
 typedef struct {
     double dpa, dpb;       /**< pressure rates, Pa/s */
     double dxv, dxv_rate;  /**< spool velocity (1/s) and acceleration (1/s^2) */
+    double dz;             /**< bristle deflection rate, m/s (0 without bristles) */
     double force;          /**< total force on the platform along the leg, N (positive pushes out) */
     double pressure_force; /**< p_A A_A - p_B A_B, N */
     double friction;       /**< friction force (opposes s'), N: force includes -friction */

@@ -51,7 +51,8 @@ hs_status_t hs_solve6(double a[6][6], const double b[6], double x[6]);
 
 /**
  * The six cylinder forces (N, positive pushes the platform away from the
- * base) that hold the platform at rest at `pose` against gravity and an
+ * base) that hold the platform at rest at `pose` against gravity (at the
+ * centre of mass params->com) and an
  * external wrench (force at o' and moment about o', both base frame, N and
  * N m; either may be NULL for none). HS_E_SINGULAR near a singular pose.
  */

@@ -27,23 +27,26 @@
 
 /** config "hydraulic" section (see config/README.md), SI units. */
 typedef struct {
-    double piston_diameter;           /**< bore, m */
-    double rod_diameter;              /**< m, < bore */
-    double dead_volume;               /**< oil volume of each chamber at its stroke end (lines, ports), m^3 */
-    double piston_mass;               /**< piston + rod, kg (sets the drive gains only; leg masses: rod_mass below) */
-    double bulk_modulus;              /**< effective oil bulk modulus, Pa */
-    double supply_pressure;           /**< Pa */
-    double tank_pressure;             /**< Pa */
-    double valve_rated_flow;          /**< flow per metering land at full opening and rated drop, m^3/s */
-    double valve_rated_pressure_drop; /**< drop per land at which the rated flow is given, Pa */
-    double valve_natural_frequency;   /**< spool natural frequency, Hz */
-    double valve_damping;             /**< spool damping ratio */
-    double leakage_coefficient;       /**< internal (piston) leakage A<->B, m^3/(s Pa) */
-    double viscous_friction;          /**< N s/m */
-    double coulomb_friction;          /**< N */
-    double end_cushion_length;        /**< length of the cushioned zone before each stroke end, m */
-    double end_stop_stiffness;        /**< N/m, beyond the stroke ends */
-    double end_stop_damping;          /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
+    double piston_diameter;             /**< bore, m */
+    double rod_diameter;                /**< m, < bore */
+    double dead_volume;                 /**< oil volume of each chamber at its stroke end (lines, ports), m^3 */
+    double piston_mass;                 /**< piston + rod, kg (sets the drive gains only; leg masses: rod_mass below) */
+    double bulk_modulus;                /**< effective oil bulk modulus, Pa */
+    double supply_pressure;             /**< Pa */
+    double tank_pressure;               /**< Pa */
+    double valve_rated_flow;            /**< flow per metering land at full opening and rated drop, m^3/s */
+    double valve_rated_pressure_drop;   /**< drop per land at which the rated flow is given, Pa */
+    double valve_natural_frequency;     /**< spool natural frequency, Hz */
+    double valve_damping;               /**< spool damping ratio */
+    double leakage_coefficient;         /**< internal (piston) leakage A<->B, m^3/(s Pa) */
+    double viscous_friction[HS_LEGS];   /**< per cylinder (leg 1 first), N s/m */
+    double coulomb_friction[HS_LEGS];   /**< per cylinder, N */
+    double breakaway_friction[HS_LEGS]; /**< static (break-away) level per cylinder, N, >= coulomb (= it: no peak) */
+    double coulomb_velocity;            /**< smoothing of the Coulomb term: full level from |v| = this, m/s */
+    double stribeck_velocity;           /**< decay velocity of the break-away excess (Stribeck curve), m/s */
+    double end_cushion_length;          /**< length of the cushioned zone before each stroke end, m */
+    double end_stop_stiffness;          /**< N/m, beyond the stroke ends */
+    double end_stop_damping;            /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
     /* Optional leg masses (config keys may be absent: 0 = off, the default;
      * docs/plant.md "Leg masses"). Each leg is two point masses on its axis. */
     double cylinder_mass; /**< cylinder body (barrel), kg, >= 0 */
@@ -66,7 +69,8 @@ typedef struct {
     double base_joints[HS_LEGS][3];     /**< B_i, base frame, m */
     double platform_joints[HS_LEGS][3]; /**< A_im, motion frame, m */
     double mass;                        /**< kg */
-    double inertia[3][3];               /**< about o', motion frame, kg m^2 */
+    double center_of_mass[3];           /**< centre of mass of the moving body, motion frame, m ([0,0,0] = o') */
+    double inertia[3][3];               /**< about the centre of mass, axes of the motion frame, kg m^2 */
     double gravity;                     /**< m/s^2 along -z of the base frame */
     double home[6];                     /**< pose */
     double park[6];                     /**< pose */
@@ -83,28 +87,32 @@ extern const hs_config_t hs_config_default;
 
 /** One cylinder with its servo valve, derived (see hs_params_from_config). */
 typedef struct {
-    double area_a;           /**< piston-side area pi D^2/4, m^2 */
-    double area_b;           /**< rod-side (annulus) area pi (D^2 - d^2)/4, m^2 */
-    double length_min;       /**< joint-to-joint length at stroke 0, m */
-    double stroke;           /**< usable stroke leg_length_max - leg_length_min, m */
-    double dead_volume_a;    /**< chamber A volume at stroke 0, m^3 */
-    double dead_volume_b;    /**< chamber B volume at full stroke, m^3 */
-    double piston_mass;      /**< kg, drive gains only (not integrated; see rod_mass) */
-    double bulk_modulus;     /**< Pa */
-    double supply_pressure;  /**< Pa */
-    double tank_pressure;    /**< Pa */
-    double pressure_max;     /**< chamber pressures are clamped to [0, pressure_max], Pa */
-    double valve_gain;       /**< K = rated flow / sqrt(rated drop), m^3/(s sqrt(Pa)) per land at full opening */
-    double valve_transition; /**< orifice laminar transition pressure p_t (hs/cylinder.h), Pa */
-    double valve_omega;      /**< spool natural frequency, rad/s */
-    double valve_damping;    /**< spool damping ratio */
-    double leakage;          /**< m^3/(s Pa) */
-    double viscous_friction; /**< N s/m */
-    double coulomb_friction; /**< N */
-    double coulomb_velocity; /**< Coulomb smoothing: full friction from |v| = v_s on (hs/cylinder.h), m/s */
-    double cushion_length;   /**< m */
-    double stop_stiffness;   /**< N/m */
-    double stop_damping;     /**< N s/m */
+    double area_a;             /**< piston-side area pi D^2/4, m^2 */
+    double area_b;             /**< rod-side (annulus) area pi (D^2 - d^2)/4, m^2 */
+    double length_min;         /**< joint-to-joint length at stroke 0, m */
+    double stroke;             /**< usable stroke leg_length_max - leg_length_min, m */
+    double dead_volume_a;      /**< chamber A volume at stroke 0, m^3 */
+    double dead_volume_b;      /**< chamber B volume at full stroke, m^3 */
+    double piston_mass;        /**< kg, drive gains only (not integrated; see rod_mass) */
+    double bulk_modulus;       /**< Pa */
+    double supply_pressure;    /**< Pa */
+    double tank_pressure;      /**< Pa */
+    double pressure_max;       /**< chamber pressures are clamped to [0, pressure_max], Pa */
+    double valve_gain;         /**< K = rated flow / sqrt(rated drop), m^3/(s sqrt(Pa)) per land at full opening */
+    double valve_transition;   /**< orifice laminar transition pressure p_t (hs/cylinder.h), Pa */
+    double valve_omega;        /**< spool natural frequency, rad/s */
+    double valve_damping;      /**< spool damping ratio */
+    double leakage;            /**< m^3/(s Pa) */
+    double viscous_friction;   /**< sigma_2, N s/m */
+    double coulomb_friction;   /**< F_c, N */
+    double breakaway_friction; /**< F_s >= F_c: the static (break-away) level, N */
+    double coulomb_velocity;   /**< v_c: the memoryless Coulomb term's smoothing (hs/cylinder.h), m/s */
+    double stribeck_velocity;  /**< v_s: decay of the break-away excess F_s - F_c, m/s */
+    double bristle_stiffness;  /**< sigma_0 of the LuGre friction, N/m; 0: memoryless friction (no stiction) */
+    double bristle_damping;    /**< sigma_1 of the LuGre friction (faded out above v_s), N s/m */
+    double cushion_length;     /**< m */
+    double stop_stiffness;     /**< N/m */
+    double stop_damping;       /**< N s/m */
     /* Leg masses (docs/plant.md "Leg masses"): all 0 = neglected (default,
      * as the firmware's inverse dynamics). Point masses on the leg axis. */
     double cylinder_mass; /**< cylinder body, kg, >= 0 */
@@ -136,7 +144,8 @@ typedef struct {
     double base_joint[HS_LEGS][3];     /**< B_i, base frame, m */
     double platform_joint[HS_LEGS][3]; /**< A_im, motion frame, m */
     double mass;                       /**< moving mass, kg, > 0 */
-    double inertia[3][3];              /**< about o', motion frame, kg m^2, symmetric positive definite */
+    double com[3];                     /**< its centre of mass c, motion frame, m (0: o', the old equations exactly) */
+    double inertia[3][3];              /**< about o' (not c), motion frame, kg m^2, symmetric positive definite */
     double gravity;                    /**< m/s^2, >= 0 */
     double leg_length_min;             /**< m */
     double leg_length_max;             /**< m */
@@ -151,7 +160,10 @@ typedef struct {
  * Derives the plant parameters from a config: areas from the diameters,
  * chamber dead volumes, valve coefficient K = Q_rated / sqrt(dp_rated),
  * spool frequency in rad/s, pressure clamp at 1.2 x supply, laminar
- * transition 1 bar, Coulomb smoothing 1 mm/s, and the drive gains from the
+ * transition 1 bar, per-leg friction with the LuGre bristles (stiffness
+ * F_c / 0.1 mm, damping critical for a sixth of the moving mass, bounded to
+ * stay dissipative; none without a Coulomb level), the inertia moved from
+ * the centre of mass to o' (parallel axes), and the drive gains from the
  * hydraulic natural frequency at mid stroke with a sixth of the moving mass
  * per cylinder (docs/plant.md: position loop gain w_h / 4, pressure
  * feedback for a damping ratio of about 0.5). 10 substeps per cycle.
@@ -164,10 +176,33 @@ hs_status_t hs_params_default(hs_params_t *params);
 
 /**
  * Checks that every value is finite and in its physical range (positive
- * masses, areas, volumes; symmetric positive definite inertia; supply above
+ * masses, areas, volumes; a rigid body (hs_rigid_body_check); supply above
  * tank; stroke positive; substeps 1..1000; leg masses >= 0 with their
- * centres 0..leg length max from their joints; ...). HS_OK or HS_E_ARG.
+ * centres 0..leg length max from their joints; break-away friction >= Coulomb;
+ * with bristles a Coulomb level > 0 and a dissipative bristle damping,
+ * hs/cylinder.h; ...). HS_OK or HS_E_ARG.
  */
 hs_status_t hs_params_check(const hs_params_t *params);
+
+/**
+ * Checks that mass (kg), centre of mass `com` (motion frame, m) and inertia
+ * about o' (motion frame, kg m^2) describe a rigid body: mass > 0, all
+ * finite, inertia symmetric, the inertia about the centre of mass (parallel
+ * axes) positive definite and its principal moments within the triangle
+ * inequality (tr(I_c)/2 - I_c positive semi-definite, tolerance 1e-9 of the
+ * trace). `inertia_rows`: the 3x3 tensor row by row (&inertia[0][0]).
+ * HS_OK or HS_E_ARG (also for NULL).
+ */
+hs_status_t hs_rigid_body_check(double mass, const double com[3], const double *inertia_rows);
+
+/**
+ * Adds a rigid point mass `mass` (kg; negative removes one) at `point`
+ * (motion frame, m) to the moving body of `params`: mass, centre of mass
+ * (mass-weighted) and inertia about o' (+ mass (|r|^2 1 - r r^T)). The
+ * drive gains are not re-derived (a payload the drives were not tuned
+ * for). HS_E_ARG on NULL or non-finite values; HS_E_RANGE, params
+ * unchanged, if the result is not a rigid body (hs_rigid_body_check).
+ */
+hs_status_t hs_params_add_mass(hs_params_t *params, double mass, const double point[3]);
 
 #endif /* HS_PARAMS_H */

@@ -6,12 +6,18 @@
  *
  * Rigid body (docs/plant.md): state p (o' in the base frame), v = p', unit
  * quaternion q (motion -> base), w (angular velocity in the motion frame).
- *   m v' = sum_i F_i u_i + (0, 0, -m g) + F_ext + F_contact
- *   I w' = R^T (sum_i (R a_i) x F_i u_i + M_ext + r_c x F_contact) - w x (I w)
+ *   m (v' + R (w' x c + w x (w x c))) = F,   F = sum_i F_i u_i + (0, 0, -m g) + F_ext + F_contact
+ *   I w' + w x (I w) + m c x (R^T v') = R^T M,
+ *   M = sum_i (R a_i) x F_i u_i + (R c) x (0, 0, -m g) + M_ext + r_k x F_contact
  *   q'   = q (0, w) / 2,  p' = v
  * with u_i the unit vector of leg i (from base joint B_i to platform joint
- * p + R a_i), F_i the cylinder force along it (positive pushes out), I the
- * full inertia tensor about o' in the motion frame. Leg masses are neglected
+ * p + R a_i), F_i the cylinder force along it (positive pushes out), c the
+ * centre of mass (motion frame; gravity acts there), I the full inertia
+ * tensor about o' in the motion frame (the config's, about c, moved by the
+ * parallel axes), r_k = R k the contact point. With c = 0 the terms in c
+ * vanish and the plant computes exactly as before they existed (a state
+ * hash test); with c != 0 each evaluation solves the coupled 6 x 6 system
+ * (as with leg masses). Leg masses are neglected
  * by default, as in the paper and in the firmware's inverse dynamics
  * (docs/plant.md says why); with cylinder_mass or rod_mass > 0 in the
  * cylinder params each leg adds two point masses on its axis, coupled to
@@ -41,12 +47,13 @@
 #include "hs/sensor.h"
 
 /* Layout of the integrated state vector. */
-#define HS_X_POS 0    /**< p, m (3) */
-#define HS_X_VEL 3    /**< v, m/s (3) */
-#define HS_X_QUAT 6   /**< q = [w, x, y, z] (4) */
-#define HS_X_OMEGA 10 /**< w, body frame, rad/s (3) */
-#define HS_X_CYL 13   /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
-#define HS_NX (HS_X_CYL + 4 * HS_LEGS)
+#define HS_X_POS 0                            /**< p, m (3) */
+#define HS_X_VEL 3                            /**< v, m/s (3) */
+#define HS_X_QUAT 6                           /**< q = [w, x, y, z] (4) */
+#define HS_X_OMEGA 10                         /**< w, body frame, rad/s (3) */
+#define HS_X_CYL 13                           /**< per leg i: 13 + 4 i + {0: p_A, 1: p_B, 2: spool, 3: spool rate} */
+#define HS_X_BRISTLE (HS_X_CYL + 4 * HS_LEGS) /**< per leg i: LuGre bristle deflection z, m (hs/cylinder.h) */
+#define HS_NX (HS_X_BRISTLE + HS_LEGS)
 
 typedef enum { HS_ACT_HYDRAULIC = 0, HS_ACT_IDEAL = 1 } hs_actuation_t;
 
@@ -82,21 +89,25 @@ typedef struct {
 
 /** The true state, for tests, logs and plots. */
 typedef struct {
-    double time;            /**< s since init */
-    uint64_t cycle;         /**< cycles completed */
-    double pose[6];         /**< x, y, z (m), roll, pitch, yaw (rad) */
-    double quat[4];         /**< unit quaternion motion -> base, [w, x, y, z] */
-    double vel[3];          /**< velocity of o', base frame, m/s */
-    double omega_body[3];   /**< angular velocity, motion frame, rad/s */
-    double omega_base[3];   /**< angular velocity, base frame, rad/s */
-    double length[HS_LEGS]; /**< leg lengths, m */
-    double rate[HS_LEGS];   /**< leg extension rates, m/s */
-    double force[HS_LEGS];  /**< cylinder forces on the platform along the legs, N */
-    double pa[HS_LEGS];     /**< chamber pressures, Pa (frozen in ideal mode) */
+    double time;              /**< s since init */
+    uint64_t cycle;           /**< cycles completed */
+    double pose[6];           /**< x, y, z (m), roll, pitch, yaw (rad) */
+    double quat[4];           /**< unit quaternion motion -> base, [w, x, y, z] */
+    double vel[3];            /**< velocity of o', base frame, m/s */
+    double omega_body[3];     /**< angular velocity, motion frame, rad/s */
+    double omega_base[3];     /**< angular velocity, base frame, rad/s */
+    double length[HS_LEGS];   /**< leg lengths, m */
+    double rate[HS_LEGS];     /**< leg extension rates, m/s */
+    double force[HS_LEGS];    /**< cylinder forces on the platform along the legs, N */
+    double friction[HS_LEGS]; /**< cylinder friction forces (included in force with a minus sign; positive opposes
+                                   extension), N; 0 in ideal mode */
+    double pa[HS_LEGS];       /**< chamber pressures, Pa (frozen in ideal mode) */
     double pb[HS_LEGS];
     double spool[HS_LEGS];     /**< spool positions, -1..1 */
     double valve_cmd[HS_LEGS]; /**< drive outputs of the last substep */
     double contact_force[3];   /**< force of the contact on the platform, base frame, N */
+    double wrench[6];          /**< what the outside world exerts on the platform: external wrench + contact, force (N)
+                           and moment about o' (N m), base frame; not gravity, legs or loads (hs_plant_add_mass) */
 } hs_state_t;
 
 /** Energies (J). total = kinetic + gravity + oil + springs. */
@@ -104,7 +115,7 @@ typedef struct {
     double kinetic; /**< m v^2 / 2 + w^T I w / 2 (+ the legs' kinetic energy, leg masses on) */
     double gravity; /**< m g z (+ the legs' m g z, leg masses on) */
     double oil;     /**< compressed oil (hs_cyl_oil_energy), hydraulic mode only */
-    double springs; /**< end-stop springs (hydraulic mode) and the contact spring */
+    double springs; /**< end-stop springs and friction bristles sigma_0 z^2 / 2 (hydraulic mode), the contact spring */
     double total;
 } hs_energy_t;
 
@@ -126,6 +137,7 @@ typedef struct {
     double time;
     uint64_t cycle;
     int legs_on; /**< some leg mass > 0 (set by hs_plant_init from the params) */
+    int com_on;  /**< centre of mass off o' (par.com != 0): the coupled equations */
 } hs_plant_t;
 
 /**
@@ -156,13 +168,28 @@ hs_status_t hs_plant_set_wrench(hs_plant_t *plant, const double force[3], const 
 hs_status_t hs_plant_set_contact(hs_plant_t *plant, const hs_contact_t *contact);
 
 /**
- * Re-computes the static forces at the current pose for gravity, the
- * external wrench, the contact's elastic force and the legs' weight (leg
- * masses on), and sets the ideal forces
- * and (at rest, valves at null) the chamber pressures to hold them.
+ * Re-computes the static forces at the current pose for gravity (at the
+ * centre of mass), the external wrench, the contact's elastic force and the
+ * legs' weight (leg masses on), and sets the ideal forces and (at rest,
+ * valves at null, bristles relaxed) the chamber pressures to hold them.
  * HS_E_SINGULAR near a singular pose.
  */
 hs_status_t hs_plant_rebalance(hs_plant_t *plant);
+
+/**
+ * Attaches a rigid point mass `mass` (kg; negative removes one) at `point`
+ * (motion frame, m) to the platform from now on: the plant's mass, centre
+ * of mass and inertia about o' become those of the combined body (parallel
+ * axes). Nothing else changes at this instant (velocities, pressures,
+ * forces): call hs_plant_rebalance to hold the new body at rest, or, to
+ * start with it, add it to the params (hs_params_add_mass) before
+ * hs_plant_init.
+ * HS_E_ARG on NULL or non-finite values, HS_E_RANGE (plant unchanged) if
+ * the result is not a rigid body (hs_rigid_body_check: mass <= 0, inertia
+ * about the new centre of mass not positive definite or breaking the
+ * triangle inequality).
+ */
+hs_status_t hs_plant_add_mass(hs_plant_t *plant, double mass, const double point[3]);
 
 /**
  * Setpoint of drive `leg` (0..5) for the next cycle: length (m), velocity

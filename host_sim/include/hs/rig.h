@@ -11,10 +11,11 @@
 #include "hs/cylinder.h"
 
 /* State vector layout. */
-#define HS_RIG_STROKE 0 /**< s, m */
-#define HS_RIG_RATE 1   /**< s', m/s */
-#define HS_RIG_CYL 2    /**< p_A, p_B, spool, spool rate */
-#define HS_RIG_NX 6
+#define HS_RIG_STROKE 0  /**< s, m */
+#define HS_RIG_RATE 1    /**< s', m/s */
+#define HS_RIG_CYL 2     /**< p_A, p_B, spool, spool rate */
+#define HS_RIG_BRISTLE 6 /**< LuGre bristle deflection z, m */
+#define HS_RIG_NX 7
 
 typedef struct {
     hs_cyl_params_t cyl;
@@ -27,7 +28,8 @@ typedef struct {
 
 /**
  * At rest at stroke s (m), chambers pre-pressurised to hold m g
- * (hs_cyl_holding_pressures), spool at null, no external force.
+ * (hs_cyl_holding_pressures), spool at null, bristles relaxed (z = 0), no
+ * external force.
  * HS_E_ARG for NULL, mass <= 0, non-finite values or s outside [0, stroke].
  */
 hs_status_t hs_rig_init(hs_rig_t *rig, const hs_cyl_params_t *cyl, double mass, double gravity, double stroke);

@@ -23,6 +23,41 @@
  *   fault LEG BITS                raises drive fault bits 1..0xff (hs/drive.h)
  *   mark TEXT                     prints TEXT with the tick (for logs and tests)
  *   end                           ends the run
+ *   wrench FX FY FZ MX MY MZ [ramp=S]
+ *                                 the constant external wrench on the platform
+ *                                 (base frame, force N at o', moment N m about
+ *                                 o'), each |v| <= 1e6, reached linearly from
+ *                                 the current one over S s (0..1e6, default 0:
+ *                                 a step)
+ *   wrench off [ramp=S]           the same towards zero
+ *   contact plane NX NY NZ OFFSET PX PY PZ stiffness=K damping=D
+ *                                 a unilateral plane {x : n . x = OFFSET}
+ *                                 (base frame, n not zero, pointing into free
+ *                                 space) touched by the platform point P
+ *                                 (motion frame); |values| <= 100 m
+ *   contact point AX AY AZ PX PY PZ stiffness=K damping=D
+ *                                 a spring-damper from the platform point P
+ *                                 (motion frame) to the fixed anchor A (base
+ *                                 frame); K 0..1e9 N/m, D 0..1e9 N s/m, both
+ *                                 keys required, each once
+ *   contact off                   removes the contact
+ *   load MASS X Y Z               attaches a rigid point mass (kg, |MASS| <=
+ *                                 1e5, negative removes) at (X, Y, Z) in the
+ *                                 motion frame (|v| <= 100 m), from then on;
+ *                                 the program refuses a result that is not a
+ *                                 rigid body
+ *   play FILE                     streams target poses from a CSV file (header
+ *                                 t,x,y,z,roll,pitch,yaw; t in s from the
+ *                                 action, strictly increasing, >= 0, at most
+ *                                 1e6; poses absolute, m and rad, |v| <= 8):
+ *                                 one OP_TARGET_POSE per 1 ms tick, linearly
+ *                                 interpolated (the first row held before its
+ *                                 t), ending with the last row at its t; the
+ *                                 actions after it wait until then. The file
+ *                                 is checked when the scenario is parsed; a
+ *                                 relative FILE is taken from the scenario
+ *                                 file's directory (from the working
+ *                                 directory for hs_scenario_parse).
  *
  * Actions run in order; there are no time stamps, only delays and waits, so
  * there is no tick order to get wrong. Seconds become 1 ms ticks, rounded to
@@ -36,6 +71,7 @@
 #define HS_SCENARIO_H
 
 #include <stdint.h>
+#include <stdio.h>
 
 #include "hs/status.h"
 #include "sp/controller.h"
@@ -47,6 +83,7 @@
 #define HS_SCENARIO_MAX_TEXT 95               /**< characters of a mark's text (its words joined by one space) */
 #define HS_SCENARIO_ERROR_LEN 320             /**< size of hs_scenario_error_t.message, NUL included */
 #define HS_SCENARIO_WAIT_DEFAULT_TICKS 60000u /**< a wait's timeout when none is given: 60 s */
+#define HS_SCENARIO_MAX_PATH 255              /**< characters of a play file's path (after resolving) */
 
 typedef enum {
     HS_ACTION_CMD = 0,   /**< send OP_COMMAND `cmd` */
@@ -57,8 +94,23 @@ typedef enum {
     HS_ACTION_UNSILENCE, /**< the drive of `leg` sends feedback again */
     HS_ACTION_FAULT,     /**< raise drive fault `bits` on `leg` */
     HS_ACTION_MARK,      /**< print `text` with the tick */
-    HS_ACTION_END        /**< end the run */
+    HS_ACTION_END,       /**< end the run */
+    HS_ACTION_WRENCH,    /**< external wrench `wrench`, ramped over `ticks` */
+    HS_ACTION_CONTACT,   /**< install `contact` (kind 0: remove) */
+    HS_ACTION_LOAD,      /**< attach point mass `mass` at `point` */
+    HS_ACTION_PLAY       /**< stream the poses of `path` for `ticks` ticks */
 } hs_action_kind_t;
+
+/** A contact as written (hs/plant.h's hs_contact_t, without depending on the plant). */
+typedef struct {
+    int kind;         /**< 0 off, 1 plane, 2 point (the values of hs_contact_kind_t) */
+    double normal[3]; /**< plane: normal, base frame (not normalised) */
+    double offset;    /**< plane: offset, m */
+    double anchor[3]; /**< point: anchor, base frame, m */
+    double point[3];  /**< the platform point, motion frame, m */
+    double stiffness; /**< N/m */
+    double damping;   /**< N s/m */
+} hs_scenario_contact_t;
 
 /** One parsed action. Only the fields of its kind are set; the others are 0. */
 typedef struct {
@@ -72,6 +124,11 @@ typedef struct {
     int leg;                             /**< SILENCE, UNSILENCE, FAULT: leg index 0..5 (written 1..6) */
     uint32_t bits;                       /**< FAULT: drive fault bits, 0x01..0xff */
     char text[HS_SCENARIO_MAX_TEXT + 1]; /**< MARK: the text, NUL-terminated (may be empty) */
+    double wrench[6];                    /**< WRENCH: force (N) and moment (N m), base frame; ticks: the ramp */
+    hs_scenario_contact_t contact;       /**< CONTACT */
+    double mass;                         /**< LOAD: kg */
+    double point[3];                     /**< LOAD: motion frame, m */
+    char path[HS_SCENARIO_MAX_PATH + 1]; /**< PLAY: the file (resolved); ticks: its duration (last row's t) */
 } hs_action_t;
 
 /** A parsed scenario and where its player stands. */
@@ -81,6 +138,7 @@ typedef struct {
     int pc;         /**< the next action to play */
     uint64_t until; /**< the current delay's end tick, or the current wait's deadline */
     int armed;      /**< 1: the current delay or wait has set `until` */
+    uint64_t busy;  /**< a play under way holds the next action back until this tick */
 } hs_scenario_t;
 
 /** Why a scenario was refused. */
@@ -137,13 +195,43 @@ typedef enum {
  * UNSILENCE, FAULT and MARK at once; a DELAY of d ticks first seen at tick
  * t when tick >= t + d (at once for d = 0); a WAIT first seen at tick t as
  * soon as `state` equals its state, or HS_SCENARIO_TIMEOUT (and *action the
- * wait) at tick >= t + timeout if it still does not. END and the end of
+ * wait) at tick >= t + timeout if it still does not. A PLAY is handed over
+ * at once (the program starts streaming) and holds the actions after it
+ * back until tick >= t + its ticks (PENDING meanwhile). WRENCH, CONTACT and
+ * LOAD are handed over at once. END and the end of
  * the scenario return HS_SCENARIO_END (with *action the `end` action, or
  * NULL), and keep returning it. The player does not move on after a
  * TIMEOUT. *action is NULL for PENDING. Returns HS_SCENARIO_END, with
  * *action NULL, on NULL arguments.
  */
 hs_scenario_next_t hs_scenario_next(hs_scenario_t *sc, uint64_t tick, int state, const hs_action_t **action);
+
+/** A play file being streamed (see `play`): the two rows around the time asked for. */
+typedef struct {
+    FILE *file;
+    double row0[7], row1[7]; /**< t, x, y, z, roll, pitch, yaw; row1 unused when at_end */
+    int at_end;              /**< row0 is the last row */
+    long line;               /**< line of the file last read */
+} hs_play_t;
+
+/**
+ * Opens a play file (as checked by the parser) and reads its first rows.
+ * HS_OK; HS_E_ARG on NULL; HS_E_IO if it cannot be opened; HS_E_SYNTAX if it
+ * is not as `play` wants (*err, if not NULL, names the file and line).
+ */
+hs_status_t hs_play_open(hs_play_t *play, const char *path, hs_scenario_error_t *err);
+
+/**
+ * The pose (x, y, z m; roll, pitch, yaw rad) at `ms` milliseconds after the
+ * start: linear between the rows around t = ms / 1000 s, the first row
+ * before it, the last after it. Times never go back. Returns HS_OK;
+ * HS_E_ARG on NULL; HS_E_SYNTAX / HS_E_IO if the file changed under it
+ * (*err says where). *done is 1 once t reached the last row's t.
+ */
+hs_status_t hs_play_pose(hs_play_t *play, uint64_t ms, double pose[6], int *done, hs_scenario_error_t *err);
+
+/** Closes the file (no-op on NULL or a closed play). */
+void hs_play_close(hs_play_t *play);
 
 /** Name of an OP_COMMAND command as a scenario writes it ("ENGAGE", ..., "SET_FEEDFORWARD";
  *  "NONE" for 0); "unknown" otherwise. Never NULL. */
