@@ -46,10 +46,23 @@ typedef struct {
     double force_abs;
 } errors_t;
 
+/* The float reference implements the paper's model: massless legs (the
+ * default config's leg masses zeroed here). */
+static sp_platform_t paper_platform;
+
+static int setup(void **state)
+{
+    (void)state;
+    paper_platform = sp_platform_default;
+    paper_platform.leg_mass.cylinder_mass = 0;
+    paper_platform.leg_mass.rod_mass = 0;
+    return 0;
+}
+
 /* Compares the float reference on `fmotion` with the core on `motion`. */
 static void compare(const m4f_platform_t *fp, const sp_motion_t *motion, const m4f_motion_t *fmotion, errors_t *e)
 {
-    const sp_platform_t *p = &sp_platform_default;
+    const sp_platform_t *p = &paper_platform;
     sp_ik_t ik;
     m4f_ik_t fik;
     sp_q8_t force[SP_LEGS];
@@ -159,5 +172,5 @@ int main(void)
         cmocka_unit_test(test_bounds_catch_a_wrong_input),
         cmocka_unit_test(test_sincos_all_quadrants),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests(tests, setup, NULL);
 }

@@ -75,6 +75,16 @@ static inline double pt_pos_error(const double a[3], const double b[3])
     return sqrt(d0 * d0 + d1 * d1 + d2 * d2);
 }
 
+/** Massless legs, as in the paper: the default config has leg masses, the
+ *  rigid-body tests and the tests that add their own legs start without. */
+static inline void pt_massless_legs(hs_params_t *p)
+{
+    for (int i = 0; i < HS_LEGS; ++i) {
+        p->cyl[i].cylinder_mass = 0.0;
+        p->cyl[i].rod_mass = 0.0;
+    }
+}
+
 /** No friction at all in any cylinder (viscous, Coulomb, break-away, bristles). */
 static inline void pt_no_friction(hs_params_t *p)
 {

@@ -104,6 +104,7 @@ static void test_free_fall(void **state)
     hs_energy_t e0, e;
     (void)state;
     assert_int_equal(hs_params_default(&p), HS_OK);
+    pt_massless_legs(&p);
     set_com(&p, 0.3, -0.1, 0.2);
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
     assert_int_equal(plant.com_on, 1);
@@ -142,6 +143,7 @@ static void test_energy_hydraulic(void **state)
     double vel[3] = {0.02, -0.01, 0.03}, omega[3] = {0.01, 0.02, -0.015}, drift = 0.0;
     (void)state;
     assert_int_equal(hs_params_default(&p), HS_OK);
+    pt_massless_legs(&p);
     set_com(&p, 0.2, -0.1, 0.15);
     for (int i = 0; i < HS_LEGS; ++i) {
         p.cyl[i].leakage = 0.0;
@@ -199,6 +201,7 @@ static void test_static_forces(void **state)
     double f[HS_LEGS], f0[HS_LEGS], res[6], my = 0.0, pose[6], tilt[6];
     (void)state;
     assert_int_equal(hs_params_default(&p0), HS_OK);
+    pt_massless_legs(&p0);
     p = p0;
     set_com(&p, 0.2, 0.0, 0.0);
     assert_int_equal(hs_static_forces(&p, p.home, NULL, NULL, f), HS_OK);
@@ -273,6 +276,7 @@ static void test_add_mass(void **state)
     double a[6], b[6], zero[HS_LEGS] = {0, 0, 0, 0, 0, 0};
     (void)state;
     assert_int_equal(hs_params_default(&p), HS_OK);
+    pt_massless_legs(&p);
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
     assert_int_equal(hs_plant_add_mass(&plant, 300.0, pt), HS_OK);
     assert_near(plant.par.mass, 2800.0, 0.0, "mass (kg)");
@@ -332,6 +336,7 @@ static void test_truth_wrench(void **state)
     double fe[3] = {100.0, -200.0, 300.0}, me[3] = {10.0, 20.0, -30.0}, m[3];
     (void)state;
     assert_int_equal(hs_params_default(&p), HS_OK);
+    pt_massless_legs(&p);
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
     assert_int_equal(hs_plant_set_wrench(&plant, fe, me), HS_OK);
     memset(&ct, 0, sizeof ct);

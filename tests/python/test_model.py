@@ -12,7 +12,9 @@ from stewart import config as cfg
 
 @pytest.fixture(scope="module")
 def platform():
-    return cfg.load(REPO_ROOT / "config" / "platform_default.json")
+    """The default platform with massless legs: the paper's model (the
+    tests that want leg masses add their own)."""
+    return cfg.without_leg_masses(cfg.load(REPO_ROOT / "config" / "platform_default.json"))
 
 
 def random_pose(rng, home):

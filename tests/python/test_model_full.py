@@ -20,7 +20,9 @@ from stewart import config as cfg
 
 @pytest.fixture(scope="module")
 def platform():
-    return cfg.load(REPO_ROOT / "config" / "platform_default.json")
+    """The default platform with massless legs: the paper's model (the
+    tests that want leg masses add their own)."""
+    return cfg.without_leg_masses(cfg.load(REPO_ROOT / "config" / "platform_default.json"))
 
 
 def heavy(platform, com=(0.12, -0.08, 0.2), legs=(60.0, 0.8, 35.0, 1.0)):

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import json
 import math
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -311,3 +312,11 @@ def load(path) -> Platform:
     p = from_dict(d, str(path))
     p.source = str(path)
     return p
+
+
+def without_leg_masses(p: Platform) -> Platform:
+    """A copy of ``p`` with massless legs (the paper's model)."""
+    hyd = dict(p.hydraulic)
+    for key in HYDRAULIC_OPTIONAL_KEYS:
+        hyd[key] = 0.0
+    return dataclasses.replace(p, hydraulic=hyd)

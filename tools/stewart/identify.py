@@ -523,8 +523,10 @@ def updated_config(raw: dict, res: Result) -> dict:
     hyd["viscous_friction"] = [max(x, 0.0) for x in hyd["viscous_friction"]]
     if "breakaway_friction" in hyd:
         bf = hyd["breakaway_friction"]
-        bf = bf if isinstance(bf, list) else [bf] * LEGS
-        hyd["breakaway_friction"] = [max(float(b), c) for b, c in zip(bf, hyd["coulomb_friction"])]
+        bf_list = bf if isinstance(bf, list) else [bf] * LEGS
+        if any(float(b) < c for b, c in zip(bf_list, hyd["coulomb_friction"])):
+            # the break-away force is never below the Coulomb level
+            hyd["breakaway_friction"] = [max(float(b), c) for b, c in zip(bf_list, hyd["coulomb_friction"])]
     return out
 
 
