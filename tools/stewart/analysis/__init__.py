@@ -22,9 +22,9 @@ Python API (numbers are numpy arrays in SI units: m, rad, N, Pa)::
     data = decode.read_log("run.log", buses=None, platform=cfg.load(...))
     truth.attach_truth(data, truth.read_truth("truth.csv"))    # optional
     segs = segments.find_segments(data)
-    err = metrics.tracking_error(data, delay_ticks=1)           # (N, 6)
-    m = metrics.segment_metrics(data, segs[0], delay_ticks=1)   # dict
-    summary = metrics.summarize(data, segs, delay_ticks=1)      # dict (summary.json)
+    err = metrics.tracking_error(data, delay_ticks=0)           # (N, 6)
+    m = metrics.segment_metrics(data, segs[0], delay_ticks=0)   # dict
+    summary = metrics.summarize(data, segs, delay_ticks=0)      # dict (summary.json)
     csvout.write_signals_csv(data, "signals.csv")
     analyze("run.log", "out/", truth="truth.csv")               # everything
 """

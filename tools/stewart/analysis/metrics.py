@@ -1,9 +1,10 @@
 """Figures of a run: the tracking error, per-segment metrics, the summary
 (``summary.json``) and its printed form.
 
-The tracking error is ``estimate(t) - reference(t - d)`` with d = 1 tick by
-default: the reference of tick t is commanded at tick t and the drives reach
-it one cycle later (docs/analysis.md).
+The tracking error is ``estimate(t) - reference(t - d)`` with d = 0 by
+default: the drives move their target along the setpoint's velocity through
+the cycle, so a perfect servo is at reference(t) when SYNC(t) samples it
+(docs/analysis.md).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from .names import AXES, STATES, TICK_S, axis_unit
 from .segments import Segment, find_segments
 
 #: Default delay of the tracking error, ticks (docs/analysis.md).
-DEFAULT_DELAY_TICKS = 1
+DEFAULT_DELAY_TICKS = 0
 
 
 def _wrap(e: np.ndarray) -> np.ndarray:

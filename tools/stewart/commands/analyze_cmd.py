@@ -98,8 +98,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--truth", help="the plant's truth CSV (tick, pose, leg lengths, forces)")
     p.add_argument("--platform", default=str(REPO_ROOT / "config" / "platform_default.json"),
                    help="platform config JSON (default: config/platform_default.json)")
-    p.add_argument("--delay-ticks", type=int, default=1,
-                   help="tracking error = estimate(t) - reference(t - d); default d = 1 tick")
+    p.add_argument("--delay-ticks", type=int, default=0,
+                   help="tracking error = estimate(t) - reference(t - d); default d = 0 "
+                   "(docs/analysis.md says why)")
     p.add_argument("--bus", help="interfaces of the buses, e.g. ops=can0,axis_a=can1,axis_b=can2 "
                    "(default ops=vcan0,axis_a=vcan1,axis_b=vcan2)")
     p.add_argument("--compare", metavar="LOG2", help="a second run (e.g. feed-forward off) to overlay")
