@@ -14,4 +14,5 @@ echo "== pytest"
 .venv/bin/pytest -q tests/python
 scripts/fuzz.sh 10
 echo "== bus tests over SocketCAN vcan (user-mode Linux where the kernel has no CAN)"
-.venv/bin/stewart vcan --fd -- .venv/bin/pytest -q tests/bus
+# 2 GiB: the identification test decodes a 30 s CAN log inside the UML (~0.4 GB)
+.venv/bin/stewart vcan --fd --mem 2G -- .venv/bin/pytest -q tests/bus

@@ -518,6 +518,30 @@ def _uml_env(mem: int, scratch: str) -> dict:
     return env
 
 
+#: vm.max_map_count the UML needs: it maps guest pages into its host process
+#: one by one, and a guest using a few hundred MB (numpy decoding a 30 s CAN
+#: log) passes the kernel's default of 65530 maps and dies ("UML ran out of
+#: memory on the host side").
+MAP_COUNT_NEEDED = 262144
+
+
+def _raise_map_count(path: str = "/proc/sys/vm/max_map_count") -> None:
+    """Raises vm.max_map_count to MAP_COUNT_NEEDED when it is lower and we
+    may (root); otherwise leaves it and says so once on stderr."""
+    try:
+        current = int(Path(path).read_text().strip())
+    except (OSError, ValueError):
+        return
+    if current >= MAP_COUNT_NEEDED:
+        return
+    try:
+        Path(path).write_text(f"{MAP_COUNT_NEEDED}\n")
+    except OSError:
+        print(f"stewart vcan: vm.max_map_count is {current}; a guest using more than about 200 MB "
+              f"needs {MAP_COUNT_NEEDED} (sysctl -w vm.max_map_count={MAP_COUNT_NEEDED} as root)",
+              file=sys.stderr)
+
+
 def _isatty(stream) -> bool:
     try:
         return bool(stream.isatty())
@@ -543,6 +567,7 @@ def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dic
         raise VcanError(problem)
     names = interface_names(count)
     cwd = os.getcwd()
+    _raise_map_count()
     state = _make_state_dir()
     log: list[bytes] = []
     try:
