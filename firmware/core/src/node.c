@@ -331,7 +331,7 @@ static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32
     count_send(node, sp_proto_encode_monitor(&mon, node->tx_counter_monitor++, &out[*n]), n);
     node->tx_counter_monitor &= 0x0Fu;
 
-    if (tick % SP_NODE_WRENCH_PERIOD == 0u) {
+    if (tick % SP_PROTO_WRENCH_PERIOD == 0u) {
         sp_msg_wrench_t w;
         w.tick = tick;
         w.valid = node->out.wrench_valid;

@@ -11,7 +11,7 @@
  *    of the last SYNC, then emits AXIS_SETPOINTS on both axis buses, SYNC
  *    (only when the node is the cycle master: real-time mode), CTRL_STATUS
  *    and CTRL_MONITOR on the ops bus, and on even ticks (every
- *    SP_NODE_WRENCH_PERIOD ticks: 500 Hz) CTRL_WRENCH, the external wrench
+ *    SP_PROTO_WRENCH_PERIOD ticks: 500 Hz) CTRL_WRENCH, the external wrench
  *    estimate (at 1 kHz it would put the ops bus above its 50 % budget).
  *  - Feedback counts as fresh only if its TickEcho matches the last SYNC (sent
  *    by us, or, in lockstep, received from the plant). In lockstep the plant
@@ -25,9 +25,8 @@
 
 #include "sp/protocol.h"
 
-#define SP_NODE_MAX_TX 8u        /**< frames sp_node_tick emits at most */
-#define SP_NODE_CMD_QUEUE 4u     /**< operator commands held (one is executed per tick) */
-#define SP_NODE_WRENCH_PERIOD 2u /**< CTRL_WRENCH on ticks that are multiples of this (DBC: 2 ms) */
+#define SP_NODE_MAX_TX 8u    /**< frames sp_node_tick emits at most */
+#define SP_NODE_CMD_QUEUE 4u /**< operator commands held (one is executed per tick) */
 
 typedef struct {
     sp_ctrl_config_t ctrl; /**< controller tuning (force_feedforward may change by command) */

@@ -118,6 +118,9 @@ typedef struct {
 /** Largest |wrench| component CTRL_WRENCH carries: 524287.75 N or N m in Q8
  *  (raw +-(2^21 - 1) at 0.25). */
 #define SP_PROTO_WRENCH_MAX_Q8 (INT32_C(2097151) * 64)
+/** CTRL_WRENCH goes out on ticks that are multiples of this (the DBC's 2 ms
+ *  cycle: at 1 kHz the ops bus would be above its 50 % budget). */
+#define SP_PROTO_WRENCH_PERIOD 2u
 
 sp_status_t sp_proto_encode_sync(const sp_msg_sync_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
 sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
