@@ -10,7 +10,8 @@
  * runs the scenario's actions due at t (operator commands on the ops bus),
  * sends every drive's feedback and SYNC(t) on both axis buses, waits until
  * the controller has answered with AXIS_SETPOINTS(t) on both axis buses and
- * CTRL_STATUS(t) and CTRL_MONITOR(t) on the ops bus, then integrates 1 ms.
+ * CTRL_STATUS(t) and CTRL_MONITOR(t) (and on even t CTRL_WRENCH(t)) on the
+ * ops bus, then integrates 1 ms.
  * No wall clock enters the result: the same inputs give the same log, byte
  * for byte (log timestamps are simulated time).
  *
@@ -77,8 +78,8 @@ typedef struct {
     uint8_t cmd_counter, target_counter;
     int status_state; /* last CTRL_STATUS state, -1 none */
     uint32_t status_faults;
-    uint32_t status_tick, monitor_tick;
-    uint8_t status_seen, monitor_seen;
+    uint32_t status_tick, monitor_tick, wrench_tick;
+    uint8_t status_seen, monitor_seen, wrench_seen;
     uint64_t ops_rejected;
     int lockstep;
     int progress;
@@ -142,6 +143,14 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
             if (sp_proto_decode_monitor(f, &m, &ctr, &why) == SP_OK) {
                 s->monitor_tick = m.tick;
                 s->monitor_seen = 1;
+            } else {
+                s->ops_rejected++;
+            }
+        } else if (f->id == SP_ID_CTRL_WRENCH) {
+            sp_msg_wrench_t m;
+            if (sp_proto_decode_wrench(f, &m, &ctr, &why) == SP_OK) {
+                s->wrench_tick = m.tick;
+                s->wrench_seen = 1;
             } else {
                 s->ops_rejected++;
             }
@@ -383,6 +392,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms
     long waited_ms = 0; /* no clock reads per cycle: each one is a system call in user-mode Linux */
     s->status_seen = 0;
     s->monitor_seen = 0;
+    s->wrench_seen = 0;
     for (;;) {
         /* the controller answers after our SYNC: wait first, then read */
         int r = poll(&pfd, 1, 100);
@@ -411,8 +421,11 @@ static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms
                 }
             }
         } while (got == RX_BUF);
+        /* CTRL_WRENCH comes on even ticks only (500 Hz), after CTRL_MONITOR: waited for, so
+         * that it is logged in its own cycle whatever the scheduling */
+        int wrench_done = (tick % SP_PROTO_WRENCH_PERIOD != 0u) || (s->wrench_seen && s->wrench_tick == tick);
         if (hs_bus_cycle_complete(&s->bus) && s->status_seen && s->status_tick == tick && s->monitor_seen &&
-            s->monitor_tick == tick) {
+            s->monitor_tick == tick && wrench_done) {
             break;
         }
     }
@@ -572,7 +585,9 @@ int main(int argc, char **argv)
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
     bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
-        s.ifs[0], {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE}, 4u};
+        s.ifs[0],
+        {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE},
+        5u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
     }

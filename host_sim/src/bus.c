@@ -15,7 +15,7 @@ static sp_q24_t q24_of_um(int64_t um)
     return (q > INT32_MAX) ? INT32_MAX : (sp_q24_t)q;
 }
 
-/* Pa from pressure counts, rounded to the DBC's 10 kPa later by the encoder. */
+/* Pa from pressure counts, rounded to the DBC's 1 kPa later by the encoder. */
 static uint32_t pa_of(double pressure)
 {
     if (!(pressure > 0.0)) {

@@ -3,7 +3,11 @@
  * controller node's receive path, with a control tick every few frames.
  * Whatever arrives, nothing may crash, read out of bounds or overflow
  * (ASan + UBSan), and the controller must never leave its limits: every
- * setpoint it emits lies within the leg stroke.
+ * setpoint it emits lies within the leg stroke. Each frame also goes
+ * through the decoders of the frames the node does not consume itself
+ * (AXIS_FEEDBACK as the plant sees it, CTRL_WRENCH as the operator does):
+ * whatever one accepts must re-encode without saturation and decode to the
+ * same values.
  * Build and run: scripts/fuzz.sh [SECONDS]
  */
 #include <stddef.h>
@@ -13,6 +17,34 @@
 #include "sp/node.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static void check_decoders(const sp_can_frame_t *f)
+{
+    uint8_t counter = 0u;
+    uint8_t slot = 0u;
+    sp_proto_error_t e;
+    sp_can_frame_t again;
+    sp_msg_wrench_t w, w2;
+    memset(&w, 0, sizeof w);
+    memset(&w2, 0, sizeof w2);
+    if (sp_proto_decode_wrench(f, &w, &counter, &e) == SP_OK) {
+        if (sp_proto_encode_wrench(&w, counter, &again) != SP_OK ||
+            sp_proto_decode_wrench(&again, &w2, &counter, &e) != SP_OK || memcmp(&w, &w2, sizeof w) != 0) {
+            __builtin_trap();
+        }
+    }
+    sp_msg_feedback_t fb, fb2;
+    memset(&fb, 0, sizeof fb);
+    memset(&fb2, 0, sizeof fb2);
+    if (sp_proto_decode_feedback(f, &fb, &slot, &counter, &e) == SP_OK) {
+        if (sp_proto_encode_feedback(&fb, slot, counter, f->bus, &again) != SP_OK ||
+            sp_proto_decode_feedback(&again, &fb2, &slot, &counter, &e) != SP_OK || fb.pressure_a != fb2.pressure_a ||
+            fb.pressure_b != fb2.pressure_b || fb.length != fb2.length || fb.state != fb2.state ||
+            fb.faults != fb2.faults || fb.tick_echo != fb2.tick_echo) {
+            __builtin_trap();
+        }
+    }
+}
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -40,6 +72,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         memcpy(f.data, data + pos, take);
         pos += take;
         (void)sp_node_receive(&node, &f, NULL);
+        check_decoders(&f);
         if (++frames % 4u == 0u) {
             if (sp_node_tick(&cfg, &node, out, &n) != SP_OK || n > SP_NODE_MAX_TX) {
                 __builtin_trap();

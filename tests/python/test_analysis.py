@@ -4,9 +4,10 @@ here frame by frame with the protocol encoder, decoded back and measured.
 The synthetic run: READY at home, then RUNNING segments of a sinusoid on one
 axis (reference from CTRL_MONITOR), the estimate (CTRL_STATUS) equal to the
 reference one tick earlier plus a known constant offset, feedback lengths the
-float64 IK of the estimate, chamber pressures giving a known force. The DBC
-quantises poses and lengths to 1 um / 1 urad, forces to 0.02 N and pressures
-to 10 kPa; the tolerances below are those steps.
+float64 IK of the estimate, chamber pressures giving a known force, and on
+even ticks a CTRL_WRENCH with a known wrench (valid while RUNNING). The DBC
+quantises poses and lengths to 1 um / 1 urad, forces to 0.02 N, pressures
+to 1 kPa and the wrench to 0.25 N / N m; the tolerances below are those steps.
 """
 
 from __future__ import annotations
@@ -30,14 +31,14 @@ from stewart.analysis.names import AXES
 from stewart.analysis.plots import figure_window
 from stewart.analysis.run import DEFAULT_PLATFORM
 from stewart.analysis.segments import Segment, find_segments
-from stewart.analysis.truth import TRUTH_COLUMNS, attach_truth, read_truth
+from stewart.analysis.truth import TRUTH_COLUMNS, WRENCH_COLUMNS, attach_truth, read_truth
 
 PLATFORM = cfg.load(DEFAULT_PLATFORM)
 HOME = np.array(PLATFORM.home, dtype=float)
 HOME_LEN = model.inverse_kinematics(PLATFORM, HOME).lengths
 AP, AR = hydraulic_areas(PLATFORM)
 Q_POSE = 1e-6      # m or rad per LSB of the DBC's pose signals
-P_A = 10.0e6       # Pa, piston side (a multiple of the 10 kPa LSB)
+P_A = 10.001e6     # Pa, piston side (a multiple of the 1 kPa LSB, not of the former 10 kPa)
 P_B = 4.5e6        # Pa, rod side
 FORCE = P_A * AP - P_B * AR
 OFFSET = np.array([0.5e-3, 0.0, -0.2e-3, 0.0, 0.0, 0.3e-3])  # estimate - delayed reference
@@ -60,6 +61,16 @@ def state_at(tick: int, segments) -> str:
     return "READY"
 
 
+def wrench(tick: int) -> list[float]:
+    """The controller's wrench estimate sent at ``tick`` (multiples of 0.25)."""
+    return [100.0 + 0.25 * (tick % 40), -20.5, -2452.75, 3.75, -0.25 * (tick % 8), 0.5]
+
+
+def true_wrench(tick: int) -> list[float]:
+    """The plant's wrench: the estimate plus a known error."""
+    return [v + e for v, e in zip(wrench(tick), (1.5, -2.0, 30.0, 0.125, 0.0, -0.375))]
+
+
 def force_ff(tick: int) -> list[float]:
     return [20000.0 + 1000.0 * j + 500.0 * math.sin(tick * 1e-2) for j in range(6)]
 
@@ -67,7 +78,9 @@ def force_ff(tick: int) -> list[float]:
 def build_log(ticks, segments, *, ifaces=("vcan0", "vcan1", "vcan2"), ff_on=(True,),
               skip_feedback=(), tweak=None, with_truth=False):
     """Lines of a lockstep log in hs_sim's order per tick: operator commands,
-    feedback and SYNC on both axis buses, setpoints, CTRL_STATUS, CTRL_MONITOR.
+    feedback and SYNC on both axis buses, setpoints, CTRL_STATUS, CTRL_MONITOR,
+    CTRL_WRENCH on even ticks. Truth rows in hs_sim's column order (tick, pose,
+    len, force, drive, wrench).
     ``skip_feedback``: (tick, leg) pairs left out. ``tweak(tick, lines)``
     may edit a tick's lines. Returns (lines, truth rows)."""
     p = pr.Protocol()
@@ -123,11 +136,16 @@ def build_log(ticks, segments, *, ifaces=("vcan0", "vcan1", "vcan2"), ff_on=(Tru
             mon[f"LengthSp_{i + 1}"] = round(sp_len[i], 6)
             mon[f"ForceFf_{i + 1}"] = round(ffv[i], 2)
         emit("ops", "CTRL_MONITOR", mon)
+        if tick % 2 == 0:
+            ws = dict(zip(pr.WRENCH_SIGNALS, wrench(tick)))
+            ws.update({"Tick": tick, "Valid": int(state_at(tick, segments) == "RUNNING")})
+            emit("ops", "CTRL_WRENCH", ws)
         if tweak is not None:
             tweak(tick, out)
         lines += out
         if with_truth:
-            truth.append([tick] + list(est) + list(lengths) + [FORCE + j for j in range(6)] + [2] * 6)
+            truth.append([tick] + list(est) + list(lengths) + [FORCE + j for j in range(6)] + [2] * 6
+                         + true_wrench(tick))
     return lines, truth
 
 
@@ -142,7 +160,8 @@ def run2():
                              skip_feedback={(700, 4)})
     data = read_log(lines, platform=PLATFORM)
     tr = {"tick": np.array([r[0] for r in truth]), "pose": np.array([r[1:7] for r in truth]),
-          "length": np.array([r[7:13] for r in truth]), "force": np.array([r[13:19] for r in truth])}
+          "length": np.array([r[7:13] for r in truth]), "force": np.array([r[13:19] for r in truth]),
+          "wrench": np.array([r[25:31] for r in truth])}
     attach_truth(data, tr)
     return data, lines, truth
 
@@ -195,6 +214,17 @@ def test_decoded_rows_match_what_was_encoded(run2):
     np.testing.assert_allclose(data.force_ff[k], force_ff(555), atol=0.01 + 1e-9)
     assert data.state_name(k) == "RUNNING" and data.feedforward[k] == 1
     assert data.state_name(0) == "READY"
+    # CTRL_WRENCH: 800 frames (even ticks), exact (multiples of 0.25), NaN on odd ticks
+    assert data.stats.per_message["CTRL_WRENCH"] == 800
+    k = int(data.index_of([554])[0])
+    assert data.est_wrench_valid[k] == 1
+    np.testing.assert_array_equal(data.est_wrench[k], wrench(554))
+    np.testing.assert_allclose(data.truth["wrench"][k], true_wrench(554))
+    assert data.est_wrench_valid[k + 1] == -1 and np.isnan(data.est_wrench[k + 1]).all()
+    running = data.state == 3
+    even = data.ticks % 2 == 0
+    assert (data.est_wrench_valid[even] == running[even]).all()
+    assert np.isnan(data.est_wrench[~(even & running)]).all()
     # feedback left out: that leg alone is missing at that tick
     k = int(data.index_of([700])[0])
     assert math.isnan(data.length[k, 3]) and not np.isnan(np.delete(data.length[k], 3)).any()
@@ -216,6 +246,16 @@ def test_signals_csv(run2, tmp_path):
     assert r["drive_state1"] == "ACTIVE" and r["drive_faults6"] == "0"
     assert abs(float(r["truth_x"]) - (ref_pose(555, [SURGE])[0] + OFFSET[0])) < 1e-9
     assert abs(float(r["truth_force3"]) - (FORCE + 2)) < 1e-3
+    # the wrench: on even ticks only (blank in between, not held), blank unless valid
+    w = rows[554]
+    assert w["est_wrench_valid"] == "1"
+    assert [float(w[f"est_wrench_{a}"]) for a in ("fx", "fy", "fz", "mx", "my", "mz")] == wrench(554)
+    assert [float(w[f"truth_wrench_{a}"]) for a in ("fx", "fy", "fz", "mx", "my", "mz")] == pytest.approx(
+        true_wrench(554), abs=1e-3)
+    assert r["est_wrench_valid"] == "" and r["est_wrench_fx"] == "" and r["est_wrench_mz"] == ""
+    assert r["truth_wrench_fz"] != ""  # the truth has every tick
+    assert rows[100]["est_wrench_valid"] == "0" and rows[100]["est_wrench_fz"] == ""  # READY
+    assert rows[101]["est_wrench_valid"] == ""
     assert rows[700]["length4"] == "" and rows[700]["stretch4"] == "" and rows[700]["force4"] == ""
     assert rows[700]["length5"] != ""
     for col in signal_columns(True):
@@ -337,7 +377,7 @@ def test_tick_echo_unwraps_across_65536_and_other_interface_names():
 
 def test_truth_csv_with_and_without_header(tmp_path, run2):
     _, _, truth = run2
-    cols = TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)]
+    cols = TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)] + WRENCH_COLUMNS
     with_header = tmp_path / "t1.csv"
     with open(with_header, "w", newline="") as f:
         w = csv.writer(f)
@@ -351,7 +391,17 @@ def test_truth_csv_with_and_without_header(tmp_path, run2):
         t = read_truth(path)
         assert t["tick"].shape == (50,) and t["pose"].shape == (50, 6)
         np.testing.assert_allclose(t["force"][7], [FORCE + j for j in range(6)])
+        np.testing.assert_allclose(t["wrench"][7], true_wrench(7))
     assert int(read_truth(with_header)["bad_rows"]) == 1
+    # an older truth file without the wrench: the wrench is NaN, the rest is read
+    old = tmp_path / "t4.csv"
+    with open(old, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(TRUTH_COLUMNS)
+        w.writerows(r[:19] for r in truth[:10])
+    t = read_truth(old)
+    assert t["wrench"].shape == (10, 6) and np.isnan(t["wrench"]).all()
+    np.testing.assert_allclose(t["force"][3], [FORCE + j for j in range(6)])
     bad = tmp_path / "t3.csv"
     bad.write_text("tick,x,y\n1,2,3\n")
     with pytest.raises(ValueError, match="len1"):
@@ -377,7 +427,7 @@ def test_cli_analyze_with_truth_and_compare(tmp_path, capsys):
     _write(log2, lines2 + ["broken line"])
     with open(tpath, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)])
+        w.writerow(TRUTH_COLUMNS + [f"drive{i}" for i in range(1, 7)] + WRENCH_COLUMNS)
         w.writerows(truth)
     out = tmp_path / "out"
     rc = cli.main(["analyze", str(log1), "--out", str(out), "--truth", str(tpath),
@@ -392,6 +442,12 @@ def test_cli_analyze_with_truth_and_compare(tmp_path, capsys):
     assert s["segments"][0]["moving_axis_error"]["rms"] == pytest.approx(0.5, abs=1e-3)
     assert s["segments"][0]["moving_axis_truth_error"]["rms"] == pytest.approx(0.5, abs=1e-3)
     assert s["truth"] is True and s["bad_frames"] == 0
+    with open(out / "signals.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for a in ("fx", "fy", "fz", "mx", "my", "mz"):
+        assert f"est_wrench_{a}" in rows[0] and f"truth_wrench_{a}" in rows[0]
+    assert float(rows[100]["est_wrench_fz"]) == -2452.75 and rows[101]["est_wrench_fz"] == ""
+    assert float(rows[101]["truth_wrench_fz"]) == pytest.approx(-2452.75 + 30.0, abs=1e-3)
     s2 = json.loads((out / "run2" / "summary.json").read_text())
     assert s2["malformed_lines"] == 1 and s2["segments"][0]["feedforward"] == "off"
     assert "segment 1: surge x 0.090 m 4 Hz ff=on" in text

@@ -50,9 +50,12 @@ def test_shipped_dbc_within_50_percent_per_bus():
     table = _table()
     assert set(table) == {"ops", "axis_a", "axis_b"}
     loads = {bus: bl.bus_load_percent(rows) for bus, rows in table.items()}
-    # SYNC 8 + setpoints 32 + 3 x feedback 12 bytes; command 12 + pose 24 + status 32 + monitor 64
+    # SYNC 8 + setpoints 32 + 3 x feedback 12 bytes; command 12 + pose 24 + status 32 + monitor 64,
+    # + CTRL_WRENCH 24 bytes every 2 ms
     assert loads["axis_a"] == pytest.approx((5 * 34 + (113 + 358 + 3 * 153) / 5) / 10, abs=1e-9)
-    assert loads["ops"] == pytest.approx((4 * 34 + (153 + 278 + 358 + 678) / 5) / 10, abs=1e-9)
+    assert loads["ops"] == pytest.approx((4 * 34 + (153 + 278 + 358 + 678) / 5 + (34 + 278 / 5) / 2) / 10,
+                                         abs=1e-9)
+    assert loads["ops"] == pytest.approx(47.42, abs=0.005)
     assert loads["axis_a"] == loads["axis_b"]
     assert all(v <= 50.0 for v in loads.values()), loads
     single, drives = bl.single_bus_rows(table)
@@ -63,8 +66,8 @@ def test_shipped_dbc_within_50_percent_per_bus():
 def test_cli_passes_and_fails_on_a_tight_limit(capsys):
     assert cli.main(["busload"]) == 0
     out = capsys.readouterr().out
-    assert "35.6 %" in out and "42.9 %" in out
-    assert cli.main(["busload", "--limit", "40"]) == 1  # ops at 42.9 % is above
+    assert "35.6 %" in out and "47.4 %" in out
+    assert cli.main(["busload", "--limit", "47"]) == 1  # ops at 47.4 % is above
     assert cli.main(["busload", "--limit", "30"]) == 1
 
 
@@ -80,3 +83,17 @@ def test_slower_bit_rate_overloads(tmp_path):
     # classic-like data rate: the same frames at 1 Mbit/s data phase exceed 50 %
     assert cli.main(["busload", "--data", "1e6"]) == 1
     assert cli.main(["busload", "--dbc", str(tmp_path / "missing.dbc")]) == 2
+
+
+def test_wrench_at_1khz_would_overload_the_ops_bus(tmp_path):
+    # CTRL_WRENCH is budgeted at 2 ms; at 1 ms the ops bus would be at 51.9 %
+    text = (REPO_ROOT / "protocol" / "stewart.dbc").read_text()
+    assert 'BA_ "GenMsgCycleTime" BO_ 258 2;' in text
+    fast = tmp_path / "fast.dbc"
+    fast.write_text(text.replace('BA_ "GenMsgCycleTime" BO_ 258 2;', 'BA_ "GenMsgCycleTime" BO_ 258 1;'))
+    import cantools
+
+    table = bl.load_table(cantools.database.load_file(str(fast), strict=True), 1e6, 5e6)
+    assert bl.bus_load_percent(table["ops"]) == pytest.approx(51.9, abs=0.05)
+    assert cli.main(["busload", "--dbc", str(fast)]) == 1
+    assert cli.main(["busload"]) == 0

@@ -29,7 +29,8 @@ def test_ratios_are_the_core_lsb_over_the_factor():
     scale = {"LENGTH": ("AXIS_SETPOINTS", "Length_1"), "POSE": ("CTRL_STATUS", "Yaw"),
              "VELOCITY": ("AXIS_SETPOINTS", "Velocity_2"), "FORCE": ("CTRL_MONITOR", "ForceFf_6"),
              "PRESSURE": ("AXIS_FEEDBACK_3", "PressureB"), "AMPLITUDE": ("OP_COMMAND", "Amplitude"),
-             "FREQUENCY": ("OP_COMMAND", "Frequency"), "FADE_TIME": ("OP_COMMAND", "FadeTime")}
+             "FREQUENCY": ("OP_COMMAND", "Frequency"), "FADE_TIME": ("OP_COMMAND", "FadeTime"),
+             "WRENCH": ("CTRL_WRENCH", "Mz")}
     proto = pr.Protocol()
     for name, ratio in ratios.items():
         stem = name[len("SP_CAN_"):name.index("_RAW_PER_")]
@@ -37,6 +38,8 @@ def test_ratios_are_the_core_lsb_over_the_factor():
         assert float(ratio) == pytest.approx(float(lsb[name]) / factor, rel=1e-12), name
         assert ratio.numerator < 1 << 31 and ratio.denominator < 1 << 31
     assert ratios["SP_CAN_LENGTH_RAW_PER_Q24_M"] == Fraction(15625, 262144)  # 2^-24 m in um
+    assert ratios["SP_CAN_PRESSURE_RAW_PER_PA"] == Fraction(1, 1000)  # 1 kPa steps
+    assert ratios["SP_CAN_WRENCH_RAW_PER_Q8_N_NM"] == Fraction(1, 64)  # 0.25 N = 64 Q8 LSBs
 
 
 def test_header_has_num_and_den_of_every_family():
@@ -63,6 +66,11 @@ def _tampered(old, new):
      "AMPLITUDE: OP_COMMAND.Amplitude: factor '0x10' is not a decimal number"),
     ('SG_ FadeTime : 56|16@1+ (0.001,0) [0|65.535] "s"', 'SG_ FadeTime : 56|16@1+ (0.001,0) [0|65.535] "ms"',
      "FADE_TIME: OP_COMMAND.FadeTime: unit 'ms', the core's value is in s"),
+    ('SG_ My : 128|22@1- (0.25,0) [-524287.75|524287.75] "N m"',
+     'SG_ My : 128|22@1- (0.25,0) [-524287.75|524287.75] "Nm"',
+     "WRENCH: CTRL_WRENCH.My: unit 'Nm', the core's value is in N or N m"),
+    ("SG_ Mz : 150|22@1- (0.25,0)", "SG_ Mz : 150|22@1- (0.5,0)",
+     "WRENCH: CTRL_WRENCH.Mz: factor 0.5 differs from CTRL_WRENCH.Fx's 0.25"),
     ("SG_ Frequency : 40|16@1+", "SG_ Freq : 40|16@1+",
      "FREQUENCY: no signal OP_COMMAND.Frequency in the DBC"),
     ("SG_ Option : 72|8@1+ (1,0)", "SG_ Option m1 : 72|8@1+ (1,0)", "cannot read this signal's factor"),

@@ -22,7 +22,10 @@ SPEC = {
     "OP_TARGET_POSE": (0x050, 24, ("ops",)),
     "CTRL_STATUS": (0x100, 32, ("ops",)),
     "CTRL_MONITOR": (0x101, 64, ("ops",)),
+    "CTRL_WRENCH": (0x102, 24, ("ops",)),
 }
+#: Messages not sent every 1 ms, and their period.
+PERIOD_MS = {"CTRL_WRENCH": 2}
 
 
 @pytest.fixture()
@@ -51,7 +54,7 @@ def test_dbc_loads_strict_as_can_fd(proto):
         assert m.dbc.attributes["CANFD_BRS"].value == 1
         assert (m.frame_id, m.length) == (fid, length), m.name
         assert proto.infos[m.name].buses == buses
-        assert m.cycle_time == 1, m.name
+        assert m.cycle_time == PERIOD_MS.get(m.name, 1), m.name
         assert m.signals[-1].name == "Crc"
         for s in m.signals:
             assert not s.is_float, f"{m.name}.{s.name}"
@@ -70,8 +73,21 @@ def test_dbc_scales_and_ranges_as_specified(proto):
     assert f.maximum == pytest.approx(167772.14, abs=1e-6)
     fb = proto.message("AXIS_FEEDBACK_2")
     p = fb.get_signal_by_name("PressureA")
-    assert (p.length, p.scale, p.unit) == (12, 10000, "Pa")
-    assert p.maximum == pytest.approx(40.95e6)
+    assert (p.start, p.length, p.is_signed, p.scale, p.unit) == (24, 16, False, 1000, "Pa")
+    assert p.maximum == pytest.approx(65.535e6)
+    # repacked for 1 kPa: the 12 bytes hold Length, PressureA/B, State, Counter, Faults, TickEcho, Crc
+    layout = [(s.name, s.start, s.length) for s in fb.signals]
+    assert layout == [("Length", 0, 24), ("PressureA", 24, 16), ("PressureB", 40, 16), ("State", 56, 4),
+                      ("Counter", 60, 4), ("Faults", 64, 8), ("TickEcho", 72, 16), ("Crc", 88, 8)]
+    w = proto.message("CTRL_WRENCH")
+    layout = [(s.name, s.start, s.length, s.is_signed) for s in w.signals]
+    assert layout == [("Tick", 0, 32, False), ("Counter", 32, 4, False), ("Valid", 36, 1, False),
+                      ("Fx", 40, 22, True), ("Fy", 62, 22, True), ("Fz", 84, 22, True),
+                      ("Mx", 106, 22, True), ("My", 128, 22, True), ("Mz", 150, 22, True),
+                      ("Crc", 176, 16, False)]
+    for s in w.signals[3:9]:
+        assert s.scale == 0.25 and s.maximum == pytest.approx(524287.75) and s.minimum == -s.maximum
+        assert s.unit == ("N" if s.name[0] == "F" else "N m")
     assert {str(v) for v in fb.get_signal_by_name("State").choices.values()} == {
         "INIT", "HOLD", "ACTIVE", "FAULT"}
     cmd = proto.message("OP_COMMAND").get_signal_by_name("Command")
@@ -165,11 +181,17 @@ def test_status_helper(proto):
 
 
 def test_feedback_and_command_helpers(proto):
-    data = proto.encode("AXIS_FEEDBACK_2", {"Length": 1.5, "PressureA": 20.004e6, "PressureB": 1e6,
+    data = proto.encode("AXIS_FEEDBACK_2", {"Length": 1.5, "PressureA": 20.0044e6, "PressureB": 1e6,
                                            "State": "ACTIVE", "Faults": 0x82, "TickEcho": 7})
     d = pr.feedback_to_dict(proto, proto.decode(0x032, data)[1])
     assert d["state"] == "ACTIVE" and d["faults"] == ["following_error", "internal"]
-    assert d["pressure_a"] == pytest.approx(20.0e6) and d["length"] == pytest.approx(1.5)
+    assert d["pressure_a"] == pytest.approx(20.004e6) and d["length"] == pytest.approx(1.5)  # 1 kPa steps
+    data = proto.encode("CTRL_WRENCH", {"Tick": 42, "Valid": 1, "Fx": 100.25, "Fy": -0.5, "Fz": -524287.75,
+                                        "Mx": 524287.75, "My": 3.0, "Mz": -12.75})
+    w = pr.wrench_to_dict(proto.decode(0x102, data)[1])
+    assert w == {"tick": 42, "valid": True, "wrench": [100.25, -0.5, -524287.75, 524287.75, 3.0, -12.75]}
+    with pytest.raises(pr.ProtocolError, match="out-of-range"):
+        proto.encode("CTRL_WRENCH", {"Fx": 524288.0})  # the Python encoder refuses, the firmware saturates
     data = proto.encode("OP_COMMAND", pr.command_signals("RUN_TRIG", "yaw", 0.1, 0.5, 2.0))
     sig = proto.decode(0x040, data)[1]
     assert (sig["Command"], sig["Axis"]) == (2, 5)
@@ -377,7 +399,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "35.6 %" in text and "42.9 %" in text
+    assert "35.6 %" in text and "47.4 %" in text
 
 
 def test_doc_cli_check(tmp_path):

@@ -39,6 +39,7 @@ CODECS = {
     "OP_TARGET_POSE": ("sp_proto_decode_target", "sp_proto_encode_target", "ops"),
     "CTRL_STATUS": ("sp_proto_decode_status", "sp_proto_encode_status", "ops"),
     "CTRL_MONITOR": ("sp_proto_decode_monitor", "sp_proto_encode_monitor", "ops"),
+    "CTRL_WRENCH": ("sp_proto_decode_wrench", "sp_proto_encode_wrench", "ops"),
 }
 
 

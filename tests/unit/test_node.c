@@ -28,6 +28,9 @@ typedef struct {
     int silent[SP_LEGS];
     sp_can_frame_t sent[SP_NODE_MAX_TX];
     uint32_t n_sent;
+    uint32_t wrench_frames; /* CTRL_WRENCH frames seen */
+    uint32_t wrench_valid;  /* of which Valid = 1 */
+    uint8_t wrench_counter; /* Counter of the last one */
 } rig_t;
 
 static void rig_init(rig_t *r)
@@ -58,14 +61,33 @@ static void send_command(rig_t *r, uint8_t command)
 static void rig_tick(rig_t *r)
 {
     assert_int_equal(sp_node_tick(&r->cfg, &r->node, r->sent, &r->n_sent), SP_OK);
-    assert_int_equal(r->n_sent, 6u); /* setpoints x2, SYNC x2, status, monitor */
+    /* setpoints x2, SYNC x2, status, monitor; + CTRL_WRENCH on even ticks */
+    int even = (r->node.out.tick % 2u) == 0u;
+    assert_int_equal(r->n_sent, even ? 7u : 6u);
     uint32_t sync_tick = 0;
     int syncs = 0;
     for (uint32_t k = 0; k < r->n_sent; k++) {
         const sp_can_frame_t *f = &r->sent[k];
         uint8_t counter;
         sp_proto_error_t e;
-        if (f->id == SP_ID_AXIS_SETPOINTS) {
+        if (f->id == SP_ID_CTRL_WRENCH) {
+            sp_msg_wrench_t w;
+            assert_int_equal(f->bus, SP_BUS_OPS);
+            assert_int_equal(sp_proto_decode_wrench(f, &w, &counter, &e), SP_OK);
+            assert_int_equal(w.tick, r->node.out.tick);
+            assert_int_equal(w.valid, r->node.out.wrench_valid);
+            for (uint32_t c = 0; c < 6u; c++) {
+                /* 0.25 N steps = 64 Q8 LSBs: within half a step */
+                int64_t d = (int64_t)w.wrench[c] - r->node.out.wrench[c];
+                assert_true(d >= -32 && d <= 32);
+            }
+            if (r->wrench_frames > 0u) {
+                assert_int_equal(counter, (r->wrench_counter + 1u) & 0x0Fu);
+            }
+            r->wrench_counter = counter;
+            r->wrench_frames++;
+            r->wrench_valid += w.valid;
+        } else if (f->id == SP_ID_AXIS_SETPOINTS) {
             sp_msg_setpoints_t m;
             assert_int_equal(sp_proto_decode_setpoints(f, &m, &counter, &e), SP_OK);
             if (m.mode == SP_DRIVE_ACTIVE) {
@@ -125,6 +147,13 @@ static void test_engage_run_park_over_frames(void **state)
     /* the estimate (from 1 um feedback) follows the reference */
     assert_near((double)r.node.out.estimate.pos[0] / 16777216.0, (double)r.node.out.reference.pose.pos[0] / 16777216.0,
                 5e-3, "estimate x vs reference x (m)");
+    /* CTRL_WRENCH every 2nd tick, valid while engaged */
+    uint32_t frames0 = r.wrench_frames, valid0 = r.wrench_valid;
+    for (int t = 0; t < 100; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.wrench_frames - frames0, 50u);
+    assert_int_equal(r.wrench_valid - valid0, 50u);
     send_command(&r, SP_CMD_PARK);
     run_until(&r, SP_STATE_IDLE, 20000u);
     assert_int_equal(r.node.out.faults, 0u);
@@ -264,14 +293,21 @@ static void test_fuzz_receive_path(void **state)
     rig_init(&r);
     rig_tick(&r);
     uint64_t seed = 42;
-    const uint32_t ids[] = {
-        SP_ID_SYNC,        SP_ID_AXIS_SETPOINTS, 0x31, 0x32, 0x33, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE,
-        SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR};
+    const uint32_t ids[] = {SP_ID_SYNC,
+                            SP_ID_AXIS_SETPOINTS,
+                            0x31,
+                            0x32,
+                            0x33,
+                            SP_ID_OP_COMMAND,
+                            SP_ID_OP_TARGET_POSE,
+                            SP_ID_CTRL_STATUS,
+                            SP_ID_CTRL_MONITOR,
+                            SP_ID_CTRL_WRENCH};
     uint32_t accepted = 0;
     for (int k = 0; k < 200000; k++) {
         sp_can_frame_t f;
         uint64_t x = tu_next(&seed);
-        f.id = (x & 1u) ? ids[(x >> 1) % 9u] : (uint32_t)((x >> 8) & 0xFFFFu);
+        f.id = (x & 1u) ? ids[(x >> 1) % (sizeof ids / sizeof ids[0])] : (uint32_t)((x >> 8) & 0xFFFFu);
         f.bus = (uint8_t)((x >> 24) % 4u);
         f.len = (uint8_t)((x >> 28) % 70u);
         f.flags = (uint8_t)(x >> 40);
@@ -288,6 +324,118 @@ static void test_fuzz_receive_path(void **state)
     assert_int_equal(sp_node_tick(&r.cfg, &r.node, r.sent, &r.n_sent), SP_OK);
 }
 
+static void test_wrench_frame_round_trip_and_saturation(void **state)
+{
+    (void)state;
+    const int32_t lim = SP_PROTO_WRENCH_MAX_Q8; /* 524287.75 N in Q8 */
+    sp_msg_wrench_t m = {123456u, 1u, {100 * 256, -(35 * 256 + 128), 32, -32, 31, lim}};
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_wrench(&m, 7u, &f), SP_OK);
+    assert_int_equal(f.id, SP_ID_CTRL_WRENCH);
+    assert_int_equal(f.len, 24u);
+    assert_int_equal(f.bus, SP_BUS_OPS);
+    sp_msg_wrench_t d;
+    uint8_t counter = 0u;
+    sp_proto_error_t e = SP_PROTO_OK;
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_OK);
+    assert_int_equal(counter, 7u);
+    assert_int_equal(d.tick, 123456u);
+    assert_int_equal(d.valid, 1u);
+    assert_int_equal(d.wrench[0], 100 * 256);
+    assert_int_equal(d.wrench[1], -(35 * 256 + 128));
+    assert_int_equal(d.wrench[2], 64); /* 0.125 N: a tie, away from zero */
+    assert_int_equal(d.wrench[3], -64);
+    assert_int_equal(d.wrench[4], 0);   /* below half a step */
+    assert_int_equal(d.wrench[5], lim); /* the largest value is exact */
+
+    /* beyond the signal: saturated (never wrapped), reported as SP_E_RANGE */
+    sp_msg_wrench_t big = {1u, 2u, {lim + 32, -lim - 32, INT32_MAX, INT32_MIN, 0, 0}};
+    assert_int_equal(sp_proto_encode_wrench(&big, 15u, &f), SP_E_RANGE);
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_OK);
+    assert_int_equal(d.valid, 1u); /* any non-zero valid is 1 */
+    assert_int_equal(d.wrench[0], lim);
+    assert_int_equal(d.wrench[1], -lim);
+    assert_int_equal(d.wrench[2], lim);
+    assert_int_equal(d.wrench[3], -lim);
+    assert_int_equal(d.wrench[4], 0);
+    assert_int_equal(sp_proto_encode_wrench(NULL, 0u, &f), SP_E_ARG);
+    assert_int_equal(sp_proto_encode_wrench(&m, 0u, NULL), SP_E_ARG);
+    assert_int_equal(sp_proto_decode_wrench(&f, NULL, &counter, &e), SP_E_ARG);
+
+    /* rejections as for the other frames, *d untouched */
+    sp_can_frame_t good;
+    assert_int_equal(sp_proto_encode_wrench(&m, 3u, &good), SP_OK);
+    sp_msg_wrench_t keep;
+    memset(&keep, 0x5A, sizeof keep);
+    d = keep;
+    f = good;
+    f.data[10] ^= 0x04u;
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_E_FRAME);
+    assert_int_equal(e, SP_PROTO_BAD_CRC);
+    f = good;
+    f.data[23] ^= 0x80u; /* a CRC bit */
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_E_FRAME);
+    assert_int_equal(e, SP_PROTO_BAD_CRC);
+    f = good;
+    f.len = 32u;
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_E_FRAME);
+    assert_int_equal(e, SP_PROTO_BAD_LENGTH);
+    f = good;
+    f.id = SP_ID_CTRL_MONITOR;
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_E_FRAME);
+    assert_int_equal(e, SP_PROTO_UNKNOWN_ID);
+    f = good; /* Mz raw -2^21 (bits 150..171 = 1 << 21), resealed: out of range */
+    for (uint32_t b = 150u; b < 172u; b++) {
+        uint8_t bit = (uint8_t)(1u << (b % 8u));
+        f.data[b / 8u] = (uint8_t)((b == 171u) ? (f.data[b / 8u] | bit) : (f.data[b / 8u] & (uint8_t)~bit));
+    }
+    assert_int_equal(sp_e2e_seal(&f), SP_OK);
+    assert_int_equal(sp_proto_decode_wrench(&f, &d, &counter, &e), SP_E_FRAME);
+    assert_int_equal(e, SP_PROTO_OUT_OF_RANGE);
+    assert_memory_equal(&d, &keep, sizeof d);
+    /* the alive counter: a repeat and a jump are refused by the receiver */
+    sp_e2e_rx_t rx;
+    memset(&rx, 0, sizeof rx);
+    assert_int_equal(sp_proto_decode_wrench(&good, &d, &counter, &e), SP_OK);
+    assert_true(sp_e2e_accepted(sp_e2e_rx_check(&rx, counter)));
+    assert_int_equal(sp_e2e_rx_check(&rx, counter), SP_E2E_REPEATED);
+    assert_int_equal(sp_e2e_rx_check(&rx, (uint8_t)(counter + 8u)), SP_E2E_WRONG_SEQ);
+    /* the controller does not consume it (its own frame): unknown to the node */
+    static rig_t r;
+    rig_init(&r);
+    sp_proto_error_t why;
+    assert_int_equal(sp_node_receive(&r.node, &good, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_UNKNOWN_ID);
+}
+
+static void test_feedback_pressures_at_1_kpa(void **state)
+{
+    (void)state;
+    sp_msg_feedback_t m = {SP_Q24_ONE, 3000499u, 3000500u, SP_DRIVE_STATE_ACTIVE, 0u, 77u};
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_feedback(&m, 2u, 1u, SP_BUS_AXIS_B, &f), SP_OK);
+    assert_int_equal(f.len, 12u);
+    sp_msg_feedback_t d;
+    uint8_t slot = 0u, counter = 0u;
+    sp_proto_error_t e;
+    assert_int_equal(sp_proto_decode_feedback(&f, &d, &slot, &counter, &e), SP_OK);
+    assert_int_equal(d.pressure_a, 3000000u); /* nearest 1 kPa */
+    assert_int_equal(d.pressure_b, 3001000u);
+    assert_int_equal(d.state, SP_DRIVE_STATE_ACTIVE);
+    assert_int_equal(d.tick_echo, 77u);
+    assert_int_equal(slot, 2u);
+    /* bytes 3-4: PressureA raw 3000 little-endian */
+    assert_int_equal(f.data[3], 3000u & 0xFFu);
+    assert_int_equal(f.data[4], 3000u >> 8);
+    /* full scale 65.535 MPa; above it saturates */
+    m.pressure_a = 65535000u;
+    m.pressure_b = 70000000u;
+    assert_int_equal(sp_proto_encode_feedback(&m, 1u, 2u, SP_BUS_AXIS_A, &f), SP_E_RANGE);
+    assert_int_equal(sp_proto_decode_feedback(&f, &d, &slot, &counter, &e), SP_OK);
+    assert_int_equal(d.pressure_a, 65535000u);
+    assert_int_equal(d.pressure_b, 65535000u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -297,6 +445,8 @@ int main(void)
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),
         cmocka_unit_test(test_drive_pressures_become_forces),
         cmocka_unit_test(test_fuzz_receive_path),
+        cmocka_unit_test(test_wrench_frame_round_trip_and_saturation),
+        cmocka_unit_test(test_feedback_pressures_at_1_kpa),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -55,6 +55,8 @@ CONTROLLER_FAULTS = ("feedback_timeout", "drive", "fk", "divergence", "reference
 DRIVE_FAULTS = ("setpoint_timeout", "following_error", "end_stop", "sensor", "valve",
                 "pressure", "communication", "internal")
 POSE_SIGNALS = ("X", "Y", "Z", "Roll", "Pitch", "Yaw")
+#: CTRL_WRENCH's force (N) and moment (N m) signals, base frame, about o'.
+WRENCH_SIGNALS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 E2E_SIGNALS = ("Counter", "Crc")
 #: Feedback of drive slot s (1..3) has this ID + s.
 FEEDBACK_BASE_ID = 0x030
@@ -386,6 +388,14 @@ def status_to_dict(proto: Protocol, signals: Mapping[str, Any]) -> dict[str, Any
         "feedforward": bool(signals["FeedForward"]),
         "pose": signals_to_pose(signals),
     }
+
+
+def wrench_to_dict(signals: Mapping[str, Any]) -> dict[str, Any]:
+    """Decoded CTRL_WRENCH (physical) -> a readable dict: tick, valid, and the
+    wrench [fx, fy, fz, mx, my, mz] (N, N m; 0.25 steps, saturated at
+    +-524287.75 by the sender)."""
+    return {"tick": int(signals["Tick"]), "valid": bool(signals["Valid"]),
+            "wrench": [float(signals[n]) for n in WRENCH_SIGNALS]}
 
 
 def feedback_to_dict(proto: Protocol, signals: Mapping[str, Any]) -> dict[str, Any]:

@@ -1,5 +1,8 @@
 #include "sp/node.h"
 
+/* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH. */
+typedef char sp_node_tx_fits[(7u <= SP_NODE_MAX_TX) ? 1 : -1];
+
 static void inc(uint32_t *c)
 {
     if (*c < UINT32_MAX) {
@@ -300,7 +303,8 @@ static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t *node, uint3
     node->sync_seen[1] = 0u;
 }
 
-/* The controller's status and monitor frames to the operator bus. */
+/* The controller's status and monitor frames to the operator bus, and on
+ * even ticks the wrench estimate (CTRL_WRENCH, 500 Hz). */
 static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick, sp_can_frame_t out[],
                             uint32_t *n)
 {
@@ -326,6 +330,17 @@ static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32
     }
     count_send(node, sp_proto_encode_monitor(&mon, node->tx_counter_monitor++, &out[*n]), n);
     node->tx_counter_monitor &= 0x0Fu;
+
+    if (tick % SP_PROTO_WRENCH_PERIOD == 0u) {
+        sp_msg_wrench_t w;
+        w.tick = tick;
+        w.valid = node->out.wrench_valid;
+        for (uint32_t k = 0; k < 6u; k++) {
+            w.wrench[k] = node->out.wrench[k];
+        }
+        count_send(node, sp_proto_encode_wrench(&w, node->tx_counter_wrench++, &out[*n]), n);
+        node->tx_counter_wrench &= 0x0Fu;
+    }
 }
 
 sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n)

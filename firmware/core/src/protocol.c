@@ -90,12 +90,27 @@ static sp_q24_t freq_to_q24(int64_t raw)
 typedef char sp_pressure_raw_is_whole_pa[(SP_CAN_PRESSURE_RAW_PER_PA_NUM == 1) ? 1 : -1];
 static uint16_t pa_to_pressure(uint32_t pa, int *sat)
 {
-    return (uint16_t)clamp(((int64_t)pa + SP_CAN_PRESSURE_RAW_PER_PA_DEN / 2) / SP_CAN_PRESSURE_RAW_PER_PA_DEN, 0, 4095,
-                           sat);
+    return (uint16_t)clamp(((int64_t)pa + SP_CAN_PRESSURE_RAW_PER_PA_DEN / 2) / SP_CAN_PRESSURE_RAW_PER_PA_DEN, 0,
+                           UINT16_MAX, sat);
 }
 static uint32_t pressure_to_pa(uint16_t raw)
 {
     return (uint32_t)raw * (uint32_t)SP_CAN_PRESSURE_RAW_PER_PA_DEN;
+}
+/* Wrench components: Q8 -> 0.25 N (or N m) raw is Q8 / 64; the decode is exact. */
+#define I22_MAX 2097151
+#define I22_MIN (-2097151) /* symmetric, as the other signed signals */
+typedef char sp_wrench_raw_is_q8_div[(SP_CAN_WRENCH_RAW_PER_Q8_N_NM_NUM == 1) ? 1 : -1];
+typedef char
+    sp_wrench_max_matches[(SP_PROTO_WRENCH_MAX_Q8 == (int64_t)I22_MAX * SP_CAN_WRENCH_RAW_PER_Q8_N_NM_DEN) ? 1 : -1];
+static int32_t q8_to_wrench(int32_t q, int *sat)
+{
+    return (int32_t)clamp(muldiv(q, SP_CAN_WRENCH_RAW_PER_Q8_N_NM_NUM, SP_CAN_WRENCH_RAW_PER_Q8_N_NM_DEN), I22_MIN,
+                          I22_MAX, sat);
+}
+static int32_t wrench_to_q8(int32_t raw)
+{
+    return (int32_t)((int64_t)raw * SP_CAN_WRENCH_RAW_PER_Q8_N_NM_DEN);
 }
 /* The fade time is whole milliseconds on both sides: raw = ms. */
 typedef char sp_fade_raw_is_ms[(SP_CAN_FADE_TIME_RAW_PER_MS_NUM == 1) ? 1 : -1];
@@ -591,6 +606,57 @@ sp_status_t sp_proto_decode_monitor(const sp_can_frame_t *f, sp_msg_monitor_t *m
     for (uint32_t i = 0; i < SP_LEGS; i++) {
         m->length_sp[i] = length_to_q24(len[i]);
         m->force_ff[i] = force_to_q8(frc[i]);
+    }
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- CTRL_WRENCH ---- */
+sp_status_t sp_proto_encode_wrench(const sp_msg_wrench_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    struct stewart_can_ctrl_wrench_t s;
+    (void)stewart_can_ctrl_wrench_init(&s);
+    s.tick = m->tick;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.valid = m->valid ? 1u : 0u;
+    s.fx = q8_to_wrench(m->wrench[0], &sat);
+    s.fy = q8_to_wrench(m->wrench[1], &sat);
+    s.fz = q8_to_wrench(m->wrench[2], &sat);
+    s.mx = q8_to_wrench(m->wrench[3], &sat);
+    s.my = q8_to_wrench(m->wrench[4], &sat);
+    s.mz = q8_to_wrench(m->wrench[5], &sat);
+    clear(f);
+    return finish(f, SP_ID_CTRL_WRENCH, SP_BUS_OPS, stewart_can_ctrl_wrench_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_CTRL_WRENCH_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_wrench(const sp_can_frame_t *f, sp_msg_wrench_t *m, uint8_t *counter,
+                                   sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_CTRL_WRENCH, STEWART_CAN_CTRL_WRENCH_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_ctrl_wrench_t s;
+    if (stewart_can_ctrl_wrench_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    const int32_t v[6] = {s.fx, s.fy, s.fz, s.mx, s.my, s.mz};
+    for (uint32_t k = 0; k < 6u; k++) {
+        if (v[k] < I22_MIN || v[k] > I22_MAX) {
+            return reject(error, SP_PROTO_OUT_OF_RANGE);
+        }
+    }
+    m->tick = s.tick;
+    m->valid = s.valid;
+    for (uint32_t k = 0; k < 6u; k++) {
+        m->wrench[k] = wrench_to_q8(v[k]);
     }
     *counter = s.counter;
     return SP_OK;

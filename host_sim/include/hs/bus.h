@@ -12,7 +12,7 @@
  * Legs 0..5 of the plant are slots 1..3 of axis_a (legs 0..2) and of
  * axis_b (legs 3..5). Units: lengths are sent in whole micrometres, which is
  * the sensors' resolution; pressures are rounded from the sensors' counts to
- * the DBC's 10 kPa.
+ * the DBC's 1 kPa (the default sensor resolution: sent without loss).
  */
 #ifndef HS_BUS_H
 #define HS_BUS_H
@@ -51,7 +51,7 @@ hs_status_t hs_bus_init(hs_bus_t *bus);
  * 2^16), then, if `sync_master`, SYNC(tick) on both axis buses after their
  * feedback. Writes up to HS_BUS_MAX_TX frames to out[0..*n). Resets the
  * "setpoints received" flags for the new tick. Values are saturated to the
- * DBC's ranges by the encoder (a pressure above 40.95 MPa is sent as the
+ * DBC's ranges by the encoder (a pressure above 65.535 MPa is sent as the
  * maximum). HS_E_ARG on NULL.
  */
 hs_status_t hs_bus_cycle_frames(hs_bus_t *bus, const hs_plant_t *plant, uint32_t tick, uint8_t sync_master,

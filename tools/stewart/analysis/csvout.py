@@ -1,5 +1,12 @@
 """``signals.csv``: one row per tick of a decoded run, SI units, blank where
-a value is missing (columns: :func:`signal_columns`)."""
+a value is missing (columns: :func:`signal_columns`).
+
+The controller's wrench estimate (``est_wrench_*``, CTRL_WRENCH) is sent on
+every 2nd tick: the other rows leave it blank, as every value without a
+frame for its tick (not held from the previous frame); ``est_wrench_valid``
+is 1 or 0 on the ticks with a frame and the components are blank unless it
+is 1. ``truth_wrench_*``: the plant's true external wrench (external +
+contact), blank if the truth CSV has no wrench columns."""
 
 from __future__ import annotations
 
@@ -10,7 +17,7 @@ import numpy as np
 
 from .. import protocol as pr
 from .decode import LogData
-from .names import AXES, DRIVE_MODES, DRIVE_STATES, TICK_S
+from .names import AXES, DRIVE_MODES, DRIVE_STATES, TICK_S, WRENCH_AXES
 
 
 def signal_columns(truth: bool) -> list[str]:
@@ -19,9 +26,11 @@ def signal_columns(truth: bool) -> list[str]:
     cols += [f"ref_{a}" for a in AXES] + [f"est_{a}" for a in AXES]
     for group in ("length_sp", "force_ff", "length", "stretch", "force", "drive_state", "drive_faults"):
         cols += [f"{group}{i}" for i in range(1, 7)]
+    cols += ["est_wrench_valid"] + [f"est_wrench_{a}" for a in WRENCH_AXES]
     if truth:
         cols += [f"truth_{a}" for a in AXES]
         cols += [f"truth_length{i}" for i in range(1, 7)] + [f"truth_force{i}" for i in range(1, 7)]
+        cols += [f"truth_wrench_{a}" for a in WRENCH_AXES]
     return cols
 
 
@@ -36,6 +45,11 @@ def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
         return "" if v < 0 else str(int(v))
 
     stretch, force = data.stretch, data.force
+    truth_wrench = None
+    if data.truth is not None:
+        truth_wrench = data.truth.get("wrench")
+        if truth_wrench is None:
+            truth_wrench = np.full((len(data), 6), np.nan)
     rows = []
     for k in range(len(data)):
         st = int(data.state[k])
@@ -50,10 +64,12 @@ def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
         r += [f(v, ".1f") for v in force[k]]
         r += [DRIVE_STATES[s] if 0 <= s < len(DRIVE_STATES) else i(s) for s in data.drive_state[k]]
         r += [i(v) for v in data.drive_faults[k]]
+        r += [i(data.est_wrench_valid[k])] + [f(v, ".2f") for v in data.est_wrench[k]]
         if data.truth is not None:
             r += [f(v, ".9f") for v in data.truth["pose"][k]]
             r += [f(v, ".9f") for v in data.truth["length"][k]]
             r += [f(v, ".3f") for v in data.truth["force"][k]]
+            r += [f(v, ".3f") for v in truth_wrench[k]]
         rows.append(r)
     return cols, rows
 

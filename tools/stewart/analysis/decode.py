@@ -5,11 +5,15 @@ frame with :class:`stewart.protocol.Protocol` (CRC, alive counter per bus,
 length, ranges) and the bus the DBC allows it on, and never stops on a bad
 line: malformed lines and rejected frames are counted (``LogData.stats``).
 
-Rows are control ticks. CTRL_STATUS and CTRL_MONITOR carry the tick,
+Rows are control ticks. CTRL_STATUS, CTRL_MONITOR and CTRL_WRENCH carry the tick,
 AXIS_SETPOINTS the tick of its SYNC, AXIS_FEEDBACK the low 16 bits of its
 SYNC tick (``TickEcho``, unwrapped to the nearest tick seen in the log). In
 both the lockstep and the real-time mode of ``sp_controller`` the
 controller's tick equals the SYNC tick.
+
+CTRL_WRENCH comes every 2nd tick (500 Hz). Like any other value a row has
+no frame for, the wrench of a tick without one is missing (NaN, blank in
+signals.csv), not held: a row shows only what was sent for that tick.
 """
 
 from __future__ import annotations
@@ -111,13 +115,15 @@ class LogData:
     pressure_b: np.ndarray       #: (N, 6) Pa
     drive_state: np.ndarray      #: (N, 6)
     drive_faults: np.ndarray     #: (N, 6)
+    est_wrench_valid: np.ndarray  #: (N,) CTRL_WRENCH Valid (-1: no frame on this tick)
+    est_wrench: np.ndarray       #: (N, 6) CTRL_WRENCH Fx..Mz, N / N m (NaN unless Valid)
     commands: list[Command]
     stats: LogStats
     platform: Any = None
     home_lengths: np.ndarray | None = None  #: (6,) IK at the config's home pose, m
     piston_area: float = math.nan           #: m^2
     annulus_area: float = math.nan          #: m^2
-    truth: dict[str, np.ndarray] | None = None  #: "pose" (N,6), "length" (N,6), "force" (N,6)
+    truth: dict[str, np.ndarray] | None = None  #: "pose", "length", "force", "wrench": (N, 6)
     source: str = ""
 
     def __len__(self) -> int:
@@ -251,7 +257,7 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     n = len(accepted)
     known = [None] * n
     for i, (name, _bus, sig, _t, _ln) in enumerate(accepted):
-        if name in ("SYNC", "AXIS_SETPOINTS", "CTRL_STATUS", "CTRL_MONITOR"):
+        if name in ("SYNC", "AXIS_SETPOINTS", "CTRL_STATUS", "CTRL_MONITOR", "CTRL_WRENCH"):
             known[i] = int(sig["Tick"])
     prev_tick: list[int | None] = [None] * n
     last = None
@@ -286,6 +292,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
             row(int(sig["Tick"]))["status"] = sig
         elif name == "CTRL_MONITOR":
             row(int(sig["Tick"]))["monitor"] = sig
+        elif name == "CTRL_WRENCH":
+            row(int(sig["Tick"]))["wrench"] = sig
         elif name == "AXIS_SETPOINTS":
             row(int(sig["Tick"]))[("sp", bus)] = sig
         elif name == "SYNC":
@@ -329,7 +337,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
         estimate_valid=it(N), fk_iterations=it(N), reference=fl((N, 6)), estimate=fl((N, 6)),
         length_sp=fl((N, 6)), force_ff=fl((N, 6)), axis_length_sp=fl((N, 6)), axis_mode=it((N, 2)),
         length=fl((N, 6)), pressure_a=fl((N, 6)), pressure_b=fl((N, 6)), drive_state=it((N, 6)),
-        drive_faults=it((N, 6)), commands=commands, stats=stats, source=label)
+        drive_faults=it((N, 6)), est_wrench_valid=it(N), est_wrench=fl((N, 6)), commands=commands,
+        stats=stats, source=label)
     for k, t in enumerate(ticks):
         r = rows[int(t)]
         s = r.get("status")
@@ -347,6 +356,11 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
             d.reference[k] = [mon["Ref" + a] for a in pr.POSE_SIGNALS]
             d.length_sp[k] = [mon[f"LengthSp_{i}"] for i in range(1, 7)]
             d.force_ff[k] = [mon[f"ForceFf_{i}"] for i in range(1, 7)]
+        w = r.get("wrench")
+        if w is not None:
+            d.est_wrench_valid[k] = w["Valid"]
+            if w["Valid"]:
+                d.est_wrench[k] = [w[s] for s in pr.WRENCH_SIGNALS]
         for b, bus in enumerate(("axis_a", "axis_b")):
             sp = r.get(("sp", bus))
             if sp is not None:

@@ -15,6 +15,9 @@ from .. import protocol as pr
 TICK_S = 1e-3
 
 AXES = pr.axis_names()
+#: The external wrench's components (CTRL_WRENCH Fx..Mz; the truth CSV's
+#: wrench_fx..wrench_mz): force N, moment about o' N m, base frame.
+WRENCH_AXES = ("fx", "fy", "fz", "mx", "my", "mz")
 #: The motion along each axis, for the labels.
 MOTIONS = ("surge", "sway", "heave", "roll", "pitch", "yaw")
 #: CTRL_STATUS.State.

@@ -1,6 +1,7 @@
 """The plant's truth: ``hs_sim --truth`` writes the platform's true pose, leg
-lengths and cylinder forces per tick; :func:`read_truth` reads that CSV and
-:func:`attach_truth` puts it on the ticks of a decoded log."""
+lengths, cylinder forces and the outside world's wrench on the platform per
+tick; :func:`read_truth` reads that CSV and :func:`attach_truth` puts it on
+the ticks of a decoded log."""
 
 from __future__ import annotations
 
@@ -11,22 +12,31 @@ from typing import Mapping
 import numpy as np
 
 from .decode import LogData
-from .names import AXES
+from .names import AXES, WRENCH_AXES
 
 TRUTH_COLUMNS = (["tick"] + list(AXES) + [f"len{i}" for i in range(1, 7)]
                  + [f"force{i}" for i in range(1, 7)])
+#: Optional: the external wrench (force N at o', moment N m about o', base frame).
+WRENCH_COLUMNS = [f"wrench_{a}" for a in WRENCH_AXES]
+#: Where hs_sim writes them (after tick, pose, len, force, drive1..6), for a
+#: file without the header line.
+WRENCH_POSITION = len(TRUTH_COLUMNS) + 6
 
 
 def read_truth(path: str | Path) -> dict[str, np.ndarray]:
     """The plant's truth CSV: tick, x, y, z, roll, pitch, yaw, len1..6,
-    force1..6 (SI), extra columns ignored; with or without the header line.
-    Returns {"tick": (M,), "pose": (M,6), "length": (M,6), "force": (M,6)}.
+    force1..6 (SI), and optionally wrench_fx..wrench_mz; extra columns
+    ignored; with or without the header line (without it, hs_sim's column
+    order). Returns {"tick": (M,), "pose": (M,6), "length": (M,6), "force":
+    (M,6), "wrench": (M,6) (NaN where the file has no wrench)}.
     Unreadable rows are skipped (counted in "bad_rows")."""
-    ticks, pose, length, force = [], [], [], []
+    ticks, pose, length, force, wrench = [], [], [], [], []
     bad = 0
+    nan6 = [float("nan")] * 6
     with open(path, newline="") as f:
         reader = csv.reader(f)
         cols = None
+        wcols = None
         for n, rec in enumerate(reader):
             if not rec or not "".join(rec).strip():
                 continue
@@ -36,6 +46,10 @@ def read_truth(path: str | Path) -> dict[str, np.ndarray]:
                 if missing:
                     raise ValueError(f"{path}: truth CSV lacks column(s) {', '.join(missing)}")
                 cols = [names.index(c) for c in TRUTH_COLUMNS]
+                if all(c in names for c in WRENCH_COLUMNS):
+                    wcols = [names.index(c) for c in WRENCH_COLUMNS]
+                else:
+                    wcols = []
                 continue
             idx = cols if cols is not None else list(range(len(TRUTH_COLUMNS)))
             try:
@@ -43,21 +57,33 @@ def read_truth(path: str | Path) -> dict[str, np.ndarray]:
             except (ValueError, IndexError):
                 bad += 1
                 continue
+            widx = wcols
+            if widx is None:  # no header: hs_sim's layout, if the row is that long
+                widx = (list(range(WRENCH_POSITION, WRENCH_POSITION + 6))
+                        if len(rec) >= WRENCH_POSITION + 6 else [])
+            try:
+                w = [float(rec[i]) for i in widx] if widx else nan6
+            except (ValueError, IndexError):
+                bad += 1
+                continue
             ticks.append(int(vals[0]))
             pose.append(vals[1:7])
             length.append(vals[7:13])
             force.append(vals[13:19])
+            wrench.append(w)
     return {"tick": np.array(ticks, dtype=np.int64), "pose": np.array(pose).reshape(-1, 6),
             "length": np.array(length).reshape(-1, 6), "force": np.array(force).reshape(-1, 6),
-            "bad_rows": np.array(bad)}
+            "wrench": np.array(wrench, dtype=float).reshape(-1, 6), "bad_rows": np.array(bad)}
 
 
 def attach_truth(data: LogData, truth: Mapping[str, np.ndarray]) -> None:
     """Puts the truth rows on the log's ticks (truth tick t = the plant state
-    sampled for the feedback of SYNC t); ticks without truth stay NaN."""
-    out = {k: np.full((len(data), 6), np.nan) for k in ("pose", "length", "force")}
+    sampled for the feedback of SYNC t); ticks without truth stay NaN, as
+    does the wrench when ``truth`` has none."""
+    out = {k: np.full((len(data), 6), np.nan) for k in ("pose", "length", "force", "wrench")}
     idx = data.index_of(truth["tick"])
     ok = idx >= 0
     for k in out:
-        out[k][idx[ok]] = np.asarray(truth[k])[ok]
+        if k in truth:  # "wrench" is optional
+            out[k][idx[ok]] = np.asarray(truth[k])[ok]
     data.truth = out

@@ -51,6 +51,8 @@ TYPICAL = {
                      "RefRoll": 0.01, "RefPitch": -0.05, "RefYaw": 0.2,
                      **{f"LengthSp_{i}": 1.7 + 0.05 * i for i in range(1, 7)},
                      **{f"ForceFf_{i}": (-1) ** i * 1000.0 * i for i in range(1, 7)}},
+    "CTRL_WRENCH": {"Tick": 99998, "Valid": 1, "Fx": 120.25, "Fy": -35.5, "Fz": -2452.75,
+                    "Mx": 14.0, "My": -250.25, "Mz": 0.75},
 }
 
 #: Counter sequences for the receiver state machine, each from a fresh receiver.
@@ -135,6 +137,8 @@ def _malformed(proto) -> list[dict]:
         ("CTRL_STATUS State 7", 0x100, with_raw("CTRL_STATUS", State=7), "out-of-range"),
         ("OP_TARGET_POSE Yaw raw -8388608", 0x050,
          with_raw("OP_TARGET_POSE", Yaw=-8388608), "out-of-range"),
+        ("CTRL_WRENCH Mz raw -2097152", 0x102, with_raw("CTRL_WRENCH", Mz=-2097152), "out-of-range"),
+        ("CTRL_WRENCH as a 32-byte frame", 0x102, typ("CTRL_WRENCH") + bytes(8), "bad-length"),
     ]
     return [{"case": c, "frame_id": fid, "data": bytes(d).hex(), "kind": k}
             for c, fid, d, k in cases]
@@ -256,7 +260,7 @@ def make_doc(proto=None) -> str:
     w("")
     w(f"Three CAN FD buses, 11-bit identifiers, {proto.nominal_bitrate / 1e6:g} Mbit/s "
       f"arbitration and {proto.data_bitrate / 1e6:g} Mbit/s data phase (bit-rate switch on), "
-      "a 1 ms cycle.")
+      "a 1 ms cycle (CTRL_WRENCH: 2 ms).")
     w("")
     w("| bus | SocketCAN interface | between |")
     w("|---|---|---|")

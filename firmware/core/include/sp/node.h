@@ -10,12 +10,14 @@
  *  - sp_node_tick() once per tick: runs the controller step on the feedback
  *    of the last SYNC, then emits AXIS_SETPOINTS on both axis buses, SYNC
  *    (only when the node is the cycle master: real-time mode), CTRL_STATUS
- *    and CTRL_MONITOR on the ops bus.
+ *    and CTRL_MONITOR on the ops bus, and on even ticks (every
+ *    SP_PROTO_WRENCH_PERIOD ticks: 500 Hz) CTRL_WRENCH, the external wrench
+ *    estimate (at 1 kHz it would put the ops bus above its 50 % budget).
  *  - Feedback counts as fresh only if its TickEcho matches the last SYNC (sent
  *    by us, or, in lockstep, received from the plant). In lockstep the plant
  *    sends each cycle's feedback just before its SYNC, which closes the cycle:
  *    feedback for the next tick is held until that SYNC arrives.
- *  - CTRL_STATUS and CTRL_MONITOR carry the tick of the setpoints they go
+ *  - CTRL_STATUS, CTRL_MONITOR and CTRL_WRENCH carry the tick of the setpoints they go
  *    with (the SYNC tick in lockstep), so that a log lines them up.
  */
 #ifndef SP_NODE_H
@@ -52,6 +54,7 @@ typedef struct {
     uint8_t tx_counter_setpoints[2];
     uint8_t tx_counter_status;
     uint8_t tx_counter_monitor;
+    uint8_t tx_counter_wrench;
     uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
     uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
     uint8_t sync_valid;                 /**< a SYNC has been sent or received */

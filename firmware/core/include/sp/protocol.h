@@ -13,8 +13,9 @@
  * the caller's per-sender sequence check (sp_e2e_rx_check).
  *
  * Units on the bus: lengths and positions 1 um, angles 1 urad, velocities
- * 5e-5 m/s, forces 0.02 N, pressures 10 kPa, amplitude 1e-5 m or rad,
- * frequency 1 mHz, times 1 ms. Conversions round to nearest.
+ * 5e-5 m/s, forces 0.02 N, pressures 1 kPa, external wrench 0.25 N and
+ * 0.25 N m, amplitude 1e-5 m or rad, frequency 1 mHz, times 1 ms.
+ * Conversions round to nearest, ties away from zero.
  */
 #ifndef SP_PROTOCOL_H
 #define SP_PROTOCOL_H
@@ -30,6 +31,7 @@
 #define SP_ID_OP_TARGET_POSE 0x050u
 #define SP_ID_CTRL_STATUS 0x100u
 #define SP_ID_CTRL_MONITOR 0x101u
+#define SP_ID_CTRL_WRENCH 0x102u
 #define SP_AXIS_SLOTS 3u
 
 /** Why a frame was rejected. */
@@ -69,8 +71,8 @@ typedef struct {
 
 typedef struct {
     sp_q24_t length;     /**< m, Q24 */
-    uint32_t pressure_a; /**< piston side, Pa */
-    uint32_t pressure_b; /**< rod side, Pa */
+    uint32_t pressure_a; /**< piston side, Pa (1 kPa on the bus, 0..65.535 MPa) */
+    uint32_t pressure_b; /**< rod side, Pa (1 kPa on the bus, 0..65.535 MPa) */
     uint8_t state;       /**< sp_drive_state_t */
     uint8_t faults;      /**< drive fault bits */
     uint16_t tick_echo;  /**< low 16 bits of the SYNC tick sampled at */
@@ -106,6 +108,20 @@ typedef struct {
     sp_q8_t force_ff[SP_LEGS];
 } sp_msg_monitor_t;
 
+/** CTRL_WRENCH: the controller's external wrench estimate (sp_ctrl_output_t.wrench). */
+typedef struct {
+    uint32_t tick;     /**< controller tick of the estimate */
+    uint8_t valid;     /**< sp_ctrl_output_t.wrench_valid (any non-zero is sent as 1) */
+    int32_t wrench[6]; /**< force x, y, z (N) and moment about o' x, y, z (N m), base frame, Q8 */
+} sp_msg_wrench_t;
+
+/** Largest |wrench| component CTRL_WRENCH carries: 524287.75 N or N m in Q8
+ *  (raw +-(2^21 - 1) at 0.25). */
+#define SP_PROTO_WRENCH_MAX_Q8 (INT32_C(2097151) * 64)
+/** CTRL_WRENCH goes out on ticks that are multiples of this (the DBC's 2 ms
+ *  cycle: at 1 kHz the ops bus would be above its 50 % budget). */
+#define SP_PROTO_WRENCH_PERIOD 2u
+
 sp_status_t sp_proto_encode_sync(const sp_msg_sync_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
 sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
 /** slot 1..3 selects the identifier 0x031..0x033. */
@@ -115,6 +131,15 @@ sp_status_t sp_proto_encode_command(const sp_msg_command_t *m, uint8_t counter, 
 sp_status_t sp_proto_encode_target(const sp_pose_t *m, uint8_t counter, sp_can_frame_t *f);
 sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp_can_frame_t *f);
 sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/**
+ * CTRL_WRENCH (ID 0x102, 24 bytes, ops bus, CRC-16): tick, valid, then each
+ * wrench component rounded to the nearest 0.25 N or N m (Q8 / 64, ties away
+ * from zero). A component beyond +-524287.75 (SP_PROTO_WRENCH_MAX_Q8) is
+ * saturated to that limit, never wrapped, and the call returns SP_E_RANGE
+ * (the frame is still complete and sealed). SP_E_ARG on NULL.
+ */
+sp_status_t sp_proto_encode_wrench(const sp_msg_wrench_t *m, uint8_t counter, sp_can_frame_t *f);
 
 sp_status_t sp_proto_decode_sync(const sp_can_frame_t *f, sp_msg_sync_t *m, uint8_t *counter, sp_proto_error_t *error);
 sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_t *m, uint8_t *counter,
@@ -129,5 +154,12 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
                                    sp_proto_error_t *error);
 sp_status_t sp_proto_decode_monitor(const sp_can_frame_t *f, sp_msg_monitor_t *m, uint8_t *counter,
                                     sp_proto_error_t *error);
+/**
+ * CTRL_WRENCH -> Q8 wrench (raw x 64, exact: |value| <= SP_PROTO_WRENCH_MAX_Q8).
+ * Rejects (SP_E_FRAME, *error) a wrong identifier or length, a bad CRC, and
+ * the excluded raw value -2^21 of any component (out-of-range).
+ */
+sp_status_t sp_proto_decode_wrench(const sp_can_frame_t *f, sp_msg_wrench_t *m, uint8_t *counter,
+                                   sp_proto_error_t *error);
 
 #endif /* SP_PROTOCOL_H */
