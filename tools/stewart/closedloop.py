@@ -76,6 +76,30 @@ def paper_scenario(amplitude: float = 0.09, frequency: float = 0.5, cycles: int 
             "delay 0.2\n")
 
 
+#: The demo's applied load (base frame, about o'): several kN and kN m on
+#: every axis at once, applied as a step and removed as a step.
+DEMO_WRENCH = (3000.0, -2000.0, -4000.0, 1500.0, -1000.0, 800.0)
+
+
+def load_segment(wrench=DEMO_WRENCH, hold: float = 2.0, after: float = 1.0) -> str:
+    """Scenario lines, at READY: a constant external wrench (N, N m) switched
+    on as a step, held ``hold`` s, switched off, ``after`` s at rest."""
+    values = " ".join(f"{v:g}" for v in wrench)
+    return (f"mark begin load {values}\n"
+            f"wrench {values}\n"
+            f"delay {hold:.3f}\n"
+            "wrench off\n"
+            f"delay {after:.3f}\n"
+            "mark end load\n")
+
+
+def demo_scenario(amplitude: float = 0.09, frequency: float = 0.5, cycles: int = 4, fade: float = 1.0) -> str:
+    """The paper's surge and yaw (``paper_scenario``), then, before parking,
+    the applied load of ``load_segment`` at home."""
+    text = paper_scenario(amplitude, frequency, cycles, fade)
+    return text.replace("cmd PARK\n", load_segment() + "cmd PARK\n", 1)
+
+
 @dataclass
 class RunSpec:
     """One lockstep run: its name (file prefix), scenario text and options."""

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"stewart demo: {exc}", file=sys.stderr)
         return 2
     cycles = 2 if args.quick else 4
-    scenario = cl.paper_scenario(amplitude=0.09, frequency=0.5, cycles=cycles, fade=1.0)
+    scenario = cl.demo_scenario(amplitude=0.09, frequency=0.5, cycles=cycles, fade=1.0)
     specs = [cl.RunSpec("main", scenario)]
     if not args.no_compare:
         specs.append(cl.RunSpec("ff_off", scenario, feedforward=False))
