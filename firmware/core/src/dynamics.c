@@ -2,6 +2,12 @@
 
 #include "fixed_inline.h"
 
+#if defined(__GNUC__)
+#define SPI_COLD __attribute__((cold, noinline))
+#else
+#define SPI_COLD
+#endif
+
 /* a + b, setting *ovf when the sum leaves int64 (the value is then
  * meaningless and the caller fails): ADDS/ADCS and one branch. */
 SPI_INLINE int64_t add_ck(int64_t a, int64_t b, int *ovf)
@@ -132,8 +138,10 @@ static void com_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion
  * to F_i directly (s_i); the rest adds its wrench about o' to b. This
  * function adds sum_i (h_i - s_i u) and sum_i r_i x (h_i - s_i u) to b
  * (N, N m, Q24) and returns s_i in axial (N, Q16). w, wd: the body rates.
+ * This is the path for inputs outside leg_terms' envelope: every step
+ * rounded and saturated on its own (a saturation fails the call).
  */
-static void leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t w[3],
+SPI_COLD static void leg_terms_wide(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t w[3],
                       const sp_q24_t wd[3], int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_flags_t *flags)
 {
     const sp_leg_mass_t *lm = &p->leg_mass;
@@ -209,6 +217,175 @@ static void leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion
         b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
         b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
     }
+}
+
+
+/* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
+SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
+{
+    return ((uint32_t)x + (UINT32_C(1) << k)) >> (k + 1u);
+}
+
+/* round(v / 2^s) (ties up) as int32, for a v whose bound (argued at each
+ * use) keeps the result within int32: no test. */
+SPI_INLINE int32_t fit(int64_t v, unsigned s)
+{
+    return (int32_t)((v + (INT64_C(1) << (s - 1u))) >> s);
+}
+
+/*
+ * The leg terms of leg_terms_wide (same formulas, same outputs) for inputs
+ * inside an envelope that bounds every intermediate, so that only the
+ * outputs (the leg reactions hw and the axial terms, N in Q16, as in
+ * leg_terms_wide) need a saturating narrowing; every other product and sum
+ * is exact or rounded once with no test. Returns 0 (b and axial untouched)
+ * when an input is outside the envelope; the caller then runs
+ * leg_terms_wide. The envelope (far beyond any hydraulic hexapod):
+ *   m_c + m_r < 512 kg, |g| < 16 m/s^2,
+ *   |v_c| < 4 m/s, |a_c| < 64 m/s^2, |w_c| < 4 rad/s, |w'_c| < 64 rad/s^2
+ *     (body rates, c = each component),
+ *   per leg: max(d_c, d_r, 0.5 m) < L < 8 m and |r_c| < 4 m.
+ * Then (|.| Euclidean, base frame) |w_b| < 6.93, |w_b'| < 111, |a| < 111,
+ * |v| < 6.93, |r| < 6.93, and
+ *   |w_b x r| < 48 m/s, |v_A| < 55 m/s, |L'| <= |v_A|, |v_A|^2 < 3025,
+ *   |a_A| < 111 + 111 * 6.93 + 6.93 * 48 < 1213 m/s^2,
+ *   e = d_c / L, y = d_r / L in [0, 1), z = 1 - y in (0, 1],
+ *   mu = m_c e^2 + m_r z^2 and k_g = m_c e + m_r z in [0, 512) kg,
+ *   C = m_c e^2 - m_r y z in (-128, 512) kg, C / L < 1024 kg/m,
+ *   c1 = -2 L' C / L: |c1| < 2 * 55 * 1024 < 2^17 kg/s.
+ * With B = m_c d_c^2 - m_r d_r (L - d_r) = C L^2 the comment above
+ * leg_terms_wide's formulas read mu = m_c e^2 + m_r z^2, k_g = m_c e +
+ * m_r z, c1 = -2 L' C / L and
+ *   s_i = (m_r - mu) u.a_A + (m_r - k_g) g u_z
+ *         + (m_r d_r / L^2) (|v_A|^2 - L'^2) + 2 (C / L) L'^2.
+ * Formats: v_A Q24, a_A Q20, L' Q24, u.a_A Q20, |v_A|^2 - L'^2 and L'^2
+ * Q16, 1/L Q30, e, y, z Q30, masses Q16, c1 Q12; hw and s_i are summed in
+ * Q36 (each below 2^60) and narrowed once, saturating (a leg reaction of
+ * 32768 N or more fails the call with SP_E_OVERFLOW, as in leg_terms_wide).
+ * Each bound is noted where it is used.
+ */
+static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t w[3],
+                     const sp_q24_t wd[3], int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_flags_t *flags)
+{
+    const sp_leg_mass_t *lm = &p->leg_mass;
+    const int32_t mc = lm->cylinder_mass; /* Q16 */
+    const int32_t mr = lm->rod_mass;      /* Q16 */
+    const int32_t dc = lm->cylinder_com;  /* Q24 */
+    const int32_t dr = lm->rod_com;       /* Q24 */
+    sp_q24_t wb[3];                       /* angular velocity, base frame, Q24 */
+    sp_q24_t ab[3];                       /* angular acceleration, base frame, Q24 */
+    int64_t fsum[3] = {0, 0, 0};          /* N, Q16 */
+    int64_t msum[3] = {0, 0, 0};          /* N m, Q40 */
+    int32_t g20;                          /* g, Q20 */
+    int32_t lmin;
+    uint32_t out;
+    unsigned i;
+    unsigned k;
+
+    /* the envelope's global part (masses and centres are >= 0: checked by
+     * the caller); m_c + m_r < 2^25 (512 kg in Q16) */
+    out = out_of(w[0], 26u) | out_of(w[1], 26u) | out_of(w[2], 26u) | out_of(wd[0], 30u) | out_of(wd[1], 30u) |
+          out_of(wd[2], 30u) | out_of(m->vel[0], 26u) | out_of(m->vel[1], 26u) | out_of(m->vel[2], 26u) |
+          out_of(m->acc[0], 30u) | out_of(m->acc[1], 30u) | out_of(m->acc[2], 30u) | out_of(p->gravity, 28u) |
+          out_of(dc, 26u) | out_of(dr, 26u) | (((uint32_t)mc + (uint32_t)mr) >> 25);
+    if (out != 0u) {
+        return 0;
+    }
+    lmin = (dc > dr) ? dc : dr;
+    if (lmin < (INT32_C(1) << 23)) {
+        lmin = INT32_C(1) << 23; /* 0.5 m */
+    }
+    /* R w: rows of T dotted with |T_c| <= 2^30 + small: |.| <= |w| < 2^26 sqrt 3 */
+    for (k = 0u; k < 3u; ++k) {
+        wb[k] = fit((int64_t)ik->rot.t[0][k] * w[0] + (int64_t)ik->rot.t[1][k] * w[1] + (int64_t)ik->rot.t[2][k] * w[2],
+                    30u);
+        ab[k] = fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] +
+                        (int64_t)ik->rot.t[2][k] * wd[2],
+                    30u);
+    }
+    g20 = fit(p->gravity, 4u);
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        const sp_q30_t *u = ik->unit[i];
+        const int32_t len = ik->length[i];
+        int32_t va[3]; /* v_A, m/s, Q24 */
+        int32_t aa[3]; /* a_A, m/s^2, Q20 */
+        int32_t ld, ua, ld2, vv, q, e, y, mce, mrz, mu, kg, cq, c1, mryq, guz, hw[3];
+        unsigned sh;
+
+        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
+            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
+            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
+        }
+        /* v_A = v + w_b x r: products below 2^53, |w_b x r| < 48 m/s */
+        va[0] = m->vel[0] + fit((int64_t)wb[1] * r[2] - (int64_t)wb[2] * r[1], 24u);
+        va[1] = m->vel[1] + fit((int64_t)wb[2] * r[0] - (int64_t)wb[0] * r[2], 24u);
+        va[2] = m->vel[2] + fit((int64_t)wb[0] * r[1] - (int64_t)wb[1] * r[0], 24u);
+        /* a_A = a + w_b' x r + w_b x (v_A - v), one Q48 sum (below
+         * 1213 2^48 < 2^59) rounded once to Q20 */
+        {
+            const int32_t t0 = va[0] - m->vel[0];
+            const int32_t t1 = va[1] - m->vel[1];
+            const int32_t t2 = va[2] - m->vel[2];
+            aa[0] = fit((int64_t)m->acc[0] * (INT64_C(1) << 24) + (int64_t)ab[1] * r[2] - (int64_t)ab[2] * r[1] +
+                            (int64_t)wb[1] * t2 - (int64_t)wb[2] * t1,
+                        28u);
+            aa[1] = fit((int64_t)m->acc[1] * (INT64_C(1) << 24) + (int64_t)ab[2] * r[0] - (int64_t)ab[0] * r[2] +
+                            (int64_t)wb[2] * t0 - (int64_t)wb[0] * t2,
+                        28u);
+            aa[2] = fit((int64_t)m->acc[2] * (INT64_C(1) << 24) + (int64_t)ab[0] * r[1] - (int64_t)ab[1] * r[0] +
+                            (int64_t)wb[0] * t1 - (int64_t)wb[1] * t0,
+                        28u);
+        }
+        /* L' = u.v_A (Q24, |.| < 55), u.a_A (Q20, < 1213), |v_A|^2 - L'^2
+         * and L'^2 (Q16, below 3025): sums below 2^60 */
+        ld = fit((int64_t)u[0] * va[0] + (int64_t)u[1] * va[1] + (int64_t)u[2] * va[2], 30u);
+        ua = fit((int64_t)u[0] * aa[0] + (int64_t)u[1] * aa[1] + (int64_t)u[2] * aa[2], 30u);
+        ld2 = fit((int64_t)ld * ld, 32u);
+        vv = fit((int64_t)va[0] * va[0] + (int64_t)va[1] * va[1] + (int64_t)va[2] * va[2], 32u) - ld2;
+        if (vv < 0) {
+            vv = 0; /* |v_A|^2 >= L'^2 up to rounding */
+        }
+        /* the leg's coefficients, from 1/L (Q30, in (1/8, 2)) */
+        q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 58] */
+        q >>= (sh - 54u);
+        e = fit((int64_t)dc * q, 24u);                    /* d_c / L, Q30, in [0, 1) */
+        y = fit((int64_t)dr * q, 24u);                    /* d_r / L */
+        mce = fit((int64_t)mc * e, 30u);                  /* m_c e, Q16 */
+        mrz = fit((int64_t)mr * ((INT32_C(1) << 30) - y), 30u); /* m_r z */
+        mu = fit((int64_t)mce * e + (int64_t)mrz * ((INT32_C(1) << 30) - y), 30u);
+        kg = mce + mrz;
+        cq = fit((int64_t)mce * e - (int64_t)mrz * y, 30u); /* C, Q16 */
+        cq = fit((int64_t)cq * q, 30u);                  /* C / L, kg/m, Q16, < 1024 */
+        c1 = -fit((int64_t)cq * ld, 27u);                /* -2 (C / L) L', Q16 x Q24 -> Q12 */
+        mryq = fit((int64_t)fit((int64_t)mr * y, 30u) * q, 30u); /* m_r d_r / L^2, kg/m, Q16 */
+        guz = fit((int64_t)g20 * u[2], 30u);             /* g u_z, Q20 */
+        /* hw = mu a_A + c1 v_A + k_g g e_z: Q16 x Q20, Q12 x Q24, Q16 x Q20,
+         * each below 2^59 (512 1213, 2^17 55, 512 16 in N, times 2^36) */
+        for (k = 0u; k < 3u; ++k) {
+            int64_t v = (int64_t)mu * aa[k] + (int64_t)c1 * va[k];
+            if (k == 2u) {
+                v += (int64_t)kg * g20;
+            }
+            hw[k] = spi_narrow_floor(v + (INT64_C(1) << 19), 20u, flags);
+            fsum[k] += hw[k];
+        }
+        msum[0] += (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
+        msum[1] += (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
+        msum[2] += (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
+        /* s_i, Q36: (m_r - mu) u.a_A, (m_r - k_g) g u_z (each below
+         * 512 1213 2^36 < 2^56) and (m_r d_r / L^2 vv + 2 (C / L) L'^2)
+         * 2^4 (below 3 1024 3025 2^36 < 2^60) */
+        axial[i] = spi_narrow_floor((int64_t)(mr - mu) * ua + (int64_t)(mr - kg) * guz +
+                                        ((int64_t)mryq * vv + (int64_t)cq * ld2 * 2) * 16 + (INT64_C(1) << 19),
+                                    20u, flags);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
+        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
+    }
+    return 1;
 }
 
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -305,7 +482,9 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
                     mul_split_up(torque_body[2], ik->rot.t[2][k], 30u);
     }
     if (legs_on) {
-        leg_terms(platform, ik, motion, omega, omega_dot, b, axial, &flags);
+        if (!leg_terms(platform, ik, motion, omega, omega_dot, b, axial, &flags)) {
+            leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, &flags);
+        }
     }
     if (ovf || flags != 0u) {
         return SP_E_OVERFLOW;
