@@ -49,7 +49,14 @@ void m4f_platform_from_fixed(const sp_platform_t *platform, m4f_platform_t *out)
             out->inertia[i][c] = (float)platform->inertia[i][c] * Q16_TO_F;
         }
     }
+    for (c = 0u; c < 3u; ++c) {
+        out->center_of_mass[c] = (float)platform->center_of_mass[c] * Q24_TO_F;
+    }
     out->gravity = (float)platform->gravity * Q24_TO_F;
+    out->cylinder_mass = (float)platform->leg_mass.cylinder_mass * Q16_TO_F;
+    out->cylinder_com = (float)platform->leg_mass.cylinder_com * Q24_TO_F;
+    out->rod_mass = (float)platform->leg_mass.rod_mass * Q16_TO_F;
+    out->rod_com = (float)platform->leg_mass.rod_com * Q24_TO_F;
 }
 
 void m4f_motion_from_fixed(const sp_motion_t *motion, m4f_motion_t *out)
@@ -277,6 +284,67 @@ static sp_status_t solve6_transposed(float jac[SP_LEGS][6], const float b[SP_LEG
     return SP_OK;
 }
 
+static void cross3(const float a[3], const float b[3], float out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* The legs' reactions at their platform joints (the core's leg_terms, in
+ * float, the same formulas): with q = 1/L, e = d_c q, y = d_r q, z = 1 - y,
+ *   h_i = mu a_A + c1 v_A + k_g g e_z  (wrench about o' added to b),
+ *   s_i = (m_r - mu) u.a_A + (m_r - k_g) g u_z + m_r d_r q^2 (|v_A|^2 - L'^2)
+ *         - c1 L'                      (added to F_i),
+ *   mu = m_c e^2 + m_r z^2, k_g = m_c e + m_r z, c1 = -2 L' q (m_c e^2 - m_r y z),
+ * v_A = v + w_b x r, a_A = a + w_b' x r + w_b x (w_b x r), L' = u.v_A. */
+static void leg_terms(const m4f_platform_t *p, const m4f_motion_t *m, const m4f_ik_t *ik, const float w[3],
+                      const float wd[3], float b[SP_LEGS], float axial[SP_LEGS])
+{
+    float wb[3], ab[3];
+    unsigned i;
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        wb[k] = ik->rot[0][k] * w[0] + ik->rot[1][k] * w[1] + ik->rot[2][k] * w[2];
+        ab[k] = ik->rot[0][k] * wd[0] + ik->rot[1][k] * wd[1] + ik->rot[2][k] * wd[2];
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const float *r = ik->arm[i];
+        const float *u = ik->unit[i];
+        float wr[3], va[3], aa[3], t[3], hw[3], mom[3];
+        float q = 1.0f / ik->length[i];
+        float e = p->cylinder_com * q;
+        float y = p->rod_com * q;
+        float z = 1.0f - y;
+        float mu = p->cylinder_mass * e * e + p->rod_mass * z * z;
+        float kg = p->cylinder_mass * e + p->rod_mass * z;
+        float cl = q * (p->cylinder_mass * e * e - p->rod_mass * y * z); /* C / L */
+        float ld, ua, vv, c1, guz;
+        cross3(wb, r, wr);
+        cross3(ab, r, aa);
+        cross3(wb, wr, t);
+        for (k = 0u; k < 3u; ++k) {
+            va[k] = m->vel[k] + wr[k];
+            aa[k] += m->acc[k] + t[k];
+        }
+        ld = u[0] * va[0] + u[1] * va[1] + u[2] * va[2];
+        ua = u[0] * aa[0] + u[1] * aa[1] + u[2] * aa[2];
+        vv = va[0] * va[0] + va[1] * va[1] + va[2] * va[2] - ld * ld;
+        c1 = -2.0f * cl * ld;
+        guz = p->gravity * u[2];
+        for (k = 0u; k < 3u; ++k) {
+            hw[k] = mu * aa[k] + c1 * va[k];
+        }
+        hw[2] += kg * p->gravity;
+        cross3(r, hw, mom);
+        for (k = 0u; k < 3u; ++k) {
+            b[k] += hw[k];
+            b[3u + k] += mom[k];
+        }
+        axial[i] = (p->rod_mass - mu) * ua + (p->rod_mass - kg) * guz + p->rod_mass * y * q * vv - c1 * ld;
+    }
+}
+
 sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motion_t *motion, const m4f_ik_t *ik,
                                  float force[SP_LEGS])
 {
@@ -287,6 +355,7 @@ sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motio
     float torque_body[3];
     float jac[SP_LEGS][6];
     float b[SP_LEGS];
+    float axial[SP_LEGS] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
     sp_status_t st;
     unsigned k;
 
@@ -314,8 +383,37 @@ sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motio
     torque_body[0] = i_wdot[0] + (h[2] * omega[1] - h[1] * omega[2]);
     torque_body[1] = i_wdot[1] + (h[0] * omega[2] - h[2] * omega[0]);
     torque_body[2] = i_wdot[2] + (h[1] * omega[0] - h[0] * omega[1]);
+    {
+        /* centre of mass c off o': m c x T (a + g e_z) to the body moment,
+         * m R (w' x c + w x (w x c)) to the force */
+        const float *cm = platform->center_of_mass;
+        if (cm[0] != 0.0f || cm[1] != 0.0f || cm[2] != 0.0f) {
+            float mc[3], wc[3], kb[3], ab[3];
+            for (k = 0u; k < 3u; ++k) {
+                mc[k] = platform->mass * cm[k];
+            }
+            cross3(omega, mc, wc);
+            cross3(omega_dot, mc, kb);
+            cross3(omega, wc, h);
+            for (k = 0u; k < 3u; ++k) {
+                kb[k] += h[k];
+                ab[k] = ik->rot[k][0] * motion->acc[0] + ik->rot[k][1] * motion->acc[1] +
+                        ik->rot[k][2] * (motion->acc[2] + platform->gravity);
+            }
+            for (k = 0u; k < 3u; ++k) {
+                b[k] += ik->rot[0][k] * kb[0] + ik->rot[1][k] * kb[1] + ik->rot[2][k] * kb[2];
+            }
+            cross3(mc, ab, h);
+            for (k = 0u; k < 3u; ++k) {
+                torque_body[k] += h[k];
+            }
+        }
+    }
     for (k = 0u; k < 3u; ++k) {
         b[3u + k] = torque_body[0] * ik->rot[0][k] + torque_body[1] * ik->rot[1][k] + torque_body[2] * ik->rot[2][k];
+    }
+    if (platform->cylinder_mass != 0.0f || platform->rod_mass != 0.0f) {
+        leg_terms(platform, motion, ik, omega, omega_dot, b, axial);
     }
     /* The leg Jacobian, rows [u_i, (A_im T) x u_i]. */
     for (k = 0u; k < SP_LEGS; ++k) {
@@ -329,6 +427,9 @@ sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motio
         jac[k][5] = r[0] * u[1] - r[1] * u[0];
     }
     st = solve6_transposed(jac, b, force);
+    for (k = 0u; k < SP_LEGS; ++k) {
+        force[k] += axial[k];
+    }
     if (st != SP_OK) {
         for (k = 0u; k < SP_LEGS; ++k) {
             force[k] = 0.0f;

@@ -22,7 +22,12 @@ typedef struct {
     float platform_joint[SP_LEGS][3]; /**< A_im, motion frame, m */
     float mass;                       /**< kg */
     float inertia[3][3];              /**< about o', motion frame, kg m^2 */
+    float center_of_mass[3];          /**< motion frame, m */
     float gravity;                    /**< m/s^2 */
+    float cylinder_mass;              /**< each leg's barrel, kg */
+    float cylinder_com;               /**< its centre from the base joint, m */
+    float rod_mass;                   /**< each leg's rod and piston, kg */
+    float rod_com;                    /**< its centre from the platform joint, m */
 } m4f_platform_t;
 
 typedef struct {
@@ -62,7 +67,8 @@ sp_status_t m4f_body_rates(const float rpy[3], const float rpy_rate[3], const fl
                            float omega_dot[3]);
 
 /** Inverse dynamics: the six cylinder forces (N) for the motion, no
- *  external force. SP_E_ARG (NULL), SP_E_SINGULAR (pivot below 1e-3; forces
+ *  external force, with the centre of mass off o' and the leg masses as
+ *  the core has them (sp_inverse_dynamics, docs/model.md "Leg masses"). SP_E_ARG (NULL), SP_E_SINGULAR (pivot below 1e-3; forces
  *  zeroed), else SP_OK. ik must be the inverse kinematics of the pose. */
 sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motion_t *motion, const m4f_ik_t *ik,
                                  float force[SP_LEGS]);

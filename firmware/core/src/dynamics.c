@@ -2,6 +2,12 @@
 
 #include "fixed_inline.h"
 
+#if defined(__GNUC__)
+#define SPI_COLD __attribute__((cold, noinline))
+#else
+#define SPI_COLD
+#endif
+
 /* a + b, setting *ovf when the sum leaves int64 (the value is then
  * meaningless and the caller fails): ADDS/ADCS and one branch. */
 SPI_INLINE int64_t add_ck(int64_t a, int64_t b, int *ovf)
@@ -132,9 +138,12 @@ static void com_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion
  * to F_i directly (s_i); the rest adds its wrench about o' to b. This
  * function adds sum_i (h_i - s_i u) and sum_i r_i x (h_i - s_i u) to b
  * (N, N m, Q24) and returns s_i in axial (N, Q16). w, wd: the body rates.
+ * This is the path for inputs outside leg_terms' envelope: every step
+ * rounded and saturated on its own (a saturation fails the call).
  */
-static void leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t w[3],
-                      const sp_q24_t wd[3], int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_flags_t *flags)
+SPI_COLD static void leg_terms_wide(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m,
+                                    const sp_q24_t w[3], const sp_q24_t wd[3], int64_t b[SP_LEGS],
+                                    sp_q16_t axial[SP_LEGS], sp_flags_t *flags)
 {
     const sp_leg_mass_t *lm = &p->leg_mass;
     sp_q24_t wb[3];              /* angular velocity, base frame, rad/s, Q24 */
@@ -211,6 +220,202 @@ static void leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion
     }
 }
 
+/* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
+SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
+{
+    return ((uint32_t)x + (UINT32_C(1) << k)) >> (k + 1u);
+}
+
+/* round(v / 2^s) (ties up) as int32, for a v whose bound (argued at each
+ * use) keeps the result within int32: no test. */
+SPI_INLINE int32_t fit(int64_t v, unsigned s)
+{
+    return (int32_t)((v + (INT64_C(1) << (s - 1u))) >> s);
+}
+
+/*
+ * The leg terms of leg_terms_wide (same formulas, same outputs, rounded
+ * differently) for inputs inside an envelope that bounds every
+ * intermediate, so that only the outputs (the leg reactions hw and the
+ * axial terms, N in Q16, as in leg_terms_wide) need a saturating
+ * narrowing: every other product and sum is exact or rounded once, with no
+ * test. Also returns the leg rates L' in rate (m/s, Q24), bit for bit
+ * sp_leg_rates(ik, m->vel, m->rpy_rate): the same w_b and the same
+ * roundings. Returns 0 (b, axial and rate untouched) when an input is
+ * outside the envelope; the caller then runs leg_terms_wide. wd: the body
+ * angular acceleration (Q24, sp_body_rates_sc).
+ *
+ * Envelope (far beyond any hydraulic hexapod):
+ *   m_c + m_r < 512 kg, d_c, d_r < 4 m, |g| < 16 m/s^2,
+ *   |v_c| < 4 m/s, |a_c| < 64 m/s^2, |w_b,c| < 4 rad/s (base frame),
+ *   |w'_c| < 64 rad/s^2 (body frame), c = each component,
+ *   per leg: max(d_c, d_r, 0.5 m) < L < 8 m and |r_c| < 4 m.
+ * Then (|.| Euclidean) |w_b| < 6.93, |w_b'| < 111, |a| < 111, |v| < 6.93,
+ * |r| < 6.93 and
+ *   |w_b x r| < 48 m/s, |v_A| < 55 m/s, |L'| <= |v_A|, |v_A|^2 < 3025,
+ *   |a_A| < 111 + 111 * 6.93 + 6.93 * 48 < 1213 m/s^2.
+ * Coefficients. With q = 1/L and the per-call constants
+ *   K1 = m_c d_c - m_r d_r,  N = m_r d_r,  K2 = m_c d_c^2 + m_r d_r^2,
+ *   t = K2 q (below m_c d_c + m_r d_r < 2048 kg m as d < L)
+ * the formulas above leg_terms_wide read (e = d_c q, y = d_r q, z = 1 - y)
+ *   k_g = m_c e + m_r z           = m_r + K1 q
+ *   mu  = m_c e^2 + m_r z^2       = m_r + q (t - 2 N)
+ *   c1  = -2 L' B / L^3           = -2 L' (C / L),  C / L = q^2 (t - N)
+ *   s_i = (m_r - mu) u.a_A + (m_r - k_g) g u_z + (N q^2) (|v_A|^2 - L'^2)
+ *         + 2 (C / L) L'^2
+ * (C = B / L^2 = m_c e^2 - m_r y z). Each of mu, k_g is in [0, 512) kg,
+ * C in (-128, 512) kg, so |C / L| < 1024 kg/m, N q^2 < 1024 kg/m and
+ * |c1| < 2 * 55 * 1024 < 2^17 kg/s.
+ * Formats: v_A Q24, a_A Q20, L' Q24, u.a_A Q20, |v_A|^2 - L'^2 and L'^2
+ * Q16, q Q30, q^2 Q28, masses and coefficients Q16, c1 Q12; hw and s_i
+ * are sums in Q36 (each below 2^60) narrowed once, saturating (a leg
+ * reaction of 32768 N or more fails the call with SP_E_OVERFLOW, as in
+ * leg_terms_wide). Each bound is noted where it is used.
+ */
+static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t wd[3],
+                     int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS], sp_flags_t *flags)
+{
+    const sp_leg_mass_t *lm = &p->leg_mass;
+    const int32_t mr = lm->rod_mass; /* Q16 */
+    const int32_t dc = lm->cylinder_com;
+    const int32_t dr = lm->rod_com;
+    int64_t wa[3];               /* w_b 2^30, as sp_leg_rates */
+    sp_q24_t wb[3];              /* angular velocity, base frame, Q24 */
+    sp_q24_t ab[3];              /* angular acceleration, base frame, Q24 */
+    int64_t vb[3];               /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
+    int64_t ac[3];               /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
+    int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
+    int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
+    sp_q24_t rt[SP_LEGS];
+    int32_t g20, mcdc, k1, nn, k2, lmin;
+    uint32_t out;
+    unsigned i;
+    unsigned k;
+
+    /* w_b = roll' (R e_x) + pitch' (Rz e_y) + yaw' e_z exactly as
+     * sp_leg_rates (below 2^63) */
+    wa[0] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][0] - (int64_t)m->rpy_rate[1] * ik->sc[4] + (INT64_C(1) << 29);
+    wa[1] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][1] + (int64_t)m->rpy_rate[1] * ik->sc[5] + (INT64_C(1) << 29);
+    wa[2] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][2] + (int64_t)m->rpy_rate[2] * SP_Q30_ONE + (INT64_C(1) << 29);
+    /* the envelope's global part (masses and centres are >= 0: checked by
+     * the caller): w_b,c in [-2^26, 2^26) when wa_c's high word is in
+     * [-2^24, 2^24); m_c + m_r < 2^25 (512 kg in Q16) */
+    out = out_of((int32_t)(wa[0] >> 32), 24u) | out_of((int32_t)(wa[1] >> 32), 24u) |
+          out_of((int32_t)(wa[2] >> 32), 24u) | out_of(wd[0], 30u) | out_of(wd[1], 30u) | out_of(wd[2], 30u) |
+          out_of(m->vel[0], 26u) | out_of(m->vel[1], 26u) | out_of(m->vel[2], 26u) | out_of(m->acc[0], 30u) |
+          out_of(m->acc[1], 30u) | out_of(m->acc[2], 30u) | out_of(p->gravity, 28u) | out_of(dc, 26u) |
+          out_of(dr, 26u) | (((uint32_t)lm->cylinder_mass + (uint32_t)mr) >> 25);
+    if (out != 0u) {
+        return 0;
+    }
+    lmin = (dc > dr) ? dc : dr;
+    if (lmin < (INT32_C(1) << 23)) {
+        lmin = INT32_C(1) << 23; /* 0.5 m */
+    }
+    for (k = 0u; k < 3u; ++k) {
+        wb[k] = (int32_t)(wa[k] >> 30);
+        /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
+         * |.| <= |w'| < 111 rad/s^2 */
+        ab[k] =
+            fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] + (int64_t)ik->rot.t[2][k] * wd[2],
+                30u);
+        vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
+        ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
+    }
+    g20 = fit(p->gravity, 4u);
+    /* the per-call constants, Q16 (m_c, m_r < 512 kg, d < 4 m) */
+    mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u);     /* m_c d_c < 2048 */
+    nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
+    k1 = mcdc - nn;                                       /* K1 */
+    k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        const sp_q30_t *u = ik->unit[i];
+        const int32_t len = ik->length[i];
+        int32_t va[3]; /* v_A, m/s, Q24 */
+        int32_t aa[3]; /* a_A, m/s^2, Q20 */
+        int32_t ld, ua, ld2, vv, q, q2, tq, kq, dmu, mu, cq, c1, nq2, guz, hw[3];
+        unsigned sh;
+
+        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
+            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
+            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
+        }
+        /* v_A = v + w_b x r rounded once, as sp_leg_rates: products below
+         * 2^53, |v_A| < 55 m/s */
+        va[0] = (int32_t)((vb[0] + (int64_t)wb[1] * r[2] - (int64_t)wb[2] * r[1]) >> 24);
+        va[1] = (int32_t)((vb[1] + (int64_t)wb[2] * r[0] - (int64_t)wb[0] * r[2]) >> 24);
+        va[2] = (int32_t)((vb[2] + (int64_t)wb[0] * r[1] - (int64_t)wb[1] * r[0]) >> 24);
+        /* a_A = a + w_b' x r + w_b x (v_A - v), one Q48 sum (below
+         * 1213 2^48 < 2^59) rounded once to Q20 */
+        {
+            const int32_t t0 = va[0] - m->vel[0];
+            const int32_t t1 = va[1] - m->vel[1];
+            const int32_t t2 = va[2] - m->vel[2];
+            aa[0] = (int32_t)((ac[0] + (int64_t)ab[1] * r[2] - (int64_t)ab[2] * r[1] + (int64_t)wb[1] * t2 -
+                               (int64_t)wb[2] * t1) >>
+                              28);
+            aa[1] = (int32_t)((ac[1] + (int64_t)ab[2] * r[0] - (int64_t)ab[0] * r[2] + (int64_t)wb[2] * t0 -
+                               (int64_t)wb[0] * t2) >>
+                              28);
+            aa[2] = (int32_t)((ac[2] + (int64_t)ab[0] * r[1] - (int64_t)ab[1] * r[0] + (int64_t)wb[0] * t1 -
+                               (int64_t)wb[1] * t0) >>
+                              28);
+        }
+        /* L' = u.v_A (Q24, as sp_leg_rates; |.| < 55), u.a_A (Q20,
+         * < 1213), L'^2 and |v_A|^2 - L'^2 (Q16, below 3025): sums below
+         * 2^62 */
+        ld = fit((int64_t)u[0] * va[0] + (int64_t)u[1] * va[1] + (int64_t)u[2] * va[2], 30u);
+        ua = fit((int64_t)u[0] * aa[0] + (int64_t)u[1] * aa[1] + (int64_t)u[2] * aa[2], 30u);
+        ld2 = fit((int64_t)ld * ld, 32u);
+        vv = fit((int64_t)va[0] * va[0] + (int64_t)va[1] * va[1] + (int64_t)va[2] * va[2], 32u) - ld2;
+        if (vv < 0) {
+            vv = 0; /* |v_A|^2 >= L'^2 up to rounding */
+        }
+        rt[i] = ld;
+        /* the leg's coefficients from q = 1/L (Q30, in (1/8, 2)) */
+        q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
+        q >>= (sh - 54u);
+        q2 = fit((int64_t)q * q, 32u);              /* q^2, Q28, < 4 */
+        tq = fit((int64_t)k2 * q, 30u);             /* t = K2 q, Q16, < 2048 */
+        kq = fit((int64_t)k1 * q, 30u);             /* k_g - m_r = K1 q, |.| < 4096 */
+        dmu = fit((int64_t)q * (tq - 2 * nn), 30u); /* mu - m_r */
+        mu = mr + dmu;
+        cq = fit((int64_t)q2 * (tq - nn), 28u); /* C / L, kg/m, Q16 */
+        nq2 = fit((int64_t)q2 * nn, 28u);       /* N q^2, kg/m, Q16 */
+        c1 = -fit((int64_t)cq * ld, 27u);       /* -2 (C / L) L', Q16 x Q24 -> Q12 */
+        guz = fit((int64_t)g20 * u[2], 30u);    /* g u_z, Q20 */
+        /* hw = mu a_A + c1 v_A + k_g g e_z: Q16 x Q20, Q12 x Q24, Q16 x Q20,
+         * each below 2^59 (512 1213, 2^17 55, 512 16 in N, times 2^36) */
+        for (k = 0u; k < 3u; ++k) {
+            int64_t v = (int64_t)mu * aa[k] + (int64_t)c1 * va[k];
+            if (k == 2u) {
+                v += (int64_t)(mr + kq) * g20;
+            }
+            hw[k] = spi_narrow_floor(v + (INT64_C(1) << 19), 20u, flags);
+            fsum[k] += hw[k];
+        }
+        msum[0] += (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
+        msum[1] += (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
+        msum[2] += (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
+        /* s_i, Q36: (m_r - mu) u.a_A, (m_r - k_g) g u_z (each below
+         * 512 1213 2^36, 4096 16 2^36) and (N q^2 vv + 2 (C / L) L'^2) 2^4
+         * (below 3 1024 3025 2^36): below 2^60 */
+        axial[i] = spi_narrow_floor(((int64_t)nq2 * vv + (int64_t)cq * ld2 * 2) * 16 - (int64_t)dmu * ua -
+                                        (int64_t)kq * guz + (INT64_C(1) << 19),
+                                    20u, flags);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
+        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        rate[i] = rt[i];
+    }
+    return 1;
+}
+
 sp_status_t sp_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                 const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS])
 {
@@ -236,10 +441,13 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     return sp_inverse_dynamics_jac(platform, motion, ik, &jac, ext_force, force, lu);
 }
 
-sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
-                                    const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
-                                    sp_lu6_t *lu)
+/* sp_inverse_dynamics_jac, and the leg rates in rate when rate is not NULL
+ * (sp_inverse_dynamics_rates). */
+static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                            const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu,
+                            sp_q24_t rate[SP_LEGS])
 {
+    int have_rates = 0;
     sp_flags_t flags = 0u;
     sp_q24_t omega[3];
     sp_q24_t omega_dot[3];
@@ -305,7 +513,12 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
                     mul_split_up(torque_body[2], ik->rot.t[2][k], 30u);
     }
     if (legs_on) {
-        leg_terms(platform, ik, motion, omega, omega_dot, b, axial, &flags);
+        sp_q24_t rt[SP_LEGS];
+        if (leg_terms(platform, ik, motion, omega_dot, b, axial, (rate != NULL) ? rate : rt, &flags)) {
+            have_rates = 1;
+        } else {
+            leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, &flags);
+        }
     }
     if (ovf || flags != 0u) {
         return SP_E_OVERFLOW;
@@ -326,6 +539,16 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
         /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
         force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, &flags);
     }
+    if (flags == 0u && rate != NULL && !have_rates) {
+        st = sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate);
+        if (st != SP_OK) {
+            lu->valid = 0u;
+            for (k = 0u; k < SP_LEGS; ++k) {
+                force[k] = 0;
+            }
+            return st;
+        }
+    }
     if (flags != 0u) {
         for (k = 0u; k < SP_LEGS; ++k) {
             force[k] = 0;
@@ -333,4 +556,30 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
         return sp_flags_status(flags);
     }
     return SP_OK;
+}
+
+sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                    const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                    sp_lu6_t *lu)
+{
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, NULL);
+}
+
+sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                      const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                      sp_lu6_t *lu, sp_q24_t rate[SP_LEGS])
+{
+    if (rate == NULL) {
+        if (force != NULL) {
+            unsigned k;
+            for (k = 0u; k < SP_LEGS; ++k) {
+                force[k] = 0;
+            }
+        }
+        if (lu != NULL) {
+            lu->valid = 0u;
+        }
+        return SP_E_ARG;
+    }
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate);
 }

@@ -57,13 +57,11 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     }
     st = sp_inverse_kinematics(platform, &ref->pose, &ik);
     if (st == SP_OK) {
-        st = sp_leg_rates(&ik, ref->vel, ref->rpy_rate, rate);
-    }
-    if (st == SP_OK) {
         st = sp_jacobian(&ik, &model->jac);
     }
     if (st == SP_OK) {
-        st = sp_inverse_dynamics_jac(platform, ref, &ik, &model->jac, NULL, force, lu);
+        /* the forces and the leg rates (sp_leg_rates) in one pass */
+        st = sp_inverse_dynamics_rates(platform, ref, &ik, &model->jac, NULL, force, lu, rate);
     }
     if (st != SP_OK) {
         return st;

@@ -53,4 +53,19 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
                                     const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
                                     sp_lu6_t *lu);
 
+/**
+ * sp_inverse_dynamics_jac (same forces, bit for bit, same errors) that
+ * also returns the leg rates d|l_i|/dt of the motion in rate (m/s, Q24),
+ * bit for bit sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate): the
+ * leg-mass terms compute them anyway (the joint velocities), so a caller
+ * that needs both (sp_setpoints_of) computes them once. Where the leg
+ * terms do not (massless legs, or inputs outside their envelope, see
+ * dynamics.c) sp_leg_rates runs. rate is valid on SP_OK only; its errors
+ * (SP_E_OVERFLOW beyond +-128 m/s) are returned like the forces'.
+ * SP_E_ARG if rate is NULL.
+ */
+sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                      const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                      sp_lu6_t *lu, sp_q24_t rate[SP_LEGS]);
+
 #endif /* SP_DYNAMICS_H */
