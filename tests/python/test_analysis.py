@@ -27,7 +27,7 @@ from stewart.analysis.csvout import signal_columns, write_signals_csv
 from stewart.analysis.decode import WRONG_BUS, hydraulic_areas, read_log
 from stewart.analysis.logfile import format_line, parse_bus_map, parse_line
 from stewart.analysis.metrics import format_summary, jsonable, segment_metrics, summarize, tracking_error
-from stewart.analysis.names import AXES
+from stewart.analysis.names import AXES, STATES
 from stewart.analysis.plots import figure_window
 from stewart.analysis.run import DEFAULT_PLATFORM
 from stewart.analysis.segments import Segment, find_segments
@@ -462,3 +462,33 @@ def test_cli_analyze_usage_errors(tmp_path, capsys):
     assert cli.main(["analyze", str(log), "--out", str(tmp_path / "o"), "--bus", "bogus"]) == 2
     assert cli.main(["analyze", str(log), "--out", str(tmp_path / "o"), "--no-plots"]) == 0
     assert "no RUNNING segment" in capsys.readouterr().out
+
+
+def test_wrench_metrics_against_a_known_error():
+    """wrench_metrics judges the estimate only 20 ticks after each change of
+    the true wrench, and relates the loaded error to 2 % + 100 N / 50 N m."""
+    from types import SimpleNamespace
+
+    from stewart.analysis.metrics import wrench_metrics
+
+    n = 200
+    ticks = np.arange(n)
+    truth = np.zeros((n, 6))
+    truth[100:, :] = [1000.0, 0, 0, 0, 0, 500.0]          # a step at tick 100
+    est = truth.copy()
+    est[:, 0] += 30.0                                       # 30 N off everywhere
+    est[100:119, 0] += 5000.0                               # the transient, inside the 20 ticks
+    est[150, 5] += 40.0                                     # 40 N m once, loaded: bound 50 + 10
+    est[1::2] = np.nan                                      # a frame every second tick
+    data = SimpleNamespace(truth={"wrench": truth}, est_wrench=est, ticks=ticks,
+                           state=np.full(n, STATES.index("RUNNING")))
+    w = wrench_metrics(data)
+    assert w["unloaded"]["force_N"] == pytest.approx(30.0)
+    assert w["unloaded_running"]["moment_Nm"] == pytest.approx(0.0)
+    assert w["loaded"]["force_N"] == pytest.approx(30.0)
+    assert w["loaded"]["moment_Nm"] == pytest.approx(40.0)
+    assert w["loaded"]["worst_share_of_bound"] == pytest.approx(40.0 / 60.0)
+    assert w["loaded"]["within"]
+    assert w["loaded"]["n"] == 40  # ticks 120..198, even ones
+    est[170, 1] += 101.0
+    assert not wrench_metrics(data)["loaded"]["within"]

@@ -200,3 +200,72 @@ def format_summary(summary: Mapping[str, Any]) -> str:
         peak_measured = format_value(_max_or_none(s["peak_force_measured_N"]), ".0f")
         lines.append(f"  peak force: feed-forward {peak_ff} N, measured {peak_measured} N")
     return "\n".join(lines)
+
+
+#: How long after a change of the true wrench the estimate is judged (issue 14).
+WRENCH_SETTLE_TICKS = 20
+#: Bounds of the estimate against the truth (issue 14): unloaded |error|, and
+#: loaded 2 % of the load plus these.
+WRENCH_UNLOADED = (150.0, 75.0)   # N, N m
+WRENCH_LOADED_ABS = (100.0, 50.0)  # N, N m
+WRENCH_LOADED_REL = 0.02
+
+
+def wrench_metrics(data: LogData, settle_ticks: int = WRENCH_SETTLE_TICKS) -> dict[str, Any] | None:
+    """The controller's external wrench estimate (CTRL_WRENCH) against the
+    plant's truth, on the ticks with a valid estimate that are at least
+    ``settle_ticks`` after the last change of the true wrench: the largest
+    |error| of force (N) and moment (N m) while unloaded (in RUNNING and in
+    every state), and while loaded per axis against 2 % of the load plus
+    100 N / 50 N m. None without truth wrench columns."""
+    if data.truth is None or data.truth.get("wrench") is None:
+        return None
+    truth = data.truth["wrench"]
+    est = data.est_wrench
+    ok = np.isfinite(est).all(axis=1) & np.isfinite(truth).all(axis=1)
+    if not ok.any():
+        return None
+    # ticks since the last change of the true wrench
+    changed = np.ones(len(data.ticks), dtype=bool)
+    changed[1:] = np.any(truth[1:] != truth[:-1], axis=1) | (np.diff(data.ticks) != 1)
+    last = np.maximum.accumulate(np.where(changed, data.ticks, -(1 << 62)))
+    settled = ok & (data.ticks - last >= settle_ticks)
+    err = est - truth
+    loaded = np.any(truth != 0.0, axis=1)
+    running = data.state == STATES.index("RUNNING")
+
+    def worst(mask):
+        if not mask.any():
+            return None
+        e = np.abs(err[mask])
+        return {"force_N": float(np.max(e[:, :3])), "moment_Nm": float(np.max(e[:, 3:])),
+                "rms": [float(x) for x in np.sqrt(np.mean(err[mask] ** 2, axis=0))], "n": int(mask.sum())}
+
+    out: dict[str, Any] = {"settle_ticks": int(settle_ticks),
+                           "unloaded_running": worst(settled & ~loaded & running),
+                           "unloaded": worst(settled & ~loaded)}
+    m = settled & loaded
+    if m.any():
+        absolute = np.array([WRENCH_LOADED_ABS[0]] * 3 + [WRENCH_LOADED_ABS[1]] * 3)
+        bound = WRENCH_LOADED_REL * np.abs(truth[m]) + absolute
+        excess = np.abs(err[m]) / bound
+        out["loaded"] = dict(worst(m), worst_share_of_bound=float(np.max(excess)),
+                             within=bool(np.all(excess <= 1.0)))
+    return out
+
+
+def format_wrench(w: Mapping[str, Any] | None) -> list[str]:
+    """Printed lines of :func:`wrench_metrics`."""
+    if not w:
+        return ["wrench estimate: no truth to compare with"]
+    lines = []
+    for key, what in (("unloaded_running", "no load, RUNNING"), ("unloaded", "no load, any state"),
+                      ("loaded", "constant load")):
+        v = w.get(key)
+        if v:
+            lines.append(f"wrench estimate - truth ({what}, {w['settle_ticks']} ms after each change): "
+                         f"max {v['force_N']:.0f} N, {v['moment_Nm']:.0f} N m; RMS "
+                         + " ".join(f"{x:.0f}" for x in v["rms"])
+                         + (f"; {v['worst_share_of_bound']:.2f} of the bound 2 % + 100 N / 50 N m"
+                            if "worst_share_of_bound" in v else ""))
+    return lines

@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
+
 from .decode import LogData
 from .metrics import DEFAULT_DELAY_TICKS, error_stats, format_value, tracking_error
 from .names import AXES, TICK_S, axis_unit, is_angle, motion_name
@@ -129,6 +131,35 @@ def plot_compare(runs: list[tuple[str, LogData, Segment]], path: str | Path,
     ax.ticklabel_format(axis="y", useOffset=False)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_wrench(data: LogData, path: str | Path) -> None:
+    """The controller's external wrench estimate against the plant's truth
+    over the whole run: forces (kN) above, moments (kN m) below."""
+    from .names import WRENCH_AXES
+
+    plt = _plt()
+    truth = data.truth["wrench"] if data.truth is not None and data.truth.get("wrench") is not None else None
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    t = data.time_s
+    colors = ["tab:blue", "tab:orange", "tab:green"]
+    for k in range(6):
+        ax = a1 if k < 3 else a2
+        c = colors[k % 3]
+        ok = ~np.isnan(data.est_wrench[:, k])
+        ax.plot(t[ok], data.est_wrench[ok, k] / 1e3, lw=0.8, color=c, label=f"{WRENCH_AXES[k]} estimate")
+        if truth is not None:
+            ax.plot(t, truth[:, k] / 1e3, lw=1.2, ls="--", color=c, alpha=0.8, label=f"{WRENCH_AXES[k]} truth")
+    a1.set_ylabel("force on the platform [kN]")
+    a2.set_ylabel("moment about o' [kN m]")
+    a2.set_xlabel("time [s]")
+    a1.set_title("external wrench: the controller's estimate (CTRL_WRENCH, 500 Hz) vs the plant's truth")
+    for ax in (a1, a2):
+        ax.legend(ncol=3, fontsize=7)
+        ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

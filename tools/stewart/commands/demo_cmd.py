@@ -1,7 +1,8 @@
 """``stewart demo``: the main job. The firmware's controller (host build)
 commands the simulated hydraulic hexapod over three CAN FD buses (vcan, in
 user-mode Linux where the kernel has no CAN), in lockstep: engage, the
-paper's surge (90 mm, 0.5 Hz), its yaw (0.09 rad, 0.5 Hz), park.
+paper's surge (90 mm, 0.5 Hz), its yaw (0.09 rad, 0.5 Hz), a constant
+load applied at home and removed, park.
 
 Runs: ``main`` (force feed-forward on), ``ff_off`` (the same without the
 paper's inverse dynamics) and ``main_repeat`` (main again, for the
@@ -14,6 +15,8 @@ determinism check). Writes into OUT (default out/demo):
   seg1_cylinders.png    surge: stretch and force of all six cylinders (feed-forward vs plant)
   seg2_*.png            the same for yaw
   compare1.png, compare2.png   tracking error with feed-forward on and off
+  wrench.png            the controller's external wrench estimate vs the plant's truth
+                        (the applied load at home after the yaw)
   summary.json, demo_summary.txt   the figures
   ff_off/, ff_off.log, main_repeat.log, *.plant.txt, *.controller.txt, *.scenario
 
@@ -51,8 +54,8 @@ def _tick_compute(build: Path) -> str | None:
 def run(args: argparse.Namespace) -> int:
     from .. import closedloop as cl
     from ..analysis import analyze
-    from ..analysis.metrics import format_summary, segment_metrics
-    from ..analysis.plots import plot_compare
+    from ..analysis.metrics import format_summary, format_wrench, segment_metrics, wrench_metrics
+    from ..analysis.plots import plot_compare, plot_wrench
     from ..analysis.segments import match_segments
 
     out = Path(args.out)
@@ -105,6 +108,21 @@ def run(args: argparse.Namespace) -> int:
     else:
         for s in res.segments:
             figures["segments"][s.label] = {"ff_on": seg_on[s.index]["moving_axis_error"]}
+    # the complete model: feed-forward against the measured cylinder force
+    for s in res.summary["segments"]:
+        d = [x for x in s["force_measured_minus_ff_rms_N"] if x is not None]
+        peak = max([x for x in s["peak_force_measured_N"] if x is not None], default=None)
+        if d and peak:
+            worst = max(d)
+            lines.append(f"{s['label'].replace(' ff=on', '')}: feed-forward - measured force, worst cylinder "
+                         f"RMS {worst:.0f} N = {100 * worst / peak:.1f} % of the {peak:.0f} N peak")
+            figures["segments"].setdefault(s["label"], {})["ff_minus_measured_percent"] = 100 * worst / peak
+    wm = wrench_metrics(res.data)
+    lines += format_wrench(wm)
+    figures["wrench"] = wm
+    if wm:
+        plot_wrench(res.data, out / "wrench.png")
+        lines.append(f"wrench estimate vs truth -> {out / 'wrench.png'}")
     f = main.figures
     if f:
         lines.append(f"lockstep speed inside {'vcan' if cl.vcan_present() else 'user-mode Linux (stewart vcan)'}: "
