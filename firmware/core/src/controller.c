@@ -197,8 +197,10 @@ static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int activ
     if (ctrl->sup.seen_mask != SP_ALL_LEGS) {
         return 0u;
     }
-    if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &iterations) !=
-            SP_OK &&
+    /* ctrl->model.ref is the IK of ctrl->reference.pose while est.ref_lu
+     * is valid (both written by the last successful sp_setpoints_of) */
+    if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &ctrl->model.ref,
+                         &iterations) != SP_OK &&
         active) {
         raise_fault(cfg, ctrl, SP_FAULT_FK);
     }
