@@ -265,20 +265,16 @@ static void test_estimate_cold_warm_and_failure(void **state)
     sp_estimate_init(&e, &P->park);
     assert_int_equal(e.valid, 0);
 
-    /* cold start far from the park pose, then a warm tick nearby */
+    /* cold start far from the parked pose (the reference is unknown) */
     sp_pose_t truth = random_pose(&rng, 0.1, 0.1);
     assert_int_equal(sp_inverse_kinematics(P, &truth, &ik), SP_OK);
-    assert_int_equal(sp_estimate_step(P, &e, ik.length, &P->home, &it), SP_OK);
+    assert_int_equal(sp_estimate_step(P, &e, ik.length, &P->home, NULL, &it), SP_OK);
     assert_int_equal(e.valid, 1);
-    assert_int_equal(e.cache_valid, 1);
     assert_true(it >= 2u && it <= SP_ESTIMATE_COLD_STEPS);
     for (int k = 0; k < 3; ++k) {
         assert_true(labs((long)e.pose.pos[k] - truth.pos[k]) <= 17); /* 1 um */
         assert_true(labs((long)e.pose.rpy[k] - truth.rpy[k]) <= 84); /* 5 urad */
     }
-    sp_fk_cache_t want;
-    assert_int_equal(sp_fk_cache_of(P, &e.pose, &want), SP_OK);
-    assert_memory_equal(&e.cache, &want, sizeof want);
 
     /* lengths no pose has: the estimate is lost, the last pose kept */
     sp_pose_t last = e.pose;
@@ -286,53 +282,192 @@ static void test_estimate_cold_warm_and_failure(void **state)
     for (int i = 0; i < SP_LEGS; ++i) {
         bad[i] = (i < 3) ? P->leg_length_min / 4 : P->leg_length_max * 4;
     }
-    assert_int_not_equal(sp_estimate_step(P, &e, bad, &P->home, &it), SP_OK);
+    assert_int_not_equal(sp_estimate_step(P, &e, bad, &P->home, NULL, &it), SP_OK);
     assert_int_equal(e.valid, 0);
-    assert_int_equal(e.cache_valid, 0);
     assert_memory_equal(&e.pose, &last, sizeof last);
 }
 
-/* Chord steps with the factorisation at a nearby reference give the same
- * pose as full Newton (same convergence test). */
-static void test_estimate_chord_matches_newton(void **state)
+/* An estimate as the controller leaves it after a tick at reference `ref`:
+ * the last estimate at `last`, the factorisation of J^T at ref (the
+ * inverse dynamics') and ref's lengths and sines (its IK) into *cache. */
+static void estimate_at(sp_estimate_t *e, sp_fk_cache_t *cache, const sp_pose_t *ref, const sp_pose_t *last)
+{
+    sp_ik_t ik_ref;
+    sp_q8_t force[SP_LEGS];
+    sp_motion_t m;
+    sp_motion_at_rest(&m, ref);
+    sp_estimate_init(e, &P->park);
+    e->pose = *last;
+    e->valid = 1u;
+    assert_int_equal(sp_inverse_kinematics(P, ref, &ik_ref), SP_OK);
+    assert_int_equal(sp_inverse_dynamics_lu(P, &m, &ik_ref, NULL, force, &e->ref_lu), SP_OK);
+    assert_int_equal(e->ref_lu.valid, 1);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        cache->length[i] = ik_ref.length[i];
+    }
+    for (int k = 0; k < 6; ++k) {
+        cache->sc[k] = ik_ref.sc[k];
+    }
+}
+
+/* The largest |length - cache length|, Q24. */
+static int32_t largest_dl(const sp_q24_t length[SP_LEGS], const sp_fk_cache_t *cache)
+{
+    int32_t w = 0;
+    for (int i = 0; i < SP_LEGS; ++i) {
+        int32_t d = abs(length[i] - cache->length[i]);
+        w = d > w ? d : w;
+    }
+    return w;
+}
+
+/* The single step from the reference, within SP_ESTIMATE_STEP_MAX: 1 um
+ * and 1 urad of full Newton on every axis, over random references in the
+ * workspace and tracking errors of random size and direction. */
+static void test_estimate_step_accuracy(void **state)
 {
     (void)state;
     uint64_t rng = 7u;
-    for (int n = 0; n < 200; ++n) {
-        sp_pose_t ref = random_pose(&rng, 0.1, 0.1);
+    sp_fk_options_t opt;
+    long worst_pos = 0;
+    long worst_rot = 0;
+    int steps = 0;
+    int near_bound = 0;
+    sp_fk_default_options(&opt);
+    for (int n = 0; n < 4000; ++n) {
+        sp_pose_t ref = random_pose(&rng, 0.3, 0.25);
         sp_pose_t truth = ref;
-        truth.pos[n % 3] += q24(tu_uniform(&rng, -0.002, 0.002));
-        truth.rpy[(n + 1) % 3] += q24(tu_uniform(&rng, -0.002, 0.002));
-        sp_ik_t ik_ref;
-        sp_ik_t ik_truth;
-        sp_q8_t force[SP_LEGS];
-        sp_motion_t m;
-        sp_motion_at_rest(&m, &ref);
-        assert_int_equal(sp_inverse_kinematics(P, &ref, &ik_ref), SP_OK);
-        assert_int_equal(sp_inverse_kinematics(P, &truth, &ik_truth), SP_OK);
-
-        sp_estimate_t chord;
-        uint32_t it = 0u;
-        sp_estimate_init(&chord, &P->park);
-        chord.pose = ref; /* last tick's estimate: at the reference */
-        chord.valid = 1u;
-        assert_int_equal(sp_fk_cache_of(P, &ref, &chord.cache), SP_OK);
-        chord.cache_valid = 1u;
-        assert_int_equal(sp_inverse_dynamics_lu(P, &m, &ik_ref, NULL, force, &chord.ref_lu), SP_OK);
-        assert_int_equal(sp_estimate_step(P, &chord, ik_truth.length, &ref, &it), SP_OK);
-        assert_true(it >= 1u && it <= SP_ESTIMATE_CHORD_STEPS);
-
-        sp_estimate_t newton = chord;
-        newton.pose = ref;
-        newton.ref_lu.valid = 0u; /* no factorisation: full Newton */
-        assert_int_equal(sp_fk_cache_of(P, &ref, &newton.cache), SP_OK);
-        assert_int_equal(sp_estimate_step(P, &newton, ik_truth.length, &ref, &it), SP_OK);
+        double size = tu_uniform(&rng, 0.0, 0.0006); /* up to 0.6 mm / 0.6 mrad per axis */
         for (int k = 0; k < 3; ++k) {
-            assert_true(labs((long)chord.pose.pos[k] - newton.pose.pos[k]) <=
-                        8); /* both within 0.25 um of the lengths */
-            assert_true(labs((long)chord.pose.rpy[k] - newton.pose.rpy[k]) <= 40);
+            truth.pos[k] += q24(tu_uniform(&rng, -size, size));
+            truth.rpy[k] += q24(tu_uniform(&rng, -size, size));
+        }
+        sp_ik_t ik_truth;
+        if (sp_inverse_kinematics(P, &ref, &ik_truth) != SP_OK ||
+            sp_inverse_kinematics(P, &truth, &ik_truth) != SP_OK) {
+            continue;
+        }
+        sp_estimate_t e;
+        sp_fk_cache_t cache;
+        uint32_t it = 0u;
+        estimate_at(&e, &cache, &ref, &ref);
+        int32_t dl = largest_dl(ik_truth.length, &cache);
+        if (dl > SP_ESTIMATE_STEP_MAX) {
+            continue;
+        }
+        ++steps;
+        near_bound += (dl > SP_ESTIMATE_STEP_MAX * 3 / 4) ? 1 : 0;
+        assert_int_equal(sp_estimate_step(P, &e, ik_truth.length, &ref, &cache, &it), SP_OK);
+        assert_int_equal(it, 1u);
+        /* exactly the single step */
+        sp_pose_t one;
+        sp_q24_t d[SP_LEGS];
+        for (int i = 0; i < SP_LEGS; ++i) {
+            d[i] = ik_truth.length[i] - cache.length[i];
+        }
+        assert_int_equal(sp_fk_chord_step(&e.ref_lu, &ref, cache.sc, d, &one), SP_OK);
+        assert_memory_equal(&one, &e.pose, sizeof one);
+        /* against full Newton from the reference */
+        sp_pose_t newton;
+        assert_int_equal(sp_forward_kinematics(P, ik_truth.length, &ref, &opt, &newton, NULL, NULL), SP_OK);
+        for (int k = 0; k < 3; ++k) {
+            long ep = labs((long)e.pose.pos[k] - newton.pos[k]);
+            long er = labs((long)e.pose.rpy[k] - newton.rpy[k]);
+            worst_pos = ep > worst_pos ? ep : worst_pos;
+            worst_rot = er > worst_rot ? er : worst_rot;
         }
     }
+    printf("single step: %d poses (%d beyond 3/4 of the bound), worst %.3f um, %.3f urad from Newton\n", steps,
+           near_bound, (double)worst_pos / 16.777216, (double)worst_rot / 16.777216);
+    assert_true(steps > 1000 && near_bound > 100);
+    assert_true(worst_pos <= 16); /* 16 LSB = 0.95 um */
+    assert_true(worst_rot <= 16); /* 0.95 urad */
+}
+
+/* Beyond SP_ESTIMATE_STEP_MAX: chord steps from the reference, the same
+ * pose as sp_fk_chord (and within Newton's tolerance of it); a missing
+ * factorisation or reference: full Newton from the last estimate. */
+static void test_estimate_fallbacks(void **state)
+{
+    (void)state;
+    uint64_t rng = 11u;
+    sp_fk_options_t opt;
+    int beyond = 0;
+    sp_fk_default_options(&opt);
+    for (int n = 0; n < 300; ++n) {
+        sp_pose_t ref = random_pose(&rng, 0.3, 0.25);
+        sp_pose_t truth = ref;
+        truth.pos[n % 3] += q24(tu_uniform(&rng, -0.003, 0.003));
+        truth.rpy[(n + 1) % 3] += q24(tu_uniform(&rng, -0.003, 0.003));
+        sp_ik_t ik_truth;
+        if (sp_inverse_kinematics(P, &ref, &ik_truth) != SP_OK ||
+            sp_inverse_kinematics(P, &truth, &ik_truth) != SP_OK) {
+            continue;
+        }
+        sp_estimate_t e;
+        sp_estimate_t keep;
+        sp_fk_cache_t cache;
+        uint32_t it = 0u;
+        sp_pose_t want;
+        sp_fk_info_t info;
+        estimate_at(&e, &cache, &ref, &ref);
+        keep = e;
+        if (largest_dl(ik_truth.length, &cache) <= SP_ESTIMATE_STEP_MAX) {
+            continue;
+        }
+        ++beyond;
+        assert_int_equal(sp_estimate_step(P, &e, ik_truth.length, &ref, &cache, &it), SP_OK);
+        sp_fk_cache_t c = cache;
+        sp_fk_options_t copt = opt;
+        copt.max_iterations = SP_ESTIMATE_CHORD_STEPS;
+        assert_int_equal(sp_fk_chord(P, ik_truth.length, &ref, &keep.ref_lu, &copt, &c, &want, &info), SP_OK);
+        assert_memory_equal(&want, &e.pose, sizeof want);
+        assert_int_equal(it, info.iterations);
+        assert_true(it >= 1u);
+
+        /* no factorisation at the reference, or no reference lengths:
+         * full Newton from the last estimate, bit for bit */
+        assert_int_equal(sp_forward_kinematics(P, ik_truth.length, &ref, &opt, &want, NULL, &info), SP_OK);
+        for (int variant = 0; variant < 2; ++variant) {
+            sp_estimate_t f = keep;
+            if (variant == 0) {
+                f.ref_lu.valid = 0u;
+            }
+            assert_int_equal(sp_estimate_step(P, &f, ik_truth.length, &ref, variant == 0 ? &cache : NULL, &it), SP_OK);
+            assert_memory_equal(&want, &f.pose, sizeof want);
+            assert_int_equal(it, info.iterations);
+        }
+        /* a small step, but without a factorisation: Newton as well */
+        sp_estimate_t f = keep;
+        f.ref_lu.valid = 0u;
+        assert_int_equal(sp_estimate_step(P, &f, cache.length, &ref, &cache, &it), SP_OK);
+        assert_int_equal(sp_forward_kinematics(P, cache.length, &ref, &opt, &want, NULL, &info), SP_OK);
+        assert_memory_equal(&want, &f.pose, sizeof want);
+    }
+    assert_true(beyond > 100);
+
+    /* the reference's own lengths: the reference itself, one step */
+    sp_estimate_t z;
+    sp_fk_cache_t zc;
+    uint32_t zit = 0u;
+    estimate_at(&z, &zc, &P->home, &P->home);
+    z.pose.pos[2] += 5; /* last estimate a little off */
+    assert_int_equal(sp_estimate_step(P, &z, zc.length, &P->home, &zc, &zit), SP_OK);
+    assert_int_equal(zit, 1u);
+    assert_memory_equal(&z.pose, &P->home, sizeof z.pose);
+
+    /* the step from the reference lands more than the allowed jump away
+     * from the last estimate: Newton from the last estimate decides (and
+     * reports the discontinuity) */
+    sp_estimate_t e;
+    sp_fk_cache_t cache;
+    sp_pose_t far = P->home;
+    uint32_t it = 0u;
+    far.pos[0] += SP_Q24_MILLI(80);
+    estimate_at(&e, &cache, &P->home, &far);
+    assert_int_equal(sp_estimate_step(P, &e, cache.length, &P->home, &cache, &it), SP_E_DISCONTINUITY);
+    assert_int_equal(e.valid, 0);
+    assert_memory_equal(&e.pose, &far, sizeof far);
 }
 
 /* sp_fk_newton_cached is sp_forward_kinematics with the cache of the
@@ -457,6 +592,75 @@ static void test_friction_force(void **state)
     }
 }
 
+/* The plain reference of sp_wrench_step's arithmetic (sp/wrench.h), one
+ * component at a time, every step written out in int64: d = F_model - F
+ * clamped to +-2^29; (J^T d)_k summed exactly, rounded once to Q8 and held
+ * within [-2^30, 2^30 - 1]; the filter with alpha held within [0, 1]. */
+static void wrench_reference(const int32_t wrench_in[6], int valid, const sp_q8_t model_force[SP_LEGS],
+                             const sp_jacobian_t *jac, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha,
+                             int32_t wrench_out[6])
+{
+    const int64_t hi = (INT64_C(1) << 30) - 1;
+    const int64_t lo = -(INT64_C(1) << 30);
+    int64_t a = alpha < 0 ? 0 : (alpha > SP_Q30_ONE ? SP_Q30_ONE : alpha);
+    for (int k = 0; k < 6; ++k) {
+        int64_t acc = 0;
+        for (int i = 0; i < SP_LEGS; ++i) {
+            int64_t d = (int64_t)model_force[i] - measured[i];
+            d = d > (INT64_C(1) << 29) ? (INT64_C(1) << 29) : (d < -(INT64_C(1) << 29) ? -(INT64_C(1) << 29) : d);
+            acc += (int64_t)jac->j[i][k] * d;
+        }
+        int64_t raw = (acc + (INT64_C(1) << 27)) >> 28; /* floor(x + 1/2) */
+        raw = raw > hi ? hi : (raw < lo ? lo : raw);
+        if (valid) {
+            int64_t last = wrench_in[k] > hi ? hi : (wrench_in[k] < lo ? lo : wrench_in[k]);
+            int64_t step = (a * (raw - last) + (INT64_C(1) << 29)) >> 30;
+            raw = last + step;
+            assert_true(raw >= lo && raw <= hi);
+        }
+        wrench_out[k] = (int32_t)raw;
+    }
+}
+
+/* sp_wrench_step equals the plain reference bit for bit: random Jacobians
+ * over the whole allowed range (|entry| < 8, Q28), forces of every size up
+ * to the int32 range (the clamp on d), estimates anywhere in int32 and
+ * gains outside [0, 1]. */
+static void test_wrench_matches_reference(void **state)
+{
+    (void)state;
+    uint64_t rng = 2024u;
+    for (int n = 0; n < 20000; ++n) {
+        sp_model_t model;
+        sp_wrench_t w;
+        sp_q8_t meas[SP_LEGS];
+        int32_t want[6];
+        int big = (n % 4) == 0;
+        for (int i = 0; i < SP_LEGS; ++i) {
+            for (int k = 0; k < 6; ++k) {
+                model.jac.j[i][k] = big ? tu_i32(&rng) : (int32_t)(tu_i32(&rng) >> 4);
+            }
+            model.force[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
+            meas[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        }
+        sp_wrench_reset(&w);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            w.model_force[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        }
+        for (int k = 0; k < 6; ++k) {
+            w.wrench[k] = (n % 8) == 1 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
+        }
+        w.have_model = 1u;
+        w.valid = (uint8_t)(n % 3 != 0);
+        sp_q30_t alpha = (n % 16) == 5 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
+        wrench_reference(w.wrench, w.valid, w.model_force, &model.jac, meas, alpha, want);
+        sp_wrench_step(&w, &model, meas, alpha);
+        assert_memory_equal(w.wrench, want, sizeof want);
+        assert_int_equal(w.valid, 1);
+        assert_memory_equal(w.model_force, model.force, sizeof model.force);
+    }
+}
+
 /* A known wrench W on a platform at rest: measured forces F = F_model -
  * J^-T W. The estimate finds W (raw on the first tick, then through the
  * filter: a step of W settles as 1 - (1 - alpha)^n). */
@@ -518,6 +722,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_friction_force),
         cmocka_unit_test(test_wrench_estimate),
+        cmocka_unit_test(test_wrench_matches_reference),
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
@@ -525,7 +730,8 @@ int main(void)
         cmocka_unit_test(test_stream_follows_within_limits),
         cmocka_unit_test(test_stream_offer_rules),
         cmocka_unit_test(test_estimate_cold_warm_and_failure),
-        cmocka_unit_test(test_estimate_chord_matches_newton),
+        cmocka_unit_test(test_estimate_step_accuracy),
+        cmocka_unit_test(test_estimate_fallbacks),
         cmocka_unit_test(test_fk_newton_cached),
         cmocka_unit_test(test_setpoints_of),
     };

@@ -197,8 +197,10 @@ static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int activ
     if (ctrl->sup.seen_mask != SP_ALL_LEGS) {
         return 0u;
     }
-    if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &iterations) !=
-            SP_OK &&
+    /* ctrl->model.ref is the IK of ctrl->reference.pose while est.ref_lu
+     * is valid (both written by the last successful sp_setpoints_of) */
+    if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &ctrl->model.ref,
+                         &iterations) != SP_OK &&
         active) {
         raise_fault(cfg, ctrl, SP_FAULT_FK);
     }
@@ -321,20 +323,14 @@ static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_c
 }
 
 /* A streamed target while streaming: taken when reachable (sp_stream_offer,
- * with the last reference's setpoint lengths, which are its IK while its
- * factorisation is valid). Returns 0 when it is refused. */
+ * with the last reference's leg lengths, its IK as the setpoint path kept
+ * it in ctrl->model.ref, known while its factorisation is valid). Returns
+ * 0 when it is refused. */
 static int take_stream_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *target)
 {
-    sp_q24_t ref_length[SP_LEGS];
     int known = ctrl->est.ref_lu.valid && ctrl->have_setpoint;
-    unsigned i;
-    if (known) {
-        for (i = 0u; i < SP_LEGS; ++i) {
-            ref_length[i] = ctrl->setpoint[i].length;
-        }
-    }
     return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->reference.pose,
-                           known ? ref_length : NULL);
+                           known ? ctrl->model.ref.length : NULL);
 }
 
 /* ---- 4. the reference of this tick ---------------------------------------- */

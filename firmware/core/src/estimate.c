@@ -6,25 +6,60 @@ void sp_estimate_init(sp_estimate_t *e, const sp_pose_t *park)
 {
     e->pose = *park;
     e->valid = 0u;
-    e->cache_valid = 0u;
     e->ref_lu.valid = 0u;
 }
 
-/* Is every axis of a within SP_ESTIMATE_CHORD_NEAR of b? */
-static int near_pose(const sp_pose_t *a, const sp_pose_t *b)
+/* Is every axis of a within the allowed jump of b (the FK's continuity
+ * test, as fk_jump_check in fk.c)? */
+static int within_jump(const sp_pose_t *a, const sp_pose_t *b, const sp_fk_options_t *opt)
 {
     unsigned k;
     for (k = 0u; k < 3u; ++k) {
-        if (spi_farther(a->pos[k], b->pos[k], SP_ESTIMATE_CHORD_NEAR) ||
-            spi_farther(a->rpy[k], b->rpy[k], SP_ESTIMATE_CHORD_NEAR)) {
+        if (spi_farther(a->pos[k], b->pos[k], opt->max_jump_pos) ||
+            spi_farther(a->rpy[k], b->rpy[k], opt->max_jump_rot)) {
             return 0;
         }
     }
     return 1;
 }
 
+/* The warm estimate from the reference: the single step within the bound,
+ * chord steps beyond it. SP_E_DISCONTINUITY when the result is too far
+ * from the previous estimate. */
+static sp_status_t from_reference(const sp_platform_t *platform, const sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
+                                  const sp_pose_t *reference, const sp_fk_cache_t *ref, const sp_fk_options_t *opt,
+                                  sp_pose_t *est, uint32_t *iterations)
+{
+    sp_q24_t d[SP_LEGS];
+    uint32_t beyond = 0u;
+    sp_status_t st;
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        /* lengths are positive Q24 values: the difference cannot wrap */
+        sp_flags_t flags = 0u;
+        d[i] = spi_sub_sat(length[i], ref->length[i], &flags);
+        beyond |= spi_dist32(d[i], 0) > (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
+    }
+    if (beyond == 0u) {
+        st = sp_fk_chord_step(&e->ref_lu, reference, ref->sc, d, est);
+        *iterations = 1u;
+    } else {
+        sp_fk_options_t copt = *opt;
+        sp_fk_cache_t c = *ref;
+        sp_fk_info_t info;
+        copt.max_iterations = SP_ESTIMATE_CHORD_STEPS;
+        st = sp_fk_chord(platform, length, reference, &e->ref_lu, &copt, &c, est, &info);
+        *iterations = info.iterations;
+    }
+    if (st == SP_OK && !within_jump(est, &e->pose, opt)) {
+        st = SP_E_DISCONTINUITY;
+    }
+    return st;
+}
+
 sp_status_t sp_estimate_step(const sp_platform_t *platform, sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
-                             const sp_pose_t *reference, uint32_t *iterations)
+                             const sp_pose_t *reference, const sp_fk_cache_t *ref, uint32_t *iterations)
 {
     sp_fk_options_t opt;
     sp_fk_info_t info;
@@ -32,32 +67,26 @@ sp_status_t sp_estimate_step(const sp_platform_t *platform, sp_estimate_t *e, co
     sp_status_t st = SP_E_NO_CONVERGENCE;
 
     sp_fk_default_options(&opt);
-    if (!e->valid) {
-        /* cold start from the parked pose, no continuity to check */
-        opt.max_iterations = SP_ESTIMATE_COLD_STEPS;
-        opt.max_jump_pos = INT32_MAX;
-        opt.max_jump_rot = INT32_MAX;
-    }
-    info.iterations = 0u;
-    if (e->valid && e->cache_valid && e->ref_lu.valid && near_pose(&e->pose, reference)) {
-        /* chord steps with last tick's factorisation of J^T, from the
-         * estimate's cached lengths and sines */
-        sp_fk_options_t copt = opt;
-        copt.max_iterations = SP_ESTIMATE_CHORD_STEPS;
-        st = sp_fk_chord(platform, length, &e->pose, &e->ref_lu, &copt, &e->cache, &est, &info);
+    *iterations = 0u;
+    if (e->valid && e->ref_lu.valid && ref != NULL) {
+        st = from_reference(platform, e, length, reference, ref, &opt, &est, iterations);
     }
     if (st != SP_OK) {
-        /* full Newton from the guess, refilling the cache */
-        st = sp_fk_newton_cached(platform, length, e->valid ? &e->pose : &platform->park, &opt, &e->cache, &est, &info);
-        e->cache_valid = (st == SP_OK) ? 1u : 0u;
+        if (!e->valid) {
+            /* cold start from the parked pose, no continuity to check */
+            opt.max_iterations = SP_ESTIMATE_COLD_STEPS;
+            opt.max_jump_pos = INT32_MAX;
+            opt.max_jump_rot = INT32_MAX;
+        }
+        /* full Newton from the last estimate (or the park pose) */
+        st = sp_forward_kinematics(platform, length, e->valid ? &e->pose : &platform->park, &opt, &est, NULL, &info);
+        *iterations += info.iterations; /* the solves of every method tried */
     }
-    *iterations = info.iterations;
     if (st == SP_OK) {
         e->pose = est;
         e->valid = 1u;
     } else {
         e->valid = 0u;
-        e->cache_valid = 0u;
     }
     return st;
 }

@@ -276,3 +276,37 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
     }
     return st;
 }
+
+sp_status_t sp_fk_chord_step(const sp_lu6_t *lu_t, const sp_pose_t *from, const sp_q30_t sc[6],
+                             const sp_q24_t d_length[SP_LEGS], sp_pose_t *pose)
+{
+    int64_t b[SP_LEGS];
+    int64_t delta[SP_LEGS];
+    sp_pose_t q;
+    sp_status_t st = SP_OK;
+    uint32_t any = 0u;
+    unsigned i;
+
+    if (lu_t == NULL || from == NULL || sc == NULL || d_length == NULL || pose == NULL || !lu_t->valid) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        b[i] = d_length[i];
+        any |= (uint32_t)d_length[i];
+    }
+    q = *from;
+    if (any != 0u) {
+        /* J delta = dL with J = (J^T)^T: the transposed solve of the
+         * factorisation of J^T (b = 0 is the case above) */
+        if (!spi_lu6_solve_t32(lu_t, b, delta)) {
+            st = sp_lu6_solve_transposed(lu_t, b, delta);
+        }
+        if (st == SP_OK) {
+            st = fk_update(&q, delta, sc);
+        }
+    }
+    if (st == SP_OK) {
+        *pose = q;
+    }
+    return st;
+}

@@ -82,6 +82,8 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
         sp[i].velocity = rate[i];
         sp[i].force = sent[i];
         model->force[i] = force[i];
+        model->ref.length[i] = ik.length[i];
+        model->ref.sc[i] = ik.sc[i];
     }
     return SP_OK;
 }

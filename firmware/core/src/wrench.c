@@ -38,6 +38,80 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha)
  * each product with a Jacobian entry (< 2^31) stays below 2^60 and the sum
  * of six below 2^63. */
 #define WRENCH_D_MAX (INT64_C(1) << 29)
+/* Each component is held within [-2^30, 2^30 - 1] (4.19 MN, 4.19 MN m in
+ * Q8): the filter's step raw - W then fits an int32 (one 32 x 32 product),
+ * and the filtered value, between W and raw, needs no saturation. */
+#define WRENCH_HI INT64_C(0x3FFFFFFF)
+#define WRENCH_LO (-WRENCH_HI - 1)
+
+/* The clamped model error F_model - F, N, Q8. */
+SPI_INLINE int32_t wrench_d(int32_t model_force, int32_t measured)
+{
+    int64_t v = (int64_t)model_force - measured;
+    return (int32_t)((v > WRENCH_D_MAX) ? WRENCH_D_MAX : ((v < -WRENCH_D_MAX) ? -WRENCH_D_MAX : v));
+}
+
+/* acc = J^T d (Q28 x Q8 = Q36, exact), three components at a time, leg by
+ * leg (a column of J^T at a time), the legs written out: three
+ * accumulators stay in registers, where six would not. */
+#define WRENCH_LEG(i)                                                                                                  \
+    do {                                                                                                               \
+        const int32_t *row = &jac->j[(i)][k];                                                                          \
+        int32_t di = d[(i)];                                                                                           \
+        a0 += (int64_t)row[0] * di;                                                                                    \
+        a1 += (int64_t)row[1] * di;                                                                                    \
+        a2 += (int64_t)row[2] * di;                                                                                    \
+    } while (0)
+
+static void wrench_sums(const sp_jacobian_t *jac, const int32_t d[SP_LEGS], int64_t acc[6])
+{
+    unsigned k;
+    for (k = 0u; k < 6u; k += 3u) {
+        int64_t a0 = 0;
+        int64_t a1 = 0;
+        int64_t a2 = 0;
+        WRENCH_LEG(0);
+        WRENCH_LEG(1);
+        WRENCH_LEG(2);
+        WRENCH_LEG(3);
+        WRENCH_LEG(4);
+        WRENCH_LEG(5);
+        acc[k] = a0;
+        acc[k + 1u] = a1;
+        acc[k + 2u] = a2;
+    }
+}
+
+/* One component: acc (Q36, |acc| < 2^63 - 2^27) rounded to Q8 and held
+ * within [WRENCH_LO, WRENCH_HI], then, unless this is the first estimate,
+ * filtered into *w with alpha in [0, 2^30]. The range tests look at the
+ * high word only: x >> 28 is within [-2^30, 2^30) exactly when x >> 32 is
+ * within [-2^26, 2^26), and an int32 v within [-2^30, 2^30) exactly when
+ * (uint32)v + 2^30 < 2^31. */
+SPI_INLINE void wrench_update(int32_t *w, int64_t acc, sp_q30_t alpha, int filter)
+{
+    int64_t x = acc + (INT64_C(1) << 27);
+    int32_t hi = (int32_t)(x >> 32);
+    int32_t raw;
+    if ((uint32_t)hi + (UINT32_C(1) << 26) < (UINT32_C(1) << 27)) {
+        raw = (int32_t)(x >> 28);
+    } else {
+        raw = (hi < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
+    }
+    if (filter) {
+        /* the last estimate held in the same range (it always is, unless
+         * the caller changed it): raw - last then fits an int32, and
+         * last + round(alpha (raw - last)) lies between last and raw */
+        int32_t last = *w;
+        int32_t e;
+        if ((uint32_t)last + (UINT32_C(1) << 30) >= (UINT32_C(1) << 31)) {
+            last = (last < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
+        }
+        e = raw - last;
+        raw = last + (int32_t)(((int64_t)alpha * e + (INT64_C(1) << 29)) >> 30);
+    }
+    *w = raw;
+}
 
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha)
 {
@@ -50,27 +124,16 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measu
     }
     if (w->have_model) {
         int32_t d[SP_LEGS]; /* F_model - F, N, Q8 */
-        sp_flags_t flags = 0u;
+        int64_t acc[6];     /* J^T d, Q36 */
+        int filter = w->valid;
+        /* alpha outside [0, 1] would leave the hull of last and raw */
+        alpha = (alpha < 0) ? 0 : ((alpha > SP_Q30_ONE) ? SP_Q30_ONE : alpha);
         for (i = 0u; i < SP_LEGS; ++i) {
-            int64_t v = (int64_t)w->model_force[i] - measured[i];
-            d[i] = (int32_t)((v > WRENCH_D_MAX) ? WRENCH_D_MAX : ((v < -WRENCH_D_MAX) ? -WRENCH_D_MAX : v));
+            d[i] = wrench_d(w->model_force[i], measured[i]);
         }
+        wrench_sums(&model->jac, d, acc);
         for (k = 0u; k < 6u; ++k) {
-            int64_t acc = 0; /* (J^T d)_k, Q28 x Q8 = Q36 */
-            int32_t raw;
-            for (i = 0u; i < SP_LEGS; ++i) {
-                acc += (int64_t)model->jac.j[i][k] * d[i];
-            }
-            raw = spi_narrow_floor(acc + (INT64_C(1) << 27), 28u, &flags);
-            if (w->valid) {
-                /* the step saturates at int32 (a jump of 8.4 MN is then
-                 * followed at the filter's rate anyway) */
-                int32_t e = spi_sat((int64_t)raw - w->wrench[k], &flags);
-                raw = spi_sat((int64_t)w->wrench[k] +
-                                  spi_narrow_floor((int64_t)alpha * e + (INT64_C(1) << 29), 30u, &flags),
-                              &flags);
-            }
-            w->wrench[k] = raw;
+            wrench_update(&w->wrench[k], acc[k], alpha, filter);
         }
         w->valid = 1u;
     }

@@ -127,7 +127,7 @@ typedef struct {
     uint32_t tick;          /**< ticks since init */
     sp_pose_t estimate;     /**< pose by forward kinematics */
     sp_motion_t reference;  /**< the reference of this tick */
-    uint32_t fk_iterations; /**< this tick's Newton steps */
+    uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
     int32_t wrench[6];      /**< external wrench estimate (sp/wrench.h): force N, moment about o' N m, base frame, Q8 */
     uint8_t estimate_valid; /**< 1 once FK has a pose */
     uint8_t cmd_rejected;   /**< 1 if this tick's command was refused */

@@ -181,4 +181,25 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
                         const sp_lu6_t *lu_t, const sp_fk_options_t *opt, sp_fk_cache_t *cache, sp_pose_t *pose,
                         sp_fk_info_t *info);
 
+/**
+ * One chord step of the forward kinematics, with no IK: the pose
+ * from + J^-1 d_length, J the leg Jacobian at `from` given as the
+ * factorisation lu_t of J^T (sp_lu6_factor(jac, 1, ..), as sp_fk_chord),
+ * sc the sines and cosines of from's roll, pitch, yaw (Q30, sp_ik_t.sc or
+ * sp_fk_cache_t.sc of from) and d_length the leg-length increments (m,
+ * Q24). The solve gives a translation dR (m) and a small rotation dw (rad,
+ * base frame); dw becomes Euler increments with from's own sines, exactly
+ * as in the Newton and chord updates: d_roll = (cy wx + sy wy) / cp,
+ * d_pitch = -sy wx + cy wy, d_yaw = wz + sp d_roll. d_length all zero
+ * gives *pose = *from with no solve. The result is the forward kinematics
+ * of from's lengths + d_length to first order: the error is second order
+ * in |d_length| (sp/estimate.h gives the bound for the default platform).
+ * Errors, *pose untouched: SP_E_ARG (NULL or lu_t not valid),
+ * SP_E_SINGULAR (|cos pitch| < 0.01), SP_E_OVERFLOW (the solve saturated),
+ * SP_E_NO_CONVERGENCE (a pose value would saturate: a step of 128 m or
+ * 128 rad). Bounded: one transposed solve, no loop beyond the six legs.
+ */
+sp_status_t sp_fk_chord_step(const sp_lu6_t *lu_t, const sp_pose_t *from, const sp_q30_t sc[6],
+                             const sp_q24_t d_length[SP_LEGS], sp_pose_t *pose);
+
 #endif /* SP_KINEMATICS_H */

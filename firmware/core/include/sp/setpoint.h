@@ -44,6 +44,8 @@ sp_q8_t sp_friction_force(const sp_friction_t *fr, unsigned leg, sp_q24_t rate);
 typedef struct {
     sp_q8_t force[SP_LEGS]; /**< the cylinder forces the reference needs: inverse dynamics + friction, N, Q8 */
     sp_jacobian_t jac;      /**< the leg Jacobian at the reference pose (sp_jacobian) */
+    sp_fk_cache_t ref;      /**< the reference pose's leg lengths (m, Q24) and sines (Q30), as its IK
+                                 computed them: the pose estimate's next step starts there (sp/estimate.h) */
 } sp_model_t;
 
 /** Feed-forward switches (sp_setpoints_of's ff). */
@@ -56,7 +58,8 @@ typedef struct {
  * forces of its motion (sp_inverse_dynamics_jac, no external force) when
  * ff has SP_FF_DYNAMICS, plus the friction at the leg rates when ff has
  * SP_FF_FRICTION (0 when ff is 0). *model gets the full model forces
- * (dynamics + friction, whatever ff says) and the Jacobian; the
+ * (dynamics + friction, whatever ff says), the Jacobian and the pose's
+ * leg lengths and sines (model->ref); the
  * factorisation of J^T at the pose goes to *lu (valid only when the
  * dynamics succeeded). Errors, with sp untouched (and *model meaningless):
  * SP_E_RANGE for a pose outside the workspace box or a length, rate or

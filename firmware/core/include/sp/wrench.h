@@ -46,8 +46,12 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
  * is taken unfiltered) and marks it valid; then keeps model->force for the
  * next tick. model NULL (no model this tick): nothing kept, the estimate
  * is invalid until two ticks with a model. |F_model - F| is clamped to
- * 2 MN per cylinder; each component saturates at the int32 range of Q8
- * (8.4 MN, 8.4 MN m).
+ * 2 MN per cylinder (2^29 in Q8); J^T (F_model - F) is exact (int64) and
+ * rounded once to Q8, each component held within [-2^30, 2^30 - 1] of Q8
+ * (4.19 MN, 4.19 MN m: beyond any wrench the cylinders can balance), so
+ * the filter step raw - W fits an int32 and the filtered value, between
+ * W and raw, cannot overflow. alpha (Q30) is held within [0, 1]. Nothing
+ * wraps; no status (nothing can fail).
  */
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha);
 
