@@ -18,6 +18,8 @@
 #include "sp/controller.h"
 #include "sp/dynamics.h"
 #include "sp/kinematics.h"
+#include "sp/motion_error.h"
+#include "sp/wrench.h"
 
 #define N_MOTIONS 2000u
 #define N_PRIM 1000u
@@ -158,16 +160,35 @@ static void primitives(m4_rng_t *rng)
 }
 
 /* The parts the kinematics are made of, on the same motions. */
+__attribute__((noipa)) static sp_status_t run_me_step(sp_motion_error_t *me, const sp_pose_t *est, const sp_pose_t *ref,
+                                                      sp_q24_t *da)
+{
+    return sp_motion_error_step(me, est, ref, da);
+}
+
+__attribute__((noipa)) static sp_status_t run_me_wrench(const sp_ik_t *in, const sp_q24_t *da, sp_q8_t *dw)
+{
+    return sp_motion_error_wrench(&sp_platform_default, in, da, dw);
+}
+
 static void parts(m4_rng_t *rng)
 {
-    m4_stat_t s[5];
+    m4_stat_t s[7];
+    sp_motion_error_t me;
+    sp_q30_t alpha = 0;
     uint32_t n;
     unsigned k;
 
-    for (k = 0u; k < 5u; ++k) {
+    for (k = 0u; k < 7u; ++k) {
         m4_stat_reset(&s[k]);
     }
+    /* 40 Hz at 1 kHz; the estimate is the motion's nearby guess, so the
+     * filter sees errors of ~1 mm */
+    (void)sp_wrench_alpha(40 * SP_Q24_ONE, 1000u, &alpha);
+    (void)sp_motion_error_init(&me, alpha, 1000u);
     for (n = 0u; n < N_MOTIONS; ++n) {
+        sp_q24_t da[6];
+        sp_q8_t dw[6];
         sp_rot_t rot;
         sp_q24_t w[3];
         sp_q24_t wd[3];
@@ -191,13 +212,21 @@ static void parts(m4_rng_t *rng)
         m4_stat_add(&s[3], net);
         M4_MEASURE(net, sink = (int32_t)run_solve6(&jac, 0, b, x));
         m4_stat_add(&s[4], net);
-        sink = rot.t[0][0] + w[0] + wd[0] + (int32_t)x[0];
+        M4_MEASURE(net, sink = (int32_t)run_me_step(&me, &guesses[n], &motions[n].pose, da));
+        if (n >= 2u) {
+            m4_stat_add(&s[5], net); /* the filter running */
+        }
+        M4_MEASURE(net, sink = (int32_t)run_me_wrench(&ik, da, dw));
+        m4_stat_add(&s[6], net);
+        sink = rot.t[0][0] + w[0] + wd[0] + (int32_t)x[0] + dw[0];
     }
     m4_stat_print("orientation", "sp_orientation (3 sincos, T)", &s[0]);
     m4_stat_print("body_rates", "sp_body_rates (2 sincos)", &s[1]);
     m4_stat_print("jacobian", "sp_jacobian", &s[2]);
     m4_stat_print("solve6_t", "sp_solve6, transposed (inverse dynamics)", &s[3]);
     m4_stat_print("solve6", "sp_solve6 (one FK Newton step)", &s[4]);
+    m4_stat_print("me_step", "sp_motion_error_step (filter running)", &s[5]);
+    m4_stat_print("me_wrench", "sp_motion_error_wrench (after IK)", &s[6]);
 }
 
 static void kinematics(void)

@@ -1,0 +1,129 @@
+/*
+ * sp/motion_error.h - the acceleration of the tracking error and the
+ * wrench it takes, for the external wrench estimate (sp/wrench.h).
+ *
+ * The wrench estimate compares the measured cylinder forces with the
+ * inverse dynamics of the reference motion. When the platform's true
+ * motion differs from the reference (a load step, friction at reversals),
+ * the inertial forces differ too, and the estimate carries that
+ * difference as a false external wrench. To first order the missing part
+ * is the rigid body's mass matrix times the acceleration difference,
+ *   dW = M6(x) (a_actual - a_ref),
+ * which is to be added to W_raw = J^T (F_model - F) before the wrench
+ * filter: J^T F_model is the platform's rigid-body wrench for the
+ * reference, J^T F_rigid(actual) = J^T F_model + dW, and
+ * W_ext = J^T F_rigid(actual) - J^T F (the unit test
+ * test_motion_error_wrench_vs_dynamics proves the sign and the frames
+ * against sp_inverse_dynamics).
+ *
+ * Two pure parts (this module is not wired into the controller):
+ *
+ * 1. sp_motion_error_step: the filtered acceleration da of the tracking
+ *    error e = estimate - reference (six axes: x, y, z in m, roll, pitch,
+ *    yaw in rad, angles wrapped to [-pi, pi)). The double difference
+ *    e[n] - 2 e[n-1] + e[n-2], divided by dt^2, passes two cascaded
+ *    first-order backward-Euler low-pass sections with the wrench
+ *    filter's gain (y += alpha (x - y), alpha from sp_wrench_alpha; 40 Hz
+ *    at 1 kHz: alpha = 0.2008). Delay at low frequency: 1 tick (the
+ *    double difference is centred on n-1) plus 2 (1 - alpha) / alpha
+ *    ticks (7.96 at 40 Hz): 8.96 ms in all; at 2 Hz gain 0.9969 and lag
+ *    8.95 ms (test_motion_error_sine_2hz).
+ *    Noise: white noise of standard deviation s on every sample of e
+ *    gives da a standard deviation of 0.0461 s / dt^2 (the root sum of
+ *    squares of the impulse response; measured in
+ *    test_motion_error_quantisation_noise): 1 um quantisation of the
+ *    lengths (the estimate's s ~ 0.29 um) gives 0.0133 m/s^2, i.e. 33 N
+ *    on the default platform's 2,500 kg.
+ *
+ * 2. sp_motion_error_wrench: dW = M6 da of the rigid platform (mass,
+ *    inertia about o' and centre of mass of sp_platform_t), base frame,
+ *    moment about o'. The legs' masses are left out: on the default
+ *    platform (legs ~ 8 % of the moving mass) dW then misses 5.9 % (RMS)
+ *    of the inverse dynamics' difference for a translational da and
+ *    5.6 % for a rotational one (test_motion_error_wrench_vs_dynamics;
+ *    docs/model.md, "The motion-error correction").
+ */
+#ifndef SP_MOTION_ERROR_H
+#define SP_MOTION_ERROR_H
+
+#include "sp/kinematics.h"
+
+/** The filter of the tracking error's acceleration. Every value of the
+ *  state stays within [-2^30, 2^30) of its Q24 format (+-64). */
+typedef struct {
+    sp_q24_t e1[6]; /**< e of the previous tick: m (x, y, z), rad (rpy), Q24 */
+    sp_q24_t e2[6]; /**< e two ticks back, Q24 */
+    sp_q24_t y1[6]; /**< first low-pass section: m/s^2, rad/s^2, Q24 */
+    sp_q24_t da[6]; /**< second section, the output: m/s^2, rad/s^2, Q24 */
+    int32_t k;      /**< 1 / dt^2, s^-2 (integer, rounded: 10^6 at 1 kHz) */
+    sp_q30_t alpha; /**< the sections' gain, Q30, in [0, 1] */
+    uint8_t count;  /**< errors held in e1, e2: 0, 1 or 2 */
+} sp_motion_error_t;
+
+/**
+ * Sets the filter's gain alpha (Q30, from sp_wrench_alpha: the wrench
+ * filter's; held within [0, 1]) and tick (us, 100..1,000,000), and resets
+ * it (sp_motion_error_reset). 1/dt^2 is kept as the integer
+ * round(10^12 / tick_us^2): exact for 1 ms (10^6) and every tick that
+ * divides 10^6 us into a power-of-two-and-five count (0.1, 0.125, 0.2,
+ * 0.25, 0.5, 2, 4, 5, 8, 10 ms), else within 0.5 / k relative.
+ * SP_E_ARG (nothing changed) on NULL or a tick out of range.
+ */
+sp_status_t sp_motion_error_init(sp_motion_error_t *me, sp_q30_t alpha, uint32_t tick_us);
+
+/** Forgets the history and zeroes the filter; keeps alpha and the tick.
+ *  No-op on NULL. */
+void sp_motion_error_reset(sp_motion_error_t *me);
+
+/**
+ * One tick: e = est - ref (positions m, angles rad, Q24; the angle
+ * differences wrapped into [-pi, pi) so that a yaw crossing +-pi in both
+ * poses is no step), and, with the errors of the two previous ticks,
+ * the raw acceleration (e - 2 e1 + e2) / dt^2 (exact integer arithmetic)
+ * filtered by the two sections into da (m/s^2 for x, y, z; rad/s^2 of the
+ * roll, pitch, yaw angles, not body rates; Q24).
+ * The filter starts from zero at the third consecutive pose after a reset
+ * (its output then rises with the filter's step response, ~10 ms to 75 %
+ * at 40 Hz), so no start-up spike of the unfiltered difference reaches it.
+ * Returns
+ *   SP_OK          da is the filtered estimate;
+ *   SP_E_BUSY      fewer than three consecutive poses since the reset (or
+ *                  est or ref NULL: a tick without a pose, which resets
+ *                  the history): da is zeroed;
+ *   SP_E_OVERFLOW  a value saturated this tick (a position difference
+ *                  beyond +-128 m, a raw acceleration beyond
+ *                  [-64, 64) m/s^2 or rad/s^2, where it is held): da is the
+ *                  filtered estimate of the held values;
+ *   SP_E_ARG       me or da NULL: nothing changed.
+ * Nothing wraps: the filter's step x - y fits an int32 and each section's
+ * value lies between its previous value and its input.
+ */
+sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, const sp_pose_t *ref, sp_q24_t da[6]);
+
+/**
+ * The rigid platform's wrench of an acceleration difference da
+ * (m/s^2 of o' in the base frame, and rad/s^2 of the roll, pitch, yaw
+ * angles; Q24), at the pose whose inverse kinematics is *ik (its T and its
+ * sines and cosines sc are used): with the angle accelerations turned into
+ * the body angular acceleration dw' = E(angles) d(rpy)'' by
+ * sp_body_rates_sc (rates zero: the first-order part in da), R = T^T and
+ * r_c = R c (c = platform->center_of_mass),
+ *   force  = m da_lin + (R dw') x (m r_c)             (N, base frame, Q8)
+ *   moment = R (I dw') + (m r_c) x da_lin             (N m, about o', base frame, Q8)
+ * I = platform->inertia (about o', motion frame), m = platform->mass. This
+ * is J^T dF for dF the difference of the inverse dynamics (massless legs)
+ * of the motion with acceleration a + da and with a. Leg masses are not
+ * included (see the file comment).
+ * Error: within 0.01 N, N m plus 1e-7 relative of the exact value of
+ * the Q24 / Q30 inputs (the default platform with its centre of mass
+ * moved off o', |da| < 64, 20,000 random cases against a double
+ * reference: worst 0.85 of that bound).
+ * Returns SP_E_ARG (dw zeroed) on NULL; SP_E_OVERFLOW when a value
+ * saturated (m r_c beyond 32768 kg m in Q16, a component of dw beyond
+ * +-8.4 MN or MN m, held at the Q8 extremes; sp_body_rates_sc saturating
+ * beyond 128 rad/s^2); else SP_OK.
+ */
+sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t *ik, const sp_q24_t da[6],
+                                   sp_q8_t dw[6]);
+
+#endif /* SP_MOTION_ERROR_H */

@@ -1,0 +1,195 @@
+#include "sp/motion_error.h"
+
+#include "fixed_inline.h"
+
+/* pi in Q24 (3.14159265 rad), rounded to nearest. */
+#define ME_Q24_PI INT64_C(52707179)
+/* Every filter value is held within [-2^30, 2^30) of Q24 (+-64 m/s^2,
+ * rad/s^2): the sections' step x - y then fits an int32. */
+#define ME_HI INT32_C(0x3FFFFFFF)
+#define ME_LO (-ME_HI - 1)
+
+sp_status_t sp_motion_error_init(sp_motion_error_t *me, sp_q30_t alpha, uint32_t tick_us)
+{
+    uint64_t t2;
+    if (me == NULL || tick_us < 100u || tick_us > 1000000u) {
+        return SP_E_ARG;
+    }
+    t2 = (uint64_t)tick_us * tick_us; /* <= 10^12 */
+    /* round(10^12 / t^2): in [1, 10^8] */
+    me->k = (int32_t)((UINT64_C(1000000000000) + t2 / 2u) / t2);
+    me->alpha = (alpha < 0) ? 0 : ((alpha > SP_Q30_ONE) ? SP_Q30_ONE : alpha);
+    sp_motion_error_reset(me);
+    return SP_OK;
+}
+
+void sp_motion_error_reset(sp_motion_error_t *me)
+{
+    unsigned k;
+    if (me == NULL) {
+        return;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        me->e1[k] = 0;
+        me->e2[k] = 0;
+        me->y1[k] = 0;
+        me->da[k] = 0;
+    }
+    me->count = 0u;
+}
+
+/* v held within [ME_LO, ME_HI], flagging when it was not. */
+SPI_INLINE int32_t me_hold(int64_t v, sp_flags_t *flags)
+{
+    if (v > ME_HI) {
+        *flags |= SP_FLAG_OVERFLOW;
+        return ME_HI;
+    }
+    if (v < ME_LO) {
+        *flags |= SP_FLAG_OVERFLOW;
+        return ME_LO;
+    }
+    return (int32_t)v;
+}
+
+/* One backward-Euler section: y + round(alpha (x - y)) (ties up), for x, y
+ * in [ME_LO, ME_HI] and alpha in [0, 2^30]: x - y fits an int32 and the
+ * result lies between y and x. */
+SPI_INLINE int32_t me_section(int32_t y, int32_t x, sp_q30_t alpha)
+{
+    return y + (int32_t)(((int64_t)alpha * (x - y) + (INT64_C(1) << 29)) >> 30);
+}
+
+/* An angle difference (|d| < 2^32) wrapped into [-pi, pi) (Q24 pi): the
+ * division only when it is outside. */
+static int32_t me_wrap(int64_t d)
+{
+    if (d < -ME_Q24_PI || d >= ME_Q24_PI) {
+        int64_t r = (d + ME_Q24_PI) % SPI_Q24_TWO_PI;
+        if (r < 0) {
+            r += SPI_Q24_TWO_PI;
+        }
+        d = r - ME_Q24_PI;
+    }
+    return (int32_t)d;
+}
+
+sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, const sp_pose_t *ref, sp_q24_t da[6])
+{
+    sp_flags_t flags = 0u;
+    sp_q24_t e[6];
+    unsigned k;
+    if (me == NULL || da == NULL) {
+        return SP_E_ARG;
+    }
+    if (est == NULL || ref == NULL) {
+        sp_motion_error_reset(me);
+        for (k = 0u; k < 6u; ++k) {
+            da[k] = 0;
+        }
+        return SP_E_BUSY;
+    }
+    for (k = 0u; k < 3u; ++k) {
+        e[k] = spi_sat((int64_t)est->pos[k] - ref->pos[k], &flags);
+        e[3u + k] = me_wrap((int64_t)est->rpy[k] - ref->rpy[k]);
+    }
+    if (me->count < 2u) {
+        for (k = 0u; k < 6u; ++k) {
+            me->e2[k] = me->e1[k];
+            me->e1[k] = e[k];
+            da[k] = 0;
+        }
+        me->count = (uint8_t)(me->count + 1u);
+        return (flags == 0u) ? SP_E_BUSY : SP_E_OVERFLOW;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        /* the double difference, exact (|.| < 2^33), narrowed: beyond
+         * int32 the product with k >= 1 is held anyway */
+        int64_t d2 = (int64_t)e[k] - 2 * (int64_t)me->e1[k] + me->e2[k];
+        int32_t d = (d2 > INT32_MAX) ? INT32_MAX : ((d2 < INT32_MIN) ? INT32_MIN : (int32_t)d2);
+        int32_t raw = me_hold((int64_t)d * me->k, &flags); /* m/s^2, Q24 */
+        /* the state is always held in range (reset, then sections) */
+        me->y1[k] = me_section(me->y1[k], raw, me->alpha);
+        me->da[k] = me_section(me->da[k], me->y1[k], me->alpha);
+        me->e2[k] = me->e1[k];
+        me->e1[k] = e[k];
+        da[k] = me->da[k];
+    }
+    return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
+}
+
+/* round(a b / 2^s) (ties up), for int32 a, b: below 2^(62-s) */
+SPI_INLINE int64_t me_p(int32_t a, int32_t b, unsigned s)
+{
+    return ((int64_t)a * b + (INT64_C(1) << (s - 1u))) >> s;
+}
+
+sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t *ik, const sp_q24_t da[6],
+                                   sp_q8_t dw[6])
+{
+    static const sp_q24_t zero[3] = {0, 0, 0};
+    sp_flags_t flags = 0u;
+    sp_q24_t om[3]; /* body rates of zero rpy rates: zero */
+    sp_q24_t wd[3]; /* body angular acceleration dw', rad/s^2, Q24 */
+    sp_q24_t ab[3]; /* R dw', base frame, rad/s^2, Q24 */
+    sp_q24_t rc[3]; /* R c, base frame, m, Q24 */
+    sp_q16_t mc[3]; /* m R c, base frame, kg m, Q16 */
+    sp_q8_t iw[3];  /* I dw', motion frame, N m, Q8 */
+    const sp_q30_t(*t)[3];
+    sp_status_t st;
+    unsigned k;
+
+    if (platform == NULL || ik == NULL || da == NULL || dw == NULL) {
+        if (dw != NULL) {
+            for (k = 0u; k < 6u; ++k) {
+                dw[k] = 0;
+            }
+        }
+        return SP_E_ARG;
+    }
+    t = ik->rot.t;
+    st = sp_body_rates_sc(ik->sc, zero, &da[3], om, wd);
+    if (st != SP_OK) {
+        flags |= SP_FLAG_OVERFLOW; /* its only error here: a saturation */
+    }
+    for (k = 0u; k < 3u; ++k) {
+        /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q24 sums below 2^63 */
+        ab[k] = spi_narrow_floor((int64_t)t[0][k] * wd[0] + (int64_t)t[1][k] * wd[1] + (int64_t)t[2][k] * wd[2] +
+                                     (INT64_C(1) << 29),
+                                 30u, &flags);
+        rc[k] = spi_narrow_floor((int64_t)t[0][k] * platform->center_of_mass[0] +
+                                     (int64_t)t[1][k] * platform->center_of_mass[1] +
+                                     (int64_t)t[2][k] * platform->center_of_mass[2] + (INT64_C(1) << 29),
+                                 30u, &flags);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        const sp_q16_t *row = platform->inertia[k];
+        /* Q16 x Q24 products rounded to Q32 (each below 2^54), summed,
+         * then to Q8 */
+        int64_t s = me_p(row[0], wd[0], 8u) + me_p(row[1], wd[1], 8u) + me_p(row[2], wd[2], 8u);
+        iw[k] = spi_narrow_floor(s + (INT64_C(1) << 23), 24u, &flags);
+        mc[k] = spi_narrow_floor((int64_t)platform->mass * rc[k] + (INT64_C(1) << 23), 24u, &flags);
+    }
+    /* force = m da + (R dw') x (m R c); moment = R (I dw') + (m R c) x da,
+     * all terms in Q32 (below 2^55 each), narrowed once to Q8 */
+    {
+        const sp_q24_t *a = da;
+        int64_t f[3];
+        int64_t m[3];
+        f[0] = me_p(platform->mass, a[0], 8u) + me_p(ab[1], mc[2], 8u) - me_p(ab[2], mc[1], 8u);
+        f[1] = me_p(platform->mass, a[1], 8u) + me_p(ab[2], mc[0], 8u) - me_p(ab[0], mc[2], 8u);
+        f[2] = me_p(platform->mass, a[2], 8u) + me_p(ab[0], mc[1], 8u) - me_p(ab[1], mc[0], 8u);
+        m[0] = me_p(mc[1], a[2], 8u) - me_p(mc[2], a[1], 8u);
+        m[1] = me_p(mc[2], a[0], 8u) - me_p(mc[0], a[2], 8u);
+        m[2] = me_p(mc[0], a[1], 8u) - me_p(mc[1], a[0], 8u);
+        for (k = 0u; k < 3u; ++k) {
+            /* (R I dw')_k: Q30 x Q8 sums (below 2^63) rounded to Q32 */
+            int64_t r =
+                ((int64_t)t[0][k] * iw[0] + (int64_t)t[1][k] * iw[1] + (int64_t)t[2][k] * iw[2] + (INT64_C(1) << 5)) >>
+                6;
+            dw[k] = spi_narrow_floor(f[k] + (INT64_C(1) << 23), 24u, &flags);
+            dw[3u + k] = spi_narrow_floor(m[k] + r + (INT64_C(1) << 23), 24u, &flags);
+        }
+    }
+    return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
+}

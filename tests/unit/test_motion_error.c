@@ -1,0 +1,541 @@
+/*
+ * Unit tests of the tracking error's filtered acceleration and its wrench
+ * (sp/motion_error.h).
+ *
+ * Tolerances and figures (40 Hz at 1 kHz, alpha = 0.2008):
+ *   filter vs double reference      16 LSB of Q24 (1e-6 m/s^2): the
+ *                                   sections' roundings (0.5 LSB each,
+ *                                   summed with gain 1 / alpha = 5)
+ *   2 Hz sine, exact filter H       5e-3 m/s^2 on A w^2 = 0.79 m/s^2 (the
+ *                                   Q24 quantisation of e alone)
+ *   2 Hz sine, 8.96 ms pure delay   1.5 % of A w^2 (gain 0.9975 and the
+ *                                   delay model's phase error)
+ *   noise gain                      0.0461 / dt^2 of white noise on e,
+ *                                   measured within 5 %
+ *   wrench vs double reference      0.01 N, N m + 1e-7 relative
+ *   wrench vs inverse dynamics      0.05 N, N m + 2e-6 relative (massless
+ *                                   legs; the ID is linear in the
+ *                                   accelerations, so only rounding is left)
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "assert_near.h"
+#include "sp/dynamics.h"
+#include "sp/kinematics.h"
+#include "sp/motion_error.h"
+#include "sp/wrench.h"
+#include "test_util.h"
+
+#define PI 3.14159265358979323846
+#define Q24 16777216.0
+#define Q30 1073741824.0
+
+static int32_t q24(double x)
+{
+    return (int32_t)llround(x * Q24);
+}
+
+static sp_q30_t alpha_40hz(void)
+{
+    sp_q30_t a = 0;
+    assert_int_equal(sp_wrench_alpha(40 * SP_Q24_ONE, 1000u, &a), SP_OK);
+    return a;
+}
+
+/* The same filter in double, without rounding. */
+typedef struct {
+    double e1[6], e2[6], y1[6], y2[6];
+    double alpha, k;
+    int count;
+} ref_filter_t;
+
+static void ref_init(ref_filter_t *r, double alpha, double k)
+{
+    memset(r, 0, sizeof *r);
+    r->alpha = alpha;
+    r->k = k;
+}
+
+/* e in Q24 units (wrapped like the firmware); returns 1 when out[] is set */
+static int ref_step(ref_filter_t *r, const double e[6], double out[6])
+{
+    if (r->count < 2) {
+        for (int k = 0; k < 6; ++k) {
+            r->e2[k] = r->e1[k];
+            r->e1[k] = e[k];
+            out[k] = 0.0;
+        }
+        ++r->count;
+        return 0;
+    }
+    for (int k = 0; k < 6; ++k) {
+        double x = (e[k] - 2.0 * r->e1[k] + r->e2[k]) * r->k;
+        r->y1[k] += r->alpha * (x - r->y1[k]);
+        r->y2[k] += r->alpha * (r->y1[k] - r->y2[k]);
+        r->e2[k] = r->e1[k];
+        r->e1[k] = e[k];
+        out[k] = r->y2[k];
+    }
+    return 1;
+}
+
+/* The noise gain: root sum of squares of the impulse response of the
+ * double difference and the two sections (per unit of e, times dt^2). */
+static double ref_noise_gain(double alpha)
+{
+    double y1 = 0.0, y2 = 0.0, s = 0.0;
+    for (int n = 0; n < 4000; ++n) {
+        double x = (n == 0) ? 1.0 : ((n == 1) ? -2.0 : ((n == 2) ? 1.0 : 0.0));
+        y1 += alpha * (x - y1);
+        y2 += alpha * (y1 - y2);
+        s += y2 * y2;
+    }
+    return sqrt(s);
+}
+
+static void test_motion_error_api(void **state)
+{
+    sp_motion_error_t me;
+    sp_pose_t a, b;
+    sp_q24_t da[6];
+    (void)state;
+    memset(&a, 0, sizeof a);
+    memset(&b, 0, sizeof b);
+    assert_int_equal(sp_motion_error_init(NULL, alpha_40hz(), 1000u), SP_E_ARG);
+    assert_int_equal(sp_motion_error_init(&me, alpha_40hz(), 99u), SP_E_ARG);
+    assert_int_equal(sp_motion_error_init(&me, alpha_40hz(), 1000001u), SP_E_ARG);
+    assert_int_equal(sp_motion_error_init(&me, alpha_40hz(), 3000u), SP_OK);
+    assert_int_equal(me.k, 111111);
+    assert_int_equal(sp_motion_error_init(&me, INT32_MAX, 1000u), SP_OK);
+    assert_int_equal(me.alpha, SP_Q30_ONE);
+    assert_int_equal(sp_motion_error_init(&me, alpha_40hz(), 1000u), SP_OK);
+    assert_int_equal(me.k, 1000000);
+    assert_int_equal(sp_motion_error_step(NULL, &a, &b, da), SP_E_ARG);
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, NULL), SP_E_ARG);
+    /* warm-up: two poses, then the filter */
+    a.pos[0] = 1000;
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_E_BUSY);
+    assert_int_equal(da[0], 0);
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_E_BUSY);
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_OK);
+    assert_int_equal(da[0], 0); /* constant error: no acceleration */
+    /* a tick without a pose resets the history */
+    assert_int_equal(sp_motion_error_step(&me, NULL, &b, da), SP_E_BUSY);
+    assert_int_equal(me.count, 0);
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_E_BUSY);
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_E_BUSY);
+    /* a jump of 1 mm is a raw acceleration of 1000 m/s^2: held at +64,
+     * flagged, no wrap */
+    a.pos[0] += q24(1e-3);
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_E_OVERFLOW);
+    assert_true(da[0] > 0);
+    assert_int_equal(me.y1[0], (int32_t)(((int64_t)me.alpha * 0x3FFFFFFF + (1 << 29)) >> 30));
+    /* extreme positions: the difference saturates, the filter holds */
+    a.pos[1] = INT32_MAX;
+    b.pos[1] = INT32_MIN;
+    assert_int_equal(sp_motion_error_step(&me, &a, &b, da), SP_E_OVERFLOW);
+    for (int n = 0; n < 200; ++n) {
+        a.pos[1] = (n & 1) ? INT32_MAX : INT32_MIN;
+        b.pos[1] = (n & 1) ? INT32_MIN : INT32_MAX;
+        (void)sp_motion_error_step(&me, &a, &b, da);
+        assert_true(da[1] >= -(1 << 30) && da[1] < (1 << 30));
+    }
+    /* yaw crossing +-pi in both poses: no step in e */
+    sp_motion_error_reset(&me);
+    memset(&a, 0, sizeof a);
+    memset(&b, 0, sizeof b);
+    for (int n = 0; n < 40; ++n) {
+        double yaw = 3.1 + 0.002 * n; /* crosses pi at n = 21 */
+        double w = (yaw >= PI) ? yaw - 2.0 * PI : yaw;
+        a.rpy[2] = q24(w + 1e-6);
+        b.rpy[2] = q24((n >= 30) ? w : yaw); /* the reference wraps later */
+        sp_status_t st = sp_motion_error_step(&me, &a, &b, da);
+        assert_true(st == SP_OK || st == SP_E_BUSY);
+        assert_true(abs(da[5]) < q24(0.5));
+    }
+}
+
+/* (a) the filter against the double reference on random errors: random
+ * walks of the pose with random noise, angles near the wrap. */
+static void test_motion_error_filter_vs_double(void **state)
+{
+    uint64_t rng = 0x5EED0001u;
+    sp_motion_error_t me;
+    ref_filter_t rf;
+    sp_q30_t alpha = alpha_40hz();
+    double worst = 0.0;
+    (void)state;
+    for (int run = 0; run < 20; ++run) {
+        double pos[6] = {0}, vel[6] = {0};
+        uint32_t tick = (run % 4 == 3) ? 500u : 1000u;
+        assert_int_equal(sp_motion_error_init(&me, alpha, tick), SP_OK);
+        ref_init(&rf, alpha / Q30, (double)me.k);
+        for (int n = 0; n < 2000; ++n) {
+            sp_pose_t est, ref;
+            sp_q24_t da[6];
+            double e[6], out[6];
+            for (int k = 0; k < 6; ++k) {
+                /* a damped random walk: accelerations of a few m/s^2,
+                 * rad/s^2, errors of millimetres and milliradians */
+                vel[k] = 0.995 * vel[k] - 1e-4 * pos[k] + tu_uniform(&rng, -2e-6, 2e-6);
+                pos[k] += vel[k];
+            }
+            for (int k = 0; k < 3; ++k) {
+                double r = tu_uniform(&rng, -0.5, 0.5);
+                ref.pos[k] = q24(r);
+                est.pos[k] = q24(r + pos[k] * 1e-2 + tu_uniform(&rng, -3e-7, 3e-7));
+                double ra = tu_uniform(&rng, -PI, PI);
+                double ea = ra + pos[3 + k] + tu_uniform(&rng, -3e-7, 3e-7);
+                ea = (ea >= PI) ? ea - 2 * PI : ((ea < -PI) ? ea + 2 * PI : ea);
+                ref.rpy[k] = q24(ra);
+                est.rpy[k] = q24(ea);
+            }
+            for (int k = 0; k < 3; ++k) {
+                e[k] = (double)est.pos[k] - ref.pos[k];
+                double d = (double)est.rpy[k] - ref.rpy[k];
+                /* the firmware wraps by its Q24 2 pi */
+                while (d >= 52707179.0) {
+                    d -= 105414357.0;
+                }
+                while (d < -52707179.0) {
+                    d += 105414357.0;
+                }
+                e[3 + k] = d;
+            }
+            sp_status_t st = sp_motion_error_step(&me, &est, &ref, da);
+            int have = ref_step(&rf, e, out);
+            if (st != (have ? SP_OK : SP_E_BUSY)) {
+                printf("run %d tick %d: e %g %g %g %g %g %g\n", run, n, e[0], e[1], e[2], e[3], e[4], e[5]);
+            }
+            assert_int_equal(st, have ? SP_OK : SP_E_BUSY);
+            for (int k = 0; k < 6; ++k) {
+                double d = fabs((double)da[k] - out[k]);
+                worst = fmax(worst, d);
+                assert_near(da[k], out[k], 16.0, "run %d tick %d axis %d", run, n, k);
+            }
+        }
+    }
+    printf("filter vs double: worst %.2f LSB of Q24\n", worst);
+}
+
+/* The filter's exact response at angular frequency w (rad/tick): the
+ * double difference's (2 cos w - 2) and the sections' alpha / (1 - b e^-jw)
+ * each; returns gain and phase lag (rad). */
+static void ref_response(double alpha, double w, double *gain, double *lag)
+{
+    double b = 1.0 - alpha;
+    double re = 1.0 - b * cos(w);
+    double im = b * sin(w); /* 1 - b e^-jw */
+    double mag = alpha / sqrt(re * re + im * im);
+    double ph = -atan2(im, re); /* phase of 1 / (1 - b e^-jw) */
+    /* (1 - e^-jw)^2 = e^-jw (2 cos w - 2): magnitude 2 - 2 cos w, a
+     * negative real times e^-jw (one tick, the centre of the difference) */
+    *gain = (2.0 - 2.0 * cos(w)) * mag * mag;
+    *lag = w - 2.0 * ph;
+}
+
+/* (b) e = A sin(w t) at 2 Hz: da = -A w^2 sin(w t) after the filter. */
+static void test_motion_error_sine_2hz(void **state)
+{
+    sp_motion_error_t me;
+    sp_q30_t alpha = alpha_40hz();
+    const double amp = 5e-3; /* 5 mm and 5 mrad */
+    const double w = 2.0 * PI * 2.0;
+    const double dt = 1e-3;
+    const double peak = amp * w * w;
+    double gain, lag, worst_h = 0.0, worst_d = 0.0;
+    double delay = 1.0 + 2.0 * (1.0 - alpha / Q30) / (alpha / Q30); /* ticks */
+    (void)state;
+    ref_response(alpha / Q30, w * dt, &gain, &lag);
+    gain /= dt * dt * w * w;
+    assert_int_equal(sp_motion_error_init(&me, alpha, 1000u), SP_OK);
+    for (int n = 0; n < 3000; ++n) {
+        sp_pose_t est = sp_platform_default.home;
+        sp_pose_t ref = sp_platform_default.home;
+        sp_q24_t da[6];
+        double s = amp * sin(w * n * dt);
+        for (int k = 0; k < 3; ++k) {
+            est.pos[k] = q24(2.55 * (k == 2) + s);
+            est.rpy[k] = q24(s);
+        }
+        (void)sp_motion_error_step(&me, &est, &ref, da);
+        if (n < 1000) {
+            continue; /* the start-up transient */
+        }
+        double want_h = -peak * gain * sin(w * n * dt - lag);
+        double want_d = -peak * sin(w * (n - delay) * dt);
+        for (int k = 0; k < 6; ++k) {
+            double got = da[k] / Q24;
+            worst_h = fmax(worst_h, fabs(got - want_h));
+            worst_d = fmax(worst_d, fabs(got - want_d));
+            assert_near(got, want_h, 5e-3, "exact response, tick %d axis %d", n, k);
+            assert_near(got, want_d, 0.015 * peak, "delay model, tick %d axis %d", n, k);
+        }
+    }
+    printf("2 Hz sine, A w^2 = %.4f m/s^2: gain %.5f, lag %.3f ticks (model %.3f); worst %.2e vs exact H, "
+           "%.2e (%.2f %%) vs pure delay\n",
+           peak, gain, lag / (w * dt), delay, worst_h, worst_d, 100.0 * worst_d / peak);
+}
+
+/* (c) 1 um / 1 urad quantisation: e uniform in +-0.5 um (+-0.5 urad) per
+ * sample, white. */
+static void test_motion_error_quantisation_noise(void **state)
+{
+    uint64_t rng = 0x5EED0003u;
+    sp_motion_error_t me;
+    sp_q30_t alpha = alpha_40hz();
+    sp_ik_t ik;
+    double s2[6] = {0}, f2[6] = {0};
+    int count = 0;
+    const double sigma = 1e-6 / sqrt(12.0);
+    double g = ref_noise_gain(alpha / Q30);
+    (void)state;
+    assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.home, &ik), SP_OK);
+    assert_int_equal(sp_motion_error_init(&me, alpha, 1000u), SP_OK);
+    for (int n = 0; n < 60000; ++n) {
+        sp_pose_t est = sp_platform_default.home;
+        sp_pose_t ref = sp_platform_default.home;
+        sp_q24_t da[6];
+        sp_q8_t dw[6];
+        for (int k = 0; k < 3; ++k) {
+            est.pos[k] += q24(tu_uniform(&rng, -0.5e-6, 0.5e-6));
+            est.rpy[k] += q24(tu_uniform(&rng, -0.5e-6, 0.5e-6));
+        }
+        (void)sp_motion_error_step(&me, &est, &ref, da);
+        if (n < 500) {
+            continue;
+        }
+        assert_int_equal(sp_motion_error_wrench(&sp_platform_default, &ik, da, dw), SP_OK);
+        for (int k = 0; k < 6; ++k) {
+            s2[k] += (da[k] / Q24) * (da[k] / Q24);
+            f2[k] += (dw[k] / 256.0) * (dw[k] / 256.0);
+        }
+        ++count;
+    }
+    printf("noise gain %.5f / dt^2; sigma_e %.3f um -> predicted sigma_da %.5f\n", g, sigma * 1e6, g * sigma * 1e6);
+    for (int k = 0; k < 6; ++k) {
+        double sd = sqrt(s2[k] / count);
+        double sf = sqrt(f2[k] / count);
+        printf("  axis %d: sigma_da %.5f %s, wrench noise %.1f %s\n", k, sd, (k < 3) ? "m/s^2" : "rad/s^2", sf,
+               (k < 3) ? "N" : "N m");
+        assert_near(sd, g * sigma * 1e6, 0.05 * g * sigma * 1e6, "axis %d", k);
+    }
+}
+
+/* A random pose within +-50 % of the default workspace around home. */
+static void random_pose(uint64_t *rng, sp_pose_t *pose)
+{
+    const sp_platform_t *p = &sp_platform_default;
+    *pose = p->home;
+    for (int k = 0; k < 3; ++k) {
+        pose->pos[k] += q24(0.5 * tu_uniform(rng, p->workspace_min.pos[k] / Q24, p->workspace_max.pos[k] / Q24));
+        pose->rpy[k] += q24(0.5 * tu_uniform(rng, p->workspace_min.rpy[k] / Q24, p->workspace_max.rpy[k] / Q24));
+    }
+}
+
+/* The wrench in double from the same (quantised) inputs. */
+static void ref_wrench(const sp_platform_t *p, const sp_ik_t *ik, const sp_q24_t da[6], double out[6])
+{
+    double sr = ik->sc[0] / Q30, cr = ik->sc[1] / Q30, sp = ik->sc[2] / Q30, cp = ik->sc[3] / Q30;
+    double a[3], r3[3], wd[3], ab[3], rc[3], mc[3], iw[3], rw[3];
+    double m = p->mass / 65536.0;
+    double R[3][3]; /* R = T^T: R[k][r] = T[r][k] */
+    for (int k = 0; k < 3; ++k) {
+        a[k] = da[k] / Q24;
+        r3[k] = da[3 + k] / Q24;
+        for (int r = 0; r < 3; ++r) {
+            R[k][r] = ik->rot.t[r][k] / Q30;
+        }
+    }
+    /* eq (10) with zero rates, differentiated: the rpy accelerations only */
+    wd[0] = r3[0] - sp * r3[2];
+    wd[1] = cr * r3[1] + sr * cp * r3[2];
+    wd[2] = -sr * r3[1] + cr * cp * r3[2];
+    for (int k = 0; k < 3; ++k) {
+        ab[k] = rc[k] = iw[k] = 0.0;
+        for (int r = 0; r < 3; ++r) {
+            ab[k] += R[k][r] * wd[r];
+            rc[k] += R[k][r] * (p->center_of_mass[r] / Q24);
+            iw[k] += (p->inertia[k][r] / 65536.0) * wd[r];
+        }
+    }
+    for (int k = 0; k < 3; ++k) {
+        mc[k] = m * rc[k];
+        rw[k] = 0.0;
+        for (int r = 0; r < 3; ++r) {
+            rw[k] += R[k][r] * iw[r];
+        }
+    }
+    out[0] = m * a[0] + ab[1] * mc[2] - ab[2] * mc[1];
+    out[1] = m * a[1] + ab[2] * mc[0] - ab[0] * mc[2];
+    out[2] = m * a[2] + ab[0] * mc[1] - ab[1] * mc[0];
+    out[3] = rw[0] + mc[1] * a[2] - mc[2] * a[1];
+    out[4] = rw[1] + mc[2] * a[0] - mc[0] * a[2];
+    out[5] = rw[2] + mc[0] * a[1] - mc[1] * a[0];
+}
+
+/* The default platform, with a centre of mass off o' and massless legs
+ * (legs = 1), or its own leg masses (legs = 0). */
+static void test_platform(sp_platform_t *p, int massless_legs)
+{
+    *p = sp_platform_default;
+    p->center_of_mass[0] = q24(0.06);
+    p->center_of_mass[1] = q24(-0.04);
+    p->center_of_mass[2] = q24(0.35);
+    if (massless_legs) {
+        memset(&p->leg_mass, 0, sizeof p->leg_mass);
+    }
+}
+
+/* (a) the wrench against the double reference on random inputs. */
+static void test_motion_error_wrench_vs_double(void **state)
+{
+    uint64_t rng = 0x5EED0002u;
+    sp_platform_t p;
+    double worst = 0.0;
+    (void)state;
+    test_platform(&p, 1);
+    for (int n = 0; n < 20000; ++n) {
+        sp_pose_t pose;
+        sp_ik_t ik;
+        sp_q24_t da[6];
+        sp_q8_t dw[6];
+        double want[6];
+        random_pose(&rng, &pose);
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        for (int k = 0; k < 6; ++k) {
+            /* up to the filter's +-64, log-spread */
+            da[k] = tu_i32_logscale(&rng) >> 1;
+        }
+        assert_int_equal(sp_motion_error_wrench(&p, &ik, da, dw), SP_OK);
+        ref_wrench(&p, &ik, da, want);
+        for (int k = 0; k < 6; ++k) {
+            double got = dw[k] / 256.0;
+            double tol = 0.01 + 1e-7 * fabs(want[k]);
+            worst = fmax(worst, fabs(got - want[k]) / tol);
+            assert_near(got, want[k], tol, "case %d component %d", n, k);
+        }
+    }
+    printf("wrench vs double: worst %.3f of the tolerance\n", worst);
+    /* NULL and saturation */
+    {
+        sp_ik_t ik;
+        sp_q24_t da[6] = {INT32_MAX, INT32_MAX, INT32_MAX, INT32_MAX, INT32_MAX, INT32_MAX};
+        sp_q8_t dw[6] = {1, 1, 1, 1, 1, 1};
+        assert_int_equal(sp_motion_error_wrench(NULL, &ik, da, dw), SP_E_ARG);
+        assert_int_equal(dw[0], 0);
+        assert_int_equal(sp_inverse_kinematics(&p, &p.home, &ik), SP_OK);
+        /* 32768 kg, 128 m/s^2: 4.2 MN fits Q8 */
+        p.mass = INT32_MAX;
+        assert_int_equal(sp_motion_error_wrench(&p, &ik, da, dw), SP_OK);
+        /* m c beyond 32768 kg m: held, flagged; the sums held in Q8 */
+        p.center_of_mass[0] = p.center_of_mass[1] = p.center_of_mass[2] = q24(60.0);
+        assert_int_equal(sp_motion_error_wrench(&p, &ik, da, dw), SP_E_OVERFLOW);
+        for (int k = 0; k < 6; ++k) {
+            assert_true(dw[k] > 0 || k >= 3);
+        }
+    }
+}
+
+/* J^T dF in double: N, N m from Q28 and Q8. */
+static void jt_times(const sp_jacobian_t *jac, const sp_q8_t f1[SP_LEGS], const sp_q8_t f0[SP_LEGS], double out[6])
+{
+    for (int k = 0; k < 6; ++k) {
+        out[k] = 0.0;
+        for (int i = 0; i < SP_LEGS; ++i) {
+            out[k] += (jac->j[i][k] / 268435456.0) * ((double)f1[i] - f0[i]) / 256.0;
+        }
+    }
+}
+
+/* (d) against the firmware's inverse dynamics: J^T (ID(a + d) - ID(a)) =
+ * sp_motion_error_wrench(d). Massless legs: within the rounding. The
+ * default platform's leg masses: the share the correction leaves out. */
+static void test_motion_error_wrench_vs_dynamics(void **state)
+{
+    uint64_t rng = 0x5EED0004u;
+    (void)state;
+    for (int legs = 1; legs >= 0; --legs) {
+        sp_platform_t p;
+        double worst = 0.0, miss_lin = 0.0, miss_rot = 0.0;
+        double n_lin = 0.0, n_rot = 0.0, d_lin = 0.0, d_rot = 0.0;
+        test_platform(&p, legs);
+        for (int n = 0; n < 3000; ++n) {
+            sp_motion_t m0, m1;
+            sp_ik_t ik;
+            sp_jacobian_t jac;
+            sp_q8_t f0[SP_LEGS], f1[SP_LEGS], dw[6];
+            sp_q24_t d[6];
+            double want[6];
+            int kind = n % 3; /* 0 translation, 1 rotation, 2 both */
+            memset(&m0, 0, sizeof m0);
+            random_pose(&rng, &m0.pose);
+            for (int k = 0; k < 3; ++k) {
+                m0.vel[k] = q24(tu_uniform(&rng, -0.4, 0.4));
+                m0.rpy_rate[k] = q24(tu_uniform(&rng, -0.4, 0.4));
+                m0.acc[k] = q24(tu_uniform(&rng, -4.0, 4.0));
+                m0.rpy_acc[k] = q24(tu_uniform(&rng, -4.0, 4.0));
+                d[k] = (kind != 1) ? q24(tu_uniform(&rng, -1.0, 1.0)) : 0;
+                d[3 + k] = (kind != 0) ? q24(tu_uniform(&rng, -1.0, 1.0)) : 0;
+            }
+            m1 = m0;
+            for (int k = 0; k < 3; ++k) {
+                m1.acc[k] += d[k];
+                m1.rpy_acc[k] += d[3 + k];
+            }
+            assert_int_equal(sp_inverse_kinematics(&p, &m0.pose, &ik), SP_OK);
+            assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+            assert_int_equal(sp_inverse_dynamics(&p, &m0, &ik, NULL, f0), SP_OK);
+            assert_int_equal(sp_inverse_dynamics(&p, &m1, &ik, NULL, f1), SP_OK);
+            jt_times(&jac, f1, f0, want);
+            assert_int_equal(sp_motion_error_wrench(&p, &ik, d, dw), SP_OK);
+            for (int k = 0; k < 6; ++k) {
+                double got = dw[k] / 256.0;
+                double err = fabs(got - want[k]);
+                if (legs) {
+                    double tol = 0.05 + 2e-6 * fabs(want[k]);
+                    worst = fmax(worst, err / tol);
+                    assert_near(got, want[k], tol, "case %d component %d", n, k);
+                } else if (kind == 0) {
+                    miss_lin += err * err;
+                    n_lin += want[k] * want[k];
+                } else if (kind == 1) {
+                    miss_rot += err * err;
+                    n_rot += want[k] * want[k];
+                }
+                (void)d_lin;
+                (void)d_rot;
+            }
+        }
+        if (legs) {
+            printf("massless legs: worst %.3f of the tolerance (0.05 + 2e-6 |W|)\n", worst);
+        } else {
+            double rl = sqrt(miss_lin / n_lin), rr = sqrt(miss_rot / n_rot);
+            printf("leg masses left out: RMS miss %.1f %% (translational da), %.1f %% (rotational da)\n", 100.0 * rl,
+                   100.0 * rr);
+            assert_true(rl < 0.2 && rr < 0.2);
+        }
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_motion_error_api),
+        cmocka_unit_test(test_motion_error_filter_vs_double),
+        cmocka_unit_test(test_motion_error_sine_2hz),
+        cmocka_unit_test(test_motion_error_quantisation_noise),
+        cmocka_unit_test(test_motion_error_wrench_vs_double),
+        cmocka_unit_test(test_motion_error_wrench_vs_dynamics),
+    };
+    return cmocka_run_group_tests_name("motion_error", tests, NULL, NULL);
+}
