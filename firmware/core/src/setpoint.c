@@ -48,6 +48,7 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     sp_ik_t ik;
     sp_q24_t rate[SP_LEGS];
     sp_q8_t force[SP_LEGS];
+    sp_q8_t rigid[SP_LEGS];
     sp_q8_t sent[SP_LEGS];
     sp_status_t st;
     unsigned i;
@@ -70,6 +71,7 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
         sp_q8_t fric = friction_of(fr, i, rate[i]);
         sp_flags_t flags = 0u;
         sp_q8_t dyn = force[i];
+        rigid[i] = dyn;
         force[i] = spi_add(dyn, fric, &flags);
         sent[i] = ((ff & SP_FF_DYNAMICS) != 0u) ? (((ff & SP_FF_FRICTION) != 0u) ? force[i] : dyn)
                                                 : (((ff & SP_FF_FRICTION) != 0u) ? fric : 0);
@@ -82,6 +84,7 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
         sp[i].velocity = rate[i];
         sp[i].force = sent[i];
         model->force[i] = force[i];
+        model->rigid[i] = rigid[i];
         model->ref.length[i] = ik.length[i];
         model->ref.sc[i] = ik.sc[i];
     }

@@ -43,6 +43,7 @@ sp_q8_t sp_friction_force(const sp_friction_t *fr, unsigned leg, sp_q24_t rate);
 /** What the model says at the reference, for the wrench estimate. */
 typedef struct {
     sp_q8_t force[SP_LEGS]; /**< the cylinder forces the reference needs: inverse dynamics + friction, N, Q8 */
+    sp_q8_t rigid[SP_LEGS]; /**< their inverse dynamics part alone (platform and legs, no friction), N, Q8 */
     sp_jacobian_t jac;      /**< the leg Jacobian at the reference pose (sp_jacobian) */
     sp_fk_cache_t ref;      /**< the reference pose's leg lengths (m, Q24) and sines (Q30), as its IK
                                  computed them: the pose estimate's next step starts there (sp/estimate.h) */
