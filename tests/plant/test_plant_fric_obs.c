@@ -69,12 +69,12 @@ typedef struct {
 } seg_t;
 
 static const seg_t segs[] = {
-    {REST, 0.3, 0.0},   {CYCLES, 2.0, 0.01},  /* 1 Hz, 63 mm/s peak: reversals */
-    {REST, 0.5, 0.0},   {CYCLES, 1.0, 5e-4},  /* 3 mm/s peak: Stribeck regime */
-    {REST, 0.5, 0.0},   {MOVE, 0.5, -5e-3},   {MOVE, 0.2, 30e-6}, /* reverse by 30 um, stop */
-    {REST, 0.5, 0.0},   {CYCLES, 1.0, 5e-6},  /* micro-motion, 1 Hz */
-    {REST, 0.3, 0.0},   {MOVE, 0.5, 0.05},    /* 157 mm/s peak */
-    {REST, 0.5, 0.0},   {MOVE, 0.3, -2e-3},   {REST, 0.5, 0.0},
+    {REST, 0.3, 0.0}, {CYCLES, 2.0, 0.01},                     /* 1 Hz, 63 mm/s peak: reversals */
+    {REST, 0.5, 0.0}, {CYCLES, 1.0, 5e-4},                     /* 3 mm/s peak: Stribeck regime */
+    {REST, 0.5, 0.0}, {MOVE, 0.5, -5e-3},  {MOVE, 0.2, 30e-6}, /* reverse by 30 um, stop */
+    {REST, 0.5, 0.0}, {CYCLES, 1.0, 5e-6},                     /* micro-motion, 1 Hz */
+    {REST, 0.3, 0.0}, {MOVE, 0.5, 0.05},                       /* 157 mm/s peak */
+    {REST, 0.5, 0.0}, {MOVE, 0.3, -2e-3},  {REST, 0.5, 0.0},
 };
 #define NSEG ((int)(sizeof segs / sizeof segs[0]))
 
@@ -194,8 +194,8 @@ static void test_against_plant(void **state)
            n_rest, sqrt(sum_rest / n_rest), max_rest, hold_plant, hold_obs);
     printf("    sliding |v| > 5 v_s (%d ticks): RMS %.2f N, max %.1f N\n", n_slide, sqrt(sum_slide / n_slide),
            max_slide);
-    printf("    slow, reversals, micro-motion (%d ticks): RMS %.2f N, max %.1f N\n", n_slow,
-           sqrt(sum_slow / n_slow), max_slow);
+    printf("    slow, reversals, micro-motion (%d ticks): RMS %.2f N, max %.1f N\n", n_slow, sqrt(sum_slow / n_slow),
+           max_slow);
     /* measured: 12.7 N RMS overall; at rest 1.7 N RMS, 3.2 N max (the 1 um
      * quantum is 4 N of bristle force) while holding up to 570 N; sliding
      * 1.3 N RMS; slow motion 19.7 N RMS, 150 N peaks (the damping term

@@ -90,7 +90,7 @@ static double next_x(uint64_t *rng, int *seg, int *left, double *a, double *b, d
         if (*seg == 1) {
             *a = exp(tu_uniform(rng, log(0.1), log(300.0))) * ((tu_next(rng) & 1u) ? 1.0 : -1.0); /* um/tick */
         } else if (*seg == 2) {
-            *a = exp(tu_uniform(rng, log(5.0), log(20000.0))); /* amplitude, um */
+            *a = exp(tu_uniform(rng, log(5.0), log(20000.0)));                    /* amplitude, um */
             *b = tu_uniform(rng, 0.2, 5.0) * 2.0 * 3.14159265358979323846 * 1e-3; /* rad/tick */
         }
     }
@@ -165,8 +165,7 @@ static void test_against_double_reference(void **state)
     printf("  vs double reference, 1 kHz: friction max %.4f N, RMS %.4f N; phi max %.4f N\n", mf, rf, mp);
     assert_true(mp <= 0.05);
     run_against_reference(1000u, 1, &mf, &rf, &mp);
-    printf("  vs double reference, tick 950..1050 us: friction max %.4f N, RMS %.4f N; phi max %.4f N\n", mf, rf,
-           mp);
+    printf("  vs double reference, tick 950..1050 us: friction max %.4f N, RMS %.4f N; phi max %.4f N\n", mf, rf, mp);
     assert_true(mp <= 0.05);
 }
 

@@ -67,9 +67,9 @@ static int params_ok(const sp_platform_t *p)
         if (p->bristle_stiffness[i] < 0 || p->bristle_damping[i] < 0 || p->viscous_friction[i] < 0) {
             return 0;
         }
-        if (p->bristle_stiffness[i] > 0 && (p->coulomb_friction[i] <= 0 ||
-                                            p->breakaway_friction[i] < p->coulomb_friction[i] ||
-                                            p->stribeck_velocity <= 0)) {
+        if (p->bristle_stiffness[i] > 0 &&
+            (p->coulomb_friction[i] <= 0 || p->breakaway_friction[i] < p->coulomb_friction[i] ||
+             p->stribeck_velocity <= 0)) {
             return 0;
         }
     }
@@ -78,8 +78,7 @@ static int params_ok(const sp_platform_t *p)
 
 /* One leg: dx (m, Q24, |dx| < 2^31) over tick_us; updates *phi, returns
  * the friction (N, Q8). */
-static sp_q8_t leg_step(const sp_platform_t *p, int i, sp_q8_t *phi, int64_t dx, uint32_t tick_us,
-                        sp_flags_t *flags)
+static sp_q8_t leg_step(const sp_platform_t *p, int i, sp_q8_t *phi, int64_t dx, uint32_t tick_us, sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
     /* v = dx / dt, m/s, Q24 (|dx| 1e6 < 2^52) */
@@ -142,8 +141,8 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
     o->valid = 0u;
 }
 
-sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
-                             uint32_t tick_us, sp_q8_t friction[SP_LEGS])
+sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS], uint32_t tick_us,
+                             sp_q8_t friction[SP_LEGS])
 {
     sp_flags_t flags = 0u;
     if (p == NULL || o == NULL || length == NULL || friction == NULL || tick_us == 0u ||

@@ -75,8 +75,8 @@ void sp_fric_obs_reset(sp_fric_obs_t *o);
  * saturated values; nothing wraps). A length jump of 128 m or more between
  * two calls is taken as 128 m (SP_E_OVERFLOW).
  */
-sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
-                             uint32_t tick_us, sp_q8_t friction[SP_LEGS]);
+sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS], uint32_t tick_us,
+                             sp_q8_t friction[SP_LEGS]);
 
 /**
  * exp(-u) for u >= 0, u Q24, result Q30 in [0, 1]: range reduction
