@@ -10,8 +10,6 @@
 #define HS_PI 3.14159265358979323846
 /* max over v of |v| exp(-(v/v_s)^2) / v_s = exp(-1/2) / sqrt(2), rounded up */
 #define HS_FADE_PEAK 0.42889
-/* LuGre bristle deflection at the Coulomb level, F_c / sigma_0 (docs/plant.md) */
-#define HS_BRISTLE_DEFLECTION 1.0e-4
 
 static int finite_pos(double v)
 {
@@ -209,24 +207,20 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     c.cylinder_com = h->cylinder_com;
     c.rod_mass = h->rod_mass;
     c.rod_com = h->rod_com;
-    m_leg = cf->mass / HS_LEGS + h->piston_mass;
     for (int i = 0; i < HS_LEGS; ++i) {
         hs_cyl_params_t *ci = &p->cyl[i];
         *ci = c;
         ci->viscous_friction = h->viscous_friction[i];
         ci->coulomb_friction = h->coulomb_friction[i];
         ci->breakaway_friction = h->breakaway_friction[i];
-        /* LuGre (docs/plant.md "Friction"): sigma_0 puts the bristles' Coulomb-level
-         * deflection at 0.1 mm; sigma_1 damps them critically against a sixth of
-         * the moving mass, bounded to stay dissipative. No Coulomb level: memoryless. */
-        if (ci->coulomb_friction > 0.0) {
-            double s1max = 4.0 * ci->coulomb_friction / (HS_FADE_PEAK * ci->stribeck_velocity);
-            ci->bristle_stiffness = ci->coulomb_friction / HS_BRISTLE_DEFLECTION;
-            ci->bristle_damping = 2.0 * sqrt(ci->bristle_stiffness * m_leg);
-            if (ci->bristle_damping > s1max) {
-                ci->bristle_damping = s1max;
-            }
-        }
+        /* LuGre (docs/plant.md "Friction"): sigma_0 and sigma_1 come with the config,
+         * derived in one place for the plant and the firmware's friction observer
+         * (tools/stewart/config.py bristle_parameters: sigma_0 = F_c / presliding
+         * displacement, sigma_1 critical against a sixth of the moving mass, bounded
+         * to stay dissipative; no Coulomb level: memoryless). hs_params_check
+         * rejects a sigma_1 beyond the dissipativity bound. */
+        ci->bristle_stiffness = h->bristle_stiffness[i];
+        ci->bristle_damping = h->bristle_damping[i];
     }
 
     p->sensors.length_resolution = cf->sensors.length_resolution;

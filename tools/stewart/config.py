@@ -98,7 +98,48 @@ FRICTION_OPTIONAL_KEYS = {
 FRICTION_SHAPE_KEYS = {
     "coulomb_velocity": (1e-6, 1.0, "m/s", 1.0e-3),   # Coulomb smoothing: full level from |v| = this
     "stribeck_velocity": (1e-6, 1.0, "m/s", 5.0e-3),  # decay of the break-away excess
+    "presliding_displacement": (1e-7, 1e-2, "m", 1.0e-4),  # seal's bristle deflection at the Coulomb level
 }
+
+# max over v of |v| exp(-(v/v_s)^2) / v_s = exp(-1/2) / sqrt(2), rounded up;
+# the plant's dissipativity bound on sigma_1 (host_sim/src/params.c checks it).
+FADE_PEAK = 0.42889
+
+
+def bristle_parameters(platform) -> tuple[list[float], list[float]]:
+    """The LuGre bristle stiffness sigma_0 (N/m) and damping sigma_1 (N s/m)
+    of every cylinder (leg 1 first): the one place they are computed. The
+    plant (gen_plant.py -> hs_config) and the firmware's friction observer
+    (gen_platform.py -> sp_platform_t) both take them from here.
+
+    sigma_0 = F_c / presliding_displacement; sigma_1 = 2 sqrt(sigma_0 m_leg),
+    critical damping against m_leg = mass / 6 + piston_mass, capped at
+    4 F_c / (FADE_PEAK v_s) so that the friction stays dissipative. A leg
+    without a Coulomb level (F_c = 0) has no bristles: (0, 0), memoryless.
+    The operation order is the one the plant used, so the doubles are
+    bit-identical to what host_sim derived before. Without a hydraulic
+    section: six zeros each."""
+    h = platform.hydraulic
+    if not h:
+        return [0.0] * LEGS, [0.0] * LEGS
+    deflection = h.get("presliding_displacement", FRICTION_SHAPE_KEYS["presliding_displacement"][3])
+    vs = h.get("stribeck_velocity", FRICTION_SHAPE_KEYS["stribeck_velocity"][3])
+    m_leg = platform.mass / LEGS + h.get("piston_mass", 0.0)
+    s0, s1 = [], []
+    for fc in h["coulomb_friction"]:
+        fc = float(fc)
+        if fc > 0.0:
+            s1max = 4.0 * fc / (FADE_PEAK * vs)
+            k = fc / deflection
+            d = 2.0 * math.sqrt(k * m_leg)
+            if d > s1max:
+                d = s1max
+            s0.append(k)
+            s1.append(d)
+        else:
+            s0.append(0.0)
+            s1.append(0.0)
+    return s0, s1
 
 SENSOR_KEYS = {
     "length_resolution": (1e-9, 1e-2, "m"),

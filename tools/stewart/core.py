@@ -70,6 +70,10 @@ class PlatformStruct(C.Structure):
         ("viscous_friction", I32 * LEGS),
         ("coulomb_friction", I32 * LEGS),
         ("coulomb_velocity", I32),
+        ("breakaway_friction", I32 * LEGS),
+        ("stribeck_velocity", I32),
+        ("bristle_stiffness", I32 * LEGS),
+        ("bristle_damping", I32 * LEGS),
     ]
 
 
@@ -304,6 +308,11 @@ def platform_struct(platform) -> PlatformStruct:
         s.viscous_friction[i] = ints["viscous_friction"][i]
         s.coulomb_friction[i] = ints["coulomb_friction"][i]
     s.coulomb_velocity = ints["coulomb_velocity"]
+    for i in range(LEGS):
+        s.breakaway_friction[i] = ints["breakaway_friction"][i]
+        s.bristle_stiffness[i] = ints["bristle_stiffness"][i]
+        s.bristle_damping[i] = ints["bristle_damping"][i]
+    s.stribeck_velocity = ints["stribeck_velocity"]
     return s
 
 

@@ -40,6 +40,7 @@ def _q(v: float, scale: int, where: str) -> int:
 def quantize(p: cfg.Platform) -> dict:
     """The platform in the core's Q formats (see sp/platform.h)."""
     h = p.hydraulic
+    sigma0, sigma1 = cfg.bristle_parameters(p)
     return {
         "base_joint": [[_q(v, Q24, "base_joints") for v in row] for row in p.base_joints],
         "platform_joint": [[_q(v, Q24, "platform_joints") for v in row] for row in p.platform_joints],
@@ -66,6 +67,11 @@ def quantize(p: cfg.Platform) -> dict:
         "viscous_friction": [_q(v, Q8, "hydraulic.viscous_friction") for v in _legs(h, "viscous_friction")],
         "coulomb_friction": [_q(v, Q8, "hydraulic.coulomb_friction") for v in _legs(h, "coulomb_friction")],
         "coulomb_velocity": _q(h.get("coulomb_velocity", 1.0e-3), Q24, "hydraulic.coulomb_velocity"),
+        "breakaway_friction": [_q(v, Q8, "hydraulic.breakaway_friction") for v in _legs(h, "breakaway_friction")],
+        "stribeck_velocity": _q(h.get("stribeck_velocity", cfg.FRICTION_SHAPE_KEYS["stribeck_velocity"][3]),
+                                Q24, "hydraulic.stribeck_velocity"),
+        "bristle_stiffness": [_q(v, 1, "hydraulic.presliding_displacement (bristle stiffness)") for v in sigma0],
+        "bristle_damping": [_q(v, Q8, "hydraulic.presliding_displacement (bristle damping)") for v in sigma1],
     }
 
 
@@ -132,6 +138,10 @@ const sp_platform_t sp_platform_default = {{
     .viscous_friction = {{{", ".join(str(v) for v in q["viscous_friction"])}}},
     .coulomb_friction = {{{", ".join(str(v) for v in q["coulomb_friction"])}}},
     .coulomb_velocity = {q["coulomb_velocity"]},
+    .breakaway_friction = {{{", ".join(str(v) for v in q["breakaway_friction"])}}},
+    .stribeck_velocity = {q["stribeck_velocity"]},
+    .bristle_stiffness = {{{", ".join(str(v) for v in q["bristle_stiffness"])}}},
+    .bristle_damping = {{{", ".join(str(v) for v in q["bristle_damping"])}}},
 }};
 """
 

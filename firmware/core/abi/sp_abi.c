@@ -41,6 +41,10 @@ static const sp_abi_member_t sp_abi_table[] = {
     {SP_ABI_ROW(sp_platform_t, viscous_friction)},
     {SP_ABI_ROW(sp_platform_t, coulomb_friction)},
     {SP_ABI_ROW(sp_platform_t, coulomb_velocity)},
+    {SP_ABI_ROW(sp_platform_t, breakaway_friction)},
+    {SP_ABI_ROW(sp_platform_t, stribeck_velocity)},
+    {SP_ABI_ROW(sp_platform_t, bristle_stiffness)},
+    {SP_ABI_ROW(sp_platform_t, bristle_damping)},
 
     {SP_ABI_ROW(sp_rot_t, t)},
 

@@ -44,6 +44,10 @@ typedef struct {
     double breakaway_friction[HS_LEGS]; /**< static (break-away) level per cylinder, N, >= coulomb (= it: no peak) */
     double coulomb_velocity;            /**< smoothing of the Coulomb term: full level from |v| = this, m/s */
     double stribeck_velocity;           /**< decay velocity of the break-away excess (Stribeck curve), m/s */
+    double presliding_displacement;     /**< LuGre bristle deflection at the Coulomb level, F_c / sigma_0, m */
+    double bristle_stiffness[HS_LEGS];  /**< LuGre sigma_0 per cylinder, N/m (0: memoryless); derived by the
+                                             generator (tools/stewart/config.py bristle_parameters) */
+    double bristle_damping[HS_LEGS];    /**< LuGre sigma_1 per cylinder, N s/m; derived there too */
     double end_cushion_length;          /**< length of the cushioned zone before each stroke end, m */
     double end_stop_stiffness;          /**< N/m, beyond the stroke ends */
     double end_stop_damping;            /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */

@@ -65,6 +65,15 @@ typedef struct {
     sp_q8_t viscous_friction[SP_LEGS];   /**< cylinder i's viscous friction, N s/m, Q8 */
     sp_q8_t coulomb_friction[SP_LEGS];   /**< cylinder i's Coulomb friction level, N, Q8 */
     sp_q24_t coulomb_velocity;           /**< |leg rate| at which the Coulomb term is full, m/s, Q24 (> 0) */
+    /* The seals' LuGre friction (the plant's model, docs/plant.md "Friction"),
+     * for the friction observer (sp/friction.h). sigma_0 and sigma_1 are
+     * derived by tools/stewart/config.py bristle_parameters, the same numbers
+     * the plant simulates. */
+    sp_q8_t breakaway_friction[SP_LEGS]; /**< cylinder i's static (break-away) level F_s >= F_c, N, Q8 */
+    sp_q24_t stribeck_velocity;          /**< v_s, decay of the break-away excess, m/s, Q24 (> 0) */
+    int32_t bristle_stiffness[SP_LEGS];  /**< sigma_0 = F_c / presliding displacement, N/m, Q0 (integer,
+                                              < 2.1e9; 0: no bristles) */
+    sp_q8_t bristle_damping[SP_LEGS];    /**< sigma_1, N s/m, Q8 (< 8.4e6) */
 } sp_platform_t;
 
 /** The default platform, generated at build time from

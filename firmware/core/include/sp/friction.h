@@ -1,0 +1,91 @@
+/*
+ * sp/friction.h - friction observer: the cylinders' seal friction from the
+ * measured leg lengths.
+ *
+ * The seals have LuGre friction with stiction (docs/plant.md "Friction"): a
+ * bristle deflection z per seal, loaded by the stroke and relaxing towards
+ * the Stribeck level g(v). At rest a seal holds up to the break-away force,
+ * which the chamber pressures do not show. The observer runs the same
+ * bristle dynamics, driven by the measured length increments: the 1 um
+ * length sensor resolves the presliding deflection (sigma_0 = F_c / 0.1 mm,
+ * about 4 N per um with the default seals).
+ *
+ * Discrete law, per leg and tick (docs/model.md "Friction observer"), with
+ * the bristle force phi = sigma_0 z, dx = L - L_prev, v = dx / dt,
+ * e = exp(-(v / v_s)^2), g = F_c + (F_s - F_c) e:
+ *
+ *   phi' = s g + (phi - s g) exp(-sigma_0 |dx| / g),   s = sign(dx)
+ *   F    = phi' + sigma_1 e (phi' - phi) / (sigma_0 dt) + c_v v
+ *
+ * The phi update is the exact solution of the LuGre displacement law
+ * dphi/dx = sigma_0 (1 - sign(dx) phi / g) over dx at a constant v, so it is
+ * stable for any step (no explicit Euler: sigma_0 |v| dt / g reaches 5) and
+ * |phi| never exceeds max(|phi|, g). F opposes the stroke (positive while the
+ * leg lengthens), in the plant's convention F_net = p_A A_A - p_B A_B - F.
+ *
+ * Pure functions: the state is passed in; no allocation, no floating point.
+ */
+#ifndef SP_FRICTION_H
+#define SP_FRICTION_H
+
+#include <stdint.h>
+
+#include "sp/fixed.h"
+#include "sp/platform.h"
+#include "sp/status.h"
+
+/** Longest tick sp_fric_obs_step accepts, us. */
+#define SP_FRIC_TICK_MAX_US 1000000u
+
+/** The observer's state, all six legs. */
+typedef struct {
+    sp_q8_t phi[SP_LEGS];     /**< bristle force sigma_0 z per leg, N, Q8 (|phi| <= max(F_s)) */
+    sp_q24_t length[SP_LEGS]; /**< last measured joint-to-joint length per leg, m, Q24 */
+    uint8_t valid;            /**< 0 after reset: the next step only records the lengths */
+} sp_fric_obs_t;
+
+/**
+ * Reset the observer: bristles unloaded (phi = 0), no length recorded. The
+ * next sp_fric_obs_step records the lengths only. A NULL o is ignored.
+ */
+void sp_fric_obs_reset(sp_fric_obs_t *o);
+
+/**
+ * One tick of the friction observer.
+ *
+ *   p        platform: viscous_friction (c_v), coulomb_friction (F_c),
+ *            breakaway_friction (F_s >= F_c), stribeck_velocity (v_s > 0),
+ *            bristle_stiffness (sigma_0, N/m Q0), bristle_damping (sigma_1)
+ *   o        state, updated in place
+ *   length   measured joint-to-joint leg lengths this tick, m, Q24
+ *   tick_us  time since the previous call, us, 1..SP_FRIC_TICK_MAX_US
+ *   friction out: each cylinder's seal friction, N, Q8; positive opposes
+ *            lengthening (the plant's F_friction)
+ *
+ * The first call after sp_fric_obs_reset records the lengths and outputs 0
+ * for every leg (no increment yet; the bristles start unloaded). A leg with
+ * sigma_0 = 0 has no bristles: its phi stays 0 and its friction is the
+ * viscous part c_v v only.
+ *
+ * Returns SP_OK; SP_E_ARG (nothing written, state unchanged) on a NULL
+ * pointer, tick_us outside 1..SP_FRIC_TICK_MAX_US or platform friction
+ * parameters the law cannot run with (sigma_0 < 0, sigma_1 < 0, c_v < 0, or
+ * sigma_0 > 0 with F_c <= 0, F_s < F_c or v_s <= 0); SP_E_OVERFLOW when an
+ * intermediate or an output saturated (outputs and state are then the
+ * saturated values; nothing wraps). A length jump of 128 m or more between
+ * two calls is taken as 128 m (SP_E_OVERFLOW).
+ */
+sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS], uint32_t tick_us,
+                             sp_q8_t friction[SP_LEGS]);
+
+/**
+ * exp(-u) for u >= 0, u Q24, result Q30 in [0, 1]: range reduction
+ * u = k ln 2 + r, a degree-10 polynomial (Taylor coefficients in Q30) for
+ * exp(-r) on [0, ln 2), then the shift by k. Max error against libm
+ * 2 LSB of Q30 (1.9e-9; tests/unit/test_friction.c measures 1.35) plus the
+ * input's own quantisation (0.5 LSB of Q24 = 3e-8 relative). u <= 0
+ * returns 1 (Q30); u >= 31 ln 2 returns 0. Cannot fail.
+ */
+sp_q30_t sp_fric_exp_neg(sp_q24_t u);
+
+#endif /* SP_FRICTION_H */

@@ -1,0 +1,284 @@
+/*
+ * test_friction.c - the friction observer (sp/friction.h) against a double
+ * precision reference of the same discrete law, and its exp(-u) against
+ * libm. (Against the plant's continuous LuGre friction:
+ * tests/plant/test_plant_fric_obs.c.)
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "assert_near.h"
+#include "sp/friction.h"
+#include "test_util.h"
+
+#define Q8 256.0
+#define Q24 16777216.0
+#define Q30 1073741824.0
+
+/* exp(-u) over [0, 22] (every Q24 step near 0, then a dense random sweep):
+ * the header states 2 LSB of Q30. */
+static void test_exp_neg(void **state)
+{
+    uint64_t rng = 11u;
+    double worst = 0.0, worst_u = 0.0;
+    (void)state;
+    for (int32_t k = 0; k < 400000; ++k) {
+        sp_q24_t u = (k < 100000) ? k : (sp_q24_t)tu_uniform(&rng, 0.0, 22.0 * Q24);
+        double want = exp(-(double)u / Q24);
+        double err = fabs((double)sp_fric_exp_neg(u) - want * Q30);
+        if (err > worst) {
+            worst = err;
+            worst_u = u / Q24;
+        }
+    }
+    printf("  exp(-u): max error %.2f LSB of Q30 (%.2g) at u = %.6f\n", worst, worst / Q30, worst_u);
+    assert_true(worst <= 2.0);
+    assert_int_equal(sp_fric_exp_neg(0), SP_Q30_ONE);
+    assert_int_equal(sp_fric_exp_neg(-5), SP_Q30_ONE);
+    assert_int_equal(sp_fric_exp_neg(INT32_MAX), 0);
+    assert_int_equal(sp_fric_exp_neg((sp_q24_t)(31.0 * 0.6931471805599453 * Q24) + 1), 0);
+}
+
+/* The same discrete law in double (sp/friction.h), one leg. */
+typedef struct {
+    double s0, s1, cv, fc, fs, vs;
+} ref_leg_t;
+
+static ref_leg_t ref_leg(const sp_platform_t *p, int i)
+{
+    ref_leg_t r;
+    r.s0 = p->bristle_stiffness[i];
+    r.s1 = p->bristle_damping[i] / Q8;
+    r.cv = p->viscous_friction[i] / Q8;
+    r.fc = p->coulomb_friction[i] / Q8;
+    r.fs = p->breakaway_friction[i] / Q8;
+    r.vs = p->stribeck_velocity / Q24;
+    return r;
+}
+
+static double ref_step(const ref_leg_t *r, double *phi, double dx, double dt)
+{
+    double v = dx / dt;
+    double e = exp(-(v / r->vs) * (v / r->vs));
+    double g = r->fc + (r->fs - r->fc) * e;
+    double phin = *phi;
+    double f;
+    if (dx != 0.0) {
+        double t = dx > 0.0 ? g : -g;
+        phin = t + (*phi - t) * exp(-r->s0 * fabs(dx) / g);
+    }
+    f = phin + r->s1 * e * (phin - *phi) / (r->s0 * dt) + r->cv * v;
+    *phi = phin;
+    return f;
+}
+
+/* A random length history in whole um: rest, sliding at 0.1 um/tick to
+ * 0.3 m/s, sinusoids (reversals), micro-motions of a few um. */
+static double next_x(uint64_t *rng, int *seg, int *left, double *a, double *b, double *t, double x)
+{
+    if (*left <= 0) {
+        *seg = (int)(tu_next(rng) % 4u);
+        *left = (int)(10u + tu_next(rng) % 600u);
+        *t = 0.0;
+        if (*seg == 1) {
+            *a = exp(tu_uniform(rng, log(0.1), log(300.0))) * ((tu_next(rng) & 1u) ? 1.0 : -1.0); /* um/tick */
+        } else if (*seg == 2) {
+            *a = exp(tu_uniform(rng, log(5.0), log(20000.0)));                    /* amplitude, um */
+            *b = tu_uniform(rng, 0.2, 5.0) * 2.0 * 3.14159265358979323846 * 1e-3; /* rad/tick */
+        }
+    }
+    --*left;
+    *t += 1.0;
+    switch (*seg) {
+    case 1:
+        return x + *a;
+    case 2:
+        return x + *a * (sin(*b * *t) - sin(*b * (*t - 1.0)));
+    case 3:
+        return x + tu_uniform(rng, -3.0, 3.0);
+    default:
+        return x;
+    }
+}
+
+static void run_against_reference(uint32_t tick_us, int jitter, double *max_f, double *rms_f, double *max_phi)
+{
+    const sp_platform_t *p = &sp_platform_default;
+    sp_fric_obs_t o;
+    ref_leg_t r[SP_LEGS];
+    double phi[SP_LEGS] = {0}, x[SP_LEGS] = {0}, a[SP_LEGS] = {0}, b[SP_LEGS] = {0}, t[SP_LEGS] = {0};
+    int seg[SP_LEGS] = {0}, left[SP_LEGS] = {0};
+    sp_q24_t len[SP_LEGS], prev[SP_LEGS];
+    sp_q8_t f[SP_LEGS];
+    uint64_t rng = 2024u + tick_us;
+    double sum = 0.0;
+    long n = 0;
+    *max_f = *max_phi = 0.0;
+    sp_fric_obs_reset(&o);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        r[i] = ref_leg(p, i);
+        len[i] = (sp_q24_t)llround((0.9 + 0.05 * i) * Q24);
+    }
+    assert_int_equal(sp_fric_obs_step(p, &o, len, tick_us, f), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(f[i], 0);
+    }
+    for (int k = 0; k < 40000; ++k) {
+        uint32_t dt_us = tick_us + (jitter ? (uint32_t)(tu_next(&rng) % 101u) - 50u : 0u);
+        memcpy(prev, len, sizeof len);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            x[i] = next_x(&rng, &seg[i], &left[i], &a[i], &b[i], &t[i], x[i]);
+            len[i] = (sp_q24_t)llround((0.9 + 0.05 * i + 1e-6 * round(x[i])) * Q24);
+        }
+        assert_int_equal(sp_fric_obs_step(p, &o, len, dt_us, f), SP_OK);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            double want = ref_step(&r[i], &phi[i], (len[i] - prev[i]) / Q24, dt_us * 1e-6);
+            double e = fabs(f[i] / Q8 - want);
+            double ep = fabs(o.phi[i] / Q8 - phi[i]);
+            sum += e * e;
+            ++n;
+            *max_f = fmax(*max_f, e);
+            *max_phi = fmax(*max_phi, ep);
+            if (e > 0.25) {
+                fail_msg("tick %d leg %d: friction %.4f N, reference %.4f N", k, i, f[i] / Q8, want);
+            }
+        }
+    }
+    *rms_f = sqrt(sum / (double)n);
+}
+
+/* 40 000 ticks x 6 legs: friction within 0.25 N of the double reference
+ * (one Q8 LSB of phi is 0.004 N; the damping term sigma_1 e / (sigma_0 dt)
+ * scales it by 21 at the default seals). */
+static void test_against_double_reference(void **state)
+{
+    double mf, rf, mp;
+    (void)state;
+    run_against_reference(1000u, 0, &mf, &rf, &mp);
+    printf("  vs double reference, 1 kHz: friction max %.4f N, RMS %.4f N; phi max %.4f N\n", mf, rf, mp);
+    assert_true(mp <= 0.05);
+    run_against_reference(1000u, 1, &mf, &rf, &mp);
+    printf("  vs double reference, tick 950..1050 us: friction max %.4f N, RMS %.4f N; phi max %.4f N\n", mf, rf, mp);
+    assert_true(mp <= 0.05);
+}
+
+/* Holding: after sliding the bristles hold the Coulomb level at rest; a
+ * small reversal unloads them by sigma_0 per um; a 1 um step from rest
+ * loads them by about 4 N. */
+static void test_hold_and_reversal(void **state)
+{
+    const sp_platform_t *p = &sp_platform_default;
+    sp_fric_obs_t o;
+    sp_q24_t len[SP_LEGS];
+    sp_q8_t f[SP_LEGS];
+    const sp_q24_t um = 17; /* ~1 um in Q24 (1.0133 um) */
+    (void)state;
+    sp_fric_obs_reset(&o);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        len[i] = SP_Q24_ONE;
+    }
+    assert_int_equal(sp_fric_obs_step(p, &o, len, 1000u, f), SP_OK);
+    /* 1 um from rest: ~ sigma_0 1 um (4 N) + damping */
+    len[0] += um;
+    assert_int_equal(sp_fric_obs_step(p, &o, len, 1000u, f), SP_OK);
+    assert_near(o.phi[0] / Q8, 4.0e6 * um / Q24, 0.1, "phi after 1 um");
+    /* slide +50 mm/s for 0.2 s, then rest */
+    for (int k = 0; k < 200; ++k) {
+        len[0] += 50 * um;
+        assert_int_equal(sp_fric_obs_step(p, &o, len, 1000u, f), SP_OK);
+    }
+    assert_near(f[0] / Q8, 400.0 + 3000.0 * 50 * um / Q24 * 1e3, 0.5, "sliding friction");
+    for (int k = 0; k < 100; ++k) {
+        assert_int_equal(sp_fric_obs_step(p, &o, len, 1000u, f), SP_OK);
+        assert_near(f[0] / Q8, 400.0, 0.01, "held at rest");
+    }
+    /* reverse by 20 um at 1 mm/s: LuGre unloads at dphi/dx = sigma_0 (1 + phi / g),
+     * 1.68 sigma_0 at first (g = 592 N): 400 -> -592 + 992 exp(-20.3 um sigma_0 / g) = 273 N */
+    for (int k = 0; k < 20; ++k) {
+        len[0] -= um;
+        assert_int_equal(sp_fric_obs_step(p, &o, len, 1000u, f), SP_OK);
+    }
+    assert_int_equal(sp_fric_obs_step(p, &o, len, 1000u, f), SP_OK);
+    printf("  held 400 N after sliding; after a 20 um reversal: %.2f N\n", f[0] / Q8);
+    assert_near(f[0] / Q8, -592.1 + 992.1 * exp(-4.0e6 * 20.0 * um / Q24 / 592.1), 1.0, "after a reversal");
+    for (int i = 1; i < SP_LEGS; ++i) {
+        assert_int_equal(f[i], 0);
+    }
+}
+
+static void test_errors_and_saturation(void **state)
+{
+    sp_platform_t p = sp_platform_default;
+    sp_fric_obs_t o, keep;
+    sp_q24_t len[SP_LEGS] = {0};
+    sp_q8_t f[SP_LEGS];
+    (void)state;
+    sp_fric_obs_reset(&o);
+    sp_fric_obs_reset(NULL);
+    assert_int_equal(sp_fric_obs_step(NULL, &o, len, 1000u, f), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step(&p, NULL, len, 1000u, f), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step(&p, &o, NULL, 1000u, f), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, NULL), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 0u, f), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, SP_FRIC_TICK_MAX_US + 1u, f), SP_E_ARG);
+    assert_int_equal(o.valid, 0);
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, f), SP_OK);
+    keep = o;
+    p.stribeck_velocity = 0;
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, f), SP_E_ARG);
+    assert_memory_equal(&o, &keep, sizeof o);
+    p = sp_platform_default;
+    p.breakaway_friction[3] = p.coulomb_friction[3] - 1;
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, f), SP_E_ARG);
+    p = sp_platform_default;
+    /* extreme jumps: INT32_MIN -> INT32_MAX lengths, 1 us ticks: saturate, never wrap */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        len[i] = INT32_MIN;
+    }
+    sp_fric_obs_reset(&o);
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1u, f), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        len[i] = INT32_MAX;
+    }
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1u, f), SP_E_OVERFLOW);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        /* v saturates at 128 m/s: F_c + c_v 128 m/s */
+        assert_near(f[i] / Q8, 400.0 + 3000.0 * 128.0, 0.01, "saturated rate");
+        assert_int_equal(o.phi[i], p.coulomb_friction[i]);
+    }
+    for (int i = 0; i < SP_LEGS; ++i) {
+        len[i] = INT32_MIN;
+    }
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1u, f), SP_E_OVERFLOW);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_near(f[i] / Q8, -400.0 - 3000.0 * 128.0, 0.01, "saturated rate");
+        assert_int_equal(o.phi[i], -p.coulomb_friction[i]);
+    }
+    /* no bristles (sigma_0 = 0): viscous only */
+    p.bristle_stiffness[2] = 0;
+    sp_fric_obs_reset(&o);
+    len[2] = 0;
+    assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, f), SP_OK);
+    len[2] = 10 * 16777; /* 10 mm in 1 ms: 10 m/s */
+    (void)sp_fric_obs_step(&p, &o, len, 1000u, f);
+    assert_near(f[2] / Q8, 3000.0 * 10.0 * 16777.0 / Q24 * 1e3, 0.1, "viscous only");
+    assert_int_equal(o.phi[2], 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_exp_neg),
+        cmocka_unit_test(test_against_double_reference),
+        cmocka_unit_test(test_hold_and_reversal),
+        cmocka_unit_test(test_errors_and_saturation),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
