@@ -4,6 +4,7 @@
 # QEMU's translation-block trace and prints the instructions executed per
 # function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N] [stream]
 # (stream: the STREAM scenario's RUNNING ticks, sp_m4_profile_stream.elf)
+# PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
 set -euo pipefail
 dir=${1:-build/m4-core}
 top=${2:-25}
