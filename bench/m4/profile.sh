@@ -2,11 +2,13 @@
 # Instruction profile of the controller tick on the Cortex-M4 (QEMU): runs
 # sp_m4_profile.elf (profile.c: 300 RUNNING ticks of the golden scenario) with
 # QEMU's translation-block trace and prints the instructions executed per
-# function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N]
+# function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N] [stream]
+# (stream: the STREAM scenario's RUNNING ticks, sp_m4_profile_stream.elf)
+# PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
 set -euo pipefail
 dir=${1:-build/m4-core}
 top=${2:-25}
-elf=$dir/bench/m4/sp_m4_profile.elf
+elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ -f "$elf" ] || { echo "profile: $elf is missing (build the m4-core preset)" >&2; exit 1; }
 log=$(mktemp -d)
 trap 'rm -rf "$log"' EXIT
@@ -23,7 +25,7 @@ awk '
     for (k in per) printf "%-28s %12d %6.1f\n", k, per[k], 100 * per[k] / tot | "sort -k2 -nr | head -'"$top"'"
     close("sort -k2 -nr | head -'"$top"'")
     printf "%-28s %12d\n", "total", tot
-    printf "%-28s %12d\n", "per tick", tot / 300
+    printf "%-28s %12d\n", "per tick", tot / '"${PROFILE_TICKS:-300}"'
   }' "$log/fifo" &
 qemu-system-arm -M mps2-an386 -display none -monitor none -serial none \
   -semihosting-config enable=on,target=native -kernel "$elf" \

@@ -148,6 +148,73 @@ static void test_engage_run_park(void **state)
     print_message("surge: peak %.6f m, worst jerk %.3f m/s^3, worst lag %.3g m\n", peak, worst_jerk, worst_err);
 }
 
+/* The controller reuses the last setpoints, model and factorisation when a
+ * tick's reference equals the last accepted one (READY at rest, and the
+ * RUN_TRIG tick). The plain reference: sp_setpoints_of on that reference,
+ * computed afresh, must give the same setpoints, model and factorisation,
+ * bit for bit, on every READY tick, on the RUN_TRIG tick, and after the
+ * feed-forward switches change (which must not reuse). */
+static void check_fresh_setpoints(const rig_t *r, unsigned ff)
+{
+    sp_setpoint_t sp[SP_LEGS];
+    sp_lu6_t lu;
+    sp_model_t model;
+    memset(&lu, 0, sizeof lu);
+    memset(&model, 0, sizeof model);
+    assert_int_equal(sp_setpoints_of(&sp_platform_default, &r->ctrl.prep.limits, &r->ctrl.prep.friction,
+                                     &r->ctrl.reference, ff, sp, &lu, &model),
+                     SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(sp[i].length, r->out.setpoint[i].length);
+        assert_int_equal(sp[i].velocity, r->out.setpoint[i].velocity);
+        assert_int_equal(sp[i].force, r->out.setpoint[i].force);
+        assert_int_equal(model.force[i], r->ctrl.model.force[i]);
+        assert_int_equal(model.ref.length[i], r->ctrl.model.ref.length[i]);
+        assert_int_equal(model.ref.sc[i], r->ctrl.model.ref.sc[i]);
+        for (int k = 0; k < SP_LEGS; ++k) {
+            assert_int_equal(lu.a[i][k], r->ctrl.est.ref_lu.a[i][k]);
+        }
+        assert_int_equal(lu.inv[i], r->ctrl.est.ref_lu.inv[i]);
+        assert_int_equal(lu.perm[i], r->ctrl.est.ref_lu.perm[i]);
+        assert_int_equal(lu.zk[i], r->ctrl.est.ref_lu.zk[i]);
+    }
+    assert_memory_equal(&model.jac, &r->ctrl.model.jac, sizeof model.jac);
+    assert_int_equal(r->ctrl.est.ref_lu.valid, 1);
+}
+
+static void test_rest_reuses_setpoints(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    for (int n = 0; n < 5; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.state, SP_STATE_READY);
+        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION);
+    }
+    r.cfg.friction_compensation = 0u;
+    rig_tick(&r, SP_CMD_NONE);
+    check_fresh_setpoints(&r, SP_FF_DYNAMICS);
+    r.cfg.force_feedforward = 0u;
+    rig_tick(&r, SP_CMD_NONE);
+    check_fresh_setpoints(&r, 0u);
+    r.cfg.force_feedforward = 1u;
+    r.cfg.friction_compensation = 1u;
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    r.in.cmd.fade_ticks = 0u;
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION);
+    for (int n = 0; n < 50; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION);
+    }
+}
+
 static void test_silent_drive_faults_within_3_ticks(void **state)
 {
     static rig_t r;
@@ -574,6 +641,7 @@ int main(void)
         cmocka_unit_test(test_trig_generator),
         cmocka_unit_test(test_move_respects_limits),
         cmocka_unit_test(test_engage_run_park),
+        cmocka_unit_test(test_rest_reuses_setpoints),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),
         cmocka_unit_test(test_reset_refused_while_silent),
         cmocka_unit_test(test_rejects_out_of_limit_commands),

@@ -76,6 +76,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->mode = SP_MODE_TRIG;
     ctrl->park_after = 0u;
     ctrl->have_setpoint = 0u;
+    ctrl->setpoint_ff = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
@@ -426,20 +427,51 @@ static void hold_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
     ctrl->est.ref_lu.valid = 0u; /* no factorisation at this reference */
 }
 
+/* Is motion a the same as motion b, every field? Stops at the first
+ * difference, the pose first: a moving reference costs a compare or two. */
+static int same_motion(const sp_motion_t *a, const sp_motion_t *b)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (a->pose.pos[k] != b->pose.pos[k] || a->pose.rpy[k] != b->pose.rpy[k]) {
+            return 0;
+        }
+    }
+    for (k = 0u; k < 3u; ++k) {
+        if (a->vel[k] != b->vel[k] || a->rpy_rate[k] != b->rpy_rate[k] || a->acc[k] != b->acc[k] ||
+            a->rpy_acc[k] != b->rpy_acc[k]) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* Moving: the setpoints of the reference when every limit holds; a reference
  * that fails is never passed on (fault, the last valid lengths held at rest).
- * Returns 1 when ctrl->model is this tick's. */
+ * Returns 1 when ctrl->model is this tick's.
+ * sp_setpoints_of is a pure function of the reference, the platform, the
+ * prepared limits and friction and ff: a reference equal to the last
+ * accepted one, whose setpoints, model and factorisation are still in
+ * ctrl (est.ref_lu valid: hold_setpoints and a failed reference clear it),
+ * made with the same ff, has them already. READY holds one such reference
+ * for as long as it lasts, and the RUN_TRIG tick starts from it (the trig
+ * generator's first sample is the centre at rest). */
 static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags)
 {
     sp_status_t st = SP_E_OVERFLOW;
     unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
     unsigned i;
+    if (flags == 0u && ctrl->est.ref_lu.valid && ctrl->have_setpoint && ctrl->setpoint_ff == ff &&
+        same_motion(ref, &ctrl->reference)) {
+        return 1;
+    }
     if (flags == 0u) {
         st = sp_setpoints_of(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
                              &ctrl->est.ref_lu, &ctrl->model);
     }
     if (st == SP_OK) {
         ctrl->have_setpoint = 1u;
+        ctrl->setpoint_ff = (uint8_t)ff;
         ctrl->reference = *ref;
         return 1;
     }

@@ -193,6 +193,7 @@ typedef struct {
     sp_motion_t reference;           /**< the last accepted reference */
     sp_setpoint_t setpoint[SP_LEGS]; /**< the last setpoints sent */
     uint8_t have_setpoint;           /**< 1 once a reference passed every limit */
+    uint8_t setpoint_ff;             /**< the feed-forward switches (SP_FF_*) the last setpoints were made with */
     sp_model_t model;                /**< the model forces and Jacobian of the last accepted reference */
     sp_wrench_t wrench;              /**< the external wrench estimate */
 } sp_ctrl_t;
