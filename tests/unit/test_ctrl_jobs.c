@@ -654,7 +654,7 @@ static void test_wrench_matches_reference(void **state)
         w.valid = (uint8_t)(n % 3 != 0);
         sp_q30_t alpha = (n % 16) == 5 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
         wrench_reference(w.wrench, w.valid, w.model_force, &model.jac, meas, alpha, want);
-        sp_wrench_step(&w, &model, meas, alpha);
+        sp_wrench_step(&w, &model, NULL, meas, alpha);
         assert_memory_equal(w.wrench, want, sizeof want);
         assert_int_equal(w.valid, 1);
         assert_memory_equal(w.model_force, model.force, sizeof model.force);
@@ -696,16 +696,16 @@ static void test_wrench_estimate(void **state)
         meas[i] = (sp_q8_t)(model.force[i] - (int32_t)(f[i] / 65536));
     }
     sp_wrench_reset(&w);
-    sp_wrench_step(&w, &model, meas, alpha); /* keeps the model only */
+    sp_wrench_step(&w, &model, NULL, meas, alpha); /* keeps the model only */
     assert_int_equal(w.valid, 0);
-    sp_wrench_step(&w, &model, meas, alpha);
+    sp_wrench_step(&w, &model, NULL, meas, alpha);
     assert_int_equal(w.valid, 1);
     for (int k = 0; k < 6; ++k) {
         assert_near(ref_f8(w.wrench[k]), want[k], 0.05, "first estimate, component %d", k);
     }
     /* the load goes away: the estimate decays with the filter */
     for (int n = 1; n <= 20; ++n) {
-        sp_wrench_step(&w, &model, model.force, alpha);
+        sp_wrench_step(&w, &model, NULL, model.force, alpha);
         for (int k = 0; k < 6; ++k) {
             double decay = pow(1.0 - ref_f30(alpha), n);
             assert_near(ref_f8(w.wrench[k]), want[k] * decay, 0.05 + 1e-6 * fabs(want[k]), "tick %d component %d", n,
@@ -713,8 +713,30 @@ static void test_wrench_estimate(void **state)
         }
     }
     /* no model: invalid at once */
-    sp_wrench_step(&w, NULL, meas, alpha);
+    sp_wrench_step(&w, NULL, NULL, meas, alpha);
     assert_int_equal(w.valid, 0);
+
+    /* With observed friction the estimate compares the measured forces with
+     * the inverse dynamics part (model.rigid) plus that friction: a model
+     * whose feed-forward friction is wrong by 700 N per leg changes
+     * nothing, and the observed friction acts like force the cylinders
+     * spend on the seals. */
+    {
+        sp_q8_t friction[SP_LEGS];
+        for (int i = 0; i < SP_LEGS; ++i) {
+            friction[i] = ref_q8(300.0 - 50.0 * i);
+            model.rigid[i] = model.force[i];
+            model.force[i] = model.rigid[i] + ref_q8(700.0);
+            meas[i] = (sp_q8_t)(model.rigid[i] + friction[i] - (int32_t)(f[i] / 65536));
+        }
+        sp_wrench_reset(&w);
+        sp_wrench_step(&w, &model, friction, meas, alpha);
+        sp_wrench_step(&w, &model, friction, meas, alpha);
+        assert_int_equal(w.valid, 1);
+        for (int k = 0; k < 6; ++k) {
+            assert_near(ref_f8(w.wrench[k]), want[k], 0.05, "with observed friction, component %d", k);
+        }
+    }
 }
 
 int main(void)

@@ -46,6 +46,7 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->force_feedforward = 1u;
     cfg->friction_compensation = 1u;
     cfg->wrench_cutoff_hz = 40 * SP_Q24_ONE;
+    cfg->friction_observer = 1u;
     return SP_OK;
 }
 
@@ -68,6 +69,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
     (void)sp_stream_gains(&ctrl->prep.stream, cfg->tick_us, cfg->stream_omega);
     sp_wrench_reset(&ctrl->wrench);
+    sp_fric_obs_reset(&ctrl->fric_obs);
     ctrl->state = SP_STATE_IDLE;
     ctrl->faults = 0u;
     ctrl->tick = 0u;
@@ -488,10 +490,22 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 
 /* The estimate follows the measurements on ticks with a model of this
  * tick's reference and every drive heard from; otherwise it is invalid. */
-static void wrench(sp_ctrl_t *ctrl, int have_model)
+static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
 {
     int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
-    sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, ctrl->sup.last_force, ctrl->prep.wrench_alpha);
+    const sp_q8_t *friction = NULL;
+    sp_q8_t observed[SP_LEGS];
+    if (cfg->friction_observer && ctrl->sup.seen_mask == SP_ALL_LEGS) {
+        /* the observer follows every measured length, engaged or not; a
+         * failure (bad parameters) leaves the feed-forward's friction */
+        sp_status_t st =
+            sp_fric_obs_step(cfg->platform, &ctrl->fric_obs, ctrl->sup.last_length, cfg->tick_us, observed);
+        friction = (st == SP_OK || st == SP_E_OVERFLOW) ? observed : NULL;
+    }
+    if (friction == NULL && cfg->friction_observer) {
+        ok = 0; /* the kept model forces exclude friction: no estimate this tick */
+    }
+    sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, ctrl->prep.wrench_alpha);
 }
 
 /* ---- 7. divergence, 8. outputs -------------------------------------------- */
@@ -573,7 +587,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     } else {
         have_model = motion_setpoints(cfg, ctrl, &ref, flags);
     }
-    wrench(ctrl, have_model);
+    wrench(cfg, ctrl, have_model);
     check_divergence(cfg, ctrl);
     write_output(ctrl, fk_iterations, rejected, out);
     return SP_OK;

@@ -44,10 +44,10 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha)
 #define WRENCH_HI INT64_C(0x3FFFFFFF)
 #define WRENCH_LO (-WRENCH_HI - 1)
 
-/* The clamped model error F_model - F, N, Q8. */
-SPI_INLINE int32_t wrench_d(int32_t model_force, int32_t measured)
+/* The clamped model error F_model + F_friction - F, N, Q8. */
+SPI_INLINE int32_t wrench_d(int32_t model_force, int32_t friction, int32_t measured)
 {
-    int64_t v = (int64_t)model_force - measured;
+    int64_t v = (int64_t)model_force + friction - measured;
     return (int32_t)((v > WRENCH_D_MAX) ? WRENCH_D_MAX : ((v < -WRENCH_D_MAX) ? -WRENCH_D_MAX : v));
 }
 
@@ -113,7 +113,8 @@ SPI_INLINE void wrench_update(int32_t *w, int64_t acc, sp_q30_t alpha, int filte
     *w = raw;
 }
 
-void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha)
+void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
+                    const sp_q8_t measured[SP_LEGS], sp_q30_t alpha)
 {
     unsigned i;
     unsigned k;
@@ -129,7 +130,7 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measu
         /* alpha outside [0, 1] would leave the hull of last and raw */
         alpha = (alpha < 0) ? 0 : ((alpha > SP_Q30_ONE) ? SP_Q30_ONE : alpha);
         for (i = 0u; i < SP_LEGS; ++i) {
-            d[i] = wrench_d(w->model_force[i], measured[i]);
+            d[i] = wrench_d(w->model_force[i], (friction != NULL) ? friction[i] : 0, measured[i]);
         }
         wrench_sums(&model->jac, d, acc);
         for (k = 0u; k < 6u; ++k) {
@@ -138,7 +139,7 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measu
         w->valid = 1u;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        w->model_force[i] = model->force[i];
+        w->model_force[i] = (friction != NULL) ? model->rigid[i] : model->force[i];
     }
     w->have_model = 1u;
 }

@@ -52,6 +52,7 @@
 #include "sp/setpoint.h"
 #include "sp/stream.h"
 #include "sp/trajectory.h"
+#include "sp/friction.h"
 #include "sp/wrench.h"
 
 typedef enum {
@@ -148,6 +149,8 @@ typedef struct {
     uint8_t force_feedforward;       /**< 1: send the inverse dynamics forces; 0: send 0 */
     uint8_t friction_compensation;   /**< 1: add the cylinders' friction (sp_friction_t) to the force feed-forward */
     sp_q24_t wrench_cutoff_hz;       /**< bandwidth of the wrench estimate's low-pass filter, Hz, Q24 */
+    uint8_t friction_observer;       /**< 1: the wrench estimate takes the seals' friction from the friction
+                                          observer (sp/friction.h); 0: from the feed-forward's model */
 } sp_ctrl_config_t;
 
 /** What RUNNING is executing. */
@@ -196,6 +199,7 @@ typedef struct {
     uint8_t setpoint_ff;             /**< the feed-forward switches (SP_FF_*) the last setpoints were made with */
     sp_model_t model;                /**< the model forces and Jacobian of the last accepted reference */
     sp_wrench_t wrench;              /**< the external wrench estimate */
+    sp_fric_obs_t fric_obs;          /**< the seals' friction observed from the measured lengths */
 } sp_ctrl_t;
 
 /**

@@ -4,7 +4,8 @@
  * measured through the cylinders every tick.
  *
  * The model forces F_model (sp_model_t: the inverse dynamics of the
- * reference with the legs' masses, plus friction) are what the cylinders
+ * reference with the legs' masses, plus the seals' friction, observed by
+ * sp/friction.h or modelled by the feed-forward) are what the cylinders
  * must push for the motion alone; the drives measure F (pressures times
  * areas). Whatever the cylinders push beyond the model balances an
  * external wrench W: J^T F + W = J^T F_model, so
@@ -43,16 +44,23 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
  * One tick: with a model kept from the previous tick, `measured` the
  * cylinder forces of this tick's feedback (N, Q8) and model->jac the
  * Jacobian at this tick's reference, updates the estimate (the first one
- * is taken unfiltered) and marks it valid; then keeps model->force for the
- * next tick. model NULL (no model this tick): nothing kept, the estimate
- * is invalid until two ticks with a model. |F_model - F| is clamped to
- * 2 MN per cylinder (2^29 in Q8); J^T (F_model - F) is exact (int64) and
- * rounded once to Q8, each component held within [-2^30, 2^30 - 1] of Q8
- * (4.19 MN, 4.19 MN m: beyond any wrench the cylinders can balance), so
- * the filter step raw - W fits an int32 and the filtered value, between
- * W and raw, cannot overflow. alpha (Q30) is held within [0, 1]. Nothing
- * wraps; no status (nothing can fail).
+ * is taken unfiltered) and marks it valid; then keeps the model forces for
+ * the next tick. `friction` (N, Q8, positive opposing lengthening) is the
+ * seals' friction of this tick from the friction observer (sp/friction.h):
+ * the estimate then compares F with the model's inverse dynamics part
+ * (model->rigid) plus that friction; with friction NULL it compares F with
+ * model->force, the inverse dynamics plus the feed-forward's friction model
+ * (use one or the other consistently: the kept forces follow the choice).
+ * model NULL (no model this tick): nothing kept, the estimate is invalid
+ * until two ticks with a model. |F_model + F_friction - F| is clamped to
+ * 2 MN per cylinder (2^29 in Q8); J^T (...) is exact (int64) and rounded
+ * once to Q8, each component held within [-2^30, 2^30 - 1] of Q8 (4.19 MN,
+ * 4.19 MN m: beyond any wrench the cylinders can balance), so the filter
+ * step raw - W fits an int32 and the filtered value, between W and raw,
+ * cannot overflow. alpha (Q30) is held within [0, 1]. Nothing wraps; no
+ * status (nothing can fail).
  */
-void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha);
+void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
+                    const sp_q8_t measured[SP_LEGS], sp_q30_t alpha);
 
 #endif /* SP_WRENCH_H */
