@@ -8,9 +8,11 @@
 #define FRIC_LN2_Q30 INT64_C(744261118)
 /* exp(-u) < 2^-31 (half an LSB of Q30) beyond 31 ln 2 */
 #define FRIC_EXP_K_MAX 31
-/* (-1)^k / k! in Q30, k = 0..10, rounded to nearest */
-static const int32_t fric_exp_coef[11] = {1073741824, -1073741824, 536870912, -178956971, 44739243, -8947849,
-                                          1491308,    -213044,     26631,     -2959,      296};
+/* (-1)^k / k! in Q30, k = 0..7, rounded to nearest: on [0, ln 2) the
+ * Taylor remainder is below (ln 2)^8 / 8! = 1.3e-6 */
+#define FRIC_EXP_DEGREE 7
+static const int32_t fric_exp_coef[FRIC_EXP_DEGREE + 1] = {1073741824, -1073741824, 536870912, -178956971,
+                                                           44739243,   -8947849,    1491308,   -213044};
 /* |v| / v_s at and beyond which exp(-(v/v_s)^2) is taken as 0 (exp(-64) = 1.6e-28) */
 #define FRIC_STRIBECK_RATIO_MAX 8
 /* sigma_0 |dx| / g at and beyond which exp(-a) is taken as 0 (exp(-32) = 1.3e-14) */
@@ -32,9 +34,10 @@ sp_q30_t sp_fric_exp_neg(sp_q24_t u)
     /* r = u - k ln2 in Q30: within a few LSB of [0, ln 2) (the two ln 2
      * roundings differ), where the polynomial is as good */
     r = (int64_t)u * 64 - (int64_t)k * FRIC_LN2_Q30;
-    acc = fric_exp_coef[10];
-    for (int n = 9; n >= 0; --n) {
-        acc = fric_exp_coef[n] + sp_rshift_round(acc * r, 30u);
+    acc = fric_exp_coef[FRIC_EXP_DEGREE];
+    for (int n = FRIC_EXP_DEGREE - 1; n >= 0; --n) {
+        /* |acc| <= 2^30 + 2^29 and 0 <= r < 2^30: the product fits */
+        acc = fric_exp_coef[n] + ((acc * r + (INT64_C(1) << 29)) >> 30);
     }
     /* acc is in (0, 1 + 2^-24]: the shift by k keeps it in Q30's range */
     acc = sp_rshift_round(acc, (unsigned)k);
@@ -76,54 +79,78 @@ static int params_ok(const sp_platform_t *p)
     return 1;
 }
 
-/* One leg: dx (m, Q24, |dx| < 2^31) over tick_us; updates *phi, returns
- * the friction (N, Q8). */
-static sp_q8_t leg_step(const sp_platform_t *p, int i, sp_q8_t *phi, int64_t dx, uint32_t tick_us, sp_flags_t *flags)
+/* What one tick needs besides the platform: the tick and its rate
+ * multiplier (1e6 / tick_us when that is a whole number, else 0: divide). */
+typedef struct {
+    uint32_t tick_us;
+    int32_t per_s; /* ticks per second when exact, else 0 */
+} fric_tick_t;
+
+/* d / dt for d in Q24 (|d| < 2^32): Q24 per second, saturated. */
+static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
+{
+    if (t->per_s != 0) {
+        return sp_sat32(d * t->per_s, flags);
+    }
+    return sp_sat32(div_round(d * 1000000, (int64_t)t->tick_us), flags);
+}
+
+/* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
+ * the friction (N, Q8). slip: sigma_0 / F_c (1/m, Q8), cached by the
+ * state. The common cases take no division: at rest (dx = 0: nothing but
+ * the held phi) and sliding faster than 8 v_s (no Stribeck excess, g = F_c,
+ * a = slip |dx|, no bristle damping); between them, the full law. */
+static sp_q8_t leg_step(const sp_platform_t *p, int i, int32_t slip, sp_q8_t *phi, int64_t dx, const fric_tick_t *t,
+                        sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
-    /* v = dx / dt, m/s, Q24 (|dx| 1e6 < 2^52) */
-    sp_q24_t v = sp_sat32(div_round(dx * 1000000, (int64_t)tick_us), flags);
-    sp_q8_t viscous = sp_mul(p->viscous_friction[i], v, 24u, flags);
-    int64_t adx = dx < 0 ? -dx : dx;
+    sp_q24_t v;
+    sp_q8_t viscous;
+    int64_t adx, av, g, target, phi_new, dphi, damping = 0;
     sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
     sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
-    int64_t g, target, phi_new, dphi, damping = 0;
+    if (dx == 0) {
+        return (sigma0 == 0) ? 0 : *phi; /* at rest: the bristles hold, no viscous force */
+    }
+    v = per_second(t, dx, flags); /* m/s, Q24 */
+    viscous = sp_mul(p->viscous_friction[i], v, 24u, flags);
     if (sigma0 == 0) {
         *phi = 0;
         return viscous;
     }
-    {
-        int64_t av = v < 0 ? -(int64_t)v : (int64_t)v;
-        if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
-            /* ratio < 8 fits Q24; its square < 64 too */
-            sp_q24_t ratio = sp_div(av, p->stribeck_velocity, 24u, flags);
-            es = sp_fric_exp_neg(sp_mul_q24(ratio, ratio, flags));
-        }
+    adx = dx < 0 ? -dx : dx;
+    av = v < 0 ? -(int64_t)v : (int64_t)v;
+    if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+        /* ratio < 8 fits Q24; its square < 64 too */
+        sp_q24_t ratio = sp_div(av, p->stribeck_velocity, 24u, flags);
+        es = sp_fric_exp_neg(sp_mul_q24(ratio, ratio, flags));
     }
-    /* g = F_c + (F_s - F_c) e, N, Q8: in [F_c, F_s] */
-    g = (int64_t)p->coulomb_friction[i] +
-        sp_rshift_round(((int64_t)p->breakaway_friction[i] - p->coulomb_friction[i]) * es, 30u);
-    if (dx == 0) {
-        phi_new = *phi;
+    if (es == 0) {
+        /* g = F_c: a = (sigma_0 / F_c) |dx| in Q24 (slip Q8 x |dx| Q24 >> 8) */
+        int64_t a = (slip * adx) >> 8;
+        g = p->coulomb_friction[i];
+        eb = (a >= (int64_t)FRIC_BRISTLE_A_MAX << 24) ? 0 : sp_fric_exp_neg((sp_q24_t)a);
     } else {
-        /* a = sigma_0 |dx| / g: sigma_0 |dx| in N Q24 (< 2^62); a Q24 */
-        int64_t load = (int64_t)sigma0 * adx;
-        if (load >= (int64_t)FRIC_BRISTLE_A_MAX * g * (INT64_C(1) << 16)) {
-            eb = 0;
-        } else {
-            eb = sp_fric_exp_neg(sp_div(load, (int32_t)g, 8u, flags));
-        }
-        target = dx > 0 ? g : -g;
-        /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
-        phi_new = target + sp_rshift_round(((int64_t)*phi - target) * eb, 30u);
+        /* g = F_c + (F_s - F_c) e, N, Q8: in [F_c, F_s]; a = sigma_0 |dx| / g */
+        int64_t load = (int64_t)sigma0 * adx; /* N, Q24 (< 2^62) */
+        g = (int64_t)p->coulomb_friction[i] +
+            sp_rshift_round(((int64_t)p->breakaway_friction[i] - p->coulomb_friction[i]) * es, 30u);
+        eb = (load >= (int64_t)FRIC_BRISTLE_A_MAX * g * (INT64_C(1) << 16))
+                 ? 0
+                 : sp_fric_exp_neg(sp_div(load, (int32_t)g, 8u, flags));
     }
+    target = dx > 0 ? g : -g;
+    /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
+    phi_new = target + sp_rshift_round(((int64_t)*phi - target) * eb, 30u);
     dphi = phi_new - *phi;
     *phi = (sp_q8_t)phi_new;
     if (dphi != 0 && es != 0 && p->bristle_damping[i] != 0) {
         /* sigma_1 e dz/dt with dz = dphi / sigma_0: dz in Q36 m, dz/dt in Q24 m/s */
         sp_q8_t k = (sp_q8_t)sp_rshift_round((int64_t)p->bristle_damping[i] * es, 30u);
         int64_t dz = clamp64(div_round(dphi * (INT64_C(1) << 28), sigma0), FRIC_DZ_MAX_Q36, flags);
-        sp_q24_t zdot = sp_sat32(sp_rshift_round(div_round(dz * 1000000, (int64_t)tick_us), 12u), flags);
+        /* dz / dt in Q36 (|dz| <= 2^42, x 10^6 < 2^62), then Q24 */
+        int64_t zdot36 = (t->per_s != 0) ? dz * t->per_s : div_round(dz * 1000000, (int64_t)t->tick_us);
+        sp_q24_t zdot = sp_sat32(sp_rshift_round(zdot36, 12u), flags);
         damping = sp_mul(k, zdot, 24u, flags);
     }
     return sp_sat32(phi_new + damping + viscous, flags);
@@ -137,6 +164,7 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
     for (int i = 0; i < SP_LEGS; ++i) {
         o->phi[i] = 0;
         o->length[i] = 0;
+        o->slip[i] = 0;
     }
     o->valid = 0u;
 }
@@ -153,14 +181,23 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
         for (int i = 0; i < SP_LEGS; ++i) {
             o->length[i] = length[i];
             friction[i] = 0;
+            /* sigma_0 / F_c, 1/m, Q8 (sigma_0 Q0 x 2^16 / F_c Q8) */
+            o->slip[i] = (p->bristle_stiffness[i] > 0)
+                             ? sp_sat32(((int64_t)p->bristle_stiffness[i] << 16) / p->coulomb_friction[i], &flags)
+                             : 0;
         }
         o->valid = 1u;
-        return SP_OK;
+        return sp_flags_status(flags);
     }
-    for (int i = 0; i < SP_LEGS; ++i) {
-        int64_t dx = clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
-        o->length[i] = length[i];
-        friction[i] = leg_step(p, i, &o->phi[i], dx, tick_us, &flags);
+    {
+        fric_tick_t t;
+        t.tick_us = tick_us;
+        t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+        for (int i = 0; i < SP_LEGS; ++i) {
+            int64_t dx = clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
+            o->length[i] = length[i];
+            friction[i] = leg_step(p, i, o->slip[i], &o->phi[i], dx, &t, &flags);
+        }
     }
     return sp_flags_status(flags);
 }

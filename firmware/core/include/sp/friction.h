@@ -41,6 +41,7 @@
 typedef struct {
     sp_q8_t phi[SP_LEGS];     /**< bristle force sigma_0 z per leg, N, Q8 (|phi| <= max(F_s)) */
     sp_q24_t length[SP_LEGS]; /**< last measured joint-to-joint length per leg, m, Q24 */
+    int32_t slip[SP_LEGS];    /**< sigma_0 / F_c per leg, 1/m, Q8: taken from the platform at the first step */
     uint8_t valid;            /**< 0 after reset: the next step only records the lengths */
 } sp_fric_obs_t;
 
@@ -63,7 +64,10 @@ void sp_fric_obs_reset(sp_fric_obs_t *o);
  *            lengthening (the plant's F_friction)
  *
  * The first call after sp_fric_obs_reset records the lengths and outputs 0
- * for every leg (no increment yet; the bristles start unloaded). A leg with
+ * for every leg (no increment yet; the bristles start unloaded); it also
+ * keeps sigma_0 / F_c per leg, so a platform whose friction changes needs a
+ * reset. At rest (no length change) a leg costs nothing but its held phi;
+ * sliding faster than 8 v_s takes no division. A leg with
  * sigma_0 = 0 has no bristles: its phi stays 0 and its friction is the
  * viscous part c_v v only.
  *
@@ -80,10 +84,11 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
 
 /**
  * exp(-u) for u >= 0, u Q24, result Q30 in [0, 1]: range reduction
- * u = k ln 2 + r, a degree-10 polynomial (Taylor coefficients in Q30) for
+ * u = k ln 2 + r, a degree-7 polynomial (Taylor coefficients in Q30) for
  * exp(-r) on [0, ln 2), then the shift by k. Max error against libm
- * 2 LSB of Q30 (1.9e-9; tests/unit/test_friction.c measures 1.35) plus the
- * input's own quantisation (0.5 LSB of Q24 = 3e-8 relative). u <= 0
+ * 1,400 LSB of Q30 (1.3e-6, the Taylor remainder near ln 2;
+ * tests/unit/test_friction.c measures 1,315) plus the input's own
+ * quantisation (0.5 LSB of Q24 = 3e-8 relative): 0.001 N on a 600 N seal. u <= 0
  * returns 1 (Q30); u >= 31 ln 2 returns 0. Cannot fail.
  */
 sp_q30_t sp_fric_exp_neg(sp_q24_t u);
