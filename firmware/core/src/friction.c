@@ -1,6 +1,8 @@
 /* friction.c - friction observer (sp/friction.h). */
 #include "sp/friction.h"
 
+#include "fixed_inline.h"
+
 #include <stddef.h>
 
 /* ln 2 in Q24 and Q30, rounded to nearest */
@@ -13,8 +15,10 @@
 #define FRIC_EXP_DEGREE 7
 static const int32_t fric_exp_coef[FRIC_EXP_DEGREE + 1] = {1073741824, -1073741824, 536870912, -178956971,
                                                            44739243,   -8947849,    1491308,   -213044};
-/* |v| / v_s at and beyond which exp(-(v/v_s)^2) is taken as 0 (exp(-64) = 1.6e-28) */
-#define FRIC_STRIBECK_RATIO_MAX 8
+/* |v| / v_s at and beyond which exp(-(v/v_s)^2) is taken as 0: exp(-16) =
+ * 1.1e-7, 0.00002 N of a 200 N break-away excess; the bristle damping
+ * sigma_1 e dz/dt (at most sigma_1 e |v|) below 0.01 N there */
+#define FRIC_STRIBECK_RATIO_MAX 4
 /* sigma_0 |dx| / g at and beyond which exp(-a) is taken as 0 (exp(-32) = 1.3e-14) */
 #define FRIC_BRISTLE_A_MAX 32
 /* largest |bristle deflection step| carried into the damping term, Q36 m (64 m) */
@@ -22,26 +26,28 @@ static const int32_t fric_exp_coef[FRIC_EXP_DEGREE + 1] = {1073741824, -10737418
 
 sp_q30_t sp_fric_exp_neg(sp_q24_t u)
 {
-    int32_t k;
-    int64_t r, acc;
+    uint32_t k;
+    int32_t r, acc;
     if (u <= 0) {
         return SP_Q30_ONE;
     }
-    k = u / FRIC_LN2_Q24;
-    if (k >= FRIC_EXP_K_MAX) {
+    k = (uint32_t)u / (uint32_t)FRIC_LN2_Q24;
+    if (k >= (uint32_t)FRIC_EXP_K_MAX) {
         return 0;
     }
     /* r = u - k ln2 in Q30: within a few LSB of [0, ln 2) (the two ln 2
-     * roundings differ), where the polynomial is as good */
-    r = (int64_t)u * 64 - (int64_t)k * FRIC_LN2_Q30;
+     * roundings differ), where the polynomial is as good; |r| < 2^30 */
+    r = (int32_t)((int64_t)u * 64 - (int64_t)k * FRIC_LN2_Q30);
     acc = fric_exp_coef[FRIC_EXP_DEGREE];
     for (int n = FRIC_EXP_DEGREE - 1; n >= 0; --n) {
-        /* |acc| <= 2^30 + 2^29 and 0 <= r < 2^30: the product fits */
-        acc = fric_exp_coef[n] + ((acc * r + (INT64_C(1) << 29)) >> 30);
+        /* Horner's partial sums stay within 1.5 2^30: one 32 x 32 product */
+        acc = fric_exp_coef[n] + (int32_t)(((int64_t)acc * r + (INT64_C(1) << 29)) >> 30);
     }
     /* acc is in (0, 1 + 2^-24]: the shift by k keeps it in Q30's range */
-    acc = sp_rshift_round(acc, (unsigned)k);
-    return (sp_q30_t)(acc > SP_Q30_ONE ? SP_Q30_ONE : acc);
+    if (k > 0u) {
+        acc = (int32_t)(((int64_t)acc + (INT64_C(1) << (k - 1u))) >> k);
+    }
+    return (acc > SP_Q30_ONE) ? SP_Q30_ONE : acc;
 }
 
 /* round(num / den) for den > 0, ties away from zero; |num| < 2^62. */
@@ -95,25 +101,30 @@ static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
     return sp_sat32(div_round(d * 1000000, (int64_t)t->tick_us), flags);
 }
 
+/* round(x / 2^30) of a product below 2^62 in magnitude */
+#define FRIC_Q30(x) (((x) + (INT64_C(1) << 29)) >> 30)
+
 /* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
- * the friction (N, Q8). slip: sigma_0 / F_c (1/m, Q8), cached by the
- * state. The common cases take no division: at rest (dx = 0: nothing but
- * the held phi) and sliding faster than 8 v_s (no Stribeck excess, g = F_c,
- * a = slip |dx|, no bristle damping); between them, the full law. */
-static sp_q8_t leg_step(const sp_platform_t *p, int i, int32_t slip, sp_q8_t *phi, int64_t dx, const fric_tick_t *t,
-                        sp_flags_t *flags)
+ * the friction (N, Q8). The leg's constants kept by the state at its first
+ * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
+ * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
+ * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
+ * exp; slower, two exps and one 64/32 division (F_c / g). */
+static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int64_t dx,
+                        const fric_tick_t *t, sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
+    int32_t fc = p->coulomb_friction[i];
     sp_q24_t v;
     sp_q8_t viscous;
-    int64_t adx, av, g, target, phi_new, dphi, damping = 0;
+    int64_t adx, av, a, g, target, phi_new, dphi, damping = 0;
     sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
     sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
     if (dx == 0) {
         return (sigma0 == 0) ? 0 : *phi; /* at rest: the bristles hold, no viscous force */
     }
     v = per_second(t, dx, flags); /* m/s, Q24 */
-    viscous = sp_mul(p->viscous_friction[i], v, 24u, flags);
+    viscous = spi_narrow_floor((int64_t)p->viscous_friction[i] * v + (INT64_C(1) << 23), 24u, flags);
     if (sigma0 == 0) {
         *phi = 0;
         return viscous;
@@ -121,37 +132,36 @@ static sp_q8_t leg_step(const sp_platform_t *p, int i, int32_t slip, sp_q8_t *ph
     adx = dx < 0 ? -dx : dx;
     av = v < 0 ? -(int64_t)v : (int64_t)v;
     if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
-        /* ratio < 8 fits Q24; its square < 64 too */
-        sp_q24_t ratio = sp_div(av, p->stribeck_velocity, 24u, flags);
-        es = sp_fric_exp_neg(sp_mul_q24(ratio, ratio, flags));
+        /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
+         * give a ratio below 8 (2^27 in Q24) and a square below 2^54 */
+        int64_t ratio = (av * o->inv_vs) >> 22;
+        es = sp_fric_exp_neg((sp_q24_t)((ratio * ratio + (INT64_C(1) << 23)) >> 24));
     }
-    if (es == 0) {
-        /* g = F_c: a = (sigma_0 / F_c) |dx| in Q24 (slip Q8 x |dx| Q24 >> 8) */
-        int64_t a = (slip * adx) >> 8;
-        g = p->coulomb_friction[i];
-        eb = (a >= (int64_t)FRIC_BRISTLE_A_MAX << 24) ? 0 : sp_fric_exp_neg((sp_q24_t)a);
-    } else {
-        /* g = F_c + (F_s - F_c) e, N, Q8: in [F_c, F_s]; a = sigma_0 |dx| / g */
-        int64_t load = (int64_t)sigma0 * adx; /* N, Q24 (< 2^62) */
-        g = (int64_t)p->coulomb_friction[i] +
-            sp_rshift_round(((int64_t)p->breakaway_friction[i] - p->coulomb_friction[i]) * es, 30u);
-        eb = (load >= (int64_t)FRIC_BRISTLE_A_MAX * g * (INT64_C(1) << 16))
-                 ? 0
-                 : sp_fric_exp_neg(sp_div(load, (int32_t)g, 8u, flags));
+    /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
+    a = ((int64_t)o->slip[i] * adx) >> 8;
+    g = fc;
+    if (es != 0) {
+        /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8; a scaled by F_c / g (Q30, in (0, 1]) */
+        g += FRIC_Q30(((int64_t)p->breakaway_friction[i] - fc) * es);
+        if (a < ((int64_t)FRIC_BRISTLE_A_MAX << 24)) {
+            uint32_t rem;
+            int64_t scale = spi_udiv64_32((uint64_t)fc << 30, (uint32_t)g, &rem);
+            a = FRIC_Q30(a * scale);
+        }
     }
+    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : sp_fric_exp_neg((sp_q24_t)a);
     target = dx > 0 ? g : -g;
     /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
-    phi_new = target + sp_rshift_round(((int64_t)*phi - target) * eb, 30u);
+    phi_new = target + FRIC_Q30(((int64_t)*phi - target) * eb);
     dphi = phi_new - *phi;
     *phi = (sp_q8_t)phi_new;
-    if (dphi != 0 && es != 0 && p->bristle_damping[i] != 0) {
-        /* sigma_1 e dz/dt with dz = dphi / sigma_0: dz in Q36 m, dz/dt in Q24 m/s */
-        sp_q8_t k = (sp_q8_t)sp_rshift_round((int64_t)p->bristle_damping[i] * es, 30u);
-        int64_t dz = clamp64(div_round(dphi * (INT64_C(1) << 28), sigma0), FRIC_DZ_MAX_Q36, flags);
-        /* dz / dt in Q36 (|dz| <= 2^42, x 10^6 < 2^62), then Q24 */
-        int64_t zdot36 = (t->per_s != 0) ? dz * t->per_s : div_round(dz * 1000000, (int64_t)t->tick_us);
-        sp_q24_t zdot = sp_sat32(sp_rshift_round(zdot36, 12u), flags);
-        damping = sp_mul(k, zdot, 24u, flags);
+    if (dphi != 0 && es != 0 && o->tau[i] != 0) {
+        /* sigma_1 e dz/dt = e (dphi tau) / dt. dphi tau in N s, Q24 (|dphi|
+         * held below 2^31, tau < 2^31: the product < 2^62, held below 2^40
+         * after the shift), per second (x 10^6 at most: < 2^60), then Q8 */
+        int64_t ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
+        int64_t per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
+        damping = FRIC_Q30(clamp64(sp_rshift_round(per, 16u), INT32_MAX, flags) * es);
     }
     return sp_sat32(phi_new + damping + viscous, flags);
 }
@@ -165,7 +175,9 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
         o->phi[i] = 0;
         o->length[i] = 0;
         o->slip[i] = 0;
+        o->tau[i] = 0;
     }
+    o->inv_vs = 0;
     o->valid = 0u;
 }
 
@@ -185,7 +197,13 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
             o->slip[i] = (p->bristle_stiffness[i] > 0)
                              ? sp_sat32(((int64_t)p->bristle_stiffness[i] << 16) / p->coulomb_friction[i], &flags)
                              : 0;
+            /* sigma_1 / sigma_0, s, Q30: sigma_1 Q8 x 2^22 / sigma_0 Q0 */
+            o->tau[i] = (p->bristle_stiffness[i] > 0)
+                            ? sp_sat32(((int64_t)p->bristle_damping[i] << 22) / p->bristle_stiffness[i], &flags)
+                            : 0;
         }
+        /* 2^46 / v_s (v_s Q24 > 0 when any leg has bristles: params_ok) */
+        o->inv_vs = (p->stribeck_velocity > 0) ? (INT64_C(1) << 46) / p->stribeck_velocity : 0;
         o->valid = 1u;
         return sp_flags_status(flags);
     }
@@ -196,7 +214,7 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
         for (int i = 0; i < SP_LEGS; ++i) {
             int64_t dx = clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
             o->length[i] = length[i];
-            friction[i] = leg_step(p, i, o->slip[i], &o->phi[i], dx, &t, &flags);
+            friction[i] = leg_step(p, o, i, &o->phi[i], dx, &t, &flags);
         }
     }
     return sp_flags_status(flags);

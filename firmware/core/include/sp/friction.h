@@ -42,6 +42,8 @@ typedef struct {
     sp_q8_t phi[SP_LEGS];     /**< bristle force sigma_0 z per leg, N, Q8 (|phi| <= max(F_s)) */
     sp_q24_t length[SP_LEGS]; /**< last measured joint-to-joint length per leg, m, Q24 */
     int32_t slip[SP_LEGS];    /**< sigma_0 / F_c per leg, 1/m, Q8: taken from the platform at the first step */
+    int32_t tau[SP_LEGS];     /**< sigma_1 / sigma_0 per leg, s, Q30: taken at the first step */
+    int64_t inv_vs;           /**< 2^46 / v_s (v_s in Q24): taken at the first step */
     uint8_t valid;            /**< 0 after reset: the next step only records the lengths */
 } sp_fric_obs_t;
 
@@ -67,7 +69,8 @@ void sp_fric_obs_reset(sp_fric_obs_t *o);
  * for every leg (no increment yet; the bristles start unloaded); it also
  * keeps sigma_0 / F_c per leg, so a platform whose friction changes needs a
  * reset. At rest (no length change) a leg costs nothing but its held phi;
- * sliding faster than 8 v_s takes no division. A leg with
+ * sliding faster than 4 v_s takes no division (the Stribeck excess there,
+ * exp(-16), is taken as 0). A leg with
  * sigma_0 = 0 has no bristles: its phi stays 0 and its friction is the
  * viscous part c_v v only.
  *
