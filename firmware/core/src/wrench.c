@@ -10,6 +10,7 @@ void sp_wrench_reset(sp_wrench_t *w)
     }
     for (k = 0u; k < 6u; ++k) {
         w->wrench[k] = 0;
+        w->filtered[k] = 0;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
         w->model_force[k] = 0;
@@ -134,7 +135,8 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         }
         wrench_sums(&model->jac, d, acc);
         for (k = 0u; k < 6u; ++k) {
-            wrench_update(&w->wrench[k], acc[k], alpha, filter);
+            wrench_update(&w->filtered[k], acc[k], alpha, filter);
+            w->wrench[k] = w->filtered[k];
         }
         w->valid = 1u;
     }
@@ -142,4 +144,17 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         w->model_force[i] = (friction != NULL) ? model->rigid[i] : model->force[i];
     }
     w->have_model = 1u;
+}
+
+void sp_wrench_correct(sp_wrench_t *w, const sp_q8_t dw[6])
+{
+    unsigned k;
+    if (w == NULL || dw == NULL || !w->valid) {
+        return;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        /* filtered within [-2^30, 2^30): the sum fits an int64 and is held */
+        int64_t v = (int64_t)w->filtered[k] + dw[k];
+        w->wrench[k] = (v > WRENCH_HI) ? (int32_t)WRENCH_HI : ((v < WRENCH_LO) ? (int32_t)WRENCH_LO : (int32_t)v);
+    }
 }

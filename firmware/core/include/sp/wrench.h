@@ -25,7 +25,8 @@
 /** The estimate and the model it compares the next measurement with. */
 typedef struct {
     sp_q8_t model_force[SP_LEGS]; /**< the previous tick's model forces, N, Q8 */
-    int32_t wrench[6];            /**< filtered estimate: force N, moment N m, Q8 */
+    int32_t wrench[6];            /**< the estimate: filtered plus the motion-error correction, N, N m, Q8 */
+    int32_t filtered[6];          /**< the low-pass filter's state, J^T (F_model - F) filtered, N, N m, Q8 */
     uint8_t have_model;           /**< 1 when model_force holds the previous tick's model */
     uint8_t valid;                /**< 1 once the estimate follows the measurements */
 } sp_wrench_t;
@@ -44,7 +45,8 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
  * One tick: with a model kept from the previous tick, `measured` the
  * cylinder forces of this tick's feedback (N, Q8) and model->jac the
  * Jacobian at this tick's reference, updates the estimate (the first one
- * is taken unfiltered) and marks it valid; then keeps the model forces for
+ * is taken unfiltered; w->wrench = w->filtered, without a correction until
+ * sp_wrench_correct) and marks it valid; then keeps the model forces for
  * the next tick. `friction` (N, Q8, positive opposing lengthening) is the
  * seals' friction of this tick from the friction observer (sp/friction.h):
  * the estimate then compares F with the model's inverse dynamics part
@@ -62,5 +64,15 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
  */
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
                     const sp_q8_t measured[SP_LEGS], sp_q30_t alpha);
+
+/**
+ * Adds the motion-error correction dw (N, N m, Q8; sp/motion_error.h) to
+ * this tick's estimate, after the filter: w->wrench = w->filtered + dw,
+ * each component held within [-2^30, 2^30 - 1] of Q8 (the filter's range).
+ * The filter's state is not touched, so the correction of one tick never
+ * reaches the next: call it after sp_wrench_step on every tick that has
+ * one. No-op on NULL or while the estimate is invalid.
+ */
+void sp_wrench_correct(sp_wrench_t *w, const sp_q8_t dw[6]);
 
 #endif /* SP_WRENCH_H */
