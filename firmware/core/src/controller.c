@@ -513,23 +513,14 @@ static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
     }
     sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, ctrl->prep.wrench_alpha);
     /* the motion-error correction: the rigid body's M6 (at the reference's
-     * sines) times the filtered acceleration of estimate - reference */
+     * sines: est and ref differ by mm, mrad) times the acceleration of
+     * estimate - reference, filtered as the force path is (sp/wrench.h) */
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
         sp_q8_t dw[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
             sp_motion_error_wrench_sc(cfg->platform, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
-#if ME_MODE == 2 || ME_MODE == 3
-            static int32_t xf[6];
-            unsigned k;
-            for (k = 0u; k < 6u; ++k) {
-                int32_t src = (ME_MODE == 2) ? dw[k] : ctrl->wrench.filtered[k];
-                xf[k] += (int32_t)(((int64_t)ctrl->prep.wrench_alpha * (src - xf[k]) + (INT64_C(1) << 29)) >> 30);
-                ctrl->wrench.wrench[k] = (ME_MODE == 2) ? ctrl->wrench.filtered[k] + xf[k] : xf[k] + dw[k];
-            }
-#elif ME_MODE == 1
             sp_wrench_correct(&ctrl->wrench, dw);
-#endif
         }
     } else {
         sp_motion_error_reset(&ctrl->motion_error);
