@@ -596,9 +596,9 @@ static void test_friction_force(void **state)
  * component at a time, every step written out in int64: d = F_model - F
  * clamped to +-2^29; (J^T d)_k summed exactly, rounded once to Q8 and held
  * within [-2^30, 2^30 - 1]; the filter with alpha held within [0, 1]. */
-static void wrench_reference(const int32_t wrench_in[6], int valid, const sp_q8_t model_force[SP_LEGS],
-                             const sp_jacobian_t *jac, const sp_q8_t measured[SP_LEGS], sp_q30_t alpha,
-                             int32_t wrench_out[6])
+static void wrench_reference(const int32_t s1_in[6], const int32_t wrench_in[6], int valid,
+                             const sp_q8_t model_force[SP_LEGS], const sp_jacobian_t *jac,
+                             const sp_q8_t measured[SP_LEGS], sp_q30_t alpha, int32_t wrench_out[6])
 {
     const int64_t hi = (INT64_C(1) << 30) - 1;
     const int64_t lo = -(INT64_C(1) << 30);
@@ -613,9 +613,12 @@ static void wrench_reference(const int32_t wrench_in[6], int valid, const sp_q8_
         int64_t raw = (acc + (INT64_C(1) << 27)) >> 28; /* floor(x + 1/2) */
         raw = raw > hi ? hi : (raw < lo ? lo : raw);
         if (valid) {
-            int64_t last = wrench_in[k] > hi ? hi : (wrench_in[k] < lo ? lo : wrench_in[k]);
-            int64_t step = (a * (raw - last) + (INT64_C(1) << 29)) >> 30;
-            raw = last + step;
+            /* two equal sections */
+            int64_t last = s1_in[k] > hi ? hi : (s1_in[k] < lo ? lo : s1_in[k]);
+            raw = last + ((a * (raw - last) + (INT64_C(1) << 29)) >> 30);
+            assert_true(raw >= lo && raw <= hi);
+            last = wrench_in[k] > hi ? hi : (wrench_in[k] < lo ? lo : wrench_in[k]);
+            raw = last + ((a * (raw - last) + (INT64_C(1) << 29)) >> 30);
             assert_true(raw >= lo && raw <= hi);
         }
         wrench_out[k] = (int32_t)raw;
@@ -648,12 +651,13 @@ static void test_wrench_matches_reference(void **state)
             w.model_force[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
         }
         for (int k = 0; k < 6; ++k) {
-            w.wrench[k] = (n % 8) == 1 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
+            w.stage1[k] = (n % 8) == 1 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
+            w.filtered[k] = (n % 8) == 3 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
         }
         w.have_model = 1u;
         w.valid = (uint8_t)(n % 3 != 0);
         sp_q30_t alpha = (n % 16) == 5 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
-        wrench_reference(w.wrench, w.valid, w.model_force, &model.jac, meas, alpha, want);
+        wrench_reference(w.stage1, w.filtered, w.valid, w.model_force, &model.jac, meas, alpha, want);
         sp_wrench_step(&w, &model, NULL, meas, alpha);
         assert_memory_equal(w.wrench, want, sizeof want);
         assert_int_equal(w.valid, 1);
@@ -663,7 +667,8 @@ static void test_wrench_matches_reference(void **state)
 
 /* A known wrench W on a platform at rest: measured forces F = F_model -
  * J^-T W. The estimate finds W (raw on the first tick, then through the
- * filter: a step of W settles as 1 - (1 - alpha)^n). */
+ * filter's two sections: a step of W settles as
+ * 1 - (1 - alpha)^n (1 + n alpha)). */
 static void test_wrench_estimate(void **state)
 {
     (void)state;
@@ -707,7 +712,8 @@ static void test_wrench_estimate(void **state)
     for (int n = 1; n <= 20; ++n) {
         sp_wrench_step(&w, &model, NULL, model.force, alpha);
         for (int k = 0; k < 6; ++k) {
-            double decay = pow(1.0 - ref_f30(alpha), n);
+            /* two sections: (1 - a)^n (1 + n a) */
+            double decay = pow(1.0 - ref_f30(alpha), n) * (1.0 + n * ref_f30(alpha));
             assert_near(ref_f8(w.wrench[k]), want[k] * decay, 0.05 + 1e-6 * fabs(want[k]), "tick %d component %d", n,
                         k);
         }
@@ -739,12 +745,66 @@ static void test_wrench_estimate(void **state)
     }
 }
 
+/* The motion-error correction as the controller's wrench job applies it:
+ * an estimate that accelerates at 0.5 m/s^2 in x away from a reference at rest changes the wrench by exactly
+ * dW = sp_motion_error_wrench_sc(da) after the filter, leaves the filter's
+ * state alone, and dW is m da to 1 % once the filter has settled. */
+static void test_wrench_motion_error_correction(void **state)
+{
+    (void)state;
+    sp_model_t model;
+    sp_wrench_t w;
+    sp_motion_error_t me;
+    sp_ik_t ik;
+    sp_q30_t alpha;
+    sp_q24_t da[6] = {0};
+    sp_q8_t dw[6] = {0};
+    sp_pose_t ref = P->home;
+    assert_int_equal(sp_wrench_alpha(40 * SP_Q24_ONE, 1000u, &alpha), SP_OK);
+    assert_int_equal(sp_motion_error_init(&me, alpha, 1000u), SP_OK);
+    assert_int_equal(sp_inverse_kinematics(P, &ref, &ik), SP_OK);
+    assert_int_equal(sp_jacobian(&ik, &model.jac), SP_OK);
+    for (int k = 0; k < 6; ++k) {
+        model.ref.sc[k] = ik.sc[k];
+    }
+    for (int i = 0; i < SP_LEGS; ++i) {
+        model.force[i] = ref_q8(4000.0);
+    }
+    sp_wrench_reset(&w);
+    for (int n = 0; n < 80; ++n) {
+        double t = n * 1e-3;
+        sp_pose_t est = ref;
+        est.pos[0] += (sp_q24_t)llround(0.5 * 0.5 * t * t * 16777216.0);
+        sp_wrench_step(&w, &model, NULL, model.force, alpha);
+        sp_status_t st = sp_motion_error_step(&me, &est, &ref, da);
+        if (st == SP_E_BUSY) {
+            continue;
+        }
+        assert_int_equal(st, SP_OK);
+        assert_int_equal(sp_motion_error_wrench_sc(P, model.ref.sc, da, dw), SP_OK);
+        int32_t before[6];
+        memcpy(before, w.filtered, sizeof before);
+        sp_wrench_correct(&w, dw);
+        for (int k = 0; k < 6; ++k) {
+            assert_int_equal(w.wrench[k], w.filtered[k] + dw[k]);
+            assert_int_equal(w.filtered[k], before[k]);
+        }
+    }
+    /* no force error: the filter stays at zero, the wrench is dW */
+    assert_near(ref_f8(w.wrench[0]), P->mass / 65536.0 * 0.5, 0.01 * P->mass / 65536.0 * 0.5, "m da");
+    /* an invalid estimate takes no correction */
+    sp_wrench_step(&w, NULL, NULL, model.force, alpha);
+    sp_wrench_correct(&w, dw);
+    assert_int_equal(w.valid, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_friction_force),
         cmocka_unit_test(test_wrench_estimate),
         cmocka_unit_test(test_wrench_matches_reference),
+        cmocka_unit_test(test_wrench_motion_error_correction),
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),

@@ -63,6 +63,9 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     }
+    if (st == SP_OK) {
+        st = sp_motion_error_init(&ctrl->motion_error, ctrl->prep.wrench_alpha, cfg->tick_us);
+    }
     if (st != SP_OK) {
         return st;
     }
@@ -490,6 +493,9 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 
 /* The estimate follows the measurements on ticks with a model of this
  * tick's reference and every drive heard from; otherwise it is invalid. */
+#ifndef ME_MODE
+#define ME_MODE 3
+#endif
 static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
 {
     int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
@@ -506,6 +512,19 @@ static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
         ok = 0; /* the kept model forces exclude friction: no estimate this tick */
     }
     sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, ctrl->prep.wrench_alpha);
+    /* the motion-error correction: the rigid body's M6 (at the reference's
+     * sines: est and ref differ by mm, mrad) times the acceleration of
+     * estimate - reference, filtered as the force path is (sp/wrench.h) */
+    if (ok && ctrl->est.valid) {
+        sp_q24_t da[6];
+        sp_q8_t dw[6];
+        if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
+            sp_motion_error_wrench_sc(cfg->platform, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
+            sp_wrench_correct(&ctrl->wrench, dw);
+        }
+    } else {
+        sp_motion_error_reset(&ctrl->motion_error);
+    }
 }
 
 /* ---- 7. divergence, 8. outputs -------------------------------------------- */

@@ -124,34 +124,41 @@ SPI_INLINE int64_t me_p(int32_t a, int32_t b, unsigned s)
     return ((int64_t)a * b + (INT64_C(1) << (s - 1u))) >> s;
 }
 
-sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t *ik, const sp_q24_t da[6],
-                                   sp_q8_t dw[6])
+/* The body angular acceleration dw' = E(angles) d(rpy)'' of zero angle
+ * rates (eq 10's derivative without its rate products), from the sines
+ * and cosines sc of roll and pitch (Q30) and the angle accelerations a
+ * (rad/s^2, Q24): the three rows of sp_body_rates_sc written out, each sum
+ * of two Q24 x Q30 products (|a| <= 2^31, coefficients within a few LSB of
+ * 2^30: below 2^62) rounded once (ties up) and saturated beyond int32.
+ * Bit-identical to sp_body_rates_sc's omega_dot for zero rates and sines
+ * and cosines of one angle (test_motion_error_rows_vs_body_rates). */
+SPI_INLINE void me_body_acc(const sp_q30_t sc[6], const sp_q24_t a[3], sp_q24_t wd[3], sp_flags_t *flags)
 {
-    static const sp_q24_t zero[3] = {0, 0, 0};
+    const int64_t half = INT64_C(1) << 29;
+    sp_q30_t sr = sc[0];
+    sp_q30_t cr = sc[1];
+    sp_q30_t sp = sc[2];
+    sp_q30_t cp = sc[3];
+    sp_q30_t cpsr = spi_mul30_up(cp, sr);
+    sp_q30_t cpcr = spi_mul30_up(cp, cr);
+    wd[0] = spi_narrow_floor((int64_t)a[0] * SP_Q30_ONE - (int64_t)a[2] * sp + half, 30u, flags);
+    wd[1] = spi_narrow_floor((int64_t)a[1] * cr + (int64_t)a[2] * cpsr + half, 30u, flags);
+    wd[2] = spi_narrow_floor((int64_t)a[2] * cpcr - (int64_t)a[1] * sr + half, 30u, flags);
+}
+
+/* dW = M6 da with T = t (Q30) and the roll and pitch sines sc. */
+static sp_status_t me_wrench(const sp_platform_t *platform, const sp_q30_t (*t)[3], const sp_q30_t sc[6],
+                             const sp_q24_t da[6], sp_q8_t dw[6])
+{
     sp_flags_t flags = 0u;
-    sp_q24_t om[3]; /* body rates of zero rpy rates: zero */
     sp_q24_t wd[3]; /* body angular acceleration dw', rad/s^2, Q24 */
     sp_q24_t ab[3]; /* R dw', base frame, rad/s^2, Q24 */
     sp_q24_t rc[3]; /* R c, base frame, m, Q24 */
     sp_q16_t mc[3]; /* m R c, base frame, kg m, Q16 */
     sp_q8_t iw[3];  /* I dw', motion frame, N m, Q8 */
-    const sp_q30_t(*t)[3];
-    sp_status_t st;
     unsigned k;
 
-    if (platform == NULL || ik == NULL || da == NULL || dw == NULL) {
-        if (dw != NULL) {
-            for (k = 0u; k < 6u; ++k) {
-                dw[k] = 0;
-            }
-        }
-        return SP_E_ARG;
-    }
-    t = ik->rot.t;
-    st = sp_body_rates_sc(ik->sc, zero, &da[3], om, wd);
-    if (st != SP_OK) {
-        flags |= SP_FLAG_OVERFLOW; /* its only error here: a saturation */
-    }
+    me_body_acc(sc, &da[3], wd, &flags);
     for (k = 0u; k < 3u; ++k) {
         /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q24 sums below 2^63 */
         ab[k] = spi_narrow_floor((int64_t)t[0][k] * wd[0] + (int64_t)t[1][k] * wd[1] + (int64_t)t[2][k] * wd[2] +
@@ -192,4 +199,49 @@ sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t 
         }
     }
     return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
+}
+
+static sp_status_t me_bad_args(sp_q8_t dw[6])
+{
+    unsigned k;
+    if (dw != NULL) {
+        for (k = 0u; k < 6u; ++k) {
+            dw[k] = 0;
+        }
+    }
+    return SP_E_ARG;
+}
+
+sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t *ik, const sp_q24_t da[6],
+                                   sp_q8_t dw[6])
+{
+    if (platform == NULL || ik == NULL || da == NULL || dw == NULL) {
+        return me_bad_args(dw);
+    }
+    return me_wrench(platform, (const sp_q30_t(*)[3])ik->rot.t, ik->sc, da, dw);
+}
+
+sp_status_t sp_motion_error_wrench_sc(const sp_platform_t *platform, const sp_q30_t sc[6], const sp_q24_t da[6],
+                                      sp_q8_t dw[6])
+{
+    sp_q30_t t[3][3];
+    sp_q30_t spsr;
+    sp_q30_t spcr;
+    if (platform == NULL || sc == NULL || da == NULL || dw == NULL) {
+        return me_bad_args(dw);
+    }
+    /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T from the sines, rounded as
+     * sp_orientation rounds it (two-term entries rounded once) */
+    spsr = spi_mul30_up(sc[2], sc[0]);
+    spcr = spi_mul30_up(sc[2], sc[1]);
+    t[0][0] = spi_mul30_up(sc[5], sc[3]);
+    t[0][1] = spi_mul30_up(sc[4], sc[3]);
+    t[0][2] = -sc[2];
+    t[1][0] = spi_dot30_up(sc[5], spsr, -sc[4], sc[1]);
+    t[1][1] = spi_dot30_up(sc[4], spsr, sc[5], sc[1]);
+    t[1][2] = spi_mul30_up(sc[3], sc[0]);
+    t[2][0] = spi_dot30_up(sc[5], spcr, sc[4], sc[0]);
+    t[2][1] = spi_dot30_up(sc[4], spcr, -sc[5], sc[0]);
+    t[2][2] = spi_mul30_up(sc[3], sc[1]);
+    return me_wrench(platform, (const sp_q30_t(*)[3])t, sc, da, dw);
 }

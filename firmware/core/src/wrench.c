@@ -10,6 +10,8 @@ void sp_wrench_reset(sp_wrench_t *w)
     }
     for (k = 0u; k < 6u; ++k) {
         w->wrench[k] = 0;
+        w->stage1[k] = 0;
+        w->filtered[k] = 0;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
         w->model_force[k] = 0;
@@ -113,6 +115,22 @@ SPI_INLINE void wrench_update(int32_t *w, int64_t acc, sp_q30_t alpha, int filte
     *w = raw;
 }
 
+/* The second section: *y += round(alpha (x - *y)) for x within [WRENCH_LO,
+ * WRENCH_HI] (the first section's value), *y held in that range first;
+ * without filter *y = x. */
+SPI_INLINE void wrench_section(int32_t *y, int32_t x, sp_q30_t alpha, int filter)
+{
+    int32_t last = *y;
+    if (!filter) {
+        *y = x;
+        return;
+    }
+    if ((uint32_t)last + (UINT32_C(1) << 30) >= (UINT32_C(1) << 31)) {
+        last = (last < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
+    }
+    *y = last + (int32_t)(((int64_t)alpha * (x - last) + (INT64_C(1) << 29)) >> 30);
+}
+
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
                     const sp_q8_t measured[SP_LEGS], sp_q30_t alpha)
 {
@@ -134,7 +152,9 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         }
         wrench_sums(&model->jac, d, acc);
         for (k = 0u; k < 6u; ++k) {
-            wrench_update(&w->wrench[k], acc[k], alpha, filter);
+            wrench_update(&w->stage1[k], acc[k], alpha, filter);
+            wrench_section(&w->filtered[k], w->stage1[k], alpha, filter);
+            w->wrench[k] = w->filtered[k];
         }
         w->valid = 1u;
     }
@@ -142,4 +162,17 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         w->model_force[i] = (friction != NULL) ? model->rigid[i] : model->force[i];
     }
     w->have_model = 1u;
+}
+
+void sp_wrench_correct(sp_wrench_t *w, const sp_q8_t dw[6])
+{
+    unsigned k;
+    if (w == NULL || dw == NULL || !w->valid) {
+        return;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        /* filtered within [-2^30, 2^30): the sum fits an int64 and is held */
+        int64_t v = (int64_t)w->filtered[k] + dw[k];
+        w->wrench[k] = (v > WRENCH_HI) ? (int32_t)WRENCH_HI : ((v < WRENCH_LO) ? (int32_t)WRENCH_LO : (int32_t)v);
+    }
 }

@@ -53,6 +53,7 @@
 #include "sp/stream.h"
 #include "sp/trajectory.h"
 #include "sp/friction.h"
+#include "sp/motion_error.h"
 #include "sp/wrench.h"
 
 typedef enum {
@@ -200,6 +201,7 @@ typedef struct {
     sp_model_t model;                /**< the model forces and Jacobian of the last accepted reference */
     sp_wrench_t wrench;              /**< the external wrench estimate */
     sp_fric_obs_t fric_obs;          /**< the seals' friction observed from the measured lengths */
+    sp_motion_error_t motion_error;  /**< the filtered acceleration of estimate - reference (wrench correction) */
 } sp_ctrl_t;
 
 /**

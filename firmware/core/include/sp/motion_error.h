@@ -16,7 +16,7 @@
  * test_motion_error_wrench_vs_dynamics proves the sign and the frames
  * against sp_inverse_dynamics).
  *
- * Two pure parts (this module is not wired into the controller):
+ * Two pure parts (the controller's wrench job wires them in: sp/controller.h):
  *
  * 1. sp_motion_error_step: the filtered acceleration da of the tracking
  *    error e = estimate - reference (six axes: x, y, z in m, roll, pitch,
@@ -106,7 +106,8 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
  * angles; Q24), at the pose whose inverse kinematics is *ik (its T and its
  * sines and cosines sc are used): with the angle accelerations turned into
  * the body angular acceleration dw' = E(angles) d(rpy)'' by
- * sp_body_rates_sc (rates zero: the first-order part in da), R = T^T and
+ * the rows of sp_body_rates_sc for zero rates (the first-order part in
+ * da; written out here, bit-identical), R = T^T and
  * r_c = R c (c = platform->center_of_mass),
  *   force  = m da_lin + (R dw') x (m r_c)             (N, base frame, Q8)
  *   moment = R (I dw') + (m r_c) x da_lin             (N m, about o', base frame, Q8)
@@ -120,10 +121,21 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
  * reference: worst 0.85 of that bound).
  * Returns SP_E_ARG (dw zeroed) on NULL; SP_E_OVERFLOW when a value
  * saturated (m r_c beyond 32768 kg m in Q16, a component of dw beyond
- * +-8.4 MN or MN m, held at the Q8 extremes; sp_body_rates_sc saturating
- * beyond 128 rad/s^2); else SP_OK.
+ * +-8.4 MN or MN m, held at the Q8 extremes; dw' saturating beyond
+ * 128 rad/s^2); else SP_OK.
  */
 sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t *ik, const sp_q24_t da[6],
                                    sp_q8_t dw[6]);
+
+/**
+ * sp_motion_error_wrench at the pose whose roll, pitch, yaw have the sines
+ * and cosines sc = {sin, cos} x (roll, pitch, yaw) (Q30, as in sp_ik_t.sc
+ * and sp_fk_cache_t.sc; the controller keeps the reference's in
+ * sp_model_t.ref.sc): T is rebuilt from sc exactly as the IK builds it, so
+ * for the sines of an IK the result is bit-identical to
+ * sp_motion_error_wrench with that IK. Same units, errors and returns.
+ */
+sp_status_t sp_motion_error_wrench_sc(const sp_platform_t *platform, const sp_q30_t sc[6], const sp_q24_t da[6],
+                                      sp_q8_t dw[6]);
 
 #endif /* SP_MOTION_ERROR_H */
