@@ -197,7 +197,8 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
 /* The estimate from the measured lengths, once every drive has been heard
  * from; a failed estimate or a leg outside its stroke is a fault while the
  * drives are active (`active` as in supervise). Returns the FK's steps. */
-static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int active, int leg_out)
+/* Out of line, as the wrench job: off sp_ctrl_step's frame. */
+SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int active, int leg_out)
 {
     uint32_t iterations = 0u;
     if (ctrl->sup.seen_mask != SP_ALL_LEGS) {
@@ -280,7 +281,7 @@ static int command_stop(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_cmd_typ
 
 /* Carries out the operator's command when the state allows it; returns 0
  * when it is refused (the state unchanged). */
-static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd, int comms_ok)
+SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd, int comms_ok)
 {
     const sp_platform_t *p = cfg->platform;
     switch (cmd->type) {
@@ -496,7 +497,9 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 #ifndef ME_MODE
 #define ME_MODE 3
 #endif
-static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
+/* Out of line: its arrays stay off sp_ctrl_step's frame, which is on the
+ * tick's deepest call chain (setpoints -> inverse dynamics). */
+SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
 {
     int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
     const sp_q8_t *friction = NULL;

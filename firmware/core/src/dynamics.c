@@ -4,13 +4,12 @@
 
 #if defined(__GNUC__)
 #define SPI_COLD __attribute__((cold, noinline))
-/* leg_terms out of id_solve: inlined, GCC spills the caller's values
- * around its loop (-Os: 51 instructions per tick more) */
-#define SPI_NOINLINE __attribute__((noinline))
 #else
 #define SPI_COLD
-#define SPI_NOINLINE
 #endif
+/* leg_terms is SPI_NOINLINE: inlined into id_solve, GCC spills the
+ * caller's values around its loop (-Os: 51 instructions per tick more, and
+ * a deeper stack: id_solve's frame grows by more than leg_terms' own). */
 
 /* a + b, setting *ovf when the sum leaves int64 (the value is then
  * meaningless and the caller fails): ADDS/ADCS and one branch. */

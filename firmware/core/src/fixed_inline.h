@@ -37,6 +37,15 @@
 #define SPI_INLINE static inline
 #endif
 
+/* Never inlined: a job whose locals must not join its caller's frame on the
+ * tick's deepest call chain (the STM32 stack budget), or a loop GCC spills
+ * around when inlined. */
+#if defined(__GNUC__)
+#define SPI_NOINLINE __attribute__((noinline))
+#else
+#define SPI_NOINLINE
+#endif
+
 /* 2 pi in Q24 (105414357.4 rounded). */
 #define SPI_Q24_TWO_PI INT32_C(105414357)
 

@@ -1,5 +1,7 @@
 #include "sp/node.h"
 
+#include "fixed_inline.h"
+
 /* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH. */
 typedef char sp_node_tx_fits[(7u <= SP_NODE_MAX_TX) ? 1 : -1];
 
@@ -245,7 +247,10 @@ static void count_send(sp_node_t *node, sp_status_t st, uint32_t *n)
 /* The next queued operator command into node->in.cmd (none: SP_CMD_NONE).
  * SET_FEEDFORWARD is a tuning switch, applied here and only while no motion
  * is under way; returns 1 when it is refused. */
-static int take_command(sp_node_config_t *cfg, sp_node_t *node)
+/* The node's jobs around the controller step stay out of line: their
+ * locals must not join sp_node_tick's frame, which is on the tick's deepest
+ * stack chain (through sp_ctrl_step). */
+SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
 {
     int rejected = 0;
     memset(&node->in.cmd, 0, sizeof node->in.cmd);
@@ -274,8 +279,8 @@ static int take_command(sp_node_config_t *cfg, sp_node_t *node)
 
 /* The setpoints for the cycle that the next SYNC starts, one frame per axis
  * bus, then (as the SYNC master) the SYNC frames. */
-static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick, sp_can_frame_t out[],
-                             uint32_t *n)
+SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick,
+                                          sp_can_frame_t out[], uint32_t *n)
 {
     for (uint8_t b = 0; b < 2u; b++) {
         sp_msg_setpoints_t m;
@@ -305,8 +310,8 @@ static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t *node, uint3
 
 /* The controller's status and monitor frames to the operator bus, and on
  * even ticks the wrench estimate (CTRL_WRENCH, 500 Hz). */
-static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick, sp_can_frame_t out[],
-                            uint32_t *n)
+SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick,
+                                         sp_can_frame_t out[], uint32_t *n)
 {
     sp_msg_status_t s;
     s.tick = tick;

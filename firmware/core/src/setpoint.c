@@ -48,8 +48,6 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     sp_ik_t ik;
     sp_q24_t rate[SP_LEGS];
     sp_q8_t force[SP_LEGS];
-    sp_q8_t rigid[SP_LEGS];
-    sp_q8_t sent[SP_LEGS];
     sp_status_t st;
     unsigned i;
 
@@ -70,11 +68,11 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     for (i = 0u; i < SP_LEGS; ++i) {
         sp_q8_t fric = friction_of(fr, i, rate[i]);
         sp_flags_t flags = 0u;
-        sp_q8_t dyn = force[i];
-        rigid[i] = dyn;
-        force[i] = spi_add(dyn, fric, &flags);
-        sent[i] = ((ff & SP_FF_DYNAMICS) != 0u) ? (((ff & SP_FF_FRICTION) != 0u) ? force[i] : dyn)
-                                                : (((ff & SP_FF_FRICTION) != 0u) ? fric : 0);
+        /* the model (like its Jacobian above) is written before the
+         * limits are checked: a failed reference leaves it unusable (the
+         * controller then marks the factorisation invalid) */
+        model->rigid[i] = force[i];
+        force[i] = spi_add(force[i], fric, &flags);
     }
     if (!sp_limits_setpoints_ok(lim, ik.length, rate, force)) {
         return SP_E_RANGE;
@@ -82,9 +80,12 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     for (i = 0u; i < SP_LEGS; ++i) {
         sp[i].length = ik.length[i];
         sp[i].velocity = rate[i];
-        sp[i].force = sent[i];
+        sp_flags_t flags = 0u;
+        sp_q8_t dyn = model->rigid[i];
+        sp_q8_t fric = spi_sub(force[i], dyn, &flags); /* exact: force passed the limits */
+        sp[i].force = ((ff & SP_FF_DYNAMICS) != 0u) ? (((ff & SP_FF_FRICTION) != 0u) ? force[i] : dyn)
+                                                    : (((ff & SP_FF_FRICTION) != 0u) ? fric : 0);
         model->force[i] = force[i];
-        model->rigid[i] = rigid[i];
         model->ref.length[i] = ik.length[i];
         model->ref.sc[i] = ik.sc[i];
     }
