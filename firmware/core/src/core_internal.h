@@ -12,6 +12,10 @@
  * {sin, cos} of roll, pitch, yaw (Q30). Cannot fail. */
 void spi_orientation_sc(const sp_q24_t rpy[3], sp_rot_t *rot, sp_q30_t sc[6]);
 
+/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (Q30, as
+ * sp_sincos_q24 gives them); two-term entries rounded once. */
+void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot);
+
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
  * arms, legs and lengths (not the unit vectors). SP_E_RANGE for a leg
  * component of 64 m or more or a leg shorter than 1 mm, SP_E_OVERFLOW if an

@@ -9,7 +9,7 @@
 /* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (from
  * sp_sincos_q24: each within 1.05 LSB of Q30, at most 2^30 + 1). Entries
  * with two terms are rounded once, from the exact sum. */
-static void rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
+void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
 {
     sp_q30_t sr = sc[0];
     sp_q30_t cr = sc[1];
@@ -39,7 +39,7 @@ void spi_orientation_sc(const sp_q24_t rpy[3], sp_rot_t *rot, sp_q30_t sc[6])
     sp_sincos_q24(rpy[0], &sc[0], &sc[1]);
     sp_sincos_q24(rpy[1], &sc[2], &sc[3]);
     sp_sincos_q24(rpy[2], &sc[4], &sc[5]);
-    rot_from_sincos(sc, rot);
+    spi_rot_from_sincos(sc, rot);
 }
 
 sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot)

@@ -1,5 +1,6 @@
 #include "sp/motion_error.h"
 
+#include "core_internal.h"
 #include "fixed_inline.h"
 
 /* pi in Q24 (3.14159265 rad), rounded to nearest. */
@@ -224,24 +225,11 @@ sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t 
 sp_status_t sp_motion_error_wrench_sc(const sp_platform_t *platform, const sp_q30_t sc[6], const sp_q24_t da[6],
                                       sp_q8_t dw[6])
 {
-    sp_q30_t t[3][3];
-    sp_q30_t spsr;
-    sp_q30_t spcr;
+    sp_rot_t rot;
     if (platform == NULL || sc == NULL || da == NULL || dw == NULL) {
         return me_bad_args(dw);
     }
-    /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T from the sines, rounded as
-     * sp_orientation rounds it (two-term entries rounded once) */
-    spsr = spi_mul30_up(sc[2], sc[0]);
-    spcr = spi_mul30_up(sc[2], sc[1]);
-    t[0][0] = spi_mul30_up(sc[5], sc[3]);
-    t[0][1] = spi_mul30_up(sc[4], sc[3]);
-    t[0][2] = -sc[2];
-    t[1][0] = spi_dot30_up(sc[5], spsr, -sc[4], sc[1]);
-    t[1][1] = spi_dot30_up(sc[4], spsr, sc[5], sc[1]);
-    t[1][2] = spi_mul30_up(sc[3], sc[0]);
-    t[2][0] = spi_dot30_up(sc[5], spcr, sc[4], sc[0]);
-    t[2][1] = spi_dot30_up(sc[4], spcr, -sc[5], sc[0]);
-    t[2][2] = spi_mul30_up(sc[3], sc[1]);
-    return me_wrench(platform, (const sp_q30_t(*)[3])t, sc, da, dw);
+    /* T from the sines, as the IK builds it */
+    spi_rot_from_sincos(sc, &rot);
+    return me_wrench(platform, (const sp_q30_t(*)[3])rot.t, sc, da, dw);
 }
