@@ -594,11 +594,12 @@ static void test_friction_force(void **state)
 
 /* The plain reference of sp_wrench_step's arithmetic (sp/wrench.h), one
  * component at a time, every step written out in int64: d = F_model - F
- * clamped to +-2^29; (J^T d)_k summed exactly, rounded once to Q8 and held
- * within [-2^30, 2^30 - 1]; the filter with alpha held within [0, 1]. */
-static void wrench_reference(const int32_t s1_in[6], const int32_t wrench_in[6], int valid,
-                             const sp_q8_t model_force[SP_LEGS], const sp_jacobian_t *jac,
-                             const sp_q8_t measured[SP_LEGS], sp_q30_t alpha, int32_t wrench_out[6])
+ * clamped to +-2^29; (J^T d)_k summed exactly, rounded once to Q8, plus
+ * the correction, held within [-2^30, 2^30 - 1]; the sections with alpha
+ * held within [0, 1], each section's last value held in that range. */
+static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int valid, const sp_q8_t model_force[SP_LEGS],
+                             const sp_jacobian_t *jac, const sp_q8_t measured[SP_LEGS], const sp_q8_t *correction,
+                             sp_q30_t alpha, int32_t wrench_out[6])
 {
     const int64_t hi = (INT64_C(1) << 30) - 1;
     const int64_t lo = -(INT64_C(1) << 30);
@@ -610,16 +611,14 @@ static void wrench_reference(const int32_t s1_in[6], const int32_t wrench_in[6],
             d = d > (INT64_C(1) << 29) ? (INT64_C(1) << 29) : (d < -(INT64_C(1) << 29) ? -(INT64_C(1) << 29) : d);
             acc += (int64_t)jac->j[i][k] * d;
         }
-        int64_t raw = (acc + (INT64_C(1) << 27)) >> 28; /* floor(x + 1/2) */
+        int64_t raw = ((acc + (INT64_C(1) << 27)) >> 28) + (correction != NULL ? correction[k] : 0);
         raw = raw > hi ? hi : (raw < lo ? lo : raw);
         if (valid) {
-            /* two equal sections */
-            int64_t last = s1_in[k] > hi ? hi : (s1_in[k] < lo ? lo : s1_in[k]);
-            raw = last + ((a * (raw - last) + (INT64_C(1) << 29)) >> 30);
-            assert_true(raw >= lo && raw <= hi);
-            last = wrench_in[k] > hi ? hi : (wrench_in[k] < lo ? lo : wrench_in[k]);
-            raw = last + ((a * (raw - last) + (INT64_C(1) << 29)) >> 30);
-            assert_true(raw >= lo && raw <= hi);
+            for (unsigned n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+                int64_t last = sec_in[n][k] > hi ? hi : (sec_in[n][k] < lo ? lo : sec_in[n][k]);
+                raw = last + ((a * (raw - last) + (INT64_C(1) << 29)) >> 30);
+                assert_true(raw >= lo && raw <= hi);
+            }
         }
         wrench_out[k] = (int32_t)raw;
     }
@@ -627,8 +626,8 @@ static void wrench_reference(const int32_t s1_in[6], const int32_t wrench_in[6],
 
 /* sp_wrench_step equals the plain reference bit for bit: random Jacobians
  * over the whole allowed range (|entry| < 8, Q28), forces of every size up
- * to the int32 range (the clamp on d), estimates anywhere in int32 and
- * gains outside [0, 1]. */
+ * to the int32 range (the clamp on d), corrections of every size or none,
+ * sections anywhere in int32 and gains outside [0, 1]. */
 static void test_wrench_matches_reference(void **state)
 {
     (void)state;
@@ -637,7 +636,9 @@ static void test_wrench_matches_reference(void **state)
         sp_model_t model;
         sp_wrench_t w;
         sp_q8_t meas[SP_LEGS];
+        sp_q8_t corr[6];
         int32_t want[6];
+        int32_t sec[SP_WRENCH_SECTIONS][6];
         int big = (n % 4) == 0;
         for (int i = 0; i < SP_LEGS; ++i) {
             for (int k = 0; k < 6; ++k) {
@@ -651,24 +652,44 @@ static void test_wrench_matches_reference(void **state)
             w.model_force[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
         }
         for (int k = 0; k < 6; ++k) {
-            w.stage1[k] = (n % 8) == 1 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
-            w.filtered[k] = (n % 8) == 3 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
+            corr[k] = (n % 5 == 2) ? tu_i32(&rng) : tu_i32_logscale(&rng);
+            for (unsigned s = 0u; s < SP_WRENCH_SECTIONS; ++s) {
+                w.section[s][k] = (n % 8) == (int)(1u + 2u * s) % 8 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
+            }
         }
+        memcpy(sec, w.section, sizeof sec);
         w.have_model = 1u;
         w.valid = (uint8_t)(n % 3 != 0);
         sp_q30_t alpha = (n % 16) == 5 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
-        wrench_reference(w.stage1, w.filtered, w.valid, w.model_force, &model.jac, meas, alpha, want);
-        sp_wrench_step(&w, &model, NULL, meas, alpha);
+        const sp_q8_t *c = (n % 7 == 4) ? NULL : corr;
+        wrench_reference((const int32_t(*)[6])sec, w.valid, w.model_force, &model.jac, meas, c, alpha, want);
+        sp_wrench_step(&w, &model, NULL, meas, c, alpha);
         assert_memory_equal(w.wrench, want, sizeof want);
+        assert_memory_equal(w.section[SP_WRENCH_SECTIONS - 1u], want, sizeof want);
         assert_int_equal(w.valid, 1);
         assert_memory_equal(w.model_force, model.force, sizeof model.force);
     }
 }
 
+/* The step response of SP_WRENCH_SECTIONS equal sections, each
+ * y += a (x - y), n ticks after a unit input fell to 0 from a settled 1. */
+static double sections_decay(double a, int n)
+{
+    /* sum over k < SP_WRENCH_SECTIONS of C(n + k - 1, k) a^k (1 - a)^n:
+     * the sections update in turn within a tick, each from the new value
+     * of the one before */
+    double sum = 0.0;
+    double term = pow(1.0 - a, n); /* k = 0 */
+    for (int k = 0; k < (int)SP_WRENCH_SECTIONS; ++k) {
+        sum += term;
+        term *= (double)(n + k) / (double)(k + 1) * a;
+    }
+    return sum;
+}
+
 /* A known wrench W on a platform at rest: measured forces F = F_model -
  * J^-T W. The estimate finds W (raw on the first tick, then through the
- * filter's two sections: a step of W settles as
- * 1 - (1 - alpha)^n (1 + n alpha)). */
+ * filter's sections: a step of W settles as 1 - sections_decay). */
 static void test_wrench_estimate(void **state)
 {
     (void)state;
@@ -682,9 +703,9 @@ static void test_wrench_estimate(void **state)
     int64_t f[6];
     sp_lu6_t lu;
 
-    assert_int_equal(sp_wrench_alpha(40 * SP_Q24_ONE, 1000u, &alpha), SP_OK);
-    /* alpha = w dt / (1 + w dt), w dt = 2 pi 40 / 1000 */
-    assert_near(ref_f30(alpha), 0.2513274 / 1.2513274, 1e-6, "alpha");
+    assert_int_equal(sp_wrench_alpha(80 * SP_Q24_ONE, 1000u, &alpha), SP_OK);
+    /* alpha = w dt / (1 + w dt), w dt = 2 pi 80 / 1000 */
+    assert_near(ref_f30(alpha), 0.5026548 / 1.5026548, 1e-6, "alpha");
     assert_int_equal(sp_wrench_alpha(0, 1000u, &alpha), SP_E_ARG);
     assert_int_equal(sp_inverse_kinematics(P, &P->home, &ik), SP_OK);
     assert_int_equal(sp_jacobian(&ik, &model.jac), SP_OK);
@@ -701,25 +722,24 @@ static void test_wrench_estimate(void **state)
         meas[i] = (sp_q8_t)(model.force[i] - (int32_t)(f[i] / 65536));
     }
     sp_wrench_reset(&w);
-    sp_wrench_step(&w, &model, NULL, meas, alpha); /* keeps the model only */
+    sp_wrench_step(&w, &model, NULL, meas, NULL, alpha); /* keeps the model only */
     assert_int_equal(w.valid, 0);
-    sp_wrench_step(&w, &model, NULL, meas, alpha);
+    sp_wrench_step(&w, &model, NULL, meas, NULL, alpha);
     assert_int_equal(w.valid, 1);
     for (int k = 0; k < 6; ++k) {
         assert_near(ref_f8(w.wrench[k]), want[k], 0.05, "first estimate, component %d", k);
     }
     /* the load goes away: the estimate decays with the filter */
     for (int n = 1; n <= 20; ++n) {
-        sp_wrench_step(&w, &model, NULL, model.force, alpha);
+        sp_wrench_step(&w, &model, NULL, model.force, NULL, alpha);
         for (int k = 0; k < 6; ++k) {
-            /* two sections: (1 - a)^n (1 + n a) */
-            double decay = pow(1.0 - ref_f30(alpha), n) * (1.0 + n * ref_f30(alpha));
+            double decay = sections_decay(ref_f30(alpha), n);
             assert_near(ref_f8(w.wrench[k]), want[k] * decay, 0.05 + 1e-6 * fabs(want[k]), "tick %d component %d", n,
                         k);
         }
     }
     /* no model: invalid at once */
-    sp_wrench_step(&w, NULL, NULL, meas, alpha);
+    sp_wrench_step(&w, NULL, NULL, meas, NULL, alpha);
     assert_int_equal(w.valid, 0);
 
     /* With observed friction the estimate compares the measured forces with
@@ -736,8 +756,8 @@ static void test_wrench_estimate(void **state)
             meas[i] = (sp_q8_t)(model.rigid[i] + friction[i] - (int32_t)(f[i] / 65536));
         }
         sp_wrench_reset(&w);
-        sp_wrench_step(&w, &model, friction, meas, alpha);
-        sp_wrench_step(&w, &model, friction, meas, alpha);
+        sp_wrench_step(&w, &model, friction, meas, NULL, alpha);
+        sp_wrench_step(&w, &model, friction, meas, NULL, alpha);
         assert_int_equal(w.valid, 1);
         for (int k = 0; k < 6; ++k) {
             assert_near(ref_f8(w.wrench[k]), want[k], 0.05, "with observed friction, component %d", k);
@@ -746,9 +766,10 @@ static void test_wrench_estimate(void **state)
 }
 
 /* The motion-error correction as the controller's wrench job applies it:
- * an estimate that accelerates at 0.5 m/s^2 in x away from a reference at rest changes the wrench by exactly
- * dW = sp_motion_error_wrench_sc(da) after the filter, leaves the filter's
- * state alone, and dW is m da to 1 % once the filter has settled. */
+ * an estimate that accelerates at 0.5 m/s^2 in x away from a reference at
+ * rest, with no force error, gives a wrench that is exactly the filtered
+ * dW = sp_motion_error_wrench_sc(da) (the same sections run in double on
+ * the same dW, within the sections' roundings), and dW is m da to 1 %. */
 static void test_wrench_motion_error_correction(void **state)
 {
     (void)state;
@@ -759,9 +780,11 @@ static void test_wrench_motion_error_correction(void **state)
     sp_q30_t alpha;
     sp_q24_t da[6] = {0};
     sp_q8_t dw[6] = {0};
+    double y[SP_WRENCH_SECTIONS][6] = {{0}};
     sp_pose_t ref = P->home;
-    assert_int_equal(sp_wrench_alpha(40 * SP_Q24_ONE, 1000u, &alpha), SP_OK);
-    assert_int_equal(sp_motion_error_init(&me, alpha, 1000u), SP_OK);
+    int corrected = 0;
+    assert_int_equal(sp_wrench_alpha(80 * SP_Q24_ONE, 1000u, &alpha), SP_OK);
+    assert_int_equal(sp_motion_error_init(&me, 1000u), SP_OK);
     assert_int_equal(sp_inverse_kinematics(P, &ref, &ik), SP_OK);
     assert_int_equal(sp_jacobian(&ik, &model.jac), SP_OK);
     for (int k = 0; k < 6; ++k) {
@@ -774,27 +797,37 @@ static void test_wrench_motion_error_correction(void **state)
     for (int n = 0; n < 80; ++n) {
         double t = n * 1e-3;
         sp_pose_t est = ref;
+        const sp_q8_t *c = NULL;
         est.pos[0] += (sp_q24_t)llround(0.5 * 0.5 * t * t * 16777216.0);
-        sp_wrench_step(&w, &model, NULL, model.force, alpha);
         sp_status_t st = sp_motion_error_step(&me, &est, &ref, da);
-        if (st == SP_E_BUSY) {
+        if (st != SP_E_BUSY) {
+            assert_int_equal(st, SP_OK);
+            assert_int_equal(sp_motion_error_wrench_sc(P, model.ref.sc, da, dw), SP_OK);
+            c = dw;
+        }
+        int was_valid = w.valid;
+        sp_wrench_step(&w, &model, NULL, model.force, c, alpha);
+        if (!w.valid) {
             continue;
         }
-        assert_int_equal(st, SP_OK);
-        assert_int_equal(sp_motion_error_wrench_sc(P, model.ref.sc, da, dw), SP_OK);
-        int32_t before[6];
-        memcpy(before, w.filtered, sizeof before);
-        sp_wrench_correct(&w, dw);
         for (int k = 0; k < 6; ++k) {
-            assert_int_equal(w.wrench[k], w.filtered[k] + dw[k]);
-            assert_int_equal(w.filtered[k], before[k]);
+            double x = (c != NULL) ? dw[k] : 0.0;
+            for (unsigned s = 0u; s < SP_WRENCH_SECTIONS; ++s) {
+                y[s][k] = was_valid ? y[s][k] + ref_f30(alpha) * (x - y[s][k]) : x;
+                x = y[s][k];
+            }
+            assert_near(w.wrench[k], x, 2.0, "tick %d component %d (Q8 LSB)", n, k);
         }
+        corrected += (c != NULL);
     }
-    /* no force error: the filter stays at zero, the wrench is dW */
-    assert_near(ref_f8(w.wrench[0]), P->mass / 65536.0 * 0.5, 0.01 * P->mass / 65536.0 * 0.5, "m da");
+    assert_true(corrected > 70);
+    /* no force error: the wrench is the filtered dW, and dW = m da, raw
+     * within e's Q24 rounding (4 LSB of e in the double difference: 0.24
+     * m/s^2), filtered within 1 % */
+    assert_near(ref_f8(dw[0]), P->mass / 65536.0 * 0.5, P->mass / 65536.0 * 0.24, "m da");
+    assert_near(ref_f8(w.wrench[0]), P->mass / 65536.0 * 0.5, 0.01 * P->mass / 65536.0 * 0.5, "filtered m da");
     /* an invalid estimate takes no correction */
-    sp_wrench_step(&w, NULL, NULL, model.force, alpha);
-    sp_wrench_correct(&w, dw);
+    sp_wrench_step(&w, NULL, NULL, model.force, dw, alpha);
     assert_int_equal(w.valid, 0);
 }
 

@@ -45,7 +45,7 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->stream_omega = 10 * SP_Q24_ONE;
     cfg->force_feedforward = 1u;
     cfg->friction_compensation = 1u;
-    cfg->wrench_cutoff_hz = 40 * SP_Q24_ONE;
+    cfg->wrench_cutoff_hz = 80 * SP_Q24_ONE;
     cfg->friction_observer = 1u;
     return SP_OK;
 }
@@ -64,7 +64,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     }
     if (st == SP_OK) {
-        st = sp_motion_error_init(&ctrl->motion_error, ctrl->prep.wrench_alpha, cfg->tick_us);
+        st = sp_motion_error_init(&ctrl->motion_error, cfg->tick_us);
     }
     if (st != SP_OK) {
         return st;
@@ -493,17 +493,16 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 /* ---- 6. the external wrench ------------------------------------------------ */
 
 /* The estimate follows the measurements on ticks with a model of this
- * tick's reference and every drive heard from; otherwise it is invalid. */
-#ifndef ME_MODE
-#define ME_MODE 3
-#endif
-/* Out of line: its arrays stay off sp_ctrl_step's frame, which is on the
+ * tick's reference and every drive heard from; otherwise it is invalid.
+ * Out of line: its arrays stay off sp_ctrl_step's frame, which is on the
  * tick's deepest call chain (setpoints -> inverse dynamics). */
 SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
 {
     int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
     const sp_q8_t *friction = NULL;
+    const sp_q8_t *correction = NULL;
     sp_q8_t observed[SP_LEGS];
+    sp_q8_t dw[6];
     if (cfg->friction_observer && ctrl->sup.seen_mask == SP_ALL_LEGS) {
         /* the observer follows every measured length, engaged or not; a
          * failure (bad parameters) leaves the feed-forward's friction */
@@ -514,20 +513,20 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (friction == NULL && cfg->friction_observer) {
         ok = 0; /* the kept model forces exclude friction: no estimate this tick */
     }
-    sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, ctrl->prep.wrench_alpha);
     /* the motion-error correction: the rigid body's M6 (at the reference's
      * sines: est and ref differ by mm, mrad) times the acceleration of
-     * estimate - reference, filtered as the force path is (sp/wrench.h) */
+     * estimate - reference, into the filter with the force path's wrench */
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
-        sp_q8_t dw[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
             sp_motion_error_wrench_sc(cfg->platform, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
-            sp_wrench_correct(&ctrl->wrench, dw);
+            correction = dw;
         }
     } else {
         sp_motion_error_reset(&ctrl->motion_error);
     }
+    sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, correction,
+                   ctrl->prep.wrench_alpha);
 }
 
 /* ---- 7. divergence, 8. outputs -------------------------------------------- */

@@ -5,12 +5,12 @@
 
 /* pi in Q24 (3.14159265 rad), rounded to nearest. */
 #define ME_Q24_PI INT64_C(52707179)
-/* Every filter value is held within [-2^30, 2^30) of Q24 (+-64 m/s^2,
- * rad/s^2): the sections' step x - y then fits an int32. */
+/* The raw acceleration is held within [-2^30, 2^30) of Q24 (+-64 m/s^2,
+ * rad/s^2). */
 #define ME_HI INT32_C(0x3FFFFFFF)
 #define ME_LO (-ME_HI - 1)
 
-sp_status_t sp_motion_error_init(sp_motion_error_t *me, sp_q30_t alpha, uint32_t tick_us)
+sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us)
 {
     uint64_t t2;
     if (me == NULL || tick_us < 100u || tick_us > 1000000u) {
@@ -19,7 +19,6 @@ sp_status_t sp_motion_error_init(sp_motion_error_t *me, sp_q30_t alpha, uint32_t
     t2 = (uint64_t)tick_us * tick_us; /* <= 10^12 */
     /* round(10^12 / t^2): in [1, 10^8] */
     me->k = (int32_t)((UINT64_C(1000000000000) + t2 / 2u) / t2);
-    me->alpha = (alpha < 0) ? 0 : ((alpha > SP_Q30_ONE) ? SP_Q30_ONE : alpha);
     sp_motion_error_reset(me);
     return SP_OK;
 }
@@ -33,8 +32,6 @@ void sp_motion_error_reset(sp_motion_error_t *me)
     for (k = 0u; k < 6u; ++k) {
         me->e1[k] = 0;
         me->e2[k] = 0;
-        me->y1[k] = 0;
-        me->da[k] = 0;
     }
     me->count = 0u;
 }
@@ -51,14 +48,6 @@ SPI_INLINE int32_t me_hold(int64_t v, sp_flags_t *flags)
         return ME_LO;
     }
     return (int32_t)v;
-}
-
-/* One backward-Euler section: y + round(alpha (x - y)) (ties up), for x, y
- * in [ME_LO, ME_HI] and alpha in [0, 2^30]: x - y fits an int32 and the
- * result lies between y and x. */
-SPI_INLINE int32_t me_section(int32_t y, int32_t x, sp_q30_t alpha)
-{
-    return y + (int32_t)(((int64_t)alpha * (x - y) + (INT64_C(1) << 29)) >> 30);
 }
 
 /* An angle difference (|d| < 2^32) wrapped into [-pi, pi) (Q24 pi): the
@@ -108,13 +97,9 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
          * int32 the product with k >= 1 is held anyway */
         int64_t d2 = (int64_t)e[k] - 2 * (int64_t)me->e1[k] + me->e2[k];
         int32_t d = (d2 > INT32_MAX) ? INT32_MAX : ((d2 < INT32_MIN) ? INT32_MIN : (int32_t)d2);
-        int32_t raw = me_hold((int64_t)d * me->k, &flags); /* m/s^2, Q24 */
-        /* the state is always held in range (reset, then sections) */
-        me->y1[k] = me_section(me->y1[k], raw, me->alpha);
-        me->da[k] = me_section(me->da[k], me->y1[k], me->alpha);
+        da[k] = me_hold((int64_t)d * me->k, &flags); /* m/s^2, Q24 */
         me->e2[k] = me->e1[k];
         me->e1[k] = e[k];
-        da[k] = me->da[k];
     }
     return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
 }

@@ -5,13 +5,15 @@
 void sp_wrench_reset(sp_wrench_t *w)
 {
     unsigned k;
+    unsigned n;
     if (w == NULL) {
         return;
     }
     for (k = 0u; k < 6u; ++k) {
         w->wrench[k] = 0;
-        w->stage1[k] = 0;
-        w->filtered[k] = 0;
+        for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+            w->section[n][k] = 0;
+        }
     }
     for (k = 0u; k < SP_LEGS; ++k) {
         w->model_force[k] = 0;
@@ -84,55 +86,29 @@ static void wrench_sums(const sp_jacobian_t *jac, const int32_t d[SP_LEGS], int6
     }
 }
 
-/* One component: acc (Q36, |acc| < 2^63 - 2^27) rounded to Q8 and held
- * within [WRENCH_LO, WRENCH_HI], then, unless this is the first estimate,
- * filtered into *w with alpha in [0, 2^30]. The range tests look at the
- * high word only: x >> 28 is within [-2^30, 2^30) exactly when x >> 32 is
- * within [-2^26, 2^26), and an int32 v within [-2^30, 2^30) exactly when
- * (uint32)v + 2^30 < 2^31. */
-SPI_INLINE void wrench_update(int32_t *w, int64_t acc, sp_q30_t alpha, int filter)
+/* One component of the filter's input: acc (Q36, |acc| < 2^63 - 2^27)
+ * rounded to Q8 (|.| < 2^35), plus the correction (Q8), held within
+ * [WRENCH_LO, WRENCH_HI]. */
+SPI_INLINE int32_t wrench_raw(int64_t acc, int32_t correction)
 {
-    int64_t x = acc + (INT64_C(1) << 27);
-    int32_t hi = (int32_t)(x >> 32);
-    int32_t raw;
-    if ((uint32_t)hi + (UINT32_C(1) << 26) < (UINT32_C(1) << 27)) {
-        raw = (int32_t)(x >> 28);
-    } else {
-        raw = (hi < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
-    }
-    if (filter) {
-        /* the last estimate held in the same range (it always is, unless
-         * the caller changed it): raw - last then fits an int32, and
-         * last + round(alpha (raw - last)) lies between last and raw */
-        int32_t last = *w;
-        int32_t e;
-        if ((uint32_t)last + (UINT32_C(1) << 30) >= (UINT32_C(1) << 31)) {
-            last = (last < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
-        }
-        e = raw - last;
-        raw = last + (int32_t)(((int64_t)alpha * e + (INT64_C(1) << 29)) >> 30);
-    }
-    *w = raw;
+    int64_t x = ((acc + (INT64_C(1) << 27)) >> 28) + correction;
+    return (x > WRENCH_HI) ? (int32_t)WRENCH_HI : ((x < WRENCH_LO) ? (int32_t)WRENCH_LO : (int32_t)x);
 }
 
-/* The second section: *y += round(alpha (x - *y)) for x within [WRENCH_LO,
- * WRENCH_HI] (the first section's value), *y held in that range first;
- * without filter *y = x. */
-SPI_INLINE void wrench_section(int32_t *y, int32_t x, sp_q30_t alpha, int filter)
+/* One section: y + round(alpha (x - y)) (ties up) for x within
+ * [WRENCH_LO, WRENCH_HI] and alpha in [0, 2^30], y held in that range
+ * first (it always is, unless the caller changed it): x - y then fits an
+ * int32 and the result lies between y and x. */
+SPI_INLINE int32_t wrench_section(int32_t y, int32_t x, sp_q30_t alpha)
 {
-    int32_t last = *y;
-    if (!filter) {
-        *y = x;
-        return;
+    if ((uint32_t)y + (UINT32_C(1) << 30) >= (UINT32_C(1) << 31)) {
+        y = (y < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
     }
-    if ((uint32_t)last + (UINT32_C(1) << 30) >= (UINT32_C(1) << 31)) {
-        last = (last < 0) ? (int32_t)WRENCH_LO : (int32_t)WRENCH_HI;
-    }
-    *y = last + (int32_t)(((int64_t)alpha * (x - last) + (INT64_C(1) << 29)) >> 30);
+    return y + (int32_t)(((int64_t)alpha * (x - y) + (INT64_C(1) << 29)) >> 30);
 }
 
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
-                    const sp_q8_t measured[SP_LEGS], sp_q30_t alpha)
+                    const sp_q8_t measured[SP_LEGS], const sp_q8_t correction[6], sp_q30_t alpha)
 {
     unsigned i;
     unsigned k;
@@ -144,7 +120,6 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
     if (w->have_model) {
         int32_t d[SP_LEGS]; /* F_model - F, N, Q8 */
         int64_t acc[6];     /* J^T d, Q36 */
-        int filter = w->valid;
         /* alpha outside [0, 1] would leave the hull of last and raw */
         alpha = (alpha < 0) ? 0 : ((alpha > SP_Q30_ONE) ? SP_Q30_ONE : alpha);
         for (i = 0u; i < SP_LEGS; ++i) {
@@ -152,9 +127,14 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         }
         wrench_sums(&model->jac, d, acc);
         for (k = 0u; k < 6u; ++k) {
-            wrench_update(&w->stage1[k], acc[k], alpha, filter);
-            wrench_section(&w->filtered[k], w->stage1[k], alpha, filter);
-            w->wrench[k] = w->filtered[k];
+            int32_t x = wrench_raw(acc[k], (correction != NULL) ? correction[k] : 0);
+            unsigned n;
+            for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+                /* the first estimate starts every section at its value */
+                x = w->valid ? wrench_section(w->section[n][k], x, alpha) : x;
+                w->section[n][k] = x;
+            }
+            w->wrench[k] = x;
         }
         w->valid = 1u;
     }
@@ -162,17 +142,4 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         w->model_force[i] = (friction != NULL) ? model->rigid[i] : model->force[i];
     }
     w->have_model = 1u;
-}
-
-void sp_wrench_correct(sp_wrench_t *w, const sp_q8_t dw[6])
-{
-    unsigned k;
-    if (w == NULL || dw == NULL || !w->valid) {
-        return;
-    }
-    for (k = 0u; k < 6u; ++k) {
-        /* filtered within [-2^30, 2^30): the sum fits an int64 and is held */
-        int64_t v = (int64_t)w->filtered[k] + dw[k];
-        w->wrench[k] = (v > WRENCH_HI) ? (int32_t)WRENCH_HI : ((v < WRENCH_LO) ? (int32_t)WRENCH_LO : (int32_t)v);
-    }
 }

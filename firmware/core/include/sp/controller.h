@@ -149,7 +149,7 @@ typedef struct {
     sp_q24_t stream_omega;           /**< bandwidth of the stream filter, rad/s, Q24 */
     uint8_t force_feedforward;       /**< 1: send the inverse dynamics forces; 0: send 0 */
     uint8_t friction_compensation;   /**< 1: add the cylinders' friction (sp_friction_t) to the force feed-forward */
-    sp_q24_t wrench_cutoff_hz;       /**< bandwidth of the wrench estimate's low-pass filter, Hz, Q24 */
+    sp_q24_t wrench_cutoff_hz;       /**< cut-off of each of the wrench filter's sections (sp/wrench.h), Hz, Q24 */
     uint8_t friction_observer;       /**< 1: the wrench estimate takes the seals' friction from the friction
                                           observer (sp/friction.h); 0: from the feed-forward's model */
 } sp_ctrl_config_t;
@@ -201,7 +201,7 @@ typedef struct {
     sp_model_t model;                /**< the model forces and Jacobian of the last accepted reference */
     sp_wrench_t wrench;              /**< the external wrench estimate */
     sp_fric_obs_t fric_obs;          /**< the seals' friction observed from the measured lengths */
-    sp_motion_error_t motion_error;  /**< the filtered acceleration of estimate - reference (wrench correction) */
+    sp_motion_error_t motion_error;  /**< the history of estimate - reference (wrench correction) */
 } sp_ctrl_t;
 
 /**
@@ -209,7 +209,7 @@ typedef struct {
  * 1 m/s^2, 5 m/s^3 (0.25 rad/s, 1 rad/s^2, 5 rad/s^3); 2 s fades; feedback
  * timeout 2 ticks; divergence 25 mm / 25 mrad; 10 mm stroke margin; stream
  * filter 10 rad/s; force feed-forward and friction compensation on; wrench
- * estimate filtered at 40 Hz. SP_E_ARG on NULL.
+ * estimate filtered by four sections at 80 Hz (sp/wrench.h). SP_E_ARG on NULL.
  */
 sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform);
 

@@ -18,22 +18,16 @@
  *
  * Two pure parts (the controller's wrench job wires them in: sp/controller.h):
  *
- * 1. sp_motion_error_step: the filtered acceleration da of the tracking
- *    error e = estimate - reference (six axes: x, y, z in m, roll, pitch,
- *    yaw in rad, angles wrapped to [-pi, pi)). The double difference
- *    e[n] - 2 e[n-1] + e[n-2], divided by dt^2, passes two cascaded
- *    first-order backward-Euler low-pass sections with the wrench
- *    filter's gain (y += alpha (x - y), alpha from sp_wrench_alpha; 40 Hz
- *    at 1 kHz: alpha = 0.2008). Delay at low frequency: 1 tick (the
- *    double difference is centred on n-1) plus 2 (1 - alpha) / alpha
- *    ticks (7.96 at 40 Hz): 8.96 ms in all; at 2 Hz gain 0.9969 and lag
- *    8.95 ms (test_motion_error_sine_2hz).
- *    Noise: white noise of standard deviation s on every sample of e
- *    gives da a standard deviation of 0.0461 s / dt^2 (the root sum of
- *    squares of the impulse response; measured in
- *    test_motion_error_quantisation_noise): 1 um quantisation of the
- *    lengths (the estimate's s ~ 0.29 um) gives 0.0133 m/s^2, i.e. 33 N
- *    on the default platform's 2,500 kg.
+ * 1. sp_motion_error_step: the raw acceleration da of the tracking error
+ *    e = estimate - reference (six axes: x, y, z in m, roll, pitch, yaw in
+ *    rad, angles wrapped to [-pi, pi)): the double difference
+ *    e[n] - 2 e[n-1] + e[n-2] divided by dt^2, centred on n-1 (one tick of
+ *    delay). It is not filtered here: its wrench dW joins J^T (F_model - F)
+ *    before the wrench filter (sp/wrench.h), so that both pass one filter.
+ *    Noise: white noise of standard deviation s on every sample of e gives
+ *    da a standard deviation of sqrt(6) s / dt^2 before the filter (1 um
+ *    quantisation, s = 0.29 um: 0.71 m/s^2 at 1 kHz); the wrench filter's
+ *    three sections bring it down (sp/wrench.h gives the figure).
  *
  * 2. sp_motion_error_wrench: dW = M6 da of the rigid platform (mass,
  *    inertia about o' and centre of mass of sp_platform_t), base frame,
@@ -48,55 +42,44 @@
 
 #include "sp/kinematics.h"
 
-/** The filter of the tracking error's acceleration. Every value of the
- *  state stays within [-2^30, 2^30) of its Q24 format (+-64). */
+/** The history of the tracking error, for its double difference. */
 typedef struct {
     sp_q24_t e1[6]; /**< e of the previous tick: m (x, y, z), rad (rpy), Q24 */
     sp_q24_t e2[6]; /**< e two ticks back, Q24 */
-    sp_q24_t y1[6]; /**< first low-pass section: m/s^2, rad/s^2, Q24 */
-    sp_q24_t da[6]; /**< second section, the output: m/s^2, rad/s^2, Q24 */
     int32_t k;      /**< 1 / dt^2, s^-2 (integer, rounded: 10^6 at 1 kHz) */
-    sp_q30_t alpha; /**< the sections' gain, Q30, in [0, 1] */
     uint8_t count;  /**< errors held in e1, e2: 0, 1 or 2 */
 } sp_motion_error_t;
 
 /**
- * Sets the filter's gain alpha (Q30, from sp_wrench_alpha: the wrench
- * filter's; held within [0, 1]) and tick (us, 100..1,000,000), and resets
- * it (sp_motion_error_reset). 1/dt^2 is kept as the integer
+ * Sets the tick (us, 100..1,000,000) and resets the history
+ * (sp_motion_error_reset). 1/dt^2 is kept as the integer
  * round(10^12 / tick_us^2): exact for 1 ms (10^6) and every tick that
  * divides 10^6 us into a power-of-two-and-five count (0.1, 0.125, 0.2,
  * 0.25, 0.5, 2, 4, 5, 8, 10 ms), else within 0.5 / k relative.
  * SP_E_ARG (nothing changed) on NULL or a tick out of range.
  */
-sp_status_t sp_motion_error_init(sp_motion_error_t *me, sp_q30_t alpha, uint32_t tick_us);
+sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us);
 
-/** Forgets the history and zeroes the filter; keeps alpha and the tick.
- *  No-op on NULL. */
+/** Forgets the history; keeps the tick. No-op on NULL. */
 void sp_motion_error_reset(sp_motion_error_t *me);
 
 /**
  * One tick: e = est - ref (positions m, angles rad, Q24; the angle
  * differences wrapped into [-pi, pi) so that a yaw crossing +-pi in both
  * poses is no step), and, with the errors of the two previous ticks,
- * the raw acceleration (e - 2 e1 + e2) / dt^2 (exact integer arithmetic)
- * filtered by the two sections into da (m/s^2 for x, y, z; rad/s^2 of the
- * roll, pitch, yaw angles, not body rates; Q24).
- * The filter starts from zero at the third consecutive pose after a reset
- * (its output then rises with the filter's step response, ~10 ms to 75 %
- * at 40 Hz), so no start-up spike of the unfiltered difference reaches it.
+ * the raw acceleration da = (e - 2 e1 + e2) / dt^2 (exact integer
+ * arithmetic; m/s^2 for x, y, z; rad/s^2 of the roll, pitch, yaw angles,
+ * not body rates; Q24), held within [-64, 64).
  * Returns
- *   SP_OK          da is the filtered estimate;
+ *   SP_OK          da is this tick's acceleration;
  *   SP_E_BUSY      fewer than three consecutive poses since the reset (or
  *                  est or ref NULL: a tick without a pose, which resets
  *                  the history): da is zeroed;
  *   SP_E_OVERFLOW  a value saturated this tick (a position difference
- *                  beyond +-128 m, a raw acceleration beyond
- *                  [-64, 64) m/s^2 or rad/s^2, where it is held): da is the
- *                  filtered estimate of the held values;
+ *                  beyond +-128 m, an acceleration beyond [-64, 64) m/s^2
+ *                  or rad/s^2, where it is held): da holds the held values;
  *   SP_E_ARG       me or da NULL: nothing changed.
- * Nothing wraps: the filter's step x - y fits an int32 and each section's
- * value lies between its previous value and its input.
+ * Nothing wraps.
  */
 sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, const sp_pose_t *ref, sp_q24_t da[6]);
 
