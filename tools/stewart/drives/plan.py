@@ -51,7 +51,7 @@ def pdo_writes(pdo: ob.Pdo, node_id: int, drives: Drives) -> list[Write]:
     enable it (CiA 301's order: a mapping may change only while the PDO is invalid)."""
     cob = pdo.cob_id(node_id)
     what = f"{'R' if pdo.direction == 'rx' else 'T'}PDO{pdo.number} {pdo.name}"
-    out = [Write(pdo.comm_index, ob.PDO_COMM_COB_ID, ob.UNSIGNED32, ob.PDO_COMM_INVALID | cob,
+    out = [Write(pdo.comm_index, ob.PDO_COMM_COB_ID, ob.UNSIGNED32, ob.PDO_COB_INVALID | cob,
                  f"{what}: disable while re-mapping", final=False),
            Write(pdo.map_index, 0, ob.UNSIGNED8, 0, f"{what}: clear the mapping", final=False)]
     for i, e in enumerate(pdo.entries, 1):
