@@ -254,6 +254,32 @@ def test_config_skips_optional_objects_the_drive_lacks(tmp_path, cia408_config, 
     assert "skipped 1 optional (0x1006.0)" in capsys.readouterr().out
 
 
+def test_config_compares_read_only_scaling(tmp_path, cia408_config, capsys):
+    """A drive whose unit prefix is fixed: right -> accepted, wrong -> named error."""
+    cp = configparser.RawConfigParser()
+    cp.optionxform = str
+    cp.read(EDS)
+    cp["6600sub3"]["AccessType"] = "ro"
+    path = tmp_path / "fixed_prefix.eds"
+    with path.open("w") as f:
+        cp.write(f, space_around_delimiters=False)
+    args = ["drives", "config", "--config", str(cia408_config), "--bus", "can_a", "--node", "5"]
+    d = SimDrive(5, path)
+    try:
+        assert cli.main([*args, *_bus(d)]) == 0
+    finally:
+        d.close()
+    cp["6600sub3"]["DefaultValue"] = "-3"
+    with path.open("w") as f:
+        cp.write(f, space_around_delimiters=False)
+    d = SimDrive(5, path)
+    try:
+        assert cli.main([*args, *_bus(d)]) == 1
+    finally:
+        d.close()
+    assert "node 5: 0x6600.3 is read-only and holds -3; the config needs -6" in capsys.readouterr().err
+
+
 def test_config_dry_run_prints_every_write(cia408_config, capsys):
     assert cli.main(["drives", "config", "--config", str(cia408_config), "--dry-run"]) == 0
     out = capsys.readouterr().out

@@ -10,6 +10,8 @@ controllers, CiA 402 electric drives) from the PC, over any python-can adapter.
       the configuration the controller writes at start-up (PDO mapping and
       communication parameters, RPDO event timer, device mode, scaling, from
       the platform config), written by SDO and read back; --dry-run prints it
+  stewart drives doc [--write]
+      the object and PDO tables of docs/canopen.md (--write updates the page)
 
 What the controller needs lives in one place, stewart/drives/objects.py;
 docs/canopen.md has the design. Exit status: 0 ok, 1 the drive or its EDS
@@ -146,11 +148,29 @@ def run_config(args) -> int:
                 continue
             skipped = f", skipped {len(res.skipped)} optional ({', '.join(w.key for w in res.skipped)})" \
                 if res.skipped else ""
+            fixed = f", {len(res.fixed)} read-only already right ({', '.join(w.key for w in res.fixed)})" \
+                if res.fixed else ""
             print(f"leg {d.leg}: node {d.node_id} on {d.bus}: wrote {len(res.written)} objects, read back "
-                  f"{len(res.readback)}: all equal{skipped}")
+                  f"{len(res.readback)}: all equal{skipped}{fixed}")
     finally:
         session.close_network(net)
     return 1 if failed else 0
+
+
+def run_doc(args) -> int:
+    from ..drives import doc
+
+    page = REPO_ROOT / "docs" / "canopen.md"
+    if not args.write:
+        print(doc.markdown(), end="")
+        return 0
+    try:
+        page.write_text(doc.splice(page.read_text()))
+    except (OSError, ValueError) as exc:
+        _err(f"{page}: {exc}")
+        return 2
+    print(f"updated {page}")
+    return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -176,6 +196,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     cf.add_argument("--dry-run", action="store_true", help="print the writes, touch no bus")
     _bus_args(cf)
     cf.set_defaults(func=run_config)
+    dc = s.add_parser("doc", help="the object and PDO tables of docs/canopen.md")
+    dc.add_argument("--write", action="store_true", help="update docs/canopen.md in place")
+    dc.set_defaults(func=run_doc)
 
     def no_sub(_args) -> int:
         p.print_help()

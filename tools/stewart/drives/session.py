@@ -18,6 +18,8 @@ from .plan import Write
 
 #: Abort codes after which an optional write is skipped: the drive lacks the object.
 ABSENT_CODES = (0x06020000, 0x06090011)
+#: Abort code of a write to a read-only object: an optional one is then read and compared.
+READ_ONLY_CODE = 0x06010002
 
 
 class DriveError(Exception):
@@ -129,11 +131,23 @@ def _decode(w: Write, data: bytes) -> int:
     return int.from_bytes(data[:nbytes].ljust(nbytes, b"\0"), "little", signed=w.datatype in ob.SIGNED_TYPES)
 
 
+def _read(node, node_id: int, w: Write) -> int:
+    import canopen
+
+    try:
+        return _decode(w, node.sdo.upload(w.index, w.subindex))
+    except canopen.SdoAbortedError as exc:
+        raise DriveError(f"node {node_id}: reading back {w.key}: {_abort_text(exc)}") from None
+    except canopen.SdoCommunicationError as exc:
+        raise DriveError(f"node {node_id}: no SDO answer reading back {w.key}: {exc}") from None
+
+
 @dataclass
 class ConfigResult:
     node_id: int
     written: list[Write] = field(default_factory=list)
     skipped: list[Write] = field(default_factory=list)     # optional, the drive has no such object
+    fixed: list[Write] = field(default_factory=list)       # optional, read-only and already right
     readback: list[tuple[Write, int]] = field(default_factory=list)
 
 
@@ -157,6 +171,13 @@ def configure(net, node_id: int, writes: list[Write], nmt_pre_operational: bool 
                 if w.optional and exc.code in ABSENT_CODES:
                     res.skipped.append(w)
                     continue
+                if w.optional and exc.code == READ_ONLY_CODE:
+                    got = _read(node, node_id, w)
+                    if got != w.value:
+                        raise DriveError(f"node {node_id}: {w.key} is read-only and holds {got}; the config "
+                                         f"needs {w.value_text()} ({w.purpose})") from None
+                    res.fixed.append(w)
+                    continue
                 raise DriveError(f"node {node_id}: writing {w.key} = {w.value_text()} ({w.purpose}): "
                                  f"{_abort_text(exc)}") from None
             except canopen.SdoCommunicationError as exc:
@@ -166,12 +187,7 @@ def configure(net, node_id: int, writes: list[Write], nmt_pre_operational: bool 
             if w.final:
                 finals[(w.index, w.subindex)] = w
         for w in finals.values():
-            try:
-                got = _decode(w, node.sdo.upload(w.index, w.subindex))
-            except canopen.SdoAbortedError as exc:
-                raise DriveError(f"node {node_id}: reading back {w.key}: {_abort_text(exc)}") from None
-            except canopen.SdoCommunicationError as exc:
-                raise DriveError(f"node {node_id}: no SDO answer reading back {w.key}: {exc}") from None
+            got = _read(node, node_id, w)
             res.readback.append((w, got))
             if got != w.value:
                 raise DriveError(f"node {node_id}: read back {w.key} = {got}, wrote {w.value_text()} "
