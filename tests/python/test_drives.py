@@ -350,3 +350,14 @@ def test_the_one_list_has_no_duplicates_and_fits_the_pdos():
             for e in p.entries:
                 assert e in prof.entries
                 assert e.use == (ob.RPDO if p.direction == "rx" else ob.TPDO)
+
+
+def test_docs_tables_are_generated_from_the_one_list():
+    from stewart.drives import doc
+
+    page = REPO_ROOT / "docs" / "canopen.md"
+    assert doc.page_is_current(page), "run: .venv/bin/stewart drives doc --write"
+    text = page.read_text()
+    for prof in ob.PROFILES.values():
+        for e in prof.entries:
+            assert f"| {e.key} | {e.name} |" in text
