@@ -361,3 +361,33 @@ def test_docs_tables_are_generated_from_the_one_list():
     for prof in ob.PROFILES.values():
         for e in prof.entries:
             assert f"| {e.key} | {e.name} |" in text
+
+
+def test_check_passes_for_a_cia402_eds(tmp_path, capsys):
+    """Our EDS turned into a CiA 402 drive's: device type 402, the CSP objects,
+    the PDO defaults on controlword/target and statusword/actual position."""
+    cp = configparser.RawConfigParser()
+    cp.optionxform = str
+    cp.read(EDS)
+    cp["1000"]["DefaultValue"] = "0x00020192"
+    added = {"6060": ("Modes of operation", "0x0002", "rw", "0"),
+             "6061": ("Modes of operation display", "0x0002", "ro", "0"),
+             "607A": ("Target position", "0x0004", "rww", "1"),
+             "6064": ("Position actual value", "0x0004", "ro", "1")}
+    opt = cp["OptionalObjects"]
+    n = int(opt["SupportedObjects"])
+    for index, (name, dtype, access, pdo) in added.items():
+        n += 1
+        opt[str(n)] = f"0x{index}"
+        cp[index] = {"ParameterName": name, "ObjectType": "0x7", "DataType": dtype, "AccessType": access,
+                     "DefaultValue": "0", "PDOMapping": pdo}
+    opt["SupportedObjects"] = str(n)
+    cp["1600sub2"]["DefaultValue"] = "0x607A0020"
+    cp["1A00sub2"]["DefaultValue"] = "0x60640020"
+    path = tmp_path / "cia402.eds"
+    with path.open("w") as f:
+        cp.write(f, space_around_delimiters=False)
+    assert cli.main(["drives", "check", "--eds", str(path), "--profile", "cia402"]) == 0
+    out = capsys.readouterr().out
+    assert "ok: every object and PDO mapping" in out
+    assert "absent (optional): 0x60C2.1" in out
