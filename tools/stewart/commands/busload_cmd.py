@@ -18,6 +18,12 @@ Bits of one frame, 11-bit ID, ``n`` data bytes, worst-case bit stuffing:
 
 A frame whose period is ``p`` ms costs ``t / p`` us per ms; the load of a bus
 is the sum over its messages (a message on several buses counts on each).
+
+Drives on CANopen (the platform config's ``drives`` section, ``--config``):
+their buses carry SYNC, PDOs and heartbeats instead of the DBC's axis
+frames, classic CAN at the configured bit rate (stewart/drives/layout.py);
+a CANopen bus above the limit is reported with the ways out (more buses, a
+SYNC divider with the drives' interpolation, no pressure TPDO).
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+
+from .. import REPO_ROOT
 
 #: CAN FD payload lengths (the DLC codes 0..15).
 FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
@@ -174,9 +182,26 @@ def run(args: argparse.Namespace) -> int:
     except Exception as exc:  # noqa: BLE001 - any load failure is a usage error
         print(f"stewart busload: cannot load {path}: {exc}", file=sys.stderr)
         return 2
+    from .. import config
+    from ..drives import layout
+
+    try:
+        platform = config.load(args.config, check_bus_load=False)
+    except config.ConfigError as exc:
+        print(f"stewart busload: {exc}", file=sys.stderr)
+        return 2
+    drives = platform.drives
     table = load_table(db, args.nominal, args.data)
+    for bus in drives.buses():
+        table.pop(bus, None)   # its drives speak CANopen: the DBC's axis frames are not there
     text, ok = format_report(table, args.nominal, args.data, args.limit)
     print(text)
+    if drives.canopen:
+        ctext, cok = layout.format_report(drives, args.limit)
+        print()
+        print(f"Drives on CANopen ({args.config}), limit {args.limit:g} %:")
+        print(ctext)
+        ok = ok and cok
     if not ok:
         print(f"stewart busload: a bus is above {args.limit:g} %", file=sys.stderr)
     return 0 if ok else 1
@@ -189,4 +214,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nominal", type=float, default=1e6, help="arbitration bit rate, bit/s")
     p.add_argument("--data", type=float, default=5e6, help="CAN FD data-phase bit rate, bit/s")
     p.add_argument("--limit", type=float, default=50.0, help="highest acceptable load, %%")
+    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+                   help="platform config: its drives section puts drives on CANopen buses")
     p.set_defaults(func=run)
