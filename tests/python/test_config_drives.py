@@ -9,7 +9,7 @@ import json
 import pytest
 
 from stewart import REPO_ROOT, cli, config
-from stewart.commands.busload_cmd import classic_frame_bits
+from stewart.canframe import classic_frame_bits
 from stewart.drives import layout
 
 DEFAULT = json.loads((REPO_ROOT / "config" / "platform_default.json").read_text())

@@ -3,7 +3,7 @@
 A layout is the platform config's ``drives`` section after validation
 (:class:`Drives`); ``stewart.config`` builds it, ``stewart busload`` and the
 drive tools read it. Frames are classic CAN, 11-bit identifiers, worst-case
-bit stuffing (``classic_frame_bits``, the one formula, in busload_cmd).
+bit stuffing (``classic_frame_bits``, the one formula, in stewart/canframe.py).
 
 Per SYNC period (``sync_divider`` control ticks) each CANopen bus carries one
 SYNC (no data), and per drive its setpoint RPDO and its actual-value TPDO
@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..commands.busload_cmd import classic_frame_bits
+from ..canframe import classic_frame_bits
 from . import objects as ob
 
 LEGS = 6
