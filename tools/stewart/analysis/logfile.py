@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
 
 from .. import protocol as pr
 
@@ -92,3 +95,242 @@ def parse_bus_map(text: str | None) -> dict[str, str]:
         out.setdefault(bus, bus)
     return out
 
+
+
+# -- the whole log at once --------------------------------------------------------
+
+#: Largest payload of a frame (CAN FD).
+MAX_DATA = 64
+#: Lines of one length parsed together (bounds the temporary matrices).
+_CHUNK = 1 << 15
+#: Columns searched for the separators; a line whose ')', spaces and '#' come
+#: later goes to the line-by-line parser.
+_HEAD = 64
+
+
+@dataclass
+class LogFrames:
+    """Every frame of a log, as arrays in log order (F frames)."""
+
+    line_no: np.ndarray      #: (F,) int64, 1-based line number
+    time: np.ndarray         #: (F,) float64, s
+    iface: np.ndarray        #: (F,) int64, index into ``ifaces``
+    ifaces: list[str]        #: interface names as logged
+    frame_id: np.ndarray     #: (F,) int64 (extended IDs with bit 31 set, as parse_line)
+    fd: np.ndarray           #: (F,) bool
+    dlc: np.ndarray          #: (F,) int64, data bytes
+    data: np.ndarray         #: (F, 64) uint8, payload zero-padded to 64 bytes
+    lines: int               #: lines read (blank ones included)
+    malformed: list[tuple[int, str]]  #: (line number, warning) of lines that are not frames
+
+
+_HEX = None
+
+
+def _hex_table() -> np.ndarray:
+    global _HEX
+    if _HEX is None:
+        from .framedecode import hex_nibbles
+
+        _HEX = hex_nibbles()
+    return _HEX
+
+
+def _is_digit(a: np.ndarray) -> np.ndarray:
+    return (a >= 0x30) & (a <= 0x39)
+
+
+def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
+    """Splits the lines of one length into groups with one column layout and
+    checks each group's columns as :data:`_LINE` would. Yields (rows, fields)
+    of the good rows; the indices of rows that need the line-by-line parser
+    are yielded as (rows, None)."""
+    M = np.lib.stride_tricks.sliding_window_view(buf, length)[starts]
+    head = M[:, :min(length, _HEAD)]   # time, interface and ID are in the first columns
+    cols = np.arange(head.shape[1])[None, :]
+    space = head == 0x20
+    p = np.argmax(head == 0x29, axis=1)                       # ')'
+    s1 = np.argmax(space, axis=1)
+    s2 = np.argmax(space & (cols > s1[:, None]), axis=1)
+    h = np.argmax(head == 0x23, axis=1)                       # '#'
+    nxt = np.minimum(h + 1, length - 1)
+    fd = (M[np.arange(len(M)), nxt] == 0x23) & (h + 1 < length)
+    key = p + (s1 << 12) + (s2 << 24) + (h << 36) + (fd.astype(np.int64) << 48)
+    if (key == key[0]).all():  # the usual case: one layout
+        uniq_keys, inv = key[:1], np.zeros(len(key), dtype=np.int64)
+    else:
+        uniq_keys, inv = np.unique(key, return_inverse=True)
+    uniq = [[int(k) >> sh & 0xFFF for sh in (0, 12, 24, 36, 48)] for k in uniq_keys]
+    hexv = _hex_table()
+    for g, (pg, a, b, hg, fg) in enumerate(uniq):
+        if len(uniq) == 1:
+            rows, S = np.arange(len(M)), M
+        else:
+            rows = np.flatnonzero(inv == g)
+            S = M[rows]
+        d0 = hg + (3 if fg else 1)                            # first data digit
+        nd = length - d0
+        shape_ok = (pg >= 2 and a == pg + 1 and b > a + 1 and hg > b + 1 and hg - b - 1 <= 8
+                    and nd >= 0 and nd % 2 == 0 and nd // 2 <= (MAX_DATA if fg else 8))
+        if not shape_ok:
+            yield rows, None
+            continue
+        ts = S[:, 1:pg]
+        dots = (ts == 0x2E).sum(axis=1)
+        ok = (S[:, 0] == 0x28) & _is_digit(S[:, 1]) & (_is_digit(ts) | (ts == 0x2E)).all(axis=1) & (dots <= 1)
+        ifc = S[:, a + 1:b]
+        ok &= ((ifc > 0x20) & (ifc < 0x7F)).all(axis=1)
+        idn = hexv[S[:, b + 1:hg]]
+        ok &= (idn != 255).all(axis=1)
+        if fg:
+            flags = hexv[S[:, hg + 2]]
+            ok &= flags != 255
+        else:
+            flags = np.zeros(len(S), dtype=np.uint8)
+        dn = hexv[S[:, d0:]]
+        ok &= (dn != 255).all(axis=1)
+        bad = rows[~ok]
+        if len(bad):
+            yield bad, None
+        if not ok.any():
+            continue
+        S, ts, ifc, idn, dn, flags = S[ok], ts[ok], ifc[ok], idn[ok], dn[ok], flags[ok]
+        rows = rows[ok]
+        time = _times(ts)
+        if ifc.shape[1] <= 8:  # names as one integer each: cheaper to sort than bytes
+            wide = np.zeros((len(ifc), 8), dtype=np.uint8)
+            wide[:, :ifc.shape[1]] = ifc
+            names = wide.view("<u8").reshape(-1)
+        else:
+            names = np.ascontiguousarray(ifc).view(f"S{ifc.shape[1]}").reshape(-1)
+        fid = np.zeros(len(S), dtype=np.int64)
+        for j in range(idn.shape[1]):
+            fid = (fid << 4) | idn[:, j]
+        if idn.shape[1] > 3:
+            fid |= 0x80000000
+        data = (dn[:, 0::2].astype(np.uint8) << 4) | dn[:, 1::2]
+        yield rows, (time, names, fid, bool(fg), flags, data)
+
+
+def _times(ts: np.ndarray) -> np.ndarray:
+    """Timestamps (rows of digits with at most one '.') to seconds, as
+    ``float(text)`` gives them: digits at fixed places make one exact integer
+    N and a power of ten P, and N / P is the correctly rounded value while N
+    < 2**53; otherwise numpy parses the text."""
+    dot = ts == 0x2E
+    width = ts.shape[1]
+    cols = np.flatnonzero(dot.any(axis=0))
+    if len(cols) <= 1 and (len(cols) == 0 or dot[:, cols[0]].all()) and width - len(cols) <= 17:
+        digits = ts[:, ~dot.any(axis=0)].astype(np.int64) - 0x30
+        num = np.zeros(len(ts), dtype=np.int64)
+        for j in range(digits.shape[1]):
+            num = num * 10 + digits[:, j]
+        frac = width - 1 - int(cols[0]) if len(cols) else 0
+        if (num < (1 << 53)).all():
+            return num.astype(np.float64) / float(10 ** frac)
+    return np.ascontiguousarray(ts).view(f"S{width}").reshape(-1).astype(np.float64)
+
+
+def read_frames(source) -> LogFrames:
+    """Every frame of a candump -L log (a path, bytes, or an iterable of
+    lines) at once. Lines in the usual layout are parsed column-wise with
+    numpy, grouped by length and column layout; any other line goes through
+    :func:`parse_line` (which gives the reason a line is not a frame). Same
+    frames, times, IDs and payloads as :func:`parse_line` line by line
+    (tests/python/test_framedecode.py)."""
+    if isinstance(source, (bytes, bytearray)):
+        raw = bytes(source)
+    elif isinstance(source, (str, Path)):
+        raw = Path(source).read_bytes()
+    else:
+        raw = "\n".join(str(s).rstrip("\r\n") for s in source).encode("utf-8", "replace")
+        if raw:
+            raw += b"\n"
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    nl = np.flatnonzero(buf == 0x0A)
+    starts = np.concatenate(([0], nl + 1)).astype(np.int64)
+    ends = np.concatenate((nl, [len(buf)])).astype(np.int64)
+    if len(buf) == 0 or buf[-1] == 0x0A:
+        starts, ends = starts[:-1], ends[:-1]
+    cr = (ends > starts) & (buf[np.maximum(ends - 1, 0)] == 0x0D) if len(buf) else np.zeros(0, bool)
+    ends = ends - cr
+    n_lines = len(starts)
+    lengths = ends - starts
+
+    parts = []          # (line indices, fields)
+    slow: list[np.ndarray] = []
+    order = np.argsort(lengths, kind="stable")
+    sl = lengths[order]
+    cut = np.flatnonzero(np.diff(sl)) + 1
+    for grp in np.split(order, cut):
+        if len(grp) == 0:
+            continue
+        L = int(lengths[grp[0]])
+        if L < 8 or L >= 4096:
+            slow.append(grp)
+            continue
+        for c0 in range(0, len(grp), _CHUNK):
+            sub = grp[c0:c0 + _CHUNK]
+            for rows, fields in _template_rows(buf, starts[sub], L):
+                if fields is None:
+                    slow.append(sub[rows])
+                else:
+                    parts.append((sub[rows], fields))
+
+    iface_names: list[str] = []
+    iface_index: dict[str, int] = {}
+
+    def iface_id(name: str) -> int:
+        k = iface_index.get(name)
+        if k is None:
+            k = iface_index[name] = len(iface_names)
+            iface_names.append(name)
+        return k
+
+    cols = {k: [] for k in ("idx", "time", "iface", "fid", "fd", "dlc", "data")}
+    for rows, (time, names, fid, fd, flags, data) in parts:
+        u, inv = np.unique(names, return_inverse=True)
+        if names.dtype.kind == "u":
+            u = [int(x).to_bytes(8, "little").rstrip(b"\0") for x in u]
+        codes = np.array([iface_id(x.decode("ascii")) for x in u], dtype=np.int64)
+        padded = np.zeros((len(rows), MAX_DATA), dtype=np.uint8)
+        padded[:, :data.shape[1]] = data
+        cols["idx"].append(rows)
+        cols["time"].append(time)
+        cols["iface"].append(codes[inv.reshape(-1)])
+        cols["fid"].append(fid)
+        cols["fd"].append(np.full(len(rows), fd))
+        cols["dlc"].append(np.full(len(rows), data.shape[1], dtype=np.int64))
+        cols["data"].append(padded)
+    malformed: list[tuple[int, str]] = []
+    if slow:
+        for i in np.sort(np.concatenate(slow)).tolist():
+            line = raw[starts[i]:ends[i]].decode("utf-8", "replace")
+            if not line.strip():
+                continue
+            try:
+                f = parse_line(line, i + 1)
+            except ValueError as exc:
+                malformed.append((i + 1, f"line {i + 1}: malformed ({exc}): {line.strip()[:80]}"))
+                continue
+            padded = np.zeros((1, MAX_DATA), dtype=np.uint8)
+            padded[0, :len(f.data)] = np.frombuffer(f.data, dtype=np.uint8)
+            cols["idx"].append(np.array([i]))
+            cols["time"].append(np.array([f.time]))
+            cols["iface"].append(np.array([iface_id(f.iface)]))
+            cols["fid"].append(np.array([f.frame_id]))
+            cols["fd"].append(np.array([f.fd]))
+            cols["dlc"].append(np.array([len(f.data)]))
+            cols["data"].append(padded)
+    if cols["idx"]:
+        cat = {k: np.concatenate(v) for k, v in cols.items()}
+    else:
+        cat = {"idx": np.zeros(0, np.int64), "time": np.zeros(0), "iface": np.zeros(0, np.int64),
+               "fid": np.zeros(0, np.int64), "fd": np.zeros(0, bool), "dlc": np.zeros(0, np.int64),
+               "data": np.zeros((0, MAX_DATA), np.uint8)}
+    o = np.argsort(cat["idx"], kind="stable")
+    return LogFrames(line_no=cat["idx"][o].astype(np.int64) + 1, time=cat["time"][o],
+                     iface=cat["iface"][o].astype(np.int64), ifaces=iface_names,
+                     frame_id=cat["fid"][o].astype(np.int64), fd=cat["fd"][o].astype(bool),
+                     dlc=cat["dlc"][o].astype(np.int64), data=cat["data"][o], lines=n_lines,
+                     malformed=malformed)
