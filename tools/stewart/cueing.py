@@ -230,10 +230,12 @@ class Washout:
         return np.concatenate([acc, tilt, rate], axis=-1)
 
     def _tilt_target(self, flp: np.ndarray) -> np.ndarray:
-        """Low-passed (f_x, f_y) -> (roll, pitch) that let gravity supply them."""
+        """Low-passed (f_x, f_y) -> (roll, pitch) that let gravity supply
+        them: with Z-Y-X angles gravity gives the platform f_x = -g sin(pitch)
+        and f_y = g cos(pitch) sin(roll)."""
         s = np.sin(self.params.tilt_max)
-        roll = np.arcsin(np.clip(flp[..., 1] / self.gravity, -s, s))
         pitch = -np.arcsin(np.clip(flp[..., 0] / self.gravity, -s, s))
+        roll = np.arcsin(np.clip(flp[..., 1] / (self.gravity * np.cos(pitch)), -s, s))
         return np.stack([roll, pitch], axis=-1)
 
     def _pose(self, y: np.ndarray, tilt: np.ndarray) -> np.ndarray:
