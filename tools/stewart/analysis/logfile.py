@@ -238,10 +238,10 @@ def read_frames(source) -> LogFrames:
     :func:`parse_line` (which gives the reason a line is not a frame). Same
     frames, times, IDs and payloads as :func:`parse_line` line by line
     (tests/python/test_framedecode.py)."""
-    if isinstance(source, (bytes, bytearray)):
-        raw = bytes(source)
-    elif isinstance(source, (str, Path)):
-        raw = Path(source).read_bytes()
+    if isinstance(source, (bytes, bytearray, str, Path)):
+        raw = bytes(source) if isinstance(source, (bytes, bytearray)) else Path(source).read_bytes()
+        if b"\r" in raw:  # line ends as Python's text files see them: \n, \r\n or \r
+            raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     else:
         raw = "\n".join(str(s).rstrip("\r\n") for s in source).encode("utf-8", "replace")
         if raw:
