@@ -195,26 +195,33 @@ def crc_ok_many(frame_id: int, data) -> "np.ndarray":
     return stored == c16
 
 
-def check_counters(counters) -> tuple[list[str], list[int]]:
+#: Status codes of :func:`check_counters`: index into this tuple.
+STATUS_CODES = (INIT, OK, LOST, REPEATED, WRONG_SEQUENCE)
+
+
+def check_counters(counters) -> tuple["np.ndarray", "np.ndarray"]:
     """:class:`E2EReceiver` over a sequence of counters of one message and
-    sender, in order: (status per frame, frames lost before each). A clean
-    sequence (every step 1, 2 or 3) is checked at once; otherwise the
-    receiver runs frame by frame."""
+    sender, in order: (status code per frame, an index into
+    :data:`STATUS_CODES`; frames lost before each). A clean sequence (every
+    step 1, 2 or 3) is checked at once; otherwise the receiver runs frame by
+    frame."""
     import numpy as np
 
     c = np.asarray(counters, dtype=np.int64)
     if c.size == 0:
-        return [], []
+        return np.zeros(0, dtype=np.int8), np.zeros(0, dtype=np.int64)
     if ((c < 0) | (c >= COUNTER_MODULO)).any():
         raise ValueError("a counter is not a 4-bit value")
     delta = np.diff(c) % COUNTER_MODULO
     if ((delta >= 1) & (delta <= MAX_DELTA)).all():
-        status = np.where(delta == 1, OK, LOST).tolist()
-        return [INIT] + status, [0] + (delta - 1).tolist()
+        codes = np.concatenate([[0], np.where(delta == 1, 1, 2)]).astype(np.int8)
+        return codes, np.concatenate([[0], delta - 1]).astype(np.int64)
     rx = E2EReceiver()
-    statuses, lost = [], []
-    for v in c.tolist():
+    index = {s: k for k, s in enumerate(STATUS_CODES)}
+    codes = np.empty(len(c), dtype=np.int8)
+    lost = np.empty(len(c), dtype=np.int64)
+    for k, v in enumerate(c.tolist()):
         r = rx.check(v)
-        statuses.append(r.status)
-        lost.append(r.lost)
-    return statuses, lost
+        codes[k] = index[r.status]
+        lost[k] = r.lost
+    return codes, lost

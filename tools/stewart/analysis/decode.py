@@ -278,11 +278,10 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
             on = np.flatnonzero(bus[sel] == b)
             if len(on) == 0:
                 continue
-            statuses, lost_b = e2e.check_counters(raw["Counter"][on])
-            statuses = np.array(statuses)
+            codes, lost_b = e2e.check_counters(raw["Counter"][on])
             lost[on] = lost_b
             for kind in (pr.REPEATED, pr.WRONG_SEQUENCE):
-                hit = on[statuses == kind]
+                hit = on[codes == e2e.STATUS_CODES.index(kind)]
                 keep[hit] = False
                 reject(kind, sel[hit], lambda k, kind=kind: str(pr.ProtocolError(
                     kind, f"{m.name} on {_BUS_ORDER[bus[k]]}: counter "

@@ -259,13 +259,8 @@ def read_frames(source) -> LogFrames:
 
     parts = []          # (line indices, fields)
     slow: list[np.ndarray] = []
-    order = np.argsort(lengths, kind="stable")
-    sl = lengths[order]
-    cut = np.flatnonzero(np.diff(sl)) + 1
-    for grp in np.split(order, cut):
-        if len(grp) == 0:
-            continue
-        L = int(lengths[grp[0]])
+    for L in np.unique(lengths).tolist():
+        grp = np.flatnonzero(lengths == L)
         if L < 8 or L >= 4096:
             slow.append(grp)
             continue
@@ -287,50 +282,50 @@ def read_frames(source) -> LogFrames:
             iface_names.append(name)
         return k
 
-    cols = {k: [] for k in ("idx", "time", "iface", "fid", "fd", "dlc", "data")}
-    for rows, (time, names, fid, fd, flags, data) in parts:
-        u, inv = np.unique(names, return_inverse=True)
-        if names.dtype.kind == "u":
-            u = [int(x).to_bytes(8, "little").rstrip(b"\0") for x in u]
-        codes = np.array([iface_id(x.decode("ascii")) for x in u], dtype=np.int64)
-        padded = np.zeros((len(rows), MAX_DATA), dtype=np.uint8)
-        padded[:, :data.shape[1]] = data
-        cols["idx"].append(rows)
-        cols["time"].append(time)
-        cols["iface"].append(codes[inv.reshape(-1)])
-        cols["fid"].append(fid)
-        cols["fd"].append(np.full(len(rows), fd))
-        cols["dlc"].append(np.full(len(rows), data.shape[1], dtype=np.int64))
-        cols["data"].append(padded)
+    # Slow lines first (they may add frames), then every frame goes to its
+    # place in log order: position = rank of its line among the frame lines.
     malformed: list[tuple[int, str]] = []
+    slow_frames: list[tuple[int, LogFrame]] = []
     if slow:
         for i in np.sort(np.concatenate(slow)).tolist():
             line = raw[starts[i]:ends[i]].decode("utf-8", "replace")
             if not line.strip():
                 continue
             try:
-                f = parse_line(line, i + 1)
+                slow_frames.append((i, parse_line(line, i + 1)))
             except ValueError as exc:
                 malformed.append((i + 1, f"line {i + 1}: malformed ({exc}): {line.strip()[:80]}"))
-                continue
-            padded = np.zeros((1, MAX_DATA), dtype=np.uint8)
-            padded[0, :len(f.data)] = np.frombuffer(f.data, dtype=np.uint8)
-            cols["idx"].append(np.array([i]))
-            cols["time"].append(np.array([f.time]))
-            cols["iface"].append(np.array([iface_id(f.iface)]))
-            cols["fid"].append(np.array([f.frame_id]))
-            cols["fd"].append(np.array([f.fd]))
-            cols["dlc"].append(np.array([len(f.data)]))
-            cols["data"].append(padded)
-    if cols["idx"]:
-        cat = {k: np.concatenate(v) for k, v in cols.items()}
-    else:
-        cat = {"idx": np.zeros(0, np.int64), "time": np.zeros(0), "iface": np.zeros(0, np.int64),
-               "fid": np.zeros(0, np.int64), "fd": np.zeros(0, bool), "dlc": np.zeros(0, np.int64),
-               "data": np.zeros((0, MAX_DATA), np.uint8)}
-    o = np.argsort(cat["idx"], kind="stable")
-    return LogFrames(line_no=cat["idx"][o].astype(np.int64) + 1, time=cat["time"][o],
-                     iface=cat["iface"][o].astype(np.int64), ifaces=iface_names,
-                     frame_id=cat["fid"][o].astype(np.int64), fd=cat["fd"][o].astype(bool),
-                     dlc=cat["dlc"][o].astype(np.int64), data=cat["data"][o], lines=n_lines,
+    is_frame = np.zeros(n_lines + 1, dtype=bool)
+    for rows, _ in parts:
+        is_frame[rows] = True
+    for i, _ in slow_frames:
+        is_frame[i] = True
+    rank = np.cumsum(is_frame) - 1          # position of each frame line
+    F = int(is_frame.sum())
+    line_no = np.flatnonzero(is_frame).astype(np.int64) + 1
+    time_a = np.zeros(F)
+    iface_a = np.zeros(F, dtype=np.int64)
+    fid_a = np.zeros(F, dtype=np.int64)
+    fd_a = np.zeros(F, dtype=bool)
+    dlc_a = np.zeros(F, dtype=np.int64)
+    data_a = np.zeros((F, MAX_DATA), dtype=np.uint8)
+    for rows, (time, names, fid, fd, flags, data) in parts:
+        u, inv = np.unique(names, return_inverse=True)
+        if names.dtype.kind == "u":
+            u = [int(x).to_bytes(8, "little").rstrip(b"\0") for x in u]
+        codes = np.array([iface_id(x.decode("ascii")) for x in u], dtype=np.int64)
+        dest = rank[rows]
+        time_a[dest] = time
+        iface_a[dest] = codes[inv.reshape(-1)]
+        fid_a[dest] = fid
+        fd_a[dest] = fd
+        dlc_a[dest] = data.shape[1]
+        data_a[dest, :data.shape[1]] = data
+    for i, f in slow_frames:
+        k = rank[i]
+        time_a[k], iface_a[k], fid_a[k], fd_a[k] = f.time, iface_id(f.iface), f.frame_id, f.fd
+        dlc_a[k] = len(f.data)
+        data_a[k, :len(f.data)] = np.frombuffer(f.data, dtype=np.uint8)
+    return LogFrames(line_no=line_no, time=time_a, iface=iface_a, ifaces=iface_names,
+                     frame_id=fid_a, fd=fd_a, dlc=dlc_a, data=data_a, lines=n_lines,
                      malformed=malformed)
