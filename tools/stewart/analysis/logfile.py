@@ -136,6 +136,21 @@ def _hex_table() -> np.ndarray:
     return _HEX
 
 
+_PAIRS = None
+
+
+def _pair_table() -> np.ndarray:
+    """65536-entry table: two ASCII characters read as a little-endian
+    uint16 -> the byte they spell in hex, 0xFFFF unless both are hex digits."""
+    global _PAIRS
+    if _PAIRS is None:
+        h = _hex_table().astype(np.uint16)
+        hi, lo = np.meshgrid(h, h, indexing="ij")      # [first char, second char]
+        t = np.where((hi != 255) & (lo != 255), hi * 16 + lo, 0xFFFF).astype(np.uint16)
+        _PAIRS = np.ascontiguousarray(t.T).reshape(-1)   # index = first | second << 8
+    return _PAIRS
+
+
 def _is_digit(a: np.ndarray) -> np.ndarray:
     return (a >= 0x30) & (a <= 0x39)
 
@@ -187,8 +202,8 @@ def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
             ok &= flags != 255
         else:
             flags = np.zeros(len(S), dtype=np.uint8)
-        dn = hexv[S[:, d0:]]
-        ok &= (dn != 255).all(axis=1)
+        dn = _pair_table()[np.ascontiguousarray(S[:, d0:]).view("<u2")]  # two digits -> a byte
+        ok &= (dn != 0xFFFF).all(axis=1)
         bad = rows[~ok]
         if len(bad):
             yield bad, None
@@ -208,7 +223,7 @@ def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
             fid = (fid << 4) | idn[:, j]
         if idn.shape[1] > 3:
             fid |= 0x80000000
-        data = (dn[:, 0::2].astype(np.uint8) << 4) | dn[:, 1::2]
+        data = dn.astype(np.uint8)
         yield rows, (time, names, fid, bool(fg), flags, data)
 
 
