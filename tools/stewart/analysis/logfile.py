@@ -161,17 +161,32 @@ def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
     of the good rows; the indices of rows that need the line-by-line parser
     are yielded as (rows, None)."""
     M = np.lib.stride_tricks.sliding_window_view(buf, length)[starts]
-    head = M[:, :min(length, _HEAD)]   # time, interface and ID are in the first columns
-    cols = np.arange(head.shape[1])[None, :]
-    space = head == 0x20
-    p = np.argmax(head == 0x29, axis=1)                       # ')'
-    s1 = np.argmax(space, axis=1)
-    s2 = np.argmax(space & (cols > s1[:, None]), axis=1)
-    h = np.argmax(head == 0x23, axis=1)                       # '#'
-    nxt = np.minimum(h + 1, length - 1)
-    fd = (M[np.arange(len(M)), nxt] == 0x23) & (h + 1 < length)
-    key = p + (s1 << 12) + (s2 << 24) + (h << 36) + (fd.astype(np.int64) << 48)
-    if (key == key[0]).all():  # the usual case: one layout
+
+    def layout_keys(rows: np.ndarray) -> np.ndarray:
+        """Per row: the columns of ')', the two spaces and '#', and CAN FD."""
+        head = M[rows, :min(length, _HEAD)]   # time, interface and ID come first
+        cols = np.arange(head.shape[1])[None, :]
+        space = head == 0x20
+        p = np.argmax(head == 0x29, axis=1)                       # ')'
+        s1 = np.argmax(space, axis=1)
+        s2 = np.argmax(space & (cols > s1[:, None]), axis=1)
+        h = np.argmax(head == 0x23, axis=1)                       # '#'
+        nxt = np.minimum(h + 1, length - 1)
+        fd = (M[rows, nxt] == 0x23) & (h + 1 < length)
+        return p + (s1 << 12) + (s2 << 24) + (h << 36) + (fd.astype(np.int64) << 48)
+
+    # The usual case: every line has the first line's layout. Checking its
+    # separator columns in all rows is cheaper than finding each row's.
+    k0 = int(layout_keys(np.arange(1))[0])
+    p0, a0, b0, h0, f0 = (k0 >> sh & 0xFFF for sh in (0, 12, 24, 36, 48))
+    same = (M[:, p0] == 0x29) & (M[:, a0] == 0x20) & (M[:, b0] == 0x20) & (M[:, h0] == 0x23)
+    if h0 + 1 < length:
+        same &= (M[:, h0 + 1] == 0x23) if f0 else (M[:, h0 + 1] != 0x23)
+    key = np.full(len(M), k0, dtype=np.int64)
+    if not same.all():
+        others = np.flatnonzero(~same)
+        key[others] = layout_keys(others)
+    if (key == k0).all():
         uniq_keys, inv = key[:1], np.zeros(len(key), dtype=np.int64)
     else:
         uniq_keys, inv = np.unique(key, return_inverse=True)
