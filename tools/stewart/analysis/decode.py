@@ -423,10 +423,9 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
                     axis=int(g.values["Axis"][r]), amplitude=float(g.values["Amplitude"][r]),
                     frequency=float(g.values["Frequency"][r]), fade_time=float(g.values["FadeTime"][r]),
                     option=int(g.values["Option"][r])))
-    commands_lines = [int(groups[k].line_no[0]) for k in range(len(groups)) if groups[k].name == "OP_COMMAND"]
-    if len(commands_lines) > 1:  # OP_COMMAND on several buses: back to log order
-        cl = np.concatenate([groups[k].line_no for k in range(len(groups)) if groups[k].name == "OP_COMMAND"])
-        commands = [commands[i] for i in np.argsort(cl, kind="stable")]
+    cmd_lines = [g.line_no for g in groups if g.name == "OP_COMMAND"]
+    if len(cmd_lines) > 1:  # accepted on more than one bus: back to log order
+        commands = [commands[i] for i in np.argsort(np.concatenate(cmd_lines), kind="stable")]
     stale_warn.sort(key=lambda w: w[0])
     for _, text in stale_warn:
         stats.warn(text)
