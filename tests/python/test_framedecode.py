@@ -315,3 +315,13 @@ def test_signals_csv_and_truth_match_their_references(real_lines, tmp_path):
     write_signals_csv_reference(data, b)
     assert a.read_bytes() == b.read_bytes()
     assert b.read_bytes().count(b"\r\n") == len(data) + 1
+
+
+def test_read_frames_with_many_interfaces(real_lines):
+    """More interface names in one line layout than the name look-up
+    compares one by one (it sorts the rest)."""
+    lines = [ln.replace(" vcan0 ", f" can{10 + k % 12} ").replace(" vcan1 ", f" can{10 + k % 12} ")
+             .replace(" vcan2 ", f" can{10 + k % 12} ") for k, ln in enumerate(real_lines[:600])]
+    fr = read_frames(lines)
+    got = [fr.ifaces[i] for i in fr.iface]
+    assert got == [parse_line(ln).iface for ln in lines] and len(set(got)) == 12

@@ -319,11 +319,16 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
         stats.accepted += int(keep.sum())
         stats.lost += int(lost[keep].sum())
         stats.per_message[m.name] = stats.per_message.get(m.name, 0) + int(keep.sum())
-        scaled = layout.scaled({k: v[keep] for k, v in raw.items()})
-        kept = sel[keep]
+        every = bool(keep.all())
+        scaled = layout.scaled(raw if every else {k: v[keep] for k, v in raw.items()})
+        kept = sel if every else sel[keep]
+        buses_here = bus[kept]
         for b in range(len(_BUS_ORDER)):
-            on = bus[kept] == b
-            if on.any():
+            on = buses_here == b
+            n_on = int(on.sum())
+            if n_on == len(kept):   # all on one bus: no copies
+                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept], frames.time[kept], scaled))
+            elif n_on:
                 out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept[on]],
                                      frames.time[kept[on]], {k: v[on] for k, v in scaled.items()}))
     return out

@@ -261,6 +261,28 @@ def _times(ts: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(ts).view(f"S{width}").reshape(-1).astype(np.float64)
 
 
+def _name_codes(names: np.ndarray, code_of) -> np.ndarray:
+    """Interface names (uint64 of up to 8 bytes, or bytes) -> codes through
+    ``code_of(str)``. A log has a few interfaces: one comparison per name
+    found, instead of sorting."""
+    def text(x) -> str:
+        b = int(x).to_bytes(8, "little").rstrip(b"\0") if names.dtype.kind == "u" else bytes(x)
+        return b.decode("ascii")
+
+    out = np.empty(len(names), dtype=np.int64)
+    left = np.ones(len(names), dtype=bool)
+    for _ in range(8):
+        if not left.any():
+            return out
+        v = names[int(np.argmax(left))]
+        hit = names == v
+        out[hit] = code_of(text(v))
+        left &= ~hit
+    u, inv = np.unique(names[left], return_inverse=True)   # many names: sort the rest
+    out[left] = np.array([code_of(text(x)) for x in u], dtype=np.int64)[inv.reshape(-1)]
+    return out
+
+
 def read_frames(source) -> LogFrames:
     """Every frame of a candump -L log (a path, bytes, or an iterable of
     lines) at once. Lines in the usual layout are parsed column-wise with
@@ -340,13 +362,9 @@ def read_frames(source) -> LogFrames:
     dlc_a = np.zeros(F, dtype=np.int64)
     data_a = np.zeros((F, MAX_DATA), dtype=np.uint8)
     for rows, (time, names, fid, fd, flags, data) in parts:
-        u, inv = np.unique(names, return_inverse=True)
-        if names.dtype.kind == "u":
-            u = [int(x).to_bytes(8, "little").rstrip(b"\0") for x in u]
-        codes = np.array([iface_id(x.decode("ascii")) for x in u], dtype=np.int64)
         dest = rank[rows]
         time_a[dest] = time
-        iface_a[dest] = codes[inv.reshape(-1)]
+        iface_a[dest] = _name_codes(names, iface_id)
         fid_a[dest] = fid
         fd_a[dest] = fd
         dlc_a[dest] = data.shape[1]
