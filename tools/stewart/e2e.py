@@ -34,6 +34,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 #: Frames up to this many bytes carry a CRC-8; longer frames a CRC-16.
 CRC8_MAX_LEN = 12
 COUNTER_MODULO = 16
@@ -167,13 +169,11 @@ def next_counter(counter: int) -> int:
     return (counter + 1) % COUNTER_MODULO
 
 
-def crc_ok_many(frame_id: int, data) -> "np.ndarray":
+def crc_ok_many(frame_id: int, data) -> np.ndarray:
     """:func:`crc_ok` for N frames of one ID and one length at once: ``data``
     is an (N, length) uint8 matrix; returns N booleans. The same tables as
     :func:`crc8_j1850` / :func:`crc16_ccitt_false`, one payload column per
     step (tests/python/test_framedecode.py holds it to :func:`crc_ok`)."""
-    import numpy as np
-
     data = np.asarray(data, dtype=np.uint8)
     n_rows, length = data.shape
     if length < 2:
@@ -199,14 +199,12 @@ def crc_ok_many(frame_id: int, data) -> "np.ndarray":
 STATUS_CODES = (INIT, OK, LOST, REPEATED, WRONG_SEQUENCE)
 
 
-def check_counters(counters) -> tuple["np.ndarray", "np.ndarray"]:
+def check_counters(counters) -> tuple[np.ndarray, np.ndarray]:
     """:class:`E2EReceiver` over a sequence of counters of one message and
     sender, in order: (status code per frame, an index into
     :data:`STATUS_CODES`; frames lost before each). A clean sequence (every
     step 1, 2 or 3) is checked at once; otherwise the receiver runs frame by
     frame."""
-    import numpy as np
-
     c = np.asarray(counters, dtype=np.int64)
     if c.size == 0:
         return np.zeros(0, dtype=np.int8), np.zeros(0, dtype=np.int64)

@@ -28,7 +28,7 @@ import numpy as np
 from .. import model
 from .. import e2e
 from .. import protocol as pr
-from .logfile import parse_bus_map, parse_line
+from .logfile import parse_bus_map
 from .names import AXES, COMMANDS, STATES, TICK_S
 
 #: Kinds of bad frames besides the protocol's rejections (pr.KINDS).
