@@ -102,7 +102,7 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
  * I = platform->inertia (about o', motion frame), m = platform->mass. This
  * is J^T dF for dF the difference of the inverse dynamics (massless legs)
  * of the motion with acceleration a + da and with a. Leg masses are not
- * included (see the file comment).
+ * included here (see the file comment and sp_motion_error_body).
  * Error: within 0.01 N, N m plus 1e-7 relative of the exact value of
  * the Q24 / Q30 inputs (the default platform with its centre of mass
  * moved off o', |da| < 64, 20,000 random cases against a double
