@@ -24,6 +24,7 @@
 #include "assert_near.h"
 #include "hs/ftsensor.h"
 #include "hs/kin.h"
+#include "sp/ftsensor.h"
 
 static hs_ft_params_t ideal(void)
 {
@@ -222,12 +223,84 @@ static void test_saturation(void **state)
     assert_int_equal(ft.saturated, 0);
 }
 
+/* The firmware's sp_ft_to_base undoes the plant's hs_ft_truth: two
+ * implementations, one each way, on random poses, mounts and wrenches
+ * (within 0.01 N, N m + 1e-8 relative: the Q8 rounding of the reading). */
+static void test_firmware_round_trip(void **state)
+{
+    (void)state;
+    uint64_t rng = 0xf7f7u;
+    hs_rng_t r;
+    hs_rng_seed(&r, rng);
+    for (int c = 0; c < 5000; c++) {
+        hs_ft_params_t p = ideal();
+        double u[12];
+        for (int k = 0; k < 12; k++) {
+            u[k] = 2.0 * ((double)(hs_rng_next(&r) >> 11) * (1.0 / 9007199254740992.0)) - 1.0;
+        }
+        for (int k = 0; k < 3; k++) {
+            p.mount_pos[k] = 0.3 * u[k];
+            p.mount_rpy[k] = 3.0 * u[3 + k];
+        }
+        hs_ft_t ft;
+        assert_int_equal(hs_ft_init(&ft, &p, 1u), HS_OK);
+        double rpy[3] = {0.3 * u[6], 0.3 * u[7], 3.0 * u[8]};
+        double rot[3][3];
+        hs_rot_from_rpy(rpy, rot);
+        double w[6] = {5000.0 * u[9], -3000.0 * u[10], 20000.0 * u[11], 800.0 * u[0], -600.0 * u[4], 300.0 * u[8]};
+        double s[6];
+        hs_ft_truth(&ft, rot, w, s);
+        sp_ft_mount_t mount;
+        sp_rot_t T;
+        for (int i = 0; i < 3; i++) {
+            mount.pos[i] = (sp_q24_t)lround(p.mount_pos[i] * 16777216.0);
+            for (int j = 0; j < 3; j++) {
+                mount.axes.t[i][j] = (sp_q30_t)lround(ft.mount[i][j] * 1073741824.0);
+                T.t[i][j] = (sp_q30_t)lround(rot[j][i] * 1073741824.0); /* rows of T: the platform's axes */
+            }
+        }
+        sp_q8_t reading[6], out[6];
+        for (int k = 0; k < 6; k++) {
+            reading[k] = (sp_q8_t)lround(s[k] * 256.0);
+        }
+        assert_int_equal(sp_ft_to_base(&mount, &T, reading, out), SP_OK);
+        for (int k = 0; k < 6; k++) {
+            assert_near(out[k] / 256.0, w[k], 0.01 + 1e-8 * fabs(w[k]), "component %d, case %d", k, c);
+        }
+    }
+}
+
+static void test_firmware_tare(void **state)
+{
+    (void)state;
+    sp_ft_tare_t t;
+    sp_ft_tare_reset(&t);
+    sp_q8_t in[6] = {100 * 256, -50 * 256, 7, -7, 0, 3}, out[6];
+    assert_int_equal(sp_ft_tare_step(&t, in, out), SP_OK);
+    assert_memory_equal(in, out, sizeof in); /* no bias yet */
+    assert_int_equal(sp_ft_tare_start(&t, 0u), SP_E_ARG);
+    assert_int_equal(sp_ft_tare_start(&t, 4u), SP_OK);
+    for (int n = 0; n < 3; n++) {
+        assert_int_equal(sp_ft_tare_step(&t, in, out), SP_E_BUSY);
+    }
+    in[0] += 4; /* the mean of 100 x3 and 100 + 4/256: rounds to +1 LSB */
+    assert_int_equal(sp_ft_tare_step(&t, in, out), SP_OK);
+    assert_int_equal(t.tared, 1u);
+    assert_int_equal(t.bias[0], 100 * 256 + 1);
+    assert_int_equal(t.bias[1], -50 * 256);
+    in[0] = INT32_MIN;
+    assert_int_equal(sp_ft_tare_step(&t, in, out), SP_E_OVERFLOW);
+    assert_int_equal(out[0], INT32_MIN);
+    assert_int_equal(sp_ft_tare_step(NULL, in, out), SP_E_ARG);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_init_rejects),      cmocka_unit_test(test_truth_frames),
         cmocka_unit_test(test_reading_and_clock), cmocka_unit_test(test_noise_bias_drift),
-        cmocka_unit_test(test_saturation),
+        cmocka_unit_test(test_saturation),        cmocka_unit_test(test_firmware_round_trip),
+        cmocka_unit_test(test_firmware_tare),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
