@@ -18,6 +18,9 @@
  *                  machine below, the motion generators (sp/trajectory.h,
  *                  sp/stream.h);
  *   4. reference   this tick's reference motion, by state;
+ *      force       in READY and RUNNING with force control on, the offset of
+ *                  sp/force.h added to the position reference (the wrench
+ *                  from the cylinders' estimate or a force/torque sensor);
  *   5. setpoints   the drives' setpoints of the reference with every limit
  *                  checked (sp/setpoint.h, sp/limits.h); a reference
  *                  outside the limits is never passed on;
