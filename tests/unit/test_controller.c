@@ -635,6 +635,147 @@ static void test_move_respects_limits(void **state)
     print_message("engage move: %d ticks, peak %.3f m/s %.3f m/s^2 %.3f m/s^3\n", n, vmax, amax, jmax);
 }
 
+/* ---- force control on a force/torque sensor ---------------------------- */
+
+/* A surface under the tool (the sensor at o', its axes the platform's) at
+ * height z_s with stiffness k: the sensor reads the world pushing up on
+ * the tool, plus a bias, from the plant's pose one tick late (the ideal
+ * plant: the lengths of the last setpoints, i.e. the last reference). */
+typedef struct {
+    double z_s, k, bias;
+    int on;
+} surface_t;
+
+static double surface_force(const surface_t *s, double z)
+{
+    return (s->on && z < s->z_s) ? s->k * (s->z_s - z) : 0.0;
+}
+
+static void force_tick(rig_t *r, const surface_t *s, sp_cmd_type_t cmd)
+{
+    double z = f24(r->out.reference.pose.pos[2]);
+    memset(r->in.ft_reading, 0, sizeof r->in.ft_reading);
+    r->in.ft_fresh = 1u;
+    r->in.ft_reading[2] = (sp_q8_t)lround((surface_force(s, z) + s->bias) * 256.0);
+    rig_tick(r, cmd);
+}
+
+static void force_rig(rig_t *r, surface_t *s)
+{
+    rig_init(r);
+    r->cfg.wrench_source = SP_WRENCH_SENSOR;
+    assert_int_equal(sp_ctrl_init(&r->ctrl, &r->cfg), SP_OK);
+    s->bias = 15.0;
+    s->k = 1e6;
+    s->on = 0;
+    for (int n = 0; n < 3; ++n) {
+        force_tick(r, s, SP_CMD_NONE);
+    }
+    force_tick(r, s, SP_CMD_ENGAGE);
+    for (int n = 0; n < 20000 && r->out.state != SP_STATE_READY; ++n) {
+        force_tick(r, s, SP_CMD_NONE);
+    }
+    assert_int_equal(r->out.state, SP_STATE_READY);
+    s->z_s = f24(r->out.reference.pose.pos[2]) - 0.002; /* 2 mm below the tool */
+}
+
+static void test_force_hold_and_contact_lost(void **state)
+{
+    static rig_t r;
+    surface_t s;
+    (void)state;
+    force_rig(&r, &s);
+    r.in.cmd.force_mask = 0x04u; /* z */
+    r.in.cmd.force_target[2] = -2000 * 256;
+    force_tick(&r, &s, SP_CMD_FORCE);
+    assert_int_equal(r.out.cmd_rejected, 1); /* not tared yet */
+    force_tick(&r, &s, SP_CMD_TARE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (int n = 0; n < 600; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    r.in.cmd.force_target[2] = -9000 * 256; /* beyond the 8 kN the config allows */
+    force_tick(&r, &s, SP_CMD_FORCE);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    r.in.cmd.force_target[2] = -2000 * 256;
+    s.on = 1;
+    force_tick(&r, &s, SP_CMD_FORCE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.force_mode, SP_FORCE_FORCE);
+    double worst = 0.0;
+    for (int n = 0; n < 4000; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+        assert_int_equal(r.out.faults, 0u);
+        if (n >= 3000) {
+            double e = fabs(surface_force(&s, f24(r.out.reference.pose.pos[2])) - 2000.0);
+            worst = e > worst ? e : worst;
+        }
+    }
+    print_message("force hold on the sensor, 1e6 N/m: worst |F - 2 kN| over the last second %.2f N\n", worst);
+    assert_true(worst <= 20.0); /* 1 % */
+    assert_int_equal(r.out.contact, 1u);
+    /* the surface goes: a named fault within 10 ticks, then the drives hold */
+    double z_lost = f24(r.out.reference.pose.pos[2]);
+    s.on = 0;
+    int ticks = 0;
+    while (r.out.state != SP_STATE_FAULT && ticks < 50) {
+        force_tick(&r, &s, SP_CMD_NONE);
+        ++ticks;
+    }
+    print_message("surface removed: fault after %d ticks, faults 0x%x\n", ticks, r.out.faults);
+    assert_true(ticks <= 10);
+    assert_int_equal(r.out.faults, SP_FAULT_CONTACT_LOST);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+    for (int n = 0; n < 100; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_true(fabs(f24(r.out.reference.pose.pos[2]) - z_lost) < 0.005);
+    assert_int_equal(r.out.force_mode, SP_FORCE_OFF);
+}
+
+static void test_force_release_and_park(void **state)
+{
+    static rig_t r;
+    surface_t s;
+    (void)state;
+    force_rig(&r, &s);
+    double z_home = f24(r.out.reference.pose.pos[2]);
+    force_tick(&r, &s, SP_CMD_TARE);
+    for (int n = 0; n < 600; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    s.on = 1;
+    r.in.cmd.force_mask = 0x04u;
+    r.in.cmd.force_target[2] = -1000 * 256;
+    force_tick(&r, &s, SP_CMD_FORCE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (int n = 0; n < 2500; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_near(surface_force(&s, f24(r.out.reference.pose.pos[2])), 1000.0, 10.0, "held");
+    force_tick(&r, &s, SP_CMD_POSITION);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (int n = 0; n < 2000 && r.out.force_mode != SP_FORCE_OFF; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.force_mode, SP_FORCE_OFF);
+    assert_near(f24(r.out.reference.pose.pos[2]), z_home, 1e-6, "back on the position reference");
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    /* PARK during force control: released first, then parked */
+    r.in.cmd.force_target[2] = -1000 * 256;
+    force_tick(&r, &s, SP_CMD_FORCE);
+    for (int n = 0; n < 2000; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    force_tick(&r, &s, SP_CMD_PARK);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (int n = 0; n < 30000 && r.out.state != SP_STATE_IDLE; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+        assert_int_equal(r.out.faults, 0u);
+    }
+    assert_int_equal(r.out.state, SP_STATE_IDLE);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -650,6 +791,8 @@ int main(void)
         cmocka_unit_test(test_estimate_matches_full_fk),
         cmocka_unit_test(test_estop_and_divergence),
         cmocka_unit_test(test_fk_failure_faults),
+        cmocka_unit_test(test_force_hold_and_contact_lost),
+        cmocka_unit_test(test_force_release_and_park),
     };
     return cmocka_run_group_tests_name("controller", tests, NULL, NULL);
 }

@@ -158,7 +158,25 @@ def parse_objdump(objdump: str, elf: str) -> dict:
                 cur.callees.add(t.group(1))
         elif base == "bx" and not ops.startswith("lr"):
             cur.indirect = True
+    _add_aliases(objdump, elf, funcs)
     return funcs
+
+
+def _add_aliases(objdump: str, elf: str, funcs: dict) -> None:
+    """Functions folded into one body (GCC's identical-code folding at -Os)
+    keep their own symbols at the same address, but the disassembly names
+    only one of them: each other name becomes an alias of that body."""
+    out = subprocess.run([objdump, "-t", elf], check=True, capture_output=True, text=True).stdout
+    by_addr: dict[int, list[str]] = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) >= 6 and "F" in parts[1:3] and parts[-3].startswith(".text"):
+            by_addr.setdefault(int(parts[0], 16) & ~1, []).append(parts[-1])
+    for names in by_addr.values():
+        body = next((funcs[n] for n in names if n in funcs), None)
+        if body is not None:
+            for n in names:
+                funcs.setdefault(n, body)
 
 
 def stack_region_size(objdump: str, elf: str, spec: str) -> int:

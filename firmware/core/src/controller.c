@@ -1,5 +1,6 @@
 #include "sp/controller.h"
 
+#include "core_internal.h"
 #include "fixed_inline.h"
 
 const char *sp_state_name(sp_state_t state)
@@ -47,6 +48,17 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->friction_compensation = 1u;
     cfg->wrench_cutoff_hz = 80 * SP_Q24_ONE;
     cfg->friction_observer = 1u;
+    (void)sp_force_default_config(&cfg->force, SP_Q30_ONE, cfg->tick_us); /* gain and tick: set by init */
+    cfg->wrench_source = SP_WRENCH_CYLINDERS;
+    for (a = 0u; a < 3u; ++a) {
+        unsigned b;
+        cfg->ft_mount.pos[a] = 0;
+        for (b = 0u; b < 3u; ++b) {
+            cfg->ft_mount.axes.t[a][b] = (a == b) ? SP_Q30_ONE : 0;
+        }
+    }
+    cfg->ft_timeout_ticks = 5u;
+    cfg->ft_tare_samples = 500u;
     return SP_OK;
 }
 
@@ -66,9 +78,24 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st == SP_OK) {
         st = sp_motion_error_init(&ctrl->motion_error, cfg->tick_us);
     }
+    if (st == SP_OK) {
+        ctrl->prep.force = cfg->force;
+        ctrl->prep.force.admit.filter_alpha = ctrl->prep.wrench_alpha;
+        ctrl->prep.force.admit.tick_us = cfg->tick_us;
+        st = sp_force_init(&ctrl->prep.force, &ctrl->force);
+    }
+    if (st == SP_OK && ((cfg->wrench_source != SP_WRENCH_CYLINDERS && cfg->wrench_source != SP_WRENCH_SENSOR) ||
+                        cfg->ft_tare_samples < 1u || cfg->ft_tare_samples > 65536u || cfg->ft_timeout_ticks < 1u)) {
+        st = SP_E_ARG;
+    }
     if (st != SP_OK) {
         return st;
     }
+    ctrl->park_after_release = 0u;
+    sp_motion_at_rest(&ctrl->pos_ref, &p->park);
+    sp_ft_tare_reset(&ctrl->ft_tare);
+    ctrl->ft_missed = UINT32_MAX;
+    ctrl->ft_valid = 0u;
     /* SP_E_RANGE (legs outside its envelope) leaves the rigid body */
     (void)sp_motion_error_body(p, &ctrl->prep.motion_body);
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
@@ -274,11 +301,48 @@ static int command_stop(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_cmd_typ
         return 1;
     }
     if (type == SP_CMD_PARK && (ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_ENGAGING) &&
-        start_move(cfg, ctrl, &ctrl->reference.pose, &p->park)) {
+        start_move(cfg, ctrl, &ctrl->pos_ref.pose, &p->park)) {
         ctrl->state = SP_STATE_PARKING;
         return 1;
     }
     return 0;
+}
+
+/* The wrench force control would use this tick, NULL when its source is
+ * not valid: the cylinders' estimate, or the tared sensor's. */
+static const int32_t *force_wrench(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl)
+{
+    if (cfg->wrench_source == SP_WRENCH_SENSOR) {
+        return ctrl->ft_valid ? ctrl->ft_section[SP_WRENCH_SECTIONS - 1u] : NULL;
+    }
+    return ctrl->wrench.valid ? ctrl->wrench.wrench : NULL;
+}
+
+/* FORCE, GUIDE (READY or RUNNING, with a valid wrench and pose; the
+ * sensor tared), POSITION (leaves force control; nothing to leave is no
+ * error) and TARE (READY in position control, on the sensor). */
+static int command_force(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+{
+    int engaged = ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_RUNNING;
+    switch (cmd->type) {
+    case SP_CMD_FORCE:
+    case SP_CMD_GUIDE:
+        if (!engaged || !ctrl->est.valid || force_wrench(cfg, ctrl) == NULL ||
+            (cfg->wrench_source == SP_WRENCH_SENSOR && !ctrl->ft_tare.tared)) {
+            return 0;
+        }
+        return sp_force_start(&ctrl->prep.force, &ctrl->force,
+                              (cmd->type == SP_CMD_FORCE) ? SP_FORCE_FORCE : SP_FORCE_GUIDE, cmd->force_mask,
+                              cmd->force_target) == SP_OK;
+    case SP_CMD_POSITION:
+        return sp_force_release(&ctrl->force) == SP_OK;
+    default: /* SP_CMD_TARE */
+        if (ctrl->state != SP_STATE_READY || ctrl->force.mode != SP_FORCE_OFF ||
+            cfg->wrench_source != SP_WRENCH_SENSOR || ctrl->ft_missed >= cfg->ft_timeout_ticks) {
+            return 0;
+        }
+        return sp_ft_tare_start(&ctrl->ft_tare, cfg->ft_tare_samples) == SP_OK;
+    }
 }
 
 /* Carries out the operator's command when the state allows it; returns 0
@@ -300,10 +364,10 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
         ctrl->state = SP_STATE_ENGAGING;
         return 1;
     case SP_CMD_RUN_TRIG:
-        return command_run_trig(cfg, ctrl, cmd);
+        return ctrl->force.mode == SP_FORCE_OFF && command_run_trig(cfg, ctrl, cmd);
     case SP_CMD_MOVE_TO:
         if (ctrl->state != SP_STATE_READY || !sp_limits_pose_reachable(&ctrl->prep.limits, p, &cmd->target, NULL) ||
-            !start_move(cfg, ctrl, &ctrl->reference.pose, &cmd->target)) {
+            !start_move(cfg, ctrl, &ctrl->pos_ref.pose, &cmd->target)) {
             return 0;
         }
         start_running(ctrl, SP_MODE_MOVE);
@@ -312,12 +376,24 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
         if (ctrl->state != SP_STATE_READY) {
             return 0;
         }
-        sp_stream_start(&ctrl->stream, &ctrl->reference);
+        sp_stream_start(&ctrl->stream, &ctrl->pos_ref);
         start_running(ctrl, SP_MODE_STREAM);
         return 1;
     case SP_CMD_STOP:
-    case SP_CMD_PARK:
         return command_stop(cfg, ctrl, cmd->type);
+    case SP_CMD_PARK:
+        if (ctrl->force.mode != SP_FORCE_OFF) {
+            /* leave force control first, then park (never refused) */
+            (void)sp_force_release(&ctrl->force);
+            ctrl->park_after_release = 1u;
+            return 1;
+        }
+        return command_stop(cfg, ctrl, cmd->type);
+    case SP_CMD_FORCE:
+    case SP_CMD_GUIDE:
+    case SP_CMD_POSITION:
+    case SP_CMD_TARE:
+        return command_force(cfg, ctrl, cmd);
     case SP_CMD_RESET:
         if ((ctrl->state != SP_STATE_FAULT && ctrl->state != SP_STATE_ESTOP) || !comms_ok || !ctrl->est.valid ||
             !start_move(cfg, ctrl, &ctrl->est.pose, &p->home)) {
@@ -397,7 +473,7 @@ static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *
         running_reference(cfg, ctrl, ref, flags);
         return 0;
     case SP_STATE_READY:
-        sp_motion_at_rest(ref, &ctrl->reference.pose);
+        sp_motion_at_rest(ref, &ctrl->pos_ref.pose);
         return 0;
     case SP_STATE_FAULT:
         if (park_reaction_active(ctrl)) {
@@ -532,6 +608,87 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
                    ctrl->prep.wrench_alpha);
 }
 
+/* ---- force control ----------------------------------------------------------- */
+
+/* The force/torque sensor (wrench_source SENSOR): each reading less the
+ * tare's bias, turned into the base frame at the platform's orientation
+ * (the reference's, within mrad of the estimate's; the estimate's before
+ * a reference exists), through the wrench filter's sections so that force
+ * control sees it as it sees the cylinders' estimate. A sensor silent for
+ * ft_timeout_ticks is invalid, and a fault while force control uses it. */
+SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in)
+{
+    sp_q8_t tared[6];
+    sp_q8_t base[6];
+    sp_rot_t rot;
+    unsigned k;
+    unsigned n;
+    if (cfg->wrench_source != SP_WRENCH_SENSOR) {
+        return;
+    }
+    if (!in->ft_fresh) {
+        if (ctrl->ft_missed < UINT32_MAX) {
+            ++ctrl->ft_missed;
+        }
+        if (ctrl->ft_missed >= cfg->ft_timeout_ticks) {
+            ctrl->ft_valid = 0u;
+            if (ctrl->force.mode != SP_FORCE_OFF) {
+                raise_fault(cfg, ctrl, SP_FAULT_FT_SENSOR);
+            }
+        }
+        return;
+    }
+    ctrl->ft_missed = 0u;
+    (void)sp_ft_tare_step(&ctrl->ft_tare, in->ft_reading, tared);
+    if (ctrl->est.ref_lu.valid && ctrl->have_setpoint) {
+        spi_rot_from_sincos(ctrl->model.ref.sc, &rot);
+    } else {
+        sp_q30_t sc[6];
+        spi_orientation_sc(ctrl->est.pose.rpy, &rot, sc);
+    }
+    (void)sp_ft_to_base(&cfg->ft_mount, &rot, tared, base); /* saturates, never wraps */
+    for (k = 0u; k < 6u; ++k) {
+        int32_t x = base[k];
+        for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+            int32_t y = ctrl->ft_section[n][k];
+            if (ctrl->ft_valid) {
+                int64_t step = ((int64_t)ctrl->prep.wrench_alpha * ((int64_t)x - y) + (INT64_C(1) << 29)) >> 30;
+                x = (int32_t)(y + step); /* between y and x: no overflow */
+            }
+            ctrl->ft_section[n][k] = x;
+        }
+    }
+    ctrl->ft_valid = 1u;
+}
+
+/* Force control over this tick's position reference (READY, RUNNING):
+ * *ref becomes the position reference plus force control's offset. A lost
+ * contact and a retract after an excessive force latch their faults; a
+ * PARK that waited for the release starts the park. */
+SPI_NOINLINE static void force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref)
+{
+    uint32_t events = 0u;
+    if (ctrl->state != SP_STATE_READY && ctrl->state != SP_STATE_RUNNING) {
+        (void)sp_force_init(&ctrl->prep.force, &ctrl->force);
+        ctrl->park_after_release = 0u;
+        return;
+    }
+    if (ctrl->force.mode != SP_FORCE_OFF) {
+        (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &ctrl->prep.limits, &ctrl->pos_ref,
+                            force_wrench(cfg, ctrl), ctrl->est.valid ? &ctrl->est.pose : NULL, ref, &events);
+    }
+    if ((events & SP_CONTACT_LOST) != 0u) {
+        raise_fault(cfg, ctrl, SP_FAULT_CONTACT_LOST);
+    }
+    if ((events & SP_FORCE_RETRACTED) != 0u) {
+        raise_fault(cfg, ctrl, SP_FAULT_EXCESS_FORCE);
+    }
+    if (ctrl->park_after_release && ctrl->force.mode == SP_FORCE_OFF) {
+        ctrl->park_after_release = 0u;
+        (void)command_stop(cfg, ctrl, SP_CMD_PARK);
+    }
+}
+
 /* ---- 7. divergence, 8. outputs -------------------------------------------- */
 
 /* While engaged, an estimate farther from the reference than the config
@@ -555,8 +712,10 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     }
 }
 
-static void write_output(const sp_ctrl_t *ctrl, uint32_t fk_iterations, int rejected, sp_ctrl_output_t *out)
+static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uint32_t fk_iterations, int rejected,
+                         sp_ctrl_output_t *out)
 {
+    const int32_t *w = force_wrench(cfg, ctrl);
     unsigned i;
     for (i = 0u; i < SP_LEGS; ++i) {
         out->setpoint[i] = ctrl->setpoint[i];
@@ -577,6 +736,12 @@ static void write_output(const sp_ctrl_t *ctrl, uint32_t fk_iterations, int reje
         out->wrench[i] = ctrl->wrench.wrench[i];
     }
     out->wrench_valid = ctrl->wrench.valid;
+    out->force_mode = (uint8_t)ctrl->force.mode;
+    out->contact = ctrl->force.contact.made;
+    for (i = 0u; i < 6u; ++i) {
+        out->force_target[i] = ctrl->force.target[i];
+        out->force_wrench[i] = (w != NULL) ? w[i] : 0;
+    }
 }
 
 /* ---- the tick -------------------------------------------------------------- */
@@ -602,17 +767,27 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
 
     comms_ok = supervise(cfg, ctrl, in, active, &leg_out);
     fk_iterations = estimate(cfg, ctrl, active, leg_out);
+    ft_sensor(cfg, ctrl, in);
     rejected = !command(cfg, ctrl, &in->cmd, comms_ok);
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {
         rejected |= !take_stream_target(cfg, ctrl, &in->stream_target);
     }
     if (reference(cfg, ctrl, &ref, &flags)) {
+        ctrl->pos_ref = ref;
         hold_setpoints(ctrl, &ref);
+        if (ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) {
+            (void)sp_force_init(&ctrl->prep.force, &ctrl->force);
+            ctrl->park_after_release = 0u;
+        }
     } else {
+        ctrl->pos_ref = ref;
+        if (ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) {
+            force_control(cfg, ctrl, &ref);
+        }
         have_model = motion_setpoints(cfg, ctrl, &ref, flags);
     }
     wrench(cfg, ctrl, have_model);
     check_divergence(cfg, ctrl);
-    write_output(ctrl, fk_iterations, rejected, out);
+    write_output(cfg, ctrl, fk_iterations, rejected, out);
     return SP_OK;
 }

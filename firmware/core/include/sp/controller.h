@@ -18,6 +18,9 @@
  *                  machine below, the motion generators (sp/trajectory.h,
  *                  sp/stream.h);
  *   4. reference   this tick's reference motion, by state;
+ *      force       in READY and RUNNING with force control on, the offset of
+ *                  sp/force.h added to the position reference (the wrench
+ *                  from the cylinders' estimate or a force/torque sensor);
  *   5. setpoints   the drives' setpoints of the reference with every limit
  *                  checked (sp/setpoint.h, sp/limits.h); a reference
  *                  outside the limits is never passed on;
@@ -52,7 +55,9 @@
 #include "sp/setpoint.h"
 #include "sp/stream.h"
 #include "sp/trajectory.h"
+#include "sp/force.h"
 #include "sp/friction.h"
+#include "sp/ftsensor.h"
 #include "sp/motion_error.h"
 #include "sp/wrench.h"
 
@@ -75,6 +80,9 @@ typedef enum {
 #define SP_FAULT_COMPUTE 0x0020u          /**< IK or inverse dynamics failed */
 #define SP_FAULT_ESTOP 0x0040u            /**< emergency stop commanded */
 #define SP_FAULT_LEG_LIMIT 0x0080u        /**< a measured leg is outside its stroke */
+#define SP_FAULT_CONTACT_LOST 0x0200u     /**< force control: the contact fell away while a push was commanded */
+#define SP_FAULT_EXCESS_FORCE 0x0400u     /**< force control: the wrench exceeded its limit (retracted first) */
+#define SP_FAULT_FT_SENSOR 0x0800u        /**< force control on the force/torque sensor: the sensor went silent */
 
 /** Operator commands (one per tick; SP_CMD_NONE when none arrived). */
 typedef enum {
@@ -86,16 +94,23 @@ typedef enum {
     SP_CMD_STOP = 5,
     SP_CMD_PARK = 6,
     SP_CMD_ESTOP = 7,
-    SP_CMD_RESET = 8
+    SP_CMD_RESET = 8,
+    SP_CMD_FORCE = 10,    /**< enter force control (force_mask, force_target), or update its target */
+    SP_CMD_GUIDE = 11,    /**< enter hand guiding (force_mask) */
+    SP_CMD_POSITION = 12, /**< leave force control smoothly (back onto the position reference) */
+    SP_CMD_TARE = 13      /**< zero the force/torque sensor's bias (READY, position control) */
 } sp_cmd_type_t;
 
 typedef struct {
     sp_cmd_type_t type;
-    sp_axis_t axis;      /**< RUN_TRIG: axis */
-    sp_q24_t amplitude;  /**< RUN_TRIG: m or rad, Q24 */
-    sp_q24_t frequency;  /**< RUN_TRIG: Hz, Q24 */
-    uint32_t fade_ticks; /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
-    sp_pose_t target;    /**< MOVE_TO: absolute pose */
+    sp_axis_t axis;          /**< RUN_TRIG: axis */
+    sp_q24_t amplitude;      /**< RUN_TRIG: m or rad, Q24 */
+    sp_q24_t frequency;      /**< RUN_TRIG: Hz, Q24 */
+    uint32_t fade_ticks;     /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
+    sp_pose_t target;        /**< MOVE_TO: absolute pose */
+    uint8_t force_mask;      /**< FORCE, GUIDE: the force-controlled axes (bit k: x, y, z, roll, pitch, yaw) */
+    sp_q8_t force_target[6]; /**< FORCE: the wrench the platform is to exert on the world, N, N m, base frame,
+                                  about o', Q8 */
 } sp_ctrl_cmd_t;
 
 /** Drive modes sent with the setpoints (in the spirit of CiA 408). */
@@ -119,6 +134,8 @@ typedef struct {
     sp_pose_t stream_target; /**< RUNNING in STREAM: taken when reachable (in the workspace, every leg inside
                                   its stroke less the margin), else refused (cmd_rejected, the previous target
                                   stays); refused too once STOP or PARK has sent the filter home */
+    uint8_t ft_fresh;        /**< 1 if a force/torque sensor reading arrived */
+    sp_q8_t ft_reading[6];   /**< the sensor's wrench on the tool, its axes, about its origin, N, N m, Q8 */
 } sp_ctrl_input_t;
 
 typedef struct {
@@ -134,6 +151,10 @@ typedef struct {
     uint8_t estimate_valid; /**< 1 once FK has a pose */
     uint8_t cmd_rejected;   /**< 1 if this tick's command was refused */
     uint8_t wrench_valid;   /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard) */
+    uint8_t force_mode;     /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
+    uint8_t contact;        /**< 1 while force control is in contact */
+    sp_q8_t force_target[6]; /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
+    int32_t force_wrench[6]; /**< the wrench force control uses (the source of the config), N, N m, Q8 */
 } sp_ctrl_output_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
@@ -152,7 +173,17 @@ typedef struct {
     sp_q24_t wrench_cutoff_hz;       /**< cut-off of each of the wrench filter's sections (sp/wrench.h), Hz, Q24 */
     uint8_t friction_observer;       /**< 1: the wrench estimate takes the seals' friction from the friction
                                           observer (sp/friction.h); 0: from the feed-forward's model */
+    sp_force_config_t force;         /**< force control (sp/force.h); its filter gain and tick are the wrench
+                                          filter's and the controller's (set by sp_ctrl_init) */
+    uint8_t wrench_source;           /**< force control's wrench: SP_WRENCH_CYLINDERS or SP_WRENCH_SENSOR */
+    sp_ft_mount_t ft_mount;          /**< the force/torque sensor's mounting (sp/ftsensor.h) */
+    uint32_t ft_timeout_ticks;       /**< ticks without a sensor reading before it counts as silent */
+    uint32_t ft_tare_samples;        /**< readings a tare averages */
 } sp_ctrl_config_t;
+
+/** Force control's source of the external wrench. */
+#define SP_WRENCH_CYLINDERS 0u /**< the estimate from the cylinders' pressures (sp/wrench.h) */
+#define SP_WRENCH_SENSOR 1u    /**< a six-axis force/torque sensor between platform and tool (sp/ftsensor.h) */
 
 /** What RUNNING is executing. */
 typedef enum {
@@ -171,6 +202,7 @@ typedef struct {
     sp_me_body_t motion_body; /**< the rigid body with the legs' inertia at home, for the wrench's
                                    motion correction (sp_motion_error_body; the rigid body alone
                                    when the legs are outside its envelope) */
+    sp_force_config_t force;  /**< cfg->force with the wrench filter's gain and the tick */
 } sp_ctrl_prepared_t;
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */
@@ -205,6 +237,13 @@ typedef struct {
     sp_wrench_t wrench;              /**< the external wrench estimate */
     sp_fric_obs_t fric_obs;          /**< the seals' friction observed from the measured lengths */
     sp_motion_error_t motion_error;  /**< the history of estimate - reference (wrench correction) */
+    sp_motion_t pos_ref;             /**< the position reference of the last tick (before force control's offset) */
+    sp_force_t force;                /**< force control */
+    uint8_t park_after_release;      /**< PARK during force control: park once released */
+    sp_ft_tare_t ft_tare;            /**< the force/torque sensor's bias */
+    int32_t ft_section[SP_WRENCH_SECTIONS][6]; /**< the sensor's wrench through the wrench filter's sections, Q8 */
+    uint32_t ft_missed;                        /**< ticks since the last sensor reading (saturates) */
+    uint8_t ft_valid;                          /**< 1 while ft_section follows the sensor */
 } sp_ctrl_t;
 
 /**
