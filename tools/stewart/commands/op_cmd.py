@@ -567,7 +567,7 @@ def _record(bus, args) -> int:
 
     try:
         writer = can.Logger(args.file)
-    except ImportError as e:
+    except (ImportError, NotImplementedError) as e:
         _err(f"{args.file}: the writer for this format is not installed ({e})")
         bus.shutdown()
         return 2
