@@ -298,32 +298,42 @@ def _status(node, args, _):
 # -- stream ---------------------------------------------------------------------
 
 class _Pacer:
-    """1 kHz absolute deadlines; records each send's lateness."""
+    """1 kHz absolute deadlines; records each send's lateness against its
+    deadline. A send more than RESYNC_S late (the process was not scheduled)
+    starts the grid again from now rather than sending a burst to catch up;
+    such ticks are counted (`resyncs`)."""
+
+    RESYNC_S = 0.010
 
     def __init__(self):
         self.t0 = time.monotonic()
+        self.origin = self.t0
         self.k = 0
         self.lateness: list[float] = []
+        self.resyncs = 0
 
     def wait(self) -> float:
+        """Sleeps to the next deadline; returns the seconds since the start."""
         self.k += 1
         due = self.t0 + self.k * TICK_S
         now = time.monotonic()
         if due - now > 0:
             time.sleep(due - now)
             now = time.monotonic()
-        if now - due > 0.5:  # far behind (suspended): start again from now
-            self.t0 = now - self.k * TICK_S
         self.lateness.append(now - due)
-        return now - self.t0
+        if now - due > self.RESYNC_S:
+            self.resyncs += 1
+            self.t0 = now - self.k * TICK_S
+        return now - self.origin
 
 
-def _jitter(lateness: list[float]) -> dict:
+def _jitter(pacer) -> dict:
+    lateness = pacer.lateness
     if not lateness:
-        return {"median_us": 0.0, "p99_us": 0.0, "max_us": 0.0}
+        return {"median_us": 0.0, "p99_us": 0.0, "max_us": 0.0, "resyncs": 0, "ticks": 0}
     v = sorted(abs(x) for x in lateness)
     return {"median_us": v[len(v) // 2] * 1e6, "p99_us": v[min(len(v) - 1, int(0.99 * len(v)))] * 1e6,
-            "max_us": v[-1] * 1e6}
+            "max_us": v[-1] * 1e6, "resyncs": pacer.resyncs, "ticks": pacer.k}
 
 
 def _start_stream(node, args):
@@ -356,7 +366,8 @@ def _stream(node, args, prepared):
     print(f"stream: frames sent {stats['frames_sent']}, send errors {stats['send_errors']}, "
           f"targets refused {stats['targets_refused']}, send-time jitter median "
           f"{stats.get('jitter', {}).get('median_us', 0):.0f} us, p99 "
-          f"{stats.get('jitter', {}).get('p99_us', 0):.0f} us")
+          f"{stats.get('jitter', {}).get('p99_us', 0):.0f} us, late ticks (grid restarted) "
+          f"{stats.get('jitter', {}).get('resyncs', 0)}")
     if args.stats:
         with open(args.stats, "w") as f:
             json.dump(stats, f, indent=1)
@@ -405,10 +416,10 @@ def _stream_csv(node, args, track, offset, stats, intr) -> int:
         _send_pose(node, [o + v for o, v in zip(offset, track.at(track.t[0] + t))], stats)
         seen = _count_refused(node, seen, stats)
         if node.status is not None and node.status.state != "RUNNING":
-            stats["jitter"] = _jitter(pacer.lateness)
+            stats["jitter"] = _jitter(pacer)
             print(f"stream: the controller left RUNNING: {node.status.line()}")
             return 1
-    stats["jitter"] = _jitter(pacer.lateness)
+    stats["jitter"] = _jitter(pacer)
     return _finish_stream(node, args, stats, "interrupted" if intr.hit else "end-of-file")
 
 
@@ -462,10 +473,10 @@ def _stream_udp(node, args, src, offset, stats, intr) -> int:
             _send_pose(node, _udp_pose(latest, washout, offset), stats)
             seen = _count_refused(node, seen, stats)
             if node.status is not None and node.status.state != "RUNNING":
-                stats["jitter"] = _jitter(pacer.lateness)
+                stats["jitter"] = _jitter(pacer)
                 print(f"stream: the controller left RUNNING: {node.status.line()}")
                 return 1
-        stats["jitter"] = _jitter(pacer.lateness)
+        stats["jitter"] = _jitter(pacer)
         rc = _finish_stream(node, args, stats, reason)
         if reason != "source-lost" or args.once or rc != 0:
             return rc

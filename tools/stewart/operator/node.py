@@ -199,7 +199,6 @@ class OperatorNode:
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
         self.rx_error: str | None = None
-        self.last_send_wall = 0.0
         self._sent_mono = 0.0
 
     # -- life cycle --------------------------------------------------------
@@ -246,6 +245,7 @@ class OperatorNode:
 
     # -- sending -----------------------------------------------------------
     def _send(self, name: str, signals: dict) -> float:
+        """Sends one frame; returns the time.time() just before the send."""
         counter = self._tx.get(name, 0)
         data = self.proto.encode(name, signals, counter)
         self._tx[name] = e2e.next_counter(counter)
@@ -253,14 +253,14 @@ class OperatorNode:
         msg = self._can.Message(arbitration_id=info.frame_id, data=data, is_extended_id=False,
                                 is_fd=True, bitrate_switch=True)
         with self._send_lock:
-            self.last_send_wall = time.time()
+            wall = time.time()
             try:
                 self.bus.send(msg, timeout=0.1)
             except (self._can.CanError, OSError) as e:
                 self.counters.send_errors += 1
                 raise OpError(f"cannot send {name}: {e}") from None
             self.counters.sent += 1
-        return time.monotonic()
+        return wall
 
     def send_heartbeat(self) -> None:
         self._send("OP_HEARTBEAT", {})
@@ -440,11 +440,8 @@ class OperatorNode:
             self.wait_status(timeout=2.0, after=before.seq)
             before = self.status
         mark = self._mark()
+        sent_wall = self.send_command(command, **signals)
+        self._sent_mono = time.monotonic()
         if command == "ESTOP":
-            self._sent_mono = self.send_command("ESTOP")
-            sent_wall = self.last_send_wall
             self.send_command("ESTOP")
-        else:
-            self._sent_mono = self.send_command(command, **signals)
-            sent_wall = self.last_send_wall
         return self.wait_for(command, done, timeout, mark, before, sent_wall)
