@@ -7,7 +7,7 @@ does, and why), engages with `stewart op engage`, streams a CSV of
 `--seconds` of a gentle sway with `stewart op stream --csv`, and prints:
 frames sent (by the tool), frames on the bus and lost (candump's log of
 vcan0: OP_TARGET_POSE frames, alive-counter gaps), the controller's E2E
-rejections, and the tool's send-time jitter (median, p99, max; ticks sent
+rejections and lost frames (E2E), and the tool's send-time jitter (median, p99, max; ticks sent
 more than 10 ms late restart the 1 kHz grid). A figure printer, not a test.
 """
 
@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import signal
 import subprocess
@@ -55,7 +56,11 @@ def main() -> int:
         time.sleep(1.0)
         r = subprocess.run(op + ["engage"], capture_output=True, text=True, timeout=300)
         print(r.stdout + r.stderr, end="")
-        r = subprocess.run(op + ["stream", "--csv", str(csv), "--stats", str(tmp / "stats.json")],
+        # the sender before the lockstep pair (which takes every cycle it is
+        # given): nice -10 where allowed (root inside user-mode Linux)
+        boost = ["nice", "-n", "-10"] if subprocess.run(["nice", "-n", "-10", "true"]).returncode == 0 \
+            and os.geteuid() == 0 else []
+        r = subprocess.run(boost + op + ["stream", "--csv", str(csv), "--stats", str(tmp / "stats.json")],
                            capture_output=True, text=True, timeout=args.seconds * 10 + 300)
         print(r.stdout + r.stderr, end="")
         stream_rc = r.returncode
@@ -67,25 +72,27 @@ def main() -> int:
         dump.wait(timeout=20)
         log.close()
     stats = json.loads((tmp / "stats.json").read_text()) if (tmp / "stats.json").exists() else {}
-    on_bus, lost, last = 0, 0, None
+    on_bus, gaps, last = 0, 0, None
     for line in (tmp / "ops.log").read_text().splitlines():
         parts = line.split()
         if len(parts) >= 3 and parts[2].startswith("050##"):
             data = bytes.fromhex(parts[2][6:])
             counter = data[18] & 0x0F
             if last is not None:
-                lost += (counter - last - 1) % 16
+                gaps += (counter - last - 1) % 16
             last = counter
             on_bus += 1
-    m = re.search(r"sp_controller frames: accepted \d+(.*)", ctl_out)
+    m = re.search(r"sp_controller frames: accepted \d+, lost (\d+)(.*)", ctl_out)
     j = stats.get("jitter", {})
     print(f"\nstream of {args.seconds:g} s at 1 kHz (exit {stream_rc}):")
     print(f"  frames sent by the tool  {stats.get('frames_sent')} of {j.get('ticks')} ticks, "
           f"send errors {stats.get('send_errors')}")
-    print(f"  OP_TARGET_POSE on vcan0  {on_bus}, lost by alive counter {lost}")
+    print(f"  OP_TARGET_POSE in candump's log {on_bus} (alive-counter gaps {gaps}: candump's own drops "
+          "when it falls behind, see the controller's count)")
     print(f"  send-time jitter         median {j.get('median_us', 0):.0f} us, p99 {j.get('p99_us', 0):.0f} us, "
           f"max {j.get('max_us', 0):.0f} us; grid restarts (a tick > 10 ms late) {j.get('resyncs')}")
-    print(f"  controller E2E           {m.group(1).strip() if m else '?'}")
+    print(f"  controller E2E           lost {m.group(1) if m else '?'} (every frame, all messages), "
+          f"rejected: {m.group(2).strip(', ') if m else '?'}")
     return 0 if stream_rc == 0 else 1
 
 

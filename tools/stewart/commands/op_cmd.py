@@ -174,7 +174,7 @@ def _home() -> list[float]:
 
 def _report(ans, what: str = "") -> None:
     print(f"{ans.command}: {what or ans.status.state} ({ans.ticks} ticks after the command, "
-          f"{ans.seconds * 1000:.0f} ms); {ans.status.line()}")
+          f"{ans.seconds * 1000:.0f} ms); {ans.status.line()}", flush=True)
 
 
 def _t(args, default: float) -> float:
