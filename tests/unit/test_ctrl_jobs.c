@@ -593,25 +593,22 @@ static void test_friction_force(void **state)
 }
 
 /* The plain reference of sp_wrench_step's arithmetic (sp/wrench.h), one
- * component at a time, every step written out in int64: d = F_model - F
- * clamped to +-2^29; (J^T d)_k summed exactly, rounded once to Q8, plus
- * the correction, held within [-2^30, 2^30 - 1]; the sections with alpha
- * held within [0, 1], each section's last value held in that range. */
-static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int valid, const sp_q8_t model_force[SP_LEGS],
-                             const sp_jacobian_t *jac, const sp_q8_t measured[SP_LEGS], const sp_q8_t *correction,
-                             sp_q30_t alpha, int32_t wrench_out[6])
+ * component at a time, every step written out in int64: the raw input is
+ * the kept force path of the previous tick plus the correction, held
+ * within [-2^30, 2^30 - 1]; the sections with alpha held within [0, 1],
+ * each section's last value held in that range; then this tick's force
+ * path: d = F_model - F clamped to +-2^29, (J^T d)_k summed exactly and
+ * rounded once to Q8, kept for the next tick. */
+static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int valid, const int64_t kept_in[6],
+                             const sp_q8_t model_force[SP_LEGS], const sp_jacobian_t *jac,
+                             const sp_q8_t measured[SP_LEGS], const sp_q8_t *correction, sp_q30_t alpha,
+                             int32_t wrench_out[6], int64_t kept_out[6])
 {
     const int64_t hi = (INT64_C(1) << 30) - 1;
     const int64_t lo = -(INT64_C(1) << 30);
     int64_t a = alpha < 0 ? 0 : (alpha > SP_Q30_ONE ? SP_Q30_ONE : alpha);
     for (int k = 0; k < 6; ++k) {
-        int64_t acc = 0;
-        for (int i = 0; i < SP_LEGS; ++i) {
-            int64_t d = (int64_t)model_force[i] - measured[i];
-            d = d > (INT64_C(1) << 29) ? (INT64_C(1) << 29) : (d < -(INT64_C(1) << 29) ? -(INT64_C(1) << 29) : d);
-            acc += (int64_t)jac->j[i][k] * d;
-        }
-        int64_t raw = ((acc + (INT64_C(1) << 27)) >> 28) + (correction != NULL ? correction[k] : 0);
+        int64_t raw = kept_in[k] + (correction != NULL ? correction[k] : 0);
         raw = raw > hi ? hi : (raw < lo ? lo : raw);
         if (valid) {
             for (unsigned n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
@@ -621,12 +618,20 @@ static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int va
             }
         }
         wrench_out[k] = (int32_t)raw;
+        int64_t acc = 0;
+        for (int i = 0; i < SP_LEGS; ++i) {
+            int64_t d = (int64_t)model_force[i] - measured[i];
+            d = d > (INT64_C(1) << 29) ? (INT64_C(1) << 29) : (d < -(INT64_C(1) << 29) ? -(INT64_C(1) << 29) : d);
+            acc += (int64_t)jac->j[i][k] * d;
+        }
+        kept_out[k] = (acc + (INT64_C(1) << 27)) >> 28;
     }
 }
 
 /* sp_wrench_step equals the plain reference bit for bit: random Jacobians
  * over the whole allowed range (|entry| < 8, Q28), forces of every size up
- * to the int32 range (the clamp on d), corrections of every size or none,
+ * to the int32 range (the clamp on d), kept force paths up to the largest
+ * J^T d (6 x 8 x 2^29 < 2^35), corrections of every size or none,
  * sections anywhere in int32 and gains outside [0, 1]. */
 static void test_wrench_matches_reference(void **state)
 {
@@ -638,6 +643,8 @@ static void test_wrench_matches_reference(void **state)
         sp_q8_t meas[SP_LEGS];
         sp_q8_t corr[6];
         int32_t want[6];
+        int64_t kept[6];
+        int64_t want_kept[6];
         int32_t sec[SP_WRENCH_SECTIONS][6];
         int big = (n % 4) == 0;
         for (int i = 0; i < SP_LEGS; ++i) {
@@ -648,26 +655,27 @@ static void test_wrench_matches_reference(void **state)
             meas[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
         }
         sp_wrench_reset(&w);
-        for (int i = 0; i < SP_LEGS; ++i) {
-            w.model_force[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
-        }
         for (int k = 0; k < 6; ++k) {
+            w.force_wrench[k] = big ? (int64_t)tu_i32(&rng) * 16 : (int64_t)tu_i32_logscale(&rng);
             corr[k] = (n % 5 == 2) ? tu_i32(&rng) : tu_i32_logscale(&rng);
             for (unsigned s = 0u; s < SP_WRENCH_SECTIONS; ++s) {
                 w.section[s][k] = (n % 8) == (int)(1u + 2u * s) % 8 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
             }
         }
         memcpy(sec, w.section, sizeof sec);
-        w.have_model = 1u;
+        memcpy(kept, w.force_wrench, sizeof kept);
+        w.have_force = 1u;
         w.valid = (uint8_t)(n % 3 != 0);
         sp_q30_t alpha = (n % 16) == 5 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
         const sp_q8_t *c = (n % 7 == 4) ? NULL : corr;
-        wrench_reference((const int32_t(*)[6])sec, w.valid, w.model_force, &model.jac, meas, c, alpha, want);
+        wrench_reference((const int32_t(*)[6])sec, w.valid, kept, model.force, &model.jac, meas, c, alpha, want,
+                         want_kept);
         sp_wrench_step(&w, &model, NULL, meas, c, alpha);
         assert_memory_equal(w.wrench, want, sizeof want);
         assert_memory_equal(w.section[SP_WRENCH_SECTIONS - 1u], want, sizeof want);
         assert_int_equal(w.valid, 1);
-        assert_memory_equal(w.model_force, model.force, sizeof model.force);
+        assert_memory_equal(w.force_wrench, want_kept, sizeof want_kept);
+        assert_int_equal(w.have_force, 1);
     }
 }
 
@@ -722,18 +730,19 @@ static void test_wrench_estimate(void **state)
         meas[i] = (sp_q8_t)(model.force[i] - (int32_t)(f[i] / 65536));
     }
     sp_wrench_reset(&w);
-    sp_wrench_step(&w, &model, NULL, meas, NULL, alpha); /* keeps the model only */
+    sp_wrench_step(&w, &model, NULL, meas, NULL, alpha); /* keeps this tick's force path only */
     assert_int_equal(w.valid, 0);
     sp_wrench_step(&w, &model, NULL, meas, NULL, alpha);
     assert_int_equal(w.valid, 1);
     for (int k = 0; k < 6; ++k) {
         assert_near(ref_f8(w.wrench[k]), want[k], 0.05, "first estimate, component %d", k);
     }
-    /* the load goes away: the estimate decays with the filter */
+    /* the load goes away: the estimate describes the previous tick, so it
+     * holds W for one more tick, then decays with the filter */
     for (int n = 1; n <= 20; ++n) {
         sp_wrench_step(&w, &model, NULL, model.force, NULL, alpha);
         for (int k = 0; k < 6; ++k) {
-            double decay = sections_decay(ref_f30(alpha), n);
+            double decay = sections_decay(ref_f30(alpha), n - 1);
             assert_near(ref_f8(w.wrench[k]), want[k] * decay, 0.05 + 1e-6 * fabs(want[k]), "tick %d component %d", n,
                         k);
         }

@@ -450,7 +450,9 @@ static void test_motion_error_wrench_vs_dynamics(void **state)
         sp_platform_t p;
         double worst = 0.0, miss_lin = 0.0, miss_rot = 0.0;
         double n_lin = 0.0, n_rot = 0.0, d_lin = 0.0, d_rot = 0.0;
+        sp_me_body_t body;
         test_platform(&p, legs);
+        assert_int_equal(sp_motion_error_body(&p, &body), SP_OK);
         for (int n = 0; n < 3000; ++n) {
             sp_motion_t m0, m1;
             sp_ik_t ik;
@@ -480,6 +482,20 @@ static void test_motion_error_wrench_vs_dynamics(void **state)
             assert_int_equal(sp_inverse_dynamics(&p, &m1, &ik, NULL, f1), SP_OK);
             jt_times(&jac, f1, f0, want);
             assert_int_equal(sp_motion_error_wrench(&p, &ik, d, dw), SP_OK);
+            {
+                sp_q8_t bw[6];
+                assert_int_equal(sp_motion_error_wrench_body_sc(&body, ik.sc, d, bw), SP_OK);
+                for (int k = 0; k < 6; ++k) {
+                    double e = bw[k] / 256.0 - want[k];
+                    if (legs) {
+                        assert_int_equal(bw[k], dw[k]); /* massless legs: the rigid body, bit for bit */
+                    } else if (kind == 0) {
+                        d_lin += e * e;
+                    } else if (kind == 1) {
+                        d_rot += e * e;
+                    }
+                }
+            }
             for (int k = 0; k < 6; ++k) {
                 double got = dw[k] / 256.0;
                 double err = fabs(got - want[k]);
@@ -494,17 +510,121 @@ static void test_motion_error_wrench_vs_dynamics(void **state)
                     miss_rot += err * err;
                     n_rot += want[k] * want[k];
                 }
-                (void)d_lin;
-                (void)d_rot;
             }
         }
         if (legs) {
             printf("massless legs: worst %.3f of the tolerance (0.05 + 2e-6 |W|)\n", worst);
         } else {
             double rl = sqrt(miss_lin / n_lin), rr = sqrt(miss_rot / n_rot);
+            double bl = sqrt(d_lin / n_lin), br = sqrt(d_rot / n_rot);
             printf("leg masses left out: RMS miss %.1f %% (translational da), %.1f %% (rotational da)\n", 100.0 * rl,
                    100.0 * rr);
+            printf("legs' inertia at home folded in (sp_motion_error_body): %.1f %%, %.1f %%\n", 100.0 * bl,
+                   100.0 * br);
             assert_true(rl < 0.2 && rr < 0.2);
+            /* the body takes most of what the rigid body misses */
+            assert_true(bl < 0.5 * rl && br < 0.5 * rr);
+        }
+    }
+}
+
+/* sp_motion_error_body against the same formulas in double on the home
+ * pose's IK (mass within 0.01 kg, centre within 1 um, inertia within
+ * 0.01 kg m^2), and against the legs' inertia of the float64 model
+ * (tools/stewart/model.py: the inverse dynamics' mass matrix at home with
+ * legs minus without: diagonal 137.1, 137.1, 195.7 kg and 126.2, 126.2,
+ * 174.4 kg m^2, coupling 32.9 kg m) within 0.5; massless legs and the
+ * envelope. */
+static void test_motion_error_body(void **state)
+{
+    const sp_platform_t *p = &sp_platform_default;
+    const sp_leg_mass_t *lm = &p->leg_mass;
+    sp_me_body_t body;
+    sp_ik_t ik;
+    double kt[3][3] = {{0}}, c[3][3] = {{0}}, b[3][3] = {{0}};
+    (void)state;
+    assert_int_equal(sp_motion_error_body(p, &body), SP_OK);
+    assert_int_equal(sp_inverse_kinematics(p, &p->home, &ik), SP_OK);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        double u[3], r[3], kk[3][3], kr[3][3], rx[3][3];
+        double len = ik.length[i] / Q24;
+        double mc = lm->cylinder_mass / 65536.0, dc = lm->cylinder_com / Q24;
+        double mr = lm->rod_mass / 65536.0, dr = lm->rod_com / Q24;
+        double mu = (mc * dc * dc + mr * (len - dr) * (len - dr)) / (len * len);
+        for (int k = 0; k < 3; ++k) {
+            u[k] = ik.unit[i][k] / 1073741824.0;
+            r[k] = ik.arm[i][k] / Q24;
+        }
+        rx[0][0] = 0.0, rx[0][1] = -r[2], rx[0][2] = r[1];
+        rx[1][0] = r[2], rx[1][1] = 0.0, rx[1][2] = -r[0];
+        rx[2][0] = -r[1], rx[2][1] = r[0], rx[2][2] = 0.0;
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                kk[j][k] = (j == k ? mu : 0.0) + (mr - mu) * u[j] * u[k];
+                kt[j][k] += kk[j][k];
+            }
+        }
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                kr[j][k] = kk[j][0] * rx[0][k] + kk[j][1] * rx[1][k] + kk[j][2] * rx[2][k];
+                c[j][k] += kr[j][k];
+            }
+        }
+        for (int j = 0; j < 3; ++j) {
+            for (int k = 0; k < 3; ++k) {
+                b[j][k] -= rx[j][0] * kr[0][k] + rx[j][1] * kr[1][k] + rx[j][2] * kr[2][k];
+            }
+        }
+    }
+    {
+        /* the home pose of the default platform has T = 1 */
+        double s[3] = {0.5 * (c[2][1] - c[1][2]), 0.5 * (c[0][2] - c[2][0]), 0.5 * (c[1][0] - c[0][1])};
+        double m = p->mass / 65536.0 + (kt[0][0] + kt[1][1] + kt[2][2]) / 3.0;
+        assert_true(p->home.rpy[0] == 0 && p->home.rpy[1] == 0 && p->home.rpy[2] == 0);
+        assert_near(body.mass / 65536.0, m, 0.01, "mass");
+        for (int j = 0; j < 3; ++j) {
+            double com = (p->mass / 65536.0 * p->center_of_mass[j] / Q24 + s[j]) / m;
+            assert_near(body.center_of_mass[j] / Q24, com, 1e-6, "centre %d", j);
+            for (int k = 0; k < 3; ++k) {
+                assert_near(body.inertia[j][k] / 65536.0, p->inertia[j][k] / 65536.0 + b[j][k], 0.01, "inertia %d %d",
+                            j, k);
+            }
+        }
+        /* the float64 model's leg inertia at home */
+        assert_near(kt[0][0], 137.1, 0.5, "K xx");
+        assert_near(kt[1][1], 137.1, 0.5, "K yy");
+        assert_near(kt[2][2], 195.7, 0.5, "K zz");
+        assert_near(b[0][0], 126.2, 0.5, "B xx");
+        assert_near(b[1][1], 126.2, 0.5, "B yy");
+        assert_near(b[2][2], 174.4, 0.5, "B zz");
+        assert_near(s[2], -32.9, 0.5, "first moment z");
+        printf("legs at home: mass +%.1f kg, first moment (%.1f, %.1f, %.1f) kg m, inertia +%.1f +%.1f +%.1f kg m^2\n",
+               m - p->mass / 65536.0, s[0], s[1], s[2], b[0][0], b[1][1], b[2][2]);
+    }
+    /* massless legs: the rigid body; outside the envelope: the rigid body
+     * and SP_E_RANGE; NULL */
+    {
+        sp_platform_t q = *p;
+        memset(&q.leg_mass, 0, sizeof q.leg_mass);
+        assert_int_equal(sp_motion_error_body(&q, &body), SP_OK);
+        assert_int_equal(body.mass, q.mass);
+        assert_memory_equal(body.inertia, q.inertia, sizeof q.inertia);
+        assert_memory_equal(body.center_of_mass, q.center_of_mass, sizeof q.center_of_mass);
+        q = *p;
+        q.leg_mass.rod_mass = 600 << 16;
+        assert_int_equal(sp_motion_error_body(&q, &body), SP_E_RANGE);
+        assert_int_equal(body.mass, q.mass);
+        assert_memory_equal(body.inertia, q.inertia, sizeof q.inertia);
+        q = *p;
+        q.leg_mass.cylinder_com = 3 << 24; /* longer than the legs at home */
+        assert_int_equal(sp_motion_error_body(&q, &body), SP_E_RANGE);
+        assert_int_equal(sp_motion_error_body(NULL, &body), SP_E_ARG);
+        assert_int_equal(sp_motion_error_body(p, NULL), SP_E_ARG);
+        {
+            sp_q24_t da[6] = {0};
+            sp_q8_t dw[6] = {1, 1, 1, 1, 1, 1};
+            assert_int_equal(sp_motion_error_wrench_body_sc(NULL, ik.sc, da, dw), SP_E_ARG);
+            assert_int_equal(dw[0], 0);
         }
     }
 }
@@ -580,6 +700,7 @@ int main(void)
         cmocka_unit_test(test_motion_error_quantisation_noise),
         cmocka_unit_test(test_motion_error_wrench_vs_double),
         cmocka_unit_test(test_motion_error_wrench_vs_dynamics),
+        cmocka_unit_test(test_motion_error_body),
         cmocka_unit_test(test_motion_error_rows_vs_body_rates),
     };
     return cmocka_run_group_tests_name("motion_error", tests, NULL, NULL);

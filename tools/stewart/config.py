@@ -26,6 +26,11 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
   ``cylinder_com``, ``rod_mass``, ``rod_com`` (absent = 0 = neglected);
   the friction keys (``FRICTION_KEYS``) take one number for every cylinder
   or a list of six, one per leg, and are normalised to lists of six
+- ``drives`` (optional; absent = every leg on the native protocol): the
+  protocol, bus, CANopen node id and scaling of each leg's drive, the
+  CANopen buses' bit rates, the SYNC divider, heartbeat and watchdog times
+  (``_drives``; config/README.md and docs/canopen.md). A layout whose
+  CANopen bus load exceeds 50 % is refused, naming the ways out.
 """
 
 from __future__ import annotations
@@ -35,6 +40,9 @@ import math
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from .drives import layout as _layout
+from .drives import objects as _objects
 
 LEGS = 6
 
@@ -168,6 +176,7 @@ class Platform:
     sensors: dict[str, float] = field(default_factory=dict)
     source: str = "<dict>"
     center_of_mass: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    drives: _layout.Drives = field(default_factory=_layout.native_default)
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -244,13 +253,146 @@ def _symmetric_positive_definite(m) -> bool:
     return d1 > 0 and d2 > 0 and d3 > 0
 
 
-def from_dict(d, source: str = "<dict>") -> Platform:
-    """Validates a parsed config; raises ConfigError naming the key."""
+def from_dict(d, source: str = "<dict>", check_bus_load: bool = True) -> Platform:
+    """Validates a parsed config; raises ConfigError naming the key.
+    ``check_bus_load=False`` accepts a drive layout whose CANopen bus load is
+    above 50 % (``stewart busload`` uses it to show the table and the ways out)."""
     pre = f"{source}: "
     try:
-        return _from_dict(d)
+        p = _from_dict(d)
+        if check_bus_load:
+            _check_bus_load(p.drives)
+        return p
     except ConfigError as e:
         raise ConfigError(pre + str(e)) from None
+
+
+def _integer(where: str, v, lo: int, hi: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ConfigError(f"{where}: expected an integer, got {json.dumps(v)[:40]}")
+    if not lo <= v <= hi:
+        raise ConfigError(f"{where}: {v} is outside {lo}..{hi}")
+    return v
+
+
+_DRIVES_KEYS = {"legs", "buses", "sync_divider", "heartbeat_ms", "heartbeat_timeout_ms",
+                "setpoint_timeout_ms", "pressure_feedback"}
+_LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode"}
+_SCALING_KEYS = {"position_per_count", "length_at_zero", "direction"}
+
+
+def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
+    """The ``drives`` section: per leg protocol, bus, node id, scaling; the
+    CANopen buses' bit rates; SYNC divider, heartbeat and watchdog times."""
+    if "drives" not in d:
+        return _layout.native_default()
+    s = d["drives"]
+    if not isinstance(s, dict):
+        raise ConfigError("drives: expected an object")
+    for key in s:
+        if key not in _DRIVES_KEYS:
+            raise ConfigError(f"drives.{key}: unknown key (known: {', '.join(sorted(_DRIVES_KEYS))})")
+    legs_in = _require(s, "legs", "drives.")
+    if not isinstance(legs_in, list) or len(legs_in) != LEGS:
+        raise ConfigError(f"drives.legs: expected a list of {LEGS} objects, leg 1 first")
+    buses_in = s.get("buses", {})
+    if not isinstance(buses_in, dict):
+        raise ConfigError("drives.buses: expected an object: bus name -> {\"bitrate\": bit/s}")
+    bitrates = {}
+    for name, b in buses_in.items():
+        if not isinstance(b, dict) or set(b) - {"bitrate"}:
+            raise ConfigError(f"drives.buses.{name}: expected {{\"bitrate\": bit/s}}")
+        rate = _require(b, "bitrate", f"drives.buses.{name}.")
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or int(rate) != rate \
+                or int(rate) not in _layout.CLASSIC_BITRATES:
+            raise ConfigError(f"drives.buses.{name}.bitrate: {json.dumps(rate)[:20]} is not a classic CAN "
+                              f"bit rate ({', '.join(str(r) for r in _layout.CLASSIC_BITRATES)})")
+        bitrates[name] = int(rate)
+    divider = _integer("drives.sync_divider", s.get("sync_divider", 1), 1, 10)
+    hb = _integer("drives.heartbeat_ms", s.get("heartbeat_ms", 20), 1, 65535)
+    hb_timeout = _integer("drives.heartbeat_timeout_ms", s.get("heartbeat_timeout_ms", 50), 1, 65535)
+    if hb_timeout <= hb:
+        raise ConfigError(f"drives.heartbeat_timeout_ms: {hb_timeout} must exceed heartbeat_ms {hb} "
+                          "(a drive would be declared silent between two heartbeats)")
+    wd = _integer("drives.setpoint_timeout_ms", s.get("setpoint_timeout_ms", 3 * divider), 1, 65535)
+    if wd < 2 * divider:
+        raise ConfigError(f"drives.setpoint_timeout_ms: {wd} ms is below two SYNC periods "
+                          f"({2 * divider} ms): one late frame would stop the drive")
+    pressure = s.get("pressure_feedback", True)
+    if not isinstance(pressure, bool):
+        raise ConfigError("drives.pressure_feedback: expected true or false")
+    legs = []
+    used: dict[tuple[str, int], int] = {}
+    for i, leg in enumerate(legs_in):
+        w = f"drives.legs[{i}]"
+        if not isinstance(leg, dict):
+            raise ConfigError(f"{w}: expected an object")
+        for key in leg:
+            if key not in _LEG_KEYS:
+                raise ConfigError(f"{w}.{key}: unknown key (known: {', '.join(sorted(_LEG_KEYS))})")
+        proto = leg.get("protocol", "native")
+        if proto not in _objects.PROTOCOLS:
+            raise ConfigError(f"{w}.protocol: {json.dumps(proto)[:30]} is not one of "
+                              f"{', '.join(_objects.PROTOCOLS)}")
+        bus = leg.get("bus", _layout.NATIVE_BUS[i])
+        if not isinstance(bus, str) or not bus:
+            raise ConfigError(f"{w}.bus: expected a bus name")
+        if proto == "native":
+            if bus != _layout.NATIVE_BUS[i]:
+                raise ConfigError(f"{w}.bus: a native drive of leg {i + 1} is on {_layout.NATIVE_BUS[i]} "
+                                  f"(fixed by protocol/stewart.dbc), not {bus}")
+            for key in ("node_id", "scaling", "control_mode"):
+                if key in leg:
+                    raise ConfigError(f"{w}.{key}: only for CANopen drives (protocol cia408 or cia402)")
+            legs.append(_layout.Drive(i + 1, proto, bus))
+            continue
+        if bus not in bitrates:
+            raise ConfigError(f"{w}.bus: {bus} has no bit rate in drives.buses")
+        node = _integer(f"{w}.node_id", _require(leg, "node_id", f"{w}."), 1, 127)
+        if (bus, node) in used:
+            raise ConfigError(f"{w}.node_id: node {node} on bus {bus} is already leg {used[(bus, node)]}'s")
+        used[(bus, node)] = i + 1
+        sc = _require(leg, "scaling", f"{w}.")
+        if not isinstance(sc, dict):
+            raise ConfigError(f"{w}.scaling: expected an object with position_per_count and length_at_zero")
+        for key in sc:
+            if key not in _SCALING_KEYS:
+                raise ConfigError(f"{w}.scaling.{key}: unknown key (known: {', '.join(sorted(_SCALING_KEYS))})")
+        res = _number(f"{w}.scaling.position_per_count", _require(sc, "position_per_count", f"{w}.scaling."),
+                      1e-9, 1e-2)
+        zero = _number(f"{w}.scaling.length_at_zero", _require(sc, "length_at_zero", f"{w}.scaling."),
+                       0.0, _Q24_MAX)
+        direction = sc.get("direction", 1)
+        if direction not in (1, -1) or isinstance(direction, bool):
+            raise ConfigError(f"{w}.scaling.direction: expected 1 or -1")
+        for end in (lmin, lmax):
+            counts = abs(end - zero) / res
+            if counts > 2**31 - 1:
+                raise ConfigError(f"{w}.scaling: leg length {end:g} m is {counts:.3g} counts from "
+                                  "length_at_zero, beyond the drive's 32-bit position")
+        mode = _integer(f"{w}.control_mode", leg.get("control_mode", _objects.CIA408_CONTROL_MODE_AXIS_POSITION),
+                        -128, 127)
+        if proto != "cia408" and "control_mode" in leg:
+            raise ConfigError(f"{w}.control_mode: only for cia408 drives (CiA 402 uses mode 8, CSP)")
+        legs.append(_layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction), mode))
+    canopen_buses = {dr.bus for dr in legs if dr.is_canopen}
+    for dr in legs:
+        if dr.protocol == "native" and dr.bus in canopen_buses:
+            raise ConfigError(f"drives.legs[{dr.leg - 1}].bus: {dr.bus} carries CANopen drives; the native "
+                              "protocol needs its own bus")
+    for name in bitrates:
+        if name not in canopen_buses:
+            raise ConfigError(f"drives.buses.{name}: no CANopen drive is on this bus")
+    return _layout.Drives(tuple(legs), bitrates, divider, hb, hb_timeout, wd, pressure)
+
+
+def _check_bus_load(drives: _layout.Drives) -> None:
+    bad = _layout.overloaded(drives)
+    if bad:
+        bus, pct = bad[0]
+        ways = "; ".join(_layout.ways_out(drives, bus))
+        raise ConfigError(f"drives.legs: bus {bus}: worst-case load {pct:.1f} % is above "
+                          f"{_layout.LOAD_LIMIT:g} %. Ways out: {ways} (stewart busload shows the table)")
 
 
 def _from_dict(d) -> Platform:
@@ -328,8 +470,9 @@ def _from_dict(d) -> Platform:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise ConfigError("sensors.seed: expected a non-negative integer")
         sens["seed"] = seed
+    drives = _drives(d, lmin, lmax)
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
-                 wmin, wmax, hyd, sens, center_of_mass=com)
+                 wmin, wmax, hyd, sens, center_of_mass=com, drives=drives)
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:
@@ -339,7 +482,7 @@ def _from_dict(d) -> Platform:
     return p
 
 
-def load(path) -> Platform:
+def load(path, check_bus_load: bool = True) -> Platform:
     """Reads and validates a config file; raises ConfigError naming the key."""
     path = Path(path)
     try:
@@ -350,7 +493,7 @@ def load(path) -> Platform:
         d = json.loads(text)
     except json.JSONDecodeError as e:
         raise ConfigError(f"{path}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") from None
-    p = from_dict(d, str(path))
+    p = from_dict(d, str(path), check_bus_load)
     p.source = str(path)
     return p
 

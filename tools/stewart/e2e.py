@@ -34,6 +34,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 #: Frames up to this many bytes carry a CRC-8; longer frames a CRC-16.
 CRC8_MAX_LEN = 12
 COUNTER_MODULO = 16
@@ -165,3 +167,59 @@ class E2EReceiver:
 
 def next_counter(counter: int) -> int:
     return (counter + 1) % COUNTER_MODULO
+
+
+def crc_ok_many(frame_id: int, data) -> np.ndarray:
+    """:func:`crc_ok` for N frames of one ID and one length at once: ``data``
+    is an (N, length) uint8 matrix; returns N booleans. The same tables as
+    :func:`crc8_j1850` / :func:`crc16_ccitt_false`, one payload column per
+    step (tests/python/test_framedecode.py holds it to :func:`crc_ok`)."""
+    data = np.asarray(data, dtype=np.uint8)
+    n_rows, length = data.shape
+    if length < 2:
+        return np.zeros(n_rows, dtype=bool)
+    n = crc_length(length)
+    covered = [np.full(n_rows, b, dtype=np.uint8) for b in data_id_bytes(frame_id)]
+    covered += [data[:, j] for j in range(length - n)]
+    if n == 1:
+        t8 = np.array(_T8, dtype=np.uint8)
+        c = np.full(n_rows, 0xFF, dtype=np.uint8)
+        for col in covered:
+            c = t8[c ^ col]
+        return data[:, -1] == (c ^ 0xFF)
+    t16 = np.array(_T16, dtype=np.uint16)
+    c16 = np.full(n_rows, 0xFFFF, dtype=np.uint16)
+    for col in covered:
+        c16 = (c16 << 8) ^ t16[(c16 >> 8) ^ col]
+    stored = data[:, -2].astype(np.uint16) | (data[:, -1].astype(np.uint16) << 8)
+    return stored == c16
+
+
+#: Status codes of :func:`check_counters`: index into this tuple.
+STATUS_CODES = (INIT, OK, LOST, REPEATED, WRONG_SEQUENCE)
+
+
+def check_counters(counters) -> tuple[np.ndarray, np.ndarray]:
+    """:class:`E2EReceiver` over a sequence of counters of one message and
+    sender, in order: (status code per frame, an index into
+    :data:`STATUS_CODES`; frames lost before each). A clean sequence (every
+    step 1, 2 or 3) is checked at once; otherwise the receiver runs frame by
+    frame."""
+    c = np.asarray(counters, dtype=np.int64)
+    if c.size == 0:
+        return np.zeros(0, dtype=np.int8), np.zeros(0, dtype=np.int64)
+    if ((c < 0) | (c >= COUNTER_MODULO)).any():
+        raise ValueError("a counter is not a 4-bit value")
+    delta = np.diff(c) % COUNTER_MODULO
+    if ((delta >= 1) & (delta <= MAX_DELTA)).all():
+        codes = np.concatenate([[0], np.where(delta == 1, 1, 2)]).astype(np.int8)
+        return codes, np.concatenate([[0], delta - 1]).astype(np.int64)
+    rx = E2EReceiver()
+    index = {s: k for k, s in enumerate(STATUS_CODES)}
+    codes = np.empty(len(c), dtype=np.int8)
+    lost = np.empty(len(c), dtype=np.int64)
+    for k, v in enumerate(c.tolist()):
+        r = rx.check(v)
+        codes[k] = index[r.status]
+        lost[k] = r.lost
+    return codes, lost

@@ -139,10 +139,10 @@ class Protocol:
     """Encoder/decoder of the protocol with E2E state and rejection counters."""
 
     def __init__(self, dbc_path: str | Path | None = None):
-        import cantools
-
         self.dbc_path = Path(dbc_path) if dbc_path else DBC_PATH
-        self.db = cantools.database.load_file(str(self.dbc_path), strict=True)
+        # Parsed once per process (the parse is most of a Protocol's set-up);
+        # the database is only read, never changed.
+        self.db = _database(str(self.dbc_path.resolve()))
         self.nominal_bitrate = int(_attr(self.db, "Baudrate", 1_000_000))
         self.data_bitrate = int(_attr(self.db, "BaudrateCANFD", 5_000_000))
         self.infos: dict[str, MessageInfo] = {}
@@ -332,7 +332,7 @@ def value_names(message: str, signal: str, dbc_path: str | Path | None = None) -
     """The value table (``VAL_``) of a signal in the DBC as its names indexed
     by raw value: ``value_names("CTRL_STATUS", "State")[3] == "RUNNING"``.
     The table must cover 0..n-1 without gaps (ValueError otherwise)."""
-    path = str(dbc_path or DBC_PATH)
+    path = str(Path(dbc_path or DBC_PATH).resolve())
     s = _database(path).get_message_by_name(message).get_signal_by_name(signal)
     table = {int(k): str(v) for k, v in (s.choices or {}).items()}
     if not table or sorted(table) != list(range(len(table))):

@@ -71,6 +71,8 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st != SP_OK) {
         return st;
     }
+    /* SP_E_RANGE (legs outside its envelope) leaves the rigid body */
+    (void)sp_motion_error_body(p, &ctrl->prep.motion_body);
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
     (void)sp_stream_gains(&ctrl->prep.stream, cfg->tick_us, cfg->stream_omega);
     sp_wrench_reset(&ctrl->wrench);
@@ -517,13 +519,14 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (friction == NULL && cfg->friction_observer) {
         ok = 0; /* the kept model forces exclude friction: no estimate this tick */
     }
-    /* the motion-error correction: the rigid body's M6 (at the reference's
-     * sines: est and ref differ by mm, mrad) times the acceleration of
+    /* the motion-error correction: the rigid body's M6 with the legs'
+     * inertia at home (at the reference's sines: est and ref differ by mm,
+     * mrad) times the acceleration of
      * estimate - reference, into the filter with the force path's wrench */
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
-            sp_motion_error_wrench_sc(cfg->platform, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
+            sp_motion_error_wrench_body_sc(&ctrl->prep.motion_body, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
             correction = dw;
         }
     } else {

@@ -132,9 +132,10 @@ SPI_INLINE void me_body_acc(const sp_q30_t sc[6], const sp_q24_t a[3], sp_q24_t 
     wd[2] = spi_narrow_floor((int64_t)a[2] * cpcr - (int64_t)a[1] * sr + half, 30u, flags);
 }
 
-/* dW = M6 da with T = t (Q30) and the roll and pitch sines sc. */
-static sp_status_t me_wrench(const sp_platform_t *platform, const sp_q30_t (*t)[3], const sp_q30_t sc[6],
-                             const sp_q24_t da[6], sp_q8_t dw[6])
+/* dW = M6 da of the body (mass, inertia about o', centre: Q16, Q16, Q24)
+ * with T = t (Q30) and the roll and pitch sines sc. */
+static sp_status_t me_wrench(sp_q16_t mass, const sp_q16_t (*inertia)[3], const sp_q24_t com[3], const sp_q30_t (*t)[3],
+                             const sp_q30_t sc[6], const sp_q24_t da[6], sp_q8_t dw[6])
 {
     sp_flags_t flags = 0u;
     sp_q24_t wd[3]; /* body angular acceleration dw', rad/s^2, Q24 */
@@ -150,18 +151,17 @@ static sp_status_t me_wrench(const sp_platform_t *platform, const sp_q30_t (*t)[
         ab[k] = spi_narrow_floor((int64_t)t[0][k] * wd[0] + (int64_t)t[1][k] * wd[1] + (int64_t)t[2][k] * wd[2] +
                                      (INT64_C(1) << 29),
                                  30u, &flags);
-        rc[k] = spi_narrow_floor((int64_t)t[0][k] * platform->center_of_mass[0] +
-                                     (int64_t)t[1][k] * platform->center_of_mass[1] +
-                                     (int64_t)t[2][k] * platform->center_of_mass[2] + (INT64_C(1) << 29),
+        rc[k] = spi_narrow_floor((int64_t)t[0][k] * com[0] + (int64_t)t[1][k] * com[1] + (int64_t)t[2][k] * com[2] +
+                                     (INT64_C(1) << 29),
                                  30u, &flags);
     }
     for (k = 0u; k < 3u; ++k) {
-        const sp_q16_t *row = platform->inertia[k];
+        const sp_q16_t *row = inertia[k];
         /* Q16 x Q24 products rounded to Q32 (each below 2^54), summed,
          * then to Q8 */
         int64_t s = me_p(row[0], wd[0], 8u) + me_p(row[1], wd[1], 8u) + me_p(row[2], wd[2], 8u);
         iw[k] = spi_narrow_floor(s + (INT64_C(1) << 23), 24u, &flags);
-        mc[k] = spi_narrow_floor((int64_t)platform->mass * rc[k] + (INT64_C(1) << 23), 24u, &flags);
+        mc[k] = spi_narrow_floor((int64_t)mass * rc[k] + (INT64_C(1) << 23), 24u, &flags);
     }
     /* force = m da + (R dw') x (m R c); moment = R (I dw') + (m R c) x da,
      * all terms in Q32 (below 2^55 each), narrowed once to Q8 */
@@ -169,9 +169,9 @@ static sp_status_t me_wrench(const sp_platform_t *platform, const sp_q30_t (*t)[
         const sp_q24_t *a = da;
         int64_t f[3];
         int64_t m[3];
-        f[0] = me_p(platform->mass, a[0], 8u) + me_p(ab[1], mc[2], 8u) - me_p(ab[2], mc[1], 8u);
-        f[1] = me_p(platform->mass, a[1], 8u) + me_p(ab[2], mc[0], 8u) - me_p(ab[0], mc[2], 8u);
-        f[2] = me_p(platform->mass, a[2], 8u) + me_p(ab[0], mc[1], 8u) - me_p(ab[1], mc[0], 8u);
+        f[0] = me_p(mass, a[0], 8u) + me_p(ab[1], mc[2], 8u) - me_p(ab[2], mc[1], 8u);
+        f[1] = me_p(mass, a[1], 8u) + me_p(ab[2], mc[0], 8u) - me_p(ab[0], mc[2], 8u);
+        f[2] = me_p(mass, a[2], 8u) + me_p(ab[0], mc[1], 8u) - me_p(ab[1], mc[0], 8u);
         m[0] = me_p(mc[1], a[2], 8u) - me_p(mc[2], a[1], 8u);
         m[1] = me_p(mc[2], a[0], 8u) - me_p(mc[0], a[2], 8u);
         m[2] = me_p(mc[0], a[1], 8u) - me_p(mc[1], a[0], 8u);
@@ -204,7 +204,8 @@ sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t 
     if (platform == NULL || ik == NULL || da == NULL || dw == NULL) {
         return me_bad_args(dw);
     }
-    return me_wrench(platform, (const sp_q30_t(*)[3])ik->rot.t, ik->sc, da, dw);
+    return me_wrench(platform->mass, (const sp_q16_t(*)[3])platform->inertia, platform->center_of_mass,
+                     (const sp_q30_t(*)[3])ik->rot.t, ik->sc, da, dw);
 }
 
 sp_status_t sp_motion_error_wrench_sc(const sp_platform_t *platform, const sp_q30_t sc[6], const sp_q24_t da[6],
@@ -216,5 +217,153 @@ sp_status_t sp_motion_error_wrench_sc(const sp_platform_t *platform, const sp_q3
     }
     /* T from the sines, as the IK builds it */
     spi_rot_from_sincos(sc, &rot);
-    return me_wrench(platform, (const sp_q30_t(*)[3])rot.t, sc, da, dw);
+    return me_wrench(platform->mass, (const sp_q16_t(*)[3])platform->inertia, platform->center_of_mass,
+                     (const sp_q30_t(*)[3])rot.t, sc, da, dw);
+}
+
+sp_status_t sp_motion_error_wrench_body_sc(const sp_me_body_t *body, const sp_q30_t sc[6], const sp_q24_t da[6],
+                                           sp_q8_t dw[6])
+{
+    sp_rot_t rot;
+    if (body == NULL || sc == NULL || da == NULL || dw == NULL) {
+        return me_bad_args(dw);
+    }
+    spi_rot_from_sincos(sc, &rot);
+    return me_wrench(body->mass, (const sp_q16_t(*)[3])body->inertia, body->center_of_mass, (const sp_q30_t(*)[3])rot.t,
+                     sc, da, dw);
+}
+
+/* round(x / 2^s) (ties up) of an int64 below 2^62 in magnitude */
+#define ME_SHR(x, s) (((x) + (INT64_C(1) << ((s)-1u))) >> (s))
+
+sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *body)
+{
+    sp_flags_t flags = 0u;
+    sp_ik_t ik;
+    int64_t kt[3][3] = {{0}}; /* sum of K_i, kg, Q16 */
+    int64_t c[3][3] = {{0}};  /* sum of K_i [r_i]x, kg m, Q16 */
+    int64_t b[3][3] = {{0}};  /* sum of [r_i]x K_i [r_i]x^T, kg m^2, Q16 */
+    int64_t s[3];             /* the legs' first moment, base frame, kg m, Q16 */
+    const sp_leg_mass_t *lm;
+    int64_t m_eff;
+    unsigned i, j, k, l;
+    if (platform == NULL || body == NULL) {
+        return SP_E_ARG;
+    }
+    body->mass = platform->mass;
+    for (j = 0u; j < 3u; ++j) {
+        body->center_of_mass[j] = platform->center_of_mass[j];
+        for (k = 0u; k < 3u; ++k) {
+            body->inertia[j][k] = platform->inertia[j][k];
+        }
+    }
+    lm = &platform->leg_mass;
+    if (lm->cylinder_mass == 0 && lm->rod_mass == 0) {
+        return SP_OK; /* massless legs: the rigid body as it is */
+    }
+    /* the envelope that bounds every product below: leg masses below
+     * 512 kg, centres below 8 m, arms below 4 m per component, every leg
+     * longer than its centres (mu then below m_c + m_r) */
+    if (lm->cylinder_mass < 0 || lm->rod_mass < 0 || lm->cylinder_mass >= (512 << 16) || lm->rod_mass >= (512 << 16) ||
+        lm->cylinder_com < 0 || lm->rod_com < 0 || lm->cylinder_com >= (8 << 24) || lm->rod_com >= (8 << 24) ||
+        sp_inverse_kinematics(platform, &platform->home, &ik) != SP_OK) {
+        return SP_E_RANGE;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (ik.length[i] <= lm->cylinder_com || ik.length[i] <= lm->rod_com || ik.length[i] >= (8 << 24)) {
+            return SP_E_RANGE;
+        }
+        for (k = 0u; k < 3u; ++k) {
+            if (ik.arm[i][k] <= -(4 << 24) || ik.arm[i][k] >= (4 << 24)) {
+                return SP_E_RANGE;
+            }
+        }
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q30_t *u = ik.unit[i];
+        const sp_q24_t *r = ik.arm[i];
+        int64_t len = ik.length[i];
+        int64_t dr = len - lm->rod_com;
+        /* mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2, kg, Q16: the squares in
+         * Q24 (lengths below 8 m: < 2^30), times the masses (Q16, < 2^31):
+         * Q40 below 2^61 each; L^2 > 0 (the IK's lengths are positive) */
+        int64_t num = (int64_t)lm->cylinder_mass * ME_SHR((int64_t)lm->cylinder_com * lm->cylinder_com, 24u) +
+                      (int64_t)lm->rod_mass * ME_SHR(dr * dr, 24u);
+        int64_t mu = num / ME_SHR(len * len, 24u);
+        int64_t axial = (int64_t)lm->rod_mass - mu; /* m_r - mu, kg, Q16 */
+        int64_t kk[3][3];                           /* K = mu 1 + (m_r - mu) u u^T, kg, Q16 */
+        int64_t kr[3][3];                           /* K [r]x, kg m, Q16 */
+        int64_t rx[3][3];                           /* [r]x, m, Q24 */
+        rx[0][0] = 0, rx[0][1] = -r[2], rx[0][2] = r[1];
+        rx[1][0] = r[2], rx[1][1] = 0, rx[1][2] = -r[0];
+        rx[2][0] = -r[1], rx[2][1] = r[0], rx[2][2] = 0;
+        for (j = 0u; j < 3u; ++j) {
+            for (k = 0u; k < 3u; ++k) {
+                int64_t uu = ME_SHR((int64_t)u[j] * u[k], 30u); /* Q30 */
+                kk[j][k] = ((j == k) ? mu : 0) + ME_SHR(axial * uu, 30u);
+                kt[j][k] += kk[j][k];
+            }
+        }
+        for (j = 0u; j < 3u; ++j) {
+            for (k = 0u; k < 3u; ++k) {
+                int64_t acc = 0;
+                for (l = 0u; l < 3u; ++l) {
+                    acc += kk[j][l] * rx[l][k]; /* Q16 x Q24, below 2^57 each */
+                }
+                kr[j][k] = ME_SHR(acc, 24u);
+                c[j][k] += kr[j][k];
+            }
+        }
+        /* [r]x K [r]x^T = -[r]x (K [r]x) */
+        for (j = 0u; j < 3u; ++j) {
+            for (k = 0u; k < 3u; ++k) {
+                int64_t acc = 0;
+                for (l = 0u; l < 3u; ++l) {
+                    acc -= rx[j][l] * kr[l][k]; /* Q24 x Q16 (< 2^35): below 2^61 */
+                }
+                b[j][k] += ME_SHR(acc, 24u);
+            }
+        }
+    }
+    for (j = 0u; j < 3u; ++j) {
+        for (k = 0u; k < 3u; ++k) {
+            if (b[j][k] <= -(INT64_C(1) << 31) || b[j][k] >= (INT64_C(1) << 31)) {
+                return SP_E_RANGE; /* beyond 32768 kg m^2 */
+            }
+        }
+    }
+    /* the rigid body's coupling is [m r_c]x: the skew part of C */
+    s[0] = ME_SHR(c[2][1] - c[1][2], 1u);
+    s[1] = ME_SHR(c[0][2] - c[2][0], 1u);
+    s[2] = ME_SHR(c[1][0] - c[0][1], 1u);
+    /* mass: the mean of the translational block's diagonal */
+    m_eff = (int64_t)platform->mass + (kt[0][0] + kt[1][1] + kt[2][2]) / 3;
+    body->mass = sp_sat32(m_eff, &flags);
+    if (m_eff <= 0) {
+        return SP_E_RANGE;
+    }
+    /* to the motion frame: s_b = T s, I_b = T B T^T (T the home's, Q30) */
+    for (j = 0u; j < 3u; ++j) {
+        int64_t sb = 0;
+        int64_t first;
+        for (l = 0u; l < 3u; ++l) {
+            sb += (int64_t)ik.rot.t[j][l] * s[l]; /* Q30 x Q16 (< 2^40) */
+        }
+        sb = ME_SHR(sb, 30u);
+        /* c_eff = (m c + s_b) / m_eff, m, Q24 */
+        first = (int64_t)platform->mass * platform->center_of_mass[j] + sb * (INT64_C(1) << 24); /* Q40 */
+        body->center_of_mass[j] = sp_sat32(first / m_eff, &flags);
+        for (k = 0u; k < 3u; ++k) {
+            int64_t acc = 0;
+            for (l = 0u; l < 3u; ++l) {
+                /* (T B)_jl, Q16: each Q30 x Q16 product (< 2^61) rounded */
+                int64_t tb = ME_SHR((int64_t)ik.rot.t[j][0] * b[0][l], 30u) +
+                             ME_SHR((int64_t)ik.rot.t[j][1] * b[1][l], 30u) +
+                             ME_SHR((int64_t)ik.rot.t[j][2] * b[2][l], 30u);
+                acc += ME_SHR(tb * ik.rot.t[k][l], 30u);
+            }
+            body->inertia[j][k] = sp_sat32((int64_t)platform->inertia[j][k] + acc, &flags);
+        }
+    }
+    return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
 }

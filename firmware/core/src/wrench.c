@@ -11,14 +11,12 @@ void sp_wrench_reset(sp_wrench_t *w)
     }
     for (k = 0u; k < 6u; ++k) {
         w->wrench[k] = 0;
+        w->force_wrench[k] = 0;
         for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
             w->section[n][k] = 0;
         }
     }
-    for (k = 0u; k < SP_LEGS; ++k) {
-        w->model_force[k] = 0;
-    }
-    w->have_model = 0u;
+    w->have_force = 0u;
     w->valid = 0u;
 }
 
@@ -86,12 +84,12 @@ static void wrench_sums(const sp_jacobian_t *jac, const int32_t d[SP_LEGS], int6
     }
 }
 
-/* One component of the filter's input: acc (Q36, |acc| < 2^63 - 2^27)
- * rounded to Q8 (|.| < 2^35), plus the correction (Q8), held within
+/* One component of the filter's input: the kept force path (Q8, J^T d
+ * of the previous tick, |.| < 2^35) plus the correction (Q8), held within
  * [WRENCH_LO, WRENCH_HI]. */
-SPI_INLINE int32_t wrench_raw(int64_t acc, int32_t correction)
+SPI_INLINE int32_t wrench_raw(int64_t force_wrench, int32_t correction)
 {
-    int64_t x = ((acc + (INT64_C(1) << 27)) >> 28) + correction;
+    int64_t x = force_wrench + correction;
     return (x > WRENCH_HI) ? (int32_t)WRENCH_HI : ((x < WRENCH_LO) ? (int32_t)WRENCH_LO : (int32_t)x);
 }
 
@@ -112,22 +110,27 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
 {
     unsigned i;
     unsigned k;
+    int32_t d[SP_LEGS]; /* F_model + F_friction - F, N, Q8 */
+    int64_t acc[6];     /* J^T d, Q36 */
     if (model == NULL) {
-        w->have_model = 0u;
+        w->have_force = 0u;
         w->valid = 0u;
         return;
     }
-    if (w->have_model) {
-        int32_t d[SP_LEGS]; /* F_model - F, N, Q8 */
-        int64_t acc[6];     /* J^T d, Q36 */
+    /* this tick's force path: model, friction, measurement and Jacobian
+     * of one tick, rounded once to Q8 */
+    for (i = 0u; i < SP_LEGS; ++i) {
+        d[i] = wrench_d((friction != NULL) ? model->rigid[i] : model->force[i], (friction != NULL) ? friction[i] : 0,
+                        measured[i]);
+    }
+    wrench_sums(&model->jac, d, acc);
+    if (w->have_force) {
         /* alpha outside [0, 1] would leave the hull of last and raw */
         alpha = (alpha < 0) ? 0 : ((alpha > SP_Q30_ONE) ? SP_Q30_ONE : alpha);
-        for (i = 0u; i < SP_LEGS; ++i) {
-            d[i] = wrench_d(w->model_force[i], (friction != NULL) ? friction[i] : 0, measured[i]);
-        }
-        wrench_sums(&model->jac, d, acc);
         for (k = 0u; k < 6u; ++k) {
-            int32_t x = wrench_raw(acc[k], (correction != NULL) ? correction[k] : 0);
+            /* the previous tick's force path with this tick's correction,
+             * whose double difference is centred on the previous tick */
+            int32_t x = wrench_raw(w->force_wrench[k], (correction != NULL) ? correction[k] : 0);
             unsigned n;
             for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
                 /* the first estimate starts every section at its value */
@@ -138,8 +141,8 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         }
         w->valid = 1u;
     }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        w->model_force[i] = (friction != NULL) ? model->rigid[i] : model->force[i];
+    for (k = 0u; k < 6u; ++k) {
+        w->force_wrench[k] = (acc[k] + (INT64_C(1) << 27)) >> 28;
     }
-    w->have_model = 1u;
+    w->have_force = 1u;
 }

@@ -26,8 +26,9 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from .. import model
+from .. import e2e
 from .. import protocol as pr
-from .logfile import parse_bus_map, parse_line
+from .logfile import parse_bus_map
 from .names import AXES, COMMANDS, STATES, TICK_S
 
 #: Kinds of bad frames besides the protocol's rejections (pr.KINDS).
@@ -192,6 +193,147 @@ def _unwrap16(echo: int, near: int) -> int:
     return base + 0x10000 if near - base > 0x8000 else base
 
 
+#: Messages whose Tick signal is the tick of their row.
+TICK_MESSAGES = ("SYNC", "AXIS_SETPOINTS", "CTRL_STATUS", "CTRL_MONITOR", "CTRL_WRENCH")
+_BUS_ORDER = tuple(pr.BUSES)
+
+
+def _last_per_key(keys: np.ndarray) -> np.ndarray:
+    """Indices of the last occurrence of each distinct key (keys in log
+    order): the frame that wins when a tick has several."""
+    if len(keys) == 0:
+        return np.zeros(0, dtype=np.int64)
+    rev = keys[::-1]
+    _, first = np.unique(rev, return_index=True)
+    return (len(keys) - 1 - first).astype(np.int64)
+
+
+def _unwrap16_many(echo: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """:func:`_unwrap16` element-wise."""
+    base = near - ((near - echo) & 0xFFFF)
+    return np.where(near - base > 0x8000, base + 0x10000, base)
+
+
+@dataclass
+class _Accepted:
+    """The accepted frames of one message on one bus."""
+
+    name: str
+    bus: str
+    line_no: np.ndarray
+    time: np.ndarray
+    values: dict[str, np.ndarray]   #: physical values (cantools' conversion)
+
+
+def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: LogStats,
+                  warnings: list[tuple[int, str]]) -> list[_Accepted]:
+    """The checks of :meth:`stewart.protocol.Protocol.receive` and the DBC's
+    bus, on whole messages: known interface, known ID, exact length, CRC,
+    alive counter per bus and message, value ranges, bus. Counts into
+    ``stats``; warnings as (line, text)."""
+    from .framedecode import MessageLayout
+
+    bus_of_iface = np.array([_BUS_ORDER.index(ifmap[n]) if n in ifmap else -1
+                             for n in frames.ifaces], dtype=np.int64)
+    bus = bus_of_iface[frames.iface] if len(frames.ifaces) else np.zeros(0, np.int64)
+    unknown_if = np.flatnonzero(bus < 0)
+    stats.unknown_interface += len(unknown_if)
+    for k in unknown_if[:MAX_WARNINGS].tolist():
+        warnings.append((int(frames.line_no[k]),
+                         f"line {frames.line_no[k]}: unknown interface {frames.ifaces[frames.iface[k]]!r}"))
+
+    def reject(kind: str, idx: np.ndarray, text) -> None:
+        if len(idx) == 0:
+            return
+        stats.rejected[kind] = stats.rejected.get(kind, 0) + len(idx)
+        for k in idx[:MAX_WARNINGS].tolist():
+            b = _BUS_ORDER[bus[k]]
+            warnings.append((int(frames.line_no[k]), f"line {frames.line_no[k]}: {b}: {text(k)}"))
+
+    known_ids = {int(m.frame_id): m for m in proto.db.messages}
+    on_bus = bus >= 0
+    unknown = np.flatnonzero(on_bus & ~np.isin(frames.frame_id, list(known_ids)))
+    reject(pr.UNKNOWN_ID, unknown,
+           lambda k: str(pr.ProtocolError(pr.UNKNOWN_ID, f"no message has ID 0x{frames.frame_id[k]:X}",
+                                          int(frames.frame_id[k]))))
+    out: list[_Accepted] = []
+    for fid, m in known_ids.items():
+        sel = np.flatnonzero(on_bus & (frames.frame_id == fid))
+        if len(sel) == 0:
+            continue
+        info = proto.infos[m.name]
+        bad_len = sel[frames.dlc[sel] != m.length]
+        reject(pr.BAD_LENGTH, bad_len, lambda k: str(pr.ProtocolError(
+            pr.BAD_LENGTH, f"{m.name} has {m.length} bytes, got {frames.dlc[k]}", fid)))
+        sel = sel[frames.dlc[sel] == m.length]
+        data = frames.data[sel, :m.length]
+        crc = e2e.crc_ok_many(fid, data)
+        reject(pr.BAD_CRC, sel[~crc], lambda k: str(pr.ProtocolError(pr.BAD_CRC, f"{m.name}: CRC mismatch", fid)))
+        sel, data = sel[crc], data[crc]
+        layout = MessageLayout(m)
+        raw = layout.raw(data)
+        keep = np.ones(len(sel), dtype=bool)
+        lost = np.zeros(len(sel), dtype=np.int64)
+        for b in range(len(_BUS_ORDER)):
+            on = np.flatnonzero(bus[sel] == b)
+            if len(on) == 0:
+                continue
+            codes, lost_b = e2e.check_counters(raw["Counter"][on])
+            lost[on] = lost_b
+            for kind in (pr.REPEATED, pr.WRONG_SEQUENCE):
+                hit = on[codes == e2e.STATUS_CODES.index(kind)]
+                keep[hit] = False
+                reject(kind, sel[hit], lambda k, kind=kind: str(pr.ProtocolError(
+                    kind, f"{m.name} on {_BUS_ORDER[bus[k]]}: counter "
+                    f"{int(raw['Counter'][np.searchsorted(sel, k)])}", fid)))
+        # Value ranges, in the order of the signals (the first one out is named).
+        first_bad = np.full(len(sel), -1, dtype=np.int64)
+        for j, s in enumerate(m.signals):
+            lim = info.limits[s.name]
+            r = raw[s.name]
+            out_of = (r > lim.hi) if lim.lo <= 0 and not s.is_signed else ((r < lim.lo) | (r > lim.hi))
+            first_bad = np.where((first_bad < 0) & out_of & keep, j, first_bad)
+        bad_rng = np.flatnonzero(first_bad >= 0)
+
+        def range_text(k, bad_rng=bad_rng):
+            i = int(np.searchsorted(sel, k))
+            s = m.signals[int(first_bad[i])]
+            lim = info.limits[s.name]
+            return str(pr.ProtocolError(pr.OUT_OF_RANGE, f"{m.name}.{s.name} raw {int(raw[s.name][i])} "
+                                        f"outside {lim.lo}..{lim.hi}", fid))
+
+        reject(pr.OUT_OF_RANGE, sel[bad_rng], range_text)
+        keep[bad_rng] = False
+        allowed = np.array([_BUS_ORDER[b] in info.buses for b in range(len(_BUS_ORDER))])
+        wrong = keep & ~allowed[bus[sel]]
+        wb = sel[wrong]
+        if len(wb):
+            stats.rejected[WRONG_BUS] = stats.rejected.get(WRONG_BUS, 0) + len(wb)
+            for k in wb[:MAX_WARNINGS].tolist():
+                warnings.append((int(frames.line_no[k]),
+                                 f"line {frames.line_no[k]}: {m.name} on bus {_BUS_ORDER[bus[k]]}, "
+                                 f"the DBC puts it on {', '.join(info.buses)}"))
+        keep &= ~wrong
+        if not keep.any():
+            continue
+        stats.accepted += int(keep.sum())
+        stats.lost += int(lost[keep].sum())
+        stats.per_message[m.name] = stats.per_message.get(m.name, 0) + int(keep.sum())
+        every = bool(keep.all())
+        scaled = layout.scaled(raw if every else {k: v[keep] for k, v in raw.items()})
+        kept = sel if every else sel[keep]
+        buses_here = bus[kept]
+        for b in range(len(_BUS_ORDER)):
+            on = buses_here == b
+            n_on = int(on.sum())
+            if n_on == len(kept):   # all on one bus: no copies
+                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept], frames.time[kept], scaled))
+            elif n_on:
+                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept[on]],
+                                     frames.time[kept[on]], {k: v[on] for k, v in scaled.items()}))
+    return out
+
+
 def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] | None = None,
              platform=None, dbc_path: str | Path | None = None) -> LogData:
     """Reads and checks a candump -L log (a path or an iterable of lines).
@@ -199,131 +341,101 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     ``buses``: the ``--bus`` text or a mapping {interface: bus}; default
     vcan0 = ops, vcan1 = axis_a, vcan2 = axis_b (and the bus names
     themselves). ``platform``: a validated :class:`stewart.config.Platform`
-    for the stretch and the measured force (None: those columns are NaN)."""
+    for the stretch and the measured force (None: those columns are NaN).
+
+    Whole messages at once: the log's frames are parsed column-wise
+    (:func:`.logfile.read_frames`), grouped by ID, checked (CRC, counters,
+    ranges, bus) and decoded with the DBC's layout by numpy
+    (:mod:`.framedecode`). The same result as the per-frame
+    :func:`.decode_reference.read_log_reference` (tests/python/test_framedecode.py)."""
+    from .logfile import read_frames
+
     ifmap = parse_bus_map(buses) if buses is None or isinstance(buses, str) else dict(buses)
     proto = pr.Protocol(dbc_path)
-    scaler = _Scaler(proto)
     stats = LogStats()
-    if isinstance(source, (str, Path)):
-        label = str(source)
-        fh = open(source, "r", encoding="utf-8", errors="replace")
-        lines: Iterable[str] = fh
+    label = str(source) if isinstance(source, (str, Path)) else "<lines>"
+    frames = read_frames(source)
+    stats.lines = frames.lines
+    stats.malformed = len(frames.malformed)
+    stats.frames = len(frames.line_no)
+    warnings: list[tuple[int, str]] = list(frames.malformed[:MAX_WARNINGS])
+    groups = _check_frames(frames, ifmap, proto, stats, warnings)
+    warnings.sort(key=lambda w: w[0])
+    for _, text in warnings[:MAX_WARNINGS]:
+        stats.warn(text)
+
+    # All accepted frames in log order: which group, row in it, tick if known.
+    if groups:
+        g_of = np.concatenate([np.full(len(g.line_no), k) for k, g in enumerate(groups)])
+        r_of = np.concatenate([np.arange(len(g.line_no)) for g in groups])
+        lines = np.concatenate([g.line_no for g in groups])
     else:
-        label = "<lines>"
-        fh = None
-        lines = source
+        g_of = r_of = lines = np.zeros(0, np.int64)
+    order = np.argsort(lines, kind="stable")
+    g_of, r_of = g_of[order], r_of[order]
+    n = len(order)
+    tick_of = np.zeros(n, dtype=np.int64)
+    known = np.zeros(n, dtype=bool)
+    status_at = np.zeros(n, dtype=bool)
+    pos_in: list[np.ndarray] = []   # per group: positions in log order
+    for k, g in enumerate(groups):
+        pos = np.flatnonzero(g_of == k)
+        pos = pos[np.argsort(r_of[pos])]
+        pos_in.append(pos)
+        if g.name in TICK_MESSAGES:
+            tick_of[pos] = g.values["Tick"]
+            known[pos] = True
+        if g.name == "CTRL_STATUS":
+            status_at[pos] = True
+    ar = np.arange(n)
+    prev_i = np.maximum.accumulate(np.where(known, ar, -1)) if n else ar
+    next_i = np.minimum.accumulate(np.where(known, ar, n)[::-1])[::-1] if n else ar
+    next_s = np.minimum.accumulate(np.where(status_at, ar, n)[::-1])[::-1] if n else ar
 
-    # First pass: good frames in log order, (kind, bus, name, signals, time).
-    accepted: list[tuple[str, str, dict[str, float], float, int]] = []
-    try:
-        for line_no, line in enumerate(lines, start=1):
-            stats.lines += 1
-            if not line.strip():
-                continue
-            try:
-                f = parse_line(line, line_no)
-            except ValueError as exc:
-                stats.malformed += 1
-                stats.warn(f"line {line_no}: malformed ({exc}): {line.strip()[:80]}")
-                continue
-            stats.frames += 1
-            bus = ifmap.get(f.iface)
-            if bus is None:
-                stats.unknown_interface += 1
-                stats.warn(f"line {line_no}: unknown interface {f.iface!r}")
-                continue
-            rec = proto.receive(f.frame_id, f.data, bus=bus, raw=True)
-            if not rec.ok:
-                kind = rec.error.kind
-                stats.rejected[kind] = stats.rejected.get(kind, 0) + 1
-                stats.warn(f"line {line_no}: {bus}: {rec.error}")
-                continue
-            name = rec.name
-            if bus not in proto.infos[name].buses:
-                stats.rejected[WRONG_BUS] = stats.rejected.get(WRONG_BUS, 0) + 1
-                stats.warn(f"line {line_no}: {name} on bus {bus}, the DBC puts it on "
-                           f"{', '.join(proto.infos[name].buses)}")
-                continue
-            stats.accepted += 1
-            stats.lost += rec.lost
-            stats.per_message[name] = stats.per_message.get(name, 0) + 1
-            accepted.append((name, bus, scaler(f.frame_id, rec.signals), f.time, line_no))
-    finally:
-        if fh is not None:
-            fh.close()
-
-    # Ticks of the tick-bearing frames, in log order, for TickEcho unwrapping
-    # and for the command -> executing tick assignment.
-    n = len(accepted)
-    known = [None] * n
-    for i, (name, _bus, sig, _t, _ln) in enumerate(accepted):
-        if name in ("SYNC", "AXIS_SETPOINTS", "CTRL_STATUS", "CTRL_MONITOR", "CTRL_WRENCH"):
-            known[i] = int(sig["Tick"])
-    prev_tick: list[int | None] = [None] * n
-    last = None
-    for i in range(n):
-        if known[i] is not None:
-            last = known[i]
-        prev_tick[i] = last
-    next_tick: list[int | None] = [None] * n
-    nxt = None
-    for i in range(n - 1, -1, -1):
-        if known[i] is not None:
-            nxt = known[i]
-        next_tick[i] = nxt
-    next_status: list[int | None] = [None] * n
-    nxt = None
-    for i in range(n - 1, -1, -1):
-        if accepted[i][0] == "CTRL_STATUS":
-            nxt = int(accepted[i][2]["Tick"])
-        next_status[i] = nxt
-
-    rows: dict[int, dict[str, Any]] = {}
-
-    def row(t: int) -> dict[str, Any]:
-        r = rows.get(t)
-        if r is None:
-            r = rows[t] = {}
-        return r
-
+    row_ticks: list[np.ndarray] = []
+    fb_parts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []  # leg, ticks, group, rows
     commands: list[Command] = []
-    for i, (name, bus, sig, t_log, line_no) in enumerate(accepted):
-        if name == "CTRL_STATUS":
-            row(int(sig["Tick"]))["status"] = sig
-        elif name == "CTRL_MONITOR":
-            row(int(sig["Tick"]))["monitor"] = sig
-        elif name == "CTRL_WRENCH":
-            row(int(sig["Tick"]))["wrench"] = sig
-        elif name == "AXIS_SETPOINTS":
-            row(int(sig["Tick"]))[("sp", bus)] = sig
-        elif name == "SYNC":
-            row(int(sig["Tick"]))
-        elif name.startswith("AXIS_FEEDBACK_"):
-            near = prev_tick[i] if prev_tick[i] is not None else next_tick[i]
-            echo = int(sig["TickEcho"])
-            if near is None:
-                tick = echo
-            else:
-                tick = _unwrap16(echo, near)
-                if abs(tick - near) > 1000:
-                    stats.stale_feedback += 1
-                    stats.warn(f"line {line_no}: {name} on {bus}: TickEcho {echo} is "
-                               f"{tick - near} ticks from the log's tick {near}")
-                    continue
-            slot = int(name[-1])
-            leg = slot + (0 if bus == "axis_a" else 3)
-            row(tick)[("fb", leg)] = sig
-        elif name == "OP_COMMAND":
-            c = int(sig["Command"])
-            commands.append(Command(
-                tick=next_status[i], time=t_log,
-                command=COMMANDS[c] if 0 <= c < len(COMMANDS) else str(c),
-                axis=int(sig["Axis"]), amplitude=float(sig["Amplitude"]),
-                frequency=float(sig["Frequency"]), fade_time=float(sig["FadeTime"]),
-                option=int(sig["Option"])))
-        # OP_TARGET_POSE: not needed for the analysis (the reference is in CTRL_MONITOR)
+    stale_warn: list[tuple[int, str]] = []
+    for k, g in enumerate(groups):
+        pos = pos_in[k]
+        if g.name in TICK_MESSAGES:
+            row_ticks.append(np.asarray(g.values["Tick"], dtype=np.int64))
+        elif g.name.startswith("AXIS_FEEDBACK_"):
+            echo = np.asarray(g.values["TickEcho"], dtype=np.int64)
+            pi, ni = prev_i[pos], next_i[pos]
+            has = (pi >= 0) | (ni < n)
+            near_i = np.where(pi >= 0, pi, np.minimum(ni, max(n - 1, 0)))
+            near = tick_of[near_i] if n else near_i
+            tick = np.where(has, _unwrap16_many(echo, near), echo)
+            stale = has & (np.abs(tick - near) > 1000)
+            stats.stale_feedback += int(stale.sum())
+            for r in np.flatnonzero(stale)[:MAX_WARNINGS].tolist():
+                stale_warn.append((int(g.line_no[r]),
+                                   f"line {g.line_no[r]}: {g.name} on {g.bus}: TickEcho {echo[r]} is "
+                                   f"{tick[r] - near[r]} ticks from the log's tick {near[r]}"))
+            slot = int(g.name[-1])
+            leg = slot + (0 if g.bus == "axis_a" else 3)
+            ok = ~stale
+            row_ticks.append(tick[ok])
+            fb_parts.append((leg, tick[ok], np.full(int(ok.sum()), k), np.flatnonzero(ok)))
+        elif g.name == "OP_COMMAND":
+            for r, p_ in enumerate(pos.tolist()):
+                c = int(g.values["Command"][r])
+                ns = int(next_s[p_])
+                commands.append(Command(
+                    tick=int(tick_of[ns]) if ns < n else None, time=float(g.time[r]),
+                    command=COMMANDS[c] if 0 <= c < len(COMMANDS) else str(c),
+                    axis=int(g.values["Axis"][r]), amplitude=float(g.values["Amplitude"][r]),
+                    frequency=float(g.values["Frequency"][r]), fade_time=float(g.values["FadeTime"][r]),
+                    option=int(g.values["Option"][r])))
+    cmd_lines = [g.line_no for g in groups if g.name == "OP_COMMAND"]
+    if len(cmd_lines) > 1:  # accepted on more than one bus: back to log order
+        commands = [commands[i] for i in np.argsort(np.concatenate(cmd_lines), kind="stable")]
+    stale_warn.sort(key=lambda w: w[0])
+    for _, text in stale_warn:
+        stats.warn(text)
 
-    ticks = np.array(sorted(rows), dtype=np.int64)
+    ticks = np.unique(np.concatenate(row_ticks)) if row_ticks else np.zeros(0, np.int64)
     N = len(ticks)
 
     def fl(shape):
@@ -339,42 +451,70 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
         length=fl((N, 6)), pressure_a=fl((N, 6)), pressure_b=fl((N, 6)), drive_state=it((N, 6)),
         drive_faults=it((N, 6)), est_wrench_valid=it(N), est_wrench=fl((N, 6)), commands=commands,
         stats=stats, source=label)
-    for k, t in enumerate(ticks):
-        r = rows[int(t)]
-        s = r.get("status")
-        if s is not None:
-            d.state[k] = s["State"]
-            d.faults[k] = s["Faults"]
-            d.drive_mode[k] = s["DriveMode"]
-            d.feedforward[k] = s["FeedForward"]
-            d.estimate_valid[k] = s["EstimateValid"]
-            d.fk_iterations[k] = s["FkIterations"]
-            if s["EstimateValid"]:
-                d.estimate[k] = [s[a] for a in pr.POSE_SIGNALS]
-        mon = r.get("monitor")
-        if mon is not None:
-            d.reference[k] = [mon["Ref" + a] for a in pr.POSE_SIGNALS]
-            d.length_sp[k] = [mon[f"LengthSp_{i}"] for i in range(1, 7)]
-            d.force_ff[k] = [mon[f"ForceFf_{i}"] for i in range(1, 7)]
-        w = r.get("wrench")
-        if w is not None:
-            d.est_wrench_valid[k] = w["Valid"]
-            if w["Valid"]:
-                d.est_wrench[k] = [w[s] for s in pr.WRENCH_SIGNALS]
-        for b, bus in enumerate(("axis_a", "axis_b")):
-            sp = r.get(("sp", bus))
-            if sp is not None:
-                d.axis_mode[k, b] = sp["Mode"]
-                d.axis_length_sp[k, 3 * b:3 * b + 3] = [sp[f"Length_{s}"] for s in (1, 2, 3)]
-        for leg in range(1, 7):
-            fb = r.get(("fb", leg))
-            if fb is not None:
-                j = leg - 1
-                d.length[k, j] = fb["Length"]
-                d.pressure_a[k, j] = fb["PressureA"]
-                d.pressure_b[k, j] = fb["PressureB"]
-                d.drive_state[k, j] = fb["State"]
-                d.drive_faults[k, j] = fb["Faults"]
+
+    def merged(name: str, bus: str | None = None):
+        """(row index, values) of the last frame per tick of a message (all
+        buses unless ``bus``), in log order."""
+        parts = [k for k, g in enumerate(groups) if g.name == name and (bus is None or g.bus == bus)]
+        if not parts:
+            return None
+        posv = np.concatenate([pos_in[k] for k in parts])
+        o = np.argsort(posv, kind="stable")
+        vals = {s: np.concatenate([groups[k].values[s] for k in parts])[o] for s in groups[parts[0]].values}
+        t = np.asarray(vals["Tick"], dtype=np.int64)
+        last = _last_per_key(t)
+        return np.searchsorted(ticks, t[last]), {s: v[last] for s, v in vals.items()}
+
+    got = merged("CTRL_STATUS")
+    if got is not None:
+        k, s = got
+        d.state[k] = s["State"]
+        d.faults[k] = s["Faults"]
+        d.drive_mode[k] = s["DriveMode"]
+        d.feedforward[k] = s["FeedForward"]
+        d.estimate_valid[k] = s["EstimateValid"]
+        d.fk_iterations[k] = s["FkIterations"]
+        v = np.asarray(s["EstimateValid"]) != 0
+        d.estimate[k[v]] = np.stack([s[a] for a in pr.POSE_SIGNALS], axis=1)[v]
+    got = merged("CTRL_MONITOR")
+    if got is not None:
+        k, s = got
+        d.reference[k] = np.stack([s["Ref" + a] for a in pr.POSE_SIGNALS], axis=1)
+        d.length_sp[k] = np.stack([s[f"LengthSp_{i}"] for i in range(1, 7)], axis=1)
+        d.force_ff[k] = np.stack([s[f"ForceFf_{i}"] for i in range(1, 7)], axis=1)
+    got = merged("CTRL_WRENCH")
+    if got is not None:
+        k, s = got
+        d.est_wrench_valid[k] = s["Valid"]
+        v = np.asarray(s["Valid"]) != 0
+        d.est_wrench[k[v]] = np.stack([s[a] for a in pr.WRENCH_SIGNALS], axis=1)[v]
+    for b, bus in enumerate(("axis_a", "axis_b")):
+        got = merged("AXIS_SETPOINTS", bus)
+        if got is not None:
+            k, s = got
+            d.axis_mode[k, b] = s["Mode"]
+            d.axis_length_sp[k, 3 * b:3 * b + 3] = np.stack([s[f"Length_{j}"] for j in (1, 2, 3)], axis=1)
+    for leg in range(1, 7):
+        parts = [p for p in fb_parts if p[0] == leg]
+        if not parts:
+            continue
+        t = np.concatenate([p[1] for p in parts])
+        posv = np.concatenate([pos_in[p[2][0]][p[3]] if len(p[2]) else np.zeros(0, np.int64)
+                               for p in parts])
+        o = np.argsort(posv, kind="stable")
+        t = t[o]
+        vals = {}
+        for sname in ("Length", "PressureA", "PressureB", "State", "Faults"):
+            vals[sname] = np.concatenate([groups[p[2][0]].values[sname][p[3]] if len(p[2])
+                                          else np.zeros(0) for p in parts])[o]
+        last = _last_per_key(t)
+        k = np.searchsorted(ticks, t[last])
+        j = leg - 1
+        d.length[k, j] = vals["Length"][last]
+        d.pressure_a[k, j] = vals["PressureA"][last]
+        d.pressure_b[k, j] = vals["PressureB"][last]
+        d.drive_state[k, j] = vals["State"][last]
+        d.drive_faults[k, j] = vals["Faults"][last]
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)
     stats.setpoint_checked = int(both.sum())
     stats.setpoint_mismatch = int((np.abs(d.length_sp - d.axis_length_sp)[both] > 1.5e-6).any(axis=1).sum())

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from .. import REPO_ROOT
 from .. import config as cfg
@@ -33,14 +33,23 @@ class Analysis:
 
 def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
             platform: str | Path | None = None, delay_ticks: int = DEFAULT_DELAY_TICKS,
-            buses: str | None = None, plots: bool = True) -> Analysis:
+            buses: str | None = None, plots: bool = True,
+            progress: Callable[[str], None] | None = None) -> Analysis:
     """Reads ``log`` (and ``truth``), writes signals.csv, summary.json and the
-    plots into ``out``; returns the data, segments, summary and files."""
+    plots into ``out``; returns the data, segments, summary and files.
+    ``progress(text)`` is told each step as it starts (the command prints
+    them once a run takes more than a moment)."""
+    def step(text: str) -> None:
+        if progress is not None:
+            progress(text)
+
+    step(f"reading {log}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     plat = cfg.load(platform or DEFAULT_PLATFORM)
     data = read_log(log, buses=buses, platform=plat)
     if truth is not None:
+        step(f"reading {truth}")
         t = read_truth(truth)
         attach_truth(data, t)
     segs = find_segments(data)
@@ -49,9 +58,11 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
         summary["truth_file"] = str(truth)
         summary["truth_bad_rows"] = int(t["bad_rows"])
     files = [out / "signals.csv", out / "summary.json"]
+    step(f"writing {files[0]}")
     write_signals_csv(data, files[0])
     if plots:
         for s in segs:
+            step(f"plotting segment {s.index} of {len(segs)}")
             p1 = out / f"seg{s.index}_tracking.png"
             p2 = out / f"seg{s.index}_cylinders.png"
             plot_tracking(data, s, p1, delay_ticks)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from .. import REPO_ROOT
@@ -28,6 +29,20 @@ def _run_label(summary, fallback: str) -> str:
     if len(ffs) == 1 and next(iter(ffs)) in ("on", "off"):
         return f"ff={next(iter(ffs))}"
     return fallback
+
+
+class _Progress:
+    """Prints each step with the time so far on stderr, from the first step
+    that starts after ``quiet_s`` (a short run prints nothing)."""
+
+    def __init__(self, quiet_s: float = 1.0):
+        self.t0 = time.monotonic()
+        self.quiet_s = quiet_s
+
+    def __call__(self, text: str) -> None:
+        dt = time.monotonic() - self.t0
+        if dt >= self.quiet_s:
+            print(f"stewart analyze: {dt:5.1f} s: {text}", file=sys.stderr, flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
             return 2
     try:
         res = analyze(args.log, args.out, truth=args.truth, platform=args.platform,
-                      delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots)
+                      delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
+                      progress=_Progress())
     except (cfg.ConfigError, ValueError, OSError) as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
@@ -58,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
     if args.compare:
         try:
             res2 = analyze(args.compare, Path(args.out) / "run2", platform=args.platform,
-                           delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots)
+                           delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
+                           progress=_Progress())
         except (cfg.ConfigError, ValueError, OSError) as exc:
             print(f"stewart analyze: {args.compare}: {exc}", file=sys.stderr)
             return 2
@@ -74,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
         for k, (s1, s2) in enumerate(pairs, start=1):
             path = Path(args.out) / f"compare{k}.png"
             if not args.no_plots:
+                print(f"stewart analyze: plotting comparison {k}", file=sys.stderr, flush=True)
                 plot_compare([(n1, res.data, s1), (n2, res2.data, s2)], path, args.delay_ticks)
             m1 = segment_metrics(res.data, s1, args.delay_ticks)["moving_axis_error"]
             m2 = segment_metrics(res2.data, s2, args.delay_ticks)["moving_axis_error"]

@@ -179,6 +179,9 @@ typedef struct {
     sp_stream_gains_t stream; /**< the stream filter's dt and gains */
     sp_friction_t friction;   /**< the cylinders' friction model */
     sp_q30_t wrench_alpha;    /**< the wrench filter's gain (sp_wrench_alpha) */
+    sp_me_body_t motion_body; /**< the rigid body with the legs' inertia at home, for the wrench's
+                                   motion correction (sp_motion_error_body; the rigid body alone
+                                   when the legs are outside its envelope) */
 } sp_ctrl_prepared_t;
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */

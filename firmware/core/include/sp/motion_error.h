@@ -36,6 +36,11 @@
  *    of the inverse dynamics' difference for a translational da and
  *    5.6 % for a rotational one (test_motion_error_wrench_vs_dynamics;
  *    docs/model.md, "The motion-error correction").
+ *    sp_motion_error_body folds the legs' inertia at the home pose into
+ *    the rigid body's parameters once (the controller does it at init),
+ *    and sp_motion_error_wrench_body_sc computes dW with them at the cost
+ *    of the rigid body's: the miss falls to the legs' anisotropy and
+ *    their change with the pose (measured in the test above).
  */
 #ifndef SP_MOTION_ERROR_H
 #define SP_MOTION_ERROR_H
@@ -97,7 +102,7 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
  * I = platform->inertia (about o', motion frame), m = platform->mass. This
  * is J^T dF for dF the difference of the inverse dynamics (massless legs)
  * of the motion with acceleration a + da and with a. Leg masses are not
- * included (see the file comment).
+ * included here (see the file comment and sp_motion_error_body).
  * Error: within 0.01 N, N m plus 1e-7 relative of the exact value of
  * the Q24 / Q30 inputs (the default platform with its centre of mass
  * moved off o', |da| < 64, 20,000 random cases against a double
@@ -120,5 +125,46 @@ sp_status_t sp_motion_error_wrench(const sp_platform_t *platform, const sp_ik_t 
  */
 sp_status_t sp_motion_error_wrench_sc(const sp_platform_t *platform, const sp_q30_t sc[6], const sp_q24_t da[6],
                                       sp_q8_t dw[6]);
+
+/** The rigid-body parameters dW is computed with. */
+typedef struct {
+    sp_q16_t mass;              /**< kg, Q16 */
+    sp_q16_t inertia[3][3];     /**< about o', motion frame, kg m^2, Q16 */
+    sp_q24_t center_of_mass[3]; /**< motion frame, m, Q24 */
+} sp_me_body_t;
+
+/**
+ * The platform's rigid body with its legs' inertia at the home pose folded
+ * in, for sp_motion_error_wrench_body_sc. Each leg (barrel m_c with its
+ * centre d_c from the base joint, rod m_r with its centre d_r from the
+ * platform joint, length L, unit u, arm r from o' at home) answers an
+ * acceleration a_A of its platform joint with the force K a_A,
+ * K = mu 1 + (m_r - mu) u u^T, mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2
+ * (the rod follows the joint along the leg; across it both parts pivot
+ * about the base joint): the wrench [K; [r]x K] (da + dw' x r). Summed
+ * over the legs, its blocks join the rigid body's: the mean of the
+ * translational block's diagonal to the mass, the skew part of the
+ * coupling sum K [r]x to the first moment m c, and sum [r]x K [r]x^T to
+ * the inertia (both turned into the motion frame with the home's T).
+ * The default platform: +157 kg (the block's diagonal is 137, 137,
+ * 196 kg), first moment (0, 0, -33) kg m, inertia +126, +126, +174 kg m^2.
+ * Massless legs: the rigid body unchanged. Computed in int64 with one
+ * rounding per product; the envelope (leg masses below 512 kg, centres
+ * below 8 m and shorter than every leg at home, arms below 4 m) bounds
+ * every product.
+ * Returns SP_E_ARG on NULL (body unchanged); SP_E_RANGE outside the
+ * envelope, when the home's IK fails or the inertia added exceeds
+ * 32768 kg m^2 (body then holds the rigid body); SP_E_OVERFLOW when a
+ * result saturated to int32; else SP_OK.
+ */
+sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *body);
+
+/**
+ * sp_motion_error_wrench_sc with the body's mass, inertia and centre of
+ * mass in place of the platform's: the same arithmetic, units, errors and
+ * returns (bit-identical when body holds the platform's values).
+ */
+sp_status_t sp_motion_error_wrench_body_sc(const sp_me_body_t *body, const sp_q30_t sc[6], const sp_q24_t da[6],
+                                           sp_q8_t dw[6]);
 
 #endif /* SP_MOTION_ERROR_H */

@@ -10,11 +10,19 @@
  * areas). Whatever the cylinders push beyond the model balances an
  * external wrench W: J^T F + W = J^T F_model, so
  *   W_raw = J^T (F_model - F),
- * J the leg Jacobian at the reference (rows [u_i, r_i x u_i]). The model
- * of the previous tick is used: the feedback of this tick was sampled
- * after the drives applied the previous setpoints. When the platform's
- * motion differs from the reference, the correction dW = M6 da of the
- * tracking error's acceleration (sp/motion_error.h) is added to W_raw.
+ * J the leg Jacobian at the reference (rows [u_i, r_i x u_i]). The model,
+ * friction, Jacobian and measured forces are all of one tick: the feedback
+ * of tick n is the state sampled for SYNC n, which the reference of tick n
+ * describes (docs/analysis.md, "Tracking error and its delay"). When the
+ * platform's motion differs from the reference, the correction
+ * dW = M6 da of the tracking error's acceleration (sp/motion_error.h) is
+ * added to W_raw. da is a backward double difference, centred on the
+ * previous tick, so the force path is kept for one tick and added to the
+ * correction of the next: all terms then describe the same instant, one
+ * tick (1 ms) before the output. With the force path of tick n and the
+ * correction centred on n - 1 (the estimator before issue 14's
+ * alignment), a yaw reversal's break-away, where the true inertial
+ * moment changes by some 100 N m per tick, left up to 176 N m.
  * The sum passes one low-pass filter of SP_WRENCH_SECTIONS equal
  * first-order backward-Euler sections (y += alpha (x - y),
  * alpha = w dt / (1 + w dt), w = 2 pi f_c), which sets the estimate's
@@ -24,8 +32,10 @@
  * the default platform) and four bring down with f^-2 (14 N), with the
  * same delay at low frequency (4 (1 - alpha) / alpha = 7.96 ms), a wider
  * band (-3 dB at 28.4 Hz against 23.0 Hz) and a faster step (2.6 %
- * against 5.7 % left after 20 ms). In closed loop (the wrench bus test)
- * the unloaded maximum fell from 201 N / 152 N m to 148 N / 78 N m.
+ * against 5.7 % left after 20 ms; 3.4 % 20 ms after a change of the
+ * true wrench, one tick of which is the alignment above). In closed loop
+ * (the wrench bus test) the unloaded maximum fell from 201 N / 152 N m
+ * to 148 N / 78 N m with the filter and to 107 N / 75 N m aligned.
  */
 #ifndef SP_WRENCH_H
 #define SP_WRENCH_H
@@ -37,10 +47,10 @@
 #define SP_WRENCH_SECTIONS 4u
 
 typedef struct {
-    sp_q8_t model_force[SP_LEGS];           /**< the previous tick's model forces, N, Q8 */
+    int64_t force_wrench[6];                /**< the previous tick's J^T (F_model - F), N, N m, Q8 */
     int32_t wrench[6];                      /**< the estimate (the last section), N, N m, Q8 */
     int32_t section[SP_WRENCH_SECTIONS][6]; /**< the filter's sections, N, N m, Q8 */
-    uint8_t have_model;                     /**< 1 when model_force holds the previous tick's model */
+    uint8_t have_force;                     /**< 1 when force_wrench holds the previous tick's */
     uint8_t valid;                          /**< 1 once the estimate follows the measurements */
 } sp_wrench_t;
 
@@ -55,26 +65,28 @@ void sp_wrench_reset(sp_wrench_t *w);
 sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
 
 /**
- * One tick: with a model kept from the previous tick, `measured` the
- * cylinder forces of this tick's feedback (N, Q8) and model->jac the
- * Jacobian at this tick's reference, filters W_raw = J^T (F_model - F)
- * plus `correction` (the motion-error wrench dW of this tick, N, N m, Q8;
- * NULL: none) into w->wrench and marks it valid (the first estimate
- * starts every section at its raw value); then keeps the model forces for
- * the next tick. `friction` (N, Q8, positive opposing lengthening) is the
- * seals' friction of this tick from the friction observer (sp/friction.h):
- * the estimate then compares F with the model's inverse dynamics part
+ * One tick: with `model` this tick's (model->rigid and model->force for
+ * this tick's reference, model->jac at it), `measured` the cylinder forces
+ * of this tick's feedback (N, Q8) and `friction` the seals' friction of
+ * this tick, computes this tick's force path J^T (F_model - F) and keeps
+ * it (exact in int64, rounded once to Q8); with the previous tick's force
+ * path kept, filters it plus `correction` (the motion-error wrench dW of
+ * this tick, whose double difference is centred on the previous tick; N,
+ * N m, Q8; NULL: none) into w->wrench and marks it valid (the first
+ * estimate starts every section at its raw value). The output therefore
+ * describes the previous tick. `friction` (N, Q8, positive opposing
+ * lengthening) comes from the friction observer (sp/friction.h): the
+ * estimate then compares F with the model's inverse dynamics part
  * (model->rigid) plus that friction; with friction NULL it compares F with
- * model->force, the inverse dynamics plus the feed-forward's friction model
- * (use one or the other consistently: the kept forces follow the choice).
+ * model->force, the inverse dynamics plus the feed-forward's friction model.
  * model NULL (no model this tick): nothing kept, the estimate is invalid
  * until two ticks with a model. |F_model + F_friction - F| is clamped to
- * 2 MN per cylinder (2^29 in Q8); J^T (...) is exact (int64) and rounded
- * once to Q8; with the correction added, each component is held within
- * [-2^30, 2^30 - 1] of Q8 (4.19 MN, 4.19 MN m: beyond any wrench the
- * cylinders can balance), so each section's step x - y fits an int32 and
- * its value, between its last value and x, cannot overflow. alpha (Q30) is
- * held within [0, 1]. Nothing wraps; no status (nothing can fail).
+ * 2 MN per cylinder (2^29 in Q8); with the correction added, each
+ * component is held within [-2^30, 2^30 - 1] of Q8 (4.19 MN, 4.19 MN m:
+ * beyond any wrench the cylinders can balance), so each section's step
+ * x - y fits an int32 and its value, between its last value and x, cannot
+ * overflow. alpha (Q30) is held within [0, 1]. Nothing wraps; no status
+ * (nothing can fail).
  */
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
                     const sp_q8_t measured[SP_LEGS], const sp_q8_t correction[6], sp_q30_t alpha);

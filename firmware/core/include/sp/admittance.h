@@ -1,0 +1,186 @@
+/*
+ * sp/admittance.h - admittance (hybrid force/position) control: how far
+ * the reference pose yields to the wrench that the world exerts on the
+ * platform, axis by axis, and the contact it is in.
+ *
+ * Per axis k of the base frame (x, y, z in m; roll, pitch, yaw in rad),
+ * the offset d of the reference pose from the position reference obeys
+ *
+ *     M d'' + D d' + K d = W_ext + W_target
+ *
+ * with W_ext the wrench the world exerts on the platform (sp/wrench.h or a
+ * force/torque sensor: N, N m, base frame, about o') and W_target the
+ * wrench the platform is to exert on the world (the tool's push). At rest
+ * in contact W_ext = -W_target - K d: with K = 0 the platform pushes
+ * exactly W_target. Free of contact, a constant W_target moves the axis at
+ * W_target / D (the approach speed); with W_target = 0 a push by a person
+ * moves it at W_ext / D (hand guiding).
+ *
+ * Why the damping adapts: in contact with a surface of stiffness k_e, the
+ * force loop (this law, the drives' position loop, the surface and the
+ * wrench filter) is an integrator of gain k_e / D. One D cannot serve
+ * surfaces from 1e5 to 1e7 N/m: the loop is either too slow on the soft
+ * one or unstable on the stiff one. So each axis estimates k_e while it is
+ * in contact, as the secant of the wrench against the measured pose since
+ * contact was made, both through the same low-pass filter (the wrench
+ * filter's delay would otherwise make the secant read low while the axis
+ * moves), and then uses D = k_e / w_c: the loop's crossover sits at w_c,
+ * whatever the surface (docs/force_control.md).
+ *
+ * Discretisation (tick dt): backward Euler in the velocity, unconditionally
+ * stable for any M > 0, D >= 0:
+ *     v[n+1] = (M v[n] + dt (F - K d[n])) / (M + dt D),  F = W_ext + W_target
+ *     d[n+1] = d[n] + dt v[n+1]
+ * The two coefficients M / (M + dt D) and dt / (M + dt D) are computed only
+ * when D changes by more than 1/16 (a division per change, none per tick).
+ * Then, in this order: |v| <= v_max; towards a bound [lo, hi] of d (the
+ * deflection limit and the workspace, given by the caller each tick) v is
+ * held to the braking speed sqrt(2 a_brake (bound - d)), so the axis stops
+ * at the bound without passing it; d is held within [lo, hi].
+ *
+ * Axes outside the force mask, and every axis in release, return to d = 0
+ * through a critically damped spring of the axis's release stiffness (no
+ * wrench input), so leaving force control moves smoothly back onto the
+ * position reference. In hold (the reaction to a lost contact or an
+ * excessive force) every axis brakes at a_brake to rest and stays where it
+ * stopped.
+ */
+#ifndef SP_ADMITTANCE_H
+#define SP_ADMITTANCE_H
+
+#include "sp/fixed.h"
+#include "sp/status.h"
+
+#define SP_AXES 6u
+
+/** Parameters of one axis (units: m and N for x, y, z; rad and N m for roll, pitch, yaw). */
+typedef struct {
+    sp_q16_t mass;             /**< virtual mass M, kg or kg m^2, Q16, within [1, 32767] */
+    int32_t damping;           /**< D in free space (approach, hand guiding), N s/m or N m s/rad, >= 1 */
+    int32_t stiffness;         /**< K, spring to the position reference, N/m or N m/rad, >= 0 */
+    int32_t release_stiffness; /**< spring of the return to d = 0, N/m or N m/rad, >= 1 */
+    sp_q24_t v_max;            /**< speed limit of d, m/s or rad/s, Q24, > 0 */
+    sp_q24_t a_brake;          /**< deceleration towards a bound, m/s^2 or rad/s^2, Q24, > 0 */
+} sp_admit_axis_t;
+
+/** Parameters of the admittance (sp_admit_configure checks them). */
+typedef struct {
+    sp_admit_axis_t axis[SP_AXES];
+    sp_q16_t crossover;     /**< w_c of the force loop in contact, rad/s, Q16, > 0 */
+    int32_t k_min;          /**< lowest surface stiffness believed, N/m (N m/rad), >= 1 */
+    int32_t k_max;          /**< highest, N/m (N m/rad), >= k_min */
+    sp_q8_t secant_force;   /**< |change of wrench| since contact before the secant is trusted, N (N m), Q8, > 0 */
+    sp_q24_t secant_travel; /**< |travel| since contact before the secant is trusted, m (rad), Q24, > 0 */
+    sp_q30_t filter_alpha;  /**< the wrench filter's section gain (sp_wrench_alpha), Q30, (0, 1] */
+    uint32_t tick_us;       /**< dt, us, within [100, 100000] */
+} sp_admit_config_t;
+
+/** Coefficients of the discretised law for one damping. */
+typedef struct {
+    int32_t damping; /**< the D they were computed for, N s/m */
+    sp_q30_t c_v;    /**< M / (M + dt D), Q30 */
+    int32_t c_f;     /**< dt / (M + dt D), s/kg, Q40 (fits: M >= 1 kg) */
+    int32_t c_k;     /**< dt K / (M + dt D), 1/s, Q30 */
+} sp_admit_coef_t;
+
+/** State of one axis. */
+typedef struct {
+    sp_q24_t d;           /**< offset from the position reference, m or rad, Q24 */
+    sp_q24_t v;           /**< its rate, m/s or rad/s, Q24 */
+    sp_q24_t a;           /**< its acceleration this tick, m/s^2 or rad/s^2, Q24 */
+    sp_admit_coef_t coef; /**< for the damping in use */
+    sp_admit_coef_t rel;  /**< for the return to d = 0 (critically damped) */
+    int32_t x_f[4];       /**< the measured pose through the wrench filter's sections, Q24 */
+    sp_q24_t x_contact;   /**< x_f when contact was made, Q24 */
+    sp_q8_t w_contact;    /**< the filtered wrench when contact was made, Q8 */
+    int32_t k_hat;        /**< the surface stiffness estimate, N/m (0: none yet) */
+    uint8_t in_contact;   /**< 1 from contact made until it is lost or force control ends */
+} sp_admit_axis_state_t;
+
+/** State of the admittance. */
+typedef struct {
+    sp_admit_axis_state_t axis[SP_AXES];
+    uint8_t primed; /**< 1 once x_f holds the measured pose */
+} sp_admit_t;
+
+/** What the axes do in a step. */
+typedef enum {
+    SP_ADMIT_FORCE = 0,   /**< masked axes follow the law, the others return to d = 0 */
+    SP_ADMIT_RELEASE = 1, /**< every axis returns to d = 0 (leaving force control) */
+    SP_ADMIT_HOLD = 2     /**< every axis brakes to rest and holds its d */
+} sp_admit_mode_t;
+
+/** What one step reports, per axis bit (bit k = axis k). */
+typedef struct {
+    uint8_t limited; /**< the axis was held by v_max, a braking speed or a bound */
+    uint8_t adapted; /**< the damping in use changed this tick */
+} sp_admit_report_t;
+
+/**
+ * Checks cfg and sets every axis to d = v = 0, no contact, the free-space
+ * damping. SP_E_ARG (nothing changed) on NULL or a parameter outside its
+ * documented range; SP_E_OVERFLOW when a coefficient does not fit its
+ * format (M + dt D beyond 2^31 kg, i.e. D above about 2e12 N s/m).
+ */
+sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st);
+
+/**
+ * One tick.
+ *   mode     what the axes do (sp_admit_mode_t; another value: SP_E_ARG);
+ *   mask     bit k: axis k is force-controlled in SP_ADMIT_FORCE;
+ *   w_ext    the filtered wrench the world exerts on the platform, N / N m, Q8;
+ *   w_target the wrench the platform is to exert, N / N m, Q8;
+ *   x_meas   the measured (estimated) pose, m / rad, Q24, used for the
+ *            stiffness secant (may be NULL: no adaptation this tick);
+ *   contact  bit k: the axis is in contact (sp_contact_step decides);
+ *   lo, hi   bounds of d this tick, Q24, lo <= 0 <= hi (a bound the
+ *            position reference has already passed counts as 0).
+ * Writes st (d, v, a per axis) and *report (may be NULL).
+ * Inputs are clamped: a wrench sum beyond +-2^30 Q8 (4.19 MN) is held there;
+ * d, v, a saturate at the Q24 extremes. Nothing wraps.
+ * Returns SP_E_ARG (nothing changed) on NULL (other than x_meas, report);
+ * SP_E_OVERFLOW when a coefficient could not be recomputed (the old
+ * damping is kept: safe); else SP_OK.
+ */
+sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit_mode_t mode, uint8_t mask,
+                          const sp_q8_t w_ext[SP_AXES], const sp_q8_t w_target[SP_AXES], const sp_q24_t x_meas[SP_AXES],
+                          uint8_t contact, const sp_q24_t lo[SP_AXES], const sp_q24_t hi[SP_AXES],
+                          sp_admit_report_t *report);
+
+/** Contact supervision parameters. */
+typedef struct {
+    sp_q8_t made;        /**< contact made when the push-back reaches this, N, Q8, > 0 */
+    sp_q30_t lost_ratio; /**< contact lost when the push-back falls below this share of the target, Q30, (0, 1) */
+    uint8_t lost_ticks;  /**< ... for this many consecutive ticks, >= 1 */
+    sp_q8_t excess;      /**< excessive force: |force part of W_ext| above this, N, Q8, > made */
+} sp_contact_config_t;
+
+/** Contact supervision state. */
+typedef struct {
+    uint8_t made;  /**< 1 while in contact */
+    uint8_t armed; /**< 1 once the push-back reached the lost level in this contact */
+    uint8_t low;   /**< consecutive ticks below the level that counts */
+} sp_contact_t;
+
+/** Events of sp_contact_step. */
+#define SP_CONTACT_MADE 0x1u   /**< the push-back reached `made` this tick */
+#define SP_CONTACT_LOST 0x2u   /**< in contact, the push-back fell away while a push is commanded */
+#define SP_CONTACT_EXCESS 0x4u /**< the force exceeded `excess` */
+
+/**
+ * One tick of contact supervision along the commanded push:
+ * p = -(F_ext . F_target) / |F_target| (the world pushing back against the
+ * tool, N; force parts only, the first three components). Contact is made
+ * when p >= made; lost when, in contact, p stays for lost_ticks
+ * consecutive ticks below lost_ratio |F_target| once it has reached that
+ * level in this contact (armed), or below made / 2 before (the state then
+ * leaves contact); excess
+ * when |F_ext| > excess, in any state. With F_target = 0 (hand guiding)
+ * only excess is checked. Returns the events (0 on NULL). |F| is computed
+ * in 64 bits (no overflow for any Q8 input); the comparison of p with the
+ * lost level is done without a division.
+ */
+uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
+                         const sp_q8_t w_target[SP_AXES]);
+
+#endif /* SP_ADMITTANCE_H */

@@ -1,0 +1,224 @@
+/*
+ * force.c - force control modes over the position reference (sp/force.h).
+ */
+#include "sp/force.h"
+
+#include <stddef.h>
+
+sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alpha, uint32_t tick_us)
+{
+    if (cfg == NULL) {
+        return SP_E_ARG;
+    }
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        int lin = k < 3u;
+        sp_admit_axis_t *ax = &cfg->admit.axis[k];
+        ax->mass = (lin ? 20 : 5) * SP_Q16_ONE;
+        ax->damping = lin ? 1000000 : 100000;
+        ax->stiffness = 0;
+        ax->release_stiffness = lin ? 20000 : 5000;
+        ax->v_max = SP_Q24_MILLI(100);
+        ax->a_brake = 2 * SP_Q24_ONE;
+        cfg->guide_damping[k] = lin ? 1000 : 200;
+        cfg->deflection[k] = SP_Q24_MILLI(50);
+    }
+    cfg->admit.crossover = 20 * SP_Q16_ONE;
+    cfg->admit.k_min = 10000;
+    cfg->admit.k_max = 100000000;
+    cfg->admit.secant_force = 30 * SP_Q8_ONE;
+    cfg->admit.secant_travel = SP_Q24_ONE / 100000; /* 10 um */
+    cfg->admit.filter_alpha = filter_alpha;
+    cfg->admit.tick_us = tick_us;
+    cfg->contact.made = 100 * SP_Q8_ONE;
+    cfg->contact.lost_ratio = SP_Q30_ONE / 2;
+    cfg->contact.lost_ticks = 2u;
+    cfg->contact.excess = 10000 * SP_Q8_ONE;
+    cfg->target_max_force = 8000 * SP_Q8_ONE;
+    cfg->target_max_moment = 1000 * SP_Q8_ONE;
+    cfg->settled = SP_Q24_ONE / 1000000; /* 1 um */
+    return SP_OK;
+}
+
+sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
+{
+    if (cfg == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        if (cfg->guide_damping[k] < 1 || cfg->deflection[k] <= 0) {
+            return SP_E_ARG;
+        }
+    }
+    sp_status_t st = sp_admit_configure(&cfg->admit, &f->st);
+    if (st != SP_OK) {
+        return st;
+    }
+    f->admit = cfg->admit;
+    f->mode = SP_FORCE_OFF;
+    f->mask = 0u;
+    f->retract_fault = 0u;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        f->target[k] = 0;
+    }
+    f->contact.made = 0u;
+    f->contact.armed = 0u;
+    f->contact.low = 0u;
+    return SP_OK;
+}
+
+/* |force part| <= max force (64-bit: no overflow), |moments| <= max moment. */
+static int target_ok(const sp_force_config_t *cfg, const sp_q8_t t[SP_AXES])
+{
+    int64_t f2 = 0;
+    for (unsigned k = 0; k < 3u; ++k) {
+        f2 += (int64_t)t[k] * t[k] / 4; /* /4: three squares of up to 2^62 fit */
+        if (t[3u + k] > cfg->target_max_moment || t[3u + k] < -cfg->target_max_moment) {
+            return 0;
+        }
+    }
+    int64_t m = cfg->target_max_force;
+    return f2 <= m * m / 4;
+}
+
+sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
+                           const sp_q8_t target[SP_AXES])
+{
+    if (cfg == NULL || f == NULL || (mask & 0x3Fu) == 0u || (mode != SP_FORCE_FORCE && mode != SP_FORCE_GUIDE) ||
+        (mode == SP_FORCE_FORCE && target == NULL)) {
+        return SP_E_ARG;
+    }
+    if (f->mode == SP_FORCE_RELEASE || f->mode == SP_FORCE_HOLD) {
+        return SP_E_BUSY;
+    }
+    if (f->mode != SP_FORCE_OFF && (f->mode != mode || mode == SP_FORCE_GUIDE || mask != f->mask)) {
+        return SP_E_ARG; /* leave first */
+    }
+    if (mode == SP_FORCE_FORCE && !target_ok(cfg, target)) {
+        return SP_E_RANGE;
+    }
+    if (f->mode == SP_FORCE_OFF) {
+        sp_admit_config_t a = cfg->admit;
+        if (mode == SP_FORCE_GUIDE) {
+            for (unsigned k = 0; k < SP_AXES; ++k) {
+                a.axis[k].damping = cfg->guide_damping[k];
+            }
+        }
+        sp_admit_t st;
+        sp_status_t s = sp_admit_configure(&a, &st);
+        if (s != SP_OK) {
+            return s;
+        }
+        f->admit = a;
+        f->st = st;
+        f->contact.made = 0u;
+        f->contact.armed = 0u;
+        f->contact.low = 0u;
+        f->retract_fault = 0u;
+    }
+    f->mode = mode;
+    f->mask = (uint8_t)(mask & 0x3Fu);
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        f->target[k] = (mode == SP_FORCE_FORCE) ? target[k] : 0;
+    }
+    return SP_OK;
+}
+
+sp_status_t sp_force_release(sp_force_t *f)
+{
+    if (f == NULL) {
+        return SP_E_ARG;
+    }
+    if (f->mode == SP_FORCE_FORCE || f->mode == SP_FORCE_GUIDE) {
+        f->mode = SP_FORCE_RELEASE;
+    }
+    return SP_OK;
+}
+
+static sp_q24_t add_sat(sp_q24_t a, sp_q24_t b)
+{
+    int64_t s = (int64_t)a + b;
+    return (s > INT32_MAX) ? INT32_MAX : ((s < INT32_MIN) ? INT32_MIN : (sp_q24_t)s);
+}
+
+/* The bounds of d on axis k: the deflection limit and the workspace box
+ * around the position reference (0 when the reference is outside it). */
+static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, sp_q24_t lo[SP_AXES],
+                   sp_q24_t hi[SP_AXES])
+{
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        int64_t x = (k < 3u) ? p->pos[k] : p->rpy[k - 3u];
+        int64_t l = (int64_t)lim->ws_lo[k] - x;
+        int64_t h = (int64_t)lim->ws_hi[k] - x;
+        int64_t defl = cfg->deflection[k];
+        l = (l < -defl) ? -defl : l;
+        h = (h > defl) ? defl : h;
+        lo[k] = (sp_q24_t)((l > 0) ? 0 : l);
+        hi[k] = (sp_q24_t)((h < 0) ? 0 : h);
+    }
+}
+
+sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_limits_t *lim,
+                          const sp_motion_t *pos_ref, const sp_q8_t w_ext[SP_AXES], const sp_pose_t *x_meas,
+                          sp_motion_t *out, uint32_t *events)
+{
+    if (cfg == NULL || f == NULL || lim == NULL || pos_ref == NULL || out == NULL || events == NULL) {
+        return SP_E_ARG;
+    }
+    *events = 0u;
+    *out = *pos_ref;
+    if (f->mode == SP_FORCE_OFF) {
+        return SP_OK;
+    }
+    static const sp_q8_t zero[SP_AXES] = {0, 0, 0, 0, 0, 0};
+    if (w_ext != NULL && (f->mode == SP_FORCE_FORCE || f->mode == SP_FORCE_GUIDE)) {
+        *events = sp_contact_step(&cfg->contact, &f->contact, w_ext, f->target);
+        if ((*events & SP_CONTACT_EXCESS) != 0u) {
+            f->mode = SP_FORCE_RELEASE;
+            f->retract_fault = 1u;
+        } else if ((*events & SP_CONTACT_LOST) != 0u) {
+            f->mode = SP_FORCE_HOLD;
+        }
+    }
+    sp_admit_mode_t am = SP_ADMIT_FORCE;
+    if (f->mode == SP_FORCE_RELEASE) {
+        am = SP_ADMIT_RELEASE;
+    } else if (f->mode == SP_FORCE_HOLD || w_ext == NULL) {
+        am = SP_ADMIT_HOLD;
+    }
+    sp_q24_t lo[SP_AXES], hi[SP_AXES], x[SP_AXES];
+    bounds(cfg, lim, &pos_ref->pose, lo, hi);
+    if (x_meas != NULL) {
+        for (unsigned k = 0; k < 3u; ++k) {
+            x[k] = x_meas->pos[k];
+            x[3u + k] = x_meas->rpy[k];
+        }
+    }
+    uint8_t contact = f->contact.made ? f->mask : 0u;
+    sp_status_t st = sp_admit_step(&f->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
+                                   (x_meas != NULL) ? x : NULL, contact, lo, hi, NULL);
+    for (unsigned k = 0; k < 3u; ++k) {
+        const sp_admit_axis_state_t *a = &f->st.axis[k];
+        const sp_admit_axis_state_t *r = &f->st.axis[3u + k];
+        out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
+        out->vel[k] = add_sat(pos_ref->vel[k], a->v);
+        out->acc[k] = add_sat(pos_ref->acc[k], a->a);
+        out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
+        out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
+        out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
+    }
+    if (f->mode == SP_FORCE_RELEASE) {
+        int done = 1;
+        for (unsigned k = 0; k < SP_AXES; ++k) {
+            sp_q24_t d = f->st.axis[k].d;
+            done &= (d <= cfg->settled && d >= -cfg->settled) ? 1 : 0;
+        }
+        if (done) {
+            *events |= f->retract_fault ? SP_FORCE_RETRACTED : SP_FORCE_RELEASED;
+            f->mode = SP_FORCE_OFF;
+            f->retract_fault = 0u;
+            f->mask = 0u;
+            f->contact.made = 0u;
+        }
+    }
+    return st;
+}

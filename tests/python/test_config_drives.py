@@ -1,0 +1,183 @@
+"""The platform config's ``drives`` section: validation names the bad key,
+and a CANopen layout above 50 % bus load is refused with the ways out."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+
+from stewart import REPO_ROOT, cli, config
+from stewart.canframe import classic_frame_bits
+from stewart.drives import layout
+
+DEFAULT = json.loads((REPO_ROOT / "config" / "platform_default.json").read_text())
+
+
+def _with(drives):
+    d = copy.deepcopy(DEFAULT)
+    d["drives"] = drives
+    return d
+
+
+def _section(divider=3, pressure=True, per_bus=3, protocol="cia408"):
+    legs = []
+    for i in range(6):
+        bus = f"can_{i // per_bus}"
+        legs.append({"protocol": protocol, "bus": bus, "node_id": 10 + i % per_bus,
+                     "scaling": {"position_per_count": 1e-6, "length_at_zero": 1.85}})
+    buses = {f"can_{k}": {"bitrate": 1000000} for k in range(6 // per_bus)}
+    return {"buses": buses, "sync_divider": divider, "pressure_feedback": pressure, "legs": legs}
+
+
+def _error(d) -> str:
+    with pytest.raises(config.ConfigError) as e:
+        config.from_dict(d, "t.json")
+    return str(e.value)
+
+
+def test_default_config_is_all_native():
+    p = config.load(REPO_ROOT / "config" / "platform_default.json")
+    assert [d.protocol for d in p.drives.legs] == ["native"] * 6
+    assert [d.bus for d in p.drives.legs] == ["axis_a"] * 3 + ["axis_b"] * 3
+    assert p.drives.canopen == () and p.drives.buses() == []
+
+
+def test_a_valid_cia408_layout():
+    p = config.from_dict(_with(_section()))
+    assert [d.node_id for d in p.drives.legs] == [10, 11, 12, 10, 11, 12]
+    assert p.drives.buses() == ["can_0", "can_1"]
+    assert p.drives.setpoint_timeout_ms == 9 and p.drives.heartbeat_ms == 20
+    assert p.drives.legs[0].scaling == layout.Scaling(1e-6, 1.85, 1)
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda s: s["legs"][4].update(node_id=10),
+     "t.json: drives.legs[4].node_id: node 10 on bus can_1 is already leg 4's"),
+    (lambda s: s["legs"][2].update(node_id=0), "t.json: drives.legs[2].node_id: 0 is outside 1..127"),
+    (lambda s: s["legs"][2].update(node_id=128), "t.json: drives.legs[2].node_id: 128 is outside 1..127"),
+    (lambda s: s["legs"][1].pop("node_id"), "t.json: drives.legs[1].node_id: missing"),
+    (lambda s: s["legs"][5].pop("scaling"), "t.json: drives.legs[5].scaling: missing"),
+    (lambda s: s["legs"][5]["scaling"].pop("position_per_count"),
+     "t.json: drives.legs[5].scaling.position_per_count: missing"),
+    (lambda s: s["legs"][0]["scaling"].update(position_per_count=1e-10),
+     "drives.legs[0].scaling.position_per_count: 1e-10 is below the allowed minimum 1e-09"),
+    (lambda s: s["legs"][0]["scaling"].update(direction=2), "drives.legs[0].scaling.direction: expected 1 or -1"),
+    (lambda s: s["legs"][3].update(protocol="canopen"),
+     "drives.legs[3].protocol: \"canopen\" is not one of native, cia408, cia402"),
+    (lambda s: s["legs"][3].update(bus="can_9"), "drives.legs[3].bus: can_9 has no bit rate in drives.buses"),
+    (lambda s: s["buses"]["can_0"].update(bitrate=900000),
+     "drives.buses.can_0.bitrate: 900000 is not a classic CAN bit rate"),
+    (lambda s: s.update(sync_divider=0), "drives.sync_divider: 0 is outside 1..10"),
+    (lambda s: s.update(heartbeat_timeout_ms=20), "drives.heartbeat_timeout_ms: 20 must exceed heartbeat_ms 20"),
+    (lambda s: s.update(setpoint_timeout_ms=5), "drives.setpoint_timeout_ms: 5 ms is below two SYNC periods"),
+    (lambda s: s.update(syncdivider=2), "drives.syncdivider: unknown key"),
+    (lambda s: s["legs"].pop(), "drives.legs: expected a list of 6 objects"),
+    (lambda s: s["legs"][0]["scaling"].update(position_per_count=1e-9, length_at_zero=0.0),
+     "drives.legs[0].scaling: leg length 3.25 m is 3.25e+09 counts from length_at_zero"),
+    (lambda s: s["legs"][0].update(protocol="native", bus="can_0"),
+     "drives.legs[0].bus: a native drive of leg 1 is on axis_a"),
+    (lambda s: s["legs"][0].update(control_mode=9, protocol="cia402"),
+     "drives.legs[0].control_mode: only for cia408 drives"),
+])
+def test_validation_names_the_bad_key(mutate, message):
+    s = _section()
+    mutate(s)
+    assert message in _error(_with(s))
+
+
+def test_native_and_canopen_do_not_share_a_bus():
+    s = _section()
+    s["buses"] = {"axis_b": {"bitrate": 1000000}}
+    for i in range(3):
+        s["legs"][i] = {"protocol": "native"}
+    for i in range(3, 6):
+        s["legs"][i]["bus"] = "axis_b"
+    p = config.from_dict(_with(s))   # legs 1-3 native on axis_a, 4-6 CiA 408 on axis_b
+    assert [d.protocol for d in p.drives.legs] == ["native"] * 3 + ["cia408"] * 3
+    s["legs"][2] = {"protocol": "native", "bus": "axis_a"}
+    s["legs"][3] = {"protocol": "native", "node_id": 3}
+    assert "drives.legs[3].node_id: only for CANopen drives" in _error(_with(s))
+
+
+# Hand-computed with the classic frame length 47 + 8n + floor((34 + 8n - 1) / 4):
+# SYNC 0 bytes 55 bits, PDO of 6 bytes 115, pressure PDO of 4 bytes 95, heartbeat 1 byte 65.
+def test_frame_bits_by_hand():
+    assert [classic_frame_bits(n) for n in (0, 1, 4, 6)] == [55, 65, 95, 115]
+
+
+def test_six_drives_on_one_bus_at_1ms_is_143_percent_and_refused():
+    # SYNC + 6 setpoint RPDOs + 6 actual TPDOs = 55 + 12 * 115 = 1435 us per 1 ms
+    s = _section(divider=1, pressure=False, per_bus=6)
+    p = config.from_dict(_with(s), check_bus_load=False)
+    rows = layout.bus_rows(p.drives, "can_0")
+    cyclic = sum(r.us_per_ms for r in rows if not r.name.startswith("heartbeat"))
+    assert cyclic == pytest.approx(1435.0)
+    assert layout.bus_load(p.drives, "can_0") == pytest.approx((1435 + 7 * 65 / 20) / 10)
+    msg = _error(_with(s))
+    assert "drives.legs: bus can_0: worst-case load 145.8 % is above 50 %" in msg
+    # divider 3 would be (1435 / 3 + 22.75) / 10 = 50.1 %; 4 gives 38.15 %
+    assert "drives.sync_divider = 4 (SYNC and PDOs every 4 ms" in msg and "38.1 %" in msg
+
+
+@pytest.mark.parametrize("per_bus, divider, pressure, percent, fits", [
+    (3, 1, True, (55 + 3 * (115 + 115 + 95) + 4 * 65 / 20) / 10, False),   # 104.3
+    (3, 2, True, ((55 + 3 * 325) / 2 + 4 * 65 / 20) / 10, False),          # 52.8
+    (3, 3, True, ((55 + 3 * 325) / 3 + 4 * 65 / 20) / 10, True),           # 35.6
+    (3, 2, False, ((55 + 3 * 230) / 2 + 4 * 65 / 20) / 10, True),          # 38.6
+    (2, 1, False, (55 + 2 * 230 + 3 * 65 / 20) / 10, False),               # 52.5
+    (2, 2, True, ((55 + 2 * 325) / 2 + 3 * 65 / 20) / 10, True),           # 36.2
+])
+def test_layouts_by_hand(per_bus, divider, pressure, percent, fits):
+    s = _section(divider, pressure, per_bus)
+    p = config.from_dict(_with(s), check_bus_load=False)
+    for bus in p.drives.buses():
+        assert layout.bus_load(p.drives, bus) == pytest.approx(percent, abs=1e-9)
+    if fits:
+        config.from_dict(_with(s))
+    else:
+        assert "is above 50 %. Ways out:" in _error(_with(s))
+
+
+def test_ways_out_are_named_and_each_fits():
+    s = _section(divider=1)
+    p = config.from_dict(_with(s), check_bus_load=False)
+    ways = layout.ways_out(p.drives, "can_0")
+    assert ways[0].startswith("a SYNC divider: drives.sync_divider = 3")
+    assert ways[1].startswith("more buses: at most 1 drive per bus at this SYNC period (38.6 %), 6 CANopen buses")
+    assert ways[2].startswith("no pressure TPDO") and ways[2].endswith("(still over)")
+
+
+def test_busload_reports_the_canopen_buses(tmp_path, capsys):
+    ok = tmp_path / "ok.json"
+    ok.write_text(json.dumps(_with(_section(divider=3))))
+    assert cli.main(["busload", "--config", str(ok)]) == 0
+    out = capsys.readouterr().out
+    assert "CANopen bus can_0: classic CAN 1 Mbit/s, SYNC every 3 ms" in out
+    assert "**356.3 us = 35.6 %** (ok)" in out
+    assert "bus axis_a" in out   # the DBC's buses stay: the config's CANopen buses are others
+    over = tmp_path / "over.json"
+    over.write_text(json.dumps(_with(_section(divider=1))))
+    assert cli.main(["busload", "--config", str(over)]) == 1
+    out = capsys.readouterr().out
+    assert "104.3 %** (OVER LIMIT)" in out and "Ways out for can_0:" in out
+    bad = tmp_path / "bad.json"
+    s = _section()
+    s["legs"][1]["node_id"] = 10
+    bad.write_text(json.dumps(_with(s)))
+    assert cli.main(["busload", "--config", str(bad)]) == 2
+    assert "drives.legs[1].node_id: node 10 on bus can_0 is already leg 1's" in capsys.readouterr().err
+
+
+def test_busload_drops_the_dbc_axis_frames_of_a_canopen_bus(tmp_path, capsys):
+    s = _section(divider=3)
+    s["buses"] = {"axis_a": {"bitrate": 1000000}, "axis_b": {"bitrate": 1000000}}
+    for i, leg in enumerate(s["legs"]):
+        leg["bus"] = "axis_a" if i < 3 else "axis_b"
+    path = tmp_path / "axis.json"
+    path.write_text(json.dumps(_with(s)))
+    assert cli.main(["busload", "--config", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "bus axis_a\n" not in out and "AXIS_SETPOINTS" not in out
+    assert "CANopen bus axis_a" in out and "bus ops" in out

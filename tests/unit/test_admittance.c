@@ -1,0 +1,404 @@
+/*
+ * Unit tests of admittance control and contact supervision
+ * (sp/admittance.h).
+ *
+ * Tolerances and figures:
+ *   one step vs a double reference    d within 2 LSB + 1e-6 relative, v within
+ *                                     4 LSB + 1e-6 relative, over 20,000
+ *                                     random parameters and states (no limit
+ *                                     active)
+ *   force hold, 1-DOF closed loop     a servo with velocity feed-forward
+ *                                     (K_v = 52.8 rad/s, as the plant's
+ *                                     drives), a surface of 1e5, 1e6, 1e7 N/m,
+ *                                     the wrench measured one tick late through
+ *                                     the 80 Hz four-section filter with 14 N
+ *                                     RMS noise, the pose quantised to 1 um:
+ *                                     2 kN held within 1 % RMS from 0.5 s
+ *                                     after contact, overshoot <= 10 %,
+ *                                     peak-to-peak <= 2 % once settled
+ *   hand guiding                      200 N moves the axis at 200 N / D within
+ *                                     2 %; at a bound it stops on it, never past
+ *   release                           d returns to 0 without overshoot (critical
+ *                                     damping) within 5 time constants
+ *   contact supervision               made, lost after lost_ticks, excess
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "assert_near.h"
+#include "sp/admittance.h"
+#include "sp/wrench.h"
+#include "test_util.h"
+
+#define Q24 16777216.0
+#define Q8 256.0
+#define Q16 65536.0
+
+static sp_q24_t q24(double v)
+{
+    return (sp_q24_t)lround(v * Q24);
+}
+
+static sp_q8_t q8(double v)
+{
+    return (sp_q8_t)lround(v * Q8);
+}
+
+/* A force-control set-up like the demo's: translation in m, rotation in rad. */
+static sp_admit_config_t config(void)
+{
+    sp_admit_config_t c;
+    memset(&c, 0, sizeof c);
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        sp_admit_axis_t *ax = &c.axis[k];
+        ax->mass = (sp_q16_t)((k < 3u ? 20 : 5) * 65536);
+        ax->damping = k < 3u ? 1000000 : 100000; /* approach: 2 kN at 2 mm/s */
+        ax->stiffness = 0;
+        ax->release_stiffness = k < 3u ? 20000 : 5000;
+        ax->v_max = q24(k < 3u ? 0.1 : 0.1);
+        ax->a_brake = q24(2.0);
+    }
+    c.crossover = (sp_q16_t)(20 * 65536);
+    c.k_min = 10000;
+    c.k_max = 100000000;
+    c.secant_force = q8(30.0);
+    c.secant_travel = q24(10e-6);
+    c.tick_us = 1000u;
+    assert_int_equal(sp_wrench_alpha(80 << 24, 1000u, &c.filter_alpha), SP_OK);
+    return c;
+}
+
+static void wide_bounds(sp_q24_t lo[SP_AXES], sp_q24_t hi[SP_AXES])
+{
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        lo[k] = q24(-1.0);
+        hi[k] = q24(1.0);
+    }
+}
+
+static void test_configure_rejects(void **state)
+{
+    (void)state;
+    sp_admit_config_t c = config();
+    sp_admit_t st;
+    assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+    assert_int_equal(sp_admit_configure(NULL, &st), SP_E_ARG);
+    assert_int_equal(sp_admit_configure(&c, NULL), SP_E_ARG);
+    sp_admit_config_t bad = c;
+    bad.axis[2].mass = SP_Q16_ONE / 2; /* below 1 kg */
+    assert_int_equal(sp_admit_configure(&bad, &st), SP_E_ARG);
+    bad = c;
+    bad.axis[0].damping = 0;
+    assert_int_equal(sp_admit_configure(&bad, &st), SP_E_ARG);
+    bad = c;
+    bad.tick_us = 5000u;
+    assert_int_equal(sp_admit_configure(&bad, &st), SP_E_ARG);
+    bad = c;
+    bad.k_max = c.k_min - 1;
+    assert_int_equal(sp_admit_configure(&bad, &st), SP_E_ARG);
+    bad = c;
+    bad.axis[1].v_max = 0;
+    assert_int_equal(sp_admit_configure(&bad, &st), SP_E_ARG);
+}
+
+/* One step against the law in double, for random parameters and states. */
+static void test_step_vs_double(void **state)
+{
+    (void)state;
+    uint64_t rng = 0xad317ace5u;
+    sp_q24_t lo[SP_AXES], hi[SP_AXES];
+    wide_bounds(lo, hi);
+    for (int i = 0; i < 20000; ++i) {
+        sp_admit_config_t c = config();
+        unsigned k = (unsigned)(tu_next(&rng) % SP_AXES);
+        double m = tu_uniform(&rng, 1.0, 500.0);
+        double dmp = exp(tu_uniform(&rng, log(1.0), log(5e6)));
+        double kk = (tu_next(&rng) & 1u) ? 0.0 : exp(tu_uniform(&rng, log(1.0), log(1e6)));
+        c.axis[k].mass = (sp_q16_t)lround(m * Q16);
+        c.axis[k].damping = (int32_t)lround(dmp);
+        c.axis[k].stiffness = (int32_t)lround(kk);
+        c.axis[k].v_max = q24(100.0);
+        c.axis[k].a_brake = q24(100.0);
+        sp_admit_t st;
+        assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+        double d0 = tu_uniform(&rng, -0.01, 0.01), v0 = tu_uniform(&rng, -0.1, 0.1);
+        st.axis[k].d = q24(d0);
+        st.axis[k].v = q24(v0);
+        sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
+        w[k] = q8(tu_uniform(&rng, -5000.0, 5000.0));
+        t[k] = q8(tu_uniform(&rng, -5000.0, 5000.0));
+        assert_int_equal(sp_admit_step(&c, &st, SP_ADMIT_FORCE, (uint8_t)(1u << k), w, t, NULL, 0u, lo, hi, NULL),
+                         SP_OK);
+        double mq = (double)c.axis[k].mass / Q16, dq = c.axis[k].damping, kq = c.axis[k].stiffness;
+        double dt = 1e-3, d = st.axis[k].d / Q24, v = st.axis[k].v / Q24;
+        double dd = (double)q24(d0) / Q24, vv = (double)q24(v0) / Q24;
+        double f = (w[k] + t[k]) / Q8;
+        double v_want = (mq * vv + dt * (f - kq * dd)) / (mq + dt * dq);
+        if (fabs(v_want) > 50.0) {
+            continue; /* the speed limit would act */
+        }
+        double d_want = dd + dt * v_want;
+        assert_near(v, v_want, 4.0 / Q24 + 2e-3 * fabs(v_want) + 1e-9, "v, case %d", i);
+        assert_near(d, d_want, 4.0 / Q24 + 2e-3 * fabs(v_want) * dt + 1e-9, "d, case %d", i);
+    }
+}
+
+/* The 1-DOF loop of a force hold: see the file comment. Returns the worst
+ * figures after contact. */
+typedef struct {
+    double overshoot; /* max true force / target - 1 */
+    double rms_rel;   /* RMS of (true - target) / target from 0.5 s after contact */
+    double pp_rel;    /* peak-to-peak / target over the last second */
+    double t_contact; /* s */
+    uint32_t lost_at; /* tick of CONTACT_LOST (0: none) */
+    double x_lost;    /* position at surface removal, m */
+    double x_end;     /* final position, m */
+} hold_t;
+
+static hold_t run_hold(double k_e, double seconds, double remove_at, int32_t k_clamp)
+{
+    sp_admit_config_t c = config();
+    if (k_clamp > 0) {
+        c.k_min = k_clamp;
+        c.k_max = k_clamp;
+    }
+    sp_admit_t st;
+    assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+    sp_contact_config_t cc = {q8(100.0), SP_Q30_ONE / 2, 2u, q8(20000.0)};
+    sp_contact_t cs = {0u, 0u, 0u};
+    sp_wrench_t filt;
+    sp_wrench_reset(&filt);
+    int32_t sec[SP_WRENCH_SECTIONS] = {0};
+    sp_q24_t lo[SP_AXES], hi[SP_AXES];
+    wide_bounds(lo, hi);
+    const double target = 2000.0, xs = 0.002, kv = 52.8;
+    uint64_t rng = 0x5eed1234u ^ (uint64_t)k_e;
+    double x = 0.0, x_r = 0.0, v_r = 0.0, w_true_prev = 0.0;
+    sp_q24_t x_meas_prev = 0;
+    int removed = 0;
+    hold_t h = {0.0, 0.0, 0.0, -1.0, 0u, 0.0, 0.0};
+    double se = 0.0, f_lo = 1e9, f_hi = -1e9;
+    int n_rms = 0;
+    uint8_t contact = 0u;
+    const int ticks = (int)(seconds * 1000.0);
+    for (int n = 0; n < ticks; ++n) {
+        double t = n * 1e-3;
+        /* the measurement of the last cycle: the wrench through the filter, the pose */
+        double noise = 0.0;
+        for (int j = 0; j < 4; ++j) {
+            noise += tu_uniform(&rng, -1.0, 1.0);
+        }
+        noise *= 14.0 * sqrt(3.0) / 2.0; /* sum of four U(-1,1): var 4/3 -> 14 N RMS */
+        int32_t x_in = (int32_t)lround((w_true_prev + noise) * Q8);
+        for (unsigned s = 0; s < SP_WRENCH_SECTIONS; ++s) {
+            int32_t y = sec[s];
+            sec[s] = (n == 0) ? x_in : y + (int32_t)(((int64_t)c.filter_alpha * (x_in - y) + (1 << 29)) >> 30);
+            x_in = sec[s];
+        }
+        sp_q8_t w[SP_AXES] = {0}, tg[SP_AXES] = {0};
+        sp_q24_t xm[SP_AXES] = {0};
+        w[0] = sec[SP_WRENCH_SECTIONS - 1];
+        tg[0] = q8(target);
+        xm[0] = x_meas_prev;
+        uint32_t ev = sp_contact_step(&cc, &cs, w, tg);
+        if ((ev & SP_CONTACT_MADE) != 0u && h.t_contact < 0.0) {
+            h.t_contact = t;
+        }
+        if ((ev & SP_CONTACT_LOST) != 0u && h.lost_at == 0u) {
+            h.lost_at = (uint32_t)n;
+        }
+        contact = cs.made ? 1u : 0u;
+        /* the controller's reaction to a lost contact: brake and hold */
+        sp_admit_mode_t mode = (h.lost_at != 0u) ? SP_ADMIT_HOLD : SP_ADMIT_FORCE;
+        assert_int_equal(sp_admit_step(&c, &st, mode, 1u, w, tg, xm, contact, lo, hi, NULL), SP_OK);
+        /* the drive follows x_r with velocity feed-forward over the cycle (10 substeps) */
+        double x_r_new = st.axis[0].d / Q24, v_r_new = st.axis[0].v / Q24;
+        (void)x_r;
+        (void)v_r;
+        x_r = x_r_new;
+        v_r = v_r_new;
+        for (int s = 0; s < 10; ++s) {
+            double age = (s + 0.5) * 1e-4;
+            x += 1e-4 * (kv * (x_r + v_r * age - x) + v_r);
+        }
+        if (!removed && remove_at > 0.0 && t >= remove_at) {
+            removed = 1;
+            h.x_lost = x;
+        }
+        double f_true = (!removed && x > xs) ? k_e * (x - xs) : 0.0;
+        w_true_prev = -f_true;
+        x_meas_prev = (sp_q24_t)lround(floor(x * 1e6 + 0.5) * 1e-6 * Q24);
+        if (h.t_contact >= 0.0 && !removed) {
+            double rel = f_true / target - 1.0;
+            h.overshoot = fmax(h.overshoot, rel);
+            if (t >= h.t_contact + 0.5) {
+                se += rel * rel;
+                ++n_rms;
+            }
+            if (t >= seconds - 1.0) {
+                f_lo = f_lo < f_true ? f_lo : f_true;
+                f_hi = f_hi > f_true ? f_hi : f_true;
+            }
+        }
+    }
+    h.rms_rel = n_rms ? sqrt(se / n_rms) : 1.0;
+    h.pp_rel = (f_hi - f_lo) / target;
+    h.x_end = x;
+    return h;
+}
+
+static void test_force_hold_each_stiffness(void **state)
+{
+    (void)state;
+    const double ks[3] = {1e5, 1e6, 1e7};
+    for (int i = 0; i < 3; ++i) {
+        hold_t h = run_hold(ks[i], 6.0, 0.0, 0);
+        print_message("k_e %.0e N/m: contact at %.3f s, overshoot %.2f %%, RMS %.3f %%, p-p %.3f %%\n", ks[i],
+                      h.t_contact, 100.0 * h.overshoot, 100.0 * h.rms_rel, 100.0 * h.pp_rel);
+        assert_true(h.t_contact > 0.0);
+        assert_true(h.overshoot <= 0.10);
+        assert_true(h.rms_rel <= 0.01);
+        assert_true(h.pp_rel <= 0.02);
+    }
+}
+
+/* The positive control: the damping held at what the soft surface needs
+ * (the secant clamped to 1e5 N/m) drives the stiff one far past the
+ * figures, which is why the damping adapts. */
+static void test_fixed_damping_fails_on_stiff(void **state)
+{
+    (void)state;
+    hold_t h = run_hold(1e7, 3.0, 0.0, 100000);
+    print_message("k_e 1e7 with D for 1e5: overshoot %.1f %%, RMS %.1f %%\n", 100.0 * h.overshoot, 100.0 * h.rms_rel);
+    assert_true(h.overshoot > 0.10 || h.rms_rel > 0.01 || h.pp_rel > 0.02);
+}
+
+static void test_contact_lost(void **state)
+{
+    (void)state;
+    for (int i = 0; i < 3; ++i) {
+        double k = (i == 0) ? 1e5 : ((i == 1) ? 1e6 : 1e7);
+        hold_t h = run_hold(k, 5.0, 3.0, 0);
+        assert_true(h.lost_at > 0u);
+        uint32_t ticks = h.lost_at - 3000u;
+        print_message("k_e %.0e: surface removed, lost after %u ticks, travel %.2f mm\n", k, ticks,
+                      1e3 * (h.x_end - h.x_lost));
+        assert_true(ticks <= 10u);
+        assert_true(fabs(h.x_end - h.x_lost) <= 0.005);
+    }
+}
+
+static void test_hand_guiding(void **state)
+{
+    (void)state;
+    sp_admit_config_t c = config();
+    c.axis[1].damping = 1000; /* 200 N -> 0.2 m/s */
+    c.axis[1].v_max = q24(0.5);
+    c.axis[1].a_brake = q24(1.0);
+    sp_admit_t st;
+    assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+    sp_q24_t lo[SP_AXES], hi[SP_AXES];
+    wide_bounds(lo, hi);
+    hi[1] = q24(0.15);
+    sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
+    w[1] = q8(200.0);
+    double v_mid = 0.0, d_max = -1.0;
+    for (int n = 0; n < 3000; ++n) {
+        assert_int_equal(sp_admit_step(&c, &st, SP_ADMIT_FORCE, 0x3fu, w, t, NULL, 0u, lo, hi, NULL), SP_OK);
+        if (n == 300) {
+            v_mid = st.axis[1].v / Q24;
+        }
+        d_max = fmax(d_max, st.axis[1].d / Q24);
+        assert_true(st.axis[1].d <= hi[1]);
+    }
+    assert_near(v_mid, 0.2, 0.2 * 0.02, "guided speed");
+    assert_near(st.axis[1].d / Q24, 0.15, 1e-6, "stopped on the bound");
+    assert_near(st.axis[1].v / Q24, 0.0, 1e-6, "at rest on the bound");
+    assert_true(d_max <= 0.15 + 1e-9);
+}
+
+static void test_release_is_critically_damped(void **state)
+{
+    (void)state;
+    sp_admit_config_t c = config();
+    sp_admit_t st;
+    assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+    sp_q24_t lo[SP_AXES], hi[SP_AXES];
+    wide_bounds(lo, hi);
+    st.axis[2].d = q24(-0.004);
+    sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
+    w[2] = q8(-3000.0); /* ignored in release */
+    double tau = sqrt(20.0 / 20000.0);
+    int n_end = (int)(10.0 * tau * 1000.0);
+    for (int n = 0; n < n_end; ++n) {
+        assert_int_equal(sp_admit_step(&c, &st, SP_ADMIT_RELEASE, 0x3fu, w, t, NULL, 0u, lo, hi, NULL), SP_OK);
+        assert_true(st.axis[2].d <= 0); /* no overshoot past the position reference */
+    }
+    assert_true(fabs(st.axis[2].d / Q24) < 0.004 * 0.01);
+}
+
+static void test_contact_events(void **state)
+{
+    (void)state;
+    sp_contact_config_t cc = {q8(100.0), SP_Q30_ONE / 4, 3u, q8(5000.0)};
+    sp_contact_t cs = {0u, 0u, 0u};
+    sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
+    t[2] = q8(-2000.0); /* push down */
+    w[2] = q8(50.0);    /* the world pushes up, below the threshold */
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    w[2] = q8(150.0);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), SP_CONTACT_MADE);
+    w[2] = q8(400.0); /* rising: below 25 % of 2 kN, but not yet armed */
+    for (int n = 0; n < 10; ++n) {
+        assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    }
+    w[2] = q8(1990.0); /* held: armed */
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    assert_int_equal(cs.armed, 1u);
+    w[2] = q8(400.0); /* falls away: lost after 3 ticks */
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), SP_CONTACT_LOST);
+    assert_int_equal(cs.made, 0u);
+    /* lost while still rising: below made / 2 */
+    w[2] = q8(150.0);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), SP_CONTACT_MADE);
+    w[2] = q8(30.0);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), SP_CONTACT_LOST);
+    w[2] = q8(-150.0); /* pulling away is no contact */
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t), 0u);
+    w[0] = q8(6000.0); /* excessive, any direction */
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t) & SP_CONTACT_EXCESS, SP_CONTACT_EXCESS);
+    assert_int_equal(sp_contact_step(NULL, &cs, w, t), 0u);
+    /* extreme inputs: no overflow */
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        w[k] = INT32_MIN;
+        t[k] = INT32_MAX;
+    }
+    assert_int_equal(sp_contact_step(&cc, &cs, w, t) & SP_CONTACT_EXCESS, SP_CONTACT_EXCESS);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_configure_rejects),
+        cmocka_unit_test(test_step_vs_double),
+        cmocka_unit_test(test_force_hold_each_stiffness),
+        cmocka_unit_test(test_fixed_damping_fails_on_stiff),
+        cmocka_unit_test(test_contact_lost),
+        cmocka_unit_test(test_hand_guiding),
+        cmocka_unit_test(test_release_is_critically_damped),
+        cmocka_unit_test(test_contact_events),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,210 @@
+"""The plain reference of :func:`stewart.analysis.decode.read_log`: the log
+line by line, each frame checked and decoded by :class:`stewart.protocol.Protocol`
+(cantools' per-frame decode, the E2E receiver per frame). It was the
+analysis' decoder until issue 16; the tests hold the whole-message decoder
+to it (tests/python/test_framedecode.py). About 30x slower."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from .. import protocol as pr
+from .decode import (WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16, set_platform)
+from .logfile import parse_bus_map, parse_line
+from .names import COMMANDS
+
+
+def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[str, str] | None = None,
+             platform=None, dbc_path: str | Path | None = None) -> LogData:
+    """Reads and checks a candump -L log (a path or an iterable of lines).
+
+    ``buses``: the ``--bus`` text or a mapping {interface: bus}; default
+    vcan0 = ops, vcan1 = axis_a, vcan2 = axis_b (and the bus names
+    themselves). ``platform``: a validated :class:`stewart.config.Platform`
+    for the stretch and the measured force (None: those columns are NaN)."""
+    ifmap = parse_bus_map(buses) if buses is None or isinstance(buses, str) else dict(buses)
+    proto = pr.Protocol(dbc_path)
+    scaler = _Scaler(proto)
+    stats = LogStats()
+    if isinstance(source, (str, Path)):
+        label = str(source)
+        fh = open(source, "r", encoding="utf-8", errors="replace")
+        lines: Iterable[str] = fh
+    else:
+        label = "<lines>"
+        fh = None
+        lines = source
+
+    # First pass: good frames in log order, (kind, bus, name, signals, time).
+    accepted: list[tuple[str, str, dict[str, float], float, int]] = []
+    try:
+        for line_no, line in enumerate(lines, start=1):
+            stats.lines += 1
+            if not line.strip():
+                continue
+            try:
+                f = parse_line(line, line_no)
+            except ValueError as exc:
+                stats.malformed += 1
+                stats.warn(f"line {line_no}: malformed ({exc}): {line.strip()[:80]}")
+                continue
+            stats.frames += 1
+            bus = ifmap.get(f.iface)
+            if bus is None:
+                stats.unknown_interface += 1
+                stats.warn(f"line {line_no}: unknown interface {f.iface!r}")
+                continue
+            rec = proto.receive(f.frame_id, f.data, bus=bus, raw=True)
+            if not rec.ok:
+                kind = rec.error.kind
+                stats.rejected[kind] = stats.rejected.get(kind, 0) + 1
+                stats.warn(f"line {line_no}: {bus}: {rec.error}")
+                continue
+            name = rec.name
+            if bus not in proto.infos[name].buses:
+                stats.rejected[WRONG_BUS] = stats.rejected.get(WRONG_BUS, 0) + 1
+                stats.warn(f"line {line_no}: {name} on bus {bus}, the DBC puts it on "
+                           f"{', '.join(proto.infos[name].buses)}")
+                continue
+            stats.accepted += 1
+            stats.lost += rec.lost
+            stats.per_message[name] = stats.per_message.get(name, 0) + 1
+            accepted.append((name, bus, scaler(f.frame_id, rec.signals), f.time, line_no))
+    finally:
+        if fh is not None:
+            fh.close()
+
+    # Ticks of the tick-bearing frames, in log order, for TickEcho unwrapping
+    # and for the command -> executing tick assignment.
+    n = len(accepted)
+    known = [None] * n
+    for i, (name, _bus, sig, _t, _ln) in enumerate(accepted):
+        if name in ("SYNC", "AXIS_SETPOINTS", "CTRL_STATUS", "CTRL_MONITOR", "CTRL_WRENCH"):
+            known[i] = int(sig["Tick"])
+    prev_tick: list[int | None] = [None] * n
+    last = None
+    for i in range(n):
+        if known[i] is not None:
+            last = known[i]
+        prev_tick[i] = last
+    next_tick: list[int | None] = [None] * n
+    nxt = None
+    for i in range(n - 1, -1, -1):
+        if known[i] is not None:
+            nxt = known[i]
+        next_tick[i] = nxt
+    next_status: list[int | None] = [None] * n
+    nxt = None
+    for i in range(n - 1, -1, -1):
+        if accepted[i][0] == "CTRL_STATUS":
+            nxt = int(accepted[i][2]["Tick"])
+        next_status[i] = nxt
+
+    rows: dict[int, dict[str, Any]] = {}
+
+    def row(t: int) -> dict[str, Any]:
+        r = rows.get(t)
+        if r is None:
+            r = rows[t] = {}
+        return r
+
+    commands: list[Command] = []
+    for i, (name, bus, sig, t_log, line_no) in enumerate(accepted):
+        if name == "CTRL_STATUS":
+            row(int(sig["Tick"]))["status"] = sig
+        elif name == "CTRL_MONITOR":
+            row(int(sig["Tick"]))["monitor"] = sig
+        elif name == "CTRL_WRENCH":
+            row(int(sig["Tick"]))["wrench"] = sig
+        elif name == "AXIS_SETPOINTS":
+            row(int(sig["Tick"]))[("sp", bus)] = sig
+        elif name == "SYNC":
+            row(int(sig["Tick"]))
+        elif name.startswith("AXIS_FEEDBACK_"):
+            near = prev_tick[i] if prev_tick[i] is not None else next_tick[i]
+            echo = int(sig["TickEcho"])
+            if near is None:
+                tick = echo
+            else:
+                tick = _unwrap16(echo, near)
+                if abs(tick - near) > 1000:
+                    stats.stale_feedback += 1
+                    stats.warn(f"line {line_no}: {name} on {bus}: TickEcho {echo} is "
+                               f"{tick - near} ticks from the log's tick {near}")
+                    continue
+            slot = int(name[-1])
+            leg = slot + (0 if bus == "axis_a" else 3)
+            row(tick)[("fb", leg)] = sig
+        elif name == "OP_COMMAND":
+            c = int(sig["Command"])
+            commands.append(Command(
+                tick=next_status[i], time=t_log,
+                command=COMMANDS[c] if 0 <= c < len(COMMANDS) else str(c),
+                axis=int(sig["Axis"]), amplitude=float(sig["Amplitude"]),
+                frequency=float(sig["Frequency"]), fade_time=float(sig["FadeTime"]),
+                option=int(sig["Option"])))
+        # OP_TARGET_POSE: not needed for the analysis (the reference is in CTRL_MONITOR)
+
+    ticks = np.array(sorted(rows), dtype=np.int64)
+    N = len(ticks)
+
+    def fl(shape):
+        return np.full(shape, np.nan)
+
+    def it(shape):
+        return np.full(shape, -1, dtype=np.int64)
+
+    d = LogData(
+        ticks=ticks, state=it(N), faults=it(N), drive_mode=it(N), feedforward=it(N),
+        estimate_valid=it(N), fk_iterations=it(N), reference=fl((N, 6)), estimate=fl((N, 6)),
+        length_sp=fl((N, 6)), force_ff=fl((N, 6)), axis_length_sp=fl((N, 6)), axis_mode=it((N, 2)),
+        length=fl((N, 6)), pressure_a=fl((N, 6)), pressure_b=fl((N, 6)), drive_state=it((N, 6)),
+        drive_faults=it((N, 6)), est_wrench_valid=it(N), est_wrench=fl((N, 6)), commands=commands,
+        stats=stats, source=label)
+    for k, t in enumerate(ticks):
+        r = rows[int(t)]
+        s = r.get("status")
+        if s is not None:
+            d.state[k] = s["State"]
+            d.faults[k] = s["Faults"]
+            d.drive_mode[k] = s["DriveMode"]
+            d.feedforward[k] = s["FeedForward"]
+            d.estimate_valid[k] = s["EstimateValid"]
+            d.fk_iterations[k] = s["FkIterations"]
+            if s["EstimateValid"]:
+                d.estimate[k] = [s[a] for a in pr.POSE_SIGNALS]
+        mon = r.get("monitor")
+        if mon is not None:
+            d.reference[k] = [mon["Ref" + a] for a in pr.POSE_SIGNALS]
+            d.length_sp[k] = [mon[f"LengthSp_{i}"] for i in range(1, 7)]
+            d.force_ff[k] = [mon[f"ForceFf_{i}"] for i in range(1, 7)]
+        w = r.get("wrench")
+        if w is not None:
+            d.est_wrench_valid[k] = w["Valid"]
+            if w["Valid"]:
+                d.est_wrench[k] = [w[s] for s in pr.WRENCH_SIGNALS]
+        for b, bus in enumerate(("axis_a", "axis_b")):
+            sp = r.get(("sp", bus))
+            if sp is not None:
+                d.axis_mode[k, b] = sp["Mode"]
+                d.axis_length_sp[k, 3 * b:3 * b + 3] = [sp[f"Length_{s}"] for s in (1, 2, 3)]
+        for leg in range(1, 7):
+            fb = r.get(("fb", leg))
+            if fb is not None:
+                j = leg - 1
+                d.length[k, j] = fb["Length"]
+                d.pressure_a[k, j] = fb["PressureA"]
+                d.pressure_b[k, j] = fb["PressureB"]
+                d.drive_state[k, j] = fb["State"]
+                d.drive_faults[k, j] = fb["Faults"]
+    both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)
+    stats.setpoint_checked = int(both.sum())
+    stats.setpoint_mismatch = int((np.abs(d.length_sp - d.axis_length_sp)[both] > 1.5e-6).any(axis=1).sum())
+    if platform is not None:
+        set_platform(d, platform)
+    return d
+
+
