@@ -42,6 +42,7 @@ class FakeController:
         self.heartbeats = []
         self.commands = []
         self.targets = 0
+        self.last_target = None
         # the counter reference a previous operator process left behind
         if counter_ref is not None:
             self.proto.decode(0x040, self.proto.encode("OP_COMMAND", pr.command_signals("NONE"), counter_ref),
@@ -97,6 +98,7 @@ class FakeController:
                     self.heartbeats.append(time.monotonic())
                 elif r.name == "OP_TARGET_POSE":
                     self.targets += 1
+                    self.last_target = pr.signals_to_pose(r.signals)
                 elif r.name == "OP_COMMAND":
                     queue.append(r.signals)
             self.tick += 1
@@ -266,6 +268,44 @@ def test_cli_stream_csv(ctrl, capsys, tmp_path):
     assert stats["events"] == ["end-of-file"]
     assert ctrl.targets >= stats["frames_sent"] - 1   # the first frame of a new sender may be dropped
     assert "settled back to home" in out
+
+
+def test_cli_stream_udp_cueing(ctrl, capsys, tmp_path):
+    """Telemetry through the washout filter (stewart.cueing): absolute poses
+    about home; a pose datagram in cueing mode is bad; the source stopping
+    ends the stream (--once) back at READY."""
+    import socket
+
+    pytest.importorskip("stewart.cueing")
+    ch = ctrl.channel
+    assert _op(capsys, ch, "engage")[0] == 0
+    port_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    port_sock.bind(("127.0.0.1", 0))
+    port = port_sock.getsockname()[1]
+    port_sock.close()
+
+    def sender():
+        tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        time.sleep(0.3)
+        for k in range(60):   # 0.6 s at 100 Hz: 1 m/s^2 forward
+            tx.sendto(src.encode_datagram(k, [1.0, 0.0, 9.80665, 0.0, 0.0, 0.0], cueing=True), ("127.0.0.1", port))
+            if k == 30:
+                tx.sendto(src.encode_datagram(99, [0.0] * 6), ("127.0.0.1", port))   # a pose: bad
+            time.sleep(0.01)
+        tx.close()
+
+    th = threading.Thread(target=sender)
+    th.start()
+    rc, out, err = _op(capsys, ch, "stream", "--udp", f"127.0.0.1:{port}", "--cueing", "--once",
+                       "--source-timeout", "0.2", "--stats", str(tmp_path / "c.json"))
+    th.join()
+    assert rc == 0, err
+    stats = json.loads((tmp_path / "c.json").read_text())
+    assert stats["udp"]["bad"] == 1 and stats["udp"]["accepted"] >= 50
+    assert "source-lost" in stats["events"] and "settled back to home" in out
+    x, y, z = ctrl.last_target[:3]
+    assert abs(z - 2.55) < 0.05 and abs(y) < 1e-6      # absolute, about home; a forward push moves x only
+    assert 0.0 < x < 0.2
 
 
 def test_cli_bad_input(capsys, tmp_path):

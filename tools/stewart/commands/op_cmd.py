@@ -493,8 +493,8 @@ def _stream_udp(node, args, src, offset, stats, intr) -> int:
 
 
 def _udp_pose(values, washout, offset):
-    if washout is not None:
-        values = list(washout.step(values[:3], values[3:]))
+    if washout is not None:  # the washout filter's poses are absolute (home at rest)
+        return [float(v) for v in washout.step(values[:3], values[3:])]
     return [o + v for o, v in zip(offset, values)]
 
 
