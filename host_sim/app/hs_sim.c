@@ -5,6 +5,7 @@
  *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
+ *          [--setpoint-timeout CYCLES]
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -28,6 +29,10 @@
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
  * controller always executes them at the same tick.
  *
+ * --setpoint-timeout CYCLES: the drives' setpoint watchdog (default 3
+ * cycles without setpoints in ACTIVE -> HOLD and the timeout fault); only
+ * to relax it for hosts that cannot keep 1 ms deadlines (real time inside
+ * user-mode Linux), as sp_controller's --feedback-timeout.
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
  * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
@@ -444,7 +449,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress] [--load MASS,X,Y,Z]\n");
+                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -509,6 +514,7 @@ int main(int argc, char **argv)
     s.status_state = -1;
     const char *scenario = NULL, *log_path = NULL, *truth_path = NULL;
     unsigned long long max_ticks = 0, seed = 0;
+    uint32_t sp_timeout = 0u;
     int have_seed = 0;
     long timeout_ms = 2000;
     double load[4] = {0.0, 0.0, 0.0, 0.0};
@@ -542,6 +548,8 @@ int main(int argc, char **argv)
             seed = u, have_seed = 1, i++;
         } else if (strcmp(a, "--load") == 0 && parse_load(v, load) == 0) {
             have_load = 1, i++;
+        } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
+            sp_timeout = (uint32_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
             timeout_ms = (long)u, i++;
         } else {
@@ -569,6 +577,9 @@ int main(int argc, char **argv)
     }
     if (have_seed) {
         par.sensors.seed = (uint64_t)seed;
+    }
+    if (sp_timeout > 0u) {
+        par.drive.timeout_cycles = sp_timeout;
     }
     if (have_load && hs_params_add_mass(&par, load[0], &load[1]) != HS_OK) {
         fprintf(stderr, "hs_sim: --load %g,%g,%g,%g: the platform would not be a rigid body\n", load[0], load[1],

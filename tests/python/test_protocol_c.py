@@ -37,6 +37,7 @@ CODECS = {
     "AXIS_FEEDBACK_3": ("sp_proto_decode_feedback", "sp_proto_encode_feedback", "slot"),
     "OP_COMMAND": ("sp_proto_decode_command", "sp_proto_encode_command", "ops"),
     "OP_TARGET_POSE": ("sp_proto_decode_target", "sp_proto_encode_target", "ops"),
+    "OP_HEARTBEAT": ("sp_proto_decode_heartbeat", "sp_proto_encode_heartbeat", "bare"),
     "CTRL_STATUS": ("sp_proto_decode_status", "sp_proto_encode_status", "ops"),
     "CTRL_MONITOR": ("sp_proto_decode_monitor", "sp_proto_encode_monitor", "ops"),
     "CTRL_WRENCH": ("sp_proto_decode_wrench", "sp_proto_encode_wrench", "ops"),
@@ -53,6 +54,8 @@ def c_roundtrip(L, vec):
     slot = C.c_uint8()
     if shape == "slot":
         st = getattr(L, dec)(C.byref(f), msg, C.byref(slot), C.byref(counter), C.byref(err))
+    elif shape == "bare":
+        st = getattr(L, dec)(C.byref(f), C.byref(counter), C.byref(err))
     else:
         st = getattr(L, dec)(C.byref(f), msg, C.byref(counter), C.byref(err))
     if st != 0:
@@ -62,6 +65,8 @@ def c_roundtrip(L, vec):
         st = getattr(L, enc)(msg, counter, C.c_uint8(1), C.byref(out))
     elif shape == "slot":
         st = getattr(L, enc)(msg, slot, counter, C.c_uint8(1), C.byref(out))
+    elif shape == "bare":
+        st = getattr(L, enc)(counter, C.byref(out))
     else:
         st = getattr(L, enc)(msg, counter, C.byref(out))
     return st, 0, bytes(out.data[: out.len])
@@ -95,7 +100,7 @@ def test_c_node_rejects_malformed_frames_like_python():
         # frames the controller does not consume (its own messages) are
         # unknown to it whatever else is wrong with them
         ours = name in ("SYNC", "AXIS_FEEDBACK_1", "AXIS_FEEDBACK_2", "AXIS_FEEDBACK_3", "OP_COMMAND",
-                        "OP_TARGET_POSE")
+                        "OP_TARGET_POSE", "OP_HEARTBEAT")
         expect = m["kind"] if ours or name is None else "unknown-id"
         if name == "SYNC":
             expect = "unknown-id"  # a real-time controller is the SYNC master itself

@@ -592,6 +592,157 @@ static void test_trig_generator(void **state)
     assert_int_equal(sp_trig_start(&g, NULL, SP_AXIS_X, q24(0.09), q24(1), 1000u, 1000u), SP_E_ARG);
 }
 
+/* One tick with an operator heartbeat when `beat`. */
+static void link_tick(rig_t *r, sp_cmd_type_t cmd, int beat)
+{
+    r->in.operator_heartbeat = (uint8_t)(beat ? 1u : 0u);
+    rig_tick(r, cmd);
+    r->in.operator_heartbeat = 0u;
+}
+
+static void start_surge(rig_t *r)
+{
+    r->in.cmd.axis = SP_AXIS_X;
+    r->in.cmd.amplitude = q24(0.05);
+    r->in.cmd.frequency = q24(0.5);
+    link_tick(r, SP_CMD_RUN_TRIG, 1);
+    assert_int_equal(r->out.cmd_rejected, 0);
+    assert_int_equal(r->out.state, SP_STATE_RUNNING);
+}
+
+/* Operator link supervision: never heard, no supervision; heard, a silence
+ * of operator_timeout_ticks while RUNNING latches the fault on exactly that
+ * tick and stops the motion smoothly; motion commands are refused until
+ * RESET; READY is not supervised; ESTOP and STOP always pass. */
+static void test_operator_link_stop(void **state)
+{
+    static rig_t r;
+    uint32_t timeout;
+    (void)state;
+    rig_init(&r);
+    timeout = r.cfg.operator_timeout_ticks;
+    assert_int_equal(timeout, 200u);
+    engage(&r);
+    /* never armed: a long silent run is fine */
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    for (int k = 0; k < 1000; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.faults, 0u);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    rig_tick(&r, SP_CMD_STOP);
+    run_until(&r, SP_STATE_READY, 5000);
+    /* armed by one heartbeat; READY is not supervised */
+    link_tick(&r, SP_CMD_NONE, 1);
+    for (int k = 0; k < 1000; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.faults, 0u);
+    /* RUNNING with a heartbeat every 20 ticks: no fault */
+    start_surge(&r);
+    for (int k = 1; k <= 2000; ++k) {
+        link_tick(&r, SP_CMD_NONE, k % 20 == 0);
+        assert_int_equal(r.out.faults, 0u);
+    }
+    /* silent: the fault on the timeout-th silent tick, not before */
+    for (uint32_t k = 1; k < timeout; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.faults, 0u);
+    }
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING); /* fading out, not a jump */
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_ACTIVE);
+    run_until(&r, SP_STATE_READY, 5000);
+    assert_near(f24(r.out.reference.pose.pos[0]), f24(sp_platform_default.home.pos[0]), 1e-6, "x after the stop");
+    assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT);
+    /* latched: motion refused, even with the operator back */
+    r.in.cmd.axis = SP_AXIS_X;
+    link_tick(&r, SP_CMD_RUN_TRIG, 1);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    link_tick(&r, SP_CMD_STREAM, 1);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    /* RESET in READY clears it and nothing else */
+    link_tick(&r, SP_CMD_RESET, 1);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.faults, 0u);
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    /* ESTOP passes while the fault is being raised on the same tick */
+    start_surge(&r);
+    for (uint32_t k = 1; k < timeout; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT | SP_FAULT_ESTOP);
+    link_tick(&r, SP_CMD_RESET, 1);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(r.out.faults, 0u);
+    run_until(&r, SP_STATE_READY, 20000);
+    /* STOP always passes, and a STOP while latched and stopping is not refused */
+    start_surge(&r);
+    for (uint32_t k = 0; k < timeout; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT);
+    rig_tick(&r, SP_CMD_STOP);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    /* RESET while still stopping is refused */
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    run_until(&r, SP_STATE_READY, 5000);
+}
+
+/* The park reaction, and the supervision off (timeout 0). */
+static void test_operator_link_park(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    r.cfg.operator_park = 1u;
+    engage(&r);
+    start_surge(&r);
+    for (uint32_t k = 0; k < r.cfg.operator_timeout_ticks; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT);
+    run_until(&r, SP_STATE_PARKING, 5000);
+    run_until(&r, SP_STATE_IDLE, 20000);
+    for (int k = 0; k < 3; ++k) {
+        assert_near(f24(r.out.estimate.pos[k]), f24(sp_platform_default.park.pos[k]), 1e-6, "parked pos[%d]", k);
+    }
+    link_tick(&r, SP_CMD_ENGAGE, 1);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_IDLE);
+    link_tick(&r, SP_CMD_RESET, 1);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.faults, 0u);
+    link_tick(&r, SP_CMD_ENGAGE, 1);
+    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    run_until(&r, SP_STATE_READY, 20000);
+    /* supervision off */
+    r.cfg.operator_timeout_ticks = 0u;
+    start_surge(&r);
+    for (int k = 0; k < 1000; ++k) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.faults, 0u);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    /* NULL arguments: no command, nothing dropped */
+    {
+        int dropped = 1;
+        assert_int_equal(sp_ctrl_operator_link(NULL, &r.ctrl, &r.in, &dropped)->type, SP_CMD_NONE);
+        assert_int_equal(dropped, 0);
+        assert_int_equal(sp_ctrl_operator_link(&r.cfg, &r.ctrl, &r.in, NULL)->type, SP_CMD_NONE);
+    }
+}
+
 static void test_move_respects_limits(void **state)
 {
     sp_move_t mv;
@@ -776,6 +927,43 @@ static void test_force_release_and_park(void **state)
     assert_int_equal(r.out.state, SP_STATE_IDLE);
 }
 
+/* A silent operator during force control in READY: the fault, and force
+ * control lets go back onto the position reference; FORCE is then refused. */
+static void test_operator_link_force(void **state)
+{
+    static rig_t r;
+    surface_t s;
+    (void)state;
+    force_rig(&r, &s);
+    double z_home = f24(r.out.reference.pose.pos[2]);
+    r.in.operator_heartbeat = 1u;
+    force_tick(&r, &s, SP_CMD_TARE);
+    r.in.operator_heartbeat = 0u;
+    for (int n = 0; n < 600; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    s.on = 1;
+    r.in.cmd.force_mask = 0x04u;
+    r.in.cmd.force_target[2] = -1000 * 256;
+    r.in.operator_heartbeat = 1u;
+    force_tick(&r, &s, SP_CMD_FORCE);
+    r.in.operator_heartbeat = 0u;
+    assert_int_equal(r.out.force_mode, SP_FORCE_FORCE);
+    for (uint32_t n = 1; n < r.cfg.operator_timeout_ticks; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+        assert_int_equal(r.out.faults, 0u);
+    }
+    force_tick(&r, &s, SP_CMD_NONE);
+    assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT);
+    assert_int_equal(r.out.force_mode, SP_FORCE_RELEASE);
+    for (int n = 0; n < 2000 && r.out.force_mode != SP_FORCE_OFF; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_near(f24(r.out.reference.pose.pos[2]), z_home, 1e-6, "let go onto the position reference");
+    force_tick(&r, &s, SP_CMD_FORCE);
+    assert_int_equal(r.out.cmd_rejected, 1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -793,6 +981,9 @@ int main(void)
         cmocka_unit_test(test_fk_failure_faults),
         cmocka_unit_test(test_force_hold_and_contact_lost),
         cmocka_unit_test(test_force_release_and_park),
+        cmocka_unit_test(test_operator_link_force),
+        cmocka_unit_test(test_operator_link_stop),
+        cmocka_unit_test(test_operator_link_park),
     };
     return cmocka_run_group_tests_name("controller", tests, NULL, NULL);
 }

@@ -125,6 +125,72 @@ static void run_until(rig_t *r, sp_state_t state, uint32_t max_ticks)
     assert_int_equal(r->node.out.state, state);
 }
 
+static void send_heartbeat(rig_t *r, uint8_t counter)
+{
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_heartbeat(counter, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
+}
+
+/* OP_HEARTBEAT over frames: a heartbeat with a bad CRC is dropped and arms
+ * nothing; a good one arms the supervision; silent for the timeout while
+ * RUNNING, CTRL_STATUS reports the operator-silent fault (bit 8) and the
+ * motion ends in READY. */
+static void test_operator_heartbeat_over_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    sp_can_frame_t f;
+    sp_proto_error_t why;
+    rig_init(&r);
+    rig_tick(&r);
+    rig_tick(&r);
+    assert_int_equal(sp_proto_encode_heartbeat(0u, &f), SP_OK);
+    f.data[3] ^= 1u;
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_BAD_CRC);
+    rig_tick(&r);
+    assert_int_equal(r.node.ctrl.link.armed, 0u);
+    send_heartbeat(&r, 0u);
+    rig_tick(&r);
+    assert_int_equal(r.node.ctrl.link.armed, 1u);
+    assert_int_equal(r.node.ctrl.link.silent, 0u);
+    send_command(&r, SP_CMD_ENGAGE);
+    for (uint32_t t = 0; t < 10000u && r.node.out.state != SP_STATE_READY; t++) {
+        if (t % 20u == 0u) {
+            send_heartbeat(&r, (uint8_t)(t / 20u + 1u));
+        }
+        rig_tick(&r);
+    }
+    assert_int_equal(r.node.out.state, SP_STATE_READY);
+    /* the last heartbeat with RUN_TRIG: the silence counts from this tick */
+    send_command(&r, SP_CMD_RUN_TRIG);
+    send_heartbeat(&r, (uint8_t)(r.node.rx_heartbeat.last + 1u));
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_RUNNING);
+    for (uint32_t t = 1; t < r.cfg.ctrl.operator_timeout_ticks; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.node.out.faults, 0u);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.faults, SP_FAULT_OPERATOR_SILENT);
+    /* the status frame carries it */
+    sp_msg_status_t s;
+    uint8_t counter;
+    int found = 0;
+    for (uint32_t k = 0; k < r.n_sent; k++) {
+        if (r.sent[k].id == SP_ID_CTRL_STATUS) {
+            assert_int_equal(sp_proto_decode_status(&r.sent[k], &s, &counter, NULL), SP_OK);
+            assert_int_equal(s.faults, 0x100u);
+            assert_int_equal(s.state, SP_STATE_RUNNING);
+            found = 1;
+        }
+    }
+    assert_true(found);
+    run_until(&r, SP_STATE_READY, 10000u);
+    assert_int_equal(r.node.out.faults, SP_FAULT_OPERATOR_SILENT);
+}
+
 static void test_engage_run_park_over_frames(void **state)
 {
     (void)state;
@@ -447,6 +513,7 @@ int main(void)
         cmocka_unit_test(test_fuzz_receive_path),
         cmocka_unit_test(test_wrench_frame_round_trip_and_saturation),
         cmocka_unit_test(test_feedback_pressures_at_1_kpa),
+        cmocka_unit_test(test_operator_heartbeat_over_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -50,7 +50,8 @@ UNKNOWN_SIGNAL = "unknown-signal"
 
 #: Bits of CTRL_STATUS.Faults (SP_FAULT_* of firmware/core/include/sp/controller.h).
 CONTROLLER_FAULTS = ("feedback_timeout", "drive", "fk", "divergence", "reference",
-                     "compute", "estop", "leg_limit")
+                     "compute", "estop", "leg_limit", "operator_silent", "contact_lost",
+                     "excess_force", "ft_sensor")
 #: Bits of AXIS_FEEDBACK_s.Faults.
 DRIVE_FAULTS = ("setpoint_timeout", "following_error", "end_stop", "sensor", "valve",
                 "pressure", "communication", "internal")

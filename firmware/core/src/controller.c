@@ -59,6 +59,8 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     }
     cfg->ft_timeout_ticks = 5u;
     cfg->ft_tare_samples = 500u;
+    cfg->operator_timeout_ticks = 200u;
+    cfg->operator_park = 0u;
     return SP_OK;
 }
 
@@ -137,6 +139,8 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->move.rate = 0;
     ctrl->stream.stopping = 0u;
     ctrl->stream.anchor_valid = 0u;
+    ctrl->link.silent = 0u;
+    ctrl->link.armed = 0u;
     return SP_OK;
 }
 
@@ -755,7 +759,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     int comms_ok;
     int leg_out;
     int rejected;
+    int dropped;
     int have_model = 0;
+    const sp_ctrl_cmd_t *cmd;
 
     if (cfg == NULL || ctrl == NULL || in == NULL || out == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
@@ -768,7 +774,8 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     comms_ok = supervise(cfg, ctrl, in, active, &leg_out);
     fk_iterations = estimate(cfg, ctrl, active, leg_out);
     ft_sensor(cfg, ctrl, in);
-    rejected = !command(cfg, ctrl, &in->cmd, comms_ok);
+    cmd = sp_ctrl_operator_link(cfg, ctrl, in, &dropped);
+    rejected = !command(cfg, ctrl, cmd, comms_ok) || dropped;
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {
         rejected |= !take_stream_target(cfg, ctrl, &in->stream_target);
     }

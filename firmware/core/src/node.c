@@ -186,6 +186,18 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         inc(&node->stats.accepted);
         return SP_OK;
     }
+    if (f->id == SP_ID_OP_HEARTBEAT) {
+        if (sp_proto_decode_heartbeat(f, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = sequence(node, &node->rx_heartbeat, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        node->in.operator_heartbeat = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
     return reject(node, SP_PROTO_UNKNOWN_ID, why);
 }
 
@@ -214,7 +226,7 @@ sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_pro
         }
         return receive_axis(node, frame, why);
     }
-    if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE) {
+    if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE || frame->id == SP_ID_OP_HEARTBEAT) {
         if (frame->bus != SP_BUS_OPS) {
             return reject(node, SP_PROTO_WRONG_BUS, why);
         }
@@ -369,6 +381,7 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
         node->in.drive[i].fresh = 0u;
     }
     node->in.stream_fresh = 0u;
+    node->in.operator_heartbeat = 0u;
 
     uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
     send_axis_frames(cfg, node, tick, out, n);

@@ -485,6 +485,36 @@ sp_status_t sp_proto_decode_target(const sp_can_frame_t *f, sp_pose_t *m, uint8_
     return SP_OK;
 }
 
+/* ---- OP_HEARTBEAT ---- */
+sp_status_t sp_proto_encode_heartbeat(uint8_t counter, sp_can_frame_t *f)
+{
+    if (f == NULL) {
+        return SP_E_ARG;
+    }
+    struct stewart_can_op_heartbeat_t s;
+    (void)stewart_can_op_heartbeat_init(&s);
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    clear(f);
+    return finish(f, SP_ID_OP_HEARTBEAT, SP_BUS_OPS, stewart_can_op_heartbeat_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_OP_HEARTBEAT_LENGTH, 0);
+}
+
+sp_status_t sp_proto_decode_heartbeat(const sp_can_frame_t *f, uint8_t *counter, sp_proto_error_t *error)
+{
+    if (counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_OP_HEARTBEAT, STEWART_CAN_OP_HEARTBEAT_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_op_heartbeat_t s;
+    if (stewart_can_op_heartbeat_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    *counter = s.counter;
+    return SP_OK;
+}
+
 /* ---- CTRL_STATUS ---- */
 sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp_can_frame_t *f)
 {

@@ -4,7 +4,8 @@
  *
  *   sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep]
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
- *                 [--feedback-timeout TICKS]
+ *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
+ *                 [--operator-reaction stop|park]
  *
  * Real-time mode (default): the controller is the cycle master; an
  * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
@@ -15,6 +16,10 @@
  * --feedback-timeout relaxes the drive supervision (default 2 ticks: a
  * silent drive faults the controller on the third tick); only for hosts
  * that cannot keep 1 ms deadlines, such as user-mode Linux in real time.
+ * --operator-timeout (default 200 ticks, 0: off) and --operator-reaction
+ * (default stop) set the operator link's supervision: once an operator
+ * heartbeat has been heard, a silent operator while RUNNING latches the
+ * operator-silent fault and stops (or parks) the platform.
  * The compute time of each tick is measured in real-time mode, and in
  * lockstep only with --timing (two clock reads per tick, which cost a system
  * call each inside user-mode Linux).
@@ -34,9 +39,9 @@
 
 static void usage(void)
 {
-    fprintf(stderr,
-            "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
-            "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n");
+    fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
+                    "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
+                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n");
 }
 
 typedef struct {
@@ -88,6 +93,8 @@ int main(int argc, char **argv)
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
     int lockstep = 0, ff = 1, timing = 0;
     long fb_timeout = 0;
+    long op_timeout = -1;
+    int op_park = 0;
     unsigned long long max_ticks = 0;
     long timeout_ms = 5000;
     for (int i = 1; i < argc; i++) {
@@ -119,6 +126,21 @@ int main(int argc, char **argv)
                 usage();
                 return 2;
             }
+        } else if (v != NULL && strcmp(a, "--operator-timeout") == 0) {
+            char *end;
+            op_timeout = strtol(v, &end, 10), i++;
+            if (*end != '\0' || op_timeout < 0 || op_timeout > 600000) {
+                usage();
+                return 2;
+            }
+        } else if (v != NULL && strcmp(a, "--operator-reaction") == 0) {
+            i++;
+            if (strcmp(v, "stop") == 0 || strcmp(v, "park") == 0) {
+                op_park = (strcmp(v, "park") == 0);
+            } else {
+                usage();
+                return 2;
+            }
         } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
             char *end;
             timeout_ms = strtol(v, &end, 10), i++;
@@ -143,12 +165,16 @@ int main(int argc, char **argv)
     if (fb_timeout > 0) {
         cfg.ctrl.feedback_timeout_ticks = (uint32_t)fb_timeout;
     }
+    if (op_timeout >= 0) {
+        cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;
+    }
+    cfg.ctrl.operator_park = (uint8_t)op_park;
     (void)sp_node_init(&node, &cfg);
 
     /* The controller listens to what is addressed to it. */
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){ifs[0], {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE}, 2u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){ifs[0], {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT}, 3u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, lockstep ? 4u : 3u};
         if (!lockstep) { /* we are the cycle master: only feedback */

@@ -103,6 +103,15 @@ sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cf
     if (setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
         return fail(p, "SO_RXQ_OVFL", "");
     }
+    /* Room for about a second of the three buses' traffic, so that a
+     * scheduling gap of a non-real-time host (user-mode Linux: tens of ms
+     * while other processes start) does not drop frames; best effort, the
+     * kernel caps it at net.core.rmem_max (SO_RCVBUFFORCE needs
+     * CAP_NET_ADMIN). Overflows are still counted (SO_RXQ_OVFL). */
+    int rcvbuf = 4 << 20;
+    if (setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof rcvbuf) < 0) {
+        (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    }
     /* ifindex 0: every CAN interface; frames of interfaces that are not ours
      * are dropped in sc_receive, frames sent name their interface. */
     struct sockaddr_can addr;

@@ -20,7 +20,8 @@
  * filters, 8 extended, Rx FIFO 0 and 1 of 3 elements, Tx event FIFO of 3,
  * Tx FIFO of 3; every Rx/Tx element is 18 words (64 data bytes).
  * Receive filters (everything else is rejected by the hardware):
- *   ops:  OP_TARGET_POSE (0x050) -> FIFO 0, OP_COMMAND (0x040) -> FIFO 1
+ *   ops:  OP_TARGET_POSE (0x050) -> FIFO 0, OP_COMMAND (0x040) and
+ *         OP_HEARTBEAT (0x060) -> FIFO 1
  *   axis: AXIS_FEEDBACK 0x031, 0x032 -> FIFO 0, 0x033 -> FIFO 1
  * so that no FIFO receives more than 2 of the frames that arrive in one
  * tick. Transmit: Tx FIFO mode, frames leave in the order they were queued
@@ -169,7 +170,7 @@ static sp_status_t init_one(uint8_t bus)
     }
     if (bus == SP_BUS_OPS) {
         SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, 0x050u, 0x050u); /* OP_TARGET_POSE */
-        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x040u, 0x040u); /* OP_COMMAND */
+        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x040u, 0x060u); /* OP_COMMAND, OP_HEARTBEAT */
     } else {
         SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, 0x031u, 0x032u); /* AXIS_FEEDBACK slots 1, 2 */
         SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x033u, 0x033u); /* AXIS_FEEDBACK slot 3 */

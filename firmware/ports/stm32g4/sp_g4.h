@@ -81,7 +81,7 @@ typedef struct {
 /**
  * Pins, kernel clock, bit timing (1 Mbit/s nominal, 5 Mbit/s data with bit
  * rate switch, transmitter delay compensation), receive filters (only what
- * the controller consumes: OP_COMMAND and OP_TARGET_POSE on ops, the three
+ * the controller consumes: OP_COMMAND, OP_TARGET_POSE and OP_HEARTBEAT on ops, the three
  * AXIS_FEEDBACK identifiers on each axis bus; everything else is rejected
  * by the hardware), Tx FIFO mode (frames leave in the order they were
  * queued: setpoints before SYNC), then leaves initialisation mode on the

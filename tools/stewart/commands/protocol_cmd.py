@@ -41,6 +41,7 @@ TYPICAL = {
                         "State": "FAULT", "Faults": 0x44, "TickEcho": 0xFFFF},
     "OP_COMMAND": {"Command": "RUN_TRIG", "Axis": "X", "Amplitude": 0.09, "Frequency": 0.5,
                    "FadeTime": 2.0, "Option": 0},
+    "OP_HEARTBEAT": {},
     "OP_TARGET_POSE": {"X": 0.05, "Y": -0.02, "Z": 0.1, "Roll": 0.01, "Pitch": -0.05,
                        "Yaw": 0.2},
     "CTRL_STATUS": {"Tick": 99999, "State": "RUNNING", "Faults": 0, "FkIterations": 2,

@@ -45,6 +45,12 @@
  *             faults once their causes are gone and re-engages to home.
  *   ESTOP     emergency stop: drives commanded to HOLD at once; latched until
  *             RESET.
+ *
+ * Operator link (operator_link.c, sp_ctrl_operator_link): once an operator
+ * heartbeat (OP_HEARTBEAT) has been heard, an operator silent for
+ * operator_timeout_ticks while RUNNING latches SP_FAULT_OPERATOR_SILENT and
+ * ends the motion as STOP (or PARK, operator_park) would; ESTOP and STOP are
+ * always accepted.
  */
 #ifndef SP_CONTROLLER_H
 #define SP_CONTROLLER_H
@@ -80,6 +86,7 @@ typedef enum {
 #define SP_FAULT_COMPUTE 0x0020u          /**< IK or inverse dynamics failed */
 #define SP_FAULT_ESTOP 0x0040u            /**< emergency stop commanded */
 #define SP_FAULT_LEG_LIMIT 0x0080u        /**< a measured leg is outside its stroke */
+#define SP_FAULT_OPERATOR_SILENT 0x0100u  /**< no operator heartbeat while RUNNING or in force control */
 #define SP_FAULT_CONTACT_LOST 0x0200u     /**< force control: the contact fell away while a push was commanded */
 #define SP_FAULT_EXCESS_FORCE 0x0400u     /**< force control: the wrench exceeded its limit (retracted first) */
 #define SP_FAULT_FT_SENSOR 0x0800u        /**< force control on the force/torque sensor: the sensor went silent */
@@ -130,12 +137,13 @@ typedef struct {
 typedef struct {
     sp_drive_feedback_t drive[SP_LEGS];
     sp_ctrl_cmd_t cmd;
-    uint8_t stream_fresh;    /**< 1 if a streamed target arrived */
-    sp_pose_t stream_target; /**< RUNNING in STREAM: taken when reachable (in the workspace, every leg inside
+    uint8_t stream_fresh;       /**< 1 if a streamed target arrived */
+    uint8_t operator_heartbeat; /**< 1 if an operator heartbeat (OP_HEARTBEAT) arrived since the last tick */
+    sp_pose_t stream_target;    /**< RUNNING in STREAM: taken when reachable (in the workspace, every leg inside
                                   its stroke less the margin), else refused (cmd_rejected, the previous target
                                   stays); refused too once STOP or PARK has sent the filter home */
-    uint8_t ft_fresh;        /**< 1 if a force/torque sensor reading arrived */
-    sp_q8_t ft_reading[6];   /**< the sensor's wrench on the tool, its axes, about its origin, N, N m, Q8 */
+    uint8_t ft_fresh;           /**< 1 if a force/torque sensor reading arrived */
+    sp_q8_t ft_reading[6];      /**< the sensor's wrench on the tool, its axes, about its origin, N, N m, Q8 */
 } sp_ctrl_input_t;
 
 typedef struct {
@@ -179,6 +187,9 @@ typedef struct {
     sp_ft_mount_t ft_mount;          /**< the force/torque sensor's mounting (sp/ftsensor.h) */
     uint32_t ft_timeout_ticks;       /**< ticks without a sensor reading before it counts as silent */
     uint32_t ft_tare_samples;        /**< readings a tare averages */
+    uint32_t operator_timeout_ticks; /**< ticks without an operator heartbeat while RUNNING before
+                                          SP_FAULT_OPERATOR_SILENT (200); 0: no supervision */
+    uint8_t operator_park;           /**< the silent operator's reaction: 0 STOP (back to READY), 1 PARK */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
@@ -216,6 +227,12 @@ typedef struct {
     sp_q8_t last_force[SP_LEGS];   /**< the last measured cylinder forces, N, Q8 */
 } sp_supervision_t;
 
+/** Operator link supervision (sp_ctrl_operator_link). */
+typedef struct {
+    uint32_t silent; /**< ticks since the last operator heartbeat (saturates) */
+    uint8_t armed;   /**< 1 once a heartbeat has been heard (until sp_ctrl_init) */
+} sp_operator_link_t;
+
 /** Controller state: everything the step remembers between ticks. */
 typedef struct {
     sp_ctrl_prepared_t prep; /**< derived from the config at init */
@@ -244,6 +261,7 @@ typedef struct {
     int32_t ft_section[SP_WRENCH_SECTIONS][6]; /**< the sensor's wrench through the wrench filter's sections, Q8 */
     uint32_t ft_missed;                        /**< ticks since the last sensor reading (saturates) */
     uint8_t ft_valid;                          /**< 1 while ft_section follows the sensor */
+    sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
 } sp_ctrl_t;
 
 /**
@@ -251,7 +269,9 @@ typedef struct {
  * 1 m/s^2, 5 m/s^3 (0.25 rad/s, 1 rad/s^2, 5 rad/s^3); 2 s fades; feedback
  * timeout 2 ticks; divergence 25 mm / 25 mrad; 10 mm stroke margin; stream
  * filter 10 rad/s; force feed-forward and friction compensation on; wrench
- * estimate filtered by four sections at 80 Hz (sp/wrench.h). SP_E_ARG on NULL.
+ * estimate filtered by four sections at 80 Hz (sp/wrench.h); a silent
+ * operator stops the motion after 200 ticks (10 heartbeats of 20 ms).
+ * SP_E_ARG on NULL.
  */
 sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform);
 
@@ -269,6 +289,30 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg);
  */
 sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in,
                          sp_ctrl_output_t *out);
+
+/**
+ * The operator link's job in the tick (operator_link.c), before the command
+ * is carried out: counts the ticks since the last heartbeat
+ * (in->operator_heartbeat), and returns the command this tick carries out
+ * in place of in->cmd:
+ *  - not armed (no heartbeat heard since init) or operator_timeout_ticks
+ *    0: in->cmd unchanged;
+ *  - RUNNING or in force control (FORCE, GUIDE), silent for
+ *    operator_timeout_ticks or more, and SP_FAULT_OPERATOR_SILENT not yet
+ *    latched: latches it and returns POSITION in force control (it lets go
+ *    first), else STOP (PARK with operator_park), or in->cmd when that is
+ *    an ESTOP; any other command of this tick is dropped;
+ *  - SP_FAULT_OPERATOR_SILENT latched: ENGAGE, RUN_TRIG, MOVE_TO, STREAM,
+ *    FORCE and GUIDE are dropped (refused); RESET in IDLE or READY clears the fault
+ *    and nothing else (in FAULT and ESTOP the controller's RESET clears
+ *    every fault); in other states RESET is dropped; ESTOP, STOP and PARK
+ *    pass.
+ * *dropped becomes 1 when in->cmd was dropped (to be reported as refused).
+ * Never NULL: on NULL arguments, a command of SP_CMD_NONE (and *dropped 0
+ * when dropped is not NULL). Saturating counter; no failure otherwise.
+ */
+const sp_ctrl_cmd_t *sp_ctrl_operator_link(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in,
+                                           int *dropped);
 
 /** Short constant name of a state ("idle", "engaging", ...). */
 const char *sp_state_name(sp_state_t state);

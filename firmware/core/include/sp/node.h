@@ -50,6 +50,7 @@ typedef struct {
     sp_e2e_rx_t rx_sync[2];
     sp_e2e_rx_t rx_command;
     sp_e2e_rx_t rx_target;
+    sp_e2e_rx_t rx_heartbeat;
     uint8_t tx_counter_sync[2];
     uint8_t tx_counter_setpoints[2];
     uint8_t tx_counter_status;

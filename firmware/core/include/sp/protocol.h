@@ -29,6 +29,7 @@
 #define SP_ID_AXIS_FEEDBACK_1 0x031u /* slots 1..3: 0x031..0x033 */
 #define SP_ID_OP_COMMAND 0x040u
 #define SP_ID_OP_TARGET_POSE 0x050u
+#define SP_ID_OP_HEARTBEAT 0x060u
 #define SP_ID_CTRL_STATUS 0x100u
 #define SP_ID_CTRL_MONITOR 0x101u
 #define SP_ID_CTRL_WRENCH 0x102u
@@ -140,6 +141,16 @@ sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, 
  * (the frame is still complete and sealed). SP_E_ARG on NULL.
  */
 sp_status_t sp_proto_encode_wrench(const sp_msg_wrench_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/**
+ * OP_HEARTBEAT (ID 0x060, 4 bytes, ops bus, CRC-8): the operator node's sign
+ * of life; no payload besides the alive counter. SP_E_ARG on NULL.
+ */
+sp_status_t sp_proto_encode_heartbeat(uint8_t counter, sp_can_frame_t *f);
+
+/** OP_HEARTBEAT -> its alive counter. Rejects (SP_E_FRAME, *error) a wrong
+ *  identifier or length and a bad CRC; SP_E_ARG on NULL. */
+sp_status_t sp_proto_decode_heartbeat(const sp_can_frame_t *f, uint8_t *counter, sp_proto_error_t *error);
 
 sp_status_t sp_proto_decode_sync(const sp_can_frame_t *f, sp_msg_sync_t *m, uint8_t *counter, sp_proto_error_t *error);
 sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_t *m, uint8_t *counter,

@@ -1,0 +1,447 @@
+"""The operator node: interface-agnostic (any python-can bus).
+
+One receive thread reads the controller's frames (CTRL_STATUS,
+CTRL_MONITOR, CTRL_WRENCH), checks their CRC and alive counter and keeps
+the latest of each; one thread sends OP_HEARTBEAT every 20 ms (the
+controller's operator-link supervision, docs/operator.md). Commands wait
+for the controller's answer: the state it should reach, or CTRL_STATUS's
+CmdRejected, with the reason the tool can tell from the state.
+
+A new process's first frame of a message may meet the controller's E2E
+check with its counter out of sequence (the controller remembers the last
+counter of the previous process) and be dropped: the check resynchronises
+on it and takes the next frame. So a command is preceded by an OP_COMMAND
+NONE (does nothing), and a MOVE_TO target is sent twice; ESTOP is sent
+twice back to back (a second ESTOP is harmless).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+from .. import e2e
+from .. import protocol as pr
+
+HEARTBEAT_PERIOD_S = 0.020
+STATES = pr.value_names("CTRL_STATUS", "State")
+COMMANDS = pr.value_names("OP_COMMAND", "Command")
+
+#: Where each command is accepted (the controller's state machine,
+#: firmware/core/src/controller.c and node.c).
+ACCEPTED_IN = {
+    "ENGAGE": ("IDLE",),
+    "RUN_TRIG": ("READY",),
+    "MOVE_TO": ("READY",),
+    "STREAM": ("READY",),
+    "STOP": ("RUNNING",),
+    "PARK": ("READY", "ENGAGING", "RUNNING"),
+    "ESTOP": STATES,
+    "RESET": ("FAULT", "ESTOP"),
+    "SET_FEEDFORWARD": ("IDLE", "READY"),
+    "NONE": STATES,
+}
+MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM")
+
+
+class OpError(Exception):
+    """A failed operator action; ``code`` is the exit status."""
+
+    code = 2
+
+
+class Refused(OpError):
+    code = 1
+
+
+class NoAnswer(OpError):
+    code = 3
+
+
+class _Field:
+    """One little-endian signal of a DBC message, read from the payload as an
+    integer (the DBC's start bit, length, sign and scale)."""
+
+    __slots__ = ("start", "mask", "signed", "scale", "sign_bit")
+
+    def __init__(self, signal):
+        self.start = signal.start
+        self.mask = (1 << signal.length) - 1
+        self.signed = signal.is_signed
+        self.sign_bit = 1 << (signal.length - 1)
+        self.scale = float(signal.scale)
+
+    def raw(self, word: int) -> int:
+        v = (word >> self.start) & self.mask
+        if self.signed and v & self.sign_bit:
+            v -= self.mask + 1
+        return v
+
+    def value(self, word: int) -> float:
+        return self.raw(word) * self.scale
+
+
+class _Reader:
+    """Fast reader of a message's signals (the DBC's layout, no cantools call
+    per frame: the status arrives every millisecond)."""
+
+    def __init__(self, proto: pr.Protocol, name: str):
+        m = proto.message(name)
+        self.name = name
+        self.frame_id = m.frame_id
+        self.length = m.length
+        self.fields = {s.name: _Field(s) for s in m.signals}
+
+    def word(self, data: bytes) -> int:
+        return int.from_bytes(data, "little")
+
+
+@dataclass
+class Status:
+    """One CTRL_STATUS."""
+
+    tick: int
+    state: str
+    faults: list[str]
+    fault_bits: int
+    cmd_rejected: bool
+    drive_mode: str
+    feedforward: bool
+    estimate_valid: bool
+    pose: list[float]
+    seq: int = 0          # how many statuses this node had received
+    t: float = 0.0        # receive time (time.monotonic)
+    stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
+
+    def line(self) -> str:
+        faults = ",".join(self.faults) if self.faults else "none"
+        pose = " ".join(f"{v:+.6f}" for v in self.pose)
+        return (f"state {self.state}, faults {faults}, drives {self.drive_mode}, "
+                f"feed-forward {'on' if self.feedforward else 'off'}, tick {self.tick}, "
+                f"pose [{pose}]" + ("" if self.estimate_valid else " (no estimate)"))
+
+
+@dataclass
+class Counters:
+    frames: dict[str, int] = field(default_factory=dict)
+    lost: int = 0                 # controller frames missed (alive counters)
+    bad: dict[str, int] = field(default_factory=dict)   # rejected frames by reason
+    error_frames: int = 0
+    heartbeats: int = 0
+    sent: int = 0
+    send_errors: int = 0
+
+
+@dataclass
+class Answer:
+    """The controller's answer to a command."""
+
+    command: str
+    status: Status
+    ticks: int | None            # status frames from the send to the first change
+    seconds: float
+
+
+def refusal_reason(command: str, before: Status | None, at: Status | None) -> str:
+    """Why the controller refused, as far as its state tells."""
+    st = at or before
+    if st is None:
+        return "no status from the controller"
+    if "operator_silent" in st.faults and command in MOTION:
+        return ("the operator-silent fault is latched (the link was silent while the platform ran): "
+                "`stewart op reset` clears it")
+    allowed = ACCEPTED_IN.get(command, ())
+    state = before.state if before is not None else st.state
+    if state not in allowed:
+        return f"{command} is accepted in {'/'.join(allowed)} only; the controller was {state}"
+    if command == "ENGAGE":
+        return "no pose estimate yet, or a drive not heard from"
+    if command == "RUN_TRIG":
+        return "an end of the motion is outside the workspace or a leg's stroke, or the frequency is not usable"
+    if command == "MOVE_TO":
+        return "the target is outside the workspace or a leg's stroke"
+    if command == "RESET":
+        return "a fault's cause is still present (a drive silent, or no pose estimate)"
+    if command == "STREAM":
+        return "a streamed target is outside the workspace or a leg's stroke"
+    return "refused by the controller"
+
+
+class OperatorNode:
+    """The operator node on an open python-can bus."""
+
+    def __init__(self, bus, proto: pr.Protocol | None = None, heartbeat: bool = True,
+                 on_frame: Callable | None = None):
+        import can
+
+        self._can = can
+        self.bus = bus
+        self.proto = proto or pr.Protocol()
+        self.heartbeat_enabled = heartbeat
+        self.on_frame = on_frame
+        self._status_r = _Reader(self.proto, "CTRL_STATUS")
+        self._monitor_r = _Reader(self.proto, "CTRL_MONITOR")
+        self._wrench_r = _Reader(self.proto, "CTRL_WRENCH")
+        self._readers = {r.frame_id: r for r in (self._status_r, self._monitor_r, self._wrench_r)}
+        self._rx = {fid: e2e.E2EReceiver() for fid in self._readers}
+        self._tx: dict[str, int] = {}
+        self._cond = threading.Condition()
+        self._send_lock = threading.Lock()
+        self.status: Status | None = None
+        self.statuses: list[Status] = []      # since the last mark (bounded)
+        self._keep_statuses = False
+        self.monitor: dict | None = None
+        self.wrench: dict | None = None
+        self.counters = Counters()
+        self._seq = 0
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self.rx_error: str | None = None
+        self._sent_mono = 0.0
+
+    # -- life cycle --------------------------------------------------------
+    def start(self) -> "OperatorNode":
+        # only the controller's frames (kernel filters where the interface has them)
+        try:
+            self.bus.set_filters([{"can_id": fid, "can_mask": 0x7FF, "extended": False}
+                                  for fid in self._readers])
+        except (NotImplementedError, self._can.CanError, OSError):
+            pass
+        sock = getattr(self.bus, "socket", None)
+        if sock is not None:  # SocketCAN: room for a slow start (2 MB)
+            try:
+                import socket
+
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+            except OSError:
+                pass
+        if self.heartbeat_enabled:
+            self.send_heartbeat()
+        t = threading.Thread(target=self._receive_loop, name="op-rx", daemon=True)
+        t.start()
+        self._threads.append(t)
+        if self.heartbeat_enabled:
+            h = threading.Thread(target=self._heartbeat_loop, name="op-heartbeat", daemon=True)
+            h.start()
+            self._threads.append(h)
+        return self
+
+    def close(self) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(timeout=1.0)
+        try:
+            self.bus.shutdown()
+        except Exception:  # noqa: BLE001 - closing: nothing left to report
+            pass
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- sending -----------------------------------------------------------
+    def _send(self, name: str, signals: dict) -> float:
+        """Sends one frame; returns the time.time() just before the send."""
+        counter = self._tx.get(name, 0)
+        data = self.proto.encode(name, signals, counter)
+        self._tx[name] = e2e.next_counter(counter)
+        info = self.proto.infos[name]
+        msg = self._can.Message(arbitration_id=info.frame_id, data=data, is_extended_id=False,
+                                is_fd=True, bitrate_switch=True)
+        with self._send_lock:
+            wall = time.time()
+            try:
+                self.bus.send(msg, timeout=0.1)
+            except (self._can.CanError, OSError) as e:
+                self.counters.send_errors += 1
+                raise OpError(f"cannot send {name}: {e}") from None
+            self.counters.sent += 1
+        return wall
+
+    def send_heartbeat(self) -> None:
+        self._send("OP_HEARTBEAT", {})
+        self.counters.heartbeats += 1
+
+    def _heartbeat_loop(self) -> None:
+        nxt = time.monotonic()
+        while not self._stop.is_set():
+            nxt += HEARTBEAT_PERIOD_S
+            try:
+                self.send_heartbeat()
+            except OpError:
+                pass  # counted; the controller's supervision will tell
+            delay = nxt - time.monotonic()
+            if delay < -1.0:
+                nxt = time.monotonic()
+            self._stop.wait(max(0.0, delay))
+
+    def send_command(self, command: str, *, axis: str | int = 0, amplitude: float = 0.0,
+                     frequency: float = 0.0, fade_time: float = 0.0, option: int = 0) -> float:
+        return self._send("OP_COMMAND", pr.command_signals(command, axis, amplitude, frequency,
+                                                            fade_time, option))
+
+    def send_target(self, pose) -> float:
+        return self._send("OP_TARGET_POSE", pr.pose_to_signals(pose))
+
+    # -- receiving ---------------------------------------------------------
+    def _bad(self, reason: str) -> None:
+        self.counters.bad[reason] = self.counters.bad.get(reason, 0) + 1
+
+    def _receive_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                msg = self.bus.recv(timeout=0.05)
+            except (self._can.CanError, OSError, ValueError) as e:
+                self.rx_error = str(e)
+                with self._cond:
+                    self._cond.notify_all()
+                self._stop.wait(0.1)
+                continue
+            if msg is None:
+                continue
+            if self.on_frame is not None:
+                self.on_frame(msg)
+            self.handle(msg)
+
+    def handle(self, msg) -> None:
+        """Takes one received frame (the receive thread calls it)."""
+        if msg.is_error_frame:
+            self.counters.error_frames += 1
+            return
+        r = self._readers.get(msg.arbitration_id)
+        if r is None:
+            return
+        data = bytes(msg.data)
+        if len(data) != r.length:
+            self._bad(pr.BAD_LENGTH)
+            return
+        if not e2e.crc_ok(r.frame_id, data):
+            self._bad(pr.BAD_CRC)
+            return
+        w = r.word(data)
+        f = r.fields
+        # the alive counter is diagnostics here: a frame with a good CRC but
+        # out of sequence (this process fell behind) is still the newest
+        # word of the controller, so it is counted and used
+        check = self._rx[r.frame_id].check(f["Counter"].raw(w))
+        if not check.accepted:
+            self._bad(check.status)
+            if check.status == e2e.REPEATED:
+                return
+        self.counters.lost += check.lost
+        self.counters.frames[r.name] = self.counters.frames.get(r.name, 0) + 1
+        if r is self._status_r:
+            bits = f["Faults"].raw(w)
+            state = f["State"].raw(w)
+            st = Status(
+                tick=f["Tick"].raw(w), state=STATES[state] if state < len(STATES) else str(state),
+                faults=pr.fault_names(bits, pr.CONTROLLER_FAULTS), fault_bits=bits,
+                cmd_rejected=bool(f["CmdRejected"].raw(w)),
+                drive_mode="ACTIVE" if f["DriveMode"].raw(w) else "HOLD",
+                feedforward=bool(f["FeedForward"].raw(w)),
+                estimate_valid=bool(f["EstimateValid"].raw(w)),
+                pose=[f[n].value(w) for n in pr.POSE_SIGNALS], t=time.monotonic(),
+                stamp=float(msg.timestamp) if msg.timestamp else time.time())
+            with self._cond:
+                self._seq += 1
+                st.seq = self._seq
+                self.status = st
+                if self._keep_statuses and len(self.statuses) < 200_000:
+                    self.statuses.append(st)
+                self._cond.notify_all()
+        elif r is self._monitor_r:
+            self.monitor = {
+                "tick": f["Tick"].raw(w),
+                "reference": [f["Ref" + n].value(w) for n in pr.POSE_SIGNALS],
+                "length_sp": [f[f"LengthSp_{i}"].value(w) for i in range(1, 7)],
+                "force_ff": [f[f"ForceFf_{i}"].value(w) for i in range(1, 7)],
+            }
+        else:
+            self.wrench = {"tick": f["Tick"].raw(w), "valid": bool(f["Valid"].raw(w)),
+                           "wrench": [f[n].value(w) for n in pr.WRENCH_SIGNALS]}
+
+    # -- waiting -----------------------------------------------------------
+    def wait_status(self, timeout: float = 2.0, after: int = 0) -> Status:
+        """The first status with seq > after."""
+        end = time.monotonic() + timeout
+        with self._cond:
+            while self.status is None or self.status.seq <= after:
+                if self.rx_error:
+                    raise OpError(f"receiving: {self.rx_error}")
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise NoAnswer(f"no CTRL_STATUS from the controller within {timeout:g} s "
+                                   "(is it running, and is this the ops bus?)")
+                self._cond.wait(left)
+            return self.status
+
+    def _mark(self) -> int:
+        with self._cond:
+            self.statuses = []
+            self._keep_statuses = True
+            return self._seq
+
+    def wait_for(self, command: str, done: Callable[[Status], bool], timeout: float,
+                 mark: int, before: Status | None, sent_wall: float,
+                 reject_window: int = 50, settle: int = 5) -> Answer:
+        """Waits until `done(status)`, or a refusal (CmdRejected within
+        `reject_window` statuses after the send).
+
+        Only statuses the interface stamped after the command was sent
+        count (k = 1, 2, ...: the controller's ticks after the frame went on
+        the bus), so a backlog of older frames in the receive queue cannot
+        answer for it. `done` is believed once the state changed, or from
+        the `settle`-th status on (a command that changes no state: the
+        refusal would have come by then)."""
+        end = time.monotonic() + timeout
+        first_change: int | None = None
+        idx = 0
+        k = 0
+        while True:
+            with self._cond:
+                while idx >= len(self.statuses):
+                    if self.rx_error:
+                        raise OpError(f"receiving: {self.rx_error}")
+                    left = end - time.monotonic()
+                    if left <= 0:
+                        st = self.status
+                        raise NoAnswer(f"{command}: no answer within {timeout:g} s"
+                                       + (f" (state {st.state})" if st else " (no status received)"))
+                    self._cond.wait(left)
+                batch = self.statuses[idx:]
+                idx = len(self.statuses)
+            for st in batch:
+                if st.stamp < sent_wall:
+                    continue
+                k += 1
+                if st.cmd_rejected and k <= reject_window:
+                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
+                if first_change is None and before is not None and st.state != before.state:
+                    first_change = k
+                if k == reject_window and before is not None and first_change is None \
+                        and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
+                    # the refusal's status frame was not seen, but nothing happened
+                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
+                if done(st) and (first_change is not None or k >= settle):
+                    self._keep_statuses = False
+                    return Answer(command, st, first_change if first_change is not None else k,
+                                  st.t - self._sent_mono)
+
+    def command(self, command: str, done: Callable[[Status], bool], timeout: float = 10.0,
+                sync: bool = True, **signals) -> Answer:
+        """Sends a command and waits for the answer (see :meth:`wait_for`)."""
+        before = self.wait_status(timeout=2.0)
+        if sync:
+            self.send_command("NONE")
+            self.wait_status(timeout=2.0, after=before.seq)
+            before = self.status
+        mark = self._mark()
+        sent_wall = self.send_command(command, **signals)
+        self._sent_mono = time.monotonic()
+        if command == "ESTOP":
+            self.send_command("ESTOP")
+        return self.wait_for(command, done, timeout, mark, before, sent_wall)
