@@ -76,7 +76,7 @@ for t in "${targets[@]}"; do
     echo "== fuzz: ${what[$t]} ($t), ${secs} s"
   fi
   log="$out/$t.log"
-  rm -f "$out"/crash-* 2>/dev/null || true
+  before=$(find "$out" -maxdepth 1 -name 'crash-*' | wc -l)
   start=$(date +%s.%N)
   set +e
   "$out/fuzz_$t" "${limit[@]}" -print_final_stats=1 -artifact_prefix="$out/" \
@@ -85,7 +85,7 @@ for t in "${targets[@]}"; do
   set -e
   end=$(date +%s.%N)
   grep -E "^#[0-9]+[[:space:]]+(INITED|DONE)|ERROR|SUMMARY|^Done" "$log" || true
-  crashes=$(find "$out" -maxdepth 1 -name 'crash-*' | wc -l)
+  crashes=$(($(find "$out" -maxdepth 1 -name 'crash-*' | wc -l) - before))
   if [ "$rc" -ne 0 ] || [ "$crashes" -ne 0 ]; then
     echo "fuzz: $t FAILED (exit $rc); input and log: $out/crash-*, $log"
     failed=1
