@@ -17,15 +17,13 @@ from __future__ import annotations
 import json
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
-
-from stewart import REPO_ROOT, e2e  # noqa: E402
-from stewart import protocol as pr  # noqa: E402
-from stewart.analysis import decode  # noqa: E402
-from stewart.analysis import logfile  # noqa: E402
+from stewart import REPO_ROOT, e2e
+from stewart import protocol as pr
+from stewart.analysis import decode
+from stewart.analysis import logfile
 
 SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 PROTO = pr.Protocol()
