@@ -295,8 +295,9 @@ def read_frames(source) -> LogFrames:
         if b"\r" in raw:  # line ends as Python's text files see them: \n, \r\n or \r
             raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
     else:
-        raw = "\n".join(str(s).rstrip("\r\n") for s in source).encode("utf-8", "replace")
-        if raw:
+        lines = [str(s).rstrip("\r\n") for s in source]
+        raw = "\n".join(lines).encode("utf-8", "replace")
+        if lines:  # one newline per line, an empty one included
             raw += b"\n"
     buf = np.frombuffer(raw, dtype=np.uint8)
     nl = np.flatnonzero(buf == 0x0A)
