@@ -16,6 +16,7 @@ command frame up to the first one with the new state.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import signal
@@ -188,10 +189,24 @@ def test_operator_session(rig, tmp_path):
     print(out, err)
     assert stream.returncode == 0, err
     assert "event source-lost" in out and "settled back to home (source-lost)" in out
-    import json
-
     udp = json.loads((tmp_path / "udp.json").read_text())["udp"]
     assert udp["duplicate"] == 1 and udp["late"] == 1 and udp["bad"] == 1
+    st = status()
+    assert st["state"] == "READY"
+    assert max(abs(a - b) for a, b in zip(st["pose"], home)) < HOME_MM * 1e-3
+
+    # -- stream from UDP with motion cueing: vehicle telemetry, then silent
+    port = _free_port()
+    stream = subprocess.Popen(STEWART + ["op", "stream", "--udp", f"127.0.0.1:{port}", "--cueing", "--once",
+                                         "--source-timeout", "0.3", "--stats", str(tmp_path / "cue.json")],
+                              cwd=REPO_ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _send_telemetry(port, stream)
+    out, err = stream.communicate(timeout=120)
+    print(out, err)
+    assert stream.returncode == 0, err
+    assert "settled back to home (source-lost)" in out
+    cue = json.loads((tmp_path / "cue.json").read_text())["udp"]
+    assert cue["accepted"] >= 200 and cue["bad"] == 0
     st = status()
     assert st["state"] == "READY"
     assert max(abs(a - b) for a, b in zip(st["pose"], home)) < HOME_MM * 1e-3
@@ -269,6 +284,27 @@ def _send_udp(port: int, proc) -> None:
             s.sendto(encode_datagram(seq - 5, pose), ("127.0.0.1", port))        # late
             s.sendto(b"hello", ("127.0.0.1", port))                              # bad
             extra = True
+        seq += 1
+        time.sleep(0.005)
+    s.close()
+
+
+def _send_telemetry(port: int, proc) -> None:
+    """Once the stream listens: 2 s of vehicle telemetry at 200 Hz (a gentle
+    surge of 1 m/s^2 for a second with a slow yaw rate, gravity on z), then
+    silence."""
+    line = proc.stdout.readline()
+    assert "listening on UDP" in line, line
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    seq = 1
+    t0 = time.time()
+    while proc.poll() is None:
+        t = time.time() - t0
+        if t > 2.0:
+            break
+        ax = 1.0 if t < 1.0 else 0.0
+        values = [ax, 0.0, 9.81, 0.0, 0.0, 0.05 * math.sin(math.pi * t)]
+        s.sendto(encode_datagram(seq, values, cueing=True, binary=(seq % 2 == 0)), ("127.0.0.1", port))
         seq += 1
         time.sleep(0.005)
     s.close()
