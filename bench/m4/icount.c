@@ -291,6 +291,7 @@ typedef struct {
     uint32_t running_fk[4]; /* FK steps in RUNNING ticks: 0, 1, 2, 3 or more */
     uint32_t over;          /* ticks over the budget */
     uint32_t stack;         /* high-water mark of the stack, bytes */
+    m4_stat_t force;        /* ticks that began in force control (FORCE) */
 } scenario_counts_t;
 
 static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r)
@@ -306,18 +307,27 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
         r->running_fk[k] = 0u;
     }
     r->over = 0u;
+    m4_stat_reset(&r->force);
     (void)m4_scenario_init(sc, &sp_platform_default);
     sc->motion = motion;
+    if (motion == M4_MOTION_FORCE) {
+        sc->cfg.wrench_source = SP_WRENCH_SENSOR;
+        (void)sp_ctrl_init(&sc->ctrl, &sc->cfg);
+    }
     sp_mps2_stack_paint();
     top = sp_mps2_stack_pointer();
     while (m4_scenario_prepare(sc)) {
         sp_state_t before = sc->ctrl.state;
+        int forcing = sc->ctrl.force.mode == SP_FORCE_FORCE;
         uint32_t net;
         M4_MEASURE(net, sink = (int32_t)run_tick(sc));
         if ((unsigned)before < 7u) {
             m4_stat_add(&r->by_state[before], net);
         }
         m4_stat_add(&r->all, net);
+        if (forcing) {
+            m4_stat_add(&r->force, net);
+        }
         if (before == SP_STATE_RUNNING) {
             r->running_fk[sc->out.fk_iterations < 3u ? sc->out.fk_iterations : 3u]++;
         }
@@ -351,6 +361,7 @@ static void controller(void)
     static m4_scenario_t sc;
     static scenario_counts_t surge;
     static scenario_counts_t other[2];
+    static scenario_counts_t force;
     uint32_t over;
     uint32_t max16;
     uint32_t stack;
@@ -407,9 +418,25 @@ static void controller(void)
         m4_out_str(" ticks");
     }
     m4_out_nl();
+    /* force control (issue 15's figure: mean <= 10,000, max <= 12,000) */
+    run_scenario(&sc, M4_MOTION_FORCE, &force);
+    m4_stat_print("tick_force", "tick in FORCE (2 kN on 1e6 N/m, a 50 mm slide)", &force.force);
+    m4_stat_print("tick_all_force", "tick, every state (force scenario)", &force.all);
+    print_scenario_end(&sc, &force);
+    m4_out_str("force-control budget: tick in FORCE mean ");
+    m4_out_fix16(m4_stat_mean16(&force.force));
+    m4_out_str(" (<= 10000), max ");
+    m4_out_fix16(force.force.max16);
+    m4_out_str(" (<= 12000) -> ");
+    m4_out_str(
+        (force.force.calls != 0u && m4_stat_mean16(&force.force) <= 10000u * 16u && force.force.max16 <= 12000u * 16u)
+            ? "within budget"
+            : "OVER BUDGET");
+    m4_out_nl();
+    stack = force.stack > stack ? force.stack : stack;
     m4_out_str("stack: sp_ctrl_step used at most ");
     m4_out_u32(stack);
-    m4_out_str(" bytes (high-water mark over the three scenarios, call included)");
+    m4_out_str(" bytes (high-water mark over the four scenarios, call included)");
     m4_out_nl();
     m4_out_str("RAM of the controller: sp_ctrl_t ");
     m4_out_u32((uint32_t)sizeof(sp_ctrl_t));

@@ -29,6 +29,38 @@ sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform)
     return st;
 }
 
+/* M4_MOTION_FORCE: the sensor reads the surface under the tool (from the
+ * reference the ideal plant followed), and the operator's commands by phase. */
+static void force_scenario(m4_scenario_t *s)
+{
+    const sp_platform_t *p = s->cfg.platform;
+    int64_t below = (int64_t)(p->home.pos[2] - SP_Q24_MILLI(2)) - s->out.reference.pose.pos[2];
+    s->in.ft_fresh = 1u;
+    s->in.ft_reading[2] = (below > 0) ? (sp_q8_t)((below * 1000000) >> 16) : 0; /* 1e6 N/m, Q24 m -> Q8 N */
+    ++s->phase_ticks;
+    if (s->phase == 0u && s->ticks > 1u && s->out.state == SP_STATE_READY) {
+        s->in.cmd.type = SP_CMD_TARE;
+        s->phase = 1u;
+        s->phase_ticks = 0u;
+    } else if (s->phase == 1u && s->phase_ticks > 600u) {
+        s->in.cmd.type = SP_CMD_FORCE;
+        s->in.cmd.force_mask = 0x04u;
+        s->in.cmd.force_target[2] = -2000 * SP_Q8_ONE;
+        s->run_sent = 1u;
+        s->phase = 2u;
+        s->phase_ticks = 0u;
+    } else if (s->phase == 2u && s->phase_ticks > 2000u) {
+        s->in.cmd.type = SP_CMD_MOVE_TO;
+        s->in.cmd.target = p->home;
+        s->in.cmd.target.pos[0] += SP_Q24_MILLI(50);
+        s->phase = 3u;
+        s->phase_ticks = 0u;
+    } else if (s->phase == 3u && s->phase_ticks > 3000u && !s->park_sent && s->out.state == SP_STATE_READY) {
+        s->in.cmd.type = SP_CMD_PARK;
+        s->park_sent = 1u;
+    }
+}
+
 int m4_scenario_prepare(m4_scenario_t *s)
 {
     unsigned i;
@@ -57,7 +89,9 @@ int m4_scenario_prepare(m4_scenario_t *s)
         s->in.stream_target.rpy[1] += d20[q];
         s->in.stream_target.rpy[2] += d40[(q + 3u) & 3u];
     }
-    if (s->ticks == 1u) {
+    if (s->motion == M4_MOTION_FORCE && s->ticks != 1u) {
+        force_scenario(s);
+    } else if (s->ticks == 1u) {
         s->in.cmd.type = SP_CMD_ENGAGE;
     } else if (!s->run_sent && s->ticks > 1u && s->out.state == SP_STATE_READY) {
         s->in.cmd.type = (s->motion == M4_MOTION_STREAM) ? SP_CMD_STREAM : SP_CMD_RUN_TRIG;

@@ -67,6 +67,10 @@ void m4_nearby_pose(m4_rng_t *rng, const sp_pose_t *pose, sp_pose_t *guess);
 #define M4_MOTION_SURGE 0u  /**< RUN_TRIG x, 90 mm, 0.5 Hz */
 #define M4_MOTION_YAW 1u    /**< RUN_TRIG yaw, 0.09 rad, 0.5 Hz: every angle's sine changes */
 #define M4_MOTION_STREAM 2u /**< STREAM with a fresh target every tick: the reachability test each tick */
+#define M4_MOTION_FORCE                                                                                                \
+    3u /**< force control on the force/torque sensor: TARE, FORCE 2 kN down on a
+                                 1e6 N/m surface 2 mm under the tool, a 50 mm slide in x (MOVE_TO) while
+                                 holding, PARK (which lets go first) */
 
 typedef struct {
     sp_ctrl_config_t cfg;
@@ -79,7 +83,9 @@ typedef struct {
     uint32_t visited;       /**< bit s set once state s was output */
     uint8_t run_sent;
     uint8_t park_sent;
-    uint8_t motion; /**< M4_MOTION_*, 0 after m4_scenario_init */
+    uint8_t motion;       /**< M4_MOTION_*, 0 after m4_scenario_init */
+    uint8_t phase;        /**< M4_MOTION_FORCE: 0 engaging, 1 taring, 2 holding, 3 sliding and holding */
+    uint32_t phase_ticks; /**< ticks since the phase began */
 } m4_scenario_t;
 
 /** Default config for `platform`, controller init, park-pose feedback.
