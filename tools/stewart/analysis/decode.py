@@ -127,6 +127,25 @@ class LogData:
     truth: dict[str, np.ndarray] | None = None  #: "pose", "length", "force", "wrench": (N, 6)
     source: str = ""
 
+    @classmethod
+    def empty(cls, ticks: np.ndarray, commands: list[Command], stats: LogStats, source: str) -> "LogData":
+        """Every column for ``ticks`` missing (NaN or -1), to be filled by a decoder."""
+        n = len(ticks)
+
+        def fl(shape):
+            return np.full(shape, np.nan)
+
+        def it(shape):
+            return np.full(shape, -1, dtype=np.int64)
+
+        return cls(
+            ticks=ticks, state=it(n), faults=it(n), drive_mode=it(n), feedforward=it(n),
+            estimate_valid=it(n), fk_iterations=it(n), reference=fl((n, 6)), estimate=fl((n, 6)),
+            length_sp=fl((n, 6)), force_ff=fl((n, 6)), axis_length_sp=fl((n, 6)), axis_mode=it((n, 2)),
+            length=fl((n, 6)), pressure_a=fl((n, 6)), pressure_b=fl((n, 6)), drive_state=it((n, 6)),
+            drive_faults=it((n, 6)), est_wrench_valid=it(n), est_wrench=fl((n, 6)), commands=commands,
+            stats=stats, source=source)
+
     def __len__(self) -> int:
         return int(self.ticks.shape[0])
 
@@ -436,21 +455,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
         stats.warn(text)
 
     ticks = np.unique(np.concatenate(row_ticks)) if row_ticks else np.zeros(0, np.int64)
-    N = len(ticks)
 
-    def fl(shape):
-        return np.full(shape, np.nan)
-
-    def it(shape):
-        return np.full(shape, -1, dtype=np.int64)
-
-    d = LogData(
-        ticks=ticks, state=it(N), faults=it(N), drive_mode=it(N), feedforward=it(N),
-        estimate_valid=it(N), fk_iterations=it(N), reference=fl((N, 6)), estimate=fl((N, 6)),
-        length_sp=fl((N, 6)), force_ff=fl((N, 6)), axis_length_sp=fl((N, 6)), axis_mode=it((N, 2)),
-        length=fl((N, 6)), pressure_a=fl((N, 6)), pressure_b=fl((N, 6)), drive_state=it((N, 6)),
-        drive_faults=it((N, 6)), est_wrench_valid=it(N), est_wrench=fl((N, 6)), commands=commands,
-        stats=stats, source=label)
+    d = LogData.empty(ticks, commands, stats, label)
 
     def merged(name: str, bus: str | None = None):
         """(row index, values) of the last frame per tick of a message (all

@@ -149,21 +149,8 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
         # OP_TARGET_POSE: not needed for the analysis (the reference is in CTRL_MONITOR)
 
     ticks = np.array(sorted(rows), dtype=np.int64)
-    N = len(ticks)
 
-    def fl(shape):
-        return np.full(shape, np.nan)
-
-    def it(shape):
-        return np.full(shape, -1, dtype=np.int64)
-
-    d = LogData(
-        ticks=ticks, state=it(N), faults=it(N), drive_mode=it(N), feedforward=it(N),
-        estimate_valid=it(N), fk_iterations=it(N), reference=fl((N, 6)), estimate=fl((N, 6)),
-        length_sp=fl((N, 6)), force_ff=fl((N, 6)), axis_length_sp=fl((N, 6)), axis_mode=it((N, 2)),
-        length=fl((N, 6)), pressure_a=fl((N, 6)), pressure_b=fl((N, 6)), drive_state=it((N, 6)),
-        drive_faults=it((N, 6)), est_wrench_valid=it(N), est_wrench=fl((N, 6)), commands=commands,
-        stats=stats, source=label)
+    d = LogData.empty(ticks, commands, stats, label)
     for k, t in enumerate(ticks):
         r = rows[int(t)]
         s = r.get("status")
