@@ -3,6 +3,8 @@
  */
 #include "sp/admittance.h"
 
+#include "fixed_inline.h"
+
 #include <stddef.h>
 
 #define WRENCH_MAX (INT64_C(1) << 30) /* the wrench sum is held within +-2^30 Q8 */
@@ -94,13 +96,6 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
     return SP_OK;
 }
 
-/* One section of the wrench filter: y + round(alpha (x - y)). */
-static int32_t section(int32_t y, int32_t x, sp_q30_t alpha)
-{
-    int64_t step = ((int64_t)alpha * ((int64_t)x - y) + (INT64_C(1) << 29)) >> 30;
-    return clamp32((int64_t)y + step, INT32_MIN, INT32_MAX);
-}
-
 /* The damping an axis in contact should use: the secant stiffness of the
  * filtered wrench against the filtered pose since contact, over w_c;
  * 0 while the secant is not yet trusted. */
@@ -170,7 +165,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         if (x_meas != NULL) {
             for (unsigned n = 0; n < 4u; ++n) {
                 int32_t in = (n == 0u) ? x_meas[k] : s->x_f[n - 1u];
-                s->x_f[n] = st->primed ? section(s->x_f[n], in, cfg->filter_alpha) : in;
+                s->x_f[n] = st->primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
             }
         }
         /* the damping this axis should use */

@@ -654,10 +654,8 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     for (k = 0u; k < 6u; ++k) {
         int32_t x = base[k];
         for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
-            int32_t y = ctrl->ft_section[n][k];
             if (ctrl->ft_valid) {
-                int64_t step = ((int64_t)ctrl->prep.wrench_alpha * ((int64_t)x - y) + (INT64_C(1) << 29)) >> 30;
-                x = (int32_t)(y + step); /* between y and x: no overflow */
+                x = spi_lowpass_section(ctrl->ft_section[n][k], x, ctrl->prep.wrench_alpha);
             }
             ctrl->ft_section[n][k] = x;
         }

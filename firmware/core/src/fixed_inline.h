@@ -51,6 +51,15 @@
 
 typedef char spi_asr_is_arithmetic[((INT64_C(-5) >> 1) == INT64_C(-3)) ? 1 : -1];
 
+/* One first-order low-pass section (backward Euler, as the wrench filter's):
+ * y + round(alpha (x - y)), ties up, for alpha in [0, 2^30] (Q30). The
+ * difference is taken in 64 bits, so any int32 y and x are fine, and the
+ * result lies between y and x: it cannot overflow. */
+SPI_INLINE int32_t spi_lowpass_section(int32_t y, int32_t x, sp_q30_t alpha)
+{
+    return (int32_t)(y + (((int64_t)alpha * ((int64_t)x - y) + (INT64_C(1) << 29)) >> 30));
+}
+
 /* Number of leading zero bits of a non-zero 32-bit value (CLZ). */
 SPI_INLINE unsigned spi_clz32(uint32_t v)
 {
