@@ -301,6 +301,14 @@ static void test_malformed_frames_are_counted_and_dropped(void **state)
     assert_int_equal(r.node.stats.rejected[SP_PROTO_WRONG_SEQUENCE], 1u);
     rig_tick(&r);
     assert_int_equal(r.node.out.state, SP_STATE_ENGAGING); /* the one good command */
+    /* an ESTOP is taken whatever its alive counter: here a repeated one */
+    c.command = SP_CMD_ESTOP;
+    assert_int_equal(sp_proto_encode_command(&c, 12, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_OK);
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_REPEATED], 1u);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_ESTOP);
 }
 
 static void test_stale_feedback_is_not_used(void **state)

@@ -155,7 +155,10 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
             return reject(node, e, why);
         }
         e = sequence(node, &node->rx_command, counter);
-        if (e != SP_PROTO_OK) {
+        /* ESTOP and STOP (a valid CRC) are taken even when their alive
+         * counter repeats or jumps: a second operator process, a resent
+         * emergency stop. Refusing a stop is never the safe side. */
+        if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP) {
             return reject(node, e, why);
         }
         if (node->cmd_count >= SP_NODE_CMD_QUEUE) {
