@@ -79,9 +79,16 @@ def rig(tmp_path_factory):
     else:
         ctl_cmd += ["--lockstep", "--timeout-ms", "60000"]
         plant_cmd += ["--lockstep", "--ticks", "100000000", "--timeout-ms", "60000"]
-    ctl = subprocess.Popen(ctl_cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    plant = subprocess.Popen(plant_cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
+    # the plant starts only once the controller says its sockets are open:
+    # in lockstep the plant's cycle 0 is sent once, and a controller that
+    # binds after it would wait for it forever (the pair never starts)
+    ctl_out = open(out / "controller.txt", "w")
+    plant_out = open(out / "plant.txt", "w")
+    ctl = subprocess.Popen(ctl_cmd, stdout=ctl_out, stderr=subprocess.STDOUT, text=True)
+    _wait_for_line(out / "controller.txt", "mode on", ctl)
+    plant = subprocess.Popen(plant_cmd, stdout=plant_out, stderr=subprocess.STDOUT, text=True)
+    _wait_for_line(out / "plant.txt", "mode on", plant)
+    time.sleep(0.5)
     try:
         yield out
     finally:
@@ -89,11 +96,27 @@ def rig(tmp_path_factory):
             p.send_signal(signal.SIGINT)
         for p in (plant, ctl):
             try:
-                print(p.communicate(timeout=10)[0][-1500:])
+                p.wait(timeout=10)
             except subprocess.TimeoutExpired:
                 p.kill()
+                p.wait()
         dump.wait(timeout=10)
-        log.close()
+        for f in (ctl_out, plant_out, log):
+            f.close()
+        for name in ("plant.txt", "controller.txt"):
+            print((out / name).read_text()[-1500:])
+
+
+def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
+    """Waits until `proc` has written `text` to `path` (its start-up line)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if text in path.read_text():
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"{path.name}: the process ended at start-up:\n{path.read_text()}")
+        time.sleep(0.05)
+    pytest.fail(f"{path.name}: no '{text}' line within {timeout_s} s:\n{path.read_text()}")
 
 
 def _realtime_prefix() -> list[str]:
