@@ -29,7 +29,16 @@ Python API (numbers are numpy arrays in SI units: m, rad, N, Pa)::
     analyze("run.log", "out/", truth="truth.csv")               # everything
 """
 
-from .decode import LogData, read_log
-from .run import Analysis, analyze
+import importlib
 
 __all__ = ["Analysis", "LogData", "analyze", "read_log"]
+_HOME = {"Analysis": ".run", "analyze": ".run", "LogData": ".decode", "read_log": ".decode"}
+
+
+def __getattr__(name: str):
+    """The names above, imported on first use: the package itself stays
+    light (no DBC parse), so that :mod:`.prefetch` can start reading a log
+    before the protocol is loaded."""
+    if name in _HOME:
+        return getattr(importlib.import_module(_HOME[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -354,7 +354,7 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
 
 
 def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] | None = None,
-             platform=None, dbc_path: str | Path | None = None) -> LogData:
+             platform=None, dbc_path: str | Path | None = None, frames=None) -> LogData:
     """Reads and checks a candump -L log (a path or an iterable of lines).
 
     ``buses``: the ``--bus`` text or a mapping {interface: bus}; default
@@ -366,14 +366,16 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     (:func:`.logfile.read_frames`), grouped by ID, checked (CRC, counters,
     ranges, bus) and decoded with the DBC's layout by numpy
     (:mod:`.framedecode`). The same result as the per-frame
-    :func:`.decode_reference.read_log_reference` (tests/python/test_framedecode.py)."""
+    :func:`.decode_reference.read_log_reference` (tests/python/test_framedecode.py).
+    ``frames``: ``read_frames(source)`` when the caller has it already."""
     from .logfile import read_frames
 
     ifmap = parse_bus_map(buses) if buses is None or isinstance(buses, str) else dict(buses)
     proto = pr.Protocol(dbc_path)
     stats = LogStats()
     label = str(source) if isinstance(source, (str, Path)) else "<lines>"
-    frames = read_frames(source)
+    if frames is None:
+        frames = read_frames(source)
     stats.lines = frames.lines
     stats.malformed = len(frames.malformed)
     stats.frames = len(frames.line_no)

@@ -5,6 +5,7 @@ summary.json and the plots of each segment."""
 from __future__ import annotations
 
 import json
+from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -14,6 +15,7 @@ from .. import config as cfg
 from .csvout import write_signals_csv
 from .decode import LogData, read_log
 from .metrics import DEFAULT_DELAY_TICKS, jsonable, summarize
+from .prefetch import read_frames_beside
 from .plots import plot_cylinders, plot_tracking
 from .segments import Segment, find_segments
 from .truth import attach_truth, read_truth
@@ -34,32 +36,38 @@ class Analysis:
 def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
             platform: str | Path | None = None, delay_ticks: int = DEFAULT_DELAY_TICKS,
             buses: str | None = None, plots: bool = True,
-            progress: Callable[[str], None] | None = None) -> Analysis:
+            progress: Callable[[str], None] | None = None, frames: Future | None = None) -> Analysis:
     """Reads ``log`` (and ``truth``), writes signals.csv, summary.json and the
     plots into ``out``; returns the data, segments, summary and files.
     ``progress(text)`` is told each step as it starts (the command prints
-    them once a run takes more than a moment)."""
+    them once a run takes more than a moment). ``frames``: the log's frames
+    already being read (:func:`.prefetch.read_frames_beside`); else they
+    are started on here, and the truth CSV is read while they are read."""
     def step(text: str) -> None:
         if progress is not None:
             progress(text)
 
     step(f"reading {log}")
+    if frames is None:
+        frames = read_frames_beside(log)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     plat = cfg.load(platform or DEFAULT_PLATFORM)
-    data = read_log(log, buses=buses, platform=plat)
-    if truth is not None:
+    t = None
+    if truth is not None:  # while the log's frames are being read
         step(f"reading {truth}")
         t = read_truth(truth)
+    data = read_log(log, buses=buses, platform=plat, frames=frames.result())
+    if t is not None:
         attach_truth(data, t)
     segs = find_segments(data)
+    files = [out / "signals.csv", out / "summary.json"]
+    step(f"writing {files[0]}")
+    write_signals_csv(data, files[0])
     summary = summarize(data, segs, delay_ticks)
     if truth is not None:
         summary["truth_file"] = str(truth)
         summary["truth_bad_rows"] = int(t["bad_rows"])
-    files = [out / "signals.csv", out / "summary.json"]
-    step(f"writing {files[0]}")
-    write_signals_csv(data, files[0])
     if plots:
         for s in segs:
             step(f"plotting segment {s.index} of {len(segs)}")

@@ -46,6 +46,11 @@ class _Progress:
 
 
 def run(args: argparse.Namespace) -> int:
+    frames = None
+    if Path(args.log).is_file():
+        from ..analysis.prefetch import read_frames_beside
+
+        frames = read_frames_beside(args.log)  # while the protocol loads
     from .. import config as cfg
     from ..analysis import analyze
     from ..analysis.logfile import parse_bus_map
@@ -65,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         res = analyze(args.log, args.out, truth=args.truth, platform=args.platform,
                       delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
-                      progress=_Progress())
+                      progress=_Progress(), frames=frames)
     except (cfg.ConfigError, ValueError, OSError) as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
