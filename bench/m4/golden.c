@@ -12,18 +12,23 @@
  *     sp_check_legs and sp_forward_kinematics (warm start from a guess
  *     +-1 mm, +-1 mrad away); icount.c counts instructions on the same ones;
  *   - M4_PRIM_CASES random arguments of each fixed-point primitive;
- *   - the controller scenario of m4_vectors.h (ENGAGE, the 90 mm 0.5 Hz
- *     surge, PARK; ideal plant), every tick's output.
- * The program also checks that the run did what it should (every IK and
- * inverse dynamics succeeded, FK converged, the controller went through
- * ENGAGING, READY, RUNNING, PARKING back to IDLE without a fault): exit
- * status 0 only then, so that two identical but broken outputs cannot pass.
+ *   - three controller scenarios of m4_vectors.h on the ideal plant, every
+ *     tick's output, the wrench estimate and force control's included: the
+ *     paper's surge (ENGAGE, the 90 mm 0.5 Hz surge, PARK), STREAM (a new
+ *     target every tick in all six axes) and force control (TARE, FORCE
+ *     2 kN on the sensor, a slide while holding, PARK).
+ * The program also checks that each run did what it should (every IK and
+ * inverse dynamics succeeded, FK converged, each scenario went through
+ * ENGAGING, READY, RUNNING, PARKING back to IDLE without a fault, force
+ * control held contact): exit status 0 only then, so that two identical but
+ * broken outputs cannot pass.
  */
 #include "m4_io.h"
 #include "m4_vectors.h"
 
 #include "sp/controller.h"
 #include "sp/dynamics.h"
+#include "sp/force.h"
 #include "sp/kinematics.h"
 
 #define M4_POSES 2000u
@@ -199,7 +204,14 @@ static void poses(m4_rng_t *rng, pose_summary_t *sum)
     }
 }
 
-static void controller(m4_scenario_t *s, sp_status_t init_status)
+/* What a scenario's run showed, for the checks. */
+typedef struct {
+    uint32_t force_modes; /* bit m set once force_mode m was output */
+    uint32_t contact_ticks;
+    uint32_t wrench_valid_ticks;
+} run_seen_t;
+
+static void controller(m4_scenario_t *s, sp_status_t init_status, run_seen_t *seen)
 {
     uint32_t n = 0u;
     record("ctrl_init", 0u, (int32_t)init_status);
@@ -230,7 +242,18 @@ static void controller(m4_scenario_t *s, sp_status_t init_status)
         m4_out_words(o->reference.rpy_rate, 3u);
         m4_out_words(o->reference.acc, 3u);
         m4_out_words(o->reference.rpy_acc, 3u);
+        m4_out_hex(o->wrench_valid);
+        m4_out_words(o->wrench, 6u);
+        m4_out_hex(o->force_mode);
+        m4_out_hex(o->contact);
+        m4_out_words(o->force_target, 6u);
+        m4_out_words(o->force_wrench, 6u);
         m4_out_nl();
+        if (o->force_mode < 32u) {
+            seen->force_modes |= UINT32_C(1) << o->force_mode;
+        }
+        seen->contact_ticks += o->contact;
+        seen->wrench_valid_ticks += o->wrench_valid;
         m4_scenario_finish(s);
         ++n;
     }
@@ -247,17 +270,61 @@ static int check(int ok, const char *what, int *failures)
     return ok;
 }
 
+/* One scenario from init to its end, its summary line, and its checks. */
+static void scenario_run(m4_scenario_t *s, uint8_t motion, const char *name, int *failures)
+{
+    static const uint32_t want_states = (UINT32_C(1) << SP_STATE_IDLE) | (UINT32_C(1) << SP_STATE_ENGAGING) |
+                                        (UINT32_C(1) << SP_STATE_READY) | (UINT32_C(1) << SP_STATE_RUNNING) |
+                                        (UINT32_C(1) << SP_STATE_PARKING);
+    run_seen_t seen = {0u, 0u, 0u};
+    sp_status_t init_status = m4_scenario_init(s, &sp_platform_default, motion);
+    m4_out_str("scenario ");
+    m4_out_str(name);
+    m4_out_nl();
+    controller(s, init_status, &seen);
+
+    m4_out_str("summary ");
+    m4_out_str(name);
+    m4_out_str(" ticks ");
+    m4_out_u32(s->ticks);
+    m4_out_str(" running ");
+    m4_out_u32(s->running_ticks);
+    m4_out_str(" contact ");
+    m4_out_u32(seen.contact_ticks);
+    m4_out_str(" wrench_valid ");
+    m4_out_u32(seen.wrench_valid_ticks);
+    m4_out_str(" force_modes");
+    m4_out_hex(seen.force_modes);
+    m4_out_str(" final_state ");
+    m4_out_str(sp_state_name(s->out.state));
+    m4_out_str(" faults");
+    m4_out_hex(s->out.faults);
+    m4_out_nl();
+
+    (void)check(init_status == SP_OK, "controller set-up", failures);
+    (void)check(s->visited == want_states, "controller visits idle, engaging, ready, running, parking only", failures);
+    (void)check(s->out.state == SP_STATE_IDLE && s->out.faults == 0u, "controller ends parked without a fault",
+                failures);
+    (void)check(seen.wrench_valid_ticks > 0u, "the wrench estimate runs", failures);
+    if (motion == M4_MOTION_FORCE) {
+        (void)check((seen.force_modes & (UINT32_C(1) << SP_FORCE_FORCE)) != 0u && seen.contact_ticks > 1000u,
+                    "force control holds contact", failures);
+    } else {
+        (void)check(s->running_ticks >= M4_RUN_TICKS, "controller runs the motion", failures);
+        (void)check(seen.force_modes == (UINT32_C(1) << SP_FORCE_OFF), "no force control outside its scenario",
+                    failures);
+    }
+}
+
 int main(void)
 {
     static m4_scenario_t scenario;
     pose_summary_t sum = {0u, 0u, 0u, 0u, {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u}};
     m4_rng_t rng;
-    sp_status_t init_status;
-    uint32_t want_states;
     int failures = 0;
     unsigned k;
 
-    m4_out_str("golden sp_core v1 poses");
+    m4_out_str("golden sp_core v2 poses");
     m4_out_hex(M4_POSES);
     m4_out_str(" primitives");
     m4_out_hex(M4_PRIM_CASES);
@@ -270,8 +337,9 @@ int main(void)
     m4_rng_seed(&rng, M4_SEED);
     poses(&rng, &sum);
     primitives(&rng);
-    init_status = m4_scenario_init(&scenario, &sp_platform_default);
-    controller(&scenario, init_status);
+    scenario_run(&scenario, M4_MOTION_SURGE, "surge", &failures);
+    scenario_run(&scenario, M4_MOTION_STREAM, "stream", &failures);
+    scenario_run(&scenario, M4_MOTION_FORCE, "force", &failures);
 
     m4_out_str("summary ik_ok ");
     m4_out_u32(sum.ik_ok);
@@ -288,29 +356,12 @@ int main(void)
         m4_out_str(":");
         m4_out_u32(sum.fk_iterations[k]);
     }
-    m4_out_str(" ticks ");
-    m4_out_u32(scenario.ticks);
-    m4_out_str(" running ");
-    m4_out_u32(scenario.running_ticks);
-    m4_out_str(" final_state ");
-    m4_out_str(sp_state_name(scenario.out.state));
-    m4_out_str(" faults");
-    m4_out_hex(scenario.out.faults);
     m4_out_nl();
 
-    want_states = (UINT32_C(1) << SP_STATE_IDLE) | (UINT32_C(1) << SP_STATE_ENGAGING) |
-                  (UINT32_C(1) << SP_STATE_READY) | (UINT32_C(1) << SP_STATE_RUNNING) |
-                  (UINT32_C(1) << SP_STATE_PARKING);
     (void)check(sum.ik_ok == M4_POSES, "every inverse kinematics succeeds", &failures);
     (void)check(sum.rates_ok == M4_POSES, "every leg-rate computation succeeds", &failures);
     (void)check(sum.id_ok == M4_POSES, "every inverse dynamics succeeds", &failures);
     (void)check(sum.fk_ok == M4_POSES, "every warm-started forward kinematics converges", &failures);
-    (void)check(init_status == SP_OK, "controller set-up", &failures);
-    (void)check(scenario.visited == want_states, "controller visits idle, engaging, ready, running, parking only",
-                &failures);
-    (void)check(scenario.running_ticks >= M4_RUN_TICKS, "controller runs the surge", &failures);
-    (void)check(scenario.out.state == SP_STATE_IDLE && scenario.out.faults == 0u,
-                "controller ends parked without a fault", &failures);
     m4_out_str(failures == 0 ? "result ok" : "result FAILED");
     m4_out_nl();
     {

@@ -308,12 +308,7 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
     }
     r->over = 0u;
     m4_stat_reset(&r->force);
-    (void)m4_scenario_init(sc, &sp_platform_default);
-    sc->motion = motion;
-    if (motion == M4_MOTION_FORCE) {
-        sc->cfg.wrench_source = SP_WRENCH_SENSOR;
-        (void)sp_ctrl_init(&sc->ctrl, &sc->cfg);
-    }
+    (void)m4_scenario_init(sc, &sp_platform_default, motion);
     sp_mps2_stack_paint();
     top = sp_mps2_stack_pointer();
     while (m4_scenario_prepare(sc)) {

@@ -6,7 +6,7 @@
 
 #include "sp/kinematics.h"
 
-sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform)
+sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, uint8_t motion)
 {
     sp_ik_t park;
     sp_status_t st;
@@ -16,7 +16,11 @@ sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform)
     for (i = 0u; i < sizeof *s; ++i) {
         bytes[i] = 0u; /* inputs, outputs, counters and padding all zero */
     }
+    s->motion = motion;
     st = sp_ctrl_default_config(&s->cfg, platform);
+    if (motion == M4_MOTION_FORCE) {
+        s->cfg.wrench_source = SP_WRENCH_SENSOR;
+    }
     if (st == SP_OK) {
         st = sp_ctrl_init(&s->ctrl, &s->cfg);
     }

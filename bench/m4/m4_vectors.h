@@ -62,8 +62,8 @@ void m4_nearby_pose(m4_rng_t *rng, const sp_pose_t *pose, sp_pose_t *guess);
  *  once IDLE, M4_TAIL_TICKS more ticks. Feedback is fresh every tick, with
  *  the lengths the previous tick commanded (the park lengths until the
  *  drives are active). */
-/** What the scenario runs once READY (set after m4_scenario_init; the golden
- *  program runs only M4_MOTION_SURGE). */
+/** What the scenario runs once READY (m4_scenario_init's `motion`; the golden
+ *  program runs SURGE, STREAM and FORCE; icount.c all four). */
 #define M4_MOTION_SURGE 0u  /**< RUN_TRIG x, 90 mm, 0.5 Hz */
 #define M4_MOTION_YAW 1u    /**< RUN_TRIG yaw, 0.09 rad, 0.5 Hz: every angle's sine changes */
 #define M4_MOTION_STREAM 2u /**< STREAM with a fresh target every tick: the reachability test each tick */
@@ -83,14 +83,15 @@ typedef struct {
     uint32_t visited;       /**< bit s set once state s was output */
     uint8_t run_sent;
     uint8_t park_sent;
-    uint8_t motion;       /**< M4_MOTION_*, 0 after m4_scenario_init */
+    uint8_t motion;       /**< M4_MOTION_* */
     uint8_t phase;        /**< M4_MOTION_FORCE: 0 engaging, 1 taring, 2 holding, 3 sliding and holding */
     uint32_t phase_ticks; /**< ticks since the phase began */
 } m4_scenario_t;
 
-/** Default config for `platform`, controller init, park-pose feedback.
- *  Returns the first failing status of the core calls. */
-sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform);
+/** Default config for `platform` and the scenario `motion` (M4_MOTION_*:
+ *  FORCE reads the force/torque sensor), controller init, park-pose
+ *  feedback. Returns the first failing status of the core calls. */
+sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, uint8_t motion);
 
 /** Fills s->in for the next tick. Returns 0 once the scenario is over (no
  *  more ticks), else 1. */

@@ -32,10 +32,9 @@ int main(void)
 {
     uint32_t n = 0u;
     int started = 0;
-    if (m4_scenario_init(&scenario, &sp_platform_default) != SP_OK) {
+    if (m4_scenario_init(&scenario, &sp_platform_default, PROFILE_MOTION) != SP_OK) {
         return 1;
     }
-    scenario.motion = PROFILE_MOTION;
     while (n < PROFILE_TICKS && m4_scenario_prepare(&scenario)) {
         if (!started && scenario.out.state == SP_STATE_RUNNING) {
             profile_begin();
