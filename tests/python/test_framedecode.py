@@ -325,3 +325,44 @@ def test_read_frames_with_many_interfaces(real_lines):
     fr = read_frames(lines)
     got = [fr.ifaces[i] for i in fr.iface]
     assert got == [parse_line(ln).iface for ln in lines] and len(set(got)) == 12
+
+
+def shift_ticks(lines: list[str], offset: int) -> list[str]:
+    """The log with every Tick moved by ``offset`` modulo 2^32 (TickEcho
+    modulo 2^16), CRCs resealed: the same run at another cycle number."""
+    db = cantools.database.load_file(str(pr.DBC_PATH))
+    out = []
+    for line in lines:
+        f = parse_line(line, 1)
+        m = db.get_message_by_frame_id(f.frame_id)
+        sig = m.decode(f.data, decode_choices=False, scaling=False)
+        if "Tick" in sig:
+            sig["Tick"] = (int(sig["Tick"]) + offset) % (1 << 32)
+        elif "TickEcho" in sig:
+            sig["TickEcho"] = (int(sig["TickEcho"]) + offset) % (1 << 16)
+        else:
+            out.append(line)
+            continue
+        data = e2e.seal(f.frame_id, m.encode(sig, scaling=False, strict=False))
+        head = line.split("#")[0]
+        out.append(f"{head}##{f.flags:X}{data.hex().upper()}" if f.fd else f"{head}#{data.hex().upper()}")
+    return out
+
+
+def test_ticks_unwrap_through_the_32_bit_wrap(real_lines):
+    """Issue 17: a run whose cycle number passes 2^32 - 1 decodes as the
+    same run with ticks that go on counting (fast path and reference)."""
+    base = read_log(real_lines, platform=PLATFORM)
+    mid = int(base.ticks[len(base.ticks) // 2])
+    offset = (1 << 32) - mid                      # the wrap half-way through
+    lines = shift_ticks(real_lines, offset)
+    fast = read_log(lines, platform=PLATFORM)
+    ref = read_log_reference(lines, platform=PLATFORM)
+    assert_same_logdata(fast, ref)
+    assert np.array_equal(fast.ticks, base.ticks + offset)
+    assert fast.ticks[0] < (1 << 32) <= fast.ticks[-1]
+    a, b = fast.stats.as_dict(), base.stats.as_dict()
+    assert len(a.pop("warnings")) == len(b.pop("warnings")) and a == b  # warnings name the ticks
+    for name in ("state", "estimate", "reference", "est_wrench"):
+        assert np.array_equal(getattr(fast, name), getattr(base, name), equal_nan=True), name
+    assert [c.tick for c in fast.commands] == [c.tick + offset for c in base.commands]

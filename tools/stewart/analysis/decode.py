@@ -6,7 +6,8 @@ length, ranges) and the bus the DBC allows it on, and never stops on a bad
 line: malformed lines and rejected frames are counted (``LogData.stats``).
 
 Rows are control ticks. CTRL_STATUS, CTRL_MONITOR and CTRL_WRENCH carry the tick,
-AXIS_SETPOINTS the tick of its SYNC, AXIS_FEEDBACK the low 16 bits of its
+AXIS_SETPOINTS the tick of its SYNC (modulo 2^32: unwrapped in log order, so a
+run through the wrap after 49.7 days keeps counting), AXIS_FEEDBACK the low 16 bits of its
 SYNC tick (``TickEcho``, unwrapped to the nearest tick seen in the log). In
 both the lockstep and the real-time mode of ``sp_controller`` the
 controller's tick equals the SYNC tick.
@@ -408,6 +409,17 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
             known[pos] = True
         if g.name == "CTRL_STATUS":
             status_at[pos] = True
+    # The Tick signal is a cycle number modulo 2^32 (it wraps after 49.7
+    # days): unwrapped in log order, a step back by more than half the
+    # range being a lap forward (and the other way round).
+    if known.any():
+        kp = np.flatnonzero(known)
+        d = np.diff(tick_of[kp])
+        laps = np.concatenate(([0], np.cumsum((d < -(1 << 31)).astype(np.int64) - (d > (1 << 31)))))
+        tick_of[kp] += laps << 32
+        for k, g in enumerate(groups):
+            if g.name in TICK_MESSAGES:
+                g.values["Tick"] = tick_of[pos_in[k]]
     ar = np.arange(n)
     prev_i = np.maximum.accumulate(np.where(known, ar, -1)) if n else ar
     next_i = np.minimum.accumulate(np.where(known, ar, n)[::-1])[::-1] if n else ar

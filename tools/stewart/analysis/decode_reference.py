@@ -84,6 +84,17 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
     for i, (name, _bus, sig, _t, _ln) in enumerate(accepted):
         if name in ("SYNC", "AXIS_SETPOINTS", "CTRL_STATUS", "CTRL_MONITOR", "CTRL_WRENCH"):
             known[i] = int(sig["Tick"])
+    # the Tick signal wraps after 2^32 ticks: unwrapped in log order
+    lap, last = 0, None
+    for i in range(n):
+        if known[i] is not None:
+            t = known[i] + (lap << 32)
+            if last is not None and t - last < -(1 << 31):
+                lap, t = lap + 1, t + (1 << 32)
+            elif last is not None and t - last > (1 << 31):
+                lap, t = lap - 1, t - (1 << 32)
+            known[i] = last = t
+            accepted[i][2]["Tick"] = t
     prev_tick: list[int | None] = [None] * n
     last = None
     for i in range(n):
