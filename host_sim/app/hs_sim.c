@@ -5,7 +5,7 @@
  *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES] [--first-cycle N]
+ *          [--setpoint-timeout CYCLES]
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -93,7 +93,6 @@ typedef struct {
     uint64_t wrench_start, wrench_ticks;
     hs_play_t play; /* scenario `play` under way (file open) */
     uint64_t play_start;
-    uint64_t first_cycle; /* lockstep: the bus's cycle number at tick 0 (wrap tests); the frames carry it modulo 2^32 */
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -267,9 +266,8 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             s->wrench_start = tick;
             s->wrench_ticks = a->ticks;
             wrench_tick(s, tick);
-            printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", s->first_cycle + tick,
-                   a->wrench[0], a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5],
-                   (double)a->ticks / 1000.0);
+            printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", tick, a->wrench[0],
+                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0);
             break;
         case HS_ACTION_CONTACT: {
             hs_contact_t c;
@@ -287,7 +285,7 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
                 fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
                 return 2;
             }
-            printf("hs_sim mark tick %" PRIu64 ": contact %s\n", s->first_cycle + tick,
+            printf("hs_sim mark tick %" PRIu64 ": contact %s\n", tick,
                    a->contact.kind == 1 ? "plane" : (a->contact.kind == 2 ? "point" : "off"));
             break;
         }
@@ -299,8 +297,8 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
                         a->line, a->mass, a->point[0], a->point[1], a->point[2], s->plant.par.mass);
                 return 2;
             }
-            printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", s->first_cycle + tick, a->mass,
-                   a->point[0], a->point[1], a->point[2]);
+            printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", tick, a->mass, a->point[0], a->point[1],
+                   a->point[2]);
             break;
         case HS_ACTION_PLAY: {
             hs_scenario_error_t err;
@@ -310,8 +308,7 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
                 return 2;
             }
             s->play_start = tick;
-            printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", s->first_cycle + tick, a->path,
-                   (double)a->ticks / 1000.0);
+            printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", tick, a->path, (double)a->ticks / 1000.0);
             int r = play_tick(s, tick, t_us);
             if (r != 0) {
                 return r;
@@ -333,14 +330,14 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             (void)hs_plant_raise_faults(&s->plant, a->leg, a->bits);
             break;
         case HS_ACTION_MARK:
-            printf("hs_sim mark tick %" PRIu64 ": %s\n", s->first_cycle + tick, a->text);
+            printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
             break;
         case HS_ACTION_DELAY:
         case HS_ACTION_END:
             break;
         }
         if (a->kind == HS_ACTION_SILENCE || a->kind == HS_ACTION_UNSILENCE || a->kind == HS_ACTION_FAULT) {
-            printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", s->first_cycle + tick,
+            printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick,
                    a->kind == HS_ACTION_SILENCE     ? "silence"
                    : a->kind == HS_ACTION_UNSILENCE ? "unsilence"
                                                     : "fault",
@@ -452,8 +449,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES]\n"
-                    "              [--first-cycle N]   (lockstep tests: the cycle number to start from)\n");
+                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -554,8 +550,6 @@ int main(int argc, char **argv)
             have_load = 1, i++;
         } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
             sp_timeout = (uint32_t)u, i++;
-        } else if (strcmp(a, "--first-cycle") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
-            s.first_cycle = u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
             timeout_ms = (long)u, i++;
         } else {
@@ -664,16 +658,16 @@ int main(int argc, char **argv)
         if (s.lockstep) {
             sp_can_frame_t tx[HS_BUS_MAX_TX];
             uint32_t n = 0;
-            (void)hs_bus_cycle_frames(&s.bus, &s.plant, (uint32_t)(s.first_cycle + tick), 1u, tx, &n);
+            (void)hs_bus_cycle_frames(&s.bus, &s.plant, (uint32_t)tick, 1u, tx, &n);
             if (send_frames(&s, tx, n, t_us) != 0) {
                 rc = 1;
                 break;
             }
-            int r = lockstep_wait(&s, (uint32_t)(s.first_cycle + tick), t_us, timeout_ms);
+            int r = lockstep_wait(&s, (uint32_t)tick, t_us, timeout_ms);
             if (r != 0) {
                 if (r == 3) {
-                    fprintf(stderr, "hs_sim: the controller did not answer cycle %" PRIu64 " within %ld ms\n",
-                            s.first_cycle + tick, timeout_ms);
+                    fprintf(stderr, "hs_sim: the controller did not answer cycle %" PRIu64 " within %ld ms\n", tick,
+                            timeout_ms);
                 }
                 rc = (r == 3) ? 3 : 1;
                 break;
@@ -691,7 +685,7 @@ int main(int argc, char **argv)
                 (void)ppoll(&pfd, 1, &ts, NULL);
             }
         }
-        write_truth(&s, s.first_cycle + tick);
+        write_truth(&s, tick);
         hs_status_t st = hs_plant_step(&s.plant, 1.0e-3);
         if (st != HS_OK) {
             fprintf(stderr, "hs_sim: plant step failed at cycle %" PRIu64 ": %s\n", tick, hs_status_name(st));

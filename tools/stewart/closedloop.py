@@ -108,7 +108,6 @@ class RunSpec:
     feedforward: bool = True
     seed: int | None = None
     timeout_ms: int = 2000
-    first_cycle: int = 0   #: the cycle number to start from (wrap tests: near 2^32)
 
 
 @dataclass
@@ -153,14 +152,10 @@ def _runner(specs: list[RunSpec], bins: Binaries, out: Path, progress: bool) -> 
         ctl = [str(bins.controller), "--lockstep", "--timeout-ms", "1000"]
         if not s.feedforward:
             ctl.append("--no-feedforward")
-        if s.first_cycle:
-            ctl += ["--first-tick", str(s.first_cycle)]
         plant = [str(bins.plant), "--lockstep", "--scenario", str(scn), "--log", str(out / f"{s.name}.log"),
                  "--truth", str(out / f"{s.name}.truth.csv"), "--timeout-ms", str(s.timeout_ms)]
         if s.seed is not None:
             plant += ["--seed", str(s.seed)]
-        if s.first_cycle:
-            plant += ["--first-cycle", str(s.first_cycle)]
         if progress:
             plant.append("--progress")
         q = lambda argv: " ".join(shlex.quote(a) for a in argv)  # noqa: E731

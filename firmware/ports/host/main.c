@@ -41,8 +41,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
-                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
-                    "                     [--first-tick N]   (tests: the cycle number to start from)\n");
+                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n");
 }
 
 typedef struct {
@@ -98,7 +97,6 @@ int main(int argc, char **argv)
     int op_park = 0;
     unsigned long long max_ticks = 0;
     long timeout_ms = 5000;
-    uint32_t first_tick = 0u;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -143,15 +141,6 @@ int main(int argc, char **argv)
                 usage();
                 return 2;
             }
-        } else if (v != NULL && strcmp(a, "--first-tick") == 0) {
-            char *end;
-            unsigned long long t = strtoull(v, &end, 0);
-            i++;
-            if (*end != '\0' || v[0] == '-' || t > UINT32_MAX) {
-                usage();
-                return 2;
-            }
-            first_tick = (uint32_t)t;
         } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
             char *end;
             timeout_ms = strtol(v, &end, 10), i++;
@@ -181,7 +170,6 @@ int main(int argc, char **argv)
     }
     cfg.ctrl.operator_park = (uint8_t)op_park;
     (void)sp_node_init(&node, &cfg);
-    node.ctrl.tick = first_tick; /* 0 but in the wrap tests */
 
     /* The controller listens to what is addressed to it. */
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
