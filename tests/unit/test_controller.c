@@ -592,56 +592,6 @@ static void test_trig_generator(void **state)
     assert_int_equal(sp_trig_start(&g, NULL, SP_AXIS_X, q24(0.09), q24(1), 1000u, 1000u), SP_E_ARG);
 }
 
-/* Issue 17, through the wraps: a trigonometric motion that has run for
- * 49.7 days (its tick saturated at UINT32_MAX) still fades out and ends
- * when stopped, exactly as one stopped after a few seconds: the fade-out
- * counts its own ticks. (Timed from the motion's tick, the stop would
- * have waited for a tick that never comes.) A stop during the fade-in
- * still waits for the fade-in to end. */
-static void test_trig_stop_after_the_tick_saturates(void **state)
-{
-    (void)state;
-    static const uint32_t starts[2] = {5000u, UINT32_MAX - 3u};
-    sp_q24_t x[2][1200];
-    for (int run = 0; run < 2; run++) {
-        sp_trig_t g;
-        sp_motion_t m;
-        assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 1000u),
-                         SP_OK);
-        for (int n = 0; n < 1500; ++n) { /* through the fade-in */
-            assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
-        }
-        g.tick = starts[run]; /* the same phase, a long time later */
-        for (int n = 0; n < 10; ++n) {
-            assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
-        }
-        assert_int_equal(g.tick, run == 0 ? 5010u : UINT32_MAX);
-        sp_trig_stop(&g);
-        for (int n = 0; n < 1200; ++n) {
-            assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
-            x[run][n] = m.pose.pos[0];
-        }
-        assert_true(g.finished);
-        assert_int_equal(m.pose.pos[0], sp_platform_default.home.pos[0]);
-        assert_int_equal(m.vel[0], 0);
-    }
-    assert_memory_equal(x[0], x[1], sizeof x[0]);
-    /* a stop in the fade-in: the fade-out begins when the fade-in ends */
-    sp_trig_t g;
-    sp_motion_t m;
-    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 1000u), SP_OK);
-    for (int n = 0; n < 300; ++n) {
-        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
-    }
-    sp_trig_stop(&g);
-    int steps = 0;
-    while (!g.finished && steps < 5000) {
-        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
-        steps++;
-    }
-    assert_int_equal(steps, 700 + 1000 + 1); /* the rest of the fade-in, the fade-out, the step that ends it */
-}
-
 /* One tick with an operator heartbeat when `beat`. */
 static void link_tick(rig_t *r, sp_cmd_type_t cmd, int beat)
 {
@@ -1018,7 +968,6 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_trig_generator),
-        cmocka_unit_test(test_trig_stop_after_the_tick_saturates),
         cmocka_unit_test(test_move_respects_limits),
         cmocka_unit_test(test_engage_run_park),
         cmocka_unit_test(test_rest_reuses_setpoints),

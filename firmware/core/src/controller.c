@@ -129,9 +129,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->trig.phase = 0u;
     ctrl->trig.fade_ticks = 1u;
     ctrl->trig.tick = 0u;
-    ctrl->trig.stopping = 0u;
-    ctrl->trig.stop_wait = 0u;
-    ctrl->trig.stop_k = 0u;
+    ctrl->trig.stop_tick = UINT32_MAX;
     ctrl->trig.finished = 1;
     ctrl->move.duration_ticks = 0u;
     ctrl->move.tick = 0u;
@@ -766,7 +764,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     if (cfg == NULL || ctrl == NULL || in == NULL || out == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
     }
-    ctrl->tick += 1u; /* a cycle number: wraps modulo 2^32 like the SYNC tick it feeds */
+    if (ctrl->tick < UINT32_MAX) {
+        ++ctrl->tick;
+    }
     active = drives_active(ctrl);
 
     comms_ok = supervise(cfg, ctrl, in, active, &leg_out);

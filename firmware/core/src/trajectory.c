@@ -81,9 +81,7 @@ sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis,
     g->finished = 1;
     g->tick = 0u;
     g->phase = 0u;
-    g->stopping = 0u;
-    g->stop_wait = 0u;
-    g->stop_k = 0u;
+    g->stop_tick = UINT32_MAX;
     if (centre == NULL) {
         return SP_E_ARG;
     }
@@ -109,13 +107,10 @@ sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis,
 
 void sp_trig_stop(sp_trig_t *g)
 {
-    if (g != NULL && !g->stopping) {
+    if (g != NULL && g->stop_tick == UINT32_MAX) {
         /* a stop during the fade-in waits for it to end, so the envelope's
-         * rate never reverses abruptly. The fade-out counts its own ticks:
-         * the motion's tick saturates (after 49.7 days) and cannot time it. */
-        g->stopping = 1u;
-        g->stop_wait = (g->tick < g->fade_ticks) ? g->fade_ticks - g->tick : 0u;
-        g->stop_k = 0u;
+         * rate never reverses abruptly */
+        g->stop_tick = (g->tick > g->fade_ticks) ? g->tick : g->fade_ticks;
     }
 }
 
@@ -161,8 +156,8 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     }
     /* envelope position u (Q30), its rate du/dt and the smoothstep of u;
      * at full amplitude (u = 1) E = 1 and E' = E'' = 0 exactly */
-    if (g->stopping && g->stop_wait == 0u) {
-        uint32_t k = g->stop_k++; /* below fade_ticks until finished */
+    if (g->stop_tick != UINT32_MAX && g->tick >= g->stop_tick) {
+        uint32_t k = g->tick - g->stop_tick;
         if (k >= g->fade_ticks) {
             g->finished = 1;
             return SP_OK;
@@ -205,9 +200,6 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     *vec_ref(out, a, 1) = spi_mul_away(g->amplitude, spi_sat(vel, &flags), 24u, &flags);
     *vec_ref(out, a, 2) = spi_mul_away(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
 
-    if (g->stopping && g->stop_wait > 0u) {
-        --g->stop_wait;
-    }
     g->phase += g->phase_step; /* modulo one turn by design */
     if (g->tick < UINT32_MAX) {
         ++g->tick;

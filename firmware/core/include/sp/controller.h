@@ -151,7 +151,7 @@ typedef struct {
     sp_drive_mode_t drive_mode;
     sp_state_t state;
     uint32_t faults;        /**< latched SP_FAULT_* bits */
-    uint32_t tick;          /**< ticks since init, modulo 2^32 (a cycle number: wraps after 49.7 days at 1 kHz) */
+    uint32_t tick;          /**< ticks since init */
     sp_pose_t estimate;     /**< pose by forward kinematics */
     sp_motion_t reference;  /**< the reference of this tick */
     uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
@@ -238,8 +238,7 @@ typedef struct {
     sp_ctrl_prepared_t prep; /**< derived from the config at init */
     sp_state_t state;
     uint32_t faults; /**< latched SP_FAULT_* bits */
-    uint32_t tick;   /**< ticks since init, modulo 2^32: a cycle number (the SYNC's as cycle master), which the core
-                          compares only for equality and differences; wraps after 49.7 days at 1 kHz */
+    uint32_t tick;   /**< ticks since init (saturates) */
     sp_supervision_t sup;
     sp_estimate_t est;               /**< the pose estimate, its FK cache and the factorisation at the reference */
     sp_motion_mode_t mode;           /**< RUNNING: the motion executing */

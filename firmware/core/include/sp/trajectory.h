@@ -49,10 +49,8 @@ typedef struct {
     uint32_t phase_step; /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
     uint32_t phase;      /**< current phase, 2^-32 turn */
     uint32_t fade_ticks; /**< fade-in and fade-out length, ticks */
-    uint32_t tick;       /**< ticks since start (saturates: only the fade-in reads it) */
-    uint8_t stopping;    /**< 1 once sp_trig_stop was called */
-    uint32_t stop_wait;  /**< stopping: ticks until the fade-out begins (the rest of the fade-in) */
-    uint32_t stop_k;     /**< stopping: ticks into the fade-out */
+    uint32_t tick;       /**< ticks since start */
+    uint32_t stop_tick;  /**< tick at which the fade-out began (UINT32_MAX: none yet) */
     int finished;        /**< 1 once the fade-out has ended: output is the centre, at rest */
 } sp_trig_t;
 
