@@ -13,10 +13,14 @@
  *     +-1 mm, +-1 mrad away); icount.c counts instructions on the same ones;
  *   - M4_PRIM_CASES random arguments of each fixed-point primitive;
  *   - the controller scenario of m4_vectors.h (ENGAGE, the 90 mm 0.5 Hz
- *     surge, PARK; ideal plant), every tick's output.
+ *     surge, PARK; ideal plant), every tick's output;
+ *   - the force-control scenario (M4_MOTION_FORCE: the sensor as the wrench
+ *     source, TARE, FORCE 2 kN onto a 1e6 N/m surface, a 50 mm slide while
+ *     holding, PARK), every tick's output with force control's.
  * The program also checks that the run did what it should (every IK and
  * inverse dynamics succeeded, FK converged, the controller went through
- * ENGAGING, READY, RUNNING, PARKING back to IDLE without a fault): exit
+ * ENGAGING, READY, RUNNING, PARKING back to IDLE without a fault, and in
+ * the force scenario made contact in FORCE and let go again): exit
  * status 0 only then, so that two identical but broken outputs cannot pass.
  */
 #include "m4_io.h"
@@ -236,6 +240,65 @@ static void controller(m4_scenario_t *s, sp_status_t init_status)
     }
 }
 
+/* The force-control scenario: as controller(), plus what force control
+ * did. Returns 1 if FORCE made contact and the run let go and parked. */
+static int force_controller(m4_scenario_t *s)
+{
+    uint32_t contact_ticks = 0u;
+    int forced = 0;
+    sp_status_t st = m4_scenario_init(s, &sp_platform_default);
+    s->motion = M4_MOTION_FORCE;
+    s->cfg.wrench_source = SP_WRENCH_SENSOR;
+    if (st == SP_OK) {
+        st = sp_ctrl_init(&s->ctrl, &s->cfg);
+    }
+    record("force_init", 0u, (int32_t)st);
+    m4_out_nl();
+    while (st == SP_OK && m4_scenario_prepare(s)) {
+        const sp_ctrl_output_t *o = &s->out;
+        sp_status_t ts = sp_ctrl_step(&s->cfg, &s->ctrl, &s->in, &s->out);
+        unsigned i;
+        record("ftick", s->ticks, (int32_t)ts);
+        m4_out_hex((uint32_t)s->in.cmd.type);
+        for (i = 0u; i < SP_LEGS; ++i) {
+            m4_out_hex((uint32_t)o->setpoint[i].length);
+            m4_out_hex((uint32_t)o->setpoint[i].velocity);
+            m4_out_hex((uint32_t)o->setpoint[i].force);
+        }
+        m4_out_hex((uint32_t)o->drive_mode);
+        m4_out_hex((uint32_t)o->state);
+        m4_out_hex(o->faults);
+        m4_out_hex(o->estimate_valid);
+        m4_out_hex(o->cmd_rejected);
+        m4_out_hex(o->force_mode);
+        m4_out_hex(o->contact);
+        m4_out_words(o->estimate.pos, 3u);
+        m4_out_words(o->estimate.rpy, 3u);
+        m4_out_words(o->reference.pose.pos, 3u);
+        m4_out_words(o->reference.pose.rpy, 3u);
+        m4_out_words(o->reference.vel, 3u);
+        m4_out_words(o->reference.rpy_rate, 3u);
+        m4_out_words(o->reference.acc, 3u);
+        m4_out_words(o->reference.rpy_acc, 3u);
+        m4_out_words(o->force_wrench, 6u);
+        m4_out_nl();
+        forced |= (o->force_mode == SP_FORCE_FORCE) ? 1 : 0;
+        contact_ticks += (o->force_mode == SP_FORCE_FORCE && o->contact) ? 1u : 0u;
+        m4_scenario_finish(s);
+    }
+    m4_out_str("force_summary ticks ");
+    m4_out_u32(s->ticks);
+    m4_out_str(" contact_ticks ");
+    m4_out_u32(contact_ticks);
+    m4_out_str(" final_state ");
+    m4_out_str(sp_state_name(s->out.state));
+    m4_out_str(" faults");
+    m4_out_hex(s->out.faults);
+    m4_out_nl();
+    return st == SP_OK && forced && contact_ticks > 1000u && s->out.state == SP_STATE_IDLE && s->out.faults == 0u &&
+           s->park_sent;
+}
+
 static int check(int ok, const char *what, int *failures)
 {
     if (!ok) {
@@ -250,6 +313,8 @@ static int check(int ok, const char *what, int *failures)
 int main(void)
 {
     static m4_scenario_t scenario;
+    static m4_scenario_t force_scenario;
+    int force_ok;
     pose_summary_t sum = {0u, 0u, 0u, 0u, {0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u}};
     m4_rng_t rng;
     sp_status_t init_status;
@@ -272,6 +337,7 @@ int main(void)
     primitives(&rng);
     init_status = m4_scenario_init(&scenario, &sp_platform_default);
     controller(&scenario, init_status);
+    force_ok = force_controller(&force_scenario);
 
     m4_out_str("summary ik_ok ");
     m4_out_u32(sum.ik_ok);
@@ -311,6 +377,7 @@ int main(void)
     (void)check(scenario.running_ticks >= M4_RUN_TICKS, "controller runs the surge", &failures);
     (void)check(scenario.out.state == SP_STATE_IDLE && scenario.out.faults == 0u,
                 "controller ends parked without a fault", &failures);
+    (void)check(force_ok, "force control holds in contact, lets go and parks", &failures);
     m4_out_str(failures == 0 ? "result ok" : "result FAILED");
     m4_out_nl();
     {
