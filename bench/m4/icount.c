@@ -328,23 +328,6 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
         if (forcing) {
             m4_stat_add(&r->force, net);
         }
-        if (motion == M4_MOTION_FORCE && net > 14500u * 16u) {
-            m4_out_str("DBG tick ");
-            m4_out_u32(sc->ticks);
-            m4_out_str(" net16 ");
-            m4_out_u32(net / 16u);
-            m4_out_str(" phase ");
-            m4_out_u32(sc->phase);
-            m4_out_str(" pt ");
-            m4_out_u32(sc->phase_ticks);
-            m4_out_str(" mode ");
-            m4_out_u32((uint32_t)sc->ctrl.force.mode);
-            m4_out_str(" state ");
-            m4_out_u32((uint32_t)sc->ctrl.state);
-            m4_out_str(" contact ");
-            m4_out_u32(sc->ctrl.force.contact.made);
-            m4_out_nl();
-        }
         if (before == SP_STATE_RUNNING) {
             r->running_fk[sc->out.fk_iterations < 3u ? sc->out.fk_iterations : 3u]++;
         }

@@ -61,6 +61,41 @@ static int axis_ok(const sp_admit_axis_t *ax)
            ax->v_max > 0 && ax->a_brake > 0;
 }
 
+sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, unsigned axis, int32_t damping, sp_admit_coef_t *c)
+{
+    if (cfg == NULL || c == NULL || axis >= SP_AXES || damping < 1) {
+        return SP_E_ARG;
+    }
+    const sp_admit_axis_t *ax = &cfg->axis[axis];
+    return coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, c);
+}
+
+sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_AXES])
+{
+    if (st == NULL) {
+        return SP_E_ARG;
+    }
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        sp_admit_axis_state_t *s = &st->axis[k];
+        if (free_coef != NULL) {
+            s->free_coef = free_coef[k];
+        }
+        s->coef = s->free_coef;
+        s->d = 0;
+        s->v = 0;
+        s->a = 0;
+        for (unsigned n = 0; n < 4u; ++n) {
+            s->x_f[n] = 0;
+        }
+        s->x_contact = 0;
+        s->w_contact = 0;
+        s->k_hat = 0;
+        s->in_contact = 0u;
+    }
+    st->primed = 0u;
+    return SP_OK;
+}
+
 sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
 {
     if (cfg == NULL || st == NULL || cfg->crossover <= 0 || cfg->k_min < 1 || cfg->k_max < cfg->k_min ||
@@ -75,23 +110,18 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
         if (!axis_ok(ax)) {
             return SP_E_ARG;
         }
-        sp_status_t a = coefficients(ax->mass, ax->damping, ax->stiffness, cfg->tick_us, &s->coef);
+        sp_status_t a = coefficients(ax->mass, ax->damping, ax->stiffness, cfg->tick_us, &s->free_coef);
         sp_status_t b = coefficients(ax->mass, release_damping(ax), ax->release_stiffness, cfg->tick_us, &s->rel);
         if (a != SP_OK || b != SP_OK) {
             return SP_E_OVERFLOW;
         }
-        s->d = 0;
-        s->v = 0;
-        s->a = 0;
-        for (unsigned n = 0; n < 4u; ++n) {
-            s->x_f[n] = 0;
-        }
-        s->x_contact = 0;
-        s->w_contact = 0;
-        s->k_hat = 0;
-        s->in_contact = 0u;
+        /* a_brake < 2^31 and dt <= 2 ms: below 2^22 */
+        s->dv_brake = (sp_q24_t)(((int64_t)ax->a_brake * cfg->tick_us + 500000) / 1000000);
     }
-    fresh.primed = 0u;
+    /* dt <= 2 ms: below 2^30 in Q38; dt >= 100 us: 1/dt below 2^30 in Q16 */
+    fresh.dt_q38 = (int32_t)(((int64_t)cfg->tick_us << 38) / 1000000);
+    fresh.rate_q16 = (int32_t)((INT64_C(1000000) << 16) / cfg->tick_us);
+    (void)sp_admit_restart(&fresh, NULL);
     *st = fresh;
     return SP_OK;
 }
@@ -131,10 +161,11 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
             *limited = 1;
             return 0;
         }
-        uint64_t dist_c = (dist > INT32_MAX) ? (uint64_t)INT32_MAX : (uint64_t)dist;
-        uint64_t brake2 = 2u * (uint64_t)(uint32_t)ax->a_brake * dist_c; /* Q48 (m/s)^2 */
-        uint64_t av = (uint64_t)((v < 0) ? -v : v);
-        if (av * av > brake2) {
+        /* a_brake, dist and |v| (held to v_max) below 2^31: 32 x 32-bit products */
+        uint32_t dist_c = (dist > INT32_MAX) ? (uint32_t)INT32_MAX : (uint32_t)dist;
+        uint64_t brake2 = 2u * ((uint64_t)(uint32_t)ax->a_brake * dist_c); /* Q48 (m/s)^2 */
+        uint32_t av = (uint32_t)((v < 0) ? -v : v);
+        if ((uint64_t)av * av > brake2) {
             int64_t vb = (int64_t)sp_isqrt64(brake2); /* Q24 */
             v = (v > 0) ? vb : -vb;
             *limited = 1;
@@ -154,39 +185,59 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     }
     sp_status_t status = SP_OK;
     sp_admit_report_t rep = {0u, 0u};
-    const int64_t dt_q38 = ((int64_t)cfg->tick_us << 38) / 1000000;
-    const int64_t rate_q16 = (INT64_C(1000000) << 16) / cfg->tick_us;
+    const int32_t dt_q38 = st->dt_q38;
+    const int64_t rate_q16 = st->rate_q16;
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &st->axis[k];
         const uint8_t bit = (uint8_t)(1u << k);
         const int forced = mode == SP_ADMIT_FORCE && (mask & bit) != 0u;
 
-        if (x_meas != NULL) {
-            for (unsigned n = 0; n < 4u; ++n) {
-                int32_t in = (n == 0u) ? x_meas[k] : s->x_f[n - 1u];
-                s->x_f[n] = st->primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
-            }
-        }
-        /* the damping this axis should use */
-        int32_t damping = ax->damping;
-        if (forced && (contact & bit) != 0u) {
-            if (!s->in_contact) {
-                s->in_contact = 1u;
-                s->x_contact = s->x_f[3];
-                s->w_contact = w_ext[k];
-                s->k_hat = 0;
-            }
-            int32_t dc = (x_meas != NULL) ? contact_damping(cfg, s, w_ext[k]) : 0;
-            damping = (dc > 0) ? dc : ((s->k_hat > 0) ? s->coef.damping : ax->damping);
-        } else {
+        if (!forced) {
             s->in_contact = 0u;
             s->k_hat = 0;
+            st->primed &= (uint8_t)~bit;
+            if (s->d == 0 && s->v == 0) {
+                /* at rest on the position reference: the return to d = 0
+                 * and the brake both leave it there (v = 0, d = 0, inside
+                 * every bound), so nothing to compute */
+                s->a = 0;
+                continue;
+            }
+        } else if (x_meas != NULL) {
+            /* the pose through the wrench filter's sections, for the secant;
+             * primed with the measurement the first tick the axis is forced */
+            const int primed = (st->primed & bit) != 0u;
+            for (unsigned n = 0; n < 4u; ++n) {
+                int32_t in = (n == 0u) ? x_meas[k] : s->x_f[n - 1u];
+                s->x_f[n] = primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
+            }
+            st->primed |= bit;
         }
         if (forced) {
+            /* the damping this axis should use */
+            int32_t damping = s->free_coef.damping;
+            if ((contact & bit) != 0u) {
+                if (!s->in_contact) {
+                    s->in_contact = 1u;
+                    s->x_contact = s->x_f[3];
+                    s->w_contact = w_ext[k];
+                    s->k_hat = 0;
+                }
+                int32_t dc = (x_meas != NULL) ? contact_damping(cfg, s, w_ext[k]) : 0;
+                damping = (dc > 0) ? dc : ((s->k_hat > 0) ? s->coef.damping : s->free_coef.damping);
+            } else {
+                s->in_contact = 0u;
+                s->k_hat = 0;
+            }
             int32_t diff = damping - s->coef.damping;
             int32_t tol = s->coef.damping / 16;
-            if (diff > tol || diff < -tol || (damping == ax->damping && s->coef.damping != ax->damping)) {
+            if (damping == s->free_coef.damping) {
+                if (s->coef.damping != s->free_coef.damping) {
+                    s->coef = s->free_coef; /* prepared: what coefficients() would give */
+                    rep.adapted |= bit;
+                }
+            } else if (diff > tol || diff < -tol) {
                 sp_admit_coef_t c;
                 if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, &c) == SP_OK) {
                     s->coef = c;
@@ -199,11 +250,12 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         int64_t v;
         if (mode == SP_ADMIT_HOLD) {
             /* brake: |v| falls by a_brake dt each tick, never through zero */
-            int64_t dv = ((int64_t)ax->a_brake * cfg->tick_us + 500000) / 1000000;
-            v = (s->v > dv) ? s->v - dv : ((s->v < -dv) ? s->v + dv : 0);
+            const int32_t dv = s->dv_brake;
+            v = (s->v > dv) ? (int64_t)s->v - dv : ((s->v < -dv) ? (int64_t)s->v + dv : 0);
         } else {
             const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
-            int64_t f = forced ? clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
+            /* held within +-2^30: a 32 x 32-bit product */
+            int32_t f = forced ? (int32_t)clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
             v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +
                 (((int64_t)c->c_f * f + (INT64_C(1) << 21)) >> 22) -
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
@@ -223,9 +275,6 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         if (limited) {
             rep.limited |= bit;
         }
-    }
-    if (x_meas != NULL) {
-        st->primed = 1u;
     }
     if (report != NULL) {
         *report = rep;

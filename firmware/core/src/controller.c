@@ -671,7 +671,7 @@ SPI_NOINLINE static void force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *c
 {
     uint32_t events = 0u;
     if (ctrl->state != SP_STATE_READY && ctrl->state != SP_STATE_RUNNING) {
-        (void)sp_force_init(&ctrl->prep.force, &ctrl->force);
+        (void)sp_force_reset(&ctrl->force); /* no computation: coefficients kept */
         ctrl->park_after_release = 0u;
         return;
     }
@@ -781,7 +781,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         ctrl->pos_ref = ref;
         hold_setpoints(ctrl, &ref);
         if (ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) {
-            (void)sp_force_init(&ctrl->prep.force, &ctrl->force);
+            (void)sp_force_reset(&ctrl->force); /* no computation: coefficients kept */
             ctrl->park_after_release = 0u;
         }
     } else {

@@ -39,21 +39,12 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     return SP_OK;
 }
 
-sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
+sp_status_t sp_force_reset(sp_force_t *f)
 {
-    if (cfg == NULL || f == NULL) {
+    if (f == NULL) {
         return SP_E_ARG;
     }
-    for (unsigned k = 0; k < SP_AXES; ++k) {
-        if (cfg->guide_damping[k] < 1 || cfg->deflection[k] <= 0) {
-            return SP_E_ARG;
-        }
-    }
-    sp_status_t st = sp_admit_configure(&cfg->admit, &f->st);
-    if (st != SP_OK) {
-        return st;
-    }
-    f->admit = cfg->admit;
+    (void)sp_admit_restart(&f->st, f->free_force);
     f->mode = SP_FORCE_OFF;
     f->mask = 0u;
     f->retract_fault = 0u;
@@ -64,6 +55,33 @@ sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
     f->contact.armed = 0u;
     f->contact.low = 0u;
     return SP_OK;
+}
+
+sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
+{
+    if (cfg == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        if (cfg->guide_damping[k] < 1 || cfg->deflection[k] <= 0) {
+            return SP_E_ARG;
+        }
+    }
+    sp_admit_t st;
+    sp_admit_coef_t guide[SP_AXES];
+    sp_status_t s = sp_admit_configure(&cfg->admit, &st);
+    for (unsigned k = 0; k < SP_AXES && s == SP_OK; ++k) {
+        s = sp_admit_coefficients(&cfg->admit, k, cfg->guide_damping[k], &guide[k]);
+    }
+    if (s != SP_OK) {
+        return s;
+    }
+    f->st = st;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        f->free_force[k] = st.axis[k].free_coef;
+        f->free_guide[k] = guide[k];
+    }
+    return sp_force_reset(f);
 }
 
 /* |force part| <= max force (64-bit: no overflow), |moments| <= max moment. */
@@ -97,19 +115,8 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
         return SP_E_RANGE;
     }
     if (f->mode == SP_FORCE_OFF) {
-        sp_admit_config_t a = cfg->admit;
-        if (mode == SP_FORCE_GUIDE) {
-            for (unsigned k = 0; k < SP_AXES; ++k) {
-                a.axis[k].damping = cfg->guide_damping[k];
-            }
-        }
-        sp_admit_t st;
-        sp_status_t s = sp_admit_configure(&a, &st);
-        if (s != SP_OK) {
-            return s;
-        }
-        f->admit = a;
-        f->st = st;
+        /* afresh, with the coefficients prepared at init */
+        (void)sp_admit_restart(&f->st, (mode == SP_FORCE_GUIDE) ? f->free_guide : f->free_force);
         f->contact.made = 0u;
         f->contact.armed = 0u;
         f->contact.low = 0u;
@@ -165,8 +172,8 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         return SP_E_ARG;
     }
     *events = 0u;
-    *out = *pos_ref;
     if (f->mode == SP_FORCE_OFF) {
+        *out = *pos_ref;
         return SP_OK;
     }
     static const sp_q8_t zero[SP_AXES] = {0, 0, 0, 0, 0, 0};
@@ -194,8 +201,9 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         }
     }
     uint8_t contact = f->contact.made ? f->mask : 0u;
-    sp_status_t st = sp_admit_step(&f->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
+    sp_status_t st = sp_admit_step(&cfg->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
                                    (x_meas != NULL) ? x : NULL, contact, lo, hi, NULL);
+    /* every field of out: the position reference plus the offsets */
     for (unsigned k = 0; k < 3u; ++k) {
         const sp_admit_axis_state_t *a = &f->st.axis[k];
         const sp_admit_axis_state_t *r = &f->st.axis[3u + k];
