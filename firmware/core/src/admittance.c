@@ -282,21 +282,46 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     return status;
 }
 
+void sp_contact_target(const sp_q8_t w_target[SP_AXES], sp_contact_target_t *tp)
+{
+    if (w_target == NULL || tp == NULL) {
+        return;
+    }
+    int64_t t2 = 0;
+    for (unsigned k = 0; k < 3u; ++k) {
+        int64_t t = clamp64(w_target[k], WRENCH_MAX);
+        tp->t[k] = (int32_t)t;
+        t2 += t * t;
+    }
+    tp->t2 = t2;
+    tp->t_norm = (int64_t)sp_isqrt64((uint64_t)t2); /* |F_target|, Q8 */
+}
+
 uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
                          const sp_q8_t w_target[SP_AXES])
 {
-    if (cfg == NULL || st == NULL || w_ext == NULL || w_target == NULL) {
+    if (w_target == NULL) {
+        return 0u;
+    }
+    sp_contact_target_t tp;
+    sp_contact_target(w_target, &tp);
+    return sp_contact_step_to(cfg, st, w_ext, &tp);
+}
+
+uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
+                            const sp_contact_target_t *tp)
+{
+    if (cfg == NULL || st == NULL || w_ext == NULL || tp == NULL) {
         return 0u;
     }
     uint32_t events = 0u;
-    int64_t dot = 0, t2 = 0, f2 = 0;
+    int64_t dot = 0, f2 = 0;
     for (unsigned k = 0; k < 3u; ++k) {
         int64_t f = clamp64(w_ext[k], WRENCH_MAX);
-        int64_t t = clamp64(w_target[k], WRENCH_MAX);
-        dot -= f * t; /* the push-back times |F_target|, Q16 */
-        t2 += t * t;
+        dot -= f * tp->t[k]; /* the push-back times |F_target|, Q16 */
         f2 += f * f;
     }
+    const int64_t t2 = tp->t2;
     int64_t excess = cfg->excess;
     if (f2 > excess * excess) {
         events |= SP_CONTACT_EXCESS;
@@ -307,7 +332,7 @@ uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const
         st->low = 0u;
         return events;
     }
-    int64_t t_norm = (int64_t)sp_isqrt64((uint64_t)t2); /* |F_target|, Q8 */
+    const int64_t t_norm = tp->t_norm;
     int64_t made = (cfg->made > (int32_t)WRENCH_MAX) ? WRENCH_MAX : cfg->made;
     if (!st->made) {
         if (dot >= made * t_norm) {

@@ -3,6 +3,8 @@
  */
 #include "sp/force.h"
 
+#include "fixed_inline.h"
+
 #include <stddef.h>
 
 sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alpha, uint32_t tick_us)
@@ -51,6 +53,7 @@ sp_status_t sp_force_reset(sp_force_t *f)
     for (unsigned k = 0; k < SP_AXES; ++k) {
         f->target[k] = 0;
     }
+    sp_contact_target(f->target, &f->push);
     f->contact.made = 0u;
     f->contact.armed = 0u;
     f->contact.low = 0u;
@@ -127,6 +130,7 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
     for (unsigned k = 0; k < SP_AXES; ++k) {
         f->target[k] = (mode == SP_FORCE_FORCE) ? target[k] : 0;
     }
+    sp_contact_target(f->target, &f->push);
     return SP_OK;
 }
 
@@ -143,16 +147,24 @@ sp_status_t sp_force_release(sp_force_t *f)
 
 static sp_q24_t add_sat(sp_q24_t a, sp_q24_t b)
 {
-    int64_t s = (int64_t)a + b;
-    return (s > INT32_MAX) ? INT32_MAX : ((s < INT32_MIN) ? INT32_MIN : (sp_q24_t)s);
+    sp_flags_t flags = 0u; /* saturation is the documented result */
+    return spi_add(a, b, &flags);
 }
 
-/* The bounds of d on axis k: the deflection limit and the workspace box
- * around the position reference (0 when the reference is outside it). */
-static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, sp_q24_t lo[SP_AXES],
-                   sp_q24_t hi[SP_AXES])
+/* The bounds of d on the axes in `moving`: the deflection limit and the
+ * workspace box around the position reference (0 when the reference is
+ * outside it). An axis outside `moving` (at rest on the position reference
+ * and not forced: sp_admit_step leaves it there without reading its
+ * bounds) gets [0, 0], which would hold it there as well. */
+static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, uint8_t moving,
+                   sp_q24_t lo[SP_AXES], sp_q24_t hi[SP_AXES])
 {
     for (unsigned k = 0; k < SP_AXES; ++k) {
+        lo[k] = 0;
+        hi[k] = 0;
+        if ((moving & (1u << k)) == 0u) {
+            continue;
+        }
         int64_t x = (k < 3u) ? p->pos[k] : p->rpy[k - 3u];
         int64_t l = (int64_t)lim->ws_lo[k] - x;
         int64_t h = (int64_t)lim->ws_hi[k] - x;
@@ -178,7 +190,7 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
     }
     static const sp_q8_t zero[SP_AXES] = {0, 0, 0, 0, 0, 0};
     if (w_ext != NULL && (f->mode == SP_FORCE_FORCE || f->mode == SP_FORCE_GUIDE)) {
-        *events = sp_contact_step(&cfg->contact, &f->contact, w_ext, f->target);
+        *events = sp_contact_step_to(&cfg->contact, &f->contact, w_ext, &f->push);
         if ((*events & SP_CONTACT_EXCESS) != 0u) {
             f->mode = SP_FORCE_RELEASE;
             f->retract_fault = 1u;
@@ -193,7 +205,14 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         am = SP_ADMIT_HOLD;
     }
     sp_q24_t lo[SP_AXES], hi[SP_AXES], x[SP_AXES];
-    bounds(cfg, lim, &pos_ref->pose, lo, hi);
+    uint8_t moving = (am == SP_ADMIT_FORCE) ? f->mask : 0u;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        const sp_admit_axis_state_t *a = &f->st.axis[k];
+        if (a->d != 0 || a->v != 0) {
+            moving = (uint8_t)(moving | (1u << k));
+        }
+    }
+    bounds(cfg, lim, &pos_ref->pose, moving, lo, hi);
     if (x_meas != NULL) {
         for (unsigned k = 0; k < 3u; ++k) {
             x[k] = x_meas->pos[k];

@@ -4,6 +4,8 @@
  */
 #include "sp/ftsensor.h"
 
+#include "fixed_inline.h"
+
 #include <stddef.h>
 
 #define IN_MAX (INT64_C(1) << 30)
@@ -73,8 +75,8 @@ sp_status_t sp_ft_apply(const sp_ft_frame_t *fr, const sp_q8_t reading[6], sp_q8
     int64_t rx[3] = {(int64_t)r[1] * fc[2] - (int64_t)r[2] * fc[1], (int64_t)r[2] * fc[0] - (int64_t)r[0] * fc[2],
                      (int64_t)r[0] * fc[1] - (int64_t)r[1] * fc[0]};
     for (unsigned i = 0; i < 3u; ++i) {
-        out[i] = sp_sat32(f[i], &flags);
-        out[3u + i] = sp_sat32(round_shift(m[i], 30u) + round_shift(rx[i], 24u), &flags);
+        out[i] = spi_sat(f[i], &flags);
+        out[3u + i] = spi_sat(round_shift(m[i], 30u) + round_shift(rx[i], 24u), &flags);
     }
     return (sat || flags != 0u) ? SP_E_OVERFLOW : SP_OK;
 }
@@ -141,7 +143,7 @@ sp_status_t sp_ft_tare_step(sp_ft_tare_t *t, const sp_q8_t reading[6], sp_q8_t o
     }
     sp_flags_t flags = 0u;
     for (unsigned k = 0; k < 6u; ++k) {
-        out[k] = sp_sat32((int64_t)reading[k] - t->bias[k], &flags);
+        out[k] = spi_sat((int64_t)reading[k] - t->bias[k], &flags);
     }
     return (flags != 0u) ? SP_E_OVERFLOW : st;
 }

@@ -221,4 +221,22 @@ typedef struct {
 uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
                          const sp_q8_t w_target[SP_AXES]);
 
+/** A target's force part as sp_contact_step uses it, prepared once per target. */
+typedef struct {
+    int32_t t[3];   /**< the force part, each component held within +-2^30, N, Q8 */
+    int64_t t2;     /**< |t|^2, Q16 */
+    int64_t t_norm; /**< |t|, rounded, N, Q8 */
+} sp_contact_target_t;
+
+/** Prepares w_target (the first three components) for sp_contact_step_to. No-op on NULL. */
+void sp_contact_target(const sp_q8_t w_target[SP_AXES], sp_contact_target_t *tp);
+
+/**
+ * sp_contact_step with the target prepared by sp_contact_target: the same
+ * events and state, without the target's norm (a square root) each tick.
+ * Returns 0 on NULL.
+ */
+uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
+                            const sp_contact_target_t *tp);
+
 #endif /* SP_ADMITTANCE_H */

@@ -60,6 +60,7 @@ typedef struct {
     sp_q8_t target[SP_AXES];             /**< W_target, N and N m, base frame, Q8 */
     sp_admit_t st;                       /**< the law's state (the config's admit) */
     sp_contact_t contact;                /**< contact supervision */
+    sp_contact_target_t push;            /**< the target's force part, prepared for contact supervision */
     sp_admit_coef_t free_force[SP_AXES]; /**< FORCE: the approach damping's coefficients (prepared) */
     sp_admit_coef_t free_guide[SP_AXES]; /**< GUIDE: the guide damping's coefficients (prepared) */
 } sp_force_t;
