@@ -20,9 +20,17 @@ static int64_t clamp64(int64_t v, int64_t lim)
     return (v < -lim) ? -lim : ((v > lim) ? lim : v);
 }
 
+/* dt in s, Q50 (dt_us 2^50 / 10^6): what coefficients() divides by den. */
+static int64_t tick_q50(uint32_t tick_us, sp_flags_t *flags)
+{
+    return sp_div64((int64_t)tick_us, 1000000, 50u, flags);
+}
+
 /* The coefficients of the law for mass M (Q16), damping D and stiffness K
- * (N s/m, N/m) at tick dt_us. */
-static sp_status_t coefficients(sp_q16_t mass, int32_t damping, int32_t stiffness, uint32_t tick_us, sp_admit_coef_t *c)
+ * (N s/m, N/m) at tick dt_us, dt_q50 = tick_q50(dt_us) (prepared). Three
+ * divisions, a fourth and fifth only for K != 0. */
+static sp_status_t coefficients(sp_q16_t mass, int32_t damping, int32_t stiffness, uint32_t tick_us, int64_t dt_q50,
+                                sp_admit_coef_t *c)
 {
     sp_flags_t flags = 0u;
     /* den = M + dt D, kg, Q12 */
@@ -33,10 +41,13 @@ static sp_status_t coefficients(sp_q16_t mass, int32_t damping, int32_t stiffnes
     /* c_v = M / den, Q30 (Q16 / Q12 -> Q4, 26 more bits) */
     sp_q30_t c_v = sp_div((int64_t)mass, (int32_t)den, 26u, &flags);
     /* c_f = dt / den, Q38: dt_us 2^50 / (10^6 den_q12) */
-    int32_t c_f = sp_div(sp_div64((int64_t)tick_us, 1000000, 50u, &flags), (int32_t)den, 0u, &flags);
-    /* c_k = dt K / den, 1/s, Q16: dt_us K 2^28 / (10^6 den_q12) */
-    int64_t k = sp_div64((int64_t)tick_us * stiffness, (int32_t)den, 28u, &flags);
-    int32_t c_k = sp_sat32((k + 500000) / 1000000, &flags);
+    int32_t c_f = sp_div(dt_q50, (int32_t)den, 0u, &flags);
+    /* c_k = dt K / den, 1/s, Q16: dt_us K 2^28 / (10^6 den_q12); 0 for K = 0 */
+    int32_t c_k = 0;
+    if (stiffness != 0) {
+        int64_t k = sp_div64((int64_t)tick_us * stiffness, (int32_t)den, 28u, &flags);
+        c_k = sp_sat32((k + 500000) / 1000000, &flags);
+    }
     if (flags != 0u) {
         return SP_E_OVERFLOW;
     }
@@ -67,7 +78,9 @@ sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, unsigned axis, i
         return SP_E_ARG;
     }
     const sp_admit_axis_t *ax = &cfg->axis[axis];
-    return coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, c);
+    sp_flags_t flags = 0u;
+    int64_t dt_q50 = tick_q50(cfg->tick_us, &flags);
+    return (flags != 0u) ? SP_E_OVERFLOW : coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, dt_q50, c);
 }
 
 sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_AXES])
@@ -104,14 +117,20 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
         return SP_E_ARG;
     }
     sp_admit_t fresh;
+    sp_flags_t flags = 0u;
+    fresh.dt_q50 = tick_q50(cfg->tick_us, &flags); /* dt <= 2 ms: below 2^41 */
+    if (flags != 0u) {
+        return SP_E_OVERFLOW;
+    }
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &fresh.axis[k];
         if (!axis_ok(ax)) {
             return SP_E_ARG;
         }
-        sp_status_t a = coefficients(ax->mass, ax->damping, ax->stiffness, cfg->tick_us, &s->free_coef);
-        sp_status_t b = coefficients(ax->mass, release_damping(ax), ax->release_stiffness, cfg->tick_us, &s->rel);
+        sp_status_t a = coefficients(ax->mass, ax->damping, ax->stiffness, cfg->tick_us, fresh.dt_q50, &s->free_coef);
+        sp_status_t b =
+            coefficients(ax->mass, release_damping(ax), ax->release_stiffness, cfg->tick_us, fresh.dt_q50, &s->rel);
         if (a != SP_OK || b != SP_OK) {
             return SP_E_OVERFLOW;
         }
@@ -239,7 +258,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                 }
             } else if (diff > tol || diff < -tol) {
                 sp_admit_coef_t c;
-                if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, &c) == SP_OK) {
+                if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, st->dt_q50, &c) == SP_OK) {
                     s->coef = c;
                     rep.adapted |= bit;
                 } else {

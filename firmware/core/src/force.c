@@ -184,8 +184,8 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         return SP_E_ARG;
     }
     *events = 0u;
+    *out = *pos_ref; /* force control adds the offsets of the axes that have one */
     if (f->mode == SP_FORCE_OFF) {
-        *out = *pos_ref;
         return SP_OK;
     }
     static const sp_q8_t zero[SP_AXES] = {0, 0, 0, 0, 0, 0};
@@ -222,16 +222,21 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
     uint8_t contact = f->contact.made ? f->mask : 0u;
     sp_status_t st = sp_admit_step(&cfg->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
                                    (x_meas != NULL) ? x : NULL, contact, lo, hi, NULL);
-    /* every field of out: the position reference plus the offsets */
+    /* out: the position reference plus the offsets of the axes that have
+     * one (adding zero would leave a field as it is) */
     for (unsigned k = 0; k < 3u; ++k) {
         const sp_admit_axis_state_t *a = &f->st.axis[k];
         const sp_admit_axis_state_t *r = &f->st.axis[3u + k];
-        out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
-        out->vel[k] = add_sat(pos_ref->vel[k], a->v);
-        out->acc[k] = add_sat(pos_ref->acc[k], a->a);
-        out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
-        out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
-        out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
+        if (a->d != 0 || a->v != 0 || a->a != 0) {
+            out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
+            out->vel[k] = add_sat(pos_ref->vel[k], a->v);
+            out->acc[k] = add_sat(pos_ref->acc[k], a->a);
+        }
+        if (r->d != 0 || r->v != 0 || r->a != 0) {
+            out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
+            out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
+            out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
+        }
     }
     if (f->mode == SP_FORCE_RELEASE) {
         int done = 1;

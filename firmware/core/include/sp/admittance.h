@@ -105,6 +105,7 @@ typedef struct {
 /** State of the admittance. */
 typedef struct {
     sp_admit_axis_state_t axis[SP_AXES];
+    int64_t dt_q50;   /**< the tick, s, Q50 (prepared: the numerator of the coefficient c_f) */
     int32_t dt_q38;   /**< the tick, s, Q38 (prepared) */
     int32_t rate_q16; /**< 1 / tick, 1/s, Q16 (prepared) */
     uint8_t primed;   /**< bit k: x_f of axis k holds the measured pose (the axis is forced since) */
