@@ -59,6 +59,12 @@ __attribute__((noipa)) static sp_status_t run_tick(m4_scenario_t *s)
     return sp_ctrl_step(&s->cfg, &s->ctrl, &s->in, &s->out);
 }
 
+__attribute__((noipa)) static sp_status_t run_force_step(sp_ctrl_t *c, sp_force_t *f, const sp_q8_t *w,
+                                                         const sp_pose_t *x, sp_motion_t *out, uint32_t *events)
+{
+    return sp_force_step(&c->prep.force, f, &c->prep.limits, &c->pos_ref, w, x, out, events);
+}
+
 __attribute__((noipa)) static sp_status_t run_orientation(const sp_q24_t *rpy, sp_rot_t *rot)
 {
     return sp_orientation(rpy, rot);
@@ -331,6 +337,20 @@ static void diff_print(const char *what, const diff_stat_t *d)
     m4_out_nl();
 }
 
+/* 1 if the n bytes at a and b are equal. */
+static int m4_same_bytes(const void *a, const void *b, uint32_t n)
+{
+    const uint8_t *x = (const uint8_t *)a;
+    const uint8_t *y = (const uint8_t *)b;
+    uint32_t i;
+    for (i = 0u; i < n; ++i) {
+        if (x[i] != y[i]) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* The twin's tick costs by tick index (the force scenario in position
  * control), for the per-tick increment of force control. */
 static uint32_t twin_net16[M4_MAX_TICKS + M4_TAIL_TICKS + 1u];
@@ -347,6 +367,8 @@ typedef struct {
     m4_stat_t slide;        /* ticks of the slide (began in RUNNING, in phase 3 of the force scenario) */
     diff_stat_t incr;       /* the run's ticks less the twin's same ticks */
     diff_stat_t incr_slide; /* ... those of the slide */
+    m4_stat_t own;          /* force control's own step (sp_force_step), again on a copy, in the run's ticks */
+    uint32_t own_mismatch;  /* copies whose step did not reproduce the tick's (not counted in `own`) */
 } scenario_counts_t;
 
 static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r)
@@ -367,6 +389,8 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
     m4_stat_reset(&r->slide);
     diff_reset(&r->incr);
     diff_reset(&r->incr_slide);
+    m4_stat_reset(&r->own);
+    r->own_mismatch = 0u;
     (void)m4_scenario_init(sc, &sp_platform_default);
     sc->motion = motion;
     if (motion == M4_MOTION_FORCE || motion == M4_MOTION_FORCE_TWIN) {
@@ -379,6 +403,15 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
         sp_state_t before = sc->ctrl.state;
         int forcing = sc->ctrl.force.mode == SP_FORCE_FORCE;
         int in_run = sc->ctrl.force.mode != SP_FORCE_OFF || sc->in.cmd.type == SP_CMD_FORCE;
+        /* force control's own step, again on a copy of its state from
+         * before the tick (ticks without a command: the state the tick's
+         * step began from), counted only where it reproduces the tick's */
+        static sp_force_t shadow;
+        int shadowed = motion == M4_MOTION_FORCE && sc->ctrl.force.mode != SP_FORCE_OFF &&
+                       sc->in.cmd.type == SP_CMD_NONE && (before == SP_STATE_READY || before == SP_STATE_RUNNING);
+        if (shadowed) {
+            shadow = sc->ctrl.force;
+        }
         int sliding = before == SP_STATE_RUNNING && sc->phase == 3u;
         uint32_t tick = sc->ticks;
         uint32_t net;
@@ -389,6 +422,19 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
         m4_stat_add(&r->all, net);
         if (forcing) {
             m4_stat_add(&r->force, net);
+        }
+        if (shadowed && (sc->ctrl.state == SP_STATE_READY || sc->ctrl.state == SP_STATE_RUNNING)) {
+            sp_motion_t out;
+            uint32_t events;
+            uint32_t own;
+            const sp_q8_t *w = sc->ctrl.ft_valid ? sc->ctrl.ft_section[SP_WRENCH_SECTIONS - 1u] : NULL;
+            M4_MEASURE(own, sink = (int32_t)run_force_step(
+                                &sc->ctrl, &shadow, w, sc->ctrl.est.valid ? &sc->ctrl.est.pose : NULL, &out, &events));
+            if (m4_same_bytes(&shadow, &sc->ctrl.force, sizeof shadow)) {
+                m4_stat_add(&r->own, own);
+            } else {
+                ++r->own_mismatch;
+            }
         }
         if (motion == M4_MOTION_FORCE_TWIN && tick < sizeof twin_net16 / sizeof twin_net16[0]) {
             twin_net16[tick] = net;
@@ -509,6 +555,13 @@ static void controller(void)
     m4_stat_print("tick_force_slide", "tick in FORCE of the 50 mm slide", &force.slide);
     m4_stat_print("tick_all_force", "tick, every state (force scenario)", &force.all);
     print_scenario_end(&sc, &force);
+    m4_stat_print("force_own", "force control's own step (sp_force_step)", &force.own);
+    if (force.own_mismatch != 0u) {
+        m4_out_str("warning: ");
+        m4_out_u32(force.own_mismatch);
+        m4_out_str(" steps on the copy differed from the tick's");
+        m4_out_nl();
+    }
     diff_print("force control adds per tick, the run (less the twin's same tick)", &force.incr);
     diff_print("force control adds per tick, the slide (both RUNNING, the same move)", &force.incr_slide);
     m4_out_str("force-control budget: tick of the run mean ");
@@ -523,7 +576,10 @@ static void controller(void)
     out_signed16((force.incr_slide.n != 0u) ? force.incr_slide.sum / (int64_t)force.incr_slide.n : 0);
     m4_out_str(", max ");
     out_signed16((force.incr_slide.n != 0u) ? force.incr_slide.max : 0);
-    m4_out_str(" to a RUNNING tick");
+    m4_out_str(" to a RUNNING tick; its own step mean ");
+    m4_out_fix16(m4_stat_mean16(&force.own));
+    m4_out_str(", max ");
+    m4_out_fix16(force.own.max16);
     m4_out_nl();
     stack = force.stack > stack ? force.stack : stack;
     stack = twin.stack > stack ? twin.stack : stack;
