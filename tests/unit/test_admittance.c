@@ -456,7 +456,7 @@ static void test_step_equals_plain(void **state)
             sp_admit_coef_t g[SP_AXES];
             for (unsigned k = 0; k < SP_AXES; ++k) {
                 cp.axis[k].damping = (int32_t)(1 + tu_next(&rng) % 5000u);
-                assert_int_equal(sp_admit_coefficients(&c, k, cp.axis[k].damping, &g[k]), SP_OK);
+                assert_int_equal(sp_admit_coefficients(&c, &st, k, cp.axis[k].damping, &g[k]), SP_OK);
             }
             assert_int_equal(sp_admit_restart(&st, g), SP_OK);
         }
@@ -549,12 +549,15 @@ static void test_restart_is_configure(void **state)
         }
     }
     sp_admit_config_t c = config();
+    sp_admit_t st;
     sp_admit_coef_t cf;
+    assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
     assert_int_equal(sp_admit_restart(NULL, NULL), SP_E_ARG);
-    assert_int_equal(sp_admit_coefficients(NULL, 0u, 10, &cf), SP_E_ARG);
-    assert_int_equal(sp_admit_coefficients(&c, SP_AXES, 10, &cf), SP_E_ARG);
-    assert_int_equal(sp_admit_coefficients(&c, 0u, 0, &cf), SP_E_ARG);
-    assert_int_equal(sp_admit_coefficients(&c, 0u, INT32_MAX, &cf), SP_E_OVERFLOW); /* M + dt D beyond 2^31 kg */
+    assert_int_equal(sp_admit_coefficients(NULL, &st, 0u, 10, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, NULL, 0u, 10, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, &st, SP_AXES, 10, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, &st, 0u, 0, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, &st, 0u, INT32_MAX, &cf), SP_E_OVERFLOW); /* M + dt D beyond 2^31 kg */
 }
 
 /* Contact supervision with the target prepared against the plain one. */

@@ -72,15 +72,14 @@ static int axis_ok(const sp_admit_axis_t *ax)
            ax->v_max > 0 && ax->a_brake > 0;
 }
 
-sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, unsigned axis, int32_t damping, sp_admit_coef_t *c)
+sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, const sp_admit_t *st, unsigned axis, int32_t damping,
+                                  sp_admit_coef_t *c)
 {
-    if (cfg == NULL || c == NULL || axis >= SP_AXES || damping < 1) {
+    if (cfg == NULL || st == NULL || c == NULL || axis >= SP_AXES || damping < 1) {
         return SP_E_ARG;
     }
     const sp_admit_axis_t *ax = &cfg->axis[axis];
-    sp_flags_t flags = 0u;
-    int64_t dt_q50 = tick_q50(cfg->tick_us, &flags);
-    return (flags != 0u) ? SP_E_OVERFLOW : coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, dt_q50, c);
+    return coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, st->dt_q50, c);
 }
 
 sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_AXES])

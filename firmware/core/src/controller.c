@@ -654,16 +654,14 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     if (ctrl->est.ref_lu.valid && ctrl->have_setpoint) {
         sc = ctrl->model.ref.sc;
     } else {
-        spi_orientation_sc(ctrl->est.pose.rpy, &rot, sc_est);
+        spi_orientation_sc(ctrl->est.pose.rpy, &rot, sc_est); /* its sines (before a reference exists) */
         sc = sc_est;
     }
     for (k = 0u; k < 6u; ++k) {
         same &= (sc[k] == ctrl->ft_frame_sc[k]) ? 1 : 0;
     }
     if (!same || !ctrl->ft_frame_valid) {
-        if (sc != sc_est) {
-            spi_rot_from_sincos(sc, &rot);
-        }
+        spi_rot_from_sincos(sc, &rot);
         (void)sp_ft_frame(&cfg->ft_mount, &rot, &ctrl->ft_frame); /* saturates, never wraps */
         for (k = 0u; k < 6u; ++k) {
             ctrl->ft_frame_sc[k] = sc[k];

@@ -70,19 +70,14 @@ sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
             return SP_E_ARG;
         }
     }
-    sp_admit_t st;
-    sp_admit_coef_t guide[SP_AXES];
-    sp_status_t s = sp_admit_configure(&cfg->admit, &st);
+    /* on failure f is left unusable: init again with a good config */
+    sp_status_t s = sp_admit_configure(&cfg->admit, &f->st);
     for (unsigned k = 0; k < SP_AXES && s == SP_OK; ++k) {
-        s = sp_admit_coefficients(&cfg->admit, k, cfg->guide_damping[k], &guide[k]);
+        f->free_force[k] = f->st.axis[k].free_coef;
+        s = sp_admit_coefficients(&cfg->admit, &f->st, k, cfg->guide_damping[k], &f->free_guide[k]);
     }
     if (s != SP_OK) {
         return s;
-    }
-    f->st = st;
-    for (unsigned k = 0; k < SP_AXES; ++k) {
-        f->free_force[k] = st.axis[k].free_coef;
-        f->free_guide[k] = guide[k];
     }
     return sp_force_reset(f);
 }
@@ -119,11 +114,10 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
     }
     if (f->mode == SP_FORCE_OFF) {
         /* afresh, with the coefficients prepared at init */
-        (void)sp_admit_restart(&f->st, (mode == SP_FORCE_GUIDE) ? f->free_guide : f->free_force);
-        f->contact.made = 0u;
-        f->contact.armed = 0u;
-        f->contact.low = 0u;
-        f->retract_fault = 0u;
+        (void)sp_force_reset(f);
+        if (mode == SP_FORCE_GUIDE) {
+            (void)sp_admit_restart(&f->st, f->free_guide);
+        }
     }
     f->mode = mode;
     f->mask = (uint8_t)(mask & 0x3Fu);

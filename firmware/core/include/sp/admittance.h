@@ -137,14 +137,16 @@ typedef struct {
 sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st);
 
 /**
- * The coefficients of axis `axis` of cfg (its mass and stiffness, the tick)
- * for the damping `damping` (N s/m or N m s/rad, >= 1): what
- * sp_admit_configure and a step's adaptation compute, for a caller that
- * prepares the coefficients of another free-space damping (hand guiding).
- * SP_E_ARG on NULL, an axis >= SP_AXES or a damping < 1; SP_E_OVERFLOW as
- * sp_admit_configure (*c unchanged on failure).
+ * The coefficients of axis `axis` of cfg (its mass and stiffness; the tick
+ * as prepared in st, which sp_admit_configure made from cfg) for the
+ * damping `damping` (N s/m or N m s/rad, >= 1): what sp_admit_configure and
+ * a step's adaptation compute, for a caller that prepares the coefficients
+ * of another free-space damping (hand guiding). SP_E_ARG on NULL, an axis
+ * >= SP_AXES or a damping < 1; SP_E_OVERFLOW as sp_admit_configure (*c
+ * unchanged on failure).
  */
-sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, unsigned axis, int32_t damping, sp_admit_coef_t *c);
+sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, const sp_admit_t *st, unsigned axis, int32_t damping,
+                                  sp_admit_coef_t *c);
 
 /**
  * Starts afresh without computing anything: every axis to d = v = a = 0, no
