@@ -30,7 +30,9 @@
  *                                     a, coefficients, stiffness estimate,
  *                                     events, status, every tick of 600
  *                                     random runs (FORCE, then RELEASE or
- *                                     HOLD, as sp/force.h runs it)
+ *                                     HOLD, as sp/force.h runs it), and at
+ *                                     the edges of the adaptation's 1/16
+ *                                     window
  */
 #include <math.h>
 #include <setjmp.h>
@@ -597,6 +599,91 @@ static void test_contact_equals_plain(void **state)
     assert_int_equal(sp_contact_step_to(NULL, &cs, w0, NULL), 0u);
 }
 
+/* The adaptation at the edges of its 1/16 window: an axis set up in
+ * contact with a secant of exactly k (travel 2^16 Q24, the wrench change
+ * k Q8), the damping in use D, stepped by the prepared and the plain step,
+ * for k where round(k / w_c) crosses D - D/16 or D + D/16, with the
+ * free-space damping inside, outside and on the window. */
+static void test_secant_window_edges(void **state)
+{
+    (void)state;
+    uint64_t rng = 0xed9e5u;
+    int acted = 0, quiet = 0;
+    for (int run = 0; run < 3000; ++run) {
+        sp_admit_config_t c = config();
+        /* half the runs at an even number of rad/s: the edges then fall on
+         * exact multiples (ties of the rounding) */
+        c.crossover = (tu_next(&rng) & 1u) ? (sp_q16_t)(131072 * (int32_t)(1u + tu_next(&rng) % 50u))
+                                           : (sp_q16_t)(1 + tu_next(&rng) % (uint64_t)(100 * 65536));
+        c.k_min = 1;
+        c.k_max = INT32_MAX;
+        c.secant_force = 1;
+        c.secant_travel = 1;
+        const unsigned ax = (unsigned)(tu_next(&rng) % SP_AXES);
+        const int32_t in_use = (int32_t)exp(tu_uniform(&rng, 0.0, log(2e7)));
+        const int32_t tol = in_use / 16;
+        int32_t free_d;
+        switch (tu_next(&rng) % 4u) {
+        case 0u:
+            free_d = in_use; /* the free-space damping in use */
+            break;
+        case 1u:
+            free_d = in_use + (int32_t)(tu_next(&rng) % (uint64_t)(2 * tol + 1)) - tol; /* inside the window */
+            break;
+        default:
+            free_d = (int32_t)(1 + tu_next(&rng) % 5000000u); /* anywhere */
+            break;
+        }
+        free_d = (free_d < 1) ? 1 : free_d;
+        c.axis[ax].damping = free_d;
+        sp_admit_t st;
+        plain_admit_t ps;
+        assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+        assert_int_equal(plain_admit_configure(&c, &ps), SP_OK);
+        sp_admit_coef_t use;
+        if (sp_admit_coefficients(&c, &st, ax, in_use, &use) != SP_OK) {
+            continue;
+        }
+        /* k around an edge: where round(k 2^16 / w_c) crosses D - tol or D + tol */
+        const double edge = ((tu_next(&rng) & 1u) ? (double)(in_use - tol) - 0.5 : (double)(in_use + tol) + 0.5) *
+                            (double)c.crossover / 65536.0;
+        const int64_t k = (int64_t)edge + (int64_t)(tu_next(&rng) % 7u) - 3;
+        if (k < 1 || k > (1 << 30)) {
+            continue;
+        }
+        sp_admit_axis_state_t *a = &st.axis[ax];
+        plain_axis_state_t *b = &ps.axis[ax];
+        a->coef = use;
+        b->coef = use;
+        for (unsigned n = 0; n < 4u; ++n) {
+            a->x_f[n] = -65536;
+            b->x_f[n] = -65536;
+        }
+        st.primed = (uint8_t)(1u << ax);
+        ps.primed = 1u;
+        a->in_contact = b->in_contact = 1u;
+        a->x_contact = b->x_contact = 0;
+        a->w_contact = b->w_contact = 0;
+        a->k_hat = b->k_hat = 1;
+        sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
+        sp_q24_t xm[SP_AXES] = {0}, lo[SP_AXES], hi[SP_AXES];
+        wide_bounds(lo, hi);
+        w[ax] = (sp_q8_t)k;
+        xm[ax] = -65536;
+        const uint8_t bit = (uint8_t)(1u << ax);
+        sp_admit_report_t r1, r2;
+        assert_int_equal(sp_admit_step(&c, &st, SP_ADMIT_FORCE, bit, w, t, xm, bit, lo, hi, &r1),
+                         plain_admit_step(&c, &ps, SP_ADMIT_FORCE, bit, w, t, xm, bit, lo, hi, &r2));
+        assert_int_equal(r1.adapted, r2.adapted);
+        assert_int_equal(a->k_hat, (int32_t)k);
+        expect_same_state(&st, &ps, run, 0);
+        acted += (r1.adapted != 0u) ? 1 : 0;
+        quiet += (r1.adapted == 0u) ? 1 : 0;
+    }
+    print_message("adaptation window edges: %d adapted, %d kept the damping\n", acted, quiet);
+    assert_true(acted > 500 && quiet > 500);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -611,6 +698,7 @@ int main(void)
         cmocka_unit_test(test_step_equals_plain),
         cmocka_unit_test(test_restart_is_configure),
         cmocka_unit_test(test_contact_equals_plain),
+        cmocka_unit_test(test_secant_window_edges),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
