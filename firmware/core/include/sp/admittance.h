@@ -87,19 +87,18 @@ typedef struct {
 
 /** State of one axis. */
 typedef struct {
-    sp_q24_t d;           /**< offset from the position reference, m or rad, Q24 */
-    sp_q24_t v;           /**< its rate, m/s or rad/s, Q24 */
-    sp_q24_t a;           /**< its acceleration this tick, m/s^2 or rad/s^2, Q24 */
-    sp_admit_coef_t coef; /**< for the damping in use */
-    sp_admit_coef_t
-        free_coef;       /**< for the free-space damping (approach, or hand guiding): prepared, never recomputed */
-    sp_admit_coef_t rel; /**< for the return to d = 0 (critically damped): prepared, never recomputed */
-    sp_q24_t dv_brake;   /**< a_brake dt: the speed hold takes off each tick, m/s or rad/s, Q24 */
-    int32_t x_f[4];      /**< the measured pose through the wrench filter's sections, Q24 */
-    sp_q24_t x_contact;  /**< x_f when contact was made, Q24 */
-    sp_q8_t w_contact;   /**< the filtered wrench when contact was made, Q8 */
-    int32_t k_hat;       /**< the surface stiffness estimate, N/m (0: none yet) */
-    uint8_t in_contact;  /**< 1 from contact made until it is lost or force control ends */
+    sp_q24_t d;                /**< offset from the position reference, m or rad, Q24 */
+    sp_q24_t v;                /**< its rate, m/s or rad/s, Q24 */
+    sp_q24_t a;                /**< its acceleration this tick, m/s^2 or rad/s^2, Q24 */
+    sp_admit_coef_t coef;      /**< for the damping in use */
+    sp_admit_coef_t free_coef; /**< for the free-space damping (approach or guiding), prepared */
+    sp_admit_coef_t rel;       /**< for the return to d = 0 (critically damped), prepared */
+    sp_q24_t dv_brake;         /**< a_brake dt: the speed hold takes off each tick, m/s or rad/s, Q24 */
+    int32_t x_f[4];            /**< the measured pose through the wrench filter's sections, Q24 */
+    sp_q24_t x_contact;        /**< x_f when contact was made, Q24 */
+    sp_q8_t w_contact;         /**< the filtered wrench when contact was made, Q8 */
+    int32_t k_hat;             /**< the surface stiffness estimate, N/m (0: none yet) */
+    uint8_t in_contact;        /**< 1 from contact made until it is lost or force control ends */
 } sp_admit_axis_state_t;
 
 /** State of the admittance. */

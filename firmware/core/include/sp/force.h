@@ -83,8 +83,9 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
  * Checks cfg and prepares every coefficient force control uses (the
  * approach, guide and release dampings of each axis: eighteen sets of
  * three divisions, sp_admit_configure), then OFF, no contact. For init or a
- * new config, not for a tick. SP_E_ARG on NULL or a bad config,
- * SP_E_OVERFLOW as sp_admit_configure.
+ * new config, not for a tick. SP_E_ARG on NULL or a bad config (f
+ * unchanged), SP_E_OVERFLOW as sp_admit_configure (f then not usable until
+ * an init succeeds).
  */
 sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f);
 

@@ -60,8 +60,8 @@ sp_status_t sp_ft_frame(const sp_ft_mount_t *mount, const sp_rot_t *T, sp_ft_fra
 
 /**
  * sp_ft_to_base with the frame prepared by sp_ft_frame: the same result,
- * bit for bit, for any frame whose entries did not saturate (18 + 6 products
- * of 32 x 32 bits instead of 63). Inputs beyond +-2^30 Q8 are held there; a
+ * bit for bit, for any frame whose entries did not saturate: 18 + 6 products
+ * of 32 x 32 bits, where sp_ft_to_base also makes the frame (36 more). Inputs beyond +-2^30 Q8 are held there; a
  * result beyond int32 saturates. SP_E_ARG (out untouched) on NULL,
  * SP_E_OVERFLOW when something saturated, else SP_OK.
  */
