@@ -670,10 +670,13 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     }
     (void)sp_ft_apply(&ctrl->ft_frame, tared, base); /* saturates, never wraps */
     for (k = 0u; k < 6u; ++k) {
-        int32_t x = base[k];
+        /* held within [-2^30, 2^30 - 1] Q8 (4.19 MN, MN m), as the cylinders'
+         * estimate: each section's step is then one 32 x 32-bit product */
+        int32_t x = (base[k] > SPI_SECTION_HI) ? SPI_SECTION_HI
+                                               : ((base[k] < -SPI_SECTION_HI - 1) ? -SPI_SECTION_HI - 1 : base[k]);
         for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
             if (ctrl->ft_valid) {
-                x = spi_lowpass_section(ctrl->ft_section[n][k], x, ctrl->prep.wrench_alpha);
+                x = spi_lowpass_section30(ctrl->ft_section[n][k], x, ctrl->prep.wrench_alpha);
             }
             ctrl->ft_section[n][k] = x;
         }
