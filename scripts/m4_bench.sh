@@ -59,8 +59,8 @@ awk '
   }
   function ratio2(fa, ka, fb, kb) { return (((fa, ka) in mean) && ((fb, kb) in mean) && mean[fb, kb] > 0) ? sprintf("%6.1f", mean[fa, ka] / mean[fb, kb]) : sprintf("%6s", "-") }
 ' "$out/fixed_os.txt" "$out/float_os.txt" "$out/fixed_o2.txt" "$out/float_o2.txt"
-grep '^budget' "$out/fixed_os.txt" | sed 's/^/-Os /'
-grep '^budget' "$out/fixed_o2.txt" | sed 's/^/-O2 /'
+grep -E '^(budget|force-control budget)' "$out/fixed_os.txt" | sed 's/^/-Os /'
+grep -E '^(budget|force-control budget)' "$out/fixed_o2.txt" | sed 's/^/-O2 /'
 echo "(instructions executed, not cycles: see docs/m4.md)"
 echo
 echo "== Cortex-M4: size of the golden-vector image (arm-none-eabi-size, bytes; flash budget of issue 7: 65536)"

@@ -18,7 +18,7 @@ sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, ui
     }
     s->motion = motion;
     st = sp_ctrl_default_config(&s->cfg, platform);
-    if (motion == M4_MOTION_FORCE) {
+    if (motion == M4_MOTION_FORCE || motion == M4_MOTION_FORCE_TWIN) {
         s->cfg.wrench_source = SP_WRENCH_SENSOR;
     }
     if (st == SP_OK) {
@@ -34,7 +34,8 @@ sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, ui
 }
 
 /* M4_MOTION_FORCE: the sensor reads the surface under the tool (from the
- * reference the ideal plant followed), and the operator's commands by phase. */
+ * reference the ideal plant followed), and the operator's commands by phase.
+ * M4_MOTION_FORCE_TWIN: the same without the FORCE command. */
 static void force_scenario(m4_scenario_t *s)
 {
     const sp_platform_t *p = s->cfg.platform;
@@ -47,7 +48,7 @@ static void force_scenario(m4_scenario_t *s)
         s->phase = 1u;
         s->phase_ticks = 0u;
     } else if (s->phase == 1u && s->phase_ticks > 600u) {
-        s->in.cmd.type = SP_CMD_FORCE;
+        s->in.cmd.type = (s->motion == M4_MOTION_FORCE) ? SP_CMD_FORCE : SP_CMD_NONE; /* the twin: none */
         s->in.cmd.force_mask = 0x04u;
         s->in.cmd.force_target[2] = -2000 * SP_Q8_ONE;
         s->run_sent = 1u;
@@ -93,7 +94,7 @@ int m4_scenario_prepare(m4_scenario_t *s)
         s->in.stream_target.rpy[1] += d20[q];
         s->in.stream_target.rpy[2] += d40[(q + 3u) & 3u];
     }
-    if (s->motion == M4_MOTION_FORCE && s->ticks != 1u) {
+    if ((s->motion == M4_MOTION_FORCE || s->motion == M4_MOTION_FORCE_TWIN) && s->ticks != 1u) {
         force_scenario(s);
     } else if (s->ticks == 1u) {
         s->in.cmd.type = SP_CMD_ENGAGE;

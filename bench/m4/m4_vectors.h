@@ -71,6 +71,9 @@ void m4_nearby_pose(m4_rng_t *rng, const sp_pose_t *pose, sp_pose_t *guess);
     3u /**< force control on the force/torque sensor: TARE, FORCE 2 kN down on a
                                  1e6 N/m surface 2 mm under the tool, a 50 mm slide in x (MOVE_TO) while
                                  holding, PARK (which lets go first) */
+#define M4_MOTION_FORCE_TWIN                                                                                           \
+    4u /**< the force scenario in position control: the same commands and sensor, without
+                                 the FORCE command (what force control adds is the difference) */
 
 typedef struct {
     sp_ctrl_config_t cfg;

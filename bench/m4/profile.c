@@ -5,7 +5,8 @@
  * runs untraced-in-effect up to the first RUNNING tick; profile_begin()
  * marks where the count starts (profile.sh ignores everything before its
  * first execution), then PROFILE_TICKS ticks in RUNNING (the paper's
- * surge). Not a measurement program: icount.c gives the figures.
+ * surge), or, in the force scenario (PROFILE_MOTION M4_MOTION_FORCE),
+ * PROFILE_TICKS ticks from the FORCE command's tick on. Not a measurement program: icount.c gives the figures.
  */
 #include "m4_vectors.h"
 #include "sp_mps2.h"
@@ -16,7 +17,7 @@
 #define PROFILE_TICKS 300u
 #endif
 #ifndef PROFILE_MOTION
-#define PROFILE_MOTION M4_MOTION_SURGE /* or M4_MOTION_YAW, M4_MOTION_STREAM */
+#define PROFILE_MOTION M4_MOTION_SURGE /* or M4_MOTION_YAW, M4_MOTION_STREAM, M4_MOTION_FORCE */
 #endif
 
 static m4_scenario_t scenario;
@@ -36,7 +37,9 @@ int main(void)
         return 1;
     }
     while (n < PROFILE_TICKS && m4_scenario_prepare(&scenario)) {
-        if (!started && scenario.out.state == SP_STATE_RUNNING) {
+        int start = (scenario.motion == M4_MOTION_FORCE) ? scenario.in.cmd.type == SP_CMD_FORCE
+                                                         : scenario.out.state == SP_STATE_RUNNING;
+        if (!started && start) {
             profile_begin();
             started = 1;
         }

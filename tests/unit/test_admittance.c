@@ -21,6 +21,18 @@
  *   release                           d returns to 0 without overshoot (critical
  *                                     damping) within 5 time constants
  *   contact supervision               made, lost after lost_ticks, excess
+ *   against the plain reference       the prepared, skipping step (coefficients
+ *                                     made once, resting axes not computed,
+ *                                     the pose filtered on forced axes only)
+ *                                     and the prepared contact supervision
+ *                                     equal the first version
+ *                                     (admittance_plain.c) bit for bit: d, v,
+ *                                     a, coefficients, stiffness estimate,
+ *                                     events, status, every tick of 600
+ *                                     random runs (FORCE, then RELEASE or
+ *                                     HOLD, as sp/force.h runs it), and at
+ *                                     the edges of the adaptation's 1/16
+ *                                     window
  */
 #include <math.h>
 #include <setjmp.h>
@@ -33,6 +45,7 @@
 
 #include <cmocka.h>
 
+#include "admittance_plain.h"
 #include "assert_near.h"
 #include "sp/admittance.h"
 #include "sp/wrench.h"
@@ -388,6 +401,289 @@ static void test_contact_events(void **state)
     assert_int_equal(sp_contact_step(&cc, &cs, w, t) & SP_CONTACT_EXCESS, SP_CONTACT_EXCESS);
 }
 
+/* A random but valid config (issue 15's ranges and beyond). */
+static sp_admit_config_t random_config(uint64_t *rng)
+{
+    sp_admit_config_t c = config();
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        sp_admit_axis_t *ax = &c.axis[k];
+        ax->mass = (sp_q16_t)lround(tu_uniform(rng, 1.0, 200.0) * Q16);
+        ax->damping = (int32_t)lround(exp(tu_uniform(rng, log(100.0), log(5e6))));
+        ax->stiffness = (tu_next(rng) & 1u) ? 0 : (int32_t)lround(exp(tu_uniform(rng, 0.0, log(1e6))));
+        ax->release_stiffness = (int32_t)lround(exp(tu_uniform(rng, log(100.0), log(1e6))));
+        ax->v_max = q24(tu_uniform(rng, 0.01, 0.5));
+        ax->a_brake = q24(tu_uniform(rng, 0.1, 10.0));
+    }
+    c.crossover = (sp_q16_t)lround(tu_uniform(rng, 5.0, 50.0) * Q16);
+    c.k_min = (int32_t)lround(exp(tu_uniform(rng, log(1e3), log(1e5))));
+    c.k_max = (int32_t)lround(exp(tu_uniform(rng, log(1e6), log(1e9))));
+    c.secant_force = q8(tu_uniform(rng, 1.0, 50.0));
+    c.secant_travel = q24(tu_uniform(rng, 1e-6, 2e-5));
+    c.tick_us = (tu_next(rng) & 1u) ? 1000u : (uint32_t)(100u + tu_next(rng) % 1901u);
+    return c;
+}
+
+static void expect_same_state(const sp_admit_t *st, const plain_admit_t *ps, int run, int tick)
+{
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        const sp_admit_axis_state_t *a = &st->axis[k];
+        const plain_axis_state_t *b = &ps->axis[k];
+        if (a->d != b->d || a->v != b->v || a->a != b->a || a->coef.damping != b->coef.damping ||
+            a->coef.c_v != b->coef.c_v || a->coef.c_f != b->coef.c_f || a->coef.c_k != b->coef.c_k ||
+            a->rel.damping != b->rel.damping || a->rel.c_v != b->rel.c_v || a->rel.c_f != b->rel.c_f ||
+            a->rel.c_k != b->rel.c_k || a->k_hat != b->k_hat || a->in_contact != b->in_contact) {
+            fail_msg("run %d tick %d axis %u: d %d/%d v %d/%d a %d/%d D %d/%d k_hat %d/%d", run, tick, k, a->d, b->d,
+                     a->v, b->v, a->a, b->a, a->coef.damping, b->coef.damping, a->k_hat, b->k_hat);
+        }
+    }
+}
+
+/* The prepared step against the plain one: random configs, a fixed mask,
+ * FORCE (some runs as hand guiding: the guide damping's coefficients
+ * prepared by sp_admit_coefficients, as sp_force_start does), then RELEASE
+ * or HOLD; surfaces of random stiffness, noisy wrenches, random bounds. */
+static void test_step_equals_plain(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x15b0d9e7u;
+    int adapted = 0, limited = 0, rested = 0;
+    for (int run = 0; run < 600; ++run) {
+        sp_admit_config_t c = random_config(&rng);
+        sp_admit_config_t cp = c; /* the plain step's config: the free-space damping in it */
+        const int guide = (tu_next(&rng) % 4u) == 0u;
+        sp_admit_t st;
+        plain_admit_t ps;
+        assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+        if (guide) {
+            sp_admit_coef_t g[SP_AXES];
+            for (unsigned k = 0; k < SP_AXES; ++k) {
+                cp.axis[k].damping = (int32_t)(1 + tu_next(&rng) % 5000u);
+                assert_int_equal(sp_admit_coefficients(&c, &st, k, cp.axis[k].damping, &g[k]), SP_OK);
+            }
+            assert_int_equal(sp_admit_restart(&st, g), SP_OK);
+        }
+        assert_int_equal(plain_admit_configure(&cp, &ps), SP_OK);
+        expect_same_state(&st, &ps, run, -1);
+        const uint8_t mask = (uint8_t)(1u + tu_next(&rng) % 63u);
+        const int n_force = (int)(50u + tu_next(&rng) % 400u);
+        const int n_total = n_force + (int)(tu_next(&rng) % 300u);
+        const sp_admit_mode_t after = (tu_next(&rng) & 1u) ? SP_ADMIT_RELEASE : SP_ADMIT_HOLD;
+        double ke[SP_AXES], x[SP_AXES], w[SP_AXES];
+        sp_q8_t tg[SP_AXES];
+        for (unsigned k = 0; k < SP_AXES; ++k) {
+            ke[k] = exp(tu_uniform(&rng, log(1e4), log(1e8)));
+            x[k] = tu_uniform(&rng, -0.01, 0.01);
+            w[k] = tu_uniform(&rng, -100.0, 100.0);
+            tg[k] = guide ? 0 : q8(tu_uniform(&rng, -3000.0, 3000.0));
+        }
+        for (int n = 0; n < n_total; ++n) {
+            sp_admit_mode_t mode = (n < n_force) ? SP_ADMIT_FORCE : after;
+            sp_q8_t we[SP_AXES];
+            sp_q24_t xm[SP_AXES], lo[SP_AXES], hi[SP_AXES];
+            for (unsigned k = 0; k < SP_AXES; ++k) {
+                double dx = tu_uniform(&rng, -2e-5, 2e-5);
+                x[k] += dx;
+                w[k] += -ke[k] * dx * 1e-2 + tu_uniform(&rng, -5.0, 5.0); /* the surface pushes back */
+                w[k] = fmax(-8000.0, fmin(8000.0, w[k]));
+                we[k] = q8(w[k]);
+                xm[k] = q24(x[k]);
+                lo[k] = (tu_next(&rng) % 50u == 0u) ? 0 : q24(tu_uniform(&rng, -0.05, 0.0));
+                hi[k] = (tu_next(&rng) % 50u == 0u) ? 0 : q24(tu_uniform(&rng, 0.0, 0.05));
+                if (tu_next(&rng) % 100u == 0u) {
+                    lo[k] = q24(0.001); /* a bound the reference has passed */
+                }
+            }
+            const int meas = (tu_next(&rng) % 10u) != 0u;
+            const uint8_t contact = (n > n_force / 4) ? (uint8_t)((mask & (uint8_t)tu_next(&rng)) | (mask & 0x5u)) : 0u;
+            sp_admit_report_t r1, r2;
+            sp_status_t s1 = sp_admit_step(&c, &st, mode, mask, we, tg, meas ? xm : NULL, contact, lo, hi, &r1);
+            sp_status_t s2 = plain_admit_step(&cp, &ps, mode, mask, we, tg, meas ? xm : NULL, contact, lo, hi, &r2);
+            assert_int_equal(s1, s2);
+            assert_int_equal(r1.limited, r2.limited);
+            assert_int_equal(r1.adapted, r2.adapted);
+            expect_same_state(&st, &ps, run, n);
+            adapted += (r1.adapted != 0u) ? 1 : 0;
+            limited += (r1.limited != 0u) ? 1 : 0;
+            for (unsigned k = 0; k < SP_AXES; ++k) {
+                rested += (mode != SP_ADMIT_FORCE && st.axis[k].d == 0 && st.axis[k].v == 0) ? 1 : 0;
+            }
+        }
+    }
+    print_message("against the plain step: %d ticks adapted, %d limited, %d axis-ticks at rest in release/hold\n",
+                  adapted, limited, rested);
+    /* the runs reach what the preparation and the skipping change */
+    assert_true(adapted > 1000);
+    assert_true(limited > 1000);
+    assert_true(rested > 1000);
+}
+
+/* A restart is a configure without computing: the same state. */
+static void test_restart_is_configure(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5eeda11u;
+    for (int run = 0; run < 200; ++run) {
+        sp_admit_config_t c = random_config(&rng);
+        sp_admit_t st, fresh;
+        assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+        sp_q24_t lo[SP_AXES], hi[SP_AXES], xm[SP_AXES];
+        sp_q8_t w[SP_AXES], t[SP_AXES] = {0};
+        wide_bounds(lo, hi);
+        for (unsigned k = 0; k < SP_AXES; ++k) {
+            w[k] = q8(tu_uniform(&rng, -500.0, 500.0));
+            xm[k] = q24(tu_uniform(&rng, -0.01, 0.01));
+        }
+        for (int n = 0; n < 20; ++n) {
+            (void)sp_admit_step(&c, &st, SP_ADMIT_FORCE, 0x3Fu, w, t, xm, 0x3Fu, lo, hi, NULL);
+        }
+        assert_int_equal(sp_admit_restart(&st, NULL), SP_OK);
+        assert_int_equal(sp_admit_configure(&c, &fresh), SP_OK);
+        assert_int_equal(st.primed, fresh.primed);
+        assert_true(st.dt_q50 == fresh.dt_q50 && st.dt_q38 == fresh.dt_q38 && st.rate_q16 == fresh.rate_q16);
+        for (unsigned k = 0; k < SP_AXES; ++k) {
+            const sp_admit_axis_state_t *a = &st.axis[k], *b = &fresh.axis[k];
+            assert_true(a->d == 0 && a->v == 0 && a->a == 0 && a->k_hat == 0 && a->in_contact == 0u);
+            assert_memory_equal(&a->coef, &b->coef, sizeof a->coef);
+            assert_memory_equal(&a->free_coef, &b->free_coef, sizeof a->free_coef);
+            assert_memory_equal(&a->rel, &b->rel, sizeof a->rel);
+            assert_memory_equal(a->x_f, b->x_f, sizeof a->x_f);
+            assert_int_equal(a->dv_brake, b->dv_brake);
+        }
+    }
+    sp_admit_config_t c = config();
+    sp_admit_t st;
+    sp_admit_coef_t cf;
+    assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+    assert_int_equal(sp_admit_restart(NULL, NULL), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(NULL, &st, 0u, 10, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, NULL, 0u, 10, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, &st, SP_AXES, 10, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, &st, 0u, 0, &cf), SP_E_ARG);
+    assert_int_equal(sp_admit_coefficients(&c, &st, 0u, INT32_MAX, &cf), SP_E_OVERFLOW); /* M + dt D beyond 2^31 kg */
+}
+
+/* Contact supervision with the target prepared against the plain one. */
+static void test_contact_equals_plain(void **state)
+{
+    (void)state;
+    uint64_t rng = 0xc0a7ac7u;
+    int events = 0;
+    for (int run = 0; run < 300; ++run) {
+        sp_contact_config_t cc = {q8(tu_uniform(&rng, 10.0, 300.0)), (sp_q30_t)(tu_next(&rng) % (uint64_t)SP_Q30_ONE),
+                                  (uint8_t)(1u + tu_next(&rng) % 5u), q8(tu_uniform(&rng, 3000.0, 20000.0))};
+        sp_contact_t a = {0u, 0u, 0u}, b = {0u, 0u, 0u};
+        sp_q8_t t[SP_AXES] = {0}, w[SP_AXES] = {0};
+        for (unsigned k = 0; k < 3u; ++k) {
+            t[k] = (tu_next(&rng) % 5u == 0u) ? 0 : q8(tu_uniform(&rng, -4000.0, 4000.0));
+        }
+        if (run % 50 == 0) {
+            t[0] = INT32_MIN; /* extremes: held */
+            t[1] = INT32_MAX;
+        }
+        sp_contact_target_t tp;
+        sp_contact_target(t, &tp);
+        for (int n = 0; n < 300; ++n) {
+            for (unsigned k = 0; k < SP_AXES; ++k) {
+                w[k] = (tu_next(&rng) % 200u == 0u) ? (sp_q8_t)tu_next(&rng) : q8(tu_uniform(&rng, -6000.0, 6000.0));
+            }
+            uint32_t e1 = sp_contact_step_to(&cc, &a, w, &tp);
+            uint32_t e2 = plain_contact_step(&cc, &b, w, t);
+            assert_int_equal(e1, e2);
+            assert_memory_equal(&a, &b, sizeof a);
+            events += (e1 != 0u) ? 1 : 0;
+        }
+    }
+    assert_true(events > 1000);
+    sp_contact_t cs = {0u, 0u, 0u};
+    sp_q8_t w0[SP_AXES] = {0};
+    assert_int_equal(sp_contact_step_to(NULL, &cs, w0, NULL), 0u);
+}
+
+/* The adaptation at the edges of its 1/16 window: an axis set up in
+ * contact with a secant of exactly k (travel 2^16 Q24, the wrench change
+ * k Q8), the damping in use D, stepped by the prepared and the plain step,
+ * for k where round(k / w_c) crosses D - D/16 or D + D/16, with the
+ * free-space damping inside, outside and on the window. */
+static void test_secant_window_edges(void **state)
+{
+    (void)state;
+    uint64_t rng = 0xed9e5u;
+    int acted = 0, quiet = 0;
+    for (int run = 0; run < 3000; ++run) {
+        sp_admit_config_t c = config();
+        /* half the runs at an even number of rad/s: the edges then fall on
+         * exact multiples (ties of the rounding) */
+        c.crossover = (tu_next(&rng) & 1u) ? (sp_q16_t)(131072 * (int32_t)(1u + tu_next(&rng) % 50u))
+                                           : (sp_q16_t)(1 + tu_next(&rng) % (uint64_t)(100 * 65536));
+        c.k_min = 1;
+        c.k_max = INT32_MAX;
+        c.secant_force = 1;
+        c.secant_travel = 1;
+        const unsigned ax = (unsigned)(tu_next(&rng) % SP_AXES);
+        const int32_t in_use = (int32_t)exp(tu_uniform(&rng, 0.0, log(2e7)));
+        const int32_t tol = in_use / 16;
+        int32_t free_d;
+        switch (tu_next(&rng) % 4u) {
+        case 0u:
+            free_d = in_use; /* the free-space damping in use */
+            break;
+        case 1u:
+            free_d = in_use + (int32_t)(tu_next(&rng) % (uint64_t)(2 * tol + 1)) - tol; /* inside the window */
+            break;
+        default:
+            free_d = (int32_t)(1 + tu_next(&rng) % 5000000u); /* anywhere */
+            break;
+        }
+        free_d = (free_d < 1) ? 1 : free_d;
+        c.axis[ax].damping = free_d;
+        sp_admit_t st;
+        plain_admit_t ps;
+        assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
+        assert_int_equal(plain_admit_configure(&c, &ps), SP_OK);
+        sp_admit_coef_t use;
+        if (sp_admit_coefficients(&c, &st, ax, in_use, &use) != SP_OK) {
+            continue;
+        }
+        /* k around an edge: where round(k 2^16 / w_c) crosses D - tol or D + tol */
+        const double edge = ((tu_next(&rng) & 1u) ? (double)(in_use - tol) - 0.5 : (double)(in_use + tol) + 0.5) *
+                            (double)c.crossover / 65536.0;
+        const int64_t k = (int64_t)edge + (int64_t)(tu_next(&rng) % 7u) - 3;
+        if (k < 1 || k > (1 << 30)) {
+            continue;
+        }
+        sp_admit_axis_state_t *a = &st.axis[ax];
+        plain_axis_state_t *b = &ps.axis[ax];
+        a->coef = use;
+        b->coef = use;
+        for (unsigned n = 0; n < 4u; ++n) {
+            a->x_f[n] = -65536;
+            b->x_f[n] = -65536;
+        }
+        st.primed = (uint8_t)(1u << ax);
+        ps.primed = 1u;
+        a->in_contact = b->in_contact = 1u;
+        a->x_contact = b->x_contact = 0;
+        a->w_contact = b->w_contact = 0;
+        a->k_hat = b->k_hat = 1;
+        sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
+        sp_q24_t xm[SP_AXES] = {0}, lo[SP_AXES], hi[SP_AXES];
+        wide_bounds(lo, hi);
+        w[ax] = (sp_q8_t)k;
+        xm[ax] = -65536;
+        const uint8_t bit = (uint8_t)(1u << ax);
+        sp_admit_report_t r1, r2;
+        assert_int_equal(sp_admit_step(&c, &st, SP_ADMIT_FORCE, bit, w, t, xm, bit, lo, hi, &r1),
+                         plain_admit_step(&c, &ps, SP_ADMIT_FORCE, bit, w, t, xm, bit, lo, hi, &r2));
+        assert_int_equal(r1.adapted, r2.adapted);
+        assert_int_equal(a->k_hat, (int32_t)k);
+        expect_same_state(&st, &ps, run, 0);
+        acted += (r1.adapted != 0u) ? 1 : 0;
+        quiet += (r1.adapted == 0u) ? 1 : 0;
+    }
+    print_message("adaptation window edges: %d adapted, %d kept the damping\n", acted, quiet);
+    assert_true(acted > 500 && quiet > 500);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -399,6 +695,10 @@ int main(void)
         cmocka_unit_test(test_hand_guiding),
         cmocka_unit_test(test_release_is_critically_damped),
         cmocka_unit_test(test_contact_events),
+        cmocka_unit_test(test_step_equals_plain),
+        cmocka_unit_test(test_restart_is_configure),
+        cmocka_unit_test(test_contact_equals_plain),
+        cmocka_unit_test(test_secant_window_edges),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -21,6 +21,7 @@
 
 #include <cmocka.h>
 
+#include "../../firmware/core/src/fixed_inline.h"
 #include "assert_near.h"
 #include "sp/fixed.h"
 #include "test_util.h"
@@ -489,10 +490,34 @@ static void test_add64_narrow(void **state)
     assert_true(sp_narrow(-(INT64_C(5) << 7), 8u, &f) == -3 && f == 0u); /* -2.5 -> -3 */
 }
 
+/* The 32-bit low-pass section against the 64-bit one, on its whole input
+ * range [-2^30, 2^30 - 1]: random values, the extremes, and every alpha
+ * edge. */
+static void test_lowpass_section30(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5ec7104u;
+    const int32_t lo = -SPI_SECTION_HI - 1, hi = SPI_SECTION_HI;
+    const int32_t ends[6] = {lo, lo + 1, -1, 0, hi - 1, hi};
+    const sp_q30_t alphas[4] = {0, 1, SP_Q30_ONE / 2, SP_Q30_ONE};
+    for (int i = 0; i < 200000; ++i) {
+        int32_t y = (i < 144) ? ends[i % 6] : (int32_t)(tu_i32(&rng) >> 1);
+        int32_t x = (i < 144) ? ends[(i / 6) % 6] : (int32_t)(tu_i32(&rng) >> 1);
+        sp_q30_t a = (i < 144) ? alphas[(i / 36) % 4] : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
+        int32_t want = spi_lowpass_section(y, x, a);
+        int32_t got = spi_lowpass_section30(y, x, a);
+        if (got != want) {
+            fail_msg("y %d x %d alpha %d: %d, the 64-bit section %d", y, x, a, got, want);
+        }
+        assert_true(got >= lo && got <= hi);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_add_sub_neg_abs),
+        cmocka_unit_test(test_lowpass_section30),
         cmocka_unit_test(test_rshift_round),
         cmocka_unit_test(test_mul),
         cmocka_unit_test(test_div),

@@ -20,9 +20,17 @@ static int64_t clamp64(int64_t v, int64_t lim)
     return (v < -lim) ? -lim : ((v > lim) ? lim : v);
 }
 
+/* dt in s, Q50 (dt_us 2^50 / 10^6): what coefficients() divides by den. */
+static int64_t tick_q50(uint32_t tick_us, sp_flags_t *flags)
+{
+    return sp_div64((int64_t)tick_us, 1000000, 50u, flags);
+}
+
 /* The coefficients of the law for mass M (Q16), damping D and stiffness K
- * (N s/m, N/m) at tick dt_us. */
-static sp_status_t coefficients(sp_q16_t mass, int32_t damping, int32_t stiffness, uint32_t tick_us, sp_admit_coef_t *c)
+ * (N s/m, N/m) at tick dt_us, dt_q50 = tick_q50(dt_us) (prepared). Three
+ * divisions, a fourth and fifth only for K != 0. */
+static sp_status_t coefficients(sp_q16_t mass, int32_t damping, int32_t stiffness, uint32_t tick_us, int64_t dt_q50,
+                                sp_admit_coef_t *c)
 {
     sp_flags_t flags = 0u;
     /* den = M + dt D, kg, Q12 */
@@ -33,10 +41,13 @@ static sp_status_t coefficients(sp_q16_t mass, int32_t damping, int32_t stiffnes
     /* c_v = M / den, Q30 (Q16 / Q12 -> Q4, 26 more bits) */
     sp_q30_t c_v = sp_div((int64_t)mass, (int32_t)den, 26u, &flags);
     /* c_f = dt / den, Q38: dt_us 2^50 / (10^6 den_q12) */
-    int32_t c_f = sp_div(sp_div64((int64_t)tick_us, 1000000, 50u, &flags), (int32_t)den, 0u, &flags);
-    /* c_k = dt K / den, 1/s, Q16: dt_us K 2^28 / (10^6 den_q12) */
-    int64_t k = sp_div64((int64_t)tick_us * stiffness, (int32_t)den, 28u, &flags);
-    int32_t c_k = sp_sat32((k + 500000) / 1000000, &flags);
+    int32_t c_f = sp_div(dt_q50, (int32_t)den, 0u, &flags);
+    /* c_k = dt K / den, 1/s, Q16: dt_us K 2^28 / (10^6 den_q12); 0 for K = 0 */
+    int32_t c_k = 0;
+    if (stiffness != 0) {
+        int64_t k = sp_div64((int64_t)tick_us * stiffness, (int32_t)den, 28u, &flags);
+        c_k = sp_sat32((k + 500000) / 1000000, &flags);
+    }
     if (flags != 0u) {
         return SP_E_OVERFLOW;
     }
@@ -61,25 +72,27 @@ static int axis_ok(const sp_admit_axis_t *ax)
            ax->v_max > 0 && ax->a_brake > 0;
 }
 
-sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
+sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, const sp_admit_t *st, unsigned axis, int32_t damping,
+                                  sp_admit_coef_t *c)
 {
-    if (cfg == NULL || st == NULL || cfg->crossover <= 0 || cfg->k_min < 1 || cfg->k_max < cfg->k_min ||
-        cfg->secant_force <= 0 || cfg->secant_travel <= 0 || cfg->filter_alpha <= 0 || cfg->filter_alpha > SP_Q30_ONE ||
-        cfg->tick_us < 100u || cfg->tick_us > TICK_MAX_US) {
+    if (cfg == NULL || st == NULL || c == NULL || axis >= SP_AXES || damping < 1) {
         return SP_E_ARG;
     }
-    sp_admit_t fresh;
+    const sp_admit_axis_t *ax = &cfg->axis[axis];
+    return coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, st->dt_q50, c);
+}
+
+sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_AXES])
+{
+    if (st == NULL) {
+        return SP_E_ARG;
+    }
     for (unsigned k = 0; k < SP_AXES; ++k) {
-        const sp_admit_axis_t *ax = &cfg->axis[k];
-        sp_admit_axis_state_t *s = &fresh.axis[k];
-        if (!axis_ok(ax)) {
-            return SP_E_ARG;
+        sp_admit_axis_state_t *s = &st->axis[k];
+        if (free_coef != NULL) {
+            s->free_coef = free_coef[k];
         }
-        sp_status_t a = coefficients(ax->mass, ax->damping, ax->stiffness, cfg->tick_us, &s->coef);
-        sp_status_t b = coefficients(ax->mass, release_damping(ax), ax->release_stiffness, cfg->tick_us, &s->rel);
-        if (a != SP_OK || b != SP_OK) {
-            return SP_E_OVERFLOW;
-        }
+        s->coef = s->free_coef;
         s->d = 0;
         s->v = 0;
         s->a = 0;
@@ -91,7 +104,42 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
         s->k_hat = 0;
         s->in_contact = 0u;
     }
-    fresh.primed = 0u;
+    st->primed = 0u;
+    return SP_OK;
+}
+
+sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
+{
+    if (cfg == NULL || st == NULL || cfg->crossover <= 0 || cfg->k_min < 1 || cfg->k_max < cfg->k_min ||
+        cfg->secant_force <= 0 || cfg->secant_travel <= 0 || cfg->filter_alpha <= 0 || cfg->filter_alpha > SP_Q30_ONE ||
+        cfg->tick_us < 100u || cfg->tick_us > TICK_MAX_US) {
+        return SP_E_ARG;
+    }
+    sp_admit_t fresh;
+    sp_flags_t flags = 0u;
+    fresh.dt_q50 = tick_q50(cfg->tick_us, &flags); /* dt <= 2 ms: below 2^41 */
+    if (flags != 0u) {
+        return SP_E_OVERFLOW;
+    }
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        const sp_admit_axis_t *ax = &cfg->axis[k];
+        sp_admit_axis_state_t *s = &fresh.axis[k];
+        if (!axis_ok(ax)) {
+            return SP_E_ARG;
+        }
+        sp_status_t a = coefficients(ax->mass, ax->damping, ax->stiffness, cfg->tick_us, fresh.dt_q50, &s->free_coef);
+        sp_status_t b =
+            coefficients(ax->mass, release_damping(ax), ax->release_stiffness, cfg->tick_us, fresh.dt_q50, &s->rel);
+        if (a != SP_OK || b != SP_OK) {
+            return SP_E_OVERFLOW;
+        }
+        /* a_brake < 2^31 and dt <= 2 ms: below 2^22 */
+        s->dv_brake = (sp_q24_t)(((int64_t)ax->a_brake * cfg->tick_us + 500000) / 1000000);
+    }
+    /* dt <= 2 ms: below 2^30 in Q38; dt >= 100 us: 1/dt below 2^30 in Q16 */
+    fresh.dt_q38 = (int32_t)(((int64_t)cfg->tick_us << 38) / 1000000);
+    fresh.rate_q16 = (int32_t)((INT64_C(1000000) << 16) / cfg->tick_us);
+    (void)sp_admit_restart(&fresh, NULL);
     *st = fresh;
     return SP_OK;
 }
@@ -131,10 +179,11 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
             *limited = 1;
             return 0;
         }
-        uint64_t dist_c = (dist > INT32_MAX) ? (uint64_t)INT32_MAX : (uint64_t)dist;
-        uint64_t brake2 = 2u * (uint64_t)(uint32_t)ax->a_brake * dist_c; /* Q48 (m/s)^2 */
-        uint64_t av = (uint64_t)((v < 0) ? -v : v);
-        if (av * av > brake2) {
+        /* a_brake, dist and |v| (held to v_max) below 2^31: 32 x 32-bit products */
+        uint32_t dist_c = (dist > INT32_MAX) ? (uint32_t)INT32_MAX : (uint32_t)dist;
+        uint64_t brake2 = 2u * ((uint64_t)(uint32_t)ax->a_brake * dist_c); /* Q48 (m/s)^2 */
+        uint32_t av = (uint32_t)((v < 0) ? -v : v);
+        if ((uint64_t)av * av > brake2) {
             int64_t vb = (int64_t)sp_isqrt64(brake2); /* Q24 */
             v = (v > 0) ? vb : -vb;
             *limited = 1;
@@ -154,41 +203,61 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     }
     sp_status_t status = SP_OK;
     sp_admit_report_t rep = {0u, 0u};
-    const int64_t dt_q38 = ((int64_t)cfg->tick_us << 38) / 1000000;
-    const int64_t rate_q16 = (INT64_C(1000000) << 16) / cfg->tick_us;
+    const int32_t dt_q38 = st->dt_q38;
+    const int64_t rate_q16 = st->rate_q16;
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &st->axis[k];
         const uint8_t bit = (uint8_t)(1u << k);
         const int forced = mode == SP_ADMIT_FORCE && (mask & bit) != 0u;
 
-        if (x_meas != NULL) {
-            for (unsigned n = 0; n < 4u; ++n) {
-                int32_t in = (n == 0u) ? x_meas[k] : s->x_f[n - 1u];
-                s->x_f[n] = st->primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
-            }
-        }
-        /* the damping this axis should use */
-        int32_t damping = ax->damping;
-        if (forced && (contact & bit) != 0u) {
-            if (!s->in_contact) {
-                s->in_contact = 1u;
-                s->x_contact = s->x_f[3];
-                s->w_contact = w_ext[k];
-                s->k_hat = 0;
-            }
-            int32_t dc = (x_meas != NULL) ? contact_damping(cfg, s, w_ext[k]) : 0;
-            damping = (dc > 0) ? dc : ((s->k_hat > 0) ? s->coef.damping : ax->damping);
-        } else {
+        if (!forced) {
             s->in_contact = 0u;
             s->k_hat = 0;
+            st->primed &= (uint8_t)~bit;
+            if (s->d == 0 && s->v == 0) {
+                /* at rest on the position reference: the return to d = 0
+                 * and the brake both leave it there (v = 0, d = 0, inside
+                 * every bound), so nothing to compute */
+                s->a = 0;
+                continue;
+            }
+        } else if (x_meas != NULL) {
+            /* the pose through the wrench filter's sections, for the secant;
+             * primed with the measurement the first tick the axis is forced */
+            const int primed = (st->primed & bit) != 0u;
+            for (unsigned n = 0; n < 4u; ++n) {
+                int32_t in = (n == 0u) ? x_meas[k] : s->x_f[n - 1u];
+                s->x_f[n] = primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
+            }
+            st->primed |= bit;
         }
         if (forced) {
+            /* the damping this axis should use */
+            int32_t damping = s->free_coef.damping;
+            if ((contact & bit) != 0u) {
+                if (!s->in_contact) {
+                    s->in_contact = 1u;
+                    s->x_contact = s->x_f[3];
+                    s->w_contact = w_ext[k];
+                    s->k_hat = 0;
+                }
+                int32_t dc = (x_meas != NULL) ? contact_damping(cfg, s, w_ext[k]) : 0;
+                damping = (dc > 0) ? dc : ((s->k_hat > 0) ? s->coef.damping : s->free_coef.damping);
+            } else {
+                s->in_contact = 0u;
+                s->k_hat = 0;
+            }
             int32_t diff = damping - s->coef.damping;
             int32_t tol = s->coef.damping / 16;
-            if (diff > tol || diff < -tol || (damping == ax->damping && s->coef.damping != ax->damping)) {
+            if (damping == s->free_coef.damping) {
+                if (s->coef.damping != s->free_coef.damping) {
+                    s->coef = s->free_coef; /* prepared: what coefficients() would give */
+                    rep.adapted |= bit;
+                }
+            } else if (diff > tol || diff < -tol) {
                 sp_admit_coef_t c;
-                if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, &c) == SP_OK) {
+                if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, st->dt_q50, &c) == SP_OK) {
                     s->coef = c;
                     rep.adapted |= bit;
                 } else {
@@ -199,11 +268,12 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         int64_t v;
         if (mode == SP_ADMIT_HOLD) {
             /* brake: |v| falls by a_brake dt each tick, never through zero */
-            int64_t dv = ((int64_t)ax->a_brake * cfg->tick_us + 500000) / 1000000;
-            v = (s->v > dv) ? s->v - dv : ((s->v < -dv) ? s->v + dv : 0);
+            const int32_t dv = s->dv_brake;
+            v = (s->v > dv) ? (int64_t)s->v - dv : ((s->v < -dv) ? (int64_t)s->v + dv : 0);
         } else {
             const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
-            int64_t f = forced ? clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
+            /* held within +-2^30: a 32 x 32-bit product */
+            int32_t f = forced ? (int32_t)clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
             v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +
                 (((int64_t)c->c_f * f + (INT64_C(1) << 21)) >> 22) -
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
@@ -224,30 +294,52 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
             rep.limited |= bit;
         }
     }
-    if (x_meas != NULL) {
-        st->primed = 1u;
-    }
     if (report != NULL) {
         *report = rep;
     }
     return status;
 }
 
+void sp_contact_target(const sp_q8_t w_target[SP_AXES], sp_contact_target_t *tp)
+{
+    if (w_target == NULL || tp == NULL) {
+        return;
+    }
+    int64_t t2 = 0;
+    for (unsigned k = 0; k < 3u; ++k) {
+        int64_t t = clamp64(w_target[k], WRENCH_MAX);
+        tp->t[k] = (int32_t)t;
+        t2 += t * t;
+    }
+    tp->t2 = t2;
+    tp->t_norm = (int64_t)sp_isqrt64((uint64_t)t2); /* |F_target|, Q8 */
+}
+
 uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
                          const sp_q8_t w_target[SP_AXES])
 {
-    if (cfg == NULL || st == NULL || w_ext == NULL || w_target == NULL) {
+    if (w_target == NULL) {
+        return 0u;
+    }
+    sp_contact_target_t tp;
+    sp_contact_target(w_target, &tp);
+    return sp_contact_step_to(cfg, st, w_ext, &tp);
+}
+
+uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
+                            const sp_contact_target_t *tp)
+{
+    if (cfg == NULL || st == NULL || w_ext == NULL || tp == NULL) {
         return 0u;
     }
     uint32_t events = 0u;
-    int64_t dot = 0, t2 = 0, f2 = 0;
+    int64_t dot = 0, f2 = 0;
     for (unsigned k = 0; k < 3u; ++k) {
         int64_t f = clamp64(w_ext[k], WRENCH_MAX);
-        int64_t t = clamp64(w_target[k], WRENCH_MAX);
-        dot -= f * t; /* the push-back times |F_target|, Q16 */
-        t2 += t * t;
+        dot -= f * tp->t[k]; /* the push-back times |F_target|, Q16 */
         f2 += f * f;
     }
+    const int64_t t2 = tp->t2;
     int64_t excess = cfg->excess;
     if (f2 > excess * excess) {
         events |= SP_CONTACT_EXCESS;
@@ -258,7 +350,7 @@ uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const
         st->low = 0u;
         return events;
     }
-    int64_t t_norm = (int64_t)sp_isqrt64((uint64_t)t2); /* |F_target|, Q8 */
+    const int64_t t_norm = tp->t_norm;
     int64_t made = (cfg->made > (int32_t)WRENCH_MAX) ? WRENCH_MAX : cfg->made;
     if (!st->made) {
         if (dot >= made * t_norm) {

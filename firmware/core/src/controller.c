@@ -98,6 +98,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     sp_ft_tare_reset(&ctrl->ft_tare);
     ctrl->ft_missed = UINT32_MAX;
     ctrl->ft_valid = 0u;
+    ctrl->ft_frame_valid = 0u;
     /* SP_E_RANGE (legs outside its envelope) leaves the rigid body */
     (void)sp_motion_error_body(p, &ctrl->prep.motion_body);
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
@@ -625,6 +626,9 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     sp_q8_t tared[6];
     sp_q8_t base[6];
     sp_rot_t rot;
+    sp_q30_t sc_est[6];
+    const sp_q30_t *sc;
+    int same = 1;
     unsigned k;
     unsigned n;
     if (cfg->wrench_source != SP_WRENCH_SENSOR) {
@@ -644,18 +648,35 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     }
     ctrl->ft_missed = 0u;
     (void)sp_ft_tare_step(&ctrl->ft_tare, in->ft_reading, tared);
+    /* the sensor's frame (S = T^T R_m, r = T^T pos) changes only when the
+     * platform turns: made again only for new sines (sp_ft_to_base's
+     * result, bit for bit) */
     if (ctrl->est.ref_lu.valid && ctrl->have_setpoint) {
-        spi_rot_from_sincos(ctrl->model.ref.sc, &rot);
+        sc = ctrl->model.ref.sc;
     } else {
-        sp_q30_t sc[6];
-        spi_orientation_sc(ctrl->est.pose.rpy, &rot, sc);
+        spi_orientation_sc(ctrl->est.pose.rpy, &rot, sc_est); /* its sines (before a reference exists) */
+        sc = sc_est;
     }
-    (void)sp_ft_to_base(&cfg->ft_mount, &rot, tared, base); /* saturates, never wraps */
     for (k = 0u; k < 6u; ++k) {
-        int32_t x = base[k];
+        same &= (sc[k] == ctrl->ft_frame_sc[k]) ? 1 : 0;
+    }
+    if (!same || !ctrl->ft_frame_valid) {
+        spi_rot_from_sincos(sc, &rot);
+        (void)sp_ft_frame(&cfg->ft_mount, &rot, &ctrl->ft_frame); /* saturates, never wraps */
+        for (k = 0u; k < 6u; ++k) {
+            ctrl->ft_frame_sc[k] = sc[k];
+        }
+        ctrl->ft_frame_valid = 1u;
+    }
+    (void)sp_ft_apply(&ctrl->ft_frame, tared, base); /* saturates, never wraps */
+    for (k = 0u; k < 6u; ++k) {
+        /* held within [-2^30, 2^30 - 1] Q8 (4.19 MN, MN m), as the cylinders'
+         * estimate: each section's step is then one 32 x 32-bit product */
+        int32_t x = (base[k] > SPI_SECTION_HI) ? SPI_SECTION_HI
+                                               : ((base[k] < -SPI_SECTION_HI - 1) ? -SPI_SECTION_HI - 1 : base[k]);
         for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
             if (ctrl->ft_valid) {
-                x = spi_lowpass_section(ctrl->ft_section[n][k], x, ctrl->prep.wrench_alpha);
+                x = spi_lowpass_section30(ctrl->ft_section[n][k], x, ctrl->prep.wrench_alpha);
             }
             ctrl->ft_section[n][k] = x;
         }
@@ -671,7 +692,7 @@ SPI_NOINLINE static void force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *c
 {
     uint32_t events = 0u;
     if (ctrl->state != SP_STATE_READY && ctrl->state != SP_STATE_RUNNING) {
-        (void)sp_force_init(&ctrl->prep.force, &ctrl->force);
+        (void)sp_force_reset(&ctrl->force); /* no computation: coefficients kept */
         ctrl->park_after_release = 0u;
         return;
     }
@@ -781,7 +802,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         ctrl->pos_ref = ref;
         hold_setpoints(ctrl, &ref);
         if (ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) {
-            (void)sp_force_init(&ctrl->prep.force, &ctrl->force);
+            (void)sp_force_reset(&ctrl->force); /* no computation: coefficients kept */
             ctrl->park_after_release = 0u;
         }
     } else {

@@ -60,6 +60,16 @@ SPI_INLINE int32_t spi_lowpass_section(int32_t y, int32_t x, sp_q30_t alpha)
     return (int32_t)(y + (((int64_t)alpha * ((int64_t)x - y) + (INT64_C(1) << 29)) >> 30));
 }
 
+/* The same section for y and x within [-2^30, 2^30 - 1] (SPI_SECTION_HI):
+ * x - y then fits an int32 and the step is one 32 x 32-bit product; the
+ * result, between y and x, stays in that range. Equal to
+ * spi_lowpass_section there (test_fixed). */
+#define SPI_SECTION_HI INT32_C(0x3FFFFFFF)
+SPI_INLINE int32_t spi_lowpass_section30(int32_t y, int32_t x, sp_q30_t alpha)
+{
+    return y + (int32_t)(((int64_t)alpha * (x - y) + (INT64_C(1) << 29)) >> 30);
+}
+
 /* Number of leading zero bits of a non-zero 32-bit value (CLZ). */
 SPI_INLINE unsigned spi_clz32(uint32_t v)
 {

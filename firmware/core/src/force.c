@@ -3,6 +3,8 @@
  */
 #include "sp/force.h"
 
+#include "fixed_inline.h"
+
 #include <stddef.h>
 
 sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alpha, uint32_t tick_us)
@@ -39,6 +41,25 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     return SP_OK;
 }
 
+sp_status_t sp_force_reset(sp_force_t *f)
+{
+    if (f == NULL) {
+        return SP_E_ARG;
+    }
+    (void)sp_admit_restart(&f->st, f->free_force);
+    f->mode = SP_FORCE_OFF;
+    f->mask = 0u;
+    f->retract_fault = 0u;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        f->target[k] = 0;
+    }
+    sp_contact_target(f->target, &f->push);
+    f->contact.made = 0u;
+    f->contact.armed = 0u;
+    f->contact.low = 0u;
+    return SP_OK;
+}
+
 sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
 {
     if (cfg == NULL || f == NULL) {
@@ -49,21 +70,16 @@ sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f)
             return SP_E_ARG;
         }
     }
-    sp_status_t st = sp_admit_configure(&cfg->admit, &f->st);
-    if (st != SP_OK) {
-        return st;
+    /* on failure f is left unusable: init again with a good config */
+    sp_status_t s = sp_admit_configure(&cfg->admit, &f->st);
+    for (unsigned k = 0; k < SP_AXES && s == SP_OK; ++k) {
+        f->free_force[k] = f->st.axis[k].free_coef;
+        s = sp_admit_coefficients(&cfg->admit, &f->st, k, cfg->guide_damping[k], &f->free_guide[k]);
     }
-    f->admit = cfg->admit;
-    f->mode = SP_FORCE_OFF;
-    f->mask = 0u;
-    f->retract_fault = 0u;
-    for (unsigned k = 0; k < SP_AXES; ++k) {
-        f->target[k] = 0;
+    if (s != SP_OK) {
+        return s;
     }
-    f->contact.made = 0u;
-    f->contact.armed = 0u;
-    f->contact.low = 0u;
-    return SP_OK;
+    return sp_force_reset(f);
 }
 
 /* |force part| <= max force (64-bit: no overflow), |moments| <= max moment. */
@@ -97,29 +113,18 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
         return SP_E_RANGE;
     }
     if (f->mode == SP_FORCE_OFF) {
-        sp_admit_config_t a = cfg->admit;
+        /* afresh, with the coefficients prepared at init */
+        (void)sp_force_reset(f);
         if (mode == SP_FORCE_GUIDE) {
-            for (unsigned k = 0; k < SP_AXES; ++k) {
-                a.axis[k].damping = cfg->guide_damping[k];
-            }
+            (void)sp_admit_restart(&f->st, f->free_guide);
         }
-        sp_admit_t st;
-        sp_status_t s = sp_admit_configure(&a, &st);
-        if (s != SP_OK) {
-            return s;
-        }
-        f->admit = a;
-        f->st = st;
-        f->contact.made = 0u;
-        f->contact.armed = 0u;
-        f->contact.low = 0u;
-        f->retract_fault = 0u;
     }
     f->mode = mode;
     f->mask = (uint8_t)(mask & 0x3Fu);
     for (unsigned k = 0; k < SP_AXES; ++k) {
         f->target[k] = (mode == SP_FORCE_FORCE) ? target[k] : 0;
     }
+    sp_contact_target(f->target, &f->push);
     return SP_OK;
 }
 
@@ -136,16 +141,24 @@ sp_status_t sp_force_release(sp_force_t *f)
 
 static sp_q24_t add_sat(sp_q24_t a, sp_q24_t b)
 {
-    int64_t s = (int64_t)a + b;
-    return (s > INT32_MAX) ? INT32_MAX : ((s < INT32_MIN) ? INT32_MIN : (sp_q24_t)s);
+    sp_flags_t flags = 0u; /* saturation is the documented result */
+    return spi_add(a, b, &flags);
 }
 
-/* The bounds of d on axis k: the deflection limit and the workspace box
- * around the position reference (0 when the reference is outside it). */
-static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, sp_q24_t lo[SP_AXES],
-                   sp_q24_t hi[SP_AXES])
+/* The bounds of d on the axes in `moving`: the deflection limit and the
+ * workspace box around the position reference (0 when the reference is
+ * outside it). An axis outside `moving` (at rest on the position reference
+ * and not forced: sp_admit_step leaves it there without reading its
+ * bounds) gets [0, 0], which would hold it there as well. */
+static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, uint8_t moving,
+                   sp_q24_t lo[SP_AXES], sp_q24_t hi[SP_AXES])
 {
     for (unsigned k = 0; k < SP_AXES; ++k) {
+        lo[k] = 0;
+        hi[k] = 0;
+        if ((moving & (1u << k)) == 0u) {
+            continue;
+        }
         int64_t x = (k < 3u) ? p->pos[k] : p->rpy[k - 3u];
         int64_t l = (int64_t)lim->ws_lo[k] - x;
         int64_t h = (int64_t)lim->ws_hi[k] - x;
@@ -165,13 +178,13 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         return SP_E_ARG;
     }
     *events = 0u;
-    *out = *pos_ref;
+    *out = *pos_ref; /* force control adds the offsets of the axes that have one */
     if (f->mode == SP_FORCE_OFF) {
         return SP_OK;
     }
     static const sp_q8_t zero[SP_AXES] = {0, 0, 0, 0, 0, 0};
     if (w_ext != NULL && (f->mode == SP_FORCE_FORCE || f->mode == SP_FORCE_GUIDE)) {
-        *events = sp_contact_step(&cfg->contact, &f->contact, w_ext, f->target);
+        *events = sp_contact_step_to(&cfg->contact, &f->contact, w_ext, &f->push);
         if ((*events & SP_CONTACT_EXCESS) != 0u) {
             f->mode = SP_FORCE_RELEASE;
             f->retract_fault = 1u;
@@ -186,7 +199,14 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         am = SP_ADMIT_HOLD;
     }
     sp_q24_t lo[SP_AXES], hi[SP_AXES], x[SP_AXES];
-    bounds(cfg, lim, &pos_ref->pose, lo, hi);
+    uint8_t moving = (am == SP_ADMIT_FORCE) ? f->mask : 0u;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        const sp_admit_axis_state_t *a = &f->st.axis[k];
+        if (a->d != 0 || a->v != 0) {
+            moving = (uint8_t)(moving | (1u << k));
+        }
+    }
+    bounds(cfg, lim, &pos_ref->pose, moving, lo, hi);
     if (x_meas != NULL) {
         for (unsigned k = 0; k < 3u; ++k) {
             x[k] = x_meas->pos[k];
@@ -194,17 +214,23 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         }
     }
     uint8_t contact = f->contact.made ? f->mask : 0u;
-    sp_status_t st = sp_admit_step(&f->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
+    sp_status_t st = sp_admit_step(&cfg->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
                                    (x_meas != NULL) ? x : NULL, contact, lo, hi, NULL);
+    /* out: the position reference plus the offsets of the axes that have
+     * one (adding zero would leave a field as it is) */
     for (unsigned k = 0; k < 3u; ++k) {
         const sp_admit_axis_state_t *a = &f->st.axis[k];
         const sp_admit_axis_state_t *r = &f->st.axis[3u + k];
-        out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
-        out->vel[k] = add_sat(pos_ref->vel[k], a->v);
-        out->acc[k] = add_sat(pos_ref->acc[k], a->a);
-        out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
-        out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
-        out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
+        if (a->d != 0 || a->v != 0 || a->a != 0) {
+            out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
+            out->vel[k] = add_sat(pos_ref->vel[k], a->v);
+            out->acc[k] = add_sat(pos_ref->acc[k], a->a);
+        }
+        if (r->d != 0 || r->v != 0 || r->a != 0) {
+            out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
+            out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
+            out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
+        }
     }
     if (f->mode == SP_FORCE_RELEASE) {
         int done = 1;

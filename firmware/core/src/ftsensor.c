@@ -4,6 +4,8 @@
  */
 #include "sp/ftsensor.h"
 
+#include "fixed_inline.h"
+
 #include <stddef.h>
 
 #define IN_MAX (INT64_C(1) << 30)
@@ -22,15 +24,13 @@ static int64_t round_shift(int64_t v, unsigned s)
     return (v + (INT64_C(1) << (s - 1u))) >> s;
 }
 
-sp_status_t sp_ft_to_base(const sp_ft_mount_t *mount, const sp_rot_t *T, const sp_q8_t reading[6], sp_q8_t out[6])
+sp_status_t sp_ft_frame(const sp_ft_mount_t *mount, const sp_rot_t *T, sp_ft_frame_t *fr)
 {
-    if (mount == NULL || T == NULL || reading == NULL || out == NULL) {
+    if (mount == NULL || T == NULL || fr == NULL) {
         return SP_E_ARG;
     }
-    int sat = 0;
     sp_flags_t flags = 0u;
     /* S = T^T R_m (base <- sensor), Q30; r = T^T pos, Q24 */
-    int64_t s[3][3], r[3];
     for (unsigned i = 0; i < 3u; ++i) {
         int64_t acc_r = 0;
         for (unsigned j = 0; j < 3u; ++j) {
@@ -38,32 +38,58 @@ sp_status_t sp_ft_to_base(const sp_ft_mount_t *mount, const sp_rot_t *T, const s
             for (unsigned k = 0; k < 3u; ++k) {
                 acc += (int64_t)T->t[k][i] * mount->axes.t[k][j];
             }
-            s[i][j] = round_shift(acc, 30u);
+            fr->s[i][j] = sp_sat32(round_shift(acc, 30u), &flags);
             acc_r += (int64_t)T->t[j][i] * mount->pos[j];
         }
-        r[i] = round_shift(acc_r, 30u);
+        fr->r[i] = sp_sat32(round_shift(acc_r, 30u), &flags);
     }
-    int64_t f_s[3], m_s[3];
+    return (flags != 0u) ? SP_E_OVERFLOW : SP_OK;
+}
+
+sp_status_t sp_ft_apply(const sp_ft_frame_t *fr, const sp_q8_t reading[6], sp_q8_t out[6])
+{
+    if (fr == NULL || reading == NULL || out == NULL) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    sp_flags_t flags = 0u;
+    /* the reading held within +-2^30: each product with an int32 entry of S
+     * below 2^61, three of them below 2^63 */
+    int32_t f_s[3], m_s[3];
     for (unsigned k = 0; k < 3u; ++k) {
-        f_s[k] = clamp_in(reading[k], &sat);
-        m_s[k] = clamp_in(reading[3u + k], &sat);
+        f_s[k] = (int32_t)clamp_in(reading[k], &sat);
+        m_s[k] = (int32_t)clamp_in(reading[3u + k], &sat);
     }
     int64_t f[3], m[3];
     for (unsigned i = 0; i < 3u; ++i) {
-        f[i] = round_shift(s[i][0] * f_s[0] + s[i][1] * f_s[1] + s[i][2] * f_s[2], 30u); /* Q8 */
-        m[i] = s[i][0] * m_s[0] + s[i][1] * m_s[1] + s[i][2] * m_s[2];                   /* Q38 */
+        const int32_t *si = fr->s[i];
+        f[i] = round_shift((int64_t)si[0] * f_s[0] + (int64_t)si[1] * f_s[1] + (int64_t)si[2] * f_s[2], 30u); /* Q8 */
+        m[i] = (int64_t)si[0] * m_s[0] + (int64_t)si[1] * m_s[1] + (int64_t)si[2] * m_s[2];                   /* Q38 */
     }
-    /* r x F: Q24 x Q8 = Q32; r within +-128 m and F within +-2^31: each product below 2^62 */
-    int64_t fc[3];
+    /* r x F: Q24 x Q8 = Q32; r within +-128 m and F within +-2^30: each product below 2^61 */
+    int32_t fc[3];
     for (unsigned i = 0; i < 3u; ++i) {
-        fc[i] = (f[i] > IN_MAX) ? IN_MAX : ((f[i] < -IN_MAX) ? -IN_MAX : f[i]);
+        fc[i] = (int32_t)((f[i] > IN_MAX) ? IN_MAX : ((f[i] < -IN_MAX) ? -IN_MAX : f[i]));
     }
-    int64_t rx[3] = {r[1] * fc[2] - r[2] * fc[1], r[2] * fc[0] - r[0] * fc[2], r[0] * fc[1] - r[1] * fc[0]};
+    const int32_t *r = fr->r;
+    int64_t rx[3] = {(int64_t)r[1] * fc[2] - (int64_t)r[2] * fc[1], (int64_t)r[2] * fc[0] - (int64_t)r[0] * fc[2],
+                     (int64_t)r[0] * fc[1] - (int64_t)r[1] * fc[0]};
     for (unsigned i = 0; i < 3u; ++i) {
-        out[i] = sp_sat32(f[i], &flags);
-        out[3u + i] = sp_sat32(round_shift(m[i], 30u) + round_shift(rx[i], 24u), &flags);
+        out[i] = spi_sat(f[i], &flags);
+        out[3u + i] = spi_sat(round_shift(m[i], 30u) + round_shift(rx[i], 24u), &flags);
     }
     return (sat || flags != 0u) ? SP_E_OVERFLOW : SP_OK;
+}
+
+sp_status_t sp_ft_to_base(const sp_ft_mount_t *mount, const sp_rot_t *T, const sp_q8_t reading[6], sp_q8_t out[6])
+{
+    if (mount == NULL || T == NULL || reading == NULL || out == NULL) {
+        return SP_E_ARG;
+    }
+    sp_ft_frame_t fr;
+    sp_status_t a = sp_ft_frame(mount, T, &fr);
+    sp_status_t b = sp_ft_apply(&fr, reading, out);
+    return (a != SP_OK) ? a : b;
 }
 
 void sp_ft_tare_reset(sp_ft_tare_t *t)

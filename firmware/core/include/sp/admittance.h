@@ -31,8 +31,10 @@
  * stable for any M > 0, D >= 0:
  *     v[n+1] = (M v[n] + dt (F - K d[n])) / (M + dt D),  F = W_ext + W_target
  *     d[n+1] = d[n] + dt v[n+1]
- * The two coefficients M / (M + dt D) and dt / (M + dt D) are computed only
- * when D changes by more than 1/16 (a division per change, none per tick).
+ * The coefficients M / (M + dt D), dt / (M + dt D) and dt K / (M + dt D) are
+ * computed only when the adapted D changes by more than 1/16 (three
+ * divisions per change); those of the free-space damping and of the return
+ * to d = 0 are prepared once (sp_admit_configure, sp_admit_coefficients).
  * Then, in this order: |v| <= v_max; towards a bound [lo, hi] of d (the
  * deflection limit and the workspace, given by the caller each tick) v is
  * held to the braking speed sqrt(2 a_brake (bound - d)), so the axis stops
@@ -85,22 +87,27 @@ typedef struct {
 
 /** State of one axis. */
 typedef struct {
-    sp_q24_t d;           /**< offset from the position reference, m or rad, Q24 */
-    sp_q24_t v;           /**< its rate, m/s or rad/s, Q24 */
-    sp_q24_t a;           /**< its acceleration this tick, m/s^2 or rad/s^2, Q24 */
-    sp_admit_coef_t coef; /**< for the damping in use */
-    sp_admit_coef_t rel;  /**< for the return to d = 0 (critically damped) */
-    int32_t x_f[4];       /**< the measured pose through the wrench filter's sections, Q24 */
-    sp_q24_t x_contact;   /**< x_f when contact was made, Q24 */
-    sp_q8_t w_contact;    /**< the filtered wrench when contact was made, Q8 */
-    int32_t k_hat;        /**< the surface stiffness estimate, N/m (0: none yet) */
-    uint8_t in_contact;   /**< 1 from contact made until it is lost or force control ends */
+    sp_q24_t d;                /**< offset from the position reference, m or rad, Q24 */
+    sp_q24_t v;                /**< its rate, m/s or rad/s, Q24 */
+    sp_q24_t a;                /**< its acceleration this tick, m/s^2 or rad/s^2, Q24 */
+    sp_admit_coef_t coef;      /**< for the damping in use */
+    sp_admit_coef_t free_coef; /**< for the free-space damping (approach or guiding), prepared */
+    sp_admit_coef_t rel;       /**< for the return to d = 0 (critically damped), prepared */
+    sp_q24_t dv_brake;         /**< a_brake dt: the speed hold takes off each tick, m/s or rad/s, Q24 */
+    int32_t x_f[4];            /**< the measured pose through the wrench filter's sections, Q24 */
+    sp_q24_t x_contact;        /**< x_f when contact was made, Q24 */
+    sp_q8_t w_contact;         /**< the filtered wrench when contact was made, Q8 */
+    int32_t k_hat;             /**< the surface stiffness estimate, N/m (0: none yet) */
+    uint8_t in_contact;        /**< 1 from contact made until it is lost or force control ends */
 } sp_admit_axis_state_t;
 
 /** State of the admittance. */
 typedef struct {
     sp_admit_axis_state_t axis[SP_AXES];
-    uint8_t primed; /**< 1 once x_f holds the measured pose */
+    int64_t dt_q50;   /**< the tick, s, Q50 (prepared: the numerator of the coefficient c_f) */
+    int32_t dt_q38;   /**< the tick, s, Q38 (prepared) */
+    int32_t rate_q16; /**< 1 / tick, 1/s, Q16 (prepared) */
+    uint8_t primed;   /**< bit k: x_f of axis k holds the measured pose (the axis is forced since) */
 } sp_admit_t;
 
 /** What the axes do in a step. */
@@ -117,25 +124,58 @@ typedef struct {
 } sp_admit_report_t;
 
 /**
- * Checks cfg and sets every axis to d = v = 0, no contact, the free-space
- * damping. SP_E_ARG (nothing changed) on NULL or a parameter outside its
- * documented range; SP_E_OVERFLOW when a coefficient does not fit its
- * format (M + dt D beyond 2^31 kg, i.e. D above about 2e12 N s/m).
+ * Checks cfg, prepares every coefficient the steps use (per axis: the
+ * free-space damping's and the release's, three divisions each; the tick's
+ * constants) and sets every axis to d = v = 0, no contact, the free-space
+ * damping. Call it when the config changes (at init), not in a tick: it
+ * costs twelve coefficient sets. SP_E_ARG (nothing changed) on NULL or a
+ * parameter outside its documented range; SP_E_OVERFLOW when a coefficient
+ * does not fit its format (M + dt D beyond 2^31 kg, i.e. D above about
+ * 2e12 N s/m).
  */
 sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st);
 
 /**
- * One tick.
+ * The coefficients of axis `axis` of cfg (its mass and stiffness; the tick
+ * as prepared in st, which sp_admit_configure made from cfg) for the
+ * damping `damping` (N s/m or N m s/rad, >= 1): what sp_admit_configure and
+ * a step's adaptation compute, for a caller that prepares the coefficients
+ * of another free-space damping (hand guiding). SP_E_ARG on NULL, an axis
+ * >= SP_AXES or a damping < 1; SP_E_OVERFLOW as sp_admit_configure (*c
+ * unchanged on failure).
+ */
+sp_status_t sp_admit_coefficients(const sp_admit_config_t *cfg, const sp_admit_t *st, unsigned axis, int32_t damping,
+                                  sp_admit_coef_t *c);
+
+/**
+ * Starts afresh without computing anything: every axis to d = v = a = 0, no
+ * contact, no stiffness estimate, the filter of the pose unprimed, and the
+ * damping in use the free-space one. With `free_coef` non-NULL, free_coef[k] becomes
+ * axis k's free-space coefficients (prepared by sp_admit_coefficients for
+ * this config); with NULL, each axis keeps the ones it has. The release
+ * coefficients and the tick's constants are kept. SP_E_ARG on NULL st.
+ */
+sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_AXES]);
+
+/**
+ * One tick, with cfg the config st was configured with (its prepared
+ * coefficients are used as they are).
  *   mode     what the axes do (sp_admit_mode_t; another value: SP_E_ARG);
  *   mask     bit k: axis k is force-controlled in SP_ADMIT_FORCE;
  *   w_ext    the filtered wrench the world exerts on the platform, N / N m, Q8;
  *   w_target the wrench the platform is to exert, N / N m, Q8;
  *   x_meas   the measured (estimated) pose, m / rad, Q24, used for the
- *            stiffness secant (may be NULL: no adaptation this tick);
+ *            stiffness secant of the forced axes, whose filter it passes
+ *            (primed the first tick an axis is forced; may be NULL: no
+ *            adaptation this tick);
  *   contact  bit k: the axis is in contact (sp_contact_step decides);
  *   lo, hi   bounds of d this tick, Q24, lo <= 0 <= hi (a bound the
  *            position reference has already passed counts as 0).
- * Writes st (d, v, a per axis) and *report (may be NULL).
+ * Writes st (d, v, a per axis) and *report (may be NULL). Work per tick: an
+ * axis at rest on the position reference (d = v = 0) that follows it stays
+ * there without computing; a forced axis runs its filter and, in contact,
+ * the secant (two divisions); a change of the adapted damping by more than
+ * 1/16 costs three more.
  * Inputs are clamped: a wrench sum beyond +-2^30 Q8 (4.19 MN) is held there;
  * d, v, a saturate at the Q24 extremes. Nothing wraps.
  * Returns SP_E_ARG (nothing changed) on NULL (other than x_meas, report);
@@ -182,5 +222,23 @@ typedef struct {
  */
 uint32_t sp_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
                          const sp_q8_t w_target[SP_AXES]);
+
+/** A target's force part as sp_contact_step uses it, prepared once per target. */
+typedef struct {
+    int32_t t[3];   /**< the force part, each component held within +-2^30, N, Q8 */
+    int64_t t2;     /**< |t|^2, Q16 */
+    int64_t t_norm; /**< |t|, rounded, N, Q8 */
+} sp_contact_target_t;
+
+/** Prepares w_target (the first three components) for sp_contact_step_to. No-op on NULL. */
+void sp_contact_target(const sp_q8_t w_target[SP_AXES], sp_contact_target_t *tp);
+
+/**
+ * sp_contact_step with the target prepared by sp_contact_target: the same
+ * events and state, without the target's norm (a square root) each tick.
+ * Returns 0 on NULL.
+ */
+uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, const sp_q8_t w_ext[SP_AXES],
+                            const sp_contact_target_t *tp);
 
 #endif /* SP_ADMITTANCE_H */

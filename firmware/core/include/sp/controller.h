@@ -261,6 +261,9 @@ typedef struct {
     int32_t ft_section[SP_WRENCH_SECTIONS][6]; /**< the sensor's wrench through the wrench filter's sections, Q8 */
     uint32_t ft_missed;                        /**< ticks since the last sensor reading (saturates) */
     uint8_t ft_valid;                          /**< 1 while ft_section follows the sensor */
+    sp_ft_frame_t ft_frame;                    /**< the sensor's frame at the orientation of ft_frame_sc */
+    sp_q30_t ft_frame_sc[6];                   /**< sin, cos of roll, pitch, yaw that ft_frame was made for */
+    uint8_t ft_frame_valid;                    /**< 1 once ft_frame was made (0 at init: make it) */
     sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
 } sp_ctrl_t;
 

@@ -55,12 +55,14 @@ typedef struct {
 /** Force-control state. */
 typedef struct {
     sp_force_mode_t mode;
-    uint8_t mask;            /**< the force-controlled axes (bit k: axis k) */
-    uint8_t retract_fault;   /**< RELEASE was started by an excessive force */
-    sp_q8_t target[SP_AXES]; /**< W_target, N and N m, base frame, Q8 */
-    sp_admit_config_t admit; /**< the law's parameters for the current mode */
-    sp_admit_t st;           /**< the law's state */
-    sp_contact_t contact;    /**< contact supervision */
+    uint8_t mask;                        /**< the force-controlled axes (bit k: axis k) */
+    uint8_t retract_fault;               /**< RELEASE was started by an excessive force */
+    sp_q8_t target[SP_AXES];             /**< W_target, N and N m, base frame, Q8 */
+    sp_admit_t st;                       /**< the law's state (the config's admit) */
+    sp_contact_t contact;                /**< contact supervision */
+    sp_contact_target_t push;            /**< the target's force part, prepared for contact supervision */
+    sp_admit_coef_t free_force[SP_AXES]; /**< FORCE: the approach damping's coefficients (prepared) */
+    sp_admit_coef_t free_guide[SP_AXES]; /**< GUIDE: the guide damping's coefficients (prepared) */
 } sp_force_t;
 
 /**
@@ -77,13 +79,28 @@ typedef struct {
  */
 sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alpha, uint32_t tick_us);
 
-/** OFF, no contact. Checks cfg (sp_admit_configure). SP_E_ARG on NULL or a bad config. */
+/**
+ * Checks cfg and prepares every coefficient force control uses (the
+ * approach, guide and release dampings of each axis: eighteen sets of
+ * three divisions, sp_admit_configure), then OFF, no contact. For init or a
+ * new config, not for a tick. SP_E_ARG on NULL or a bad config (f
+ * unchanged), SP_E_OVERFLOW as sp_admit_configure (f then not usable until
+ * an init succeeds).
+ */
 sp_status_t sp_force_init(const sp_force_config_t *cfg, sp_force_t *f);
+
+/**
+ * OFF, no contact, every axis at rest on the position reference, with the
+ * coefficients sp_force_init prepared (nothing is computed: for a tick).
+ * SP_E_ARG on NULL.
+ */
+sp_status_t sp_force_reset(sp_force_t *f);
 
 /**
  * Enters FORCE (mask, target) or GUIDE (mask; the target is zero) from OFF,
  * or, in FORCE, changes mask-less the target (a new FORCE command with the
- * same mask is a target update). Refused with SP_E_RANGE for a target
+ * same mask is a target update). Uses the coefficients sp_force_init
+ * prepared: no division, whatever the mask. Refused with SP_E_RANGE for a target
  * beyond the config's maxima, SP_E_ARG for an empty mask, a mode other
  * than FORCE or GUIDE, NULL, or a switch between FORCE and GUIDE (leave
  * first), SP_E_BUSY while RELEASE or HOLD runs. Nothing changes on refusal.

@@ -39,6 +39,34 @@ typedef struct {
  */
 sp_status_t sp_ft_to_base(const sp_ft_mount_t *mount, const sp_rot_t *T, const sp_q8_t reading[6], sp_q8_t out[6]);
 
+/**
+ * What sp_ft_to_base derives from the orientation and the mount alone, for a
+ * caller that turns many readings at one orientation (the controller redoes
+ * it only when the platform turns): S = T^T R_m (base <- sensor axes) and
+ * r = T^T pos.
+ */
+typedef struct {
+    int32_t s[3][3]; /**< T^T R_m, Q30 (entries within +-1 for rotations; held within int32) */
+    int32_t r[3];    /**< T^T pos, the sensor's origin from o' in base axes, m, Q24 (held within +-128 m) */
+} sp_ft_frame_t;
+
+/**
+ * The frame of a sensor mounted as `mount` on a platform at orientation T.
+ * Entries beyond int32 (not for a rotation and a mount within +-128 m)
+ * saturate. Returns SP_E_ARG (fr untouched) on NULL, SP_E_OVERFLOW when
+ * something saturated, else SP_OK.
+ */
+sp_status_t sp_ft_frame(const sp_ft_mount_t *mount, const sp_rot_t *T, sp_ft_frame_t *fr);
+
+/**
+ * sp_ft_to_base with the frame prepared by sp_ft_frame: the same result,
+ * bit for bit, for any frame whose entries did not saturate: 18 + 6 products
+ * of 32 x 32 bits, where sp_ft_to_base also makes the frame (36 more). Inputs beyond +-2^30 Q8 are held there; a
+ * result beyond int32 saturates. SP_E_ARG (out untouched) on NULL,
+ * SP_E_OVERFLOW when something saturated, else SP_OK.
+ */
+sp_status_t sp_ft_apply(const sp_ft_frame_t *fr, const sp_q8_t reading[6], sp_q8_t out[6]);
+
 /** The tare's state. */
 typedef struct {
     int64_t sum[6];  /**< readings summed so far, Q8 */
