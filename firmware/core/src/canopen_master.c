@@ -628,6 +628,16 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     return SP_OK;
 }
 
+sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t *phase, sp_co_fault_t *fault)
+{
+    if (m == NULL || phase == NULL || fault == NULL || k >= SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    *phase = m->node[k].phase;
+    *fault = m->node[k].fault;
+    return SP_OK;
+}
+
 /* ---- scaling ---- */
 
 #define NM_PER_M 1000000000LL

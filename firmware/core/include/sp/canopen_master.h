@@ -238,6 +238,11 @@ typedef struct {
 sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
                               sp_co_master_output_t *out);
 
+/** Node k's phase (sp_co_phase_t) and latched fault, for callers that do
+ *  not read the struct (the Python tools over ctypes). SP_E_ARG for NULL or
+ *  k >= SP_CO_MAX_NODES. */
+sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t *phase, sp_co_fault_t *fault);
+
 /** Scaling of a leg length to a drive's position count. */
 typedef struct {
     uint32_t nm_per_count; /**< 1..1,000,000 (1 nm .. 1 mm per count) */
