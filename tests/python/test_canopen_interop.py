@@ -264,3 +264,30 @@ def test_heartbeat_stopped_in_the_library_is_heartbeat_lost(rig, L):
     assert fault.expect == rig.cfg.heartbeat_timeout_ms
     # detected after the configured timeout (wall clock: the loop's jitter on top)
     assert 0.15 <= time.monotonic() - t < 1.0
+
+
+@pytest.mark.parametrize("pressure,divider,timeout,mode", [(True, 1, 3, 8), (False, 3, 9, 9)])
+def test_the_c_plan_is_the_pc_plan(L, pressure, divider, timeout, mode):
+    """sp_co_plan_build writes what tools/stewart/drives/plan.py (the PC's
+    `stewart drives config`) writes, in the same order: one plan, two languages."""
+    from stewart.drives import plan as pc_plan
+    from stewart.drives.layout import Drive, Drives, Scaling
+
+    drive = Drive(1, "cia408", "can_a", node_id=21, scaling=Scaling(1e-6, 1.85), control_mode=mode)
+    drives = Drives((drive,), {"can_a": 1_000_000}, sync_divider=divider, setpoint_timeout_ms=timeout,
+                    pressure_feedback=pressure)
+    want = pc_plan.drive_writes(drive, drives)
+    cfg = Cfg()
+    assert L.sp_co_master_cfg_default(C.byref(cfg), 1) == 0
+    cfg.node[0].node_id = 21
+    cfg.node[0].control_mode = mode
+    cfg.pressure_feedback = int(pressure)
+    cfg.sync_divider = divider
+    cfg.setpoint_timeout_ms = timeout
+    got, n = (WriteEntry * 32)(), C.c_uint8()
+    assert L.sp_co_plan_build(C.byref(cfg), 0, C.byref(got), C.byref(n)) == 0
+    assert n.value == len(want)
+    for g, w in zip(got[: n.value], want):
+        size = {1: 1, 2: 1, 3: 2, 4: 4, 5: 1, 6: 2, 7: 4}[w.datatype]
+        assert (g.index, g.sub, g.size, g.value, bool(g.final), bool(g.optional)) == (
+            w.index, w.subindex, size, w.value & ((1 << (8 * size)) - 1), w.final, w.optional), w.purpose
