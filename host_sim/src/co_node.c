@@ -24,50 +24,79 @@ static void od_add(hs_co_node_t *n, uint16_t index, uint8_t sub, uint8_t size, u
     }
 }
 
-/* The EDS's objects (config/eds/stewart_sim_drive.eds) with its defaults. */
+/* A PDO communication record (sub-indices 0, 1, 2, 3, 5) with the EDS's defaults. */
+static void pdo_comm(hs_co_node_t *n, uint16_t index, uint32_t cob)
+{
+    od_add(n, index, 0u, 1u, HS_CO_RO, 5u);
+    od_add(n, index, 1u, 4u, HS_CO_RW, cob);
+    od_add(n, index, 2u, 1u, HS_CO_RW, 1u);
+    od_add(n, index, 3u, 2u, HS_CO_RW, 0u);
+    od_add(n, index, 5u, 2u, HS_CO_RW, 0u);
+}
+
+/* A PDO mapping record: count and four entries. */
+static void pdo_map(hs_co_node_t *n, uint16_t index, uint32_t count, uint32_t e1, uint32_t e2)
+{
+    od_add(n, index, 0u, 1u, HS_CO_RW, count);
+    od_add(n, index, 1u, 4u, HS_CO_RW, e1);
+    od_add(n, index, 2u, 4u, HS_CO_RW, e2);
+    od_add(n, index, 3u, 4u, HS_CO_RW, 0u);
+    od_add(n, index, 4u, 4u, HS_CO_RW, 0u);
+}
+
+/* The EDS's objects (config/eds/stewart_sim_drive.eds) with its defaults,
+ * except the three strings 0x1008-0x100A (they need a segmented transfer,
+ * which this server does not offer); a Python test compares the two. */
 static void od_defaults(hs_co_node_t *n)
 {
     uint32_t id = n->node_id;
     n->n_od = 0u;
     od_add(n, 0x1000u, 0u, 4u, HS_CO_RO, 0x00000198u);
     od_add(n, 0x1001u, 0u, 1u, HS_CO_RO, 0u);
+    od_add(n, 0x1003u, 0u, 1u, HS_CO_RW, 0u);
+    od_add(n, 0x1003u, 1u, 4u, HS_CO_RO, 0u);
     od_add(n, 0x1005u, 0u, 4u, HS_CO_RW, 0x80u);
     od_add(n, 0x1006u, 0u, 4u, HS_CO_RW, 0u);
     od_add(n, 0x1014u, 0u, 4u, HS_CO_RO, 0x80u + id);
+    od_add(n, 0x1016u, 0u, 1u, HS_CO_RO, 1u);
+    od_add(n, 0x1016u, 1u, 4u, HS_CO_RW, 0u);
     od_add(n, 0x1017u, 0u, 2u, HS_CO_RW, 0u);
     od_add(n, 0x1018u, 0u, 1u, HS_CO_RO, 4u);
     od_add(n, 0x1018u, 1u, 4u, HS_CO_RO, 0u);
     od_add(n, 0x1018u, 2u, 4u, HS_CO_RO, 0x5348u);
     od_add(n, 0x1018u, 3u, 4u, HS_CO_RO, 0x00010000u);
     od_add(n, 0x1018u, 4u, 4u, HS_CO_RO, 0u);
-    od_add(n, 0x1400u, 1u, 4u, HS_CO_RW, 0x200u + id);
-    od_add(n, 0x1400u, 2u, 1u, HS_CO_RW, 1u);
-    od_add(n, 0x1400u, 5u, 2u, HS_CO_RW, 0u);
-    od_add(n, 0x1600u, 0u, 1u, HS_CO_RW, 2u);
-    od_add(n, 0x1600u, 1u, 4u, HS_CO_RW, 0x60400010u);
-    od_add(n, 0x1600u, 2u, 4u, HS_CO_RW, 0x66000120u);
-    od_add(n, 0x1800u, 1u, 4u, HS_CO_RW, 0x180u + id);
-    od_add(n, 0x1800u, 2u, 1u, HS_CO_RW, 1u);
-    od_add(n, 0x1801u, 1u, 4u, HS_CO_RW, 0x280u + id);
-    od_add(n, 0x1801u, 2u, 1u, HS_CO_RW, 1u);
-    od_add(n, 0x1A00u, 0u, 1u, HS_CO_RW, 2u);
-    od_add(n, 0x1A00u, 1u, 4u, HS_CO_RW, 0x60410010u);
-    od_add(n, 0x1A00u, 2u, 4u, HS_CO_RW, 0x66010120u);
-    od_add(n, 0x1A01u, 0u, 1u, HS_CO_RW, 2u);
-    od_add(n, 0x1A01u, 1u, 4u, HS_CO_RW, 0x21100110u);
-    od_add(n, 0x1A01u, 2u, 4u, HS_CO_RW, 0x21100210u);
+    od_add(n, 0x1200u, 0u, 1u, HS_CO_RO, 2u);
+    od_add(n, 0x1200u, 1u, 4u, HS_CO_RO, 0x600u + id);
+    od_add(n, 0x1200u, 2u, 4u, HS_CO_RO, 0x580u + id);
+    pdo_comm(n, 0x1400u, 0x200u + id);
+    pdo_comm(n, 0x1401u, 0x80000300u + id);
+    pdo_map(n, 0x1600u, 2u, 0x60400010u, 0x66000120u);
+    pdo_map(n, 0x1601u, 0u, 0u, 0u);
+    pdo_comm(n, 0x1800u, 0x180u + id);
+    pdo_comm(n, 0x1801u, 0x280u + id);
+    pdo_map(n, 0x1A00u, 2u, 0x60410010u, 0x66010120u);
+    pdo_map(n, 0x1A01u, 2u, 0x21100110u, 0x21100210u);
+    od_add(n, 0x2100u, 0u, 1u, HS_CO_RO, 0u);
+    od_add(n, 0x2110u, 0u, 1u, HS_CO_RO, 2u);
+    od_add(n, 0x2110u, 1u, 2u, HS_CO_RO, 0u);
+    od_add(n, 0x2110u, 2u, 2u, HS_CO_RO, 0u);
     od_add(n, 0x6040u, 0u, 2u, HS_CO_RW, 0u);
     od_add(n, 0x6041u, 0u, 2u, HS_CO_RO, 0u);
     od_add(n, 0x6042u, 0u, 1u, HS_CO_RW, 1u);
     od_add(n, 0x6043u, 0u, 1u, HS_CO_RW, 8u);
+    od_add(n, 0x6600u, 0u, 1u, HS_CO_RO, 3u);
     od_add(n, 0x6600u, 1u, 4u, HS_CO_RW, 0u);
     od_add(n, 0x6600u, 2u, 1u, HS_CO_RW, 0x01u);
     od_add(n, 0x6600u, 3u, 1u, HS_CO_RW, 0xFAu); /* -6 */
+    od_add(n, 0x6601u, 0u, 1u, HS_CO_RO, 3u);
     od_add(n, 0x6601u, 1u, 4u, HS_CO_RO, 0u);
     od_add(n, 0x6601u, 2u, 1u, HS_CO_RO, 0x01u);
     od_add(n, 0x6601u, 3u, 1u, HS_CO_RO, 0xFAu);
-    od_add(n, 0x2110u, 1u, 2u, HS_CO_RO, 0u);
-    od_add(n, 0x2110u, 2u, 2u, HS_CO_RO, 0u);
+    od_add(n, 0x6614u, 0u, 1u, HS_CO_RO, 3u);
+    od_add(n, 0x6614u, 1u, 4u, HS_CO_RW, 0u);
+    od_add(n, 0x6614u, 2u, 1u, HS_CO_RO, 0x01u);
+    od_add(n, 0x6614u, 3u, 1u, HS_CO_RO, 0xFAu);
 }
 
 hs_co_entry_t *hs_co_node_find(hs_co_node_t *n, uint16_t index, uint8_t sub)

@@ -24,7 +24,7 @@
 #include "hs/status.h"
 #include "sp/canopen.h"
 
-#define HS_CO_OD_MAX 64u /**< object dictionary entries */
+#define HS_CO_OD_MAX 96u /**< object dictionary entries */
 #define HS_CO_MAX_TX 4u  /**< frames one call emits, at most */
 
 #define HS_CO_RO 0u /**< read only */
