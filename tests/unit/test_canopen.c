@@ -25,7 +25,8 @@
 
 #include <cmocka.h>
 
-#include "sp/canopen_master.h"
+#include "sp/canopen_link.h"
+#include "sp/platform.h"
 
 static void assert_bytes(const sp_can_frame_t *f, uint32_t id, const uint8_t *want, uint8_t len)
 {
@@ -367,6 +368,75 @@ static void test_master_input_checks(void **state)
     assert_int_equal(sp_co_master_start(&m, &cfg, 0u), SP_E_ARG);
 }
 
+static void test_link(void **state)
+{
+    sp_co_link_cfg_t cfg;
+    sp_co_master_t m;
+    sp_co_master_input_t in;
+    sp_ctrl_output_t out;
+    sp_drive_feedback_t fb[SP_LEGS];
+    sp_q24_t zero[SP_LEGS];
+    uint32_t i;
+    (void)state;
+    for (i = 0u; i < SP_LEGS; i++) {
+        zero[i] = (sp_q24_t)(0x01000000 + (int32_t)i * 0x10000); /* 1 m + i/256 m */
+    }
+    assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+    /* legs swapped between nodes 0 and 1: still one drive per leg */
+    cfg.master.node[0].leg = 2u;
+    cfg.master.node[1].leg = 1u;
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+    cfg.master.node[1].leg = 2u; /* leg 2 twice, leg 1 none */
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_E_ARG);
+    cfg.master.node[1].leg = 1u;
+    cfg.scaling[3].direction = 0;
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_E_ARG);
+    cfg.scaling[3].direction = 1;
+
+    /* feedback: node 0 moves leg 2 */
+    memset(&m, 0, sizeof m);
+    memset(fb, 0, sizeof fb);
+    fb[4].fresh = 1u;
+    m.node[0].tpdo1_fresh = 1u;
+    m.node[0].actual = 62500; /* um */
+    m.node[0].pa_kpa = 10000u;
+    m.node[0].pb_kpa = 0u;
+    m.node[2].tpdo1_fresh = 1u;
+    m.node[2].fault.code = SP_CO_F_EMCY;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].fresh, 1u);
+    assert_int_equal(fb[1].length, zero[1] + 0x00100000); /* + 62.5 mm */
+    assert_int_equal(fb[1].faults, 0u);
+    assert_true(fb[1].force > 0); /* 100 bar on the piston side pushes out */
+    assert_int_equal(fb[2].fresh, 1u);
+    assert_int_equal(fb[2].faults, SP_CO_LINK_FAULT);
+    assert_int_equal(fb[0].fresh, 0u);
+    assert_int_equal(fb[4].fresh, 0u); /* cleared: no TPDO */
+
+    /* input: the request follows the drive mode, setpoints by scaling */
+    memset(&out, 0, sizeof out);
+    for (i = 0u; i < SP_LEGS; i++) {
+        out.setpoint[i].length = zero[i] - 0x00100000;
+    }
+    out.drive_mode = SP_DRIVE_HOLD;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 77u, &in), SP_OK);
+    assert_int_equal(in.request, SP_CO_REQ_HOLD);
+    assert_int_equal(in.now_ms, 77u);
+    assert_int_equal(in.setpoint[0], -62500);           /* node 0: leg 2's setpoint */
+    out.setpoint[1].length = zero[1] - 0x00100000 + 17; /* 1 um = 16.8 Q24 steps: rounds to one count more */
+    out.drive_mode = SP_DRIVE_ACTIVE;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
+    assert_int_equal(in.request, SP_CO_REQ_ACTIVE);
+    assert_int_equal(in.setpoint[0], -62499);
+    cfg.scaling[0].nm_per_count = 1u;
+    out.setpoint[0].length = INT32_MAX;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 79u, &in), SP_E_OVERFLOW);
+    assert_int_equal(in.setpoint[1], INT32_MAX);
+    assert_int_equal(sp_co_link_input(NULL, &out, 79u, &in), SP_E_ARG);
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -374,7 +444,7 @@ int main(void)
         cmocka_unit_test(test_nmt_sync_heartbeat),  cmocka_unit_test(test_pdo_emcy),
         cmocka_unit_test(test_cia408_states),       cmocka_unit_test(test_plan),
         cmocka_unit_test(test_cfg_check),           cmocka_unit_test(test_scaling),
-        cmocka_unit_test(test_master_input_checks),
+        cmocka_unit_test(test_master_input_checks), cmocka_unit_test(test_link),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
