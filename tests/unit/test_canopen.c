@@ -14,13 +14,16 @@
  * - The plan: 28 writes of which 22 final with pressure feedback, 21/17
  *   without (docs/canopen.md), the RPDO event timer, the prefix's byte.
  * - Config check names a bad node id, a duplicate, a zero divider.
- * - Scaling: length <-> count within 1 count and 1 Q24 step, saturation.
+ * - Scaling: the prepared factors against the exact quotients (a plain
+ *   reference in long double) within 1 count and 1 Q24 step, for six
+ *   resolutions from 1 nm to 1 mm; round trip; saturation.
  * - The master ignores frames of other nodes, rejects malformed ones.
  */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <math.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -300,11 +303,33 @@ static void test_cfg_check(void **state)
     assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
 }
 
+/* The plain references: the exact quotients in long double (tests may use
+ * floating point), rounded half away from zero. */
+static long double ref_count(const sp_co_scaling_t *s, int32_t length_q24)
+{
+    return (long double)s->direction * ((long double)length_q24 - (long double)s->zero_q24) / 16777216.0L * 1e9L /
+           (long double)s->nm_per_count;
+}
+
+static long double ref_length(const sp_co_scaling_t *s, int32_t count)
+{
+    return (long double)s->zero_q24 +
+           (long double)s->direction * (long double)count * (long double)s->nm_per_count * 16777216.0L / 1e9L;
+}
+
 static void test_scaling(void **state)
 {
-    sp_co_scaling_t s = {1000u, 0x01000000 /* 1 m */, 1};
+    static const uint32_t nms[] = {1u, 3u, 100u, 1000u, 7919u, 1000000u};
+    sp_co_scaling_t s;
     int32_t c, len, i;
+    uint32_t k, seed = 12345u;
     (void)state;
+    memset(&s, 0, sizeof s);
+    s.nm_per_count = 1000u;
+    s.zero_q24 = 0x01000000; /* 1 m */
+    s.direction = 1;
+    assert_int_equal(sp_co_length_to_count(&s, 0, &c), SP_E_ARG); /* not prepared */
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
     assert_int_equal(sp_co_length_to_count(&s, 0x01000000 + 0x00100000 /* 1.0625 m */, &c), SP_OK);
     assert_int_equal(c, 62500); /* um */
     s.direction = -1;
@@ -312,22 +337,52 @@ static void test_scaling(void **state)
     assert_int_equal(c, -62500);
     assert_int_equal(sp_co_count_to_length(&s, -62500, &len), SP_OK);
     assert_int_equal(len, 0x01100000);
-    /* round trip within half a count / half a Q24 step, over the stroke */
+    /* round trip over the stroke: 1 um = 16.8 Q24 steps, so exact */
     s.direction = 1;
     for (i = -400000; i <= 400000; i += 3331) {
         int32_t back;
         assert_int_equal(sp_co_count_to_length(&s, i, &len), SP_OK);
         assert_int_equal(sp_co_length_to_count(&s, len, &back), SP_OK);
-        assert_int_equal(back, i); /* 1 um = 16.8 Q24 steps: exact */
+        assert_int_equal(back, i);
     }
+    /* the prepared factors against the exact quotients: within 1 count and 1 Q24 step (the
+     * reference's own rounding included), for every resolution, both directions */
+    for (k = 0u; k < sizeof nms / sizeof nms[0]; k++) {
+        s.nm_per_count = nms[k];
+        s.zero_q24 = 0x01D99999; /* 1.85 m */
+        for (i = 0; i < 2000; i++) {
+            long double r;
+            int32_t count, length;
+            seed = seed * 1664525u + 1013904223u;
+            s.direction = (seed & 1u) ? 1 : -1;
+            assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+            length = s.zero_q24 + (int32_t)(seed >> 8) - 0x00800000; /* +-0.5 m */
+            assert_int_equal(sp_co_length_to_count(&s, length, &count), SP_OK);
+            r = ref_count(&s, length);
+            assert_true(fabsl((long double)count - r) <= 1.0L);
+            count = (int32_t)(seed >> 12) - 0x00080000;
+            if (sp_co_count_to_length(&s, count, &length) == SP_OK) {
+                r = ref_length(&s, count);
+                assert_true(fabsl((long double)length - r) <= 1.0L);
+            }
+        }
+    }
+    s.direction = 1;
     s.nm_per_count = 1u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
     assert_int_equal(sp_co_length_to_count(&s, INT32_MAX, &c), SP_E_OVERFLOW);
     assert_int_equal(c, INT32_MAX);
     s.nm_per_count = 1000000u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
     assert_int_equal(sp_co_count_to_length(&s, INT32_MIN, &len), SP_E_OVERFLOW);
     assert_int_equal(len, INT32_MIN);
+    assert_int_equal(sp_co_count_to_length(&s, 130000, &len), SP_E_OVERFLOW); /* 130 m */
+    assert_int_equal(len, INT32_MAX);
     s.nm_per_count = 0u;
-    assert_int_equal(sp_co_length_to_count(&s, 0, &c), SP_E_ARG);
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
+    s.nm_per_count = 1000u;
+    s.direction = 0;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
 }
 
 static void test_master_input_checks(void **state)
@@ -430,6 +485,7 @@ static void test_link(void **state)
     assert_int_equal(in.request, SP_CO_REQ_ACTIVE);
     assert_int_equal(in.setpoint[0], -62499);
     cfg.scaling[0].nm_per_count = 1u;
+    assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[0]), SP_OK);
     out.setpoint[0].length = INT32_MAX;
     assert_int_equal(sp_co_link_input(&cfg, &out, 79u, &in), SP_E_OVERFLOW);
     assert_int_equal(in.setpoint[1], INT32_MAX);

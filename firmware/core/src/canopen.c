@@ -11,10 +11,17 @@ static sp_status_t start_frame(sp_can_frame_t *f, uint8_t bus, uint32_t id, uint
     if (f == NULL || bus >= SP_CAN_BUSES) {
         return SP_E_ARG;
     }
-    memset(f, 0, sizeof *f);
+    /* Classic frames: the 8 bytes a classic frame can carry are written (zero
+     * past len); data[8..64) is left as it was (see sp/canopen.h). Clearing
+     * the whole 64-byte buffer costs about 290 instructions per frame on the
+     * M4 with newlib-nano's byte-wise memset. */
     f->id = id;
     f->bus = bus;
     f->len = len;
+    f->flags = 0u;
+    for (uint32_t i = 0u; i < 8u; i++) {
+        f->data[i] = 0u;
+    }
     return SP_OK;
 }
 

@@ -18,6 +18,7 @@ sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *p
         cfg->scaling[i].nm_per_count = 1000u;
         cfg->scaling[i].zero_q24 = zero_q24[i];
         cfg->scaling[i].direction = 1;
+        (void)sp_co_scaling_prepare(&cfg->scaling[i]);
     }
     cfg->platform = platform;
     return SP_OK;

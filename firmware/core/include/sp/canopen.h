@@ -7,6 +7,11 @@
  * These functions build and parse single frames; the master that uses them
  * (start-up, heartbeat and EMCY consumers, PDO cycle) is sp/canopen_master.h.
  *
+ * Every frame built here is classic (len <= 8, flags 0): its data[0..8) is
+ * written, zero past len; data[8..64), which no classic frame carries and no
+ * port sends, is left as it was (clearing it costs more than the rest of
+ * the frame on the M4).
+ *
  * Every builder returns SP_E_ARG for a NULL frame, a node id outside 1..127
  * or a bus index >= SP_CAN_BUSES, and leaves the frame untouched then. Every
  * parser returns SP_E_FRAME for a frame of the wrong identifier or length and

@@ -217,7 +217,7 @@ typedef struct {
 } sp_co_master_input_t;
 
 typedef struct {
-    sp_can_frame_t tx[SP_CO_MAX_TX]; /**< frames to send, in this order */
+    sp_can_frame_t tx[SP_CO_MAX_TX]; /**< tx[0..n_tx): frames to send, in this order (the rest is left as it was) */
     uint8_t n_tx;
     uint8_t sync;        /**< 1: this tick sent SYNC */
     uint8_t ready;       /**< 1: every node runs and shows the requested device state */
@@ -243,19 +243,31 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
  *  k >= SP_CO_MAX_NODES. */
 sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t *phase, sp_co_fault_t *fault);
 
-/** Scaling of a leg length to a drive's position count. */
+/** Scaling of a leg length to a drive's position count. Set the first
+ *  three fields, then sp_co_scaling_prepare() derives the rest (no division
+ *  per tick). */
 typedef struct {
-    uint32_t nm_per_count; /**< 1..1,000,000 (1 nm .. 1 mm per count) */
-    int32_t zero_q24;      /**< leg length at count 0, m Q24 */
-    int8_t direction;      /**< +1: the count grows as the leg extends; -1 */
+    uint32_t nm_per_count;      /**< 1..1,000,000 (1 nm .. 1 mm per count) */
+    int32_t zero_q24;           /**< leg length at count 0, m Q24 */
+    int8_t direction;           /**< +1: the count grows as the leg extends; -1 */
+    uint32_t count_per_q24;     /**< derived: round(1e9 / nm_per_count), counts per Q24 step x 2^24 */
+    uint64_t q24_per_count_q28; /**< derived: round(nm_per_count x 2^52 / 1e9), Q24 steps per count x 2^28 */
+    int64_t count_limit;        /**< derived: counts beyond which a length leaves the Q24 range */
 } sp_co_scaling_t;
 
-/** count = direction x round((length - zero) / nm_per_count), saturated to
- *  INT32 (SP_E_OVERFLOW then). length in m Q24. SP_E_ARG for a bad scaling. */
+/** Derives the per-tick factors. SP_E_ARG (nothing derived) for NULL,
+ *  nm_per_count outside 1..1,000,000 or a direction other than +-1. */
+sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s);
+
+/** count = direction x round((length - zero) / nm_per_count), by the
+ *  prepared factor (within 1 count of the exact quotient; equal in the
+ *  tests' sweep), saturated to INT32 (SP_E_OVERFLOW then). length in m Q24.
+ *  SP_E_ARG for an unprepared or bad scaling. */
 sp_status_t sp_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count);
 
-/** length = zero + direction x count x nm_per_count, m Q24 rounded to nearest,
- *  saturated (SP_E_OVERFLOW). SP_E_ARG for a bad scaling. */
+/** length = zero + direction x count x nm_per_count, m Q24 rounded to
+ *  nearest (within 1 LSB of the exact value), saturated (SP_E_OVERFLOW).
+ *  SP_E_ARG for an unprepared or bad scaling. */
 sp_status_t sp_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24);
 
 #endif /* SP_CANOPEN_MASTER_H */
