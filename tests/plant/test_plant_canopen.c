@@ -18,7 +18,8 @@
  * - EMCY while ACTIVE: EMCY latched in the tick of the frame, named by
  *   class; the others HOLD within 2 SYNC periods; reset -> ready again.
  * - Heartbeat lost while ACTIVE: HEARTBEAT_LOST within the configured
- *   timeout (+ 1 tick), not before it; the others HOLD.
+ *   timeout (+ 1 tick), not before it; the others HOLD. After the reset the
+ *   drive is configured again while the others stay in HOLD; then ACTIVE.
  * - The drive's setpoint watchdog (RPDO event timer): when the master stops
  *   sending, the drive raises EMCY 0x8250 and leaves ACTIVE.
  */
@@ -335,6 +336,29 @@ static void test_heartbeat_lost(void **state)
         assert_false(hs_co_node_follows(&rig.node[k]));
         assert_int_equal(rig.node[k].state, SP_CO408_HOLD);
     }
+    /* the drive speaks again; the operator's reset starts it again from NMT reset: the others
+     * hold (never DISABLED: a disabled valve goes to its fail-safe position) until all run */
+    rig.node[3].silent = 0u;
+    rig.in.request = SP_CO_REQ_HOLD; /* the controller in FAULT, at rest */
+    assert_int_equal(sp_co_master_reset(&rig.m, &rig.cfg, rig.now), SP_OK);
+    t0 = rig.now;
+    while (!rig.out.ready && rig.now - t0 < 1000u) {
+        tick(&rig);
+        for (k = 0u; k < N; k++) {
+            if (k != 3u) {
+                assert_int_equal(rig.node[k].state, SP_CO408_HOLD);
+            }
+        }
+    }
+    assert_true(rig.out.ready);
+    assert_int_equal(rig.out.fault_mask, 0u);
+    printf("canopen restart of one drive after the reset: ready again in %u ms, the others in HOLD throughout\n",
+           (unsigned)(rig.now - t0));
+    rig.in.request = SP_CO_REQ_ACTIVE; /* engaged again */
+    tick(&rig);
+    RUN_UNTIL(rig.out.ready, 100u);
+    assert_true(rig.out.ready);
+    assert_true(hs_co_node_follows(&rig.node[3]));
 }
 
 static void test_drive_watchdog(void **state)

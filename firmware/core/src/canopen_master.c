@@ -575,10 +575,13 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     if (eff > SP_CO_REQ_ACTIVE) {
         eff = SP_CO_REQ_DISABLED;
     }
-    if (!all_running) {
-        eff = SP_CO_REQ_DISABLED;
-    } else if (any_fault && eff == SP_CO_REQ_ACTIVE) {
-        eff = SP_CO_REQ_HOLD;
+    if (all_running) {
+        m->was_running = 1u;
+    }
+    if (!all_running && !m->was_running) {
+        eff = SP_CO_REQ_DISABLED; /* the first start-up: nothing beyond DISABLED */
+    } else if ((!all_running || any_fault) && eff == SP_CO_REQ_ACTIVE) {
+        eff = SP_CO_REQ_HOLD; /* a drive restarting or faulted: the others hold where they are */
     }
     if ((uint8_t)eff != m->last_req) {
         m->last_req = (uint8_t)eff;
@@ -610,6 +613,9 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
         for (k = 0u; k < cfg->n_nodes; k++) {
             sp_co_node_t *nd = &m->node[k];
             const sp_co_node_cfg_t *nc = &cfg->node[k];
+            if (nc->bus >= SP_CAN_BUSES) {
+                continue; /* the config changed after the check: never index past the array */
+            }
             bus_used[nc->bus] = 1u;
             if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
                 sp_co_request_t r =

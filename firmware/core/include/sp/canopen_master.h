@@ -179,7 +179,9 @@ typedef struct {
 
 typedef struct {
     sp_co_node_t node[SP_CO_MAX_NODES];
-    uint8_t started;  /**< 1 after sp_co_master_start */
+    uint8_t started; /**< 1 after sp_co_master_start */
+    uint8_t
+        was_running;  /**< 1 once every node has run (a later restart of one asks HOLD of the others, not DISABLED) */
     uint8_t last_req; /**< the request of the last step */
     uint32_t ticks;   /**< steps since start (the SYNC divider counts these) */
 } sp_co_master_t;
@@ -232,8 +234,9 @@ typedef struct {
  * SYNC ticks (every sync_divider steps) the RPDO1 of each running node
  * (control word of the effective request, setpoint) and one SYNC per bus in
  * use, after the RPDOs. The effective request is DISABLED until every node
- * runs, HOLD while any node has a fault, else in->request. SP_E_ARG for
- * NULL arguments (out is then untouched).
+ * has run for the first time; after that at most HOLD while any node has a
+ * fault or is starting again; else in->request. SP_E_ARG for NULL
+ * arguments (out is then untouched).
  */
 sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
                               sp_co_master_output_t *out);
