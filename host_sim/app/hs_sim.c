@@ -7,10 +7,13 @@
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
  *          [--setpoint-timeout CYCLES] [--canopen]
  *
- * --canopen (real time only): the drives are CiA 408 nodes (hs/co_bus.h,
- * docs/canopen.md), node ids 1-3 on axis_a and 4-6 on axis_b, configured
- * and driven by a CANopen master (NMT, SDO, RPDO1 + SYNC); the native
- * drive frames are neither sent nor read.
+ * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
+ * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
+ * CANopen master (NMT, SDO, RPDO1 + SYNC); the native drive frames are
+ * neither sent nor read. The master's SYNC sets the pace: each SYNC (the
+ * one on axis_b closes the cycle) is one plant cycle of 1 ms, whatever the
+ * wall clock (log timestamps are simulated time); --timeout-ms of silence
+ * ends the run (exit 3). Not with --lockstep (the plant is no time master).
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -100,9 +103,11 @@ typedef struct {
     uint64_t wrench_start, wrench_ticks;
     hs_play_t play; /* scenario `play` under way (file open) */
     uint64_t play_start;
-    int canopen;      /* --canopen: the drives are CiA 408 nodes (hs/co_bus.h), real time */
-    hs_co_bus_t co;   /* their state */
-    uint64_t co_sent; /* frames the nodes sent */
+    int canopen;                  /* --canopen: the drives are CiA 408 nodes (hs/co_bus.h), real time */
+    hs_co_bus_t co;               /* their state */
+    uint64_t co_sent;             /* frames the nodes sent */
+    sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
+    uint32_t co_rx_n, co_rx_i;
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -516,43 +521,71 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
     } while (got == RX_BUF);
 }
 
-/* --canopen: every frame of an axis bus goes to the CiA 408 nodes (NMT, SDO,
- * RPDO1, SYNC), their answers go out at once; ops frames as usual. */
-static void canopen_frames(sim_t *s)
+/* --canopen: the frames up to and including the next SYNC on axis_b (the
+ * master sends the SYNCs after the RPDOs, axis_b's last: it closes the
+ * cycle). Every frame of an axis bus goes to the CiA 408 nodes (NMT, SDO,
+ * RPDO1, SYNC), their answers go out at once; ops frames as usual. Frames
+ * read past that SYNC stay in s->co_rx for the next cycle. Returns 1 at the
+ * SYNC, 0 when nothing more has arrived. */
+static int canopen_frames(sim_t *s, uint64_t t_us)
 {
-    sp_can_frame_t rx[RX_BUF];
-    uint32_t got = 0;
-    do {
-        got = 0;
-        (void)s->port.receive(s->port.ctx, rx, RX_BUF, &got);
-        uint64_t t_us = (uint64_t)((sp_host_now_ns() - s->t0_ns) / 1000);
-        for (uint32_t k = 0; k < got; k++) {
-            log_frame(s, &rx[k], t_us);
-            if (rx[k].bus == SP_BUS_OPS) {
-                take_frame(s, &rx[k]);
-                continue;
+    for (;;) {
+        if (s->co_rx_i >= s->co_rx_n) {
+            uint32_t got = 0;
+            s->co_rx_i = s->co_rx_n = 0;
+            (void)s->port.receive(s->port.ctx, s->co_rx, RX_BUF, &got);
+            if (got == 0) {
+                return 0;
             }
-            sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
-            uint8_t n = 0u;
-            (void)hs_co_bus_receive(&s->co, &rx[k], tx, &n);
-            if (n > 0u) {
-                (void)send_frames(s, tx, n, t_us);
-                s->co_sent += n;
-            }
+            s->co_rx_n = got;
         }
-    } while (got == RX_BUF);
+        const sp_can_frame_t *f = &s->co_rx[s->co_rx_i++];
+        log_frame(s, f, t_us);
+        if (f->bus == SP_BUS_OPS) {
+            take_frame(s, f);
+            continue;
+        }
+        sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
+        uint8_t n = 0u;
+        (void)hs_co_bus_receive(&s->co, f, tx, &n);
+        if (n > 0u) {
+            (void)send_frames(s, tx, n, t_us);
+            s->co_sent += n;
+        }
+        if (f->id == SP_CO_COB_SYNC && f->bus == SP_BUS_AXIS_B) {
+            return 1;
+        }
+    }
+}
+
+/* --canopen: waits for the cycle's SYNC (see canopen_frames); 0, or 3 when
+ * the master has been silent for timeout_ms. */
+static int canopen_wait(sim_t *s, uint64_t t_us, long timeout_ms)
+{
+    long silent_ms = 0;
+    while (!sp_host_stop_requested()) {
+        if (canopen_frames(s, t_us)) {
+            return 0;
+        }
+        struct pollfd pfd = {sp_socketcan_fd(&s->sc), POLLIN, 0};
+        int r = poll(&pfd, 1, 100);
+        if (r == 0 && (silent_ms += 100) >= timeout_ms) {
+            return 3;
+        }
+    }
+    return 0;
 }
 
 /* --canopen, after each plant step: positions and pressures into the
  * nodes, their clocks on by 1 ms (boot-up, heartbeat, EMCY). */
-static void canopen_cycle(sim_t *s)
+static void canopen_cycle(sim_t *s, uint64_t t_us)
 {
     sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
     uint8_t n = 0u;
     (void)hs_co_bus_sample(&s->co, &s->plant);
     (void)hs_co_bus_tick(&s->co, 1u, tx, &n);
     if (n > 0u) {
-        (void)send_frames(s, tx, n, (uint64_t)((sp_host_now_ns() - s->t0_ns) / 1000));
+        (void)send_frames(s, tx, n, t_us);
         s->co_sent += n;
     }
 }
@@ -639,7 +672,7 @@ int main(int argc, char **argv)
         s.have_scenario = 1;
     }
     if (s.canopen && s.lockstep) {
-        fprintf(stderr, "hs_sim: --canopen runs in real time only (the CANopen master produces SYNC)\n");
+        fprintf(stderr, "hs_sim: --canopen and --lockstep exclude each other (the CANopen master produces SYNC)\n");
         return 2;
     }
     if (scenario == NULL && max_ticks == 0 && s.lockstep) {
@@ -719,8 +752,8 @@ int main(int argc, char **argv)
         perror("hs_sim: cannot catch SIGINT/SIGTERM");
     }
     fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms%s\n",
-            s.lockstep ? "lockstep" : "real-time", s.ifs[0], s.ifs[1], s.ifs[2], (unsigned)par.substeps,
-            s.canopen ? ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
+            s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), s.ifs[0], s.ifs[1], s.ifs[2],
+            (unsigned)par.substeps, s.canopen ? ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
     if (have_load) {
         fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",
                 load[0], load[1], load[2], load[3], par.mass, par.com[0], par.com[1], par.com[2]);
@@ -733,7 +766,7 @@ int main(int argc, char **argv)
     uint32_t answered = 0;
     int have_answered = 0;
     while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
-        uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
+        uint64_t t_us = (s.lockstep || s.canopen) ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
         if (s.have_scenario) {
             int r = play_tick(&s, tick, t_us); /* a play under way first: its last pose before what follows it */
             if (r == 0) {
@@ -762,14 +795,17 @@ int main(int argc, char **argv)
                 rc = (r == 3) ? 3 : 1;
                 break;
             }
+        } else if (s.canopen) {
+            if (canopen_wait(&s, t_us, timeout_ms) != 0) {
+                fprintf(stderr, "hs_sim: no SYNC from the CANopen master for %ld ms at cycle %" PRIu64 "\n", timeout_ms,
+                        tick);
+                rc = 3;
+                break;
+            }
         } else {
             next += 1000000;
             for (;;) {
-                if (s.canopen) {
-                    canopen_frames(&s);
-                } else {
-                    realtime_frames(&s, &answered, &have_answered);
-                }
+                realtime_frames(&s, &answered, &have_answered);
                 int64_t left = next - sp_host_now_ns();
                 if (left <= 0 || sp_host_stop_requested()) {
                     break;
@@ -790,7 +826,7 @@ int main(int argc, char **argv)
             break;
         }
         if (s.canopen) {
-            canopen_cycle(&s);
+            canopen_cycle(&s, t_us);
         }
         tick++;
         if (s.progress && tick % 1000u == 0u) {
@@ -801,7 +837,7 @@ int main(int argc, char **argv)
     double pose[6];
     (void)hs_plant_pose(&s.plant, pose);
     printf("hs_sim summary: %s, cycles %" PRIu64 ", simulated %.3f s, wall %.3f s, %.2fx real time, exit %d\n",
-           s.lockstep ? "lockstep" : "real-time", tick, (double)tick / 1000.0, wall,
+           s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), tick, (double)tick / 1000.0, wall,
            wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0, rc);
     printf("hs_sim pose: x %.6f y %.6f z %.6f roll %.6f pitch %.6f yaw %.6f\n", pose[0], pose[1], pose[2], pose[3],
            pose[4], pose[5]);
