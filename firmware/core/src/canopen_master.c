@@ -471,7 +471,7 @@ static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const sp_c
         }
         break;
     case SP_CO_PHASE_RUN:
-        if (now - nd->hb_last > cfg->heartbeat_timeout_ms) {
+        if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
             latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
         } else if (now - nd->tpdo1_last > cfg->pdo_timeout_ms) {
             latch(nd, SP_CO_F_PDO_TIMEOUT, 0u, 0u, now - nd->tpdo1_last, cfg->pdo_timeout_ms, now);
