@@ -5,7 +5,15 @@
  *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES]
+ *          [--setpoint-timeout CYCLES] [--canopen]
+ *
+ * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
+ * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
+ * CANopen master (NMT, SDO, RPDO1 + SYNC); the native drive frames are
+ * neither sent nor read. The master's SYNC sets the pace: each SYNC (the
+ * one on axis_b closes the cycle) is one plant cycle of 1 ms, whatever the
+ * wall clock (log timestamps are simulated time); --timeout-ms of silence
+ * ends the run (exit 3). Not with --lockstep (the plant is no time master).
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -56,6 +64,8 @@
 #include <time.h>
 
 #include "hs/bus.h"
+#include "hs/co_bus.h"
+#include "hs/kin.h"
 #include "hs/scenario.h"
 #include "host_os.h"
 #include "socketcan.h"
@@ -93,6 +103,11 @@ typedef struct {
     uint64_t wrench_start, wrench_ticks;
     hs_play_t play; /* scenario `play` under way (file open) */
     uint64_t play_start;
+    int canopen;                  /* --canopen: the drives are CiA 408 nodes (hs/co_bus.h), real time */
+    hs_co_bus_t co;               /* their state */
+    uint64_t co_sent;             /* frames the nodes sent */
+    sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
+    uint32_t co_rx_n, co_rx_i;
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -449,7 +464,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES]\n");
+                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -506,6 +521,95 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
     } while (got == RX_BUF);
 }
 
+/* --canopen: the frames up to and including the next SYNC on axis_b (the
+ * master sends the SYNCs after the RPDOs, axis_b's last: it closes the
+ * cycle). Every frame of an axis bus goes to the CiA 408 nodes (NMT, SDO,
+ * RPDO1, SYNC), their answers go out at once; ops frames as usual. Frames
+ * read past that SYNC stay in s->co_rx for the next cycle. Returns 1 at the
+ * SYNC, 0 when nothing more has arrived. */
+static int canopen_frames(sim_t *s, uint64_t t_us)
+{
+    for (;;) {
+        if (s->co_rx_i >= s->co_rx_n) {
+            uint32_t got = 0;
+            s->co_rx_i = s->co_rx_n = 0;
+            (void)s->port.receive(s->port.ctx, s->co_rx, RX_BUF, &got);
+            if (got == 0) {
+                return 0;
+            }
+            s->co_rx_n = got;
+        }
+        const sp_can_frame_t *f = &s->co_rx[s->co_rx_i++];
+        log_frame(s, f, t_us);
+        if (f->bus == SP_BUS_OPS) {
+            take_frame(s, f);
+            continue;
+        }
+        sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
+        uint8_t n = 0u;
+        (void)hs_co_bus_receive(&s->co, f, tx, &n);
+        if (n > 0u) {
+            (void)send_frames(s, tx, n, t_us);
+            s->co_sent += n;
+        }
+        if (f->id == SP_CO_COB_SYNC && f->bus == SP_BUS_AXIS_B) {
+            return 1;
+        }
+    }
+}
+
+/* --canopen: waits for the cycle's SYNC (see canopen_frames); 0, or 3 when
+ * the master has been silent for timeout_ms. */
+static int canopen_wait(sim_t *s, uint64_t t_us, long timeout_ms)
+{
+    long silent_ms = 0;
+    while (!sp_host_stop_requested()) {
+        if (canopen_frames(s, t_us)) {
+            return 0;
+        }
+        struct pollfd pfd = {sp_socketcan_fd(&s->sc), POLLIN, 0};
+        int r = poll(&pfd, 1, 100);
+        if (r == 0 && (silent_ms += 100) >= timeout_ms) {
+            return 3;
+        }
+    }
+    return 0;
+}
+
+/* --canopen, after each plant step: positions and pressures into the
+ * nodes, their clocks on by 1 ms (boot-up, heartbeat, EMCY). */
+static void canopen_cycle(sim_t *s, uint64_t t_us)
+{
+    sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
+    uint8_t n = 0u;
+    (void)hs_co_bus_sample(&s->co, &s->plant);
+    (void)hs_co_bus_tick(&s->co, 1u, tx, &n);
+    if (n > 0u) {
+        (void)send_frames(s, tx, n, t_us);
+        s->co_sent += n;
+    }
+}
+
+/* --canopen: six nodes, legs 1-3 on axis_a and 4-6 on axis_b with node ids
+ * 1..6 (the master's defaults, sp_co_master_cfg_default), 1 um per count,
+ * count 0 at the park pose's leg lengths. */
+static int canopen_init(sim_t *s, const hs_params_t *par)
+{
+    uint8_t ids[HS_LEGS], buses[HS_LEGS];
+    double zero[HS_LEGS];
+    if (hs_leg_lengths(par, hs_config_default.park, zero) != HS_OK) {
+        return -1;
+    }
+    for (int i = 0; i < HS_LEGS; i++) {
+        ids[i] = (uint8_t)(i + 1);
+        buses[i] = (uint8_t)(i < 3 ? SP_BUS_AXIS_A : SP_BUS_AXIS_B);
+    }
+    if (hs_co_bus_init(&s->co, ids, buses, zero, 1e-6) != HS_OK) {
+        return -1;
+    }
+    return hs_co_bus_sample(&s->co, &s->plant) == HS_OK ? 0 : -1;
+}
+
 int main(int argc, char **argv)
 {
     static sim_t s;
@@ -525,6 +629,8 @@ int main(int argc, char **argv)
         unsigned long long u;
         if (strcmp(a, "--lockstep") == 0) {
             s.lockstep = 1;
+        } else if (strcmp(a, "--canopen") == 0) {
+            s.canopen = 1;
         } else if (strcmp(a, "--progress") == 0) {
             s.progress = 1;
         } else if (v == NULL) {
@@ -565,6 +671,10 @@ int main(int argc, char **argv)
         }
         s.have_scenario = 1;
     }
+    if (s.canopen && s.lockstep) {
+        fprintf(stderr, "hs_sim: --canopen and --lockstep exclude each other (the CANopen master produces SYNC)\n");
+        return 2;
+    }
     if (scenario == NULL && max_ticks == 0 && s.lockstep) {
         fprintf(stderr, "hs_sim: lockstep needs --ticks or a --scenario that ends\n");
         return 2;
@@ -592,6 +702,10 @@ int main(int argc, char **argv)
         return 1;
     }
     (void)hs_bus_init(&s.bus);
+    if (s.canopen && canopen_init(&s, &par) != 0) {
+        fprintf(stderr, "hs_sim: cannot set up the CiA 408 nodes\n");
+        return 1;
+    }
 
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
@@ -601,6 +715,14 @@ int main(int argc, char **argv)
         5u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
+        if (s.canopen) { /* NMT, SYNC, and per node RPDO1 and SDO requests */
+            uint32_t first = b == 1 ? 1u : 4u;
+            bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_CO_COB_NMT, SP_CO_COB_SYNC}, 2u};
+            for (uint32_t k = 0u; k < 3u; k++) {
+                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + first + k;
+                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + first + k;
+            }
+        }
     }
     if (sp_socketcan_open(&s.sc, bc) != SP_OK) {
         fprintf(stderr, "hs_sim: %s\n", s.sc.error);
@@ -629,8 +751,9 @@ int main(int argc, char **argv)
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("hs_sim: cannot catch SIGINT/SIGTERM");
     }
-    fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms\n",
-            s.lockstep ? "lockstep" : "real-time", s.ifs[0], s.ifs[1], s.ifs[2], (unsigned)par.substeps);
+    fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms%s\n",
+            s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), s.ifs[0], s.ifs[1], s.ifs[2],
+            (unsigned)par.substeps, s.canopen ? ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
     if (have_load) {
         fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",
                 load[0], load[1], load[2], load[3], par.mass, par.com[0], par.com[1], par.com[2]);
@@ -643,7 +766,7 @@ int main(int argc, char **argv)
     uint32_t answered = 0;
     int have_answered = 0;
     while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
-        uint64_t t_us = s.lockstep ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
+        uint64_t t_us = (s.lockstep || s.canopen) ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
         if (s.have_scenario) {
             int r = play_tick(&s, tick, t_us); /* a play under way first: its last pose before what follows it */
             if (r == 0) {
@@ -672,6 +795,13 @@ int main(int argc, char **argv)
                 rc = (r == 3) ? 3 : 1;
                 break;
             }
+        } else if (s.canopen) {
+            if (canopen_wait(&s, t_us, timeout_ms) != 0) {
+                fprintf(stderr, "hs_sim: no SYNC from the CANopen master for %ld ms at cycle %" PRIu64 "\n", timeout_ms,
+                        tick);
+                rc = 3;
+                break;
+            }
         } else {
             next += 1000000;
             for (;;) {
@@ -686,11 +816,17 @@ int main(int argc, char **argv)
             }
         }
         write_truth(&s, tick);
+        if (s.canopen) {
+            (void)hs_co_bus_apply(&s.co, &s.plant);
+        }
         hs_status_t st = hs_plant_step(&s.plant, 1.0e-3);
         if (st != HS_OK) {
             fprintf(stderr, "hs_sim: plant step failed at cycle %" PRIu64 ": %s\n", tick, hs_status_name(st));
             rc = 5;
             break;
+        }
+        if (s.canopen) {
+            canopen_cycle(&s, t_us);
         }
         tick++;
         if (s.progress && tick % 1000u == 0u) {
@@ -701,7 +837,7 @@ int main(int argc, char **argv)
     double pose[6];
     (void)hs_plant_pose(&s.plant, pose);
     printf("hs_sim summary: %s, cycles %" PRIu64 ", simulated %.3f s, wall %.3f s, %.2fx real time, exit %d\n",
-           s.lockstep ? "lockstep" : "real-time", tick, (double)tick / 1000.0, wall,
+           s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), tick, (double)tick / 1000.0, wall,
            wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0, rc);
     printf("hs_sim pose: x %.6f y %.6f z %.6f roll %.6f pitch %.6f yaw %.6f\n", pose[0], pose[1], pose[2], pose[3],
            pose[4], pose[5]);
@@ -722,6 +858,16 @@ int main(int argc, char **argv)
         printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), s.bus.stats.rejected[e]);
     }
     printf(", ops rejected %" PRIu64 "\n", s.ops_rejected);
+    if (s.canopen) {
+        uint32_t sdo = 0u;
+        printf("hs_sim canopen:");
+        for (int i = 0; i < HS_LEGS; i++) {
+            const hs_co_node_t *nd = &s.co.node[i];
+            sdo += nd->sdo_count;
+            printf(" %u:nmt 0x%02x/%s", (unsigned)nd->node_id, (unsigned)nd->nmt, sp_co408_state_name(nd->state));
+        }
+        printf(", SDO requests %u, frames sent %" PRIu64 "\n", (unsigned)sdo, s.co_sent);
+    }
     printf("hs_sim controller: last state %s, faults 0x%04x\n", state_name(s.status_state, "unknown"),
            (unsigned)s.status_faults);
     if (s.log != NULL) {

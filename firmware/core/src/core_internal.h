@@ -1,7 +1,7 @@
 /*
  * core_internal.h - functions shared between the core's source files
- * (kinematics.c, lu6.c, fk.c, limits.c) that are not part of the public
- * API.
+ * (kinematics.c, lu6.c, fk.c, limits.c, node.c, canopen_link.c) that are
+ * not part of the public API.
  */
 #ifndef SP_CORE_INTERNAL_H
 #define SP_CORE_INTERNAL_H
@@ -31,5 +31,22 @@ void spi_ik_units(sp_ik_t *ik);
  * leave the 32-bit range or b is 0 or out of range: the caller then uses
  * the int64 solve. */
 int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
+/* Cylinder force from the chamber pressures (kPa, as the drives send them):
+ * pA x A_piston - pB x A_annulus, N, Q8, rounded to nearest, saturated to
+ * int32. Inline: the native link (node.c) and the CANopen link
+ * (canopen_link.c) share it without a call. */
+static inline sp_q8_t spi_cylinder_force(const sp_platform_t *p, uint32_t pa, uint32_t pb)
+{
+    int64_t f30 = (int64_t)pa * p->piston_area - (int64_t)pb * p->annulus_area; /* N, Q30 */
+    int64_t f8 = (f30 >= 0) ? (f30 + (INT64_C(1) << 21)) >> 22 : -((-f30 + (INT64_C(1) << 21)) >> 22);
+    if (f8 > INT32_MAX) {
+        return INT32_MAX;
+    }
+    if (f8 < INT32_MIN) {
+        return INT32_MIN;
+    }
+    return (sp_q8_t)f8;
+}
 
 #endif /* SP_CORE_INTERNAL_H */

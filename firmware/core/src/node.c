@@ -1,5 +1,6 @@
 #include "sp/node.h"
 
+#include "core_internal.h"
 #include "fixed_inline.h"
 
 /* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH. */
@@ -66,20 +67,6 @@ static sp_proto_error_t sequence(sp_node_t *node, sp_e2e_rx_t *rx, uint8_t count
     return SP_PROTO_OK;
 }
 
-/* Cylinder force from the chamber pressures, N, Q8: pA*A_A - pB*A_B. */
-static sp_q8_t force_from_pressures(const sp_platform_t *p, uint32_t pa, uint32_t pb)
-{
-    int64_t f30 = (int64_t)pa * p->piston_area - (int64_t)pb * p->annulus_area; /* N, Q30 */
-    int64_t f8 = (f30 >= 0) ? (f30 + (INT64_C(1) << 21)) >> 22 : -((-f30 + (INT64_C(1) << 21)) >> 22);
-    if (f8 > INT32_MAX) {
-        return INT32_MAX;
-    }
-    if (f8 < INT32_MIN) {
-        return INT32_MIN;
-    }
-    return (sp_q8_t)f8;
-}
-
 static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
 {
     sp_proto_error_t e = SP_PROTO_OK;
@@ -124,7 +111,7 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     sp_drive_feedback_t d;
     d.fresh = 1u;
     d.length = m.length;
-    d.force = force_from_pressures(node->ctrl_platform, m.pressure_a, m.pressure_b);
+    d.force = spi_cylinder_force(node->ctrl_platform, m.pressure_a, m.pressure_b);
     d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? 0x80u : 0u));
     if (node->sync_valid && m.tick_echo == (uint16_t)(node->sync_tick & 0xFFFFu)) {
         node->in.drive[leg] = d;

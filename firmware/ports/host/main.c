@@ -5,7 +5,16 @@
  *   sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep]
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
- *                 [--operator-reaction stop|park]
+ *                 [--operator-reaction stop|park] [--canopen]
+ *                 [--canopen-timeout-ms MS]
+ *
+ * --canopen (real time only): the drives are CiA 408 nodes 1-3 on axis_a
+ * and 4-6 on axis_b, configured and driven by the CANopen master
+ * (sp/canopen_link.h, docs/canopen.md) instead of the native drive frames;
+ * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
+ * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
+ * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
+ * (user-mode Linux in real time), as --feedback-timeout does.
  *
  * Real-time mode (default): the controller is the cycle master; an
  * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
@@ -35,13 +44,16 @@
 
 #include "host_os.h"
 #include "socketcan.h"
+#include "sp/canopen_link.h"
+#include "sp/kinematics.h"
 #include "sp/node.h"
 
 static void usage(void)
 {
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
-                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n");
+                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
+                    "                     [--canopen] [--canopen-timeout-ms MS]\n");
 }
 
 typedef struct {
@@ -53,6 +65,40 @@ typedef struct {
     uint64_t timed;
 } run_stats_t;
 
+/* --canopen: the drives are CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)
+ * behind the CANopen master (sp/canopen_link.h); the node's own axis
+ * frames are not sent. */
+typedef struct {
+    int on;
+    sp_co_link_cfg_t link;
+    sp_co_master_t m;
+    sp_co_master_input_t in;
+    sp_co_master_output_t out;
+    uint32_t now_ms; /* control ticks run: the master's clock */
+} co_t;
+
+static co_t co;
+
+static int co_setup(uint32_t timeout_ms)
+{
+    sp_ik_t ik;
+    if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
+        sp_co_link_cfg_default(&co.link, &sp_platform_default, ik.length) != SP_OK) {
+        return -1;
+    }
+    if (timeout_ms > 0u) { /* relaxed supervision for hosts that miss 1 ms deadlines */
+        co.link.master.setpoint_timeout_ms = (uint16_t)timeout_ms;
+        co.link.master.pdo_timeout_ms = (uint16_t)timeout_ms;
+        co.link.master.heartbeat_timeout_ms = (uint16_t)(timeout_ms > 50u ? timeout_ms : 50u);
+    }
+    if (sp_co_link_cfg_check(&co.link) != SP_OK || sp_co_master_init(&co.m) != SP_OK ||
+        sp_co_master_start(&co.m, &co.link.master, 0u) != SP_OK) {
+        return -1;
+    }
+    co.on = 1;
+    return 0;
+}
+
 static void drain(sp_can_port_t *port, sp_node_t *node)
 {
     sp_can_frame_t rx[32];
@@ -60,7 +106,11 @@ static void drain(sp_can_port_t *port, sp_node_t *node)
         uint32_t got = 0;
         (void)port->receive(port->ctx, rx, 32u, &got);
         for (uint32_t k = 0; k < got; k++) {
-            (void)sp_node_receive(node, &rx[k], NULL);
+            if (co.on && rx[k].bus != SP_BUS_OPS) {
+                (void)sp_co_master_receive(&co.m, &co.link.master, &rx[k], co.now_ms);
+            } else {
+                (void)sp_node_receive(node, &rx[k], NULL);
+            }
         }
         if (got < 32u) {
             break;
@@ -73,7 +123,27 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
     sp_can_frame_t tx[SP_NODE_MAX_TX];
     uint32_t n = 0, sent = 0;
     int64_t t0 = timing ? sp_host_now_ns() : 0;
+    if (co.on) {
+        co.now_ms++;
+        (void)sp_co_link_feedback(&co.m, &co.link, node->in.drive);
+    }
     (void)sp_node_tick(cfg, node, tx, &n);
+    if (co.on) {
+        /* only the ops frames of the node; the drives get the master's */
+        uint32_t k = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            if (tx[i].bus == SP_BUS_OPS) {
+                tx[k++] = tx[i];
+            }
+        }
+        n = k;
+        (void)sp_co_link_input(&co.link, &node->out, co.now_ms, &co.in);
+        (void)sp_co_master_step(&co.m, &co.link.master, &co.in, &co.out);
+        uint32_t co_sent = 0;
+        if (port->send(port->ctx, co.out.tx, co.out.n_tx, &co_sent) != SP_OK || co_sent != co.out.n_tx) {
+            rs->tx_busy++;
+        }
+    }
     if (timing) {
         int64_t dt = sp_host_now_ns() - t0;
         rs->sum_ns += dt;
@@ -91,7 +161,8 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
 int main(int argc, char **argv)
 {
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
-    int lockstep = 0, ff = 1, timing = 0;
+    int lockstep = 0, ff = 1, timing = 0, canopen = 0;
+    long co_sp_timeout = 0;
     long fb_timeout = 0;
     long op_timeout = -1;
     int op_park = 0;
@@ -106,6 +177,15 @@ int main(int argc, char **argv)
             timing = 1;
         } else if (strcmp(a, "--no-feedforward") == 0) {
             ff = 0;
+        } else if (strcmp(a, "--canopen") == 0) {
+            canopen = 1;
+        } else if (v != NULL && strcmp(a, "--canopen-timeout-ms") == 0) {
+            char *end;
+            co_sp_timeout = strtol(v, &end, 10), i++;
+            if (*end != '\0' || co_sp_timeout < 1 || co_sp_timeout > 60000) {
+                usage();
+                return 2;
+            }
         } else if (v != NULL && strcmp(a, "--ops") == 0) {
             ifs[0] = v, i++;
         } else if (v != NULL && strcmp(a, "--axis-a") == 0) {
@@ -154,6 +234,14 @@ int main(int argc, char **argv)
         }
     }
 
+    if (canopen && lockstep) {
+        fprintf(stderr, "sp_controller: --canopen runs in real time only (the master produces SYNC)\n");
+        return 2;
+    }
+    if (canopen && co_setup((uint32_t)co_sp_timeout) != 0) {
+        fprintf(stderr, "sp_controller: the CANopen master's default configuration is not usable\n");
+        return 1;
+    }
     static sp_node_config_t cfg;
     static sp_node_t node;
     if (sp_node_default_config(&cfg, &sp_platform_default) != SP_OK) {
@@ -180,6 +268,19 @@ int main(int argc, char **argv)
         if (!lockstep) { /* we are the cycle master: only feedback */
             bc[b].rx_ids[0] = 0x31u, bc[b].rx_ids[1] = 0x32u, bc[b].rx_ids[2] = 0x33u;
         }
+        if (canopen) { /* per node: EMCY, TPDO1, TPDO2, SDO answers, heartbeat (15 of 16 filters) */
+            static const uint32_t bases[] = {SP_CO_COB_EMCY, SP_CO_COB_TPDO1, SP_CO_COB_TPDO2, SP_CO_COB_SDO_TX,
+                                             SP_CO_COB_HEARTBEAT};
+            bc[b].n_rx_ids = 0u;
+            for (uint32_t k = 0; k < co.link.master.n_nodes; k++) {
+                if (co.link.master.node[k].bus != (uint8_t)b) {
+                    continue;
+                }
+                for (uint32_t j = 0; j < 5u && bc[b].n_rx_ids < SP_SOCKETCAN_MAX_FILTERS; j++) {
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = bases[j] + co.link.master.node[k].node_id;
+                }
+            }
+        }
     }
     static sp_socketcan_t sc;
     if (sp_socketcan_open(&sc, bc) != SP_OK) {
@@ -190,8 +291,9 @@ int main(int argc, char **argv)
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("sp_controller: cannot catch SIGINT/SIGTERM");
     }
-    fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s\n", lockstep ? "lockstep" : "real-time",
-            ifs[0], ifs[1], ifs[2], ff ? "on" : "off");
+    fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s%s\n",
+            lockstep ? "lockstep" : "real-time", ifs[0], ifs[1], ifs[2], ff ? "on" : "off",
+            canopen ? ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
 
     run_stats_t rs;
     memset(&rs, 0, sizeof rs);
@@ -261,6 +363,21 @@ int main(int argc, char **argv)
         printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), node.stats.rejected[e]);
     }
     printf("\n");
+    if (co.on) {
+        printf("sp_controller canopen: ready %u", (unsigned)co.out.ready);
+        for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
+            const sp_co_node_t *nd = &co.m.node[k];
+            printf(", node %u phase %u status 0x%04x %s", (unsigned)co.link.master.node[k].node_id, (unsigned)nd->phase,
+                   (unsigned)nd->status, sp_co_fault_name((sp_co_fault_code_t)nd->fault.code));
+            if (nd->fault.code == SP_CO_F_SDO_ABORT) {
+                printf(" 0x%04X.%u %s", (unsigned)nd->fault.index, (unsigned)nd->fault.sub,
+                       sp_co_sdo_abort_name(nd->fault.detail));
+            } else if (nd->fault.code == SP_CO_F_EMCY) {
+                printf(" 0x%04X (%s)", (unsigned)nd->fault.index, sp_co_emcy_class_name(nd->fault.index));
+            }
+        }
+        printf("\n");
+    }
     for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
         sp_bus_status_t bs;
         (void)port.bus_status(port.ctx, b, &bs);

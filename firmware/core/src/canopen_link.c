@@ -1,0 +1,95 @@
+/* canopen_link.c - the controller's drives over CANopen (sp/canopen_link.h). */
+#include "sp/canopen_link.h"
+
+#include "core_internal.h"
+
+sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *platform,
+                                   const sp_q24_t zero_q24[SP_LEGS])
+{
+    uint32_t i;
+    if (cfg == NULL || platform == NULL || zero_q24 == NULL) {
+        return SP_E_ARG;
+    }
+    memset(cfg, 0, sizeof *cfg);
+    if (sp_co_master_cfg_default(&cfg->master, (uint8_t)SP_LEGS) != SP_OK) {
+        return SP_E_ARG;
+    }
+    for (i = 0u; i < SP_LEGS; i++) {
+        cfg->scaling[i].nm_per_count = 1000u;
+        cfg->scaling[i].zero_q24 = zero_q24[i];
+        cfg->scaling[i].direction = 1;
+        (void)sp_co_scaling_prepare(&cfg->scaling[i]);
+    }
+    cfg->platform = platform;
+    return SP_OK;
+}
+
+sp_status_t sp_co_link_cfg_check(const sp_co_link_cfg_t *cfg)
+{
+    uint32_t seen = 0u, k;
+    int32_t probe;
+    if (cfg == NULL || cfg->platform == NULL || sp_co_master_cfg_check(&cfg->master) != SP_OK ||
+        cfg->master.n_nodes != SP_LEGS) {
+        return SP_E_ARG;
+    }
+    for (k = 0u; k < SP_LEGS; k++) {
+        uint8_t leg = cfg->master.node[k].leg;
+        if (leg < 1u || leg > SP_LEGS || (seen & (1u << (leg - 1u))) != 0u) {
+            return SP_E_ARG;
+        }
+        seen |= 1u << (leg - 1u);
+        if (sp_co_length_to_count(&cfg->scaling[leg - 1u], 0, &probe) == SP_E_ARG) {
+            return SP_E_ARG;
+        }
+    }
+    return SP_OK;
+}
+
+sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t *cfg, sp_drive_feedback_t fb[SP_LEGS])
+{
+    sp_status_t st = SP_OK;
+    uint32_t k;
+    if (m == NULL || cfg == NULL || fb == NULL || cfg->platform == NULL || cfg->master.n_nodes > SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    for (k = 0u; k < SP_LEGS; k++) {
+        fb[k].fresh = 0u;
+    }
+    for (k = 0u; k < cfg->master.n_nodes; k++) {
+        const sp_co_node_t *nd = &m->node[k];
+        uint32_t leg = (uint32_t)cfg->master.node[k].leg - 1u;
+        sp_drive_feedback_t *d;
+        if (leg >= SP_LEGS || !nd->tpdo1_fresh) {
+            continue;
+        }
+        d = &fb[leg];
+        if (sp_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK) {
+            st = SP_E_OVERFLOW;
+        }
+        d->force = spi_cylinder_force(cfg->platform, nd->pa_kpa, nd->pb_kpa);
+        d->faults = nd->fault.code != (uint8_t)SP_CO_F_NONE ? (uint16_t)SP_CO_LINK_FAULT : 0u;
+        d->fresh = 1u;
+    }
+    return st;
+}
+
+sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
+                             sp_co_master_input_t *in)
+{
+    sp_status_t st = SP_OK;
+    uint32_t k;
+    if (cfg == NULL || out == NULL || in == NULL || cfg->master.n_nodes > SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    in->now_ms = now_ms;
+    in->request = out->drive_mode == SP_DRIVE_ACTIVE ? (uint8_t)SP_CO_REQ_ACTIVE : (uint8_t)SP_CO_REQ_HOLD;
+    for (k = 0u; k < cfg->master.n_nodes; k++) {
+        uint32_t leg = (uint32_t)cfg->master.node[k].leg - 1u;
+        in->setpoint[k] = 0;
+        if (leg < SP_LEGS &&
+            sp_co_length_to_count(&cfg->scaling[leg], out->setpoint[leg].length, &in->setpoint[k]) != SP_OK) {
+            st = SP_E_OVERFLOW;
+        }
+    }
+    return st;
+}

@@ -1,0 +1,733 @@
+/* canopen_master.c - the CANopen master of CiA 408 drives (sp/canopen_master.h). */
+#include "sp/canopen_master.h"
+
+/* A node's plan is a pure function of the config: it is rebuilt (on the
+ * stack, 384 B) when a start-up step needs it rather than kept per node. */
+
+static const char *const fault_names[] = {"none",
+                                          "no boot-up",
+                                          "SDO abort",
+                                          "SDO timeout",
+                                          "SDO answer not usable",
+                                          "wrong device profile",
+                                          "read-back differs",
+                                          "heartbeat lost",
+                                          "NMT state changed",
+                                          "EMCY",
+                                          "device fault",
+                                          "device state not reached",
+                                          "TPDO timeout"};
+
+const char *sp_co_fault_name(sp_co_fault_code_t code)
+{
+    return (uint32_t)code < sizeof fault_names / sizeof fault_names[0] ? fault_names[code] : "unknown";
+}
+
+sp_status_t sp_co_master_cfg_default(sp_co_master_cfg_t *cfg, uint8_t n)
+{
+    uint8_t k;
+    if (cfg == NULL || n == 0u || n > SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    memset(cfg, 0, sizeof *cfg);
+    for (k = 0u; k < n; k++) {
+        cfg->node[k].node_id = (uint8_t)(k + 1u);
+        cfg->node[k].bus = k < 3u ? (uint8_t)SP_BUS_AXIS_A : (uint8_t)SP_BUS_AXIS_B;
+        cfg->node[k].leg = (uint8_t)(k + 1u);
+        cfg->node[k].control_mode = SP_CO408_CONTROL_MODE_AXIS;
+        cfg->node[k].write_prefix = 1u;
+        cfg->node[k].unit_prefix = -6;
+    }
+    cfg->n_nodes = n;
+    cfg->sync_divider = 1u;
+    cfg->pressure_feedback = 1u;
+    cfg->heartbeat_ms = 20u;
+    cfg->heartbeat_timeout_ms = 50u;
+    cfg->setpoint_timeout_ms = 3u;
+    cfg->boot_timeout_ms = 2000u;
+    cfg->sdo_timeout_ms = 100u;
+    cfg->state_timeout_ms = 100u;
+    cfg->pdo_timeout_ms = 10u;
+    return SP_OK;
+}
+
+sp_status_t sp_co_master_cfg_check(const sp_co_master_cfg_t *cfg)
+{
+    uint8_t k, j;
+    if (cfg == NULL || cfg->n_nodes == 0u || cfg->n_nodes > SP_CO_MAX_NODES || cfg->sync_divider == 0u ||
+        cfg->heartbeat_ms == 0u || cfg->heartbeat_timeout_ms <= cfg->heartbeat_ms || cfg->boot_timeout_ms == 0u ||
+        cfg->sdo_timeout_ms == 0u || cfg->state_timeout_ms == 0u || cfg->pdo_timeout_ms == 0u ||
+        cfg->setpoint_timeout_ms == 0u) {
+        return SP_E_ARG;
+    }
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        const sp_co_node_cfg_t *a = &cfg->node[k];
+        if (a->node_id < SP_CO_NODE_MIN || a->node_id > SP_CO_NODE_MAX || a->bus >= SP_CAN_BUSES) {
+            return SP_E_ARG;
+        }
+        for (j = 0u; j < k; j++) {
+            if (cfg->node[j].bus == a->bus && cfg->node[j].node_id == a->node_id) {
+                return SP_E_ARG;
+            }
+        }
+    }
+    return SP_OK;
+}
+
+/* ---- the plan ---- */
+
+typedef struct {
+    sp_co_sdo_write_t *out;
+    uint8_t n;
+} plan_t;
+
+static void add(plan_t *p, uint16_t index, uint8_t sub, uint8_t size, uint32_t value, uint8_t final, uint8_t optional)
+{
+    if (p->n < SP_CO_PLAN_MAX) {
+        sp_co_sdo_write_t *w = &p->out[p->n++];
+        w->index = index;
+        w->sub = sub;
+        w->size = size;
+        w->value = value;
+        w->final = final;
+        w->optional = optional;
+    }
+}
+
+/* int8 as its one byte on the bus */
+static uint32_t i8_bits(int8_t v)
+{
+    return (uint32_t)(uint8_t)(v < 0 ? (int)v + 256 : (int)v);
+}
+
+static void add_pdo(plan_t *p, uint16_t comm, uint16_t map, uint32_t cob, const uint32_t *entries, uint8_t n,
+                    uint16_t event_timer)
+{
+    uint8_t i;
+    add(p, comm, 1u, 4u, SP_CO_PDO_COB_INVALID | cob, 0u, 0u);
+    add(p, map, 0u, 1u, 0u, 0u, 0u);
+    for (i = 0u; i < n; i++) {
+        add(p, map, (uint8_t)(i + 1u), 4u, entries[i], 1u, 0u);
+    }
+    add(p, map, 0u, 1u, n, 1u, 0u);
+    add(p, comm, 2u, 1u, SP_CO_TRANSMISSION_SYNC, 1u, 0u);
+    if (event_timer != 0u) {
+        add(p, comm, 5u, 2u, event_timer, 1u, 0u);
+    }
+    add(p, comm, 1u, 4u, cob, 1u, 0u);
+}
+
+sp_status_t sp_co_plan_build(const sp_co_master_cfg_t *cfg, uint8_t k, sp_co_sdo_write_t out[SP_CO_PLAN_MAX],
+                             uint8_t *n)
+{
+    static const uint32_t rpdo1[] = {0x60400010u, 0x66000120u};
+    static const uint32_t tpdo1[] = {0x60410010u, 0x66010120u};
+    static const uint32_t tpdo2[] = {0x21100110u, 0x21100210u};
+    plan_t p;
+    uint8_t id;
+    if (cfg == NULL || out == NULL || n == NULL || k >= cfg->n_nodes || k >= SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    id = cfg->node[k].node_id;
+    p.out = out;
+    p.n = 0u;
+    add(&p, 0x1017u, 0u, 2u, cfg->heartbeat_ms, 1u, 0u);
+    add(&p, 0x6042u, 0u, 1u, 1u, 1u, 0u);
+    add(&p, 0x6043u, 0u, 1u, i8_bits(cfg->node[k].control_mode), 1u, 0u);
+    if (cfg->node[k].write_prefix) {
+        add(&p, 0x6600u, 2u, 1u, SP_CO_UNIT_METRE, 1u, 1u);
+        add(&p, 0x6600u, 3u, 1u, i8_bits(cfg->node[k].unit_prefix), 1u, 1u);
+    }
+    add(&p, 0x1006u, 0u, 4u, (uint32_t)cfg->sync_divider * 1000u, 1u, 1u);
+    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, rpdo1, 2u, cfg->setpoint_timeout_ms);
+    add_pdo(&p, 0x1800u, 0x1A00u, SP_CO_COB_TPDO1 + id, tpdo1, 2u, 0u);
+    if (cfg->pressure_feedback) {
+        add_pdo(&p, 0x1801u, 0x1A01u, SP_CO_COB_TPDO2 + id, tpdo2, 2u, 0u);
+    }
+    *n = p.n;
+    return SP_OK;
+}
+
+/* ---- the master ---- */
+
+sp_status_t sp_co_master_init(sp_co_master_t *m)
+{
+    if (m == NULL) {
+        return SP_E_ARG;
+    }
+    memset(m, 0, sizeof *m);
+    return SP_OK;
+}
+
+static void restart_node(sp_co_node_t *nd, uint32_t now_ms)
+{
+    sp_co_fault_t none;
+    memset(&none, 0, sizeof none);
+    nd->phase = SP_CO_PHASE_BOOT;
+    nd->step = 0u;
+    nd->sdo_busy = 0u;
+    nd->skipped = 0u;
+    nd->nmt_pending = SP_CO_NMT_RESET_COMM;
+    nd->reset_edge = 0u;
+    nd->resetting = 0u;
+    nd->state_ok = 0u;
+    nd->tpdo1_seen = 0u;
+    nd->phase_since = now_ms;
+    nd->fault = none;
+}
+
+sp_status_t sp_co_master_start(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint32_t now_ms)
+{
+    uint8_t k;
+    if (m == NULL || sp_co_master_cfg_check(cfg) != SP_OK) {
+        return SP_E_ARG;
+    }
+    memset(m, 0, sizeof *m);
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
+        restart_node(&m->node[k], now_ms);
+        (void)sp_co_plan_build(cfg, k, plan, &m->node[k].plan_n);
+    }
+    m->started = 1u;
+    m->last_req = SP_CO_REQ_DISABLED;
+    return SP_OK;
+}
+
+static void latch(sp_co_node_t *nd, sp_co_fault_code_t code, uint16_t index, uint8_t sub, uint32_t detail,
+                  uint32_t expect, uint32_t now_ms)
+{
+    if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+        return;
+    }
+    nd->fault.code = (uint8_t)code;
+    nd->fault.index = index;
+    nd->fault.sub = sub;
+    nd->fault.detail = detail;
+    nd->fault.expect = expect;
+    nd->fault.time_ms = now_ms;
+    nd->sdo_busy = 0u;
+    if (nd->phase != SP_CO_PHASE_RUN) {
+        nd->phase = SP_CO_PHASE_FAILED;
+        nd->nmt_pending = 0u;
+    }
+}
+
+sp_status_t sp_co_master_reset(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint32_t now_ms)
+{
+    uint8_t k;
+    if (m == NULL || cfg == NULL || cfg->n_nodes > SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        sp_co_node_t *nd = &m->node[k];
+        uint8_t code = nd->fault.code;
+        if (code == (uint8_t)SP_CO_F_NONE) {
+            continue;
+        }
+        if (nd->phase == SP_CO_PHASE_RUN && (code == (uint8_t)SP_CO_F_EMCY || code == (uint8_t)SP_CO_F_DEVICE_FAULT ||
+                                             code == (uint8_t)SP_CO_F_DEVICE_STATE)) {
+            memset(&nd->fault, 0, sizeof nd->fault);
+            nd->reset_edge = 1u; /* the R bit for one SYNC period */
+            nd->resetting = 1u;  /* fault states allowed until the state is reached */
+            nd->state_ok = 0u;
+            nd->req_since = now_ms;
+        } else {
+            restart_node(nd, now_ms);
+        }
+    }
+    return SP_OK;
+}
+
+/* The object of the node's outstanding or next SDO request; 0 = none left. */
+static int current_object(const sp_co_node_t *nd, const sp_co_sdo_write_t *plan, uint16_t *index, uint8_t *sub)
+{
+    if (nd->phase == SP_CO_PHASE_IDENTITY) {
+        *index = 0x1000u;
+        *sub = 0u;
+        return 1;
+    }
+    if ((nd->phase == SP_CO_PHASE_WRITE || nd->phase == SP_CO_PHASE_READBACK) && nd->step < nd->plan_n) {
+        *index = plan[nd->step].index;
+        *sub = plan[nd->step].sub;
+        return 1;
+    }
+    return 0;
+}
+
+/* Next read-back at or after step: final and not skipped. */
+static uint8_t next_readback(const sp_co_node_t *nd, const sp_co_sdo_write_t *plan, uint8_t step)
+{
+    uint8_t i;
+    for (i = step; i < nd->plan_n; i++) {
+        if (plan[i].final && (nd->skipped & (UINT32_C(1) << i)) == 0u) {
+            return i;
+        }
+    }
+    return nd->plan_n;
+}
+
+/* After a completed request: the next step, or the next phase. */
+static void advance(sp_co_node_t *nd, const sp_co_sdo_write_t *plan)
+{
+    if (nd->phase == SP_CO_PHASE_IDENTITY) {
+        nd->phase = SP_CO_PHASE_WRITE;
+        nd->step = 0u;
+    } else {
+        nd->step++;
+    }
+    if (nd->phase == SP_CO_PHASE_WRITE && nd->step >= nd->plan_n) {
+        nd->phase = SP_CO_PHASE_READBACK;
+        nd->step = 0u;
+    }
+    if (nd->phase == SP_CO_PHASE_READBACK) {
+        nd->step = next_readback(nd, plan, nd->step);
+        if (nd->step >= nd->plan_n) {
+            nd->nmt_pending = SP_CO_NMT_START;
+        }
+    }
+}
+
+static uint32_t size_mask(uint8_t size)
+{
+    return size >= 4u ? 0xFFFFFFFFu : ((UINT32_C(1) << (8u * size)) - 1u);
+}
+
+static sp_status_t on_sdo(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8_t k, const sp_can_frame_t *f,
+                          uint32_t now_ms)
+{
+    sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
+    uint8_t n, size;
+    uint16_t index;
+    uint8_t sub;
+    uint32_t value;
+    sp_co_sdo_answer_t ans;
+    (void)sp_co_plan_build(cfg, k, plan, &n);
+    if (!nd->sdo_busy || !current_object(nd, plan, &index, &sub)) {
+        return SP_OK; /* nothing asked: a stray answer */
+    }
+    if (sp_co_sdo_parse(f, cfg->node[k].node_id, index, sub, &ans, &value, &size) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    nd->sdo_busy = 0u;
+    if (ans == SP_CO_SDO_ABORTED) {
+        if (nd->phase == SP_CO_PHASE_WRITE && plan[nd->step].optional &&
+            (value == SP_CO_SDO_ABORT_NO_OBJECT || value == SP_CO_SDO_ABORT_NO_SUBINDEX)) {
+            nd->skipped |= UINT32_C(1) << nd->step;
+            advance(nd, plan);
+            return SP_OK;
+        }
+        latch(nd, SP_CO_F_SDO_ABORT, index, sub, value, 0u, now_ms);
+        return SP_OK;
+    }
+    if (ans == SP_CO_SDO_UNSUPPORTED || (nd->phase == SP_CO_PHASE_WRITE) != (ans == SP_CO_SDO_DOWNLOAD_OK)) {
+        latch(nd, SP_CO_F_SDO_PROTOCOL, index, sub, f->data[0], 0u, now_ms);
+        return SP_OK;
+    }
+    if (nd->phase == SP_CO_PHASE_IDENTITY && (value & 0xFFFFu) != SP_CO408_PROFILE) {
+        latch(nd, SP_CO_F_WRONG_PROFILE, index, sub, value, SP_CO408_PROFILE, now_ms);
+        return SP_OK;
+    }
+    if (nd->phase == SP_CO_PHASE_READBACK) {
+        uint32_t mask = size_mask(plan[nd->step].size);
+        if ((value & mask) != (plan[nd->step].value & mask)) {
+            latch(nd, SP_CO_F_READBACK, index, sub, value, plan[nd->step].value, now_ms);
+            return SP_OK;
+        }
+    }
+    advance(nd, plan);
+    return SP_OK;
+}
+
+static int node_index(const sp_co_master_cfg_t *cfg, uint8_t bus, uint8_t id)
+{
+    uint8_t k;
+    for (k = 0u; k < cfg->n_nodes && k < SP_CO_MAX_NODES; k++) {
+        if (cfg->node[k].bus == bus && cfg->node[k].node_id == id) {
+            return (int)k;
+        }
+    }
+    return -1;
+}
+
+static void on_heartbeat(sp_co_node_t *nd, uint8_t state, uint32_t now_ms)
+{
+    uint8_t ph = nd->phase;
+    if (ph == SP_CO_PHASE_OFF || ph == SP_CO_PHASE_FAILED) {
+        return;
+    }
+    if (state == (uint8_t)SP_CO_NMT_STATE_BOOTUP) {
+        if (ph == SP_CO_PHASE_BOOT && nd->nmt_pending == 0u) {
+            nd->phase = SP_CO_PHASE_IDENTITY;
+            nd->phase_since = now_ms;
+            nd->hb_last = now_ms;
+        } else if (ph != SP_CO_PHASE_BOOT) {
+            latch(nd, SP_CO_F_NMT_STATE, 0u, 0u, state, SP_CO_NMT_STATE_OPERATIONAL, now_ms);
+        }
+        return;
+    }
+    nd->hb_last = now_ms;
+    if (ph == SP_CO_PHASE_START && state == (uint8_t)SP_CO_NMT_STATE_OPERATIONAL) {
+        nd->phase = SP_CO_PHASE_RUN;
+        nd->phase_since = now_ms;
+        nd->tpdo1_last = now_ms;
+        nd->req_since = now_ms;
+        nd->state_ok = 0u;
+    } else if (ph == SP_CO_PHASE_RUN && state != (uint8_t)SP_CO_NMT_STATE_OPERATIONAL) {
+        latch(nd, SP_CO_F_NMT_STATE, 0u, 0u, state, SP_CO_NMT_STATE_OPERATIONAL, now_ms);
+    }
+}
+
+sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_can_frame_t *f,
+                                 uint32_t now_ms)
+{
+    uint32_t base;
+    uint8_t id;
+    int k;
+    sp_co_node_t *nd;
+    if (m == NULL || cfg == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    if (!m->started || f->id == SP_CO_COB_SYNC) {
+        return SP_OK;
+    }
+    base = f->id & 0x780u; /* function code: the identifier's top 4 bits */
+    id = (uint8_t)(f->id & 0x7Fu);
+    k = node_index(cfg, f->bus, id);
+    if (k < 0 || id == 0u) {
+        return SP_OK;
+    }
+    nd = &m->node[k];
+    switch (base) {
+    case SP_CO_COB_HEARTBEAT: {
+        uint8_t node, state;
+        if (sp_co_heartbeat_parse(f, &node, &state) != SP_OK) {
+            return SP_E_FRAME;
+        }
+        on_heartbeat(nd, state, now_ms);
+        return SP_OK;
+    }
+    case SP_CO_COB_EMCY: {
+        uint8_t node, reg;
+        uint16_t code;
+        if (sp_co_emcy_parse(f, &node, &code, &reg) != SP_OK) {
+            return SP_E_FRAME;
+        }
+        if (code != 0u && nd->phase != SP_CO_PHASE_OFF) {
+            latch(nd, SP_CO_F_EMCY, code, 0u, reg, 0u, now_ms);
+        }
+        return SP_OK;
+    }
+    case SP_CO_COB_TPDO1: {
+        uint16_t status;
+        int32_t actual;
+        if (sp_co_tpdo1_parse(f, id, &status, &actual) != SP_OK) {
+            return SP_E_FRAME;
+        }
+        nd->status = status;
+        nd->actual = actual;
+        nd->tpdo1_last = now_ms;
+        nd->tpdo1_seen = 1u;
+        nd->tpdo1_fresh = 1u;
+        return SP_OK;
+    }
+    case SP_CO_COB_TPDO2: {
+        uint16_t pa, pb;
+        if (sp_co_tpdo2_parse(f, id, &pa, &pb) != SP_OK) {
+            return SP_E_FRAME;
+        }
+        nd->pa_kpa = pa;
+        nd->pb_kpa = pb;
+        nd->tpdo2_fresh = 1u;
+        return SP_OK;
+    }
+    case SP_CO_COB_SDO_TX:
+        return on_sdo(nd, cfg, (uint8_t)k, f, now_ms);
+    default:
+        return SP_OK;
+    }
+}
+
+static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const sp_co_sdo_write_t *plan, uint32_t now)
+{
+    uint16_t index = 0u;
+    uint8_t sub = 0u;
+    switch (nd->phase) {
+    case SP_CO_PHASE_BOOT:
+        if (nd->nmt_pending == 0u && now - nd->phase_since > cfg->boot_timeout_ms) {
+            latch(nd, SP_CO_F_NO_BOOT, 0u, 0u, 0u, cfg->boot_timeout_ms, now);
+        }
+        break;
+    case SP_CO_PHASE_IDENTITY:
+    case SP_CO_PHASE_WRITE:
+    case SP_CO_PHASE_READBACK:
+        if (nd->sdo_busy && now - nd->sdo_since > cfg->sdo_timeout_ms) {
+            (void)current_object(nd, plan, &index, &sub);
+            latch(nd, SP_CO_F_SDO_TIMEOUT, index, sub, cfg->sdo_timeout_ms, 0u, now);
+        }
+        break;
+    case SP_CO_PHASE_START:
+        if (nd->nmt_pending == 0u && now - nd->phase_since > cfg->heartbeat_timeout_ms) {
+            latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
+        }
+        break;
+    case SP_CO_PHASE_RUN:
+        if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
+            latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
+        } else if (now - nd->tpdo1_last > cfg->pdo_timeout_ms) {
+            latch(nd, SP_CO_F_PDO_TIMEOUT, 0u, 0u, now - nd->tpdo1_last, cfg->pdo_timeout_ms, now);
+        }
+        break;
+    default:
+        break;
+    }
+}
+
+/* The status word against the effective request, every tick: a fault state
+ * latches at once (except while a fault reset is under way), leaving the
+ * requested state once reached latches too; not reaching it is the caller's
+ * timeout. */
+static void check_state(sp_co_node_t *nd, sp_co_request_t eff, uint32_t now)
+{
+    sp_co408_state_t s;
+    uint32_t want = sp_co408_status_bits(sp_co408_target(eff));
+    if (nd->phase != SP_CO_PHASE_RUN || !nd->tpdo1_seen || nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+        return;
+    }
+    s = sp_co408_state(nd->status);
+    if (s == sp_co408_target(eff)) {
+        nd->state_ok = 1u;
+        nd->resetting = 0u;
+        return;
+    }
+    if (sp_co408_is_fault(s) && !nd->resetting) {
+        latch(nd, SP_CO_F_DEVICE_FAULT, 0u, 0u, nd->status, want, now);
+    } else if (nd->state_ok) {
+        latch(nd, SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status, want, now);
+    }
+}
+
+static int emit(sp_co_master_output_t *out)
+{
+    return out->n_tx < SP_CO_MAX_TX;
+}
+
+sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
+                              sp_co_master_output_t *out)
+{
+    uint8_t k, all_running = 1u, any_fault = 0u, ready = 1u, sync_tick;
+    uint32_t now;
+    sp_co_request_t eff;
+    if (m == NULL || cfg == NULL || in == NULL || out == NULL || cfg->n_nodes > SP_CO_MAX_NODES ||
+        cfg->sync_divider == 0u) {
+        return SP_E_ARG;
+    }
+    /* the frames are written as they are emitted: no need to clear 1.7 KB */
+    out->n_tx = 0u;
+    out->sync = 0u;
+    out->ready = 0u;
+    out->all_running = 0u;
+    out->fault_mask = 0u;
+    if (!m->started) {
+        return SP_OK;
+    }
+    now = in->now_ms;
+    sync_tick = (uint8_t)(m->ticks % cfg->sync_divider == 0u);
+    if (m->ticks < UINT32_MAX) {
+        m->ticks++;
+    }
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        sp_co_node_t *nd = &m->node[k];
+        const sp_co_node_cfg_t *nc = &cfg->node[k];
+        sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
+        uint8_t n = 0u;
+        uint16_t index;
+        uint8_t sub;
+        if (nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK) {
+            (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
+        }
+        timeouts(nd, cfg, plan, now);
+        if (nd->nmt_pending != 0u && emit(out)) {
+            (void)sp_co_nmt_frame(&out->tx[out->n_tx++], nc->bus, (sp_co_nmt_cmd_t)nd->nmt_pending, nc->node_id);
+            nd->phase =
+                nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
+            nd->phase_since = now;
+            nd->nmt_pending = 0u;
+        } else if (!nd->sdo_busy && current_object(nd, plan, &index, &sub) && emit(out)) {
+            sp_can_frame_t *f = &out->tx[out->n_tx++];
+            if (nd->phase == SP_CO_PHASE_WRITE) {
+                (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
+                                               plan[nd->step].value);
+            } else {
+                (void)sp_co_sdo_upload_frame(f, nc->bus, nc->node_id, index, sub);
+            }
+            nd->sdo_busy = 1u;
+            nd->sdo_since = now;
+        }
+        if (nd->phase != SP_CO_PHASE_RUN) {
+            all_running = 0u;
+        }
+        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+            any_fault = 1u;
+            out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
+        }
+    }
+    eff = (sp_co_request_t)in->request;
+    if (eff > SP_CO_REQ_ACTIVE) {
+        eff = SP_CO_REQ_DISABLED;
+    }
+    if (all_running) {
+        m->was_running = 1u;
+    }
+    if (!all_running && !m->was_running) {
+        eff = SP_CO_REQ_DISABLED; /* the first start-up: nothing beyond DISABLED */
+    } else if ((!all_running || any_fault) && eff == SP_CO_REQ_ACTIVE) {
+        eff = SP_CO_REQ_HOLD; /* a drive restarting or faulted: the others hold where they are */
+    }
+    if ((uint8_t)eff != m->last_req) {
+        m->last_req = (uint8_t)eff;
+        for (k = 0u; k < cfg->n_nodes; k++) {
+            m->node[k].req_since = now;
+            m->node[k].state_ok = 0u;
+        }
+    }
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        sp_co_node_t *nd = &m->node[k];
+        check_state(nd, eff, now);
+        if (nd->phase == SP_CO_PHASE_RUN && !nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
+            now - nd->req_since > cfg->state_timeout_ms) {
+            latch(nd, sp_co408_is_fault(sp_co408_state(nd->status)) ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u,
+                  0u, nd->status, sp_co408_status_bits(sp_co408_target(eff)), now);
+        }
+        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+            out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
+            any_fault = 1u;
+        }
+        if (!nd->state_ok) {
+            ready = 0u;
+        }
+        nd->tpdo1_fresh = 0u;
+        nd->tpdo2_fresh = 0u;
+    }
+    if (sync_tick) {
+        uint8_t bus_used[SP_CAN_BUSES] = {0u};
+        for (k = 0u; k < cfg->n_nodes; k++) {
+            sp_co_node_t *nd = &m->node[k];
+            const sp_co_node_cfg_t *nc = &cfg->node[k];
+            if (nc->bus >= SP_CAN_BUSES) {
+                continue; /* the config changed after the check: never index past the array */
+            }
+            bus_used[nc->bus] = 1u;
+            if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
+                sp_co_request_t r =
+                    nd->fault.code != (uint8_t)SP_CO_F_NONE && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
+                (void)sp_co_rpdo1_frame(&out->tx[out->n_tx++], nc->bus, nc->node_id,
+                                        sp_co408_control_word(r, nd->reset_edge != 0u), in->setpoint[k]);
+                if (nd->reset_edge > 0u) {
+                    nd->reset_edge--;
+                }
+            }
+        }
+        for (k = 0u; k < SP_CAN_BUSES; k++) {
+            if (bus_used[k] && emit(out)) {
+                (void)sp_co_sync_frame(&out->tx[out->n_tx++], k);
+            }
+        }
+        out->sync = 1u;
+    }
+    out->all_running = all_running;
+    out->ready = (uint8_t)(all_running && ready && !any_fault);
+    return SP_OK;
+}
+
+sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t *phase, sp_co_fault_t *fault)
+{
+    if (m == NULL || phase == NULL || fault == NULL || k >= SP_CO_MAX_NODES) {
+        return SP_E_ARG;
+    }
+    *phase = m->node[k].phase;
+    *fault = m->node[k].fault;
+    return SP_OK;
+}
+
+/* ---- scaling ---- */
+
+#define NM_PER_M 1000000000LL
+#define Q24_RANGE_NM (((int64_t)1 << 31) * NM_PER_M >> 24) /* 128 m in nm */
+
+static int scaling_fields_ok(const sp_co_scaling_t *s)
+{
+    return s != NULL && s->nm_per_count >= 1u && s->nm_per_count <= 1000000u &&
+           (s->direction == 1 || s->direction == -1);
+}
+
+sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s)
+{
+    if (!scaling_fields_ok(s)) {
+        return SP_E_ARG;
+    }
+    s->count_per_q24 = (uint32_t)((NM_PER_M + s->nm_per_count / 2u) / s->nm_per_count);
+    {
+        /* nm x 2^52 / 1e9 without overflow: (nm x 2^28) / 1e9 in whole and remainder, each times 2^24 */
+        uint64_t a = (uint64_t)s->nm_per_count << 28; /* < 2^48 */
+        uint64_t whole = a / (uint64_t)NM_PER_M, rest = a % (uint64_t)NM_PER_M;
+        s->q24_per_count_q28 = (whole << 24) + ((rest << 24) + (uint64_t)NM_PER_M / 2u) / (uint64_t)NM_PER_M;
+    }
+    s->count_limit = Q24_RANGE_NM / (int64_t)s->nm_per_count + 1;
+    return SP_OK;
+}
+
+static int scaling_ok(const sp_co_scaling_t *s)
+{
+    return scaling_fields_ok(s) && s->count_per_q24 != 0u && s->q24_per_count_q28 != 0u;
+}
+
+static int32_t sat32(int64_t v, sp_status_t *st)
+{
+    if (v > INT32_MAX) {
+        *st = SP_E_OVERFLOW;
+        return INT32_MAX;
+    }
+    if (v < INT32_MIN) {
+        *st = SP_E_OVERFLOW;
+        return INT32_MIN;
+    }
+    return (int32_t)v;
+}
+
+/* round(mag / 2^shift) of a non-negative mag, with the sign put back */
+static int64_t signed_shift_round(int64_t sign, uint64_t mag, unsigned shift)
+{
+    int64_t q = (int64_t)((mag + ((uint64_t)1 << (shift - 1u))) >> shift);
+    return sign < 0 ? -q : q;
+}
+
+sp_status_t sp_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count)
+{
+    sp_status_t st = SP_OK;
+    int64_t diff;
+    if (!scaling_ok(s) || count == NULL) {
+        return SP_E_ARG;
+    }
+    diff = ((int64_t)length_q24 - (int64_t)s->zero_q24) * s->direction; /* |diff| < 2^32 */
+    /* |diff| x count_per_q24 < 2^32 x 2^30 */
+    *count = sat32(signed_shift_round(diff, (uint64_t)(diff < 0 ? -diff : diff) * s->count_per_q24, 24u), &st);
+    return st;
+}
+
+sp_status_t sp_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24)
+{
+    sp_status_t st = SP_OK;
+    int64_t c, q24;
+    if (!scaling_ok(s) || length_q24 == NULL) {
+        return SP_E_ARG;
+    }
+    c = (int64_t)count * s->direction;
+    if (c > s->count_limit || c < -s->count_limit) {
+        *length_q24 = c > 0 ? INT32_MAX : INT32_MIN;
+        return SP_E_OVERFLOW;
+    }
+    /* |c| x nm < 2^37 nm-counts, x 2^52 / 1e9 < 2^60 */
+    q24 = signed_shift_round(c, (uint64_t)(c < 0 ? -c : c) * s->q24_per_count_q28, 28u);
+    *length_q24 = sat32((int64_t)s->zero_q24 + q24, &st);
+    return st;
+}

@@ -1,0 +1,506 @@
+/*
+ * CANopen frames, the CiA 408 state machine, the start-up plan and the
+ * master's configuration and scaling (sp/canopen.h, sp/canopen_master.h;
+ * issue 18). The master against simulated drives is tests/plant/
+ * test_plant_canopen.c.
+ *
+ * - SDO frames byte for byte as CiA 301 lays them out (expedited download of
+ *   1, 2 and 4 bytes, upload), answers parsed (ack, read of each size, abort,
+ *   an answer to another object or a segmented one), abort codes by name.
+ * - NMT, SYNC, heartbeat, PDO and EMCY frames round trip; wrong length or
+ *   identifier is SP_E_FRAME; EMCY classes by name.
+ * - CiA 408 status words decode to every state; the drive's state machine
+ *   walks INIT -> ACTIVE one step per call, faults, and resets on R's edge.
+ * - The plan: 28 writes of which 22 final with pressure feedback, 21/17
+ *   without (docs/canopen.md), the RPDO event timer, the prefix's byte.
+ * - Config check names a bad node id, a duplicate, a zero divider.
+ * - Scaling: the prepared factors against the exact quotients (a plain
+ *   reference in long double) within 1 count and 1 Q24 step, for six
+ *   resolutions from 1 nm to 1 mm; round trip; saturation.
+ * - The master ignores frames of other nodes, rejects malformed ones.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <math.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "sp/canopen_link.h"
+#include "sp/platform.h"
+
+static void assert_bytes(const sp_can_frame_t *f, uint32_t id, const uint8_t *want, uint8_t len)
+{
+    assert_int_equal(f->id, id);
+    assert_int_equal(f->len, len);
+    assert_memory_equal(f->data, want, len);
+}
+
+static void test_sdo_frames(void **state)
+{
+    sp_can_frame_t f;
+    static const uint8_t dl4[8] = {0x23, 0x00, 0x14, 0x01, 0x05, 0x02, 0x00, 0x80};
+    static const uint8_t dl2[8] = {0x2B, 0x17, 0x10, 0x00, 0x14, 0x00, 0x00, 0x00};
+    static const uint8_t dl1[8] = {0x2F, 0x43, 0x60, 0x00, 0xFA, 0x00, 0x00, 0x00};
+    static const uint8_t ul[8] = {0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0};
+    (void)state;
+    assert_int_equal(sp_co_sdo_download_frame(&f, 1u, 5u, 0x1400u, 1u, 4u, 0x80000205u), SP_OK);
+    assert_bytes(&f, 0x605u, dl4, 8u);
+    assert_int_equal(sp_co_sdo_download_frame(&f, 1u, 5u, 0x1017u, 0u, 2u, 20u), SP_OK);
+    assert_bytes(&f, 0x605u, dl2, 8u);
+    assert_int_equal(sp_co_sdo_download_frame(&f, 1u, 5u, 0x6043u, 0u, 1u, 0xFFFFFFFAu), SP_OK);
+    assert_bytes(&f, 0x605u, dl1, 8u); /* the value cut to its size */
+    assert_int_equal(sp_co_sdo_upload_frame(&f, 2u, 5u, 0x1000u, 0u), SP_OK);
+    assert_bytes(&f, 0x605u, ul, 8u);
+    assert_int_equal(f.bus, 2u);
+    assert_int_equal(sp_co_sdo_download_frame(&f, 1u, 5u, 0x1017u, 0u, 3u, 0u), SP_E_ARG);
+    assert_int_equal(sp_co_sdo_download_frame(&f, 1u, 0u, 0x1017u, 0u, 2u, 0u), SP_E_ARG);
+    assert_int_equal(sp_co_sdo_download_frame(&f, 1u, 128u, 0x1017u, 0u, 2u, 0u), SP_E_ARG);
+    assert_int_equal(sp_co_sdo_download_frame(&f, 3u, 5u, 0x1017u, 0u, 2u, 0u), SP_E_ARG);
+    assert_int_equal(sp_co_sdo_download_frame(NULL, 1u, 5u, 0x1017u, 0u, 2u, 0u), SP_E_ARG);
+}
+
+static sp_can_frame_t answer(uint8_t node, const uint8_t d[8])
+{
+    sp_can_frame_t f;
+    memset(&f, 0, sizeof f);
+    f.id = 0x580u + node;
+    f.len = 8u;
+    memcpy(f.data, d, 8u);
+    return f;
+}
+
+static void test_sdo_answers(void **state)
+{
+    sp_co_sdo_answer_t a;
+    uint32_t v = 0xDEADu;
+    uint8_t size = 9u;
+    static const uint8_t ack[8] = {0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0};
+    static const uint8_t up4[8] = {0x43, 0x00, 0x10, 0x00, 0x98, 0x01, 0x00, 0x00};
+    static const uint8_t up1[8] = {0x4F, 0x43, 0x60, 0x00, 0xFA, 0xEE, 0xEE, 0xEE};
+    static const uint8_t up2[8] = {0x4B, 0x17, 0x10, 0x00, 0x14, 0x00, 0xEE, 0xEE};
+    static const uint8_t abort[8] = {0x80, 0x43, 0x60, 0x00, 0x30, 0x00, 0x09, 0x06};
+    static const uint8_t seg[8] = {0x41, 0x08, 0x10, 0x00, 0x16, 0, 0, 0};
+    static const uint8_t bad_cs[8] = {0xE0, 0x17, 0x10, 0x00, 0, 0, 0, 0};
+    sp_can_frame_t f = answer(5u, ack);
+    (void)state;
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1017u, 0u, &a, &v, &size), SP_OK);
+    assert_int_equal(a, SP_CO_SDO_DOWNLOAD_OK);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1018u, 0u, &a, &v, &size), SP_E_FRAME); /* another object */
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1017u, 1u, &a, &v, &size), SP_E_FRAME);
+    assert_int_equal(sp_co_sdo_parse(&f, 6u, 0x1017u, 0u, &a, &v, &size), SP_E_FRAME); /* another node */
+    f = answer(5u, up4);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1000u, 0u, &a, &v, &size), SP_OK);
+    assert_int_equal(a, SP_CO_SDO_UPLOAD_OK);
+    assert_int_equal(v, 0x198u);
+    assert_int_equal(size, 4u);
+    f = answer(5u, up1);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x6043u, 0u, &a, &v, &size), SP_OK);
+    assert_int_equal(v, 0xFAu);
+    assert_int_equal(size, 1u);
+    f = answer(5u, up2);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1017u, 0u, &a, &v, &size), SP_OK);
+    assert_int_equal(v, 20u);
+    assert_int_equal(size, 2u);
+    f = answer(5u, abort);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x6043u, 0u, &a, &v, &size), SP_OK);
+    assert_int_equal(a, SP_CO_SDO_ABORTED);
+    assert_int_equal(v, 0x06090030u);
+    assert_string_equal(sp_co_sdo_abort_name(v), "value range of parameter exceeded");
+    assert_string_equal(sp_co_sdo_abort_name(0x06020000u), "object does not exist in the object dictionary");
+    assert_string_equal(sp_co_sdo_abort_name(0x12345678u), "unknown abort code");
+    f = answer(5u, seg);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1008u, 0u, &a, &v, &size), SP_OK);
+    assert_int_equal(a, SP_CO_SDO_UNSUPPORTED);
+    f = answer(5u, bad_cs);
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1017u, 0u, &a, &v, &size), SP_E_FRAME);
+    f.len = 7u;
+    assert_int_equal(sp_co_sdo_parse(&f, 5u, 0x1017u, 0u, &a, &v, &size), SP_E_FRAME);
+}
+
+static void test_nmt_sync_heartbeat(void **state)
+{
+    sp_can_frame_t f;
+    uint8_t node, st;
+    static const uint8_t start[2] = {0x01, 0x0C};
+    static const uint8_t rc[2] = {0x82, 0x0C};
+    (void)state;
+    assert_int_equal(sp_co_nmt_frame(&f, 1u, SP_CO_NMT_START, 12u), SP_OK);
+    assert_bytes(&f, 0x000u, start, 2u);
+    assert_int_equal(sp_co_nmt_frame(&f, 1u, SP_CO_NMT_RESET_COMM, 12u), SP_OK);
+    assert_bytes(&f, 0x000u, rc, 2u);
+    assert_int_equal(sp_co_sync_frame(&f, 2u), SP_OK);
+    assert_int_equal(f.id, 0x080u);
+    assert_int_equal(f.len, 0u);
+    assert_int_equal(sp_co_heartbeat_frame(&f, 1u, 12u, SP_CO_NMT_STATE_OPERATIONAL), SP_OK);
+    assert_int_equal(f.id, 0x70Cu);
+    f.data[0] = 0x85u; /* toggle bit set */
+    assert_int_equal(sp_co_heartbeat_parse(&f, &node, &st), SP_OK);
+    assert_int_equal(node, 12u);
+    assert_int_equal(st, 0x05u);
+    f.len = 2u;
+    assert_int_equal(sp_co_heartbeat_parse(&f, &node, &st), SP_E_FRAME);
+    f.len = 1u;
+    f.id = 0x700u;
+    assert_int_equal(sp_co_heartbeat_parse(&f, &node, &st), SP_E_FRAME);
+}
+
+static void test_pdo_emcy(void **state)
+{
+    sp_can_frame_t f;
+    uint16_t w, a, b, code;
+    int32_t v;
+    uint8_t node, reg;
+    static const uint8_t rpdo[6] = {0x07, 0x00, 0xFE, 0xFF, 0xFF, 0xFF};
+    (void)state;
+    assert_int_equal(sp_co_rpdo1_frame(&f, 1u, 3u, 0x0007u, -2), SP_OK);
+    assert_bytes(&f, 0x203u, rpdo, 6u);
+    assert_int_equal(sp_co_rpdo1_parse(&f, 3u, &w, &v), SP_OK);
+    assert_int_equal(w, 7u);
+    assert_int_equal(v, -2);
+    assert_int_equal(sp_co_tpdo1_frame(&f, 1u, 3u, 0x000Fu, INT32_MIN), SP_OK);
+    assert_int_equal(f.id, 0x183u);
+    assert_int_equal(sp_co_tpdo1_parse(&f, 3u, &w, &v), SP_OK);
+    assert_int_equal(v, INT32_MIN);
+    assert_int_equal(sp_co_tpdo1_parse(&f, 4u, &w, &v), SP_E_FRAME);
+    f.len = 8u;
+    assert_int_equal(sp_co_tpdo1_parse(&f, 3u, &w, &v), SP_E_FRAME);
+    assert_int_equal(sp_co_tpdo2_frame(&f, 1u, 3u, 21000u, 65535u), SP_OK);
+    assert_int_equal(f.id, 0x283u);
+    assert_int_equal(sp_co_tpdo2_parse(&f, 3u, &a, &b), SP_OK);
+    assert_int_equal(a, 21000u);
+    assert_int_equal(b, 65535u);
+    assert_int_equal(sp_co_emcy_frame(&f, 1u, 3u, 0x8250u, 0x11u), SP_OK);
+    assert_int_equal(f.id, 0x083u);
+    assert_int_equal(sp_co_emcy_parse(&f, &node, &code, &reg), SP_OK);
+    assert_int_equal(node, 3u);
+    assert_int_equal(code, 0x8250u);
+    assert_int_equal(reg, 0x11u);
+    f.len = 2u;
+    assert_int_equal(sp_co_emcy_parse(&f, &node, &code, &reg), SP_E_FRAME);
+    assert_string_equal(sp_co_emcy_class_name(0x0000u), "error reset");
+    assert_string_equal(sp_co_emcy_class_name(0x2310u), "current");
+    assert_string_equal(sp_co_emcy_class_name(0x3210u), "voltage");
+    assert_string_equal(sp_co_emcy_class_name(0x4210u), "temperature");
+    assert_string_equal(sp_co_emcy_class_name(0x5000u), "device hardware");
+    assert_string_equal(sp_co_emcy_class_name(0x6100u), "device software");
+    assert_string_equal(sp_co_emcy_class_name(0x8130u), "communication");
+    assert_string_equal(sp_co_emcy_class_name(0x8250u), "protocol");
+    assert_string_equal(sp_co_emcy_class_name(0x8611u), "monitoring");
+    assert_string_equal(sp_co_emcy_class_name(0x9000u), "external");
+    assert_string_equal(sp_co_emcy_class_name(0xF000u), "additional functions");
+    assert_string_equal(sp_co_emcy_class_name(0xFF01u), "device specific");
+}
+
+static void test_cia408_states(void **state)
+{
+    sp_co408_state_t s = SP_CO408_NOT_READY;
+    uint16_t cw = sp_co408_control_word(SP_CO_REQ_ACTIVE, 0);
+    int i;
+    (void)state;
+    assert_int_equal(sp_co408_state(0x0008u), SP_CO408_INIT);
+    assert_int_equal(sp_co408_state(0xFF09u), SP_CO408_DISABLED); /* high bits ignored */
+    assert_int_equal(sp_co408_state(0x000Bu), SP_CO408_HOLD);
+    assert_int_equal(sp_co408_state(0x000Fu), SP_CO408_ACTIVE);
+    assert_int_equal(sp_co408_state(0x0007u), SP_CO408_FAULT_REACTION);
+    assert_int_equal(sp_co408_state(0x0003u), SP_CO408_FAULT_HOLD);
+    assert_int_equal(sp_co408_state(0x0001u), SP_CO408_FAULT_DISABLED);
+    assert_int_equal(sp_co408_state(0x0005u), SP_CO408_UNKNOWN);
+    for (i = 0; i <= (int)SP_CO408_FAULT_DISABLED; i++) {
+        assert_int_equal(sp_co408_state(sp_co408_status_bits((sp_co408_state_t)i)), i);
+    }
+    assert_int_equal(sp_co408_control_word(SP_CO_REQ_DISABLED, 0), 0x0001u);
+    assert_int_equal(sp_co408_control_word(SP_CO_REQ_HOLD, 0), 0x0003u);
+    assert_int_equal(cw, 0x0007u);
+    assert_int_equal(sp_co408_control_word(SP_CO_REQ_HOLD, 1), 0x000Bu);
+    /* power-up -> INIT -> DISABLED -> HOLD -> ACTIVE, one step per call */
+    for (i = 0; i < 4; i++) {
+        s = sp_co408_next(s, cw, cw, 0);
+        assert_int_equal(s, (sp_co408_state_t)(i + 1));
+    }
+    assert_int_equal(sp_co408_next(s, cw, cw, 0), SP_CO408_ACTIVE);
+    s = sp_co408_next(s, cw, cw, 1);
+    assert_int_equal(s, SP_CO408_FAULT_REACTION);
+    s = sp_co408_next(s, cw, cw, 1);
+    assert_int_equal(s, SP_CO408_FAULT_HOLD);
+    /* no reset while the fault persists, nor without the edge */
+    assert_int_equal(sp_co408_next(s, 0x000Bu, 0x0003u, 1), SP_CO408_FAULT_HOLD);
+    assert_int_equal(sp_co408_next(s, 0x000Bu, 0x000Bu, 0), SP_CO408_FAULT_HOLD);
+    assert_int_equal(sp_co408_next(s, 0x000Bu, 0x0003u, 0), SP_CO408_HOLD);
+    assert_int_equal(sp_co408_next(s, 0x000Fu, 0x0007u, 0), SP_CO408_HOLD); /* never straight to ACTIVE */
+    assert_true(sp_co408_is_fault(SP_CO408_FAULT_DISABLED));
+    assert_false(sp_co408_is_fault(SP_CO408_NOT_READY));
+    assert_string_equal(sp_co408_state_name(SP_CO408_FAULT_HOLD), "FAULT_HOLD");
+}
+
+static int finals(const sp_co_sdo_write_t *p, uint8_t n)
+{
+    int c = 0;
+    uint8_t i;
+    for (i = 0u; i < n; i++) {
+        c += p[i].final;
+    }
+    return c;
+}
+
+static void test_plan(void **state)
+{
+    sp_co_master_cfg_t cfg;
+    sp_co_sdo_write_t p[SP_CO_PLAN_MAX];
+    uint8_t n, i, timer = 0u;
+    (void)state;
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
+    cfg.node[4].node_id = 21u;
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    assert_int_equal(n, 28u);
+    assert_int_equal(finals(p, n), 22);
+    assert_int_equal(p[0].index, 0x1017u);
+    assert_int_equal(p[0].value, 20u);
+    assert_int_equal(p[2].index, 0x6043u);
+    assert_int_equal(p[2].value, 8u);
+    assert_int_equal(p[4].index, 0x6600u);
+    assert_int_equal(p[4].sub, 3u);
+    assert_int_equal(p[4].value, 0xFAu); /* -6 as its byte */
+    assert_true(p[4].optional);
+    for (i = 0u; i < n; i++) {
+        if (p[i].index == 0x1400u && p[i].sub == 5u) {
+            timer = 1u;
+            assert_int_equal(p[i].value, cfg.setpoint_timeout_ms);
+        }
+    }
+    assert_true(timer);
+    assert_int_equal(p[6].value, 0x80000000u | (0x200u + 21u)); /* RPDO1 disabled while re-mapped */
+    assert_int_equal(p[n - 1u].value, 0x280u + 21u);            /* TPDO2 enabled last */
+    cfg.pressure_feedback = 0u;
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    assert_int_equal(n, 21u);
+    assert_int_equal(finals(p, n), 17);
+    assert_int_equal(sp_co_plan_build(&cfg, 6u, p, &n), SP_E_ARG);
+    assert_int_equal(sp_co_plan_build(NULL, 0u, p, &n), SP_E_ARG);
+}
+
+static void test_cfg_check(void **state)
+{
+    sp_co_master_cfg_t cfg;
+    (void)state;
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 7u), SP_E_ARG);
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_OK);
+    cfg.node[3].node_id = 1u; /* same id as leg 1 but on the other bus: fine */
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_OK);
+    cfg.node[3].bus = cfg.node[0].bus; /* now a duplicate */
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
+    cfg.node[2].node_id = 128u;
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
+    cfg.sync_divider = 0u;
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
+    cfg.heartbeat_timeout_ms = cfg.heartbeat_ms;
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
+}
+
+/* The plain references: the exact quotients in long double (tests may use
+ * floating point), rounded half away from zero. */
+static long double ref_count(const sp_co_scaling_t *s, int32_t length_q24)
+{
+    return (long double)s->direction * ((long double)length_q24 - (long double)s->zero_q24) / 16777216.0L * 1e9L /
+           (long double)s->nm_per_count;
+}
+
+static long double ref_length(const sp_co_scaling_t *s, int32_t count)
+{
+    return (long double)s->zero_q24 +
+           (long double)s->direction * (long double)count * (long double)s->nm_per_count * 16777216.0L / 1e9L;
+}
+
+static void test_scaling(void **state)
+{
+    static const uint32_t nms[] = {1u, 3u, 100u, 1000u, 7919u, 1000000u};
+    sp_co_scaling_t s;
+    int32_t c, len, i;
+    uint32_t k, seed = 12345u;
+    (void)state;
+    memset(&s, 0, sizeof s);
+    s.nm_per_count = 1000u;
+    s.zero_q24 = 0x01000000; /* 1 m */
+    s.direction = 1;
+    assert_int_equal(sp_co_length_to_count(&s, 0, &c), SP_E_ARG); /* not prepared */
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+    assert_int_equal(sp_co_length_to_count(&s, 0x01000000 + 0x00100000 /* 1.0625 m */, &c), SP_OK);
+    assert_int_equal(c, 62500); /* um */
+    s.direction = -1;
+    assert_int_equal(sp_co_length_to_count(&s, 0x01000000 + 0x00100000, &c), SP_OK);
+    assert_int_equal(c, -62500);
+    assert_int_equal(sp_co_count_to_length(&s, -62500, &len), SP_OK);
+    assert_int_equal(len, 0x01100000);
+    /* round trip over the stroke: 1 um = 16.8 Q24 steps, so exact */
+    s.direction = 1;
+    for (i = -400000; i <= 400000; i += 3331) {
+        int32_t back;
+        assert_int_equal(sp_co_count_to_length(&s, i, &len), SP_OK);
+        assert_int_equal(sp_co_length_to_count(&s, len, &back), SP_OK);
+        assert_int_equal(back, i);
+    }
+    /* the prepared factors against the exact quotients: within 1 count and 1 Q24 step (the
+     * reference's own rounding included), for every resolution, both directions */
+    for (k = 0u; k < sizeof nms / sizeof nms[0]; k++) {
+        s.nm_per_count = nms[k];
+        s.zero_q24 = 0x01D99999; /* 1.85 m */
+        for (i = 0; i < 2000; i++) {
+            long double r;
+            int32_t count, length;
+            seed = seed * 1664525u + 1013904223u;
+            s.direction = (seed & 1u) ? 1 : -1;
+            assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+            length = s.zero_q24 + (int32_t)(seed >> 8) - 0x00800000; /* +-0.5 m */
+            assert_int_equal(sp_co_length_to_count(&s, length, &count), SP_OK);
+            r = ref_count(&s, length);
+            assert_true(fabsl((long double)count - r) <= 1.0L);
+            count = (int32_t)(seed >> 12) - 0x00080000;
+            if (sp_co_count_to_length(&s, count, &length) == SP_OK) {
+                r = ref_length(&s, count);
+                assert_true(fabsl((long double)length - r) <= 1.0L);
+            }
+        }
+    }
+    s.direction = 1;
+    s.nm_per_count = 1u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+    assert_int_equal(sp_co_length_to_count(&s, INT32_MAX, &c), SP_E_OVERFLOW);
+    assert_int_equal(c, INT32_MAX);
+    s.nm_per_count = 1000000u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+    assert_int_equal(sp_co_count_to_length(&s, INT32_MIN, &len), SP_E_OVERFLOW);
+    assert_int_equal(len, INT32_MIN);
+    assert_int_equal(sp_co_count_to_length(&s, 130000, &len), SP_E_OVERFLOW); /* 130 m */
+    assert_int_equal(len, INT32_MAX);
+    s.nm_per_count = 0u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
+    s.nm_per_count = 1000u;
+    s.direction = 0;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
+}
+
+static void test_master_input_checks(void **state)
+{
+    sp_co_master_t m;
+    sp_co_master_cfg_t cfg;
+    sp_can_frame_t f;
+    sp_co_master_input_t in;
+    sp_co_master_output_t out;
+    (void)state;
+    memset(&in, 0, sizeof in);
+    assert_int_equal(sp_co_master_cfg_default(&cfg, 2u), SP_OK);
+    assert_int_equal(sp_co_master_init(&m), SP_OK);
+    assert_int_equal(sp_co_master_step(&m, &cfg, &in, &out), SP_OK);
+    assert_int_equal(out.n_tx, 0u); /* not started: silent */
+    assert_int_equal(sp_co_master_start(&m, &cfg, 0u), SP_OK);
+    in.now_ms = 1u;
+    assert_int_equal(sp_co_master_step(&m, &cfg, &in, &out), SP_OK);
+    assert_int_equal(out.n_tx, 2u + 1u); /* two NMT resets, one SYNC on axis_a */
+    assert_int_equal(out.tx[0].data[0], SP_CO_NMT_RESET_COMM);
+    /* a heartbeat of another node, one of a known node on another bus: ignored */
+    assert_int_equal(sp_co_heartbeat_frame(&f, SP_BUS_AXIS_A, 9u, SP_CO_NMT_STATE_BOOTUP), SP_OK);
+    assert_int_equal(sp_co_master_receive(&m, &cfg, &f, 2u), SP_OK);
+    assert_int_equal(sp_co_heartbeat_frame(&f, SP_BUS_AXIS_B, 1u, SP_CO_NMT_STATE_BOOTUP), SP_OK);
+    assert_int_equal(sp_co_master_receive(&m, &cfg, &f, 2u), SP_OK);
+    assert_int_equal(m.node[0].phase, SP_CO_PHASE_BOOT);
+    /* a malformed boot-up of node 1 (2 bytes): rejected, nothing changes */
+    assert_int_equal(sp_co_heartbeat_frame(&f, SP_BUS_AXIS_A, 1u, SP_CO_NMT_STATE_BOOTUP), SP_OK);
+    f.len = 2u;
+    assert_int_equal(sp_co_master_receive(&m, &cfg, &f, 2u), SP_E_FRAME);
+    assert_int_equal(m.node[0].phase, SP_CO_PHASE_BOOT);
+    f.len = 1u;
+    assert_int_equal(sp_co_master_receive(&m, &cfg, &f, 2u), SP_OK);
+    assert_int_equal(m.node[0].phase, SP_CO_PHASE_IDENTITY);
+    assert_int_equal(sp_co_master_receive(NULL, &cfg, &f, 2u), SP_E_ARG);
+    assert_int_equal(sp_co_master_step(&m, &cfg, NULL, &out), SP_E_ARG);
+    cfg.node[1].node_id = 0u;
+    assert_int_equal(sp_co_master_start(&m, &cfg, 0u), SP_E_ARG);
+}
+
+static void test_link(void **state)
+{
+    sp_co_link_cfg_t cfg;
+    sp_co_master_t m;
+    sp_co_master_input_t in;
+    sp_ctrl_output_t out;
+    sp_drive_feedback_t fb[SP_LEGS];
+    sp_q24_t zero[SP_LEGS];
+    uint32_t i;
+    (void)state;
+    for (i = 0u; i < SP_LEGS; i++) {
+        zero[i] = (sp_q24_t)(0x01000000 + (int32_t)i * 0x10000); /* 1 m + i/256 m */
+    }
+    assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+    /* legs swapped between nodes 0 and 1: still one drive per leg */
+    cfg.master.node[0].leg = 2u;
+    cfg.master.node[1].leg = 1u;
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+    cfg.master.node[1].leg = 2u; /* leg 2 twice, leg 1 none */
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_E_ARG);
+    cfg.master.node[1].leg = 1u;
+    cfg.scaling[3].direction = 0;
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_E_ARG);
+    cfg.scaling[3].direction = 1;
+
+    /* feedback: node 0 moves leg 2 */
+    memset(&m, 0, sizeof m);
+    memset(fb, 0, sizeof fb);
+    fb[4].fresh = 1u;
+    m.node[0].tpdo1_fresh = 1u;
+    m.node[0].actual = 62500; /* um */
+    m.node[0].pa_kpa = 10000u;
+    m.node[0].pb_kpa = 0u;
+    m.node[2].tpdo1_fresh = 1u;
+    m.node[2].fault.code = SP_CO_F_EMCY;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].fresh, 1u);
+    assert_int_equal(fb[1].length, zero[1] + 0x00100000); /* + 62.5 mm */
+    assert_int_equal(fb[1].faults, 0u);
+    assert_true(fb[1].force > 0); /* 100 bar on the piston side pushes out */
+    assert_int_equal(fb[2].fresh, 1u);
+    assert_int_equal(fb[2].faults, SP_CO_LINK_FAULT);
+    assert_int_equal(fb[0].fresh, 0u);
+    assert_int_equal(fb[4].fresh, 0u); /* cleared: no TPDO */
+
+    /* input: the request follows the drive mode, setpoints by scaling */
+    memset(&out, 0, sizeof out);
+    for (i = 0u; i < SP_LEGS; i++) {
+        out.setpoint[i].length = zero[i] - 0x00100000;
+    }
+    out.drive_mode = SP_DRIVE_HOLD;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 77u, &in), SP_OK);
+    assert_int_equal(in.request, SP_CO_REQ_HOLD);
+    assert_int_equal(in.now_ms, 77u);
+    assert_int_equal(in.setpoint[0], -62500);           /* node 0: leg 2's setpoint */
+    out.setpoint[1].length = zero[1] - 0x00100000 + 17; /* 1 um = 16.8 Q24 steps: rounds to one count more */
+    out.drive_mode = SP_DRIVE_ACTIVE;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
+    assert_int_equal(in.request, SP_CO_REQ_ACTIVE);
+    assert_int_equal(in.setpoint[0], -62499);
+    cfg.scaling[0].nm_per_count = 1u;
+    assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[0]), SP_OK);
+    out.setpoint[0].length = INT32_MAX;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 79u, &in), SP_E_OVERFLOW);
+    assert_int_equal(in.setpoint[1], INT32_MAX);
+    assert_int_equal(sp_co_link_input(NULL, &out, 79u, &in), SP_E_ARG);
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_sdo_frames),          cmocka_unit_test(test_sdo_answers),
+        cmocka_unit_test(test_nmt_sync_heartbeat),  cmocka_unit_test(test_pdo_emcy),
+        cmocka_unit_test(test_cia408_states),       cmocka_unit_test(test_plan),
+        cmocka_unit_test(test_cfg_check),           cmocka_unit_test(test_scaling),
+        cmocka_unit_test(test_master_input_checks), cmocka_unit_test(test_link),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
