@@ -62,8 +62,13 @@ hs_status_t hs_bus_cycle_frames(hs_bus_t *bus, const hs_plant_t *plant, uint32_t
             m.state = (uint8_t)fb.state;
             m.faults = (uint8_t)(fb.faults & 0xFFu);
             m.tick_echo = (uint16_t)(tick & 0xFFFFu);
+            if (bus->stale_mask & (1u << leg)) {
+                m.tick_echo = (uint16_t)((tick - bus->stale_ticks) & 0xFFFFu);
+            }
             (void)sp_proto_encode_feedback(&m, (uint8_t)(s + 1), bus->tx_counter_feedback[leg], sp_bus, &out[*n]);
-            bus->tx_counter_feedback[leg] = (uint8_t)((bus->tx_counter_feedback[leg] + 1u) & 0x0Fu);
+            if ((bus->frozen_mask & (1u << leg)) == 0u) {
+                bus->tx_counter_feedback[leg] = (uint8_t)((bus->tx_counter_feedback[leg] + 1u) & 0x0Fu);
+            }
             (*n)++;
         }
         if (sync_master) {
@@ -111,6 +116,18 @@ hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_
     if (r == SP_E2E_OK_LOST) {
         bus->stats.lost++;
     }
+    if (m.fault_reset && !bus->last_reset[b]) {
+        for (int s = 0; s < 3; s++) {
+            uint32_t remaining = 0u;
+            (void)hs_plant_fault_reset(plant, 3 * b + s, &remaining);
+            if (remaining != 0u) {
+                bus->stats.resets_refused++;
+            } else {
+                bus->stats.resets++;
+            }
+        }
+    }
+    bus->last_reset[b] = m.fault_reset ? 1u : 0u;
     hs_drive_request_t mode = (m.mode == SP_DRIVE_ACTIVE) ? HS_REQ_ACTIVE : HS_REQ_HOLD;
     for (int s = 0; s < 3; s++) {
         const sp_setpoint_t *sp = &m.setpoint[s];

@@ -301,6 +301,7 @@ SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t
         sp_msg_setpoints_t m;
         m.tick = tick;
         m.mode = (uint8_t)node->out.drive_mode;
+        m.fault_reset = node->out.drive_fault_reset;
         for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
             m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
         }
@@ -338,6 +339,8 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     s.drive_mode = (uint8_t)node->out.drive_mode;
     s.feedforward = cfg->ctrl.force_feedforward;
     s.estimate = node->out.estimate;
+    s.reset_refused_legs = node->out.reset_refused_legs;
+    s.reset_refused_cause = node->out.reset_refused_cause;
     count_send(node, sp_proto_encode_status(&s, node->tx_counter_status++, &out[*n]), n);
     node->tx_counter_status &= 0x0Fu;
 
