@@ -15,6 +15,7 @@
 #include <cmocka.h>
 
 #include "hs/bus.h"
+#include "hs/inject.h"
 #include "hs/kin.h"
 #include "hs/plant.h"
 #include "assert_near.h"
@@ -184,13 +185,135 @@ static void test_stuck_valve_moves(void **state)
     assert_true(st.length[1] - l0 > 0.001);
 }
 
+/* n frames: id, bus, payload byte 0 = k (to follow them) */
+static void frames(sp_can_frame_t *f, uint32_t n, uint32_t id, uint8_t on_bus)
+{
+    for (uint32_t k = 0; k < n; k++) {
+        memset(&f[k], 0, sizeof f[k]);
+        f[k].id = id;
+        f[k].bus = on_bus;
+        f[k].len = 12u;
+        f[k].data[0] = (uint8_t)k;
+    }
+}
+
+static void check_accounting(const hs_inject_t *inj)
+{
+    const hs_inject_stats_t *s = &inj->stats;
+    assert_int_equal(s->in + s->duplicated, s->out + s->dropped + s->busoff + s->pending);
+}
+
+static void test_injector_frames(void **state)
+{
+    static hs_inject_t inj;
+    sp_can_frame_t in[4], out[HS_INJ_MAX_OUT];
+    uint32_t n = 0;
+    (void)state;
+    assert_int_equal(hs_inject_init(&inj, 1u), HS_OK);
+    /* drop the next 2 feedback frames of axis_a; other buses and ids pass */
+    hs_frame_rule_t r = {SP_BUS_AXIS_A, 0x31u, 0x33u, HS_FRAME_DROP, 0.0, 2u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_OK);
+    frames(in, 3, 0x31u, SP_BUS_AXIS_A);
+    in[1].bus = SP_BUS_AXIS_B;
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_CONTROLLER, 1u, in, 3, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 1u);
+    assert_int_equal(out[0].bus, SP_BUS_AXIS_B);
+    assert_int_equal(inj.stats.dropped, 2u);
+    assert_int_equal(inj.active[0], 0); /* used up */
+    /* duplicate, corrupt (one bit), reorder (behind the next frame of its bus) */
+    r = (hs_frame_rule_t){SP_BUS_OPS, 0x100u, 0x100u, HS_FRAME_DUPLICATE, 0.0, 1u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_OK);
+    frames(in, 2, 0x100u, SP_BUS_OPS);
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_PLANT, 2u, in, 2, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 3u);
+    assert_int_equal(out[0].data[0], 0);
+    assert_int_equal(out[1].data[0], 0);
+    assert_int_equal(out[2].data[0], 1);
+    r = (hs_frame_rule_t){SP_BUS_OPS, 0x100u, 0x100u, HS_FRAME_CORRUPT, 0.0, 1u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_OK);
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_PLANT, 3u, in, 1, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    int flipped = 0;
+    for (unsigned b = 0; b < 12u; b++) {
+        flipped += __builtin_popcount((unsigned)(out[0].data[b] ^ in[0].data[b]));
+    }
+    assert_int_equal(flipped, 1);
+    r = (hs_frame_rule_t){SP_BUS_OPS, 0x100u, 0x100u, HS_FRAME_REORDER, 0.0, 1u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_OK);
+    frames(in, 3, 0x100u, SP_BUS_OPS);
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_PLANT, 4u, in, 3, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 3u);
+    assert_int_equal(out[0].data[0], 1);
+    assert_int_equal(out[1].data[0], 0);
+    assert_int_equal(out[2].data[0], 2);
+    /* delay: held, then first of the tick it is due */
+    r = (hs_frame_rule_t){SP_BUS_AXIS_B, 0x20u, 0x20u, HS_FRAME_DELAY, 0.0, 1u, 3u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_OK);
+    frames(in, 1, 0x20u, SP_BUS_AXIS_B);
+    in[0].data[0] = 42u;
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_PLANT, 10u, in, 1, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 0u);
+    assert_int_equal(inj.stats.pending, 1u);
+    check_accounting(&inj);
+    frames(in, 1, 0x20u, SP_BUS_AXIS_B);
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_PLANT, 12u, in, 1, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 1u);
+    assert_int_equal(out[0].data[0], 0);
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_CONTROLLER, 13u, NULL, 0, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 0u); /* the other direction's queue */
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_PLANT, 13u, NULL, 0, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 1u);
+    assert_int_equal(out[0].data[0], 42);
+    check_accounting(&inj);
+    /* bus-off: nothing on the bus but the lockstep SYNC */
+    assert_int_equal(hs_inject_busoff(&inj, SP_BUS_AXIS_A, 20u), HS_OK);
+    frames(in, 2, 0x31u, SP_BUS_AXIS_A);
+    in[1].id = SP_ID_SYNC;
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_CONTROLLER, 19u, in, 2, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 1u);
+    assert_int_equal(out[0].id, SP_ID_SYNC);
+    assert_int_equal(hs_inject_filter(&inj, HS_INJ_TO_CONTROLLER, 20u, in, 2, out, HS_INJ_MAX_OUT, &n), HS_OK);
+    assert_int_equal(n, 2u);
+    check_accounting(&inj);
+    /* refused rules */
+    r = (hs_frame_rule_t){SP_BUS_OPS, 5u, 4u, HS_FRAME_DROP, 0.0, 1u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_E_ARG);
+    r = (hs_frame_rule_t){SP_BUS_OPS, 4u, 4u, HS_FRAME_DROP, 0.0, 0u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_E_ARG);
+    r = (hs_frame_rule_t){SP_BUS_OPS, 4u, 4u, HS_FRAME_DELAY, 0.5, 0u, 0u};
+    assert_int_equal(hs_inject_add(&inj, &r), HS_E_ARG);
+}
+
+/* A rate: about that share of the frames, the same ones for the same seed. */
+static void test_injector_rate(void **state)
+{
+    static hs_inject_t a, b;
+    sp_can_frame_t in[8], oa[HS_INJ_MAX_OUT], ob[HS_INJ_MAX_OUT];
+    (void)state;
+    hs_frame_rule_t r = {HS_INJ_ANY_BUS, 0u, 0x7FFu, HS_FRAME_DROP, 0.1, 0u, 0u};
+    assert_int_equal(hs_inject_init(&a, 7u), HS_OK);
+    assert_int_equal(hs_inject_init(&b, 7u), HS_OK);
+    assert_int_equal(hs_inject_add(&a, &r), HS_OK);
+    assert_int_equal(hs_inject_add(&b, &r), HS_OK);
+    frames(in, 8, 0x40u, SP_BUS_OPS);
+    for (uint64_t t = 0; t < 2500u; t++) {
+        uint32_t na = 0, nb = 0;
+        (void)hs_inject_filter(&a, HS_INJ_TO_CONTROLLER, t, in, 8, oa, HS_INJ_MAX_OUT, &na);
+        (void)hs_inject_filter(&b, HS_INJ_TO_CONTROLLER, t, in, 8, ob, HS_INJ_MAX_OUT, &nb);
+        assert_int_equal(na, nb);
+        assert_memory_equal(oa, ob, na * sizeof oa[0]);
+    }
+    double share = (double)a.stats.dropped / (double)a.stats.in;
+    print_message("rate 0.1: %u of %u frames dropped (%.4f)\n", a.stats.dropped, a.stats.in, share);
+    assert_true(fabs(share - 0.1) < 0.01); /* 20000 draws: sigma 0.002 */
+    check_accounting(&a);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_reset_clears_on_edge),
-        cmocka_unit_test(test_reset_refused_with_cause),
-        cmocka_unit_test(test_sensor_faults),
-        cmocka_unit_test(test_stuck_valve_moves),
+        cmocka_unit_test(test_reset_clears_on_edge), cmocka_unit_test(test_reset_refused_with_cause),
+        cmocka_unit_test(test_sensor_faults),        cmocka_unit_test(test_stuck_valve_moves),
+        cmocka_unit_test(test_injector_frames),      cmocka_unit_test(test_injector_rate),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

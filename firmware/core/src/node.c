@@ -125,7 +125,9 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     d.fresh = 1u;
     d.length = m.length;
     d.force = force_from_pressures(node->ctrl_platform, m.pressure_a, m.pressure_b);
-    d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? 0x80u : 0u));
+    /* a drive in FAULT counts as faulty even without bits; bit 8, above the
+     * DBC's eight, keeps the reported bits (a refused reset's cause) as sent */
+    d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? SP_DRIVE_FAULT_STATE : 0u));
     if (node->sync_valid && m.tick_echo == (uint16_t)(node->sync_tick & 0xFFFFu)) {
         node->in.drive[leg] = d;
     } else if (!node->ctrl_sync_master &&

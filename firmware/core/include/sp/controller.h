@@ -140,8 +140,12 @@ typedef struct {
     uint8_t fresh;   /**< 1 if a valid frame arrived since the last tick */
     sp_q24_t length; /**< measured joint-to-joint length, m, Q24 */
     sp_q8_t force;   /**< measured cylinder force, N, Q8 */
-    uint16_t faults; /**< the drive's fault bits (0: none) */
+    uint16_t faults; /**< the drive's fault bits (0: none): the DBC's eight, and
+                          SP_DRIVE_FAULT_STATE when the drive reports the FAULT state */
 } sp_drive_feedback_t;
+
+/** sp_drive_feedback_t.faults: the drive is in its FAULT state (above the DBC's 8 fault bits). */
+#define SP_DRIVE_FAULT_STATE 0x100u
 
 typedef struct {
     sp_drive_feedback_t drive[SP_LEGS];
