@@ -650,6 +650,26 @@ static void test_trig_generator(void **state)
     assert_true(g.finished);
     assert_int_equal(m.pose.pos[0], sp_platform_default.home.pos[0]);
     assert_int_equal(m.vel[0], 0);
+    /* through the wraps: the tick stops at the fade once faded in, so a
+     * motion of any length (the old tick saturated after 2^32 ticks at the
+     * stop sentinel: unstoppable) still fades out in fade_ticks */
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 500u), SP_OK);
+    for (int n = 0; n < 20000; ++n) {
+        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    }
+    assert_int_equal(g.tick, 500u);
+    g.phase = UINT32_MAX - g.phase_step / 2u; /* the phase wraps modulo one turn: no jump */
+    assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    prev_x = f24(m.pose.pos[0] - sp_platform_default.home.pos[0]);
+    assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    assert_near(f24(m.pose.pos[0] - sp_platform_default.home.pos[0]), prev_x, 0.09 * 6.3 * 0.5e-3 * 1.01,
+                "position step across the phase wrap (m)");
+    sp_trig_stop(&g);
+    for (int n = 0; n <= 500 && !g.finished; ++n) {
+        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    }
+    assert_true(g.finished);
+    assert_int_equal(m.pose.pos[0], sp_platform_default.home.pos[0]);
     /* bad arguments */
     assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), 0, 1000u, 1000u), SP_E_ARG);
     assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(2.0), q24(1), 1000u, 1000u), SP_E_ARG);

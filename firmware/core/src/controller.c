@@ -839,9 +839,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     if (cfg == NULL || ctrl == NULL || in == NULL || out == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
     }
-    if (ctrl->tick < UINT32_MAX) {
-        ++ctrl->tick;
-    }
+    ctrl->tick += 1u; /* a sequence number: wraps modulo 2^32, as the DBC's Tick (sp_ctrl_t.tick) */
     active = drives_active(ctrl);
 
     comms_ok = supervise(cfg, ctrl, in, active, &leg_out);

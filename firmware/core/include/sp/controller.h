@@ -164,7 +164,7 @@ typedef struct {
     sp_drive_mode_t drive_mode;
     sp_state_t state;
     uint32_t faults;        /**< latched SP_FAULT_* bits */
-    uint32_t tick;          /**< ticks since init */
+    uint32_t tick;          /**< ticks since init, modulo 2^32 (sp_ctrl_t.tick) */
     sp_pose_t estimate;     /**< pose by forward kinematics */
     sp_motion_t reference;  /**< the reference of this tick */
     uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
@@ -267,7 +267,11 @@ typedef struct {
     sp_ctrl_prepared_t prep; /**< derived from the config at init */
     sp_state_t state;
     uint32_t faults; /**< latched SP_FAULT_* bits */
-    uint32_t tick;   /**< ticks since init (saturates) */
+    uint32_t tick;   /**< ticks since init, modulo 2^32: a sequence number (the SYNC tick of a
+                          cycle master), compared only for equality, so it wraps after 49.7
+                          days like the DBC's Tick signal; saturating would freeze the SYNC
+                          tick and with it the feedback's freshness check (TickEcho). A test
+                          may start it anywhere after sp_ctrl_init (the wrap tests do) */
     sp_supervision_t sup;
     sp_estimate_t est;               /**< the pose estimate, its FK cache and the factorisation at the reference */
     sp_motion_mode_t mode;           /**< RUNNING: the motion executing */
