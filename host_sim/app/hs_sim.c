@@ -2,10 +2,10 @@
  * hs_sim - the simulated hydraulic hexapod on SocketCAN: the plant
  * (hs/plant.h) behind the drives' side of the protocol (hs/bus.h).
  *
- *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]
+ *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES]
+ *          [--setpoint-timeout CYCLES] [--tick0 N]
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -33,6 +33,13 @@
  * cycles without setpoints in ACTIVE -> HOLD and the timeout fault); only
  * to relax it for hosts that cannot keep 1 ms deadlines (real time inside
  * user-mode Linux), as sp_controller's --feedback-timeout.
+ * --inproc: lockstep with the controller (the firmware's node, configured as
+ * sp_controller --lockstep) in this process instead of on SocketCAN: the
+ * frames pass in memory in the order one vcan socket delivers them, so the
+ * CAN log is the same byte for byte (docs/faults.md); prints the fault
+ * report with every frame accounted on both sides.
+ * --tick0 N (test only): the SYNC tick of cycle 0 (and with --inproc the
+ * controller's own tick), to run through the 2^32 and TickEcho wraps.
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
  * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
@@ -96,6 +103,7 @@ typedef struct {
     hs_play_t play; /* scenario `play` under way (file open) */
     uint64_t play_start;
     uint64_t tick;   /* the current cycle */
+    uint32_t tick0;  /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
     hs_inject_t inj; /* the fault injector on the bus (scenario `inject`) */
     /* --inproc: the controller (the firmware's node, as sp_controller --lockstep) in this process */
     int inproc;
@@ -742,7 +750,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES]\n");
+                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--tick0 N]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -846,6 +854,8 @@ int main(int argc, char **argv)
             have_load = 1, i++;
         } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
             sp_timeout = (uint32_t)u, i++;
+        } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
+            s.tick0 = (uint32_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
             timeout_ms = (long)u, i++;
         } else {
@@ -898,6 +908,7 @@ int main(int argc, char **argv)
         }
         s.ncfg.sync_master = 0u;
         (void)sp_node_init(&s.node, &s.ncfg);
+        s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
     }
 
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
@@ -970,7 +981,8 @@ int main(int argc, char **argv)
         if (s.lockstep) {
             sp_can_frame_t tx[HS_BUS_MAX_TX];
             uint32_t n = 0;
-            (void)hs_bus_cycle_frames(&s.bus, &s.plant, (uint32_t)tick, 1u, tx, &n);
+            uint32_t sync_tick = (uint32_t)(tick + s.tick0); /* modulo 2^32, as the DBC's Tick */
+            (void)hs_bus_cycle_frames(&s.bus, &s.plant, sync_tick, 1u, tx, &n);
             if (send_frames(&s, tx, n, t_us) != 0) {
                 rc = 1;
                 break;
@@ -981,7 +993,7 @@ int main(int argc, char **argv)
             if (s.inproc) {
                 nraw = inproc_answer(&s, raw);
             } else {
-                r = lockstep_wait(&s, (uint32_t)tick, raw, &nraw, 4 * RX_BUF, timeout_ms);
+                r = lockstep_wait(&s, sync_tick, raw, &nraw, 4 * RX_BUF, timeout_ms);
             }
             if (r != 0) {
                 if (r == 3) {

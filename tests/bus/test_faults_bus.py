@@ -3,7 +3,7 @@ cleared by the controller's RESET over CAN (the setpoints' FaultReset
 edge), a reset refused while the cause stays (reported in CTRL_STATUS with
 the drive's fault bits), and one row of the fault campaign run over vcan
 giving the same CAN log, byte for byte, as the campaign's in-memory bus
-(``hs_sim --inproc``).
+(``hs_sim --inproc``), and the closed loop through the SYNC tick's wrap.
 
 Run inside ``stewart vcan`` (scripts/test.sh does).
 """
@@ -47,13 +47,17 @@ RESET = ("delay 0.2\n"
          "end\n")
 
 ROW = ("drive-freeze", "RUNNING/p2p")
+WRAP = ("delay 0.2\ncmd ENGAGE\nwait ready 30\n"
+        "cmd RUN_TRIG axis=x amplitude=0.09 frequency=0.5 fade=0.5\ndelay 3\ncmd PARK\nwait idle 30\nend\n")
+TICK0 = 2**32 - 6000  # the SYNC tick wraps while the surge runs
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     out = tmp_path_factory.mktemp("faults_bus")
     fault = {f.name: f for f in F.FAULTS}[ROW[0]]
-    specs = [cl.RunSpec("reset", RESET), cl.RunSpec("row", F.scenario(fault, ROW[1]), seed=1)]
+    specs = [cl.RunSpec("reset", RESET), cl.RunSpec("row", F.scenario(fault, ROW[1]), seed=1),
+             cl.RunSpec("wrap", WRAP, plant_args=("--tick0", str(TICK0)))]
     return {r.spec.name: r for r in cl.run(specs, out, progress=False, timeout=600)}, out
 
 
@@ -111,3 +115,20 @@ def test_campaign_row_same_log_over_vcan_and_in_memory(runs):
     assert vcan_bytes == mem_bytes
     # and the report over vcan says the same as in memory: detected, held
     assert "detected yes" in r.plant_out and "detected yes" in p.stdout
+
+
+def test_through_the_tick_wrap_over_vcan(runs):
+    """sp_controller over vcan through the SYNC tick's 2^32 (and TickEcho's
+    2^16) wrap: no fault, parked, and the same log as in memory."""
+    res, out = runs
+    r = res["wrap"]
+    assert r.plant_rc == 0, r.plant_out[-2000:]
+    assert "hs_sim controller: last state idle, faults 0x0000" in r.plant_out
+    assert "lost 0, stale 0" in r.plant_out and "wrong-sequence 0" in r.plant_out
+    assert "state idle, faults 0x0000" in r.controller_out
+    mem = out / "wrap.inproc.log"
+    p = subprocess.run([str(cl.Binaries.find().plant), "--inproc", "--scenario", str(out / "wrap.scenario"),
+                        "--tick0", str(TICK0), "--log", str(mem)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert r.log.read_bytes() == mem.read_bytes()
+    assert "vcan1 010##1FFFFFFFF" in mem.read_text()
