@@ -31,7 +31,7 @@ typedef struct {
     uint32_t stale;                     /**< valid setpoints for another tick than the current cycle's */
     uint32_t ignored;                   /**< frames not addressed to the drives (other identifiers) */
     uint32_t resets;                    /**< drive fault resets carried out (per drive) */
-    uint32_t resets_refused;            /**< drive fault resets refused: a cause remained (per drive) */
+    uint32_t resets_refused; /**< drive fault resets refused: a cause remained (per drive); every count saturates */
 } hs_bus_stats_t;
 
 typedef struct {
