@@ -600,6 +600,9 @@ hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const doubl
     }
     hs_rng_seed(&pl->rng, pl->par.sensors.seed);
     hs_rng_seed(&pl->inj.rng, pl->par.sensors.seed ^ UINT64_C(0x5DEECE66D));
+    for (int i = 0; i < HS_LEGS; ++i) {
+        pl->inj.supply[i] = pl->par.cyl[i].supply_pressure;
+    }
     derivs(pl, pl->x, zero_u, dx, &aux);
     sample_feedback(pl, &aux);
     return HS_OK;
@@ -821,7 +824,6 @@ hs_status_t hs_plant_inject_supply(hs_plant_t *pl, int lost)
     }
     if (lost && !pl->inj.supply_lost) {
         for (int i = 0; i < HS_LEGS; ++i) {
-            pl->inj.supply[i] = pl->par.cyl[i].supply_pressure;
             pl->par.cyl[i].supply_pressure = pl->par.cyl[i].tank_pressure;
         }
         pl->inj.supply_lost = 1;
@@ -865,6 +867,10 @@ static void check_axes(hs_plant_t *pl, const aux_t *aux)
         }
         if (bits != 0u) {
             hs_drive_raise(&pl->drive[i], bits);
+        }
+        if (c->supply_pressure < 0.5 * pl->inj.supply[i]) {
+            hs_drive_fail(&pl->drive[i], HS_FAULT_PRESSURE); /* the supply monitor: valve at null */
+            pl->valve_cmd[i] = pl->inj.valve_stuck[i] ? pl->inj.valve_cmd[i] : 0.0;
         }
     }
 }

@@ -308,12 +308,41 @@ static void test_injector_rate(void **state)
     check_accounting(&a);
 }
 
+/* The supply lost: every drive's monitor puts it in FAULT with its valve at
+ * null, and the oil columns hold the platform (leakage only). */
+static void test_supply_loss_holds(void **state)
+{
+    hs_state_t st0, st;
+    (void)state;
+    start();
+    for (int k = 0; k < 20; ++k) {
+        cycle(1u, 0u);
+    }
+    assert_int_equal(hs_plant_state(&plant, &st0), HS_OK);
+    assert_int_equal(hs_plant_inject_supply(&plant, 1), HS_OK);
+    cycle(1u, 0u);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        assert_int_equal(feedback(i).state, HS_DRIVE_FAULT);
+        assert_true((feedback(i).faults & HS_FAULT_PRESSURE) != 0u);
+    }
+    for (int k = 0; k < 500; ++k) {
+        cycle(1u, 0u);
+    }
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        assert_true(st.valve_cmd[i] == 0.0);
+    }
+    print_message("supply lost: the platform moved %.3f mm in 0.5 s\n", fabs(st.pose[2] - st0.pose[2]) * 1e3);
+    assert_near(st.pose[2], st0.pose[2], 0.002, "z held without supply (m)");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_reset_clears_on_edge), cmocka_unit_test(test_reset_refused_with_cause),
         cmocka_unit_test(test_sensor_faults),        cmocka_unit_test(test_stuck_valve_moves),
-        cmocka_unit_test(test_injector_frames),      cmocka_unit_test(test_injector_rate),
+        cmocka_unit_test(test_supply_loss_holds),    cmocka_unit_test(test_injector_frames),
+        cmocka_unit_test(test_injector_rate),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

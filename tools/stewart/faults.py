@@ -83,7 +83,7 @@ FAULTS: tuple[Fault, ...] = (
     Fault("sensor-jump", "inject sensor 2 jump 0.03", 3, "leg 2's sensor jumps 30 mm"),
     Fault("sensor-noise", "inject sensor 3 noise 0.01", 3, "leg 3's sensor noisy, 10 mm sigma"),
     Fault("valve-stick", "inject valve 5 stick 0", None, "leg 5's valve stuck at null"),
-    Fault("supply-loss", "inject supply loss", None, "the supply pressure lost"),
+    Fault("supply-loss", "inject supply loss", 2, "the supply pressure lost (the drives' supply monitor)"),
     Fault("endstop", "inject endstop 3 up", None, "leg 3's valve stuck open: into its end stop"),
     Fault("fk-inconsistent", "inject fk 0.05", 3, "inconsistent leg lengths (+-50 mm)"),
 )

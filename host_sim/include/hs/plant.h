@@ -136,7 +136,8 @@ typedef struct {
     double valve_cmd[HS_LEGS];         /**< the stuck valve's command, -1..1 */
     uint32_t held[HS_LEGS];            /**< drive fault bits whose cause persists (fault ... hold) */
     int supply_lost;                   /**< 1: the supply pressure is at the tank's */
-    double supply[HS_LEGS];            /**< the supply pressures before the loss, Pa */
+    double supply[HS_LEGS];            /**< the nominal supply pressures (at init), Pa: what the drives'
+                                            supply monitor compares with, and what a return restores */
     hs_rng_t rng;                      /**< the injected noise's generator (the sensors' own stays untouched) */
 } hs_plant_faults_t;
 
@@ -254,7 +255,11 @@ hs_status_t hs_plant_inject_sensor(hs_plant_t *plant, int leg, hs_sensor_fault_t
 hs_status_t hs_plant_inject_valve(hs_plant_t *plant, int leg, int stuck, double u);
 
 /** Supply pressure loss (lost 1: every cylinder's supply at the tank
- *  pressure) or its return (0). HS_E_ARG on NULL. */
+ *  pressure) or its return (0). HS_E_ARG on NULL. Each drive monitors its
+ *  supply (as a servo drive with a P-port pressure sensor does): below half
+ *  its nominal pressure it raises HS_FAULT_PRESSURE and enters FAULT, its
+ *  valve at null, so that the oil columns hold the platform instead of its
+ *  position loop draining them (hs_drive_fail). */
 hs_status_t hs_plant_inject_supply(hs_plant_t *plant, int lost);
 
 /** Raises fault bits on drive `leg` whose cause persists (until bits 0 is
