@@ -361,7 +361,10 @@ static int apply_inject(sim_t *s, const hs_scenario_inject_t *in, uint64_t tick)
         clear_injections(s);
         break;
     }
-    printf("hs_sim mark tick %" PRIu64 ": inject %d\n", tick, in->what);
+    static const char *const what[] = {"frames", "frames off", "busoff",  "drive", "sensor",
+                                       "valve",  "supply",     "endstop", "fk",    "clear"};
+    printf("hs_sim mark tick %" PRIu64 ": inject %s\n", tick,
+           (in->what >= 0 && in->what <= HS_INJECT_CLEAR) ? what[in->what] : "?");
     return (st == HS_OK) ? 0 : -1;
 }
 
@@ -949,10 +952,15 @@ int main(int argc, char **argv)
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("hs_sim: cannot catch SIGINT/SIGTERM");
     }
-    fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms\n",
-            s.inproc ? "lockstep in-process" : (s.lockstep ? "lockstep" : "real-time"),
-            s.inproc ? "(memory)" : s.ifs[0], s.inproc ? "" : s.ifs[1], s.inproc ? "" : s.ifs[2],
-            (unsigned)par.substeps);
+    if (s.inproc) {
+        fprintf(stderr,
+                "hs_sim: lockstep mode in memory with the controller in-process, plant at the park pose, "
+                "%u substeps per 1 ms\n",
+                (unsigned)par.substeps);
+    } else {
+        fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms\n",
+                s.lockstep ? "lockstep" : "real-time", s.ifs[0], s.ifs[1], s.ifs[2], (unsigned)par.substeps);
+    }
     if (have_load) {
         fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",
                 load[0], load[1], load[2], load[3], par.mass, par.com[0], par.com[1], par.com[2]);
