@@ -3,7 +3,7 @@
 # LeakSanitizer with ASan) and runs them one after the other:
 #   node      the controller's receive path (firmware/core/src/node.c)
 #   plant_bus the plant's receive path (host_sim/src/bus.c)
-#   scenario  the scenario parser and file reader (host_sim/src/scenario.c)
+#   scenario  the scenario parser and file reader (host_sim/src/scenario.c, scenario_inject.c)
 #
 #   scripts/fuzz.sh [SECONDS]        each target for SECONDS (default 20)
 #   scripts/fuzz.sh --bench [RUNS]   each target to RUNS inputs (default
@@ -51,7 +51,7 @@ link() { # name sources...
 link node tests/fuzz/fuzz_node.c
 link plant_bus tests/fuzz/fuzz_plant_bus.c host_sim/src/{status,sensor,kin,cylinder,drive,params,plant,rig,bus}.c \
   build/host-debug/host_sim/generated/hs_config_default.c
-link scenario tests/fuzz/fuzz_scenario.c host_sim/src/{status,scenario}.c
+link scenario tests/fuzz/fuzz_scenario.c host_sim/src/{status,scenario,scenario_inject}.c
 
 rm -rf "$out/seeds"
 python=.venv/bin/python

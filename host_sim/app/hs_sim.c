@@ -2,10 +2,10 @@
  * hs_sim - the simulated hydraulic hexapod on SocketCAN: the plant
  * (hs/plant.h) behind the drives' side of the protocol (hs/bus.h).
  *
- *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]
+ *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES] [--canopen]
+ *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N]
  *
  * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
  * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
@@ -41,6 +41,13 @@
  * cycles without setpoints in ACTIVE -> HOLD and the timeout fault); only
  * to relax it for hosts that cannot keep 1 ms deadlines (real time inside
  * user-mode Linux), as sp_controller's --feedback-timeout.
+ * --inproc: lockstep with the controller (the firmware's node, configured as
+ * sp_controller --lockstep) in this process instead of on SocketCAN: the
+ * frames pass in memory in the order one vcan socket delivers them, so the
+ * CAN log is the same byte for byte (docs/faults.md); prints the fault
+ * report with every frame accounted on both sides.
+ * --tick0 N (test only): the SYNC tick of cycle 0 (and with --inproc the
+ * controller's own tick), to run through the 2^32 and TickEcho wraps.
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
  * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
@@ -66,7 +73,9 @@
 #include "hs/bus.h"
 #include "hs/co_bus.h"
 #include "hs/kin.h"
+#include "hs/inject.h"
 #include "hs/scenario.h"
+#include "sp/node.h"
 #include "host_os.h"
 #include "socketcan.h"
 
@@ -108,6 +117,29 @@ typedef struct {
     uint64_t co_sent;             /* frames the nodes sent */
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
     uint32_t co_rx_n, co_rx_i;
+    uint64_t tick;   /* the current cycle */
+    uint32_t tick0;  /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
+    hs_inject_t inj; /* the fault injector on the bus (scenario `inject`) */
+    /* --inproc: the controller (the firmware's node, as sp_controller --lockstep) in this process */
+    int inproc;
+    sp_node_config_t ncfg;
+    sp_node_t node;
+    uint64_t ctrl_delivered; /* frames handed to the controller */
+    uint64_t ops_accepted;   /* controller frames the plant decoded */
+    uint64_t ops_ignored;    /* other frames on the ops bus */
+    uint8_t status_mode;     /* last CTRL_STATUS DriveMode */
+    uint8_t refused_legs, refused_cause;
+    double reference[6]; /* last CTRL_MONITOR reference */
+    int have_reference;
+    /* the fault report (first `inject` on) */
+    int injected;
+    uint64_t inject_tick, detect_tick;
+    int detected;
+    uint32_t detect_faults;
+    int detect_state, detect_mode, reaction_state, reaction_mode;
+    double safe_ref[6];
+    double excursion_m, excursion_rad;
+    int strokes_ok;
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -128,10 +160,32 @@ static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
     fputc('\n', s->log);
 }
 
-static int send_frames(sim_t *s, const sp_can_frame_t *f, uint32_t n, uint64_t t_us)
+/* Does the controller (sp_controller's socket filters) receive frame f? */
+static int controller_listens(const sp_can_frame_t *f)
 {
-    uint32_t sent = 0;
-    sp_status_t st = s->port.send(s->port.ctx, f, n, &sent);
+    if (f->bus == SP_BUS_OPS) {
+        return f->id == SP_ID_OP_COMMAND || f->id == SP_ID_OP_TARGET_POSE || f->id == SP_ID_OP_HEARTBEAT;
+    }
+    return f->id == SP_ID_SYNC || (f->id >= SP_ID_AXIS_FEEDBACK_1 && f->id < SP_ID_AXIS_FEEDBACK_1 + SP_AXIS_SLOTS);
+}
+
+static int send_frames(sim_t *s, const sp_can_frame_t *in, uint32_t n_in, uint64_t t_us)
+{
+    static sp_can_frame_t f[4 * HS_INJ_MAX_OUT];
+    uint32_t n = 0, sent = 0;
+    (void)hs_inject_filter(&s->inj, HS_INJ_TO_CONTROLLER, s->tick, in, n_in, f, 4 * HS_INJ_MAX_OUT, &n);
+    sp_status_t st = SP_OK;
+    if (s->inproc) {
+        for (uint32_t i = 0; i < n; i++) {
+            if (controller_listens(&f[i])) {
+                s->ctrl_delivered++;
+                (void)sp_node_receive(&s->node, &f[i], NULL);
+            }
+        }
+        sent = n;
+    } else if (n > 0u) {
+        st = s->port.send(s->port.ctx, f, n, &sent);
+    }
     for (uint32_t i = 0; i < sent; i++) {
         log_frame(s, &f[i], t_us);
     }
@@ -155,6 +209,10 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
                 s->status_faults = m.faults;
                 s->status_tick = m.tick;
                 s->status_seen = 1;
+                s->status_mode = m.drive_mode;
+                s->refused_legs = m.reset_refused_legs;
+                s->refused_cause = m.reset_refused_cause;
+                s->ops_accepted++;
             } else {
                 s->ops_rejected++;
             }
@@ -163,6 +221,12 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
             if (sp_proto_decode_monitor(f, &m, &ctr, &why) == SP_OK) {
                 s->monitor_tick = m.tick;
                 s->monitor_seen = 1;
+                for (int k = 0; k < 3; k++) {
+                    s->reference[k] = (double)m.reference.pos[k] / 16777216.0;
+                    s->reference[3 + k] = (double)m.reference.rpy[k] / 16777216.0;
+                }
+                s->have_reference = 1;
+                s->ops_accepted++;
             } else {
                 s->ops_rejected++;
             }
@@ -171,9 +235,12 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
             if (sp_proto_decode_wrench(f, &m, &ctr, &why) == SP_OK) {
                 s->wrench_tick = m.tick;
                 s->wrench_seen = 1;
+                s->ops_accepted++;
             } else {
                 s->ops_rejected++;
             }
+        } else {
+            s->ops_ignored++; /* another operator's command or target */
         }
         return;
     }
@@ -230,6 +297,90 @@ static void wrench_tick(sim_t *s, uint64_t tick)
         w[k] = (f >= 1.0) ? s->wrench_to[k] : s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
     }
     (void)hs_plant_set_wrench(&s->plant, w, &w[3]);
+}
+
+/* Removes every injected fault (frames, buses, drives, sensors, valves, supply). */
+static void clear_injections(sim_t *s)
+{
+    hs_inject_clear_rules(&s->inj);
+    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
+        (void)hs_inject_busoff(&s->inj, b, 0u);
+    }
+    s->bus.frozen_mask = 0u;
+    s->bus.stale_mask = 0u;
+    for (int i = 0; i < HS_LEGS; i++) {
+        (void)hs_plant_inject_drive(&s->plant, i, 0u);
+        (void)hs_plant_inject_sensor(&s->plant, i, HS_SENSOR_OK, 0.0);
+        (void)hs_plant_inject_valve(&s->plant, i, 0, 0.0);
+    }
+    (void)hs_plant_inject_supply(&s->plant, 0);
+}
+
+/* A scenario `inject` (hs/scenario.h, "Fault injection"). 0 done, -1 refused. */
+static int apply_inject(sim_t *s, const hs_scenario_inject_t *in, uint64_t tick)
+{
+    hs_status_t st = HS_OK;
+    uint8_t bit = (uint8_t)(1u << (in->leg & 7));
+    if (in->what != HS_INJECT_CLEAR && !s->injected) {
+        s->injected = 1;
+        s->inject_tick = tick;
+    }
+    switch (in->what) {
+    case HS_INJECT_FRAMES: {
+        hs_frame_rule_t r = {(uint8_t)in->bus, in->id_lo, in->id_hi, (hs_frame_fault_t)in->fault,
+                             in->rate,         in->count, in->delay};
+        st = hs_inject_add(&s->inj, &r);
+        break;
+    }
+    case HS_INJECT_FRAMES_OFF:
+        hs_inject_clear_rules(&s->inj);
+        break;
+    case HS_INJECT_BUSOFF:
+        st = hs_inject_busoff(&s->inj, (uint8_t)in->bus,
+                              in->mode == 0 ? 0u : (in->ticks == 0u ? UINT64_MAX : tick + in->ticks));
+        break;
+    case HS_INJECT_DRIVE:
+        if (in->mode == 0) {
+            st = in->hold ? hs_plant_inject_drive(&s->plant, in->leg, in->bits)
+                          : hs_plant_raise_faults(&s->plant, in->leg, in->bits);
+        } else if (in->mode == 1) {
+            s->bus.frozen_mask = (uint8_t)(s->bus.frozen_mask | bit);
+        } else if (in->mode == 2) {
+            s->bus.stale_mask = (uint8_t)(s->bus.stale_mask | bit);
+            s->bus.stale_ticks = (uint16_t)in->ticks;
+        } else {
+            s->bus.frozen_mask = (uint8_t)(s->bus.frozen_mask & ~bit);
+            s->bus.stale_mask = (uint8_t)(s->bus.stale_mask & ~bit);
+            st = hs_plant_inject_drive(&s->plant, in->leg, 0u);
+        }
+        break;
+    case HS_INJECT_SENSOR:
+        st = hs_plant_inject_sensor(&s->plant, in->leg, (hs_sensor_fault_t)in->mode, in->value);
+        break;
+    case HS_INJECT_VALVE:
+        st = hs_plant_inject_valve(&s->plant, in->leg, in->mode, in->value);
+        break;
+    case HS_INJECT_SUPPLY:
+        st = hs_plant_inject_supply(&s->plant, in->mode);
+        break;
+    case HS_INJECT_ENDSTOP:
+        st = hs_plant_inject_valve(&s->plant, in->leg, 1, in->value);
+        break;
+    case HS_INJECT_FK:
+        for (int i = 0; i < HS_LEGS && st == HS_OK; i++) {
+            st = hs_plant_inject_sensor(&s->plant, i, HS_SENSOR_JUMP, (i % 2 == 0) ? in->value : -in->value);
+        }
+        break;
+    case HS_INJECT_CLEAR:
+    default:
+        clear_injections(s);
+        break;
+    }
+    static const char *const what[] = {"frames", "frames off", "busoff",  "drive", "sensor",
+                                       "valve",  "supply",     "endstop", "fk",    "clear"};
+    printf("hs_sim mark tick %" PRIu64 ": inject %s\n", tick,
+           (in->what >= 0 && in->what <= HS_INJECT_CLEAR) ? what[in->what] : "?");
+    return (st == HS_OK) ? 0 : -1;
 }
 
 /* Carries out the scenario's actions due at `tick` (hs/scenario.h plays it).
@@ -347,6 +498,12 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
         case HS_ACTION_MARK:
             printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
             break;
+        case HS_ACTION_INJECT:
+            if (apply_inject(s, &a->inject, tick) != 0) {
+                fprintf(stderr, "hs_sim: scenario line %d: injection refused\n", a->line);
+                return 2;
+            }
+            break;
         case HS_ACTION_DELAY:
         case HS_ACTION_END:
             break;
@@ -403,16 +560,75 @@ static void progress_line(sim_t *s, uint64_t tick)
             wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0);
 }
 
-/* Lockstep: one cycle's wait for the controller's answer. 0 ok, 3 silent, -1 error. */
-static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms)
+/* Is the controller's answer to cycle `tick` complete in raw[0..n) (as it
+ * sent it, before the injector): AXIS_SETPOINTS(tick) on both axis buses,
+ * CTRL_STATUS(tick), CTRL_MONITOR(tick), and on even ticks CTRL_WRENCH(tick)? */
+static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick)
+{
+    int sp[2] = {0, 0}, st = 0, mon = 0, wr = (tick % SP_PROTO_WRENCH_PERIOD != 0u);
+    for (uint32_t k = 0; k < n; k++) {
+        const sp_can_frame_t *f = &raw[k];
+        uint8_t ctr;
+        sp_proto_error_t why;
+        if (f->id == SP_ID_AXIS_SETPOINTS && (f->bus == SP_BUS_AXIS_A || f->bus == SP_BUS_AXIS_B)) {
+            sp_msg_setpoints_t m;
+            if (sp_proto_decode_setpoints(f, &m, &ctr, &why) == SP_OK && m.tick == tick) {
+                sp[f->bus - SP_BUS_AXIS_A] = 1;
+            }
+        } else if (f->bus == SP_BUS_OPS && f->id == SP_ID_CTRL_STATUS) {
+            sp_msg_status_t m;
+            st |= (sp_proto_decode_status(f, &m, &ctr, &why) == SP_OK && m.tick == tick);
+        } else if (f->bus == SP_BUS_OPS && f->id == SP_ID_CTRL_MONITOR) {
+            sp_msg_monitor_t m;
+            mon |= (sp_proto_decode_monitor(f, &m, &ctr, &why) == SP_OK && m.tick == tick);
+        } else if (f->bus == SP_BUS_OPS && f->id == SP_ID_CTRL_WRENCH) {
+            sp_msg_wrench_t m;
+            wr |= (sp_proto_decode_wrench(f, &m, &ctr, &why) == SP_OK && m.tick == tick);
+        }
+    }
+    return sp[0] && sp[1] && st && mon && wr;
+}
+
+/* The controller's frames of one cycle through the injector to the plant,
+ * logged bus by bus (within a bus in the order they came): the same order
+ * every run. */
+static void deliver_answer(sim_t *s, const sp_can_frame_t *raw, uint32_t n_raw, uint64_t t_us)
+{
+    static sp_can_frame_t f[4 * HS_INJ_MAX_OUT + 4 * RX_BUF];
+    uint32_t n = 0;
+    (void)hs_inject_filter(&s->inj, HS_INJ_TO_PLANT, s->tick, raw, n_raw, f, 4 * HS_INJ_MAX_OUT + 4 * RX_BUF, &n);
+    for (uint32_t k = 0; k < n; k++) {
+        take_frame(s, &f[k]);
+    }
+    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
+        for (uint32_t k = 0; k < n; k++) {
+            if (f[k].bus == b) {
+                log_frame(s, &f[k], t_us);
+            }
+        }
+    }
+}
+
+/* --inproc: the controller's tick when the cycle's SYNC reached it on both
+ * axis buses (as sp_controller --lockstep); its frames into raw. */
+static uint32_t inproc_answer(sim_t *s, sp_can_frame_t raw[SP_NODE_MAX_TX])
+{
+    uint32_t t = 0, n = 0;
+    if (sp_node_cycle_ready(&s->node, &t)) {
+        (void)sp_node_tick(&s->ncfg, &s->node, raw, &n);
+    }
+    return n;
+}
+
+/* Lockstep: one cycle's wait for the controller's answer (raw frames into
+ * keep[0..*nkeep)). 0 ok, 3 silent, -1 error. */
+static int lockstep_wait(sim_t *s, uint32_t tick, sp_can_frame_t *keep, uint32_t *nkeep_out, uint32_t max_keep,
+                         long timeout_ms)
 {
     struct pollfd pfd = {sp_socketcan_fd(&s->sc), POLLIN, 0}; /* one socket serves all buses */
-    static sp_can_frame_t keep[4 * RX_BUF];
     uint32_t nkeep = 0;
     long waited_ms = 0; /* no clock reads per cycle: each one is a system call in user-mode Linux */
-    s->status_seen = 0;
-    s->monitor_seen = 0;
-    s->wrench_seen = 0;
+    *nkeep_out = 0;
     for (;;) {
         /* the controller answers after our SYNC: wait first, then read */
         int r = poll(&pfd, 1, 100);
@@ -435,36 +651,125 @@ static int lockstep_wait(sim_t *s, uint32_t tick, uint64_t t_us, long timeout_ms
             got = 0;
             (void)s->port.receive(s->port.ctx, rx, RX_BUF, &got);
             for (uint32_t k = 0; k < got; k++) {
-                take_frame(s, &rx[k]);
-                if (nkeep < 4 * RX_BUF) {
+                if (nkeep < max_keep) {
                     keep[nkeep++] = rx[k];
                 }
             }
         } while (got == RX_BUF);
         /* CTRL_WRENCH comes on even ticks only (500 Hz), after CTRL_MONITOR: waited for, so
          * that it is logged in its own cycle whatever the scheduling */
-        int wrench_done = (tick % SP_PROTO_WRENCH_PERIOD != 0u) || (s->wrench_seen && s->wrench_tick == tick);
-        if (hs_bus_cycle_complete(&s->bus) && s->status_seen && s->status_tick == tick && s->monitor_seen &&
-            s->monitor_tick == tick && wrench_done) {
+        if (answer_complete(keep, nkeep, tick)) {
             break;
         }
     }
-    /* the same order every run: bus by bus, and within a bus as the controller sent them */
-    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
-        for (uint32_t k = 0; k < nkeep; k++) {
-            if (keep[k].bus == b) {
-                log_frame(s, &keep[k], t_us);
-            }
+    *nkeep_out = nkeep;
+    return 0;
+}
+
+/* The fault report, each cycle after the controller's answer: detection
+ * (the first CTRL_STATUS with faults after the first `inject`), the
+ * reaction, the excursion of the true pose from the last safe reference
+ * (the reference while no fault is detected, then the one before the
+ * detection), the legs against their strokes. */
+static void track_faults(sim_t *s, uint64_t tick)
+{
+    if (s->inproc) { /* the controller's own reference: known even while the ops bus carries nothing */
+        for (int k = 0; k < 3; k++) {
+            s->reference[k] = (double)s->node.out.reference.pose.pos[k] / 16777216.0;
+            s->reference[3 + k] = (double)s->node.out.reference.pose.rpy[k] / 16777216.0;
+        }
+        s->have_reference = 1;
+    }
+    if (!s->detected && s->have_reference && s->status_faults == 0u) {
+        memcpy(s->safe_ref, s->reference, sizeof s->safe_ref); /* the last reference without a fault */
+    }
+    if (!s->injected || tick < s->inject_tick) {
+        return;
+    }
+    if (!s->detected &&
+        (s->status_faults != 0u || s->status_state == SP_STATE_FAULT || s->status_state == SP_STATE_ESTOP)) {
+        s->detected = 1;
+        s->detect_tick = tick;
+        s->detect_faults = s->status_faults;
+        s->detect_state = s->status_state;
+        s->detect_mode = s->status_mode;
+        s->reaction_state = s->status_state;
+        s->reaction_mode = s->status_mode;
+    }
+    if (s->detected && tick == s->detect_tick + 20u) { /* the reaction settled */
+        s->reaction_state = s->status_state;
+        s->reaction_mode = s->status_mode;
+    }
+    hs_state_t st;
+    (void)hs_plant_state(&s->plant, &st);
+    double dp = 0.0, dr = 0.0;
+    for (int k = 0; k < 3; k++) {
+        dp += (st.pose[k] - s->safe_ref[k]) * (st.pose[k] - s->safe_ref[k]);
+        double a = fabs(st.pose[3 + k] - s->safe_ref[3 + k]);
+        dr = (a > dr) ? a : dr;
+    }
+    dp = sqrt(dp);
+    s->excursion_m = (dp > s->excursion_m) ? dp : s->excursion_m;
+    s->excursion_rad = (dr > s->excursion_rad) ? dr : s->excursion_rad;
+    for (int i = 0; i < HS_LEGS; i++) {
+        const hs_cyl_params_t *c = &s->plant.par.cyl[i];
+        double stroke = st.length[i] - c->length_min;
+        if (stroke < 0.0 || stroke > c->stroke) {
+            s->strokes_ok = 0;
         }
     }
-    return 0;
+}
+
+/* The fault report's line (after the first `inject`). */
+static void print_fault_report(sim_t *s)
+{
+    hs_state_t st;
+    (void)hs_plant_state(&s->plant, &st);
+    double v = sqrt(st.vel[0] * st.vel[0] + st.vel[1] * st.vel[1] + st.vel[2] * st.vel[2]);
+    double w = sqrt(st.omega_base[0] * st.omega_base[0] + st.omega_base[1] * st.omega_base[1] +
+                    st.omega_base[2] * st.omega_base[2]);
+    int rest = v < 1e-3 && w < 1e-3;
+    const hs_inject_stats_t *is = &s->inj.stats;
+    printf("hs_sim injector: in %u out %u dropped %u busoff %u delayed %u duplicated %u reordered %u corrupted %u "
+           "pending %u\n",
+           is->in, is->out, is->dropped, is->busoff, is->delayed, is->duplicated, is->reordered, is->corrupted,
+           is->pending);
+    long long unaccounted = -1;
+    if (s->inproc) {
+        const sp_node_stats_t *ns = &s->node.stats;
+        long long ctrl = (long long)ns->accepted + ns->stale;
+        long long plant = (long long)s->bus.stats.accepted + s->bus.stats.ignored + (long long)s->ops_accepted +
+                          (long long)s->ops_rejected + (long long)s->ops_ignored;
+        for (int e = 0; e < SP_PROTO_ERRORS; e++) {
+            ctrl += ns->rejected[e];
+            plant += s->bus.stats.rejected[e];
+        }
+        /* everything sent: delivered and counted by its receiver, or counted by the injector */
+        unaccounted = (long long)is->in + is->duplicated - is->dropped - is->busoff - is->pending - ctrl - plant;
+        printf("hs_sim controller frames: delivered %" PRIu64 " accepted %u stale %u lost %u rejected",
+               s->ctrl_delivered, ns->accepted, ns->stale, ns->lost);
+        for (int e = 1; e < SP_PROTO_ERRORS; e++) {
+            printf(" %s %u", sp_proto_error_name((sp_proto_error_t)e), ns->rejected[e]);
+        }
+        printf("\n");
+    }
+    printf("hs_sim fault-report: inject %" PRIu64 " detected %s after %lld ticks faults 0x%04x reaction %s/%s "
+           "final %s/0x%04x rest %s excursion %.3f mm %.3f mrad strokes %s unaccounted %lld refused-legs 0x%02x "
+           "refused-cause 0x%02x\n",
+           s->inject_tick, s->detected ? "yes" : "no",
+           s->detected ? (long long)(s->detect_tick - s->inject_tick) : -1LL, (unsigned)s->detect_faults,
+           state_name(s->detected ? s->reaction_state : s->status_state, "none"),
+           (s->detected ? s->reaction_mode : s->status_mode) ? "active" : "hold", state_name(s->status_state, "none"),
+           (unsigned)s->status_faults, rest ? "yes" : "no", s->excursion_m * 1e3, s->excursion_rad * 1e3,
+           s->strokes_ok ? "yes" : "no", unaccounted, (unsigned)s->refused_legs, (unsigned)s->refused_cause);
 }
 
 static void usage(void)
 {
-    fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
+    fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n");
+                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n"
+                    "              [--tick0 N]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -631,6 +936,9 @@ int main(int argc, char **argv)
             s.lockstep = 1;
         } else if (strcmp(a, "--canopen") == 0) {
             s.canopen = 1;
+        } else if (strcmp(a, "--inproc") == 0) {
+            s.inproc = 1;
+            s.lockstep = 1;
         } else if (strcmp(a, "--progress") == 0) {
             s.progress = 1;
         } else if (v == NULL) {
@@ -656,6 +964,8 @@ int main(int argc, char **argv)
             have_load = 1, i++;
         } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
             sp_timeout = (uint32_t)u, i++;
+        } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
+            s.tick0 = (uint32_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
             timeout_ms = (long)u, i++;
         } else {
@@ -706,6 +1016,18 @@ int main(int argc, char **argv)
         fprintf(stderr, "hs_sim: cannot set up the CiA 408 nodes\n");
         return 1;
     }
+    (void)hs_inject_init(&s.inj, par.sensors.seed ^ UINT64_C(0x9E3779B97F4A7C15));
+    s.strokes_ok = 1;
+    if (s.inproc) {
+        /* the controller as sp_controller --lockstep runs it: the defaults, the plant's SYNC */
+        if (sp_node_default_config(&s.ncfg, &sp_platform_default) != SP_OK) {
+            fprintf(stderr, "hs_sim: the default platform is not usable\n");
+            return 1;
+        }
+        s.ncfg.sync_master = 0u;
+        (void)sp_node_init(&s.node, &s.ncfg);
+        s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
+    }
 
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
@@ -724,11 +1046,13 @@ int main(int argc, char **argv)
             }
         }
     }
-    if (sp_socketcan_open(&s.sc, bc) != SP_OK) {
-        fprintf(stderr, "hs_sim: %s\n", s.sc.error);
-        return 1;
+    if (!s.inproc) {
+        if (sp_socketcan_open(&s.sc, bc) != SP_OK) {
+            fprintf(stderr, "hs_sim: %s\n", s.sc.error);
+            return 1;
+        }
+        s.port = sp_socketcan_port(&s.sc);
     }
-    s.port = sp_socketcan_port(&s.sc);
     if (log_path != NULL && (s.log = fopen(log_path, "w")) == NULL) {
         fprintf(stderr, "hs_sim: cannot write %s: %s\n", log_path, strerror(errno));
         return 1;
@@ -751,9 +1075,16 @@ int main(int argc, char **argv)
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("hs_sim: cannot catch SIGINT/SIGTERM");
     }
-    fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms%s\n",
-            s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), s.ifs[0], s.ifs[1], s.ifs[2],
-            (unsigned)par.substeps, s.canopen ? ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
+    if (s.inproc) {
+        fprintf(stderr,
+                "hs_sim: lockstep mode in memory with the controller in-process, plant at the park pose, "
+                "%u substeps per 1 ms\n",
+                (unsigned)par.substeps);
+    } else {
+        fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms%s\n",
+                s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), s.ifs[0], s.ifs[1], s.ifs[2],
+                (unsigned)par.substeps, s.canopen ? ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
+    }
     if (have_load) {
         fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",
                 load[0], load[1], load[2], load[3], par.mass, par.com[0], par.com[1], par.com[2]);
@@ -767,6 +1098,7 @@ int main(int argc, char **argv)
     int have_answered = 0;
     while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
         uint64_t t_us = (s.lockstep || s.canopen) ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
+        s.tick = tick;
         if (s.have_scenario) {
             int r = play_tick(&s, tick, t_us); /* a play under way first: its last pose before what follows it */
             if (r == 0) {
@@ -781,12 +1113,20 @@ int main(int argc, char **argv)
         if (s.lockstep) {
             sp_can_frame_t tx[HS_BUS_MAX_TX];
             uint32_t n = 0;
-            (void)hs_bus_cycle_frames(&s.bus, &s.plant, (uint32_t)tick, 1u, tx, &n);
+            uint32_t sync_tick = (uint32_t)(tick + s.tick0); /* modulo 2^32, as the DBC's Tick */
+            (void)hs_bus_cycle_frames(&s.bus, &s.plant, sync_tick, 1u, tx, &n);
             if (send_frames(&s, tx, n, t_us) != 0) {
                 rc = 1;
                 break;
             }
-            int r = lockstep_wait(&s, (uint32_t)tick, t_us, timeout_ms);
+            static sp_can_frame_t raw[4 * RX_BUF];
+            uint32_t nraw = 0;
+            int r = 0;
+            if (s.inproc) {
+                nraw = inproc_answer(&s, raw);
+            } else {
+                r = lockstep_wait(&s, sync_tick, raw, &nraw, 4 * RX_BUF, timeout_ms);
+            }
             if (r != 0) {
                 if (r == 3) {
                     fprintf(stderr, "hs_sim: the controller did not answer cycle %" PRIu64 " within %ld ms\n", tick,
@@ -795,6 +1135,8 @@ int main(int argc, char **argv)
                 rc = (r == 3) ? 3 : 1;
                 break;
             }
+            deliver_answer(&s, raw, nraw, t_us);
+            track_faults(&s, tick);
         } else if (s.canopen) {
             if (canopen_wait(&s, t_us, timeout_ms) != 0) {
                 fprintf(stderr, "hs_sim: no SYNC from the CANopen master for %ld ms at cycle %" PRIu64 "\n", timeout_ms,
@@ -870,6 +1212,9 @@ int main(int argc, char **argv)
     }
     printf("hs_sim controller: last state %s, faults 0x%04x\n", state_name(s.status_state, "unknown"),
            (unsigned)s.status_faults);
+    if (s.injected) {
+        print_fault_report(&s);
+    }
     if (s.log != NULL) {
         fclose(s.log);
     }
@@ -877,6 +1222,8 @@ int main(int argc, char **argv)
         fclose(s.truth);
     }
     hs_play_close(&s.play);
-    sp_socketcan_close(&s.sc);
+    if (!s.inproc) {
+        sp_socketcan_close(&s.sc);
+    }
     return rc;
 }

@@ -27,6 +27,14 @@ static uint32_t pa_of(double pressure)
     return (uint32_t)llround(pressure);
 }
 
+/* Statistics saturate at UINT32_MAX, never wrap to 0. */
+static void inc(uint32_t *c)
+{
+    if (*c < UINT32_MAX) {
+        (*c)++;
+    }
+}
+
 hs_status_t hs_bus_init(hs_bus_t *bus)
 {
     if (bus == NULL) {
@@ -62,8 +70,13 @@ hs_status_t hs_bus_cycle_frames(hs_bus_t *bus, const hs_plant_t *plant, uint32_t
             m.state = (uint8_t)fb.state;
             m.faults = (uint8_t)(fb.faults & 0xFFu);
             m.tick_echo = (uint16_t)(tick & 0xFFFFu);
+            if (bus->stale_mask & (1u << leg)) {
+                m.tick_echo = (uint16_t)((tick - bus->stale_ticks) & 0xFFFFu);
+            }
             (void)sp_proto_encode_feedback(&m, (uint8_t)(s + 1), bus->tx_counter_feedback[leg], sp_bus, &out[*n]);
-            bus->tx_counter_feedback[leg] = (uint8_t)((bus->tx_counter_feedback[leg] + 1u) & 0x0Fu);
+            if ((bus->frozen_mask & (1u << leg)) == 0u) {
+                bus->tx_counter_feedback[leg] = (uint8_t)((bus->tx_counter_feedback[leg] + 1u) & 0x0Fu);
+            }
             (*n)++;
         }
         if (sync_master) {
@@ -82,11 +95,11 @@ hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_
         return HS_E_ARG;
     }
     if (frame->id != SP_ID_AXIS_SETPOINTS) {
-        bus->stats.ignored++;
+        inc(&bus->stats.ignored);
         return HS_E_RANGE;
     }
     if (frame->bus != SP_BUS_AXIS_A && frame->bus != SP_BUS_AXIS_B) {
-        bus->stats.rejected[SP_PROTO_WRONG_BUS]++;
+        inc(&bus->stats.rejected[SP_PROTO_WRONG_BUS]);
         return HS_E_RANGE;
     }
     int b = (int)frame->bus - (int)SP_BUS_AXIS_A;
@@ -94,7 +107,7 @@ hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_
     uint8_t counter = 0u;
     sp_proto_error_t why = SP_PROTO_OK;
     if (sp_proto_decode_setpoints(frame, &m, &counter, &why) != SP_OK) {
-        bus->stats.rejected[why < SP_PROTO_ERRORS ? why : SP_PROTO_UNKNOWN_ID]++;
+        inc(&bus->stats.rejected[why < SP_PROTO_ERRORS ? why : SP_PROTO_UNKNOWN_ID]);
         for (int s = 0; s < 3; s++) {
             (void)hs_plant_raise_faults(plant, 3 * b + s, HS_FAULT_COMM);
         }
@@ -102,15 +115,27 @@ hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_
     }
     sp_e2e_result_t r = sp_e2e_rx_check(&bus->rx_setpoints[b], counter);
     if (!sp_e2e_accepted(r)) {
-        bus->stats.rejected[r == SP_E2E_REPEATED ? SP_PROTO_REPEATED : SP_PROTO_WRONG_SEQUENCE]++;
+        inc(&bus->stats.rejected[r == SP_E2E_REPEATED ? SP_PROTO_REPEATED : SP_PROTO_WRONG_SEQUENCE]);
         for (int s = 0; s < 3; s++) {
             (void)hs_plant_raise_faults(plant, 3 * b + s, HS_FAULT_COMM);
         }
         return HS_E_RANGE;
     }
     if (r == SP_E2E_OK_LOST) {
-        bus->stats.lost++;
+        inc(&bus->stats.lost);
     }
+    if (m.fault_reset && !bus->last_reset[b]) {
+        for (int s = 0; s < 3; s++) {
+            uint32_t remaining = 0u;
+            (void)hs_plant_fault_reset(plant, 3 * b + s, &remaining);
+            if (remaining != 0u) {
+                inc(&bus->stats.resets_refused);
+            } else {
+                inc(&bus->stats.resets);
+            }
+        }
+    }
+    bus->last_reset[b] = m.fault_reset ? 1u : 0u;
     hs_drive_request_t mode = (m.mode == SP_DRIVE_ACTIVE) ? HS_REQ_ACTIVE : HS_REQ_HOLD;
     for (int s = 0; s < 3; s++) {
         const sp_setpoint_t *sp = &m.setpoint[s];
@@ -121,9 +146,9 @@ hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_
     if (m.tick == bus->tick) {
         bus->got_setpoints[b] = 1u;
     } else if (m.tick != bus->tick + 1u) { /* real time: setpoints come just before their SYNC */
-        bus->stats.stale++;
+        inc(&bus->stats.stale);
     }
-    bus->stats.accepted++;
+    inc(&bus->stats.accepted);
     return HS_OK;
 }
 

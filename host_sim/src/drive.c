@@ -124,6 +124,13 @@ void hs_drive_raise(hs_drive_t *d, uint32_t bits)
     }
 }
 
+void hs_drive_fail(hs_drive_t *d, uint32_t bits)
+{
+    d->faults |= (bits & 0xFFu);
+    d->state = HS_DRIVE_FAULT;
+    d->command = 0.0;
+}
+
 void hs_drive_clear_faults(hs_drive_t *d)
 {
     d->faults = 0u;

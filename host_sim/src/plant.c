@@ -411,6 +411,22 @@ static double measure_pressure(hs_plant_t *pl, double p)
     return (m > 0.0) ? m : 0.0;
 }
 
+/* What the length sensor of leg i reads at the true length len (injected faults). */
+static double sensed_length(hs_plant_t *pl, int i, double len)
+{
+    switch (pl->inj.sensor[i]) {
+    case HS_SENSOR_STICK:
+        return pl->inj.sensor_value[i];
+    case HS_SENSOR_JUMP:
+        return len + pl->inj.sensor_value[i];
+    case HS_SENSOR_NOISE:
+        return len + pl->inj.sensor_value[i] * hs_rng_gauss(&pl->inj.rng);
+    case HS_SENSOR_OK:
+    default:
+        return len;
+    }
+}
+
 static void sample_feedback(hs_plant_t *pl, const aux_t *aux)
 {
     const hs_sensor_params_t *s = &pl->par.sensors;
@@ -423,7 +439,7 @@ static void sample_feedback(hs_plant_t *pl, const aux_t *aux)
         } else {
             hs_cyl_holding_pressures(&pl->par.cyl[i], pl->ideal_force[i], &pa, &pb);
         }
-        fb->length_counts = hs_quantize(aux->length[i], s->length_resolution);
+        fb->length_counts = hs_quantize(sensed_length(pl, i, aux->length[i]), s->length_resolution);
         fb->length = (double)fb->length_counts * s->length_resolution;
         fb->pressure_a_counts = hs_quantize(measure_pressure(pl, pa), s->pressure_resolution);
         fb->pressure_b_counts = hs_quantize(measure_pressure(pl, pb), s->pressure_resolution);
@@ -583,6 +599,10 @@ hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const doubl
         hs_drive_init(&pl->drive[i], force[i]);
     }
     hs_rng_seed(&pl->rng, pl->par.sensors.seed);
+    hs_rng_seed(&pl->inj.rng, pl->par.sensors.seed ^ UINT64_C(0x5DEECE66D));
+    for (int i = 0; i < HS_LEGS; ++i) {
+        pl->inj.supply[i] = pl->par.cyl[i].supply_pressure;
+    }
     derivs(pl, pl->x, zero_u, dx, &aux);
     sample_feedback(pl, &aux);
     return HS_OK;
@@ -743,6 +763,91 @@ hs_status_t hs_plant_clear_faults(hs_plant_t *pl, int leg)
     return HS_OK;
 }
 
+hs_status_t hs_plant_fault_reset(hs_plant_t *pl, int leg, uint32_t *remaining)
+{
+    if (bad_leg(pl, leg)) {
+        return HS_E_ARG;
+    }
+    const hs_cyl_params_t *c = &pl->par.cyl[leg];
+    double dx[HS_NX];
+    aux_t aux;
+    uint32_t cause = pl->inj.held[leg];
+    derivs(pl, pl->x, pl->valve_cmd, dx, &aux);
+    double s = aux.length[leg] - c->length_min;
+    cause |= (pl->inj.sensor[leg] != HS_SENSOR_OK) ? HS_FAULT_SENSOR : 0u;
+    cause |= pl->inj.valve_stuck[leg] ? HS_FAULT_VALVE : 0u;
+    cause |= pl->inj.supply_lost ? HS_FAULT_PRESSURE : 0u;
+    cause |= (s < 0.0 || s > c->stroke) ? HS_FAULT_END_STOP : 0u;
+    cause |= state_finite(pl->x) ? 0u : HS_FAULT_INTERNAL;
+    cause &= 0xFFu;
+    if (cause != 0u) {
+        pl->drive[leg].faults |= cause; /* the feedback says which cause remains */
+    } else {
+        hs_drive_clear_faults(&pl->drive[leg]);
+    }
+    pl->fb[leg].state = pl->drive[leg].state;
+    pl->fb[leg].faults = pl->drive[leg].faults;
+    if (remaining != NULL) {
+        *remaining = cause;
+    }
+    return HS_OK;
+}
+
+hs_status_t hs_plant_inject_sensor(hs_plant_t *pl, int leg, hs_sensor_fault_t mode, double value)
+{
+    if (bad_leg(pl, leg) || !isfinite(value) ||
+        (mode != HS_SENSOR_OK && mode != HS_SENSOR_STICK && mode != HS_SENSOR_JUMP && mode != HS_SENSOR_NOISE)) {
+        return HS_E_ARG;
+    }
+    if (mode == HS_SENSOR_STICK && value <= 0.0) {
+        value = pl->fb[leg].length;
+    }
+    pl->inj.sensor[leg] = mode;
+    pl->inj.sensor_value[leg] = (mode == HS_SENSOR_OK) ? 0.0 : value;
+    return HS_OK;
+}
+
+hs_status_t hs_plant_inject_valve(hs_plant_t *pl, int leg, int stuck, double u)
+{
+    if (bad_leg(pl, leg) || !(u >= -1.0 && u <= 1.0)) {
+        return HS_E_ARG;
+    }
+    pl->inj.valve_stuck[leg] = stuck ? 1 : 0;
+    pl->inj.valve_cmd[leg] = stuck ? u : 0.0;
+    return HS_OK;
+}
+
+hs_status_t hs_plant_inject_supply(hs_plant_t *pl, int lost)
+{
+    if (pl == NULL) {
+        return HS_E_ARG;
+    }
+    if (lost && !pl->inj.supply_lost) {
+        for (int i = 0; i < HS_LEGS; ++i) {
+            pl->par.cyl[i].supply_pressure = pl->par.cyl[i].tank_pressure;
+        }
+        pl->inj.supply_lost = 1;
+    } else if (!lost && pl->inj.supply_lost) {
+        for (int i = 0; i < HS_LEGS; ++i) {
+            pl->par.cyl[i].supply_pressure = pl->inj.supply[i];
+        }
+        pl->inj.supply_lost = 0;
+    }
+    return HS_OK;
+}
+
+hs_status_t hs_plant_inject_drive(hs_plant_t *pl, int leg, uint32_t bits)
+{
+    if (bad_leg(pl, leg)) {
+        return HS_E_ARG;
+    }
+    pl->inj.held[leg] = bits & 0xFFu;
+    if (bits != 0u) {
+        (void)hs_plant_raise_faults(pl, leg, bits);
+    }
+    return HS_OK;
+}
+
 /* Warnings and sensor plausibility after a substep (hydraulic mode). */
 static void check_axes(hs_plant_t *pl, const aux_t *aux)
 {
@@ -762,6 +867,10 @@ static void check_axes(hs_plant_t *pl, const aux_t *aux)
         }
         if (bits != 0u) {
             hs_drive_raise(&pl->drive[i], bits);
+        }
+        if (c->supply_pressure < 0.5 * pl->inj.supply[i]) {
+            hs_drive_fail(&pl->drive[i], HS_FAULT_PRESSURE); /* the supply monitor: valve at null */
+            pl->valve_cmd[i] = pl->inj.valve_stuck[i] ? pl->inj.valve_cmd[i] : 0.0;
         }
     }
 }
@@ -790,7 +899,8 @@ hs_status_t hs_plant_step(hs_plant_t *pl, double dt)
             check_axes(pl, &aux);
             for (int i = 0; i < HS_LEGS; ++i) {
                 const hs_cyl_params_t *c = &pl->par.cyl[i];
-                double lm = (double)hs_quantize(aux.length[i], sp->length_resolution) * sp->length_resolution;
+                double lm = (double)hs_quantize(sensed_length(pl, i, aux.length[i]), sp->length_resolution) *
+                            sp->length_resolution;
                 double pa =
                     (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i]), sp->pressure_resolution) *
                     sp->pressure_resolution;
@@ -798,6 +908,9 @@ hs_status_t hs_plant_step(hs_plant_t *pl, double dt)
                     (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i + 1]), sp->pressure_resolution) *
                     sp->pressure_resolution;
                 double u = hs_drive_update(&pl->drive[i], &pl->par.drive, c, lm, pa, pb, h);
+                if (pl->inj.valve_stuck[i]) {
+                    u = pl->inj.valve_cmd[i]; /* the spool does not follow the drive */
+                }
                 pl->valve_cmd[i] = u;
                 /* k1 was evaluated with u = 0; the spool equation is linear in u */
                 k1[HS_X_CYL + 4 * i + 3] += c->valve_omega * c->valve_omega * u;

@@ -1,6 +1,7 @@
 /* scenario.c - the scenario language of hs_sim: parser, file reader, player (hs/scenario.h). */
 #define _POSIX_C_SOURCE 200809L
 #include "hs/scenario.h"
+#include "scenario_inject.h"
 
 #include <errno.h>
 #include <math.h>
@@ -17,7 +18,8 @@
 #define MAX_FADE_S 65.0    /* longest fade, s */
 #define Q24_ONE 16777216.0 /* 1.0 in Q24 */
 #define COMMAND_LIST "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD"
-#define ACTION_LIST "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play"
+#define ACTION_LIST                                                                                                    \
+    "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, inject"
 #define MAX_WRENCH 1.0e6   /* largest |value| of a wrench, N or N m */
 #define MAX_GEOMETRY 100.0 /* largest |value| of a contact or load position, m */
 #define MAX_CONTACT 1.0e9  /* largest contact stiffness (N/m) and damping (N s/m) */
@@ -673,6 +675,9 @@ static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_
     }
     if (strcasecmp(kw, "play") == 0) {
         return parse_play(w, nw, dir, a, why);
+    }
+    if (strcasecmp(kw, "inject") == 0) {
+        return hs_scenario_parse_inject(w, nw, a, why, WHY_LEN);
     }
     if (strcasecmp(kw, "end") == 0) {
         if (nw != 1) {

@@ -85,7 +85,7 @@ static void check_result(const hs_scenario_t *sc, hs_status_t st, const hs_scena
         }
         for (int i = 0; i < sc->n; i++) {
             const hs_action_t *a = &sc->action[i];
-            if ((int)a->kind < (int)HS_ACTION_CMD || (int)a->kind > (int)HS_ACTION_PLAY || a->line < 1 ||
+            if ((int)a->kind < (int)HS_ACTION_CMD || (int)a->kind > (int)HS_ACTION_INJECT || a->line < 1 ||
                 a->line > max_line || (i > 0 && a->line <= sc->action[i - 1].line) ||
                 memchr(a->text, '\0', sizeof a->text) == NULL || memchr(a->path, '\0', sizeof a->path) == NULL) {
                 __builtin_trap();
@@ -96,6 +96,15 @@ static void check_result(const hs_scenario_t *sc, hs_status_t st, const hs_scena
             }
             if (a->kind == HS_ACTION_FAULT && (a->bits < 1u || a->bits > 0xFFu)) {
                 __builtin_trap();
+            }
+            if (a->kind == HS_ACTION_INJECT) {
+                const hs_scenario_inject_t *in = &a->inject;
+                if (in->what < HS_INJECT_FRAMES || in->what > HS_INJECT_CLEAR || in->leg < 0 || in->leg > 5 ||
+                    !(in->rate >= 0.0 && in->rate <= 1.0) || in->id_lo > in->id_hi || in->id_hi > 0x7FFu ||
+                    in->bits > 0xFFu || (in->what == HS_INJECT_FRAMES && in->rate == 0.0 && in->count == 0u) ||
+                    (in->what == HS_INJECT_FRAMES && in->fault == 1 && in->delay == 0u)) {
+                    __builtin_trap();
+                }
             }
         }
         return;

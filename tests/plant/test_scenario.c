@@ -225,6 +225,96 @@ static void test_drive_actions(void **state)
     assert_int_equal(a->bits, 1);
 }
 
+/* The fault injection section: every form, and what is refused. */
+static void test_inject(void **state)
+{
+    (void)state;
+    const hs_action_t *a = one("inject frames axis_a setpoints drop");
+    assert_int_equal(a->kind, HS_ACTION_INJECT);
+    assert_int_equal(a->inject.what, HS_INJECT_FRAMES);
+    assert_int_equal(a->inject.bus, 1);
+    assert_int_equal(a->inject.id_lo, 0x20);
+    assert_int_equal(a->inject.id_hi, 0x20);
+    assert_int_equal(a->inject.fault, 0);
+    assert_int_equal(a->inject.count, 1u); /* no rate: the next frame */
+    a = one("inject frames any feedback corrupt rate=0.25");
+    assert_int_equal(a->inject.bus, 0xFF);
+    assert_int_equal(a->inject.id_lo, 0x31);
+    assert_int_equal(a->inject.id_hi, 0x33);
+    assert_int_equal(a->inject.fault, 4);
+    assert_true(a->inject.rate == 0.25);
+    assert_int_equal(a->inject.count, 0u);
+    a = one("INJECT frames ops 0x100 delay delay=7 count=3");
+    assert_int_equal(a->inject.bus, 0);
+    assert_int_equal(a->inject.id_lo, 0x100);
+    assert_int_equal(a->inject.fault, 1);
+    assert_int_equal(a->inject.delay, 7u);
+    assert_int_equal(a->inject.count, 3u);
+    a = one("inject frames off");
+    assert_int_equal(a->inject.what, HS_INJECT_FRAMES_OFF);
+    a = one("inject busoff axis_b 0.25");
+    assert_int_equal(a->inject.what, HS_INJECT_BUSOFF);
+    assert_int_equal(a->inject.bus, 2);
+    assert_int_equal(a->inject.ticks, 250u);
+    assert_int_equal(a->inject.mode, 1);
+    a = one("inject busoff ops off");
+    assert_int_equal(a->inject.mode, 0);
+    a = one("inject drive 3 fault 0x10 hold");
+    assert_int_equal(a->inject.what, HS_INJECT_DRIVE);
+    assert_int_equal(a->inject.leg, 2);
+    assert_int_equal(a->inject.bits, 0x10u);
+    assert_int_equal(a->inject.hold, 1);
+    a = one("inject drive 6 stale 9");
+    assert_int_equal(a->inject.mode, 2);
+    assert_int_equal(a->inject.ticks, 9u);
+    a = one("inject drive 1 freeze");
+    assert_int_equal(a->inject.mode, 1);
+    a = one("inject sensor 2 noise 0.004");
+    assert_int_equal(a->inject.what, HS_INJECT_SENSOR);
+    assert_int_equal(a->inject.mode, 3);
+    assert_true(a->inject.value == 0.004);
+    a = one("inject sensor 2 stick");
+    assert_int_equal(a->inject.mode, 1);
+    a = one("inject valve 5 stick -0.5");
+    assert_int_equal(a->inject.what, HS_INJECT_VALVE);
+    assert_true(a->inject.value == -0.5);
+    a = one("inject supply loss");
+    assert_int_equal(a->inject.what, HS_INJECT_SUPPLY);
+    assert_int_equal(a->inject.mode, 1);
+    a = one("inject endstop 4 down");
+    assert_int_equal(a->inject.what, HS_INJECT_ENDSTOP);
+    assert_true(a->inject.value == -1.0);
+    a = one("inject fk");
+    assert_int_equal(a->inject.what, HS_INJECT_FK);
+    assert_true(a->inject.value == 0.05);
+    a = one("inject clear");
+    assert_int_equal(a->inject.what, HS_INJECT_CLEAR);
+
+    refused("inject", 1, "needs what to inject");
+    refused("inject frames axis_c setpoints drop", 1, "unknown bus 'axis_c'");
+    refused("inject frames ops frob drop", 1, "unknown message 'frob'");
+    refused("inject frames ops 0x800 drop", 1, "unknown message '0x800'");
+    refused("inject frames ops command smash", 1, "unknown frame fault 'smash'");
+    refused("inject frames ops command drop rate=0", 1, "rate 0 is out of range");
+    refused("inject frames ops command drop rate=0.5 rate=0.5", 1, "unknown or repeated argument");
+    refused("inject frames ops command drop delay=3", 1, "delay= only goes with the delay fault");
+    refused("inject frames ops command delay delay=0", 1, "is not 1..");
+    refused("inject busoff any", 1, "unknown bus 'any'");
+    refused("inject busoff ops -1", 1, "is not a time");
+    refused("inject drive 7 freeze", 1, "needs a leg");
+    refused("inject drive 1 fault 0x100", 1, "are not 1..0xff");
+    refused("inject drive 1 fault 1 forever", 1, "is not 'hold'");
+    refused("inject sensor 1 jump", 1, "needs M");
+    refused("inject sensor 1 ok 3", 1, "takes no value");
+    refused("inject sensor 1 jump 11", 1, "|M| <= 10");
+    refused("inject valve 1 stick 2", 1, "is not -1..1");
+    refused("inject supply gone", 1, "needs loss or ok");
+    refused("inject endstop 1 sideways", 1, "is not up or down");
+    refused("inject fk 2", 1, "0 < M <= 1");
+    refused("inject clear now", 1, "takes no arguments");
+    refused("inject frob", 1, "unknown injection 'frob'");
+}
+
 static void test_mark_and_end(void **state)
 {
     (void)state;
@@ -366,8 +456,9 @@ static void test_overlong_and_empty(void **state)
     assert_int_equal(hs_scenario_parse(&sc, NULL, "t", &err), HS_E_ARG);
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, &err), HS_E_SYNTAX);
     assert_string_equal(
-        err.message, "scenario:1: unknown action 'frob' "
-                     "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play)");
+        err.message,
+        "scenario:1: unknown action 'frob' "
+        "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, inject)");
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, NULL), HS_E_SYNTAX);
     assert_int_equal(hs_scenario_parse(&sc, "end", NULL, NULL), HS_OK);
     assert_int_equal(hs_scenario_load(&sc, NULL, &err), HS_E_ARG);
@@ -685,6 +776,7 @@ int main(void)
         cmocka_unit_test(test_target),
         cmocka_unit_test(test_delay_and_wait),
         cmocka_unit_test(test_drive_actions),
+        cmocka_unit_test(test_inject),
         cmocka_unit_test(test_mark_and_end),
         cmocka_unit_test(test_lines_and_comments),
         cmocka_unit_test(test_malformed_lines),

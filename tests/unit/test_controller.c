@@ -277,6 +277,70 @@ static void test_reset_refused_while_silent(void **state)
     assert_int_equal(r.out.state, SP_STATE_FAULT);
 }
 
+/* RESET with a drive reporting faults: the fault-reset edge on one tick,
+ * then the wait for the drive; cleared -> ENGAGING, a cause that stays ->
+ * refused after drive_reset_ticks with the leg and its bits reported. */
+static void test_reset_clears_drive_faults(void **state)
+{
+    static rig_t r;
+    int n;
+    (void)state;
+    rig_init(&r);
+    engage(&r);
+    r.in.drive[4].faults = 0x10u | SP_DRIVE_FAULT_STATE; /* valve fault, drive in FAULT */
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    assert_true((r.out.faults & SP_FAULT_DRIVE) != 0u);
+    assert_int_equal(r.out.drive_fault_reset, 0);
+    /* the cause stays: refused after exactly drive_reset_ticks, the leg and its bits reported */
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.drive_fault_reset, 1);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    for (n = 1; n < (int)r.cfg.drive_reset_ticks; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.drive_fault_reset, 0);
+        assert_int_equal(r.out.reset_refused_legs, 0);
+    }
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    assert_int_equal(r.out.reset_refused_legs, 1u << 4);
+    assert_int_equal(r.out.reset_refused_cause, 0x10u); /* the DBC's bits only */
+    for (n = 0; n < 50; ++n) {                          /* reported until the next RESET */
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.reset_refused_legs, 1u << 4);
+    /* the next RESET: the drive clears 3 ticks after the edge -> re-engage */
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.drive_fault_reset, 1);
+    assert_int_equal(r.out.reset_refused_legs, 0);
+    rig_tick(&r, SP_CMD_NONE);
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    r.in.drive[4].faults = 0u;
+    rig_tick(&r, SP_CMD_NONE);
+    /* re-engaged from home to home: the move may end in this very tick */
+    assert_true(r.out.state == SP_STATE_ENGAGING || r.out.state == SP_STATE_READY);
+    assert_int_equal(r.out.faults, 0u);
+    run_until(&r, SP_STATE_READY, 20000);
+    /* an ESTOP cancels a reset under way */
+    r.in.drive[0].faults = 0x02u;
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    rig_tick(&r, SP_CMD_RESET);
+    rig_tick(&r, SP_CMD_ESTOP);
+    r.in.drive[0].faults = 0u;
+    for (n = 0; n < 30; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    /* without drive faults RESET clears at once, as before */
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.drive_fault_reset, 0);
+    assert_int_equal(r.out.faults, 0u);
+    assert_true(r.out.state == SP_STATE_ENGAGING || r.out.state == SP_STATE_READY);
+}
+
 static void test_rejects_out_of_limit_commands(void **state)
 {
     static rig_t r;
@@ -586,6 +650,26 @@ static void test_trig_generator(void **state)
     assert_true(g.finished);
     assert_int_equal(m.pose.pos[0], sp_platform_default.home.pos[0]);
     assert_int_equal(m.vel[0], 0);
+    /* through the wraps: the tick stops at the fade once faded in, so a
+     * motion of any length (the old tick saturated after 2^32 ticks at the
+     * stop sentinel: unstoppable) still fades out in fade_ticks */
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), q24(0.5), 1000u, 500u), SP_OK);
+    for (int n = 0; n < 20000; ++n) {
+        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    }
+    assert_int_equal(g.tick, 500u);
+    g.phase = UINT32_MAX - g.phase_step / 2u; /* the phase wraps modulo one turn: no jump */
+    assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    prev_x = f24(m.pose.pos[0] - sp_platform_default.home.pos[0]);
+    assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    assert_near(f24(m.pose.pos[0] - sp_platform_default.home.pos[0]), prev_x, 0.09 * 6.3 * 0.5e-3 * 1.01,
+                "position step across the phase wrap (m)");
+    sp_trig_stop(&g);
+    for (int n = 0; n <= 500 && !g.finished; ++n) {
+        assert_int_equal(sp_trig_step(&g, 1000u, &m), SP_OK);
+    }
+    assert_true(g.finished);
+    assert_int_equal(m.pose.pos[0], sp_platform_default.home.pos[0]);
     /* bad arguments */
     assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(0.09), 0, 1000u, 1000u), SP_E_ARG);
     assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_X, q24(2.0), q24(1), 1000u, 1000u), SP_E_ARG);
@@ -973,6 +1057,7 @@ int main(void)
         cmocka_unit_test(test_rest_reuses_setpoints),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),
         cmocka_unit_test(test_reset_refused_while_silent),
+        cmocka_unit_test(test_reset_clears_drive_faults),
         cmocka_unit_test(test_rejects_out_of_limit_commands),
         cmocka_unit_test(test_move_and_stream),
         cmocka_unit_test(test_stream_target_reachability),

@@ -242,6 +242,75 @@ static void test_engage_run_park_over_frames(void **state)
     assert_true(found);
 }
 
+/* Through the wraps: a node started 1500 ticks before its 32-bit tick (and
+ * the 16-bit TickEcho) wraps engages, runs and parks exactly as one started
+ * at 0: the same setpoints, states and estimates every tick, no fault, the
+ * SYNC and status ticks running through 0xFFFFFFFF -> 0 (the alive counters
+ * wrap every 16 frames in both). */
+static void test_tick_wrap_is_seamless(void **state)
+{
+    (void)state;
+    static rig_t r0, r1;
+    const uint32_t start = UINT32_MAX - 5000u; /* wraps while running the surge */
+    rig_init(&r0);
+    rig_init(&r1);
+    r1.node.ctrl.tick = start; /* the test-only initial value */
+    int wrapped = 0, ran = 0;
+    for (uint32_t t = 0; t < 14000u; t++) {
+        if (t == 2u) {
+            send_command(&r0, SP_CMD_ENGAGE);
+            send_command(&r1, SP_CMD_ENGAGE);
+        }
+        if (!ran && r0.node.out.state == SP_STATE_READY) {
+            send_command(&r0, SP_CMD_RUN_TRIG);
+            send_command(&r1, SP_CMD_RUN_TRIG);
+            ran = 1;
+        }
+        if (t == 7000u) {
+            send_command(&r0, SP_CMD_PARK);
+            send_command(&r1, SP_CMD_PARK);
+        }
+        rig_tick(&r0);
+        rig_tick(&r1);
+        assert_int_equal(r1.node.out.tick, (uint32_t)(r0.node.out.tick + start));
+        assert_int_equal(r1.node.out.state, r0.node.out.state);
+        assert_memory_equal(r1.node.out.setpoint, r0.node.out.setpoint, sizeof r0.node.out.setpoint);
+        assert_memory_equal(&r1.node.out.estimate, &r0.node.out.estimate, sizeof r0.node.out.estimate);
+        assert_int_equal(r1.node.out.faults, 0u);
+        if (r1.node.out.tick == 0u) {
+            wrapped = 1;
+            assert_int_equal(r1.node.out.state, SP_STATE_RUNNING);
+        }
+    }
+    assert_true(wrapped);
+    assert_int_equal(r1.node.out.state, SP_STATE_IDLE);
+    assert_int_equal(r1.node.stats.stale, 0u);
+    assert_int_equal(r1.node.stats.lost, 0u);
+    assert_int_equal(r1.node.stats.accepted, r0.node.stats.accepted);
+    print_message("tick wrap: %u frames accepted, state %s at tick %u\n", r1.node.stats.accepted,
+                  sp_state_name(r1.node.out.state), r1.node.out.tick);
+}
+
+/* The node's statistics saturate at UINT32_MAX, never wrap to 0. */
+static void test_stats_saturate(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    r.node.stats.accepted = UINT32_MAX - 2u;
+    r.node.stats.rejected[SP_PROTO_BAD_CRC] = UINT32_MAX;
+    for (int t = 0; t < 3; t++) {
+        rig_tick(&r); /* 6 feedback frames a tick */
+    }
+    assert_int_equal(r.node.stats.accepted, UINT32_MAX);
+    sp_can_frame_t f;
+    sp_msg_feedback_t fb = {r.length[0], 3000000u, 1000000u, SP_DRIVE_STATE_ACTIVE, 0u, 0u};
+    assert_int_equal(sp_proto_encode_feedback(&fb, 1u, 0u, SP_BUS_AXIS_A, &f), SP_OK);
+    f.data[5] ^= 1u; /* a bad CRC */
+    assert_int_equal(sp_node_receive(&r.node, &f, NULL), SP_E_FRAME);
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_BAD_CRC], UINT32_MAX);
+}
+
 static void test_malformed_frames_are_counted_and_dropped(void **state)
 {
     (void)state;
@@ -514,6 +583,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_engage_run_park_over_frames),
+        cmocka_unit_test(test_tick_wrap_is_seamless),
+        cmocka_unit_test(test_stats_saturate),
         cmocka_unit_test(test_malformed_frames_are_counted_and_dropped),
         cmocka_unit_test(test_stale_feedback_is_not_used),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),

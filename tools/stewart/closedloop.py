@@ -108,6 +108,7 @@ class RunSpec:
     feedforward: bool = True
     seed: int | None = None
     timeout_ms: int = 2000
+    plant_args: tuple[str, ...] = ()  # more hs_sim options (e.g. the wrap tests' --tick0)
 
 
 @dataclass
@@ -156,6 +157,7 @@ def _runner(specs: list[RunSpec], bins: Binaries, out: Path, progress: bool) -> 
                  "--truth", str(out / f"{s.name}.truth.csv"), "--timeout-ms", str(s.timeout_ms)]
         if s.seed is not None:
             plant += ["--seed", str(s.seed)]
+        plant += list(s.plant_args)
         if progress:
             plant.append("--progress")
         q = lambda argv: " ".join(shlex.quote(a) for a in argv)  # noqa: E731

@@ -60,6 +60,7 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->ft_timeout_ticks = 5u;
     cfg->ft_tare_samples = 500u;
     cfg->operator_timeout_ticks = 200u;
+    cfg->drive_reset_ticks = 20u;
     cfg->operator_park = 0u;
     return SP_OK;
 }
@@ -118,6 +119,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
         ctrl->sup.last_force[i] = 0;
+        ctrl->sup.last_faults[i] = 0u;
         ctrl->setpoint[i].length = 0;
         ctrl->setpoint[i].velocity = 0;
         ctrl->setpoint[i].force = 0;
@@ -142,6 +144,10 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->stream.anchor_valid = 0u;
     ctrl->link.silent = 0u;
     ctrl->link.armed = 0u;
+    ctrl->drive_reset.left = 0u;
+    ctrl->drive_reset.edge = 0u;
+    ctrl->drive_reset.refused_legs = 0u;
+    ctrl->drive_reset.refused_cause = 0u;
     return SP_OK;
 }
 
@@ -204,6 +210,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
             seen |= UINT32_C(1) << i;
             sup->last_length[i] = fb->length;
             sup->last_force[i] = fb->force;
+            sup->last_faults[i] = fb->faults;
             drive_fault |= (fb->faults != 0u) ? 1 : 0;
         } else if (missed < UINT32_MAX) {
             ++missed;
@@ -350,6 +357,65 @@ static int command_force(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     }
 }
 
+/* The OR of the drives' last reported fault bits (low 8: the DBC's Faults);
+ * *legs (if not NULL) gets the drives reporting any (bit i: leg i). */
+static uint32_t drive_faults(const sp_ctrl_t *ctrl, uint32_t *legs)
+{
+    uint32_t bits = 0u;
+    uint32_t mask = 0u;
+    unsigned i;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (ctrl->sup.last_faults[i] != 0u) {
+            bits |= ctrl->sup.last_faults[i];
+            mask |= UINT32_C(1) << i;
+        }
+    }
+    if (legs != NULL) {
+        *legs = mask;
+    }
+    return bits;
+}
+
+/* RESET's end: faults cleared, the engage move to home from the estimate.
+ * Returns 0 (nothing changed) without every drive heard or an estimate. */
+static int finish_reset(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int comms_ok)
+{
+    if (!comms_ok || !ctrl->est.valid || !start_move(cfg, ctrl, &ctrl->est.pose, &cfg->platform->home)) {
+        return 0;
+    }
+    ctrl->faults = 0u;
+    ctrl->state = SP_STATE_ENGAGING;
+    return 1;
+}
+
+/* A RESET waiting for the drives: done once none reports a fault (then the
+ * controller's faults clear as RESET does), refused once drive_reset_ticks
+ * have passed (the legs and their bits kept for the status). */
+static void drive_reset_job(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int comms_ok)
+{
+    sp_drive_reset_t *r = &ctrl->drive_reset;
+    uint32_t legs = 0u;
+    uint32_t bits;
+    r->edge = 0u;
+    if (r->left == 0u) {
+        return;
+    }
+    if (ctrl->state != SP_STATE_FAULT && ctrl->state != SP_STATE_ESTOP) {
+        r->left = 0u;
+        return;
+    }
+    bits = drive_faults(ctrl, &legs);
+    if (bits == 0u && finish_reset(cfg, ctrl, comms_ok)) {
+        r->left = 0u;
+        return;
+    }
+    --r->left;
+    if (r->left == 0u) {
+        r->refused_legs = (uint8_t)legs;
+        r->refused_cause = (uint8_t)(bits & 0xFFu);
+    }
+}
+
 /* Carries out the operator's command when the state allows it; returns 0
  * when it is refused (the state unchanged). */
 SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd, int comms_ok)
@@ -359,6 +425,7 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_NONE:
         return 1;
     case SP_CMD_ESTOP:
+        ctrl->drive_reset.left = 0u; /* a reset under way does not re-engage after an ESTOP */
         raise_fault(cfg, ctrl, SP_FAULT_ESTOP);
         return 1;
     case SP_CMD_ENGAGE:
@@ -400,13 +467,18 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_TARE:
         return command_force(cfg, ctrl, cmd);
     case SP_CMD_RESET:
-        if ((ctrl->state != SP_STATE_FAULT && ctrl->state != SP_STATE_ESTOP) || !comms_ok || !ctrl->est.valid ||
-            !start_move(cfg, ctrl, &ctrl->est.pose, &p->home)) {
+        if (ctrl->state != SP_STATE_FAULT && ctrl->state != SP_STATE_ESTOP) {
             return 0;
         }
-        ctrl->faults = 0u;
-        ctrl->state = SP_STATE_ENGAGING;
-        return 1;
+        ctrl->drive_reset.refused_legs = 0u;
+        ctrl->drive_reset.refused_cause = 0u;
+        if (drive_faults(ctrl, NULL) != 0u) {
+            /* the drives first: the fault-reset edge, then wait for them */
+            ctrl->drive_reset.edge = 1u;
+            ctrl->drive_reset.left = (cfg->drive_reset_ticks > 0u) ? cfg->drive_reset_ticks : 1u;
+            return 1;
+        }
+        return finish_reset(cfg, ctrl, comms_ok);
     default:
         return 0;
     }
@@ -759,6 +831,9 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
         out->wrench[i] = ctrl->wrench.wrench[i];
     }
     out->wrench_valid = ctrl->wrench.valid;
+    out->drive_fault_reset = ctrl->drive_reset.edge;
+    out->reset_refused_legs = ctrl->drive_reset.refused_legs;
+    out->reset_refused_cause = ctrl->drive_reset.refused_cause;
     out->force_mode = (uint8_t)ctrl->force.mode;
     out->contact = ctrl->force.contact.made;
     for (i = 0u; i < 6u; ++i) {
@@ -785,14 +860,13 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     if (cfg == NULL || ctrl == NULL || in == NULL || out == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
     }
-    if (ctrl->tick < UINT32_MAX) {
-        ++ctrl->tick;
-    }
+    ctrl->tick += 1u; /* a sequence number: wraps modulo 2^32, as the DBC's Tick (sp_ctrl_t.tick) */
     active = drives_active(ctrl);
 
     comms_ok = supervise(cfg, ctrl, in, active, &leg_out);
     fk_iterations = estimate(cfg, ctrl, active, leg_out);
     ft_sensor(cfg, ctrl, in);
+    drive_reset_job(cfg, ctrl, comms_ok);
     cmd = sp_ctrl_operator_link(cfg, ctrl, in, &dropped);
     rejected = !command(cfg, ctrl, cmd, comms_ok) || dropped;
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {

@@ -112,7 +112,9 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     d.fresh = 1u;
     d.length = m.length;
     d.force = spi_cylinder_force(node->ctrl_platform, m.pressure_a, m.pressure_b);
-    d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? 0x80u : 0u));
+    /* a drive in FAULT counts as faulty even without bits; bit 8, above the
+     * DBC's eight, keeps the reported bits (a refused reset's cause) as sent */
+    d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? SP_DRIVE_FAULT_STATE : 0u));
     if (node->sync_valid && m.tick_echo == (uint16_t)(node->sync_tick & 0xFFFFu)) {
         node->in.drive[leg] = d;
     } else if (!node->ctrl_sync_master &&
@@ -288,6 +290,7 @@ SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t
         sp_msg_setpoints_t m;
         m.tick = tick;
         m.mode = (uint8_t)node->out.drive_mode;
+        m.fault_reset = node->out.drive_fault_reset;
         for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
             m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
         }
@@ -325,6 +328,8 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     s.drive_mode = (uint8_t)node->out.drive_mode;
     s.feedforward = cfg->ctrl.force_feedforward;
     s.estimate = node->out.estimate;
+    s.reset_refused_legs = node->out.reset_refused_legs;
+    s.reset_refused_cause = node->out.reset_refused_cause;
     count_send(node, sp_proto_encode_status(&s, node->tx_counter_status++, &out[*n]), n);
     node->tx_counter_status &= 0x0Fu;
 

@@ -268,6 +268,7 @@ sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t count
     s.length_3 = q24_to_length(m->setpoint[2].length, &sat);
     s.velocity_3 = q24_to_vel(m->setpoint[2].velocity, &sat);
     s.force_3 = q8_to_force(m->setpoint[2].force, &sat);
+    s.fault_reset = m->fault_reset ? 1u : 0u;
     clear(f);
     return finish(f, SP_ID_AXIS_SETPOINTS, bus, stewart_can_axis_setpoints_pack(f->data, &s, SP_CAN_MAX_DATA),
                   STEWART_CAN_AXIS_SETPOINTS_LENGTH, sat);
@@ -302,6 +303,7 @@ sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_
     m->setpoint[2].length = length_to_q24(s.length_3);
     m->setpoint[2].velocity = vel_to_q24(s.velocity_3);
     m->setpoint[2].force = force_to_q8(s.force_3);
+    m->fault_reset = s.fault_reset;
     *counter = s.counter;
     return SP_OK;
 }
@@ -541,6 +543,8 @@ sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp
     s.roll = v[3];
     s.pitch = v[4];
     s.yaw = v[5];
+    s.reset_refused_legs = (uint8_t)(m->reset_refused_legs & 0x3Fu);
+    s.reset_refused_cause = m->reset_refused_cause;
     clear(f);
     return finish(f, SP_ID_CTRL_STATUS, SP_BUS_OPS, stewart_can_ctrl_status_pack(f->data, &s, SP_CAN_MAX_DATA),
                   STEWART_CAN_CTRL_STATUS_LENGTH, sat);
@@ -571,6 +575,8 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
     m->cmd_rejected = s.cmd_rejected;
     m->drive_mode = s.drive_mode;
     m->feedforward = s.feed_forward;
+    m->reset_refused_legs = s.reset_refused_legs;
+    m->reset_refused_cause = s.reset_refused_cause;
     pose_from_bus(v, &m->estimate);
     *counter = s.counter;
     return SP_OK;

@@ -201,7 +201,10 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     *vec_ref(out, a, 2) = spi_mul_away(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
 
     g->phase += g->phase_step; /* modulo one turn by design */
-    if (g->tick < UINT32_MAX) {
+    /* counts the fade-in and the fade-out only: a tick counting the whole
+     * motion would saturate after 49.7 days at the stop sentinel and the
+     * motion could not be stopped any more */
+    if (g->tick < g->fade_ticks || g->stop_tick != UINT32_MAX) {
         ++g->tick;
     }
     return sp_flags_status(flags);

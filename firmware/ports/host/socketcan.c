@@ -274,10 +274,9 @@ static sp_status_t sc_receive(void *ctx, sp_can_frame_t *frames, uint32_t max, u
             if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
                 uint32_t drops;
                 memcpy(&drops, CMSG_DATA(c), sizeof drops);
-                if (drops > p->last_drops) {
-                    /* the kernel counts per socket: charged to the bus of the next frame */
-                    count(&p->st[b].rx_overruns, drops - p->last_drops);
-                }
+                /* the kernel counts per socket, a uint32 that wraps: the difference
+                 * modulo 2^32; charged to the bus of the next frame */
+                count(&p->st[b].rx_overruns, drops - p->last_drops);
                 p->last_drops = drops;
             }
         }

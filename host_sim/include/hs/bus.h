@@ -30,6 +30,8 @@ typedef struct {
     uint32_t lost;                      /**< setpoint frames missed according to the alive counters */
     uint32_t stale;                     /**< valid setpoints for another tick than the current cycle's */
     uint32_t ignored;                   /**< frames not addressed to the drives (other identifiers) */
+    uint32_t resets;                    /**< drive fault resets carried out (per drive) */
+    uint32_t resets_refused; /**< drive fault resets refused: a cause remained (per drive); every count saturates */
 } hs_bus_stats_t;
 
 typedef struct {
@@ -39,6 +41,10 @@ typedef struct {
     uint32_t tick;            /**< the current cycle (SYNC tick) */
     uint8_t got_setpoints[2]; /**< setpoints for `tick` received on axis_a / axis_b */
     uint8_t silent_mask;      /**< bit i: drive of leg i sends no feedback (fault injection) */
+    uint8_t frozen_mask;      /**< bit i: drive of leg i repeats its alive counter (fault injection) */
+    uint8_t stale_mask;       /**< bit i: drive of leg i echoes an old SYNC tick (fault injection) */
+    uint16_t stale_ticks;     /**< how old: TickEcho = tick - stale_ticks */
+    uint8_t last_reset[2];    /**< FaultReset of the last accepted setpoints on axis_a / axis_b */
     hs_bus_stats_t stats;
 } hs_bus_t;
 
@@ -66,7 +72,10 @@ hs_status_t hs_bus_cycle_frames(hs_bus_t *bus, const hs_plant_t *plant, uint32_t
  * one's (in real time the controller sends setpoints just before their SYNC). A rejected frame
  * raises HS_FAULT_COMM on the drives of its bus (a warning bit; the drives'
  * setpoint watchdog does the rest) and is counted by reason. Frames with
- * other identifiers are counted as ignored. Returns HS_OK if the frame was
+ * other identifiers are counted as ignored. A rising edge of FaultReset
+ * (0 in the last accepted setpoints of that bus, 1 in these) runs the fault
+ * reset of its three drives (hs_plant_fault_reset), counted in
+ * stats.resets / resets_refused, before their setpoints are stored. Returns HS_OK if the frame was
  * used, HS_E_RANGE if it was rejected or ignored, HS_E_ARG on NULL.
  */
 hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_t *frame);

@@ -107,6 +107,10 @@ double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_
 /** Sets fault bits (e.g. HS_FAULT_COMM from the bus layer); severe bits put the drive in FAULT. */
 void hs_drive_raise(hs_drive_t *d, uint32_t bits);
 
+/** Sets fault bits and enters FAULT whatever they are (the plant's supply
+ *  monitor: a pressure loss is a warning bit, but no valve may open then). */
+void hs_drive_fail(hs_drive_t *d, uint32_t bits);
+
 /** Clears all fault bits; FAULT -> INIT (valve at null until the next setpoint). */
 void hs_drive_clear_faults(hs_drive_t *d);
 

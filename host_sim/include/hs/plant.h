@@ -119,6 +119,28 @@ typedef struct {
     double total;
 } hs_energy_t;
 
+/** An injected length-sensor fault (hs_plant_inject_sensor). */
+typedef enum {
+    HS_SENSOR_OK = 0,    /**< the sensor reads the true length */
+    HS_SENSOR_STICK = 1, /**< it reads `value` (m) whatever the length */
+    HS_SENSOR_JUMP = 2,  /**< it reads the true length + `value` (m) */
+    HS_SENSOR_NOISE = 3  /**< it reads the true length + `value` (m) x a unit noise sample (seeded) */
+} hs_sensor_fault_t;
+
+/** Faults injected into the plant (the fault injector, docs/faults.md):
+ *  each stays until removed, and is the cause a drive's fault reset checks. */
+typedef struct {
+    hs_sensor_fault_t sensor[HS_LEGS]; /**< length sensor of each leg */
+    double sensor_value[HS_LEGS];      /**< its value, m */
+    int valve_stuck[HS_LEGS];          /**< 1: the spool follows valve_cmd below, not the drive */
+    double valve_cmd[HS_LEGS];         /**< the stuck valve's command, -1..1 */
+    uint32_t held[HS_LEGS];            /**< drive fault bits whose cause persists (fault ... hold) */
+    int supply_lost;                   /**< 1: the supply pressure is at the tank's */
+    double supply[HS_LEGS];            /**< the nominal supply pressures (at init), Pa: what the drives'
+                                            supply monitor compares with, and what a return restores */
+    hs_rng_t rng;                      /**< the injected noise's generator (the sensors' own stays untouched) */
+} hs_plant_faults_t;
+
 /** The plant. Treat as opaque; use the functions. */
 typedef struct {
     hs_params_t par;
@@ -136,8 +158,9 @@ typedef struct {
     double inv_mass;
     double time;
     uint64_t cycle;
-    int legs_on; /**< some leg mass > 0 (set by hs_plant_init from the params) */
-    int com_on;  /**< centre of mass off o' (par.com != 0): the coupled equations */
+    int legs_on;           /**< some leg mass > 0 (set by hs_plant_init from the params) */
+    int com_on;            /**< centre of mass off o' (par.com != 0): the coupled equations */
+    hs_plant_faults_t inj; /**< injected faults (none after init) */
 } hs_plant_t;
 
 /**
@@ -209,6 +232,39 @@ hs_status_t hs_plant_raise_faults(hs_plant_t *plant, int leg, uint32_t bits);
 
 /** Clears a drive's fault bits (FAULT -> INIT). HS_E_ARG for a bad leg. */
 hs_status_t hs_plant_clear_faults(hs_plant_t *plant, int leg);
+
+/**
+ * Fault reset of drive `leg` (the rising edge of the setpoints' FaultReset):
+ * clears its faults (FAULT -> INIT) only when no cause remains, else keeps
+ * them, adds the remaining causes' bits and leaves the state as it is.
+ * Causes: an injected sensor fault (HS_FAULT_SENSOR), a stuck valve
+ * (HS_FAULT_VALVE), the supply lost (HS_FAULT_PRESSURE), the cylinder
+ * beyond a stroke end (HS_FAULT_END_STOP), held injected bits, a non-finite
+ * state (HS_FAULT_INTERNAL). *remaining (if not NULL) gets the remaining
+ * causes' bits, 0 when the faults were cleared. HS_E_ARG for a bad leg.
+ */
+hs_status_t hs_plant_fault_reset(hs_plant_t *plant, int leg, uint32_t *remaining);
+
+/** Injects a length-sensor fault on `leg` (HS_SENSOR_OK removes it; STICK
+ *  with value <= 0 sticks at the last measured length). HS_E_ARG for a bad
+ *  leg or mode, or a non-finite value. */
+hs_status_t hs_plant_inject_sensor(hs_plant_t *plant, int leg, hs_sensor_fault_t mode, double value);
+
+/** Sticks the valve of `leg` at command u (-1..1; 0 < stuck), or frees it
+ *  (stuck 0). HS_E_ARG for a bad leg or |u| > 1. */
+hs_status_t hs_plant_inject_valve(hs_plant_t *plant, int leg, int stuck, double u);
+
+/** Supply pressure loss (lost 1: every cylinder's supply at the tank
+ *  pressure) or its return (0). HS_E_ARG on NULL. Each drive monitors its
+ *  supply (as a servo drive with a P-port pressure sensor does): below half
+ *  its nominal pressure it raises HS_FAULT_PRESSURE and enters FAULT, its
+ *  valve at null, so that the oil columns hold the platform instead of its
+ *  position loop draining them (hs_drive_fail). */
+hs_status_t hs_plant_inject_supply(hs_plant_t *plant, int lost);
+
+/** Raises fault bits on drive `leg` whose cause persists (until bits 0 is
+ *  given): a fault reset keeps them. HS_E_ARG for a bad leg. */
+hs_status_t hs_plant_inject_drive(hs_plant_t *plant, int leg, uint32_t bits);
 
 /**
  * Advances one cycle of dt seconds (0 < dt <= 0.1): drive cycle logic

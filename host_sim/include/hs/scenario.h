@@ -59,6 +59,40 @@
  *                                 file's directory (from the working
  *                                 directory for hs_scenario_parse).
  *
+ * Fault injection (its own section; parsed in scenario_inject.c, carried
+ * out by hs_sim through hs/inject.h and hs/plant.h; docs/faults.md):
+ *
+ *   inject frames BUS MSG FAULT [rate=P] [count=N] [delay=TICKS]
+ *          BUS: ops, axis_a, axis_b, any; MSG: setpoints, feedback, command,
+ *          target, heartbeat, status, monitor, wrench, any, or an
+ *          identifier 0..0x7ff; FAULT: drop, delay, duplicate, reorder,
+ *          corrupt. P: 0 < P <= 1 per matching frame; N: 1..1e6 fires (the
+ *          default 1 without a rate; with a rate: no limit); delay 1..1e5
+ *          ticks (default 5). SYNC is never touched (the lockstep clock).
+ *   inject frames off             removes every frame rule
+ *   inject busoff BUS [S | off]   the bus carries nothing for S s (0 < S <=
+ *                                 1e6; default: until `inject busoff BUS off`)
+ *   inject drive LEG fault BITS [hold]
+ *                                 raises drive fault bits 1..0xff; with hold
+ *                                 their cause stays (a fault reset is refused)
+ *   inject drive LEG freeze | stale [TICKS] | ok
+ *                                 the drive repeats its alive counter / echoes
+ *                                 the SYNC tick TICKS (1..1000, default 2) old
+ *                                 / is healthy again (held bits removed)
+ *   inject sensor LEG stick [M] | jump M | noise M | ok
+ *                                 the length sensor sticks (at M m, default
+ *                                 where it is), jumps by M m, adds noise of M
+ *                                 m (one sigma), or is healthy; |M| <= 10
+ *   inject valve LEG stick [U] | ok   the spool sticks at command U (-1..1,
+ *                                 default 0) / is free again
+ *   inject supply loss | ok       the supply pressure falls to the tank's / returns
+ *   inject endstop LEG [up|down]  the valve sticks fully open (up: extending,
+ *                                 the default): the cylinder runs into its end stop
+ *   inject fk [M]                 inconsistent leg lengths: the sensors of
+ *                                 legs 1, 3, 5 read M m more, of 2, 4, 6 M m
+ *                                 less (0 < M <= 1, default 0.05)
+ *   inject clear                  removes every injected fault
+ *
  * Actions run in order; there are no time stamps, only delays and waits, so
  * there is no tick order to get wrong. Seconds become 1 ms ticks, rounded to
  * the nearest tick; metres, radians and hertz become Q24 (rounded to
@@ -98,8 +132,40 @@ typedef enum {
     HS_ACTION_WRENCH,    /**< external wrench `wrench`, ramped over `ticks` */
     HS_ACTION_CONTACT,   /**< install `contact` (kind 0: remove) */
     HS_ACTION_LOAD,      /**< attach point mass `mass` at `point` */
-    HS_ACTION_PLAY       /**< stream the poses of `path` for `ticks` ticks */
+    HS_ACTION_PLAY,      /**< stream the poses of `path` for `ticks` ticks */
+    HS_ACTION_INJECT     /**< inject the fault `inject` */
 } hs_action_kind_t;
+
+/** What an `inject` action injects. */
+typedef enum {
+    HS_INJECT_FRAMES = 0,     /**< a frame rule: bus, id_lo..id_hi, fault, rate, count, delay */
+    HS_INJECT_FRAMES_OFF = 1, /**< remove the frame rules */
+    HS_INJECT_BUSOFF = 2,     /**< bus off for ticks (0: until cleared; mode 0: back on) */
+    HS_INJECT_DRIVE = 3,      /**< mode: 0 fault bits (hold), 1 freeze, 2 stale (ticks), 3 ok */
+    HS_INJECT_SENSOR = 4,     /**< mode: hs_sensor_fault_t values (0 ok, 1 stick, 2 jump, 3 noise); value */
+    HS_INJECT_VALVE = 5,      /**< mode 1 stick at value, 0 free */
+    HS_INJECT_SUPPLY = 6,     /**< mode 1 lost, 0 back */
+    HS_INJECT_ENDSTOP = 7,    /**< value +1 (up) or -1 (down) */
+    HS_INJECT_FK = 8,         /**< value: the sensors' offsets, m */
+    HS_INJECT_CLEAR = 9       /**< remove everything injected */
+} hs_inject_what_t;
+
+/** An `inject` action as written (no dependency on hs/inject.h or the plant). */
+typedef struct {
+    int what;              /**< hs_inject_what_t */
+    int bus;               /**< FRAMES, BUSOFF: 0 ops, 1 axis_a, 2 axis_b, 0xFF any (FRAMES only) */
+    uint32_t id_lo, id_hi; /**< FRAMES: identifiers */
+    int fault;             /**< FRAMES: 0 drop, 1 delay, 2 duplicate, 3 reorder, 4 corrupt (hs_frame_fault_t) */
+    double rate;           /**< FRAMES: 0..1 (0: count only) */
+    uint32_t count;        /**< FRAMES: fires (0 with a rate: no limit) */
+    uint32_t delay;        /**< FRAMES delay: ticks */
+    uint64_t ticks;        /**< BUSOFF: its length (0: until cleared); DRIVE stale: how old */
+    int leg;               /**< DRIVE, SENSOR, VALVE, ENDSTOP: 0..5 */
+    int mode;              /**< see hs_inject_what_t */
+    uint32_t bits;         /**< DRIVE fault: bits */
+    int hold;              /**< DRIVE fault: 1 the cause stays */
+    double value;          /**< SENSOR: m; VALVE: command; ENDSTOP: +-1; FK: m */
+} hs_scenario_inject_t;
 
 /** A contact as written (hs/plant.h's hs_contact_t, without depending on the plant). */
 typedef struct {
@@ -129,6 +195,7 @@ typedef struct {
     double mass;                         /**< LOAD: kg */
     double point[3];                     /**< LOAD: motion frame, m */
     char path[HS_SCENARIO_MAX_PATH + 1]; /**< PLAY: the file (resolved); ticks: its duration (last row's t) */
+    hs_scenario_inject_t inject;         /**< INJECT */
 } hs_action_t;
 
 /** A parsed scenario and where its player stands. */

@@ -43,6 +43,15 @@
  *             the platform is told to be, at rest) or, when feedback and
  *             drives are trustworthy, a controlled PARK. RESET clears the
  *             faults once their causes are gone and re-engages to home.
+ *             When a drive reports faults, RESET first asks the drives to
+ *             clear theirs (out->drive_fault_reset for one tick: the
+ *             setpoints' FaultReset edge) and waits up to
+ *             drive_reset_ticks for every drive to report none; then it
+ *             clears and re-engages as above. A drive whose cause remains
+ *             keeps its faults: the reset is refused, the controller stays
+ *             in FAULT and reports the refusing legs and their fault bits
+ *             (out->reset_refused_legs, reset_refused_cause) until the next
+ *             RESET. ESTOP cancels a reset under way.
  *   ESTOP     emergency stop: drives commanded to HOLD at once; latched until
  *             RESET.
  *
@@ -131,8 +140,12 @@ typedef struct {
     uint8_t fresh;   /**< 1 if a valid frame arrived since the last tick */
     sp_q24_t length; /**< measured joint-to-joint length, m, Q24 */
     sp_q8_t force;   /**< measured cylinder force, N, Q8 */
-    uint16_t faults; /**< the drive's fault bits (0: none) */
+    uint16_t faults; /**< the drive's fault bits (0: none): the DBC's eight, and
+                          SP_DRIVE_FAULT_STATE when the drive reports the FAULT state */
 } sp_drive_feedback_t;
+
+/** sp_drive_feedback_t.faults: the drive is in its FAULT state (above the DBC's 8 fault bits). */
+#define SP_DRIVE_FAULT_STATE 0x100u
 
 typedef struct {
     sp_drive_feedback_t drive[SP_LEGS];
@@ -151,7 +164,7 @@ typedef struct {
     sp_drive_mode_t drive_mode;
     sp_state_t state;
     uint32_t faults;        /**< latched SP_FAULT_* bits */
-    uint32_t tick;          /**< ticks since init */
+    uint32_t tick;          /**< ticks since init, modulo 2^32 (sp_ctrl_t.tick) */
     sp_pose_t estimate;     /**< pose by forward kinematics */
     sp_motion_t reference;  /**< the reference of this tick */
     uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
@@ -161,8 +174,12 @@ typedef struct {
     uint8_t wrench_valid;   /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard) */
     uint8_t force_mode;     /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
     uint8_t contact;        /**< 1 while force control is in contact */
-    sp_q8_t force_target[6]; /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
-    int32_t force_wrench[6]; /**< the wrench force control uses (the source of the config), N, N m, Q8 */
+    sp_q8_t force_target[6];     /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
+    int32_t force_wrench[6];     /**< the wrench force control uses (the source of the config), N, N m, Q8 */
+    uint8_t drive_fault_reset;   /**< 1 on the tick RESET asks the drives to clear their faults (the
+                                      setpoints' FaultReset), else 0 */
+    uint8_t reset_refused_legs;  /**< bit i: leg i's drive refused the last fault reset (0: none refused) */
+    uint8_t reset_refused_cause; /**< the fault bits the refusing drives still reported (their cause) */
 } sp_ctrl_output_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
@@ -190,6 +207,8 @@ typedef struct {
     uint32_t operator_timeout_ticks; /**< ticks without an operator heartbeat while RUNNING before
                                           SP_FAULT_OPERATOR_SILENT (200); 0: no supervision */
     uint8_t operator_park;           /**< the silent operator's reaction: 0 STOP (back to READY), 1 PARK */
+    uint32_t drive_reset_ticks;      /**< ticks RESET waits for the drives to clear their faults after the
+                                          fault-reset edge before reporting the reset refused (20) */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
@@ -225,7 +244,17 @@ typedef struct {
     uint32_t seen_mask;            /**< drives heard from at least once (bit i: leg i) */
     sp_q24_t last_length[SP_LEGS]; /**< the last measured lengths, m, Q24 */
     sp_q8_t last_force[SP_LEGS];   /**< the last measured cylinder forces, N, Q8 */
+    uint16_t last_faults[SP_LEGS]; /**< the fault bits of each drive's last frame (0: none) */
 } sp_supervision_t;
+
+/** A RESET that waits for the drives to clear their faults (the fault
+ *  reset over CAN, DBC AXIS_SETPOINTS FaultReset). */
+typedef struct {
+    uint32_t left;         /**< ticks left to wait (0: no reset under way) */
+    uint8_t edge;          /**< 1: this tick's setpoints carry FaultReset */
+    uint8_t refused_legs;  /**< the last refused reset's drives (bit i: leg i), 0 when none */
+    uint8_t refused_cause; /**< their fault bits then */
+} sp_drive_reset_t;
 
 /** Operator link supervision (sp_ctrl_operator_link). */
 typedef struct {
@@ -238,7 +267,11 @@ typedef struct {
     sp_ctrl_prepared_t prep; /**< derived from the config at init */
     sp_state_t state;
     uint32_t faults; /**< latched SP_FAULT_* bits */
-    uint32_t tick;   /**< ticks since init (saturates) */
+    uint32_t tick;   /**< ticks since init, modulo 2^32: a sequence number (the SYNC tick of a
+                          cycle master), compared only for equality, so it wraps after 49.7
+                          days like the DBC's Tick signal; saturating would freeze the SYNC
+                          tick and with it the feedback's freshness check (TickEcho). A test
+                          may start it anywhere after sp_ctrl_init (the wrap tests do) */
     sp_supervision_t sup;
     sp_estimate_t est;               /**< the pose estimate, its FK cache and the factorisation at the reference */
     sp_motion_mode_t mode;           /**< RUNNING: the motion executing */
@@ -265,6 +298,7 @@ typedef struct {
     sp_q30_t ft_frame_sc[6];                   /**< sin, cos of roll, pitch, yaw that ft_frame was made for */
     uint8_t ft_frame_valid;                    /**< 1 once ft_frame was made (0 at init: make it) */
     sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
+    sp_drive_reset_t drive_reset;              /**< RESET's fault reset of the drives */
 } sp_ctrl_t;
 
 /**
@@ -273,7 +307,8 @@ typedef struct {
  * timeout 2 ticks; divergence 25 mm / 25 mrad; 10 mm stroke margin; stream
  * filter 10 rad/s; force feed-forward and friction compensation on; wrench
  * estimate filtered by four sections at 80 Hz (sp/wrench.h); a silent
- * operator stops the motion after 200 ticks (10 heartbeats of 20 ms).
+ * operator stops the motion after 200 ticks (10 heartbeats of 20 ms);
+ * a RESET waits 20 ticks for the drives to clear their faults.
  * SP_E_ARG on NULL.
  */
 sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform);

@@ -68,6 +68,8 @@ typedef struct {
     uint32_t tick;
     uint8_t mode;                          /**< sp_drive_mode_t */
     sp_setpoint_t setpoint[SP_AXIS_SLOTS]; /**< slots 1..3 of the bus */
+    uint8_t fault_reset;                   /**< FaultReset: 1 asks the drives to clear their faults (on the
+                                                rising edge); any non-zero is sent as 1 */
 } sp_msg_setpoints_t;
 
 typedef struct {
@@ -100,6 +102,9 @@ typedef struct {
     uint8_t drive_mode;
     uint8_t feedforward;
     sp_pose_t estimate;
+    uint8_t reset_refused_legs;  /**< ResetRefusedLegs: bit i, leg i + 1 refused the last fault reset (6 bits;
+                                      higher bits are not sent) */
+    uint8_t reset_refused_cause; /**< ResetRefusedCause: the refusing drives' fault bits */
 } sp_msg_status_t;
 
 typedef struct {

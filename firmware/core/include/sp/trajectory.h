@@ -49,7 +49,10 @@ typedef struct {
     uint32_t phase_step; /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
     uint32_t phase;      /**< current phase, 2^-32 turn */
     uint32_t fade_ticks; /**< fade-in and fade-out length, ticks */
-    uint32_t tick;       /**< ticks since start */
+    uint32_t tick;       /**< ticks since start while they matter: it stops at fade_ticks once the
+                              fade-in is done and counts again from the stop, so a motion that runs
+                              for any time (2^32 ticks are 49.7 days) can still be stopped; it never
+                              reaches the stop_tick sentinel (at most 2 fade_ticks) */
     uint32_t stop_tick;  /**< tick at which the fade-out began (UINT32_MAX: none yet) */
     int finished;        /**< 1 once the fade-out has ended: output is the centre, at rest */
 } sp_trig_t;
