@@ -5,7 +5,7 @@
  *   sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep]
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
- *                 [--operator-reaction stop|park]
+ *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor]
  *
  * Real-time mode (default): the controller is the cycle master; an
  * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
@@ -20,6 +20,10 @@
  * (default stop) set the operator link's supervision: once an operator
  * heartbeat has been heard, a silent operator while RUNNING latches the
  * operator-silent fault and stops (or parks) the platform.
+ * --wrench-source chooses force control's wrench (default: the platform
+ * config's force_sensor.wrench_source): the cylinders' estimate or the
+ * force/torque sensor's FT_SENSOR frames on axis_b (mounted as the config
+ * says).
  * The compute time of each tick is measured in real-time mode, and in
  * lockstep only with --timing (two clock reads per tick, which cost a system
  * call each inside user-mode Linux).
@@ -41,7 +45,8 @@ static void usage(void)
 {
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
-                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n");
+                    "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
+                    "                     [--wrench-source cylinders|sensor]\n");
 }
 
 typedef struct {
@@ -95,6 +100,7 @@ int main(int argc, char **argv)
     long fb_timeout = 0;
     long op_timeout = -1;
     int op_park = 0;
+    int wrench_source = -1;
     unsigned long long max_ticks = 0;
     long timeout_ms = 5000;
     for (int i = 1; i < argc; i++) {
@@ -141,6 +147,14 @@ int main(int argc, char **argv)
                 usage();
                 return 2;
             }
+        } else if (v != NULL && strcmp(a, "--wrench-source") == 0) {
+            i++;
+            if (strcmp(v, "cylinders") == 0 || strcmp(v, "sensor") == 0) {
+                wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS;
+            } else {
+                usage();
+                return 2;
+            }
         } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
             char *end;
             timeout_ms = strtol(v, &end, 10), i++;
@@ -169,18 +183,22 @@ int main(int argc, char **argv)
         cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;
     }
     cfg.ctrl.operator_park = (uint8_t)op_park;
+    cfg.ctrl.wrench_source = (wrench_source >= 0) ? (uint8_t)wrench_source : sp_wrench_source_default;
+    cfg.ctrl.ft_mount = sp_ft_mount_default;
     (void)sp_node_init(&node, &cfg);
 
     /* The controller listens to what is addressed to it. */
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){ifs[0], {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT}, 3u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
+        ifs[0], {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT, SP_ID_OP_FORCE}, 4u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, lockstep ? 4u : 3u};
         if (!lockstep) { /* we are the cycle master: only feedback */
             bc[b].rx_ids[0] = 0x31u, bc[b].rx_ids[1] = 0x32u, bc[b].rx_ids[2] = 0x33u;
         }
     }
+    bc[SP_BUS_AXIS_B].rx_ids[bc[SP_BUS_AXIS_B].n_rx_ids++] = SP_ID_FT_SENSOR;
     static sp_socketcan_t sc;
     if (sp_socketcan_open(&sc, bc) != SP_OK) {
         fprintf(stderr, "sp_controller: %s\n", sc.error);
@@ -190,8 +208,9 @@ int main(int argc, char **argv)
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("sp_controller: cannot catch SIGINT/SIGTERM");
     }
-    fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s\n", lockstep ? "lockstep" : "real-time",
-            ifs[0], ifs[1], ifs[2], ff ? "on" : "off");
+    fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s, wrench source %s\n",
+            lockstep ? "lockstep" : "real-time", ifs[0], ifs[1], ifs[2], ff ? "on" : "off",
+            cfg.ctrl.wrench_source == SP_WRENCH_SENSOR ? "sensor" : "cylinders");
 
     run_stats_t rs;
     memset(&rs, 0, sizeof rs);
@@ -255,12 +274,13 @@ int main(int argc, char **argv)
            (unsigned long long)rs.ticks, sp_state_name(node.out.state), (unsigned)node.out.faults,
            (unsigned long long)rs.misses, rs.timed ? (long long)(rs.sum_ns / (int64_t)rs.timed) : 0LL,
            (long long)rs.worst_ns, (unsigned long long)rs.timed, (unsigned long long)rs.tx_busy);
-    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u", node.stats.accepted, node.stats.lost,
-           node.stats.stale, node.stats.saturated);
+    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u, ft samples %u", node.stats.accepted,
+           node.stats.lost, node.stats.stale, node.stats.saturated, node.stats.ft_samples);
     for (int e = 1; e < SP_PROTO_ERRORS; e++) {
         printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), node.stats.rejected[e]);
     }
     printf("\n");
+    printf("sp_controller commands: refused %u, queue overflow %u\n", node.stats.cmd_refused, node.stats.cmd_overflow);
     for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
         sp_bus_status_t bs;
         (void)port.bus_status(port.ctx, b, &bs);
