@@ -168,3 +168,208 @@ def refusals(status: Status, begin: int, end: int) -> int:
     """Ticks in [begin, end) whose command the controller refused."""
     sel = (status.tick >= begin) & (status.tick < end)
     return int(status.cmd_rejected[sel].sum())
+
+
+# -- the demo's segment ----------------------------------------------------------------------
+
+#: The slide: 100 mm along x at 20 mm/s.
+SLIDE_M = 0.100
+SLIDE_SPEED = 0.020
+#: Hand guiding: a 200 N push along x (the guide damping 1000 N s/m; the
+#: admittance's speed limit 0.1 m/s; the deflection limit 50 mm).
+PUSH_N = 200.0
+GUIDE_DAMPING = 1000.0
+GUIDE_V_MAX = 0.1
+DEFLECTION_M = 0.050
+
+
+def slide_csv(home=(0.0, 0.0, HOME_Z, 0.0, 0.0, 0.0)) -> str:
+    """A play file: x from home to home + SLIDE_M at SLIDE_SPEED, then held 1 s."""
+    t_end = SLIDE_M / SLIDE_SPEED
+    rows = ["t,x,y,z,roll,pitch,yaw"]
+    for t, x in ((0.0, 0.0), (t_end, SLIDE_M), (t_end + 1.0, SLIDE_M)):
+        rows.append(f"{t:.3f},{home[0] + x:.6f},{home[1]:.6f},{home[2]:.6f},{home[3]:.6f},{home[4]:.6f},"
+                    f"{home[5]:.6f}")
+    return "\n".join(rows) + "\n"
+
+
+def demo_scenario(stiffness: float = 1e6, force: float = 2000.0) -> str:
+    """Approach a surface, hold ``force``, slide along it while holding,
+    release, then hand guiding with a push; park. Needs slide.csv
+    (slide_csv) beside the scenario file."""
+    return ("cmd ENGAGE\n"
+            "wait ready 20\n"
+            "delay 0.3\n"
+            + tare()
+            + approach_and_hold(stiffness, force, hold=2.5)
+            + "mark begin slide\n"
+            "cmd STREAM\n"
+            "play slide.csv\n"
+            "mark end slide\n"
+            "mark release\n"
+            "position\n"
+            "delay 1.0\n"
+            "contact off\n"
+            "cmd STOP\n"
+            "wait ready 20\n"
+            "delay 0.5\n"
+            "mark begin guide\n"
+            "guide x\n"
+            "delay 0.3\n"
+            f"push {PUSH_N:g} 0 0 0 0 0 rise=0.02 hold=0.9\n"
+            "delay 1.5\n"
+            "mark end guide\n"
+            "position\n"
+            "delay 1.0\n"
+            "cmd PARK\n"
+            "wait idle 20\n"
+            "delay 0.2\n")
+
+
+def read_ft(log: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """FT_SENSOR frames of a lockstep log: (simulated time s, (N, 6) wrench
+    in sensor axes, N / N m)."""
+    proto = pr.Protocol()
+    msg = proto.message("FT_SENSOR")
+    ts, rows = [], []
+    with open(log) as f:
+        for line in f:
+            if " vcan2 038#" not in line:
+                continue
+            data = line.split("#", 1)[1].strip()
+            raw = bytes.fromhex(data[2:] if data.startswith("#") else data)
+            s = msg.decode(raw, decode_choices=False)
+            ts.append(float(line[1:line.index(")")]))
+            rows.append([s[a] for a in pr.WRENCH_SIGNALS])
+    return np.asarray(ts), np.asarray(rows, dtype=float).reshape(-1, 6)
+
+
+def slide_figures(data, m: dict[str, int], target: float) -> dict:
+    """The slide: the true normal force against ``target`` and the true x
+    against the reference (CTRL_MONITOR) while the reference moves."""
+    t = data.ticks
+    ref_x = data.reference[:, 0]
+    sel = (t >= m["begin slide"]) & (t < m["end slide"])
+    moving = sel & np.isfinite(ref_x) & (np.abs(np.gradient(np.nan_to_num(ref_x))) * 1000.0 > 0.5 * SLIDE_SPEED)
+    fn = -data.truth["wrench"][:, 2]
+    x = data.truth["pose"][:, 0]
+    err = x[moving] - ref_x[moving]
+    return {
+        "force_rms_pct": float(100.0 * np.sqrt(np.mean((fn[moving] - target) ** 2)) / target),
+        "force_max_dev_pct": float(100.0 * np.max(np.abs(fn[moving] - target)) / target),
+        "position_max_mm": float(1000.0 * np.max(np.abs(err))),
+        "position_rms_mm": float(1000.0 * np.sqrt(np.mean(err ** 2))),
+        "travel_mm": float(1000.0 * (np.nanmax(ref_x[sel]) - np.nanmin(ref_x[sel]))),
+        "speed_mm_s": float(np.median(np.gradient(np.nan_to_num(ref_x))[moving]) / 1e-3 * 1000.0),
+        "n": int(moving.sum()),
+    }
+
+
+def guide_figures(data, m: dict[str, int], push_tick: int) -> dict:
+    """Hand guiding: the speed of o' along x while the push holds and the
+    axis is not yet braking, against the admittance's min(F / D, v_max);
+    the largest x against the deflection bound around the position
+    reference (home)."""
+    t = data.ticks
+    x = data.truth["pose"][:, 0]
+    v = np.gradient(x) / 1e-3
+    expect = min(PUSH_N / GUIDE_DAMPING, GUIDE_V_MAX)
+    sel = (t >= push_tick + 60) & (x < 0.6 * DEFLECTION_M) & (t < m["end guide"])
+    seg = (t >= m["begin guide"]) & (t < m["end guide"])
+    return {
+        "speed_mm_s": float(1000.0 * np.median(v[sel])) if sel.any() else None,
+        "expected_mm_s": 1000.0 * expect,
+        "speed_error_pct": float(100.0 * abs(np.median(v[sel]) - expect) / expect) if sel.any() else None,
+        "max_x_mm": float(1000.0 * x[seg].max()),
+        "max_ref_x_mm": float(1000.0 * np.nanmax(data.reference[seg, 0])),
+        "bound_mm": 1000.0 * DEFLECTION_M,
+        "overshoot_mm": float(max(0.0, 1000.0 * (x[seg].max() - DEFLECTION_M))),
+    }
+
+
+def plot_force(data, ft: tuple[np.ndarray, np.ndarray], path: str | Path, title: str,
+               window: tuple[float, float] | None = None) -> None:
+    """Commanded, estimated (the cylinders' estimate and the sensor) and
+    true contact force along z, and the pose (x, z) against the reference."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = data.ticks * 1e-3
+    fig, ax = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
+    a = ax[0]
+    a.plot(t, data.force_target[:, 2], color="k", lw=1.2, label="commanded (target fz)")
+    ok = np.isfinite(data.est_wrench[:, 2])
+    a.plot(t[ok], -data.est_wrench[ok, 2], lw=0.6, color="tab:orange", label="cylinders' estimate (-CTRL_WRENCH fz)")
+    if len(ft[0]):
+        a.plot(ft[0], -(ft[1][:, 2] - np.median(ft[1][:200, 2])), lw=0.6, color="tab:blue",
+               label="force/torque sensor (-fz, less its bias at start)")
+    a.plot(t, -data.truth["wrench"][:, 2], lw=1.0, color="tab:green", label="true (plant)")
+    a.set_ylabel("push along z, N")
+    a.legend(loc="upper right", fontsize=8)
+    a.set_title(title)
+    a = ax[1]
+    a.plot(t, 1000 * (data.truth["pose"][:, 2] - HOME_Z), color="tab:green", label="z true - home")
+    a.plot(t, 1000 * (data.reference[:, 2] - HOME_Z), color="k", lw=0.8, ls="--", label="z reference - home")
+    a.set_ylabel("mm")
+    a.legend(loc="upper right", fontsize=8)
+    a = ax[2]
+    a.plot(t, 1000 * data.truth["pose"][:, 0], color="tab:green", label="x true")
+    a.plot(t, 1000 * data.reference[:, 0], color="k", lw=0.8, ls="--", label="x reference")
+    a.set_ylabel("mm")
+    a.set_xlabel("simulated time, s")
+    a.legend(loc="upper right", fontsize=8)
+    for a in ax:
+        a.grid(alpha=0.3)
+    if window is not None:
+        ax[0].set_xlim(*window)
+        sel = (t >= window[0]) & (t <= window[1])
+        for a, k in ((ax[1], 2), (ax[2], 0)):
+            vals = 1000 * (data.truth["pose"][sel, k] - (HOME_Z if k == 2 else 0.0))
+            if vals.size:
+                a.set_ylim(vals.min() - 2.0, vals.max() + 2.0)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def demo_figures(name: str, data, plant_out: str, ft, out: Path) -> tuple[dict, list[str]]:
+    """The figures of one demo run (the hold, the slide, hand guiding) and
+    the summary lines; draws <out>/<name>.png."""
+    m = marks(plant_out)
+    tr = {"tick": data.ticks, "wrench": data.truth["wrench"], "pose": data.truth["pose"]}
+    fig: dict = {}
+    lines = []
+    source = name.replace("force_", "")
+    t0 = (m.get("begin hold", 0) - 1000) * 1e-3
+    t1 = (m.get("end guide", int(data.ticks[-1])) + 1500) * 1e-3
+    plot_force(data, ft, Path(out) / f"{name}.png", f"force control ({source} as the wrench source)", (t0, t1))
+    status = read_status(Path(out) / f"{name}.log")
+    lost = np.flatnonzero((status.faults & FAULT_CONTACT_LOST) != 0)
+    if lost.size:
+        fig["contact_lost_tick"] = int(status.tick[lost[0]])
+        lines.append(f"force hold ({source}): CONTACT_LOST latched at tick {status.tick[lost[0]]} "
+                     "while the surface was there: the hold failed (docs/force_control.md)")
+        return fig, lines
+    if "begin hold" in m and "end hold" in m:
+        fig["hold"] = h = hold_figures(tr, m["begin hold"], m["end hold"], 2000.0)
+        if h.get("contact_tick") is not None:
+            lim = HOLD_RMS_SENSOR_PCT if source == "sensor" else HOLD_RMS_CYLINDERS_PCT
+            lines.append(f"force hold 2 kN on 1e6 N/m ({source}): true force RMS error {h['rms_pct']:.2f} % "
+                         f"(issue {lim:g} %), overshoot {h['overshoot_pct']:.2f} % ({HOLD_OVERSHOOT_PCT:g} %), "
+                         f"p-p last second {h['pp_pct']:.2f} % ({HOLD_PP_PCT:g} %)")
+    if "begin slide" in m and "end slide" in m:
+        fig["slide"] = s = slide_figures(data, m, 2000.0)
+        lines.append(f"slide 100 mm at 20 mm/s holding 2 kN ({source}): true force RMS error "
+                     f"{s['force_rms_pct']:.2f} % (issue {SLIDE_RMS_PCT:g} %), position along the slide within "
+                     f"{s['position_max_mm']:.3f} mm of its reference ({SLIDE_POS_MM:g} mm)")
+    push = [v for k, v in m.items() if k.startswith("push ")]
+    if push and "end guide" in m:
+        fig["guide"] = g = guide_figures(data, m, push[0])
+        if g["speed_mm_s"] is not None:
+            lines.append(f"hand guiding, {PUSH_N:g} N push ({source}): {g['speed_mm_s']:.1f} mm/s for the "
+                         f"admittance's {g['expected_mm_s']:.0f} (min(F/D, v_max)): {g['speed_error_pct']:.1f} % "
+                         f"(issue 10 %); at the {g['bound_mm']:.0f} mm deflection bound the reference stops at "
+                         f"{g['max_ref_x_mm']:.2f} mm, the platform at {g['max_x_mm']:.2f} mm")
+    return fig, lines
