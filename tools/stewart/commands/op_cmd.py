@@ -328,15 +328,19 @@ def _force(node, args, prepared):
         if st.force_mode != "FORCE":
             print(f"force --update: force control is {st.force_mode}, not FORCE; {st.line()}")
             return 1
-        node._mark()  # keeps every status from here on
-        sent = time.time()
-        _send_force_twice(node, mask, target)
-        time.sleep(_t(args, 0.2))
-        st = node.wait_status(timeout=2.0)
-        for s in list(node.statuses):
-            if s.cmd_rejected and s.stamp >= sent:
-                _err(f"FORCE update refused: {pr_refusal('FORCE', s)}")
-                return 1
+        from ..operator.node import Refused
+
+        mark = node._mark()  # keeps every status from here on
+        sent = node.send_force(mask, target)
+        node.wait_status(timeout=2.0, after=node.status.seq)
+        node.send_force(mask, target)  # the first may meet the E2E check (see _send_force_twice)
+        try:
+            # a refusal comes within a tick or two of the frame; 20 statuses after it, none came
+            ans = node.wait_for("FORCE", lambda s: True, _t(args, 5.0), mark, st, sent, settle=20)
+        except Refused as e:
+            _err(str(e).replace("FORCE refused", "FORCE update refused"))
+            return 1
+        st = ans.status
         print(f"FORCE: target updated to {' '.join(f'{v:g}' for v in target)}; {st.line()}")
         return 0
     _send_force_twice(node, mask, target)
@@ -364,12 +368,6 @@ def _hold_force(node, args, command):
             return 0
         print(f"{command}: force control ended: {st.line()}", flush=True)
         return 0 if not st.faults else 1
-
-
-def pr_refusal(command, st):
-    from ..operator.node import refusal_reason
-
-    return refusal_reason(command, st, st)
 
 
 def _guide(node, args, prepared):
