@@ -31,7 +31,7 @@
  *
  * Scenario file (--scenario): one operator action per line (cmd, target,
  * delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load,
- * play); the language, its
+ * play, force, force_target, guide, position, tare, push, ftsensor); the language, its
  * parser and player are in hs/scenario.h (host_sim/src/scenario.c), what
  * each action does on the bus or to the plant is run_scenario below.
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
@@ -50,6 +50,9 @@
  * controller's own tick), to run through the 2^32 and TickEcho wraps.
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
+ * The force/torque sensor (hs/ftsensor.h, mounted as the config's
+ * force_sensor section) sends its newest sample as FT_SENSOR on axis_b each
+ * cycle, before the cycle's SYNC.
  * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
  * outside world's wrench on the platform (external + contact, base frame,
  * moment about o') and each cylinder's friction (docs/closed_loop.md).
@@ -72,8 +75,9 @@
 
 #include "hs/bus.h"
 #include "hs/co_bus.h"
-#include "hs/kin.h"
+#include "hs/ftsensor.h"
 #include "hs/inject.h"
+#include "hs/kin.h"
 #include "hs/scenario.h"
 #include "sp/node.h"
 #include "host_os.h"
@@ -140,6 +144,12 @@ typedef struct {
     double safe_ref[6];
     double excursion_m, excursion_rad;
     int strokes_ok;
+    hs_ft_t ft;                                          /* the force/torque sensor between platform and tool */
+    uint8_t ft_counter;                                  /* FT_SENSOR's alive counter */
+    int ft_silent;                                       /* scenario `ftsensor off`: the sensor sends nothing */
+    uint8_t force_counter;                               /* OP_FORCE's alive counter */
+    double push[6];                                      /* scenario `push`: its peak wrench */
+    uint64_t push_start, push_rise, push_hold, push_end; /* ticks; push_end 0: none */
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -164,7 +174,11 @@ static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
 static int controller_listens(const sp_can_frame_t *f)
 {
     if (f->bus == SP_BUS_OPS) {
-        return f->id == SP_ID_OP_COMMAND || f->id == SP_ID_OP_TARGET_POSE || f->id == SP_ID_OP_HEARTBEAT;
+        return f->id == SP_ID_OP_COMMAND || f->id == SP_ID_OP_TARGET_POSE || f->id == SP_ID_OP_HEARTBEAT ||
+               f->id == SP_ID_OP_FORCE;
+    }
+    if (f->bus == SP_BUS_AXIS_B && f->id == SP_ID_FT_SENSOR) {
+        return 1;
     }
     return f->id == SP_ID_SYNC || (f->id >= SP_ID_AXIS_FEEDBACK_1 && f->id < SP_ID_AXIS_FEEDBACK_1 + SP_AXIS_SLOTS);
 }
@@ -260,6 +274,36 @@ static int send_target(sim_t *s, const sp_pose_t *pose, uint64_t t_us)
     return send_frames(s, &f, 1u, t_us);
 }
 
+/* The force/torque sensor's newest sample as FT_SENSOR on axis_b (before
+ * the cycle's SYNC, so that the controller uses it in the same tick). */
+static int send_ft(sim_t *s, uint64_t t_us)
+{
+    if (s->ft_silent) {
+        return 0;
+    }
+    sp_msg_ft_t m;
+    sp_can_frame_t f;
+    for (int k = 0; k < 6; k++) {
+        double q = s->ft.reading[k] * 256.0;
+        q = (q > 2.0e9) ? 2.0e9 : ((q < -2.0e9) ? -2.0e9 : q);
+        m.wrench[k] = (sp_q8_t)llround(q);
+    }
+    m.saturated = (uint8_t)(s->ft.saturated ? 1u : 0u);
+    (void)sp_proto_encode_ft(&m, s->ft_counter, &f); /* beyond the signal's range: saturated */
+    s->ft_counter = (uint8_t)((s->ft_counter + 1u) & 0x0Fu);
+    return send_frames(s, &f, 1u, t_us);
+}
+
+/* Advances the sensor to the end of the cycle just integrated. */
+static void ft_advance(sim_t *s, uint64_t tick)
+{
+    hs_state_t st;
+    double rot[3][3];
+    (void)hs_plant_state(&s->plant, &st);
+    hs_rot_from_quat(st.quat, rot);
+    (void)hs_ft_advance(&s->ft, (double)tick * 1.0e-3, rot, st.wrench);
+}
+
 /* One tick of a `play` under way: the pose at this tick as OP_TARGET_POSE;
  * closes the file after the last row. 0 ok, 2 the file went bad, -1 I/O. */
 static int play_tick(sim_t *s, uint64_t tick, uint64_t t_us)
@@ -286,15 +330,33 @@ static int play_tick(sim_t *s, uint64_t tick, uint64_t t_us)
     return send_target(s, &p, t_us) == 0 ? 0 : -1;
 }
 
-/* The external wrench at `tick` on its ramp. */
+/* The share (0..1) of a push's peak at `tick`: a trapezoid. */
+static double push_share(const sim_t *s, uint64_t tick)
+{
+    if (s->push_end == 0u || tick < s->push_start || tick >= s->push_end) {
+        return 0.0;
+    }
+    uint64_t t = tick - s->push_start;
+    if (t < s->push_rise) {
+        return (double)t / (double)s->push_rise;
+    }
+    if (t < s->push_rise + s->push_hold) {
+        return 1.0;
+    }
+    return (s->push_rise > 0u) ? (double)(s->push_end - tick) / (double)s->push_rise : 0.0;
+}
+
+/* The external wrench at `tick` on its ramp, plus a push under way. */
 static void wrench_tick(sim_t *s, uint64_t tick)
 {
     double w[6], f = 1.0;
     if (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks) {
         f = (double)(tick - s->wrench_start) / (double)s->wrench_ticks;
     }
+    double p = push_share(s, tick);
     for (int k = 0; k < 6; k++) {
         w[k] = (f >= 1.0) ? s->wrench_to[k] : s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
+        w[k] += p * s->push[k];
     }
     (void)hs_plant_set_wrench(&s->plant, w, &w[3]);
 }
@@ -424,9 +486,11 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             break;
         case HS_ACTION_WRENCH:
             /* from the wrench acting now (a ramp under way stops where it is) */
-            for (int k = 0; k < 3; k++) {
-                s->wrench_from[k] = s->plant.ext_force[k];
-                s->wrench_from[3 + k] = s->plant.ext_moment[k];
+            for (int k = 0; k < 6; k++) { /* the ramp's own value now (a push is not part of it) */
+                double f = (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks)
+                               ? (double)(tick - s->wrench_start) / (double)s->wrench_ticks
+                               : 1.0;
+                s->wrench_from[k] = s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
             }
             memcpy(s->wrench_to, a->wrench, sizeof s->wrench_to);
             s->wrench_start = tick;
@@ -481,6 +545,44 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
             }
             break;
         }
+        case HS_ACTION_FORCE: {
+            sp_can_frame_t f[2];
+            uint32_t n = 1u;
+            (void)sp_proto_encode_force(&a->force, s->force_counter, &f[0]);
+            s->force_counter = (uint8_t)((s->force_counter + 1u) & 0x0Fu);
+            if (a->cmd.command != 0u) {
+                (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f[1]);
+                s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
+                n = 2u;
+            }
+            printf("hs_sim mark tick %" PRIu64 ": %s mask 0x%02x target %g %g %g %g %g %g\n", tick,
+                   a->cmd.command != 0u ? hs_scenario_command_name(a->cmd.command) : "force_target",
+                   (unsigned)a->force.mask, a->force.target[0] / 256.0, a->force.target[1] / 256.0,
+                   a->force.target[2] / 256.0, a->force.target[3] / 256.0, a->force.target[4] / 256.0,
+                   a->force.target[5] / 256.0);
+            if (send_frames(s, f, n, t_us) != 0) {
+                return -1;
+            }
+            break;
+        }
+        case HS_ACTION_PUSH:
+            memcpy(s->push, a->wrench, sizeof s->push);
+            s->push_start = tick;
+            s->push_rise = a->ticks;
+            s->push_hold = a->hold;
+            s->push_end = tick + 2u * a->ticks + a->hold;
+            if (s->push_end == tick) {
+                s->push_end = 0u; /* rise and hold 0: nothing */
+            }
+            wrench_tick(s, tick);
+            printf("hs_sim mark tick %" PRIu64 ": push %g %g %g %g %g %g rise %.3f s hold %.3f s\n", tick, a->wrench[0],
+                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0,
+                   (double)a->hold / 1000.0);
+            break;
+        case HS_ACTION_FTSENSOR:
+            s->ft_silent = (a->bits == 0u);
+            printf("hs_sim mark tick %" PRIu64 ": ftsensor %s\n", tick, s->ft_silent ? "off" : "on");
+            break;
         case HS_ACTION_WAIT:
             if (s->progress) {
                 fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, sp_state_name(a->state));
@@ -815,6 +917,7 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
                     sp_can_frame_t tx[HS_BUS_MAX_TX];
                     uint32_t n = 0;
                     (void)hs_bus_cycle_frames(&s->bus, &s->plant, m.tick, 0u, tx, &n);
+                    (void)send_ft(s, t_us);
                     (void)send_frames(s, tx, n, t_us);
                     *answered = m.tick;
                     *have_answered = 1;
@@ -1028,13 +1131,24 @@ int main(int argc, char **argv)
         (void)sp_node_init(&s.node, &s.ncfg);
         s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
     }
+    hs_ft_params_t ftp = hs_ft_default_params();
+    for (int k = 0; k < 3; k++) {
+        ftp.mount_pos[k] = hs_config_default.force_sensor.mount_pos[k];
+        ftp.mount_rpy[k] = hs_config_default.force_sensor.mount_rpy[k];
+    }
+    ftp.rate_hz = hs_config_default.force_sensor.rate_hz;
+    if (hs_ft_init(&s.ft, &ftp, par.sensors.seed + 0x5eed0f7u) != HS_OK) {
+        fprintf(stderr, "hs_sim: the config's force_sensor section is not usable\n");
+        return 1;
+    }
+    ft_advance(&s, 0u);
 
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
-        s.ifs[0],
-        {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE},
-        5u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s.ifs[0],
+                                              {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH,
+                                               SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE},
+                                              6u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
         if (s.canopen) { /* NMT, SYNC, and per node RPDO1 and SDO requests */
@@ -1115,7 +1229,7 @@ int main(int argc, char **argv)
             uint32_t n = 0;
             uint32_t sync_tick = (uint32_t)(tick + s.tick0); /* modulo 2^32, as the DBC's Tick */
             (void)hs_bus_cycle_frames(&s.bus, &s.plant, sync_tick, 1u, tx, &n);
-            if (send_frames(&s, tx, n, t_us) != 0) {
+            if (send_ft(&s, t_us) != 0 || send_frames(&s, tx, n, t_us) != 0) {
                 rc = 1;
                 break;
             }
@@ -1171,6 +1285,7 @@ int main(int argc, char **argv)
             canopen_cycle(&s, t_us);
         }
         tick++;
+        ft_advance(&s, tick);
         if (s.progress && tick % 1000u == 0u) {
             progress_line(&s, tick);
         }

@@ -12,14 +12,17 @@
 #include <strings.h>
 
 #define WHY_LEN 200        /* what is wrong with a line, without its name and number */
-#define N_COMMANDS 10      /* OP_COMMAND values 0..SP_CMD_SET_FEEDFORWARD */
+#define N_COMMANDS 14      /* OP_COMMAND values 0..SP_CMD_WIRE_MAX (TARE) */
 #define MAX_SECONDS 1.0e6  /* longest delay or wait timeout */
 #define MAX_TARGET 8.0     /* largest |value| of a target pose, m or rad */
 #define MAX_FADE_S 65.0    /* longest fade, s */
 #define Q24_ONE 16777216.0 /* 1.0 in Q24 */
-#define COMMAND_LIST "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD"
+#define COMMAND_LIST                                                                                                   \
+    "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD, FORCE, GUIDE, POSITION, TARE"
 #define ACTION_LIST                                                                                                    \
-    "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, inject"
+    "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, force, "             \
+    "force_target, guide, position, tare, push, ftsensor, inject"
+#define MAX_FT 16383.0     /* largest |value| of an OP_FORCE target, N or N m (the frame's range) */
 #define MAX_WRENCH 1.0e6   /* largest |value| of a wrench, N or N m */
 #define MAX_GEOMETRY 100.0 /* largest |value| of a contact or load position, m */
 #define MAX_CONTACT 1.0e9  /* largest contact stiffness (N/m) and damping (N s/m) */
@@ -38,7 +41,9 @@ static const char *const k_commands[N_COMMANDS] = {
     [SP_CMD_RUN_TRIG] = "RUN_TRIG", [SP_CMD_MOVE_TO] = "MOVE_TO",
     [SP_CMD_STREAM] = "STREAM",     [SP_CMD_STOP] = "STOP",
     [SP_CMD_PARK] = "PARK",         [SP_CMD_ESTOP] = "ESTOP",
-    [SP_CMD_RESET] = "RESET",       [SP_CMD_SET_FEEDFORWARD] = "SET_FEEDFORWARD"};
+    [SP_CMD_RESET] = "RESET",       [SP_CMD_SET_FEEDFORWARD] = "SET_FEEDFORWARD",
+    [SP_CMD_FORCE] = "FORCE",       [SP_CMD_GUIDE] = "GUIDE",
+    [SP_CMD_POSITION] = "POSITION", [SP_CMD_TARE] = "TARE"};
 
 static const char *const k_axes[SP_AXIS_COUNT] = {
     [SP_AXIS_X] = "x",       [SP_AXIS_Y] = "y",         [SP_AXIS_Z] = "z",
@@ -624,6 +629,88 @@ static int parse_play(char **w, int nw, const char *dir, hs_action_t *a, char wh
 
 /* Parses one line (modified in place). 1: an action in *a, 0: blank or comment, -1: error (why).
  * dir: where relative play files are (NULL: the working directory). */
+/* AXES of force, force_target and guide: axis names joined by commas, or
+ * the mask as a number 0..63. 0 ok (*mask), -1 (why). */
+static int parse_axes(const char *s, uint8_t *mask, char why[WHY_LEN])
+{
+    double v;
+    if (parse_double(s, &v) == 0) {
+        if (v < 0.0 || v > 63.0 || v != floor(v)) {
+            return fail(why, "axes mask %.40s is out of range (a whole number 0..63)", s);
+        }
+        *mask = (uint8_t)v;
+        return 0;
+    }
+    char buf[64];
+    if (strlen(s) >= sizeof buf) {
+        return fail(why, "axes '%.40s...' too long (" AXIS_LIST ", joined by commas)", s);
+    }
+    strcpy(buf, s);
+    unsigned m = 0u;
+    for (char *tok = buf; tok != NULL;) {
+        char *comma = strchr(tok, ',');
+        if (comma != NULL) {
+            *comma = '\0';
+        }
+        int ax = lookup(tok, k_axes, SP_AXIS_COUNT);
+        if (ax < 0) {
+            return fail(why, "unknown axis '%.40s' (" AXIS_LIST ", joined by commas, or a mask 0..63)", tok);
+        }
+        m |= 1u << ax;
+        tok = (comma != NULL) ? comma + 1 : NULL;
+    }
+    *mask = (uint8_t)m;
+    return 0;
+}
+
+/* force AXES F x6 (command FORCE), force_target AXES F x6 (none), guide AXES (GUIDE). */
+static int parse_force(char **w, int nw, uint8_t command, hs_action_t *a, char why[WHY_LEN])
+{
+    const char *what = (command == SP_CMD_GUIDE) ? "guide" : ((command == 0u) ? "force_target" : "force");
+    int want = (command == SP_CMD_GUIDE) ? 2 : 8;
+    if (nw != want) {
+        return fail(why, "%s needs %s, got %d word(s)", what,
+                    (command == SP_CMD_GUIDE) ? "the axes" : "the axes and 6 numbers (fx fy fz mx my mz)", nw - 1);
+    }
+    a->kind = HS_ACTION_FORCE;
+    a->cmd.command = command;
+    if (parse_axes(w[1], &a->force.mask, why) != 0) {
+        return -1;
+    }
+    if (command != SP_CMD_GUIDE) {
+        double v[6];
+        if (parse_numbers(w, 2, 6, MAX_FT, what, "N or N m", v, why) != 0) {
+            return -1;
+        }
+        for (int k = 0; k < 6; k++) {
+            a->force.target[k] = (sp_q8_t)llround(v[k] * 256.0);
+        }
+    }
+    return 1;
+}
+
+static int parse_push(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    static const char *const keys[2] = {"rise", "hold"};
+    static const double max[2] = {MAX_SECONDS, MAX_SECONDS};
+    double v[2] = {0.0, 0.0};
+    unsigned seen;
+    if (nw != 9) {
+        return fail(why, "push needs 6 numbers (fx fy fz mx my mz), rise=S and hold=S; got %d word(s)", nw - 1);
+    }
+    a->kind = HS_ACTION_PUSH;
+    if (parse_numbers(w, 1, 6, MAX_WRENCH, "push", "N or N m", a->wrench, why) != 0 ||
+        parse_keys(w, 7, nw, "push", keys, max, 2, v, &seen, why) != 0) {
+        return -1;
+    }
+    if (seen != 3u) {
+        return fail(why, "push needs both rise=S and hold=S");
+    }
+    a->ticks = ticks_of(v[0]);
+    a->hold = ticks_of(v[1]);
+    return 1;
+}
+
 static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_LEN])
 {
     char *hash = strchr(line, '#');
@@ -678,6 +765,34 @@ static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_
     }
     if (strcasecmp(kw, "inject") == 0) {
         return hs_scenario_parse_inject(w, nw, a, why, WHY_LEN);
+    }
+    if (strcasecmp(kw, "force") == 0) {
+        return parse_force(w, nw, SP_CMD_FORCE, a, why);
+    }
+    if (strcasecmp(kw, "force_target") == 0) {
+        return parse_force(w, nw, 0u, a, why);
+    }
+    if (strcasecmp(kw, "guide") == 0) {
+        return parse_force(w, nw, SP_CMD_GUIDE, a, why);
+    }
+    if (strcasecmp(kw, "position") == 0 || strcasecmp(kw, "tare") == 0) {
+        if (nw != 1) {
+            return fail(why, "%s takes no arguments, got %d", kw, nw - 1);
+        }
+        a->kind = HS_ACTION_CMD;
+        a->cmd.command = (uint8_t)((strcasecmp(kw, "tare") == 0) ? SP_CMD_TARE : SP_CMD_POSITION);
+        return 1;
+    }
+    if (strcasecmp(kw, "push") == 0) {
+        return parse_push(w, nw, a, why);
+    }
+    if (strcasecmp(kw, "ftsensor") == 0) {
+        if (nw != 2 || (strcasecmp(w[1], "off") != 0 && strcasecmp(w[1], "on") != 0)) {
+            return fail(why, "ftsensor takes 'off' or 'on'");
+        }
+        a->kind = HS_ACTION_FTSENSOR;
+        a->bits = (strcasecmp(w[1], "on") == 0) ? 1u : 0u;
+        return 1;
     }
     if (strcasecmp(kw, "end") == 0) {
         if (nw != 1) {

@@ -7,7 +7,8 @@ neither side keeps 1 ms deadlines, so the controller's feedback supervision
 and the drives' setpoint watchdog are relaxed (as in
 test_real_time_mode_exchanges_frames) and every timeout is generous; the
 session is: engage, run, move, stream from CSV, stream from UDP, a refused
-command, stop, park, estop, reset, and a silent operator (the process that
+command, force control (tare, force, a target update, position, guide),
+stop, park, estop, reset, and a silent operator (the process that
 runs the motion killed) latching OPERATOR_SILENT and stopping the platform.
 Command-to-state-change latency (ENGAGE -> ENGAGING, ESTOP -> ESTOP) is
 counted in controller ticks on the candump log: CTRL_STATUS frames after the
@@ -238,6 +239,35 @@ def test_operator_session(rig, tmp_path):
     r = op("feedforward", "off", check=0)
     assert "feed-forward off" in r.stdout.split(";")[1]
     op("feedforward", "on", check=0)
+
+    # -- force control (issue 15), in free space: tare; a FORCE beyond the
+    # controller's 8 kN refused with the reason; FORCE with 500 N up held by
+    # one process (its heartbeat keeps force control on); a target update
+    # from another; an update with other axes refused; `position` from a
+    # third ends it (the first process then exits 0); hand guiding for 1 s
+    r = op("tare", check=0)
+    assert "TARE:" in r.stdout
+    time.sleep(1.0)                      # the 500 readings of the tare
+    r = op("force", "z", 0, 0, 12000, 0, 0, 0, check=1)
+    assert "FORCE refused" in r.stderr and "beyond the controller's limits" in r.stderr
+    force = subprocess.Popen(STEWART + ["op", "force", "z", "0", "0", "500", "0", "0", "0"], cwd=REPO_ROOT,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = force.stdout.readline()
+    assert first.startswith("FORCE: FORCE") and "force control FORCE" in first, (first, force.communicate())
+    r = op("force", "z", 0, 0, 800, 0, 0, 0, "--update", check=0)
+    assert "target updated" in r.stdout
+    r = op("force", "x", 0, 0, 800, 0, 0, 0, "--update", check=1)
+    assert "FORCE update refused" in r.stderr
+    r = op("position", check=0)
+    assert "POSITION: position control" in r.stdout
+    out, err = force.communicate(timeout=60)
+    print(first, out, err)
+    assert force.returncode == 0 and "force control ended" in out and "Traceback" not in err
+    assert status()["force_mode"] == "OFF" and status()["faults"] == []
+    r = op("guide", "x,y", "--duration", "1", check=0)
+    assert "GUIDE: GUIDE" in r.stdout and "position control (duration)" in r.stdout
+    r = op("position", check=0)
+    assert "nothing to leave" in r.stdout
 
     # -- silent operator: the process running the motion dies
     run = subprocess.Popen(STEWART + ["op", "run", "y", "0.02", "0.5", "--fade", "0.3"], cwd=REPO_ROOT,

@@ -112,7 +112,63 @@ static void test_cmd_names(void **state)
     assert_string_equal(hs_scenario_command_name(0), "NONE");
     assert_string_equal(hs_scenario_command_name(2), "RUN_TRIG");
     assert_string_equal(hs_scenario_command_name(9), "SET_FEEDFORWARD");
-    assert_string_equal(hs_scenario_command_name(10), "unknown");
+    assert_string_equal(hs_scenario_command_name(10), "FORCE");
+    assert_string_equal(hs_scenario_command_name(13), "TARE");
+    assert_string_equal(hs_scenario_command_name(14), "unknown");
+}
+
+/* Force control as an operator sends it: OP_FORCE (mask, target) with
+ * OP_COMMAND FORCE or GUIDE, a target update alone, POSITION, TARE; a
+ * person's push; the sensor switched off. */
+static void test_force_actions(void **state)
+{
+    (void)state;
+    const hs_action_t *a = one("force z 0 0 2000 0 0 -12.5");
+    assert_int_equal(a->kind, HS_ACTION_FORCE);
+    assert_int_equal(a->cmd.command, SP_CMD_FORCE);
+    assert_int_equal(a->force.mask, 0x04);
+    assert_int_equal(a->force.target[2], 2000 * 256);
+    assert_int_equal(a->force.target[5], -3200);
+    a = one("force x,Z,yaw 10 0 -5 0 0 1");
+    assert_int_equal(a->force.mask, 0x25);
+    a = one("force 0 0 0 1 0 0 0");
+    assert_int_equal(a->force.mask, 0);
+    a = one("force_target 4 0 0 2500 0 0 0");
+    assert_int_equal(a->kind, HS_ACTION_FORCE);
+    assert_int_equal(a->cmd.command, 0);
+    assert_int_equal(a->force.target[2], 2500 * 256);
+    a = one("guide x,y");
+    assert_int_equal(a->cmd.command, SP_CMD_GUIDE);
+    assert_int_equal(a->force.mask, 0x03);
+    assert_int_equal(a->force.target[0], 0);
+    a = one("position");
+    assert_int_equal(a->kind, HS_ACTION_CMD);
+    assert_int_equal(a->cmd.command, SP_CMD_POSITION);
+    a = one("TARE");
+    assert_int_equal(a->cmd.command, SP_CMD_TARE);
+    a = one("cmd GUIDE");
+    assert_int_equal(a->cmd.command, SP_CMD_GUIDE);
+    a = one("push 200 0 0 0 0 0 rise=0.2 hold=1.5");
+    assert_int_equal(a->kind, HS_ACTION_PUSH);
+    assert_true(a->wrench[0] == 200.0);
+    assert_int_equal(a->ticks, 200);
+    assert_int_equal(a->hold, 1500);
+    a = one("ftsensor off");
+    assert_int_equal(a->kind, HS_ACTION_FTSENSOR);
+    assert_int_equal(a->bits, 0);
+    a = one("ftsensor ON");
+    assert_int_equal(a->bits, 1);
+
+    refused("force z 0 0 2000 0 0", 1, "force needs the axes and 6 numbers");
+    refused("force q 0 0 2000 0 0 0", 1, "unknown axis 'q'");
+    refused("force 64 0 0 2000 0 0 0", 1, "axes mask 64 is out of range");
+    refused("force z 0 0 16384 0 0 0", 1, "force value 16384 is out of range");
+    refused("guide", 1, "guide needs the axes");
+    refused("position now", 1, "position takes no arguments");
+    refused("push 200 0 0 0 0 0 rise=0.2", 1, "push needs 6 numbers");
+    refused("push 200 0 0 0 0 0 rise=0.2 rise=0.3", 1, "push: argument 'rise' given twice");
+    refused("push 200 0 0 0 0 0 rise=0.2 hold=-1", 1, "push: hold -1 is out of range");
+    refused("ftsensor", 1, "ftsensor takes 'off' or 'on'");
 }
 
 static void test_cmd_arguments(void **state)
@@ -455,10 +511,10 @@ static void test_overlong_and_empty(void **state)
     assert_int_equal(hs_scenario_parse(NULL, "end", "t", &err), HS_E_ARG);
     assert_int_equal(hs_scenario_parse(&sc, NULL, "t", &err), HS_E_ARG);
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, &err), HS_E_SYNTAX);
-    assert_string_equal(
-        err.message,
-        "scenario:1: unknown action 'frob' "
-        "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, inject)");
+    assert_string_equal(err.message,
+                        "scenario:1: unknown action 'frob' "
+                        "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, "
+                        "force, force_target, guide, position, tare, push, ftsensor, inject)");
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, NULL), HS_E_SYNTAX);
     assert_int_equal(hs_scenario_parse(&sc, "end", NULL, NULL), HS_OK);
     assert_int_equal(hs_scenario_load(&sc, NULL, &err), HS_E_ARG);
@@ -772,6 +828,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cmd_names),
+        cmocka_unit_test(test_force_actions),
         cmocka_unit_test(test_cmd_arguments),
         cmocka_unit_test(test_target),
         cmocka_unit_test(test_delay_and_wait),

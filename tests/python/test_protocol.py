@@ -21,12 +21,14 @@ SPEC = {
     "OP_COMMAND": (0x040, 12, ("ops",)),
     "OP_TARGET_POSE": (0x050, 24, ("ops",)),
     "OP_HEARTBEAT": (0x060, 4, ("ops",)),
+    "OP_FORCE": (0x048, 20, ("ops",)),
+    "FT_SENSOR": (0x038, 20, ("axis_b",)),
     "CTRL_STATUS": (0x100, 32, ("ops",)),
     "CTRL_MONITOR": (0x101, 64, ("ops",)),
     "CTRL_WRENCH": (0x102, 24, ("ops",)),
 }
 #: Messages not sent every 1 ms, and their period.
-PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20}
+PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10}
 
 
 @pytest.fixture()
@@ -94,12 +96,13 @@ def test_dbc_scales_and_ranges_as_specified(proto):
     cmd = proto.message("OP_COMMAND").get_signal_by_name("Command")
     assert str(cmd.choices[9]) == "SET_FEEDFORWARD" and str(cmd.choices[7]) == "ESTOP"
     st = proto.message("CTRL_STATUS").get_signal_by_name("State")
-    assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 9 and st.maximum == 6
+    assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 13 and st.maximum == 6
 
 
 def test_value_names_are_the_dbc_value_tables(tmp_path):
     assert pr.value_names("CTRL_STATUS", "State")[3] == "RUNNING"
-    assert pr.value_names("OP_COMMAND", "Command")[-1] == "SET_FEEDFORWARD"
+    assert pr.value_names("OP_COMMAND", "Command")[9] == "SET_FEEDFORWARD"
+    assert pr.value_names("OP_COMMAND", "Command")[10:] == ("FORCE", "GUIDE", "POSITION", "TARE")
     assert pr.value_names("AXIS_FEEDBACK_3", "State") == ("INIT", "HOLD", "ACTIVE", "FAULT")
     assert pr.axis_names() == ("x", "y", "z", "roll", "pitch", "yaw")
     with pytest.raises(ValueError, match="SYNC.Tick has no value table"):
@@ -400,7 +403,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "35.6 %" in text and "47.7 %" in text
+    assert "35.6 %" in text and "43.8 %" in text and "48.5 %" in text
 
 
 def test_doc_cli_check(tmp_path):

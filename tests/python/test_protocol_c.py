@@ -38,6 +38,8 @@ CODECS = {
     "OP_COMMAND": ("sp_proto_decode_command", "sp_proto_encode_command", "ops"),
     "OP_TARGET_POSE": ("sp_proto_decode_target", "sp_proto_encode_target", "ops"),
     "OP_HEARTBEAT": ("sp_proto_decode_heartbeat", "sp_proto_encode_heartbeat", "bare"),
+    "OP_FORCE": ("sp_proto_decode_force", "sp_proto_encode_force", "ops"),
+    "FT_SENSOR": ("sp_proto_decode_ft", "sp_proto_encode_ft", "ops"),
     "CTRL_STATUS": ("sp_proto_decode_status", "sp_proto_encode_status", "ops"),
     "CTRL_MONITOR": ("sp_proto_decode_monitor", "sp_proto_encode_monitor", "ops"),
     "CTRL_WRENCH": ("sp_proto_decode_wrench", "sp_proto_encode_wrench", "ops"),
@@ -100,7 +102,7 @@ def test_c_node_rejects_malformed_frames_like_python():
         # frames the controller does not consume (its own messages) are
         # unknown to it whatever else is wrong with them
         ours = name in ("SYNC", "AXIS_FEEDBACK_1", "AXIS_FEEDBACK_2", "AXIS_FEEDBACK_3", "OP_COMMAND",
-                        "OP_TARGET_POSE", "OP_HEARTBEAT")
+                        "OP_TARGET_POSE", "OP_HEARTBEAT", "OP_FORCE", "FT_SENSOR")
         expect = m["kind"] if ours or name is None else "unknown-id"
         if name == "SYNC":
             expect = "unknown-id"  # a real-time controller is the SYNC master itself

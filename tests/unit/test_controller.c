@@ -914,6 +914,50 @@ static void force_rig(rig_t *r, surface_t *s)
     s->z_s = f24(r->out.reference.pose.pos[2]) - 0.002; /* 2 mm below the tool */
 }
 
+/* TARE on the cylinders' estimate: refused outside READY; in READY it
+ * averages ft_tare_samples ticks of the estimate into the bias, and force
+ * control's wrench is then the estimate less that bias, exactly. */
+static void test_cylinder_estimate_tare(void **state)
+{
+    static rig_t r;
+    surface_t s = {0.0, 0.0, 0.0, 0};
+    (void)state;
+    rig_init(&r);
+    r.cfg.wrench_source = SP_WRENCH_CYLINDERS;
+    r.cfg.ft_tare_samples = 100u;
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
+    for (int n = 0; n < 3; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    force_tick(&r, &s, SP_CMD_TARE);
+    assert_int_equal(r.out.cmd_rejected, 1); /* IDLE */
+    force_tick(&r, &s, SP_CMD_ENGAGE);
+    for (int n = 0; n < 20000 && r.out.state != SP_STATE_READY; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    for (int n = 0; n < 200; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.wrench_valid, 1);
+    assert_memory_equal(r.out.force_wrench, r.out.wrench, sizeof r.out.wrench); /* no bias yet */
+    force_tick(&r, &s, SP_CMD_TARE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (int n = 0; n < 150; ++n) {
+        force_tick(&r, &s, SP_CMD_NONE);
+    }
+    assert_int_equal(r.ctrl.cyl_tare.tared, 1);
+    double biggest = 0.0;
+    for (int k = 0; k < 6; ++k) {
+        assert_int_equal(r.out.force_wrench[k], r.out.wrench[k] - r.ctrl.cyl_tare.bias[k]);
+        biggest = fmax(biggest, fabs(r.out.wrench[k] / 256.0));
+        /* at rest the estimate is steady: less its mean, within 1 N */
+        assert_true(fabs(r.out.force_wrench[k] / 256.0) <= 1.0);
+    }
+    assert_true(biggest > 10.0); /* the estimate itself is far from 0 here: the tare is what removed it */
+    print_message("cylinders' estimate at rest: largest component %.1f N (N m), tared to within 1\n", biggest);
+}
+
 static void test_force_hold_and_contact_lost(void **state)
 {
     static rig_t r;
@@ -1064,6 +1108,7 @@ int main(void)
         cmocka_unit_test(test_estimate_matches_full_fk),
         cmocka_unit_test(test_estop_and_divergence),
         cmocka_unit_test(test_fk_failure_faults),
+        cmocka_unit_test(test_cylinder_estimate_tare),
         cmocka_unit_test(test_force_hold_and_contact_lost),
         cmocka_unit_test(test_force_release_and_park),
         cmocka_unit_test(test_operator_link_force),

@@ -117,6 +117,44 @@ static void rig_tick(rig_t *r)
     }
 }
 
+static void send_force(rig_t *r, uint8_t mask, double fz)
+{
+    sp_msg_force_t m;
+    memset(&m, 0, sizeof m);
+    m.mask = mask;
+    m.target[2] = (sp_q8_t)(fz * 256.0);
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_force(&m, r->op_counter++, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
+}
+
+/* One FT_SENSOR frame on axis_b (the sensor at rest: fz N of bias). */
+static void send_ft(rig_t *r, uint8_t counter, double fz)
+{
+    sp_msg_ft_t m;
+    memset(&m, 0, sizeof m);
+    m.wrench[2] = (sp_q8_t)(fz * 256.0);
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_ft(&m, counter, &f), SP_OK);
+    assert_int_equal(f.bus, SP_BUS_AXIS_B);
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
+}
+
+/* CTRL_STATUS of the last tick. */
+static sp_msg_status_t last_status(const rig_t *r)
+{
+    sp_msg_status_t s;
+    memset(&s, 0, sizeof s);
+    for (uint32_t k = 0; k < r->n_sent; k++) {
+        if (r->sent[k].id == SP_ID_CTRL_STATUS) {
+            uint8_t counter;
+            sp_proto_error_t e;
+            assert_int_equal(sp_proto_decode_status(&r->sent[k], &s, &counter, &e), SP_OK);
+        }
+    }
+    return s;
+}
+
 static void run_until(rig_t *r, sp_state_t state, uint32_t max_ticks)
 {
     for (uint32_t t = 0; t < max_ticks && r->node.out.state != state; t++) {
@@ -344,9 +382,9 @@ static void test_malformed_frames_are_counted_and_dropped(void **state)
     f.len = 200;
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_BAD_LENGTH);
-    /* out of range: command 12 with a valid CRC */
+    /* out of range: command 14 with a valid CRC (10..13 are force control's) */
     f = good;
-    f.data[0] = 12;
+    f.data[0] = 14;
     assert_int_equal(sp_e2e_seal(&f), SP_OK);
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_OUT_OF_RANGE);
@@ -579,6 +617,94 @@ static void test_feedback_pressures_at_1_kpa(void **state)
     assert_int_equal(d.pressure_b, 65535000u);
 }
 
+/* Force control over frames: FT_SENSOR (axis_b only) becomes the sensor
+ * reading; TARE; FORCE without an OP_FORCE, with a target beyond the
+ * limit and with another mask is refused (counted, reported in
+ * CTRL_STATUS, nothing moves); OP_FORCE + FORCE enters force control; a
+ * lone OP_FORCE updates the target; POSITION releases. */
+static void test_force_commands_over_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    sp_can_frame_t f;
+    sp_proto_error_t why;
+    rig_init(&r);
+    r.cfg.ctrl.wrench_source = SP_WRENCH_SENSOR;
+    r.cfg.ctrl.ft_tare_samples = 10u;
+    assert_int_equal(sp_node_init(&r.node, &r.cfg), SP_OK);
+    uint8_t ft = 0u;
+    /* the sensor's frame on the wrong bus is refused */
+    sp_msg_ft_t m;
+    memset(&m, 0, sizeof m);
+    assert_int_equal(sp_proto_encode_ft(&m, 0u, &f), SP_OK);
+    f.bus = SP_BUS_AXIS_A;
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_WRONG_BUS);
+    rig_tick(&r);
+    rig_tick(&r);
+    send_command(&r, SP_CMD_ENGAGE);
+    for (uint32_t t = 0; t < 10000u && r.node.out.state != SP_STATE_READY; t++) {
+        send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+        rig_tick(&r);
+    }
+    assert_int_equal(r.node.out.state, SP_STATE_READY);
+    assert_int_equal(r.node.in.ft_fresh, 0u); /* consumed by the tick */
+    /* FORCE before the tare: refused (the sensor's bias is unknown) */
+    send_force(&r, 0x04u, 1000.0);
+    send_command(&r, SP_CMD_FORCE);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 1u);
+    assert_int_equal(r.node.stats.cmd_refused, 1u);
+    send_command(&r, SP_CMD_TARE);
+    for (uint32_t t = 0; t < 20u; t++) {
+        send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+        rig_tick(&r);
+    }
+    assert_int_equal(r.node.ctrl.ft_tare.tared, 1u);
+    assert_int_equal(r.node.ctrl.ft_tare.bias[2], 15 * 256);
+    /* a target beyond the controller's 8 kN: refused, still position control */
+    send_force(&r, 0x04u, 12000.0);
+    send_command(&r, SP_CMD_FORCE);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 1u);
+    assert_int_equal(last_status(&r).cmd_rejected, 1u);
+    assert_int_equal(r.node.out.force_mode, SP_FORCE_OFF);
+    assert_int_equal(r.node.stats.cmd_refused, 2u);
+    assert_int_equal(r.node.out.faults, 0u);
+    /* a good one: FORCE on z with 1 kN */
+    send_force(&r, 0x04u, 1000.0);
+    send_command(&r, SP_CMD_FORCE);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 0u);
+    assert_int_equal(r.node.out.force_mode, SP_FORCE_FORCE);
+    assert_int_equal(r.node.out.force_target[2], 1000 * 256);
+    assert_int_equal(last_status(&r).force_mode, SP_FORCE_FORCE);
+    /* a lone OP_FORCE with the same mask updates the target, once */
+    send_force(&r, 0x04u, 1500.0);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 0u);
+    assert_int_equal(r.node.out.force_target[2], 1500 * 256);
+    assert_int_equal(r.node.force_fresh, 0u);
+    /* another mask: the update is refused, the target stays */
+    send_force(&r, 0x01u, 500.0);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 1u);
+    assert_int_equal(r.node.out.force_target[2], 1500 * 256);
+    assert_int_equal(r.node.stats.cmd_refused, 3u);
+    /* POSITION lets go */
+    send_command(&r, SP_CMD_POSITION);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.force_mode, SP_FORCE_RELEASE);
+    assert_int_equal(r.node.out.faults, 0u);
+    assert_true(r.node.stats.ft_samples > 30u);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -593,6 +719,7 @@ int main(void)
         cmocka_unit_test(test_wrench_frame_round_trip_and_saturation),
         cmocka_unit_test(test_feedback_pressures_at_1_kpa),
         cmocka_unit_test(test_operator_heartbeat_over_frames),
+        cmocka_unit_test(test_force_commands_over_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

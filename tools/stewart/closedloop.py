@@ -109,6 +109,7 @@ class RunSpec:
     seed: int | None = None
     timeout_ms: int = 2000
     plant_args: tuple[str, ...] = ()  # more hs_sim options (e.g. the wrap tests' --tick0)
+    wrench_source: str | None = None  #: force control's: "cylinders" or "sensor" (None: the config's)
 
 
 @dataclass
@@ -153,6 +154,8 @@ def _runner(specs: list[RunSpec], bins: Binaries, out: Path, progress: bool) -> 
         ctl = [str(bins.controller), "--lockstep", "--timeout-ms", "1000"]
         if not s.feedforward:
             ctl.append("--no-feedforward")
+        if s.wrench_source is not None:
+            ctl += ["--wrench-source", s.wrench_source]
         plant = [str(bins.plant), "--lockstep", "--scenario", str(scn), "--log", str(out / f"{s.name}.log"),
                  "--truth", str(out / f"{s.name}.truth.csv"), "--timeout-ms", str(s.timeout_ms)]
         if s.seed is not None:

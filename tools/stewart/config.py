@@ -156,6 +156,35 @@ SENSOR_KEYS = {
 }
 
 
+#: The force/torque sensor section (``force_sensor``, optional): which wrench
+#: force control uses and where the sensor sits (docs/force_control.md).
+WRENCH_SOURCES = ("cylinders", "sensor")
+FORCE_SENSOR_DEFAULT = {"wrench_source": "cylinders", "mount_pos": [0.0, 0.0, 0.0],
+                        "mount_rpy": [0.0, 0.0, 0.0], "rate_hz": 7000.0}
+_FORCE_SENSOR_KEYS = set(FORCE_SENSOR_DEFAULT)
+
+
+def _force_sensor(d) -> dict:
+    s = d.get("force_sensor", {})
+    if not isinstance(s, dict):
+        raise ConfigError("force_sensor: expected an object")
+    for key in s:
+        if key not in _FORCE_SENSOR_KEYS:
+            raise ConfigError(f"force_sensor.{key}: unknown key (known: {', '.join(sorted(_FORCE_SENSOR_KEYS))})")
+    src = s.get("wrench_source", FORCE_SENSOR_DEFAULT["wrench_source"])
+    if src not in WRENCH_SOURCES:
+        raise ConfigError(f"force_sensor.wrench_source: {json.dumps(src)[:40]} is not one of "
+                          f"{', '.join(WRENCH_SOURCES)}")
+    return {
+        "wrench_source": src,
+        "mount_pos": _vector("force_sensor.mount_pos", s.get("mount_pos", FORCE_SENSOR_DEFAULT["mount_pos"]), 3,
+                             -10.0, 10.0),
+        "mount_rpy": _vector("force_sensor.mount_rpy", s.get("mount_rpy", FORCE_SENSOR_DEFAULT["mount_rpy"]), 3,
+                             -math.pi, math.pi),
+        "rate_hz": _number("force_sensor.rate_hz", s.get("rate_hz", FORCE_SENSOR_DEFAULT["rate_hz"]), 100.0, 1e5),
+    }
+
+
 @dataclass
 class Platform:
     name: str
@@ -177,6 +206,7 @@ class Platform:
     source: str = "<dict>"
     center_of_mass: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     drives: _layout.Drives = field(default_factory=_layout.native_default)
+    force_sensor: dict = field(default_factory=lambda: dict(FORCE_SENSOR_DEFAULT))
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -472,7 +502,7 @@ def _from_dict(d) -> Platform:
         sens["seed"] = seed
     drives = _drives(d, lmin, lmax)
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
-                 wmin, wmax, hyd, sens, center_of_mass=com, drives=drives)
+                 wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d))
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:

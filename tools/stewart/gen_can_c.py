@@ -50,6 +50,7 @@ SCALES: tuple[tuple[str, str, Fraction, frozenset[str], tuple[tuple[str, str], .
     ("FORCE", "Q8_N", Q8, frozenset({"N"}), (("AXIS_SETPOINTS", r"Force_\d"), ("CTRL_MONITOR", r"ForceFf_\d"))),
     ("PRESSURE", "PA", Fraction(1), frozenset({"Pa"}), ((r"AXIS_FEEDBACK_\d", "Pressure[AB]"),)),
     ("WRENCH", "Q8_N_NM", Q8, frozenset({"N", "N m"}), (("CTRL_WRENCH", "[FM][xyz]"),)),
+    ("FT_WRENCH", "Q8_N_NM", Q8, frozenset({"N", "N m"}), (("OP_FORCE", "[FM][xyz]"), ("FT_SENSOR", "[FM][xyz]"))),
     ("AMPLITUDE", "Q24_M_RAD", Q24, frozenset({"m|rad"}), (("OP_COMMAND", "Amplitude"),)),
     ("FREQUENCY", "Q24_HZ", Q24, frozenset({"Hz"}), (("OP_COMMAND", "Frequency"),)),
     ("FADE_TIME", "MS", Fraction(1, 1000), frozenset({"s"}), (("OP_COMMAND", "FadeTime"),)),

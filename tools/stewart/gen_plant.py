@@ -60,6 +60,7 @@ def c_source(p: cfg.Platform) -> str:
         raise cfg.ConfigError(f"{p.source}: sensors: missing (the plant simulator needs it)")
     h = p.hydraulic
     s = p.sensors
+    fs = p.force_sensor
     # scalars, then the friction levels per cylinder (lists of six, leg 1
     # first) and the friction curves' shape (with config.py's defaults)
     lines = [f"        .{key} = {_d(h.get(key, 0.0))}"
@@ -99,6 +100,11 @@ const hs_config_t hs_config_default = {{
         .pressure_resolution = {_d(s["pressure_resolution"])},
         .pressure_noise = {_d(s["pressure_noise"])},
         .seed = UINT64_C({int(s["seed"])}),
+    }},
+    .force_sensor = {{
+        .mount_pos = {_vec(fs["mount_pos"])},
+        .mount_rpy = {_vec(fs["mount_rpy"])},
+        .rate_hz = {_d(fs["rate_hz"])},
     }},
 }};
 """

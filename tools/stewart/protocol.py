@@ -420,6 +420,35 @@ def command_signals(command: str, axis: str | int = 0, amplitude: float = 0.0,
             "Option": option}
 
 
+#: OP_FORCE's Mask bits, in order (bit k: axis k of the base frame).
+FORCE_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
+
+
+def force_mask(axes: str | int) -> int:
+    """OP_FORCE's Mask from axis names joined by commas ("z", "x,y") or a
+    number 0..63; ValueError for anything else."""
+    if isinstance(axes, int):
+        mask = axes
+    elif axes.strip().isdigit():
+        mask = int(axes)
+    else:
+        mask = 0
+        for name in axes.split(","):
+            name = name.strip().lower()
+            if name not in FORCE_AXES:
+                raise ValueError(f"unknown axis {name!r} (x, y, z, roll, pitch, yaw, joined by commas)")
+            mask |= 1 << FORCE_AXES.index(name)
+    if not 0 <= mask <= 63:
+        raise ValueError(f"mask {mask} is out of range (0..63)")
+    return mask
+
+
+def force_signals(mask: int, target) -> dict[str, Any]:
+    """OP_FORCE signals: the mask and the target wrench [fx, fy, fz, mx, my,
+    mz] (N, N m, base frame, about o'; what the platform is to exert)."""
+    return {"Mask": int(mask), **{n: float(v) for n, v in zip(WRENCH_SIGNALS, target)}}
+
+
 def setpoint_signals(mode: str | int, tick: int, slots) -> dict[str, Any]:
     """AXIS_SETPOINTS signals; ``slots`` is 3 tuples (length m, velocity m/s, force N)."""
     out: dict[str, Any] = {"Tick": tick, "Mode": mode}

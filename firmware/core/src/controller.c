@@ -97,6 +97,10 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->park_after_release = 0u;
     sp_motion_at_rest(&ctrl->pos_ref, &p->park);
     sp_ft_tare_reset(&ctrl->ft_tare);
+    sp_ft_tare_reset(&ctrl->cyl_tare);
+    for (i = 0u; i < 6u; ++i) {
+        ctrl->cyl_wrench[i] = 0;
+    }
     ctrl->ft_missed = UINT32_MAX;
     ctrl->ft_valid = 0u;
     ctrl->ft_frame_valid = 0u;
@@ -321,18 +325,31 @@ static int command_stop(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_cmd_typ
 }
 
 /* The wrench force control would use this tick, NULL when its source is
- * not valid: the cylinders' estimate, or the tared sensor's. */
+ * not valid: the cylinders' estimate (less its bias at rest once tared),
+ * or the tared sensor's. */
 static const int32_t *force_wrench(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl)
 {
     if (cfg->wrench_source == SP_WRENCH_SENSOR) {
         return ctrl->ft_valid ? ctrl->ft_section[SP_WRENCH_SECTIONS - 1u] : NULL;
     }
-    return ctrl->wrench.valid ? ctrl->wrench.wrench : NULL;
+    return ctrl->wrench.valid ? ctrl->cyl_wrench : NULL;
+}
+
+/* The cylinders' estimate less its bias (wrench_source CYLINDERS): a TARE
+ * averages ft_tare_samples ticks of the estimate at rest into the bias, as
+ * it does the sensor's readings. */
+static void cylinder_wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
+{
+    if (cfg->wrench_source == SP_WRENCH_SENSOR || !ctrl->wrench.valid) {
+        return;
+    }
+    (void)sp_ft_tare_step(&ctrl->cyl_tare, ctrl->wrench.wrench, ctrl->cyl_wrench); /* saturates */
 }
 
 /* FORCE, GUIDE (READY or RUNNING, with a valid wrench and pose; the
  * sensor tared), POSITION (leaves force control; nothing to leave is no
- * error) and TARE (READY in position control, on the sensor). */
+ * error) and TARE (READY in position control: the sensor's bias, or the
+ * cylinders' estimate's bias at rest). */
 static int command_force(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     int engaged = ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_RUNNING;
@@ -349,8 +366,13 @@ static int command_force(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     case SP_CMD_POSITION:
         return sp_force_release(&ctrl->force) == SP_OK;
     default: /* SP_CMD_TARE */
-        if (ctrl->state != SP_STATE_READY || ctrl->force.mode != SP_FORCE_OFF ||
-            cfg->wrench_source != SP_WRENCH_SENSOR || ctrl->ft_missed >= cfg->ft_timeout_ticks) {
+        if (ctrl->state != SP_STATE_READY || ctrl->force.mode != SP_FORCE_OFF) {
+            return 0;
+        }
+        if (cfg->wrench_source != SP_WRENCH_SENSOR) {
+            return ctrl->wrench.valid && sp_ft_tare_start(&ctrl->cyl_tare, cfg->ft_tare_samples) == SP_OK;
+        }
+        if (ctrl->ft_missed >= cfg->ft_timeout_ticks) {
             return 0;
         }
         return sp_ft_tare_start(&ctrl->ft_tare, cfg->ft_tare_samples) == SP_OK;
@@ -887,6 +909,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         have_model = motion_setpoints(cfg, ctrl, &ref, flags);
     }
     wrench(cfg, ctrl, have_model);
+    cylinder_wrench(cfg, ctrl);
     check_divergence(cfg, ctrl);
     write_output(cfg, ctrl, fk_iterations, rejected, out);
     return SP_OK;

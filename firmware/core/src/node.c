@@ -190,7 +190,46 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         inc(&node->stats.accepted);
         return SP_OK;
     }
+    if (f->id == SP_ID_OP_FORCE) {
+        sp_msg_force_t m;
+        if (sp_proto_decode_force(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = sequence(node, &node->rx_force, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        node->force = m;
+        node->force_fresh = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
     return reject(node, SP_PROTO_UNKNOWN_ID, why);
+}
+
+/* FT_SENSOR (axis_b): the sensor's newest sample, this tick's reading. */
+static sp_status_t receive_ft(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
+{
+    sp_proto_error_t e = SP_PROTO_OK;
+    uint8_t counter = 0u;
+    sp_msg_ft_t m;
+    if (f->bus != SP_BUS_AXIS_B) {
+        return reject(node, SP_PROTO_WRONG_BUS, why);
+    }
+    if (sp_proto_decode_ft(f, &m, &counter, &e) != SP_OK) {
+        return reject(node, e, why);
+    }
+    e = sequence(node, &node->rx_ft, counter);
+    if (e != SP_PROTO_OK) {
+        return reject(node, e, why);
+    }
+    for (uint32_t k = 0; k < 6u; k++) {
+        node->in.ft_reading[k] = m.wrench[k];
+    }
+    node->in.ft_fresh = 1u;
+    inc(&node->stats.ft_samples);
+    inc(&node->stats.accepted);
+    return SP_OK;
 }
 
 static int is_axis_id(uint32_t id)
@@ -218,7 +257,11 @@ sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_pro
         }
         return receive_axis(node, frame, why);
     }
-    if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE || frame->id == SP_ID_OP_HEARTBEAT) {
+    if (frame->id == SP_ID_FT_SENSOR) {
+        return receive_ft(node, frame, why);
+    }
+    if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE || frame->id == SP_ID_OP_HEARTBEAT ||
+        frame->id == SP_ID_OP_FORCE) {
         if (frame->bus != SP_BUS_OPS) {
             return reject(node, SP_PROTO_WRONG_BUS, why);
         }
@@ -250,7 +293,10 @@ static void count_send(sp_node_t *node, sp_status_t st, uint32_t *n)
 
 /* The next queued operator command into node->in.cmd (none: SP_CMD_NONE).
  * SET_FEEDFORWARD is a tuning switch, applied here and only while no motion
- * is under way; returns 1 when it is refused. */
+ * is under way; returns 1 when it is refused. FORCE and GUIDE take the mask
+ * and target of the last OP_FORCE; with no command queued, a fresh OP_FORCE
+ * while the controller is in FORCE becomes a FORCE command (the target
+ * update; the controller refuses another mask). */
 /* The node's jobs around the controller step stay out of line: their
  * locals must not join sp_node_tick's frame, which is on the tick's deepest
  * stack chain (through sp_ctrl_step). */
@@ -276,7 +322,24 @@ SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
             node->in.cmd.fade_ticks =
                 cfg->ctrl.tick_us ? (uint32_t)(((uint64_t)c->fade_ms * 1000u) / cfg->ctrl.tick_us) : 0u;
             node->in.cmd.target = node->target;
+            if (c->command == SP_CMD_FORCE || c->command == SP_CMD_GUIDE) {
+                node->force_fresh = 0u; /* this command carries the last OP_FORCE: no second update */
+                node->in.cmd.force_mask = node->force.mask;
+                for (uint32_t k = 0; k < 6u; k++) {
+                    node->in.cmd.force_target[k] = node->force.target[k];
+                }
+            }
         }
+    } else if (node->force_fresh && node->ctrl.force.mode == SP_FORCE_FORCE) {
+        node->in.cmd.type = SP_CMD_FORCE;
+        node->in.cmd.force_mask = node->force.mask;
+        for (uint32_t k = 0; k < 6u; k++) {
+            node->in.cmd.force_target[k] = node->force.target[k];
+        }
+        node->force_fresh = 0u;
+    }
+    if (node->ctrl.force.mode != SP_FORCE_FORCE) {
+        node->force_fresh = 0u; /* kept for the next FORCE command; nothing to update */
     }
     return rejected;
 }
@@ -327,6 +390,8 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     s.cmd_rejected = node->out.cmd_rejected;
     s.drive_mode = (uint8_t)node->out.drive_mode;
     s.feedforward = cfg->ctrl.force_feedforward;
+    s.force_mode = (uint8_t)(node->out.force_mode > 4u ? 4u : node->out.force_mode);
+    s.contact = node->out.contact;
     s.estimate = node->out.estimate;
     s.reset_refused_legs = node->out.reset_refused_legs;
     s.reset_refused_cause = node->out.reset_refused_cause;
@@ -372,11 +437,15 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     if (ff_rejected) {
         node->out.cmd_rejected = 1u;
     }
+    if (node->out.cmd_rejected) {
+        inc(&node->stats.cmd_refused);
+    }
     for (uint32_t i = 0; i < SP_LEGS; i++) {
         node->in.drive[i].fresh = 0u;
     }
     node->in.stream_fresh = 0u;
     node->in.operator_heartbeat = 0u;
+    node->in.ft_fresh = 0u;
 
     uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
     send_axis_frames(cfg, node, tick, out, n);

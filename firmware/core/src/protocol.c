@@ -112,6 +112,30 @@ static int32_t wrench_to_q8(int32_t raw)
 {
     return (int32_t)((int64_t)raw * SP_CAN_WRENCH_RAW_PER_Q8_N_NM_DEN);
 }
+/* OP_FORCE and FT_SENSOR wrench components: 1/32 N (N m) raw is Q8 / 8; the decode is exact. */
+#define I20_MAX 524287
+#define I20_MIN (-524287)
+typedef char sp_ft_raw_is_q8_div[(SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM_NUM == 1) ? 1 : -1];
+typedef char
+    sp_ft_max_matches[(SP_PROTO_FT_MAX_Q8 == (int64_t)I20_MAX * SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM_DEN) ? 1 : -1];
+static int32_t q8_to_ftw(int32_t q, int *sat)
+{
+    return (int32_t)clamp(muldiv(q, SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM_NUM, SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM_DEN),
+                          I20_MIN, I20_MAX, sat);
+}
+/* 0 when every raw component is within the symmetric range, and then the Q8 values in q. */
+static int ftw_to_q8(const int32_t raw[6], sp_q8_t q[6])
+{
+    for (uint32_t k = 0; k < 6u; k++) {
+        if (raw[k] < I20_MIN || raw[k] > I20_MAX) {
+            return -1;
+        }
+    }
+    for (uint32_t k = 0; k < 6u; k++) {
+        q[k] = (sp_q8_t)((int64_t)raw[k] * SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM_DEN);
+    }
+    return 0;
+}
 /* The fade time is whole milliseconds on both sides: raw = ms. */
 typedef char sp_fade_raw_is_ms[(SP_CAN_FADE_TIME_RAW_PER_MS_NUM == 1) ? 1 : -1];
 typedef char sp_fade_ms_is_raw[(SP_CAN_FADE_TIME_RAW_PER_MS_DEN == 1) ? 1 : -1];
@@ -399,7 +423,7 @@ sp_status_t sp_proto_decode_feedback(const sp_can_frame_t *f, sp_msg_feedback_t 
 /* ---- OP_COMMAND ---- */
 sp_status_t sp_proto_encode_command(const sp_msg_command_t *m, uint8_t counter, sp_can_frame_t *f)
 {
-    if (m == NULL || f == NULL || m->command > SP_CMD_SET_FEEDFORWARD || m->axis > 5u || m->option > 1u) {
+    if (m == NULL || f == NULL || m->command > SP_CMD_WIRE_MAX || m->axis > 5u || m->option > 1u) {
         return SP_E_ARG;
     }
     int sat = 0;
@@ -430,7 +454,7 @@ sp_status_t sp_proto_decode_command(const sp_can_frame_t *f, sp_msg_command_t *m
     if (stewart_can_op_command_unpack(&s, f->data, f->len) != 0) {
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
-    if (s.command > SP_CMD_SET_FEEDFORWARD || s.axis > 5u || s.option > 1u || below_i24(&s.amplitude, 1u)) {
+    if (s.command > SP_CMD_WIRE_MAX || s.axis > 5u || s.option > 1u || below_i24(&s.amplitude, 1u)) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
     m->command = s.command;
@@ -520,7 +544,7 @@ sp_status_t sp_proto_decode_heartbeat(const sp_can_frame_t *f, uint8_t *counter,
 /* ---- CTRL_STATUS ---- */
 sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp_can_frame_t *f)
 {
-    if (m == NULL || f == NULL || m->state > 6u) {
+    if (m == NULL || f == NULL || m->state > 6u || m->force_mode > 4u) {
         return SP_E_ARG;
     }
     int sat = 0;
@@ -537,6 +561,8 @@ sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp
     s.cmd_rejected = m->cmd_rejected ? 1u : 0u;
     s.drive_mode = m->drive_mode ? 1u : 0u;
     s.feed_forward = m->feedforward ? 1u : 0u;
+    s.force_mode = m->force_mode;
+    s.contact = m->contact ? 1u : 0u;
     s.x = v[0];
     s.y = v[1];
     s.z = v[2];
@@ -564,7 +590,7 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
     const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
-    if (s.state > 6u || s.fk_iterations > 15u || below_i24(v, 6u)) {
+    if (s.state > 6u || s.fk_iterations > 15u || s.force_mode > 4u || below_i24(v, 6u)) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
     m->tick = s.tick;
@@ -577,6 +603,8 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
     m->feedforward = s.feed_forward;
     m->reset_refused_legs = s.reset_refused_legs;
     m->reset_refused_cause = s.reset_refused_cause;
+    m->force_mode = s.force_mode;
+    m->contact = s.contact;
     pose_from_bus(v, &m->estimate);
     *counter = s.counter;
     return SP_OK;
@@ -694,6 +722,100 @@ sp_status_t sp_proto_decode_wrench(const sp_can_frame_t *f, sp_msg_wrench_t *m, 
     for (uint32_t k = 0; k < 6u; k++) {
         m->wrench[k] = wrench_to_q8(v[k]);
     }
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- OP_FORCE ---- */
+sp_status_t sp_proto_encode_force(const sp_msg_force_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL || m->mask > 63u) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    struct stewart_can_op_force_t s;
+    (void)stewart_can_op_force_init(&s);
+    s.mask = m->mask;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.fx = q8_to_ftw(m->target[0], &sat);
+    s.fy = q8_to_ftw(m->target[1], &sat);
+    s.fz = q8_to_ftw(m->target[2], &sat);
+    s.mx = q8_to_ftw(m->target[3], &sat);
+    s.my = q8_to_ftw(m->target[4], &sat);
+    s.mz = q8_to_ftw(m->target[5], &sat);
+    clear(f);
+    return finish(f, SP_ID_OP_FORCE, SP_BUS_OPS, stewart_can_op_force_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_OP_FORCE_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_force(const sp_can_frame_t *f, sp_msg_force_t *m, uint8_t *counter, sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_OP_FORCE, STEWART_CAN_OP_FORCE_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_op_force_t s;
+    if (stewart_can_op_force_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    const int32_t v[6] = {s.fx, s.fy, s.fz, s.mx, s.my, s.mz};
+    sp_q8_t q[6];
+    if (s.mask > 63u || ftw_to_q8(v, q) != 0) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->mask = s.mask;
+    for (uint32_t k = 0; k < 6u; k++) {
+        m->target[k] = q[k];
+    }
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- FT_SENSOR ---- */
+sp_status_t sp_proto_encode_ft(const sp_msg_ft_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    int sat = 0;
+    struct stewart_can_ft_sensor_t s;
+    (void)stewart_can_ft_sensor_init(&s);
+    s.fx = q8_to_ftw(m->wrench[0], &sat);
+    s.fy = q8_to_ftw(m->wrench[1], &sat);
+    s.fz = q8_to_ftw(m->wrench[2], &sat);
+    s.mx = q8_to_ftw(m->wrench[3], &sat);
+    s.my = q8_to_ftw(m->wrench[4], &sat);
+    s.mz = q8_to_ftw(m->wrench[5], &sat);
+    s.saturated = m->saturated ? 1u : 0u;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    clear(f);
+    return finish(f, SP_ID_FT_SENSOR, SP_BUS_AXIS_B, stewart_can_ft_sensor_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_FT_SENSOR_LENGTH, sat);
+}
+
+sp_status_t sp_proto_decode_ft(const sp_can_frame_t *f, sp_msg_ft_t *m, uint8_t *counter, sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_FT_SENSOR, STEWART_CAN_FT_SENSOR_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_ft_sensor_t s;
+    if (stewart_can_ft_sensor_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    const int32_t v[6] = {s.fx, s.fy, s.fz, s.mx, s.my, s.mz};
+    sp_q8_t q[6];
+    if (ftw_to_q8(v, q) != 0) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    for (uint32_t k = 0; k < 6u; k++) {
+        m->wrench[k] = q[k];
+    }
+    m->saturated = s.saturated;
     *counter = s.counter;
     return SP_OK;
 }

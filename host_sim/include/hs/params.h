@@ -67,6 +67,14 @@ typedef struct {
     uint64_t seed;              /**< seed of the noise generator */
 } hs_sensor_config_t;
 
+/** config "force_sensor" section (the plant's sensor; its noise, bias and
+ *  drift are hs_ft_default_params'). */
+typedef struct {
+    double mount_pos[3]; /**< sensor origin, motion frame, m */
+    double mount_rpy[3]; /**< sensor axes from the motion frame's, rad (Z-Y-X) */
+    double rate_hz;      /**< sample rate, Hz */
+} hs_ft_config_t;
+
 /** The platform config file, key for key. */
 typedef struct {
     const char *name;
@@ -84,6 +92,7 @@ typedef struct {
     double leg_velocity_max;            /**< m/s */
     hs_hydraulic_config_t hydraulic;
     hs_sensor_config_t sensors;
+    hs_ft_config_t force_sensor;
 } hs_config_t;
 
 /** The default config, generated at build time from config/platform_default.json. */

@@ -11,7 +11,7 @@
  *
  *   cmd NAME [axis=x|y|z|roll|pitch|yaw] [amplitude=A] [frequency=HZ] [fade=S] [option=0|1]
  *          OP_COMMAND; NAME: ENGAGE RUN_TRIG MOVE_TO STREAM STOP PARK ESTOP
- *          RESET SET_FEEDFORWARD. A: m or rad, |A| < 128; HZ: 0 <= HZ < 128;
+ *          RESET SET_FEEDFORWARD FORCE GUIDE POSITION TARE. A: m or rad, |A| < 128; HZ: 0 <= HZ < 128;
  *          S: fade time 0..65 s (0: the controller's default); each key once
  *   target X Y Z ROLL PITCH YAW   OP_TARGET_POSE, m and rad, each |v| <= 8
  *   delay S                       wait S seconds of simulated time, 0..1e6
@@ -46,6 +46,30 @@
  *                                 motion frame (|v| <= 100 m), from then on;
  *                                 the program refuses a result that is not a
  *                                 rigid body
+ *   force AXES FX FY FZ MX MY MZ  OP_FORCE (the axes, the target wrench the
+ *                                 platform is to exert: base frame, N and
+ *                                 N m about o') then OP_COMMAND FORCE, as an
+ *                                 operator enters force control. AXES: axis
+ *                                 names joined by commas (z, x,z, ...) or the
+ *                                 mask as a number 0..63; |v| <= 16383 (the
+ *                                 frame's range; the controller's own limits
+ *                                 refuse more)
+ *   force_target AXES FX FY FZ MX MY MZ
+ *                                 OP_FORCE alone: in FORCE, a target update
+ *   guide AXES                    OP_FORCE (the axes, no target), then
+ *                                 OP_COMMAND GUIDE: hand guiding
+ *   position                      OP_COMMAND POSITION: leave force control
+ *   tare                          OP_COMMAND TARE: zero the force/torque sensor
+ *   push FX FY FZ MX MY MZ rise=S hold=S
+ *                                 a person's push on the payload: a wrench
+ *                                 (base frame, N and N m about o', |v| <=
+ *                                 1e6) that rises linearly from 0 over S s,
+ *                                 holds for S s and falls back over the rise
+ *                                 time, on top of `wrench` (both keys
+ *                                 required, 0..1e6 s; a new push replaces one
+ *                                 under way)
+ *   ftsensor off|on               the force/torque sensor stops / resumes
+ *                                 sending FT_SENSOR
  *   play FILE                     streams target poses from a CSV file (header
  *                                 t,x,y,z,roll,pitch,yaw; t in s from the
  *                                 action, strictly increasing, >= 0, at most
@@ -133,7 +157,10 @@ typedef enum {
     HS_ACTION_CONTACT,   /**< install `contact` (kind 0: remove) */
     HS_ACTION_LOAD,      /**< attach point mass `mass` at `point` */
     HS_ACTION_PLAY,      /**< stream the poses of `path` for `ticks` ticks */
-    HS_ACTION_INJECT     /**< inject the fault `inject` */
+    HS_ACTION_INJECT,    /**< inject the fault `inject` */
+    HS_ACTION_FORCE,     /**< send OP_FORCE `force`, then OP_COMMAND `cmd` unless its command is 0 */
+    HS_ACTION_PUSH,      /**< a push `wrench`: rise over `ticks`, hold for `hold` */
+    HS_ACTION_FTSENSOR   /**< the force/torque sensor sends (`bits` 1) or not (0) */
 } hs_action_kind_t;
 
 /** What an `inject` action injects. */
@@ -196,6 +223,8 @@ typedef struct {
     double point[3];                     /**< LOAD: motion frame, m */
     char path[HS_SCENARIO_MAX_PATH + 1]; /**< PLAY: the file (resolved); ticks: its duration (last row's t) */
     hs_scenario_inject_t inject;         /**< INJECT */
+    sp_msg_force_t force;                /**< FORCE: OP_FORCE's mask and target (Q8) */
+    uint64_t hold;                       /**< PUSH: the hold, ticks (the rise is `ticks`) */
 } hs_action_t;
 
 /** A parsed scenario and where its player stands. */
@@ -264,8 +293,8 @@ typedef enum {
  * soon as `state` equals its state, or HS_SCENARIO_TIMEOUT (and *action the
  * wait) at tick >= t + timeout if it still does not. A PLAY is handed over
  * at once (the program starts streaming) and holds the actions after it
- * back until tick >= t + its ticks (PENDING meanwhile). WRENCH, CONTACT and
- * LOAD are handed over at once. END and the end of
+ * back until tick >= t + its ticks (PENDING meanwhile). WRENCH, CONTACT,
+ * LOAD, FORCE, PUSH and FTSENSOR are handed over at once. END and the end of
  * the scenario return HS_SCENARIO_END (with *action the `end` action, or
  * NULL), and keep returning it. The player does not move on after a
  * TIMEOUT. *action is NULL for PENDING. Returns HS_SCENARIO_END, with

@@ -5,8 +5,12 @@ The controller's wrench estimate (``est_wrench_*``, CTRL_WRENCH) is sent on
 every 2nd tick: the other rows leave it blank, as every value without a
 frame for its tick (not held from the previous frame); ``est_wrench_valid``
 is 1 or 0 on the ticks with a frame and the components are blank unless it
-is 1. ``truth_wrench_*``: the plant's true external wrench (external +
-contact), blank if the truth CSV has no wrench columns."""
+is 1. ``control_mode``: force control's mode from CTRL_STATUS (position,
+force or guide; RELEASE and HOLD count as position), ``force_target_*``:
+the commanded wrench in force mode (the accepted OP_FORCE, 0 otherwise;
+stewart.analysis.decode.force_targets). ``truth_wrench_*``: the plant's
+true external wrench (external + contact), blank if the truth CSV has no
+wrench columns."""
 
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import protocol as pr
-from .decode import LogData
+from .decode import CONTROL_MODES, FORCE_MODES, LogData
 from .names import AXES, DRIVE_MODES, DRIVE_STATES, STATES, TICK_S, WRENCH_AXES
 
 
@@ -27,6 +31,7 @@ def signal_columns(truth: bool) -> list[str]:
     for group in ("length_sp", "force_ff", "length", "stretch", "force", "drive_state", "drive_faults"):
         cols += [f"{group}{i}" for i in range(1, 7)]
     cols += ["est_wrench_valid"] + [f"est_wrench_{a}" for a in WRENCH_AXES]
+    cols += ["control_mode"] + [f"force_target_{a}" for a in WRENCH_AXES]
     if truth:
         cols += [f"truth_{a}" for a in AXES]
         cols += [f"truth_length{i}" for i in range(1, 7)] + [f"truth_force{i}" for i in range(1, 7)]
@@ -65,6 +70,7 @@ def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
         r += [DRIVE_STATES[s] if 0 <= s < len(DRIVE_STATES) else i(s) for s in data.drive_state[k]]
         r += [i(v) for v in data.drive_faults[k]]
         r += [i(data.est_wrench_valid[k])] + [f(v, ".2f") for v in data.est_wrench[k]]
+        r += [_control_mode(int(data.force_mode[k]))] + [f(v, ".2f") for v in data.force_target[k]]
         if data.truth is not None:
             r += [f(v, ".9f") for v in data.truth["pose"][k]]
             r += [f(v, ".9f") for v in data.truth["length"][k]]
@@ -72,6 +78,10 @@ def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
             r += [f(v, ".3f") for v in truth_wrench[k]]
         rows.append(r)
     return cols, rows
+
+
+def _control_mode(m: int) -> str:
+    return CONTROL_MODES[FORCE_MODES[m]] if 0 <= m < len(FORCE_MODES) else ""
 
 
 def _number_chars(v: np.ndarray, decimals: int) -> np.ndarray:
@@ -154,7 +164,9 @@ def _table_chars(data: LogData, rows: slice) -> list[np.ndarray]:
             _coded_text(data.drive_state[rows], name_or_int(DRIVE_STATES)),
             _int_chars(np.concatenate([data.drive_faults[rows], data.est_wrench_valid[rows, None]],
                                       axis=1)),
-            _number_chars(data.est_wrench[rows], 2)]
+            _number_chars(data.est_wrench[rows], 2),
+            _coded_text(data.force_mode[rows], _control_mode),
+            _number_chars(data.force_target[rows], 2)]
     if data.truth is not None:
         tw = data.truth.get("wrench")
         if tw is None:

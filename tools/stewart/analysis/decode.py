@@ -127,6 +127,10 @@ class LogData:
     annulus_area: float = math.nan          #: m^2
     truth: dict[str, np.ndarray] | None = None  #: "pose", "length", "force", "wrench": (N, 6)
     source: str = ""
+    force_mode: np.ndarray = None    #: (N,) CTRL_STATUS.ForceMode (FORCE_MODES index)
+    cmd_rejected: np.ndarray = None  #: (N,) CTRL_STATUS.CmdRejected
+    force_target: np.ndarray = None  #: (N, 6) the commanded wrench in FORCE (0 otherwise), N / N m
+    force_frames: list = field(default_factory=list)  #: OP_FORCE as (executing tick, [fx..mz])
 
     @classmethod
     def empty(cls, ticks: np.ndarray, commands: list[Command], stats: LogStats, source: str) -> "LogData":
@@ -145,7 +149,7 @@ class LogData:
             length_sp=fl((n, 6)), force_ff=fl((n, 6)), axis_length_sp=fl((n, 6)), axis_mode=it((n, 2)),
             length=fl((n, 6)), pressure_a=fl((n, 6)), pressure_b=fl((n, 6)), drive_state=it((n, 6)),
             drive_faults=it((n, 6)), est_wrench_valid=it(n), est_wrench=fl((n, 6)), commands=commands,
-            stats=stats, source=source)
+            stats=stats, source=source, force_mode=it(n), cmd_rejected=it(n), force_target=fl((n, 6)))
 
     def __len__(self) -> int:
         return int(self.ticks.shape[0])
@@ -461,6 +465,14 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
                     axis=int(g.values["Axis"][r]), amplitude=float(g.values["Amplitude"][r]),
                     frequency=float(g.values["Frequency"][r]), fade_time=float(g.values["FadeTime"][r]),
                     option=int(g.values["Option"][r])))
+    force_frames: list[tuple[int | None, list[float], int]] = []
+    for k, g in enumerate(groups):
+        if g.name == "OP_FORCE":
+            for r, p_ in enumerate(pos_in[k].tolist()):
+                ns = int(next_s[p_])
+                force_frames.append((int(tick_of[ns]) if ns < n else None,
+                                     [float(g.values[a][r]) for a in pr.WRENCH_SIGNALS], int(g.line_no[r])))
+    force_frames.sort(key=lambda f: f[2])
     cmd_lines = [g.line_no for g in groups if g.name == "OP_COMMAND"]
     if len(cmd_lines) > 1:  # accepted on more than one bus: back to log order
         commands = [commands[i] for i in np.argsort(np.concatenate(cmd_lines), kind="stable")]
@@ -494,6 +506,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
         d.feedforward[k] = s["FeedForward"]
         d.estimate_valid[k] = s["EstimateValid"]
         d.fk_iterations[k] = s["FkIterations"]
+        d.force_mode[k] = s["ForceMode"]
+        d.cmd_rejected[k] = s["CmdRejected"]
         v = np.asarray(s["EstimateValid"]) != 0
         d.estimate[k[v]] = np.stack([s[a] for a in pr.POSE_SIGNALS], axis=1)[v]
     got = merged("CTRL_MONITOR")
@@ -535,6 +549,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
         d.pressure_b[k, j] = vals["PressureB"][last]
         d.drive_state[k, j] = vals["State"][last]
         d.drive_faults[k, j] = vals["Faults"][last]
+    d.force_frames = [(tk, w) for tk, w, _ in force_frames]
+    force_targets(d)
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)
     stats.setpoint_checked = int(both.sum())
     stats.setpoint_mismatch = int((np.abs(d.length_sp - d.axis_length_sp)[both] > 1.5e-6).any(axis=1).sum())
@@ -549,3 +565,37 @@ def set_platform(data: LogData, platform) -> None:
     data.platform = platform
     data.home_lengths = np.asarray(model.inverse_kinematics(platform, platform.home).lengths, float)
     data.piston_area, data.annulus_area = hydraulic_areas(platform)
+
+
+FORCE_MODES = pr.value_names("CTRL_STATUS", "ForceMode")
+#: signals.csv's control_mode of each ForceMode: RELEASE and HOLD follow
+#: (or brake onto) the position reference.
+CONTROL_MODES = {"OFF": "position", "FORCE": "force", "GUIDE": "guide", "RELEASE": "position", "HOLD": "position"}
+
+
+def force_targets(d: LogData) -> None:
+    """d.force_target from the OP_FORCE frames (d.force_frames) and
+    CTRL_STATUS: the controller takes the last OP_FORCE with an accepted
+    FORCE (entering FORCE, or a target update on the tick the frame is
+    executed); a refused one (CmdRejected on that tick) leaves the target
+    as it was. 0 outside FORCE (as sp_ctrl_output_t.force_target), NaN
+    where no status was logged."""
+    force = FORCE_MODES.index("FORCE")
+    frames = sorted(((tk, w) for tk, w in d.force_frames if tk is not None), key=lambda f: f[0])
+    j = 0
+    last = [0.0] * 6
+    last_tick = None
+    current = [0.0] * 6
+    prev_mode = -1
+    for k in range(len(d)):
+        t = int(d.ticks[k])
+        while j < len(frames) and frames[j][0] <= t:
+            last, last_tick = frames[j][1], frames[j][0]
+            j += 1
+        mode = int(d.force_mode[k])
+        if mode < 0:
+            continue
+        if mode == force and not d.cmd_rejected[k] and (prev_mode != force or last_tick == t):
+            current = list(last)
+        d.force_target[k] = current if mode == force else 0.0
+        prev_mode = mode

@@ -12,7 +12,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from .. import protocol as pr
-from .decode import (WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16, set_platform)
+from .decode import (WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16, force_targets, set_platform)
 from .logfile import parse_bus_map, parse_line
 from .names import COMMANDS
 
@@ -123,6 +123,7 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
         return r
 
     commands: list[Command] = []
+    force_frames: list = []
     for i, (name, bus, sig, t_log, line_no) in enumerate(accepted):
         if name == "CTRL_STATUS":
             row(int(sig["Tick"]))["status"] = sig
@@ -157,6 +158,8 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
                 axis=int(sig["Axis"]), amplitude=float(sig["Amplitude"]),
                 frequency=float(sig["Frequency"]), fade_time=float(sig["FadeTime"]),
                 option=int(sig["Option"])))
+        elif name == "OP_FORCE":
+            force_frames.append((next_status[i], [float(sig[a]) for a in pr.WRENCH_SIGNALS]))
         # OP_TARGET_POSE: not needed for the analysis (the reference is in CTRL_MONITOR)
 
     ticks = np.array(sorted(rows), dtype=np.int64)
@@ -172,6 +175,8 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
             d.feedforward[k] = s["FeedForward"]
             d.estimate_valid[k] = s["EstimateValid"]
             d.fk_iterations[k] = s["FkIterations"]
+            d.force_mode[k] = s["ForceMode"]
+            d.cmd_rejected[k] = s["CmdRejected"]
             if s["EstimateValid"]:
                 d.estimate[k] = [s[a] for a in pr.POSE_SIGNALS]
         mon = r.get("monitor")
@@ -198,6 +203,8 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
                 d.pressure_b[k, j] = fb["PressureB"]
                 d.drive_state[k, j] = fb["State"]
                 d.drive_faults[k, j] = fb["Faults"]
+    d.force_frames = force_frames
+    force_targets(d)
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)
     stats.setpoint_checked = int(both.sum())
     stats.setpoint_mismatch = int((np.abs(d.length_sp - d.axis_length_sp)[both] > 1.5e-6).any(axis=1).sum())

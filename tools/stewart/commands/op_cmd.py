@@ -19,7 +19,7 @@ TICK_S = 0.001
 
 def register(sub) -> None:
     p = sub.add_parser("op", help="operator node: engage, run, move, stream, stop, park, estop, "
-                                  "reset, feedforward, status, watch, record")
+                                  "reset, feedforward, force, guide, position, tare, status, watch, record")
     p.add_argument("-i", "--interface", help="python-can interface (default: python-can's "
                    "configuration, else socketcan)")
     p.add_argument("-c", "--channel", help="channel (default: python-can's configuration, else vcan0)")
@@ -73,6 +73,21 @@ def register(sub) -> None:
     ops.add_parser("reset", help="clear the faults and re-engage (waits for READY or IDLE)")
     f = ops.add_parser("feedforward", help="force feed-forward on or off (in IDLE or READY)")
     f.add_argument("switch", choices=("on", "off"))
+    fo = ops.add_parser("force", help="force control: push with a target wrench in the masked axes "
+                        "(waits for FORCE)")
+    fo.add_argument("axes", help="force-controlled axes of the base frame, joined by commas (z, x,z, ...) "
+                    "or the mask 0..63")
+    fo.add_argument("target", nargs=6, type=float, metavar="W",
+                    help="fx fy fz (N) mx my mz (N m): what the platform is to exert, base frame, about o'")
+    fo.add_argument("--update", action="store_true", help="in FORCE: only change the target (same axes)")
+    fo.add_argument("--duration", type=float, help="s in force control, then POSITION (default: until "
+                    "Ctrl-C, or until another operator or the controller ends it)")
+    gu = ops.add_parser("guide", help="hand guiding in the masked axes (waits for GUIDE)")
+    gu.add_argument("axes", help="axes joined by commas (x,y,z, ...) or the mask 0..63")
+    gu.add_argument("--duration", type=float, help="s of hand guiding, then POSITION (default: until "
+                    "Ctrl-C, or until another operator or the controller ends it)")
+    ops.add_parser("position", help="leave force control smoothly (waits for position control)")
+    ops.add_parser("tare", help="zero the force/torque sensor's bias (READY, position control, at rest)")
     st = ops.add_parser("status", help="one status reading")
     st.add_argument("--json", action="store_true")
     w = ops.add_parser("watch", help="live view (q or Ctrl-C quits)")
@@ -118,7 +133,7 @@ def run(args) -> int:
 
     if not args.op:
         _err("an action is needed: engage, run, move, stream, stop, park, estop, reset, feedforward, "
-             "status, watch, record (stewart op --help)")
+             "force, guide, position, tare, status, watch, record (stewart op --help)")
         return 2
     opts = BusOptions(args.interface, args.channel, args.bitrate, args.data_bitrate, args.fd,
                       args.can_config, args.context)
@@ -162,6 +177,20 @@ def _prepare(args):
         raise SourceError("move: the pose must be finite numbers")
     if args.op == "run" and not (math.isfinite(args.amplitude) and math.isfinite(args.frequency)):
         raise SourceError("run: amplitude and frequency must be finite numbers")
+    if args.op in ("force", "guide"):
+        from .. import protocol as pr
+
+        try:
+            mask = pr.force_mask(args.axes)
+        except ValueError as e:
+            raise SourceError(f"{args.op}: {e}") from None
+        if mask == 0:
+            raise SourceError(f"{args.op}: no axis in the mask")
+        target = [0.0] * 6 if args.op == "guide" else list(args.target)
+        limit = 16383.96875  # OP_FORCE's range; the controller refuses above its own limits
+        if not all(math.isfinite(v) and abs(v) <= limit for v in target):
+            raise SourceError(f"{args.op}: the target must be finite, each |value| <= {limit:g} N or N m")
+        return mask, target
     return None
 
 
@@ -284,12 +313,93 @@ def _feedforward(node, args, _):
     return 0
 
 
+def _send_force_twice(node, mask, target):
+    """OP_FORCE twice with a status between: the controller's E2E check may
+    drop a new sender's first frame (a second identical one is harmless)."""
+    node.send_force(mask, target)
+    node.wait_status(timeout=2.0, after=node.status.seq if node.status else 0)
+    node.send_force(mask, target)
+
+
+def _force(node, args, prepared):
+    mask, target = prepared
+    st = node.wait_status(timeout=2.0)
+    if args.update:
+        if st.force_mode != "FORCE":
+            print(f"force --update: force control is {st.force_mode}, not FORCE; {st.line()}")
+            return 1
+        from ..operator.node import Refused
+
+        mark = node._mark()  # keeps every status from here on
+        sent = node.send_force(mask, target)
+        node.wait_status(timeout=2.0, after=node.status.seq)
+        node.send_force(mask, target)  # the first may meet the E2E check (see _send_force_twice)
+        try:
+            # a refusal comes within a tick or two of the frame; 20 statuses after it, none came
+            ans = node.wait_for("FORCE", lambda s: True, _t(args, 5.0), mark, st, sent, settle=20)
+        except Refused as e:
+            _err(str(e).replace("FORCE refused", "FORCE update refused"))
+            return 1
+        st = ans.status
+        print(f"FORCE: target updated to {' '.join(f'{v:g}' for v in target)}; {st.line()}")
+        return 0
+    _send_force_twice(node, mask, target)
+    return _hold_force(node, args, "FORCE")
+
+
+def _hold_force(node, args, command):
+    """Enters FORCE or GUIDE, then keeps the node (and its heartbeat: the
+    controller lets go of a silent operator) alive while force control is
+    on: --duration s, Ctrl-C (then POSITION), or until another operator or
+    the controller ends it."""
+    with _Interrupt() as intr:
+        ans = node.command(command, lambda s: s.force_mode == command, timeout=_t(args, 5.0))
+        _report(ans, command)
+        until = time.monotonic() + args.duration if args.duration is not None else None
+        st = ans.status
+        while not intr.hit and (until is None or time.monotonic() < until):
+            st = node.wait_status(timeout=2.0, after=node.status.seq)
+            if st.force_mode != command:
+                break
+            time.sleep(0.02)
+        if st.force_mode == command:
+            ans = node.command("POSITION", lambda s: s.force_mode == "OFF", timeout=_t(args, 30.0))
+            _report(ans, f"position control ({'interrupt' if intr.hit else 'duration'})")
+            return 0
+        print(f"{command}: force control ended: {st.line()}", flush=True)
+        return 0 if not st.faults else 1
+
+
+def _guide(node, args, prepared):
+    mask, target = prepared
+    node.wait_status(timeout=2.0)
+    _send_force_twice(node, mask, target)
+    return _hold_force(node, args, "GUIDE")
+
+
+def _position(node, args, _):
+    st = node.wait_status(timeout=2.0)
+    if st.force_mode == "OFF":
+        print(f"POSITION: nothing to leave (position control already); {st.line()}")
+        return 0
+    ans = node.command("POSITION", lambda s: s.force_mode == "OFF", timeout=_t(args, 30.0))
+    _report(ans, "position control")
+    return 0
+
+
+def _tare(node, args, _):
+    ans = node.command("TARE", lambda s: True, timeout=_t(args, 5.0))
+    _report(ans, "taring (the controller averages the sensor's readings at rest)")
+    return 0
+
+
 def _status(node, args, _):
     st = node.wait_status(timeout=_t(args, 2.0))
     if args.json:
         print(json.dumps({"tick": st.tick, "state": st.state, "faults": st.faults,
                           "drive_mode": st.drive_mode, "feedforward": st.feedforward,
-                          "estimate_valid": st.estimate_valid, "pose": st.pose}))
+                          "estimate_valid": st.estimate_valid, "pose": st.pose,
+                          "force_mode": st.force_mode, "contact": st.contact}))
     else:
         print(st.line())
     return 0
@@ -615,6 +725,10 @@ ACTIONS = {
     "estop": _simple("ESTOP", _state_is("ESTOP"), 2.0),
     "reset": _simple("RESET", _reset_done, 60.0),
     "feedforward": _feedforward,
+    "force": _force,
+    "guide": _guide,
+    "position": _position,
+    "tare": _tare,
     "status": _status,
     "watch": _watch,
 }

@@ -41,9 +41,14 @@ ACCEPTED_IN = {
     "ESTOP": STATES,
     "RESET": ("FAULT", "ESTOP"),
     "SET_FEEDFORWARD": ("IDLE", "READY"),
+    "FORCE": ("READY", "RUNNING"),
+    "GUIDE": ("READY", "RUNNING"),
+    "POSITION": STATES,
+    "TARE": ("READY",),
     "NONE": STATES,
 }
-MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM")
+MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "FORCE", "GUIDE")
+FORCE_MODES = pr.value_names("CTRL_STATUS", "ForceMode")
 
 
 class OpError(Exception):
@@ -111,6 +116,8 @@ class Status:
     feedforward: bool
     estimate_valid: bool
     pose: list[float]
+    force_mode: str = "OFF"  # force control: OFF, FORCE, GUIDE, RELEASE, HOLD
+    contact: bool = False
     seq: int = 0          # how many statuses this node had received
     t: float = 0.0        # receive time (time.monotonic)
     stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
@@ -120,7 +127,9 @@ class Status:
         pose = " ".join(f"{v:+.6f}" for v in self.pose)
         return (f"state {self.state}, faults {faults}, drives {self.drive_mode}, "
                 f"feed-forward {'on' if self.feedforward else 'off'}, tick {self.tick}, "
-                f"pose [{pose}]" + ("" if self.estimate_valid else " (no estimate)"))
+                f"pose [{pose}]" + ("" if self.estimate_valid else " (no estimate)")
+                + ("" if self.force_mode == "OFF" else
+                   f", force control {self.force_mode}{' in contact' if self.contact else ''}"))
 
 
 @dataclass
@@ -166,7 +175,21 @@ def refusal_reason(command: str, before: Status | None, at: Status | None) -> st
         return "a fault's cause is still present (a drive silent, or no pose estimate)"
     if command == "STREAM":
         return "a streamed target is outside the workspace or a leg's stroke"
+    if command in ("FORCE", "GUIDE"):
+        if st.force_mode in ("RELEASE", "HOLD"):
+            return f"force control is {st.force_mode} (wait for it to end, or reset the fault)"
+        why = ("a target beyond the controller's limits (8 kN, 1 kN m), an empty mask, or no valid wrench "
+               "(the force/torque sensor not tared, or silent)")
+        if st.force_mode != "OFF":
+            why += f", or other axes than those of the {st.force_mode} in force"
+        return why
+    if command == "TARE":
+        return "the sensor is tared in READY under position control, with the sensor as the wrench source"
     return "refused by the controller"
+
+
+def _name(names, raw: int) -> str:
+    return names[raw] if raw < len(names) else str(raw)
 
 
 class OperatorNode:
@@ -287,6 +310,11 @@ class OperatorNode:
     def send_target(self, pose) -> float:
         return self._send("OP_TARGET_POSE", pr.pose_to_signals(pose))
 
+    def send_force(self, mask: int, target) -> float:
+        """OP_FORCE: the mask and target of the next FORCE or GUIDE (in
+        FORCE, a target update)."""
+        return self._send("OP_FORCE", pr.force_signals(mask, target))
+
     # -- receiving ---------------------------------------------------------
     def _bad(self, reason: str) -> None:
         self.counters.bad[reason] = self.counters.bad.get(reason, 0) + 1
@@ -344,7 +372,9 @@ class OperatorNode:
                 drive_mode="ACTIVE" if f["DriveMode"].raw(w) else "HOLD",
                 feedforward=bool(f["FeedForward"].raw(w)),
                 estimate_valid=bool(f["EstimateValid"].raw(w)),
-                pose=[f[n].value(w) for n in pr.POSE_SIGNALS], t=time.monotonic(),
+                pose=[f[n].value(w) for n in pr.POSE_SIGNALS],
+                force_mode=_name(FORCE_MODES, f["ForceMode"].raw(w)), contact=bool(f["Contact"].raw(w)),
+                t=time.monotonic(),
                 stamp=float(msg.timestamp) if msg.timestamp else time.time())
             with self._cond:
                 self._seq += 1

@@ -114,7 +114,8 @@ typedef enum {
     SP_CMD_FORCE = 10,    /**< enter force control (force_mask, force_target), or update its target */
     SP_CMD_GUIDE = 11,    /**< enter hand guiding (force_mask) */
     SP_CMD_POSITION = 12, /**< leave force control smoothly (back onto the position reference) */
-    SP_CMD_TARE = 13      /**< zero the force/torque sensor's bias (READY, position control) */
+    SP_CMD_TARE = 13      /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
+                               estimate's at rest (READY, position control) */
 } sp_cmd_type_t;
 
 typedef struct {
@@ -291,6 +292,8 @@ typedef struct {
     sp_force_t force;                /**< force control */
     uint8_t park_after_release;      /**< PARK during force control: park once released */
     sp_ft_tare_t ft_tare;            /**< the force/torque sensor's bias */
+    sp_ft_tare_t cyl_tare;           /**< the cylinders' estimate's bias at rest (TARE on that source) */
+    int32_t cyl_wrench[6];           /**< the cylinders' estimate less cyl_tare's bias, N, N m, Q8 */
     int32_t ft_section[SP_WRENCH_SECTIONS][6]; /**< the sensor's wrench through the wrench filter's sections, Q8 */
     uint32_t ft_missed;                        /**< ticks since the last sensor reading (saturates) */
     uint8_t ft_valid;                          /**< 1 while ft_section follows the sensor */

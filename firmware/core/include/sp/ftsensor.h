@@ -28,6 +28,14 @@ typedef struct {
     sp_q24_t pos[3]; /**< the sensor's origin in the motion frame, m, Q24 */
 } sp_ft_mount_t;
 
+/** The config's force_sensor section (config/platform_default.json, generated
+ *  with sp_platform_default by tools/stewart/gen_platform.py): the mounting
+ *  (mount_pos, mount_rpy) ... */
+extern const sp_ft_mount_t sp_ft_mount_default;
+/** ... and force control's wrench source (wrench_source: 0 cylinders, 1 sensor;
+ *  SP_WRENCH_* of sp/controller.h). */
+extern const uint8_t sp_wrench_source_default;
+
 /**
  * The sensor's wrench (sensor axes, moment about its origin: N, N m, Q8) as
  * the wrench on the platform (base frame, moment about o', N, N m, Q8), for a

@@ -13,6 +13,11 @@
  *    and CTRL_MONITOR on the ops bus, and on even ticks (every
  *    SP_PROTO_WRENCH_PERIOD ticks: 500 Hz) CTRL_WRENCH, the external wrench
  *    estimate (at 1 kHz it would put the ops bus above its 50 % budget).
+ *  - OP_FORCE (mask, target) is kept for the next FORCE or GUIDE command
+ *    (OP_COMMAND), as OP_TARGET_POSE is for MOVE_TO; while the controller
+ *    is in FORCE a new OP_FORCE updates the target at once: the node hands
+ *    the controller a FORCE command with it on the next tick that has no
+ *    queued command. FT_SENSOR (axis_b) becomes the tick's sensor reading.
  *  - Feedback counts as fresh only if its TickEcho matches the last SYNC (sent
  *    by us, or, in lockstep, received from the plant). In lockstep the plant
  *    sends each cycle's feedback just before its SYNC, which closes the cycle:
@@ -40,6 +45,8 @@ typedef struct {
     uint32_t stale;                     /**< valid feedback that answered an older SYNC */
     uint32_t saturated;                 /**< values clipped to a signal's range on send */
     uint32_t cmd_overflow;              /**< commands refused: queue full (an ESTOP never is) */
+    uint32_t cmd_refused;               /**< commands the controller refused (ticks with cmd_rejected) */
+    uint32_t ft_samples;                /**< FT_SENSOR frames used */
 } sp_node_stats_t;
 
 typedef struct {
@@ -51,6 +58,8 @@ typedef struct {
     sp_e2e_rx_t rx_command;
     sp_e2e_rx_t rx_target;
     sp_e2e_rx_t rx_heartbeat;
+    sp_e2e_rx_t rx_force;
+    sp_e2e_rx_t rx_ft;
     uint8_t tx_counter_sync[2];
     uint8_t tx_counter_setpoints[2];
     uint8_t tx_counter_status;
@@ -65,7 +74,9 @@ typedef struct {
     sp_msg_command_t cmd_queue[SP_NODE_CMD_QUEUE]; /**< commands waiting, one per tick */
     uint8_t cmd_head;
     uint8_t cmd_count;
-    sp_pose_t target; /**< last OP_TARGET_POSE */
+    sp_pose_t target;     /**< last OP_TARGET_POSE */
+    sp_msg_force_t force; /**< last OP_FORCE (mask 0 until one arrives: FORCE and GUIDE are refused) */
+    uint8_t force_fresh;  /**< an OP_FORCE arrived since the last tick (a streamed target update in FORCE) */
     sp_node_stats_t stats;
     const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
     uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */

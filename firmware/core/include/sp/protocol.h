@@ -27,7 +27,9 @@
 #define SP_ID_SYNC 0x010u
 #define SP_ID_AXIS_SETPOINTS 0x020u
 #define SP_ID_AXIS_FEEDBACK_1 0x031u /* slots 1..3: 0x031..0x033 */
+#define SP_ID_FT_SENSOR 0x038u       /* axis_b: the force/torque sensor */
 #define SP_ID_OP_COMMAND 0x040u
+#define SP_ID_OP_FORCE 0x048u
 #define SP_ID_OP_TARGET_POSE 0x050u
 #define SP_ID_OP_HEARTBEAT 0x060u
 #define SP_ID_CTRL_STATUS 0x100u
@@ -82,7 +84,7 @@ typedef struct {
 } sp_msg_feedback_t;
 
 typedef struct {
-    uint8_t command;    /**< sp_cmd_type_t, or 9 = SET_FEEDFORWARD */
+    uint8_t command;    /**< sp_cmd_type_t, or 9 = SET_FEEDFORWARD (0..SP_CMD_WIRE_MAX) */
     uint8_t axis;       /**< sp_axis_t */
     sp_q24_t amplitude; /**< m or rad, Q24 */
     sp_q24_t frequency; /**< Hz, Q24 */
@@ -91,6 +93,25 @@ typedef struct {
 } sp_msg_command_t;
 
 #define SP_CMD_SET_FEEDFORWARD 9u
+/** The largest Command value of OP_COMMAND (TARE, 13; FORCE..TARE are sp_cmd_type_t's 10..13). */
+#define SP_CMD_WIRE_MAX 13u
+
+/** OP_FORCE: force control's selection and target (the admittance parameters
+ *  are the controller's configured ones). */
+typedef struct {
+    uint8_t mask;      /**< force-controlled axes, bit k: x, y, z, roll, pitch, yaw (0..63) */
+    sp_q8_t target[6]; /**< the wrench the platform is to exert, N, N m, base frame, about o', Q8 */
+} sp_msg_force_t;
+
+/** FT_SENSOR: one sample of the force/torque sensor. */
+typedef struct {
+    sp_q8_t wrench[6]; /**< on the tool, sensor axes, moment about its origin, N, N m, Q8 */
+    uint8_t saturated; /**< 1: a component was at the sensor's range */
+} sp_msg_ft_t;
+
+/** Largest |component| OP_FORCE and FT_SENSOR carry: 16383.96875 N or N m in Q8
+ *  (raw +-(2^19 - 1) at 1/32). */
+#define SP_PROTO_FT_MAX_Q8 (INT32_C(524287) * 8)
 
 typedef struct {
     uint32_t tick;
@@ -101,6 +122,8 @@ typedef struct {
     uint8_t cmd_rejected;
     uint8_t drive_mode;
     uint8_t feedforward;
+    uint8_t force_mode; /**< sp_force_mode_t, 0..4 */
+    uint8_t contact;    /**< 1 while force control is in contact */
     sp_pose_t estimate;
     uint8_t reset_refused_legs;  /**< ResetRefusedLegs: bit i, leg i + 1 refused the last fault reset (6 bits;
                                       higher bits are not sent) */
@@ -146,6 +169,35 @@ sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, 
  * (the frame is still complete and sealed). SP_E_ARG on NULL.
  */
 sp_status_t sp_proto_encode_wrench(const sp_msg_wrench_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/**
+ * OP_FORCE (ID 0x048, 20 bytes, ops bus, CRC-16): the mask, then each
+ * target component rounded to the nearest 1/32 N or N m (Q8 / 8, ties away
+ * from zero). A component beyond +-16383.97 (SP_PROTO_FT_MAX_Q8) is
+ * saturated, never wrapped, and the call returns SP_E_RANGE (the frame is
+ * still sealed). SP_E_ARG on NULL or a mask above 63.
+ */
+sp_status_t sp_proto_encode_force(const sp_msg_force_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/**
+ * OP_FORCE -> mask and the Q8 target (raw x 8, exact). Rejects
+ * (SP_E_FRAME, *error) a wrong identifier or length, a bad CRC and the
+ * excluded raw value -2^19 (out-of-range). Whether the
+ * target is within the controller's limits is the controller's check.
+ */
+sp_status_t sp_proto_decode_force(const sp_can_frame_t *f, sp_msg_force_t *m, uint8_t *counter,
+                                  sp_proto_error_t *error);
+
+/**
+ * FT_SENSOR (ID 0x038, 20 bytes, axis_b, CRC-16): the wrench rounded to
+ * 1/32 N or N m, saturated at +-16383.97 (SP_E_RANGE, frame still sealed).
+ * SP_E_ARG on NULL.
+ */
+sp_status_t sp_proto_encode_ft(const sp_msg_ft_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/** FT_SENSOR -> Q8 wrench (exact). Rejects as sp_proto_decode_force; the
+ *  bus is the caller's check. */
+sp_status_t sp_proto_decode_ft(const sp_can_frame_t *f, sp_msg_ft_t *m, uint8_t *counter, sp_proto_error_t *error);
 
 /**
  * OP_HEARTBEAT (ID 0x060, 4 bytes, ops bus, CRC-8): the operator node's sign
