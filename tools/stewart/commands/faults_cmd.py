@@ -21,10 +21,11 @@ import json
 import sys
 import time
 
-from .. import faults as F
 
 
 def _run(args: argparse.Namespace) -> int:
+    from .. import faults as F  # here, not at import: every command's start-up builds this parser
+
     if args.list:
         for f in F.FAULTS:
             bound = f"{f.bound} ticks" if f.bound is not None else "tolerated"
