@@ -366,3 +366,42 @@ def test_ticks_unwrap_through_the_32_bit_wrap(real_lines):
     for name in ("state", "estimate", "reference", "est_wrench"):
         assert np.array_equal(getattr(fast, name), getattr(base, name), equal_nan=True), name
     assert [c.tick for c in fast.commands] == [c.tick + offset for c in base.commands]
+
+
+def force_targets_reference(d) -> None:
+    """decode.force_targets row by row: the plain reference."""
+    from stewart.analysis.decode import FORCE_MODES
+    force = FORCE_MODES.index("FORCE")
+    frames = sorted(((tk, w) for tk, w in d.force_frames if tk is not None), key=lambda f: f[0])
+    j, last, last_tick, current, prev_mode = 0, [0.0] * 6, None, [0.0] * 6, -1
+    for k in range(len(d.ticks)):
+        t = int(d.ticks[k])
+        while j < len(frames) and frames[j][0] <= t:
+            last, last_tick = frames[j][1], frames[j][0]
+            j += 1
+        mode = int(d.force_mode[k])
+        if mode < 0:
+            continue
+        if mode == force and not d.cmd_rejected[k] and (prev_mode != force or last_tick == t):
+            current = list(last)
+        d.force_target[k] = current if mode == force else 0.0
+        prev_mode = mode
+
+
+def test_force_targets_equal_the_row_by_row_reference():
+    from types import SimpleNamespace
+
+    from stewart.analysis.decode import force_targets
+    rng = random.Random(15)
+    for _ in range(500):
+        n = rng.randrange(1, 200)
+        ticks = np.arange(n) * rng.choice([1, 2]) + rng.randrange(100)
+        mode = np.array([rng.choice([-1, 0, 1, 1, 1, 2, 3, 4]) for _ in range(n)])
+        rejected = np.array([rng.random() < 0.1 for _ in range(n)])
+        frames = [(int(rng.choice(list(ticks) + [int(ticks[-1]) + 5])) if rng.random() < 0.9 else None,
+                   [rng.random()] * 6) for _ in range(rng.randrange(6))]
+        a, b = (SimpleNamespace(ticks=ticks, force_mode=mode, cmd_rejected=rejected, force_frames=frames,
+                                force_target=np.full((n, 6), np.nan)) for _ in range(2))
+        force_targets(a)
+        force_targets_reference(b)
+        assert np.array_equal(a.force_target, b.force_target, equal_nan=True)

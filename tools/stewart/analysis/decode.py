@@ -582,20 +582,20 @@ def force_targets(d: LogData) -> None:
     where no status was logged."""
     force = FORCE_MODES.index("FORCE")
     frames = sorted(((tk, w) for tk, w in d.force_frames if tk is not None), key=lambda f: f[0])
+    mode = np.asarray(d.force_mode)
+    valid = np.flatnonzero(mode >= 0)
+    d.force_target[valid] = 0.0                 # outside FORCE; FORCE rows below
+    prev = np.full(len(mode), -1, dtype=np.int64)  # the mode of the row logged before
+    prev[valid[1:]] = mode[valid[:-1]]
     j = 0
     last = [0.0] * 6
     last_tick = None
     current = [0.0] * 6
-    prev_mode = -1
-    for k in range(len(d)):
+    for k in np.flatnonzero(mode == force).tolist():  # in tick order, as the controller takes them
         t = int(d.ticks[k])
         while j < len(frames) and frames[j][0] <= t:
             last, last_tick = frames[j][1], frames[j][0]
             j += 1
-        mode = int(d.force_mode[k])
-        if mode < 0:
-            continue
-        if mode == force and not d.cmd_rejected[k] and (prev_mode != force or last_tick == t):
+        if not d.cmd_rejected[k] and (prev[k] != force or last_tick == t):
             current = list(last)
-        d.force_target[k] = current if mode == force else 0.0
-        prev_mode = mode
+        d.force_target[k] = current

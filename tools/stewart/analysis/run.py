@@ -12,6 +12,7 @@ from typing import Any, Callable
 
 from .. import REPO_ROOT
 from .. import config as cfg
+from ..protocol import Protocol
 from .csvout import write_signals_csv
 from .decode import LogData, read_log
 from .metrics import DEFAULT_DELAY_TICKS, jsonable, summarize
@@ -57,6 +58,7 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
     if truth is not None:  # while the log's frames are being read
         step(f"reading {truth}")
         t = read_truth(truth)
+    Protocol()  # the DBC parsed (and kept) while the frames are still being read
     data = read_log(log, buses=buses, platform=plat, frames=frames.result())
     if t is not None:
         attach_truth(data, t)
