@@ -676,6 +676,26 @@ static void test_trig_generator(void **state)
     assert_int_equal(sp_trig_start(&g, NULL, SP_AXIS_X, q24(0.09), q24(1), 1000u, 1000u), SP_E_ARG);
 }
 
+/* The wrench source and its contact threshold come together. */
+static void test_set_wrench_source(void **state)
+{
+    (void)state;
+    sp_ctrl_config_t cfg;
+    assert_int_equal(sp_ctrl_default_config(&cfg, &sp_platform_default), SP_OK);
+    sp_ft_mount_t mount = cfg.ft_mount;
+    mount.pos[2] = 12345;
+    assert_int_equal(sp_ctrl_set_wrench_source(&cfg, SP_WRENCH_CYLINDERS, &mount), SP_OK);
+    assert_int_equal(cfg.wrench_source, SP_WRENCH_CYLINDERS);
+    assert_int_equal(cfg.force.contact.made, 300 * SP_Q8_ONE);
+    assert_int_equal(cfg.ft_mount.pos[2], 12345);
+    assert_int_equal(sp_ctrl_set_wrench_source(&cfg, SP_WRENCH_SENSOR, NULL), SP_OK);
+    assert_int_equal(cfg.force.contact.made, 100 * SP_Q8_ONE);
+    assert_int_equal(cfg.ft_mount.pos[2], 12345);
+    assert_int_equal(sp_ctrl_set_wrench_source(&cfg, 7u, NULL), SP_E_ARG);
+    assert_int_equal(cfg.wrench_source, SP_WRENCH_SENSOR);
+    assert_int_equal(sp_ctrl_set_wrench_source(NULL, SP_WRENCH_SENSOR, NULL), SP_E_ARG);
+}
+
 /* One tick with an operator heartbeat when `beat`. */
 static void link_tick(rig_t *r, sp_cmd_type_t cmd, int beat)
 {
@@ -1096,6 +1116,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_trig_generator),
+        cmocka_unit_test(test_set_wrench_source),
         cmocka_unit_test(test_move_respects_limits),
         cmocka_unit_test(test_engage_run_park),
         cmocka_unit_test(test_rest_reuses_setpoints),

@@ -65,6 +65,19 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     return SP_OK;
 }
 
+sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, const sp_ft_mount_t *mount)
+{
+    if (cfg == NULL || (source != SP_WRENCH_CYLINDERS && source != SP_WRENCH_SENSOR)) {
+        return SP_E_ARG;
+    }
+    cfg->wrench_source = source;
+    if (mount != NULL) {
+        cfg->ft_mount = *mount;
+    }
+    cfg->force.contact.made = (source == SP_WRENCH_CYLINDERS) ? SP_CONTACT_MADE_CYLINDERS_Q8 : 100 * SP_Q8_ONE;
+    return SP_OK;
+}
+
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
 {
     const sp_platform_t *p;

@@ -52,9 +52,6 @@
 #include "sp/kinematics.h"
 #include "sp/node.h"
 
-/** Contact made with the cylinders' estimate as the wrench source: 300 N, Q8. */
-#define SP_CYLINDER_CONTACT_MADE_Q8 (300 * 256)
-
 static void usage(void)
 {
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
@@ -273,14 +270,8 @@ int main(int argc, char **argv)
         cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;
     }
     cfg.ctrl.operator_park = (uint8_t)op_park;
-    cfg.ctrl.wrench_source = (wrench_source >= 0) ? (uint8_t)wrench_source : sp_wrench_source_default;
-    cfg.ctrl.ft_mount = sp_ft_mount_default;
-    if (cfg.ctrl.wrench_source == SP_WRENCH_CYLINDERS) {
-        /* the cylinders' estimate carries about 30 N RMS of noise at rest
-         * (pressure sensors, length resolution): contact counts from 300 N,
-         * not from the sensor's 100 N, or the noise alone makes and loses it */
-        cfg.ctrl.force.contact.made = SP_CYLINDER_CONTACT_MADE_Q8;
-    }
+    (void)sp_ctrl_set_wrench_source(&cfg.ctrl, (wrench_source >= 0) ? (uint8_t)wrench_source : sp_wrench_source_default,
+                                    &sp_ft_mount_default); /* the config's source was validated when generated */
     (void)sp_node_init(&node, &cfg);
 
     /* The controller listens to what is addressed to it. */

@@ -316,6 +316,21 @@ typedef struct {
  */
 sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *platform);
 
+/** Force control's contact threshold on the cylinders' estimate, N, Q8:
+ *  the estimate carries about 30 N RMS of noise at rest (pressure sensors,
+ *  1 um lengths), so contact counts from 300 N there, not from the
+ *  sensor's 100 N (sp_force_default_config), or noise alone makes and
+ *  loses it. */
+#define SP_CONTACT_MADE_CYLINDERS_Q8 (300 * 256)
+
+/** Chooses force control's wrench source (SP_WRENCH_CYLINDERS or
+ *  SP_WRENCH_SENSOR), the sensor's mounting (NULL: keep cfg's) and the
+ *  contact threshold that suits the source (SP_CONTACT_MADE_CYLINDERS_Q8
+ *  on the cylinders, 100 N on the sensor). For ports that take both from
+ *  the platform config (sp_wrench_source_default, sp_ft_mount_default).
+ *  SP_E_ARG for a NULL cfg or another source (cfg unchanged). */
+sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, const sp_ft_mount_t *mount);
+
 /** Resets the controller to IDLE with no faults and no estimate, and
  *  derives ctrl->prep from cfg. SP_E_ARG on NULL, a config without
  *  platform, negative friction or a wrench cut-off <= 0; SP_E_RANGE for a
