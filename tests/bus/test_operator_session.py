@@ -252,15 +252,20 @@ def test_operator_session(rig, tmp_path):
     assert "FORCE refused" in r.stderr and "beyond the controller's limits" in r.stderr
     force = subprocess.Popen(STEWART + ["op", "force", "z", "0", "0", "500", "0", "0", "0"], cwd=REPO_ROOT,
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    first = force.stdout.readline()
-    assert first.startswith("FORCE: FORCE") and "force control FORCE" in first, (first, force.communicate())
-    r = op("force", "z", 0, 0, 800, 0, 0, 0, "--update", check=0)
-    assert "target updated" in r.stdout
-    r = op("force", "x", 0, 0, 800, 0, 0, 0, "--update", check=1)
-    assert "FORCE update refused" in r.stderr
-    r = op("position", check=0)
-    assert "POSITION: position control" in r.stdout
-    out, err = force.communicate(timeout=60)
+    try:  # a failure here must not leave its heartbeat on the bus for the next test
+        first = force.stdout.readline()
+        assert first.startswith("FORCE: FORCE") and "force control FORCE" in first, (first, force.communicate())
+        r = op("force", "z", 0, 0, 800, 0, 0, 0, "--update", check=0)
+        assert "target updated" in r.stdout
+        r = op("force", "x", 0, 0, 800, 0, 0, 0, "--update", check=1)
+        assert "FORCE update refused" in r.stderr
+        r = op("position", check=0)
+        assert "POSITION: position control" in r.stdout
+        out, err = force.communicate(timeout=60)
+    finally:
+        if force.poll() is None:
+            force.kill()
+            force.wait()
     print(first, out, err)
     assert force.returncode == 0 and "force control ended" in out and "Traceback" not in err
     assert status()["force_mode"] == "OFF" and status()["faults"] == []

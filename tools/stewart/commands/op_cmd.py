@@ -331,9 +331,12 @@ def _force(node, args, prepared):
         from ..operator.node import Refused
 
         mark = node._mark()  # keeps every status from here on
-        sent = node.send_force(mask, target)
+        node.send_force(mask, target)
         node.wait_status(timeout=2.0, after=node.status.seq)
-        node.send_force(mask, target)  # the first may meet the E2E check (see _send_force_twice)
+        # the first may meet the E2E check (see _send_force_twice); the second
+        # is the one answered for: a slow (niced) operator may send it many
+        # ticks after the first, so its statuses are counted from its own send
+        sent = node.send_force(mask, target)
         try:
             # a refusal comes within a tick or two of the frame; 20 statuses after it, none came
             ans = node.wait_for("FORCE", lambda s: True, _t(args, 5.0), mark, st, sent, settle=20)
