@@ -114,25 +114,26 @@ def _max_or_none(v: list) -> float | None:
     return max(v) if v else None
 
 
+def _bits_seen(bits: np.ndarray) -> int:
+    """OR of the fault masks of the rows that have one (-1: missing)."""
+    b = bits[bits >= 0]
+    return int(np.bitwise_or.reduce(b)) if len(b) else 0
+
+
 def summarize(data: LogData, segments: list[Segment] | None = None,
               delay_ticks: int = DEFAULT_DELAY_TICKS) -> dict[str, Any]:
     """Everything summary.json holds."""
     if segments is None:
         segments = find_segments(data)
-    faults = 0
-    for f in data.faults[data.faults >= 0]:
-        faults |= int(f)
-    dfaults = []
-    for j in range(6):
-        bits = 0
-        for f in data.drive_faults[:, j][data.drive_faults[:, j] >= 0]:
-            bits |= int(f)
-        dfaults.append(pr.fault_names(bits, pr.DRIVE_FAULTS))
+    faults = _bits_seen(data.faults)
+    dfaults = [pr.fault_names(_bits_seen(data.drive_faults[:, j]), pr.DRIVE_FAULTS) for j in range(6)]
     known = np.nonzero(data.state >= 0)[0]
     final = data.state_name(int(known[-1])) if len(known) else None
     visited = []
-    for s in data.state[data.state >= 0]:
-        name = STATES[int(s)] if 0 <= s < len(STATES) else str(int(s))
+    states = data.state[known]
+    changes = np.flatnonzero(np.concatenate(([True], states[1:] != states[:-1]))) if len(states) else []
+    for s in states[changes].tolist():   # the first row of each run of one state
+        name = STATES[s] if 0 <= s < len(STATES) else str(s)
         if not visited or visited[-1] != name:
             visited.append(name)
     segs = [segment_metrics(data, s, delay_ticks) for s in segments]

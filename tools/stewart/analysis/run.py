@@ -5,7 +5,6 @@ summary.json and the plots of each segment."""
 from __future__ import annotations
 
 import json
-from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -16,7 +15,7 @@ from ..protocol import Protocol
 from .csvout import write_signals_csv
 from .decode import LogData, read_log
 from .metrics import DEFAULT_DELAY_TICKS, jsonable, summarize
-from .prefetch import read_frames_beside
+from .prefetch import Beside, read_frames_beside
 from .plots import plot_cylinders, plot_tracking
 from .segments import Segment, find_segments
 from .truth import attach_truth, read_truth
@@ -37,7 +36,7 @@ class Analysis:
 def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
             platform: str | Path | None = None, delay_ticks: int = DEFAULT_DELAY_TICKS,
             buses: str | None = None, plots: bool = True,
-            progress: Callable[[str], None] | None = None, frames: Future | None = None) -> Analysis:
+            progress: Callable[[str], None] | None = None, frames: Beside | None = None) -> Analysis:
     """Reads ``log`` (and ``truth``), writes signals.csv, summary.json and the
     plots into ``out``; returns the data, segments, summary and files.
     ``progress(text)`` is told each step as it starts (the command prints
