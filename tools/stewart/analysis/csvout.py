@@ -84,124 +84,143 @@ def _control_mode(m: int) -> str:
     return CONTROL_MODES[FORCE_MODES[m]] if 0 <= m < len(FORCE_MODES) else ""
 
 
-def _number_chars(v: np.ndarray, decimals: int) -> np.ndarray:
-    """``format(x, f".{decimals}f")`` of each finite value, blank for NaN and
-    inf, as characters: ``v`` of shape (N, K) gives (N, K, W) bytes, padded
-    with zero bytes (dropped when the file is written). Sign, integer
-    digits, point and fraction digits of the value rounded to ``decimals``
-    places (to the even neighbour on an exact tie)."""
-    v = np.asarray(v, dtype=np.float64)
-    if v.ndim == 1:
-        v = v[:, None]
-    ok = np.isfinite(v)
-    scaled = np.where(ok, np.abs(v), 0.0) * float(10 ** decimals)
-    if (scaled >= 9.0e18).any():
-        raise ValueError("value too large for the CSV's fixed-point columns")
-    q = np.rint(scaled).astype(np.int64)
-    ip, fp = np.divmod(q, 10 ** decimals)
-    nd = len(str(int(ip.max()))) if ip.size else 1
-    w = 1 + nd + (decimals + 1 if decimals > 0 else 0)
-    out = np.zeros(v.shape + (w,), dtype=np.uint8)
-    out[..., 0] = np.where(np.signbit(v) & ok, ord("-"), 0)
-    # digits from the last, dividing by the scalar 10 (fast in numpy)
-    for j in range(decimals):
-        fp, r = np.divmod(fp, 10)
-        out[..., w - 1 - j] = r + 0x30
-    if decimals > 0:
-        out[..., nd + 1] = ord(".")
-    for j in range(nd):
-        ip, r = np.divmod(ip, 10)
-        col = np.where(r + ip > 0, r + 0x30, 0) if j else r + 0x30  # no leading zeros
-        out[..., nd - j] = col
-    out[~ok] = 0
-    return out
+class _Numbers:
+    """K columns of numbers with ``decimals`` places: ``format(x,
+    f".{decimals}f")`` of each finite value, blank for NaN and inf. Sign,
+    integer digits, point and fraction digits of the value rounded to
+    ``decimals`` places (to the even neighbour on an exact tie), in a field
+    of :attr:`width` characters padded with zero bytes (dropped when the
+    file is written)."""
+
+    def __init__(self, v: np.ndarray, decimals: int):
+        v = np.asarray(v, dtype=np.float64)
+        if v.ndim == 1:
+            v = v[:, None]
+        self.k = v.shape[1]
+        self.ok = np.isfinite(v)
+        self.minus = np.signbit(v) & self.ok
+        scaled = np.where(self.ok, np.abs(v), 0.0) * float(10 ** decimals)
+        if (scaled >= 9.0e18).any():
+            raise ValueError("value too large for the CSV's fixed-point columns")
+        self.ip, self.fp = np.divmod(np.rint(scaled).astype(np.int64), 10 ** decimals)
+        self.decimals = decimals
+        self.nd = len(str(int(self.ip.max()))) if self.ip.size else 1
+        self.width = 1 + self.nd + (decimals + 1 if decimals > 0 else 0)
+
+    def fill(self, out: np.ndarray) -> None:
+        """Writes the fields into ``out`` ((N, K, width) bytes, zeroed)."""
+        w, nd = self.width, self.nd
+        out[..., 0] = np.where(self.minus, ord("-"), 0)
+        # digits from the last: q // 10 by a constant is cheap in numpy, and
+        # cheaper on 32-bit integers (the fraction always fits: < 10**9)
+        fp = _narrow(self.fp)
+        for j in range(self.decimals):
+            nxt = fp // 10
+            out[..., w - 1 - j] = fp - nxt * 10 + 0x30
+            fp = nxt
+        if self.decimals > 0:
+            out[..., nd + 1] = ord(".")
+        ip = _narrow(self.ip)
+        out[..., nd] = ip % 10 + 0x30
+        for j in range(1, nd):      # no leading zeros
+            ip = ip // 10
+            out[..., nd - j] = np.where(ip > 0, ip % 10 + 0x30, 0)
+        out[~self.ok] = 0
 
 
-def _int_chars(v: np.ndarray) -> np.ndarray:
+def _narrow(q: np.ndarray) -> np.ndarray:
+    """Non-negative integers as int32 when they all fit."""
+    return q.astype(np.int32) if not q.size or int(q.max()) < 2 ** 31 else q
+
+
+def _integers(v: np.ndarray) -> _Numbers:
     """Integers, blank where negative (missing)."""
     v = np.asarray(v, dtype=np.int64)
-    return _number_chars(np.where(v >= 0, v, np.nan), 0)
+    return _Numbers(np.where(v >= 0, v, np.nan), 0)
 
 
-def _text_chars(texts: list[str]) -> np.ndarray:
-    """Character matrix (one row per text, zero-padded) of a few texts."""
-    enc = [t.encode("utf-8") for t in texts]
-    table = np.zeros((len(enc), max([1] + [len(e) for e in enc])), dtype=np.uint8)
-    for k, e in enumerate(enc):
-        table[k, :len(e)] = np.frombuffer(e, dtype=np.uint8)
-    return table
+class _Texts:
+    """Columns of text through ``name(code)`` (called once per distinct
+    code): (N, K) integer codes -> fields of :attr:`width` bytes."""
+
+    def __init__(self, codes: np.ndarray, name):
+        codes = np.asarray(codes, dtype=np.int64)
+        if codes.ndim == 1:
+            codes = codes[:, None]
+        self.k = codes.shape[1]
+        uniq, inv = np.unique(codes, return_inverse=True)
+        enc = [name(int(c)).encode("utf-8") for c in uniq] or [b""]
+        self.table = np.zeros((len(enc), max([1] + [len(e) for e in enc])), dtype=np.uint8)
+        for k, e in enumerate(enc):
+            self.table[k, :len(e)] = np.frombuffer(e, dtype=np.uint8)
+        self.inv = inv.reshape(codes.shape)
+        self.width = self.table.shape[1]
+
+    def fill(self, out: np.ndarray) -> None:
+        out[...] = self.table[self.inv]
 
 
-def _coded_text(codes: np.ndarray, name) -> np.ndarray:
-    """Text of integer codes through ``name(code)`` (called once per distinct
-    code): (N, K) codes -> (N, K, W) bytes."""
-    codes = np.asarray(codes, dtype=np.int64)
-    if codes.ndim == 1:
-        codes = codes[:, None]
-    uniq, inv = np.unique(codes, return_inverse=True)
-    return _text_chars([name(int(c)) for c in uniq] or [""])[inv.reshape(codes.shape)]
-
-
-def _table_chars(data: LogData, rows: slice) -> list[np.ndarray]:
-    """The columns of signals.csv for ``rows``, in blocks of (N, K, W) bytes."""
+def _table_blocks(data: LogData, rows: slice) -> list:
+    """The columns of signals.csv for ``rows``, in blocks of K alike."""
     def name_or_int(table):
         return lambda s: table[s] if 0 <= s < len(table) else ("" if s < 0 else str(s))
 
     ticks = data.ticks[rows]
     st = data.state[rows]
     fault_key = np.where(st >= 0, np.maximum(data.faults[rows], 0), -1)
-    cols = [_int_chars(ticks), _number_chars(ticks * TICK_S, 3),
-            _coded_text(st, name_or_int(STATES)), _int_chars(data.faults[rows]),
-            _coded_text(fault_key, lambda f: "" if f < 0 else
-                        "+".join(pr.fault_names(f, pr.CONTROLLER_FAULTS))),
-            _coded_text(data.drive_mode[rows], lambda m: DRIVE_MODES[m] if m >= 0 else ""),
-            _int_chars(np.stack([data.feedforward[rows], data.estimate_valid[rows]], axis=1)),
-            _number_chars(np.concatenate([data.reference[rows], data.estimate[rows],
-                                          data.length_sp[rows]], axis=1), 6),
-            _number_chars(data.force_ff[rows], 2),
-            _number_chars(np.concatenate([data.length[rows], data.stretch[rows]], axis=1), 6),
-            _number_chars(data.force[rows], 1),
-            _coded_text(data.drive_state[rows], name_or_int(DRIVE_STATES)),
-            _int_chars(np.concatenate([data.drive_faults[rows], data.est_wrench_valid[rows, None]],
-                                      axis=1)),
-            _number_chars(data.est_wrench[rows], 2),
-            _coded_text(data.force_mode[rows], _control_mode),
-            _number_chars(data.force_target[rows], 2)]
+    cols = [_integers(ticks), _Numbers(ticks * TICK_S, 3),
+            _Texts(st, name_or_int(STATES)), _integers(data.faults[rows]),
+            _Texts(fault_key, lambda f: "" if f < 0 else "+".join(pr.fault_names(f, pr.CONTROLLER_FAULTS))),
+            _Texts(data.drive_mode[rows], lambda m: DRIVE_MODES[m] if m >= 0 else ""),
+            _integers(np.stack([data.feedforward[rows], data.estimate_valid[rows]], axis=1)),
+            _Numbers(np.concatenate([data.reference[rows], data.estimate[rows], data.length_sp[rows]],
+                                    axis=1), 6),
+            _Numbers(data.force_ff[rows], 2),
+            _Numbers(np.concatenate([data.length[rows], data.stretch[rows]], axis=1), 6),
+            _Numbers(data.force[rows], 1),
+            _Texts(data.drive_state[rows], name_or_int(DRIVE_STATES)),
+            _integers(np.concatenate([data.drive_faults[rows], data.est_wrench_valid[rows, None]], axis=1)),
+            _Numbers(data.est_wrench[rows], 2),
+            _Texts(data.force_mode[rows], _control_mode),
+            _Numbers(data.force_target[rows], 2)]
     if data.truth is not None:
         tw = data.truth.get("wrench")
         if tw is None:
             tw = np.full((len(data), 6), np.nan)
-        cols += [_number_chars(np.concatenate([data.truth["pose"][rows], data.truth["length"][rows]],
-                                              axis=1), 9),
-                 _number_chars(np.concatenate([data.truth["force"][rows], tw[rows]], axis=1), 3)]
+        cols += [_Numbers(np.concatenate([data.truth["pose"][rows], data.truth["length"][rows]], axis=1), 9),
+                 _Numbers(np.concatenate([data.truth["force"][rows], tw[rows]], axis=1), 3)]
     return cols
 
 
-#: Rows formatted at a time (bounds the character matrices).
+#: Rows formatted at a time (bounds the character matrix).
 _CSV_CHUNK = 16384
 
 
 def write_signals_csv(data: LogData, path: str | Path) -> None:
     """signals.csv: one row per tick, SI units, blank for missing values.
 
-    Every column is formatted at once with numpy (:func:`_number_chars`):
-    the same text as :func:`signal_table` row by row (the plain reference,
-    tests/python/test_framedecode.py), about 20x faster."""
+    Every column is formatted at once with numpy (:class:`_Numbers`) into
+    one character matrix of fixed-width fields, one row per tick, and the
+    padding is dropped as the rows are written: the same text as
+    :func:`signal_table` row by row (the plain reference,
+    tests/python/test_framedecode.py), about 40x faster."""
     cols = signal_columns(data.truth is not None)
     with open(path, "wb") as fh:
         fh.write((",".join(cols) + "\r\n").encode())
         for a in range(0, len(data), _CSV_CHUNK):
-            blocks = _table_chars(data, slice(a, min(a + _CSV_CHUNK, len(data))))
-            n = blocks[0].shape[0]
+            blocks = _table_blocks(data, slice(a, min(a + _CSV_CHUNK, len(data))))
+            n = min(a + _CSV_CHUNK, len(data)) - a
             seq = []
-            for blk in blocks:  # every field followed by a comma
-                sep = np.full(blk.shape[:2] + (1,), ord(","), dtype=np.uint8)
-                seq.append(np.concatenate([blk, sep], axis=2).reshape(n, -1))
+            for b in blocks:  # every field followed by a comma ...
+                fields = np.zeros((n, b.k, b.width + 1), dtype=np.uint8)
+                b.fill(fields[:, :, :b.width])
+                fields[:, :, b.width] = ord(",")
+                seq.append(fields.reshape(n, -1))
+            seq.append(np.full((n, 1), ord("\n"), dtype=np.uint8))
             text = np.concatenate(seq, axis=1)
-            text[:, -1] = 0     # the last field's comma: the row ends with CR LF
-            text = np.concatenate([text, np.tile(np.frombuffer(b"\r\n", dtype=np.uint8), (n, 1))],
-                                  axis=1).reshape(-1)
-            fh.write(text[text != 0].tobytes())
+            text[:, -2] = ord("\r")  # ... but the last: the row ends with CR LF
+            text = text.reshape(-1)
+            fh.write(text[text != 0])
 
 
 def write_signals_csv_reference(data: LogData, path: str | Path) -> None:
