@@ -211,6 +211,18 @@ class _Scaler:
         return out
 
 
+class _OnDemand(dict):
+    """A dict whose missing keys are computed by ``fn(key)`` (and kept)."""
+
+    def __init__(self, fn):
+        super().__init__()
+        self._fn = fn
+
+    def __missing__(self, key):
+        v = self[key] = self._fn(key)
+        return v
+
+
 def _unwrap16(echo: int, near: int) -> int:
     """The tick with low 16 bits ``echo`` nearest to ``near``."""
     base = near - ((near - echo) & 0xFFFF)
@@ -246,7 +258,61 @@ class _Accepted:
     bus: str
     line_no: np.ndarray
     time: np.ndarray
-    values: dict[str, np.ndarray]   #: physical values (cantools' conversion)
+    values: "_Signals"   #: physical values (cantools' conversion), by signal name
+
+
+class _RawValues:
+    """Raw values of one message's signals over the rows of its payload
+    matrix, each taken out of the payloads when first asked for."""
+
+    def __init__(self, layout, data: np.ndarray):
+        from .framedecode import raw_values
+
+        self._layout, self._data, self._raw_values = layout, data, raw_values
+        self._done: dict[str, np.ndarray] = {}
+
+    def __call__(self, name: str) -> np.ndarray:
+        v = self._done.get(name)
+        if v is None:
+            v = self._done[name] = self._raw_values(self._data, self._layout.by_name[name])
+        return v
+
+
+class _Signals(Mapping):
+    """Physical values of the accepted frames of one message on one bus, by
+    signal name; ``rows``: their rows in the payload matrix (None: all).
+    Each signal is decoded and scaled when first read: the analysis reads
+    about half of the signals, and the rest cost nothing. A value set here
+    (the unwrapped Tick) replaces the decoded one."""
+
+    def __init__(self, layout, raw: _RawValues, rows: np.ndarray | None):
+        self._layout, self._raw, self._rows = layout, raw, rows
+        self._done: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        v = self._done.get(name)
+        if v is None:
+            r = self._raw(name)
+            v = self._done[name] = self._layout.scale(name, r if self._rows is None else r[self._rows])
+        return v
+
+    def __setitem__(self, name: str, value: np.ndarray) -> None:
+        self._done[name] = value
+
+    def __iter__(self):
+        return iter(self._layout.by_name)
+
+    def __len__(self) -> int:
+        return len(self._layout.by_name)
+
+
+def _range_can_fail(signal, lim) -> bool:
+    """Whether a raw value of the signal's bits can lie outside ``lim``."""
+    if signal.is_float:
+        return True
+    lo, hi = ((-(1 << (signal.length - 1)), (1 << (signal.length - 1)) - 1) if signal.is_signed
+              else (0, (1 << signal.length) - 1))
+    return lim.lo > lo or lim.hi < hi
 
 
 def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: LogStats,
@@ -292,44 +358,50 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
         sel = sel[frames.dlc[sel] == m.length]
         data = frames.data[sel, :m.length]
         crc = e2e.crc_ok_many(fid, data)
-        reject(pr.BAD_CRC, sel[~crc], lambda k: str(pr.ProtocolError(pr.BAD_CRC, f"{m.name}: CRC mismatch", fid)))
-        sel, data = sel[crc], data[crc]
+        if not crc.all():
+            reject(pr.BAD_CRC, sel[~crc], lambda k: str(pr.ProtocolError(pr.BAD_CRC, f"{m.name}: CRC mismatch", fid)))
+            sel, data = sel[crc], data[crc]
         layout = MessageLayout(m)
-        raw = layout.raw(data)
+        raw = _RawValues(layout, data)
         keep = np.ones(len(sel), dtype=bool)
         lost = np.zeros(len(sel), dtype=np.int64)
+        bus_sel = bus[sel]
         for b in range(len(_BUS_ORDER)):
-            on = np.flatnonzero(bus[sel] == b)
+            on = np.flatnonzero(bus_sel == b)
             if len(on) == 0:
                 continue
-            codes, lost_b = e2e.check_counters(raw["Counter"][on])
+            codes, lost_b = e2e.check_counters(raw("Counter")[on])
             lost[on] = lost_b
             for kind in (pr.REPEATED, pr.WRONG_SEQUENCE):
                 hit = on[codes == e2e.STATUS_CODES.index(kind)]
                 keep[hit] = False
                 reject(kind, sel[hit], lambda k, kind=kind: str(pr.ProtocolError(
                     kind, f"{m.name} on {_BUS_ORDER[bus[k]]}: counter "
-                    f"{int(raw['Counter'][np.searchsorted(sel, k)])}", fid)))
-        # Value ranges, in the order of the signals (the first one out is named).
+                    f"{int(raw('Counter')[np.searchsorted(sel, k)])}", fid)))
+        # Value ranges, in the order of the signals (the first one out is
+        # named); a signal whose bits cannot leave its range is not read.
         first_bad = np.full(len(sel), -1, dtype=np.int64)
         for j, s in enumerate(m.signals):
             lim = info.limits[s.name]
-            r = raw[s.name]
+            if not _range_can_fail(s, lim):
+                continue
+            r = raw(s.name)
             out_of = (r > lim.hi) if lim.lo <= 0 and not s.is_signed else ((r < lim.lo) | (r > lim.hi))
-            first_bad = np.where((first_bad < 0) & out_of & keep, j, first_bad)
+            if out_of.any():
+                first_bad = np.where((first_bad < 0) & out_of & keep, j, first_bad)
         bad_rng = np.flatnonzero(first_bad >= 0)
 
         def range_text(k, bad_rng=bad_rng):
             i = int(np.searchsorted(sel, k))
             s = m.signals[int(first_bad[i])]
             lim = info.limits[s.name]
-            return str(pr.ProtocolError(pr.OUT_OF_RANGE, f"{m.name}.{s.name} raw {int(raw[s.name][i])} "
+            return str(pr.ProtocolError(pr.OUT_OF_RANGE, f"{m.name}.{s.name} raw {int(raw(s.name)[i])} "
                                         f"outside {lim.lo}..{lim.hi}", fid))
 
         reject(pr.OUT_OF_RANGE, sel[bad_rng], range_text)
         keep[bad_rng] = False
         allowed = np.array([_BUS_ORDER[b] in info.buses for b in range(len(_BUS_ORDER))])
-        wrong = keep & ~allowed[bus[sel]]
+        wrong = keep & ~allowed[bus_sel]
         wb = sel[wrong]
         if len(wb):
             stats.rejected[WRONG_BUS] = stats.rejected.get(WRONG_BUS, 0) + len(wb)
@@ -343,18 +415,19 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
         stats.accepted += int(keep.sum())
         stats.lost += int(lost[keep].sum())
         stats.per_message[m.name] = stats.per_message.get(m.name, 0) + int(keep.sum())
-        every = bool(keep.all())
-        scaled = layout.scaled(raw if every else {k: v[keep] for k, v in raw.items()})
-        kept = sel if every else sel[keep]
+        rows = None if keep.all() else np.flatnonzero(keep)   # rows of the payload matrix
+        kept = sel if rows is None else sel[rows]
         buses_here = bus[kept]
         for b in range(len(_BUS_ORDER)):
             on = buses_here == b
             n_on = int(on.sum())
             if n_on == len(kept):   # all on one bus: no copies
-                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept], frames.time[kept], scaled))
+                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept], frames.time[kept],
+                                     _Signals(layout, raw, rows)))
             elif n_on:
+                on_rows = np.flatnonzero(on) if rows is None else rows[on]
                 out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept[on]],
-                                     frames.time[kept[on]], {k: v[on] for k, v in scaled.items()}))
+                                     frames.time[kept[on]], _Signals(layout, raw, on_rows)))
     return out
 
 
@@ -492,10 +565,11 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
             return None
         posv = np.concatenate([pos_in[k] for k in parts])
         o = np.argsort(posv, kind="stable")
-        vals = {s: np.concatenate([groups[k].values[s] for k in parts])[o] for s in groups[parts[0]].values}
-        t = np.asarray(vals["Tick"], dtype=np.int64)
+        t = np.asarray(np.concatenate([groups[k].values["Tick"] for k in parts])[o], dtype=np.int64)
         last = _last_per_key(t)
-        return np.searchsorted(ticks, t[last]), {s: v[last] for s, v in vals.items()}
+        rows = o[last]   # of the parts' frames one after the other
+        return np.searchsorted(ticks, t[last]), _OnDemand(
+            lambda s: np.concatenate([groups[k].values[s] for k in parts])[rows])
 
     got = merged("CTRL_STATUS")
     if got is not None:
@@ -537,18 +611,19 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
                                for p in parts])
         o = np.argsort(posv, kind="stable")
         t = t[o]
+        last = _last_per_key(t)
+        rows = o[last]   # of the parts' frames one after the other
         vals = {}
         for sname in ("Length", "PressureA", "PressureB", "State", "Faults"):
             vals[sname] = np.concatenate([groups[p[2][0]].values[sname][p[3]] if len(p[2])
-                                          else np.zeros(0) for p in parts])[o]
-        last = _last_per_key(t)
+                                          else np.zeros(0) for p in parts])[rows]
         k = np.searchsorted(ticks, t[last])
         j = leg - 1
-        d.length[k, j] = vals["Length"][last]
-        d.pressure_a[k, j] = vals["PressureA"][last]
-        d.pressure_b[k, j] = vals["PressureB"][last]
-        d.drive_state[k, j] = vals["State"][last]
-        d.drive_faults[k, j] = vals["Faults"][last]
+        d.length[k, j] = vals["Length"]
+        d.pressure_a[k, j] = vals["PressureA"]
+        d.pressure_b[k, j] = vals["PressureB"]
+        d.drive_state[k, j] = vals["State"]
+        d.drive_faults[k, j] = vals["Faults"]
     d.force_frames = [(tk, w) for tk, w, _ in force_frames]
     force_targets(d)
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)

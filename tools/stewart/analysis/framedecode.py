@@ -143,14 +143,14 @@ class MessageLayout:
     def scaled(self, raw: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Physical values from :meth:`raw`'s output, as cantools converts
         (choices not decoded)."""
-        out = {}
-        for s in self.signals:
-            r = raw[s.name]
-            if s.integer:
-                out[s.name] = r if (s.scale == 1 and s.offset == 0) else r * s.scale + s.offset
-            else:
-                out[s.name] = r.astype(np.float64) * float(s.scale) + float(s.offset)
-        return out
+        return {s.name: self.scale(s.name, raw[s.name]) for s in self.signals}
+
+    def scale(self, name: str, raw: np.ndarray) -> np.ndarray:
+        """One signal's physical values from its raw values (:meth:`scaled`)."""
+        s = self.by_name[name]
+        if s.integer:
+            return raw if (s.scale == 1 and s.offset == 0) else raw * s.scale + s.offset
+        return raw.astype(np.float64) * float(s.scale) + float(s.offset)
 
     def present(self, raw: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Per signal, the rows where the frame carries it (all rows unless

@@ -4,6 +4,7 @@ protocol's buses (``--bus ops=vcan0,axis_a=vcan1,axis_b=vcan2``)."""
 
 from __future__ import annotations
 
+import mmap
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -219,13 +220,12 @@ def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
             flags = np.zeros(len(S), dtype=np.uint8)
         dn = _pair_table()[np.ascontiguousarray(S[:, d0:]).view("<u2")]  # two digits -> a byte
         ok &= (dn != 0xFFFF).all(axis=1)
-        bad = rows[~ok]
-        if len(bad):
-            yield bad, None
-        if not ok.any():
-            continue
-        S, ts, ifc, idn, dn, flags = S[ok], ts[ok], ifc[ok], idn[ok], dn[ok], flags[ok]
-        rows = rows[ok]
+        if not ok.all():
+            yield rows[~ok], None
+            if not ok.any():
+                continue
+            S, ts, ifc, idn, dn, flags = S[ok], ts[ok], ifc[ok], idn[ok], dn[ok], flags[ok]
+            rows = rows[ok]
         time = _times(ts)
         if ifc.shape[1] <= 8:  # names as one integer each: cheaper to sort than bytes
             wide = np.zeros((len(ifc), 8), dtype=np.uint8)
@@ -283,6 +283,28 @@ def _name_codes(names: np.ndarray, code_of) -> np.ndarray:
     return out
 
 
+def _file_bytes(path: str | Path) -> np.ndarray:
+    """The file's bytes, line ends made \\n. Mapped rather than read where
+    the file can be: a read copies the log into fresh memory, and on the VM
+    of docs/analysis.md faulting in 30 MB of fresh pages costs more than the
+    read itself."""
+    with open(path, "rb") as f:
+        try:
+            mapped = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+        except (ValueError, OSError):  # empty, or not a regular file
+            return np.frombuffer(_unix_line_ends(f.read()), dtype=np.uint8)
+    if mapped.find(b"\r") >= 0:
+        return np.frombuffer(_unix_line_ends(mapped[:]), dtype=np.uint8)
+    return np.frombuffer(mapped, dtype=np.uint8)
+
+
+def _unix_line_ends(raw: bytes) -> bytes:
+    """Line ends as Python's text files see them: \\n, \\r\\n or \\r -> \\n."""
+    if b"\r" in raw:
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    return raw
+
+
 def read_frames(source) -> LogFrames:
     """Every frame of a candump -L log (a path, bytes, or an iterable of
     lines) at once. Lines in the usual layout are parsed column-wise with
@@ -290,16 +312,16 @@ def read_frames(source) -> LogFrames:
     :func:`parse_line` (which gives the reason a line is not a frame). Same
     frames, times, IDs and payloads as :func:`parse_line` line by line
     (tests/python/test_framedecode.py)."""
-    if isinstance(source, (bytes, bytearray, str, Path)):
-        raw = bytes(source) if isinstance(source, (bytes, bytearray)) else Path(source).read_bytes()
-        if b"\r" in raw:  # line ends as Python's text files see them: \n, \r\n or \r
-            raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    if isinstance(source, (str, Path)):
+        buf = _file_bytes(source)
+    elif isinstance(source, (bytes, bytearray)):
+        buf = np.frombuffer(_unix_line_ends(bytes(source)), dtype=np.uint8)
     else:
         lines = [str(s).rstrip("\r\n") for s in source]
         raw = "\n".join(lines).encode("utf-8", "replace")
         if lines:  # one newline per line, an empty one included
             raw += b"\n"
-    buf = np.frombuffer(raw, dtype=np.uint8)
+        buf = np.frombuffer(raw, dtype=np.uint8)
     nl = np.flatnonzero(buf == 0x0A)
     starts = np.concatenate(([0], nl + 1)).astype(np.int64)
     ends = np.concatenate((nl, [len(buf)])).astype(np.int64)
@@ -341,7 +363,7 @@ def read_frames(source) -> LogFrames:
     slow_frames: list[tuple[int, LogFrame]] = []
     if slow:
         for i in np.sort(np.concatenate(slow)).tolist():
-            line = raw[starts[i]:ends[i]].decode("utf-8", "replace")
+            line = buf[starts[i]:ends[i]].tobytes().decode("utf-8", "replace")
             if not line.strip():
                 continue
             try:
