@@ -477,23 +477,20 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     for _, text in warnings[:MAX_WARNINGS]:
         stats.warn(text)
 
-    # All accepted frames in log order: which group, row in it, tick if known.
-    if groups:
-        g_of = np.concatenate([np.full(len(g.line_no), k) for k, g in enumerate(groups)])
-        r_of = np.concatenate([np.arange(len(g.line_no)) for g in groups])
-        lines = np.concatenate([g.line_no for g in groups])
-    else:
-        g_of = r_of = lines = np.zeros(0, np.int64)
-    order = np.argsort(lines, kind="stable")
-    g_of, r_of = g_of[order], r_of[order]
-    n = len(order)
+    # All accepted frames in log order: the tick of each if known. A frame's
+    # position is the rank of its line among the accepted frames' lines (a
+    # group's frames are in log order already).
+    lines = np.concatenate([g.line_no for g in groups]) if groups else np.zeros(0, np.int64)
+    n = len(lines)
+    accepted = np.zeros(int(lines.max()) + 1 if n else 1, dtype=bool)
+    accepted[lines] = True
+    rank = np.cumsum(accepted) - 1
     tick_of = np.zeros(n, dtype=np.int64)
     known = np.zeros(n, dtype=bool)
     status_at = np.zeros(n, dtype=bool)
     pos_in: list[np.ndarray] = []   # per group: positions in log order
     for k, g in enumerate(groups):
-        pos = np.flatnonzero(g_of == k)
-        pos = pos[np.argsort(r_of[pos])]
+        pos = rank[g.line_no]
         pos_in.append(pos)
         if g.name in TICK_MESSAGES:
             tick_of[pos] = g.values["Tick"]

@@ -74,14 +74,23 @@ class SignalLayout:
 def _combine(data: np.ndarray, sig: SignalLayout) -> np.ndarray:
     """The signal's raw bits as uint64 (before sign and float handling)."""
     n = data.shape[0]
-    cols = data[:, sig.first_byte:sig.first_byte + sig.n_bytes].astype(np.uint64)
     mask = np.uint64((1 << sig.length) - 1) if sig.length < 64 else np.uint64(0xFFFFFFFFFFFFFFFF)
     if sig.n_bytes <= 8:
-        v = np.zeros(n, dtype=np.uint64)
-        for j in range(sig.n_bytes):
-            pos = 8 * (sig.n_bytes - 1 - j) if sig.big_endian else 8 * j
-            v |= cols[:, j] << np.uint64(pos)
+        # the bytes the signal touches, copied into 8-byte rows read as one
+        # integer in the signal's byte order (one pass instead of one per byte)
+        cols = data[:, sig.first_byte:sig.first_byte + sig.n_bytes]
+        if sig.n_bytes == 1:
+            v = cols[:, 0].astype(np.uint64)
+        elif sig.big_endian:
+            word = np.zeros((n, 8), dtype=np.uint8)
+            word[:, 8 - sig.n_bytes:] = cols
+            v = word.view(">u8")[:, 0].astype(np.uint64)
+        else:
+            word = np.zeros((n, 8), dtype=np.uint8)
+            word[:, :sig.n_bytes] = cols
+            v = word.view("<u8")[:, 0].astype(np.uint64)
         return (v >> np.uint64(sig.shift)) & mask
+    cols = data[:, sig.first_byte:sig.first_byte + sig.n_bytes].astype(np.uint64)
     # 9 bytes: a signal of more than 57 bits that is not byte-aligned.
     if sig.big_endian:
         hi = np.zeros(n, dtype=np.uint64)
