@@ -108,6 +108,17 @@ def _answer(fd: int, fn: Callable[..., Any], args: tuple) -> None:
         _write_all(fd, r)
 
 
+def _widen(fd: int) -> None:
+    """A pipe of 1 MB where Linux allows (64 KB by default): a 40 MB answer
+    in 40 round trips between the processes instead of 640."""
+    import fcntl
+
+    try:
+        fcntl.fcntl(fd, getattr(fcntl, "F_SETPIPE_SZ", 1031), 1 << 20)
+    except OSError:
+        pass
+
+
 def beside(fn: Callable[..., Any], *args: Any) -> Beside:
     """Runs ``fn(*args)`` in a forked process on a machine with more than
     one core; inline where there is one core or no fork. Either way
@@ -116,6 +127,7 @@ def beside(fn: Callable[..., Any], *args: Any) -> Beside:
     threads running (it forks)."""
     if (os.cpu_count() or 1) > 1 and hasattr(os, "fork"):
         r, w = os.pipe()
+        _widen(w)
         pid = os.fork()
         if pid == 0:  # the child: answer, then leave without running the caller's code
             status = 0
