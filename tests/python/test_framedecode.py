@@ -31,7 +31,7 @@ from stewart import cli
 from stewart import config as cfg
 from stewart import e2e
 from stewart import protocol as pr
-from stewart.analysis.csvout import write_signals_csv, write_signals_csv_reference
+from stewart.analysis.csvout import TruthText, write_signals_csv, write_signals_csv_reference
 from stewart.analysis.decode import read_log
 from stewart.analysis.decode_reference import read_log_reference
 from stewart.analysis.framedecode import MessageLayout
@@ -315,6 +315,20 @@ def test_signals_csv_and_truth_match_their_references(real_lines, tmp_path):
     write_signals_csv_reference(data, b)
     assert a.read_bytes() == b.read_bytes()
     assert b.read_bytes().count(b"\r\n") == len(data) + 1
+    # the truth's columns formatted before the log is decoded (stewart
+    # analyze): the same text, rows without truth blank
+    c = tmp_path / "c.csv"
+    write_signals_csv(data, c, TruthText(t_fast))
+    assert c.read_bytes() == b.read_bytes()
+    # a truth with a tick twice (the last row wins) and ticks the log lacks
+    dup = {k: (np.concatenate([v, v[3:4] + 1, v[:1]]) if k == "tick" else
+               np.concatenate([v, v[3:4] * 2, v[:1] + 7]) if k != "bad_rows" else v)
+           for k, v in t_fast.items()}
+    dup["tick"][-2] = data.ticks[-1] + 100
+    attach_truth(data, dup)
+    write_signals_csv(data, c, TruthText(dup))
+    write_signals_csv_reference(data, b)
+    assert c.read_bytes() == b.read_bytes()
 
 
 def test_read_frames_with_many_interfaces(real_lines):

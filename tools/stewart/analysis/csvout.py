@@ -160,8 +160,11 @@ class _Texts:
         out[...] = self.table[self.inv]
 
 
-def _table_blocks(data: LogData, rows: slice) -> list:
-    """The columns of signals.csv for ``rows``, in blocks of K alike."""
+def _table_blocks(data: LogData, rows: slice, truth_text: "TruthText | None" = None,
+                  truth_rows: np.ndarray | None = None) -> list:
+    """The columns of signals.csv for ``rows``, in blocks of K alike (the
+    truth's from ``truth_text`` where given, ``truth_rows`` its row per row
+    of the table)."""
     def name_or_int(table):
         return lambda s: table[s] if 0 <= s < len(table) else ("" if s < 0 else str(s))
 
@@ -183,32 +186,82 @@ def _table_blocks(data: LogData, rows: slice) -> list:
             _Numbers(data.est_wrench[rows], 2),
             _Texts(data.force_mode[rows], _control_mode),
             _Numbers(data.force_target[rows], 2)]
-    if data.truth is not None:
-        tw = data.truth.get("wrench")
-        if tw is None:
-            tw = np.full((len(data), 6), np.nan)
-        cols += [_Numbers(np.concatenate([data.truth["pose"][rows], data.truth["length"][rows]], axis=1), 9),
-                 _Numbers(np.concatenate([data.truth["force"][rows], tw[rows]], axis=1), 3)]
+    if data.truth is not None and truth_rows is not None:
+        cols += [_Picked(chars, truth_rows[rows]) for chars in truth_text.chars]
+    elif data.truth is not None:
+        cols += _truth_blocks(data.truth, rows)
     return cols
+
+
+def _truth_blocks(truth, rows) -> list:
+    tw = truth.get("wrench")
+    if tw is None:
+        tw = np.full((len(truth["pose"]), 6), np.nan)
+    return [_Numbers(np.concatenate([truth["pose"][rows], truth["length"][rows]], axis=1), 9),
+            _Numbers(np.concatenate([truth["force"][rows], tw[rows]], axis=1), 3)]
+
+
+class _Picked:
+    """Fields formatted beforehand ((M, K, W) bytes), one row of them per
+    row of the table (``rows``: indices into M)."""
+
+    def __init__(self, chars: np.ndarray, rows: np.ndarray):
+        self.chars, self.rows = chars, rows
+        self.k, self.width = chars.shape[1], chars.shape[2]
+
+    def fill(self, out: np.ndarray) -> None:
+        out[...] = self.chars[self.rows]
+
+
+class TruthText:
+    """The truth's columns of signals.csv (``truth_*``) formatted from a
+    truth CSV as :func:`.truth.read_truth` returns it, one row per truth
+    row, before the log is decoded: ``stewart analyze`` formats them while
+    the log's frames are being read. Pass it to :func:`write_signals_csv`
+    with the data the same truth was attached to (:func:`.truth.attach_truth`)."""
+
+    def __init__(self, truth: dict[str, np.ndarray]):
+        self.ticks = np.asarray(truth["tick"], dtype=np.int64)
+        m = len(self.ticks)
+        blank = {k: np.full((1, 6), np.nan) for k in ("pose", "length", "force", "wrench")}
+        padded = {k: np.concatenate([np.asarray(truth[k], dtype=np.float64).reshape(-1, 6), blank[k]])
+                  for k in blank if k in truth}
+        self.chars = []   # per block: (M + 1, K, W) bytes; the last row blank
+        for blk in _truth_blocks(padded, slice(0, m + 1)):
+            chars = np.zeros((m + 1, blk.k, blk.width), dtype=np.uint8)
+            blk.fill(chars)
+            self.chars.append(chars)
+
+    def rows_of(self, data: LogData) -> np.ndarray:
+        """Per row of ``data``, its truth row (as :func:`.truth.attach_truth`
+        puts them; the blank row where there is none)."""
+        out = np.full(len(data), len(self.ticks), dtype=np.int64)
+        idx = data.index_of(self.ticks)
+        ok = idx >= 0
+        out[idx[ok]] = np.flatnonzero(ok)
+        return out
 
 
 #: Rows formatted at a time (bounds the character matrix).
 _CSV_CHUNK = 16384
 
 
-def write_signals_csv(data: LogData, path: str | Path) -> None:
+def write_signals_csv(data: LogData, path: str | Path, truth_text: TruthText | None = None) -> None:
     """signals.csv: one row per tick, SI units, blank for missing values.
 
     Every column is formatted at once with numpy (:class:`_Numbers`) into
     one character matrix of fixed-width fields, one row per tick, and the
     padding is dropped as the rows are written: the same text as
     :func:`signal_table` row by row (the plain reference,
-    tests/python/test_framedecode.py), about 40x faster."""
+    tests/python/test_framedecode.py), about 40x faster. ``truth_text``:
+    the truth's columns formatted beforehand (:class:`TruthText`) from the
+    truth attached to ``data``."""
     cols = signal_columns(data.truth is not None)
+    truth_rows = truth_text.rows_of(data) if truth_text is not None and data.truth is not None else None
     with open(path, "wb") as fh:
         fh.write((",".join(cols) + "\r\n").encode())
         for a in range(0, len(data), _CSV_CHUNK):
-            blocks = _table_blocks(data, slice(a, min(a + _CSV_CHUNK, len(data))))
+            blocks = _table_blocks(data, slice(a, min(a + _CSV_CHUNK, len(data))), truth_text, truth_rows)
             n = min(a + _CSV_CHUNK, len(data)) - a
             seq = []
             for b in blocks:  # every field followed by a comma ...

@@ -12,7 +12,7 @@ from typing import Any, Callable
 from .. import REPO_ROOT
 from .. import config as cfg
 from ..protocol import Protocol
-from .csvout import write_signals_csv
+from .csvout import TruthText, write_signals_csv
 from .decode import LogData, read_log
 from .metrics import DEFAULT_DELAY_TICKS, jsonable, summarize
 from .prefetch import Beside, read_frames_beside
@@ -53,10 +53,11 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     plat = cfg.load(platform or DEFAULT_PLATFORM)
-    t = None
+    t = truth_text = None
     if truth is not None:  # while the log's frames are being read
         step(f"reading {truth}")
         t = read_truth(truth)
+        truth_text = TruthText(t)  # its columns of signals.csv
     Protocol()  # the DBC parsed (and kept) while the frames are still being read
     data = read_log(log, buses=buses, platform=plat, frames=frames.result())
     if t is not None:
@@ -64,7 +65,7 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
     segs = find_segments(data)
     files = [out / "signals.csv", out / "summary.json"]
     step(f"writing {files[0]}")
-    write_signals_csv(data, files[0])
+    write_signals_csv(data, files[0], truth_text)
     summary = summarize(data, segs, delay_ticks)
     if truth is not None:
         summary["truth_file"] = str(truth)
