@@ -1,11 +1,14 @@
 """stewart.analysis.prefetch: a job run beside the caller gives the same
-value, and raises the same error, as the job run inline; and the analysis
-package stays light until a decoding name is used."""
+value, and raises the same error, as the job run inline (numpy arrays come
+back whole through the pipe, a worker that dies is an error, not a hang);
+and the analysis package stays light until a decoding name is used."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -48,3 +51,16 @@ def test_the_package_and_its_prefetch_do_not_load_the_protocol():
             "print('cantools' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_arrays_come_back_whole_and_a_dead_worker_is_an_error(monkeypatch):
+    monkeypatch.setattr(prefetch.os, "cpu_count", lambda: 2)
+    got = prefetch.beside(lambda: {"a": np.arange(3_000_000), "b": np.eye(3)[:, 1], "c": "text"}).result(timeout=60)
+    np.testing.assert_array_equal(got["a"], np.arange(3_000_000))
+    np.testing.assert_array_equal(got["b"], [0.0, 1.0, 0.0])   # not contiguous: pickled in band
+    assert got["c"] == "text" and got["a"].flags.writeable
+    with pytest.raises(OSError, match="ended without an answer"):
+        prefetch.beside(os._exit, 3).result(timeout=60)
+    with pytest.raises(TimeoutError):
+        prefetch.beside(time.sleep, 2).result(timeout=0.1)
