@@ -47,6 +47,11 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->force_feedforward = 1u;
     cfg->friction_compensation = 1u;
     cfg->wrench_cutoff_hz = 80 * SP_Q24_ONE;
+    cfg->wrench_smooth_hz = 15 * SP_Q24_ONE;
+    cfg->wrench_jump[0] = 80 << 8; /* 80 N */
+    cfg->wrench_jump[1] = 60 << 8; /* 60 N m */
+    cfg->wrench_jump_persist = 4u;
+    cfg->wrench_jump_hold = 20u;
     cfg->friction_observer = 1u;
     (void)sp_force_default_config(&cfg->force, SP_Q30_ONE, cfg->tick_us); /* gain and tick: set by init */
     cfg->wrench_source = SP_WRENCH_CYLINDERS;
@@ -90,6 +95,19 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     st = sp_friction_prepare(p, &ctrl->prep.friction);
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
+    }
+    if (st == SP_OK) {
+        st = sp_wrench_alpha(cfg->wrench_smooth_hz, cfg->tick_us, &ctrl->prep.wrench_smooth.alpha);
+    }
+    if (st == SP_OK && (cfg->wrench_jump[0] < 1 || cfg->wrench_jump[1] < 1 || cfg->wrench_jump_persist < 1u ||
+                        cfg->wrench_jump_hold < 1u)) {
+        st = SP_E_ARG;
+    }
+    if (st == SP_OK) {
+        ctrl->prep.wrench_smooth.jump[0] = cfg->wrench_jump[0];
+        ctrl->prep.wrench_smooth.jump[1] = cfg->wrench_jump[1];
+        ctrl->prep.wrench_smooth.persist = cfg->wrench_jump_persist;
+        ctrl->prep.wrench_smooth.hold = cfg->wrench_jump_hold;
     }
     if (st == SP_OK) {
         st = sp_motion_error_init(&ctrl->motion_error, cfg->tick_us);
@@ -718,6 +736,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     }
     sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, correction,
                    ctrl->prep.wrench_alpha);
+    sp_wrench_smooth(&ctrl->wrench, &ctrl->prep.wrench_smooth);
 }
 
 /* ---- force control ----------------------------------------------------------- */
@@ -863,7 +882,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     out->fk_iterations = fk_iterations;
     out->cmd_rejected = rejected ? 1u : 0u;
     for (i = 0u; i < 6u; ++i) {
-        out->wrench[i] = ctrl->wrench.wrench[i];
+        out->wrench[i] = ctrl->wrench.smooth[i];
     }
     out->wrench_valid = ctrl->wrench.valid;
     out->drive_fault_reset = ctrl->drive_reset.edge;

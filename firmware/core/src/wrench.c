@@ -15,9 +15,14 @@ void sp_wrench_reset(sp_wrench_t *w)
         for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
             w->section[n][k] = 0;
         }
+        w->smooth[k] = 0;
+        w->slow[k] = 0;
+        w->follow[k] = 0u;
+        w->excess[k] = 0u;
     }
     w->have_force = 0u;
     w->valid = 0u;
+    w->smooth_valid = 0u;
 }
 
 sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha)
@@ -145,4 +150,66 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         w->force_wrench[k] = (acc[k] + (INT64_C(1) << 27)) >> 28;
     }
     w->have_force = 1u;
+}
+
+/* One component of the smoother: x the filtered estimate, *y the slow
+ * section's value (both within [WRENCH_LO, WRENCH_HI]); returns the
+ * reported value, within jump of x. */
+static int32_t wrench_smooth_one(int32_t *y, int32_t x, sp_q30_t alpha, int32_t jump, uint8_t persist, uint8_t hold,
+                                 uint8_t *follow, uint8_t *excess)
+{
+    int32_t v;
+    int64_t d;
+    if (*follow > 0u) {
+        *follow = (uint8_t)(*follow - 1u);
+        *y = x;
+        return x;
+    }
+    v = wrench_section(*y, x, alpha); /* between *y and x */
+    *y = v;
+    d = (int64_t)x - v;
+    if (d > jump || d < -jump) {
+        *excess = (uint8_t)(*excess + 1u);
+        if (*excess >= persist) {
+            /* a jump: follow x from here */
+            *excess = 0u;
+            *follow = (uint8_t)(hold - 1u);
+            *y = x;
+            return x;
+        }
+        /* jump < |x - v|: x -+ jump lies between v and x */
+        return (d > 0) ? x - jump : x + jump;
+    }
+    *excess = 0u;
+    return v;
+}
+
+void sp_wrench_smooth(sp_wrench_t *w, const sp_wrench_smooth_t *p)
+{
+    unsigned k;
+    sp_q30_t alpha;
+    uint8_t persist;
+    uint8_t hold;
+    if (w == NULL || p == NULL) {
+        return;
+    }
+    if (!w->valid || !w->smooth_valid) {
+        for (k = 0u; k < 6u; ++k) {
+            w->smooth[k] = w->wrench[k];
+            w->slow[k] = w->wrench[k];
+            w->follow[k] = 0u;
+            w->excess[k] = 0u;
+        }
+        w->smooth_valid = w->valid;
+        return;
+    }
+    alpha = (p->alpha < 0) ? 0 : ((p->alpha > SP_Q30_ONE) ? SP_Q30_ONE : p->alpha);
+    persist = (p->persist < 1u) ? 1u : p->persist;
+    hold = (p->hold < 1u) ? 1u : p->hold;
+    for (k = 0u; k < 6u; ++k) {
+        int32_t jump = p->jump[(k < 3u) ? 0u : 1u];
+        jump = (jump < 1) ? 1 : jump;
+        w->smooth[k] =
+            wrench_smooth_one(&w->slow[k], w->wrench[k], alpha, jump, persist, hold, &w->follow[k], &w->excess[k]);
+    }
 }
