@@ -93,6 +93,9 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     }
     p = cfg->platform;
     st = sp_friction_prepare(p, &ctrl->prep.friction);
+    /* the observer's parameters, once: a platform it cannot run with
+     * leaves the estimate on the feed-forward's friction, as before */
+    ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     }
@@ -714,8 +717,10 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (cfg->friction_observer && ctrl->sup.seen_mask == SP_ALL_LEGS) {
         /* the observer follows every measured length, engaged or not; a
          * failure (bad parameters) leaves the feed-forward's friction */
-        sp_status_t st =
-            sp_fric_obs_step(cfg->platform, &ctrl->fric_obs, ctrl->sup.last_length, cfg->tick_us, observed);
+        sp_status_t st = ctrl->prep.fric_obs_ok
+                             ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, ctrl->sup.last_length,
+                                                         cfg->tick_us, observed)
+                             : SP_E_ARG;
         friction = (st == SP_OK || st == SP_E_OVERFLOW) ? observed : NULL;
     }
     if (friction == NULL && cfg->friction_observer) {
@@ -728,7 +733,8 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
-            sp_motion_error_wrench_body_sc(&ctrl->prep.motion_body, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
+            sp_motion_error_wrench_body_t(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
+                SP_E_ARG) {
             correction = dw;
         }
     } else {

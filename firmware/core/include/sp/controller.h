@@ -236,6 +236,7 @@ typedef struct {
     sp_friction_t friction;           /**< the cylinders' friction model */
     sp_q30_t wrench_alpha;            /**< the wrench filter's gain (sp_wrench_alpha) */
     sp_wrench_smooth_t wrench_smooth; /**< the reported estimate's smoother (sp_wrench_smooth) */
+    uint8_t fric_obs_ok;              /**< 1: the platform's friction passed sp_fric_obs_check */
     sp_me_body_t motion_body;         /**< the rigid body with the legs' inertia at home, for the wrench's
                                    motion correction (sp_motion_error_body; the rigid body alone
                                    when the legs are outside its envelope) */

@@ -62,7 +62,7 @@ typedef struct {
 /** The reported estimate's smoother (sp_wrench_smooth). */
 typedef struct {
     sp_q30_t alpha;  /**< gain of its one section (sp_wrench_alpha), Q30, held within [0, 1] */
-    int32_t jump[2]; /**< force (N) and moment (N m) thresholds, Q8, > 0 */
+    int32_t jump[2]; /**< force (N) and moment (N m) thresholds, Q8, in [1, 2^30] */
     uint8_t persist; /**< ticks beyond the threshold that make a jump, >= 1 */
     uint8_t hold;    /**< ticks smooth then equals wrench, >= 1 */
 } sp_wrench_smooth_t;
