@@ -36,6 +36,11 @@
  * true wrench, one tick of which is the alignment above). In closed loop
  * (the wrench bus test) the unloaded maximum fell from 201 N / 152 N m
  * to 148 N / 78 N m with the filter and to 107 N / 75 N m aligned.
+ * Since session 10 the drives send lengths in 0.1 um (a tenth of that
+ * quantisation noise), and the estimate that is reported (CTRL_WRENCH)
+ * is w->smooth: the filter's value through sp_wrench_smooth, which
+ * averages the pressure sensors' noise further while the wrench holds
+ * still and follows a jump; force control keeps w->wrench.
  */
 #ifndef SP_WRENCH_H
 #define SP_WRENCH_H
