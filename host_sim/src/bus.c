@@ -4,14 +4,15 @@
 #include <math.h>
 #include <string.h>
 
-/* Q24 of a length given in whole micrometres: exact to the Q24 step (60 nm),
- * and the encoder's rounding back to micrometres returns the same count. */
-static sp_q24_t q24_of_um(int64_t um)
+/* Q24 of a length given in tenths of a micrometre (AXIS_FEEDBACK's step):
+ * exact to the Q24 step (60 nm, below half the step), so the encoder's
+ * rounding back to 0.1 um returns the same count. */
+static sp_q24_t q24_of_tenth_um(int64_t n)
 {
-    if (um < 0) {
-        um = 0;
+    if (n < 0) {
+        n = 0;
     }
-    int64_t q = (um * (int64_t)SP_Q24_ONE + 500000) / 1000000;
+    int64_t q = (n * (int64_t)SP_Q24_ONE + 5000000) / 10000000;
     return (q > INT32_MAX) ? INT32_MAX : (sp_q24_t)q;
 }
 
@@ -64,7 +65,7 @@ hs_status_t hs_bus_cycle_frames(hs_bus_t *bus, const hs_plant_t *plant, uint32_t
             hs_feedback_t fb;
             (void)hs_plant_feedback(plant, leg, &fb);
             sp_msg_feedback_t m;
-            m.length = q24_of_um((int64_t)llround(fb.length / 1.0e-6));
+            m.length = q24_of_tenth_um((int64_t)llround(fb.length / 1.0e-7));
             m.pressure_a = pa_of(fb.pressure_a);
             m.pressure_b = pa_of(fb.pressure_b);
             m.state = (uint8_t)fb.state;

@@ -99,7 +99,8 @@ static void test_default_off_bit_identical(void **state)
     ct.damping = 100.0;
     assert_int_equal(hs_params_default(&p), HS_OK);
     pt_massless_legs(&p);
-    pt_memoryless_friction(&p); /* the friction the hash was recorded with */
+    pt_memoryless_friction(&p);         /* the friction the hash was recorded with */
+    p.sensors.length_resolution = 1e-6; /* and the length sensor (0.1 um since session 10) */
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
     assert_int_equal(plant.legs_on, 0);
     hs_leg_lengths(&p, p.home, len);

@@ -26,7 +26,8 @@ def test_ratios_are_the_core_lsb_over_the_factor():
     ratios = {name: r for name, r, _ in gen.scale_ratios(gen.read_signals(DBC))}
     assert set(ratios) == {f"SP_CAN_{stem}_RAW_PER_{unit}" for stem, unit, *_ in gen.SCALES}
     lsb = {f"SP_CAN_{stem}_RAW_PER_{unit}": q for stem, unit, q, *_ in gen.SCALES}
-    scale = {"LENGTH": ("AXIS_SETPOINTS", "Length_1"), "POSE": ("CTRL_STATUS", "Yaw"),
+    scale = {"LENGTH": ("AXIS_SETPOINTS", "Length_1"), "FEEDBACK_LENGTH": ("AXIS_FEEDBACK_2", "Length"),
+             "POSE": ("CTRL_STATUS", "Yaw"),
              "VELOCITY": ("AXIS_SETPOINTS", "Velocity_2"), "FORCE": ("CTRL_MONITOR", "ForceFf_6"),
              "PRESSURE": ("AXIS_FEEDBACK_3", "PressureB"), "AMPLITUDE": ("OP_COMMAND", "Amplitude"),
              "FREQUENCY": ("OP_COMMAND", "Frequency"), "FADE_TIME": ("OP_COMMAND", "FadeTime"),
@@ -38,6 +39,7 @@ def test_ratios_are_the_core_lsb_over_the_factor():
         assert float(ratio) == pytest.approx(float(lsb[name]) / factor, rel=1e-12), name
         assert ratio.numerator < 1 << 31 and ratio.denominator < 1 << 31
     assert ratios["SP_CAN_LENGTH_RAW_PER_Q24_M"] == Fraction(15625, 262144)  # 2^-24 m in um
+    assert ratios["SP_CAN_FEEDBACK_LENGTH_RAW_PER_Q24_M"] == Fraction(78125, 131072)  # 2^-24 m in 0.1 um
     assert ratios["SP_CAN_PRESSURE_RAW_PER_PA"] == Fraction(1, 1000)  # 1 kPa steps
     assert ratios["SP_CAN_WRENCH_RAW_PER_Q8_N_NM"] == Fraction(1, 64)  # 0.25 N = 64 Q8 LSBs
     assert ratios["SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM"] == Fraction(1, 8)  # 1/32 N = 8 Q8 LSBs

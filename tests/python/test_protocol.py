@@ -15,9 +15,9 @@ DOC = REPO_ROOT / "docs" / "protocol.md"
 SPEC = {
     "SYNC": (0x010, 8, ("axis_a", "axis_b")),
     "AXIS_SETPOINTS": (0x020, 32, ("axis_a", "axis_b")),
-    "AXIS_FEEDBACK_1": (0x031, 12, ("axis_a", "axis_b")),
-    "AXIS_FEEDBACK_2": (0x032, 12, ("axis_a", "axis_b")),
-    "AXIS_FEEDBACK_3": (0x033, 12, ("axis_a", "axis_b")),
+    "AXIS_FEEDBACK_1": (0x031, 16, ("axis_a", "axis_b")),
+    "AXIS_FEEDBACK_2": (0x032, 16, ("axis_a", "axis_b")),
+    "AXIS_FEEDBACK_3": (0x033, 16, ("axis_a", "axis_b")),
     "OP_COMMAND": (0x040, 12, ("ops",)),
     "OP_TARGET_POSE": (0x050, 24, ("ops",)),
     "OP_HEARTBEAT": (0x060, 4, ("ops",)),
@@ -76,12 +76,14 @@ def test_dbc_scales_and_ranges_as_specified(proto):
     assert f.maximum == pytest.approx(167772.14, abs=1e-6)
     fb = proto.message("AXIS_FEEDBACK_2")
     p = fb.get_signal_by_name("PressureA")
-    assert (p.start, p.length, p.is_signed, p.scale, p.unit) == (24, 16, False, 1000, "Pa")
+    assert (p.start, p.length, p.is_signed, p.scale, p.unit) == (32, 16, False, 1000, "Pa")
     assert p.maximum == pytest.approx(65.535e6)
-    # repacked for 1 kPa: the 12 bytes hold Length, PressureA/B, State, Counter, Faults, TickEcho, Crc
+    length = fb.get_signal_by_name("Length")
+    assert (length.length, length.is_signed, length.scale) == (28, False, 1e-7)  # 0.1 um (issue 14)
+    # 16 bytes: Length (0.1 um), State, PressureA/B (1 kPa), Counter, Faults, TickEcho, 2 spare bytes, CRC-16
     layout = [(s.name, s.start, s.length) for s in fb.signals]
-    assert layout == [("Length", 0, 24), ("PressureA", 24, 16), ("PressureB", 40, 16), ("State", 56, 4),
-                      ("Counter", 60, 4), ("Faults", 64, 8), ("TickEcho", 72, 16), ("Crc", 88, 8)]
+    assert layout == [("Length", 0, 28), ("State", 28, 4), ("PressureA", 32, 16), ("PressureB", 48, 16),
+                      ("Counter", 64, 4), ("Faults", 72, 8), ("TickEcho", 80, 16), ("Crc", 112, 16)]
     w = proto.message("CTRL_WRENCH")
     layout = [(s.name, s.start, s.length, s.is_signed) for s in w.signals]
     assert layout == [("Tick", 0, 32, False), ("Counter", 32, 4, False), ("Valid", 36, 1, False),
@@ -403,7 +405,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "35.6 %" in text and "43.8 %" in text and "48.5 %" in text
+    assert "38.0 %" in text and "46.2 %" in text and "48.5 %" in text
 
 
 def test_doc_cli_check(tmp_path):

@@ -774,6 +774,110 @@ static void test_wrench_estimate(void **state)
     }
 }
 
+/* The reported estimate's smoother (sp_wrench_smooth) with the
+ * controller's defaults: it averages noise while the wrench holds still,
+ * follows a step as soon as the jump persists, and never leaves the
+ * filtered estimate by more than the jump. */
+static void test_wrench_smooth(void **state)
+{
+    (void)state;
+    sp_ctrl_config_t cfg;
+    sp_wrench_smooth_t p;
+    sp_wrench_t w;
+    uint64_t rng = 77u;
+    assert_int_equal(sp_ctrl_default_config(&cfg, P), SP_OK);
+    assert_int_equal(sp_wrench_alpha(cfg.wrench_smooth_hz, cfg.tick_us, &p.alpha), SP_OK);
+    p.jump[0] = cfg.wrench_jump[0];
+    p.jump[1] = cfg.wrench_jump[1];
+    p.persist = cfg.wrench_jump_persist;
+    p.hold = cfg.wrench_jump_hold;
+    assert_true(p.persist >= 2u && p.hold >= 2u);
+    const double a = ref_f30(p.alpha);
+
+    /* noise about a constant: uniform +-50 N, +-40 N m (below the jumps)
+     * leaves sqrt(a / (2 - a)) of its RMS (0.21 at 15 Hz) */
+    sp_wrench_reset(&w);
+    w.valid = 1u;
+    double in2[6] = {0}, out2[6] = {0};
+    int n2 = 0;
+    for (int n = 0; n < 20000; ++n) {
+        for (int k = 0; k < 6; ++k) {
+            double amp = (k < 3) ? 50.0 : 40.0;
+            double noise = amp * (2.0 * (double)(tu_next(&rng) >> 11) / 9007199254740992.0 - 1.0);
+            w.wrench[k] = ref_q8(1000.0 * (k + 1) + noise);
+        }
+        sp_wrench_smooth(&w, &p);
+        if (n >= 200) {
+            for (int k = 0; k < 6; ++k) {
+                double e_in = ref_f8(w.wrench[k]) - 1000.0 * (k + 1);
+                double e_out = ref_f8(w.smooth[k]) - 1000.0 * (k + 1);
+                in2[k] += e_in * e_in;
+                out2[k] += e_out * e_out;
+            }
+            ++n2;
+        }
+    }
+    for (int k = 0; k < 6; ++k) {
+        double ratio = sqrt(out2[k] / in2[k]);
+        assert_true(ratio < 0.28);
+        assert_near(ratio, sqrt(a / (2.0 - a)), 0.04, "noise ratio, component %d", k);
+    }
+    (void)n2;
+
+    /* a step of 1000 N, 500 N m: held at the jump from it until the jump
+     * has persisted, then equal to it for hold ticks and after */
+    sp_wrench_reset(&w);
+    w.valid = 1u;
+    sp_wrench_smooth(&w, &p); /* first tick: smooth = wrench = 0 */
+    for (int n = 0; n < 40; ++n) {
+        for (int k = 0; k < 6; ++k) {
+            w.wrench[k] = ref_q8(k < 3 ? 1000.0 : 500.0);
+        }
+        sp_wrench_smooth(&w, &p);
+        for (int k = 0; k < 6; ++k) {
+            int32_t jump = p.jump[k < 3 ? 0 : 1];
+            int32_t want = (n + 1 < (int)p.persist) ? w.wrench[k] - jump : w.wrench[k];
+            assert_int_equal(w.smooth[k], want);
+        }
+    }
+
+    /* a step below the jump: the section alone, (1 - a)^n of it left */
+    sp_wrench_reset(&w);
+    w.valid = 1u;
+    sp_wrench_smooth(&w, &p);
+    for (int n = 1; n <= 60; ++n) {
+        for (int k = 0; k < 6; ++k) {
+            w.wrench[k] = ref_q8(-40.0);
+        }
+        sp_wrench_smooth(&w, &p);
+        for (int k = 0; k < 6; ++k) {
+            assert_near(ref_f8(w.smooth[k]), -40.0 * (1.0 - pow(1.0 - a, n)), 0.02, "tick %d component %d", n, k);
+        }
+    }
+
+    /* random walks, steps and noise of every size: never beyond the jump
+     * from the filtered estimate; an invalid tick resets to it */
+    sp_wrench_reset(&w);
+    for (int n = 0; n < 50000; ++n) {
+        w.valid = (uint8_t)((n % 997) != 0);
+        for (int k = 0; k < 6; ++k) {
+            int32_t step = (tu_next(&rng) % 50u == 0u) ? (tu_i32(&rng) >> 4) : (tu_i32(&rng) >> 18);
+            int64_t v = (int64_t)w.wrench[k] + step;
+            w.wrench[k] = (int32_t)(v > 0x3FFFFFFF ? 0x3FFFFFFF : (v < -0x40000000 ? -0x40000000 : v));
+        }
+        sp_wrench_smooth(&w, &p);
+        for (int k = 0; k < 6; ++k) {
+            int64_t d = (int64_t)w.smooth[k] - w.wrench[k];
+            assert_true(d <= p.jump[k < 3 ? 0 : 1] && d >= -p.jump[k < 3 ? 0 : 1]);
+            if (!w.valid) {
+                assert_int_equal(w.smooth[k], w.wrench[k]);
+            }
+        }
+    }
+    sp_wrench_smooth(NULL, &p);
+    sp_wrench_smooth(&w, NULL);
+}
+
 /* The motion-error correction as the controller's wrench job applies it:
  * an estimate that accelerates at 0.5 m/s^2 in x away from a reference at
  * rest, with no force error, gives a wrench that is exactly the filtered
@@ -846,6 +950,7 @@ int main(void)
         cmocka_unit_test(test_friction_force),
         cmocka_unit_test(test_wrench_estimate),
         cmocka_unit_test(test_wrench_matches_reference),
+        cmocka_unit_test(test_wrench_smooth),
         cmocka_unit_test(test_wrench_motion_error_correction),
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),

@@ -595,19 +595,30 @@ static void test_feedback_pressures_at_1_kpa(void **state)
     sp_msg_feedback_t m = {SP_Q24_ONE, 3000499u, 3000500u, SP_DRIVE_STATE_ACTIVE, 0u, 77u};
     sp_can_frame_t f;
     assert_int_equal(sp_proto_encode_feedback(&m, 2u, 1u, SP_BUS_AXIS_B, &f), SP_OK);
-    assert_int_equal(f.len, 12u);
+    assert_int_equal(f.len, 16u); /* 0.1 um lengths since issue 14's session 10 */
     sp_msg_feedback_t d;
     uint8_t slot = 0u, counter = 0u;
     sp_proto_error_t e;
     assert_int_equal(sp_proto_decode_feedback(&f, &d, &slot, &counter, &e), SP_OK);
+    assert_int_equal(d.length, SP_Q24_ONE);   /* 1 m: raw 10,000,000 exactly */
     assert_int_equal(d.pressure_a, 3000000u); /* nearest 1 kPa */
     assert_int_equal(d.pressure_b, 3001000u);
     assert_int_equal(d.state, SP_DRIVE_STATE_ACTIVE);
     assert_int_equal(d.tick_echo, 77u);
     assert_int_equal(slot, 2u);
-    /* bytes 3-4: PressureA raw 3000 little-endian */
-    assert_int_equal(f.data[3], 3000u & 0xFFu);
-    assert_int_equal(f.data[4], 3000u >> 8);
+    /* bytes 0-3: Length raw 10,000,000 (28 bits) with State 2 in the top
+     * nibble; bytes 4-5: PressureA raw 3000 little-endian */
+    assert_int_equal(f.data[0], 10000000u & 0xFFu);
+    assert_int_equal(f.data[3], ((10000000u >> 24) & 0x0Fu) | (SP_DRIVE_STATE_ACTIVE << 4));
+    assert_int_equal(f.data[4], 3000u & 0xFFu);
+    assert_int_equal(f.data[5], 3000u >> 8);
+    /* a length 2 Q24 LSB (0.12 um) longer arrives as the next 0.1 um step:
+     * raw 10,000,001, back to 1 m + 1.68 Q24 LSB, rounded to 2 */
+    m.length = SP_Q24_ONE + 2;
+    assert_int_equal(sp_proto_encode_feedback(&m, 2u, 2u, SP_BUS_AXIS_B, &f), SP_OK);
+    assert_int_equal(sp_proto_decode_feedback(&f, &d, &slot, &counter, &e), SP_OK);
+    assert_int_equal(d.length, SP_Q24_ONE + 2);
+    assert_int_equal(f.data[0], 10000001u & 0xFFu);
     /* full scale 65.535 MPa; above it saturates */
     m.pressure_a = 65535000u;
     m.pressure_b = 70000000u;

@@ -43,7 +43,8 @@ _POSE = "X|Y|Z|Roll|Pitch|Yaw"
 #: must match at least one signal).
 SCALES: tuple[tuple[str, str, Fraction, frozenset[str], tuple[tuple[str, str], ...]], ...] = (
     ("LENGTH", "Q24_M", Q24, frozenset({"m"}),
-     (("AXIS_SETPOINTS", r"Length_\d"), (r"AXIS_FEEDBACK_\d", "Length"), ("CTRL_MONITOR", r"LengthSp_\d"))),
+     (("AXIS_SETPOINTS", r"Length_\d"), ("CTRL_MONITOR", r"LengthSp_\d"))),
+    ("FEEDBACK_LENGTH", "Q24_M", Q24, frozenset({"m"}), ((r"AXIS_FEEDBACK_\d", "Length"),)),
     ("POSE", "Q24_M_RAD", Q24, frozenset({"m", "rad"}),
      (("OP_TARGET_POSE", _POSE), ("CTRL_STATUS", _POSE), ("CTRL_MONITOR", f"Ref(?:{_POSE})"))),
     ("VELOCITY", "Q24_MPS", Q24, frozenset({"m/s"}), (("AXIS_SETPOINTS", r"Velocity_\d"),)),

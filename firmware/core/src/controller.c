@@ -47,6 +47,11 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->force_feedforward = 1u;
     cfg->friction_compensation = 1u;
     cfg->wrench_cutoff_hz = 80 * SP_Q24_ONE;
+    cfg->wrench_smooth_hz = 15 * SP_Q24_ONE;
+    cfg->wrench_jump[0] = 80 << 8; /* 80 N */
+    cfg->wrench_jump[1] = 60 << 8; /* 60 N m */
+    cfg->wrench_jump_persist = 4u;
+    cfg->wrench_jump_hold = 20u;
     cfg->friction_observer = 1u;
     (void)sp_force_default_config(&cfg->force, SP_Q30_ONE, cfg->tick_us); /* gain and tick: set by init */
     cfg->wrench_source = SP_WRENCH_CYLINDERS;
@@ -88,8 +93,24 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     }
     p = cfg->platform;
     st = sp_friction_prepare(p, &ctrl->prep.friction);
+    /* the observer's parameters, once: a platform it cannot run with
+     * leaves the estimate on the feed-forward's friction, as before */
+    ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
+    }
+    if (st == SP_OK) {
+        st = sp_wrench_alpha(cfg->wrench_smooth_hz, cfg->tick_us, &ctrl->prep.wrench_smooth.alpha);
+    }
+    if (st == SP_OK && (cfg->wrench_jump[0] < 1 || cfg->wrench_jump[1] < 1 || cfg->wrench_jump_persist < 1u ||
+                        cfg->wrench_jump_hold < 1u)) {
+        st = SP_E_ARG;
+    }
+    if (st == SP_OK) {
+        ctrl->prep.wrench_smooth.jump[0] = cfg->wrench_jump[0];
+        ctrl->prep.wrench_smooth.jump[1] = cfg->wrench_jump[1];
+        ctrl->prep.wrench_smooth.persist = cfg->wrench_jump_persist;
+        ctrl->prep.wrench_smooth.hold = cfg->wrench_jump_hold;
     }
     if (st == SP_OK) {
         st = sp_motion_error_init(&ctrl->motion_error, cfg->tick_us);
@@ -696,8 +717,10 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (cfg->friction_observer && ctrl->sup.seen_mask == SP_ALL_LEGS) {
         /* the observer follows every measured length, engaged or not; a
          * failure (bad parameters) leaves the feed-forward's friction */
-        sp_status_t st =
-            sp_fric_obs_step(cfg->platform, &ctrl->fric_obs, ctrl->sup.last_length, cfg->tick_us, observed);
+        sp_status_t st = ctrl->prep.fric_obs_ok
+                             ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, ctrl->sup.last_length,
+                                                         cfg->tick_us, observed)
+                             : SP_E_ARG;
         friction = (st == SP_OK || st == SP_E_OVERFLOW) ? observed : NULL;
     }
     if (friction == NULL && cfg->friction_observer) {
@@ -710,7 +733,8 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
-            sp_motion_error_wrench_body_sc(&ctrl->prep.motion_body, ctrl->model.ref.sc, da, dw) != SP_E_ARG) {
+            sp_motion_error_wrench_body_t(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
+                SP_E_ARG) {
             correction = dw;
         }
     } else {
@@ -718,6 +742,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     }
     sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, correction,
                    ctrl->prep.wrench_alpha);
+    sp_wrench_smooth(&ctrl->wrench, &ctrl->prep.wrench_smooth);
 }
 
 /* ---- force control ----------------------------------------------------------- */
@@ -863,7 +888,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     out->fk_iterations = fk_iterations;
     out->cmd_rejected = rejected ? 1u : 0u;
     for (i = 0u; i < 6u; ++i) {
-        out->wrench[i] = ctrl->wrench.wrench[i];
+        out->wrench[i] = ctrl->wrench.smooth[i];
     }
     out->wrench_valid = ctrl->wrench.valid;
     out->drive_fault_reset = ctrl->drive_reset.edge;

@@ -1,6 +1,7 @@
 /* friction.c - friction observer (sp/friction.h). */
 #include "sp/friction.h"
 
+#include "core_internal.h"
 #include "fixed_inline.h"
 
 #include <stddef.h>
@@ -181,14 +182,11 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
     o->valid = 0u;
 }
 
-sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS], uint32_t tick_us,
-                             sp_q8_t friction[SP_LEGS])
+/* The step after the checks: p's parameters are those params_ok accepts. */
+static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
+                                uint32_t tick_us, sp_q8_t friction[SP_LEGS])
 {
     sp_flags_t flags = 0u;
-    if (p == NULL || o == NULL || length == NULL || friction == NULL || tick_us == 0u ||
-        tick_us > SP_FRIC_TICK_MAX_US || !params_ok(p)) {
-        return SP_E_ARG;
-    }
     if (!o->valid) {
         for (int i = 0; i < SP_LEGS; ++i) {
             o->length[i] = length[i];
@@ -218,4 +216,29 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
         }
     }
     return sp_flags_status(flags);
+}
+
+sp_status_t sp_fric_obs_check(const sp_platform_t *p)
+{
+    return (p != NULL && params_ok(p)) ? SP_OK : SP_E_ARG;
+}
+
+sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS], uint32_t tick_us,
+                             sp_q8_t friction[SP_LEGS])
+{
+    if (p == NULL || o == NULL || length == NULL || friction == NULL || tick_us == 0u ||
+        tick_us > SP_FRIC_TICK_MAX_US || !params_ok(p)) {
+        return SP_E_ARG;
+    }
+    return fric_obs_run(p, o, length, tick_us, friction);
+}
+
+sp_status_t spi_fric_obs_step_checked(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
+                                      uint32_t tick_us, sp_q8_t friction[SP_LEGS])
+{
+    if (p == NULL || o == NULL || length == NULL || friction == NULL || tick_us == 0u ||
+        tick_us > SP_FRIC_TICK_MAX_US) {
+        return SP_E_ARG;
+    }
+    return fric_obs_run(p, o, length, tick_us, friction);
 }

@@ -233,6 +233,16 @@ sp_status_t sp_motion_error_wrench_body_sc(const sp_me_body_t *body, const sp_q3
                      sc, da, dw);
 }
 
+sp_status_t sp_motion_error_wrench_body_t(const sp_me_body_t *body, const sp_rot_t *rot, const sp_q30_t sc[6],
+                                          const sp_q24_t da[6], sp_q8_t dw[6])
+{
+    if (body == NULL || rot == NULL || sc == NULL || da == NULL || dw == NULL) {
+        return me_bad_args(dw);
+    }
+    return me_wrench(body->mass, (const sp_q16_t(*)[3])body->inertia, body->center_of_mass,
+                     (const sp_q30_t(*)[3])rot->t, sc, da, dw);
+}
+
 /* round(x / 2^s) (ties up) of an int64 below 2^62 in magnitude */
 #define ME_SHR(x, s) (((x) + (INT64_C(1) << ((s)-1u))) >> (s))
 

@@ -41,6 +41,18 @@ static sp_q24_t length_to_q24(int64_t raw)
 {
     return to_q24(muldiv(raw, SP_CAN_LENGTH_RAW_PER_Q24_M_DEN, SP_CAN_LENGTH_RAW_PER_Q24_M_NUM));
 }
+/* AXIS_FEEDBACK's Length: 28 bits of a finer step (0.1 um) than the setpoints'. */
+#define FB_LENGTH_MAX INT64_C(268435455)
+static uint32_t q24_to_fb_length(sp_q24_t q, int *sat)
+{
+    return (uint32_t)clamp(
+        muldiv(q, SP_CAN_FEEDBACK_LENGTH_RAW_PER_Q24_M_NUM, SP_CAN_FEEDBACK_LENGTH_RAW_PER_Q24_M_DEN), 0, FB_LENGTH_MAX,
+        sat);
+}
+static sp_q24_t fb_length_to_q24(int64_t raw)
+{
+    return to_q24(muldiv(raw, SP_CAN_FEEDBACK_LENGTH_RAW_PER_Q24_M_DEN, SP_CAN_FEEDBACK_LENGTH_RAW_PER_Q24_M_NUM));
+}
 static int32_t q24_to_pose(sp_q24_t q, int *sat)
 {
     return (int32_t)clamp(muldiv(q, SP_CAN_POSE_RAW_PER_Q24_M_RAD_NUM, SP_CAN_POSE_RAW_PER_Q24_M_RAD_DEN), I24_MIN,
@@ -342,7 +354,7 @@ sp_status_t sp_proto_encode_feedback(const sp_msg_feedback_t *m, uint8_t slot, u
     int sat = 0;
     struct stewart_can_axis_feedback_1_t s;
     (void)stewart_can_axis_feedback_1_init(&s);
-    s.length = q24_to_length(m->length, &sat);
+    s.length = q24_to_fb_length(m->length, &sat);
     s.pressure_a = pa_to_pressure(m->pressure_a, &sat);
     s.pressure_b = pa_to_pressure(m->pressure_b, &sat);
     s.state = m->state;
@@ -354,12 +366,24 @@ sp_status_t sp_proto_encode_feedback(const sp_msg_feedback_t *m, uint8_t slot, u
     if (slot == 1u) {
         n = stewart_can_axis_feedback_1_pack(f->data, &s, SP_CAN_MAX_DATA);
     } else if (slot == 2u) {
-        struct stewart_can_axis_feedback_2_t s2 = {s.length,  s.pressure_a, s.pressure_b, s.state,
-                                                   s.counter, s.faults,     s.tick_echo,  0u};
+        struct stewart_can_axis_feedback_2_t s2 = {.length = s.length,
+                                                   .state = s.state,
+                                                   .pressure_a = s.pressure_a,
+                                                   .pressure_b = s.pressure_b,
+                                                   .counter = s.counter,
+                                                   .faults = s.faults,
+                                                   .tick_echo = s.tick_echo,
+                                                   .crc = 0u};
         n = stewart_can_axis_feedback_2_pack(f->data, &s2, SP_CAN_MAX_DATA);
     } else {
-        struct stewart_can_axis_feedback_3_t s3 = {s.length,  s.pressure_a, s.pressure_b, s.state,
-                                                   s.counter, s.faults,     s.tick_echo,  0u};
+        struct stewart_can_axis_feedback_3_t s3 = {.length = s.length,
+                                                   .state = s.state,
+                                                   .pressure_a = s.pressure_a,
+                                                   .pressure_b = s.pressure_b,
+                                                   .counter = s.counter,
+                                                   .faults = s.faults,
+                                                   .tick_echo = s.tick_echo,
+                                                   .crc = 0u};
         n = stewart_can_axis_feedback_3_pack(f->data, &s3, SP_CAN_MAX_DATA);
     }
     return finish(f, SP_ID_AXIS_FEEDBACK_1 + slot - 1u, bus, n, STEWART_CAN_AXIS_FEEDBACK_1_LENGTH, sat);
@@ -409,7 +433,7 @@ sp_status_t sp_proto_decode_feedback(const sp_can_frame_t *f, sp_msg_feedback_t 
     if (s.state > 3u) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
-    m->length = length_to_q24(s.length);
+    m->length = fb_length_to_q24(s.length);
     m->pressure_a = pressure_to_pa(s.pressure_a);
     m->pressure_b = pressure_to_pa(s.pressure_b);
     m->state = s.state;

@@ -89,5 +89,6 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
         model->ref.length[i] = ik.length[i];
         model->ref.sc[i] = ik.sc[i];
     }
+    model->rot = ik.rot;
     return SP_OK;
 }

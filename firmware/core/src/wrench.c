@@ -15,9 +15,14 @@ void sp_wrench_reset(sp_wrench_t *w)
         for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
             w->section[n][k] = 0;
         }
+        w->smooth[k] = 0;
+        w->slow[k] = 0;
+        w->follow[k] = 0u;
+        w->excess[k] = 0u;
     }
     w->have_force = 0u;
     w->valid = 0u;
+    w->smooth_valid = 0u;
 }
 
 sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha)
@@ -132,10 +137,16 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
              * whose double difference is centred on the previous tick */
             int32_t x = wrench_raw(w->force_wrench[k], (correction != NULL) ? correction[k] : 0);
             unsigned n;
-            for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+            if (w->valid) {
+                for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+                    x = wrench_section(w->section[n][k], x, alpha);
+                    w->section[n][k] = x;
+                }
+            } else {
                 /* the first estimate starts every section at its value */
-                x = w->valid ? wrench_section(w->section[n][k], x, alpha) : x;
-                w->section[n][k] = x;
+                for (n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
+                    w->section[n][k] = x;
+                }
             }
             w->wrench[k] = x;
         }
@@ -145,4 +156,81 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
         w->force_wrench[k] = (acc[k] + (INT64_C(1) << 27)) >> 28;
     }
     w->have_force = 1u;
+}
+
+/* One component of the smoother (sp_wrench_smooth): x the filtered
+ * estimate and w->slow[k] within [WRENCH_LO, WRENCH_HI] (the section
+ * holds them there), so x - v fits an int32; jump in [1, 2^30]. */
+SPI_INLINE void wrench_smooth_one(sp_wrench_t *w, unsigned k, sp_q30_t alpha, int32_t jump, uint8_t persist,
+                                  uint8_t hold)
+{
+    int32_t x = w->wrench[k];
+    int32_t v;
+    int32_t d;
+    if (w->follow[k] > 0u) {
+        w->follow[k] = (uint8_t)(w->follow[k] - 1u);
+        w->slow[k] = x;
+        w->smooth[k] = x;
+        return;
+    }
+    v = wrench_section(w->slow[k], x, alpha); /* between the last value and x */
+    d = x - v;
+    /* |d| > jump, one unsigned comparison: d + jump wraps above 2 jump
+     * (<= 2^31) for every d < -jump */
+    if ((uint32_t)d + (uint32_t)jump > 2u * (uint32_t)jump) {
+        w->excess[k] = (uint8_t)(w->excess[k] + 1u);
+        if (w->excess[k] >= persist) {
+            /* a jump: follow x from here */
+            w->excess[k] = 0u;
+            w->follow[k] = (uint8_t)(hold - 1u);
+            v = x;
+            w->smooth[k] = x;
+        } else {
+            /* jump < |d|: x -+ jump lies between v and x */
+            w->smooth[k] = (d > 0) ? x - jump : x + jump;
+        }
+    } else {
+        w->excess[k] = 0u;
+        w->smooth[k] = v;
+    }
+    w->slow[k] = v;
+}
+
+/* A jump threshold held within [1, 2^30]. */
+SPI_INLINE int32_t wrench_jump(int32_t j)
+{
+    return (j < 1) ? 1 : ((j > (INT32_C(1) << 30)) ? (INT32_C(1) << 30) : j);
+}
+
+void sp_wrench_smooth(sp_wrench_t *w, const sp_wrench_smooth_t *p)
+{
+    unsigned k;
+    sp_q30_t alpha;
+    int32_t jump;
+    uint8_t persist;
+    uint8_t hold;
+    if (w == NULL || p == NULL) {
+        return;
+    }
+    if (!w->valid || !w->smooth_valid) {
+        for (k = 0u; k < 6u; ++k) {
+            w->smooth[k] = w->wrench[k];
+            w->slow[k] = w->wrench[k];
+            w->follow[k] = 0u;
+            w->excess[k] = 0u;
+        }
+        w->smooth_valid = w->valid;
+        return;
+    }
+    alpha = (p->alpha < 0) ? 0 : ((p->alpha > SP_Q30_ONE) ? SP_Q30_ONE : p->alpha);
+    persist = (p->persist < 1u) ? 1u : p->persist;
+    hold = (p->hold < 1u) ? 1u : p->hold;
+    jump = wrench_jump(p->jump[0]);
+    for (k = 0u; k < 3u; ++k) {
+        wrench_smooth_one(w, k, alpha, jump, persist, hold);
+    }
+    jump = wrench_jump(p->jump[1]);
+    for (k = 3u; k < 6u; ++k) {
+        wrench_smooth_one(w, k, alpha, jump, persist, hold);
+    }
 }

@@ -10,9 +10,10 @@
  * the frames between this and SocketCAN.
  *
  * Legs 0..5 of the plant are slots 1..3 of axis_a (legs 0..2) and of
- * axis_b (legs 3..5). Units: lengths are sent in whole micrometres, which is
- * the sensors' resolution; pressures are rounded from the sensors' counts to
- * the DBC's 1 kPa (the default sensor resolution: sent without loss).
+ * axis_b (legs 3..5). Units: lengths are sent in tenths of a micrometre,
+ * the default sensors' resolution (a coarser sensor's counts are sent
+ * without loss); pressures are rounded from the sensors' counts to the
+ * DBC's 1 kPa (the default sensor resolution: sent without loss).
  */
 #ifndef HS_BUS_H
 #define HS_BUS_H

@@ -65,7 +65,7 @@ def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
              i(data.feedforward[k]), i(data.estimate_valid[k])]
         r += [f(v, ".6f") for v in data.reference[k]] + [f(v, ".6f") for v in data.estimate[k]]
         r += [f(v, ".6f") for v in data.length_sp[k]] + [f(v, ".2f") for v in data.force_ff[k]]
-        r += [f(v, ".6f") for v in data.length[k]] + [f(v, ".6f") for v in stretch[k]]
+        r += [f(v, ".7f") for v in data.length[k]] + [f(v, ".7f") for v in stretch[k]]
         r += [f(v, ".1f") for v in force[k]]
         r += [DRIVE_STATES[s] if 0 <= s < len(DRIVE_STATES) else i(s) for s in data.drive_state[k]]
         r += [i(v) for v in data.drive_faults[k]]
@@ -179,7 +179,8 @@ def _table_blocks(data: LogData, rows: slice, truth_text: "TruthText | None" = N
             _Numbers(np.concatenate([data.reference[rows], data.estimate[rows], data.length_sp[rows]],
                                     axis=1), 6),
             _Numbers(data.force_ff[rows], 2),
-            _Numbers(np.concatenate([data.length[rows], data.stretch[rows]], axis=1), 6),
+            # measured lengths in 0.1 um (AXIS_FEEDBACK's step): 7 decimals
+            _Numbers(np.concatenate([data.length[rows], data.stretch[rows]], axis=1), 7),
             _Numbers(data.force[rows], 1),
             _Texts(data.drive_state[rows], name_or_int(DRIVE_STATES)),
             _integers(np.concatenate([data.drive_faults[rows], data.est_wrench_valid[rows, None]], axis=1)),

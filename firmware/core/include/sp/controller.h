@@ -169,15 +169,16 @@ typedef struct {
     sp_pose_t estimate;     /**< pose by forward kinematics */
     sp_motion_t reference;  /**< the reference of this tick */
     uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
-    int32_t wrench[6];      /**< external wrench estimate (sp/wrench.h): force N, moment about o' N m, base frame, Q8 */
-    uint8_t estimate_valid; /**< 1 once FK has a pose */
-    uint8_t cmd_rejected;   /**< 1 if this tick's command was refused */
-    uint8_t wrench_valid;   /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard) */
-    uint8_t force_mode;     /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
-    uint8_t contact;        /**< 1 while force control is in contact */
-    sp_q8_t force_target[6];     /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
-    int32_t force_wrench[6];     /**< the wrench force control uses (the source of the config), N, N m, Q8 */
-    uint8_t drive_fault_reset;   /**< 1 on the tick RESET asks the drives to clear their faults (the
+    int32_t wrench
+        [6]; /**< external wrench estimate, as reported (sp_wrench_smooth): force N, moment about o' N m, base frame, Q8 */
+    uint8_t estimate_valid;    /**< 1 once FK has a pose */
+    uint8_t cmd_rejected;      /**< 1 if this tick's command was refused */
+    uint8_t wrench_valid;      /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard) */
+    uint8_t force_mode;        /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
+    uint8_t contact;           /**< 1 while force control is in contact */
+    sp_q8_t force_target[6];   /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
+    int32_t force_wrench[6];   /**< the wrench force control uses (the source of the config), N, N m, Q8 */
+    uint8_t drive_fault_reset; /**< 1 on the tick RESET asks the drives to clear their faults (the
                                       setpoints' FaultReset), else 0 */
     uint8_t reset_refused_legs;  /**< bit i: leg i's drive refused the last fault reset (0: none refused) */
     uint8_t reset_refused_cause; /**< the fault bits the refusing drives still reported (their cause) */
@@ -197,6 +198,10 @@ typedef struct {
     uint8_t force_feedforward;       /**< 1: send the inverse dynamics forces; 0: send 0 */
     uint8_t friction_compensation;   /**< 1: add the cylinders' friction (sp_friction_t) to the force feed-forward */
     sp_q24_t wrench_cutoff_hz;       /**< cut-off of each of the wrench filter's sections (sp/wrench.h), Hz, Q24 */
+    sp_q24_t wrench_smooth_hz;       /**< cut-off of the reported estimate's smoother (sp_wrench_smooth), Hz, Q24 */
+    int32_t wrench_jump[2];          /**< the smoother's jump thresholds, force N and moment N m, Q8, > 0 */
+    uint8_t wrench_jump_persist;     /**< ticks beyond a threshold that make a jump, >= 1 */
+    uint8_t wrench_jump_hold;        /**< ticks the reported estimate then follows the filter's, >= 1 */
     uint8_t friction_observer;       /**< 1: the wrench estimate takes the seals' friction from the friction
                                           observer (sp/friction.h); 0: from the feed-forward's model */
     sp_force_config_t force;         /**< force control (sp/force.h); its filter gain and tick are the wrench
@@ -226,14 +231,16 @@ typedef enum {
 /** Values derived from the config by sp_ctrl_init, constant until the next
  *  init (call sp_ctrl_init again after changing the config). */
 typedef struct {
-    sp_limits_t limits;       /**< workspace box, stroke, rate and force limits, joint reach */
-    sp_stream_gains_t stream; /**< the stream filter's dt and gains */
-    sp_friction_t friction;   /**< the cylinders' friction model */
-    sp_q30_t wrench_alpha;    /**< the wrench filter's gain (sp_wrench_alpha) */
-    sp_me_body_t motion_body; /**< the rigid body with the legs' inertia at home, for the wrench's
+    sp_limits_t limits;               /**< workspace box, stroke, rate and force limits, joint reach */
+    sp_stream_gains_t stream;         /**< the stream filter's dt and gains */
+    sp_friction_t friction;           /**< the cylinders' friction model */
+    sp_q30_t wrench_alpha;            /**< the wrench filter's gain (sp_wrench_alpha) */
+    sp_wrench_smooth_t wrench_smooth; /**< the reported estimate's smoother (sp_wrench_smooth) */
+    uint8_t fric_obs_ok;              /**< 1: the platform's friction passed sp_fric_obs_check */
+    sp_me_body_t motion_body;         /**< the rigid body with the legs' inertia at home, for the wrench's
                                    motion correction (sp_motion_error_body; the rigid body alone
                                    when the legs are outside its envelope) */
-    sp_force_config_t force;  /**< cfg->force with the wrench filter's gain and the tick */
+    sp_force_config_t force;          /**< cfg->force with the wrench filter's gain and the tick */
 } sp_ctrl_prepared_t;
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */

@@ -86,6 +86,15 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
                              sp_q8_t friction[SP_LEGS]);
 
 /**
+ * SP_OK when the platform's friction parameters are ones sp_fric_obs_step
+ * runs with (see there), SP_E_ARG otherwise or on NULL. The controller
+ * checks its platform once at init (sp_ctrl_init) and then steps the
+ * observer without the per-tick check (about 120 Cortex-M4 instructions
+ * of the tick).
+ */
+sp_status_t sp_fric_obs_check(const sp_platform_t *p);
+
+/**
  * exp(-u) for u >= 0, u Q24, result Q30 in [0, 1]: range reduction
  * u = k ln 2 + r, a degree-7 polynomial (Taylor coefficients in Q30) for
  * exp(-r) on [0, ln 2), then the shift by k. Max error against libm

@@ -167,4 +167,14 @@ sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *bo
 sp_status_t sp_motion_error_wrench_body_sc(const sp_me_body_t *body, const sp_q30_t sc[6], const sp_q24_t da[6],
                                            sp_q8_t dw[6]);
 
+/**
+ * sp_motion_error_wrench_body_sc with T given: `rot` must be the T of the
+ * sines `sc` (an IK's sp_ik_t.rot and .sc, or sp_model_t.rot and .ref.sc),
+ * which saves rebuilding it (nine products). Bit-identical to
+ * sp_motion_error_wrench_body_sc(body, sc, da, dw) then; same units,
+ * errors and returns (SP_E_ARG on NULL).
+ */
+sp_status_t sp_motion_error_wrench_body_t(const sp_me_body_t *body, const sp_rot_t *rot, const sp_q30_t sc[6],
+                                          const sp_q24_t da[6], sp_q8_t dw[6]);
+
 #endif /* SP_MOTION_ERROR_H */

@@ -12,7 +12,8 @@
  * Decoders never touch *msg on error. The alive counter is returned for
  * the caller's per-sender sequence check (sp_e2e_rx_check).
  *
- * Units on the bus: lengths and positions 1 um, angles 1 urad, velocities
+ * Units on the bus: measured leg lengths (AXIS_FEEDBACK) 0.1 um, length
+ * setpoints and positions 1 um, angles 1 urad, velocities
  * 5e-5 m/s, forces 0.02 N, pressures 1 kPa, external wrench 0.25 N and
  * 0.25 N m, amplitude 1e-5 m or rad, frequency 1 mHz, times 1 ms.
  * Conversions round to nearest, ties away from zero.

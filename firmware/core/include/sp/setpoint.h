@@ -47,6 +47,7 @@ typedef struct {
     sp_jacobian_t jac;      /**< the leg Jacobian at the reference pose (sp_jacobian) */
     sp_fk_cache_t ref;      /**< the reference pose's leg lengths (m, Q24) and sines (Q30), as its IK
                                  computed them: the pose estimate's next step starts there (sp/estimate.h) */
+    sp_rot_t rot;           /**< T at the reference (its IK's, of ref.sc), for the wrench's motion correction */
 } sp_model_t;
 
 /** Feed-forward switches (sp_setpoints_of's ff). */

@@ -36,6 +36,11 @@
  * true wrench, one tick of which is the alignment above). In closed loop
  * (the wrench bus test) the unloaded maximum fell from 201 N / 152 N m
  * to 148 N / 78 N m with the filter and to 107 N / 75 N m aligned.
+ * Since session 10 the drives send lengths in 0.1 um (a tenth of that
+ * quantisation noise), and the estimate that is reported (CTRL_WRENCH)
+ * is w->smooth: the filter's value through sp_wrench_smooth, which
+ * averages the pressure sensors' noise further while the wrench holds
+ * still and follows a jump; force control keeps w->wrench.
  */
 #ifndef SP_WRENCH_H
 #define SP_WRENCH_H
@@ -50,9 +55,22 @@ typedef struct {
     int64_t force_wrench[6];                /**< the previous tick's J^T (F_model - F), N, N m, Q8 */
     int32_t wrench[6];                      /**< the estimate (the last section), N, N m, Q8 */
     int32_t section[SP_WRENCH_SECTIONS][6]; /**< the filter's sections, N, N m, Q8 */
+    int32_t smooth[6];                      /**< the reported estimate (sp_wrench_smooth), N, N m, Q8 */
+    int32_t slow[6];                        /**< the smoother's section, N, N m, Q8 */
+    uint8_t follow[6];                      /**< ticks left in which smooth equals wrench */
+    uint8_t excess[6];                      /**< consecutive ticks with |wrench - smooth| beyond the jump */
     uint8_t have_force;                     /**< 1 when force_wrench holds the previous tick's */
     uint8_t valid;                          /**< 1 once the estimate follows the measurements */
+    uint8_t smooth_valid;                   /**< 1 once smooth follows wrench */
 } sp_wrench_t;
+
+/** The reported estimate's smoother (sp_wrench_smooth). */
+typedef struct {
+    sp_q30_t alpha;  /**< gain of its one section (sp_wrench_alpha), Q30, held within [0, 1] */
+    int32_t jump[2]; /**< force (N) and moment (N m) thresholds, Q8, in [1, 2^30] */
+    uint8_t persist; /**< ticks beyond the threshold that make a jump, >= 1 */
+    uint8_t hold;    /**< ticks smooth then equals wrench, >= 1 */
+} sp_wrench_smooth_t;
 
 /** No model, no estimate (wrench zeroed). No-op on NULL. */
 void sp_wrench_reset(sp_wrench_t *w);
@@ -90,5 +108,24 @@ sp_status_t sp_wrench_alpha(sp_q24_t hz, uint32_t tick_us, sp_q30_t *alpha);
  */
 void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t friction[SP_LEGS],
                     const sp_q8_t measured[SP_LEGS], const sp_q8_t correction[6], sp_q30_t alpha);
+
+/**
+ * The reported estimate w->smooth (N, N m, Q8) from w->wrench, after each
+ * sp_wrench_step. While the wrench holds still, smooth is w->wrench through
+ * one more first-order section (p->alpha, its value w->slow): less of the
+ * pressure sensors' noise, which the 20 ms filter of sp_wrench_step cannot
+ * average much further (docs/model.md). A change of the wrench is a jump:
+ * per component, when |wrench - slow| exceeds p->jump (force components
+ * 0..2 jump[0], moments 3..5 jump[1]) for p->persist ticks in a row, slow
+ * and smooth take wrench's value for p->hold ticks, so a step of the load
+ * reaches smooth p->persist - 1 ticks after it reaches wrench by the jump;
+ * in the ticks before, smooth is held at p->jump from wrench (a noise peak
+ * of wrench shorter than p->persist ticks leaves slow alone). Hence
+ * |smooth - wrench| <= jump at every tick. The first tick with w->valid
+ * (and every tick without) sets smooth and slow to wrench. Values stay
+ * within the range of w->wrench; nothing wraps. No-op on NULL; p's fields
+ * outside their ranges are used as their nearest valid value.
+ */
+void sp_wrench_smooth(sp_wrench_t *w, const sp_wrench_smooth_t *p);
 
 #endif /* SP_WRENCH_H */
