@@ -104,9 +104,9 @@ typedef struct {
 static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
 {
     if (t->per_s != 0) {
-        return sp_sat32(d * t->per_s, flags);
+        return spi_sat(d * t->per_s, flags);
     }
-    return sp_sat32(div_round(d * 1000000, (int64_t)t->tick_us), flags);
+    return spi_sat(div_round(d * 1000000, (int64_t)t->tick_us), flags);
 }
 
 /* round(x / 2^30) of a product below 2^62 in magnitude */
@@ -172,9 +172,9 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
          * after the shift), per second (x 10^6 at most: < 2^60), then Q8 */
         int64_t ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
         int64_t per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
-        damping = FRIC_Q30(clamp64(sp_rshift_round(per, 16u), INT32_MAX, flags) * es);
+        damping = FRIC_Q30(clamp64(spi_round_away64(per, 16u), INT32_MAX, flags) * es);
     }
-    return sp_sat32(phi_new + damping + viscous, flags);
+    return spi_sat(phi_new + damping + viscous, flags);
 }
 
 void sp_fric_obs_reset(sp_fric_obs_t *o)
