@@ -1047,6 +1047,57 @@ static void test_inverse_dynamics_legs_power(void **state)
  * 8 N of the fresh ones over random platforms with up to 180 kg legs,
  * 1 m/s, 1 rad/s, 10 m/s^2 and 10 rad/s^2 (measured: 4.8 N; the
  * controller's surge, 0.08 N: test_controller). */
+/* sp_inverse_kinematics_kept against the plain sp_inverse_kinematics, bit
+ * for bit, over a sequence of poses where each angle repeats the last
+ * one's with probability 1/2 (the controller's references: surge keeps
+ * all three, yaw two), from an invalid keep, and with keep NULL; an
+ * out-of-range pose fails as the plain IK does and the next call is
+ * still exact. */
+static void test_inverse_kinematics_kept(void **state)
+{
+    uint64_t rng = 31;
+    sp_platform_t p;
+    double hz, q[6];
+    sp_orient_keep_t keep;
+    sp_pose_t pose;
+    sp_ik_t ik, ikk;
+    int reused = 0;
+    (void)state;
+    random_platform(&rng, &p, &hz);
+    memset(&keep, 0x5A, sizeof keep);
+    keep.valid = 0u;
+    random_pose(&rng, hz, &pose, q);
+    for (int n = 0; n < N_POSES; ++n) {
+        sp_pose_t next;
+        random_pose(&rng, hz, &next, q);
+        for (int k = 0; k < 3; ++k) {
+            if (tu_uniform(&rng, 0.0, 1.0) < 0.5) {
+                next.rpy[k] = pose.rpy[k];
+                ++reused;
+            }
+        }
+        pose = next;
+        memset(&ik, 0, sizeof ik);
+        memset(&ikk, 0xA5, sizeof ikk);
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, NULL, &ikk), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    assert_true(reused > N_POSES);
+    /* a pose 100 m away: SP_E_RANGE as the plain IK; then exact again */
+    pose.pos[0] = INT32_C(100) << 24;
+    assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), sp_inverse_kinematics(&p, &pose, &ik));
+    pose.pos[0] = 0;
+    assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+    assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
+    assert_memory_equal(&ikk, &ik, sizeof ik);
+    assert_int_equal(sp_inverse_kinematics_kept(NULL, &pose, &keep, &ikk), SP_E_ARG);
+    assert_int_equal(sp_inverse_kinematics_kept(&p, NULL, &keep, &ikk), SP_E_ARG);
+    assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, NULL), SP_E_ARG);
+}
+
 static void test_inverse_dynamics_held(void **state)
 {
     uint64_t rng = 29;
@@ -1168,6 +1219,7 @@ int main(void)
         cmocka_unit_test(test_forward_kinematics_failures),
         cmocka_unit_test(test_inverse_dynamics),
         cmocka_unit_test(test_inverse_dynamics_legs_power),
+        cmocka_unit_test(test_inverse_kinematics_kept),
         cmocka_unit_test(test_inverse_dynamics_held),
         cmocka_unit_test(test_check_legs),
     };

@@ -136,6 +136,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->legs.fresh = 0u;
     ctrl->legs_exact = 0u;
     ctrl->leg_group = 0u;
+    ctrl->ref_orient.valid = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
@@ -672,7 +673,7 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         unsigned refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
         ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
         st = sp_setpoints_held(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
-                               &ctrl->est.ref_lu, &ctrl->model, &ctrl->legs, refresh);
+                               &ctrl->est.ref_lu, &ctrl->model, &ctrl->legs, refresh, &ctrl->ref_orient);
     }
     if (st == SP_OK) {
         /* the legs whose terms are this reference's: those just computed,

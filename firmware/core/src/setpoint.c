@@ -45,12 +45,12 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
                             const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
                             sp_model_t *model)
 {
-    return sp_setpoints_held(platform, lim, fr, ref, ff, sp, lu, model, NULL, 0u);
+    return sp_setpoints_held(platform, lim, fr, ref, ff, sp, lu, model, NULL, 0u, NULL);
 }
 
 sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *lim, const sp_friction_t *fr,
                               const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
-                              sp_model_t *model, sp_leg_hold_t *hold, unsigned refresh)
+                              sp_model_t *model, sp_leg_hold_t *hold, unsigned refresh, sp_orient_keep_t *orient)
 {
     sp_ik_t ik;
     sp_q24_t rate[SP_LEGS];
@@ -61,7 +61,7 @@ sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *
     if (!sp_limits_in_workspace(lim, &ref->pose)) {
         return SP_E_RANGE;
     }
-    st = sp_inverse_kinematics(platform, &ref->pose, &ik);
+    st = sp_inverse_kinematics_kept(platform, &ref->pose, orient, &ik);
     if (st == SP_OK) {
         st = sp_jacobian(&ik, &model->jac);
     }

@@ -306,6 +306,8 @@ typedef struct {
     sp_leg_hold_t legs;              /**< the leg masses' terms kept for the legs not refreshed this tick */
     uint8_t legs_exact;              /**< bit i: leg i's kept terms are those of the last accepted reference */
     uint8_t leg_group;               /**< the group of legs whose terms the next tick refreshes */
+    sp_orient_keep_t ref_orient;     /**< the last reference IK's angles, sines and T (an angle that repeats
+                                          costs no sine) */
     sp_motion_t pos_ref;             /**< the position reference of the last tick (before force control's offset) */
     sp_force_t force;                /**< force control */
     uint8_t park_after_release;      /**< PARK during force control: park once released */
