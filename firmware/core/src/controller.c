@@ -668,17 +668,20 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         return 1;
     }
     if (flags == 0u) {
-        /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs */
+        /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
+         * (one group: every leg, nothing kept) */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
         unsigned refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
         ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
         st = sp_setpoints_held(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
-                               &ctrl->est.ref_lu, &ctrl->model, &ctrl->legs, refresh, &ctrl->ref_orient);
+                               &ctrl->est.ref_lu, &ctrl->model, (SP_CTRL_LEG_GROUPS > 1u) ? &ctrl->legs : NULL, refresh,
+                               &ctrl->ref_orient);
     }
     if (st == SP_OK) {
         /* the legs whose terms are this reference's: those just computed,
          * and those kept from the same reference */
-        ctrl->legs_exact = (uint8_t)((same ? ctrl->legs_exact : 0u) | ctrl->legs.fresh);
+        unsigned fresh = (SP_CTRL_LEG_GROUPS > 1u) ? ctrl->legs.fresh : SP_ALL_LEGS;
+        ctrl->legs_exact = (uint8_t)((same ? ctrl->legs_exact : 0u) | fresh);
         ctrl->have_setpoint = 1u;
         ctrl->setpoint_ff = (uint8_t)ff;
         ctrl->reference = *ref;
