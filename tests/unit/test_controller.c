@@ -153,9 +153,14 @@ static void test_engage_run_park(void **state)
  * RUN_TRIG tick). The plain reference: sp_setpoints_of on that reference,
  * computed afresh, must give the same setpoints, model and factorisation,
  * bit for bit, on every READY tick, on the RUN_TRIG tick, and after the
- * feed-forward switches change (which must not reuse). */
-static void check_fresh_setpoints(const rig_t *r, unsigned ff)
+ * feed-forward switches change (which must not reuse). While moving, the
+ * leg-mass terms of all legs but one group are kept from earlier ticks
+ * (sp/controller.h, "The leg masses' terms"): lengths, rates, Jacobian and factorisation are still
+ * the same bit for bit, the forces within force_tol N (0: exact). Returns
+ * the largest force difference, N. */
+static double check_fresh_setpoints(const rig_t *r, unsigned ff, double force_tol)
 {
+    double worst = 0.0;
     sp_setpoint_t sp[SP_LEGS];
     sp_lu6_t lu;
     sp_model_t model;
@@ -167,8 +172,8 @@ static void check_fresh_setpoints(const rig_t *r, unsigned ff)
     for (int i = 0; i < SP_LEGS; ++i) {
         assert_int_equal(sp[i].length, r->out.setpoint[i].length);
         assert_int_equal(sp[i].velocity, r->out.setpoint[i].velocity);
-        assert_int_equal(sp[i].force, r->out.setpoint[i].force);
-        assert_int_equal(model.force[i], r->ctrl.model.force[i]);
+        worst = fmax(worst, fabs((sp[i].force - r->out.setpoint[i].force) / 256.0));
+        worst = fmax(worst, fabs((model.force[i] - r->ctrl.model.force[i]) / 256.0));
         assert_int_equal(model.ref.length[i], r->ctrl.model.ref.length[i]);
         assert_int_equal(model.ref.sc[i], r->ctrl.model.ref.sc[i]);
         for (int k = 0; k < SP_LEGS; ++k) {
@@ -180,6 +185,8 @@ static void check_fresh_setpoints(const rig_t *r, unsigned ff)
     }
     assert_memory_equal(&model.jac, &r->ctrl.model.jac, sizeof model.jac);
     assert_int_equal(r->ctrl.est.ref_lu.valid, 1);
+    assert_true(worst <= force_tol);
+    return worst;
 }
 
 static void test_rest_reuses_setpoints(void **state)
@@ -188,17 +195,19 @@ static void test_rest_reuses_setpoints(void **state)
     (void)state;
     rig_init(&r);
     engage(&r);
-    for (int n = 0; n < 5; ++n) {
+    for (int n = 0; n < (int)SP_CTRL_LEG_GROUPS + 4; ++n) {
+        /* READY's first ticks complete the legs' terms (the engage move's
+         * last ones, at most 1 N off), then bit for bit */
         rig_tick(&r, SP_CMD_NONE);
         assert_int_equal(r.out.state, SP_STATE_READY);
-        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION);
+        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, (n + 1 < (int)SP_CTRL_LEG_GROUPS) ? 1.0 : 0.0);
     }
     r.cfg.friction_compensation = 0u;
     rig_tick(&r, SP_CMD_NONE);
-    check_fresh_setpoints(&r, SP_FF_DYNAMICS);
+    check_fresh_setpoints(&r, SP_FF_DYNAMICS, 0.0);
     r.cfg.force_feedforward = 0u;
     rig_tick(&r, SP_CMD_NONE);
-    check_fresh_setpoints(&r, 0u);
+    check_fresh_setpoints(&r, 0u, 0.0);
     r.cfg.force_feedforward = 1u;
     r.cfg.friction_compensation = 1u;
     r.in.cmd.axis = SP_AXIS_X;
@@ -208,10 +217,17 @@ static void test_rest_reuses_setpoints(void **state)
     rig_tick(&r, SP_CMD_RUN_TRIG);
     assert_int_equal(r.out.cmd_rejected, 0);
     assert_int_equal(r.out.state, SP_STATE_RUNNING);
-    check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION);
-    for (int n = 0; n < 50; ++n) {
-        rig_tick(&r, SP_CMD_NONE);
-        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION);
+    check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, 0.0);
+    {
+        /* moving, no fade: kept leg terms, within 1 N (measured below) */
+        double worst = 0.0;
+        for (int n = 0; n < 1000; ++n) {
+            rig_tick(&r, SP_CMD_NONE);
+            worst = fmax(worst, check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, 1.0));
+        }
+        print_message("moving: forces within %.3f N of a fresh sp_setpoints_of\n", worst);
+        /* kept terms differ; with one group nothing is kept: exact */
+        assert_true((SP_CTRL_LEG_GROUPS > 1u) ? (worst > 0.0) : (worst == 0.0));
     }
 }
 
@@ -890,6 +906,114 @@ static void test_move_respects_limits(void **state)
     print_message("engage move: %d ticks, peak %.3f m/s %.3f m/s^2 %.3f m/s^3\n", n, vmax, amax, jmax);
 }
 
+/* The plain reference of sp_move_plan's duration: every bound of every
+ * axis computed, its root by a bisection over all of uint32, the largest
+ * kept; the same range checks in the same order. */
+static sp_status_t plain_move_ticks(const sp_pose_t *from, const sp_pose_t *to, const sp_move_limits_t *lim,
+                                    uint32_t tick_us, uint32_t *ticks)
+{
+    const uint64_t max_ms = 600000u;
+    uint64_t t_ms = 0u;
+    for (int a = 0; a < 6; ++a) {
+        int64_t d = (int64_t)sp_pose_axis(to, (sp_axis_t)a) - sp_pose_axis(from, (sp_axis_t)a);
+        uint64_t dm = (uint64_t)(d < 0 ? -d : d);
+        uint64_t t, lo, hi;
+        if (lim->vel_max[a] <= 0 || lim->acc_max[a] <= 0 || lim->jerk_max[a] <= 0) {
+            return SP_E_ARG;
+        }
+        if (dm == 0u) {
+            continue;
+        }
+        t = (dm * 1875u + (uint64_t)lim->vel_max[a] - 1u) / (uint64_t)lim->vel_max[a];
+        t_ms = t > t_ms ? t : t_ms;
+        t = (dm * 5773503u + (uint64_t)lim->acc_max[a] - 1u) / (uint64_t)lim->acc_max[a];
+        if (t > max_ms * max_ms) {
+            return SP_E_RANGE;
+        }
+        for (lo = 0u, hi = UINT32_MAX; lo < hi;) { /* smallest r, r^2 >= t */
+            uint64_t mid = (lo + hi) / 2u;
+            if (mid * mid >= t) {
+                hi = mid;
+            } else {
+                lo = mid + 1u;
+            }
+        }
+        t_ms = lo > t_ms ? lo : t_ms;
+        if (dm >= (UINT64_C(1) << 28)) {
+            return SP_E_RANGE;
+        }
+        t = (dm * UINT64_C(60000000000) + (uint64_t)lim->jerk_max[a] - 1u) / (uint64_t)lim->jerk_max[a];
+        if (t > max_ms * max_ms * max_ms) {
+            return SP_E_RANGE;
+        }
+        for (lo = 0u, hi = 2097152u; lo < hi;) { /* smallest r, r^3 >= t */
+            uint64_t mid = (lo + hi) / 2u;
+            if (mid * mid * mid >= t) {
+                hi = mid;
+            } else {
+                lo = mid + 1u;
+            }
+        }
+        t_ms = lo > t_ms ? lo : t_ms;
+    }
+    if (t_ms > max_ms) {
+        return SP_E_RANGE;
+    }
+    *ticks = (uint32_t)((t_ms * 1000u + tick_us - 1u) / tick_us);
+    return SP_OK;
+}
+
+/* sp_move_plan computes a root only where it can be the largest bound:
+ * the same duration and status as the plain reference over random moves
+ * (any number of axes at rest) and limits where each bound dominates in
+ * turn, including moves and limits beyond the range checks. */
+static void test_move_plan_against_plain(void **state)
+{
+    uint64_t rng = 777u;
+    int kinds[3] = {0, 0, 0};
+    (void)state;
+    for (int n = 0; n < 20000; ++n) {
+        sp_pose_t from = sp_platform_default.home;
+        sp_pose_t to = from;
+        sp_move_limits_t lim;
+        sp_move_t mv;
+        uint32_t ticks = 0u;
+        sp_status_t st, plain;
+        for (int a = 0; a < 6; ++a) {
+            double u[5];
+            for (int k = 0; k < 5; ++k) {
+                rng = rng * 6364136223846793005u + 1442695040888963407u;
+                u[k] = (double)(rng >> 11) / 9007199254740992.0;
+            }
+            /* an axis at rest one time in three; up to 0.5 m or rad, or up
+             * to 20 m (beyond the range checks) one time in 200 */
+            double dist = (u[0] < 1.0 / 3.0) ? 0.0 : (u[1] - 0.5) * ((n % 200 == 0) ? 40.0 : 1.0);
+            sp_q24_t *c = (a < 3) ? &to.pos[a] : &to.rpy[a - 3];
+            *c += q24(dist);
+            lim.vel_max[a] = q24(0.001 + 2.0 * u[2]);
+            lim.acc_max[a] = q24(0.001 + 20.0 * u[3]);
+            lim.jerk_max[a] = q24(0.001 + 100.0 * u[4]);
+        }
+        if (n % 997 == 0) {
+            lim.jerk_max[n % 6] = 0;
+        }
+        plain = plain_move_ticks(&from, &to, &lim, 1000u, &ticks);
+        st = sp_move_plan(&mv, &from, &to, &lim, 1000u);
+        assert_int_equal(st, plain);
+        if (st == SP_OK) {
+            assert_int_equal(mv.duration_ticks, ticks);
+            kinds[0]++;
+        } else {
+            kinds[st == SP_E_RANGE ? 1 : 2]++;
+            assert_int_equal(mv.duration_ticks, 0u);
+            assert_memory_equal(&mv.to, &from, sizeof from);
+        }
+    }
+    print_message("move plans against the plain reference: %d planned, %d out of range, %d bad limits\n", kinds[0],
+                  kinds[1], kinds[2]);
+    assert_true(kinds[0] > 1000 && kinds[1] > 10 && kinds[2] > 5);
+}
+
 /* ---- force control on a force/torque sensor ---------------------------- */
 
 /* A surface under the tool (the sensor at o', its axes the platform's) at
@@ -1123,6 +1247,7 @@ int main(void)
         cmocka_unit_test(test_trig_generator),
         cmocka_unit_test(test_set_wrench_source),
         cmocka_unit_test(test_move_respects_limits),
+        cmocka_unit_test(test_move_plan_against_plain),
         cmocka_unit_test(test_engage_run_park),
         cmocka_unit_test(test_rest_reuses_setpoints),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),

@@ -153,6 +153,11 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->park_after = 0u;
     ctrl->have_setpoint = 0u;
     ctrl->setpoint_ff = 0u;
+    ctrl->legs.held = 0u; /* no leg terms kept: the first setpoints compute every leg */
+    ctrl->legs.fresh = 0u;
+    ctrl->legs_exact = 0u;
+    ctrl->leg_group = 0u;
+    ctrl->ref_orient.valid = 0u;
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
@@ -671,28 +676,41 @@ static int same_motion(const sp_motion_t *a, const sp_motion_t *b)
  * accepted one, whose setpoints, model and factorisation are still in
  * ctrl (est.ref_lu valid: hold_setpoints and a failed reference clear it),
  * made with the same ff, has them already. READY holds one such reference
- * for as long as it lasts, and the RUN_TRIG tick starts from it (the trig
- * generator's first sample is the centre at rest). */
+ * for as long as it lasts (its first SP_CTRL_LEG_GROUPS ticks complete the
+ * legs' terms), and the RUN_TRIG tick starts from it (the trig generator's
+ * first sample is the centre at rest). */
 static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags)
 {
     sp_status_t st = SP_E_OVERFLOW;
     unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
     unsigned i;
-    if (flags == 0u && ctrl->est.ref_lu.valid && ctrl->have_setpoint && ctrl->setpoint_ff == ff &&
-        same_motion(ref, &ctrl->reference)) {
+    int same = ctrl->have_setpoint && same_motion(ref, &ctrl->reference);
+    if (flags == 0u && same && ctrl->est.ref_lu.valid && ctrl->setpoint_ff == ff && ctrl->legs_exact == SP_ALL_LEGS) {
         return 1;
     }
     if (flags == 0u) {
-        st = sp_setpoints_of(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
-                             &ctrl->est.ref_lu, &ctrl->model);
+        /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
+         * (one group: every leg, nothing kept) */
+        unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
+        unsigned refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
+        ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
+        st = sp_setpoints_held(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
+                               &ctrl->est.ref_lu, &ctrl->model, (SP_CTRL_LEG_GROUPS > 1u) ? &ctrl->legs : NULL, refresh,
+                               &ctrl->ref_orient);
     }
     if (st == SP_OK) {
+        /* the legs whose terms are this reference's: those just computed,
+         * and those kept from the same reference */
+        unsigned fresh = (SP_CTRL_LEG_GROUPS > 1u) ? ctrl->legs.fresh : SP_ALL_LEGS;
+        ctrl->legs_exact = (uint8_t)((same ? ctrl->legs_exact : 0u) | fresh);
         ctrl->have_setpoint = 1u;
         ctrl->setpoint_ff = (uint8_t)ff;
         ctrl->reference = *ref;
         return 1;
     }
     ctrl->est.ref_lu.valid = 0u; /* the reference stays the previous one */
+    ctrl->legs.held = 0u;        /* kept terms of a refused reference: none */
+    ctrl->legs_exact = 0u;
     raise_fault(cfg, ctrl, (st == SP_E_RANGE) ? SP_FAULT_REFERENCE : SP_FAULT_COMPUTE);
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->setpoint[i].velocity = 0;

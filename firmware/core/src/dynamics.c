@@ -2,6 +2,9 @@
 
 #include "fixed_inline.h"
 
+/* bit i for each leg i */
+#define SP_ALL_LEG_BITS ((1u << SP_LEGS) - 1u)
+
 #if defined(__GNUC__)
 #define SPI_COLD __attribute__((cold, noinline))
 #else
@@ -274,10 +277,13 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  * are sums in Q36 (each below 2^60) narrowed once, saturating (a leg
  * reaction of 32768 N or more fails the call with SP_E_OVERFLOW, as in
  * leg_terms_wide). Each bound is noted where it is used.
+ * Legs in `keep` (bit i: leg i; hold not NULL) take their reaction and
+ * axial term from *hold instead (sp_inverse_dynamics_held); the others'
+ * are written to *hold when it is not NULL.
  */
 SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t wd[3],
                                   int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS],
-                                  sp_flags_t *flags)
+                                  sp_leg_hold_t *hold, unsigned keep, sp_flags_t *flags)
 {
     const sp_leg_mass_t *lm = &p->leg_mass;
     const int32_t mr = lm->rod_mass; /* Q16 */
@@ -332,6 +338,13 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
     k1 = mcdc - nn;                                       /* K1 */
     k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
+    if (keep != 0u) {
+        /* the kept legs' reactions and moments, summed when computed */
+        for (k = 0u; k < 3u; ++k) {
+            fsum[k] = hold->fsum[k];
+            msum[k] = hold->msum[k];
+        }
+    }
 
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
@@ -351,6 +364,15 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
         va[0] = (int32_t)((vb[0] + (int64_t)wb[1] * r[2] - (int64_t)wb[2] * r[1]) >> 24);
         va[1] = (int32_t)((vb[1] + (int64_t)wb[2] * r[0] - (int64_t)wb[0] * r[2]) >> 24);
         va[2] = (int32_t)((vb[2] + (int64_t)wb[0] * r[1] - (int64_t)wb[1] * r[0]) >> 24);
+        /* L' = u.v_A (Q24, as sp_leg_rates; |.| < 55): a sum below 2^62 */
+        ld = fit((int64_t)u[0] * va[0] + (int64_t)u[1] * va[1] + (int64_t)u[2] * va[2], 30u);
+        rt[i] = ld;
+        if (((keep >> i) & 1u) != 0u) {
+            /* a kept leg: its reaction, moment and axial term as computed
+             * before, already in the kept sums */
+            axial[i] = hold->axial[i];
+            continue;
+        }
         /* a_A = a + w_b' x r + w_b x (v_A - v), one Q48 sum (below
          * 1213 2^48 < 2^59) rounded once to Q20 */
         {
@@ -367,17 +389,14 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
                                (int64_t)wb[1] * t0) >>
                               28);
         }
-        /* L' = u.v_A (Q24, as sp_leg_rates; |.| < 55), u.a_A (Q20,
-         * < 1213), L'^2 and |v_A|^2 - L'^2 (Q16, below 3025): sums below
-         * 2^62 */
-        ld = fit((int64_t)u[0] * va[0] + (int64_t)u[1] * va[1] + (int64_t)u[2] * va[2], 30u);
+        /* u.a_A (Q20, < 1213), L'^2 and |v_A|^2 - L'^2 (Q16, below
+         * 3025): sums below 2^62 */
         ua = fit((int64_t)u[0] * aa[0] + (int64_t)u[1] * aa[1] + (int64_t)u[2] * aa[2], 30u);
         ld2 = fit((int64_t)ld * ld, 32u);
         vv = fit((int64_t)va[0] * va[0] + (int64_t)va[1] * va[1] + (int64_t)va[2] * va[2], 32u) - ld2;
         if (vv < 0) {
             vv = 0; /* |v_A|^2 >= L'^2 up to rounding */
         }
-        rt[i] = ld;
         /* the leg's coefficients from q = 1/L (Q30, in (1/8, 2)) */
         q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
         q >>= (sh - 54u);
@@ -400,15 +419,40 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
             hw[k] = spi_narrow_floor(v + (INT64_C(1) << 19), 20u, flags);
             fsum[k] += hw[k];
         }
-        msum[0] += (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
-        msum[1] += (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
-        msum[2] += (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
+        {
+            /* the leg's moment r x hw, Q40 (each below 2^57) */
+            int64_t mo[3];
+            mo[0] = (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
+            mo[1] = (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
+            mo[2] = (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
+            for (k = 0u; k < 3u; ++k) {
+                msum[k] += mo[k];
+                if (hold != NULL) {
+                    /* a kept sum drops the leg's earlier terms: exact */
+                    if (keep != 0u) {
+                        fsum[k] -= hold->hw[i][k];
+                        msum[k] -= hold->mo[i][k];
+                    }
+                    hold->hw[i][k] = hw[k];
+                    hold->mo[i][k] = mo[k];
+                }
+            }
+        }
         /* s_i, Q36: (m_r - mu) u.a_A, (m_r - k_g) g u_z (each below
          * 512 1213 2^36, 4096 16 2^36) and (N q^2 vv + 2 (C / L) L'^2) 2^4
          * (below 3 1024 3025 2^36): below 2^60 */
         axial[i] = spi_narrow_floor(((int64_t)nq2 * vv + (int64_t)cq * ld2 * 2) * 16 - (int64_t)dmu * ua -
                                         (int64_t)kq * guz + (INT64_C(1) << 19),
                                     20u, flags);
+        if (hold != NULL) {
+            hold->axial[i] = axial[i];
+        }
+    }
+    if (hold != NULL) {
+        for (k = 0u; k < 3u; ++k) {
+            hold->fsum[k] = fsum[k];
+            hold->msum[k] = msum[k];
+        }
     }
     for (k = 0u; k < 3u; ++k) {
         b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
@@ -449,7 +493,7 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
  * (sp_inverse_dynamics_rates). */
 static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                             const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu,
-                            sp_q24_t rate[SP_LEGS])
+                            sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh)
 {
     int have_rates = 0;
     sp_flags_t flags = 0u;
@@ -465,9 +509,16 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     unsigned k;
     int ovf = 0;
     int legs_on;
+    unsigned keep = 0u;
 
     if (force == NULL || lu == NULL) {
         return SP_E_ARG;
+    }
+    if (hold != NULL) {
+        /* nothing computed yet: kept again only on success */
+        keep = (unsigned)hold->held & ~refresh & SP_ALL_LEG_BITS;
+        hold->held = 0u;
+        hold->fresh = (uint8_t)(SP_ALL_LEG_BITS & ~keep);
     }
     lu->valid = 0u;
     for (k = 0u; k < SP_LEGS; ++k) {
@@ -481,6 +532,11 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
         return SP_E_ARG;
     }
     legs_on = (platform->leg_mass.cylinder_mass != 0 || platform->leg_mass.rod_mass != 0);
+    if (hold != NULL && !legs_on) {
+        hold->fresh = (uint8_t)SP_ALL_LEG_BITS; /* no leg terms to keep */
+        hold = NULL;
+        keep = 0u;
+    }
     st = sp_body_rates_sc(ik->sc, motion->rpy_rate, motion->rpy_acc, omega, omega_dot);
     if (st != SP_OK) {
         return st;
@@ -518,10 +574,14 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     }
     if (legs_on) {
         sp_q24_t rt[SP_LEGS];
-        if (leg_terms(platform, ik, motion, omega_dot, b, axial, (rate != NULL) ? rate : rt, &flags)) {
+        if (leg_terms(platform, ik, motion, omega_dot, b, axial, (rate != NULL) ? rate : rt, hold, keep, &flags)) {
             have_rates = 1;
         } else {
             leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, &flags);
+            if (hold != NULL) {
+                hold->fresh = (uint8_t)SP_ALL_LEG_BITS; /* every leg computed, none kept */
+                hold = NULL;
+            }
         }
     }
     if (ovf || flags != 0u) {
@@ -559,6 +619,9 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
         }
         return sp_flags_status(flags);
     }
+    if (hold != NULL) {
+        hold->held = (uint8_t)SP_ALL_LEG_BITS; /* kept and computed legs alike */
+    }
     return SP_OK;
 }
 
@@ -566,7 +629,7 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
                                     const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
                                     sp_lu6_t *lu)
 {
-    return id_solve(platform, motion, ik, jac, ext_force, force, lu, NULL);
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, NULL, NULL, SP_ALL_LEG_BITS);
 }
 
 sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -585,5 +648,20 @@ sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_mo
         }
         return SP_E_ARG;
     }
-    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate);
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate, NULL, SP_ALL_LEG_BITS);
+}
+
+sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                     const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                     sp_lu6_t *lu, sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh)
+{
+    if (hold == NULL) {
+        return sp_inverse_dynamics_rates(platform, motion, ik, jac, ext_force, force, lu, rate);
+    }
+    if (rate == NULL) {
+        hold->held = 0u;
+        hold->fresh = (uint8_t)SP_ALL_LEG_BITS;
+        return sp_inverse_dynamics_rates(platform, motion, ik, jac, ext_force, force, lu, rate); /* SP_E_ARG */
+    }
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate, hold, refresh);
 }

@@ -11,11 +11,13 @@
 #define FRIC_LN2_Q30 INT64_C(744261118)
 /* exp(-u) < 2^-31 (half an LSB of Q30) beyond 31 ln 2 */
 #define FRIC_EXP_K_MAX 31
-/* (-1)^k / k! in Q30, k = 0..7, rounded to nearest: on [0, ln 2) the
- * Taylor remainder is below (ln 2)^8 / 8! = 1.3e-6 */
-#define FRIC_EXP_DEGREE 7
-static const int32_t fric_exp_coef[FRIC_EXP_DEGREE + 1] = {1073741824, -1073741824, 536870912, -178956971,
-                                                           44739243,   -8947849,    1491308,   -213044};
+/* exp(-j / 32) in Q30, j = 0..22, rounded to nearest: the steps of
+ * [0, ln 2) by 1/32 (generated with Python's math.exp) */
+#define FRIC_EXP_STEPS 23
+static const int32_t fric_exp_table[FRIC_EXP_STEPS] = {
+    1073741824, 1040706261, 1008687096, 977653056, 947573834, 918420052, 890163238, 862775794,
+    836230973,  810502851,  785566300,  761396966, 737971244, 715266256, 693259826, 671930464,
+    651257337,  631220255,  611799650,  592976553, 574732583, 557049920, 539911296};
 /* |v| / v_s at and beyond which exp(-(v/v_s)^2) is taken as 0: exp(-16) =
  * 1.1e-7, 0.00002 N of a 200 N break-away excess; the bristle damping
  * sigma_1 e dz/dt (at most sigma_1 e |v|) below 0.01 N there */
@@ -28,7 +30,8 @@ static const int32_t fric_exp_coef[FRIC_EXP_DEGREE + 1] = {1073741824, -10737418
 sp_q30_t sp_fric_exp_neg(sp_q24_t u)
 {
     uint32_t k;
-    int32_t r, acc;
+    uint32_t j;
+    int32_t r, d, d2, d3, poly, acc;
     if (u <= 0) {
         return SP_Q30_ONE;
     }
@@ -37,14 +40,19 @@ sp_q30_t sp_fric_exp_neg(sp_q24_t u)
         return 0;
     }
     /* r = u - k ln2 in Q30: within a few LSB of [0, ln 2) (the two ln 2
-     * roundings differ), where the polynomial is as good; |r| < 2^30 */
+     * roundings differ; a negative r of a few LSB is clamped to 0) */
     r = (int32_t)((int64_t)u * 64 - (int64_t)k * FRIC_LN2_Q30);
-    acc = fric_exp_coef[FRIC_EXP_DEGREE];
-    for (int n = FRIC_EXP_DEGREE - 1; n >= 0; --n) {
-        /* Horner's partial sums stay within 1.5 2^30: one 32 x 32 product */
-        acc = fric_exp_coef[n] + (int32_t)(((int64_t)acc * r + (INT64_C(1) << 29)) >> 30);
-    }
-    /* acc is in (0, 1 + 2^-24]: the shift by k keeps it in Q30's range */
+    r = (r < 0) ? 0 : r;
+    /* exp(-r) = exp(-j/32) exp(-d), d = r - j/32 in [0, 1/32): the table
+     * and three Taylor terms, remainder d^4 / 24 below 4.1e-8 */
+    j = (uint32_t)r >> 25;
+    j = (j < (uint32_t)FRIC_EXP_STEPS) ? j : (uint32_t)FRIC_EXP_STEPS - 1u;
+    d = r - (int32_t)(j << 25);
+    d2 = (int32_t)(((int64_t)d * d + (INT64_C(1) << 29)) >> 30);
+    d3 = (int32_t)(((int64_t)d2 * d + (INT64_C(1) << 29)) >> 30);
+    poly = SP_Q30_ONE - d + (d2 >> 1) - (d3 / 6);
+    acc = (int32_t)(((int64_t)fric_exp_table[j] * poly + (INT64_C(1) << 29)) >> 30);
+    /* acc is in (0, 1]: the shift by k keeps it in Q30's range */
     if (k > 0u) {
         acc = (int32_t)(((int64_t)acc + (INT64_C(1) << (k - 1u))) >> k);
     }
@@ -97,9 +105,9 @@ typedef struct {
 static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
 {
     if (t->per_s != 0) {
-        return sp_sat32(d * t->per_s, flags);
+        return spi_sat(d * t->per_s, flags);
     }
-    return sp_sat32(div_round(d * 1000000, (int64_t)t->tick_us), flags);
+    return spi_sat(div_round(d * 1000000, (int64_t)t->tick_us), flags);
 }
 
 /* round(x / 2^30) of a product below 2^62 in magnitude */
@@ -110,7 +118,7 @@ static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
  * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
  * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
- * exp; slower, two exps and one 64/32 division (F_c / g). */
+ * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip). */
 static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int64_t dx,
                         const fric_tick_t *t, sp_flags_t *flags)
 {
@@ -145,8 +153,11 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
         /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8; a scaled by F_c / g (Q30, in (0, 1]) */
         g += FRIC_Q30(((int64_t)p->breakaway_friction[i] - fc) * es);
         if (a < ((int64_t)FRIC_BRISTLE_A_MAX << 24)) {
-            uint32_t rem;
-            int64_t scale = spi_udiv64_32((uint64_t)fc << 30, (uint32_t)g, &rem);
+            /* F_c / g = F_c inv / 2^sh (the normalised reciprocal: one
+             * 32-bit division, relative error below 2^-28), Q30 */
+            unsigned sh;
+            int32_t inv = spi_recip((uint32_t)g, &sh);
+            int64_t scale = ((int64_t)fc * inv) >> (sh - 30u);
             a = FRIC_Q30(a * scale);
         }
     }
@@ -162,9 +173,9 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
          * after the shift), per second (x 10^6 at most: < 2^60), then Q8 */
         int64_t ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
         int64_t per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
-        damping = FRIC_Q30(clamp64(sp_rshift_round(per, 16u), INT32_MAX, flags) * es);
+        damping = FRIC_Q30(clamp64(spi_round_away64(per, 16u), INT32_MAX, flags) * es);
     }
-    return sp_sat32(phi_new + damping + viscous, flags);
+    return spi_sat(phi_new + damping + viscous, flags);
 }
 
 void sp_fric_obs_reset(sp_fric_obs_t *o)

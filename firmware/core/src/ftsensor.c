@@ -143,7 +143,7 @@ sp_status_t sp_ft_tare_step(sp_ft_tare_t *t, const sp_q8_t reading[6], sp_q8_t o
     }
     sp_flags_t flags = 0u;
     for (unsigned k = 0; k < 6u; ++k) {
-        out[k] = sp_sat32((int64_t)reading[k] - t->bias[k], &flags);
+        out[k] = spi_sat((int64_t)reading[k] - t->bias[k], &flags);
     }
     return (flags != 0u) ? SP_E_OVERFLOW : st;
 }

@@ -206,6 +206,42 @@ sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t
     return st;
 }
 
+sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_pose_t *pose, sp_orient_keep_t *keep,
+                                       sp_ik_t *ik)
+{
+    sp_status_t st;
+    unsigned k;
+    int changed;
+
+    if (keep == NULL) {
+        return sp_inverse_kinematics(platform, pose, ik);
+    }
+    if (platform == NULL || pose == NULL || ik == NULL) {
+        return SP_E_ARG;
+    }
+    changed = !keep->valid;
+    for (k = 0u; k < 3u; ++k) {
+        if (!keep->valid || pose->rpy[k] != keep->rpy[k]) {
+            sp_sincos_q24(pose->rpy[k], &keep->sc[2u * k], &keep->sc[2u * k + 1u]);
+            keep->rpy[k] = pose->rpy[k];
+            changed = 1;
+        }
+    }
+    if (changed) {
+        spi_rot_from_sincos(keep->sc, &keep->rot);
+        keep->valid = 1u;
+    }
+    ik->rot = keep->rot;
+    for (k = 0u; k < 6u; ++k) {
+        ik->sc[k] = keep->sc[k];
+    }
+    st = spi_ik_lengths(platform, pose, ik);
+    if (st == SP_OK) {
+        spi_ik_units(ik);
+    }
+    return st;
+}
+
 sp_status_t sp_leg_stretch(const sp_ik_t *ik, const sp_ik_t *home_ik, sp_q24_t stretch[SP_LEGS])
 {
     sp_flags_t flags = 0u;

@@ -45,6 +45,13 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
                             const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
                             sp_model_t *model)
 {
+    return sp_setpoints_held(platform, lim, fr, ref, ff, sp, lu, model, NULL, 0u, NULL);
+}
+
+sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *lim, const sp_friction_t *fr,
+                              const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
+                              sp_model_t *model, sp_leg_hold_t *hold, unsigned refresh, sp_orient_keep_t *orient)
+{
     sp_ik_t ik;
     sp_q24_t rate[SP_LEGS];
     sp_q8_t force[SP_LEGS];
@@ -54,13 +61,13 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     if (!sp_limits_in_workspace(lim, &ref->pose)) {
         return SP_E_RANGE;
     }
-    st = sp_inverse_kinematics(platform, &ref->pose, &ik);
+    st = sp_inverse_kinematics_kept(platform, &ref->pose, orient, &ik);
     if (st == SP_OK) {
         st = sp_jacobian(&ik, &model->jac);
     }
     if (st == SP_OK) {
         /* the forces and the leg rates (sp_leg_rates) in one pass */
-        st = sp_inverse_dynamics_rates(platform, ref, &ik, &model->jac, NULL, force, lu, rate);
+        st = sp_inverse_dynamics_held(platform, ref, &ik, &model->jac, NULL, force, lu, rate, hold, refresh);
     }
     if (st != SP_OK) {
         return st;

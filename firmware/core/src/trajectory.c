@@ -226,10 +226,19 @@ static uint64_t icbrt_ceil(uint64_t v)
     return lo;
 }
 
+/* Smallest r with r^2 >= v (v < 2^63). */
+static uint64_t isqrt_ceil(uint64_t v)
+{
+    uint64_t r = sp_isqrt64(v);
+    return r + ((r * r < v) ? 1u : 0u);
+}
+
 sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *to, const sp_move_limits_t *lim,
                          uint32_t tick_us)
 {
     uint64_t t_ms = 0u;
+    uint64_t t_acc[6];  /* T^2 of the acceleration bound per axis, ms^2 (0: at rest) */
+    uint64_t t_jerk[6]; /* T^3 of the jerk bound per axis, ms^3 */
     unsigned a;
 
     if (mv == NULL || from == NULL || to == NULL || lim == NULL || tick_us < 1u || tick_us > 100000u) {
@@ -245,6 +254,8 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
         int64_t d = (int64_t)sp_pose_axis(to, (sp_axis_t)a) - sp_pose_axis(from, (sp_axis_t)a);
         uint64_t dm = (uint64_t)(d < 0 ? -d : d); /* Q24, < 2^32 */
         uint64_t t;
+        t_acc[a] = 0u;
+        t_jerk[a] = 0u;
         if (lim->vel_max[a] <= 0 || lim->acc_max[a] <= 0 || lim->jerk_max[a] <= 0) {
             return SP_E_ARG;
         }
@@ -259,11 +270,7 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
         if (t > MOVE_MAX_MS * MOVE_MAX_MS) {
             return SP_E_RANGE;
         }
-        {
-            uint64_t r = sp_isqrt64(t);
-            r += (r * r < t) ? 1u : 0u;
-            t_ms = r > t_ms ? r : t_ms;
-        }
+        t_acc[a] = t;
         /* jerk: T^3 = 60 D / j; in ms^3: 6e10 D / j. D < 16 m keeps the
          * product below 2^64. */
         if (dm >= (UINT64_C(1) << 28)) {
@@ -273,8 +280,21 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
         if (t > MOVE_MAX_MS * MOVE_MAX_MS * MOVE_MAX_MS) {
             return SP_E_RANGE;
         }
-        t = icbrt_ceil(t);
-        t_ms = t > t_ms ? t : t_ms;
+        t_jerk[a] = t;
+    }
+    /* T = the largest bound of all axes. A root needs computing only
+     * where its power exceeds the largest T so far: its root is then
+     * larger (otherwise it is not, and the maximum is the same) */
+    for (a = 0u; a < 6u; ++a) {
+        if (t_ms > MOVE_MAX_MS) {
+            return SP_E_RANGE;
+        }
+        if (t_acc[a] > t_ms * t_ms) {
+            t_ms = isqrt_ceil(t_acc[a]);
+        }
+        if (t_jerk[a] > t_ms * t_ms * t_ms) {
+            t_ms = icbrt_ceil(t_jerk[a]);
+        }
     }
     if (t_ms > MOVE_MAX_MS) {
         return SP_E_RANGE;

@@ -28,6 +28,18 @@
  *                  forces and the model's (sp/wrench.h);
  *   7. divergence  of the estimate from the reference;
  *   8. output.
+ * The leg masses' terms (the force feed-forward's heaviest part) can be
+ * refreshed for SP_LEGS / SP_CTRL_LEG_GROUPS legs a tick, in turn
+ * (sp_setpoints_held), the other legs' reactions, moments and axial terms
+ * kept from the tick that last refreshed them; the rest of the inverse
+ * dynamics, the leg rates and the factorisation are always this tick's.
+ * A kept term is at most SP_CTRL_LEG_GROUPS - 1 ticks old (docs/model.md,
+ * "Leg masses kept over ticks"). A reference repeated at rest is computed
+ * until every leg's terms are its own, and only then reused. The default
+ * is one group (every leg every tick): with six groups the M4 tick is
+ * about 1,350 instructions shorter, but the demo's figures moved (the
+ * unloaded wrench estimate 112 N / 91 N m -> 122 N / 86 N m, the surge's
+ * tracking RMS 0.0774 -> 0.0775 mm; docs/m4.md).
  * Values derived once from the config (the limits in absolute coordinates,
  * the stream filter's gains) are prepared by sp_ctrl_init
  * (sp_ctrl_prepared_t), apart from the tick's state.
@@ -243,6 +255,11 @@ typedef struct {
     sp_force_config_t force;          /**< cfg->force with the wrench filter's gain and the tick */
 } sp_ctrl_prepared_t;
 
+/** Ticks over which every leg's leg-mass terms are refreshed once
+ *  ("The leg masses' terms" above; divides SP_LEGS): each tick refreshes
+ *  SP_LEGS / SP_CTRL_LEG_GROUPS legs, in turn. */
+#define SP_CTRL_LEG_GROUPS 1u
+
 /** sp_supervision_t.seen_mask once every drive has been heard from. */
 #define SP_ALL_LEGS ((UINT32_C(1) << SP_LEGS) - 1u)
 
@@ -295,6 +312,11 @@ typedef struct {
     sp_wrench_t wrench;              /**< the external wrench estimate */
     sp_fric_obs_t fric_obs;          /**< the seals' friction observed from the measured lengths */
     sp_motion_error_t motion_error;  /**< the history of estimate - reference (wrench correction) */
+    sp_leg_hold_t legs;              /**< the leg masses' terms kept for the legs not refreshed this tick */
+    uint8_t legs_exact;              /**< bit i: leg i's kept terms are those of the last accepted reference */
+    uint8_t leg_group;               /**< the group of legs whose terms the next tick refreshes */
+    sp_orient_keep_t ref_orient;     /**< the last reference IK's angles, sines and T (an angle that repeats
+                                          costs no sine) */
     sp_motion_t pos_ref;             /**< the position reference of the last tick (before force control's offset) */
     sp_force_t force;                /**< force control */
     uint8_t park_after_release;      /**< PARK during force control: park once released */

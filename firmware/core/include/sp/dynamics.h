@@ -68,4 +68,44 @@ sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_mo
                                       const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
                                       sp_lu6_t *lu, sp_q24_t rate[SP_LEGS]);
 
+/**
+ * The leg masses' terms kept from one call to the next
+ * (sp_inverse_dynamics_held), so that a call need compute only some legs'
+ * (docs/model.md, "Leg masses"; the controller refreshes one leg a
+ * tick: sp/controller.h). Per leg: its reaction at the platform joint
+ * without the part along the leg, h_i - s_i u_i = mu a_A + c1 v_A +
+ * k_g g e_z (base frame, N, Q16), its moment about o' and the axial term
+ * s_i (N, Q16); and the sums over the legs of the reactions and moments,
+ * updated exactly (integers) as legs are refreshed, so that a kept leg
+ * costs nothing but its rate. Zero it (or set held to 0) before the first
+ * call.
+ */
+typedef struct {
+    sp_q16_t hw[SP_LEGS][3]; /**< leg i's reaction h_i - s_i u_i, base frame, N, Q16 */
+    int64_t mo[SP_LEGS][3];  /**< its moment about o', r_i x (h_i - s_i u_i), at its arm then, N m, Q40 */
+    int64_t fsum[3];         /**< sum of hw over the legs, N, Q16 */
+    int64_t msum[3];         /**< sum of mo over the legs, N m, Q40 */
+    sp_q16_t axial[SP_LEGS]; /**< leg i's axial term s_i, N, Q16 */
+    uint8_t held;            /**< bit i: leg i's terms are kept (computed by an earlier call) */
+    uint8_t fresh;           /**< out: bit i: leg i's terms were computed by the last call (all when it kept none) */
+} sp_leg_hold_t;
+
+/**
+ * sp_inverse_dynamics_rates, with the leg masses' terms of the legs not in
+ * `refresh` (bit i: leg i) taken from *hold where it keeps them (bit i of
+ * hold->held), the others computed and kept. A kept leg's reaction,
+ * moment (at its arm then) and axial term are those of the motion it was
+ * computed at (the caller bounds the difference: the controller refreshes
+ * each leg every SP_CTRL_LEG_GROUPS ticks); the leg rates are always this
+ * motion's. With refresh = 0x3F, or hold NULL, or every kept leg computed
+ * at this same motion, the forces and rates are sp_inverse_dynamics_rates'
+ * bit for bit (the sums are exact). hold->fresh says which legs this call computed. For
+ * inputs outside the leg terms' fast envelope (dynamics.c) every leg is
+ * computed and none kept (hold->held = 0), as on any error. Errors as
+ * sp_inverse_dynamics_rates.
+ */
+sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                     const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
+                                     sp_lu6_t *lu, sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh);
+
 #endif /* SP_DYNAMICS_H */

@@ -96,12 +96,13 @@ sp_status_t sp_fric_obs_check(const sp_platform_t *p);
 
 /**
  * exp(-u) for u >= 0, u Q24, result Q30 in [0, 1]: range reduction
- * u = k ln 2 + r, a degree-7 polynomial (Taylor coefficients in Q30) for
- * exp(-r) on [0, ln 2), then the shift by k. Max error against libm
- * 1,400 LSB of Q30 (1.3e-6, the Taylor remainder near ln 2;
- * tests/unit/test_friction.c measures 1,315) plus the input's own
- * quantisation (0.5 LSB of Q24 = 3e-8 relative): 0.001 N on a 600 N seal. u <= 0
- * returns 1 (Q30); u >= 31 ln 2 returns 0. Cannot fail.
+ * u = k ln 2 + r, exp(-r) on [0, ln 2) as exp(-j/32) from a 23-entry
+ * table times exp(-d) for d = r - j/32 in [0, 1/32) by three Taylor
+ * terms (remainder d^4 / 24 < 4.1e-8, 44 LSB), then the shift by k. Max
+ * error against libm 64 LSB of Q30 (6e-8; tests/unit/test_friction.c
+ * measures 42) plus the input's own quantisation (0.5 LSB of Q24 = 3e-8
+ * relative): 0.0001 N on a 600 N seal. u <= 0 returns 1 (Q30);
+ * u >= 31 ln 2 returns 0. Cannot fail.
  */
 sp_q30_t sp_fric_exp_neg(sp_q24_t u);
 

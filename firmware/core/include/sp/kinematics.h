@@ -56,6 +56,28 @@ sp_status_t sp_orientation(const sp_q24_t rpy[3], sp_rot_t *rot);
  */
 sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik);
 
+/** The orientation of the last pose given to sp_inverse_kinematics_kept:
+ *  its angles, their sines and cosines and T, kept so that an angle that
+ *  repeats costs no sine. Set valid to 0 before the first call. */
+typedef struct {
+    sp_q24_t rpy[3]; /**< the angles sc and rot are of, rad, Q24 */
+    sp_q30_t sc[6];  /**< sin, cos of rpy (sp_sincos_q24), Q30 */
+    sp_rot_t rot;    /**< T of rpy */
+    uint8_t valid;   /**< 1 when rpy, sc and rot belong together */
+} sp_orient_keep_t;
+
+/**
+ * sp_inverse_kinematics with the orientation kept from the last call in
+ * *keep: each angle equal to the kept one takes its kept sine and cosine,
+ * and T is rebuilt only when an angle changed. The sines are a pure
+ * function of the angle, so the result is sp_inverse_kinematics' bit for
+ * bit (tests/unit/test_kinematics.c). keep NULL: sp_inverse_kinematics.
+ * *keep is updated to this pose's orientation whatever the status (the
+ * orientation cannot fail). Errors as sp_inverse_kinematics.
+ */
+sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_pose_t *pose, sp_orient_keep_t *keep,
+                                       sp_ik_t *ik);
+
 /**
  * Stretch of each leg from its length at the home pose: length - home length
  * (m, Q24). home_ik is the inverse kinematics of platform->home.

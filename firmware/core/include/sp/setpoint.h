@@ -74,4 +74,18 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
                             const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
                             sp_model_t *model);
 
+/**
+ * sp_setpoints_of with the leg masses' terms of the legs not in `refresh`
+ * (bit i: leg i) kept from an earlier call in *hold
+ * (sp_inverse_dynamics_held; the controller refreshes one leg a tick,
+ * in turn), and the reference's IK by sp_inverse_kinematics_kept with
+ * *orient (NULL: sp_inverse_kinematics; the same result either way). With
+ * hold NULL or refresh 0x3F it is sp_setpoints_of bit for bit. On an
+ * error before the dynamics ran, *hold is left as it was; the dynamics'
+ * own errors leave it keeping nothing.
+ */
+sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *lim, const sp_friction_t *fr,
+                              const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
+                              sp_model_t *model, sp_leg_hold_t *hold, unsigned refresh, sp_orient_keep_t *orient);
+
 #endif /* SP_SETPOINT_H */
