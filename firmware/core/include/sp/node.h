@@ -12,7 +12,8 @@
  *    (only when the node is the cycle master: real-time mode), CTRL_STATUS
  *    and CTRL_MONITOR on the ops bus, and on even ticks (every
  *    SP_PROTO_WRENCH_PERIOD ticks: 500 Hz) CTRL_WRENCH, the external wrench
- *    estimate (at 1 kHz it would put the ops bus above its 50 % budget).
+ *    estimate (at 1 kHz it would take the ops bus to 49.9 % of its 50 %
+ *    budget).
  *  - OP_FORCE (mask, target) is kept for the next FORCE or GUIDE command
  *    (OP_COMMAND), as OP_TARGET_POSE is for MOVE_TO; while the controller
  *    is in FORCE a new OP_FORCE updates the target at once: the node hands

@@ -153,7 +153,7 @@ typedef struct {
  *  (raw +-(2^21 - 1) at 0.25). */
 #define SP_PROTO_WRENCH_MAX_Q8 (INT32_C(2097151) * 64)
 /** CTRL_WRENCH goes out on ticks that are multiples of this (the DBC's 2 ms
- *  cycle: at 1 kHz the ops bus would be above its 50 % budget). */
+ *  cycle: at 1 kHz the ops bus would be at 49.9 %, at its 50 % budget). */
 #define SP_PROTO_WRENCH_PERIOD 2u
 
 /** CTRL_AUTH: the controller's command authentication (docs/security.md). */
