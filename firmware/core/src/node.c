@@ -176,10 +176,11 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
             }
         }
         e = sequence(node, &node->rx_command, counter);
-        /* ESTOP and STOP (a valid CRC) are taken even when their alive
-         * counter repeats or jumps: a second operator process, a resent
-         * emergency stop. Refusing a stop is never the safe side. */
-        if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP) {
+        /* ESTOP, STOP and PARK (a valid CRC) are taken even when their
+         * alive counter repeats or jumps: a second operator process, a
+         * resent emergency stop, any node on the bus (they carry no
+         * authentication code either). Refusing a stop is never the safe side. */
+        if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK) {
             return reject(node, e, why);
         }
         if (node->cmd_count >= SP_NODE_CMD_QUEUE) {

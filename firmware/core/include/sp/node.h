@@ -115,9 +115,10 @@ sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg);
  * NULL); SP_E_ARG for NULL pointers. Frames the controller does not consume
  * (its own transmissions, other nodes' traffic) are SP_PROTO_UNKNOWN_ID.
  * Nothing in a rejected frame reaches the controller. One exception to the
- * alive-counter check: an OP_COMMAND ESTOP or STOP with a valid CRC is
- * used even when its counter repeats or jumps (a second operator process,
- * a resent emergency stop); refusing a stop is never the safe side.
+ * alive-counter check: an OP_COMMAND ESTOP, STOP or PARK with a valid CRC
+ * is used even when its counter repeats or jumps (a second operator
+ * process, a resent emergency stop, another node: these carry no
+ * authentication code either); refusing a stop is never the safe side.
  */
 sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_proto_error_t *why);
 
