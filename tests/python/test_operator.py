@@ -247,6 +247,36 @@ def test_refusal_reasons():
     assert "accepted in FAULT/ESTOP only" in opnode.refusal_reason("RESET", st, st)
 
 
+def test_node_signs_and_reports_authentication(ctrl, tmp_path, capsys, monkeypatch):
+    """Commands that start motion are signed (the stand-in checks the codes:
+    none rejected); without a key they are not sent (a clear error) while
+    STOP, PARK and ESTOP still go; under another key the controller's
+    rejection is reported with its reason from CTRL_AUTH."""
+    node = _node(ctrl.channel)
+    try:
+        node.command("ENGAGE", lambda s: s.state == "READY", timeout=5)
+        assert ctrl.auth_rejected == 0 and ctrl.auth_last > auth.COUNTER_MARGIN
+    finally:
+        node.close()
+    bare = opnode.OperatorNode(can.Bus(interface="virtual", channel=ctrl.channel)).start()
+    try:
+        with pytest.raises(opnode.OpError, match="need the machine key"):
+            bare.send_command("RUN_TRIG", axis="x", amplitude=0.01, frequency=0.5)
+        bare.command("ESTOP", lambda s: s.state == "ESTOP", timeout=5)
+    finally:
+        bare.close()
+    other = tmp_path / "other.key"
+    auth.new_key_file(other)
+    rc, out, err = _op(capsys, ctrl.channel, "--key", str(other), "reset")
+    assert rc == 1 and "its authentication code did not check" in err, (out, err)
+    assert ctrl.auth_rejected >= 1 and ctrl.state == "ESTOP"
+    monkeypatch.delenv(auth.KEY_ENV)
+    rc, out, err = _op(capsys, ctrl.channel, "reset")
+    assert rc == 2 and "need the machine key (--key FILE or STEWART_KEY)" in err
+    rc, out, err = _op(capsys, ctrl.channel, "--key", str(tmp_path / "missing.key"), "reset")
+    assert rc == 2 and "cannot read the key file" in err
+
+
 # -- the command line -----------------------------------------------------------------
 
 def _op(capsys, channel, *args):
