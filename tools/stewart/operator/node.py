@@ -35,6 +35,7 @@ from .. import e2e
 from .. import protocol as pr
 
 HEARTBEAT_PERIOD_S = 0.020
+COMMAND_QUEUE = 4  # the controller's command queue (SP_NODE_CMD_QUEUE): one command executed per tick
 STATES = pr.value_names("CTRL_STATUS", "State")
 COMMANDS = pr.value_names("OP_COMMAND", "Command")
 
@@ -130,6 +131,7 @@ class Status:
     seq: int = 0          # how many statuses this node had received
     t: float = 0.0        # receive time (time.monotonic)
     stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
+    auth_last: int = -1   # CTRL_AUTH's LastCounter when this status came (-1: none heard yet)
 
     def line(self) -> str:
         faults = ",".join(self.faults) if self.faults else "none"
@@ -223,6 +225,7 @@ class OperatorNode:
         self._unsigned = au.Signer(self.proto.db, bytes(au.KEY_BYTES))  # which frames need a code
         self.auth: dict | None = None          # the last CTRL_AUTH
         self._auth_at_send: dict | None = None
+        self._signed_counter: int | None = None  # the counter of the last signed frame
         self._rx = {fid: e2e.E2EReceiver() for fid in self._readers}
         self._tx: dict[str, int] = {}
         self._cond = threading.Condition()
@@ -316,7 +319,9 @@ class OperatorNode:
                 self._cond.wait(left)
             self._auth_at_send = dict(self.auth) if self.auth else None
             try:
-                return self.signer.sign(frame_id, data)
+                signed = self.signer.sign(frame_id, data)
+                self._signed_counter = self.signer.counter
+                return signed
             except au.AuthError as e:
                 raise OpError(f"{name}: {e}") from None
 
@@ -427,7 +432,7 @@ class OperatorNode:
                 estimate_valid=bool(f["EstimateValid"].raw(w)),
                 pose=[f[n].value(w) for n in pr.POSE_SIGNALS],
                 force_mode=_name(FORCE_MODES, f["ForceMode"].raw(w)), contact=bool(f["Contact"].raw(w)),
-                t=time.monotonic(),
+                auth_last=self.auth["last_counter"] if self.auth else -1, t=time.monotonic(),
                 stamp=float(msg.timestamp) if msg.timestamp else time.time())
             with self._cond:
                 self._seq += 1
@@ -488,11 +493,17 @@ class OperatorNode:
         the bus), so a backlog of older frames in the receive queue cannot
         answer for it. `done` is believed once the state changed, or from
         the `settle`-th status on (a command that changes no state: the
-        refusal would have come by then)."""
+        refusal would have come by then); for a signed command also not
+        before CTRL_AUTH has shown its counter accepted and the command
+        queue's depth of statuses more have come (the statuses counted from
+        the send may all come before the frame reached the controller, when
+        this process is held up between the two on a loaded machine)."""
         end = time.monotonic() + timeout
         first_change: int | None = None
         idx = 0
         k = 0
+        signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
+        taken_k: int | None = None  # the first status after CTRL_AUTH showed the frame accepted
         while True:
             with self._cond:
                 while idx >= len(self.statuses):
@@ -514,16 +525,17 @@ class OperatorNode:
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
                 if first_change is None and before is not None and st.state != before.state:
                     first_change = k
-                if k == reject_window and first_change is None and not done(st) \
-                        and command not in au.Signer.EXEMPT_COMMANDS:
-                    why = self.auth_reason()
-                    if why is not None:
-                        raise Refused(f"{command} rejected: {why}")
+                if taken_k is None and (signed is None or st.auth_last >= signed):
+                    taken_k = k
+                if k == reject_window and first_change is None and signed is not None and taken_k is None:
+                    why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
+                    raise Refused(f"{command} rejected: {why}")
                 if k == reject_window and before is not None and first_change is None \
                         and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
                     # the refusal's status frame was not seen, but nothing happened
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
-                if done(st) and (first_change is not None or k >= settle):
+                if done(st) and (first_change is not None
+                                 or (k >= settle and taken_k is not None and k >= taken_k + COMMAND_QUEUE)):
                     self._keep_statuses = False
                     return Answer(command, st, first_change if first_change is not None else k,
                                   st.t - self._sent_mono)
