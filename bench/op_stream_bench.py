@@ -40,6 +40,10 @@ def main() -> int:
         return 2
     bins = cl.Binaries.find()
     tmp = Path(tempfile.mkdtemp(prefix="op_bench_"))
+    from stewart import auth
+
+    # the machine key: STEWART_KEY's, else a throw-away one here, for the three processes
+    os.environ[auth.KEY_ENV] = str(auth.run_key(tmp))
     csv = tmp / "sway.csv"
     n = int(args.seconds * 100)
     csv.write_text("t,x,y,z,roll,pitch,yaw\n" + "".join(

@@ -5,7 +5,21 @@
  *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N]
+ *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N] [--key FILE]
+ *          [--session N]
+ *
+ * Command authentication (docs/security.md): the scenario's commands, MOVE_TO
+ * and streamed targets and force targets are signed, as `stewart op` signs
+ * them, with the machine key of --key FILE (else the file STEWART_KEY
+ * names), the controller's session and the next counter. The session and the
+ * last accepted counter come from the controller's CTRL_AUTH; --session N
+ * gives the session from the start (a lockstep run's first cycles come
+ * before the first CTRL_AUTH; sp_controller gets the same --session). The
+ * counter starts after CTRL_AUTH's LastCounter and jumps there again when
+ * another operator has gone past it. Without a key the frames go unsigned
+ * (a controller with a key rejects them: the run shows what a stranger's
+ * commands do). With --inproc the in-process controller gets the key and
+ * the session (default 1).
  *
  * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
  * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
@@ -138,6 +152,13 @@ typedef struct {
     /* the fault report (first `inject` on) */
     int injected;
     uint64_t inject_tick, detect_tick;
+    /* command authentication (--key, --session, CTRL_AUTH) */
+    sp_auth_key_t key;
+    int have_key;
+    int session_known;
+    uint32_t session;
+    uint32_t auth_counter; /* the last counter used */
+    uint64_t signed_frames, unsigned_frames;
     int detected;
     uint32_t detect_faults;
     int detect_state, detect_mode, reaction_state, reaction_mode;
@@ -183,10 +204,41 @@ static int controller_listens(const sp_can_frame_t *f)
     return f->id == SP_ID_SYNC || (f->id >= SP_ID_AXIS_FEEDBACK_1 && f->id < SP_ID_AXIS_FEEDBACK_1 + SP_AXIS_SLOTS);
 }
 
-static int send_frames(sim_t *s, const sp_can_frame_t *in, uint32_t n_in, uint64_t t_us)
+/* Signs the operator's authenticated frames among in[0..n) (sp/protocol.h:
+ * OP_TARGET_POSE, OP_FORCE, OP_COMMAND but NONE, STOP, PARK, ESTOP) with
+ * the next counter; without a key or a session they go unsigned (counted). */
+static void sign_frames(sim_t *s, sp_can_frame_t *f, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        sp_proto_auth_layout_t lay;
+        if (f[i].bus != SP_BUS_OPS || sp_proto_auth_layout(f[i].id, &lay) != SP_OK ||
+            (f[i].id == SP_ID_OP_COMMAND && !sp_proto_command_needs_auth(f[i].data[0]))) {
+            continue;
+        }
+        if (s->have_key && s->session_known && s->auth_counter < UINT32_MAX &&
+            sp_proto_sign(&f[i], &s->key, s->session, s->auth_counter + 1u) == SP_OK) {
+            s->auth_counter++;
+            s->signed_frames++;
+        } else {
+            if (s->unsigned_frames == 0u) {
+                fprintf(stderr, "hs_sim: %s: operator frames go unsigned (a controller with a key refuses them)\n",
+                        s->have_key ? "no session from the controller yet" : "no machine key (--key or STEWART_KEY)");
+            }
+            s->unsigned_frames++;
+        }
+    }
+}
+
+static int send_frames(sim_t *s, const sp_can_frame_t *in_const, uint32_t n_in, uint64_t t_us)
 {
     static sp_can_frame_t f[4 * HS_INJ_MAX_OUT];
+    static sp_can_frame_t in[4 * HS_INJ_MAX_OUT];
     uint32_t n = 0, sent = 0;
+    if (n_in > 4 * HS_INJ_MAX_OUT) {
+        return -1;
+    }
+    memcpy(in, in_const, n_in * sizeof in[0]);
+    sign_frames(s, in, n_in);
     (void)hs_inject_filter(&s->inj, HS_INJ_TO_CONTROLLER, s->tick, in, n_in, f, 4 * HS_INJ_MAX_OUT, &n);
     sp_status_t st = SP_OK;
     if (s->inproc) {
@@ -249,6 +301,20 @@ static void take_frame(sim_t *s, const sp_can_frame_t *f)
             if (sp_proto_decode_wrench(f, &m, &ctr, &why) == SP_OK) {
                 s->wrench_tick = m.tick;
                 s->wrench_seen = 1;
+                s->ops_accepted++;
+            } else {
+                s->ops_rejected++;
+            }
+        } else if (f->id == SP_ID_CTRL_AUTH) {
+            sp_msg_auth_t m;
+            if (sp_proto_decode_auth(f, &m, &ctr, &why) == SP_OK) {
+                if (!s->session_known || m.session != s->session) {
+                    s->session = m.session; /* a new session: its counters start again */
+                    s->auth_counter = m.last_counter;
+                    s->session_known = 1;
+                } else if (m.last_counter > s->auth_counter) {
+                    s->auth_counter = m.last_counter; /* another operator went past us */
+                }
                 s->ops_accepted++;
             } else {
                 s->ops_rejected++;
@@ -871,7 +937,7 @@ static void usage(void)
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
                     "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n"
-                    "              [--tick0 N]\n");
+                    "              [--tick0 N] [--key FILE] [--session N]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -1031,6 +1097,7 @@ int main(int argc, char **argv)
     long timeout_ms = 2000;
     double load[4] = {0.0, 0.0, 0.0, 0.0};
     int have_load = 0;
+    const char *key_path = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -1067,6 +1134,10 @@ int main(int argc, char **argv)
             have_load = 1, i++;
         } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
             sp_timeout = (uint32_t)u, i++;
+        } else if (strcmp(a, "--key") == 0) {
+            key_path = v, i++;
+        } else if (strcmp(a, "--session") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
+            s.session = (uint32_t)u, s.session_known = 1, i++;
         } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
             s.tick0 = (uint32_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
@@ -1075,6 +1146,18 @@ int main(int argc, char **argv)
             usage();
             return 2;
         }
+    }
+    {
+        const char *used = NULL;
+        char err[256];
+        s.have_key = sp_host_load_key(key_path, s.key.k, &used, err, sizeof err);
+        if (s.have_key < 0) {
+            fprintf(stderr, "hs_sim: %s\n", err);
+            return 1;
+        }
+    }
+    if (s.inproc && !s.session_known) {
+        s.session = 1u, s.session_known = 1;
     }
     if (scenario != NULL) {
         hs_scenario_error_t err;
@@ -1128,6 +1211,8 @@ int main(int argc, char **argv)
             return 1;
         }
         s.ncfg.sync_master = 0u;
+        s.ncfg.auth_key = s.have_key ? &s.key : NULL;
+        s.ncfg.auth_session = s.session;
         (void)sp_node_init(&s.node, &s.ncfg);
         s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
     }
@@ -1147,8 +1232,8 @@ int main(int argc, char **argv)
     memset(bc, 0, sizeof bc);
     bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s.ifs[0],
                                               {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH,
-                                               SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE},
-                                              6u};
+                                               SP_ID_CTRL_AUTH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE},
+                                              7u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
         if (s.canopen) { /* NMT, SYNC, and per node RPDO1 and SDO requests */
@@ -1298,6 +1383,8 @@ int main(int argc, char **argv)
            wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0, rc);
     printf("hs_sim pose: x %.6f y %.6f z %.6f roll %.6f pitch %.6f yaw %.6f\n", pose[0], pose[1], pose[2], pose[3],
            pose[4], pose[5]);
+    printf("hs_sim auth: signed %" PRIu64 ", unsigned %" PRIu64 ", session 0x%08x, last counter %u\n", s.signed_frames,
+           s.unsigned_frames, (unsigned)s.session, (unsigned)s.auth_counter);
     printf("hs_sim drives:");
     for (int i = 0; i < HS_LEGS; i++) {
         hs_feedback_t fb;

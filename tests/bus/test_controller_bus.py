@@ -41,15 +41,17 @@ def test_controller_frames_decode_and_bad_frames_are_rejected():
                 msg = bus.recv(timeout=0.05)
                 if msg is not None:
                     received[name].append(msg)
-        # malformed frames into the controller's ops bus
-        good = proto.encode("OP_COMMAND", {"Command": 1, "Axis": 0, "Amplitude": 0, "Frequency": 0,
+        # malformed frames into the controller's ops bus; the good one a
+        # NONE (it needs no authentication code: docs/security.md)
+        good = proto.encode("OP_COMMAND", {"Command": 0, "Axis": 0, "Amplitude": 0, "Frequency": 0,
                                            "FadeTime": 0, "Option": 0}, counter=3)
+        unsigned = proto.encode("OP_COMMAND", {"Command": 1}, counter=4)  # ENGAGE without a code
         bad_crc = bytearray(good)
         bad_crc[1] ^= 0x40
         out_of_range = bytearray(proto.encode("OP_COMMAND", {"Command": 1}, counter=7))
         out_of_range[0] = 14  # beyond TARE (13)
         out_of_range = e2e.seal(0x40, bytes(out_of_range))
-        sends = [bytes(bad_crc), good[:8], good, good]  # bad CRC, short, good, repeated
+        sends = [bytes(bad_crc), good[:8], good, good, unsigned]  # bad CRC, short, good, repeated, no code
         for data in sends:
             ops.send(can.Message(arbitration_id=0x40, data=data, is_fd=True, bitrate_switch=True,
                                  is_extended_id=False))
@@ -85,5 +87,6 @@ def test_controller_frames_decode_and_bad_frames_are_rejected():
     assert counts["bad-crc"] == 1
     assert counts["bad-length"] == 1
     assert counts["repeated"] == 1
+    assert counts["bad-tag"] == 1 and counts["replayed"] == 0 and counts["no-key"] == 0
     assert counts["accepted"] >= 1
     assert counts["out-of-range"] == 1

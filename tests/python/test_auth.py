@@ -94,3 +94,65 @@ def test_key_files(tmp_path):
         auth.read_key(short)
     with pytest.raises(auth.AuthError, match="cannot read"):
         auth.read_key(tmp_path / "missing.key")
+
+
+def test_build_key_header(tmp_path):
+    """tools/stewart/key_header.py (the STM32 build's key): makes a missing
+    key file (mode 600) and says so, keeps an existing one, writes the
+    header with its bytes, and refuses a readable or malformed file."""
+    import subprocess
+    import sys
+
+    from stewart import REPO_ROOT
+
+    script = REPO_ROOT / "tools" / "stewart" / "key_header.py"
+    key, hdr = tmp_path / "k" / "machine.key", tmp_path / "h" / "sp_machine_key.h"
+    r = subprocess.run([sys.executable, str(script), str(key), str(hdr)], capture_output=True, text=True)
+    assert r.returncode == 0 and "made a new random one" in r.stderr and "never commit" in r.stderr
+    assert oct(key.stat().st_mode & 0o777) == "0o600"
+    k = auth.read_key(key)
+    text = hdr.read_text()
+    assert "#define SP_MACHINE_KEY_BYTES {" + ", ".join(f"0x{b:02x}u" for b in k) + "}" in text
+    before = hdr.stat().st_mtime_ns
+    r = subprocess.run([sys.executable, str(script), str(key), str(hdr)], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stderr == "" and auth.read_key(key) == k
+    assert hdr.stat().st_mtime_ns == before  # unchanged: nothing to rebuild
+    os.chmod(key, 0o644)
+    r = subprocess.run([sys.executable, str(script), str(key), str(hdr)], capture_output=True, text=True)
+    assert r.returncode == 1 and "read by others" in r.stderr
+    bad = tmp_path / "bad.key"
+    bad.write_text("00ff\n")
+    os.chmod(bad, 0o600)
+    r = subprocess.run([sys.executable, str(script), str(bad), str(hdr)], capture_output=True, text=True)
+    assert r.returncode == 1 and "32 hexadecimal digits" in r.stderr
+
+
+def test_signer_follows_the_controller():
+    """auth.Signer (stewart op): a new session starts past CTRL_AUTH's
+    LastCounter by the margin; it jumps past another operator's counter;
+    a stale CTRL_AUTH (a lower LastCounter) changes nothing; NONE and the
+    stops are left unsigned; no session, no signature."""
+    from stewart import e2e
+    from stewart import protocol as pr
+
+    proto = pr.Protocol()
+    s = auth.Signer(proto.db, bytes(range(16)))
+    cmd = proto.encode("OP_COMMAND", pr.command_signals("ENGAGE"), 0)
+    with pytest.raises(auth.AuthError, match="no session"):
+        s.sign(0x040, cmd)
+    s.follow(0xABCD, 100)
+    assert s.counter == 100 + auth.COUNTER_MARGIN
+    signed = s.sign(0x040, cmd)
+    assert s.counter == 101 + auth.COUNTER_MARGIN and e2e.crc_ok(0x040, signed)
+    assert int.from_bytes(signed[10:12], "little") == s.counter & 0xFFFF
+    assert signed[12:18] == auth.tag_bytes(bytes(range(16)), 0x040, 0xABCD, s.counter, signed[:12], 6)
+    s.follow(0xABCD, 50)  # stale
+    assert s.counter == 101 + auth.COUNTER_MARGIN
+    s.follow(0xABCD, 1000)  # another operator went past
+    assert s.counter == 1000 + auth.COUNTER_MARGIN
+    s.follow(0x1234, 0)  # a restarted controller
+    assert (s.session, s.counter) == (0x1234, auth.COUNTER_MARGIN)
+    for c in ("NONE", "STOP", "PARK", "ESTOP"):
+        f = proto.encode("OP_COMMAND", pr.command_signals(c), 0)
+        assert not s.needs(0x040, f) and s.sign(0x040, f) == f
+    assert s.needs(0x050, bytes(32)) and s.needs(0x048, bytes(32)) and not s.needs(0x060, bytes(4))

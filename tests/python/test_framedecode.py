@@ -189,7 +189,8 @@ def corrupt(lines: list[str]) -> list[str]:
     del out[40]                                                       # a lost frame
     k = next(i for i in range(50, 200) if " vcan1 031##" in out[i])
     out[k] = out[k].replace(" vcan1 ", " vcan0 ")                     # wrong bus
-    out[60] = out[60].replace(" vcan2 ", " can9 ").replace(" vcan1 ", " can9 ")  # unknown iface
+    k = next(i for i in range(60, 200) if " vcan2 " in out[i] or " vcan1 " in out[i])
+    out[k] = out[k].replace(" vcan2 ", " can9 ").replace(" vcan1 ", " can9 ")  # unknown iface
     out[70] = out[70].replace(") ", ")   ")                           # odd spacing, still a frame
     out[80] = "  " + out[80] + "  \r"                                 # padded, still a frame
     out.insert(90, "(0000000000.010000) vcan0 7FF##1" + "00" * 8)    # unknown ID

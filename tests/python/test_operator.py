@@ -3,7 +3,10 @@
 stand-in controller in this process: it speaks the DBC (E2E counters and
 CRCs checked like the firmware's node: a new sender's first frame may be
 dropped), runs the controller's state machine in outline, and answers
-every 1 ms with CTRL_STATUS. The real controller is exercised over vcan in
+every 1 ms with CTRL_STATUS, every 10 ms with CTRL_AUTH, and checks the
+commands' authentication codes with the test's throw-away key (conftest.py)
+as the firmware does (tests/unit/test_node.c holds the firmware to the same
+codes through sp_proto_sign). The real controller is exercised over vcan in
 tests/bus/test_operator_session.py."""
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import time
 import can
 import pytest
 
-from stewart import cli, e2e
+from stewart import auth, cli, e2e
 from stewart import protocol as pr
 from stewart.operator import bus as opbus
 from stewart.operator import node as opnode
@@ -25,6 +28,8 @@ from stewart.operator import sources as src
 
 STATES = pr.value_names("CTRL_STATUS", "State")
 CMDS = pr.value_names("OP_COMMAND", "Command")
+KEY = auth.read_key(auth.key_file())
+SESSION = 0x5EED0017
 
 
 class FakeController:
@@ -43,6 +48,9 @@ class FakeController:
         self.commands = []
         self.targets = 0
         self.last_target = None
+        self.auth_last = 0          # the last accepted authentication counter
+        self.auth_rejected = 0
+        self.auth_checker = auth.Signer(self.proto.db, KEY)
         # the counter reference a previous operator process left behind
         if counter_ref is not None:
             self.proto.decode(0x040, self.proto.encode("OP_COMMAND", pr.command_signals("NONE"), counter_ref),
@@ -50,6 +58,20 @@ class FakeController:
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
+
+    def _authentic(self, frame_id: int, data: bytes) -> bool:
+        """The firmware's check in outline: the code of the first counter
+        after the last accepted one with the frame's low 16 bits."""
+        c = self.auth_checker
+        if not c.needs(frame_id, data) or len(data) != self.proto.message(frame_id).length:
+            return True
+        cbyte, tbyte, tlen = c.layout[frame_id]
+        low = int.from_bytes(data[cbyte:cbyte + 2], "little")
+        full = self.auth_last + ((low - self.auth_last - 1) & 0xFFFF) + 1
+        if data[tbyte:tbyte + tlen] != auth.tag_bytes(KEY, frame_id, SESSION, full, data[:tbyte], tlen):
+            return False
+        self.auth_last = full
+        return True
 
     def close(self):
         self._stop.set()
@@ -91,6 +113,9 @@ class FakeController:
                 msg = self.bus.recv(timeout=0)
                 if msg is None:
                     break
+                if not self._authentic(msg.arbitration_id, bytes(msg.data)):
+                    self.auth_rejected += 1
+                    continue
                 r = self.proto.receive(msg.arbitration_id, bytes(msg.data), bus="ops")
                 if not r.ok:
                     continue
@@ -116,6 +141,10 @@ class FakeController:
             sig = {"Tick": self.tick, "State": self.state, "Faults": self.faults, "FkIterations": 1,
                    "EstimateValid": 1, "CmdRejected": rejected, "DriveMode": 1 if self.state != "IDLE" else 0,
                    "FeedForward": self.ff, "X": 0.0, "Y": 0.0, "Z": 2.55, "Roll": 0.0, "Pitch": 0.0, "Yaw": 0.0}
+            if self.tick % 10 == 0:
+                a = self.proto.encode("CTRL_AUTH", {"Session": SESSION, "LastCounter": self.auth_last,
+                                                    "BadTag": self.auth_rejected, "KeySet": 1}, bus="ops")
+                self.bus.send(can.Message(arbitration_id=0x103, data=a, is_fd=True, is_extended_id=False))
             data = self.proto.encode("CTRL_STATUS", sig, bus="ops")
             self.bus.send(can.Message(arbitration_id=0x100, data=data, is_fd=True, is_extended_id=False))
             nxt += 0.001
@@ -135,7 +164,7 @@ def ctrl():
 
 
 def _node(channel):
-    return opnode.OperatorNode(can.Bus(interface="virtual", channel=channel)).start()
+    return opnode.OperatorNode(can.Bus(interface="virtual", channel=channel), key=KEY).start()
 
 
 # -- the node -----------------------------------------------------------------------
@@ -216,6 +245,36 @@ def test_refusal_reasons():
     st = opnode.Status(1, "READY", [], 0, True, "ACTIVE", True, True, [0] * 6)
     assert "outside the workspace" in opnode.refusal_reason("MOVE_TO", st, st)
     assert "accepted in FAULT/ESTOP only" in opnode.refusal_reason("RESET", st, st)
+
+
+def test_node_signs_and_reports_authentication(ctrl, tmp_path, capsys, monkeypatch):
+    """Commands that start motion are signed (the stand-in checks the codes:
+    none rejected); without a key they are not sent (a clear error) while
+    STOP, PARK and ESTOP still go; under another key the controller's
+    rejection is reported with its reason from CTRL_AUTH."""
+    node = _node(ctrl.channel)
+    try:
+        node.command("ENGAGE", lambda s: s.state == "READY", timeout=5)
+        assert ctrl.auth_rejected == 0 and ctrl.auth_last > auth.COUNTER_MARGIN
+    finally:
+        node.close()
+    bare = opnode.OperatorNode(can.Bus(interface="virtual", channel=ctrl.channel)).start()
+    try:
+        with pytest.raises(opnode.OpError, match="need the machine key"):
+            bare.send_command("RUN_TRIG", axis="x", amplitude=0.01, frequency=0.5)
+        bare.command("ESTOP", lambda s: s.state == "ESTOP", timeout=5)
+    finally:
+        bare.close()
+    other = tmp_path / "other.key"
+    auth.new_key_file(other)
+    rc, out, err = _op(capsys, ctrl.channel, "--key", str(other), "reset")
+    assert rc == 1 and "its authentication code did not check" in err, (out, err)
+    assert ctrl.auth_rejected >= 1 and ctrl.state == "ESTOP"
+    monkeypatch.delenv(auth.KEY_ENV)
+    rc, out, err = _op(capsys, ctrl.channel, "reset")
+    assert rc == 2 and "need the machine key (--key FILE or STEWART_KEY)" in err
+    rc, out, err = _op(capsys, ctrl.channel, "--key", str(tmp_path / "missing.key"), "reset")
+    assert rc == 2 and "cannot read the key file" in err
 
 
 # -- the command line -----------------------------------------------------------------
@@ -330,7 +389,7 @@ def test_cli_record(ctrl, capsys, tmp_path, suffix):
     n = int(out.split()[1])
     assert n > 100                               # 1 kHz statuses for 0.3 s
     frames = list(can.LogReader(str(f)))
-    assert len(frames) == n and all(m.arbitration_id == 0x100 for m in frames)
+    assert len(frames) == n and all(m.arbitration_id in (0x100, 0x103) for m in frames)
 
 
 def test_cli_record_mf4_or_a_clear_message(ctrl, capsys, tmp_path):

@@ -18,17 +18,18 @@ SPEC = {
     "AXIS_FEEDBACK_1": (0x031, 16, ("axis_a", "axis_b")),
     "AXIS_FEEDBACK_2": (0x032, 16, ("axis_a", "axis_b")),
     "AXIS_FEEDBACK_3": (0x033, 16, ("axis_a", "axis_b")),
-    "OP_COMMAND": (0x040, 12, ("ops",)),
-    "OP_TARGET_POSE": (0x050, 24, ("ops",)),
+    "OP_COMMAND": (0x040, 20, ("ops",)),
+    "OP_TARGET_POSE": (0x050, 32, ("ops",)),
     "OP_HEARTBEAT": (0x060, 4, ("ops",)),
-    "OP_FORCE": (0x048, 20, ("ops",)),
+    "OP_FORCE": (0x048, 32, ("ops",)),
     "FT_SENSOR": (0x038, 20, ("axis_b",)),
     "CTRL_STATUS": (0x100, 32, ("ops",)),
     "CTRL_MONITOR": (0x101, 64, ("ops",)),
     "CTRL_WRENCH": (0x102, 24, ("ops",)),
+    "CTRL_AUTH": (0x103, 16, ("ops",)),
 }
 #: Messages not sent every 1 ms, and their period.
-PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10}
+PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10, "OP_COMMAND": 10, "CTRL_AUTH": 10}
 
 
 @pytest.fixture()
@@ -405,7 +406,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "38.0 %" in text and "46.2 %" in text and "48.5 %" in text
+    assert "38.0 %" in text and "46.2 %" in text and "45.4 %" in text
 
 
 def test_doc_cli_check(tmp_path):

@@ -43,7 +43,15 @@ CODECS = {
     "CTRL_STATUS": ("sp_proto_decode_status", "sp_proto_encode_status", "ops"),
     "CTRL_MONITOR": ("sp_proto_decode_monitor", "sp_proto_encode_monitor", "ops"),
     "CTRL_WRENCH": ("sp_proto_decode_wrench", "sp_proto_encode_wrench", "ops"),
+    "CTRL_AUTH": ("sp_proto_decode_auth", "sp_proto_encode_auth", "ops"),
 }
+
+
+def _signer():
+    from stewart import auth
+    from stewart.protocol import Protocol
+
+    return auth.Signer(Protocol().db, bytes(range(16)))
 
 
 def c_roundtrip(L, vec):
@@ -79,7 +87,71 @@ def test_c_decodes_and_reencodes_every_vector_byte_for_byte(vec):
     L = lib()
     st, err, again = c_roundtrip(L, vec)
     assert st == 0, f"C rejected a valid vector (status {st}, reason {err})"
-    assert again == bytes.fromhex(vec["data"])
+    data = bytes.fromhex(vec["data"])
+    lay = _signer().layout.get(vec["frame_id"])
+    if lay is not None:
+        # the encoders leave the authentication fields to sp_proto_sign
+        # (test_c_signs_like_python): the vector's are put back
+        from stewart import e2e
+
+        cb, tb, tl = lay
+        assert again[cb:cb + 2] == bytes(2) and again[tb:tb + tl] == bytes(tl)
+        b = bytearray(again)
+        b[cb:cb + 2], b[tb:tb + tl] = data[cb:cb + 2], data[tb:tb + tl]
+        again = e2e.seal(vec["frame_id"], bytes(b))
+    assert again == data
+
+
+def test_c_signs_like_python():
+    """sp_proto_sign (firmware) and auth.Signer (stewart op) give the same
+    bytes on every authenticated vector, for sessions and counters across
+    their ranges and the 16-bit laps; a one-bit change of key differs."""
+    import random
+
+    from stewart import auth
+
+    L = lib()
+    rng = random.Random(17)
+    n = 0
+    for vec in VECTORS["vectors"]:
+        s = _signer()
+        if vec["frame_id"] not in s.layout:
+            continue
+        if vec["message"] == "OP_COMMAND" and not s.needs(vec["frame_id"], bytes.fromhex(vec["data"])):
+            continue
+        for _ in range(40):
+            key = bytes(rng.randrange(256) for _ in range(16))
+            session = rng.choice([0, 1, 0xFFFFFFFF, rng.randrange(1 << 32)])
+            counter = rng.choice([1, 0xFFFF, 0x10000, 0x10001, 0xFFFFFFFF, rng.randrange(1, 1 << 32)])
+            s = auth.Signer(_db(), key)
+            s.session, s.counter = session, counter - 1
+            want = s.sign(vec["frame_id"], bytes.fromhex(vec["data"]))
+            f = frame(vec["frame_id"], bytes.fromhex(vec["data"]))
+            k = (C.c_uint8 * 16)(*key)
+            assert L.sp_proto_sign(C.byref(f), k, C.c_uint32(session), C.c_uint32(counter)) == 0
+            assert bytes(f.data[: f.len]) == want
+            other = bytearray(key)
+            other[rng.randrange(16)] ^= 1 << rng.randrange(8)
+            f2 = frame(vec["frame_id"], bytes.fromhex(vec["data"]))
+            k2 = (C.c_uint8 * 16)(*other)
+            assert L.sp_proto_sign(C.byref(f2), k2, C.c_uint32(session), C.c_uint32(counter)) == 0
+            assert bytes(f2.data[: f2.len]) != want
+            n += 1
+    assert n >= 3 * 3 * 40
+    # counter 0 is never valid; a message without the fields is refused
+    f = frame(0x060, bytes(4))
+    assert L.sp_proto_sign(C.byref(f), (C.c_uint8 * 16)(), C.c_uint32(1), C.c_uint32(1)) != 0
+    f = frame(0x050, bytes(32))
+    assert L.sp_proto_sign(C.byref(f), (C.c_uint8 * 16)(), C.c_uint32(1), C.c_uint32(0)) != 0
+    assert L.sp_proto_sign(C.byref(f), (C.c_uint8 * 16)(), C.c_uint32(1), C.c_uint32(1)) == 0
+    f.len = 24
+    assert L.sp_proto_sign(C.byref(f), (C.c_uint8 * 16)(), C.c_uint32(1), C.c_uint32(1)) != 0
+
+
+def _db():
+    from stewart.protocol import Protocol
+
+    return Protocol().db
 
 
 def test_c_node_rejects_malformed_frames_like_python():

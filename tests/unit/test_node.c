@@ -31,16 +31,33 @@ typedef struct {
     uint32_t wrench_frames; /* CTRL_WRENCH frames seen */
     uint32_t wrench_valid;  /* of which Valid = 1 */
     uint8_t wrench_counter; /* Counter of the last one */
+    sp_auth_key_t key;      /* the test's throw-away machine key */
+    uint32_t auth_counter;  /* the operator's authentication counter (last used) */
+    uint32_t auth_frames;   /* CTRL_AUTH frames seen */
+    sp_msg_auth_t auth;     /* the last one */
 } rig_t;
+
+#define RIG_SESSION 0x5EED1234u
 
 static void rig_init(rig_t *r)
 {
     memset(r, 0, sizeof *r);
     assert_int_equal(sp_node_default_config(&r->cfg, &sp_platform_default), SP_OK);
+    for (uint32_t i = 0; i < SP_AUTH_KEY_BYTES; i++) {
+        r->key.k[i] = (uint8_t)(0xA0u + 7u * i);
+    }
+    r->cfg.auth_key = &r->key;
+    r->cfg.auth_session = RIG_SESSION;
     assert_int_equal(sp_node_init(&r->node, &r->cfg), SP_OK);
     sp_ik_t ik;
     assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik), SP_OK);
     memcpy(r->length, ik.length, sizeof r->length);
+}
+
+/* Signs an operator frame as `stewart op` does: the next counter. */
+static void sign(rig_t *r, sp_can_frame_t *f)
+{
+    assert_int_equal(sp_proto_sign(f, &r->key, RIG_SESSION, ++r->auth_counter), SP_OK);
 }
 
 static void send_command(rig_t *r, uint8_t command)
@@ -54,6 +71,7 @@ static void send_command(rig_t *r, uint8_t command)
     c.fade_ms = 500u;
     sp_can_frame_t f;
     assert_int_equal(sp_proto_encode_command(&c, r->op_counter++, &f), SP_OK);
+    sign(r, &f);
     assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
 }
 
@@ -61,16 +79,23 @@ static void send_command(rig_t *r, uint8_t command)
 static void rig_tick(rig_t *r)
 {
     assert_int_equal(sp_node_tick(&r->cfg, &r->node, r->sent, &r->n_sent), SP_OK);
-    /* setpoints x2, SYNC x2, status, monitor; + CTRL_WRENCH on even ticks */
-    int even = (r->node.out.tick % 2u) == 0u;
-    assert_int_equal(r->n_sent, even ? 7u : 6u);
+    /* setpoints x2, SYNC x2, status, monitor; + CTRL_WRENCH on even ticks,
+     * + CTRL_AUTH every 10 */
+    uint32_t even = (r->node.out.tick % 2u) == 0u ? 1u : 0u;
+    uint32_t tenth = (r->node.out.tick % SP_PROTO_AUTH_PERIOD) == 0u ? 1u : 0u;
+    assert_int_equal(r->n_sent, 6u + even + tenth);
     uint32_t sync_tick = 0;
     int syncs = 0;
     for (uint32_t k = 0; k < r->n_sent; k++) {
         const sp_can_frame_t *f = &r->sent[k];
         uint8_t counter;
         sp_proto_error_t e;
-        if (f->id == SP_ID_CTRL_WRENCH) {
+        if (f->id == SP_ID_CTRL_AUTH) {
+            assert_int_equal(f->bus, SP_BUS_OPS);
+            assert_int_equal(k, 4u); /* ahead of CTRL_STATUS */
+            assert_int_equal(sp_proto_decode_auth(f, &r->auth, &counter, &e), SP_OK);
+            r->auth_frames++;
+        } else if (f->id == SP_ID_CTRL_WRENCH) {
             sp_msg_wrench_t w;
             assert_int_equal(f->bus, SP_BUS_OPS);
             assert_int_equal(sp_proto_decode_wrench(f, &w, &counter, &e), SP_OK);
@@ -125,6 +150,7 @@ static void send_force(rig_t *r, uint8_t mask, double fz)
     m.target[2] = (sp_q8_t)(fz * 256.0);
     sp_can_frame_t f;
     assert_int_equal(sp_proto_encode_force(&m, r->op_counter++, &f), SP_OK);
+    sign(r, &f);
     assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
 }
 
@@ -360,6 +386,7 @@ static void test_malformed_frames_are_counted_and_dropped(void **state)
     c.command = SP_CMD_ENGAGE;
     sp_can_frame_t good;
     assert_int_equal(sp_proto_encode_command(&c, 5, &good), SP_OK);
+    sign(&r, &good);
     sp_proto_error_t why;
 
     sp_can_frame_t f = good;
@@ -391,12 +418,19 @@ static void test_malformed_frames_are_counted_and_dropped(void **state)
     /* none of that reached the controller */
     rig_tick(&r);
     assert_int_equal(r.node.out.state, SP_STATE_IDLE);
-    /* the good frame is taken once; its replay is refused */
+    /* the good frame is taken once; its replay is refused (by its code's
+     * counter, before the alive counter is looked at) */
     assert_int_equal(sp_node_receive(&r.node, &good, &why), SP_OK);
     assert_int_equal(sp_node_receive(&r.node, &good, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_REPLAYED);
+    /* the alive counter repeated on a fresh code */
+    f = good;
+    sign(&r, &f);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_REPEATED);
     /* a counter jump beyond the allowed gap */
     assert_int_equal(sp_proto_encode_command(&c, 12, &f), SP_OK);
+    sign(&r, &f);
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_WRONG_SEQUENCE);
     assert_int_equal(r.node.stats.rejected[SP_PROTO_BAD_CRC], 1u);
@@ -405,6 +439,7 @@ static void test_malformed_frames_are_counted_and_dropped(void **state)
     assert_int_equal(r.node.stats.rejected[SP_PROTO_WRONG_BUS], 1u);
     assert_int_equal(r.node.stats.rejected[SP_PROTO_OUT_OF_RANGE], 1u);
     assert_int_equal(r.node.stats.rejected[SP_PROTO_REPEATED], 1u);
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_AUTH_REPLAYED], 1u);
     assert_int_equal(r.node.stats.rejected[SP_PROTO_WRONG_SEQUENCE], 1u);
     rig_tick(&r);
     assert_int_equal(r.node.out.state, SP_STATE_ENGAGING); /* the one good command */
@@ -716,6 +751,138 @@ static void test_force_commands_over_frames(void **state)
     assert_true(r.node.stats.ft_samples > 30u);
 }
 
+/* Command authentication over frames (docs/security.md): a stranger's
+ * ENGAGE, MOVE_TO target, STREAM and OP_FORCE (another key, no code, a
+ * replay of a genuine frame) are rejected and counted by reason, change
+ * nothing the genuine operator sends next, and are reported in CTRL_AUTH;
+ * the stranger's STOP, PARK and ESTOP are taken; a node without a key
+ * refuses every authenticated command (no-key) and still stops. */
+static void test_auth_over_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    sp_can_frame_t f;
+    sp_proto_error_t why;
+    sp_auth_key_t other;
+    rig_init(&r);
+    for (uint32_t i = 0; i < SP_AUTH_KEY_BYTES; i++) {
+        other.k[i] = (uint8_t)(r.key.k[i] ^ (i == 5u ? 0x01u : 0x00u)); /* one bit off */
+    }
+    rig_tick(&r);
+    sp_msg_command_t c;
+    memset(&c, 0, sizeof c);
+    c.command = SP_CMD_ENGAGE;
+    /* no code at all */
+    assert_int_equal(sp_proto_encode_command(&c, r.op_counter++, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    /* another key, a counter well ahead */
+    assert_int_equal(sp_proto_sign(&f, &other, RIG_SESSION, 1000u), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    /* the right key, another session (a frame recorded before a restart) */
+    assert_int_equal(sp_proto_sign(&f, &r.key, RIG_SESSION + 1u, 1u), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    /* a target pose and a force target without the key */
+    sp_pose_t p = sp_platform_default.home;
+    assert_int_equal(sp_proto_encode_target(&p, 0u, &f), SP_OK);
+    assert_int_equal(sp_proto_sign(&f, &other, RIG_SESSION, 1u), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    sp_msg_force_t fm;
+    memset(&fm, 0, sizeof fm);
+    fm.mask = 4u;
+    assert_int_equal(sp_proto_encode_force(&fm, 0u, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    assert_int_equal(r.node.force.mask, 0u);
+    for (uint32_t t = 0; t < 10u; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.node.out.state, SP_STATE_IDLE);
+    assert_int_equal(r.node.auth.last, 0u);
+    /* the genuine operator's ENGAGE (counter 1): taken */
+    c.command = SP_CMD_ENGAGE;
+    assert_int_equal(sp_proto_encode_command(&c, r.op_counter++, &f), SP_OK);
+    sign(&r, &f);
+    sp_can_frame_t recorded = f;
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_OK);
+    run_until(&r, SP_STATE_READY, 10000u);
+    /* its replay: rejected; the same frame re-signed by the stranger with
+     * another key for the next counters: rejected */
+    assert_int_equal(sp_node_receive(&r.node, &recorded, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_REPLAYED);
+    for (uint32_t k = 2u; k < 12u; k++) {
+        f = recorded;
+        assert_int_equal(sp_proto_sign(&f, &other, RIG_SESSION, k), SP_OK);
+        assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+        assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    }
+    /* the stranger's STREAM and RUN_TRIG without a code: refused, READY stays */
+    c.command = SP_CMD_STREAM;
+    assert_int_equal(sp_proto_encode_command(&c, r.op_counter++, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_READY);
+    /* counts: no-tag 1 + other key 1 + other session 1 + pose 1 + force 1
+     * + re-signed 10 + stream 1 = 16 bad tags, 1 replay; in CTRL_AUTH */
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_AUTH_BAD_TAG], 16u);
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_AUTH_REPLAYED], 1u);
+    for (uint32_t t = 0; t < SP_PROTO_AUTH_PERIOD; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.auth.session, RIG_SESSION);
+    assert_int_equal(r.auth.last_counter, 1u);
+    assert_int_equal(r.auth.bad_tag, 16u);
+    assert_int_equal(r.auth.replayed, 1u);
+    assert_int_equal(r.auth.key_set, 1u);
+    /* the genuine operator's next counter is still good: RUN_TRIG runs */
+    send_command(&r, SP_CMD_RUN_TRIG);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_RUNNING);
+    /* the stranger's STOP (no code, any alive counter): taken */
+    c.command = SP_CMD_STOP;
+    assert_int_equal(sp_proto_encode_command(&c, 9u, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_OK);
+    run_until(&r, SP_STATE_READY, 10000u);
+    /* and its ESTOP with a forged code */
+    c.command = SP_CMD_ESTOP;
+    assert_int_equal(sp_proto_encode_command(&c, 3u, &f), SP_OK);
+    assert_int_equal(sp_proto_sign(&f, &other, 7u, 7u), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_OK);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_ESTOP);
+
+    /* no key: every authenticated command refused (no-key), STOP/PARK/ESTOP taken */
+    static rig_t n;
+    rig_init(&n);
+    n.cfg.auth_key = NULL;
+    assert_int_equal(sp_node_init(&n.node, &n.cfg), SP_OK);
+    rig_tick(&n);
+    c.command = SP_CMD_ENGAGE;
+    assert_int_equal(sp_proto_encode_command(&c, n.op_counter++, &f), SP_OK);
+    sign(&n, &f);
+    assert_int_equal(sp_node_receive(&n.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_NO_KEY);
+    c.command = SP_CMD_PARK; /* another node's: its alive counter out of sequence */
+    assert_int_equal(sp_proto_encode_command(&c, (uint8_t)(n.op_counter + 9u), &f), SP_OK);
+    assert_int_equal(sp_node_receive(&n.node, &f, &why), SP_OK);
+    c.command = SP_CMD_ESTOP;
+    assert_int_equal(sp_proto_encode_command(&c, n.op_counter++, &f), SP_OK);
+    assert_int_equal(sp_node_receive(&n.node, &f, &why), SP_OK);
+    for (uint32_t t = 0; t < SP_PROTO_AUTH_PERIOD; t++) {
+        rig_tick(&n);
+    }
+    assert_int_equal(n.node.out.state, SP_STATE_ESTOP);
+    assert_int_equal(n.node.stats.rejected[SP_PROTO_AUTH_NO_KEY], 1u);
+    assert_int_equal(n.auth.key_set, 0u);
+    assert_string_equal(sp_proto_error_name(SP_PROTO_AUTH_NO_KEY), "no-key");
+    assert_string_equal(sp_proto_error_name(SP_PROTO_AUTH_BAD_TAG), "bad-tag");
+    assert_string_equal(sp_proto_error_name(SP_PROTO_AUTH_REPLAYED), "replayed");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -731,6 +898,7 @@ int main(void)
         cmocka_unit_test(test_feedback_pressures_at_1_kpa),
         cmocka_unit_test(test_operator_heartbeat_over_frames),
         cmocka_unit_test(test_force_commands_over_frames),
+        cmocka_unit_test(test_auth_over_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -22,6 +22,13 @@ HEADER_BYTES = 10
 PAYLOAD_MAX = 64
 TAG_MIN_BYTES = 4
 TAG_MAX_BYTES = 8
+#: The environment variable naming the machine key file when no --key is
+#: given (``stewart op``, ``sp_controller``, ``hs_sim``).
+KEY_ENV = "STEWART_KEY"
+#: How far past CTRL_AUTH's LastCounter an operator process starts: the value
+#: may be up to 10 ms (one CTRL_AUTH period) old, and another process may
+#: have sent a frame a millisecond since.
+COUNTER_MARGIN = 64
 
 
 class AuthError(ValueError):
@@ -82,3 +89,88 @@ def new_key_file(path: str | Path) -> Path:
     with os.fdopen(fd, "w") as f:
         f.write(os.urandom(KEY_BYTES).hex() + "\n")
     return p
+
+
+def key_file(path: str | Path | None = None) -> Path | None:
+    """The key file to use: ``path``, else the one STEWART_KEY names, else None."""
+    if path:
+        return Path(path)
+    env = os.environ.get(KEY_ENV, "")
+    return Path(env) if env else None
+
+
+def run_key(directory: str | Path) -> Path:
+    """The key of a closed-loop run, the demo or a test: the file STEWART_KEY
+    names, else a throw-away key ``machine.key`` in ``directory`` (made once,
+    mode 600, so that the runs of one directory share it: their logs are
+    comparable byte for byte)."""
+    k = key_file()
+    if k is not None:
+        return k
+    p = Path(directory) / "machine.key"
+    if not p.exists():
+        Path(directory).mkdir(parents=True, exist_ok=True)
+        new_key_file(p)
+    return p
+
+
+class Signer:
+    """Signs the operator's authenticated frames (OP_COMMAND but NONE, STOP,
+    PARK, ESTOP; OP_TARGET_POSE; OP_FORCE) with the machine key, the
+    controller's session and the next counter; the layout (AuthCounter,
+    AuthTag) comes from the DBC. ``session`` None: not known yet."""
+
+    EXEMPT_COMMANDS = ("NONE", "STOP", "PARK", "ESTOP")
+
+    def __init__(self, db, key: bytes):
+        from . import e2e
+
+        self._e2e = e2e
+        self.key = bytes(key)
+        if len(self.key) != KEY_BYTES:
+            raise AuthError(f"a key is {KEY_BYTES} bytes, got {len(self.key)}")
+        self.session: int | None = None
+        self.counter = 0  # the last counter used
+        self.layout: dict[int, tuple[int, int, int]] = {}
+        self.exempt: set[int] = set()
+        for m in db.messages:
+            names = {s.name: s for s in m.signals}
+            if "AuthTag" in names and "AuthCounter" in names:
+                c, tg = names["AuthCounter"], names["AuthTag"]
+                self.layout[m.frame_id] = (c.start // 8, tg.start // 8, tg.length // 8)
+                if m.name == "OP_COMMAND":
+                    self._command_id = m.frame_id
+                    choices = m.get_signal_by_name("Command").choices or {}
+                    self.exempt = {int(v) for v, n in choices.items() if str(n) in self.EXEMPT_COMMANDS}
+
+    def needs(self, frame_id: int, data: bytes) -> bool:
+        """Whether this frame must carry a code."""
+        if frame_id not in self.layout:
+            return False
+        return not (frame_id == getattr(self, "_command_id", -1) and data[0] in self.exempt)
+
+    def follow(self, session: int, last_counter: int) -> None:
+        """CTRL_AUTH's values: a new session restarts the counter after its
+        LastCounter (plus COUNTER_MARGIN); within the session the counter
+        jumps past LastCounter when another operator went past it."""
+        if self.session != session:
+            self.session = session
+            self.counter = min(last_counter + COUNTER_MARGIN, 0xFFFFFFFF)
+        elif last_counter > self.counter:
+            self.counter = min(last_counter + COUNTER_MARGIN, 0xFFFFFFFF)
+
+    def sign(self, frame_id: int, data: bytes) -> bytes:
+        """The frame with its AuthCounter, AuthTag and CRC filled in (frames
+        that need no code are returned as they are)."""
+        if not self.needs(frame_id, data):
+            return bytes(data)
+        if self.session is None:
+            raise AuthError("no session from the controller yet (no CTRL_AUTH heard)")
+        if self.counter >= 0xFFFFFFFF:
+            raise AuthError("this session's counters are used up: restart the controller")
+        self.counter += 1
+        cbyte, tbyte, tlen = self.layout[frame_id]
+        b = bytearray(data)
+        b[cbyte:cbyte + 2] = (self.counter & 0xFFFF).to_bytes(2, "little")
+        b[tbyte:tbyte + tlen] = tag_bytes(self.key, frame_id, self.session, self.counter, bytes(b[:tbyte]), tlen)
+        return self._e2e.seal(frame_id, bytes(b))

@@ -205,7 +205,10 @@ def run_row(fault: Fault, state: str, plant: Path, workdir: Path, seed: int = 1,
     (d / "stream_b.csv").write_text(stream_csv(1.5, 1.5 + _AFTER))
     scn = d / "run.scenario"
     scn.write_text(scenario(fault, state))
-    argv = [str(plant), "--inproc", "--scenario", str(scn), "--seed", str(seed)]
+    from . import auth
+
+    # the machine key: $STEWART_KEY's, else a throw-away one in the work directory
+    argv = [str(plant), "--inproc", "--scenario", str(scn), "--seed", str(seed), "--key", str(auth.run_key(workdir))]
     if log:
         row.log = d / "run.log"
         argv += ["--log", str(row.log)]
@@ -230,6 +233,9 @@ def campaign(pairs: list[tuple[Fault, str]], jobs: int | None = None, build: str
         tmp = tempfile.TemporaryDirectory(prefix="stewart-faults-")
         workdir = tmp.name
     wd = Path(workdir)
+    from . import auth
+
+    auth.run_key(wd)  # once, before the workers share it
     try:
         with ThreadPoolExecutor(max_workers=jobs) as ex:
             futs = [ex.submit(run_row, f, s, bins.plant, wd, 1, log) for f, s in pairs]

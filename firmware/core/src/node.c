@@ -3,8 +3,8 @@
 #include "core_internal.h"
 #include "fixed_inline.h"
 
-/* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH. */
-typedef char sp_node_tx_fits[(7u <= SP_NODE_MAX_TX) ? 1 : -1];
+/* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_AUTH + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH. */
+typedef char sp_node_tx_fits[(8u <= SP_NODE_MAX_TX) ? 1 : -1];
 
 static void inc(uint32_t *c)
 {
@@ -35,6 +35,11 @@ sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg)
     node->target = cfg->ctrl.platform->home;
     node->ctrl_platform = cfg->ctrl.platform;
     node->ctrl_sync_master = cfg->sync_master;
+    if (cfg->auth_key != NULL) {
+        node->key = *cfg->auth_key;
+        node->key_set = 1u;
+        (void)sp_auth_rx_start(&node->auth, cfg->auth_session);
+    }
     return sp_ctrl_init(&node->ctrl, &cfg->ctrl);
 }
 
@@ -134,6 +139,27 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     return SP_OK;
 }
 
+/* The command authentication check of an authenticated frame (its CRC and
+ * ranges checked): SP_PROTO_OK when its code checks (the counter becomes
+ * the last accepted), else why it is rejected. Rejections change only the
+ * counts (sp_auth_check). */
+static sp_proto_error_t authenticate(sp_node_t *node, const sp_can_frame_t *f)
+{
+    if (!node->key_set) {
+        return SP_PROTO_AUTH_NO_KEY;
+    }
+    switch (sp_proto_auth_check(&node->auth, &node->key, f)) {
+    case SP_AUTH_OK:
+        return SP_PROTO_OK;
+    case SP_AUTH_REPLAYED:
+        return SP_PROTO_AUTH_REPLAYED;
+    case SP_AUTH_NO_SESSION:
+        return SP_PROTO_AUTH_NO_KEY;
+    default:
+        return SP_PROTO_AUTH_BAD_TAG;
+    }
+}
+
 static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
 {
     sp_proto_error_t e = SP_PROTO_OK;
@@ -143,11 +169,18 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         if (sp_proto_decode_command(f, &m, &counter, &e) != SP_OK) {
             return reject(node, e, why);
         }
+        if (sp_proto_command_needs_auth(m.command)) {
+            e = authenticate(node, f);
+            if (e != SP_PROTO_OK) {
+                return reject(node, e, why);
+            }
+        }
         e = sequence(node, &node->rx_command, counter);
-        /* ESTOP and STOP (a valid CRC) are taken even when their alive
-         * counter repeats or jumps: a second operator process, a resent
-         * emergency stop. Refusing a stop is never the safe side. */
-        if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP) {
+        /* ESTOP, STOP and PARK (a valid CRC) are taken even when their
+         * alive counter repeats or jumps: a second operator process, a
+         * resent emergency stop, any node on the bus (they carry no
+         * authentication code either). Refusing a stop is never the safe side. */
+        if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK) {
             return reject(node, e, why);
         }
         if (node->cmd_count >= SP_NODE_CMD_QUEUE) {
@@ -166,6 +199,10 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
     if (f->id == SP_ID_OP_TARGET_POSE) {
         sp_pose_t pose;
         if (sp_proto_decode_target(f, &pose, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = authenticate(node, f);
+        if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }
         e = sequence(node, &node->rx_target, counter);
@@ -193,6 +230,10 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
     if (f->id == SP_ID_OP_FORCE) {
         sp_msg_force_t m;
         if (sp_proto_decode_force(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = authenticate(node, f);
+        if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }
         e = sequence(node, &node->rx_force, counter);
@@ -376,11 +417,22 @@ SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t
     node->sync_seen[1] = 0u;
 }
 
-/* The controller's status and monitor frames to the operator bus, and on
- * even ticks the wrench estimate (CTRL_WRENCH, 500 Hz). */
+/* The controller's status and monitor frames to the operator bus, on even
+ * ticks the wrench estimate (CTRL_WRENCH, 500 Hz), and every 10 ticks,
+ * first, the command authentication's state (CTRL_AUTH, 100 Hz). */
 SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t *node, uint32_t tick,
                                          sp_can_frame_t out[], uint32_t *n)
 {
+    if (tick % SP_PROTO_AUTH_PERIOD == 0u) {
+        sp_msg_auth_t a;
+        a.session = node->auth.session;
+        a.last_counter = node->auth.last;
+        a.bad_tag = node->auth.bad_tag;
+        a.replayed = node->auth.replayed;
+        a.key_set = node->key_set;
+        count_send(node, sp_proto_encode_auth(&a, node->tx_counter_auth++, &out[*n]), n);
+        node->tx_counter_auth &= 0x0Fu;
+    }
     sp_msg_status_t s;
     s.tick = tick;
     s.state = (uint8_t)node->out.state;

@@ -182,6 +182,12 @@ const char *sp_proto_error_name(sp_proto_error_t e)
         return "wrong-sequence";
     case SP_PROTO_WRONG_BUS:
         return "wrong-bus";
+    case SP_PROTO_AUTH_BAD_TAG:
+        return "bad-tag";
+    case SP_PROTO_AUTH_REPLAYED:
+        return "replayed";
+    case SP_PROTO_AUTH_NO_KEY:
+        return "no-key";
     default:
         return "unknown";
     }
@@ -842,4 +848,111 @@ sp_status_t sp_proto_decode_ft(const sp_can_frame_t *f, sp_msg_ft_t *m, uint8_t 
     m->saturated = s.saturated;
     *counter = s.counter;
     return SP_OK;
+}
+
+/* ---- CTRL_AUTH ---- */
+static uint16_t sat16(uint32_t v)
+{
+    return (uint16_t)(v > UINT16_MAX ? UINT16_MAX : v);
+}
+
+sp_status_t sp_proto_encode_auth(const sp_msg_auth_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL) {
+        return SP_E_ARG;
+    }
+    struct stewart_can_ctrl_auth_t s;
+    (void)stewart_can_ctrl_auth_init(&s);
+    s.session = m->session;
+    s.last_counter = m->last_counter;
+    s.bad_tag = sat16(m->bad_tag);
+    s.replayed = sat16(m->replayed);
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.key_set = m->key_set ? 1u : 0u;
+    clear(f);
+    return finish(f, SP_ID_CTRL_AUTH, SP_BUS_OPS, stewart_can_ctrl_auth_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_CTRL_AUTH_LENGTH, 0);
+}
+
+sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint8_t *counter, sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_CTRL_AUTH, STEWART_CAN_CTRL_AUTH_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_ctrl_auth_t s;
+    if (stewart_can_ctrl_auth_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    m->session = s.session;
+    m->last_counter = s.last_counter;
+    m->bad_tag = s.bad_tag;
+    m->replayed = s.replayed;
+    m->key_set = s.key_set;
+    *counter = s.counter;
+    return SP_OK;
+}
+
+/* ---- command authentication (docs/security.md) ---- */
+sp_status_t sp_proto_auth_layout(uint32_t id, sp_proto_auth_layout_t *lay)
+{
+    if (lay == NULL) {
+        return SP_E_ARG;
+    }
+    if (id == SP_ID_OP_COMMAND) {
+        lay->length = STEWART_CAN_OP_COMMAND_LENGTH;
+        lay->counter_byte = SP_CAN_OP_COMMAND_AUTH_COUNTER_BYTE;
+        lay->tag_byte = SP_CAN_OP_COMMAND_AUTH_TAG_BYTE;
+        lay->tag_bytes = SP_CAN_OP_COMMAND_AUTH_TAG_BYTES;
+    } else if (id == SP_ID_OP_TARGET_POSE) {
+        lay->length = STEWART_CAN_OP_TARGET_POSE_LENGTH;
+        lay->counter_byte = SP_CAN_OP_TARGET_POSE_AUTH_COUNTER_BYTE;
+        lay->tag_byte = SP_CAN_OP_TARGET_POSE_AUTH_TAG_BYTE;
+        lay->tag_bytes = SP_CAN_OP_TARGET_POSE_AUTH_TAG_BYTES;
+    } else if (id == SP_ID_OP_FORCE) {
+        lay->length = STEWART_CAN_OP_FORCE_LENGTH;
+        lay->counter_byte = SP_CAN_OP_FORCE_AUTH_COUNTER_BYTE;
+        lay->tag_byte = SP_CAN_OP_FORCE_AUTH_TAG_BYTE;
+        lay->tag_bytes = SP_CAN_OP_FORCE_AUTH_TAG_BYTES;
+    } else {
+        return SP_E_ARG;
+    }
+    return SP_OK;
+}
+
+int sp_proto_command_needs_auth(uint8_t command)
+{
+    return command != (uint8_t)SP_CMD_NONE && command != (uint8_t)SP_CMD_STOP && command != (uint8_t)SP_CMD_PARK &&
+           command != (uint8_t)SP_CMD_ESTOP;
+}
+
+sp_status_t sp_proto_sign(sp_can_frame_t *f, const sp_auth_key_t *key, uint32_t session, uint32_t counter)
+{
+    sp_proto_auth_layout_t lay;
+    uint64_t code = 0u;
+    if (f == NULL || key == NULL || counter == 0u || sp_proto_auth_layout(f->id, &lay) != SP_OK ||
+        f->len != lay.length) {
+        return SP_E_ARG;
+    }
+    f->data[lay.counter_byte] = (uint8_t)(counter & 0xFFu);
+    f->data[lay.counter_byte + 1u] = (uint8_t)((counter >> 8) & 0xFFu);
+    if (sp_auth_tag(key, f->id, session, counter, f->data, lay.tag_byte, &code) != SP_OK) {
+        return SP_E_ARG;
+    }
+    for (uint32_t i = 0; i < lay.tag_bytes; i++) {
+        f->data[lay.tag_byte + i] = (uint8_t)((code >> (8u * i)) & 0xFFu);
+    }
+    return sp_e2e_seal(f) == SP_OK ? SP_OK : SP_E_ARG;
+}
+
+sp_auth_result_t sp_proto_auth_check(sp_auth_rx_t *rx, const sp_auth_key_t *key, const sp_can_frame_t *f)
+{
+    sp_proto_auth_layout_t lay;
+    if (rx == NULL || key == NULL || f == NULL || sp_proto_auth_layout(f->id, &lay) != SP_OK || f->len != lay.length) {
+        return SP_AUTH_BAD_ARG;
+    }
+    uint16_t low = (uint16_t)((uint32_t)f->data[lay.counter_byte] | ((uint32_t)f->data[lay.counter_byte + 1u] << 8));
+    return sp_auth_check(rx, key, f->id, low, f->data, lay.tag_byte, &f->data[lay.tag_byte], lay.tag_bytes);
 }

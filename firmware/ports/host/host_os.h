@@ -6,7 +6,12 @@
 #ifndef SP_HOST_OS_H
 #define SP_HOST_OS_H
 
+#include <stddef.h>
 #include <stdint.h>
+
+#define SP_HOST_KEY_BYTES 16u
+/** The environment variable naming the machine key file when no --key is given. */
+#define SP_HOST_KEY_ENV "STEWART_KEY"
 
 /**
  * Installs the handler of SIGINT and SIGTERM: it only sets the stop flag
@@ -23,5 +28,19 @@ int sp_host_stop_requested(void);
 
 /** CLOCK_MONOTONIC in nanoseconds (an arbitrary origin; differences only). */
 int64_t sp_host_now_ns(void);
+
+/**
+ * The machine key of command authentication (docs/security.md) from the file
+ * `path`, or, when path is NULL or empty, from the file the environment
+ * variable STEWART_KEY names. The file holds 32 hexadecimal digits
+ * (whitespace allowed) and may be read by its owner only (mode 600, as an
+ * ssh private key: group or others' permissions refuse it). Returns 1 with
+ * key[0..16) filled and *used set to the file's name, 0 when neither names
+ * a file (no key), -1 on an error with a one-line reason in err[0..errlen).
+ */
+int sp_host_load_key(const char *path, uint8_t key[SP_HOST_KEY_BYTES], const char **used, char *err, size_t errlen);
+
+/** A random 32-bit value from the kernel (getrandom): 0, or -1 (errno set). */
+int sp_host_random_u32(uint32_t *out);
 
 #endif /* SP_HOST_OS_H */

@@ -6,7 +6,15 @@
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
- *                 [--canopen-timeout-ms MS]
+ *                 [--canopen-timeout-ms MS] [--key FILE] [--session N]
+ *
+ * --key FILE (else the file the environment variable STEWART_KEY names):
+ * the machine key of command authentication (docs/security.md; 32 hex
+ * digits, mode 600). Without one the controller refuses every
+ * authenticated command (reason no-key; STOP, PARK and ESTOP still work)
+ * and says so at start. --session N sets the authentication session (for
+ * deterministic lockstep runs); by default it is drawn from the kernel's
+ * random source (getrandom) at start.
  *
  * --canopen (real time only): the drives are CiA 408 nodes 1-3 on axis_a
  * and 4-6 on axis_b, configured and driven by the CANopen master
@@ -57,7 +65,8 @@ static void usage(void)
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
-                    "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n");
+                    "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
+                    "                     [--key FILE] [--session N]\n");
 }
 
 typedef struct {
@@ -173,6 +182,9 @@ int main(int argc, char **argv)
     int wrench_source = -1;
     unsigned long long max_ticks = 0;
     long timeout_ms = 5000;
+    const char *key_path = NULL;
+    int session_given = 0;
+    uint32_t session = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
@@ -234,6 +246,18 @@ int main(int argc, char **argv)
                 usage();
                 return 2;
             }
+        } else if (v != NULL && strcmp(a, "--key") == 0) {
+            key_path = v, i++;
+        } else if (v != NULL && strcmp(a, "--session") == 0) {
+            char *end;
+            unsigned long long s = strtoull(v, &end, 0);
+            i++;
+            if (*end != '\0' || s > UINT32_MAX) {
+                usage();
+                return 2;
+            }
+            session = (uint32_t)s;
+            session_given = 1;
         } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
             char *end;
             timeout_ms = strtol(v, &end, 10), i++;
@@ -272,6 +296,27 @@ int main(int argc, char **argv)
     cfg.ctrl.operator_park = (uint8_t)op_park;
     (void)sp_ctrl_set_wrench_source(&cfg.ctrl, (wrench_source >= 0) ? (uint8_t)wrench_source : sp_wrench_source_default,
                                     &sp_ft_mount_default); /* the config's source was validated when generated */
+    static sp_auth_key_t key;
+    const char *key_used = NULL;
+    char key_err[256];
+    int have_key = sp_host_load_key(key_path, key.k, &key_used, key_err, sizeof key_err);
+    if (have_key < 0) {
+        fprintf(stderr, "sp_controller: %s\n", key_err);
+        return 1;
+    }
+    if (!session_given && sp_host_random_u32(&session) != 0) {
+        fprintf(stderr, "sp_controller: no random session value (getrandom: %s)\n", strerror(errno));
+        return 1;
+    }
+    if (have_key) {
+        cfg.auth_key = &key;
+        cfg.auth_session = session;
+        printf("sp_controller: machine key from %s, session 0x%08x\n", key_used, (unsigned)session);
+    } else {
+        printf("sp_controller: no machine key (--key FILE or STEWART_KEY): motion commands will be refused "
+               "(no-key); STOP, PARK and ESTOP work\n");
+    }
+    fflush(stdout);
     (void)sp_node_init(&node, &cfg);
 
     /* The controller listens to what is addressed to it. */

@@ -24,6 +24,36 @@ void sp_g4_led_set(int on)
     GPIO_BSRR(LED_PORT) = on ? (1u << LED_PIN) : (1u << (LED_PIN + 16u));
 }
 
+/* ---- RNG ----------------------------------------------------------------- */
+
+sp_status_t sp_g4_random_u32(uint32_t *out)
+{
+    if (out == NULL) {
+        return SP_E_ARG;
+    }
+    RCC_CRRCR |= RCC_CRRCR_HSI48ON;
+    for (uint32_t i = 0; i < 100000u && (RCC_CRRCR & RCC_CRRCR_HSI48RDY) == 0u; i++) {
+    }
+    if ((RCC_CRRCR & RCC_CRRCR_HSI48RDY) == 0u) {
+        return SP_E_IO;
+    }
+    RCC_CCIPR &= ~RCC_CCIPR_CLK48SEL_MASK; /* HSI48 */
+    RCC_AHB2ENR |= RCC_AHB2ENR_RNGEN;
+    (void)RCC_AHB2ENR;
+    RNG_CR |= RNG_CR_RNGEN;
+    for (uint32_t i = 0; i < 100000u; i++) {
+        uint32_t sr = RNG_SR;
+        if ((sr & (RNG_SR_CECS | RNG_SR_SECS)) != 0u) {
+            return SP_E_IO;
+        }
+        if ((sr & RNG_SR_DRDY) != 0u) {
+            *out = RNG_DR;
+            return SP_OK;
+        }
+    }
+    return SP_E_IO;
+}
+
 /* ---- tick ---------------------------------------------------------------- */
 
 static volatile uint32_t g_ticks; /* incremented by SysTick only */

@@ -54,6 +54,21 @@
 #define RCC_AHB2ENR SP_REG(G4_RCC + 0x4Cu)
 #define RCC_AHB2ENR_GPIOAEN (1u << 0)
 #define RCC_AHB2ENR_GPIOBEN (1u << 1)
+#define RCC_AHB2ENR_RNGEN (1u << 26)
+#define RCC_CRRCR SP_REG(G4_RCC + 0x98u) /* clock recovery RC register: HSI48 */
+#define RCC_CRRCR_HSI48ON (1u << 0)
+#define RCC_CRRCR_HSI48RDY (1u << 1)
+#define RCC_CCIPR_CLK48SEL_MASK (3u << 26) /* CLK48SEL[27:26]: 00 HSI48 (the RNG's clock) */
+
+/* ---- RNG, the true random number generator (RM0440 26.7), base 0x5006 0800 */
+#define G4_RNG 0x50060800u
+#define RNG_CR SP_REG(G4_RNG + 0x00u)
+#define RNG_CR_RNGEN (1u << 2)
+#define RNG_SR SP_REG(G4_RNG + 0x04u)
+#define RNG_SR_DRDY (1u << 0)
+#define RNG_SR_CECS (1u << 1) /* clock error */
+#define RNG_SR_SECS (1u << 2) /* seed error */
+#define RNG_DR SP_REG(G4_RNG + 0x08u)
 #define RCC_APB1ENR1 SP_REG(G4_RCC + 0x58u)
 #define RCC_APB1ENR1_FDCANEN (1u << 25)
 #define RCC_APB1ENR1_PWREN (1u << 28)

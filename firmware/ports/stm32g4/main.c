@@ -22,6 +22,7 @@
 
 #include "sp/node.h"
 #include "sp_g4.h"
+#include "sp_machine_key.h" /* generated from the build's key file (tools/stewart/key_header.py) */
 
 #define RX_BATCH 6u  /* frames per receive call */
 #define RX_ROUNDS 4u /* 24 >= the 18 frames the 3 x 2 FIFOs of 3 can hold */
@@ -91,6 +92,15 @@ int main(void)
         sp_g4_stop(SP_G4_STOP_INIT);
     }
     g_cfg.sync_master = 1u; /* real time: we send SYNC */
+    /* command authentication (docs/security.md): the machine key built in
+     * (the build's key file), a session drawn from the RNG; without a
+     * session the node starts without its key: motion commands refused */
+    static const sp_auth_key_t key = {SP_MACHINE_KEY_BYTES};
+    uint32_t session = 0u;
+    if (sp_g4_random_u32(&session) == SP_OK) {
+        g_cfg.auth_key = &key;
+        g_cfg.auth_session = session;
+    }
     if (sp_node_init(&g_node, &g_cfg) != SP_OK || sp_g4_can_init(&g_can) != SP_OK) {
         sp_g4_stop(SP_G4_STOP_INIT);
     }

@@ -36,6 +36,12 @@ sp_status_t sp_g4_clock_init(void);
 
 /** LD2 (PA5) as a push-pull output, off. */
 void sp_g4_led_init(void);
+
+/** A 32-bit value from the RNG peripheral (HSI48-clocked; the session value
+ *  of command authentication, docs/security.md). Polls at most about 10^5
+ *  times: SP_OK, or SP_E_IO when the RNG reports a clock or seed error or
+ *  gives no value (the caller starts without authentication: motion refused). */
+sp_status_t sp_g4_random_u32(uint32_t *out);
 /** Sets LD2 on (on != 0) or off. */
 void sp_g4_led_set(int on);
 

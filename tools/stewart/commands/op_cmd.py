@@ -31,6 +31,9 @@ def register(sub) -> None:
     p.add_argument("--can-config", metavar="FILE", help="python-can configuration file")
     p.add_argument("--context", help="section of the python-can configuration file")
     p.add_argument("--timeout", type=float, default=None, help="seconds to wait for the answer")
+    p.add_argument("--key", metavar="FILE", help="the machine key (32 hex digits, mode 600) that signs the "
+                   "commands that start or change motion (default: the file $STEWART_KEY names; "
+                   "docs/security.md); STOP, PARK and ESTOP need none")
     ops = p.add_subparsers(dest="op", metavar="ACTION")
     import argparse
 
@@ -143,6 +146,16 @@ def run(args) -> int:
     except SourceError as e:
         _err(str(e))
         return 2
+    from .. import auth as au
+
+    key = None
+    key_path = au.key_file(args.key)
+    if key_path is not None:
+        try:
+            key = au.read_key(key_path)
+        except au.AuthError as e:
+            _err(str(e))
+            return 2
     try:
         bus = open_bus(opts)
     except BusError as e:
@@ -150,7 +163,7 @@ def run(args) -> int:
         return 2
     if args.op == "record":
         return _record(bus, args)
-    node = OperatorNode(bus, heartbeat=True)
+    node = OperatorNode(bus, heartbeat=True, key=key)
     try:
         node.start()
         return ACTIONS[args.op](node, args, prepared)

@@ -40,14 +40,14 @@ TYPICAL = {
     "AXIS_FEEDBACK_3": {"Length": 2.05, "PressureA": 0.0, "PressureB": 40.95e6,
                         "State": "FAULT", "Faults": 0x44, "TickEcho": 0xFFFF},
     "OP_COMMAND": {"Command": "RUN_TRIG", "Axis": "X", "Amplitude": 0.09, "Frequency": 0.5,
-                   "FadeTime": 2.0, "Option": 0},
+                   "FadeTime": 2.0, "Option": 0, "AuthCounter": 0x0102, "AuthTag": 0x0A0B0C0D0E0F},
     "OP_HEARTBEAT": {},
     "OP_FORCE": {"Mask": 4, "Fx": 0.0, "Fy": -12.5, "Fz": 2000.0, "Mx": 1.03125, "My": -0.5,
-                 "Mz": 0.0},
+                 "Mz": 0.0, "AuthCounter": 0xFFFF, "AuthTag": 0x123456789ABC},
     "FT_SENSOR": {"Fx": 3.25, "Fy": -1.5, "Fz": -1987.40625, "Mx": 0.125, "My": -2.0, "Mz": 0.03125,
                   "Saturated": 0},
     "OP_TARGET_POSE": {"X": 0.05, "Y": -0.02, "Z": 0.1, "Roll": 0.01, "Pitch": -0.05,
-                       "Yaw": 0.2},
+                       "Yaw": 0.2, "AuthCounter": 0x8000, "AuthTag": 0xFEDCBA987654},
     "CTRL_STATUS": {"Tick": 99999, "State": "RUNNING", "Faults": 0, "FkIterations": 2,
                     "EstimateValid": 1, "CmdRejected": 0, "DriveMode": "ACTIVE",
                     "FeedForward": 1, "ForceMode": "FORCE", "Contact": 1, "X": 0.049998, "Y": -0.020001, "Z": 0.100002,
@@ -56,6 +56,7 @@ TYPICAL = {
                      "RefRoll": 0.01, "RefPitch": -0.05, "RefYaw": 0.2,
                      **{f"LengthSp_{i}": 1.7 + 0.05 * i for i in range(1, 7)},
                      **{f"ForceFf_{i}": (-1) ** i * 1000.0 * i for i in range(1, 7)}},
+    "CTRL_AUTH": {"Session": 0x5EED0017, "LastCounter": 123456, "BadTag": 3, "Replayed": 1, "KeySet": "ON"},
     "CTRL_WRENCH": {"Tick": 99998, "Valid": 1, "Fx": 120.25, "Fy": -35.5, "Fz": -2452.75,
                     "Mx": 14.0, "My": -250.25, "Mz": 0.75},
 }
@@ -131,6 +132,8 @@ def _malformed(proto) -> list[dict]:
         ("AXIS_FEEDBACK_1 frame on ID 0x032 (CRC valid for 0x031)", 0x032, fb1, "bad-crc"),
         ("AXIS_FEEDBACK_1 payload on ID 0x031, CRC sealed for 0x040", 0x031,
          e2e.seal(0x040, fb1), "bad-crc"),
+        ("OP_COMMAND frame on ID 0x038 (same length, CRC valid for 0x040)", 0x038,
+         typ("OP_COMMAND"), "bad-crc"),
         ("AXIS_SETPOINTS Mode 2", 0x020, with_raw("AXIS_SETPOINTS", Mode=2), "out-of-range"),
         ("AXIS_SETPOINTS Velocity_2 raw -32768", 0x020,
          with_raw("AXIS_SETPOINTS", Velocity_2=-32768), "out-of-range"),
@@ -139,7 +142,7 @@ def _malformed(proto) -> list[dict]:
         ("AXIS_FEEDBACK_1 State 4", 0x031, with_raw("AXIS_FEEDBACK_1", State=4), "out-of-range"),
         ("OP_COMMAND Command 14", 0x040, with_raw("OP_COMMAND", Command=14), "out-of-range"),
         ("OP_FORCE Fz raw -524288", 0x048, with_raw("OP_FORCE", Fz=-524288), "out-of-range"),
-        ("OP_FORCE as a 24-byte frame", 0x048, typ("OP_FORCE") + bytes(4), "bad-length"),
+        ("OP_FORCE as a 36-byte frame", 0x048, typ("OP_FORCE") + bytes(4), "bad-length"),
         ("FT_SENSOR Mx raw -524288", 0x038, with_raw("FT_SENSOR", Mx=-524288), "out-of-range"),
         ("CTRL_STATUS ForceMode 5", 0x100, with_raw("CTRL_STATUS", ForceMode=5), "out-of-range"),
         ("OP_COMMAND Axis 6", 0x040, with_raw("OP_COMMAND", Axis=6), "out-of-range"),
@@ -269,7 +272,7 @@ def make_doc(proto=None) -> str:
     w("")
     w(f"Three CAN FD buses, 11-bit identifiers, {proto.nominal_bitrate / 1e6:g} Mbit/s "
       f"arbitration and {proto.data_bitrate / 1e6:g} Mbit/s data phase (bit-rate switch on), "
-      "a 1 ms cycle (CTRL_WRENCH: 2 ms).")
+      "a 1 ms cycle (CTRL_WRENCH: 2 ms; OP_COMMAND, OP_FORCE and CTRL_AUTH 10 ms; OP_HEARTBEAT 20 ms).")
     w("")
     w("| bus | SocketCAN interface | between |")
     w("|---|---|---|")

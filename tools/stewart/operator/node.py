@@ -13,6 +13,14 @@ counter of the previous process) and be dropped: the check resynchronises
 on it and takes the next frame. So a command is preceded by an OP_COMMAND
 NONE (does nothing), and a MOVE_TO target is sent twice; ESTOP is sent
 twice back to back (a second ESTOP is harmless).
+
+Command authentication (docs/security.md): with the machine key
+(``key``), the frames that start or change motion (OP_COMMAND but NONE,
+STOP, PARK and ESTOP; OP_TARGET_POSE; OP_FORCE) are signed with the
+controller's session and a counter that continues from the last one the
+controller accepted, both read from its CTRL_AUTH (every 10 ms); without a
+key such a frame is not sent (OpError). A command the controller rejects
+for its code is reported as refused, with the reason CTRL_AUTH tells.
 """
 
 from __future__ import annotations
@@ -22,10 +30,12 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
+from .. import auth as au
 from .. import e2e
 from .. import protocol as pr
 
 HEARTBEAT_PERIOD_S = 0.020
+COMMAND_QUEUE = 4  # the controller's command queue (SP_NODE_CMD_QUEUE): one command executed per tick
 STATES = pr.value_names("CTRL_STATUS", "State")
 COMMANDS = pr.value_names("OP_COMMAND", "Command")
 
@@ -121,6 +131,7 @@ class Status:
     seq: int = 0          # how many statuses this node had received
     t: float = 0.0        # receive time (time.monotonic)
     stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
+    auth_last: int = -1   # CTRL_AUTH's LastCounter when this status came (-1: none heard yet)
 
     def line(self) -> str:
         faults = ",".join(self.faults) if self.faults else "none"
@@ -196,7 +207,7 @@ class OperatorNode:
     """The operator node on an open python-can bus."""
 
     def __init__(self, bus, proto: pr.Protocol | None = None, heartbeat: bool = True,
-                 on_frame: Callable | None = None):
+                 on_frame: Callable | None = None, key: bytes | None = None):
         import can
 
         self._can = can
@@ -207,7 +218,14 @@ class OperatorNode:
         self._status_r = _Reader(self.proto, "CTRL_STATUS")
         self._monitor_r = _Reader(self.proto, "CTRL_MONITOR")
         self._wrench_r = _Reader(self.proto, "CTRL_WRENCH")
-        self._readers = {r.frame_id: r for r in (self._status_r, self._monitor_r, self._wrench_r)}
+        self._auth_r = _Reader(self.proto, "CTRL_AUTH")
+        self._readers = {r.frame_id: r for r in (self._status_r, self._monitor_r, self._wrench_r,
+                                                 self._auth_r)}
+        self.signer = au.Signer(self.proto.db, key) if key is not None else None
+        self._unsigned = au.Signer(self.proto.db, bytes(au.KEY_BYTES))  # which frames need a code
+        self.auth: dict | None = None          # the last CTRL_AUTH
+        self._auth_at_send: dict | None = None
+        self._signed_counter: int | None = None  # the counter of the last signed frame
         self._rx = {fid: e2e.E2EReceiver() for fid in self._readers}
         self._tx: dict[str, int] = {}
         self._cond = threading.Condition()
@@ -271,8 +289,10 @@ class OperatorNode:
         """Sends one frame; returns the time.time() just before the send."""
         counter = self._tx.get(name, 0)
         data = self.proto.encode(name, signals, counter)
-        self._tx[name] = e2e.next_counter(counter)
         info = self.proto.infos[name]
+        if self._unsigned.needs(info.frame_id, data):
+            data = self._sign(name, info.frame_id, data)
+        self._tx[name] = e2e.next_counter(counter)
         msg = self._can.Message(arbitration_id=info.frame_id, data=data, is_extended_id=False,
                                 is_fd=True, bitrate_switch=True)
         with self._send_lock:
@@ -284,6 +304,44 @@ class OperatorNode:
                 raise OpError(f"cannot send {name}: {e}") from None
             self.counters.sent += 1
         return wall
+
+    def _sign(self, name: str, frame_id: int, data: bytes) -> bytes:
+        if self.signer is None:
+            raise OpError(f"{name}: commands that start or change motion need the machine key "
+                          f"(--key FILE or {au.KEY_ENV}); STOP, PARK and ESTOP do not")
+        end = time.monotonic() + 1.0
+        with self._cond:
+            while self.signer.session is None:
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise NoAnswer(f"{name}: no CTRL_AUTH from the controller within 1 s "
+                                   "(its session is needed to sign)")
+                self._cond.wait(left)
+            self._auth_at_send = dict(self.auth) if self.auth else None
+            try:
+                signed = self.signer.sign(frame_id, data)
+                self._signed_counter = self.signer.counter
+                return signed
+            except au.AuthError as e:
+                raise OpError(f"{name}: {e}") from None
+
+    def auth_reason(self) -> str | None:
+        """Why the controller rejected the last signed frame, as CTRL_AUTH
+        tells (its counts rose since the send, or it has no key), or None."""
+        a, b = self.auth, self._auth_at_send
+        if a is None:
+            return None
+        if not a["key_set"]:
+            return ("the controller has no machine key: it refuses every command that starts or changes "
+                    "motion (sp_controller --key FILE)")
+        if b is None:
+            return None
+        if a["bad_tag"] > b["bad_tag"]:
+            return ("its authentication code did not check: this key is not the controller's "
+                    "(or the frame was corrupted)")
+        if a["replayed"] > b["replayed"]:
+            return "it was taken for a replay (another operator process used the same counter): send it again"
+        return None
 
     def send_heartbeat(self) -> None:
         self._send("OP_HEARTBEAT", {})
@@ -374,7 +432,7 @@ class OperatorNode:
                 estimate_valid=bool(f["EstimateValid"].raw(w)),
                 pose=[f[n].value(w) for n in pr.POSE_SIGNALS],
                 force_mode=_name(FORCE_MODES, f["ForceMode"].raw(w)), contact=bool(f["Contact"].raw(w)),
-                t=time.monotonic(),
+                auth_last=self.auth["last_counter"] if self.auth else -1, t=time.monotonic(),
                 stamp=float(msg.timestamp) if msg.timestamp else time.time())
             with self._cond:
                 self._seq += 1
@@ -390,6 +448,15 @@ class OperatorNode:
                 "length_sp": [f[f"LengthSp_{i}"].value(w) for i in range(1, 7)],
                 "force_ff": [f[f"ForceFf_{i}"].value(w) for i in range(1, 7)],
             }
+        elif r is self._auth_r:
+            a = {"session": f["Session"].raw(w), "last_counter": f["LastCounter"].raw(w),
+                 "bad_tag": f["BadTag"].raw(w), "replayed": f["Replayed"].raw(w),
+                 "key_set": bool(f["KeySet"].raw(w))}
+            with self._cond:
+                self.auth = a
+                if self.signer is not None:
+                    self.signer.follow(a["session"], a["last_counter"])
+                self._cond.notify_all()
         else:
             self.wrench = {"tick": f["Tick"].raw(w), "valid": bool(f["Valid"].raw(w)),
                            "wrench": [f[n].value(w) for n in pr.WRENCH_SIGNALS]}
@@ -426,11 +493,17 @@ class OperatorNode:
         the bus), so a backlog of older frames in the receive queue cannot
         answer for it. `done` is believed once the state changed, or from
         the `settle`-th status on (a command that changes no state: the
-        refusal would have come by then)."""
+        refusal would have come by then); for a signed command also not
+        before CTRL_AUTH has shown its counter accepted and the command
+        queue's depth of statuses more have come (the statuses counted from
+        the send may all come before the frame reached the controller, when
+        this process is held up between the two on a loaded machine)."""
         end = time.monotonic() + timeout
         first_change: int | None = None
         idx = 0
         k = 0
+        signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
+        taken_k: int | None = None  # the first status after CTRL_AUTH showed the frame accepted
         while True:
             with self._cond:
                 while idx >= len(self.statuses):
@@ -452,11 +525,17 @@ class OperatorNode:
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
                 if first_change is None and before is not None and st.state != before.state:
                     first_change = k
+                if taken_k is None and (signed is None or st.auth_last >= signed):
+                    taken_k = k
+                if k == reject_window and first_change is None and signed is not None and taken_k is None:
+                    why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
+                    raise Refused(f"{command} rejected: {why}")
                 if k == reject_window and before is not None and first_change is None \
                         and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
                     # the refusal's status frame was not seen, but nothing happened
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
-                if done(st) and (first_change is not None or k >= settle):
+                if done(st) and (first_change is not None
+                                 or (k >= settle and taken_k is not None and k >= taken_k + COMMAND_QUEUE)):
                     self._keep_statuses = False
                     return Answer(command, st, first_change if first_change is not None else k,
                                   st.t - self._sent_mono)

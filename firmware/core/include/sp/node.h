@@ -12,7 +12,8 @@
  *    (only when the node is the cycle master: real-time mode), CTRL_STATUS
  *    and CTRL_MONITOR on the ops bus, and on even ticks (every
  *    SP_PROTO_WRENCH_PERIOD ticks: 500 Hz) CTRL_WRENCH, the external wrench
- *    estimate (at 1 kHz it would put the ops bus above its 50 % budget).
+ *    estimate (at 1 kHz it would take the ops bus to 49.9 % of its 50 %
+ *    budget).
  *  - OP_FORCE (mask, target) is kept for the next FORCE or GUIDE command
  *    (OP_COMMAND), as OP_TARGET_POSE is for MOVE_TO; while the controller
  *    is in FORCE a new OP_FORCE updates the target at once: the node hands
@@ -22,6 +23,16 @@
  *    by us, or, in lockstep, received from the plant). In lockstep the plant
  *    sends each cycle's feedback just before its SYNC, which closes the cycle:
  *    feedback for the next tick is held until that SYNC arrives.
+ *  - Command authentication (sp/auth.h, docs/security.md): OP_TARGET_POSE,
+ *    OP_FORCE and every OP_COMMAND but NONE, STOP, PARK and ESTOP must
+ *    carry a code that checks under the machine key with this session and
+ *    a counter after the last accepted; the check comes right after the
+ *    CRC and ranges, before the alive counter, so that a stranger's frames
+ *    change nothing but the counts. Rejected: SP_PROTO_AUTH_BAD_TAG,
+ *    SP_PROTO_AUTH_REPLAYED, or SP_PROTO_AUTH_NO_KEY when the node has no
+ *    key (then motion cannot be commanded; stops still work). Every
+ *    SP_PROTO_AUTH_PERIOD ticks (10 ms) CTRL_AUTH publishes the session, the
+ *    last accepted counter and the rejection counts, ahead of CTRL_STATUS.
  *  - CTRL_STATUS, CTRL_MONITOR and CTRL_WRENCH carry the tick of the setpoints they go
  *    with (the SYNC tick in lockstep), so that a log lines them up.
  */
@@ -34,8 +45,11 @@
 #define SP_NODE_CMD_QUEUE 4u /**< operator commands held (one is executed per tick) */
 
 typedef struct {
-    sp_ctrl_config_t ctrl; /**< controller tuning (force_feedforward may change by command) */
-    uint8_t sync_master;   /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
+    sp_ctrl_config_t ctrl;         /**< controller tuning (force_feedforward may change by command) */
+    uint8_t sync_master;           /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
+    const sp_auth_key_t *auth_key; /**< the machine key (copied by sp_node_init); NULL: none, every
+                                        authenticated command is refused (SP_PROTO_AUTH_NO_KEY) */
+    uint32_t auth_session;         /**< this session's value (drawn at start-up by the port) */
 } sp_node_config_t;
 
 typedef struct {
@@ -60,6 +74,10 @@ typedef struct {
     sp_e2e_rx_t rx_heartbeat;
     sp_e2e_rx_t rx_force;
     sp_e2e_rx_t rx_ft;
+    sp_auth_rx_t auth; /**< command authentication: session, last counter, counts */
+    sp_auth_key_t key; /**< the machine key (when key_set) */
+    uint8_t key_set;   /**< 1: a key was configured */
+    uint8_t tx_counter_auth;
     uint8_t tx_counter_sync[2];
     uint8_t tx_counter_setpoints[2];
     uint8_t tx_counter_status;
@@ -82,10 +100,13 @@ typedef struct {
     uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */
 } sp_node_t;
 
-/** Defaults for a platform: sp_ctrl_default_config, sync_master = 1. */
+/** Defaults for a platform: sp_ctrl_default_config, sync_master = 1, no
+ *  authentication key (auth_key NULL, auth_session 0). */
 sp_status_t sp_node_default_config(sp_node_config_t *cfg, const sp_platform_t *platform);
 
-/** Resets the node and its controller (IDLE, no faults, counters at 0). */
+/** Resets the node and its controller (IDLE, no faults, counters at 0);
+ *  with cfg->auth_key, copies the key and starts the authentication
+ *  session cfg->auth_session (sp_auth_rx_start). */
 sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg);
 
 /**
@@ -94,9 +115,10 @@ sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg);
  * NULL); SP_E_ARG for NULL pointers. Frames the controller does not consume
  * (its own transmissions, other nodes' traffic) are SP_PROTO_UNKNOWN_ID.
  * Nothing in a rejected frame reaches the controller. One exception to the
- * alive-counter check: an OP_COMMAND ESTOP or STOP with a valid CRC is
- * used even when its counter repeats or jumps (a second operator process,
- * a resent emergency stop); refusing a stop is never the safe side.
+ * alive-counter check: an OP_COMMAND ESTOP, STOP or PARK with a valid CRC
+ * is used even when its counter repeats or jumps (a second operator
+ * process, a resent emergency stop, another node: these carry no
+ * authentication code either); refusing a stop is never the safe side.
  */
 sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_proto_error_t *why);
 

@@ -21,6 +21,7 @@
 #ifndef SP_PROTOCOL_H
 #define SP_PROTOCOL_H
 
+#include "sp/auth.h"
 #include "sp/can.h"
 #include "sp/controller.h"
 #include "sp/e2e.h"
@@ -36,6 +37,7 @@
 #define SP_ID_CTRL_STATUS 0x100u
 #define SP_ID_CTRL_MONITOR 0x101u
 #define SP_ID_CTRL_WRENCH 0x102u
+#define SP_ID_CTRL_AUTH 0x103u
 #define SP_AXIS_SLOTS 3u
 
 /** Why a frame was rejected. */
@@ -48,7 +50,10 @@ typedef enum {
     SP_PROTO_REPEATED = 5,
     SP_PROTO_WRONG_SEQUENCE = 6,
     SP_PROTO_WRONG_BUS = 7,
-    SP_PROTO_ERRORS = 8
+    SP_PROTO_AUTH_BAD_TAG = 8,  /**< an authenticated message whose code does not check (docs/security.md) */
+    SP_PROTO_AUTH_REPLAYED = 9, /**< an authenticated message of this session sent again */
+    SP_PROTO_AUTH_NO_KEY = 10,  /**< an authenticated message, and the controller has no key */
+    SP_PROTO_ERRORS = 11
 } sp_proto_error_t;
 
 /** Short constant name of a rejection reason ("bad-crc", ...). */
@@ -149,8 +154,61 @@ typedef struct {
  *  (raw +-(2^21 - 1) at 0.25). */
 #define SP_PROTO_WRENCH_MAX_Q8 (INT32_C(2097151) * 64)
 /** CTRL_WRENCH goes out on ticks that are multiples of this (the DBC's 2 ms
- *  cycle: at 1 kHz the ops bus would be above its 50 % budget). */
+ *  cycle: at 1 kHz the ops bus would be at 49.9 %, at its 50 % budget). */
 #define SP_PROTO_WRENCH_PERIOD 2u
+
+/** CTRL_AUTH: the controller's command authentication (docs/security.md). */
+typedef struct {
+    uint32_t session;      /**< this session's value */
+    uint32_t last_counter; /**< the last accepted authentication counter (0: none) */
+    uint32_t bad_tag;      /**< frames rejected for their code (sent saturated at 65535) */
+    uint32_t replayed;     /**< frames rejected as replays (sent saturated at 65535) */
+    uint8_t key_set;       /**< 1: a machine key is configured (any non-zero is sent as 1) */
+} sp_msg_auth_t;
+
+/** CTRL_AUTH goes out on ticks that are multiples of this (the DBC's 10 ms cycle). */
+#define SP_PROTO_AUTH_PERIOD 10u
+
+/** CTRL_AUTH (ID 0x103, 16 bytes, ops bus, CRC-16). Counts above 65535
+ *  are sent as 65535 (saturated, never wrapped; the call returns SP_OK: a
+ *  count at its end is still the truth as far as it goes). SP_E_ARG on NULL. */
+sp_status_t sp_proto_encode_auth(const sp_msg_auth_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/** CTRL_AUTH -> its values. Rejects (SP_E_FRAME, *error) a wrong identifier
+ *  or length and a bad CRC; SP_E_ARG on NULL. */
+sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint8_t *counter, sp_proto_error_t *error);
+
+/** Where an authenticated message (OP_COMMAND, OP_TARGET_POSE, OP_FORCE)
+ *  keeps its authentication fields: byte offsets generated from the DBC. */
+typedef struct {
+    uint32_t length;       /**< the message's length, bytes */
+    uint32_t counter_byte; /**< AuthCounter: the counter's low 16 bits, little-endian */
+    uint32_t tag_byte;     /**< AuthTag: the code's low tag_bytes bytes; the code covers data[0..tag_byte) */
+    uint32_t tag_bytes;    /**< 4..8 */
+} sp_proto_auth_layout_t;
+
+/** The layout of identifier `id`'s authentication fields: SP_OK, or
+ *  SP_E_ARG for NULL or a message that has none. */
+sp_status_t sp_proto_auth_layout(uint32_t id, sp_proto_auth_layout_t *lay);
+
+/** 1 when OP_COMMAND's Command `command` must be authenticated: every
+ *  command but NONE (does nothing), STOP, PARK and ESTOP (never refused for
+ *  authentication: any node may stop the platform); 0 otherwise. */
+int sp_proto_command_needs_auth(uint8_t command);
+
+/**
+ * Signs an encoded authenticated frame (OP_COMMAND, OP_TARGET_POSE,
+ * OP_FORCE, as its encoder made it): writes the counter's low 16 bits and
+ * the code (sp_auth_tag over the bytes before the tag, under `key`, with
+ * `session` and the full `counter`), then seals the CRC again. SP_E_ARG for
+ * NULL, another message or length, or counter 0 (never valid).
+ */
+sp_status_t sp_proto_sign(sp_can_frame_t *f, const sp_auth_key_t *key, uint32_t session, uint32_t counter);
+
+/** Checks a received authenticated frame (its CRC already checked) against
+ *  the receiver `rx` (sp_auth_check: counts and, when accepted, the last
+ *  counter change). SP_AUTH_BAD_ARG for NULL or another message. */
+sp_auth_result_t sp_proto_auth_check(sp_auth_rx_t *rx, const sp_auth_key_t *key, const sp_can_frame_t *f);
 
 sp_status_t sp_proto_encode_sync(const sp_msg_sync_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
 sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t counter, uint8_t bus, sp_can_frame_t *f);
