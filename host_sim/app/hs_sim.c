@@ -6,6 +6,7 @@
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
  *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N]
+ *          [--wrench-source cylinders|sensor]
  *
  * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
  * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
@@ -48,6 +49,8 @@
  * report with every frame accounted on both sides.
  * --tick0 N (test only): the SYNC tick of cycle 0 (and with --inproc the
  * controller's own tick), to run through the 2^32 and TickEcho wraps.
+ * --wrench-source cylinders|sensor (with --inproc): force control's wrench
+ * source, as sp_controller's option (default: the platform config's).
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
  * The force/torque sensor (hs/ftsensor.h, mounted as the config's
@@ -122,6 +125,7 @@ typedef struct {
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
     uint32_t co_rx_n, co_rx_i;
     uint64_t tick;   /* the current cycle */
+    int wrench_source; /* --wrench-source (--inproc): SP_WRENCH_*, -1 the config's */
     uint32_t tick0;  /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
     hs_inject_t inj; /* the fault injector on the bus (scenario `inject`) */
     /* --inproc: the controller (the firmware's node, as sp_controller --lockstep) in this process */
@@ -871,7 +875,7 @@ static void usage(void)
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
                     "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n"
-                    "              [--tick0 N]\n");
+                    "              [--tick0 N] [--wrench-source cylinders|sensor]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -1022,6 +1026,7 @@ int main(int argc, char **argv)
 {
     static sim_t s;
     memset(&s, 0, sizeof s);
+    s.wrench_source = -1;
     s.ifs[0] = "vcan0", s.ifs[1] = "vcan1", s.ifs[2] = "vcan2";
     s.status_state = -1;
     const char *scenario = NULL, *log_path = NULL, *truth_path = NULL;
@@ -1067,6 +1072,8 @@ int main(int argc, char **argv)
             have_load = 1, i++;
         } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
             sp_timeout = (uint32_t)u, i++;
+        } else if (strcmp(a, "--wrench-source") == 0 && (strcmp(v, "cylinders") == 0 || strcmp(v, "sensor") == 0)) {
+            s.wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS, i++;
         } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
             s.tick0 = (uint32_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
@@ -1128,6 +1135,9 @@ int main(int argc, char **argv)
             return 1;
         }
         s.ncfg.sync_master = 0u;
+        (void)sp_ctrl_set_wrench_source(&s.ncfg.ctrl,
+                                        (s.wrench_source >= 0) ? (uint8_t)s.wrench_source : sp_wrench_source_default,
+                                        &sp_ft_mount_default); /* as sp_controller */
         (void)sp_node_init(&s.node, &s.ncfg);
         s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
     }

@@ -215,6 +215,17 @@ sp_status_t plain_admit_step(const sp_admit_config_t *cfg, plain_admit_t *st, sp
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
         }
         int limited = 0;
+        if (forced) {
+            /* the acceleration held to a_brake */
+            int64_t dv = ((int64_t)ax->a_brake * cfg->tick_us + 500000) / 1000000;
+            if (v > s->v + dv) {
+                v = s->v + dv;
+                limited = 1;
+            } else if (v < s->v - dv) {
+                v = s->v - dv;
+                limited = 1;
+            }
+        }
         sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
         sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
         int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, &limited);
@@ -262,6 +273,7 @@ uint32_t plain_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, co
         st->made = 0u;
         st->armed = 0u;
         st->low = 0u;
+        st->high = 0u;
         return events;
     }
     int64_t t_norm = (int64_t)sp_isqrt64((uint64_t)t2); /* |F_target|, Q8 */
@@ -271,12 +283,18 @@ uint32_t plain_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, co
             st->made = 1u;
             st->armed = 0u;
             st->low = 0u;
+            st->high = 0u;
             events |= SP_CONTACT_MADE;
         }
     } else {
         int64_t level = (int64_t)(cfg->lost_ratio >> 15) * (t2 >> 15); /* Q30 x Q16 -> Q16 */
         if (dot >= level) {
-            st->armed = 1u;
+            st->high = (st->high < UINT8_MAX) ? (uint8_t)(st->high + 1u) : st->high;
+            if (st->high >= cfg->arm_ticks) {
+                st->armed = 1u;
+            }
+        } else {
+            st->high = 0u;
         }
         int64_t floor_ = st->armed ? level : (made / 2) * t_norm;
         if (dot < floor_) {
@@ -285,6 +303,7 @@ uint32_t plain_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, co
                 st->made = 0u;
                 st->armed = 0u;
                 st->low = 0u;
+                st->high = 0u;
                 events |= SP_CONTACT_LOST;
             }
         } else {

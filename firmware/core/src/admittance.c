@@ -220,7 +220,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                  * and the brake both leave it there (v = 0, d = 0, inside
                  * every bound), so nothing to compute */
                 s->a = 0;
-                continue;
+                        continue;
             }
         } else if (x_meas != NULL) {
             /* the pose through the wrench filter's sections, for the secant;
@@ -279,6 +279,17 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
         }
         int limited = 0;
+        if (forced) {
+            /* the reference's acceleration held to a_brake: a change of the
+             * adapted damping or a step of the wrench then ramps the speed
+             * instead of stepping it (the cylinders' estimate reads a step
+             * of the reference's speed as a spike of wrench) */
+            const int64_t dv = s->dv_brake;
+            if (v > (int64_t)s->v + dv || v < (int64_t)s->v - dv) {
+                v = (v > s->v) ? (int64_t)s->v + dv : (int64_t)s->v - dv;
+                limited = 1;
+            }
+        }
         sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
         sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
         int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, &limited);
@@ -348,6 +359,7 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
         st->made = 0u;
         st->armed = 0u;
         st->low = 0u;
+        st->high = 0u;
         return events;
     }
     const int64_t t_norm = tp->t_norm;
@@ -357,12 +369,20 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
             st->made = 1u;
             st->armed = 0u;
             st->low = 0u;
+            st->high = 0u;
             events |= SP_CONTACT_MADE;
         }
     } else {
         int64_t level = (int64_t)(cfg->lost_ratio >> 15) * (t2 >> 15); /* Q30 x Q16 -> Q16 */
         if (dot >= level) {
-            st->armed = 1u;
+            /* armed once the push-back has held the level arm_ticks ticks
+             * on end: a spike of the wrench does not arm it */
+            st->high = (st->high < UINT8_MAX) ? (uint8_t)(st->high + 1u) : st->high;
+            if (st->high >= cfg->arm_ticks) {
+                st->armed = 1u;
+            }
+        } else {
+            st->high = 0u;
         }
         int64_t floor_ = st->armed ? level : (made / 2) * t_norm;
         if (dot < floor_) {
@@ -371,6 +391,7 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
                 st->made = 0u;
                 st->armed = 0u;
                 st->low = 0u;
+                st->high = 0u;
                 events |= SP_CONTACT_LOST;
             }
         } else {

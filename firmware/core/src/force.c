@@ -34,6 +34,7 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     cfg->contact.made = 100 * SP_Q8_ONE;
     cfg->contact.lost_ratio = SP_Q30_ONE / 2;
     cfg->contact.lost_ticks = 2u;
+    cfg->contact.arm_ticks = 100u;
     cfg->contact.excess = 10000 * SP_Q8_ONE;
     cfg->target_max_force = 8000 * SP_Q8_ONE;
     cfg->target_max_moment = 1000 * SP_Q8_ONE;
@@ -57,6 +58,7 @@ sp_status_t sp_force_reset(sp_force_t *f)
     f->contact.made = 0u;
     f->contact.armed = 0u;
     f->contact.low = 0u;
+    f->contact.high = 0u;
     return SP_OK;
 }
 
@@ -118,6 +120,11 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
         if (mode == SP_FORCE_GUIDE) {
             (void)sp_admit_restart(&f->st, f->free_guide);
         }
+    }
+    if (f->mode == SP_FORCE_FORCE) {
+        /* a new target: the lost level is its share, armed again once held */
+        f->contact.armed = 0u;
+        f->contact.high = 0u;
     }
     f->mode = mode;
     f->mask = (uint8_t)(mask & 0x3Fu);

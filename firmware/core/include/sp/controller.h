@@ -323,10 +323,24 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
  *  loses it. */
 #define SP_CONTACT_MADE_CYLINDERS_Q8 (300 * 256)
 
+/** ... and contact counts as lost below 80 % of the target there (the
+ *  sensor's 50 %): the estimate sees a removed surface only as the
+ *  platform starts to move (the cylinders' forces change later), so it
+ *  falls slower than the sensor's reading; 80 % keeps the detection within
+ *  10 ticks. Q30. */
+#define SP_CONTACT_LOST_CYLINDERS_Q30 ((sp_q30_t)(((int64_t)3 << 30) / 4))
+
+/** ... and the force loop crosses over at 10 rad/s there (the sensor's
+ *  20): the estimate's noise reaches the true force up to the crossover,
+ *  so half of it halves the noise's band. Q16. */
+#define SP_CROSSOVER_CYLINDERS_Q16 (10 * 65536)
+
 /** Chooses force control's wrench source (SP_WRENCH_CYLINDERS or
  *  SP_WRENCH_SENSOR), the sensor's mounting (NULL: keep cfg's) and the
- *  contact threshold that suits the source (SP_CONTACT_MADE_CYLINDERS_Q8
- *  on the cylinders, 100 N on the sensor). For ports that take both from
+ *  contact levels and loop crossover that suit the source
+ *  (SP_CONTACT_MADE_CYLINDERS_Q8, SP_CONTACT_LOST_CYLINDERS_Q30,
+ *  SP_CROSSOVER_CYLINDERS_Q16 on the cylinders; sp_force_default_config's
+ *  on the sensor). For ports that take both from
  *  the platform config (sp_wrench_source_default, sp_ft_mount_default).
  *  SP_E_ARG for a NULL cfg or another source (cfg unchanged). */
 sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, const sp_ft_mount_t *mount);
