@@ -24,7 +24,7 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
         cfg->guide_damping[k] = lin ? 1000 : 200;
         cfg->deflection[k] = SP_Q24_MILLI(50);
     }
-    cfg->admit.crossover = 20 * SP_Q16_ONE;
+    cfg->admit.crossover = 30 * SP_Q16_ONE;
     cfg->admit.k_min = 10000;
     cfg->admit.k_max = 100000000;
     cfg->admit.secant_force = 30 * SP_Q8_ONE;
