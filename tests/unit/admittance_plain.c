@@ -145,6 +145,11 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
             v = (v > 0) ? vb : -vb;
             *limited = 1;
         }
+        uint64_t vt = dist_c * SP_ADMIT_TAIL_RATE;
+        if ((uint64_t)((v < 0) ? -v : v) > vt) {
+            v = (v > 0) ? (int64_t)vt : -(int64_t)vt;
+            *limited = 1;
+        }
     }
     return (int32_t)v;
 }

@@ -186,6 +186,15 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
         if ((uint64_t)av * av > brake2) {
             int64_t vb = (int64_t)sp_isqrt64(brake2); /* Q24 */
             v = (v > 0) ? vb : -vb;
+            av = (uint32_t)vb;
+            *limited = 1;
+        }
+        /* the last stretch: dist / tau, so the reference comes to the
+         * bound exponentially and the platform, which lags it, does not
+         * pass it */
+        uint64_t vt = (uint64_t)dist_c * SP_ADMIT_TAIL_RATE; /* Q24 m/s */
+        if ((uint64_t)av > vt) {
+            v = (v > 0) ? (int64_t)vt : -(int64_t)vt;
             *limited = 1;
         }
     }

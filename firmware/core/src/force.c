@@ -21,7 +21,7 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
         ax->release_stiffness = lin ? 20000 : 5000;
         ax->v_max = SP_Q24_MILLI(100);
         ax->a_brake = 2 * SP_Q24_ONE;
-        cfg->guide_damping[k] = lin ? 1000 : 200;
+        cfg->guide_damping[k] = lin ? 2500 : 500;
         cfg->deflection[k] = SP_Q24_MILLI(50);
     }
     cfg->admit.crossover = 30 * SP_Q16_ONE;

@@ -37,8 +37,10 @@
  * to d = 0 are prepared once (sp_admit_configure, sp_admit_coefficients).
  * Then, in this order: |v| <= v_max; towards a bound [lo, hi] of d (the
  * deflection limit and the workspace, given by the caller each tick) v is
- * held to the braking speed sqrt(2 a_brake (bound - d)), so the axis stops
- * at the bound without passing it; d is held within [lo, hi].
+ * held to the braking speed sqrt(2 a_brake (bound - d)) and, on the last
+ * stretch, to (bound - d) / tau (SP_ADMIT_TAIL_RATE), so the axis comes to
+ * the bound without passing it, and so does the platform that lags it; d
+ * is held within [lo, hi].
  *
  * Axes outside the force mask, and every axis in release, return to d = 0
  * through a critically damped spring of the axis's release stiffness (no
@@ -54,6 +56,11 @@
 #include "sp/status.h"
 
 #define SP_AXES 6u
+
+/** 1 / tau of the last stretch towards a bound, 1/s: |v| <= dist / tau
+ *  there, so the reference reaches the bound exponentially (tau = 40 ms)
+ *  and the platform, lagging it, does not pass it. */
+#define SP_ADMIT_TAIL_RATE 25u
 
 /** Parameters of one axis (units: m and N for x, y, z; rad and N m for roll, pitch, yaw). */
 typedef struct {
