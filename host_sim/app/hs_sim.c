@@ -124,10 +124,10 @@ typedef struct {
     uint64_t co_sent;             /* frames the nodes sent */
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
     uint32_t co_rx_n, co_rx_i;
-    uint64_t tick;   /* the current cycle */
+    uint64_t tick;     /* the current cycle */
     int wrench_source; /* --wrench-source (--inproc): SP_WRENCH_*, -1 the config's */
-    uint32_t tick0;  /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
-    hs_inject_t inj; /* the fault injector on the bus (scenario `inject`) */
+    uint32_t tick0;    /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
+    hs_inject_t inj;   /* the fault injector on the bus (scenario `inject`) */
     /* --inproc: the controller (the firmware's node, as sp_controller --lockstep) in this process */
     int inproc;
     sp_node_config_t ncfg;

@@ -124,7 +124,8 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, plain_axis_state_t 
 }
 
 /* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist). */
-static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi, int *limited)
+static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi,
+                              uint32_t tick_us, int *limited)
 {
     int64_t lim = ax->v_max;
     if (v > lim || v < -lim) {
@@ -145,7 +146,7 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
             v = (v > 0) ? vb : -vb;
             *limited = 1;
         }
-        uint64_t vt = dist_c * SP_ADMIT_TAIL_RATE;
+        uint64_t vt = dist_c * SP_ADMIT_TAIL_RATE + 1000000u / tick_us;
         if ((uint64_t)((v < 0) ? -v : v) > vt) {
             v = (v > 0) ? (int64_t)vt : -(int64_t)vt;
             *limited = 1;
@@ -233,7 +234,7 @@ sp_status_t plain_admit_step(const sp_admit_config_t *cfg, plain_admit_t *st, sp
         }
         sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
         sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
-        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, &limited);
+        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, cfg->tick_us, &limited);
         int64_t d = (int64_t)s->d + (((int64_t)v_new * dt_q38 + (INT64_C(1) << 37)) >> 38);
         if (d > hi_k || d < lo_k) {
             d = (d > hi_k) ? hi_k : lo_k;

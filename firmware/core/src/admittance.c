@@ -165,8 +165,10 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, sp_admit_axis_state
     return (d < 1) ? 1 : d;
 }
 
-/* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist). */
-static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi, int *limited)
+/* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist),
+ * then dist / tau plus one LSB a tick (so that d reaches the bound). */
+static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi,
+                              int32_t rate_q16, int *limited)
 {
     int64_t lim = ax->v_max;
     if (v > lim || v < -lim) {
@@ -192,7 +194,7 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
         /* the last stretch: dist / tau, so the reference comes to the
          * bound exponentially and the platform, which lags it, does not
          * pass it */
-        uint64_t vt = (uint64_t)dist_c * SP_ADMIT_TAIL_RATE; /* Q24 m/s */
+        uint64_t vt = (uint64_t)dist_c * SP_ADMIT_TAIL_RATE + (uint32_t)(rate_q16 >> 16); /* Q24 m/s; >= 1 LSB a tick */
         if ((uint64_t)av > vt) {
             v = (v > 0) ? (int64_t)vt : -(int64_t)vt;
             *limited = 1;
@@ -229,7 +231,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                  * and the brake both leave it there (v = 0, d = 0, inside
                  * every bound), so nothing to compute */
                 s->a = 0;
-                        continue;
+                continue;
             }
         } else if (x_meas != NULL) {
             /* the pose through the wrench filter's sections, for the secant;
@@ -301,7 +303,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         }
         sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
         sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
-        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, &limited);
+        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, st->rate_q16, &limited);
         int64_t d = (int64_t)s->d + (((int64_t)v_new * dt_q38 + (INT64_C(1) << 37)) >> 38);
         if (d > hi_k || d < lo_k) {
             d = (d > hi_k) ? hi_k : lo_k;

@@ -177,15 +177,16 @@ static sp_status_t init_one(uint8_t bus)
     } else {
         /* AXIS_FEEDBACK slots 1, 2; slot 3 (and on axis_b the force/torque sensor) */
         SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, SP_ID_AXIS_FEEDBACK_1, SP_ID_AXIS_FEEDBACK_1 + 1u);
-        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, SP_ID_AXIS_FEEDBACK_1 + 2u,
-                                                    (bus == SP_BUS_AXIS_B) ? SP_ID_FT_SENSOR : SP_ID_AXIS_FEEDBACK_1 + 2u);
+        SP_REG(r + SRAMCAN_FLSSA + 4u) =
+            STD_FILTER(SFEC_FIFO1, SP_ID_AXIS_FEEDBACK_1 + 2u,
+                       (bus == SP_BUS_AXIS_B) ? SP_ID_FT_SENSOR : SP_ID_AXIS_FEEDBACK_1 + 2u);
     }
     /* Three standard filters on ops, two on the axis buses, no extended;
      * reject non-matching and remote frames; both Rx FIFOs in blocking
      * mode (a full FIFO loses the new frame and sets RF0L / RF1L, counted
      * as an overrun). */
-    FDCAN_RXGFC(b) = ((bus == SP_BUS_OPS ? 3u : 2u) << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) | FDCAN_RXGFC_ANFS_REJECT |
-                     FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
+    FDCAN_RXGFC(b) = ((bus == SP_BUS_OPS ? 3u : 2u) << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) |
+                     FDCAN_RXGFC_ANFS_REJECT | FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
     FDCAN_TXBC(b) = 0u; /* TFQM = 0: Tx FIFO */
     FDCAN_IE(b) = 0u;   /* polled: no interrupt */
     FDCAN_ILE(b) = 0u;

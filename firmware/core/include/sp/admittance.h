@@ -69,7 +69,8 @@ typedef struct {
     int32_t stiffness;         /**< K, spring to the position reference, N/m or N m/rad, >= 0 */
     int32_t release_stiffness; /**< spring of the return to d = 0, N/m or N m/rad, >= 1 */
     sp_q24_t v_max;            /**< speed limit of d, m/s or rad/s, Q24, > 0 */
-    sp_q24_t a_brake;          /**< largest |d''| of a forced axis, and the deceleration towards a bound and in hold, m/s^2 or rad/s^2, Q24, > 0 */
+    sp_q24_t
+        a_brake; /**< largest |d''| of a forced axis, and the deceleration towards a bound and in hold, m/s^2 or rad/s^2, Q24, > 0 */
 } sp_admit_axis_t;
 
 /** Parameters of the admittance (sp_admit_configure checks them). */
