@@ -333,7 +333,7 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
 /** ... and the force loop crosses over at 10 rad/s there (the sensor's
  *  20): the estimate's noise reaches the true force up to the crossover,
  *  so half of it halves the noise's band. Q16. */
-#define SP_CROSSOVER_CYLINDERS_Q16 (10 * 65536)
+#define SP_CROSSOVER_CYLINDERS_Q16 (6 * 65536)
 
 /** Chooses force control's wrench source (SP_WRENCH_CYLINDERS or
  *  SP_WRENCH_SENSOR), the sensor's mounting (NULL: keep cfg's) and the
