@@ -511,6 +511,11 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_POSITION:
     case SP_CMD_TARE:
         return command_force(cfg, ctrl, cmd);
+    case SP_CMD_FORCE_PARAMS:
+        /* position control only (sp_force_set_params refuses otherwise) */
+        return sp_force_set_params(&ctrl->prep.force, &ctrl->force, (sp_force_mode_t)cmd->force_params_mode,
+                                   cmd->force_mask, cmd->force_params_mass, cmd->force_params_damping,
+                                   cmd->force_params_stiffness) == SP_OK;
     case SP_CMD_RESET:
         if (ctrl->state != SP_STATE_FAULT && ctrl->state != SP_STATE_ESTOP) {
             return 0;

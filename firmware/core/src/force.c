@@ -135,6 +135,38 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
     return SP_OK;
 }
 
+sp_status_t sp_force_set_params(sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
+                                sp_q16_t mass, int32_t damping, int32_t stiffness)
+{
+    if (cfg == NULL || f == NULL || mask == 0u || mask > 0x3Fu || (mode != SP_FORCE_FORCE && mode != SP_FORCE_GUIDE) ||
+        mass < SP_Q16_ONE || damping < 1 || stiffness < 0) {
+        return SP_E_ARG;
+    }
+    if (f->mode != SP_FORCE_OFF) {
+        return SP_E_BUSY;
+    }
+    sp_force_config_t next = *cfg;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        if ((mask & (1u << k)) == 0u) {
+            continue;
+        }
+        next.admit.axis[k].mass = mass;
+        next.admit.axis[k].stiffness = stiffness;
+        if (mode == SP_FORCE_FORCE) {
+            next.admit.axis[k].damping = damping;
+        } else {
+            next.guide_damping[k] = damping;
+        }
+    }
+    sp_status_t s = sp_force_init(&next, f);
+    if (s != SP_OK) {
+        (void)sp_force_init(cfg, f); /* as before: it was initialised with cfg */
+        return s;
+    }
+    *cfg = next;
+    return SP_OK;
+}
+
 sp_status_t sp_force_release(sp_force_t *f)
 {
     if (f == NULL) {

@@ -111,23 +111,29 @@ typedef enum {
     SP_CMD_PARK = 6,
     SP_CMD_ESTOP = 7,
     SP_CMD_RESET = 8,
-    SP_CMD_FORCE = 10,    /**< enter force control (force_mask, force_target), or update its target */
-    SP_CMD_GUIDE = 11,    /**< enter hand guiding (force_mask) */
-    SP_CMD_POSITION = 12, /**< leave force control smoothly (back onto the position reference) */
-    SP_CMD_TARE = 13      /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
+    SP_CMD_FORCE = 10,       /**< enter force control (force_mask, force_target), or update its target */
+    SP_CMD_GUIDE = 11,       /**< enter hand guiding (force_mask) */
+    SP_CMD_POSITION = 12,    /**< leave force control smoothly (back onto the position reference) */
+    SP_CMD_TARE = 13,        /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
                                estimate's at rest (READY, position control) */
+    SP_CMD_FORCE_PARAMS = 14 /**< the admittance's parameters for force_mask (force_params_*): only in position
+                                  control (not on OP_COMMAND: the node makes it from OP_FORCE_PARAMS) */
 } sp_cmd_type_t;
 
 typedef struct {
     sp_cmd_type_t type;
-    sp_axis_t axis;          /**< RUN_TRIG: axis */
-    sp_q24_t amplitude;      /**< RUN_TRIG: m or rad, Q24 */
-    sp_q24_t frequency;      /**< RUN_TRIG: Hz, Q24 */
-    uint32_t fade_ticks;     /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
-    sp_pose_t target;        /**< MOVE_TO: absolute pose */
-    uint8_t force_mask;      /**< FORCE, GUIDE: the force-controlled axes (bit k: x, y, z, roll, pitch, yaw) */
-    sp_q8_t force_target[6]; /**< FORCE: the wrench the platform is to exert on the world, N, N m, base frame,
+    sp_axis_t axis;                 /**< RUN_TRIG: axis */
+    sp_q24_t amplitude;             /**< RUN_TRIG: m or rad, Q24 */
+    sp_q24_t frequency;             /**< RUN_TRIG: Hz, Q24 */
+    uint32_t fade_ticks;            /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
+    sp_pose_t target;               /**< MOVE_TO: absolute pose */
+    uint8_t force_mask;             /**< FORCE, GUIDE: the force-controlled axes (bit k: x, y, z, roll, pitch, yaw) */
+    sp_q8_t force_target[6];        /**< FORCE: the wrench the platform is to exert on the world, N, N m, base frame,
                                   about o', Q8 */
+    uint8_t force_params_mode;      /**< FORCE_PARAMS: the damping set is FORCE's (SP_FORCE_FORCE) or GUIDE's */
+    sp_q16_t force_params_mass;     /**< FORCE_PARAMS: virtual mass, kg or kg m^2, Q16 */
+    int32_t force_params_damping;   /**< FORCE_PARAMS: free-space damping, N s/m or N m s/rad */
+    int32_t force_params_stiffness; /**< FORCE_PARAMS: spring to the position reference, N/m or N m/rad */
 } sp_ctrl_cmd_t;
 
 /** Drive modes sent with the setpoints (in the spirit of CiA 408). */

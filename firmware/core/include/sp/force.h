@@ -108,6 +108,21 @@ sp_status_t sp_force_reset(sp_force_t *f);
 sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
                            const sp_q8_t target[SP_AXES]);
 
+/**
+ * New admittance parameters for the axes in `mask` (1..63): the virtual
+ * mass (Q16, kg or kg m^2, >= 1 kg), the stiffness of the spring to the
+ * position reference (>= 0) and the free-space damping (>= 1) of FORCE
+ * (mode SP_FORCE_FORCE: the approach) or of GUIDE (SP_FORCE_GUIDE: hand
+ * guiding); then every coefficient is prepared again (sp_force_init: a
+ * command's tick in position control pays eighteen coefficient sets).
+ * Only in OFF: SP_E_BUSY in any other mode. SP_E_ARG on NULL, a bad mask
+ * or mode, or a parameter out of its range; SP_E_OVERFLOW when a
+ * coefficient does not fit (sp_admit_configure). On any refusal cfg and f
+ * are as before.
+ */
+sp_status_t sp_force_set_params(sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
+                                sp_q16_t mass, int32_t damping, int32_t stiffness);
+
 /** FORCE or GUIDE -> RELEASE; no-op (SP_OK) in OFF, RELEASE and HOLD. SP_E_ARG on NULL. */
 sp_status_t sp_force_release(sp_force_t *f);
 
