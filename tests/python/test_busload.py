@@ -52,12 +52,13 @@ def test_shipped_dbc_within_50_percent_per_bus():
     loads = {bus: bl.bus_load_percent(rows) for bus, rows in table.items()}
     # SYNC 8 + setpoints 32 + 3 x feedback 12 bytes; command 12 + pose 24 + status 32 + monitor 64,
     # + CTRL_WRENCH 24 bytes every 2 ms, + OP_HEARTBEAT 4 bytes every 20 ms, + OP_FORCE 20 bytes
-    # budgeted every 10 ms; axis_b also carries FT_SENSOR, 20 bytes every 1 ms
+    # and OP_FORCE_PARAMS 12 bytes budgeted every 10 ms; axis_b also carries FT_SENSOR, 20 bytes
+    # every 1 ms
     assert loads["axis_a"] == pytest.approx((5 * 34 + (113 + 358 + 3 * 153) / 5) / 10, abs=1e-9)
     assert loads["axis_b"] == pytest.approx((6 * 34 + (113 + 358 + 3 * 153 + 238) / 5) / 10, abs=1e-9)
     assert loads["ops"] == pytest.approx((4 * 34 + (153 + 278 + 358 + 678) / 5 + (34 + 278 / 5) / 2 + (34 + 73 / 5) / 20
-                                          + (34 + 238 / 5) / 10) / 10, abs=1e-9)
-    assert loads["ops"] == pytest.approx(48.48, abs=0.005)
+                                          + (34 + 238 / 5) / 10 + (34 + 153 / 5) / 10) / 10, abs=1e-9)
+    assert loads["ops"] == pytest.approx(49.13, abs=0.005)
     assert loads["axis_b"] == pytest.approx(43.76, abs=0.005)
     assert all(v <= 50.0 for v in loads.values()), loads
     single, drives = bl.single_bus_rows(table)
@@ -68,8 +69,8 @@ def test_shipped_dbc_within_50_percent_per_bus():
 def test_cli_passes_and_fails_on_a_tight_limit(capsys):
     assert cli.main(["busload"]) == 0
     out = capsys.readouterr().out
-    assert "35.6 %" in out and "43.8 %" in out and "48.5 %" in out
-    assert cli.main(["busload", "--limit", "48"]) == 1  # ops at 48.5 % is above
+    assert "35.6 %" in out and "43.8 %" in out and "49.1 %" in out
+    assert cli.main(["busload", "--limit", "49"]) == 1  # ops at 49.1 % is above
     assert cli.main(["busload", "--limit", "30"]) == 1
 
 
@@ -88,7 +89,7 @@ def test_slower_bit_rate_overloads(tmp_path):
 
 
 def test_wrench_at_1khz_would_overload_the_ops_bus(tmp_path):
-    # CTRL_WRENCH is budgeted at 2 ms; at 1 ms the ops bus would be at 53.0 %
+    # CTRL_WRENCH is budgeted at 2 ms; at 1 ms the ops bus would be at 53.6 %
     text = (REPO_ROOT / "protocol" / "stewart.dbc").read_text()
     assert 'BA_ "GenMsgCycleTime" BO_ 258 2;' in text
     fast = tmp_path / "fast.dbc"
@@ -96,6 +97,6 @@ def test_wrench_at_1khz_would_overload_the_ops_bus(tmp_path):
     import cantools
 
     table = bl.load_table(cantools.database.load_file(str(fast), strict=True), 1e6, 5e6)
-    assert bl.bus_load_percent(table["ops"]) == pytest.approx(52.96, abs=0.05)
+    assert bl.bus_load_percent(table["ops"]) == pytest.approx(53.61, abs=0.05)
     assert cli.main(["busload", "--dbc", str(fast)]) == 1
     assert cli.main(["busload"]) == 0
