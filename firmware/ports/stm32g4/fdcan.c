@@ -35,6 +35,7 @@
 #include <stddef.h>
 
 #include "g4_regs.h"
+#include "sp/protocol.h" /* the identifiers the filters pass */
 #include "sp_g4.h"
 
 /* ---- bit timing ---------------------------------------------------------- */
