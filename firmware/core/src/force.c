@@ -185,8 +185,8 @@ static sp_q24_t add_sat(sp_q24_t a, sp_q24_t b)
 }
 
 /* The bounds of d on the axes in `moving`: the deflection limit and the
- * workspace box around the position reference (0 when the reference is
- * outside it). An axis outside `moving` (at rest on the position reference
+ * workspace box around the position reference, each less the margin
+ * SP_FORCE_BOUND_MARGIN (0 when the reference is outside them). An axis outside `moving` (at rest on the position reference
  * and not forced: sp_admit_step leaves it there without reading its
  * bounds) gets [0, 0], which would hold it there as well. */
 static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, uint8_t moving,
@@ -202,8 +202,8 @@ static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const s
         int64_t l = (int64_t)lim->ws_lo[k] - x;
         int64_t h = (int64_t)lim->ws_hi[k] - x;
         int64_t defl = cfg->deflection[k];
-        l = (l < -defl) ? -defl : l;
-        h = (h > defl) ? defl : h;
+        l = ((l < -defl) ? -defl : l) + SP_FORCE_BOUND_MARGIN;
+        h = ((h > defl) ? defl : h) - SP_FORCE_BOUND_MARGIN;
         lo[k] = (sp_q24_t)((l > 0) ? 0 : l);
         hi[k] = (sp_q24_t)((h < 0) ? 0 : h);
     }

@@ -16,7 +16,8 @@
  *            excessive force (the controller then latches its fault).
  *   HOLD     after a lost contact: every axis brakes to rest where it is.
  * The offset d of each axis is bounded by the deflection limit of the config
- * and by the workspace box (sp_limits_t) around the position reference, so a
+ * and by the workspace box (sp_limits_t) around the position reference, each
+ * less SP_FORCE_BOUND_MARGIN, so a
  * force-controlled reference never leaves the workspace; the controller
  * still passes every reference through all of its limits. The rotational
  * axes act on the roll, pitch, yaw angles of the pose (Z-Y-X), which are the
@@ -28,6 +29,12 @@
 #include "sp/admittance.h"
 #include "sp/limits.h"
 #include "sp/platform.h"
+
+/** The offset stops this far inside the deflection limit and the workspace
+ *  (m or rad, Q24: 0.2 mm, 0.2 mrad): the platform lags the reference by
+ *  tens of um (more on the cylinders' noisy estimate), so it stops inside
+ *  the bound too. */
+#define SP_FORCE_BOUND_MARGIN ((sp_q24_t)3355)
 
 typedef enum {
     SP_FORCE_OFF = 0,
