@@ -76,10 +76,11 @@ typedef struct {
  * Defaults for a hydraulic hexapod of a few tonnes: approach at 2 mm/s per
  * 2 kN (free damping 1e6 N s/m; 1e5 N m s/rad), M = 20 kg (5 kg m^2),
  * K = 0, release stiffness 2e4 N/m (5e3 N m/rad), speed limits 0.1 m/s
- * (0.1 rad/s), braking 2 m/s^2 (2 rad/s^2); crossover 20 rad/s; surfaces
- * from 1e4 to 1e8 N/m; the secant after 30 N and 10 um; contact made at
- * 100 N, lost below half the target for 2 ticks, excess above 10 kN;
- * guide damping 1000 N s/m (200 N m s/rad); deflection 50 mm (0.05 rad);
+ * (0.1 rad/s), acceleration and braking 2 m/s^2 (2 rad/s^2); crossover
+ * 30 rad/s; surfaces from 1e4 to 1e8 N/m; the secant after 30 N and 10 um;
+ * contact made at 100 N, lost below half the target for 2 ticks once the
+ * push-back held half of it for 100 ticks, excess above 10 kN; guide
+ * damping 2500 N s/m (500 N m s/rad); deflection 50 mm (0.05 rad);
  * targets up to 8 kN and 1 kN m; released within 1 um. The filter of the
  * pose for the stiffness secant must be the wrench's: `filter_alpha` is
  * the caller's (sp_wrench_alpha). SP_E_ARG on NULL.
