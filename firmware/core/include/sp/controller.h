@@ -334,7 +334,7 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
  *  platform starts to move (the cylinders' forces change later), so it
  *  falls slower than the sensor's reading; 80 % keeps the detection within
  *  10 ticks. Q30. */
-#define SP_CONTACT_LOST_CYLINDERS_Q30 ((sp_q30_t)(((int64_t)3 << 30) / 4))
+#define SP_CONTACT_LOST_CYLINDERS_Q30 ((sp_q30_t)(((int64_t)4 << 30) / 5))
 
 /** ... and the force loop crosses over at 10 rad/s there (the sensor's
  *  20): the estimate's noise reaches the true force up to the crossover,
