@@ -6,7 +6,7 @@
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
  *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N] [--key FILE]
- *          [--session N]
+ *          [--session N] [--wrench-source cylinders|sensor]
  *
  * Command authentication (docs/security.md): the scenario's commands, MOVE_TO
  * and streamed targets and force targets are signed, as `stewart op` signs
@@ -62,6 +62,8 @@
  * report with every frame accounted on both sides.
  * --tick0 N (test only): the SYNC tick of cycle 0 (and with --inproc the
  * controller's own tick), to run through the 2^32 and TickEcho wraps.
+ * --wrench-source cylinders|sensor (with --inproc): force control's wrench
+ * source, as sp_controller's option (default: the platform config's).
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
  * The force/torque sensor (hs/ftsensor.h, mounted as the config's
@@ -135,9 +137,10 @@ typedef struct {
     uint64_t co_sent;             /* frames the nodes sent */
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
     uint32_t co_rx_n, co_rx_i;
-    uint64_t tick;   /* the current cycle */
-    uint32_t tick0;  /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
-    hs_inject_t inj; /* the fault injector on the bus (scenario `inject`) */
+    uint64_t tick;     /* the current cycle */
+    int wrench_source; /* --wrench-source (--inproc): SP_WRENCH_*, -1 the config's */
+    uint32_t tick0;    /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
+    hs_inject_t inj;   /* the fault injector on the bus (scenario `inject`) */
     /* --inproc: the controller (the firmware's node, as sp_controller --lockstep) in this process */
     int inproc;
     sp_node_config_t ncfg;
@@ -196,7 +199,7 @@ static int controller_listens(const sp_can_frame_t *f)
 {
     if (f->bus == SP_BUS_OPS) {
         return f->id == SP_ID_OP_COMMAND || f->id == SP_ID_OP_TARGET_POSE || f->id == SP_ID_OP_HEARTBEAT ||
-               f->id == SP_ID_OP_FORCE;
+               f->id == SP_ID_OP_FORCE || f->id == SP_ID_OP_FORCE_PARAMS;
     }
     if (f->bus == SP_BUS_AXIS_B && f->id == SP_ID_FT_SENSOR) {
         return 1;
@@ -937,7 +940,7 @@ static void usage(void)
     fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
                     "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
                     "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n"
-                    "              [--tick0 N] [--key FILE] [--session N]\n");
+                    "              [--tick0 N] [--key FILE] [--session N] [--wrench-source cylinders|sensor]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -1088,6 +1091,7 @@ int main(int argc, char **argv)
 {
     static sim_t s;
     memset(&s, 0, sizeof s);
+    s.wrench_source = -1;
     s.ifs[0] = "vcan0", s.ifs[1] = "vcan1", s.ifs[2] = "vcan2";
     s.status_state = -1;
     const char *scenario = NULL, *log_path = NULL, *truth_path = NULL;
@@ -1138,6 +1142,8 @@ int main(int argc, char **argv)
             key_path = v, i++;
         } else if (strcmp(a, "--session") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
             s.session = (uint32_t)u, s.session_known = 1, i++;
+        } else if (strcmp(a, "--wrench-source") == 0 && (strcmp(v, "cylinders") == 0 || strcmp(v, "sensor") == 0)) {
+            s.wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS, i++;
         } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
             s.tick0 = (uint32_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
@@ -1213,6 +1219,9 @@ int main(int argc, char **argv)
         s.ncfg.sync_master = 0u;
         s.ncfg.auth_key = s.have_key ? &s.key : NULL;
         s.ncfg.auth_session = s.session;
+        (void)sp_ctrl_set_wrench_source(&s.ncfg.ctrl,
+                                        (s.wrench_source >= 0) ? (uint8_t)s.wrench_source : sp_wrench_source_default,
+                                        &sp_ft_mount_default); /* as sp_controller */
         (void)sp_node_init(&s.node, &s.ncfg);
         s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
     }
@@ -1232,8 +1241,9 @@ int main(int argc, char **argv)
     memset(bc, 0, sizeof bc);
     bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s.ifs[0],
                                               {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH,
-                                               SP_ID_CTRL_AUTH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE},
-                                              7u};
+                                               SP_ID_CTRL_AUTH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE,
+                                               SP_ID_OP_FORCE_PARAMS},
+                                              8u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
         if (s.canopen) { /* NMT, SYNC, and per node RPDO1 and SDO requests */

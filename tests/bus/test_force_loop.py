@@ -10,6 +10,10 @@ from 0.5 s after contact, overshoot <= 10 %, peak-to-peak <= 2 % in the
 last second; the removal detected within 10 ticks (CONTACT_LOST latched),
 the platform at rest within 5 mm of where it was; the refusals counted
 and reported (CTRL_STATUS CmdRejected, the controller's summary).
+
+A second, shorter run holds 2 kN on the same surface with the cylinders'
+estimate as the source (no sensor): within 2 % RMS, overshoot <= 10 %,
+peak-to-peak <= 2 %, and the removal detected within 10 ticks.
 """
 
 from __future__ import annotations
@@ -34,14 +38,29 @@ SCENARIO = ("cmd ENGAGE\n"
             + fc.remove_surface(1.0)
             + "end\n")
 
+SCENARIO_CYLINDERS = ("cmd ENGAGE\n"
+                      "wait ready 20\n"
+                      "delay 0.3\n"
+                      + fc.tare()
+                      + fc.approach_and_hold(1e6, 2000.0, hold=2.0)
+                      + fc.remove_surface(0.5)
+                      + "end\n")
+
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
+def runs(tmp_path_factory):
     out = tmp_path_factory.mktemp("force_loop")
-    r = cl.run([cl.RunSpec("force", SCENARIO, wrench_source="sensor")], out, progress=False, timeout=600)[0]
-    assert r.plant_rc == 0, r.plant_out[-2000:]
-    print(r.figures)
-    return r, read_truth(r.truth), fc.read_status(r.log), fc.marks(r.plant_out)
+    rs = cl.run([cl.RunSpec("force", SCENARIO, wrench_source="sensor"),
+                 cl.RunSpec("force_cylinders", SCENARIO_CYLINDERS, wrench_source="cylinders")],
+                out, progress=False, timeout=900)
+    for r in rs:
+        assert r.plant_rc == 0, r.plant_out[-2000:]
+    return [(r, read_truth(r.truth), fc.read_status(r.log), fc.marks(r.plant_out)) for r in rs]
+
+
+@pytest.fixture(scope="module")
+def run(runs):
+    return runs[0]
 
 
 def test_hold_2kN_on_1e6(run):
@@ -78,4 +97,21 @@ def test_contact_loss_stops_and_latches(run):
     assert loss["detected_ticks"] is not None and loss["detected_ticks"] <= fc.LOSS_TICKS
     assert loss["travel_max_mm"] <= fc.LOSS_REST_MM
     assert loss["final_speed_mm_s"] <= 0.1
+    assert loss["fault_latched"] and loss["state"] == "FAULT"
+
+
+def test_hold_2kN_on_1e6_with_the_cylinders_estimate(runs):
+    r, truth, status, m = runs[1]
+    h = fc.hold_figures(truth, m["begin hold"], m["end hold"], 2000.0)
+    print("hold (cylinders)", h)
+    assert h["contact_tick"] is not None and h["n"] >= 1500
+    assert h["rms_pct"] <= fc.HOLD_RMS_CYLINDERS_PCT
+    assert h["overshoot_pct"] <= fc.HOLD_OVERSHOOT_PCT
+    assert h["pp_pct"] <= fc.HOLD_PP_PCT
+    sel = (status.tick >= m["begin hold"]) & (status.tick < m["remove"])
+    assert np.all((status.faults[sel] & fc.FAULT_CONTACT_LOST) == 0)
+    loss = fc.loss_figures(truth, status, m["remove"])
+    print("loss (cylinders)", loss)
+    assert loss["detected_ticks"] is not None and loss["detected_ticks"] <= fc.LOSS_TICKS
+    assert loss["travel_max_mm"] <= fc.LOSS_REST_MM
     assert loss["fault_latched"] and loss["state"] == "FAULT"

@@ -22,6 +22,7 @@ SPEC = {
     "OP_TARGET_POSE": (0x050, 32, ("ops",)),
     "OP_HEARTBEAT": (0x060, 4, ("ops",)),
     "OP_FORCE": (0x048, 32, ("ops",)),
+    "OP_FORCE_PARAMS": (0x049, 12, ("ops",)),
     "FT_SENSOR": (0x038, 20, ("axis_b",)),
     "CTRL_STATUS": (0x100, 32, ("ops",)),
     "CTRL_MONITOR": (0x101, 64, ("ops",)),
@@ -29,7 +30,8 @@ SPEC = {
     "CTRL_AUTH": (0x103, 16, ("ops",)),
 }
 #: Messages not sent every 1 ms, and their period.
-PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10, "OP_COMMAND": 10, "CTRL_AUTH": 10}
+PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10, "OP_COMMAND": 10, "CTRL_AUTH": 10,
+             "OP_FORCE_PARAMS": 10}
 
 
 @pytest.fixture()
@@ -406,7 +408,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "38.0 %" in text and "46.2 %" in text and "45.4 %" in text
+    assert "38.0 %" in text and "46.2 %" in text and "46.0 %" in text
 
 
 def test_doc_cli_check(tmp_path):
@@ -423,3 +425,22 @@ def test_decode_cli(capsys, vectors):
     bad = v["data"][:-2] + ("00" if v["data"][-2:] != "00" else "01")
     assert cli.main(["protocol", "decode", hex(v["frame_id"]), bad]) == 1
     assert "bad-crc" in capsys.readouterr().out
+
+
+def test_force_params_ranges_are_refused_by_name(proto):
+    """OP_FORCE_PARAMS: the tool refuses a parameter outside the DBC's range
+    naming it; within range it encodes to the C encoder's bytes
+    (tests/unit/test_node.c sends the same)."""
+    assert pr.force_params_check(40.0, 5e5, 0.0) is None
+    assert pr.force_params_check(0.5, 5e5, 0.0) == "mass 0.5 kg is out of range (1 .. 5000)"
+    assert pr.force_params_check(40.0, 50.0, 0.0).startswith("damping 50 N s/m is out of range")
+    assert pr.force_params_check(40.0, 5e5, 2e7).startswith("stiffness 2e+07 N/m is out of range")
+    assert pr.force_params_check(float("nan"), 5e5, 0.0).startswith("mass nan")
+    with pytest.raises(ValueError, match="mask 0"):
+        pr.force_params_signals(0, "FORCE", 40.0, 5e5, 0.0)
+    msg = proto.message("OP_FORCE_PARAMS")
+    for s in msg.signals[3:6]:
+        lo, hi = pr.FORCE_PARAM_RANGES[s.name.lower()]
+        assert (s.minimum, s.maximum) == (lo, hi), s.name
+    data = proto.encode("OP_FORCE_PARAMS", pr.force_params_signals(4, "FORCE", 40.0, 5e5, 0.0), 0)
+    assert data.hex() == "0410900150c300000000002a"

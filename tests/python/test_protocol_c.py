@@ -39,6 +39,7 @@ CODECS = {
     "OP_TARGET_POSE": ("sp_proto_decode_target", "sp_proto_encode_target", "ops"),
     "OP_HEARTBEAT": ("sp_proto_decode_heartbeat", "sp_proto_encode_heartbeat", "bare"),
     "OP_FORCE": ("sp_proto_decode_force", "sp_proto_encode_force", "ops"),
+    "OP_FORCE_PARAMS": ("sp_proto_decode_force_params", "sp_proto_encode_force_params", "ops"),
     "FT_SENSOR": ("sp_proto_decode_ft", "sp_proto_encode_ft", "ops"),
     "CTRL_STATUS": ("sp_proto_decode_status", "sp_proto_encode_status", "ops"),
     "CTRL_MONITOR": ("sp_proto_decode_monitor", "sp_proto_encode_monitor", "ops"),

@@ -124,7 +124,8 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, plain_axis_state_t 
 }
 
 /* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist). */
-static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi, int *limited)
+static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi,
+                              uint32_t tick_us, int *limited)
 {
     int64_t lim = ax->v_max;
     if (v > lim || v < -lim) {
@@ -143,6 +144,11 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
         if (av * av > brake2) {
             int64_t vb = (int64_t)sp_isqrt64(brake2); /* Q24 */
             v = (v > 0) ? vb : -vb;
+            *limited = 1;
+        }
+        uint64_t vt = dist_c * SP_ADMIT_TAIL_RATE + 1000000u / tick_us;
+        if ((uint64_t)((v < 0) ? -v : v) > vt) {
+            v = (v > 0) ? (int64_t)vt : -(int64_t)vt;
             *limited = 1;
         }
     }
@@ -215,9 +221,20 @@ sp_status_t plain_admit_step(const sp_admit_config_t *cfg, plain_admit_t *st, sp
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
         }
         int limited = 0;
+        if (forced) {
+            /* the acceleration held to a_brake */
+            int64_t dv = ((int64_t)ax->a_brake * cfg->tick_us + 500000) / 1000000;
+            if (v > s->v + dv) {
+                v = s->v + dv;
+                limited = 1;
+            } else if (v < s->v - dv) {
+                v = s->v - dv;
+                limited = 1;
+            }
+        }
         sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
         sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
-        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, &limited);
+        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, cfg->tick_us, &limited);
         int64_t d = (int64_t)s->d + (((int64_t)v_new * dt_q38 + (INT64_C(1) << 37)) >> 38);
         if (d > hi_k || d < lo_k) {
             d = (d > hi_k) ? hi_k : lo_k;
@@ -262,6 +279,7 @@ uint32_t plain_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, co
         st->made = 0u;
         st->armed = 0u;
         st->low = 0u;
+        st->high = 0u;
         return events;
     }
     int64_t t_norm = (int64_t)sp_isqrt64((uint64_t)t2); /* |F_target|, Q8 */
@@ -271,12 +289,18 @@ uint32_t plain_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, co
             st->made = 1u;
             st->armed = 0u;
             st->low = 0u;
+            st->high = 0u;
             events |= SP_CONTACT_MADE;
         }
     } else {
         int64_t level = (int64_t)(cfg->lost_ratio >> 15) * (t2 >> 15); /* Q30 x Q16 -> Q16 */
         if (dot >= level) {
-            st->armed = 1u;
+            st->high = (st->high < UINT8_MAX) ? (uint8_t)(st->high + 1u) : st->high;
+            if (st->high >= cfg->arm_ticks) {
+                st->armed = 1u;
+            }
+        } else {
+            st->high = 0u;
         }
         int64_t floor_ = st->armed ? level : (made / 2) * t_norm;
         if (dot < floor_) {
@@ -285,6 +309,7 @@ uint32_t plain_contact_step(const sp_contact_config_t *cfg, sp_contact_t *st, co
                 st->made = 0u;
                 st->armed = 0u;
                 st->low = 0u;
+                st->high = 0u;
                 events |= SP_CONTACT_LOST;
             }
         } else {

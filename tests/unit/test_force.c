@@ -161,7 +161,7 @@ static void test_guide_and_workspace_bound(void **state)
     assert_int_equal(sp_force_start(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x3Fu, NULL), SP_OK);
     /* the position reference 10 mm inside the workspace's +x edge */
     r.pos_ref.pose.pos[0] = r.lim.ws_hi[0] - SP_Q24_MILLI(10);
-    sp_q8_t w[SP_AXES] = {50 * 256, 0, 0, 0, 0, 0}; /* 50 N: 0.05 m/s at D = 1000 N s/m */
+    sp_q8_t w[SP_AXES] = {50 * 256, 0, 0, 0, 0, 0}; /* 50 N: 0.02 m/s at D = 2500 N s/m */
     sp_motion_t out;
     uint32_t ev;
     double v_mid = 0.0;
@@ -172,9 +172,42 @@ static void test_guide_and_workspace_bound(void **state)
             v_mid = out.vel[0] / Q24;
         }
     }
-    assert_near(v_mid, 0.05, 0.05 * 0.02, "guided speed (M / D = 20 ms: settled at 0.1 s)");
-    assert_int_equal(out.pose.pos[0], r.lim.ws_hi[0]);
+    assert_near(v_mid, 0.02, 0.02 * 0.02, "guided speed (M / D = 8 ms: settled at 0.1 s)");
+    assert_int_equal(out.pose.pos[0], r.lim.ws_hi[0] - SP_FORCE_BOUND_MARGIN); /* stopped inside, by the margin */
     assert_int_equal(out.vel[0], 0);
+}
+
+/* New admittance parameters: taken in OFF (GUIDE's damping on x: 50 N
+ * then moves it at 50 / 1000 = 0.05 m/s), refused while force control
+ * runs and for bad values, the config unchanged then. */
+static void test_set_params(void **state)
+{
+    (void)state;
+    rig_t r;
+    rig_init(&r);
+    const sp_force_config_t before = r.cfg;
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x01u, 0, 1000, 0), SP_E_ARG); /* mass 0 */
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x00u, 10 * SP_Q16_ONE, 1000, 0), SP_E_ARG);
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_HOLD, 0x01u, 10 * SP_Q16_ONE, 1000, 0), SP_E_ARG);
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x01u, 10 * SP_Q16_ONE, 0, 0), SP_E_ARG);
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x01u, 10 * SP_Q16_ONE, 1000, -1), SP_E_ARG);
+    assert_memory_equal(&r.cfg, &before, sizeof before);
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x01u, 10 * SP_Q16_ONE, 1000, 0), SP_OK);
+    assert_int_equal(r.cfg.guide_damping[0], 1000);
+    assert_int_equal(r.cfg.admit.axis[0].mass, 10 * SP_Q16_ONE);
+    assert_int_equal(r.cfg.guide_damping[1], before.guide_damping[1]);
+    assert_int_equal(sp_force_start(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x01u, NULL), SP_OK);
+    sp_q8_t w[SP_AXES] = {50 * 256, 0, 0, 0, 0, 0};
+    sp_motion_t out;
+    uint32_t ev;
+    for (int n = 0; n <= 100; ++n) {
+        assert_int_equal(sp_force_step(&r.cfg, &r.f, &r.lim, &r.pos_ref, w, NULL, &out, &ev), SP_OK);
+    }
+    assert_near(out.vel[0] / Q24, 0.05, 0.05 * 0.02, "guided speed with the new damping");
+    const sp_force_config_t during = r.cfg;
+    assert_int_equal(sp_force_set_params(&r.cfg, &r.f, SP_FORCE_GUIDE, 0x01u, 10 * SP_Q16_ONE, 5000, 0), SP_E_BUSY);
+    assert_memory_equal(&r.cfg, &during, sizeof during);
+    assert_int_equal(r.f.mode, SP_FORCE_GUIDE);
 }
 
 int main(void)
@@ -183,6 +216,7 @@ int main(void)
         cmocka_unit_test(test_modes_and_refusals),
         cmocka_unit_test(test_hold_lost_excess),
         cmocka_unit_test(test_guide_and_workspace_bound),
+        cmocka_unit_test(test_set_params),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

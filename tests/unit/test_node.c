@@ -25,6 +25,7 @@ typedef struct {
     sp_q24_t length[SP_LEGS];
     uint8_t fb_counter[SP_LEGS];
     uint8_t op_counter;
+    uint8_t params_counter; /* OP_FORCE_PARAMS's own alive counter */
     int silent[SP_LEGS];
     sp_can_frame_t sent[SP_NODE_MAX_TX];
     uint32_t n_sent;
@@ -151,6 +152,15 @@ static void send_force(rig_t *r, uint8_t mask, double fz)
     sp_can_frame_t f;
     assert_int_equal(sp_proto_encode_force(&m, r->op_counter++, &f), SP_OK);
     sign(r, &f);
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
+}
+
+/* One OP_FORCE_PARAMS frame (mode 1: FORCE's damping). */
+static void send_force_params(rig_t *r, uint8_t mask, double mass, int32_t damping, int32_t stiffness)
+{
+    sp_msg_force_params_t m = {mask, 1u, (sp_q16_t)(mass * 65536.0), damping, stiffness};
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_force_params(&m, r->params_counter++, &f), SP_OK);
     assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
 }
 
@@ -687,7 +697,15 @@ static void test_force_commands_over_frames(void **state)
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_WRONG_BUS);
     rig_tick(&r);
+    /* admittance parameters in position control: taken (z: 40 kg, approach
+     * damping 5e5 N s/m, so 1 kN approaches at 2 mm/s, no spring) */
+    send_force_params(&r, 0x04u, 40.0, 500000, 0);
     rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 0u);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].mass, 40 * 65536);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].damping, 500000);
+    assert_int_equal(r.node.ctrl.force.free_force[2].damping, 500000);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[0].damping, 1000000); /* x: as configured */
     send_command(&r, SP_CMD_ENGAGE);
     for (uint32_t t = 0; t < 10000u && r.node.out.state != SP_STATE_READY; t++) {
         send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
@@ -749,6 +767,70 @@ static void test_force_commands_over_frames(void **state)
     assert_int_equal(r.node.out.force_mode, SP_FORCE_RELEASE);
     assert_int_equal(r.node.out.faults, 0u);
     assert_true(r.node.stats.ft_samples > 30u);
+    /* new parameters while force control runs: refused, the old ones kept */
+    send_force_params(&r, 0x04u, 20.0, 2000000, 0);
+    send_ft(&r, (uint8_t)(ft++ & 0x0Fu), 15.0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 1u);
+    assert_int_equal(r.node.stats.cmd_refused, 4u);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].damping, 500000);
+}
+
+/* OP_FORCE_PARAMS: the round trip on its 0.1 kg and 10 N s/m steps; the
+ * encoder refuses what the DBC's ranges exclude; a frame carrying such a
+ * value is rejected as out-of-range (counted by that name), the
+ * parameters unchanged. */
+static void test_force_params_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    sp_can_frame_t f;
+    uint8_t counter;
+    sp_proto_error_t why;
+    sp_msg_force_params_t m = {0x07u, 2u, (sp_q16_t)(35.5 * 65536.0), 2500, 1000}, back;
+    assert_int_equal(sp_proto_encode_force_params(&m, 3u, &f), SP_OK);
+    assert_int_equal(f.id, SP_ID_OP_FORCE_PARAMS);
+    assert_int_equal(f.len, 12u);
+    assert_int_equal(sp_proto_decode_force_params(&f, &back, &counter, &why), SP_OK);
+    assert_int_equal(counter, 3u);
+    assert_int_equal(back.mask, m.mask);
+    assert_int_equal(back.mode, m.mode);
+    assert_int_equal(back.mass, m.mass);
+    assert_int_equal(back.damping, m.damping);
+    assert_int_equal(back.stiffness, m.stiffness);
+    sp_msg_force_params_t bad = m;
+    bad.mass = SP_Q16_ONE / 2; /* 0.5 kg */
+    assert_int_equal(sp_proto_encode_force_params(&bad, 0u, &f), SP_E_ARG);
+    bad = m;
+    bad.damping = 50;
+    assert_int_equal(sp_proto_encode_force_params(&bad, 0u, &f), SP_E_ARG);
+    bad = m;
+    bad.stiffness = 20000000;
+    assert_int_equal(sp_proto_encode_force_params(&bad, 0u, &f), SP_E_ARG);
+    bad = m;
+    bad.mode = 3u;
+    assert_int_equal(sp_proto_encode_force_params(&bad, 0u, &f), SP_E_ARG);
+    bad = m;
+    bad.mask = 0u;
+    assert_int_equal(sp_proto_encode_force_params(&bad, 0u, &f), SP_E_ARG);
+    /* on the wire: a damping of 50 N s/m (raw 5, bytes 4..6), sealed again */
+    assert_int_equal(sp_proto_encode_force_params(&m, 0u, &f), SP_OK);
+    f.data[4] = 5u;
+    f.data[5] = 0u;
+    f.data[6] = 0u;
+    assert_int_equal(sp_e2e_seal(&f), SP_OK);
+    uint32_t rejected = r.node.stats.rejected[SP_PROTO_OUT_OF_RANGE];
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_OUT_OF_RANGE);
+    assert_string_equal(sp_proto_error_name(why), "out-of-range");
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_OUT_OF_RANGE], rejected + 1u);
+    assert_int_equal(r.node.force_params_fresh, 0u);
+    /* on another bus: wrong-bus */
+    assert_int_equal(sp_proto_encode_force_params(&m, 1u, &f), SP_OK);
+    f.bus = SP_BUS_AXIS_A;
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_WRONG_BUS);
 }
 
 /* Command authentication over frames (docs/security.md): a stranger's
@@ -896,6 +978,7 @@ int main(void)
         cmocka_unit_test(test_fuzz_receive_path),
         cmocka_unit_test(test_wrench_frame_round_trip_and_saturation),
         cmocka_unit_test(test_feedback_pressures_at_1_kpa),
+        cmocka_unit_test(test_force_params_frames),
         cmocka_unit_test(test_operator_heartbeat_over_frames),
         cmocka_unit_test(test_force_commands_over_frames),
         cmocka_unit_test(test_auth_over_frames),

@@ -175,10 +175,10 @@ def refusals(status: Status, begin: int, end: int) -> int:
 #: The slide: 100 mm along x at 20 mm/s.
 SLIDE_M = 0.100
 SLIDE_SPEED = 0.020
-#: Hand guiding: a 200 N push along x (the guide damping 1000 N s/m; the
-#: admittance's speed limit 0.1 m/s; the deflection limit 50 mm).
+#: Hand guiding: a 200 N push along x (the guide damping 2500 N s/m: 80 mm/s,
+#: below the admittance's speed limit 0.1 m/s; the deflection limit 50 mm).
 PUSH_N = 200.0
-GUIDE_DAMPING = 1000.0
+GUIDE_DAMPING = 2500.0
 GUIDE_V_MAX = 0.1
 DEFLECTION_M = 0.050
 

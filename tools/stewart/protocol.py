@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import collections
 import functools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -447,6 +448,35 @@ def force_signals(mask: int, target) -> dict[str, Any]:
     """OP_FORCE signals: the mask and the target wrench [fx, fy, fz, mx, my,
     mz] (N, N m, base frame, about o'; what the platform is to exert)."""
     return {"Mask": int(mask), **{n: float(v) for n, v in zip(WRENCH_SIGNALS, target)}}
+
+
+#: OP_FORCE_PARAMS' ranges (the DBC's; the controller's node rejects others
+#: as out-of-range): mass kg (kg m^2), damping N s/m (N m s/rad), stiffness N/m (N m/rad).
+FORCE_PARAM_RANGES = {"mass": (1.0, 5000.0), "damping": (100.0, 1e8), "stiffness": (0.0, 1e7)}
+
+
+def force_params_check(mass: float, damping: float, stiffness: float) -> str | None:
+    """None when the admittance parameters are within OP_FORCE_PARAMS'
+    ranges, else the reason, naming the parameter and its range."""
+    for name, v in (("mass", mass), ("damping", damping), ("stiffness", stiffness)):
+        lo, hi = FORCE_PARAM_RANGES[name]
+        if not (math.isfinite(v) and lo <= v <= hi):
+            unit = {"mass": "kg", "damping": "N s/m", "stiffness": "N/m"}[name]
+            return f"{name} {v:g} {unit} is out of range ({lo:g} .. {hi:g})"
+    return None
+
+
+def force_params_signals(mask: int, mode: str, mass: float, damping: float, stiffness: float) -> dict[str, Any]:
+    """OP_FORCE_PARAMS signals: the axes, whose free damping (mode "FORCE":
+    the approach, "GUIDE": hand guiding), mass, damping, stiffness.
+    ValueError (the reason) for a value out of range."""
+    why = force_params_check(mass, damping, stiffness)
+    if why is not None:
+        raise ValueError(why)
+    if not 1 <= int(mask) <= 63:
+        raise ValueError(f"mask {mask} is out of range (1..63)")
+    return {"Mask": int(mask), "Mode": mode, "Mass": round(float(mass), 1),
+            "Damping": 10.0 * round(float(damping) / 10.0), "Stiffness": round(float(stiffness))}
 
 
 def setpoint_signals(mode: str | int, tick: int, slots) -> dict[str, Any]:

@@ -165,8 +165,10 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, sp_admit_axis_state
     return (d < 1) ? 1 : d;
 }
 
-/* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist). */
-static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi, int *limited)
+/* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist),
+ * then dist / tau plus one LSB a tick (so that d reaches the bound). */
+static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, sp_q24_t lo, sp_q24_t hi,
+                              int32_t rate_q16, int *limited)
 {
     int64_t lim = ax->v_max;
     if (v > lim || v < -lim) {
@@ -186,6 +188,15 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
         if ((uint64_t)av * av > brake2) {
             int64_t vb = (int64_t)sp_isqrt64(brake2); /* Q24 */
             v = (v > 0) ? vb : -vb;
+            av = (uint32_t)vb;
+            *limited = 1;
+        }
+        /* the last stretch: dist / tau, so the reference comes to the
+         * bound exponentially and the platform, which lags it, does not
+         * pass it */
+        uint64_t vt = (uint64_t)dist_c * SP_ADMIT_TAIL_RATE + (uint32_t)(rate_q16 >> 16); /* Q24 m/s; >= 1 LSB a tick */
+        if ((uint64_t)av > vt) {
+            v = (v > 0) ? (int64_t)vt : -(int64_t)vt;
             *limited = 1;
         }
     }
@@ -279,9 +290,20 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
         }
         int limited = 0;
+        if (forced) {
+            /* the reference's acceleration held to a_brake: a change of the
+             * adapted damping or a step of the wrench then ramps the speed
+             * instead of stepping it (the cylinders' estimate reads a step
+             * of the reference's speed as a spike of wrench) */
+            const int64_t dv = s->dv_brake;
+            if (v > (int64_t)s->v + dv || v < (int64_t)s->v - dv) {
+                v = (v > s->v) ? (int64_t)s->v + dv : (int64_t)s->v - dv;
+                limited = 1;
+            }
+        }
         sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
         sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
-        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, &limited);
+        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, st->rate_q16, &limited);
         int64_t d = (int64_t)s->d + (((int64_t)v_new * dt_q38 + (INT64_C(1) << 37)) >> 38);
         if (d > hi_k || d < lo_k) {
             d = (d > hi_k) ? hi_k : lo_k;
@@ -348,6 +370,7 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
         st->made = 0u;
         st->armed = 0u;
         st->low = 0u;
+        st->high = 0u;
         return events;
     }
     const int64_t t_norm = tp->t_norm;
@@ -357,12 +380,20 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
             st->made = 1u;
             st->armed = 0u;
             st->low = 0u;
+            st->high = 0u;
             events |= SP_CONTACT_MADE;
         }
     } else {
         int64_t level = (int64_t)(cfg->lost_ratio >> 15) * (t2 >> 15); /* Q30 x Q16 -> Q16 */
         if (dot >= level) {
-            st->armed = 1u;
+            /* armed once the push-back has held the level arm_ticks ticks
+             * on end: a spike of the wrench does not arm it */
+            st->high = (st->high < UINT8_MAX) ? (uint8_t)(st->high + 1u) : st->high;
+            if (st->high >= cfg->arm_ticks) {
+                st->armed = 1u;
+            }
+        } else {
+            st->high = 0u;
         }
         int64_t floor_ = st->armed ? level : (made / 2) * t_norm;
         if (dot < floor_) {
@@ -371,6 +402,7 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
                 st->made = 0u;
                 st->armed = 0u;
                 st->low = 0u;
+                st->high = 0u;
                 events |= SP_CONTACT_LOST;
             }
         } else {

@@ -79,7 +79,17 @@ sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, con
     if (mount != NULL) {
         cfg->ft_mount = *mount;
     }
-    cfg->force.contact.made = (source == SP_WRENCH_CYLINDERS) ? SP_CONTACT_MADE_CYLINDERS_Q8 : 100 * SP_Q8_ONE;
+    if (source == SP_WRENCH_CYLINDERS) {
+        cfg->force.contact.made = SP_CONTACT_MADE_CYLINDERS_Q8;
+        cfg->force.contact.lost_ratio = SP_CONTACT_LOST_CYLINDERS_Q30;
+        cfg->force.admit.crossover = SP_CROSSOVER_CYLINDERS_Q16;
+    } else {
+        sp_force_config_t d;
+        (void)sp_force_default_config(&d, SP_Q30_ONE, cfg->tick_us);
+        cfg->force.contact.made = d.contact.made;
+        cfg->force.contact.lost_ratio = d.contact.lost_ratio;
+        cfg->force.admit.crossover = d.admit.crossover;
+    }
     return SP_OK;
 }
 
@@ -527,6 +537,11 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_POSITION:
     case SP_CMD_TARE:
         return command_force(cfg, ctrl, cmd);
+    case SP_CMD_FORCE_PARAMS:
+        /* position control only (sp_force_set_params refuses otherwise) */
+        return sp_force_set_params(&ctrl->prep.force, &ctrl->force, (sp_force_mode_t)cmd->force_params_mode,
+                                   cmd->force_mask, cmd->force_params_mass, cmd->force_params_damping,
+                                   cmd->force_params_stiffness) == SP_OK;
     case SP_CMD_RESET:
         if (ctrl->state != SP_STATE_FAULT && ctrl->state != SP_STATE_ESTOP) {
             return 0;

@@ -21,10 +21,10 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
         ax->release_stiffness = lin ? 20000 : 5000;
         ax->v_max = SP_Q24_MILLI(100);
         ax->a_brake = 2 * SP_Q24_ONE;
-        cfg->guide_damping[k] = lin ? 1000 : 200;
+        cfg->guide_damping[k] = lin ? 2500 : 500;
         cfg->deflection[k] = SP_Q24_MILLI(50);
     }
-    cfg->admit.crossover = 20 * SP_Q16_ONE;
+    cfg->admit.crossover = 30 * SP_Q16_ONE;
     cfg->admit.k_min = 10000;
     cfg->admit.k_max = 100000000;
     cfg->admit.secant_force = 30 * SP_Q8_ONE;
@@ -34,6 +34,7 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     cfg->contact.made = 100 * SP_Q8_ONE;
     cfg->contact.lost_ratio = SP_Q30_ONE / 2;
     cfg->contact.lost_ticks = 2u;
+    cfg->contact.arm_ticks = 100u;
     cfg->contact.excess = 10000 * SP_Q8_ONE;
     cfg->target_max_force = 8000 * SP_Q8_ONE;
     cfg->target_max_moment = 1000 * SP_Q8_ONE;
@@ -57,6 +58,7 @@ sp_status_t sp_force_reset(sp_force_t *f)
     f->contact.made = 0u;
     f->contact.armed = 0u;
     f->contact.low = 0u;
+    f->contact.high = 0u;
     return SP_OK;
 }
 
@@ -119,12 +121,49 @@ sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force
             (void)sp_admit_restart(&f->st, f->free_guide);
         }
     }
+    if (f->mode == SP_FORCE_FORCE) {
+        /* a new target: the lost level is its share, armed again once held */
+        f->contact.armed = 0u;
+        f->contact.high = 0u;
+    }
     f->mode = mode;
     f->mask = (uint8_t)(mask & 0x3Fu);
     for (unsigned k = 0; k < SP_AXES; ++k) {
         f->target[k] = (mode == SP_FORCE_FORCE) ? target[k] : 0;
     }
     sp_contact_target(f->target, &f->push);
+    return SP_OK;
+}
+
+sp_status_t sp_force_set_params(sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
+                                sp_q16_t mass, int32_t damping, int32_t stiffness)
+{
+    if (cfg == NULL || f == NULL || mask == 0u || mask > 0x3Fu || (mode != SP_FORCE_FORCE && mode != SP_FORCE_GUIDE) ||
+        mass < SP_Q16_ONE || damping < 1 || stiffness < 0) {
+        return SP_E_ARG;
+    }
+    if (f->mode != SP_FORCE_OFF) {
+        return SP_E_BUSY;
+    }
+    sp_force_config_t next = *cfg;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        if ((mask & (1u << k)) == 0u) {
+            continue;
+        }
+        next.admit.axis[k].mass = mass;
+        next.admit.axis[k].stiffness = stiffness;
+        if (mode == SP_FORCE_FORCE) {
+            next.admit.axis[k].damping = damping;
+        } else {
+            next.guide_damping[k] = damping;
+        }
+    }
+    sp_status_t s = sp_force_init(&next, f);
+    if (s != SP_OK) {
+        (void)sp_force_init(cfg, f); /* as before: it was initialised with cfg */
+        return s;
+    }
+    *cfg = next;
     return SP_OK;
 }
 
@@ -146,8 +185,8 @@ static sp_q24_t add_sat(sp_q24_t a, sp_q24_t b)
 }
 
 /* The bounds of d on the axes in `moving`: the deflection limit and the
- * workspace box around the position reference (0 when the reference is
- * outside it). An axis outside `moving` (at rest on the position reference
+ * workspace box around the position reference, each less the margin
+ * SP_FORCE_BOUND_MARGIN (0 when the reference is outside them). An axis outside `moving` (at rest on the position reference
  * and not forced: sp_admit_step leaves it there without reading its
  * bounds) gets [0, 0], which would hold it there as well. */
 static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const sp_pose_t *p, uint8_t moving,
@@ -163,8 +202,8 @@ static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const s
         int64_t l = (int64_t)lim->ws_lo[k] - x;
         int64_t h = (int64_t)lim->ws_hi[k] - x;
         int64_t defl = cfg->deflection[k];
-        l = (l < -defl) ? -defl : l;
-        h = (h > defl) ? defl : h;
+        l = ((l < -defl) ? -defl : l) + SP_FORCE_BOUND_MARGIN;
+        h = ((h > defl) ? defl : h) - SP_FORCE_BOUND_MARGIN;
         lo[k] = (sp_q24_t)((l > 0) ? 0 : l);
         hi[k] = (sp_q24_t)((h < 0) ? 0 : h);
     }

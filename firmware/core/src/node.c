@@ -245,6 +245,20 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         inc(&node->stats.accepted);
         return SP_OK;
     }
+    if (f->id == SP_ID_OP_FORCE_PARAMS) {
+        sp_msg_force_params_t m;
+        if (sp_proto_decode_force_params(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why); /* out-of-range parameters: counted by name */
+        }
+        e = sequence(node, &node->rx_force_params, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        node->force_params = m;
+        node->force_params_fresh = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
     return reject(node, SP_PROTO_UNKNOWN_ID, why);
 }
 
@@ -302,7 +316,7 @@ sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_pro
         return receive_ft(node, frame, why);
     }
     if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE || frame->id == SP_ID_OP_HEARTBEAT ||
-        frame->id == SP_ID_OP_FORCE) {
+        frame->id == SP_ID_OP_FORCE || frame->id == SP_ID_OP_FORCE_PARAMS) {
         if (frame->bus != SP_BUS_OPS) {
             return reject(node, SP_PROTO_WRONG_BUS, why);
         }
@@ -371,6 +385,17 @@ SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
                 }
             }
         }
+    } else if (node->force_params_fresh) {
+        /* new admittance parameters: a command of their own (the controller
+         * takes them in position control, refuses them otherwise) */
+        const sp_msg_force_params_t *p = &node->force_params;
+        node->in.cmd.type = SP_CMD_FORCE_PARAMS;
+        node->in.cmd.force_mask = p->mask;
+        node->in.cmd.force_params_mode = p->mode;
+        node->in.cmd.force_params_mass = p->mass;
+        node->in.cmd.force_params_damping = p->damping;
+        node->in.cmd.force_params_stiffness = p->stiffness;
+        node->force_params_fresh = 0u;
     } else if (node->force_fresh && node->ctrl.force.mode == SP_FORCE_FORCE) {
         node->in.cmd.type = SP_CMD_FORCE;
         node->in.cmd.force_mask = node->force.mask;

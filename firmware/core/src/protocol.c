@@ -803,6 +803,60 @@ sp_status_t sp_proto_decode_force(const sp_can_frame_t *f, sp_msg_force_t *m, ui
     return SP_OK;
 }
 
+/* ---- OP_FORCE_PARAMS ---- */
+static int force_params_ok(uint32_t mask, uint32_t mode, int64_t mass, int64_t damping, int64_t stiffness)
+{
+    return mask >= 1u && mask <= 63u && (mode == 1u || mode == 2u) && mass >= SP_PROTO_MASS_MIN_Q16 &&
+           mass <= SP_PROTO_MASS_MAX_Q16 && damping >= SP_PROTO_DAMPING_MIN && damping <= SP_PROTO_DAMPING_MAX &&
+           stiffness >= 0 && stiffness <= SP_PROTO_STIFFNESS_MAX;
+}
+
+sp_status_t sp_proto_encode_force_params(const sp_msg_force_params_t *m, uint8_t counter, sp_can_frame_t *f)
+{
+    if (m == NULL || f == NULL || !force_params_ok(m->mask, m->mode, m->mass, m->damping, m->stiffness)) {
+        return SP_E_ARG;
+    }
+    struct stewart_can_op_force_params_t s;
+    (void)stewart_can_op_force_params_init(&s);
+    s.mask = m->mask;
+    s.counter = (uint8_t)(counter & 0x0Fu);
+    s.mode = m->mode;
+    /* 0.1 kg: Q16 x 10 / 65536, and 10 N s/m, rounded (both positive) */
+    s.mass = (uint16_t)(((int64_t)m->mass * 10 + 32768) >> 16);
+    s.damping = (uint32_t)((m->damping + 5) / 10);
+    s.stiffness = (uint32_t)m->stiffness;
+    clear(f);
+    return finish(f, SP_ID_OP_FORCE_PARAMS, SP_BUS_OPS, stewart_can_op_force_params_pack(f->data, &s, SP_CAN_MAX_DATA),
+                  STEWART_CAN_OP_FORCE_PARAMS_LENGTH, 0);
+}
+
+sp_status_t sp_proto_decode_force_params(const sp_can_frame_t *f, sp_msg_force_params_t *m, uint8_t *counter,
+                                         sp_proto_error_t *error)
+{
+    if (m == NULL || counter == NULL) {
+        return SP_E_ARG;
+    }
+    if (precheck(f, SP_ID_OP_FORCE_PARAMS, STEWART_CAN_OP_FORCE_PARAMS_LENGTH, error) != SP_OK) {
+        return SP_E_FRAME;
+    }
+    struct stewart_can_op_force_params_t s;
+    if (stewart_can_op_force_params_unpack(&s, f->data, f->len) != 0) {
+        return reject(error, SP_PROTO_BAD_LENGTH);
+    }
+    int64_t mass = ((int64_t)s.mass * 65536 + 5) / 10; /* Q16, rounded */
+    int64_t damping = (int64_t)s.damping * 10;
+    if (!force_params_ok(s.mask, s.mode, mass, damping, (int64_t)s.stiffness)) {
+        return reject(error, SP_PROTO_OUT_OF_RANGE);
+    }
+    m->mask = s.mask;
+    m->mode = s.mode;
+    m->mass = (sp_q16_t)mass;
+    m->damping = (int32_t)damping;
+    m->stiffness = (int32_t)s.stiffness;
+    *counter = s.counter;
+    return SP_OK;
+}
+
 /* ---- FT_SENSOR ---- */
 sp_status_t sp_proto_encode_ft(const sp_msg_ft_t *m, uint8_t counter, sp_can_frame_t *f)
 {

@@ -323,7 +323,9 @@ int main(int argc, char **argv)
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
     bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
-        ifs[0], {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT, SP_ID_OP_FORCE}, 4u};
+        ifs[0],
+        {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS},
+        5u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, lockstep ? 4u : 3u};
         if (!lockstep) { /* we are the cycle master: only feedback */

@@ -20,11 +20,13 @@
  * filters, 8 extended, Rx FIFO 0 and 1 of 3 elements, Tx event FIFO of 3,
  * Tx FIFO of 3; every Rx/Tx element is 18 words (64 data bytes).
  * Receive filters (everything else is rejected by the hardware):
- *   ops:  OP_TARGET_POSE (0x050) -> FIFO 0, OP_COMMAND (0x040) and
- *         OP_HEARTBEAT (0x060) -> FIFO 1
- *   axis: AXIS_FEEDBACK 0x031, 0x032 -> FIFO 0, 0x033 -> FIFO 1
- * so that no FIFO receives more than 2 of the frames that arrive in one
- * tick. Transmit: Tx FIFO mode, frames leave in the order they were queued
+ *   ops:    OP_TARGET_POSE (0x050) -> FIFO 0, OP_COMMAND (0x040) and
+ *           OP_HEARTBEAT (0x060) -> FIFO 1, OP_FORCE (0x048) and
+ *           OP_FORCE_PARAMS (0x049) -> FIFO 0 (events: at most 3 a tick)
+ *   axis_a: AXIS_FEEDBACK 0x031, 0x032 -> FIFO 0, 0x033 -> FIFO 1
+ *   axis_b: the same, and FT_SENSOR (0x038) -> FIFO 1
+ * so that no FIFO receives more than its 3 elements of the frames that
+ * arrive in one tick. Transmit: Tx FIFO mode, frames leave in the order they were queued
  * (AXIS_SETPOINTS before SYNC; a Tx queue would send the lower identifier,
  * SYNC, first). sp_node_tick emits 2 frames per bus and tick; the FIFO holds 3.
  */
@@ -33,6 +35,7 @@
 #include <stddef.h>
 
 #include "g4_regs.h"
+#include "sp/protocol.h" /* the identifiers the filters pass */
 #include "sp_g4.h"
 
 /* ---- bit timing ---------------------------------------------------------- */
@@ -169,17 +172,22 @@ static sp_status_t init_one(uint8_t bus)
         SP_REG(r + off) = 0u;
     }
     if (bus == SP_BUS_OPS) {
-        SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, 0x050u, 0x050u); /* OP_TARGET_POSE */
-        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x040u, 0x060u); /* OP_COMMAND, OP_HEARTBEAT */
+        SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, SP_ID_OP_TARGET_POSE, SP_ID_OP_TARGET_POSE);
+        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, SP_ID_OP_COMMAND, SP_ID_OP_HEARTBEAT);
+        SP_REG(r + SRAMCAN_FLSSA + 8u) = STD_FILTER(SFEC_FIFO0, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS);
     } else {
-        SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, 0x031u, 0x032u); /* AXIS_FEEDBACK slots 1, 2 */
-        SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, 0x033u, 0x033u); /* AXIS_FEEDBACK slot 3 */
+        /* AXIS_FEEDBACK slots 1, 2; slot 3 (and on axis_b the force/torque sensor) */
+        SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, SP_ID_AXIS_FEEDBACK_1, SP_ID_AXIS_FEEDBACK_1 + 1u);
+        SP_REG(r + SRAMCAN_FLSSA + 4u) =
+            STD_FILTER(SFEC_FIFO1, SP_ID_AXIS_FEEDBACK_1 + 2u,
+                       (bus == SP_BUS_AXIS_B) ? SP_ID_FT_SENSOR : SP_ID_AXIS_FEEDBACK_1 + 2u);
     }
-    /* Two standard filters, no extended; reject non-matching and remote
-     * frames; both Rx FIFOs in blocking mode (a full FIFO loses the new
-     * frame and sets RF0L / RF1L, counted as an overrun). */
-    FDCAN_RXGFC(b) = (2u << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) | FDCAN_RXGFC_ANFS_REJECT |
-                     FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
+    /* Three standard filters on ops, two on the axis buses, no extended;
+     * reject non-matching and remote frames; both Rx FIFOs in blocking
+     * mode (a full FIFO loses the new frame and sets RF0L / RF1L, counted
+     * as an overrun). */
+    FDCAN_RXGFC(b) = ((bus == SP_BUS_OPS ? 3u : 2u) << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) |
+                     FDCAN_RXGFC_ANFS_REJECT | FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
     FDCAN_TXBC(b) = 0u; /* TFQM = 0: Tx FIFO */
     FDCAN_IE(b) = 0u;   /* polled: no interrupt */
     FDCAN_ILE(b) = 0u;

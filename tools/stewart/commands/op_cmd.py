@@ -85,10 +85,12 @@ def register(sub) -> None:
     fo.add_argument("--update", action="store_true", help="in FORCE: only change the target (same axes)")
     fo.add_argument("--duration", type=float, help="s in force control, then POSITION (default: until "
                     "Ctrl-C, or until another operator or the controller ends it)")
+    _param_args(fo, "the approach's: the speed in free space is target / damping")
     gu = ops.add_parser("guide", help="hand guiding in the masked axes (waits for GUIDE)")
     gu.add_argument("axes", help="axes joined by commas (x,y,z, ...) or the mask 0..63")
     gu.add_argument("--duration", type=float, help="s of hand guiding, then POSITION (default: until "
                     "Ctrl-C, or until another operator or the controller ends it)")
+    _param_args(gu, "hand guiding's: a push F moves the platform at F / damping")
     ops.add_parser("position", help="leave force control smoothly (waits for position control)")
     ops.add_parser("tare", help="zero the force/torque sensor's bias (READY, position control, at rest)")
     st = ops.add_parser("status", help="one status reading")
@@ -100,6 +102,17 @@ def register(sub) -> None:
     rec.add_argument("file")
     rec.add_argument("--duration", type=float, help="s (default: until Ctrl-C)")
     p.set_defaults(func=run)
+
+
+def _param_args(parser, damping_help: str) -> None:
+    """--mass/--damping/--stiffness: the admittance's parameters for the
+    masked axes, sent (OP_FORCE_PARAMS) before force control starts; all
+    three together (the message carries all three)."""
+    parser.add_argument("--mass", type=float, metavar="KG", help="virtual mass, kg (kg m^2), 1..5000")
+    parser.add_argument("--damping", type=float, metavar="NS_M",
+                        help=f"free-space damping, N s/m (N m s/rad), 100..1e8; {damping_help}")
+    parser.add_argument("--stiffness", type=float, metavar="N_M",
+                        help="spring to the position reference, N/m (N m/rad), 0..1e7")
 
 
 def _err(text: str) -> None:
@@ -203,7 +216,17 @@ def _prepare(args):
         limit = 16383.96875  # OP_FORCE's range; the controller refuses above its own limits
         if not all(math.isfinite(v) and abs(v) <= limit for v in target):
             raise SourceError(f"{args.op}: the target must be finite, each |value| <= {limit:g} N or N m")
-        return mask, target
+        params = (args.mass, args.damping, args.stiffness)
+        if any(v is not None for v in params):
+            if any(v is None for v in params):
+                raise SourceError(f"{args.op}: --mass, --damping and --stiffness go together")
+            if getattr(args, "update", False):
+                raise SourceError(f"{args.op} --update: the parameters change only in position control")
+            why = pr.force_params_check(*params)
+            if why is not None:
+                raise SourceError(f"{args.op}: {why}")
+            return mask, target, params
+        return mask, target, None
     return None
 
 
@@ -334,8 +357,35 @@ def _send_force_twice(node, mask, target):
     node.send_force(mask, target)
 
 
+def _send_params(node, args, mask, params) -> int:
+    """OP_FORCE_PARAMS (twice, as OP_FORCE: the E2E check may drop a new
+    sender's first frame), then 20 statuses for a refusal (the controller
+    takes them in position control only)."""
+    if params is None:
+        return 0
+    from ..operator.node import Refused
+
+    mode = "FORCE" if args.op == "force" else "GUIDE"
+    st = node.wait_status(timeout=2.0)
+    node.send_force_params(mask, mode, *params)
+    node.wait_status(timeout=2.0, after=node.status.seq)
+    mark = node._mark()
+    sent = node.send_force_params(mask, mode, *params)
+    try:
+        node.wait_for("FORCE_PARAMS", lambda s: True, _t(args, 5.0), mark, st, sent, settle=20)
+    except Refused:
+        _err(f"{args.op}: admittance parameters refused (force control is {node.status.force_mode}: "
+             "they change only in position control)")
+        return 1
+    print(f"{mode} parameters: mass {params[0]:g}, damping {params[1]:g}, stiffness {params[2]:g} "
+          f"(axes mask {mask})")
+    return 0
+
+
 def _force(node, args, prepared):
-    mask, target = prepared
+    mask, target, params = prepared
+    if _send_params(node, args, mask, params):
+        return 1
     st = node.wait_status(timeout=2.0)
     if args.update:
         if st.force_mode != "FORCE":
@@ -387,7 +437,9 @@ def _hold_force(node, args, command):
 
 
 def _guide(node, args, prepared):
-    mask, target = prepared
+    mask, target, params = prepared
+    if _send_params(node, args, mask, params):
+        return 1
     node.wait_status(timeout=2.0)
     _send_force_twice(node, mask, target)
     return _hold_force(node, args, "GUIDE")

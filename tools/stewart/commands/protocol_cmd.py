@@ -44,6 +44,7 @@ TYPICAL = {
     "OP_HEARTBEAT": {},
     "OP_FORCE": {"Mask": 4, "Fx": 0.0, "Fy": -12.5, "Fz": 2000.0, "Mx": 1.03125, "My": -0.5,
                  "Mz": 0.0, "AuthCounter": 0xFFFF, "AuthTag": 0x123456789ABC},
+    "OP_FORCE_PARAMS": {"Mask": 7, "Mode": "FORCE", "Mass": 35.5, "Damping": 500000.0, "Stiffness": 1000.0},
     "FT_SENSOR": {"Fx": 3.25, "Fy": -1.5, "Fz": -1987.40625, "Mx": 0.125, "My": -2.0, "Mz": 0.03125,
                   "Saturated": 0},
     "OP_TARGET_POSE": {"X": 0.05, "Y": -0.02, "Z": 0.1, "Roll": 0.01, "Pitch": -0.05,

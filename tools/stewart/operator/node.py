@@ -373,6 +373,11 @@ class OperatorNode:
         FORCE, a target update)."""
         return self._send("OP_FORCE", pr.force_signals(mask, target))
 
+    def send_force_params(self, mask: int, mode: str, mass: float, damping: float, stiffness: float) -> float:
+        """OP_FORCE_PARAMS: the admittance's parameters for the masked axes
+        (taken by the controller in position control only)."""
+        return self._send("OP_FORCE_PARAMS", pr.force_params_signals(mask, mode, mass, damping, stiffness))
+
     # -- receiving ---------------------------------------------------------
     def _bad(self, reason: str) -> None:
         self.counters.bad[reason] = self.counters.bad.get(reason, 0) + 1

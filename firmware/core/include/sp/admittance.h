@@ -37,8 +37,10 @@
  * to d = 0 are prepared once (sp_admit_configure, sp_admit_coefficients).
  * Then, in this order: |v| <= v_max; towards a bound [lo, hi] of d (the
  * deflection limit and the workspace, given by the caller each tick) v is
- * held to the braking speed sqrt(2 a_brake (bound - d)), so the axis stops
- * at the bound without passing it; d is held within [lo, hi].
+ * held to the braking speed sqrt(2 a_brake (bound - d)) and, on the last
+ * stretch, to (bound - d) / tau (SP_ADMIT_TAIL_RATE), so the axis comes to
+ * the bound without passing it, and so does the platform that lags it; d
+ * is held within [lo, hi].
  *
  * Axes outside the force mask, and every axis in release, return to d = 0
  * through a critically damped spring of the axis's release stiffness (no
@@ -55,6 +57,11 @@
 
 #define SP_AXES 6u
 
+/** 1 / tau of the last stretch towards a bound, 1/s: |v| <= dist / tau
+ *  there, so the reference reaches the bound exponentially (tau = 40 ms)
+ *  and the platform, lagging it, does not pass it. */
+#define SP_ADMIT_TAIL_RATE 25u
+
 /** Parameters of one axis (units: m and N for x, y, z; rad and N m for roll, pitch, yaw). */
 typedef struct {
     sp_q16_t mass;             /**< virtual mass M, kg or kg m^2, Q16, within [1, 32767] */
@@ -62,7 +69,8 @@ typedef struct {
     int32_t stiffness;         /**< K, spring to the position reference, N/m or N m/rad, >= 0 */
     int32_t release_stiffness; /**< spring of the return to d = 0, N/m or N m/rad, >= 1 */
     sp_q24_t v_max;            /**< speed limit of d, m/s or rad/s, Q24, > 0 */
-    sp_q24_t a_brake;          /**< deceleration towards a bound, m/s^2 or rad/s^2, Q24, > 0 */
+    sp_q24_t
+        a_brake; /**< largest |d''| of a forced axis, and the deceleration towards a bound and in hold, m/s^2 or rad/s^2, Q24, > 0 */
 } sp_admit_axis_t;
 
 /** Parameters of the admittance (sp_admit_configure checks them). */
@@ -192,14 +200,16 @@ typedef struct {
     sp_q8_t made;        /**< contact made when the push-back reaches this, N, Q8, > 0 */
     sp_q30_t lost_ratio; /**< contact lost when the push-back falls below this share of the target, Q30, (0, 1) */
     uint8_t lost_ticks;  /**< ... for this many consecutive ticks, >= 1 */
+    uint8_t arm_ticks;   /**< the lost level counts once the push-back held it this many ticks on end (0, 1: at once) */
     sp_q8_t excess;      /**< excessive force: |force part of W_ext| above this, N, Q8, > made */
 } sp_contact_config_t;
 
 /** Contact supervision state. */
 typedef struct {
     uint8_t made;  /**< 1 while in contact */
-    uint8_t armed; /**< 1 once the push-back reached the lost level in this contact */
+    uint8_t armed; /**< 1 once the push-back held the lost level arm_ticks ticks in this contact */
     uint8_t low;   /**< consecutive ticks below the level that counts */
+    uint8_t high;  /**< consecutive ticks at or above the lost level (until armed) */
 } sp_contact_t;
 
 /** Events of sp_contact_step. */

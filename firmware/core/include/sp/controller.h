@@ -123,23 +123,29 @@ typedef enum {
     SP_CMD_PARK = 6,
     SP_CMD_ESTOP = 7,
     SP_CMD_RESET = 8,
-    SP_CMD_FORCE = 10,    /**< enter force control (force_mask, force_target), or update its target */
-    SP_CMD_GUIDE = 11,    /**< enter hand guiding (force_mask) */
-    SP_CMD_POSITION = 12, /**< leave force control smoothly (back onto the position reference) */
-    SP_CMD_TARE = 13      /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
+    SP_CMD_FORCE = 10,       /**< enter force control (force_mask, force_target), or update its target */
+    SP_CMD_GUIDE = 11,       /**< enter hand guiding (force_mask) */
+    SP_CMD_POSITION = 12,    /**< leave force control smoothly (back onto the position reference) */
+    SP_CMD_TARE = 13,        /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
                                estimate's at rest (READY, position control) */
+    SP_CMD_FORCE_PARAMS = 14 /**< the admittance's parameters for force_mask (force_params_*): only in position
+                                  control (not on OP_COMMAND: the node makes it from OP_FORCE_PARAMS) */
 } sp_cmd_type_t;
 
 typedef struct {
     sp_cmd_type_t type;
-    sp_axis_t axis;          /**< RUN_TRIG: axis */
-    sp_q24_t amplitude;      /**< RUN_TRIG: m or rad, Q24 */
-    sp_q24_t frequency;      /**< RUN_TRIG: Hz, Q24 */
-    uint32_t fade_ticks;     /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
-    sp_pose_t target;        /**< MOVE_TO: absolute pose */
-    uint8_t force_mask;      /**< FORCE, GUIDE: the force-controlled axes (bit k: x, y, z, roll, pitch, yaw) */
-    sp_q8_t force_target[6]; /**< FORCE: the wrench the platform is to exert on the world, N, N m, base frame,
+    sp_axis_t axis;                 /**< RUN_TRIG: axis */
+    sp_q24_t amplitude;             /**< RUN_TRIG: m or rad, Q24 */
+    sp_q24_t frequency;             /**< RUN_TRIG: Hz, Q24 */
+    uint32_t fade_ticks;            /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
+    sp_pose_t target;               /**< MOVE_TO: absolute pose */
+    uint8_t force_mask;             /**< FORCE, GUIDE: the force-controlled axes (bit k: x, y, z, roll, pitch, yaw) */
+    sp_q8_t force_target[6];        /**< FORCE: the wrench the platform is to exert on the world, N, N m, base frame,
                                   about o', Q8 */
+    uint8_t force_params_mode;      /**< FORCE_PARAMS: the damping set is FORCE's (SP_FORCE_FORCE) or GUIDE's */
+    sp_q16_t force_params_mass;     /**< FORCE_PARAMS: virtual mass, kg or kg m^2, Q16 */
+    int32_t force_params_damping;   /**< FORCE_PARAMS: free-space damping, N s/m or N m s/rad */
+    int32_t force_params_stiffness; /**< FORCE_PARAMS: spring to the position reference, N/m or N m/rad */
 } sp_ctrl_cmd_t;
 
 /** Drive modes sent with the setpoints (in the spirit of CiA 408). */
@@ -352,10 +358,24 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
  *  loses it. */
 #define SP_CONTACT_MADE_CYLINDERS_Q8 (300 * 256)
 
+/** ... and contact counts as lost below 80 % of the target there (the
+ *  sensor's 50 %): the estimate sees a removed surface only as the
+ *  platform starts to move (the cylinders' forces change later), so it
+ *  falls slower than the sensor's reading; 80 % keeps the detection within
+ *  10 ticks. Q30. */
+#define SP_CONTACT_LOST_CYLINDERS_Q30 ((sp_q30_t)(((int64_t)4 << 30) / 5))
+
+/** ... and the force loop crosses over at 10 rad/s there (the sensor's
+ *  20): the estimate's noise reaches the true force up to the crossover,
+ *  so half of it halves the noise's band. Q16. */
+#define SP_CROSSOVER_CYLINDERS_Q16 (6 * 65536)
+
 /** Chooses force control's wrench source (SP_WRENCH_CYLINDERS or
  *  SP_WRENCH_SENSOR), the sensor's mounting (NULL: keep cfg's) and the
- *  contact threshold that suits the source (SP_CONTACT_MADE_CYLINDERS_Q8
- *  on the cylinders, 100 N on the sensor). For ports that take both from
+ *  contact levels and loop crossover that suit the source
+ *  (SP_CONTACT_MADE_CYLINDERS_Q8, SP_CONTACT_LOST_CYLINDERS_Q30,
+ *  SP_CROSSOVER_CYLINDERS_Q16 on the cylinders; sp_force_default_config's
+ *  on the sensor). For ports that take both from
  *  the platform config (sp_wrench_source_default, sp_ft_mount_default).
  *  SP_E_ARG for a NULL cfg or another source (cfg unchanged). */
 sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, const sp_ft_mount_t *mount);

@@ -16,7 +16,8 @@
  *            excessive force (the controller then latches its fault).
  *   HOLD     after a lost contact: every axis brakes to rest where it is.
  * The offset d of each axis is bounded by the deflection limit of the config
- * and by the workspace box (sp_limits_t) around the position reference, so a
+ * and by the workspace box (sp_limits_t) around the position reference, each
+ * less SP_FORCE_BOUND_MARGIN, so a
  * force-controlled reference never leaves the workspace; the controller
  * still passes every reference through all of its limits. The rotational
  * axes act on the roll, pitch, yaw angles of the pose (Z-Y-X), which are the
@@ -28,6 +29,12 @@
 #include "sp/admittance.h"
 #include "sp/limits.h"
 #include "sp/platform.h"
+
+/** The offset stops this far inside the deflection limit and the workspace
+ *  (m or rad, Q24: 0.2 mm, 0.2 mrad): the platform lags the reference by
+ *  tens of um (more on the cylinders' noisy estimate), so it stops inside
+ *  the bound too. */
+#define SP_FORCE_BOUND_MARGIN ((sp_q24_t)3355)
 
 typedef enum {
     SP_FORCE_OFF = 0,
@@ -69,10 +76,11 @@ typedef struct {
  * Defaults for a hydraulic hexapod of a few tonnes: approach at 2 mm/s per
  * 2 kN (free damping 1e6 N s/m; 1e5 N m s/rad), M = 20 kg (5 kg m^2),
  * K = 0, release stiffness 2e4 N/m (5e3 N m/rad), speed limits 0.1 m/s
- * (0.1 rad/s), braking 2 m/s^2 (2 rad/s^2); crossover 20 rad/s; surfaces
- * from 1e4 to 1e8 N/m; the secant after 30 N and 10 um; contact made at
- * 100 N, lost below half the target for 2 ticks, excess above 10 kN;
- * guide damping 1000 N s/m (200 N m s/rad); deflection 50 mm (0.05 rad);
+ * (0.1 rad/s), acceleration and braking 2 m/s^2 (2 rad/s^2); crossover
+ * 30 rad/s; surfaces from 1e4 to 1e8 N/m; the secant after 30 N and 10 um;
+ * contact made at 100 N, lost below half the target for 2 ticks once the
+ * push-back held half of it for 100 ticks, excess above 10 kN; guide
+ * damping 2500 N s/m (500 N m s/rad); deflection 50 mm (0.05 rad);
  * targets up to 8 kN and 1 kN m; released within 1 um. The filter of the
  * pose for the stiffness secant must be the wrench's: `filter_alpha` is
  * the caller's (sp_wrench_alpha). SP_E_ARG on NULL.
@@ -107,6 +115,21 @@ sp_status_t sp_force_reset(sp_force_t *f);
  */
 sp_status_t sp_force_start(const sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
                            const sp_q8_t target[SP_AXES]);
+
+/**
+ * New admittance parameters for the axes in `mask` (1..63): the virtual
+ * mass (Q16, kg or kg m^2, >= 1 kg), the stiffness of the spring to the
+ * position reference (>= 0) and the free-space damping (>= 1) of FORCE
+ * (mode SP_FORCE_FORCE: the approach) or of GUIDE (SP_FORCE_GUIDE: hand
+ * guiding); then every coefficient is prepared again (sp_force_init: a
+ * command's tick in position control pays eighteen coefficient sets).
+ * Only in OFF: SP_E_BUSY in any other mode. SP_E_ARG on NULL, a bad mask
+ * or mode, or a parameter out of its range; SP_E_OVERFLOW when a
+ * coefficient does not fit (sp_admit_configure). On any refusal cfg and f
+ * are as before.
+ */
+sp_status_t sp_force_set_params(sp_force_config_t *cfg, sp_force_t *f, sp_force_mode_t mode, uint8_t mask,
+                                sp_q16_t mass, int32_t damping, int32_t stiffness);
 
 /** FORCE or GUIDE -> RELEASE; no-op (SP_OK) in OFF, RELEASE and HOLD. SP_E_ARG on NULL. */
 sp_status_t sp_force_release(sp_force_t *f);

@@ -73,6 +73,7 @@ typedef struct {
     sp_e2e_rx_t rx_target;
     sp_e2e_rx_t rx_heartbeat;
     sp_e2e_rx_t rx_force;
+    sp_e2e_rx_t rx_force_params;
     sp_e2e_rx_t rx_ft;
     sp_auth_rx_t auth; /**< command authentication: session, last counter, counts */
     sp_auth_key_t key; /**< the machine key (when key_set) */
@@ -95,6 +96,8 @@ typedef struct {
     sp_pose_t target;     /**< last OP_TARGET_POSE */
     sp_msg_force_t force; /**< last OP_FORCE (mask 0 until one arrives: FORCE and GUIDE are refused) */
     uint8_t force_fresh;  /**< an OP_FORCE arrived since the last tick (a streamed target update in FORCE) */
+    sp_msg_force_params_t force_params; /**< last OP_FORCE_PARAMS */
+    uint8_t force_params_fresh;         /**< it arrived and is not yet handed to the controller */
     sp_node_stats_t stats;
     const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
     uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */

@@ -32,6 +32,7 @@
 #define SP_ID_FT_SENSOR 0x038u       /* axis_b: the force/torque sensor */
 #define SP_ID_OP_COMMAND 0x040u
 #define SP_ID_OP_FORCE 0x048u
+#define SP_ID_OP_FORCE_PARAMS 0x049u
 #define SP_ID_OP_TARGET_POSE 0x050u
 #define SP_ID_OP_HEARTBEAT 0x060u
 #define SP_ID_CTRL_STATUS 0x100u
@@ -108,6 +109,23 @@ typedef struct {
     uint8_t mask;      /**< force-controlled axes, bit k: x, y, z, roll, pitch, yaw (0..63) */
     sp_q8_t target[6]; /**< the wrench the platform is to exert, N, N m, base frame, about o', Q8 */
 } sp_msg_force_t;
+
+/** OP_FORCE_PARAMS: the admittance's parameters for the masked axes (the
+ *  ranges are the DBC's; sp_proto_decode_force_params rejects others). */
+typedef struct {
+    uint8_t mask; /**< the axes they are for, bit k: x, y, z, roll, pitch, yaw (1..63) */
+    uint8_t mode; /**< which free damping `damping` sets: SP_FORCE_FORCE (1) or SP_FORCE_GUIDE (2) */
+    sp_q16_t
+        mass; /**< virtual mass, kg or kg m^2, Q16, [SP_PROTO_MASS_MIN_Q16, SP_PROTO_MASS_MAX_Q16] (0.1 kg steps on the bus) */
+    int32_t damping;   /**< free-space damping, N s/m or N m s/rad, [100, 1e8] (10 per bit on the bus) */
+    int32_t stiffness; /**< spring to the position reference, N/m or N m/rad, [0, 1e7] */
+} sp_msg_force_params_t;
+
+#define SP_PROTO_MASS_MIN_Q16 (1 * 65536)    /**< OP_FORCE_PARAMS Mass: 1 kg */
+#define SP_PROTO_MASS_MAX_Q16 (5000 * 65536) /**< ... 5000 kg */
+#define SP_PROTO_DAMPING_MIN 100             /**< OP_FORCE_PARAMS Damping: 100 N s/m */
+#define SP_PROTO_DAMPING_MAX 100000000       /**< ... 1e8 N s/m */
+#define SP_PROTO_STIFFNESS_MAX 10000000      /**< OP_FORCE_PARAMS Stiffness: 1e7 N/m */
 
 /** FT_SENSOR: one sample of the force/torque sensor. */
 typedef struct {
@@ -246,6 +264,25 @@ sp_status_t sp_proto_encode_force(const sp_msg_force_t *m, uint8_t counter, sp_c
  */
 sp_status_t sp_proto_decode_force(const sp_can_frame_t *f, sp_msg_force_t *m, uint8_t *counter,
                                   sp_proto_error_t *error);
+
+/**
+ * OP_FORCE_PARAMS (ID 0x049, 12 bytes, ops bus, CRC-8): mask, mode, the
+ * mass rounded to 0.1 kg, the damping to 10 N s/m (ties away from zero),
+ * the stiffness in N/m. SP_E_ARG on NULL, a mask of 0 or above 63, a mode
+ * other than 1 or 2, or a value outside the documented ranges (nothing is
+ * saturated: a parameter is either sent as asked or not at all).
+ */
+sp_status_t sp_proto_encode_force_params(const sp_msg_force_params_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/**
+ * OP_FORCE_PARAMS -> the parameters (mass Q16 = raw x 65536 / 10 rounded,
+ * damping = raw x 10, stiffness = raw). Rejects (SP_E_FRAME, *error) a
+ * wrong identifier or length, a bad CRC, and as out-of-range a mask of 0,
+ * a mode other than 1 or 2, or a value outside the DBC's range; *m is
+ * untouched then.
+ */
+sp_status_t sp_proto_decode_force_params(const sp_can_frame_t *f, sp_msg_force_params_t *m, uint8_t *counter,
+                                         sp_proto_error_t *error);
 
 /**
  * FT_SENSOR (ID 0x038, 20 bytes, axis_b, CRC-16): the wrench rounded to
