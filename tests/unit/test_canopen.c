@@ -160,6 +160,23 @@ static void test_pdo_emcy(void **state)
     assert_int_equal(sp_co_rpdo1_parse(&f, 3u, &w, &v), SP_OK);
     assert_int_equal(w, 7u);
     assert_int_equal(v, -2);
+    {
+        /* RPDO1 with the vendor force feed-forward 0x2120 (i16 daN) as its third entry */
+        static const uint8_t rpdo_ff[8] = {0x07, 0x00, 0xFE, 0xFF, 0xFF, 0xFF, 0xCF, 0xFB};
+        int16_t force = 0;
+        assert_int_equal(sp_co_rpdo1_ff_frame(&f, 1u, 3u, 0x0007u, -2, -1073), SP_OK);
+        assert_bytes(&f, 0x203u, rpdo_ff, 8u);
+        assert_int_equal(sp_co_rpdo1_ff_parse(&f, 3u, &w, &v, &force), SP_OK);
+        assert_int_equal(w, 7u);
+        assert_int_equal(v, -2);
+        assert_int_equal(force, -1073);
+        assert_int_equal(sp_co_rpdo1_parse(&f, 3u, &w, &v), SP_E_FRAME); /* 8 bytes: not the 6-byte layout */
+        assert_int_equal(sp_co_rpdo1_ff_frame(&f, 1u, 3u, 0u, 0, INT16_MIN), SP_OK);
+        assert_int_equal(sp_co_rpdo1_ff_parse(&f, 3u, &w, &v, &force), SP_OK);
+        assert_int_equal(force, INT16_MIN);
+        assert_int_equal(sp_co_rpdo1_ff_parse(&f, 4u, &w, &v, &force), SP_E_FRAME);
+        assert_int_equal(sp_co_rpdo1_ff_frame(&f, 1u, 0u, 0u, 0, 0), SP_E_ARG);
+    }
     assert_int_equal(sp_co_tpdo1_frame(&f, 1u, 3u, 0x000Fu, INT32_MIN), SP_OK);
     assert_int_equal(f.id, 0x183u);
     assert_int_equal(sp_co_tpdo1_parse(&f, 3u, &w, &v), SP_OK);
@@ -484,6 +501,16 @@ static void test_link(void **state)
     assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
     assert_int_equal(in.request, SP_CO_REQ_ACTIVE);
     assert_int_equal(in.setpoint[0], -62499);
+    /* the force feed-forward in daN along the count: rounded half away from zero, saturated */
+    out.setpoint[1].force = -12345 * 256; /* -1234.5 daN */
+    out.setpoint[2].force = 400000 * 256; /* beyond INT16 daN */
+    assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
+    assert_int_equal(in.force_dan[0], -1235);
+    assert_int_equal(in.force_dan[2], INT16_MAX); /* node 2: leg 3 */
+    cfg.scaling[1].direction = -1;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
+    assert_int_equal(in.force_dan[0], 1235); /* the count falls as the leg extends: the force too */
+    cfg.scaling[1].direction = 1;
     cfg.scaling[0].nm_per_count = 1u;
     assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[0]), SP_OK);
     out.setpoint[0].length = INT32_MAX;

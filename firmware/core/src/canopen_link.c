@@ -73,6 +73,14 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
     return st;
 }
 
+/* Q8 N -> daN along the drive's count, rounded half away from zero, saturated to INT16. */
+static int16_t force_dan(sp_q8_t force_q8, int8_t direction)
+{
+    int32_t f = direction < 0 ? -(force_q8 / 2) : force_q8 / 2; /* Q7, no overflow on negation */
+    int32_t dan = (f >= 0 ? f + 640 : f - 640) / 1280;
+    return (int16_t)(dan > INT16_MAX ? INT16_MAX : (dan < INT16_MIN ? INT16_MIN : dan));
+}
+
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
                              sp_co_master_input_t *in)
 {
@@ -86,6 +94,10 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
     for (k = 0u; k < cfg->master.n_nodes; k++) {
         uint32_t leg = (uint32_t)cfg->master.node[k].leg - 1u;
         in->setpoint[k] = 0;
+        in->force_dan[k] = 0;
+        if (leg < SP_LEGS) {
+            in->force_dan[k] = force_dan(out->setpoint[leg].force, cfg->scaling[leg].direction);
+        }
         if (leg < SP_LEGS &&
             sp_co_length_to_count(&cfg->scaling[leg], out->setpoint[leg].length, &in->setpoint[k]) != SP_OK) {
             st = SP_E_OVERFLOW;

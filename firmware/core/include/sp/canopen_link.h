@@ -13,9 +13,10 @@
  *     controller's output;
  *  5. sp_co_master_step(): RPDO1 + SYNC on SYNC ticks.
  *
- * What CiA 408's position mode cannot carry is dropped: the velocity and
- * force feed-forward of the native setpoints (the drive closes its own
- * position loop). With a SYNC divider d the feedback arrives every d ticks:
+ * CiA 408's axis position setpoint carries the position only: the drive
+ * derives the velocity from consecutive setpoints, and the force
+ * feed-forward goes only to drives configured with the vendor object
+ * 0x2120 in RPDO1 (force_ff; docs/canopen.md says why). With a SYNC divider d the feedback arrives every d ticks:
  * the controller's feedback_timeout_ticks must exceed d.
  */
 #ifndef SP_CANOPEN_LINK_H
@@ -63,7 +64,9 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
 /**
  * The master's input from the controller's output: request ACTIVE while the
  * controller's drive mode is ACTIVE, else HOLD; each node's setpoint the
- * count of its leg's setpoint length. now_ms is copied. SP_E_ARG for NULL;
+ * count of its leg's setpoint length, and its force feed-forward in daN
+ * along the count (the setpoint's force x direction / 10 N, rounded,
+ * saturated to INT16; sent only to drives with force_ff). now_ms is copied. SP_E_ARG for NULL;
  * SP_E_OVERFLOW when a count saturated.
  */
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
