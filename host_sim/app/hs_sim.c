@@ -13,7 +13,12 @@
  * neither sent nor read. The master's SYNC sets the pace: each SYNC (the
  * one on axis_b closes the cycle) is one plant cycle of 1 ms, whatever the
  * wall clock (log timestamps are simulated time); --timeout-ms of silence
- * ends the run (exit 3). Not with --lockstep (the plant is no time master).
+ * ends the run (exit 3). With --lockstep the plant stays the time master
+ * (deterministic, byte-identical logs): each cycle it sends only SYNC(t) on
+ * both axis buses (the lockstep clock; no native feedback), the controller
+ * ticks on it and its CANopen master sends NMT/SDO/RPDO1/SYNC, the nodes
+ * answer at once (before the next SYNC(t)), then the plant integrates 1 ms.
+ * Not with --inproc.
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -665,9 +670,10 @@ static void progress_line(sim_t *s, uint64_t tick)
 /* Is the controller's answer to cycle `tick` complete in raw[0..n) (as it
  * sent it, before the injector): AXIS_SETPOINTS(tick) on both axis buses,
  * CTRL_STATUS(tick), CTRL_MONITOR(tick), and on even ticks CTRL_WRENCH(tick)? */
-static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick)
+static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick, int canopen)
 {
-    int sp[2] = {0, 0}, st = 0, mon = 0, wr = (tick % SP_PROTO_WRENCH_PERIOD != 0u);
+    /* with CANopen drives the master's frames (no AXIS_SETPOINTS) come before the ops frames */
+    int sp[2] = {canopen, canopen}, st = 0, mon = 0, wr = (tick % SP_PROTO_WRENCH_PERIOD != 0u);
     for (uint32_t k = 0; k < n; k++) {
         const sp_can_frame_t *f = &raw[k];
         uint8_t ctr;
@@ -760,7 +766,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, sp_can_frame_t *keep, uint32_t
         } while (got == RX_BUF);
         /* CTRL_WRENCH comes on even ticks only (500 Hz), after CTRL_MONITOR: waited for, so
          * that it is logged in its own cycle whatever the scheduling */
-        if (answer_complete(keep, nkeep, tick)) {
+        if (answer_complete(keep, nkeep, tick, s->canopen)) {
             break;
         }
     }
@@ -966,6 +972,29 @@ static int canopen_frames(sim_t *s, uint64_t t_us)
     }
 }
 
+/* --canopen --lockstep: the controller's answer to SYNC(t), in the order it
+ * was sent: the master's frames (NMT, SDO, RPDO1, SYNC) to the CiA 408
+ * nodes, whose answers (SDO, TPDOs) go out at once, before the next SYNC(t),
+ * so the controller reads them in its next tick; ops frames as usual. */
+static void canopen_answer(sim_t *s, const sp_can_frame_t *raw, uint32_t n_raw, uint64_t t_us)
+{
+    for (uint32_t k = 0; k < n_raw; k++) {
+        const sp_can_frame_t *f = &raw[k];
+        log_frame(s, f, t_us);
+        if (f->bus == SP_BUS_OPS) {
+            take_frame(s, f);
+            continue;
+        }
+        sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
+        uint8_t n = 0u;
+        (void)hs_co_bus_receive(&s->co, f, tx, &n);
+        if (n > 0u) {
+            (void)send_frames(s, tx, n, t_us);
+            s->co_sent += n;
+        }
+    }
+}
+
 /* --canopen: waits for the cycle's SYNC (see canopen_frames); 0, or 3 when
  * the master has been silent for timeout_ms. */
 static int canopen_wait(sim_t *s, uint64_t t_us, long timeout_ms)
@@ -1084,8 +1113,8 @@ int main(int argc, char **argv)
         }
         s.have_scenario = 1;
     }
-    if (s.canopen && s.lockstep) {
-        fprintf(stderr, "hs_sim: --canopen and --lockstep exclude each other (the CANopen master produces SYNC)\n");
+    if (s.canopen && s.inproc) {
+        fprintf(stderr, "hs_sim: --canopen runs on SocketCAN (--lockstep or SYNC-driven), not --inproc\n");
         return 2;
     }
     if (scenario == NULL && max_ticks == 0 && s.lockstep) {
@@ -1229,6 +1258,15 @@ int main(int argc, char **argv)
             uint32_t n = 0;
             uint32_t sync_tick = (uint32_t)(tick + s.tick0); /* modulo 2^32, as the DBC's Tick */
             (void)hs_bus_cycle_frames(&s.bus, &s.plant, sync_tick, 1u, tx, &n);
+            if (s.canopen) { /* the drives answer by CANopen: only the cycle's SYNC(t), the lockstep clock */
+                uint32_t k = 0;
+                for (uint32_t i = 0; i < n; i++) {
+                    if (tx[i].id == SP_ID_SYNC) {
+                        tx[k++] = tx[i];
+                    }
+                }
+                n = k;
+            }
             if (send_ft(&s, t_us) != 0 || send_frames(&s, tx, n, t_us) != 0) {
                 rc = 1;
                 break;
@@ -1249,7 +1287,11 @@ int main(int argc, char **argv)
                 rc = (r == 3) ? 3 : 1;
                 break;
             }
-            deliver_answer(&s, raw, nraw, t_us);
+            if (s.canopen) {
+                canopen_answer(&s, raw, nraw, t_us);
+            } else {
+                deliver_answer(&s, raw, nraw, t_us);
+            }
             track_faults(&s, tick);
         } else if (s.canopen) {
             if (canopen_wait(&s, t_us, timeout_ms) != 0) {

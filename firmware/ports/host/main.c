@@ -8,13 +8,16 @@
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
  *                 [--canopen-timeout-ms MS]
  *
- * --canopen (real time only): the drives are CiA 408 nodes 1-3 on axis_a
+ * --canopen: the drives are CiA 408 nodes 1-3 on axis_a
  * and 4-6 on axis_b, configured and driven by the CANopen master
  * (sp/canopen_link.h, docs/canopen.md) instead of the native drive frames;
  * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
  * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
  * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
- * (user-mode Linux in real time), as --feedback-timeout does.
+ * (user-mode Linux in real time), as --feedback-timeout does. With
+ * --lockstep the plant's SYNC(t) on the axis buses (the DBC's, 0x010) is the
+ * clock and goes to the node; every other frame of those buses to the
+ * master, which still produces the CANopen SYNC (0x080) for its drives.
  *
  * Real-time mode (default): the controller is the cycle master; an
  * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
@@ -110,7 +113,8 @@ static void drain(sp_can_port_t *port, sp_node_t *node)
         uint32_t got = 0;
         (void)port->receive(port->ctx, rx, 32u, &got);
         for (uint32_t k = 0; k < got; k++) {
-            if (co.on && rx[k].bus != SP_BUS_OPS) {
+            /* in lockstep the plant's SYNC(t) (the clock) goes to the node; the rest of a drive bus to the master */
+            if (co.on && rx[k].bus != SP_BUS_OPS && rx[k].id != SP_ID_SYNC) {
                 (void)sp_co_master_receive(&co.m, &co.link.master, &rx[k], co.now_ms);
             } else {
                 (void)sp_node_receive(node, &rx[k], NULL);
@@ -247,10 +251,6 @@ int main(int argc, char **argv)
         }
     }
 
-    if (canopen && lockstep) {
-        fprintf(stderr, "sp_controller: --canopen runs in real time only (the master produces SYNC)\n");
-        return 2;
-    }
     if (canopen && co_setup((uint32_t)co_sp_timeout) != 0) {
         fprintf(stderr, "sp_controller: the CANopen master's default configuration is not usable\n");
         return 1;
@@ -288,6 +288,9 @@ int main(int argc, char **argv)
             static const uint32_t bases[] = {SP_CO_COB_EMCY, SP_CO_COB_TPDO1, SP_CO_COB_TPDO2, SP_CO_COB_SDO_TX,
                                              SP_CO_COB_HEARTBEAT};
             bc[b].n_rx_ids = 0u;
+            if (lockstep) {
+                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_ID_SYNC; /* the plant's clock */
+            }
             for (uint32_t k = 0; k < co.link.master.n_nodes; k++) {
                 if (co.link.master.node[k].bus != (uint8_t)b) {
                     continue;
