@@ -8,7 +8,8 @@
  *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N]
  *
  * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
- * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
+ * as the platform config's drives section says (then --canopen is the
+ * default), else node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
  * CANopen master (NMT, SDO, RPDO1 + SYNC); the native drive frames are
  * neither sent nor read. The master's SYNC sets the pace: each SYNC (the
  * one on axis_b closes the cycle) is one plant cycle of 1 ms, whatever the
@@ -84,6 +85,7 @@
 #include "hs/inject.h"
 #include "hs/kin.h"
 #include "hs/scenario.h"
+#include "sp/canopen_link.h"
 #include "sp/node.h"
 #include "host_os.h"
 #include "socketcan.h"
@@ -1027,13 +1029,15 @@ static void canopen_cycle(sim_t *s, uint64_t t_us)
     }
 }
 
-/* --canopen: six nodes, legs 1-3 on axis_a and 4-6 on axis_b with node ids
- * 1..6 (the master's defaults, sp_co_master_cfg_default), 1 um per count,
- * count 0 at the park pose's leg lengths. */
+/* --canopen: six nodes as the platform config's drives section says
+ * (sp_co_layout_default: node ids, buses, count 0 at length_at_zero; one
+ * resolution for all legs, direction +1), else the master's built-in
+ * layout: legs 1-3 on axis_a and 4-6 on axis_b with node ids 1..6, 1 um per
+ * count, count 0 at the park pose's leg lengths. */
 static int canopen_init(sim_t *s, const hs_params_t *par)
 {
     uint8_t ids[HS_LEGS], buses[HS_LEGS];
-    double zero[HS_LEGS];
+    double zero[HS_LEGS], m_per_count = 1e-6;
     if (hs_leg_lengths(par, hs_config_default.park, zero) != HS_OK) {
         return -1;
     }
@@ -1041,7 +1045,22 @@ static int canopen_init(sim_t *s, const hs_params_t *par)
         ids[i] = (uint8_t)(i + 1);
         buses[i] = (uint8_t)(i < 3 ? SP_BUS_AXIS_A : SP_BUS_AXIS_B);
     }
-    if (hs_co_bus_init(&s->co, ids, buses, zero, 1e-6) != HS_OK) {
+    if (sp_co_layout_default.present) {
+        const sp_co_layout_t *l = &sp_co_layout_default;
+        m_per_count = 1e-9 * (double)l->scaling[0].nm_per_count;
+        for (uint32_t k = 0; k < l->master.n_nodes && k < HS_LEGS; k++) {
+            uint32_t leg = (uint32_t)l->master.node[k].leg - 1u;
+            if (leg >= HS_LEGS || l->scaling[leg].nm_per_count != l->scaling[0].nm_per_count ||
+                l->scaling[leg].direction != 1) {
+                fprintf(stderr, "hs_sim: the simulated drives need one resolution for all legs and direction +1\n");
+                return -1;
+            }
+            ids[leg] = l->master.node[k].node_id;
+            buses[leg] = l->master.node[k].bus;
+            zero[leg] = (double)l->scaling[leg].zero_q24 / 16777216.0;
+        }
+    }
+    if (hs_co_bus_init(&s->co, ids, buses, zero, m_per_count) != HS_OK) {
         return -1;
     }
     return hs_co_bus_sample(&s->co, &s->plant) == HS_OK ? 0 : -1;
@@ -1053,6 +1072,7 @@ int main(int argc, char **argv)
     memset(&s, 0, sizeof s);
     s.ifs[0] = "vcan0", s.ifs[1] = "vcan1", s.ifs[2] = "vcan2";
     s.status_state = -1;
+    s.canopen = sp_co_layout_default.present ? 1 : 0; /* the platform config's drives are CiA 408 */
     const char *scenario = NULL, *log_path = NULL, *truth_path = NULL;
     unsigned long long max_ticks = 0, seed = 0;
     uint32_t sp_timeout = 0u;
@@ -1180,12 +1200,13 @@ int main(int argc, char **argv)
                                               6u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
-        if (s.canopen) { /* NMT, SYNC, and per node RPDO1 and SDO requests */
-            uint32_t first = b == 1 ? 1u : 4u;
+        if (s.canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */
             bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_CO_COB_NMT, SP_CO_COB_SYNC}, 2u};
-            for (uint32_t k = 0u; k < 3u; k++) {
-                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + first + k;
-                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + first + k;
+            for (uint32_t k = 0u; k < HS_LEGS; k++) {
+                if (s.co.node[k].bus == (uint8_t)b && bc[b].n_rx_ids + 2u <= SP_SOCKETCAN_MAX_FILTERS) {
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + s.co.node[k].node_id;
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + s.co.node[k].node_id;
+                }
             }
         }
     }

@@ -517,6 +517,34 @@ static void test_link(void **state)
     assert_int_equal(sp_co_link_input(&cfg, &out, 79u, &in), SP_E_OVERFLOW);
     assert_int_equal(in.setpoint[1], INT32_MAX);
     assert_int_equal(sp_co_link_input(NULL, &out, 79u, &in), SP_E_ARG);
+
+    /* from a layout (the config's drives section as generated): the scalings are prepared, the rest checked */
+    {
+        sp_co_layout_t lay;
+        sp_co_link_cfg_t c2;
+        memset(&lay, 0, sizeof lay);
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_E_ARG); /* not present */
+        lay.present = 1u;
+        assert_int_equal(sp_co_master_cfg_default(&lay.master, (uint8_t)SP_LEGS), SP_OK);
+        lay.master.node[3].force_ff = 1u;
+        for (i = 0u; i < SP_LEGS; i++) {
+            lay.scaling[i].nm_per_count = 2000u;
+            lay.scaling[i].zero_q24 = zero[i];
+            lay.scaling[i].direction = -1;
+        }
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_OK);
+        assert_int_equal(c2.master.node[3].force_ff, 1u);
+        assert_ptr_equal(c2.platform, &sp_platform_default);
+        out.setpoint[0].length = zero[0] + 0x00100000; /* + 62.5 mm = 31250 counts of 2 um, counting down */
+        assert_int_equal(sp_co_link_input(&c2, &out, 80u, &in), SP_OK);
+        assert_int_equal(in.setpoint[0], -31250);
+        lay.scaling[2].nm_per_count = 0u; /* not a scaling */
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_E_ARG);
+        lay.scaling[2].nm_per_count = 2000u;
+        lay.master.node[4].node_id = lay.master.node[3].node_id; /* both on axis_b: a duplicate id */
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_E_ARG);
+        assert_int_equal(sp_co_link_cfg_from_layout(NULL, &lay, &sp_platform_default), SP_E_ARG);
+    }
     assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
 }
 

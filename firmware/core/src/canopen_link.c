@@ -24,6 +24,25 @@ sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *p
     return SP_OK;
 }
 
+sp_status_t sp_co_link_cfg_from_layout(sp_co_link_cfg_t *cfg, const sp_co_layout_t *layout,
+                                       const sp_platform_t *platform)
+{
+    uint32_t i;
+    if (cfg == NULL || layout == NULL || platform == NULL || !layout->present) {
+        return SP_E_ARG;
+    }
+    memset(cfg, 0, sizeof *cfg);
+    cfg->master = layout->master;
+    for (i = 0u; i < SP_LEGS; i++) {
+        cfg->scaling[i] = layout->scaling[i];
+        if (sp_co_scaling_prepare(&cfg->scaling[i]) != SP_OK) {
+            return SP_E_ARG;
+        }
+    }
+    cfg->platform = platform;
+    return sp_co_link_cfg_check(cfg);
+}
+
 sp_status_t sp_co_link_cfg_check(const sp_co_link_cfg_t *cfg)
 {
     uint32_t seen = 0u, k;

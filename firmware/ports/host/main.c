@@ -6,11 +6,16 @@
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
- *                 [--canopen-timeout-ms MS]
+ *                 [--canopen-timeout-ms MS] [--canopen-force-ff]
  *
- * --canopen: the drives are CiA 408 nodes 1-3 on axis_a
- * and 4-6 on axis_b, configured and driven by the CANopen master
- * (sp/canopen_link.h, docs/canopen.md) instead of the native drive frames;
+ * --canopen: the drives are CiA 408 nodes configured and driven by the
+ * CANopen master (sp/canopen_link.h, docs/canopen.md) instead of the native
+ * drive frames: as the platform config's drives section says (then
+ * --canopen is the default), else the built-in layout: nodes 1-3 on axis_a
+ * and 4-6 on axis_b, 1 um per count, count 0 at the park pose;
+ * --canopen-force-ff (implies --canopen) maps the vendor force feed-forward
+ * 0x2120 into every drive's RPDO1 (the simulated drive has it; real ones
+ * may not);
  * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
  * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
  * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
@@ -60,7 +65,8 @@ static void usage(void)
     fprintf(stderr, "usage: sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep] [--ticks N]\n"
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
-                    "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n");
+                    "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
+                    "                     [--canopen-force-ff]\n");
 }
 
 typedef struct {
@@ -86,12 +92,21 @@ typedef struct {
 
 static co_t co;
 
-static int co_setup(uint32_t timeout_ms)
+static int co_setup(uint32_t timeout_ms, int force_ff)
 {
     sp_ik_t ik;
-    if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
-        sp_co_link_cfg_default(&co.link, &sp_platform_default, ik.length) != SP_OK) {
+    if (sp_co_layout_default.present) { /* the platform config's drives section */
+        if (sp_co_link_cfg_from_layout(&co.link, &sp_co_layout_default, &sp_platform_default) != SP_OK) {
+            return -1;
+        }
+    } else if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
+               sp_co_link_cfg_default(&co.link, &sp_platform_default, ik.length) != SP_OK) {
         return -1;
+    }
+    if (force_ff) {
+        for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
+            co.link.master.node[k].force_ff = 1u;
+        }
     }
     if (timeout_ms > 0u) { /* relaxed supervision for hosts that miss 1 ms deadlines */
         co.link.master.setpoint_timeout_ms = (uint16_t)timeout_ms;
@@ -169,7 +184,7 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
 int main(int argc, char **argv)
 {
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
-    int lockstep = 0, ff = 1, timing = 0, canopen = 0;
+    int lockstep = 0, ff = 1, timing = 0, canopen = sp_co_layout_default.present ? 1 : 0, co_force_ff = 0;
     long co_sp_timeout = 0;
     long fb_timeout = 0;
     long op_timeout = -1;
@@ -188,6 +203,8 @@ int main(int argc, char **argv)
             ff = 0;
         } else if (strcmp(a, "--canopen") == 0) {
             canopen = 1;
+        } else if (strcmp(a, "--canopen-force-ff") == 0) {
+            canopen = 1, co_force_ff = 1;
         } else if (v != NULL && strcmp(a, "--canopen-timeout-ms") == 0) {
             char *end;
             co_sp_timeout = strtol(v, &end, 10), i++;
@@ -251,8 +268,8 @@ int main(int argc, char **argv)
         }
     }
 
-    if (canopen && co_setup((uint32_t)co_sp_timeout) != 0) {
-        fprintf(stderr, "sp_controller: the CANopen master's default configuration is not usable\n");
+    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff) != 0) {
+        fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;
     }
     static sp_node_config_t cfg;
@@ -265,6 +282,10 @@ int main(int argc, char **argv)
     cfg.ctrl.force_feedforward = (uint8_t)ff;
     if (fb_timeout > 0) {
         cfg.ctrl.feedback_timeout_ticks = (uint32_t)fb_timeout;
+    }
+    if (co.on && cfg.ctrl.feedback_timeout_ticks <= co.link.master.sync_divider) {
+        /* CANopen feedback comes every sync_divider ticks */
+        cfg.ctrl.feedback_timeout_ticks = (uint32_t)co.link.master.sync_divider + 2u;
     }
     if (op_timeout >= 0) {
         cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;
@@ -314,7 +335,9 @@ int main(int argc, char **argv)
     fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s, wrench source %s%s\n",
             lockstep ? "lockstep" : "real-time", ifs[0], ifs[1], ifs[2], ff ? "on" : "off",
             cfg.ctrl.wrench_source == SP_WRENCH_SENSOR ? "sensor" : "cylinders",
-            canopen ? ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
+            canopen ? (sp_co_layout_default.present ? ", drives: CiA 408 as the platform config's drives section"
+                                                    : ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)")
+                    : "");
 
     run_stats_t rs;
     memset(&rs, 0, sizeof rs);
