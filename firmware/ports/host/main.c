@@ -6,7 +6,7 @@
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
- *                 [--canopen-timeout-ms MS] [--canopen-force-ff]
+ *                 [--canopen-timeout-ms MS] [--canopen-force-ff] [--canopen-sync-divider N]
  *
  * --canopen: the drives are CiA 408 nodes configured and driven by the
  * CANopen master (sp/canopen_link.h, docs/canopen.md) instead of the native
@@ -15,7 +15,9 @@
  * and 4-6 on axis_b, 1 um per count, count 0 at the park pose;
  * --canopen-force-ff (implies --canopen) maps the vendor force feed-forward
  * 0x2120 into every drive's RPDO1 (the simulated drive has it; real ones
- * may not);
+ * may not); --canopen-sync-divider N (1..10, implies --canopen) sends SYNC
+ * and the PDOs every N ticks (the layout of two classic buses at 1 Mbit/s
+ * with pressures needs 3, docs/canopen.md), the drives' watchdog 3N ms;
  * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
  * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
  * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
@@ -66,7 +68,7 @@ static void usage(void)
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
                     "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
-                    "                     [--canopen-force-ff]\n");
+                    "                     [--canopen-force-ff] [--canopen-sync-divider N]\n");
 }
 
 typedef struct {
@@ -92,7 +94,7 @@ typedef struct {
 
 static co_t co;
 
-static int co_setup(uint32_t timeout_ms, int force_ff)
+static int co_setup(uint32_t timeout_ms, int force_ff, int divider)
 {
     sp_ik_t ik;
     if (sp_co_layout_default.present) { /* the platform config's drives section */
@@ -107,6 +109,11 @@ static int co_setup(uint32_t timeout_ms, int force_ff)
         for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
             co.link.master.node[k].force_ff = 1u;
         }
+    }
+    if (divider > 0) { /* SYNC every `divider` ticks: the drives' watchdog 3 periods, the TPDO supervision 3 + 5 ms */
+        co.link.master.sync_divider = (uint8_t)divider;
+        co.link.master.setpoint_timeout_ms = (uint16_t)(3 * divider);
+        co.link.master.pdo_timeout_ms = (uint16_t)(3 * divider + 5);
     }
     if (timeout_ms > 0u) { /* relaxed supervision for hosts that miss 1 ms deadlines */
         co.link.master.setpoint_timeout_ms = (uint16_t)timeout_ms;
@@ -128,8 +135,9 @@ static void drain(sp_can_port_t *port, sp_node_t *node)
         uint32_t got = 0;
         (void)port->receive(port->ctx, rx, 32u, &got);
         for (uint32_t k = 0; k < got; k++) {
-            /* in lockstep the plant's SYNC(t) (the clock) goes to the node; the rest of a drive bus to the master */
-            if (co.on && rx[k].bus != SP_BUS_OPS && rx[k].id != SP_ID_SYNC) {
+            /* in lockstep the plant's SYNC(t) (the clock) goes to the node, and so does the force/torque
+             * sensor's FT_SENSOR (axis_b); the rest of a drive bus to the master */
+            if (co.on && rx[k].bus != SP_BUS_OPS && rx[k].id != SP_ID_SYNC && rx[k].id != SP_ID_FT_SENSOR) {
                 (void)sp_co_master_receive(&co.m, &co.link.master, &rx[k], co.now_ms);
             } else {
                 (void)sp_node_receive(node, &rx[k], NULL);
@@ -185,6 +193,7 @@ int main(int argc, char **argv)
 {
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
     int lockstep = 0, ff = 1, timing = 0, canopen = sp_co_layout_default.present ? 1 : 0, co_force_ff = 0;
+    int co_divider = 0;
     long co_sp_timeout = 0;
     long fb_timeout = 0;
     long op_timeout = -1;
@@ -205,6 +214,13 @@ int main(int argc, char **argv)
             canopen = 1;
         } else if (strcmp(a, "--canopen-force-ff") == 0) {
             canopen = 1, co_force_ff = 1;
+        } else if (v != NULL && strcmp(a, "--canopen-sync-divider") == 0) {
+            char *end;
+            co_divider = (int)strtol(v, &end, 10), i++, canopen = 1;
+            if (*end != '\0' || co_divider < 1 || co_divider > 10) {
+                usage();
+                return 2;
+            }
         } else if (v != NULL && strcmp(a, "--canopen-timeout-ms") == 0) {
             char *end;
             co_sp_timeout = strtol(v, &end, 10), i++;
@@ -268,7 +284,7 @@ int main(int argc, char **argv)
         }
     }
 
-    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff) != 0) {
+    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff, co_divider) != 0) {
         fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;
     }
