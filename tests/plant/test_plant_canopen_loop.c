@@ -253,6 +253,18 @@ static void compare(sp_axis_t axis, const char *name, const char *unit)
     ff1 = surge(&L);
     assert_int_equal(L.out.faults, 0u);
     assert_int_equal(L.mout.fault_mask, 0u);
+    {
+        /* the measured force reaches the controller from the TPDO2 pressures (kPa) */
+        int i;
+        for (i = 0; i < SP_LEGS; i++) {
+            hs_feedback_t fb;
+            double f;
+            assert_int_equal(hs_plant_feedback(&L.plant, i, &fb), HS_OK);
+            f = fb.pressure_a * L.par.cyl[i].area_a - fb.pressure_b * L.par.cyl[i].area_b;
+            /* within the kPa resolution (1 kPa on 100 + 56 mm pistons: < 20 N) and the plant's change in one tick */
+            assert_true(fabs((double)L.in.drive[i].force / 256.0 - f) < 0.02 * fabs(f) + 50.0);
+        }
+    }
     init_ff(&L, 0, 3u, 1u);
     bring_up(&L);
     ff3 = surge(&L);
