@@ -2,8 +2,9 @@
 # Prints the benchmark figures: the host-release benchmarks (fixed-point
 # primitives, kinematics and the controller tick, the plant), accuracy of the
 # core against the float64 model, instruction counts of the core on a
-# Cortex-M4 (QEMU) next to the float reference, and the NUCLEO-G474RE image's
-# sizes and worst-case stack against their budgets (a budget overrun fails).
+# Cortex-M4 (QEMU) next to the float reference, and the NUCLEO-G474RE images'
+# (native and CiA 408) sizes and worst-case stack against their budgets (a
+# budget overrun fails).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -19,3 +20,5 @@ echo "== Cortex-M4 (QEMU mps2-an386): instructions per call (scripts/m4_bench.sh
 scripts/m4_bench.sh
 echo "== NUCLEO-G474RE image: sizes, stack, heap (scripts/stm32_report.sh)"
 scripts/stm32_report.sh
+echo "== NUCLEO-G474RE CANopen image (CiA 408 drives): sizes, stack, heap"
+scripts/stm32_report.sh stm32g4-cia408

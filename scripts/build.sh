@@ -4,7 +4,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 presets=("$@")
-((${#presets[@]})) || presets=(host-debug host-release m4-core stm32g4)
+((${#presets[@]})) || presets=(host-debug host-release m4-core stm32g4 stm32g4-cia408)
 for p in "${presets[@]}"; do
   echo "== build: $p"
   cmake --preset "$p" >/dev/null

@@ -18,7 +18,7 @@ if [ -z "${M4_BUILD_DIR:-}" ]; then
   fi
 fi
 elf=$dir/bench/m4
-for f in sp_m4_icount.elf sp_m4_icount_o2.elf hardfp/sp_m4_icount_float.elf \
+for f in sp_m4_icount.elf sp_m4_icount_o2.elf sp_m4_co_icount.elf hardfp/sp_m4_icount_float.elf \
          hardfp/sp_m4_icount_float_o2.elf sp_m4_golden.elf sp_m4_golden.map; do
   [ -f "$elf/$f" ] || { echo "m4_bench: $elf/$f is missing (build the m4-core preset)" >&2; exit 1; }
 done
@@ -64,6 +64,11 @@ grep -E '^(budget|force-control budget)' "$out/fixed_o2.txt" | sed 's/^/-O2 /'
 echo "(* the m4-core preset: the core at -Os, its hot files at -O3 (SP_CORE_FAST_SOURCES in firmware/CMakeLists.txt),"
 echo "   as in the STM32 image; -O2: the whole core and program at -O2)"
 echo "(instructions executed, not cycles: see docs/m4.md)"
+echo
+# The CANopen master and its link (issue 18, docs/canopen.md): what the
+# CiA 408 image's tick adds to the controller's step.
+run co_os "$elf/sp_m4_co_icount.elf"
+cat "$out/co_os.txt"
 echo
 echo "== Cortex-M4: size of the golden-vector image (arm-none-eabi-size, bytes; the STM32 image's flash budget: 131072)"
 arm-none-eabi-size "$elf/sp_m4_golden.elf"

@@ -6,16 +6,20 @@
 # graphs completed by the disassembly; tools/stewart/stack_usage.py), and
 # the heap check. Builds the stm32g4 preset first (incremental).
 # STM32_BUILD_DIR: use an existing build directory instead (not rebuilt).
+# An argument names the preset: stm32g4 (default, the native drive
+# protocol) or stm32g4-cia408 (the CANopen image, docs/canopen.md).
 # Exit status: 0 when every budget holds, 1 otherwise.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-dir=${STM32_BUILD_DIR:-build/stm32g4}
+preset=${1:-stm32g4}
+case $preset in stm32g4 | stm32g4-cia408) ;; *) echo "stm32_report: unknown preset $preset" >&2; exit 2 ;; esac
+dir=${STM32_BUILD_DIR:-build/$preset}
 if [ -z "${STM32_BUILD_DIR:-}" ]; then
   if [ -f "$dir/build.ninja" ]; then
-    cmake --build --preset stm32g4 >/dev/null
+    cmake --build --preset "$preset" >/dev/null
   else
-    scripts/build.sh stm32g4 >/dev/null
+    scripts/build.sh "$preset" >/dev/null
   fi
 fi
 out=$dir/firmware/ports/stm32g4
@@ -28,7 +32,8 @@ flash_budget=131072 ram_budget=16384 stack_budget=2048
 status=0
 btype=$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$dir/CMakeCache.txt")
 bflags=$(sed -n "s/^CMAKE_C_FLAGS_$(echo "$btype" | tr a-z A-Z):[A-Z]*=//p" "$dir/CMakeCache.txt")
-echo "== sp_stm32g4 (NUCLEO-G474RE): $btype ($bflags), arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpfullversion)"
+proto=$(sed -n 's/^SP_DRIVE_PROTOCOL:[A-Z]*=//p' "$dir/CMakeCache.txt")
+echo "== sp_stm32g4 (NUCLEO-G474RE), drive protocol ${proto:-native}: $btype ($bflags), arm-none-eabi-gcc $(arm-none-eabi-gcc -dumpfullversion)"
 for f in sp_stm32g4.elf sp_stm32g4.bin sp_stm32g4.hex sp_stm32g4.map; do
   printf '  %-16s %8d bytes\n' "$f" "$(stat -c %s "$out/$f")"
 done

@@ -22,12 +22,18 @@
  * the session (default 1).
  *
  * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
- * node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
+ * as the platform config's drives section says (then --canopen is the
+ * default), else node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
  * CANopen master (NMT, SDO, RPDO1 + SYNC); the native drive frames are
  * neither sent nor read. The master's SYNC sets the pace: each SYNC (the
  * one on axis_b closes the cycle) is one plant cycle of 1 ms, whatever the
  * wall clock (log timestamps are simulated time); --timeout-ms of silence
- * ends the run (exit 3). Not with --lockstep (the plant is no time master).
+ * ends the run (exit 3). With --lockstep the plant stays the time master
+ * (deterministic, byte-identical logs): each cycle it sends only SYNC(t) on
+ * both axis buses (the lockstep clock; no native feedback), the controller
+ * ticks on it and its CANopen master sends NMT/SDO/RPDO1/SYNC, the nodes
+ * answer at once (before the next SYNC(t)), then the plant integrates 1 ms.
+ * Not with --inproc.
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -95,6 +101,7 @@
 #include "hs/inject.h"
 #include "hs/kin.h"
 #include "hs/scenario.h"
+#include "sp/canopen_link.h"
 #include "sp/node.h"
 #include "host_os.h"
 #include "socketcan.h"
@@ -734,9 +741,10 @@ static void progress_line(sim_t *s, uint64_t tick)
 /* Is the controller's answer to cycle `tick` complete in raw[0..n) (as it
  * sent it, before the injector): AXIS_SETPOINTS(tick) on both axis buses,
  * CTRL_STATUS(tick), CTRL_MONITOR(tick), and on even ticks CTRL_WRENCH(tick)? */
-static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick)
+static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick, int canopen)
 {
-    int sp[2] = {0, 0}, st = 0, mon = 0, wr = (tick % SP_PROTO_WRENCH_PERIOD != 0u);
+    /* with CANopen drives the master's frames (no AXIS_SETPOINTS) come before the ops frames */
+    int sp[2] = {canopen, canopen}, st = 0, mon = 0, wr = (tick % SP_PROTO_WRENCH_PERIOD != 0u);
     for (uint32_t k = 0; k < n; k++) {
         const sp_can_frame_t *f = &raw[k];
         uint8_t ctr;
@@ -829,7 +837,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, sp_can_frame_t *keep, uint32_t
         } while (got == RX_BUF);
         /* CTRL_WRENCH comes on even ticks only (500 Hz), after CTRL_MONITOR: waited for, so
          * that it is logged in its own cycle whatever the scheduling */
-        if (answer_complete(keep, nkeep, tick)) {
+        if (answer_complete(keep, nkeep, tick, s->canopen)) {
             break;
         }
     }
@@ -1035,6 +1043,29 @@ static int canopen_frames(sim_t *s, uint64_t t_us)
     }
 }
 
+/* --canopen --lockstep: the controller's answer to SYNC(t), in the order it
+ * was sent: the master's frames (NMT, SDO, RPDO1, SYNC) to the CiA 408
+ * nodes, whose answers (SDO, TPDOs) go out at once, before the next SYNC(t),
+ * so the controller reads them in its next tick; ops frames as usual. */
+static void canopen_answer(sim_t *s, const sp_can_frame_t *raw, uint32_t n_raw, uint64_t t_us)
+{
+    for (uint32_t k = 0; k < n_raw; k++) {
+        const sp_can_frame_t *f = &raw[k];
+        log_frame(s, f, t_us);
+        if (f->bus == SP_BUS_OPS) {
+            take_frame(s, f);
+            continue;
+        }
+        sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
+        uint8_t n = 0u;
+        (void)hs_co_bus_receive(&s->co, f, tx, &n);
+        if (n > 0u) {
+            (void)send_frames(s, tx, n, t_us);
+            s->co_sent += n;
+        }
+    }
+}
+
 /* --canopen: waits for the cycle's SYNC (see canopen_frames); 0, or 3 when
  * the master has been silent for timeout_ms. */
 static int canopen_wait(sim_t *s, uint64_t t_us, long timeout_ms)
@@ -1067,13 +1098,15 @@ static void canopen_cycle(sim_t *s, uint64_t t_us)
     }
 }
 
-/* --canopen: six nodes, legs 1-3 on axis_a and 4-6 on axis_b with node ids
- * 1..6 (the master's defaults, sp_co_master_cfg_default), 1 um per count,
- * count 0 at the park pose's leg lengths. */
+/* --canopen: six nodes as the platform config's drives section says
+ * (sp_co_layout_default: node ids, buses, count 0 at length_at_zero; one
+ * resolution for all legs, direction +1), else the master's built-in
+ * layout: legs 1-3 on axis_a and 4-6 on axis_b with node ids 1..6, 1 um per
+ * count, count 0 at the park pose's leg lengths. */
 static int canopen_init(sim_t *s, const hs_params_t *par)
 {
     uint8_t ids[HS_LEGS], buses[HS_LEGS];
-    double zero[HS_LEGS];
+    double zero[HS_LEGS], m_per_count = 1e-6;
     if (hs_leg_lengths(par, hs_config_default.park, zero) != HS_OK) {
         return -1;
     }
@@ -1081,7 +1114,22 @@ static int canopen_init(sim_t *s, const hs_params_t *par)
         ids[i] = (uint8_t)(i + 1);
         buses[i] = (uint8_t)(i < 3 ? SP_BUS_AXIS_A : SP_BUS_AXIS_B);
     }
-    if (hs_co_bus_init(&s->co, ids, buses, zero, 1e-6) != HS_OK) {
+    if (sp_co_layout_default.present) {
+        const sp_co_layout_t *l = &sp_co_layout_default;
+        m_per_count = 1e-9 * (double)l->scaling[0].nm_per_count;
+        for (uint32_t k = 0; k < l->master.n_nodes && k < HS_LEGS; k++) {
+            uint32_t leg = (uint32_t)l->master.node[k].leg - 1u;
+            if (leg >= HS_LEGS || l->scaling[leg].nm_per_count != l->scaling[0].nm_per_count ||
+                l->scaling[leg].direction != 1) {
+                fprintf(stderr, "hs_sim: the simulated drives need one resolution for all legs and direction +1\n");
+                return -1;
+            }
+            ids[leg] = l->master.node[k].node_id;
+            buses[leg] = l->master.node[k].bus;
+            zero[leg] = (double)l->scaling[leg].zero_q24 / 16777216.0;
+        }
+    }
+    if (hs_co_bus_init(&s->co, ids, buses, zero, m_per_count) != HS_OK) {
         return -1;
     }
     return hs_co_bus_sample(&s->co, &s->plant) == HS_OK ? 0 : -1;
@@ -1094,6 +1142,7 @@ int main(int argc, char **argv)
     s.wrench_source = -1;
     s.ifs[0] = "vcan0", s.ifs[1] = "vcan1", s.ifs[2] = "vcan2";
     s.status_state = -1;
+    s.canopen = sp_co_layout_default.present ? 1 : 0; /* the platform config's drives are CiA 408 */
     const char *scenario = NULL, *log_path = NULL, *truth_path = NULL;
     unsigned long long max_ticks = 0, seed = 0;
     uint32_t sp_timeout = 0u;
@@ -1173,8 +1222,8 @@ int main(int argc, char **argv)
         }
         s.have_scenario = 1;
     }
-    if (s.canopen && s.lockstep) {
-        fprintf(stderr, "hs_sim: --canopen and --lockstep exclude each other (the CANopen master produces SYNC)\n");
+    if (s.canopen && s.inproc) {
+        fprintf(stderr, "hs_sim: --canopen runs on SocketCAN (--lockstep or SYNC-driven), not --inproc\n");
         return 2;
     }
     if (scenario == NULL && max_ticks == 0 && s.lockstep) {
@@ -1246,12 +1295,13 @@ int main(int argc, char **argv)
                                               8u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
-        if (s.canopen) { /* NMT, SYNC, and per node RPDO1 and SDO requests */
-            uint32_t first = b == 1 ? 1u : 4u;
+        if (s.canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */
             bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_CO_COB_NMT, SP_CO_COB_SYNC}, 2u};
-            for (uint32_t k = 0u; k < 3u; k++) {
-                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + first + k;
-                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + first + k;
+            for (uint32_t k = 0u; k < HS_LEGS; k++) {
+                if (s.co.node[k].bus == (uint8_t)b && bc[b].n_rx_ids + 2u <= SP_SOCKETCAN_MAX_FILTERS) {
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + s.co.node[k].node_id;
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + s.co.node[k].node_id;
+                }
             }
         }
     }
@@ -1324,6 +1374,15 @@ int main(int argc, char **argv)
             uint32_t n = 0;
             uint32_t sync_tick = (uint32_t)(tick + s.tick0); /* modulo 2^32, as the DBC's Tick */
             (void)hs_bus_cycle_frames(&s.bus, &s.plant, sync_tick, 1u, tx, &n);
+            if (s.canopen) { /* the drives answer by CANopen: only the cycle's SYNC(t), the lockstep clock */
+                uint32_t k = 0;
+                for (uint32_t i = 0; i < n; i++) {
+                    if (tx[i].id == SP_ID_SYNC) {
+                        tx[k++] = tx[i];
+                    }
+                }
+                n = k;
+            }
             if (send_ft(&s, t_us) != 0 || send_frames(&s, tx, n, t_us) != 0) {
                 rc = 1;
                 break;
@@ -1344,7 +1403,11 @@ int main(int argc, char **argv)
                 rc = (r == 3) ? 3 : 1;
                 break;
             }
-            deliver_answer(&s, raw, nraw, t_us);
+            if (s.canopen) {
+                canopen_answer(&s, raw, nraw, t_us);
+            } else {
+                deliver_answer(&s, raw, nraw, t_us);
+            }
             track_faults(&s, tick);
         } else if (s.canopen) {
             if (canopen_wait(&s, t_us, timeout_ms) != 0) {

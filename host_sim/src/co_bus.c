@@ -66,7 +66,8 @@ hs_status_t hs_co_bus_apply(hs_co_bus_t *b, hs_plant_t *plant)
         int follows = hs_co_node_follows(n);
         /* the setpoint of this SYNC period, moved on by its velocity since the SYNC */
         double v = follows ? b->velocity[i] : 0.0;
-        (void)hs_plant_set_setpoint(plant, i, length + v * 1e-3 * (double)b->ms_since_sync, v, 0.0,
+        double force = follows ? 10.0 * (double)n->force_dan : 0.0;
+        (void)hs_plant_set_setpoint(plant, i, length + v * 1e-3 * (double)b->ms_since_sync, v, force,
                                     follows ? HS_REQ_ACTIVE : HS_REQ_HOLD);
     }
     return HS_OK;

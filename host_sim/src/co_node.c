@@ -81,6 +81,7 @@ static void od_defaults(hs_co_node_t *n)
     od_add(n, 0x2110u, 0u, 1u, HS_CO_RO, 2u);
     od_add(n, 0x2110u, 1u, 2u, HS_CO_RO, 0u);
     od_add(n, 0x2110u, 2u, 2u, HS_CO_RO, 0u);
+    od_add(n, 0x2120u, 0u, 2u, HS_CO_RW, 0u);
     od_add(n, 0x6040u, 0u, 2u, HS_CO_RW, 0u);
     od_add(n, 0x6041u, 0u, 2u, HS_CO_RO, 0u);
     od_add(n, 0x6042u, 0u, 1u, HS_CO_RW, 1u);
@@ -237,6 +238,22 @@ static void sdo_serve(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_frame_t *
     }
 }
 
+/* RPDO1 is valid and mapped as the master's layout, with (3 entries) or
+ * without (2) the force feed-forward: 3 or 2; 0 when not usable. */
+static uint32_t rpdo1_layout(hs_co_node_t *n, uint32_t *cob)
+{
+    uint32_t c = od_value(n, 0x1400u, 1u);
+    uint32_t count = od_value(n, 0x1600u, 0u);
+    *cob = c & 0x7FFu;
+    if ((c & 0x80000000u) != 0u || od_value(n, 0x1600u, 1u) != 0x60400010u || od_value(n, 0x1600u, 2u) != 0x66000120u) {
+        return 0u;
+    }
+    if (count == 2u || (count == 3u && od_value(n, 0x1600u, 3u) == SP_CO_FORCE_FF_MAPPING)) {
+        return count;
+    }
+    return 0u;
+}
+
 /* The PDO is valid and mapped as the master's layout (comm index, map index). */
 static int pdo_ok(hs_co_node_t *n, uint16_t comm, uint16_t map, uint32_t e1, uint32_t e2, uint32_t *cob)
 {
@@ -256,6 +273,7 @@ static void on_sync(hs_co_node_t *n, sp_can_frame_t *tx, uint8_t *n_tx)
     }
     n->control = n->rx_control;
     n->setpoint = n->rx_setpoint;
+    n->force_dan = n->rx_force_dan;
     if ((n->control & SP_CO408_CW_R) != 0u && (prev & SP_CO408_CW_R) == 0u) {
         n->fault = 0u; /* the fault reset clears the cause first */
     }
@@ -263,6 +281,7 @@ static void on_sync(hs_co_node_t *n, sp_can_frame_t *tx, uint8_t *n_tx)
     hs_co_node_find(n, 0x6040u, 0u)->value = n->control;
     hs_co_node_find(n, 0x6041u, 0u)->value = sp_co408_status_bits(n->state);
     hs_co_node_find(n, 0x6600u, 1u)->value = (uint32_t)n->setpoint;
+    hs_co_node_find(n, 0x2120u, 0u)->value = (uint16_t)n->force_dan;
     hs_co_node_find(n, 0x6601u, 1u)->value = (uint32_t)n->actual;
     if (pdo_ok(n, 0x1800u, 0x1A00u, 0x60410010u, 0x66010120u, &cob) && (f = next_tx(tx, n_tx)) != NULL) {
         (void)sp_co_tpdo1_frame(f, n->bus, n->node_id, sp_co408_status_bits(n->state), n->actual);
@@ -276,7 +295,7 @@ static void on_sync(hs_co_node_t *n, sp_can_frame_t *tx, uint8_t *n_tx)
 
 hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_frame_t tx[HS_CO_MAX_TX], uint8_t *n_tx)
 {
-    uint32_t cob;
+    uint32_t cob, layout;
     if (n == NULL || f == NULL || tx == NULL || n_tx == NULL) {
         return HS_E_ARG;
     }
@@ -324,15 +343,17 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
         }
         return HS_OK;
     }
-    if (n->nmt == SP_CO_NMT_STATE_OPERATIONAL && pdo_ok(n, 0x1400u, 0x1600u, 0x60400010u, 0x66000120u, &cob) &&
-        f->id == cob) {
+    if (n->nmt == SP_CO_NMT_STATE_OPERATIONAL && (layout = rpdo1_layout(n, &cob)) != 0u && f->id == cob) {
         uint16_t cw;
         int32_t sp;
+        int16_t force = 0;
         sp_can_frame_t g = *f;
         g.id = SP_CO_COB_RPDO1 + n->node_id; /* the parser checks the predefined id */
-        if (sp_co_rpdo1_parse(&g, n->node_id, &cw, &sp) == SP_OK) {
+        if ((layout == 3u ? sp_co_rpdo1_ff_parse(&g, n->node_id, &cw, &sp, &force)
+                          : sp_co_rpdo1_parse(&g, n->node_id, &cw, &sp)) == SP_OK) {
             n->rx_control = cw;
             n->rx_setpoint = sp;
+            n->rx_force_dan = force;
             n->rpdo_seen = 1u;
             n->rpdo_age_ms = 0u;
         }

@@ -181,3 +181,65 @@ def test_busload_drops_the_dbc_axis_frames_of_a_canopen_bus(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "bus axis_a\n" not in out and "AXIS_SETPOINTS" not in out
     assert "CANopen bus axis_a" in out and "bus ops" in out
+
+
+# ---- the drives section into the firmware (gen_platform.py) -------------------
+
+def test_force_feedforward_key():
+    s = _section()
+    s["legs"][2]["force_feedforward"] = True
+    p = config.from_dict(_with(s))
+    assert [d.force_feedforward for d in p.drives.legs] == [False, False, True, False, False, False]
+    s["legs"][2]["force_feedforward"] = "yes"
+    assert _error(_with(s)).endswith("drives.legs[2].force_feedforward: expected true or false")
+    s = _section(protocol="cia402")
+    s["legs"][0]["force_feedforward"] = True
+    assert "drives.legs[0].force_feedforward: only for cia408 drives" in _error(_with(s))
+
+
+def test_the_firmware_gets_the_config_layout():
+    from stewart import gen_platform
+
+    assert "sp_co_layout_default = {0}; /* the config's drives are native */" in gen_platform.c_source(
+        config.load(REPO_ROOT / "config" / "platform_default.json"))
+    s = _section(divider=3)
+    s["legs"][4]["force_feedforward"] = True
+    s["legs"][5]["scaling"] = {"position_per_count": 2e-6, "length_at_zero": 1.5, "direction": -1}
+    text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
+    assert ".present = 1u," in text and ".n_nodes = 6u," in text and ".sync_divider = 3u," in text
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u}" in text        # can_0 -> axis_a
+    assert "{11u, SP_BUS_AXIS_B, 5u, 8, 1u, -6, 1u}" in text        # can_1 -> axis_b, force feed-forward
+    assert "{2000u, 25165824, -1, 0u, 0u, 0}" in text                # 2 um, 1.5 m in Q24, counting down
+    assert ".setpoint_timeout_ms = 9u," in text and ".pdo_timeout_ms = 10u," in text
+    assert "[SP_BUS_AXIS_A] = 1000000u, [SP_BUS_AXIS_B] = 1000000u" in text
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda s: s["legs"][0].update(protocol="native", bus="axis_a", node_id=None, scaling=None),
+     "drives.legs: the firmware drives every leg with one protocol (one per image); the config mixes cia408, native"),
+    (lambda s: [leg.update(protocol="cia402") for leg in s["legs"]],
+     "drives.legs[0].protocol: cia402 is not in the firmware's master yet"),
+    (lambda s: s["legs"][0]["scaling"].update(position_per_count=1.5e-9),
+     "drives.legs[0].scaling.position_per_count: 1.5e-09 m is not a whole number of nm per count"),
+])
+def test_what_the_firmware_cannot_drive_fails_the_build(mutate, message):
+    from stewart import gen_platform
+
+    s = _section(divider=3)
+    mutate(s)
+    for leg in s["legs"]:
+        for k in [k for k, v in leg.items() if v is None]:
+            del leg[k]
+    p = config.from_dict(_with(s), "t.json")
+    with pytest.raises(config.ConfigError) as e:
+        gen_platform.c_source(p)
+    assert message in str(e.value)
+
+
+def test_three_canopen_buses_fail_the_build():
+    from stewart import gen_platform
+
+    p = config.from_dict(_with(_section(divider=2, per_bus=2)), "t.json")
+    with pytest.raises(config.ConfigError) as e:
+        gen_platform.c_source(p)
+    assert "drives.legs: 3 CANopen buses (can_0, can_1, can_2); the controller has 2 drive buses" in str(e.value)

@@ -24,6 +24,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -160,6 +161,23 @@ static void test_pdo_emcy(void **state)
     assert_int_equal(sp_co_rpdo1_parse(&f, 3u, &w, &v), SP_OK);
     assert_int_equal(w, 7u);
     assert_int_equal(v, -2);
+    {
+        /* RPDO1 with the vendor force feed-forward 0x2120 (i16 daN) as its third entry */
+        static const uint8_t rpdo_ff[8] = {0x07, 0x00, 0xFE, 0xFF, 0xFF, 0xFF, 0xCF, 0xFB};
+        int16_t force = 0;
+        assert_int_equal(sp_co_rpdo1_ff_frame(&f, 1u, 3u, 0x0007u, -2, -1073), SP_OK);
+        assert_bytes(&f, 0x203u, rpdo_ff, 8u);
+        assert_int_equal(sp_co_rpdo1_ff_parse(&f, 3u, &w, &v, &force), SP_OK);
+        assert_int_equal(w, 7u);
+        assert_int_equal(v, -2);
+        assert_int_equal(force, -1073);
+        assert_int_equal(sp_co_rpdo1_parse(&f, 3u, &w, &v), SP_E_FRAME); /* 8 bytes: not the 6-byte layout */
+        assert_int_equal(sp_co_rpdo1_ff_frame(&f, 1u, 3u, 0u, 0, INT16_MIN), SP_OK);
+        assert_int_equal(sp_co_rpdo1_ff_parse(&f, 3u, &w, &v, &force), SP_OK);
+        assert_int_equal(force, INT16_MIN);
+        assert_int_equal(sp_co_rpdo1_ff_parse(&f, 4u, &w, &v, &force), SP_E_FRAME);
+        assert_int_equal(sp_co_rpdo1_ff_frame(&f, 1u, 0u, 0u, 0, 0), SP_E_ARG);
+    }
     assert_int_equal(sp_co_tpdo1_frame(&f, 1u, 3u, 0x000Fu, INT32_MIN), SP_OK);
     assert_int_equal(f.id, 0x183u);
     assert_int_equal(sp_co_tpdo1_parse(&f, 3u, &w, &v), SP_OK);
@@ -463,7 +481,8 @@ static void test_link(void **state)
     assert_int_equal(fb[1].fresh, 1u);
     assert_int_equal(fb[1].length, zero[1] + 0x00100000); /* + 62.5 mm */
     assert_int_equal(fb[1].faults, 0u);
-    assert_true(fb[1].force > 0); /* 100 bar on the piston side pushes out */
+    /* 100 bar on the piston side pushes out: 1e7 Pa x the piston area (the link passes Pa, as node.c does) */
+    assert_true(llabs((int64_t)fb[1].force - (((int64_t)10000000 * sp_platform_default.piston_area) >> 22)) <= 1);
     assert_int_equal(fb[2].fresh, 1u);
     assert_int_equal(fb[2].faults, SP_CO_LINK_FAULT);
     assert_int_equal(fb[0].fresh, 0u);
@@ -484,12 +503,50 @@ static void test_link(void **state)
     assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
     assert_int_equal(in.request, SP_CO_REQ_ACTIVE);
     assert_int_equal(in.setpoint[0], -62499);
+    /* the force feed-forward in daN along the count: rounded half away from zero, saturated */
+    out.setpoint[1].force = -12345 * 256; /* -1234.5 daN */
+    out.setpoint[2].force = 400000 * 256; /* beyond INT16 daN */
+    assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
+    assert_int_equal(in.force_dan[0], -1235);
+    assert_int_equal(in.force_dan[2], INT16_MAX); /* node 2: leg 3 */
+    cfg.scaling[1].direction = -1;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
+    assert_int_equal(in.force_dan[0], 1235); /* the count falls as the leg extends: the force too */
+    cfg.scaling[1].direction = 1;
     cfg.scaling[0].nm_per_count = 1u;
     assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[0]), SP_OK);
     out.setpoint[0].length = INT32_MAX;
     assert_int_equal(sp_co_link_input(&cfg, &out, 79u, &in), SP_E_OVERFLOW);
     assert_int_equal(in.setpoint[1], INT32_MAX);
     assert_int_equal(sp_co_link_input(NULL, &out, 79u, &in), SP_E_ARG);
+
+    /* from a layout (the config's drives section as generated): the scalings are prepared, the rest checked */
+    {
+        sp_co_layout_t lay;
+        sp_co_link_cfg_t c2;
+        memset(&lay, 0, sizeof lay);
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_E_ARG); /* not present */
+        lay.present = 1u;
+        assert_int_equal(sp_co_master_cfg_default(&lay.master, (uint8_t)SP_LEGS), SP_OK);
+        lay.master.node[3].force_ff = 1u;
+        for (i = 0u; i < SP_LEGS; i++) {
+            lay.scaling[i].nm_per_count = 2000u;
+            lay.scaling[i].zero_q24 = zero[i];
+            lay.scaling[i].direction = -1;
+        }
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_OK);
+        assert_int_equal(c2.master.node[3].force_ff, 1u);
+        assert_ptr_equal(c2.platform, &sp_platform_default);
+        out.setpoint[0].length = zero[0] + 0x00100000; /* + 62.5 mm = 31250 counts of 2 um, counting down */
+        assert_int_equal(sp_co_link_input(&c2, &out, 80u, &in), SP_OK);
+        assert_int_equal(in.setpoint[0], -31250);
+        lay.scaling[2].nm_per_count = 0u; /* not a scaling */
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_E_ARG);
+        lay.scaling[2].nm_per_count = 2000u;
+        lay.master.node[4].node_id = lay.master.node[3].node_id; /* both on axis_b: a duplicate id */
+        assert_int_equal(sp_co_link_cfg_from_layout(&c2, &lay, &sp_platform_default), SP_E_ARG);
+        assert_int_equal(sp_co_link_cfg_from_layout(NULL, &lay, &sp_platform_default), SP_E_ARG);
+    }
     assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
 }
 

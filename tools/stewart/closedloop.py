@@ -110,6 +110,9 @@ class RunSpec:
     timeout_ms: int = 2000
     plant_args: tuple[str, ...] = ()  # more hs_sim options (e.g. the wrap tests' --tick0)
     wrench_source: str | None = None  #: force control's: "cylinders" or "sensor" (None: the config's)
+    canopen: bool = False             #: the drives as CiA 408 nodes (sp_controller/hs_sim --canopen)
+    canopen_force_ff: bool = False    #: and the vendor force feed-forward 0x2120 in RPDO1
+    canopen_sync_divider: int = 0     #: SYNC and PDOs every n ticks (0: the layout's)
 
 
 @dataclass
@@ -162,10 +165,16 @@ def _runner(specs: list[RunSpec], bins: Binaries, out: Path, progress: bool, key
             ctl.append("--no-feedforward")
         if s.wrench_source is not None:
             ctl += ["--wrench-source", s.wrench_source]
+        if s.canopen:
+            ctl.append("--canopen-force-ff" if s.canopen_force_ff else "--canopen")
+            if s.canopen_sync_divider:
+                ctl += ["--canopen-sync-divider", str(s.canopen_sync_divider)]
         plant = [str(bins.plant), "--lockstep", "--scenario", str(scn), "--log", str(out / f"{s.name}.log"),
                  "--truth", str(out / f"{s.name}.truth.csv"), "--timeout-ms", str(s.timeout_ms)] + auth
         if s.seed is not None:
             plant += ["--seed", str(s.seed)]
+        if s.canopen:
+            plant.append("--canopen")
         plant += list(s.plant_args)
         if progress:
             plant.append("--progress")

@@ -307,7 +307,7 @@ def _integer(where: str, v, lo: int, hi: int) -> int:
 
 _DRIVES_KEYS = {"legs", "buses", "sync_divider", "heartbeat_ms", "heartbeat_timeout_ms",
                 "setpoint_timeout_ms", "pressure_feedback"}
-_LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode"}
+_LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode", "force_feedforward"}
 _SCALING_KEYS = {"position_per_count", "length_at_zero", "direction"}
 
 
@@ -371,7 +371,7 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
             if bus != _layout.NATIVE_BUS[i]:
                 raise ConfigError(f"{w}.bus: a native drive of leg {i + 1} is on {_layout.NATIVE_BUS[i]} "
                                   f"(fixed by protocol/stewart.dbc), not {bus}")
-            for key in ("node_id", "scaling", "control_mode"):
+            for key in ("node_id", "scaling", "control_mode", "force_feedforward"):
                 if key in leg:
                     raise ConfigError(f"{w}.{key}: only for CANopen drives (protocol cia408 or cia402)")
             legs.append(_layout.Drive(i + 1, proto, bus))
@@ -404,7 +404,13 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
                         -128, 127)
         if proto != "cia408" and "control_mode" in leg:
             raise ConfigError(f"{w}.control_mode: only for cia408 drives (CiA 402 uses mode 8, CSP)")
-        legs.append(_layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction), mode))
+        ff = leg.get("force_feedforward", False)
+        if not isinstance(ff, bool):
+            raise ConfigError(f"{w}.force_feedforward: expected true or false")
+        if ff and proto != "cia408":
+            raise ConfigError(f"{w}.force_feedforward: only for cia408 drives (the vendor object 0x2120 of the "
+                              "simulated drive, docs/canopen.md)")
+        legs.append(_layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction), mode, ff))
     canopen_buses = {dr.bus for dr in legs if dr.is_canopen}
     for dr in legs:
         if dr.protocol == "native" and dr.bus in canopen_buses:

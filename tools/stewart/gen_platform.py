@@ -18,8 +18,10 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
     from stewart import config as cfg  # noqa: E402
+    from stewart.drives import plan as _plan  # noqa: E402
 else:
     from . import config as cfg
+    from .drives import plan as _plan
 
 import math
 
@@ -131,12 +133,95 @@ def _rows(m) -> str:
     return "{" + ", ".join("{%s}" % ", ".join(str(x) for x in row) for row in m) + "}"
 
 
+#: The firmware's drive buses, in the order the config's CANopen buses take them.
+_DRIVE_BUSES = ("SP_BUS_AXIS_A", "SP_BUS_AXIS_B")
+#: Master timeouts the config does not set (docs/canopen.md): boot, SDO, device state.
+_BOOT_MS, _SDO_MS, _STATE_MS = 2000, 100, 100
+
+
+def canopen_layout(p: cfg.Platform) -> dict | None:
+    """The config's ``drives`` section as the firmware's sp_co_layout_t
+    fields, or None when every leg is native. Raises ConfigError (naming the
+    key) for what the firmware cannot drive: a mix of protocols (one protocol
+    per image), CiA 402 (not in the firmware yet), more than two CANopen
+    buses, a resolution that is not a whole number of nm per count."""
+    d = p.drives
+    protos = {leg.protocol for leg in d.legs}
+    if protos == {"native"}:
+        return None
+    if len(protos) > 1:
+        raise cfg.ConfigError("drives.legs: the firmware drives every leg with one protocol (one per image); "
+                              f"the config mixes {', '.join(sorted(protos))}")
+    if protos != {"cia408"}:
+        raise cfg.ConfigError("drives.legs[0].protocol: cia402 is not in the firmware's master yet "
+                              "(docs/canopen.md); use cia408 or native")
+    buses = d.buses()
+    if len(buses) > len(_DRIVE_BUSES):
+        raise cfg.ConfigError(f"drives.legs: {len(buses)} CANopen buses ({', '.join(buses)}); the controller "
+                              f"has {len(_DRIVE_BUSES)} drive buses (axis_a, axis_b)")
+    nodes, scaling = [], []
+    for leg in d.legs:
+        w = f"drives.legs[{leg.leg - 1}]"
+        nm = leg.scaling.position_per_count * 1e9
+        if abs(nm - round(nm)) > 1e-6 * max(1.0, nm) or not 1 <= round(nm) <= 1_000_000:
+            raise cfg.ConfigError(f"{w}.scaling.position_per_count: {leg.scaling.position_per_count:g} m is not "
+                                  "a whole number of nm per count in 1..1000000 (the firmware's scaling)")
+        prefix = _plan.unit_prefix(leg.scaling.position_per_count)
+        nodes.append({"node_id": leg.node_id, "bus": _DRIVE_BUSES[buses.index(leg.bus)], "leg": leg.leg,
+                      "control_mode": leg.control_mode, "write_prefix": int(prefix is not None),
+                      "unit_prefix": prefix if prefix is not None else 0,
+                      "force_ff": int(leg.force_feedforward)})
+        scaling.append({"nm_per_count": int(round(nm)), "zero_q24": _q(leg.scaling.length_at_zero, Q24,
+                                                                       f"{w}.scaling.length_at_zero"),
+                        "direction": leg.scaling.direction})
+    return {"nodes": nodes, "scaling": scaling, "sync_divider": d.sync_divider, "pressure": int(d.pressure_feedback),
+            "heartbeat_ms": d.heartbeat_ms, "heartbeat_timeout_ms": d.heartbeat_timeout_ms,
+            "setpoint_timeout_ms": d.setpoint_timeout_ms, "pdo_timeout_ms": max(10, 3 * d.sync_divider + 1),
+            "bitrate": {_DRIVE_BUSES[i]: d.bitrates.get(b, 1_000_000) for i, b in enumerate(buses)}}
+
+
+def _layout_c(lay: dict | None) -> str:
+    if lay is None:
+        return "const sp_co_layout_t sp_co_layout_default = {0}; /* the config's drives are native */\n"
+    nodes = ",\n".join(
+        f"            {{{n['node_id']}u, {n['bus']}, {n['leg']}u, {n['control_mode']}, {n['write_prefix']}u, "
+        f"{n['unit_prefix']}, {n['force_ff']}u}}" for n in lay["nodes"])
+    scal = ",\n".join(f"        {{{s['nm_per_count']}u, {s['zero_q24']}, {s['direction']}, 0u, 0u, 0}}"
+                       for s in lay["scaling"])
+    rates = ", ".join(f"[{b}] = {r}u" for b, r in lay["bitrate"].items())
+    return f"""const sp_co_layout_t sp_co_layout_default = {{
+    .present = 1u,
+    .master = {{
+        .node = {{
+{nodes}
+        }},
+        .n_nodes = {len(lay["nodes"])}u,
+        .sync_divider = {lay["sync_divider"]}u,
+        .pressure_feedback = {lay["pressure"]}u,
+        .heartbeat_ms = {lay["heartbeat_ms"]}u,
+        .heartbeat_timeout_ms = {lay["heartbeat_timeout_ms"]}u,
+        .setpoint_timeout_ms = {lay["setpoint_timeout_ms"]}u,
+        .boot_timeout_ms = {_BOOT_MS}u,
+        .sdo_timeout_ms = {_SDO_MS}u,
+        .state_timeout_ms = {_STATE_MS}u,
+        .pdo_timeout_ms = {lay["pdo_timeout_ms"]}u,
+    }},
+    .scaling = {{
+{scal}
+    }},
+    .bitrate = {{{rates}}},
+}};
+"""
+
+
 def c_source(p: cfg.Platform) -> str:
     q = quantize(p)
+    lay = canopen_layout(p)
     lm = q["leg_mass"]
     fs = force_sensor_setup(p)
     return f"""/* Generated by tools/stewart/gen_platform.py from {Path(p.source).name}
  * ("{p.name}"). Do not edit: change the config file and rebuild. */
+#include "sp/canopen_link.h"
 #include "sp/ftsensor.h"
 #include "sp/platform.h"
 
@@ -169,7 +254,8 @@ const sp_platform_t sp_platform_default = {{
     .bristle_stiffness = {{{", ".join(str(v) for v in q["bristle_stiffness"])}}},
     .bristle_damping = {{{", ".join(str(v) for v in q["bristle_damping"])}}},
 }};
-"""
+
+{_layout_c(lay)}"""
 
 
 def run_generator(argv: list[str], c_source, prog: str) -> int:

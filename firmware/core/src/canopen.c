@@ -139,6 +139,33 @@ sp_status_t sp_co_rpdo1_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *c
     return pdo6_parse(f, SP_CO_COB_RPDO1, node, control, setpoint);
 }
 
+sp_status_t sp_co_rpdo1_ff_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t control, int32_t setpoint,
+                                 int16_t force_dan)
+{
+    if (!node_ok(node) || start_frame(f, bus, SP_CO_COB_RPDO1 + node, 8u) != SP_OK) {
+        return SP_E_ARG;
+    }
+    put_u16(&f->data[0], control);
+    put_u32(&f->data[2], i32_to_u32(setpoint));
+    put_u16(&f->data[6], (uint16_t)(force_dan < 0 ? (uint16_t)(65536 + (int32_t)force_dan) : (uint16_t)force_dan));
+    return SP_OK;
+}
+
+sp_status_t sp_co_rpdo1_ff_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *control, int32_t *setpoint,
+                                 int16_t *force_dan)
+{
+    uint16_t raw;
+    if (f == NULL || control == NULL || setpoint == NULL || force_dan == NULL || !node_ok(node) ||
+        f->id != SP_CO_COB_RPDO1 + node || f->len != 8u) {
+        return SP_E_FRAME;
+    }
+    *control = get_u16(&f->data[0]);
+    *setpoint = u32_to_i32(get_u32(&f->data[2]));
+    raw = get_u16(&f->data[6]);
+    *force_dan = raw >= 0x8000u ? (int16_t)((int32_t)raw - 65536) : (int16_t)raw;
+    return SP_OK;
+}
+
 sp_status_t sp_co_tpdo1_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t status, int32_t actual)
 {
     return pdo6_frame(f, bus, SP_CO_COB_TPDO1, node, status, actual);

@@ -24,6 +24,25 @@ sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *p
     return SP_OK;
 }
 
+sp_status_t sp_co_link_cfg_from_layout(sp_co_link_cfg_t *cfg, const sp_co_layout_t *layout,
+                                       const sp_platform_t *platform)
+{
+    uint32_t i;
+    if (cfg == NULL || layout == NULL || platform == NULL || !layout->present) {
+        return SP_E_ARG;
+    }
+    memset(cfg, 0, sizeof *cfg);
+    cfg->master = layout->master;
+    for (i = 0u; i < SP_LEGS; i++) {
+        cfg->scaling[i] = layout->scaling[i];
+        if (sp_co_scaling_prepare(&cfg->scaling[i]) != SP_OK) {
+            return SP_E_ARG;
+        }
+    }
+    cfg->platform = platform;
+    return sp_co_link_cfg_check(cfg);
+}
+
 sp_status_t sp_co_link_cfg_check(const sp_co_link_cfg_t *cfg)
 {
     uint32_t seen = 0u, k;
@@ -66,11 +85,20 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
         if (sp_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK) {
             st = SP_E_OVERFLOW;
         }
-        d->force = spi_cylinder_force(cfg->platform, nd->pa_kpa, nd->pb_kpa);
+        /* the pressures in Pa, as the native feedback carries them (kPa x 1000 < 2^32) */
+        d->force = spi_cylinder_force(cfg->platform, (uint32_t)nd->pa_kpa * 1000u, (uint32_t)nd->pb_kpa * 1000u);
         d->faults = nd->fault.code != (uint8_t)SP_CO_F_NONE ? (uint16_t)SP_CO_LINK_FAULT : 0u;
         d->fresh = 1u;
     }
     return st;
+}
+
+/* Q8 N -> daN along the drive's count, rounded half away from zero, saturated to INT16. */
+static int16_t force_dan(sp_q8_t force_q8, int8_t direction)
+{
+    int32_t f = direction < 0 ? -(force_q8 / 2) : force_q8 / 2; /* Q7, no overflow on negation */
+    int32_t dan = (f >= 0 ? f + 640 : f - 640) / 1280;
+    return (int16_t)(dan > INT16_MAX ? INT16_MAX : (dan < INT16_MIN ? INT16_MIN : dan));
 }
 
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
@@ -86,6 +114,10 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
     for (k = 0u; k < cfg->master.n_nodes; k++) {
         uint32_t leg = (uint32_t)cfg->master.node[k].leg - 1u;
         in->setpoint[k] = 0;
+        in->force_dan[k] = 0;
+        if (leg < SP_LEGS) {
+            in->force_dan[k] = force_dan(out->setpoint[leg].force, cfg->scaling[leg].direction);
+        }
         if (leg < SP_LEGS &&
             sp_co_length_to_count(&cfg->scaling[leg], out->setpoint[leg].length, &in->setpoint[k]) != SP_OK) {
             st = SP_E_OVERFLOW;

@@ -120,7 +120,7 @@ static void add_pdo(plan_t *p, uint16_t comm, uint16_t map, uint32_t cob, const 
 sp_status_t sp_co_plan_build(const sp_co_master_cfg_t *cfg, uint8_t k, sp_co_sdo_write_t out[SP_CO_PLAN_MAX],
                              uint8_t *n)
 {
-    static const uint32_t rpdo1[] = {0x60400010u, 0x66000120u};
+    static const uint32_t rpdo1[] = {0x60400010u, 0x66000120u, SP_CO_FORCE_FF_MAPPING};
     static const uint32_t tpdo1[] = {0x60410010u, 0x66010120u};
     static const uint32_t tpdo2[] = {0x21100110u, 0x21100210u};
     plan_t p;
@@ -139,7 +139,8 @@ sp_status_t sp_co_plan_build(const sp_co_master_cfg_t *cfg, uint8_t k, sp_co_sdo
         add(&p, 0x6600u, 3u, 1u, i8_bits(cfg->node[k].unit_prefix), 1u, 1u);
     }
     add(&p, 0x1006u, 0u, 4u, (uint32_t)cfg->sync_divider * 1000u, 1u, 1u);
-    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, rpdo1, 2u, cfg->setpoint_timeout_ms);
+    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, rpdo1, cfg->node[k].force_ff ? 3u : 2u,
+            cfg->setpoint_timeout_ms);
     add_pdo(&p, 0x1800u, 0x1A00u, SP_CO_COB_TPDO1 + id, tpdo1, 2u, 0u);
     if (cfg->pressure_feedback) {
         add_pdo(&p, 0x1801u, 0x1A01u, SP_CO_COB_TPDO2 + id, tpdo2, 2u, 0u);
@@ -620,8 +621,13 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
             if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
                 sp_co_request_t r =
                     nd->fault.code != (uint8_t)SP_CO_F_NONE && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
-                (void)sp_co_rpdo1_frame(&out->tx[out->n_tx++], nc->bus, nc->node_id,
-                                        sp_co408_control_word(r, nd->reset_edge != 0u), in->setpoint[k]);
+                uint16_t cw = sp_co408_control_word(r, nd->reset_edge != 0u);
+                if (nc->force_ff) {
+                    (void)sp_co_rpdo1_ff_frame(&out->tx[out->n_tx++], nc->bus, nc->node_id, cw, in->setpoint[k],
+                                               in->force_dan[k]);
+                } else {
+                    (void)sp_co_rpdo1_frame(&out->tx[out->n_tx++], nc->bus, nc->node_id, cw, in->setpoint[k]);
+                }
                 if (nd->reset_edge > 0u) {
                     nd->reset_edge--;
                 }

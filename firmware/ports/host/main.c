@@ -6,7 +6,8 @@
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
- *                 [--canopen-timeout-ms MS] [--key FILE] [--session N]
+ *                 [--canopen-timeout-ms MS] [--canopen-force-ff] [--canopen-sync-divider N]
+ *                 [--key FILE] [--session N]
  *
  * --key FILE (else the file the environment variable STEWART_KEY names):
  * the machine key of command authentication (docs/security.md; 32 hex
@@ -16,13 +17,23 @@
  * deterministic lockstep runs); by default it is drawn from the kernel's
  * random source (getrandom) at start.
  *
- * --canopen (real time only): the drives are CiA 408 nodes 1-3 on axis_a
- * and 4-6 on axis_b, configured and driven by the CANopen master
- * (sp/canopen_link.h, docs/canopen.md) instead of the native drive frames;
+ * --canopen: the drives are CiA 408 nodes configured and driven by the
+ * CANopen master (sp/canopen_link.h, docs/canopen.md) instead of the native
+ * drive frames: as the platform config's drives section says (then
+ * --canopen is the default), else the built-in layout: nodes 1-3 on axis_a
+ * and 4-6 on axis_b, 1 um per count, count 0 at the park pose;
+ * --canopen-force-ff (implies --canopen) maps the vendor force feed-forward
+ * 0x2120 into every drive's RPDO1 (the simulated drive has it; real ones
+ * may not); --canopen-sync-divider N (1..10, implies --canopen) sends SYNC
+ * and the PDOs every N ticks (the layout of two classic buses at 1 Mbit/s
+ * with pressures needs 3, docs/canopen.md), the drives' watchdog 3N ms;
  * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
  * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
  * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
- * (user-mode Linux in real time), as --feedback-timeout does.
+ * (user-mode Linux in real time), as --feedback-timeout does. With
+ * --lockstep the plant's SYNC(t) on the axis buses (the DBC's, 0x010) is the
+ * clock and goes to the node; every other frame of those buses to the
+ * master, which still produces the CANopen SYNC (0x080) for its drives.
  *
  * Real-time mode (default): the controller is the cycle master; an
  * absolute-deadline clock_nanosleep paces the ticks; deadline misses are
@@ -66,7 +77,7 @@ static void usage(void)
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
                     "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
-                    "                     [--key FILE] [--session N]\n");
+                    "                     [--canopen-force-ff] [--canopen-sync-divider N] [--key FILE] [--session N]\n");
 }
 
 typedef struct {
@@ -92,12 +103,26 @@ typedef struct {
 
 static co_t co;
 
-static int co_setup(uint32_t timeout_ms)
+static int co_setup(uint32_t timeout_ms, int force_ff, int divider)
 {
     sp_ik_t ik;
-    if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
-        sp_co_link_cfg_default(&co.link, &sp_platform_default, ik.length) != SP_OK) {
+    if (sp_co_layout_default.present) { /* the platform config's drives section */
+        if (sp_co_link_cfg_from_layout(&co.link, &sp_co_layout_default, &sp_platform_default) != SP_OK) {
+            return -1;
+        }
+    } else if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
+               sp_co_link_cfg_default(&co.link, &sp_platform_default, ik.length) != SP_OK) {
         return -1;
+    }
+    if (force_ff) {
+        for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
+            co.link.master.node[k].force_ff = 1u;
+        }
+    }
+    if (divider > 0) { /* SYNC every `divider` ticks: the drives' watchdog 3 periods, the TPDO supervision 3 + 5 ms */
+        co.link.master.sync_divider = (uint8_t)divider;
+        co.link.master.setpoint_timeout_ms = (uint16_t)(3 * divider);
+        co.link.master.pdo_timeout_ms = (uint16_t)(3 * divider + 5);
     }
     if (timeout_ms > 0u) { /* relaxed supervision for hosts that miss 1 ms deadlines */
         co.link.master.setpoint_timeout_ms = (uint16_t)timeout_ms;
@@ -119,7 +144,9 @@ static void drain(sp_can_port_t *port, sp_node_t *node)
         uint32_t got = 0;
         (void)port->receive(port->ctx, rx, 32u, &got);
         for (uint32_t k = 0; k < got; k++) {
-            if (co.on && rx[k].bus != SP_BUS_OPS) {
+            /* in lockstep the plant's SYNC(t) (the clock) goes to the node, and so does the force/torque
+             * sensor's FT_SENSOR (axis_b); the rest of a drive bus to the master */
+            if (co.on && rx[k].bus != SP_BUS_OPS && rx[k].id != SP_ID_SYNC && rx[k].id != SP_ID_FT_SENSOR) {
                 (void)sp_co_master_receive(&co.m, &co.link.master, &rx[k], co.now_ms);
             } else {
                 (void)sp_node_receive(node, &rx[k], NULL);
@@ -174,7 +201,8 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
 int main(int argc, char **argv)
 {
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
-    int lockstep = 0, ff = 1, timing = 0, canopen = 0;
+    int lockstep = 0, ff = 1, timing = 0, canopen = sp_co_layout_default.present ? 1 : 0, co_force_ff = 0;
+    int co_divider = 0;
     long co_sp_timeout = 0;
     long fb_timeout = 0;
     long op_timeout = -1;
@@ -196,6 +224,15 @@ int main(int argc, char **argv)
             ff = 0;
         } else if (strcmp(a, "--canopen") == 0) {
             canopen = 1;
+        } else if (strcmp(a, "--canopen-force-ff") == 0) {
+            canopen = 1, co_force_ff = 1;
+        } else if (v != NULL && strcmp(a, "--canopen-sync-divider") == 0) {
+            char *end;
+            co_divider = (int)strtol(v, &end, 10), i++, canopen = 1;
+            if (*end != '\0' || co_divider < 1 || co_divider > 10) {
+                usage();
+                return 2;
+            }
         } else if (v != NULL && strcmp(a, "--canopen-timeout-ms") == 0) {
             char *end;
             co_sp_timeout = strtol(v, &end, 10), i++;
@@ -271,12 +308,8 @@ int main(int argc, char **argv)
         }
     }
 
-    if (canopen && lockstep) {
-        fprintf(stderr, "sp_controller: --canopen runs in real time only (the master produces SYNC)\n");
-        return 2;
-    }
-    if (canopen && co_setup((uint32_t)co_sp_timeout) != 0) {
-        fprintf(stderr, "sp_controller: the CANopen master's default configuration is not usable\n");
+    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff, co_divider) != 0) {
+        fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;
     }
     static sp_node_config_t cfg;
@@ -289,6 +322,10 @@ int main(int argc, char **argv)
     cfg.ctrl.force_feedforward = (uint8_t)ff;
     if (fb_timeout > 0) {
         cfg.ctrl.feedback_timeout_ticks = (uint32_t)fb_timeout;
+    }
+    if (co.on && cfg.ctrl.feedback_timeout_ticks <= co.link.master.sync_divider) {
+        /* CANopen feedback comes every sync_divider ticks */
+        cfg.ctrl.feedback_timeout_ticks = (uint32_t)co.link.master.sync_divider + 2u;
     }
     if (op_timeout >= 0) {
         cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;
@@ -335,6 +372,9 @@ int main(int argc, char **argv)
             static const uint32_t bases[] = {SP_CO_COB_EMCY, SP_CO_COB_TPDO1, SP_CO_COB_TPDO2, SP_CO_COB_SDO_TX,
                                              SP_CO_COB_HEARTBEAT};
             bc[b].n_rx_ids = 0u;
+            if (lockstep) {
+                bc[b].rx_ids[bc[b].n_rx_ids++] = SP_ID_SYNC; /* the plant's clock */
+            }
             for (uint32_t k = 0; k < co.link.master.n_nodes; k++) {
                 if (co.link.master.node[k].bus != (uint8_t)b) {
                     continue;
@@ -358,7 +398,9 @@ int main(int argc, char **argv)
     fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s, wrench source %s%s\n",
             lockstep ? "lockstep" : "real-time", ifs[0], ifs[1], ifs[2], ff ? "on" : "off",
             cfg.ctrl.wrench_source == SP_WRENCH_SENSOR ? "sensor" : "cylinders",
-            canopen ? ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
+            canopen ? (sp_co_layout_default.present ? ", drives: CiA 408 as the platform config's drives section"
+                                                    : ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)")
+                    : "");
 
     run_stats_t rs;
     memset(&rs, 0, sizeof rs);

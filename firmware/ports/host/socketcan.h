@@ -15,7 +15,7 @@
 
 #include "sp/port.h"
 
-#define SP_SOCKETCAN_MAX_FILTERS 16u
+#define SP_SOCKETCAN_MAX_FILTERS 20u
 #define SP_SOCKETCAN_BATCH 32u
 
 typedef struct {

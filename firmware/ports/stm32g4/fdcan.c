@@ -139,10 +139,35 @@ static void pin_af(uint32_t port, uint32_t p, uint32_t af)
     GPIO_MODER(port) = (GPIO_MODER(port) & ~(3u << (2u * p))) | (2u << (2u * p));
 }
 
-static sp_status_t init_one(uint8_t bus)
+/* CANopen drive bus (co != NULL): per node of the bus three dual-ID filters,
+ * TPDO1 + EMCY -> FIFO 0, TPDO2 + heartbeat -> FIFO 1, SDO answer -> FIFO 0;
+ * returns the filters written (at most 28). */
+static uint32_t canopen_filters(uint8_t bus, uint32_t r, const sp_co_master_cfg_t *co)
+{
+    uint32_t n = 0u;
+    for (uint32_t k = 0u; k < co->n_nodes && k < SP_CO_MAX_NODES && n + 3u <= 28u; k++) {
+        uint32_t id = co->node[k].node_id;
+        if (co->node[k].bus != bus) {
+            continue;
+        }
+        SP_REG(r + SRAMCAN_FLSSA + 4u * n++) = STD_FILTER(SFEC_FIFO0, SP_CO_COB_TPDO1 + id, SP_CO_COB_EMCY + id);
+        SP_REG(r + SRAMCAN_FLSSA + 4u * n++) = STD_FILTER(SFEC_FIFO1, SP_CO_COB_TPDO2 + id, SP_CO_COB_HEARTBEAT + id);
+        SP_REG(r + SRAMCAN_FLSSA + 4u * n++) = STD_FILTER(SFEC_FIFO0, SP_CO_COB_SDO_TX + id, SP_CO_COB_SDO_TX + id);
+    }
+    return n;
+}
+
+static sp_status_t init_one(uint8_t bus, const sp_co_master_cfg_t *co, uint32_t bitrate)
 {
     uint32_t b = k_base[bus];
     uint32_t r = ram(bus);
+    int canopen = co != NULL && bus != SP_BUS_OPS;
+    /* CANopen buses: classic CAN, 170 tq per bit, the prescaler from the bit rate */
+    uint32_t nbrp = canopen && bitrate > 0u ? 1000000u / bitrate : NBRP;
+    uint32_t nfilters = 2u;
+    if (canopen && (bitrate == 0u || 1000000u % bitrate != 0u || nbrp < 1u || nbrp > 512u)) {
+        return SP_E_ARG; /* 800 kbit/s has no whole prescaler at 170 tq per bit */
+    }
 
     /* Initialisation mode (INIT is 1 after reset), then configuration
      * change enable. */
@@ -156,13 +181,15 @@ static sp_status_t init_one(uint8_t bus)
     }
     /* CAN FD with bit rate switch; automatic retransmission on (stale frames
      * are cancelled each tick instead); protocol exception handling default. */
-    FDCAN_CCCR(b) = FDCAN_CCCR_INIT | FDCAN_CCCR_CCE | FDCAN_CCCR_FDOE | FDCAN_CCCR_BRSE;
+    FDCAN_CCCR(b) = canopen ? (FDCAN_CCCR_INIT | FDCAN_CCCR_CCE)
+                            : (FDCAN_CCCR_INIT | FDCAN_CCCR_CCE | FDCAN_CCCR_FDOE | FDCAN_CCCR_BRSE);
     if (bus == 0u) {
         /* The shared clock divider is writable while FDCAN1 has INIT and
          * CCE set: kernel clock / 1 (its reset value, made explicit). */
         FDCAN_CKDIV = 0u;
     }
-    FDCAN_NBTP(b) = NBTP_VALUE;
+    FDCAN_NBTP(b) =
+        canopen ? (((NSJW - 1u) << 25) | ((nbrp - 1u) << 16) | ((NTSEG1 - 1u) << 8) | (NTSEG2 - 1u)) : NBTP_VALUE;
     FDCAN_DBTP(b) = DBTP_VALUE;
     FDCAN_TDCR(b) = TDCR_VALUE;
 
@@ -175,6 +202,9 @@ static sp_status_t init_one(uint8_t bus)
         SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, SP_ID_OP_TARGET_POSE, SP_ID_OP_TARGET_POSE);
         SP_REG(r + SRAMCAN_FLSSA + 4u) = STD_FILTER(SFEC_FIFO1, SP_ID_OP_COMMAND, SP_ID_OP_HEARTBEAT);
         SP_REG(r + SRAMCAN_FLSSA + 8u) = STD_FILTER(SFEC_FIFO0, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS);
+        nfilters = 3u;
+    } else if (canopen) {
+        nfilters = canopen_filters(bus, r, co);
     } else {
         /* AXIS_FEEDBACK slots 1, 2; slot 3 (and on axis_b the force/torque sensor) */
         SP_REG(r + SRAMCAN_FLSSA + 0u) = STD_FILTER(SFEC_FIFO0, SP_ID_AXIS_FEEDBACK_1, SP_ID_AXIS_FEEDBACK_1 + 1u);
@@ -182,12 +212,13 @@ static sp_status_t init_one(uint8_t bus)
             STD_FILTER(SFEC_FIFO1, SP_ID_AXIS_FEEDBACK_1 + 2u,
                        (bus == SP_BUS_AXIS_B) ? SP_ID_FT_SENSOR : SP_ID_AXIS_FEEDBACK_1 + 2u);
     }
-    /* Three standard filters on ops, two on the axis buses, no extended;
-     * reject non-matching and remote frames; both Rx FIFOs in blocking
-     * mode (a full FIFO loses the new frame and sets RF0L / RF1L, counted
-     * as an overrun). */
-    FDCAN_RXGFC(b) = ((bus == SP_BUS_OPS ? 3u : 2u) << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) |
-                     FDCAN_RXGFC_ANFS_REJECT | FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
+    /* Standard filters as set above (three on ops, two on the native axis
+     * buses, the CANopen layout's on CANopen ones), no extended; reject
+     * non-matching and remote frames; both Rx FIFOs in blocking mode (a
+     * full FIFO loses the new frame and sets RF0L / RF1L, counted as an
+     * overrun). */
+    FDCAN_RXGFC(b) = (nfilters << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) | FDCAN_RXGFC_ANFS_REJECT |
+                     FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
     FDCAN_TXBC(b) = 0u; /* TFQM = 0: Tx FIFO */
     FDCAN_IE(b) = 0u;   /* polled: no interrupt */
     FDCAN_ILE(b) = 0u;
@@ -203,6 +234,11 @@ static sp_status_t init_one(uint8_t bus)
 }
 
 sp_status_t sp_g4_can_init(sp_g4_can_t *can)
+{
+    return sp_g4_can_init_canopen(can, NULL, NULL);
+}
+
+sp_status_t sp_g4_can_init_canopen(sp_g4_can_t *can, const sp_co_master_cfg_t *co, const uint32_t *bitrate)
 {
     if (can == NULL) {
         return SP_E_ARG;
@@ -223,12 +259,17 @@ sp_status_t sp_g4_can_init(sp_g4_can_t *can)
     pin_af(G4_GPIOA, 15u, 11u); /* FDCAN3_TX (PA15 leaves JTDI; SWD stays on PA13/PA14) */
 
     for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
-        sp_status_t s = init_one(bus);
+        sp_status_t s = init_one(bus, co, bitrate != NULL ? bitrate[bus] : 1000000u);
         if (s != SP_OK) {
             return s;
         }
     }
     return SP_OK;
+}
+
+uint32_t sp_g4_can_tx_free(uint8_t bus)
+{
+    return bus < SP_CAN_BUSES ? (FDCAN_TXFQS(k_base[bus]) & 0x7u) : 0u;
 }
 
 /* Copies one frame into the controller's Tx FIFO. SP_E_BUSY when full. */

@@ -17,12 +17,27 @@
  *
  * sp_g4_stats holds figures for a debugger (ticks, misses, cycles per tick,
  * stack high-water mark); nothing is printed.
+ *
+ * SP_DRIVE_CIA408 (CMake SP_DRIVE_PROTOCOL=cia408; docs/canopen.md, one
+ * drive protocol per image): the drives are CiA 408 nodes behind the
+ * CANopen master (sp/canopen_link.h), laid out as the platform config's
+ * drives section (sp_co_layout_default), else the built-in layout. Frames of
+ * the drive buses go to the master; each tick the link fills the node's
+ * drive feedback before sp_node_tick, the node's own axis frames are not
+ * sent, and the master's RPDO1s and SYNCs are (before the ops frames). The
+ * Tx FIFO holds 3 frames: a bus with three drives needs 4 per SYNC, so the
+ * cycle waits for a free element, at most CO_TX_WAIT_US per tick.
  */
 #include <stddef.h>
 
 #include "sp/node.h"
 #include "sp_g4.h"
 #include "sp_machine_key.h" /* generated from the build's key file (tools/stewart/key_header.py) */
+#if SP_DRIVE_CIA408
+#include "sp/canopen_link.h"
+#include "sp/kinematics.h"
+#define CO_TX_WAIT_US 400u /* > two classic 8-byte frames at 1 Mbit/s (135 us each) */
+#endif
 
 #define RX_BATCH 6u  /* frames per receive call */
 #define RX_ROUNDS 4u /* 24 >= the 18 frames the 3 x 2 FIFOs of 3 can hold */
@@ -52,6 +67,49 @@ static sp_can_frame_t g_tx[SP_NODE_MAX_TX];
 
 void sp_g4_cycle(const sp_g4_ports_t *p);
 
+#if SP_DRIVE_CIA408
+static sp_co_link_cfg_t g_co;
+static sp_co_master_t g_com;
+static sp_co_master_input_t g_coin;
+static sp_co_master_output_t g_coout;
+static uint32_t g_co_now;
+
+/* The master's frames, in order; waits (bounded) for a free Tx element. */
+static void co_send(const sp_g4_ports_t *p)
+{
+    uint32_t t0 = sp_g4_cycles();
+    for (uint32_t k = 0; k < g_coout.n_tx && k < SP_CO_MAX_TX; k++) {
+        const sp_can_frame_t *f = &g_coout.tx[k];
+        uint32_t sent = 0;
+        while (sp_g4_can_tx_free(f->bus) == 0u && sp_g4_cycles() - t0 < CO_TX_WAIT_US * 170u) {
+        }
+        if (p->can.send(p->can.ctx, f, 1u, &sent) != SP_OK || sent != 1u) {
+            sp_g4_stats.tx_busy++;
+        }
+    }
+}
+
+static sp_status_t co_init(void)
+{
+    sp_ik_t ik;
+    if (sp_co_layout_default.present) {
+        if (sp_co_link_cfg_from_layout(&g_co, &sp_co_layout_default, &sp_platform_default) != SP_OK) {
+            return SP_E_ARG;
+        }
+    } else if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
+               sp_co_link_cfg_default(&g_co, &sp_platform_default, ik.length) != SP_OK) {
+        return SP_E_ARG;
+    }
+    if (g_cfg.ctrl.feedback_timeout_ticks <= g_co.master.sync_divider) {
+        g_cfg.ctrl.feedback_timeout_ticks = (uint32_t)g_co.master.sync_divider + 2u;
+    }
+    if (sp_co_master_init(&g_com) != SP_OK || sp_co_master_start(&g_com, &g_co.master, 0u) != SP_OK) {
+        return SP_E_ARG;
+    }
+    return SP_OK;
+}
+#endif
+
 /* One control tick: the root of the tick path of the stack analysis
  * (tools/stewart/stack_usage.py). */
 __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
@@ -62,6 +120,12 @@ __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
         uint32_t got = 0;
         (void)p->can.receive(p->can.ctx, g_rx, RX_BATCH, &got);
         for (uint32_t k = 0; k < got && k < RX_BATCH; k++) {
+#if SP_DRIVE_CIA408
+            if (g_rx[k].bus != SP_BUS_OPS) {
+                (void)sp_co_master_receive(&g_com, &g_co.master, &g_rx[k], g_co_now);
+                continue;
+            }
+#endif
             (void)sp_node_receive(&g_node, &g_rx[k], NULL);
         }
         if (got < RX_BATCH) {
@@ -69,7 +133,25 @@ __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
         }
     }
     uint32_t n = 0, sent = 0;
+#if SP_DRIVE_CIA408
+    g_co_now++;
+    (void)sp_co_link_feedback(&g_com, &g_co, g_node.in.drive);
+#endif
     (void)sp_node_tick(&g_cfg, &g_node, g_tx, &n);
+#if SP_DRIVE_CIA408
+    {
+        uint32_t m = 0; /* only the node's ops frames: the drives get the master's */
+        for (uint32_t i = 0; i < n && i < SP_NODE_MAX_TX; i++) {
+            if (g_tx[i].bus == SP_BUS_OPS) {
+                g_tx[m++] = g_tx[i];
+            }
+        }
+        n = m;
+    }
+    (void)sp_co_link_input(&g_co, &g_node.out, g_co_now, &g_coin);
+    (void)sp_co_master_step(&g_com, &g_co.master, &g_coin, &g_coout);
+    co_send(p);
+#endif
     if (p->can.send(p->can.ctx, g_tx, n, &sent) != SP_OK || sent != n) {
         sp_g4_stats.tx_busy++;
     }
@@ -101,9 +183,17 @@ int main(void)
         g_cfg.auth_key = &key;
         g_cfg.auth_session = session;
     }
+#if SP_DRIVE_CIA408
+    if (co_init() != SP_OK || sp_node_init(&g_node, &g_cfg) != SP_OK ||
+        sp_g4_can_init_canopen(&g_can, &g_co.master,
+                               sp_co_layout_default.present ? sp_co_layout_default.bitrate : NULL) != SP_OK) {
+        sp_g4_stop(SP_G4_STOP_INIT);
+    }
+#else
     if (sp_node_init(&g_node, &g_cfg) != SP_OK || sp_g4_can_init(&g_can) != SP_OK) {
         sp_g4_stop(SP_G4_STOP_INIT);
     }
+#endif
     static sp_g4_ports_t ports;
     ports.can = sp_g4_can_port(&g_can);
     ports.tick = sp_g4_tick_port();

@@ -13,6 +13,7 @@
 
 #include <stdint.h>
 
+#include "sp/canopen_master.h"
 #include "sp/port.h"
 
 /* ---- clocks (clock.c) ---- */
@@ -95,6 +96,20 @@ typedef struct {
  * initialisation mode within its bound.
  */
 sp_status_t sp_g4_can_init(sp_g4_can_t *can);
+
+/**
+ * As sp_g4_can_init, with the two drive buses as CANopen buses when co is
+ * not NULL (the CiA 408 image, SP_DRIVE_PROTOCOL=cia408): classic CAN at
+ * bitrate[bus] bit/s (170 tq per bit: 1 Mbit/s and its whole divisors;
+ * NULL: 1 Mbit/s), and per configured node of the bus its TPDO1 and EMCY
+ * (Rx FIFO 0), TPDO2 and heartbeat (FIFO 1) and SDO answer (FIFO 0). The ops
+ * bus stays as sp_g4_can_init sets it. SP_E_ARG for a bit rate without a
+ * whole prescaler (800 kbit/s), SP_E_IO as sp_g4_can_init.
+ */
+sp_status_t sp_g4_can_init_canopen(sp_g4_can_t *can, const sp_co_master_cfg_t *co, const uint32_t *bitrate);
+
+/** Free elements of the bus's Tx FIFO (0..3; 0 for a bad bus index). */
+uint32_t sp_g4_can_tx_free(uint8_t bus);
 
 /** The CAN port (send, receive, bus_status) over the three controllers. */
 sp_can_port_t sp_g4_can_port(sp_g4_can_t *can);

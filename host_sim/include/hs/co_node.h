@@ -51,6 +51,8 @@ typedef struct {
     uint16_t rx_control;     /**< control word received, applied at the next SYNC */
     int32_t rx_setpoint;     /**< setpoint received, applied at the next SYNC (counts) */
     int32_t setpoint;        /**< setpoint in force (counts) */
+    int16_t rx_force_dan;    /**< force feed-forward received (0x2120, daN; 0 without it in RPDO1) */
+    int16_t force_dan;       /**< force feed-forward in force, daN */
     uint8_t rpdo_seen;       /**< 1 once an RPDO1 arrived since operational */
     uint32_t rpdo_age_ms;    /**< ms since the last RPDO1 */
     uint32_t hb_elapsed_ms;  /**< ms since the last heartbeat */

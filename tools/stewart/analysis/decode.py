@@ -36,6 +36,20 @@ from .names import AXES, COMMANDS, STATES, TICK_S
 WRONG_BUS = "wrong-bus"
 #: How many warning texts are kept (the counts are always complete).
 MAX_WARNINGS = 50
+#: The drive buses may carry CANopen (CiA 301) frames instead of the native
+#: drive frames (``--canopen``, docs/canopen.md): identifiers the DBC does
+#: not define in NMT (0x000), SYNC/EMCY (0x080-0x0FF), PDOs (0x181-0x57F),
+#: SDO (0x581-0x67F) and heartbeat (0x701-0x77F) are counted as CANopen
+#: frames there, not as bad ones.
+CANOPEN_BUSES = ("axis_a", "axis_b")
+
+
+def is_canopen_id(frame_id):
+    """True (elementwise for arrays) for an identifier of the CiA 301
+    predefined connection set."""
+    f = frame_id
+    return ((f == 0x000) | ((f >= 0x080) & (f <= 0x0FF)) | ((f >= 0x181) & (f <= 0x57F))
+            | ((f >= 0x581) & (f <= 0x67F)) | ((f >= 0x701) & (f <= 0x77F)))
 
 
 @dataclass
@@ -47,6 +61,7 @@ class LogStats:
     accepted: int = 0            #: frames that passed every check
     malformed: int = 0           #: lines that are not frames
     unknown_interface: int = 0
+    canopen: int = 0             #: CANopen frames on a drive bus (not decoded by the DBC)
     rejected: dict[str, int] = field(default_factory=dict)  #: bad frames by kind
     lost: int = 0                #: frames missing according to the alive counters
     per_message: dict[str, int] = field(default_factory=dict)
@@ -66,6 +81,7 @@ class LogStats:
     def as_dict(self) -> dict[str, Any]:
         return {"lines": self.lines, "frames": self.frames, "accepted": self.accepted,
                 "malformed_lines": self.malformed, "unknown_interface": self.unknown_interface,
+                "canopen": self.canopen,
                 "bad_frames": self.bad_frames, "rejected": dict(sorted(self.rejected.items())),
                 "lost_frames": self.lost, "per_message": dict(sorted(self.per_message.items())),
                 "stale_feedback": self.stale_feedback,
@@ -356,7 +372,11 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
 
     known_ids = {int(m.frame_id): m for m in proto.db.messages}
     on_bus = bus >= 0
-    unknown = np.flatnonzero(on_bus & ~np.isin(frames.frame_id, list(known_ids)))
+    not_dbc = on_bus & ~np.isin(frames.frame_id, list(known_ids))
+    drive_bus = np.isin(bus, [_BUS_ORDER.index(b) for b in CANOPEN_BUSES])
+    co = not_dbc & drive_bus & is_canopen_id(frames.frame_id)
+    stats.canopen += int(co.sum())
+    unknown = np.flatnonzero(not_dbc & ~co)
     reject(pr.UNKNOWN_ID, unknown,
            lambda k: str(pr.ProtocolError(pr.UNKNOWN_ID, f"no message has ID 0x{frames.frame_id[k]:X}",
                                           int(frames.frame_id[k]))))

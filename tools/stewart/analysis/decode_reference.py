@@ -12,7 +12,8 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from .. import protocol as pr
-from .decode import (WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16, force_targets, set_platform)
+from .decode import (CANOPEN_BUSES, WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16, force_targets,
+                     is_canopen_id, set_platform)
 from .logfile import parse_bus_map, parse_line
 from .names import COMMANDS
 
@@ -58,6 +59,10 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
                 stats.warn(f"line {line_no}: unknown interface {f.iface!r}")
                 continue
             rec = proto.receive(f.frame_id, f.data, bus=bus, raw=True)
+            if (not rec.ok and rec.error.kind == pr.UNKNOWN_ID and bus in CANOPEN_BUSES
+                    and is_canopen_id(f.frame_id)):
+                stats.canopen += 1
+                continue
             if not rec.ok:
                 kind = rec.error.kind
                 stats.rejected[kind] = stats.rejected.get(kind, 0) + 1

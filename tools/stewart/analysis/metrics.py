@@ -171,6 +171,7 @@ def format_summary(summary: Mapping[str, Any]) -> str:
              + (f" ({', '.join(f'{k} {v}' for k, v in fr['rejected'].items())})" if fr["rejected"] else "")
              + f", malformed lines {fr['malformed_lines']}, lost {fr['lost_frames']}"
              + (f", unknown interface {fr['unknown_interface']}" if fr["unknown_interface"] else "")
+             + (f", CANopen {fr['canopen']}" if fr.get("canopen") else "")
              + (f", stale feedback {fr['stale_feedback']}" if fr["stale_feedback"] else ""),
              f"states: {' -> '.join(summary['states']) or '-'}; controller faults seen: "
              f"{', '.join(summary['faults_seen']) or 'none'}"

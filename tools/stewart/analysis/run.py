@@ -67,6 +67,17 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
     step(f"writing {files[0]}")
     write_signals_csv(data, files[0], truth_text)
     summary = summarize(data, segs, delay_ticks)
+    if data.stats.canopen:  # CiA 408 drives: their frames decoded into canopen.csv (docs/canopen.md)
+        from ..drives import traffic
+        from .decode import CANOPEN_BUSES
+        from .logfile import parse_bus_map
+
+        ifmap = {i: b for i, b in parse_bus_map(buses).items() if b in CANOPEN_BUSES}
+        step(f"writing {out / 'canopen.csv'}")
+        rows = traffic.decode(frames.result(), ifmap)
+        traffic.write_csv(rows, out / "canopen.csv")
+        files.append(out / "canopen.csv")
+        summary["canopen"] = traffic.summary(rows)
     if truth is not None:
         summary["truth_file"] = str(truth)
         summary["truth_bad_rows"] = int(t["bad_rows"])

@@ -50,6 +50,7 @@ class Drive:
     node_id: int | None = None   # 1..127 for CANopen drives
     scaling: Scaling | None = None
     control_mode: int = ob.CIA408_CONTROL_MODE_AXIS_POSITION
+    force_feedforward: bool = False   # CiA 408: RPDO1 also maps the vendor object 0x2120 (8 bytes)
 
     @property
     def is_canopen(self) -> bool:
@@ -115,6 +116,8 @@ def bus_rows(drives: Drives, bus: str, n_drives: int | None = None, divider: int
     # PDOs are 6 bytes today; take the largest on the bus to stay an upper bound).
     profiles = {dr.protocol for dr in on_bus} or {"cia408"}
     rx = max(ob.profile(x).pdo("setpoint").data_bytes for x in profiles)
+    if any(dr.force_feedforward for dr in on_bus):
+        rx = max(rx, ob.RPDO_SETPOINT_408_FF.data_bytes)
     tx = max(ob.profile(x).pdo("actual").data_bytes for x in profiles)
     with_pressure = p and "cia408" in profiles
     rows = [("SYNC", 1, 0, period), ("RPDO1 setpoint", n, rx, period), ("TPDO1 actual", n, tx, period)]

@@ -210,6 +210,15 @@ PRESSURE_A = Entry(0x2110, 1, "Chamber pressure A", UNSIGNED16, TPDO, False,
 PRESSURE_B = Entry(0x2110, 2, "Chamber pressure B", UNSIGNED16, TPDO, False,
                    "kPa; force feedback (manufacturer-specific index, see docs/canopen.md)")
 
+# Force feed-forward: CiA 408's axis position setpoint carries the position
+# only, and the native protocol's force feed-forward halves the tracking
+# error (docs/canopen.md). The simulated drive takes it in a manufacturer
+# object, mapped as RPDO1's third entry only where the config asks for it
+# (drives.legs[i].force_feedforward); real valves run without it.
+FORCE_FF = Entry(0x2120, 0, "Force feed-forward", INTEGER16, RPDO, False,
+                 "daN along the position count; the inverse dynamics force, where the config asks for it "
+                 "(manufacturer-specific, see docs/canopen.md)")
+
 CIA408_DEVICE_MODE_BUS = 1
 CIA408_CONTROL_MODE_AXIS_POSITION = 8
 
@@ -237,6 +246,10 @@ SW408 = {
 RPDO_SETPOINT_408 = Pdo("setpoint", "rx", 1, COB_RPDO1, (CONTROL_WORD, POS_SETPOINT), True,
                         "control word + position setpoint, every SYNC; its event timer is the "
                         "drive's own setpoint watchdog")
+#: RPDO1 with the force feed-forward (8 bytes), instead of RPDO_SETPOINT_408
+#: on a drive whose config sets force_feedforward.
+RPDO_SETPOINT_408_FF = Pdo("setpoint", "rx", 1, COB_RPDO1, (CONTROL_WORD, POS_SETPOINT, FORCE_FF), False,
+                           "control word + position setpoint + force feed-forward (vendor object), every SYNC")
 TPDO_ACTUAL_408 = Pdo("actual", "tx", 1, COB_TPDO1, (STATUS_WORD, POS_ACTUAL), True,
                       "status word + measured position, after every SYNC")
 TPDO_PRESSURES = Pdo("pressures", "tx", 2, COB_TPDO2, (PRESSURE_A, PRESSURE_B), False,
@@ -246,7 +259,7 @@ CIA408 = Profile(
     "cia408", 408, "CiA 408 fluid power, axis position control",
     COMMUNICATION + (CONTROL_WORD, STATUS_WORD, DEVICE_MODE, CONTROL_MODE, POS_SETPOINT,
                      POS_SETPOINT_UNIT, POS_SETPOINT_PREFIX, POS_ACTUAL, POS_ACTUAL_UNIT,
-                     POS_ACTUAL_PREFIX, PRESSURE_A, PRESSURE_B),
+                     POS_ACTUAL_PREFIX, PRESSURE_A, PRESSURE_B, FORCE_FF),
     (RPDO_SETPOINT_408, TPDO_ACTUAL_408, TPDO_PRESSURES),
     ((0x6042, 0, CIA408_DEVICE_MODE_BUS), (0x6043, 0, CIA408_CONTROL_MODE_AXIS_POSITION)),
 )
@@ -315,13 +328,18 @@ def profile(name: str) -> Profile:
     return PROFILES[name]
 
 
-def pdos_used(prof: Profile, pressure_feedback: bool) -> tuple[Pdo, ...]:
-    """The PDOs the master configures on a drive of this profile."""
-    return tuple(p for p in prof.pdos if p.required or (pressure_feedback and p is TPDO_PRESSURES))
+def pdos_used(prof: Profile, pressure_feedback: bool, force_feedforward: bool = False) -> tuple[Pdo, ...]:
+    """The PDOs the master configures on a drive of this profile (RPDO1 with
+    the force feed-forward on a CiA 408 drive that is configured for it)."""
+    out = tuple(p for p in prof.pdos if p.required or (pressure_feedback and p is TPDO_PRESSURES))
+    if force_feedforward and prof is CIA408:
+        out = tuple(RPDO_SETPOINT_408_FF if p is RPDO_SETPOINT_408 else p for p in out)
+    return out
 
 
-def entries_needed(prof: Profile, pressure_feedback: bool) -> tuple[Entry, ...]:
+def entries_needed(prof: Profile, pressure_feedback: bool, force_feedforward: bool = False) -> tuple[Entry, ...]:
     """The entries a drive must offer: the required ones, plus the pressures
-    when force feedback is asked for."""
-    wanted = {id(e) for p in pdos_used(prof, pressure_feedback) for e in p.entries}
+    when force feedback is asked for, and the force feed-forward object when
+    it is configured."""
+    wanted = {id(e) for p in pdos_used(prof, pressure_feedback, force_feedforward) for e in p.entries}
     return tuple(e for e in prof.entries if e.required or id(e) in wanted)

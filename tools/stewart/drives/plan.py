@@ -91,7 +91,8 @@ def drive_writes(drive: Drive, drives: Drives) -> list[Write]:
         out.append(Write(0x60C2, 2, ob.INTEGER8, -3, "interpolation period unit: ms", optional=True))
     out.append(Write(ob.CYCLE_PERIOD.index, 0, ob.UNSIGNED32, int(drives.sync_period_ms * 1000),
                      f"SYNC period {drives.sync_period_ms:g} ms (the drive may watch it)", optional=True))
-    for pdo in ob.pdos_used(prof, drives.pressure_feedback and drive.protocol == "cia408"):
+    for pdo in ob.pdos_used(prof, drives.pressure_feedback and drive.protocol == "cia408",
+                            drive.force_feedforward and drive.protocol == "cia408"):
         out.extend(pdo_writes(pdo, drive.node_id, drives))
     return out
 

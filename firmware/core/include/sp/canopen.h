@@ -83,6 +83,22 @@ sp_status_t sp_co_rpdo1_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint
 /** Parses RPDO1 (the drive's side). */
 sp_status_t sp_co_rpdo1_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *control, int32_t *setpoint);
 
+/** The simulated drive's vendor-specific force feed-forward (0x2120.0,
+ *  INTEGER16, daN = 10 N, along the drive's position count), mapped as
+ *  RPDO1's third entry where the config asks for it (docs/canopen.md):
+ *  CiA 408's axis position setpoint has no force. */
+#define SP_CO_FORCE_FF_INDEX 0x2120u
+#define SP_CO_FORCE_FF_MAPPING 0x21200010u
+
+/** RPDO1 with the force feed-forward: control word, position setpoint and
+ *  0x2120.0 (i16, daN); 8 bytes on 0x200 + node. */
+sp_status_t sp_co_rpdo1_ff_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t control, int32_t setpoint,
+                                 int16_t force_dan);
+
+/** Parses the 8-byte RPDO1 with the force feed-forward (the drive's side). */
+sp_status_t sp_co_rpdo1_ff_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *control, int32_t *setpoint,
+                                 int16_t *force_dan);
+
 /** TPDO1: status word (0x6041, u16) + axis position actual value (0x6601.1,
  *  i32 counts); 6 bytes on 0x180 + node. */
 sp_status_t sp_co_tpdo1_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t status, int32_t actual);

@@ -58,6 +58,7 @@ typedef struct {
     int8_t control_mode;  /**< 0x6043 value of axis position control (default 8) */
     uint8_t write_prefix; /**< 1: write unit metre and the prefix below to 0x6600.2/.3 */
     int8_t unit_prefix;   /**< decimal exponent of the drive's count (-6: 1 um) */
+    uint8_t force_ff;     /**< 1: RPDO1 also maps the vendor force feed-forward 0x2120.0 (8 bytes) */
 } sp_co_node_cfg_t;
 
 /** The master's configuration (from the platform config's `drives`). */
@@ -102,7 +103,8 @@ typedef struct {
  * list as tools/stewart/drives/plan.py (a Python test compares them): the
  * producer heartbeat, the device mode (0x6042 = 1) and control mode (0x6043),
  * the unit and prefix (optional), the cycle period 0x1006 (optional, us),
- * then per PDO (RPDO1, TPDO1, TPDO2 with pressure feedback): COB-ID invalid,
+ * then per PDO (RPDO1 with the force feed-forward as its third entry where
+ * force_ff, TPDO1, TPDO2 with pressure feedback): COB-ID invalid,
  * mapping count 0, entries, count, transmission type 1, the RPDO's event
  * timer, COB-ID valid. *n gets the count. SP_E_ARG for NULL or k out of range.
  */
@@ -214,8 +216,9 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
 /** The controller's side of one tick. */
 typedef struct {
     uint32_t now_ms;
-    uint8_t request;                   /**< sp_co_request_t: what the controller's state asks of all drives */
-    int32_t setpoint[SP_CO_MAX_NODES]; /**< drive counts, per node (see sp_co_length_to_count) */
+    uint8_t request;                    /**< sp_co_request_t: what the controller's state asks of all drives */
+    int32_t setpoint[SP_CO_MAX_NODES];  /**< drive counts, per node (see sp_co_length_to_count) */
+    int16_t force_dan[SP_CO_MAX_NODES]; /**< force feed-forward, daN, per node (sent where force_ff) */
 } sp_co_master_input_t;
 
 typedef struct {
