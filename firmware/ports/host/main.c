@@ -77,7 +77,8 @@ static void usage(void)
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
                     "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
-                    "                     [--canopen-force-ff] [--canopen-sync-divider N] [--key FILE] [--session N]\n");
+                    "                     [--canopen-force-ff] [--canopen-sync-divider N]\n"
+                    "                     [--key FILE] [--session N]\n");
 }
 
 typedef struct {
