@@ -57,7 +57,7 @@ echo
 awk -f bench/m4/map_sizes.awk "$out/sp_stm32g4.map" | sed 's/program, port, semihosting/port (ports\/stm32g4)        /'
 echo
 python3 tools/stewart/stack_usage.py --ci-dir "$dir" --elf "$elf" --objdump arm-none-eabi-objdump \
-  --root sp_g4_cycle --isr sp_g4_systick_handler --isr sp_g4_nmi \
+  --root sp_g4_cycle --isr sp_g4_systick_handler --isr sp_g4_nmi --isr sp_g4_fdcan_drive_irq \
   --indirect "sp_g4_cycle=can_send,can_receive,watchdog_kick" --indirect "main=tick_wait" \
   --whole sp_g4_reset --stack-region sp_g4_stack_bottom,sp_g4_stack_top --budget $stack_budget || status=1
 echo

@@ -1,7 +1,13 @@
 /*
  * fdcan.c - the three FDCAN controllers of the STM32G474 as the CAN port
- * (sp/port.h), polled once per tick, no interrupts. Written from RM0440's
- * FDCAN chapter (registers, message RAM, operating modes).
+ * (sp/port.h). Written from RM0440's FDCAN chapter (registers, message RAM,
+ * operating modes). The native buses are polled once per tick, no
+ * interrupts. A CANopen drive bus (the CiA 408 image) brings more frames
+ * in a tick than its two 3-element Rx FIFOs hold (a SYNC's 3 TPDO1 and 3
+ * TPDO2, and a heartbeat, EMCY or SDO answer at any time): its FIFOs'
+ * new-message interrupt moves every frame into a 16-element queue per bus
+ * (more than the ~9 classic frames 1 Mbit/s carries in a millisecond),
+ * which the tick reads.
  *
  * Bus -> controller -> pins (NUCLEO-G474RE; docs/stm32g4.md):
  *   ops    FDCAN1  PA11 RX, PA12 TX  AF9
@@ -87,6 +93,31 @@ typedef char sp_g4_check_fields[(NBRP <= 512u && NTSEG1 >= 2u && NTSEG1 <= 256u 
 #define ELEM_DLC_SHIFT 16u
 
 static const uint32_t k_base[SP_CAN_BUSES] = {G4_FDCAN1, G4_FDCAN2, G4_FDCAN3};
+
+/* ---- receive queue of a CANopen drive bus ---------------------------------
+ * Filled by sp_g4_fdcan_drive_irq (or by can_receive with interrupts
+ * masked), emptied by can_receive with interrupts masked: every access runs
+ * with the FDCAN interrupts unable to preempt it, so head, count and the
+ * bus's receive counters need no other protection. Classic frames only
+ * (CANopen: at most 8 bytes). */
+#if SP_DRIVE_CIA408
+#define RXQ_DEPTH 16u
+#else
+#define RXQ_DEPTH 1u /* no CANopen bus in the native image: never used */
+#endif
+typedef struct {
+    uint16_t id;
+    uint8_t len;
+    uint8_t data[8];
+} rxq_elem_t;
+typedef struct {
+    rxq_elem_t e[RXQ_DEPTH];
+    uint32_t head;  /* oldest element */
+    uint32_t count; /* 0..RXQ_DEPTH */
+} rxq_t;
+static rxq_t g_rxq[SP_CAN_BUSES];
+static uint8_t g_queued[SP_CAN_BUSES]; /* 1: the bus's FIFOs are drained into g_rxq by the interrupt */
+static sp_g4_can_t *g_rx_can;          /* the port whose counters the interrupt updates */
 
 static uint32_t ram(uint8_t bus)
 {
@@ -220,9 +251,15 @@ static sp_status_t init_one(uint8_t bus, const sp_co_master_cfg_t *co, uint32_t 
     FDCAN_RXGFC(b) = (nfilters << FDCAN_RXGFC_LSS_SHIFT) | (0u << FDCAN_RXGFC_LSE_SHIFT) | FDCAN_RXGFC_ANFS_REJECT |
                      FDCAN_RXGFC_ANFE_REJECT | FDCAN_RXGFC_RRFS | FDCAN_RXGFC_RRFE;
     FDCAN_TXBC(b) = 0u; /* TFQM = 0: Tx FIFO */
-    FDCAN_IE(b) = 0u;   /* polled: no interrupt */
-    FDCAN_ILE(b) = 0u;
+    /* Native buses polled: no interrupt. CANopen drive buses: Rx FIFO 0/1
+     * new message on interrupt line 0 (the NVIC side: sp_g4_can_init_canopen). */
+    FDCAN_IE(b) = canopen ? (FDCAN_IR_RF0N | FDCAN_IR_RF1N) : 0u;
+    FDCAN_ILS(b) = 0u;
+    FDCAN_ILE(b) = canopen ? FDCAN_ILE_EINT0 : 0u;
     FDCAN_IR(b) = 0xFFFFFFFFu; /* clear every flag (write 1 to clear) */
+    g_queued[bus] = (uint8_t)(canopen ? 1u : 0u);
+    g_rxq[bus].head = 0u;
+    g_rxq[bus].count = 0u;
 
     /* Normal operation: clearing INIT also clears CCE; the controller joins
      * the bus after 11 recessive bits. */
@@ -258,11 +295,20 @@ sp_status_t sp_g4_can_init_canopen(sp_g4_can_t *can, const sp_co_master_cfg_t *c
     pin_af(G4_GPIOA, 8u, 11u);  /* FDCAN3_RX */
     pin_af(G4_GPIOA, 15u, 11u); /* FDCAN3_TX (PA15 leaves JTDI; SWD stays on PA13/PA14) */
 
+    g_rx_can = can;
     for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
         sp_status_t s = init_one(bus, co, bitrate != NULL ? bitrate[bus] : 1000000u);
         if (s != SP_OK) {
             return s;
         }
+    }
+    if (co != NULL) {
+        /* Both drive buses' line 0 to one handler, priority below SysTick's
+         * (0x00): the tick is never held up by a receive. */
+        NVIC_IPR_BYTE(G4_IRQ_FDCAN2_IT0) = 0x80u;
+        NVIC_IPR_BYTE(G4_IRQ_FDCAN3_IT0) = 0x80u;
+        NVIC_ISER(G4_IRQ_FDCAN2_IT0) = 1u << (G4_IRQ_FDCAN2_IT0 % 32u);
+        NVIC_ISER(G4_IRQ_FDCAN3_IT0) = 1u << (G4_IRQ_FDCAN3_IT0 % 32u);
     }
     return SP_OK;
 }
@@ -337,8 +383,17 @@ static sp_status_t can_send(void *ctx, const sp_can_frame_t *frames, uint32_t n,
     return result;
 }
 
-/* Moves one element of Rx FIFO `fifo` (0/1) of `bus` into *f; 0 if empty. */
-static int take(uint8_t bus, uint32_t fifo, sp_can_frame_t *f)
+/* Moves one element of Rx FIFO `fifo` (0/1) of `bus` out of the FIFO: its
+ * identifier, length and flags into *f and up to `cap` data bytes into
+ * data (a longer frame's length is still reported). 0 if empty, 1 for a
+ * frame, 2 for an extended or remote one (the filters reject them; dropped
+ * as if it had never arrived). */
+typedef struct {
+    uint16_t id;
+    uint8_t len;
+    uint8_t flags;
+} rx_head_t;
+static int take(uint8_t bus, uint32_t fifo, rx_head_t *h, uint8_t *data, uint32_t cap)
 {
     uint32_t b = k_base[bus];
     uint32_t st = (fifo == 0u) ? FDCAN_RXF0S(b) : FDCAN_RXF1S(b);
@@ -352,20 +407,20 @@ static int take(uint8_t bus, uint32_t fifo, sp_can_frame_t *f)
     uint32_t e = ram(bus) + ((fifo == 0u) ? SRAMCAN_RF0SA : SRAMCAN_RF1SA) + gi * SRAMCAN_ELEM;
     uint32_t w0 = SP_REG(e);
     uint32_t w1 = SP_REG(e + 4u);
-    memset(f, 0, sizeof *f);
-    f->id = (w0 >> ELEM_ID_SHIFT) & 0x7FFu;
-    f->bus = bus;
-    f->len = k_dlc_len[(w1 >> ELEM_DLC_SHIFT) & 0xFu];
+    h->id = (uint16_t)((w0 >> ELEM_ID_SHIFT) & 0x7FFu);
+    h->len = k_dlc_len[(w1 >> ELEM_DLC_SHIFT) & 0xFu];
+    h->flags = 0u;
     if ((w1 & ELEM_FDF) != 0u) {
-        f->flags = (uint8_t)(SP_CAN_FLAG_FD | (((w1 & ELEM_BRS) != 0u) ? SP_CAN_FLAG_BRS : 0u));
-    } else if (f->len > 8u) {
-        f->len = 8u; /* classic CAN: DLC 9..15 still means 8 bytes */
+        h->flags = (uint8_t)(SP_CAN_FLAG_FD | (((w1 & ELEM_BRS) != 0u) ? SP_CAN_FLAG_BRS : 0u));
+    } else if (h->len > 8u) {
+        h->len = 8u; /* classic CAN: DLC 9..15 still means 8 bytes */
     }
-    uint32_t words = ((uint32_t)f->len + 3u) / 4u;
+    uint32_t n = (h->len < cap) ? h->len : cap;
+    uint32_t words = (n + 3u) / 4u;
     for (uint32_t w = 0; w < words; w++) {
         uint32_t v = SP_REG(e + 8u + 4u * w);
-        for (uint32_t i = 0; i < 4u && 4u * w + i < f->len; i++) {
-            f->data[4u * w + i] = (uint8_t)(v >> (8u * i));
+        for (uint32_t i = 0; i < 4u && 4u * w + i < n; i++) {
+            data[4u * w + i] = (uint8_t)(v >> (8u * i));
         }
     }
     if (fifo == 0u) {
@@ -373,9 +428,111 @@ static int take(uint8_t bus, uint32_t fifo, sp_can_frame_t *f)
     } else {
         FDCAN_RXF1A(b) = gi;
     }
-    /* Extended or remote frames are rejected by the filters; drop any that
-     * would get through as if it had never arrived. */
     return ((w0 & (ELEM_XTD | ELEM_RTR)) != 0u) ? 2 : 1;
+}
+
+/* take() into a frame of the port (every length up to 64 bytes). */
+static int take_frame(uint8_t bus, uint32_t fifo, sp_can_frame_t *f)
+{
+    rx_head_t h;
+    memset(f, 0, sizeof *f);
+    int t = take(bus, fifo, &h, f->data, sizeof f->data);
+    f->id = h.id;
+    f->bus = bus;
+    f->len = h.len;
+    f->flags = h.flags;
+    return t;
+}
+
+/* Counts the bus's lost-frame flags as overruns and clears them. */
+static void count_lost(sp_g4_can_t *can, uint8_t bus)
+{
+    uint32_t b = k_base[bus];
+    uint32_t ir = FDCAN_IR(b) & (FDCAN_IR_RF0L | FDCAN_IR_RF1L);
+    if (ir != 0u) {
+        FDCAN_IR(b) = ir;
+        inc(&can->status[bus].rx_overruns,
+            ((ir & FDCAN_IR_RF0L) != 0u ? 1u : 0u) + ((ir & FDCAN_IR_RF1L) != 0u ? 1u : 0u));
+    }
+}
+
+/* Moves every frame of a queued bus's two FIFOs into its queue; a frame
+ * that finds the queue full is lost and counted as an overrun. Runs in the
+ * interrupt or with interrupts masked. At most 2 x 3 elements. */
+static void drain(uint8_t bus)
+{
+    sp_g4_can_t *can = g_rx_can;
+    if (can == NULL || g_queued[bus] == 0u) {
+        return;
+    }
+    /* new-message flags cleared first: a frame arriving meanwhile raises
+     * them again (and the interrupt with them) */
+    FDCAN_IR(k_base[bus]) = FDCAN_IR_RF0N | FDCAN_IR_RF1N;
+    count_lost(can, bus);
+    rxq_t *q = &g_rxq[bus];
+    for (uint32_t fifo = 0; fifo < 2u; fifo++) {
+        for (uint32_t k = 0; k < SRAMCAN_FIFO_DEPTH; k++) {
+            /* into the next free element, or a scratch one when the queue is full */
+            static rxq_elem_t scratch;
+            rxq_elem_t *e = (q->count < RXQ_DEPTH) ? &q->e[(q->head + q->count) % RXQ_DEPTH] : &scratch;
+            rx_head_t h;
+            int t = take(bus, fifo, &h, e->data, sizeof e->data);
+            if (t == 0) {
+                break;
+            }
+            inc(&can->status[bus].rx_frames, 1u);
+            if (t != 1) {
+                continue;
+            }
+            if (e == &scratch || h.len > sizeof e->data || h.flags != 0u) {
+                inc(&can->status[bus].rx_overruns, 1u); /* queue full, or not a classic frame */
+                continue;
+            }
+            e->id = h.id;
+            e->len = h.len;
+            q->count++;
+        }
+    }
+}
+
+void sp_g4_fdcan_drive_irq(void)
+{
+    drain(SP_BUS_AXIS_A);
+    drain(SP_BUS_AXIS_B);
+}
+
+static uint32_t irq_mask(void)
+{
+    uint32_t primask;
+    __asm__ volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask)::"memory");
+    return primask;
+}
+
+static void irq_restore(uint32_t primask)
+{
+    __asm__ volatile("msr primask, %0" ::"r"(primask) : "memory");
+}
+
+/* Up to `max` frames of a queued bus, oldest first, into frames[]. */
+static uint32_t take_queued(uint8_t bus, sp_can_frame_t *frames, uint32_t max)
+{
+    uint32_t n = 0u;
+    uint32_t primask = irq_mask();
+    drain(bus); /* what is in the FIFOs now, even if an interrupt is pending */
+    rxq_t *q = &g_rxq[bus];
+    while (n < max && q->count > 0u) {
+        const rxq_elem_t *e = &q->e[q->head];
+        sp_can_frame_t *f = &frames[n++];
+        memset(f, 0, sizeof *f);
+        f->id = e->id;
+        f->bus = bus;
+        f->len = e->len;
+        memcpy(f->data, e->data, 8u);
+        q->head = (q->head + 1u) % RXQ_DEPTH;
+        q->count--;
+    }
+    irq_restore(primask);
+    return n;
 }
 
 static sp_status_t can_receive(void *ctx, sp_can_frame_t *frames, uint32_t max, uint32_t *got)
@@ -385,18 +542,17 @@ static sp_status_t can_receive(void *ctx, sp_can_frame_t *frames, uint32_t max, 
         return SP_E_ARG;
     }
     *got = 0;
-    /* At most 3 elements per FIFO, 2 FIFOs, 3 controllers: 18 takes. */
+    /* Polled buses: at most 3 elements per FIFO, 2 FIFOs; queued buses: at
+     * most RXQ_DEPTH. */
     for (uint8_t bus = 0; bus < SP_CAN_BUSES; bus++) {
-        uint32_t b = k_base[bus];
-        uint32_t ir = FDCAN_IR(b) & (FDCAN_IR_RF0L | FDCAN_IR_RF1L);
-        if (ir != 0u) {
-            FDCAN_IR(b) = ir;
-            inc(&can->status[bus].rx_overruns,
-                ((ir & FDCAN_IR_RF0L) != 0u ? 1u : 0u) + ((ir & FDCAN_IR_RF1L) != 0u ? 1u : 0u));
+        if (g_queued[bus] != 0u) {
+            *got += take_queued(bus, &frames[*got], max - *got);
+            continue;
         }
+        count_lost(can, bus);
         for (uint32_t fifo = 0; fifo < 2u; fifo++) {
             for (uint32_t k = 0; k < SRAMCAN_FIFO_DEPTH && *got < max; k++) {
-                int t = take(bus, fifo, &frames[*got]);
+                int t = take_frame(bus, fifo, &frames[*got]);
                 if (t == 0) {
                     break;
                 }

@@ -142,10 +142,14 @@
 #define FDCAN_PSR_BO (1u << 7)
 #define FDCAN_TDCR(b) SP_REG((b) + 0x048u) /* TDCF[6:0], TDCO[14:8] */
 #define FDCAN_IR(b) SP_REG((b) + 0x050u)
+#define FDCAN_IR_RF0N (1u << 0) /* Rx FIFO 0 new message (G4 bit layout; IE has the same) */
 #define FDCAN_IR_RF0L (1u << 2) /* Rx FIFO 0 message lost (G4 bit layout) */
+#define FDCAN_IR_RF1N (1u << 3) /* Rx FIFO 1 new message */
 #define FDCAN_IR_RF1L (1u << 5) /* Rx FIFO 1 message lost */
 #define FDCAN_IE(b) SP_REG((b) + 0x054u)
 #define FDCAN_ILE(b) SP_REG((b) + 0x05Cu)
+#define FDCAN_ILS(b) SP_REG((b) + 0x058u) /* 0: every interrupt group on line 0 (IT0) */
+#define FDCAN_ILE_EINT0 (1u << 0)
 #define FDCAN_RXGFC(b) SP_REG((b) + 0x080u)
 #define FDCAN_RXGFC_RRFE (1u << 0)          /* reject remote frames, extended */
 #define FDCAN_RXGFC_RRFS (1u << 1)          /* reject remote frames, standard */
@@ -178,6 +182,11 @@
 #define SRAMCAN_FIFO_DEPTH 3u
 
 /* ---- Cortex-M4 system control space (ARMv7-M ARM B3.2, B3.3, C1.8) ------- */
+/* NVIC: set-enable bit n % 32 of word n / 32; one priority byte per interrupt */
+#define NVIC_ISER(n) SP_REG(0xE000E100u + 4u * ((n) / 32u))
+#define NVIC_IPR_BYTE(n) (*(volatile uint8_t *)(uintptr_t)(0xE000E400u + (n)))
+#define G4_IRQ_FDCAN2_IT0 86u /* RM0440 vector table: FDCAN2 interrupt 0 */
+#define G4_IRQ_FDCAN3_IT0 88u /* FDCAN3 interrupt 0 */
 #define SCB_VTOR SP_REG(0xE000ED08u)
 #define SCB_CPACR SP_REG(0xE000ED88u)
 #define SCB_CCR SP_REG(0xE000ED14u)

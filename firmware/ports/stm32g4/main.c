@@ -39,8 +39,12 @@
 #define CO_TX_WAIT_US 400u /* > two classic 8-byte frames at 1 Mbit/s (135 us each) */
 #endif
 
-#define RX_BATCH 6u  /* frames per receive call */
+#define RX_BATCH 6u /* frames per receive call */
+#if SP_DRIVE_CIA408
+#define RX_ROUNDS 7u /* 42 >= 6 (ops FIFOs) + 2 x 16 (the drive buses' queues, fdcan.c) */
+#else
 #define RX_ROUNDS 4u /* 24 >= the 18 frames the 3 x 2 FIFOs of 3 can hold */
+#endif
 
 typedef struct {
     uint32_t ticks;       /**< cycles run */

@@ -108,6 +108,14 @@ sp_status_t sp_g4_can_init(sp_g4_can_t *can);
  */
 sp_status_t sp_g4_can_init_canopen(sp_g4_can_t *can, const sp_co_master_cfg_t *co, const uint32_t *bitrate);
 
+/**
+ * Interrupt handler of FDCAN2 and FDCAN3 line 0 (vector table), enabled
+ * only on CANopen drive buses: moves the frames of both Rx FIFOs into the
+ * bus's 16-frame receive queue, which the port's receive reads; a frame
+ * that finds the queue full is counted in rx_overruns.
+ */
+void sp_g4_fdcan_drive_irq(void);
+
 /** Free elements of the bus's Tx FIFO (0..3; 0 for a bad bus index). */
 uint32_t sp_g4_can_tx_free(uint8_t bus);
 

@@ -61,10 +61,17 @@ __attribute__((section(".vectors"), used)) static const sp_g4_vector_t sp_g4_vec
     [14] = sp_g4_unexpected, /* PendSV */
     [15] = sp_g4_systick_handler,
 /* clang-format off */
-    /* device interrupts 0..101 (entries 16..117): none is enabled */
+    /* device interrupts 0..101 (entries 16..117): only FDCAN2/3 line 0,
+     * and only in the CANopen image (fdcan.c); the rest is never enabled */
 #define V4(n) [n] = sp_g4_unexpected, [n + 1] = sp_g4_unexpected, [n + 2] = sp_g4_unexpected, [n + 3] = sp_g4_unexpected
     V4(16), V4(20), V4(24), V4(28), V4(32), V4(36), V4(40), V4(44), V4(48), V4(52), V4(56), V4(60), V4(64),
-    V4(68), V4(72), V4(76), V4(80), V4(84), V4(88), V4(92), V4(96), V4(100), V4(104), V4(108), V4(112),
+    V4(68), V4(72), V4(76), V4(80), V4(84), V4(88), V4(92), V4(96),
+    [100] = sp_g4_unexpected, [101] = sp_g4_unexpected,
+    [102] = sp_g4_fdcan_drive_irq, /* 16 + 86: FDCAN2_IT0 */
+    [103] = sp_g4_unexpected,
+    [104] = sp_g4_fdcan_drive_irq, /* 16 + 88: FDCAN3_IT0 */
+    [105] = sp_g4_unexpected, [106] = sp_g4_unexpected, [107] = sp_g4_unexpected,
+    V4(108), V4(112),
     [116] = sp_g4_unexpected, [117] = sp_g4_unexpected,
 #undef V4
     /* clang-format on */
