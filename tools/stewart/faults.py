@@ -107,6 +107,8 @@ SUBSET: tuple[tuple[str, str], ...] = (
     ("drive-freeze", "RUNNING/p2p"),
     ("sensor-jump", "RUNNING/trig"),
     ("duplicate-feedback", "RUNNING/p2p"),
+    ("sensor-stick", "RUNNING/p2p"),
+    ("endstop", "RUNNING/trig"),
 )
 
 _AFTER = 1.0  # s observed after the injection before the operator's STOP
