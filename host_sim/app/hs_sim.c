@@ -77,7 +77,8 @@
  * cycle, before the cycle's SYNC.
  * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
  * outside world's wrench on the platform (external + contact, base frame,
- * moment about o') and each cylinder's friction (docs/closed_loop.md).
+ * moment about o'), each cylinder's friction and its blocking valves' opening
+ * (0 closed .. 1 open, hs/drive.h; docs/closed_loop.md).
  *
  * Exit status: 0 the run ended (ticks done or scenario end), 1 I/O or set-up
  * error, 2 usage or scenario syntax error (or a load or play file refused
@@ -724,6 +725,9 @@ static void write_truth(sim_t *s, uint64_t tick)
     for (int i = 0; i < HS_LEGS; i++) {
         fprintf(s->truth, ",%.3f", st.friction[i]);
     }
+    for (int i = 0; i < HS_LEGS; i++) {
+        fprintf(s->truth, ",%.3f", st.block[i]);
+    }
     fputc('\n', s->truth);
 }
 
@@ -1329,7 +1333,8 @@ int main(int argc, char **argv)
         fprintf(s.truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
                          "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6,"
                          "wrench_fx,wrench_fy,wrench_fz,wrench_mx,wrench_my,wrench_mz,"
-                         "friction1,friction2,friction3,friction4,friction5,friction6\n");
+                         "friction1,friction2,friction3,friction4,friction5,friction6,"
+                         "block1,block2,block3,block4,block5,block6\n");
     }
     if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
         perror("hs_sim: cannot catch SIGINT/SIGTERM");
@@ -1487,6 +1492,21 @@ int main(int argc, char **argv)
     }
     printf("hs_sim controller: last state %s, faults 0x%04x\n", state_name(s.status_state, "unknown"),
            (unsigned)s.status_faults);
+    {
+        /* the drives' safety monitors (hs/drive.h): their largest readings on the
+         * drives they did not fault, against their thresholds (the false-alarm margin) */
+        double spool = 0.0, travel = 0.0;
+        for (int i = 0; i < HS_LEGS; i++) {
+            const hs_drive_t *d = &s.plant.drive[i];
+            if ((d->faults & (HS_FAULT_VALVE | HS_FAULT_SENSOR)) == 0u) {
+                spool = fmax(spool, d->spool_error_peak);
+                travel = fmax(travel, d->chk_travel_peak);
+            }
+        }
+        printf("hs_sim monitors: healthy drives' spool error peak %.1e (fault above %.2f), sensor balance peak "
+               "%.4f mm (fault above %.2f mm)\n",
+               spool, s.plant.par.drive.spool_error_max, travel * 1e3, s.plant.par.drive.sensor_check_travel * 1e3);
+    }
     if (s.injected) {
         print_fault_report(&s);
     }

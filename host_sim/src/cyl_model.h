@@ -115,11 +115,14 @@ static inline double hs__friction(const hs_cyl_params_t *c, double z, double rat
     return c->viscous_friction * rate + fc * hs__smooth_sign(rate / c->coulomb_velocity);
 }
 
+/* open: the opening of the blocking valves between the servo valve and the
+ * chambers (hs/drive.h), 0..1, scaling the valve flows (1: the model of
+ * hs/cylinder.h exactly; 0: only the internal leakage moves oil). */
 static inline void hs__cyl_eval(const hs_cyl_params_t *c, const hs_cyl_state_t *st, double stroke, double rate,
-                                double u, hs_cyl_eval_t *out)
+                                double u, double open, hs_cyl_eval_t *out)
 {
     double x = hs__clamp(st->xv, -1.0, 1.0);
-    double kx = c->valve_gain * x;
+    double kx = c->valve_gain * x * open;
     double ps = c->supply_pressure;
     double pt = c->tank_pressure;
     double ptr = c->valve_transition;

@@ -18,7 +18,7 @@ double hs_cyl_volume_b(const hs_cyl_params_t *c, double stroke)
 void hs_cyl_eval(const hs_cyl_params_t *c, const hs_cyl_state_t *st, double stroke, double rate, double u,
                  hs_cyl_eval_t *out)
 {
-    hs__cyl_eval(c, st, stroke, rate, u, out);
+    hs__cyl_eval(c, st, stroke, rate, u, 1.0, out);
 }
 
 static double chamber_energy(double beta, double v, double p)

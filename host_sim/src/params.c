@@ -141,7 +141,9 @@ hs_status_t hs_params_check(const hs_params_t *p)
         return HS_E_ARG;
     }
     if (!finite_nonneg(p->drive.kp) || !finite_nonneg(p->drive.kf) || !finite_nonneg(p->drive.force_highpass) ||
-        !finite_nonneg(p->drive.ff_gain) || !finite_pos(p->drive.following_error_max) || p->drive.timeout_cycles < 1u) {
+        !finite_nonneg(p->drive.ff_gain) || !finite_pos(p->drive.following_error_max) || p->drive.timeout_cycles < 1u ||
+        !finite_pos(p->drive.spool_error_max) || !finite_pos(p->drive.spool_error_time) ||
+        !finite_pos(p->drive.sensor_check_travel) || !finite_nonneg(p->drive.block_time)) {
         return HS_E_ARG;
     }
     if (p->substeps < 1u || p->substeps > 1000u) {
@@ -243,6 +245,14 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     p->drive.ff_gain = 1.0;
     p->drive.following_error_max = 0.02;
     p->drive.timeout_cycles = 3u;
+    /* The safety functions below the position loop (hs/drive.h): a valve
+     * fault when the spool is 0.2 off its model for 2 ms, a sensor fault
+     * when the valve flow predicts 1 mm of travel the length reading does
+     * not show, blocking valves closing in 20 ms. */
+    p->drive.spool_error_max = 0.2;
+    p->drive.spool_error_time = 0.002;
+    p->drive.sensor_check_travel = 0.001;
+    p->drive.block_time = 0.02;
     p->substeps = 10u;
     return hs_params_check(p);
 }

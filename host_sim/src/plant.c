@@ -304,7 +304,7 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
             double *dc = &dx[HS_X_CYL + 4 * i];
             hs_cyl_state_t st = {xc[0], xc[1], xc[2], xc[3], x[HS_X_BRISTLE + i]};
             hs_cyl_eval_t ev;
-            hs__cyl_eval(&p->cyl[i], &st, len[i] - p->cyl[i].length_min, ldot[i], u[i], &ev);
+            hs__cyl_eval(&p->cyl[i], &st, len[i] - p->cyl[i].length_min, ldot[i], u[i], pl->drive[i].block, &ev);
             fi[i] = ev.force;
             ffr[i] = ev.friction;
             dc[0] = ev.dpa;
@@ -539,6 +539,8 @@ static void set_holding(hs_plant_t *pl, const double force[HS_LEGS])
         xc[3] = 0.0;
         pl->x[HS_X_BRISTLE + i] = 0.0; /* the pressures hold it all */
         pl->valve_cmd[i] = 0.0;
+        pl->drive[i].spool_model = 0.0; /* the drive's valve monitor sees the spool where it is */
+        pl->drive[i].spool_model_rate = 0.0;
     }
 }
 
@@ -907,7 +909,12 @@ hs_status_t hs_plant_step(hs_plant_t *pl, double dt)
                 double pb =
                     (double)hs_quantize(measure_pressure(pl, pl->x[HS_X_CYL + 4 * i + 1]), sp->pressure_resolution) *
                     sp->pressure_resolution;
-                double u = hs_drive_update(&pl->drive[i], &pl->par.drive, c, lm, pa, pb, h);
+                double u;
+                (void)hs_drive_update(&pl->drive[i], &pl->par.drive, c, lm, pa, pb, h);
+                /* its safety functions: the valve monitor on the spool's LVDT, the sensor
+                 * plausibility, the blocking valves (they may fault it: command 0) */
+                hs_drive_monitor(&pl->drive[i], &pl->par.drive, c, lm, pa, pb, pl->x[HS_X_CYL + 4 * i + 2], h);
+                u = pl->drive[i].command;
                 if (pl->inj.valve_stuck[i]) {
                     u = pl->inj.valve_cmd[i]; /* the spool does not follow the drive */
                 }
@@ -1007,6 +1014,7 @@ hs_status_t hs_plant_state(const hs_plant_t *pl, hs_state_t *st)
         st->pb[i] = pl->x[HS_X_CYL + 4 * i + 1];
         st->spool[i] = pl->x[HS_X_CYL + 4 * i + 2];
         st->valve_cmd[i] = pl->valve_cmd[i];
+        st->block[i] = pl->drive[i].block;
     }
     return HS_OK;
 }

@@ -11,7 +11,7 @@ static void rig_derivs(const hs_rig_t *rig, const double *x, double u, double *d
 {
     hs_cyl_state_t st = {x[HS_RIG_CYL], x[HS_RIG_CYL + 1], x[HS_RIG_CYL + 2], x[HS_RIG_CYL + 3], x[HS_RIG_BRISTLE]};
     hs_cyl_eval_t ev;
-    hs__cyl_eval(&rig->cyl, &st, x[HS_RIG_STROKE], x[HS_RIG_RATE], u, &ev);
+    hs__cyl_eval(&rig->cyl, &st, x[HS_RIG_STROKE], x[HS_RIG_RATE], u, 1.0, &ev);
     dx[HS_RIG_STROKE] = x[HS_RIG_RATE];
     dx[HS_RIG_RATE] = (ev.force + rig->ext_force) / rig->mass - rig->gravity;
     dx[HS_RIG_CYL] = ev.dpa;
@@ -78,5 +78,5 @@ void hs_rig_eval(const hs_rig_t *rig, double u, hs_cyl_eval_t *out)
 {
     hs_cyl_state_t st = {rig->x[HS_RIG_CYL], rig->x[HS_RIG_CYL + 1], rig->x[HS_RIG_CYL + 2], rig->x[HS_RIG_CYL + 3],
                          rig->x[HS_RIG_BRISTLE]};
-    hs__cyl_eval(&rig->cyl, &st, rig->x[HS_RIG_STROKE], rig->x[HS_RIG_RATE], u, out);
+    hs__cyl_eval(&rig->cyl, &st, rig->x[HS_RIG_STROKE], rig->x[HS_RIG_RATE], u, 1.0, out);
 }

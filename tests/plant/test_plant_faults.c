@@ -168,21 +168,126 @@ static void test_sensor_faults(void **state)
     assert_int_equal(hs_plant_inject_valve(&plant, 6, 1, 0.5), HS_E_ARG);
 }
 
-/* A valve stuck open drives its cylinder whatever the drive commands. */
-static void test_stuck_valve_moves(void **state)
+/* Runs a plant (no bus) for n cycles with every drive ACTIVE on its home
+ * length, leg `leg` on a ramp at v m/s from t0 (s); returns the cycles run
+ * until `leg` reported `bit` (n if never). */
+static int run_ramp(int leg, double v, double t0, int n, uint32_t bit)
 {
-    hs_state_t st;
+    for (int k = 0; k < n; ++k) {
+        double t = (double)k * DT;
+        for (int i = 0; i < HS_LEGS; ++i) {
+            double l = hold_len[i], vi = 0.0;
+            if (i == leg && t > t0) {
+                l += v * (t - t0);
+                vi = v;
+            }
+            assert_int_equal(hs_plant_set_setpoint(&plant, i, l, vi, 0.0, HS_REQ_ACTIVE), HS_OK);
+        }
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+        if ((feedback(leg).faults & bit) != 0u) {
+            return k + 1;
+        }
+    }
+    return n;
+}
+
+/* A valve stuck fully open: without the valve monitor (threshold out of
+ * reach) only the following error (20 mm) finds it; with it the drive
+ * faults within 4 ms, its blocking valves close in 20 ms and the leg stops
+ * a few mm on (the campaign's endstop rows: without the blocking valves the
+ * cylinder ran into its end stop whatever the drive commanded). */
+static void test_stuck_open_valve_blocked(void **state)
+{
+    hs_state_t st0, st;
+    (void)state;
+    /* the runaway the blocking valves prevent */
+    start();
+    params.drive.spool_error_max = 1e9;
+    assert_int_equal(hs_plant_init(&plant, &params, params.home), HS_OK);
+    assert_int_equal(run_ramp(1, 0.0, 0.0, 20, 0u), 20);
+    assert_int_equal(hs_plant_state(&plant, &st0), HS_OK);
+    assert_int_equal(hs_plant_inject_valve(&plant, 1, 1, 1.0), HS_OK);
+    (void)run_ramp(1, 0.0, 0.0, 200, 0u);
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    print_message("stuck open, no monitor: leg 2 moved %.1f mm in 200 ms\n", (st.length[1] - st0.length[1]) * 1e3);
+    assert_true(st.length[1] - st0.length[1] > 0.02);
+    assert_true((feedback(1).faults & HS_FAULT_FOLLOWING) != 0u);
+    /* the drive's valve monitor and blocking valves */
+    start();
+    assert_int_equal(run_ramp(1, 0.0, 0.0, 20, 0u), 20);
+    assert_int_equal(hs_plant_state(&plant, &st0), HS_OK);
+    assert_int_equal(hs_plant_inject_valve(&plant, 1, 1, 1.0), HS_OK);
+    int k = run_ramp(1, 0.0, 0.0, 50, HS_FAULT_VALVE);
+    print_message("stuck open: valve fault after %d cycles\n", k);
+    assert_true(k <= 4);
+    assert_int_equal(feedback(1).state, HS_DRIVE_FAULT);
+    (void)run_ramp(1, 0.0, 0.0, 30, 0u);
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    assert_true(st.block[1] == 0.0);
+    assert_true(st.block[0] == 1.0); /* the other drives keep theirs open */
+    double moved = st.length[1] - st0.length[1];
+    (void)run_ramp(1, 0.0, 0.0, 500, 0u); /* the oil columns settle: the pressures the stuck valve left balance */
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    double settled = st.length[1] - st0.length[1];
+    (void)run_ramp(1, 0.0, 0.0, 250, 0u);
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    print_message("stuck open: leg 2 %.2f mm on when blocked, %.2f mm after 0.5 s, then %.4f mm in 0.25 s, "
+                  "%.4f mm/s at the end\n",
+                  moved * 1e3, settled * 1e3, (st.length[1] - st0.length[1] - settled) * 1e3, st.rate[1] * 1e3);
+    assert_true(moved > 0.0 && moved < 0.01);
+    assert_true(fabs(settled) < 0.01);
+    assert_near(st.length[1] - st0.length[1], settled, 0.00005, "blocked: the leg stays (m)");
+    assert_near(st.rate[1], 0.0, 0.001, "at rest (m/s)");
+    assert_true(feedback(1).state == HS_DRIVE_FAULT && (feedback(1).faults & HS_FAULT_VALVE) != 0u);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        if (i != 1) {
+            assert_int_equal(feedback(i).faults & (HS_FAULT_VALVE | HS_FAULT_SENSOR), 0u);
+        }
+    }
+}
+
+/* A length sensor stuck while its leg moves at 20 mm/s: the drive's flow
+ * balance finds it after 1 mm of unseen travel (30 ms: the position loop,
+ * blind, speeds the leg up), its blocking valves
+ * stop the leg; the same ramp with a healthy sensor raises nothing (the
+ * balance's largest reading stated). */
+static void test_stuck_sensor_found_by_flow_balance(void **state)
+{
+    hs_state_t st0, st;
     (void)state;
     start();
-    cycle(1u, 0u);
-    double l0 = feedback(1).length;
-    assert_int_equal(hs_plant_inject_valve(&plant, 1, 1, 0.2), HS_OK);
-    for (int k = 0; k < 50; ++k) {
-        cycle(0u, 0u); /* HOLD: the drive would keep the length */
-    }
+    assert_int_equal(run_ramp(0, 0.02, 0.05, 600, HS_FAULT_SENSOR), 600);
     assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
-    print_message("stuck valve at 0.2: leg 2 moved %.1f mm in 50 ms\n", (st.length[1] - l0) * 1e3);
-    assert_true(st.length[1] - l0 > 0.001);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        assert_int_equal(feedback(i).faults, 0u);
+    }
+    double peak = 0.0;
+    for (int i = 0; i < HS_LEGS; ++i) {
+        peak = fmax(peak, plant.drive[i].chk_travel_peak);
+    }
+    print_message("healthy ramp: flow balance peak %.4f mm (fault above 1 mm), spool error peak %.2e\n", peak * 1e3,
+                  plant.drive[0].spool_error_peak);
+    assert_true(peak < 0.1e-3);
+    assert_true(plant.drive[0].spool_error_peak < 0.01);
+    assert_near(st.length[0] - hold_len[0], 0.02 * 0.55, 0.002, "the ramp was followed (m)");
+
+    start();
+    assert_int_equal(run_ramp(0, 0.02, 0.05, 100, HS_FAULT_SENSOR), 100);
+    assert_int_equal(hs_plant_state(&plant, &st0), HS_OK);
+    assert_int_equal(hs_plant_inject_sensor(&plant, 0, HS_SENSOR_STICK, 0.0), HS_OK);
+    int k = run_ramp(0, 0.02, -0.05, 500, HS_FAULT_SENSOR);
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    print_message("stuck sensor at 20 mm/s: sensor fault after %d cycles, the leg %.2f mm on\n", k,
+                  (st.length[0] - st0.length[0]) * 1e3);
+    assert_true(k >= 20 && k <= 50);
+    assert_int_equal(feedback(0).state, HS_DRIVE_FAULT);
+    (void)run_ramp(0, 0.02, -0.05, 500, 0u);
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    print_message("stuck sensor: the leg %.2f mm on after 0.5 s, %.4f mm/s\n", (st.length[0] - st0.length[0]) * 1e3,
+                  st.rate[0] * 1e3);
+    assert_true(st.block[0] == 0.0);
+    assert_true(fabs(st.length[0] - st0.length[0]) < 0.003);
+    assert_near(st.rate[0], 0.0, 0.001, "at rest (m/s)");
 }
 
 /* n frames: id, bus, payload byte 0 = k (to follow them) */
@@ -339,9 +444,13 @@ static void test_supply_loss_holds(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_reset_clears_on_edge), cmocka_unit_test(test_reset_refused_with_cause),
-        cmocka_unit_test(test_sensor_faults),        cmocka_unit_test(test_stuck_valve_moves),
-        cmocka_unit_test(test_supply_loss_holds),    cmocka_unit_test(test_injector_frames),
+        cmocka_unit_test(test_reset_clears_on_edge),
+        cmocka_unit_test(test_reset_refused_with_cause),
+        cmocka_unit_test(test_sensor_faults),
+        cmocka_unit_test(test_stuck_open_valve_blocked),
+        cmocka_unit_test(test_stuck_sensor_found_by_flow_balance),
+        cmocka_unit_test(test_supply_loss_holds),
+        cmocka_unit_test(test_injector_frames),
         cmocka_unit_test(test_injector_rate),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -48,7 +48,13 @@ class Fault:
 #: Every injectable fault. Bounds: the controller's feedback timeout is 2
 #: ticks (reported on the third), the drives' setpoint watchdog 3 cycles,
 #: their following error 20 mm; a rejected setpoint frame raises the drives'
-#: communication bit, which the controller reports as a drive fault.
+#: communication bit, which the controller reports as a drive fault. The
+#: drives' safety functions (host_sim/include/hs/drive.h): a spool 0.2 off
+#: its model for 2 ms is a valve fault (the spool reaches it within about
+#: 1 ms of sticking open: 6 ticks with the report); a length reading that
+#: stays put while the valve's flows predict 1 mm of travel is a sensor
+#: fault (400 ticks: 1 mm at 2.5 mm/s, the slowest a leg creeps against a
+#: stuck sensor in these runs, 4 mm/s, with margin).
 FAULTS: tuple[Fault, ...] = (
     Fault("drop-feedback-1", "inject frames axis_a feedback drop count=1", None,
           "one feedback frame lost"),
@@ -79,12 +85,14 @@ FAULTS: tuple[Fault, ...] = (
     Fault("drive-fault", "inject drive 2 fault 0x80", 2, "drive 2 reports an internal fault"),
     Fault("drive-freeze", "inject drive 4 freeze", 4, "drive 4's alive counter frozen"),
     Fault("drive-stale", "inject drive 6 stale 2", 4, "drive 6 echoes a SYNC tick 2 old"),
-    Fault("sensor-stick", "inject sensor 1 stick", None, "leg 1's length sensor stuck"),
+    Fault("sensor-stick", "inject sensor 1 stick", 400,
+          "leg 1's length sensor stuck (the drive's flow balance: 1 mm of travel unseen)"),
     Fault("sensor-jump", "inject sensor 2 jump 0.03", 3, "leg 2's sensor jumps 30 mm"),
     Fault("sensor-noise", "inject sensor 3 noise 0.01", 3, "leg 3's sensor noisy, 10 mm sigma"),
     Fault("valve-stick", "inject valve 5 stick 0", None, "leg 5's valve stuck at null"),
     Fault("supply-loss", "inject supply loss", 2, "the supply pressure lost (the drives' supply monitor)"),
-    Fault("endstop", "inject endstop 3 up", None, "leg 3's valve stuck open: into its end stop"),
+    Fault("endstop", "inject endstop 3 up", 6,
+          "leg 3's valve stuck open (the drive's valve monitor, its blocking valves close)"),
     Fault("fk-inconsistent", "inject fk 0.05", 3, "inconsistent leg lengths (+-50 mm)"),
 )
 
@@ -99,6 +107,8 @@ SUBSET: tuple[tuple[str, str], ...] = (
     ("drive-freeze", "RUNNING/p2p"),
     ("sensor-jump", "RUNNING/trig"),
     ("duplicate-feedback", "RUNNING/p2p"),
+    ("sensor-stick", "RUNNING/p2p"),
+    ("endstop", "RUNNING/trig"),
 )
 
 _AFTER = 1.0  # s observed after the injection before the operator's STOP

@@ -35,6 +35,35 @@
  * noisy first sample does not bias it; the one of F_sp restarts at the
  * setpoint on entering ACTIVE (HP(F_sp) = 0 in HOLD).
  * Faults: |e| > following_error_max in ACTIVE -> FAULT + HS_FAULT_FOLLOWING.
+ *
+ * Safety functions (hs_drive_monitor, every substep after hs_drive_update),
+ * what a hydraulic servo drive does below its position loop:
+ *   Valve monitor: the drive runs a model of its valve's spool (the same
+ *     second-order dynamics, driven by its own commands) and compares it
+ *     with the spool position the valve's LVDT measures. More than
+ *     spool_error_max apart for spool_error_time in a row: HS_FAULT_VALVE
+ *     (a spool stuck, open or at null, or a broken valve). In the model the
+ *     two agree to rounding; a real valve differs by its tolerances, which
+ *     the margin (0.2 of full opening, 2 ms) covers.
+ *   Sensor plausibility: a flow balance of each chamber. While the length
+ *     reading stays unchanged, the drive integrates the flow its valve
+ *     passes at the measured spool and pressures (the valve and leakage
+ *     model of hs/cylinder.h), less the flow the measured pressure change
+ *     stored in the oil: the travel of the piston the flows predict,
+ *       D_A = (int (Q_A - Q_L) dt - V_A / beta (p_A - p_A0)) / A_A,
+ *       D_B = -(int (Q_B + Q_L) dt - V_B / beta (p_B - p_B0)) / A_B.
+ *     Both beyond sensor_check_travel, same sign: HS_FAULT_SENSOR (the
+ *     sensor stuck while the piston moves). Any change of the reading
+ *     restarts the balance (so a flow-gain error only scales the time to
+ *     detect, never accumulates); so does a pressure near 0 or the relief
+ *     limit (where the chamber equation does not hold), the FAULT state or a
+ *     closed blocking valve.
+ *   Blocking valves: load-holding valves between the servo valve and the
+ *     cylinder (pilot-operated check valves), closed by the drive in FAULT
+ *     (its safety chain) in block_time, open otherwise: closed, no oil
+ *     flows to or from the chambers but the piston's internal leakage, so
+ *     a cylinder whose servo valve is stuck open stops. `block` is their
+ *     opening (1 open, 0 closed); the plant scales the valve flows by it.
  */
 #ifndef HS_DRIVE_H
 #define HS_DRIVE_H
@@ -75,10 +104,23 @@ typedef struct {
     int ff_valid;               /**< ff_command belongs to the current setpoint */
     double command;             /**< last valve command, -1..1 */
     double error;               /**< last position error, m */
+    double spool_model;         /**< valve monitor: the modelled spool position, -1..1 */
+    double spool_model_rate;    /**< its rate, 1/s */
+    double spool_error;         /**< |modelled - measured spool| of the last substep */
+    double spool_error_time;    /**< how long it has been above spool_error_max, s */
+    double chk_length;          /**< sensor plausibility: the length reading the balance started at, m */
+    double chk_pa, chk_pb;      /**< the measured pressures then, Pa */
+    double chk_qa, chk_qb;      /**< integrated valve + leakage flows into A and B since then, m^3 */
+    double chk_travel;          /**< the smaller |predicted travel| of the two chambers (0 if they disagree), m */
+    int chk_valid;              /**< a balance is under way */
+    double block;               /**< blocking valves' opening, 0 (closed) .. 1 (open) */
+    double spool_error_peak;    /**< the largest spool_error seen (the monitors' margin, for reports) */
+    double chk_travel_peak;     /**< the largest chk_travel seen, m */
 } hs_drive_t;
 
-/** A drive in INIT with no faults; force0 (N) is the cylinder force at
- *  start, the initial value of the measured-force low-pass. */
+/** A drive in INIT with no faults, its blocking valves open; force0 (N) is
+ *  the cylinder force at start, the initial value of the measured-force
+ *  low-pass. */
 void hs_drive_init(hs_drive_t *d, double force0);
 
 /**
@@ -103,6 +145,20 @@ void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_leng
  */
 double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_params_t *c, double meas_length,
                        double meas_pa, double meas_pb, double h);
+
+/**
+ * The drive's safety functions for one substep of h seconds (see above),
+ * after hs_drive_update: the valve monitor (meas_spool: the spool position
+ * measured at the substep's start, fraction of full opening), the sensor
+ * plausibility (meas_length m, meas_pa and meas_pb Pa: the same samples
+ * hs_drive_update got) and the blocking valves (`block` moves towards 0 in
+ * FAULT, else towards 1, at 1 / block_time per second). A fault found here
+ * puts the drive in FAULT with its command at 0 (read d->command after).
+ * Non-finite inputs: no check fires on them (the plant's internal fault
+ * covers a non-finite state).
+ */
+void hs_drive_monitor(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_params_t *c, double meas_length,
+                      double meas_pa, double meas_pb, double meas_spool, double h);
 
 /** Sets fault bits (e.g. HS_FAULT_COMM from the bus layer); severe bits put the drive in FAULT. */
 void hs_drive_raise(hs_drive_t *d, uint32_t bits);

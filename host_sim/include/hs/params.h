@@ -150,6 +150,11 @@ typedef struct {
     double ff_gain;             /**< scale of the velocity feed-forward (1 = the valve/cylinder model inverse) */
     double following_error_max; /**< |position error| above which the drive faults, m */
     uint32_t timeout_cycles;    /**< cycles without a setpoint in ACTIVE before HOLD + timeout bit, >= 1 */
+    double spool_error_max;     /**< valve monitor: |modelled - measured spool| (fraction of full opening) ... */
+    double spool_error_time;    /**< ... above which for this long (s) is a valve fault; 0 < . */
+    double sensor_check_travel; /**< sensor plausibility: travel the valve flow predicts while the length reading
+                                     stays unchanged above which the sensor is faulty, m, > 0 */
+    double block_time;          /**< the blocking valves' closing (and opening) time, s, >= 0 (0: at once) */
 } hs_drive_params_t;
 
 /** Everything the plant needs. */

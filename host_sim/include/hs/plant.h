@@ -105,6 +105,7 @@ typedef struct {
     double pb[HS_LEGS];
     double spool[HS_LEGS];     /**< spool positions, -1..1 */
     double valve_cmd[HS_LEGS]; /**< drive outputs of the last substep */
+    double block[HS_LEGS];     /**< blocking valves' opening, 0 (closed) .. 1 (open) (hs/drive.h) */
     double contact_force[3];   /**< force of the contact on the platform, base frame, N */
     double wrench[6];          /**< what the outside world exerts on the platform: external wrench + contact, force (N)
                            and moment about o' (N m), base frame; not gravity, legs or loads (hs_plant_add_mass) */
