@@ -24,6 +24,20 @@ hs_status_t hs_co_bus_init(hs_co_bus_t *b, const uint8_t node_id[HS_LEGS], const
     return HS_OK;
 }
 
+hs_status_t hs_co_bus_set_profile(hs_co_bus_t *b, uint8_t profile)
+{
+    int i;
+    if (b == NULL || profile > 1u) {
+        return HS_E_ARG;
+    }
+    for (i = 0; i < HS_LEGS; i++) {
+        if (hs_co_node_init_profile(&b->node[i], b->node[i].node_id, b->node[i].bus, profile) != HS_OK) {
+            return HS_E_ARG;
+        }
+    }
+    return HS_OK;
+}
+
 hs_status_t hs_co_bus_receive(hs_co_bus_t *b, const sp_can_frame_t *f, sp_can_frame_t tx[HS_CO_BUS_MAX_TX],
                               uint8_t *n_tx)
 {

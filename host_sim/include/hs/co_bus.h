@@ -45,6 +45,11 @@ typedef struct {
 hs_status_t hs_co_bus_init(hs_co_bus_t *b, const uint8_t node_id[HS_LEGS], const uint8_t bus[HS_LEGS],
                            const double zero[HS_LEGS], double m_per_count);
 
+/** Presents every drive as a node of the device profile (0 = CiA 408, the
+ *  default; 1 = CiA 402): the nodes are powered up again with that
+ *  profile's defaults. HS_E_ARG for NULL or another profile. */
+hs_status_t hs_co_bus_set_profile(hs_co_bus_t *b, uint8_t profile);
+
 /** One frame from the master to every node of its bus; answers in tx
  *  (*n_tx of them, at most HS_CO_BUS_MAX_TX). HS_E_ARG for NULL. */
 hs_status_t hs_co_bus_receive(hs_co_bus_t *b, const sp_can_frame_t *f, sp_can_frame_t tx[HS_CO_BUS_MAX_TX],
