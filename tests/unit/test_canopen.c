@@ -550,14 +550,85 @@ static void test_link(void **state)
     assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
 }
 
+/* CiA 402: the statusword table (every state's bits decode to it, other
+ * bits ignored), the controlword the master sends from each state towards
+ * each target, and the drive's side: the master's words walk the drive's
+ * state machine to the target in at most 3 SYNCs from switch on disabled. */
+static void test_cia402_states(void **state)
+{
+    sp_co402_state_t s, t;
+    (void)state;
+    for (s = SP_CO402_NOT_READY; s < SP_CO402_UNKNOWN; s = (sp_co402_state_t)(s + 1)) {
+        uint16_t bits = sp_co402_status_bits(s);
+        assert_int_equal(sp_co402_state(bits), s);
+        assert_int_equal(sp_co402_state((uint16_t)(bits | 0x0210u)), s); /* voltage enabled, remote */
+        assert_int_equal(sp_co402_is_fault(s), s == SP_CO402_FAULT || s == SP_CO402_FAULT_REACTION);
+    }
+    assert_int_equal(sp_co402_state(0x0027u), SP_CO402_OPERATION_ENABLED);
+    assert_int_equal(sp_co402_state(0x0007u), SP_CO402_QUICK_STOP_ACTIVE);
+    assert_int_equal(sp_co402_state(0x0001u), SP_CO402_UNKNOWN);
+    assert_string_equal(sp_co402_state_name(SP_CO402_OPERATION_ENABLED), "OPERATION_ENABLED");
+    assert_string_equal(sp_co402_state_name((sp_co402_state_t)99), "UNKNOWN");
+    assert_int_equal(sp_co402_target(SP_CO_REQ_DISABLED), SP_CO402_READY);
+    assert_int_equal(sp_co402_target(SP_CO_REQ_HOLD), SP_CO402_OPERATION_ENABLED);
+    assert_int_equal(sp_co402_target(SP_CO_REQ_ACTIVE), SP_CO402_OPERATION_ENABLED);
+    /* the commands of the sequence */
+    assert_int_equal(sp_co402_control_word(SP_CO402_SWITCH_ON_DISABLED, SP_CO402_OPERATION_ENABLED, 0, 0), 0x06u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_READY, SP_CO402_OPERATION_ENABLED, 0, 0), 0x07u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_SWITCHED_ON, SP_CO402_OPERATION_ENABLED, 0, 0), 0x0Fu);
+    assert_int_equal(sp_co402_control_word(SP_CO402_OPERATION_ENABLED, SP_CO402_OPERATION_ENABLED, 0, 0), 0x0Fu);
+    assert_int_equal(sp_co402_control_word(SP_CO402_OPERATION_ENABLED, SP_CO402_READY, 0, 0), 0x06u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_READY, SP_CO402_READY, 0, 0), 0x06u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_QUICK_STOP_ACTIVE, SP_CO402_OPERATION_ENABLED, 0, 0), 0x00u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_FAULT, SP_CO402_OPERATION_ENABLED, 0, 0), 0x00u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_FAULT, SP_CO402_OPERATION_ENABLED, 1, 0), 0x80u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_OPERATION_ENABLED, SP_CO402_OPERATION_ENABLED, 0, 1), 0x02u);
+    /* the drive's transitions */
+    assert_int_equal(sp_co402_next(SP_CO402_NOT_READY, 0u, 0u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_SWITCH_ON_DISABLED, 0x0Fu, 0u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_READY, 0x0Fu, 0x06u, 0), SP_CO402_SWITCHED_ON);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x07u, 0x0Fu, 0), SP_CO402_SWITCHED_ON);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x06u, 0x0Fu, 0), SP_CO402_READY);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x02u, 0x0Fu, 0), SP_CO402_QUICK_STOP_ACTIVE);
+    assert_int_equal(sp_co402_next(SP_CO402_QUICK_STOP_ACTIVE, 0x0Fu, 0x02u, 0), SP_CO402_QUICK_STOP_ACTIVE);
+    assert_int_equal(sp_co402_next(SP_CO402_QUICK_STOP_ACTIVE, 0x00u, 0x02u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_SWITCHED_ON, 0x02u, 0x07u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x0Fu, 0x0Fu, 1), SP_CO402_FAULT_REACTION);
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT_REACTION, 0x0Fu, 0x0Fu, 1), SP_CO402_FAULT);
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT, 0x80u, 0x80u, 0), SP_CO402_FAULT); /* no edge */
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT, 0x80u, 0x00u, 1), SP_CO402_FAULT); /* the cause remains */
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT, 0x80u, 0x00u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    /* the master's words against the drive: from every non-fault state to each target */
+    for (t = SP_CO402_READY; t <= SP_CO402_OPERATION_ENABLED; t = (sp_co402_state_t)(t + 2)) {
+        for (s = SP_CO402_NOT_READY; s <= SP_CO402_QUICK_STOP_ACTIVE; s = (sp_co402_state_t)(s + 1)) {
+            sp_co402_state_t d = s;
+            uint16_t prev = 0u;
+            int k;
+            for (k = 0; k < 6 && d != t; k++) {
+                uint16_t cw = sp_co402_control_word(d, t, 0, 0);
+                d = sp_co402_next(d, cw, prev, 0);
+                prev = cw;
+            }
+            assert_int_equal(d, t);
+            assert_true(k <= 5);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_sdo_frames),          cmocka_unit_test(test_sdo_answers),
-        cmocka_unit_test(test_nmt_sync_heartbeat),  cmocka_unit_test(test_pdo_emcy),
-        cmocka_unit_test(test_cia408_states),       cmocka_unit_test(test_plan),
-        cmocka_unit_test(test_cfg_check),           cmocka_unit_test(test_scaling),
-        cmocka_unit_test(test_master_input_checks), cmocka_unit_test(test_link),
+        cmocka_unit_test(test_sdo_frames),
+        cmocka_unit_test(test_sdo_answers),
+        cmocka_unit_test(test_nmt_sync_heartbeat),
+        cmocka_unit_test(test_pdo_emcy),
+        cmocka_unit_test(test_cia408_states),
+        cmocka_unit_test(test_cia402_states),
+        cmocka_unit_test(test_plan),
+        cmocka_unit_test(test_cfg_check),
+        cmocka_unit_test(test_scaling),
+        cmocka_unit_test(test_master_input_checks),
+        cmocka_unit_test(test_link),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
