@@ -11,6 +11,7 @@
 #define ABORT_NO_SUB 0x06090011u
 #define ABORT_CMD 0x05040001u
 #define EMCY_RPDO_TIMEOUT 0x8250u
+#define EMCY_HEARTBEAT 0x8130u /* life guard or heartbeat error */
 
 static void od_add(hs_co_node_t *n, uint16_t index, uint8_t sub, uint8_t size, uint8_t access, uint32_t value)
 {
@@ -221,6 +222,8 @@ static void reset(hs_co_node_t *n, int whole)
     n->rpdo_seen = 0u;
     n->rpdo_age_ms = 0u;
     n->hb_elapsed_ms = 0u;
+    n->hbc_seen = 0u;
+    n->hbc_elapsed_ms = 0u;
 }
 
 hs_status_t hs_co_node_init_profile(hs_co_node_t *n, uint8_t node_id, uint8_t bus, uint8_t profile)
@@ -438,6 +441,14 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
         on_sync(n, tx, n_tx);
         return HS_OK;
     }
+    if (f->id > SP_CO_COB_HEARTBEAT && f->id <= SP_CO_COB_HEARTBEAT + SP_CO_NODE_MAX && f->len == 1u) {
+        uint32_t c = od_value(n, 0x1016u, 1u);
+        if ((c & 0xFFFFu) != 0u && ((c >> 16) & 0x7Fu) == f->id - SP_CO_COB_HEARTBEAT) {
+            n->hbc_seen = 1u;
+            n->hbc_elapsed_ms = 0u;
+        }
+        return HS_OK;
+    }
     if (f->id == SP_CO_COB_SDO_RX + n->node_id && f->len == 8u &&
         (n->nmt == SP_CO_NMT_STATE_PREOP || n->nmt == SP_CO_NMT_STATE_OPERATIONAL)) {
         sp_can_frame_t *out = next_tx(tx, n_tx);
@@ -503,6 +514,18 @@ hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_C
         (n->profile == 1u ? n->state402 == SP_CO402_OPERATION_ENABLED : n->state == SP_CO408_ACTIVE) &&
         n->rpdo_age_ms > timer && !n->fault) {
         (void)hs_co_node_raise(n, EMCY_RPDO_TIMEOUT);
+    }
+    {
+        uint32_t c = od_value(n, 0x1016u, 1u);
+        if (n->hbc_seen && (c & 0xFFFFu) != 0u) {
+            n->hbc_elapsed_ms += ms;
+            if (n->hbc_elapsed_ms > (c & 0xFFFFu)) {
+                n->hbc_seen = 0u; /* once per silence: monitoring starts again with the next heartbeat */
+                if (!n->fault) {
+                    (void)hs_co_node_raise(n, EMCY_HEARTBEAT);
+                }
+            }
+        }
     }
     if (n->emcy_pending != 0u && (f = next_tx(tx, n_tx)) != NULL) {
         (void)sp_co_emcy_frame(f, n->bus, n->node_id, n->emcy_pending, 0x01u);

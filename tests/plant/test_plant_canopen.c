@@ -23,7 +23,8 @@
  * - The drive's setpoint watchdog (RPDO event timer): when the master stops
  *   sending, the drive raises EMCY 0x8250 and leaves ACTIVE.
  * - The master's own heartbeat: every 100 ms on each bus, pre-operational
- *   until the drives run, then operational.
+ *   until the drives run, then operational; the drives' consumer (0x1016.1,
+ *   written at start-up) raises EMCY 0x8130 when it falls silent.
  *
  * CiA 402 (cyclic synchronous position), the same master with the profile
  * per node set to 402 against the plant's nodes presenting themselves as
@@ -64,6 +65,7 @@ typedef struct {
     uint32_t now;
     uint8_t mute_master;   /* 1: the master's frames are not delivered */
     uint32_t emcy_seen_ms; /* when an EMCY frame reached the master (0: none) */
+    uint16_t emcy_code;    /* the code of the first one */
 } rig_t;
 
 static rig_t rig;
@@ -72,6 +74,7 @@ static void to_master(rig_t *r, const sp_can_frame_t *f)
 {
     if (f->id > SP_CO_COB_EMCY && f->id < SP_CO_COB_TPDO1 && r->emcy_seen_ms == 0u) {
         r->emcy_seen_ms = r->now;
+        r->emcy_code = (uint16_t)(f->data[0] | (f->data[1] << 8));
     }
     (void)sp_co_master_receive(&r->m, &r->cfg, f, r->now);
 }
@@ -185,8 +188,8 @@ static void test_startup_six_drives(void **state)
         assert_int_equal(rig.node[k].state, SP_CO408_DISABLED);
         assert_int_equal(rig.out.fault_mask, 0u);
     }
-    /* 1 identity read + 28 writes + 22 read-backs per drive */
-    assert_int_equal(sdo_total(), N * (1u + 28u + 22u));
+    /* 1 identity read + 29 writes + 23 read-backs per drive */
+    assert_int_equal(sdo_total(), N * (1u + 29u + 23u));
     printf("canopen start-up: 6 drives ready (DISABLED) after %u ms, %u SDO transfers\n", (unsigned)t_ready,
            (unsigned)sdo_total());
     rig.in.request = SP_CO_REQ_ACTIVE;
@@ -237,7 +240,7 @@ static void test_optional_object_skipped(void **state)
     e->index = 0x5FFFu;
     RUN_UNTIL(rig.out.ready, 1000u);
     assert_true(rig.out.ready);
-    assert_int_equal(rig.m.node[1].skipped, 1u << 5); /* the plan's 6th write is 0x1006 */
+    assert_int_equal(rig.m.node[1].skipped, 1u << 6); /* the plan's 7th write is 0x1006 */
     assert_int_equal(rig.m.node[0].skipped, 0u);
 }
 
@@ -430,6 +433,20 @@ static void test_master_heartbeat(void **state)
     assert_int_equal(seen[SP_BUS_AXIS_B], 10u);
     assert_int_equal(first, 100u);                             /* one period after the start */
     assert_int_equal(last_state, SP_CO_NMT_STATE_OPERATIONAL); /* the drives run */
+    /* the drives watch it (0x1016.1, three periods): the master falls silent -> EMCY 0x8130 */
+    assert_int_equal(hs_co_node_find(&rig.node[0], 0x1016u, 1u)->value, (127u << 16) | 300u);
+    assert_int_equal(rig.out.fault_mask, 0u);
+    rig.mute_master = 1u; /* (the master sees the TPDOs stop; what matters here is the drives' side) */
+    rig.emcy_seen_ms = 0u;
+    t0 = rig.now;
+    RUN_UNTIL(rig.emcy_seen_ms != 0u, 500u);
+    assert_int_equal(rig.emcy_code, 0x8130u);
+    assert_int_equal(rig.node[0].fault, 1u);
+    assert_in_range(rig.now - t0, 200u, 301u); /* 300 ms after the last heartbeat, sent up to 100 ms before */
+    printf("canopen master heartbeat: every %u ms on each bus; the drives' consumer raised EMCY 0x8130 %u ms "
+           "after the master fell silent\n",
+           (unsigned)rig.cfg.master_heartbeat_ms, (unsigned)(rig.now - t0));
+    rig.mute_master = 0u;
     /* the master's id is refused for a drive */
     rig.cfg.node[0].node_id = rig.cfg.master_node_id;
     assert_int_equal(sp_co_master_cfg_check(&rig.cfg), SP_E_ARG);
@@ -458,8 +475,8 @@ static void test_402_startup(void **state)
         assert_int_equal(hs_co_node_find(&rig.node[k], 0x6061u, 0u)->value, 8u);
         assert_int_equal(hs_co_node_find(&rig.node[k], 0x60C2u, 1u)->value, 1u);
     }
-    /* 1 identity read + 20 writes + 16 read-backs + the 0x6061 read per drive */
-    assert_int_equal(sdo_total(), N * (1u + 20u + 16u + 1u));
+    /* 1 identity read + 21 writes + 17 read-backs + the 0x6061 read per drive */
+    assert_int_equal(sdo_total(), N * (1u + 21u + 17u + 1u));
     printf("canopen CiA 402 start-up: 6 drives ready (ready to switch on) after %u ms, %u SDO transfers\n",
            (unsigned)t_ready, (unsigned)sdo_total());
     /* HOLD: operation enabled, the target the actual position */

@@ -216,7 +216,7 @@ def test_master_configures_and_starts_library_nodes(rig, L):
         assert d.node.nmt.state == "OPERATIONAL"
         plan, n = (WriteEntry * 32)(), C.c_uint8()
         assert L.sp_co_plan_build(C.byref(rig.cfg), k, C.byref(plan), C.byref(n)) == 0
-        assert n.value == 28
+        assert n.value == 29
         for w in plan[: n.value]:
             if w.final:
                 assert d.value(w.index, w.sub) == w.value, f"node {d.id} 0x{w.index:04X}.{w.sub}"

@@ -138,7 +138,7 @@ _DRIVE_BUSES = ("SP_BUS_AXIS_A", "SP_BUS_AXIS_B")
 #: Master timeouts the config does not set (docs/canopen.md): boot, SDO, device state.
 _BOOT_MS, _SDO_MS, _STATE_MS = 2000, 100, 100
 #: The master's own heartbeat (docs/canopen.md): period and node id.
-_MASTER_HB_MS, _MASTER_NODE = 100, 127
+_MASTER_HB_MS, _MASTER_NODE = _plan.ob.MASTER_HEARTBEAT_MS, _plan.ob.MASTER_NODE_ID
 #: sp_co_profile_t of each CANopen protocol.
 _PROFILE = {"cia408": "SP_CO_PROFILE_408", "cia402": "SP_CO_PROFILE_402"}
 

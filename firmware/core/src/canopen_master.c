@@ -163,6 +163,10 @@ sp_status_t sp_co_plan_build(const sp_co_master_cfg_t *cfg, uint8_t k, sp_co_sdo
     p.out = out;
     p.n = 0u;
     add(&p, 0x1017u, 0u, 2u, cfg->heartbeat_ms, 1u, 0u);
+    if (cfg->master_heartbeat_ms != 0u) { /* the drive watches the master: three of its periods */
+        uint32_t t = 3u * (uint32_t)cfg->master_heartbeat_ms;
+        add(&p, 0x1016u, 1u, 4u, ((uint32_t)cfg->master_node_id << 16) | (t > 0xFFFFu ? 0xFFFFu : t), 1u, 1u);
+    }
     if (is402) {
         add(&p, 0x6060u, 0u, 1u, (uint32_t)SP_CO402_MODE_CSP, 1u, 0u);
         add(&p, 0x60C2u, 1u, 1u, cfg->sync_divider, 1u, 1u);   /* the SYNC period, ms */

@@ -73,6 +73,9 @@ typedef struct {
     /* CiA 402 (profile 1); at the end so that the CiA 408 fields keep their place */
     uint8_t profile;           /**< 0: CiA 408, 1: CiA 402 (sp_co_profile_t's values) */
     sp_co402_state_t state402; /**< CiA 402 device state */
+    /* the heartbeat consumer (0x1016.1: node id << 16 | ms; 0 = off) */
+    uint8_t hbc_seen;        /**< 1 once the watched node's heartbeat arrived (monitoring runs) */
+    uint32_t hbc_elapsed_ms; /**< ms since the watched node's last heartbeat */
 } hs_co_node_t;
 
 /** Powers a node up with the EDS's defaults; it boots (sends its boot-up)
@@ -99,8 +102,11 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
 /**
  * Advances the node's clocks by ms milliseconds (1..1000): the boot-up after
  * a reset, the heartbeat producer (0x1017), the RPDO event timer (0x1400.5:
- * in ACTIVE, no RPDO1 within it raises EMCY 0x8250 and a fault), and a
- * pending EMCY. HS_E_ARG for NULL.
+ * in ACTIVE, no RPDO1 within it raises EMCY 0x8250 and a fault), the
+ * heartbeat consumer (0x1016.1: once the watched node's heartbeat was seen,
+ * silence beyond its time raises EMCY 0x8130 and a fault; CiA 301's
+ * monitoring starts with the first heartbeat), and a pending EMCY.
+ * HS_E_ARG for NULL.
  */
 hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_CO_MAX_TX], uint8_t *n_tx);
 

@@ -119,7 +119,9 @@ typedef struct {
 /**
  * The SDO writes that configure node k (0-based) of cfg, in order; the same
  * list as tools/stewart/drives/plan.py (a Python test compares them): the
- * producer heartbeat; CiA 408: the device mode (0x6042 = 1) and control
+ * producer heartbeat, the consumer heartbeat 0x1016.1 watching the master's
+ * (optional; master node id << 16 | 3 x master_heartbeat_ms, saturated to
+ * 65535 ms; left out when the master sends none); CiA 408: the device mode (0x6042 = 1) and control
  * mode (0x6043), the unit and prefix (optional); CiA 402: the mode of
  * operation (0x6060 = 8) and the interpolation period 0x60C2.1/.2 (the
  * divider in ms, optional); the cycle period 0x1006 (optional, us), then
