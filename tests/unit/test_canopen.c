@@ -11,8 +11,12 @@
  *   identifier is SP_E_FRAME; EMCY classes by name.
  * - CiA 408 status words decode to every state; the drive's state machine
  *   walks INIT -> ACTIVE one step per call, faults, and resets on R's edge.
- * - The plan: 28 writes of which 22 final with pressure feedback, 21/17
- *   without (docs/canopen.md), the RPDO event timer, the prefix's byte.
+ * - The plan: 29 writes of which 23 final with pressure feedback, 22/18
+ *   without (docs/canopen.md), 28/22 without the master's heartbeat (no
+ *   0x1016.1), the RPDO event timer, the prefix's byte; CiA 402: 21/17
+ *   (0x6060 = 8, 0x60C2, RPDO1 with 0x607A, TPDO1 with 0x6064, no TPDO2).
+ * - CiA 402: the statusword table, the controlword towards each target,
+ *   the drive's transitions, quick stop and fault reset.
  * - Config check names a bad node id, a duplicate, a zero divider.
  * - Scaling: the prepared factors against the exact quotients (a plain
  *   reference in long double) within 1 count and 1 Q24 step, for six
@@ -272,16 +276,19 @@ static void test_plan(void **state)
     assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
     cfg.node[4].node_id = 21u;
     assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
-    assert_int_equal(n, 28u);
-    assert_int_equal(finals(p, n), 22);
+    assert_int_equal(n, 29u);
+    assert_int_equal(finals(p, n), 23);
     assert_int_equal(p[0].index, 0x1017u);
     assert_int_equal(p[0].value, 20u);
-    assert_int_equal(p[2].index, 0x6043u);
-    assert_int_equal(p[2].value, 8u);
-    assert_int_equal(p[4].index, 0x6600u);
-    assert_int_equal(p[4].sub, 3u);
-    assert_int_equal(p[4].value, 0xFAu); /* -6 as its byte */
-    assert_true(p[4].optional);
+    assert_int_equal(p[1].index, 0x1016u); /* the master's heartbeat watched: node 127, 300 ms */
+    assert_int_equal(p[1].value, (127u << 16) | 300u);
+    assert_true(p[1].optional);
+    assert_int_equal(p[3].index, 0x6043u);
+    assert_int_equal(p[3].value, 8u);
+    assert_int_equal(p[5].index, 0x6600u);
+    assert_int_equal(p[5].sub, 3u);
+    assert_int_equal(p[5].value, 0xFAu); /* -6 as its byte */
+    assert_true(p[5].optional);
     for (i = 0u; i < n; i++) {
         if (p[i].index == 0x1400u && p[i].sub == 5u) {
             timer = 1u;
@@ -289,12 +296,37 @@ static void test_plan(void **state)
         }
     }
     assert_true(timer);
-    assert_int_equal(p[6].value, 0x80000000u | (0x200u + 21u)); /* RPDO1 disabled while re-mapped */
+    assert_int_equal(p[7].value, 0x80000000u | (0x200u + 21u)); /* RPDO1 disabled while re-mapped */
     assert_int_equal(p[n - 1u].value, 0x280u + 21u);            /* TPDO2 enabled last */
     cfg.pressure_feedback = 0u;
     assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    assert_int_equal(n, 22u);
+    assert_int_equal(finals(p, n), 18);
+    cfg.master_heartbeat_ms = 0u;
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
     assert_int_equal(n, 21u);
     assert_int_equal(finals(p, n), 17);
+    cfg.master_heartbeat_ms = 100u;
+    cfg.node[4].profile = SP_CO_PROFILE_402;
+    cfg.pressure_feedback = 1u; /* CiA 408's pressures: not on a 402 drive */
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    assert_int_equal(n, 21u);
+    assert_int_equal(finals(p, n), 17);
+    assert_int_equal(p[2].index, 0x6060u);
+    assert_int_equal(p[2].value, 8u);
+    assert_int_equal(p[3].index, 0x60C2u);
+    assert_int_equal(p[4].value, 0xFDu); /* -3: ms */
+    for (i = 0u; i < n; i++) {
+        assert_true(p[i].index != 0x6042u && p[i].index != 0x6043u && p[i].index != 0x1801u);
+        if (p[i].index == 0x1600u && p[i].sub == 2u) {
+            assert_int_equal(p[i].value, 0x607A0020u);
+        }
+        if (p[i].index == 0x1A00u && p[i].sub == 2u) {
+            assert_int_equal(p[i].value, 0x60640020u);
+        }
+    }
+    cfg.node[4].force_ff = 1u; /* CiA 408's vendor object: refused on a 402 drive */
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
     assert_int_equal(sp_co_plan_build(&cfg, 6u, p, &n), SP_E_ARG);
     assert_int_equal(sp_co_plan_build(NULL, 0u, p, &n), SP_E_ARG);
 }
