@@ -163,7 +163,8 @@ REVISION = Entry(0x1018, 3, "Identity: revision number", UNSIGNED32, READ, False
 SERIAL = Entry(0x1018, 4, "Identity: serial number", UNSIGNED32, READ, False,
                "scan lists it; tells two drives of one type apart")
 CONSUMER_HEARTBEAT = Entry(0x1016, 1, "Consumer heartbeat time 1", UNSIGNED32, WRITE, False,
-                           "node id << 16 | ms: the drive watches the master's heartbeat (written where present)")
+                           "bits 16..22 the master's node id, 0..15 ms: the drive watches the master's "
+                           "heartbeat (written where present)")
 SYNC_COB_ID = Entry(0x1005, 0, "COB-ID SYNC", UNSIGNED32, READ, False,
                     "the drive consumes SYNC on 0x080 (the master produces it)")
 CYCLE_PERIOD = Entry(0x1006, 0, "Communication cycle period", UNSIGNED32, WRITE, False,
