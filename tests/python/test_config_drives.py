@@ -80,6 +80,10 @@ def test_a_valid_cia408_layout():
      "drives.legs[0].bus: a native drive of leg 1 is on axis_a"),
     (lambda s: s["legs"][0].update(control_mode=9, protocol="cia402"),
      "drives.legs[0].control_mode: only for cia408 drives"),
+    (lambda s: s["legs"][2].update(node_id=127),
+     "drives.legs[2].node_id: 127 is the master's own heartbeat id"),
+    (lambda s: s["legs"][4].update(protocol="cia402", force_feedforward=True),
+     "drives.legs[4].force_feedforward: only for cia408 drives"),
 ])
 def test_validation_names_the_bad_key(mutate, message):
     s = _section()
@@ -235,8 +239,6 @@ def test_the_firmware_gets_a_cia402_layout():
 @pytest.mark.parametrize("mutate, message", [
     (lambda s: s["legs"][0].update(protocol="native", bus="axis_a", node_id=None, scaling=None),
      "drives.legs: the firmware drives every leg with one protocol (one per image); the config mixes cia408, native"),
-    (lambda s: s["legs"][2].update(node_id=127),
-     "drives.legs[2].node_id: 127 is the master's own heartbeat id"),
     (lambda s: s["legs"][0]["scaling"].update(position_per_count=1.5e-9),
      "drives.legs[0].scaling.position_per_count: 1.5e-09 m is not a whole number of nm per count"),
 ])
