@@ -13,6 +13,10 @@
  * heartbeats), then the link's feedback, the link's input and the master's
  * step (six RPDO1, two SYNC) are measured, each and together.
  *
+ * Then the same with six CiA 402 drives (cyclic synchronous position,
+ * operation enabled): TPDO1 only (no pressures), RPDO1 of 6 bytes, the
+ * controlword from the state machine and the target position.
+ *
  * Run: qemu-system-arm -M mps2-an386 -display none -monitor none -serial
  * none -icount shift=7,sleep=off -semihosting-config enable=on,target=native
  * -kernel build/m4-core/bench/m4/sp_m4_co_icount.elf
@@ -57,24 +61,21 @@ __attribute__((noipa)) static void run_step(void)
     (void)sp_co_master_step(&m, &cfg.master, &min, &mout);
 }
 
-int main(void)
+/* 2,000 ticks of six running drives of one profile (402 != 0: CiA 402). */
+static void bench(int cia402, m4_stat_t s[5])
 {
     sp_ik_t ik;
-    m4_stat_t s[5];
     uint32_t t, k, net;
-    m4_out_str("== Cortex-M4 instruction counts, CANopen master + link, six CiA 408 drives, SYNC every tick "
-               "(compiled for " M4_OPTIMISATION ")");
-    m4_out_nl();
-    if (m4_count_init() != 0) {
-        (void)m4_out_flush();
-        return 3;
-    }
     (void)sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik);
     (void)sp_co_link_cfg_default(&cfg, &sp_platform_default, ik.length);
+    for (k = 0u; k < SP_LEGS; k++) {
+        cfg.master.node[k].profile = cia402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
+    }
+    cfg.master.pressure_feedback = (uint8_t)(cia402 ? 0u : 1u);
     (void)sp_co_master_init(&m);
     (void)sp_co_master_start(&m, &cfg.master, 0u);
     for (k = 0u; k < SP_LEGS; k++) { /* as after the start-up */
-        cfg.master.node[k].force_ff = 1u;
+        cfg.master.node[k].force_ff = (uint8_t)(cia402 ? 0u : 1u);
         out.setpoint[k].force = (sp_q8_t)(-(int32_t)(k * 100000u)); /* up to -1,953 N */
         m.node[k].phase = SP_CO_PHASE_RUN;
         m.node[k].nmt_pending = 0u;
@@ -88,8 +89,11 @@ int main(void)
         uint32_t n = 0u, total = 0u;
         for (k = 0u; k < SP_LEGS; k++) {
             const sp_co_node_cfg_t *nc = &cfg.master.node[k];
-            (void)sp_co_tpdo1_frame(&rx[n++], nc->bus, nc->node_id, 0x000Fu, (int32_t)(k * 1000u + t));
-            (void)sp_co_tpdo2_frame(&rx[n++], nc->bus, nc->node_id, 20000u, 5000u);
+            (void)sp_co_tpdo1_frame(&rx[n++], nc->bus, nc->node_id, cia402 ? 0x0237u : 0x000Fu,
+                                    (int32_t)(k * 1000u + t));
+            if (!cia402) {
+                (void)sp_co_tpdo2_frame(&rx[n++], nc->bus, nc->node_id, 20000u, 5000u);
+            }
             if (t % 20u == 0u) {
                 (void)sp_co_heartbeat_frame(&rx[n++], nc->bus, nc->node_id, SP_CO_NMT_STATE_OPERATIONAL);
             }
@@ -109,19 +113,55 @@ int main(void)
         m4_stat_add(&s[4], total);
         out.setpoint[0].length += 17;
     }
+}
+
+static void budget(const char *what, const m4_stat_t *s)
+{
+    m4_out_str(what);
+    m4_out_str(": the CANopen side of a tick mean ");
+    m4_out_u32((uint32_t)(m4_stat_mean16(s) / 16u));
+    m4_out_str(" max ");
+    m4_out_u32(s->max16 / 16u);
+    m4_out_str(" of 10000 instructions: ");
+    m4_out_str(m4_stat_mean16(s) <= 160000u && s->max16 <= 160000u ? "within budget" : "OVER BUDGET");
+    m4_out_nl();
+}
+
+int main(void)
+{
+    m4_stat_t s[5];
+    m4_out_str("== Cortex-M4 instruction counts, CANopen master + link, six CiA 408 drives, SYNC every tick "
+               "(compiled for " M4_OPTIMISATION ")");
+    m4_out_nl();
+    if (m4_count_init() != 0) {
+        (void)m4_out_flush();
+        return 3;
+    }
+    bench(0, s);
     m4_stat_header();
     m4_stat_print("co_receive", "sp_co_master_receive x 12-18 frames (TPDO1, TPDO2, heartbeats)", &s[0]);
     m4_stat_print("co_feedback", "sp_co_link_feedback (6 legs)", &s[1]);
     m4_stat_print("co_input", "sp_co_link_input (6 setpoints)", &s[2]);
     m4_stat_print("co_step", "sp_co_master_step (6 RPDO1 + 2 SYNC)", &s[3]);
     m4_stat_print("co_tick", "the CANopen side of one tick (the four above)", &s[4]);
-    m4_out_str("co budget: the CANopen side of a tick mean ");
-    m4_out_u32((uint32_t)(m4_stat_mean16(&s[4]) / 16u));
-    m4_out_str(" max ");
-    m4_out_u32(s[4].max16 / 16u);
-    m4_out_str(" of 10000 instructions: ");
-    m4_out_str(m4_stat_mean16(&s[4]) <= 160000u && s[4].max16 <= 160000u ? "within budget" : "OVER BUDGET");
+    budget("co budget", &s[4]);
+    m4_out_str("co_icount: master ready ");
+    m4_out_u32(mout.ready);
+    m4_out_str(", fault mask ");
+    m4_out_u32(mout.fault_mask);
+    m4_out_str(", frames per tick ");
+    m4_out_u32(mout.n_tx);
     m4_out_nl();
+    m4_out_str("== the same, six CiA 402 drives (cyclic synchronous position, operation enabled)");
+    m4_out_nl();
+    bench(1, s);
+    m4_stat_header();
+    m4_stat_print("402_receive", "sp_co_master_receive x 6-12 frames (TPDO1, heartbeats)", &s[0]);
+    m4_stat_print("402_feedback", "sp_co_link_feedback (6 legs)", &s[1]);
+    m4_stat_print("402_input", "sp_co_link_input (6 setpoints)", &s[2]);
+    m4_stat_print("402_step", "sp_co_master_step (6 RPDO1 + 2 SYNC)", &s[3]);
+    m4_stat_print("402_tick", "the CANopen side of one tick (the four above)", &s[4]);
+    budget("co402 budget", &s[4]);
     m4_out_str("co_icount: master ready ");
     m4_out_u32(mout.ready);
     m4_out_str(", fault mask ");

@@ -5,7 +5,7 @@
  *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES] [--canopen] [--tick0 N] [--key FILE]
+ *          [--setpoint-timeout CYCLES] [--canopen] [--cia402] [--tick0 N] [--key FILE]
  *          [--session N] [--wrench-source cylinders|sensor]
  *
  * Command authentication (docs/security.md): the scenario's commands, MOVE_TO
@@ -33,7 +33,9 @@
  * both axis buses (the lockstep clock; no native feedback), the controller
  * ticks on it and its CANopen master sends NMT/SDO/RPDO1/SYNC, the nodes
  * answer at once (before the next SYNC(t)), then the plant integrates 1 ms.
- * Not with --inproc.
+ * Not with --inproc. --cia402 (implies --canopen) presents every drive as a
+ * CiA 402 node in cyclic synchronous position mode instead (the profile per
+ * leg comes from the config's drives section when it has one).
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -141,6 +143,7 @@ typedef struct {
     hs_play_t play; /* scenario `play` under way (file open) */
     uint64_t play_start;
     int canopen;                  /* --canopen: the drives are CiA 408 nodes (hs/co_bus.h), real time */
+    int cia402;                   /* --cia402: ... CiA 402 nodes (cyclic synchronous position) */
     hs_co_bus_t co;               /* their state */
     uint64_t co_sent;             /* frames the nodes sent */
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
@@ -949,10 +952,11 @@ static void print_fault_report(sim_t *s)
 
 static void usage(void)
 {
-    fprintf(stderr, "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
-                    "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-                    "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen]\n"
-                    "              [--tick0 N] [--key FILE] [--session N] [--wrench-source cylinders|sensor]\n");
+    fprintf(stderr,
+            "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
+            "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
+            "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen] [--cia402]\n"
+            "              [--tick0 N] [--key FILE] [--session N] [--wrench-source cylinders|sensor]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -1133,8 +1137,19 @@ static int canopen_init(sim_t *s, const hs_params_t *par)
             zero[leg] = (double)l->scaling[leg].zero_q24 / 16777216.0;
         }
     }
-    if (hs_co_bus_init(&s->co, ids, buses, zero, m_per_count) != HS_OK) {
+    if (hs_co_bus_init(&s->co, ids, buses, zero, m_per_count) != HS_OK ||
+        (s->cia402 && hs_co_bus_set_profile(&s->co, 1u) != HS_OK)) {
         return -1;
+    }
+    if (sp_co_layout_default.present) { /* the profile of each leg's drive */
+        const sp_co_layout_t *l = &sp_co_layout_default;
+        for (uint32_t k = 0; k < l->master.n_nodes && k < HS_LEGS; k++) {
+            uint32_t leg = (uint32_t)l->master.node[k].leg - 1u;
+            if (l->master.node[k].profile != 0u &&
+                hs_co_node_init_profile(&s->co.node[leg], ids[leg], buses[leg], l->master.node[k].profile) != HS_OK) {
+                return -1;
+            }
+        }
     }
     return hs_co_bus_sample(&s->co, &s->plant) == HS_OK ? 0 : -1;
 }
@@ -1163,6 +1178,8 @@ int main(int argc, char **argv)
             s.lockstep = 1;
         } else if (strcmp(a, "--canopen") == 0) {
             s.canopen = 1;
+        } else if (strcmp(a, "--cia402") == 0) {
+            s.canopen = 1, s.cia402 = 1;
         } else if (strcmp(a, "--inproc") == 0) {
             s.inproc = 1;
             s.lockstep = 1;
@@ -1347,7 +1364,10 @@ int main(int argc, char **argv)
     } else {
         fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms%s\n",
                 s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), s.ifs[0], s.ifs[1], s.ifs[2],
-                (unsigned)par.substeps, s.canopen ? ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)" : "");
+                (unsigned)par.substeps,
+                s.canopen ? (s.cia402 ? ", drives as CiA 402 nodes 1-3 (axis_a) and 4-6 (axis_b)"
+                                      : ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)")
+                          : "");
     }
     if (have_load) {
         fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",

@@ -20,7 +20,21 @@ hs_status_t hs_co_bus_init(hs_co_bus_t *b, const uint8_t node_id[HS_LEGS], const
     }
     b->m_per_count = m_per_count;
     b->sync_period = 1e-3;
-    b->interpolate = 1u;
+    b->interpolate = 2u;
+    return HS_OK;
+}
+
+hs_status_t hs_co_bus_set_profile(hs_co_bus_t *b, uint8_t profile)
+{
+    int i;
+    if (b == NULL || profile > 1u) {
+        return HS_E_ARG;
+    }
+    for (i = 0; i < HS_LEGS; i++) {
+        if (hs_co_node_init_profile(&b->node[i], b->node[i].node_id, b->node[i].bus, profile) != HS_OK) {
+            return HS_E_ARG;
+        }
+    }
     return HS_OK;
 }
 
@@ -45,9 +59,13 @@ hs_status_t hs_co_bus_receive(hs_co_bus_t *b, const sp_can_frame_t *f, sp_can_fr
         *n_tx = (uint8_t)(*n_tx + n);
         if (f->id == SP_CO_COB_SYNC && f->bus == b->node[i].bus) {
             int32_t sp = b->node[i].setpoint;
-            b->velocity[i] = b->interpolate && hs_co_node_follows(&b->node[i])
-                                 ? (double)(sp - b->last_setpoint[i]) * b->m_per_count / b->sync_period
-                                 : 0.0;
+            int on = b->interpolate && hs_co_node_follows(&b->node[i]);
+            double T = b->sync_period;
+            b->accel[i] = on && b->interpolate == 2u
+                              ? (double)(sp - 2 * b->last_setpoint[i] + b->prev_setpoint[i]) * b->m_per_count / (T * T)
+                              : 0.0;
+            b->velocity[i] = on ? (double)(sp - b->last_setpoint[i]) * b->m_per_count / T + 0.5 * b->accel[i] * T : 0.0;
+            b->prev_setpoint[i] = b->last_setpoint[i];
             b->last_setpoint[i] = sp;
         }
     }
@@ -65,9 +83,11 @@ hs_status_t hs_co_bus_apply(hs_co_bus_t *b, hs_plant_t *plant)
         double length = b->zero[i] + (double)n->setpoint * b->m_per_count;
         int follows = hs_co_node_follows(n);
         /* the setpoint of this SYNC period, moved on by its velocity since the SYNC */
+        double t = 1e-3 * (double)b->ms_since_sync;
+        double a = follows ? b->accel[i] : 0.0;
         double v = follows ? b->velocity[i] : 0.0;
         double force = follows ? 10.0 * (double)n->force_dan : 0.0;
-        (void)hs_plant_set_setpoint(plant, i, length + v * 1e-3 * (double)b->ms_since_sync, v, force,
+        (void)hs_plant_set_setpoint(plant, i, length + v * t + 0.5 * a * t * t, v + a * t, force,
                                     follows ? HS_REQ_ACTIVE : HS_REQ_HOLD);
     }
     return HS_OK;

@@ -1,4 +1,4 @@
-/* co_node.c - a simulated drive as a CiA 408 node (hs/co_node.h). */
+/* co_node.c - a simulated drive as a CiA 408 or CiA 402 node (hs/co_node.h). */
 #include "hs/co_node.h"
 
 #include <string.h>
@@ -11,6 +11,7 @@
 #define ABORT_NO_SUB 0x06090011u
 #define ABORT_CMD 0x05040001u
 #define EMCY_RPDO_TIMEOUT 0x8250u
+#define EMCY_HEARTBEAT 0x8130u /* life guard or heartbeat error */
 
 static void od_add(hs_co_node_t *n, uint16_t index, uint8_t sub, uint8_t size, uint8_t access, uint32_t value)
 {
@@ -47,10 +48,16 @@ static void pdo_map(hs_co_node_t *n, uint16_t index, uint32_t count, uint32_t e1
 /* The EDS's objects (config/eds/stewart_sim_drive.eds) with its defaults,
  * except the three strings 0x1008-0x100A (they need a segmented transfer,
  * which this server does not offer); a Python test compares the two. */
+static void od_defaults_402(hs_co_node_t *n);
+
 static void od_defaults(hs_co_node_t *n)
 {
     uint32_t id = n->node_id;
     n->n_od = 0u;
+    if (n->profile == 1u) {
+        od_defaults_402(n);
+        return;
+    }
     od_add(n, 0x1000u, 0u, 4u, HS_CO_RO, 0x00000198u);
     od_add(n, 0x1001u, 0u, 1u, HS_CO_RO, 0u);
     od_add(n, 0x1003u, 0u, 1u, HS_CO_RW, 0u);
@@ -100,6 +107,59 @@ static void od_defaults(hs_co_node_t *n)
     od_add(n, 0x6614u, 3u, 1u, HS_CO_RO, 0xFAu);
 }
 
+/* The communication objects both profiles share (the 408 EDS's 0x1001-0x1200). */
+static void od_common(hs_co_node_t *n, uint32_t product)
+{
+    uint32_t id = n->node_id;
+    od_add(n, 0x1001u, 0u, 1u, HS_CO_RO, 0u);
+    od_add(n, 0x1003u, 0u, 1u, HS_CO_RW, 0u);
+    od_add(n, 0x1003u, 1u, 4u, HS_CO_RO, 0u);
+    od_add(n, 0x1005u, 0u, 4u, HS_CO_RW, 0x80u);
+    od_add(n, 0x1006u, 0u, 4u, HS_CO_RW, 0u);
+    od_add(n, 0x1014u, 0u, 4u, HS_CO_RO, 0x80u + id);
+    od_add(n, 0x1016u, 0u, 1u, HS_CO_RO, 1u);
+    od_add(n, 0x1016u, 1u, 4u, HS_CO_RW, 0u);
+    od_add(n, 0x1017u, 0u, 2u, HS_CO_RW, 0u);
+    od_add(n, 0x1018u, 0u, 1u, HS_CO_RO, 4u);
+    od_add(n, 0x1018u, 1u, 4u, HS_CO_RO, 0u);
+    od_add(n, 0x1018u, 2u, 4u, HS_CO_RO, product);
+    od_add(n, 0x1018u, 3u, 4u, HS_CO_RO, 0x00010000u);
+    od_add(n, 0x1018u, 4u, 4u, HS_CO_RO, 0u);
+    od_add(n, 0x1200u, 0u, 1u, HS_CO_RO, 2u);
+    od_add(n, 0x1200u, 1u, 4u, HS_CO_RO, 0x600u + id);
+    od_add(n, 0x1200u, 2u, 4u, HS_CO_RO, 0x580u + id);
+}
+
+/* config/eds/stewart_sim_drive_402.eds: a CiA 402 servo drive (0x1000 =
+ * 0x00020192) in cyclic synchronous position mode by default. TPDO2 maps
+ * the velocity actual value and is invalid by default. */
+static void od_defaults_402(hs_co_node_t *n)
+{
+    uint32_t id = n->node_id;
+    od_add(n, 0x1000u, 0u, 4u, HS_CO_RO, 0x00020192u);
+    od_common(n, 0x5349u);
+    pdo_comm(n, 0x1400u, 0x200u + id);
+    pdo_comm(n, 0x1401u, 0x80000300u + id);
+    pdo_map(n, 0x1600u, 2u, 0x60400010u, 0x607A0020u);
+    pdo_map(n, 0x1601u, 0u, 0u, 0u);
+    pdo_comm(n, 0x1800u, 0x180u + id);
+    pdo_comm(n, 0x1801u, 0x80000280u + id);
+    pdo_map(n, 0x1A00u, 2u, 0x60410010u, 0x60640020u);
+    pdo_map(n, 0x1A01u, 1u, 0x606C0020u, 0u);
+    od_add(n, 0x603Fu, 0u, 2u, HS_CO_RO, 0u);
+    od_add(n, 0x6040u, 0u, 2u, HS_CO_RW, 0u);
+    od_add(n, 0x6041u, 0u, 2u, HS_CO_RO, 0u);
+    od_add(n, 0x6060u, 0u, 1u, HS_CO_RW, 8u);
+    od_add(n, 0x6061u, 0u, 1u, HS_CO_RO, 8u);
+    od_add(n, 0x6064u, 0u, 4u, HS_CO_RO, 0u);
+    od_add(n, 0x606Cu, 0u, 4u, HS_CO_RO, 0u);
+    od_add(n, 0x607Au, 0u, 4u, HS_CO_RW, 0u);
+    od_add(n, 0x60C2u, 0u, 1u, HS_CO_RO, 2u);
+    od_add(n, 0x60C2u, 1u, 1u, HS_CO_RW, 1u);
+    od_add(n, 0x60C2u, 2u, 1u, HS_CO_RW, 0xFDu);       /* -3 */
+    od_add(n, 0x6502u, 0u, 4u, HS_CO_RO, 0x00000080u); /* bit 7: cyclic synchronous position */
+}
+
 hs_co_entry_t *hs_co_node_find(hs_co_node_t *n, uint16_t index, uint8_t sub)
 {
     uint32_t i;
@@ -138,12 +198,15 @@ static void reset(hs_co_node_t *n, int whole)
     if (whole) {
         od_defaults(n);
         n->state = SP_CO408_NOT_READY;
+        n->state402 = SP_CO402_NOT_READY;
         n->control = 0u;
         n->fault = 0u;
     } else {
         hs_co_node_t fresh;
         uint32_t i;
         fresh.node_id = n->node_id;
+        fresh.profile = n->profile;
+        fresh.n_od = 0u;
         od_defaults(&fresh);
         for (i = 0u; i < fresh.n_od; i++) {
             if (fresh.od[i].index < 0x2000u && fresh.od[i].access == HS_CO_RW) {
@@ -159,18 +222,26 @@ static void reset(hs_co_node_t *n, int whole)
     n->rpdo_seen = 0u;
     n->rpdo_age_ms = 0u;
     n->hb_elapsed_ms = 0u;
+    n->hbc_seen = 0u;
+    n->hbc_elapsed_ms = 0u;
 }
 
-hs_status_t hs_co_node_init(hs_co_node_t *n, uint8_t node_id, uint8_t bus)
+hs_status_t hs_co_node_init_profile(hs_co_node_t *n, uint8_t node_id, uint8_t bus, uint8_t profile)
 {
-    if (n == NULL || node_id < SP_CO_NODE_MIN || node_id > SP_CO_NODE_MAX || bus >= SP_CAN_BUSES) {
+    if (n == NULL || node_id < SP_CO_NODE_MIN || node_id > SP_CO_NODE_MAX || bus >= SP_CAN_BUSES || profile > 1u) {
         return HS_E_ARG;
     }
     memset(n, 0, sizeof *n);
     n->node_id = node_id;
     n->bus = bus;
+    n->profile = profile;
     reset(n, 1);
     return HS_OK;
+}
+
+hs_status_t hs_co_node_init(hs_co_node_t *n, uint8_t node_id, uint8_t bus)
+{
+    return hs_co_node_init_profile(n, node_id, bus, 0u);
 }
 
 static sp_can_frame_t *next_tx(sp_can_frame_t *tx, uint8_t *n_tx)
@@ -234,6 +305,9 @@ static void sdo_serve(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_frame_t *
         sdo_answer(n, out, 0x80u, index, sub, ABORT_UNSUPPORTED);
     } else {
         e->value = e->size == 4u ? v : (v & ((1u << (8u * e->size)) - 1u));
+        if (n->profile == 1u && index == 0x6060u) {
+            hs_co_node_find(n, 0x6061u, 0u)->value = e->value; /* the mode is taken at once */
+        }
         sdo_answer(n, out, 0x60u, index, sub, 0u);
     }
 }
@@ -245,8 +319,12 @@ static uint32_t rpdo1_layout(hs_co_node_t *n, uint32_t *cob)
     uint32_t c = od_value(n, 0x1400u, 1u);
     uint32_t count = od_value(n, 0x1600u, 0u);
     *cob = c & 0x7FFu;
-    if ((c & 0x80000000u) != 0u || od_value(n, 0x1600u, 1u) != 0x60400010u || od_value(n, 0x1600u, 2u) != 0x66000120u) {
+    uint32_t target = n->profile == 1u ? 0x607A0020u : 0x66000120u;
+    if ((c & 0x80000000u) != 0u || od_value(n, 0x1600u, 1u) != 0x60400010u || od_value(n, 0x1600u, 2u) != target) {
         return 0u;
+    }
+    if (n->profile == 1u) {
+        return count == 2u ? 2u : 0u;
     }
     if (count == 2u || (count == 3u && od_value(n, 0x1600u, 3u) == SP_CO_FORCE_FF_MAPPING)) {
         return count;
@@ -263,12 +341,41 @@ static int pdo_ok(hs_co_node_t *n, uint16_t comm, uint16_t map, uint32_t e1, uin
            od_value(n, map, 2u) == e2;
 }
 
+/* CiA 402 at SYNC: the state machine, the objects, TPDO1 (statusword,
+ * position actual value). */
+static void on_sync_402(hs_co_node_t *n, uint16_t prev, sp_can_frame_t *tx, uint8_t *n_tx)
+{
+    uint32_t cob;
+    sp_can_frame_t *f;
+    uint16_t status;
+    if ((n->control & SP_CO402_CW_FAULT_RESET) != 0u && (prev & SP_CO402_CW_FAULT_RESET) == 0u) {
+        n->fault = 0u; /* the fault reset clears the cause first */
+    }
+    n->state402 = sp_co402_next(n->state402, n->control, prev, n->fault);
+    status = (uint16_t)(sp_co402_status_bits(n->state402) | 0x0200u); /* bit 9: remote (the bus controls it) */
+    hs_co_node_find(n, 0x6040u, 0u)->value = n->control;
+    hs_co_node_find(n, 0x6041u, 0u)->value = status;
+    hs_co_node_find(n, 0x607Au, 0u)->value = (uint32_t)n->setpoint;
+    hs_co_node_find(n, 0x6064u, 0u)->value = (uint32_t)n->actual;
+    if (pdo_ok(n, 0x1800u, 0x1A00u, 0x60410010u, 0x60640020u, &cob) && (f = next_tx(tx, n_tx)) != NULL) {
+        (void)sp_co_tpdo1_frame(f, n->bus, n->node_id, status, n->actual);
+        f->id = cob;
+    }
+}
+
 static void on_sync(hs_co_node_t *n, sp_can_frame_t *tx, uint8_t *n_tx)
 {
     uint32_t cob;
     uint16_t prev = n->control;
     sp_can_frame_t *f;
     if (n->nmt != SP_CO_NMT_STATE_OPERATIONAL) {
+        return;
+    }
+    if (n->profile == 1u) {
+        n->control = n->rx_control;
+        n->setpoint = n->rx_setpoint;
+        n->force_dan = 0;
+        on_sync_402(n, prev, tx, n_tx);
         return;
     }
     n->control = n->rx_control;
@@ -334,6 +441,14 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
         on_sync(n, tx, n_tx);
         return HS_OK;
     }
+    if (f->id > SP_CO_COB_HEARTBEAT && f->id <= SP_CO_COB_HEARTBEAT + SP_CO_NODE_MAX && f->len == 1u) {
+        uint32_t c = od_value(n, 0x1016u, 1u);
+        if ((c & 0xFFFFu) != 0u && ((c >> 16) & 0x7Fu) == f->id - SP_CO_COB_HEARTBEAT) {
+            n->hbc_seen = 1u;
+            n->hbc_elapsed_ms = 0u;
+        }
+        return HS_OK;
+    }
     if (f->id == SP_CO_COB_SDO_RX + n->node_id && f->len == 8u &&
         (n->nmt == SP_CO_NMT_STATE_PREOP || n->nmt == SP_CO_NMT_STATE_OPERATIONAL)) {
         sp_can_frame_t *out = next_tx(tx, n_tx);
@@ -395,9 +510,22 @@ hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_C
     if (n->rpdo_age_ms < UINT32_MAX - ms) {
         n->rpdo_age_ms += ms;
     }
-    if (timer != 0u && n->nmt == SP_CO_NMT_STATE_OPERATIONAL && n->rpdo_seen && n->state == SP_CO408_ACTIVE &&
+    if (timer != 0u && n->nmt == SP_CO_NMT_STATE_OPERATIONAL && n->rpdo_seen &&
+        (n->profile == 1u ? n->state402 == SP_CO402_OPERATION_ENABLED : n->state == SP_CO408_ACTIVE) &&
         n->rpdo_age_ms > timer && !n->fault) {
         (void)hs_co_node_raise(n, EMCY_RPDO_TIMEOUT);
+    }
+    {
+        uint32_t c = od_value(n, 0x1016u, 1u);
+        if (n->hbc_seen && (c & 0xFFFFu) != 0u) {
+            n->hbc_elapsed_ms += ms;
+            if (n->hbc_elapsed_ms > (c & 0xFFFFu)) {
+                n->hbc_seen = 0u; /* once per silence: monitoring starts again with the next heartbeat */
+                if (!n->fault) {
+                    (void)hs_co_node_raise(n, EMCY_HEARTBEAT);
+                }
+            }
+        }
     }
     if (n->emcy_pending != 0u && (f = next_tx(tx, n_tx)) != NULL) {
         (void)sp_co_emcy_frame(f, n->bus, n->node_id, n->emcy_pending, 0x01u);
@@ -414,10 +542,16 @@ hs_status_t hs_co_node_raise(hs_co_node_t *n, uint16_t code)
     n->fault = 1u;
     n->emcy_pending = code;
     hs_co_node_find(n, 0x1001u, 0u)->value = 0x01u;
+    if (n->profile == 1u) {
+        hs_co_node_find(n, 0x603Fu, 0u)->value = code;
+    }
     return HS_OK;
 }
 
 int hs_co_node_follows(const hs_co_node_t *n)
 {
-    return n != NULL && n->nmt == SP_CO_NMT_STATE_OPERATIONAL && n->state == SP_CO408_ACTIVE;
+    if (n == NULL || n->nmt != SP_CO_NMT_STATE_OPERATIONAL) {
+        return 0;
+    }
+    return n->profile == 1u ? n->state402 == SP_CO402_OPERATION_ENABLED : n->state == SP_CO408_ACTIVE;
 }

@@ -50,7 +50,8 @@ class Frame(C.Structure):
 
 class NodeCfg(C.Structure):
     _fields_ = [("node_id", C.c_uint8), ("bus", C.c_uint8), ("leg", C.c_uint8), ("control_mode", C.c_int8),
-                ("write_prefix", C.c_uint8), ("unit_prefix", C.c_int8), ("force_ff", C.c_uint8)]
+                ("write_prefix", C.c_uint8), ("unit_prefix", C.c_int8), ("force_ff", C.c_uint8),
+                ("profile", C.c_uint8)]
 
 
 class Cfg(C.Structure):
@@ -58,7 +59,8 @@ class Cfg(C.Structure):
                 ("pressure_feedback", C.c_uint8), ("heartbeat_ms", C.c_uint16),
                 ("heartbeat_timeout_ms", C.c_uint16), ("setpoint_timeout_ms", C.c_uint16),
                 ("boot_timeout_ms", C.c_uint16), ("sdo_timeout_ms", C.c_uint16),
-                ("state_timeout_ms", C.c_uint16), ("pdo_timeout_ms", C.c_uint16)]
+                ("state_timeout_ms", C.c_uint16), ("pdo_timeout_ms", C.c_uint16),
+                ("master_heartbeat_ms", C.c_uint16), ("master_node_id", C.c_uint8)]
 
 
 class Input(C.Structure):
@@ -214,7 +216,7 @@ def test_master_configures_and_starts_library_nodes(rig, L):
         assert d.node.nmt.state == "OPERATIONAL"
         plan, n = (WriteEntry * 32)(), C.c_uint8()
         assert L.sp_co_plan_build(C.byref(rig.cfg), k, C.byref(plan), C.byref(n)) == 0
-        assert n.value == 28
+        assert n.value == 29
         for w in plan[: n.value]:
             if w.final:
                 assert d.value(w.index, w.sub) == w.value, f"node {d.id} 0x{w.index:04X}.{w.sub}"
@@ -267,15 +269,16 @@ def test_heartbeat_stopped_in_the_library_is_heartbeat_lost(rig, L):
     assert 0.15 <= time.monotonic() - t < 1.0
 
 
-@pytest.mark.parametrize("pressure,divider,timeout,mode,ff", [(True, 1, 3, 8, False), (False, 3, 9, 9, False),
-                                                            (True, 2, 6, 8, True)])
-def test_the_c_plan_is_the_pc_plan(L, pressure, divider, timeout, mode, ff):
+@pytest.mark.parametrize("pressure,divider,timeout,mode,ff,protocol", [
+    (True, 1, 3, 8, False, "cia408"), (False, 3, 9, 9, False, "cia408"), (True, 2, 6, 8, True, "cia408"),
+    (True, 1, 3, 8, False, "cia402"), (False, 3, 9, 8, False, "cia402")])
+def test_the_c_plan_is_the_pc_plan(L, pressure, divider, timeout, mode, ff, protocol):
     """sp_co_plan_build writes what tools/stewart/drives/plan.py (the PC's
     `stewart drives config`) writes, in the same order: one plan, two languages."""
     from stewart.drives import plan as pc_plan
     from stewart.drives.layout import Drive, Drives, Scaling
 
-    drive = Drive(1, "cia408", "can_a", node_id=21, scaling=Scaling(1e-6, 1.85), control_mode=mode,
+    drive = Drive(1, protocol, "can_a", node_id=21, scaling=Scaling(1e-6, 1.85), control_mode=mode,
                   force_feedforward=ff)
     drives = Drives((drive,), {"can_a": 1_000_000}, sync_divider=divider, setpoint_timeout_ms=timeout,
                     pressure_feedback=pressure)
@@ -285,6 +288,7 @@ def test_the_c_plan_is_the_pc_plan(L, pressure, divider, timeout, mode, ff):
     cfg.node[0].node_id = 21
     cfg.node[0].control_mode = mode
     cfg.node[0].force_ff = int(ff)
+    cfg.node[0].profile = 1 if protocol == "cia402" else 0
     cfg.pressure_feedback = int(pressure)
     cfg.sync_divider = divider
     cfg.setpoint_timeout_ms = timeout

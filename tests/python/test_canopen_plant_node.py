@@ -18,6 +18,20 @@ built on it.
   SYNC walk the node DISABLED -> HOLD -> ACTIVE, its TPDO1 (read by the
   library from the node's own mapping) shows status 0x000F and the actual.
 - EMCY on a raised fault, received by the library's EMCY consumer.
+
+The same node as a CiA 402 drive (``hs_co_node_init_profile``, the EDS
+config/eds/stewart_sim_drive_402.eds):
+
+- the library reads the 402 objects by SDO (device type 402, modes of
+  operation and its display, supported drive modes, interpolation period);
+- ``stewart drives config`` writes the cia402 plan and reads it back;
+- the library as master walks the node through shutdown, switch on,
+  enable operation by its RPDO1 controlword and SYNC, and decodes each
+  TPDO1 statusword with its own CiA 402 state table
+  (``canopen.profiles.p402.State402``): READY TO SWITCH ON, SWITCHED ON,
+  OPERATION ENABLED; the target position is applied; quick stop and fault
+  reset likewise.
+- every object of the 402 EDS is in the node with its default.
 """
 
 from __future__ import annotations
@@ -34,6 +48,7 @@ import pytest
 from stewart import REPO_ROOT, cli, core
 
 EDS = REPO_ROOT / "config" / "eds" / "stewart_sim_drive.eds"
+EDS402 = REPO_ROOT / "config" / "eds" / "stewart_sim_drive_402.eds"
 DEFAULT = REPO_ROOT / "config" / "platform_default.json"
 LIB = REPO_ROOT / "build" / "host-release" / "host_sim" / "libhs_co.so"
 _channels = itertools.count()
@@ -63,6 +78,7 @@ def H():
     h = C.CDLL(str(LIB))
     P = C.POINTER
     h.hs_co_node_init.argtypes = [C.c_void_p, C.c_uint8, C.c_uint8]
+    h.hs_co_node_init_profile.argtypes = [C.c_void_p, C.c_uint8, C.c_uint8, C.c_uint8]
     h.hs_co_node_receive.argtypes = [C.c_void_p, P(Frame), P(Frame * MAX_TX), P(C.c_uint8)]
     h.hs_co_node_tick.argtypes = [C.c_void_p, C.c_uint32, P(Frame * MAX_TX), P(C.c_uint8)]
     h.hs_co_node_raise.argtypes = [C.c_void_p, C.c_uint16]
@@ -75,11 +91,11 @@ def H():
 class PlantNode:
     """One hs_co_node on a virtual channel, served by one thread (the only caller of the node)."""
 
-    def __init__(self, H, node_id=NODE):
+    def __init__(self, H, node_id=NODE, profile=0):
         self.H = H
         self.channel = f"stewart-co-plant-{next(_channels)}"
         self.node = C.create_string_buffer(16384)
-        assert H.hs_co_node_init(self.node, node_id, BUS) == 0
+        assert H.hs_co_node_init_profile(self.node, node_id, BUS, profile) == 0
         self.bus = can.Bus(interface="virtual", channel=self.channel)
         self.lock = threading.Lock()
         self.stop = threading.Event()
@@ -135,6 +151,21 @@ def plant(H):
 def net(plant):
     n = canopen.Network()
     n.connect(interface="virtual", channel=plant.channel)
+    yield n
+    n.disconnect()
+
+
+@pytest.fixture
+def plant402(H):
+    p = PlantNode(H, profile=1)
+    yield p
+    p.close()
+
+
+@pytest.fixture
+def net402(plant402):
+    n = canopen.Network()
+    n.connect(interface="virtual", channel=plant402.channel)
     yield n
     n.disconnect()
 
@@ -233,13 +264,13 @@ def test_library_receives_the_emcy(net, plant):
     assert node.sdo[0x1001].raw == 0x01
 
 
-def _eds_variables():
+def _eds_variables(eds=EDS):
     import configparser
     import re
 
     c = configparser.ConfigParser(strict=False)
     c.optionxform = str
-    c.read(EDS)
+    c.read(eds)
     for name in c.sections():
         m = re.fullmatch(r"([0-9A-F]{4})(?:sub([0-9A-F]+))?", name)
         if not m or "DataType" not in c[name]:
@@ -249,14 +280,15 @@ def _eds_variables():
                s.get("DefaultValue", "0"))
 
 
-def test_the_plant_node_has_the_eds_dictionary(H):
+@pytest.mark.parametrize("eds,profile", [(EDS, 0), (EDS402, 1)])
+def test_the_plant_node_has_the_eds_dictionary(H, eds, profile):
     """Every object of the EDS (but the three strings) is in the node, with
     the EDS's size, access and default: the EDS describes this drive."""
     node = C.create_string_buffer(16384)
-    assert H.hs_co_node_init(node, NODE, BUS) == 0
+    assert H.hs_co_node_init_profile(node, NODE, BUS, profile) == 0
     sizes = {0x1: 1, 0x2: 1, 0x3: 2, 0x4: 4, 0x5: 1, 0x6: 2, 0x7: 4}
     checked = 0
-    for index, sub, dtype, access, default in _eds_variables():
+    for index, sub, dtype, access, default in _eds_variables(eds):
         if dtype == 0x9:
             continue  # VISIBLE_STRING: 0x1008-0x100A
         e = H.hs_co_node_find(node, index, sub)
@@ -269,3 +301,104 @@ def test_the_plant_node_has_the_eds_dictionary(H):
         assert e.contents.access == (0 if access in ("ro", "const") else 1), f"0x{index:04X}.{sub}"
         checked += 1
     assert checked >= 70
+
+
+# ---- CiA 402 ----
+
+def _remote402(net):
+    node = canopen.RemoteNode(NODE, canopen.import_od(str(EDS402), NODE))
+    net.add_node(node)
+    return node
+
+
+def test_library_reads_the_402_objects(net402, plant402):
+    node = _remote402(net402)
+    node.nmt.send_command(0x82)
+    node.nmt.wait_for_bootup(2.0)
+    assert node.sdo[0x1000].raw & 0xFFFF == 402
+    assert node.sdo[0x6502].raw & 0x80  # cyclic synchronous position supported
+    assert node.sdo[0x6061].raw == 8
+    node.sdo[0x6060].raw = 8
+    assert node.sdo[0x6061].raw == 8
+    assert (node.sdo[0x60C2][1].raw, node.sdo[0x60C2][2].raw) == (1, -3)
+    with pytest.raises(canopen.SdoAbortedError) as e:
+        node.sdo[0x6061].raw = 1
+    assert e.value.code == 0x06010002  # the display is read only
+
+
+def test_stewart_drives_config_writes_the_402_node(plant402, tmp_path, capsys):
+    import json
+
+    from stewart import config
+    from stewart.drives import plan
+
+    d = json.loads(DEFAULT.read_text())
+    legs = [{"protocol": "cia402", "bus": "can_a" if i < 3 else "can_b", "node_id": NODE + i % 3,
+             "scaling": {"position_per_count": 1e-6, "length_at_zero": 1.85}} for i in range(6)]
+    d["drives"] = {"buses": {"can_a": {"bitrate": 1000000}, "can_b": {"bitrate": 1000000}},
+                   "sync_divider": 2, "legs": legs}
+    path = tmp_path / "platform_cia402.json"
+    path.write_text(json.dumps(d))
+    time.sleep(0.05)  # the node's boot-up
+    args = ["drives", "config", "--config", str(path), "--bus", "can_a", "--node", str(NODE),
+            "--interface", "virtual", "--channel", plant402.channel]
+    assert cli.main(args) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    drives = config.load(path).drives
+    writes = plan.drive_writes(drives.legs[0], drives)
+    finals = [w for w in writes if w.final]
+    assert f"wrote {len(writes)} objects, read back {len(finals)}: all equal" in out
+    for w in finals:
+        size = {1: 1, 2: 1, 3: 2, 4: 4, 5: 1, 6: 2, 7: 4}[w.datatype]
+        assert plant402.value(w.index, w.subindex) == w.value & ((1 << (8 * size)) - 1), w.purpose
+    assert plant402.value(0x60C2, 1) == 2
+
+
+def _state402(word: int) -> str:
+    """The CiA 402 state of a statusword by the library's own table."""
+    from canopen.profiles.p402 import State402
+
+    for name, (mask, value) in State402.SW_MASK.items():
+        if word & mask == value:
+            return name
+    return "?"
+
+
+def test_library_master_walks_the_402_state_machine(net402, plant402, H):
+    node = _remote402(net402)
+    node.nmt.send_command(0x82)
+    node.nmt.wait_for_bootup(2.0)
+    node.sdo[0x1017].raw = 20
+    node.tpdo.read()
+    node.rpdo.read()
+    assert node.tpdo[1].map[0].index == 0x6041 and node.tpdo[1].map[1].index == 0x6064
+    assert node.rpdo[1].map[1].index == 0x607A
+    node.nmt.state = "OPERATIONAL"
+    node.nmt.wait_for_heartbeat(1.0)
+
+    def step(cw: int, target: int = 0) -> str:
+        node.rpdo[1]["Controlword"].raw = cw
+        node.rpdo[1]["Target position"].raw = target
+        node.rpdo[1].transmit()
+        net402.sync.transmit()
+        node.tpdo[1].wait_for_reception(1.0)
+        return _state402(node.tpdo[1]["Statusword"].raw)
+
+    assert step(0x00) == "SWITCH ON DISABLED"
+    assert step(0x06) == "READY TO SWITCH ON"
+    assert step(0x07) == "SWITCHED ON"
+    with plant402.lock:
+        assert H.hs_co_node_follows(plant402.node) == 0
+    assert step(0x0F, 4321) == "OPERATION ENABLED"
+    assert node.sdo[0x607A].raw == 4321
+    with plant402.lock:
+        assert H.hs_co_node_follows(plant402.node) == 1
+    assert step(0x02, 4321) == "QUICK STOP ACTIVE"
+    assert step(0x00) == "SWITCH ON DISABLED"
+    plant402.raise_fault(0x2310)
+    err = node.emcy.wait(0x2310, 1.0)
+    assert err is not None and err.code == 0x2310
+    assert step(0x00) in ("FAULT REACTION ACTIVE", "FAULT")
+    assert step(0x00) == "FAULT"
+    assert node.sdo[0x603F].raw == 0x2310
+    assert step(0x80) == "SWITCH ON DISABLED"  # fault reset: bit 7's rising edge

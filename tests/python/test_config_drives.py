@@ -80,6 +80,10 @@ def test_a_valid_cia408_layout():
      "drives.legs[0].bus: a native drive of leg 1 is on axis_a"),
     (lambda s: s["legs"][0].update(control_mode=9, protocol="cia402"),
      "drives.legs[0].control_mode: only for cia408 drives"),
+    (lambda s: s["legs"][2].update(node_id=127),
+     "drives.legs[2].node_id: 127 is the master's own heartbeat id"),
+    (lambda s: s["legs"][4].update(protocol="cia402", force_feedforward=True),
+     "drives.legs[4].force_feedforward: only for cia408 drives"),
 ])
 def test_validation_names_the_bad_key(mutate, message):
     s = _section()
@@ -207,18 +211,34 @@ def test_the_firmware_gets_the_config_layout():
     s["legs"][5]["scaling"] = {"position_per_count": 2e-6, "length_at_zero": 1.5, "direction": -1}
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
     assert ".present = 1u," in text and ".n_nodes = 6u," in text and ".sync_divider = 3u," in text
-    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u}" in text        # can_0 -> axis_a
-    assert "{11u, SP_BUS_AXIS_B, 5u, 8, 1u, -6, 1u}" in text        # can_1 -> axis_b, force feed-forward
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408}" in text   # can_0 -> axis_a
+    assert "{11u, SP_BUS_AXIS_B, 5u, 8, 1u, -6, 1u, SP_CO_PROFILE_408}" in text   # can_1 -> axis_b, force ff
     assert "{2000u, 25165824, -1, 0u, 0u, 0}" in text                # 2 um, 1.5 m in Q24, counting down
     assert ".setpoint_timeout_ms = 9u," in text and ".pdo_timeout_ms = 10u," in text
     assert "[SP_BUS_AXIS_A] = 1000000u, [SP_BUS_AXIS_B] = 1000000u" in text
+    assert ".master_heartbeat_ms = 100u," in text and ".master_node_id = 127u," in text
+
+
+def test_the_firmware_gets_a_cia402_layout():
+    """CiA 402 drives: the profile per node, no unit prefix written (0x6600
+    is CiA 408's), no pressure PDO; CiA 408 and 402 drives may share the master."""
+    from stewart import gen_platform
+
+    s = _section(divider=3)
+    for leg in s["legs"]:
+        leg["protocol"] = "cia402"
+    text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 0u, 0, 0u, SP_CO_PROFILE_402}" in text
+    assert ".pressure_feedback = 0u," in text
+    s["legs"][0]["protocol"] = "cia408"
+    text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408}" in text
+    assert "SP_CO_PROFILE_402}" in text and ".pressure_feedback = 1u," in text
 
 
 @pytest.mark.parametrize("mutate, message", [
     (lambda s: s["legs"][0].update(protocol="native", bus="axis_a", node_id=None, scaling=None),
      "drives.legs: the firmware drives every leg with one protocol (one per image); the config mixes cia408, native"),
-    (lambda s: [leg.update(protocol="cia402") for leg in s["legs"]],
-     "drives.legs[0].protocol: cia402 is not in the firmware's master yet"),
     (lambda s: s["legs"][0]["scaling"].update(position_per_count=1.5e-9),
      "drives.legs[0].scaling.position_per_count: 1.5e-09 m is not a whole number of nm per count"),
 ])

@@ -391,3 +391,15 @@ def test_check_passes_for_a_cia402_eds(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "ok: every object and PDO mapping" in out
     assert "absent (optional): 0x60C2.1" in out
+
+
+def test_check_passes_for_the_simulated_cia402_drive_eds(capsys):
+    """config/eds/stewart_sim_drive_402.eds (the plant's CiA 402 node): every
+    object and mapping of CiA 402 CSP there, optional ones too; checked as a
+    CiA 408 drive it names the profile."""
+    eds402 = REPO_ROOT / "config" / "eds" / "stewart_sim_drive_402.eds"
+    assert cli.main(["drives", "check", "--eds", str(eds402), "--profile", "cia402"]) == 0
+    out = capsys.readouterr().out
+    assert "ok: every object and PDO mapping" in out and "absent" not in out
+    assert cli.main(["drives", "check", "--eds", str(eds402), "--profile", "cia408"]) == 1
+    assert "names profile 402, not 408" in capsys.readouterr().out

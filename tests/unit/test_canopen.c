@@ -11,8 +11,12 @@
  *   identifier is SP_E_FRAME; EMCY classes by name.
  * - CiA 408 status words decode to every state; the drive's state machine
  *   walks INIT -> ACTIVE one step per call, faults, and resets on R's edge.
- * - The plan: 28 writes of which 22 final with pressure feedback, 21/17
- *   without (docs/canopen.md), the RPDO event timer, the prefix's byte.
+ * - The plan: 29 writes of which 23 final with pressure feedback, 22/18
+ *   without (docs/canopen.md), 28/22 without the master's heartbeat (no
+ *   0x1016.1), the RPDO event timer, the prefix's byte; CiA 402: 21/17
+ *   (0x6060 = 8, 0x60C2, RPDO1 with 0x607A, TPDO1 with 0x6064, no TPDO2).
+ * - CiA 402: the statusword table, the controlword towards each target,
+ *   the drive's transitions, quick stop and fault reset.
  * - Config check names a bad node id, a duplicate, a zero divider.
  * - Scaling: the prepared factors against the exact quotients (a plain
  *   reference in long double) within 1 count and 1 Q24 step, for six
@@ -272,16 +276,19 @@ static void test_plan(void **state)
     assert_int_equal(sp_co_master_cfg_default(&cfg, 6u), SP_OK);
     cfg.node[4].node_id = 21u;
     assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
-    assert_int_equal(n, 28u);
-    assert_int_equal(finals(p, n), 22);
+    assert_int_equal(n, 29u);
+    assert_int_equal(finals(p, n), 23);
     assert_int_equal(p[0].index, 0x1017u);
     assert_int_equal(p[0].value, 20u);
-    assert_int_equal(p[2].index, 0x6043u);
-    assert_int_equal(p[2].value, 8u);
-    assert_int_equal(p[4].index, 0x6600u);
-    assert_int_equal(p[4].sub, 3u);
-    assert_int_equal(p[4].value, 0xFAu); /* -6 as its byte */
-    assert_true(p[4].optional);
+    assert_int_equal(p[1].index, 0x1016u); /* the master's heartbeat watched: node 127, 300 ms */
+    assert_int_equal(p[1].value, (127u << 16) | 300u);
+    assert_true(p[1].optional);
+    assert_int_equal(p[3].index, 0x6043u);
+    assert_int_equal(p[3].value, 8u);
+    assert_int_equal(p[5].index, 0x6600u);
+    assert_int_equal(p[5].sub, 3u);
+    assert_int_equal(p[5].value, 0xFAu); /* -6 as its byte */
+    assert_true(p[5].optional);
     for (i = 0u; i < n; i++) {
         if (p[i].index == 0x1400u && p[i].sub == 5u) {
             timer = 1u;
@@ -289,12 +296,37 @@ static void test_plan(void **state)
         }
     }
     assert_true(timer);
-    assert_int_equal(p[6].value, 0x80000000u | (0x200u + 21u)); /* RPDO1 disabled while re-mapped */
+    assert_int_equal(p[7].value, 0x80000000u | (0x200u + 21u)); /* RPDO1 disabled while re-mapped */
     assert_int_equal(p[n - 1u].value, 0x280u + 21u);            /* TPDO2 enabled last */
     cfg.pressure_feedback = 0u;
     assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    assert_int_equal(n, 22u);
+    assert_int_equal(finals(p, n), 18);
+    cfg.master_heartbeat_ms = 0u;
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
     assert_int_equal(n, 21u);
     assert_int_equal(finals(p, n), 17);
+    cfg.master_heartbeat_ms = 100u;
+    cfg.node[4].profile = SP_CO_PROFILE_402;
+    cfg.pressure_feedback = 1u; /* CiA 408's pressures: not on a 402 drive */
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    assert_int_equal(n, 21u);
+    assert_int_equal(finals(p, n), 17);
+    assert_int_equal(p[2].index, 0x6060u);
+    assert_int_equal(p[2].value, 8u);
+    assert_int_equal(p[3].index, 0x60C2u);
+    assert_int_equal(p[4].value, 0xFDu); /* -3: ms */
+    for (i = 0u; i < n; i++) {
+        assert_true(p[i].index != 0x6042u && p[i].index != 0x6043u && p[i].index != 0x1801u);
+        if (p[i].index == 0x1600u && p[i].sub == 2u) {
+            assert_int_equal(p[i].value, 0x607A0020u);
+        }
+        if (p[i].index == 0x1A00u && p[i].sub == 2u) {
+            assert_int_equal(p[i].value, 0x60640020u);
+        }
+    }
+    cfg.node[4].force_ff = 1u; /* CiA 408's vendor object: refused on a 402 drive */
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
     assert_int_equal(sp_co_plan_build(&cfg, 6u, p, &n), SP_E_ARG);
     assert_int_equal(sp_co_plan_build(NULL, 0u, p, &n), SP_E_ARG);
 }
@@ -550,14 +582,85 @@ static void test_link(void **state)
     assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
 }
 
+/* CiA 402: the statusword table (every state's bits decode to it, other
+ * bits ignored), the controlword the master sends from each state towards
+ * each target, and the drive's side: the master's words walk the drive's
+ * state machine to the target in at most 3 SYNCs from switch on disabled. */
+static void test_cia402_states(void **state)
+{
+    sp_co402_state_t s, t;
+    (void)state;
+    for (s = SP_CO402_NOT_READY; s < SP_CO402_UNKNOWN; s = (sp_co402_state_t)(s + 1)) {
+        uint16_t bits = sp_co402_status_bits(s);
+        assert_int_equal(sp_co402_state(bits), s);
+        assert_int_equal(sp_co402_state((uint16_t)(bits | 0x0210u)), s); /* voltage enabled, remote */
+        assert_int_equal(sp_co402_is_fault(s), s == SP_CO402_FAULT || s == SP_CO402_FAULT_REACTION);
+    }
+    assert_int_equal(sp_co402_state(0x0027u), SP_CO402_OPERATION_ENABLED);
+    assert_int_equal(sp_co402_state(0x0007u), SP_CO402_QUICK_STOP_ACTIVE);
+    assert_int_equal(sp_co402_state(0x0001u), SP_CO402_UNKNOWN);
+    assert_string_equal(sp_co402_state_name(SP_CO402_OPERATION_ENABLED), "OPERATION_ENABLED");
+    assert_string_equal(sp_co402_state_name((sp_co402_state_t)99), "UNKNOWN");
+    assert_int_equal(sp_co402_target(SP_CO_REQ_DISABLED), SP_CO402_READY);
+    assert_int_equal(sp_co402_target(SP_CO_REQ_HOLD), SP_CO402_OPERATION_ENABLED);
+    assert_int_equal(sp_co402_target(SP_CO_REQ_ACTIVE), SP_CO402_OPERATION_ENABLED);
+    /* the commands of the sequence */
+    assert_int_equal(sp_co402_control_word(SP_CO402_SWITCH_ON_DISABLED, SP_CO402_OPERATION_ENABLED, 0, 0), 0x06u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_READY, SP_CO402_OPERATION_ENABLED, 0, 0), 0x07u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_SWITCHED_ON, SP_CO402_OPERATION_ENABLED, 0, 0), 0x0Fu);
+    assert_int_equal(sp_co402_control_word(SP_CO402_OPERATION_ENABLED, SP_CO402_OPERATION_ENABLED, 0, 0), 0x0Fu);
+    assert_int_equal(sp_co402_control_word(SP_CO402_OPERATION_ENABLED, SP_CO402_READY, 0, 0), 0x06u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_READY, SP_CO402_READY, 0, 0), 0x06u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_QUICK_STOP_ACTIVE, SP_CO402_OPERATION_ENABLED, 0, 0), 0x00u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_FAULT, SP_CO402_OPERATION_ENABLED, 0, 0), 0x00u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_FAULT, SP_CO402_OPERATION_ENABLED, 1, 0), 0x80u);
+    assert_int_equal(sp_co402_control_word(SP_CO402_OPERATION_ENABLED, SP_CO402_OPERATION_ENABLED, 0, 1), 0x02u);
+    /* the drive's transitions */
+    assert_int_equal(sp_co402_next(SP_CO402_NOT_READY, 0u, 0u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_SWITCH_ON_DISABLED, 0x0Fu, 0u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_READY, 0x0Fu, 0x06u, 0), SP_CO402_SWITCHED_ON);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x07u, 0x0Fu, 0), SP_CO402_SWITCHED_ON);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x06u, 0x0Fu, 0), SP_CO402_READY);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x02u, 0x0Fu, 0), SP_CO402_QUICK_STOP_ACTIVE);
+    assert_int_equal(sp_co402_next(SP_CO402_QUICK_STOP_ACTIVE, 0x0Fu, 0x02u, 0), SP_CO402_QUICK_STOP_ACTIVE);
+    assert_int_equal(sp_co402_next(SP_CO402_QUICK_STOP_ACTIVE, 0x00u, 0x02u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_SWITCHED_ON, 0x02u, 0x07u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    assert_int_equal(sp_co402_next(SP_CO402_OPERATION_ENABLED, 0x0Fu, 0x0Fu, 1), SP_CO402_FAULT_REACTION);
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT_REACTION, 0x0Fu, 0x0Fu, 1), SP_CO402_FAULT);
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT, 0x80u, 0x80u, 0), SP_CO402_FAULT); /* no edge */
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT, 0x80u, 0x00u, 1), SP_CO402_FAULT); /* the cause remains */
+    assert_int_equal(sp_co402_next(SP_CO402_FAULT, 0x80u, 0x00u, 0), SP_CO402_SWITCH_ON_DISABLED);
+    /* the master's words against the drive: from every non-fault state to each target */
+    for (t = SP_CO402_READY; t <= SP_CO402_OPERATION_ENABLED; t = (sp_co402_state_t)(t + 2)) {
+        for (s = SP_CO402_NOT_READY; s <= SP_CO402_QUICK_STOP_ACTIVE; s = (sp_co402_state_t)(s + 1)) {
+            sp_co402_state_t d = s;
+            uint16_t prev = 0u;
+            int k;
+            for (k = 0; k < 6 && d != t; k++) {
+                uint16_t cw = sp_co402_control_word(d, t, 0, 0);
+                d = sp_co402_next(d, cw, prev, 0);
+                prev = cw;
+            }
+            assert_int_equal(d, t);
+            assert_true(k <= 5);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_sdo_frames),          cmocka_unit_test(test_sdo_answers),
-        cmocka_unit_test(test_nmt_sync_heartbeat),  cmocka_unit_test(test_pdo_emcy),
-        cmocka_unit_test(test_cia408_states),       cmocka_unit_test(test_plan),
-        cmocka_unit_test(test_cfg_check),           cmocka_unit_test(test_scaling),
-        cmocka_unit_test(test_master_input_checks), cmocka_unit_test(test_link),
+        cmocka_unit_test(test_sdo_frames),
+        cmocka_unit_test(test_sdo_answers),
+        cmocka_unit_test(test_nmt_sync_heartbeat),
+        cmocka_unit_test(test_pdo_emcy),
+        cmocka_unit_test(test_cia408_states),
+        cmocka_unit_test(test_cia402_states),
+        cmocka_unit_test(test_plan),
+        cmocka_unit_test(test_cfg_check),
+        cmocka_unit_test(test_scaling),
+        cmocka_unit_test(test_master_input_checks),
+        cmocka_unit_test(test_link),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

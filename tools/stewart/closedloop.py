@@ -113,6 +113,7 @@ class RunSpec:
     canopen: bool = False             #: the drives as CiA 408 nodes (sp_controller/hs_sim --canopen)
     canopen_force_ff: bool = False    #: and the vendor force feed-forward 0x2120 in RPDO1
     canopen_sync_divider: int = 0     #: SYNC and PDOs every n ticks (0: the layout's)
+    cia402: bool = False              #: the drives as CiA 402 nodes instead (--cia402; implies canopen)
 
 
 @dataclass
@@ -165,16 +166,18 @@ def _runner(specs: list[RunSpec], bins: Binaries, out: Path, progress: bool, key
             ctl.append("--no-feedforward")
         if s.wrench_source is not None:
             ctl += ["--wrench-source", s.wrench_source]
-        if s.canopen:
+        if s.canopen or s.cia402:
             ctl.append("--canopen-force-ff" if s.canopen_force_ff else "--canopen")
+            if s.cia402:
+                ctl.append("--cia402")
             if s.canopen_sync_divider:
                 ctl += ["--canopen-sync-divider", str(s.canopen_sync_divider)]
         plant = [str(bins.plant), "--lockstep", "--scenario", str(scn), "--log", str(out / f"{s.name}.log"),
                  "--truth", str(out / f"{s.name}.truth.csv"), "--timeout-ms", str(s.timeout_ms)] + auth
         if s.seed is not None:
             plant += ["--seed", str(s.seed)]
-        if s.canopen:
-            plant.append("--canopen")
+        if s.canopen or s.cia402:
+            plant.append("--cia402" if s.cia402 else "--canopen")
         plant += list(s.plant_args)
         if progress:
             plant.append("--progress")

@@ -379,6 +379,8 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
         if bus not in bitrates:
             raise ConfigError(f"{w}.bus: {bus} has no bit rate in drives.buses")
         node = _integer(f"{w}.node_id", _require(leg, "node_id", f"{w}."), 1, 127)
+        if node == _objects.MASTER_NODE_ID:
+            raise ConfigError(f"{w}.node_id: {node} is the master's own heartbeat id (use 1..126)")
         if (bus, node) in used:
             raise ConfigError(f"{w}.node_id: node {node} on bus {bus} is already leg {used[(bus, node)]}'s")
         used[(bus, node)] = i + 1

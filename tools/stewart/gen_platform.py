@@ -137,24 +137,26 @@ def _rows(m) -> str:
 _DRIVE_BUSES = ("SP_BUS_AXIS_A", "SP_BUS_AXIS_B")
 #: Master timeouts the config does not set (docs/canopen.md): boot, SDO, device state.
 _BOOT_MS, _SDO_MS, _STATE_MS = 2000, 100, 100
+#: The master's own heartbeat (docs/canopen.md): period and node id.
+_MASTER_HB_MS, _MASTER_NODE = _plan.ob.MASTER_HEARTBEAT_MS, _plan.ob.MASTER_NODE_ID
+#: sp_co_profile_t of each CANopen protocol.
+_PROFILE = {"cia408": "SP_CO_PROFILE_408", "cia402": "SP_CO_PROFILE_402"}
 
 
 def canopen_layout(p: cfg.Platform) -> dict | None:
     """The config's ``drives`` section as the firmware's sp_co_layout_t
     fields, or None when every leg is native. Raises ConfigError (naming the
-    key) for what the firmware cannot drive: a mix of protocols (one protocol
-    per image), CiA 402 (not in the firmware yet), more than two CANopen
-    buses, a resolution that is not a whole number of nm per count."""
+    key) for what the firmware cannot drive: native drives with CANopen ones
+    (one drive protocol per image; CiA 408 and CiA 402 drives may share the
+    master), more than two CANopen buses, a resolution that is not a whole
+    number of nm per count, a drive with the master's heartbeat node id."""
     d = p.drives
     protos = {leg.protocol for leg in d.legs}
     if protos == {"native"}:
         return None
-    if len(protos) > 1:
+    if "native" in protos:
         raise cfg.ConfigError("drives.legs: the firmware drives every leg with one protocol (one per image); "
                               f"the config mixes {', '.join(sorted(protos))}")
-    if protos != {"cia408"}:
-        raise cfg.ConfigError("drives.legs[0].protocol: cia402 is not in the firmware's master yet "
-                              "(docs/canopen.md); use cia408 or native")
     buses = d.buses()
     if len(buses) > len(_DRIVE_BUSES):
         raise cfg.ConfigError(f"drives.legs: {len(buses)} CANopen buses ({', '.join(buses)}); the controller "
@@ -166,15 +168,18 @@ def canopen_layout(p: cfg.Platform) -> dict | None:
         if abs(nm - round(nm)) > 1e-6 * max(1.0, nm) or not 1 <= round(nm) <= 1_000_000:
             raise cfg.ConfigError(f"{w}.scaling.position_per_count: {leg.scaling.position_per_count:g} m is not "
                                   "a whole number of nm per count in 1..1000000 (the firmware's scaling)")
-        prefix = _plan.unit_prefix(leg.scaling.position_per_count)
+        if leg.node_id == _MASTER_NODE:
+            raise cfg.ConfigError(f"{w}.node_id: {_MASTER_NODE} is the master's own heartbeat id")
+        prefix = _plan.unit_prefix(leg.scaling.position_per_count) if leg.protocol == "cia408" else None
         nodes.append({"node_id": leg.node_id, "bus": _DRIVE_BUSES[buses.index(leg.bus)], "leg": leg.leg,
                       "control_mode": leg.control_mode, "write_prefix": int(prefix is not None),
                       "unit_prefix": prefix if prefix is not None else 0,
-                      "force_ff": int(leg.force_feedforward)})
+                      "force_ff": int(leg.force_feedforward), "profile": _PROFILE[leg.protocol]})
         scaling.append({"nm_per_count": int(round(nm)), "zero_q24": _q(leg.scaling.length_at_zero, Q24,
                                                                        f"{w}.scaling.length_at_zero"),
                         "direction": leg.scaling.direction})
-    return {"nodes": nodes, "scaling": scaling, "sync_divider": d.sync_divider, "pressure": int(d.pressure_feedback),
+    return {"nodes": nodes, "scaling": scaling, "sync_divider": d.sync_divider,
+            "pressure": int(d.pressure_feedback and "cia408" in protos),
             "heartbeat_ms": d.heartbeat_ms, "heartbeat_timeout_ms": d.heartbeat_timeout_ms,
             "setpoint_timeout_ms": d.setpoint_timeout_ms, "pdo_timeout_ms": max(10, 3 * d.sync_divider + 1),
             "bitrate": {_DRIVE_BUSES[i]: d.bitrates.get(b, 1_000_000) for i, b in enumerate(buses)}}
@@ -185,7 +190,7 @@ def _layout_c(lay: dict | None) -> str:
         return "const sp_co_layout_t sp_co_layout_default = {0}; /* the config's drives are native */\n"
     nodes = ",\n".join(
         f"            {{{n['node_id']}u, {n['bus']}, {n['leg']}u, {n['control_mode']}, {n['write_prefix']}u, "
-        f"{n['unit_prefix']}, {n['force_ff']}u}}" for n in lay["nodes"])
+        f"{n['unit_prefix']}, {n['force_ff']}u, {n['profile']}}}" for n in lay["nodes"])
     scal = ",\n".join(f"        {{{s['nm_per_count']}u, {s['zero_q24']}, {s['direction']}, 0u, 0u, 0}}"
                        for s in lay["scaling"])
     rates = ", ".join(f"[{b}] = {r}u" for b, r in lay["bitrate"].items())
@@ -205,6 +210,8 @@ def _layout_c(lay: dict | None) -> str:
         .sdo_timeout_ms = {_SDO_MS}u,
         .state_timeout_ms = {_STATE_MS}u,
         .pdo_timeout_ms = {lay["pdo_timeout_ms"]}u,
+        .master_heartbeat_ms = {_MASTER_HB_MS}u,
+        .master_node_id = {_MASTER_NODE}u,
     }},
     .scaling = {{
 {scal}

@@ -491,3 +491,132 @@ sp_co408_state_t sp_co408_next(sp_co408_state_t s, uint16_t control, uint16_t pr
     }
     return s;
 }
+
+/* ---- CiA 402 ---- */
+
+sp_co402_state_t sp_co402_state(uint16_t status)
+{
+    static const struct {
+        uint16_t mask, value;
+    } table[] = {{0x4Fu, 0x00u}, {0x4Fu, 0x40u}, {0x6Fu, 0x21u}, {0x6Fu, 0x23u},
+                 {0x6Fu, 0x27u}, {0x6Fu, 0x07u}, {0x4Fu, 0x0Fu}, {0x4Fu, 0x08u}};
+    uint32_t i;
+    for (i = 0u; i < sizeof table / sizeof table[0]; i++) {
+        if ((status & table[i].mask) == table[i].value) {
+            return (sp_co402_state_t)i;
+        }
+    }
+    return SP_CO402_UNKNOWN;
+}
+
+int sp_co402_is_fault(sp_co402_state_t s)
+{
+    return s == SP_CO402_FAULT_REACTION || s == SP_CO402_FAULT;
+}
+
+uint16_t sp_co402_status_bits(sp_co402_state_t s)
+{
+    static const uint16_t bits[] = {0x00u, 0x40u, 0x21u, 0x23u, 0x27u, 0x07u, 0x0Fu, 0x08u};
+    return (uint32_t)s < sizeof bits / sizeof bits[0] ? bits[s] : 0u;
+}
+
+const char *sp_co402_state_name(sp_co402_state_t s)
+{
+    static const char *const names[] = {"NOT_READY_TO_SWITCH_ON",
+                                        "SWITCH_ON_DISABLED",
+                                        "READY_TO_SWITCH_ON",
+                                        "SWITCHED_ON",
+                                        "OPERATION_ENABLED",
+                                        "QUICK_STOP_ACTIVE",
+                                        "FAULT_REACTION_ACTIVE",
+                                        "FAULT",
+                                        "UNKNOWN"};
+    return (uint32_t)s < sizeof names / sizeof names[0] ? names[s] : "UNKNOWN";
+}
+
+sp_co402_state_t sp_co402_target(sp_co_request_t req)
+{
+    return req == SP_CO_REQ_HOLD || req == SP_CO_REQ_ACTIVE ? SP_CO402_OPERATION_ENABLED : SP_CO402_READY;
+}
+
+uint16_t sp_co402_control_word(sp_co402_state_t s, sp_co402_state_t target, int reset, int quick_stop)
+{
+    if (reset) {
+        return SP_CO402_CW_FAULT_RESET;
+    }
+    if (quick_stop) {
+        return SP_CO402_CW_QUICK_STOP;
+    }
+    switch (s) {
+    case SP_CO402_SWITCH_ON_DISABLED:
+        return target >= SP_CO402_READY && target <= SP_CO402_OPERATION_ENABLED ? SP_CO402_CW_SHUTDOWN
+                                                                                : SP_CO402_CW_DISABLE_VOLTAGE;
+    case SP_CO402_READY:
+        return target == SP_CO402_SWITCHED_ON || target == SP_CO402_OPERATION_ENABLED ? SP_CO402_CW_SWITCH_ON
+                                                                                      : SP_CO402_CW_SHUTDOWN;
+    case SP_CO402_SWITCHED_ON:
+        if (target == SP_CO402_OPERATION_ENABLED) {
+            return SP_CO402_CW_ENABLE_OPERATION;
+        }
+        return target == SP_CO402_SWITCHED_ON ? SP_CO402_CW_SWITCH_ON : SP_CO402_CW_SHUTDOWN;
+    case SP_CO402_OPERATION_ENABLED:
+        if (target == SP_CO402_OPERATION_ENABLED) {
+            return SP_CO402_CW_ENABLE_OPERATION;
+        }
+        return target == SP_CO402_SWITCHED_ON ? SP_CO402_CW_SWITCH_ON : SP_CO402_CW_SHUTDOWN;
+    default: /* not ready (the drive moves on by itself), quick stop active, fault states */
+        return SP_CO402_CW_DISABLE_VOLTAGE;
+    }
+}
+
+/* The command of a controlword (bits 0..3): the state it leads to from s,
+ * or s when the command does not apply there. */
+static sp_co402_state_t command_402(sp_co402_state_t s, uint16_t cw)
+{
+    uint32_t c = cw & 0x0Fu;
+    if ((c & 0x2u) == 0u) { /* disable voltage */
+        return SP_CO402_SWITCH_ON_DISABLED;
+    }
+    if ((c & 0x4u) == 0u) { /* quick stop */
+        return s == SP_CO402_OPERATION_ENABLED ? SP_CO402_QUICK_STOP_ACTIVE
+                                               : (s == SP_CO402_QUICK_STOP_ACTIVE ? s : SP_CO402_SWITCH_ON_DISABLED);
+    }
+    if (s == SP_CO402_QUICK_STOP_ACTIVE) {
+        return s; /* left by disable voltage only */
+    }
+    if ((c & 0x1u) == 0u) { /* shutdown */
+        return SP_CO402_READY;
+    }
+    if (s == SP_CO402_READY) { /* switch on (with or without enable operation: one step per call) */
+        return SP_CO402_SWITCHED_ON;
+    }
+    if ((c & 0x8u) == 0u) { /* switch on / disable operation */
+        return s == SP_CO402_OPERATION_ENABLED ? SP_CO402_SWITCHED_ON : s;
+    }
+    return s == SP_CO402_SWITCHED_ON ? SP_CO402_OPERATION_ENABLED : s; /* enable operation */
+}
+
+sp_co402_state_t sp_co402_next(sp_co402_state_t s, uint16_t control, uint16_t prev_control, int fault)
+{
+    int reset_edge = (control & SP_CO402_CW_FAULT_RESET) != 0u && (prev_control & SP_CO402_CW_FAULT_RESET) == 0u;
+    switch (s) {
+    case SP_CO402_FAULT_REACTION:
+        return SP_CO402_FAULT;
+    case SP_CO402_FAULT:
+        return reset_edge && !fault ? SP_CO402_SWITCH_ON_DISABLED : SP_CO402_FAULT;
+    case SP_CO402_UNKNOWN:
+        return SP_CO402_FAULT_REACTION;
+    case SP_CO402_NOT_READY:
+        return SP_CO402_SWITCH_ON_DISABLED;
+    default:
+        break;
+    }
+    if (fault) {
+        return SP_CO402_FAULT_REACTION;
+    }
+    if (s == SP_CO402_SWITCH_ON_DISABLED) {
+        /* only shutdown leaves it */
+        return (control & 0x2u) != 0u && (control & 0x4u) != 0u && (control & 0x1u) == 0u ? SP_CO402_READY : s;
+    }
+    return command_402(s, control);
+}

@@ -1,5 +1,26 @@
-/* canopen_master.c - the CANopen master of CiA 408 drives (sp/canopen_master.h). */
+/* canopen_master.c - the CANopen master of CiA 408 and CiA 402 drives (sp/canopen_master.h). */
 #include "sp/canopen_master.h"
+
+/* What differs between the two profiles, as data: the device type, the
+ * PDO mappings of RPDO1 (the force feed-forward third, CiA 408 only) and
+ * TPDO1, and the object read back after the plan (0: none). */
+typedef struct {
+    uint16_t device_type; /* 0x1000 bits 0..15 */
+    uint32_t rpdo1[3];    /* control word, position setpoint, force feed-forward */
+    uint32_t tpdo1[2];    /* status word, position actual value */
+    uint16_t check_index; /* read after the read-backs, must be check_value (1 byte) */
+    uint8_t check_value;
+} profile_t;
+
+static const profile_t profiles[2] = {
+    {SP_CO408_PROFILE, {0x60400010u, 0x66000120u, SP_CO_FORCE_FF_MAPPING}, {0x60410010u, 0x66010120u}, 0u, 0u},
+    {SP_CO402_PROFILE, {0x60400010u, 0x607A0020u, 0u}, {0x60410010u, 0x60640020u}, 0x6061u, (uint8_t)SP_CO402_MODE_CSP},
+};
+
+static const profile_t *profile_of(const sp_co_node_cfg_t *nc)
+{
+    return &profiles[nc->profile == (uint8_t)SP_CO_PROFILE_402 ? 1 : 0];
+}
 
 /* A node's plan is a pure function of the config: it is rebuilt (on the
  * stack, 384 B) when a start-up step needs it rather than kept per node. */
@@ -48,6 +69,8 @@ sp_status_t sp_co_master_cfg_default(sp_co_master_cfg_t *cfg, uint8_t n)
     cfg->sdo_timeout_ms = 100u;
     cfg->state_timeout_ms = 100u;
     cfg->pdo_timeout_ms = 10u;
+    cfg->master_heartbeat_ms = 100u;
+    cfg->master_node_id = SP_CO_NODE_MAX;
     return SP_OK;
 }
 
@@ -57,12 +80,18 @@ sp_status_t sp_co_master_cfg_check(const sp_co_master_cfg_t *cfg)
     if (cfg == NULL || cfg->n_nodes == 0u || cfg->n_nodes > SP_CO_MAX_NODES || cfg->sync_divider == 0u ||
         cfg->heartbeat_ms == 0u || cfg->heartbeat_timeout_ms <= cfg->heartbeat_ms || cfg->boot_timeout_ms == 0u ||
         cfg->sdo_timeout_ms == 0u || cfg->state_timeout_ms == 0u || cfg->pdo_timeout_ms == 0u ||
-        cfg->setpoint_timeout_ms == 0u) {
+        cfg->setpoint_timeout_ms == 0u ||
+        (cfg->master_heartbeat_ms != 0u &&
+         (cfg->master_node_id < SP_CO_NODE_MIN || cfg->master_node_id > SP_CO_NODE_MAX))) {
         return SP_E_ARG;
     }
     for (k = 0u; k < cfg->n_nodes; k++) {
         const sp_co_node_cfg_t *a = &cfg->node[k];
-        if (a->node_id < SP_CO_NODE_MIN || a->node_id > SP_CO_NODE_MAX || a->bus >= SP_CAN_BUSES) {
+        if (a->node_id < SP_CO_NODE_MIN || a->node_id > SP_CO_NODE_MAX || a->bus >= SP_CAN_BUSES ||
+            a->profile > (uint8_t)SP_CO_PROFILE_402 || (a->profile == (uint8_t)SP_CO_PROFILE_402 && a->force_ff)) {
+            return SP_E_ARG;
+        }
+        if (cfg->master_heartbeat_ms != 0u && a->node_id == cfg->master_node_id) {
             return SP_E_ARG;
         }
         for (j = 0u; j < k; j++) {
@@ -120,29 +149,41 @@ static void add_pdo(plan_t *p, uint16_t comm, uint16_t map, uint32_t cob, const 
 sp_status_t sp_co_plan_build(const sp_co_master_cfg_t *cfg, uint8_t k, sp_co_sdo_write_t out[SP_CO_PLAN_MAX],
                              uint8_t *n)
 {
-    static const uint32_t rpdo1[] = {0x60400010u, 0x66000120u, SP_CO_FORCE_FF_MAPPING};
-    static const uint32_t tpdo1[] = {0x60410010u, 0x66010120u};
     static const uint32_t tpdo2[] = {0x21100110u, 0x21100210u};
+    const profile_t *pr;
+    int is402;
     plan_t p;
     uint8_t id;
     if (cfg == NULL || out == NULL || n == NULL || k >= cfg->n_nodes || k >= SP_CO_MAX_NODES) {
         return SP_E_ARG;
     }
     id = cfg->node[k].node_id;
+    pr = profile_of(&cfg->node[k]);
+    is402 = cfg->node[k].profile == (uint8_t)SP_CO_PROFILE_402;
     p.out = out;
     p.n = 0u;
     add(&p, 0x1017u, 0u, 2u, cfg->heartbeat_ms, 1u, 0u);
-    add(&p, 0x6042u, 0u, 1u, 1u, 1u, 0u);
-    add(&p, 0x6043u, 0u, 1u, i8_bits(cfg->node[k].control_mode), 1u, 0u);
-    if (cfg->node[k].write_prefix) {
-        add(&p, 0x6600u, 2u, 1u, SP_CO_UNIT_METRE, 1u, 1u);
-        add(&p, 0x6600u, 3u, 1u, i8_bits(cfg->node[k].unit_prefix), 1u, 1u);
+    if (cfg->master_heartbeat_ms != 0u) { /* the drive watches the master: three of its periods */
+        uint32_t t = 3u * (uint32_t)cfg->master_heartbeat_ms;
+        add(&p, 0x1016u, 1u, 4u, ((uint32_t)cfg->master_node_id << 16) | (t > 0xFFFFu ? 0xFFFFu : t), 1u, 1u);
+    }
+    if (is402) {
+        add(&p, 0x6060u, 0u, 1u, (uint32_t)SP_CO402_MODE_CSP, 1u, 0u);
+        add(&p, 0x60C2u, 1u, 1u, cfg->sync_divider, 1u, 1u);   /* the SYNC period, ms */
+        add(&p, 0x60C2u, 2u, 1u, i8_bits((int8_t)-3), 1u, 1u); /* 10^-3 s */
+    } else {
+        add(&p, 0x6042u, 0u, 1u, 1u, 1u, 0u);
+        add(&p, 0x6043u, 0u, 1u, i8_bits(cfg->node[k].control_mode), 1u, 0u);
+        if (cfg->node[k].write_prefix) {
+            add(&p, 0x6600u, 2u, 1u, SP_CO_UNIT_METRE, 1u, 1u);
+            add(&p, 0x6600u, 3u, 1u, i8_bits(cfg->node[k].unit_prefix), 1u, 1u);
+        }
     }
     add(&p, 0x1006u, 0u, 4u, (uint32_t)cfg->sync_divider * 1000u, 1u, 1u);
-    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, rpdo1, cfg->node[k].force_ff ? 3u : 2u,
+    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, pr->rpdo1, !is402 && cfg->node[k].force_ff ? 3u : 2u,
             cfg->setpoint_timeout_ms);
-    add_pdo(&p, 0x1800u, 0x1A00u, SP_CO_COB_TPDO1 + id, tpdo1, 2u, 0u);
-    if (cfg->pressure_feedback) {
+    add_pdo(&p, 0x1800u, 0x1A00u, SP_CO_COB_TPDO1 + id, pr->tpdo1, 2u, 0u);
+    if (cfg->pressure_feedback && !is402) {
         add_pdo(&p, 0x1801u, 0x1A01u, SP_CO_COB_TPDO2 + id, tpdo2, 2u, 0u);
     }
     *n = p.n;
@@ -173,6 +214,8 @@ static void restart_node(sp_co_node_t *nd, uint32_t now_ms)
     nd->resetting = 0u;
     nd->state_ok = 0u;
     nd->tpdo1_seen = 0u;
+    nd->mode_checked = 0u;
+    nd->holding = 0u;
     nd->phase_since = now_ms;
     nd->fault = none;
 }
@@ -190,6 +233,7 @@ sp_status_t sp_co_master_start(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
         (void)sp_co_plan_build(cfg, k, plan, &m->node[k].plan_n);
     }
     m->started = 1u;
+    m->hb_sent = now_ms; /* the master's first heartbeat one period after the start */
     m->last_req = SP_CO_REQ_DISABLED;
     return SP_OK;
 }
@@ -239,11 +283,19 @@ sp_status_t sp_co_master_reset(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
     return SP_OK;
 }
 
-/* The object of the node's outstanding or next SDO request; 0 = none left. */
-static int current_object(const sp_co_node_t *nd, const sp_co_sdo_write_t *plan, uint16_t *index, uint8_t *sub)
+/* The object of the node's outstanding or next SDO request; 0 = none left.
+ * After the read-backs (step == plan_n), the profile's check object. */
+static int current_object(const sp_co_node_t *nd, const profile_t *pr, const sp_co_sdo_write_t *plan, uint16_t *index,
+                          uint8_t *sub)
 {
     if (nd->phase == SP_CO_PHASE_IDENTITY) {
         *index = 0x1000u;
+        *sub = 0u;
+        return 1;
+    }
+    if (nd->phase == SP_CO_PHASE_READBACK && nd->step >= nd->plan_n && pr->check_index != 0u && !nd->mode_checked &&
+        nd->nmt_pending == 0u) {
+        *index = pr->check_index;
         *sub = 0u;
         return 1;
     }
@@ -268,11 +320,13 @@ static uint8_t next_readback(const sp_co_node_t *nd, const sp_co_sdo_write_t *pl
 }
 
 /* After a completed request: the next step, or the next phase. */
-static void advance(sp_co_node_t *nd, const sp_co_sdo_write_t *plan)
+static void advance(sp_co_node_t *nd, const profile_t *pr, const sp_co_sdo_write_t *plan)
 {
     if (nd->phase == SP_CO_PHASE_IDENTITY) {
         nd->phase = SP_CO_PHASE_WRITE;
         nd->step = 0u;
+    } else if (nd->phase == SP_CO_PHASE_READBACK && nd->step >= nd->plan_n) {
+        nd->mode_checked = 1u; /* the profile's check object answered as expected */
     } else {
         nd->step++;
     }
@@ -282,7 +336,7 @@ static void advance(sp_co_node_t *nd, const sp_co_sdo_write_t *plan)
     }
     if (nd->phase == SP_CO_PHASE_READBACK) {
         nd->step = next_readback(nd, plan, nd->step);
-        if (nd->step >= nd->plan_n) {
+        if (nd->step >= nd->plan_n && (pr->check_index == 0u || nd->mode_checked)) {
             nd->nmt_pending = SP_CO_NMT_START;
         }
     }
@@ -302,8 +356,9 @@ static sp_status_t on_sdo(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8
     uint8_t sub;
     uint32_t value;
     sp_co_sdo_answer_t ans;
+    const profile_t *pr = profile_of(&cfg->node[k]);
     (void)sp_co_plan_build(cfg, k, plan, &n);
-    if (!nd->sdo_busy || !current_object(nd, plan, &index, &sub)) {
+    if (!nd->sdo_busy || !current_object(nd, pr, plan, &index, &sub)) {
         return SP_OK; /* nothing asked: a stray answer */
     }
     if (sp_co_sdo_parse(f, cfg->node[k].node_id, index, sub, &ans, &value, &size) != SP_OK) {
@@ -314,7 +369,7 @@ static sp_status_t on_sdo(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8
         if (nd->phase == SP_CO_PHASE_WRITE && plan[nd->step].optional &&
             (value == SP_CO_SDO_ABORT_NO_OBJECT || value == SP_CO_SDO_ABORT_NO_SUBINDEX)) {
             nd->skipped |= UINT32_C(1) << nd->step;
-            advance(nd, plan);
+            advance(nd, pr, plan);
             return SP_OK;
         }
         latch(nd, SP_CO_F_SDO_ABORT, index, sub, value, 0u, now_ms);
@@ -324,18 +379,23 @@ static sp_status_t on_sdo(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8
         latch(nd, SP_CO_F_SDO_PROTOCOL, index, sub, f->data[0], 0u, now_ms);
         return SP_OK;
     }
-    if (nd->phase == SP_CO_PHASE_IDENTITY && (value & 0xFFFFu) != SP_CO408_PROFILE) {
-        latch(nd, SP_CO_F_WRONG_PROFILE, index, sub, value, SP_CO408_PROFILE, now_ms);
+    if (nd->phase == SP_CO_PHASE_IDENTITY && (value & 0xFFFFu) != pr->device_type) {
+        latch(nd, SP_CO_F_WRONG_PROFILE, index, sub, value, pr->device_type, now_ms);
         return SP_OK;
     }
-    if (nd->phase == SP_CO_PHASE_READBACK) {
+    if (nd->phase == SP_CO_PHASE_READBACK && nd->step >= nd->plan_n) {
+        if ((value & 0xFFu) != pr->check_value) {
+            latch(nd, SP_CO_F_READBACK, index, sub, value, pr->check_value, now_ms);
+            return SP_OK;
+        }
+    } else if (nd->phase == SP_CO_PHASE_READBACK) {
         uint32_t mask = size_mask(plan[nd->step].size);
         if ((value & mask) != (plan[nd->step].value & mask)) {
             latch(nd, SP_CO_F_READBACK, index, sub, value, plan[nd->step].value, now_ms);
             return SP_OK;
         }
     }
-    advance(nd, plan);
+    advance(nd, pr, plan);
     return SP_OK;
 }
 
@@ -448,7 +508,8 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
     }
 }
 
-static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const sp_co_sdo_write_t *plan, uint32_t now)
+static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const profile_t *pr,
+                     const sp_co_sdo_write_t *plan, uint32_t now)
 {
     uint16_t index = 0u;
     uint8_t sub = 0u;
@@ -462,7 +523,7 @@ static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const sp_c
     case SP_CO_PHASE_WRITE:
     case SP_CO_PHASE_READBACK:
         if (nd->sdo_busy && now - nd->sdo_since > cfg->sdo_timeout_ms) {
-            (void)current_object(nd, plan, &index, &sub);
+            (void)current_object(nd, pr, plan, &index, &sub);
             latch(nd, SP_CO_F_SDO_TIMEOUT, index, sub, cfg->sdo_timeout_ms, 0u, now);
         }
         break;
@@ -483,24 +544,43 @@ static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const sp_c
     }
 }
 
+/* The profile's view of a status word: the status bits of the state a
+ * request leads to, whether the word shows that state, and whether it shows
+ * a fault state. */
+static uint32_t wanted_bits(const sp_co_node_cfg_t *nc, sp_co_request_t eff)
+{
+    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_status_bits(sp_co402_target(eff))
+                                                     : sp_co408_status_bits(sp_co408_target(eff));
+}
+
+static int shows_target(const sp_co_node_cfg_t *nc, uint16_t status, sp_co_request_t eff)
+{
+    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_state(status) == sp_co402_target(eff)
+                                                     : sp_co408_state(status) == sp_co408_target(eff);
+}
+
+static int shows_fault(const sp_co_node_cfg_t *nc, uint16_t status)
+{
+    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_is_fault(sp_co402_state(status))
+                                                     : sp_co408_is_fault(sp_co408_state(status));
+}
+
 /* The status word against the effective request, every tick: a fault state
  * latches at once (except while a fault reset is under way), leaving the
  * requested state once reached latches too; not reaching it is the caller's
  * timeout. */
-static void check_state(sp_co_node_t *nd, sp_co_request_t eff, uint32_t now)
+static void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, uint32_t now)
 {
-    sp_co408_state_t s;
-    uint32_t want = sp_co408_status_bits(sp_co408_target(eff));
+    uint32_t want = wanted_bits(nc, eff);
     if (nd->phase != SP_CO_PHASE_RUN || !nd->tpdo1_seen || nd->fault.code != (uint8_t)SP_CO_F_NONE) {
         return;
     }
-    s = sp_co408_state(nd->status);
-    if (s == sp_co408_target(eff)) {
+    if (shows_target(nc, nd->status, eff)) {
         nd->state_ok = 1u;
         nd->resetting = 0u;
         return;
     }
-    if (sp_co408_is_fault(s) && !nd->resetting) {
+    if (shows_fault(nc, nd->status) && !nd->resetting) {
         latch(nd, SP_CO_F_DEVICE_FAULT, 0u, 0u, nd->status, want, now);
     } else if (nd->state_ok) {
         latch(nd, SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status, want, now);
@@ -510,6 +590,44 @@ static void check_state(sp_co_node_t *nd, sp_co_request_t eff, uint32_t now)
 static int emit(sp_co_master_output_t *out)
 {
     return out->n_tx < SP_CO_MAX_TX;
+}
+
+/* One node's RPDO1 of a SYNC tick under the effective request eff. */
+static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, int32_t setpoint,
+                      int16_t force, sp_can_frame_t *f)
+{
+    int faulted = nd->fault.code != (uint8_t)SP_CO_F_NONE;
+    if (nc->profile == (uint8_t)SP_CO_PROFILE_402) {
+        sp_co402_state_t s = sp_co402_state(nd->status);
+        uint16_t cw = sp_co402_control_word(s, sp_co402_target(eff), nd->reset_edge != 0u, faulted);
+        int32_t target;
+        if (s != SP_CO402_OPERATION_ENABLED) {
+            target = nd->actual; /* no jump when operation becomes enabled */
+            nd->holding = 0u;
+        } else if (eff == SP_CO_REQ_ACTIVE && !faulted) {
+            target = setpoint;
+            nd->holding = 0u;
+        } else {
+            if (!nd->holding) {
+                nd->hold_target = nd->last_target; /* the master holds where it last sent the drive */
+                nd->holding = 1u;
+            }
+            target = nd->hold_target;
+        }
+        nd->last_target = target;
+        (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, target);
+    } else {
+        sp_co_request_t r = faulted && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
+        uint16_t cw = sp_co408_control_word(r, nd->reset_edge != 0u);
+        if (nc->force_ff) {
+            (void)sp_co_rpdo1_ff_frame(f, nc->bus, nc->node_id, cw, setpoint, force);
+        } else {
+            (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, setpoint);
+        }
+    }
+    if (nd->reset_edge > 0u) {
+        nd->reset_edge--;
+    }
 }
 
 sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
@@ -539,6 +657,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     for (k = 0u; k < cfg->n_nodes; k++) {
         sp_co_node_t *nd = &m->node[k];
         const sp_co_node_cfg_t *nc = &cfg->node[k];
+        const profile_t *pr = profile_of(nc);
         sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
         uint8_t n = 0u;
         uint16_t index;
@@ -546,14 +665,14 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
         if (nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK) {
             (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
         }
-        timeouts(nd, cfg, plan, now);
+        timeouts(nd, cfg, pr, plan, now);
         if (nd->nmt_pending != 0u && emit(out)) {
             (void)sp_co_nmt_frame(&out->tx[out->n_tx++], nc->bus, (sp_co_nmt_cmd_t)nd->nmt_pending, nc->node_id);
             nd->phase =
                 nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
             nd->phase_since = now;
             nd->nmt_pending = 0u;
-        } else if (!nd->sdo_busy && current_object(nd, plan, &index, &sub) && emit(out)) {
+        } else if (!nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
             sp_can_frame_t *f = &out->tx[out->n_tx++];
             if (nd->phase == SP_CO_PHASE_WRITE) {
                 (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
@@ -593,11 +712,11 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     }
     for (k = 0u; k < cfg->n_nodes; k++) {
         sp_co_node_t *nd = &m->node[k];
-        check_state(nd, eff, now);
+        check_state(nd, &cfg->node[k], eff, now);
         if (nd->phase == SP_CO_PHASE_RUN && !nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
             now - nd->req_since > cfg->state_timeout_ms) {
-            latch(nd, sp_co408_is_fault(sp_co408_state(nd->status)) ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u,
-                  0u, nd->status, sp_co408_status_bits(sp_co408_target(eff)), now);
+            latch(nd, shows_fault(&cfg->node[k], nd->status) ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u,
+                  nd->status, wanted_bits(&cfg->node[k], eff), now);
         }
         if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
             out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
@@ -609,6 +728,21 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
         nd->tpdo1_fresh = 0u;
         nd->tpdo2_fresh = 0u;
     }
+    if (cfg->master_heartbeat_ms != 0u && now - m->hb_sent >= cfg->master_heartbeat_ms) {
+        uint8_t hb_bus[SP_CAN_BUSES] = {0u};
+        m->hb_sent = now;
+        for (k = 0u; k < cfg->n_nodes; k++) {
+            if (cfg->node[k].bus < SP_CAN_BUSES) {
+                hb_bus[cfg->node[k].bus] = 1u;
+            }
+        }
+        for (k = 0u; k < SP_CAN_BUSES; k++) {
+            if (hb_bus[k] && emit(out)) {
+                (void)sp_co_heartbeat_frame(&out->tx[out->n_tx++], k, cfg->master_node_id,
+                                            m->was_running ? SP_CO_NMT_STATE_OPERATIONAL : SP_CO_NMT_STATE_PREOP);
+            }
+        }
+    }
     if (sync_tick) {
         uint8_t bus_used[SP_CAN_BUSES] = {0u};
         for (k = 0u; k < cfg->n_nodes; k++) {
@@ -619,18 +753,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
             }
             bus_used[nc->bus] = 1u;
             if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
-                sp_co_request_t r =
-                    nd->fault.code != (uint8_t)SP_CO_F_NONE && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
-                uint16_t cw = sp_co408_control_word(r, nd->reset_edge != 0u);
-                if (nc->force_ff) {
-                    (void)sp_co_rpdo1_ff_frame(&out->tx[out->n_tx++], nc->bus, nc->node_id, cw, in->setpoint[k],
-                                               in->force_dan[k]);
-                } else {
-                    (void)sp_co_rpdo1_frame(&out->tx[out->n_tx++], nc->bus, nc->node_id, cw, in->setpoint[k]);
-                }
-                if (nd->reset_edge > 0u) {
-                    nd->reset_edge--;
-                }
+                node_rpdo(nd, nc, eff, in->setpoint[k], in->force_dan[k], &out->tx[out->n_tx++]);
             }
         }
         for (k = 0u; k < SP_CAN_BUSES; k++) {

@@ -6,7 +6,7 @@
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
- *                 [--canopen-timeout-ms MS] [--canopen-force-ff] [--canopen-sync-divider N]
+ *                 [--canopen-timeout-ms MS] [--canopen-force-ff] [--canopen-sync-divider N] [--cia402]
  *                 [--key FILE] [--session N]
  *
  * --key FILE (else the file the environment variable STEWART_KEY names):
@@ -27,6 +27,9 @@
  * may not); --canopen-sync-divider N (1..10, implies --canopen) sends SYNC
  * and the PDOs every N ticks (the layout of two classic buses at 1 Mbit/s
  * with pressures needs 3, docs/canopen.md), the drives' watchdog 3N ms;
+ * --cia402 (implies --canopen) drives every leg as a CiA 402 drive in cyclic
+ * synchronous position mode (no pressure PDO, no force object; not with
+ * --canopen-force-ff); the config's drives section may say so per leg.
  * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
  * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
  * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
@@ -77,7 +80,7 @@ static void usage(void)
                     "                     [--no-feedforward] [--timeout-ms MS] [--timing] [--feedback-timeout TICKS]\n"
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
                     "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
-                    "                     [--canopen-force-ff] [--canopen-sync-divider N]\n"
+                    "                     [--canopen-force-ff] [--canopen-sync-divider N] [--cia402]\n"
                     "                     [--key FILE] [--session N]\n");
 }
 
@@ -104,7 +107,7 @@ typedef struct {
 
 static co_t co;
 
-static int co_setup(uint32_t timeout_ms, int force_ff, int divider)
+static int co_setup(uint32_t timeout_ms, int force_ff, int divider, int cia402)
 {
     sp_ik_t ik;
     if (sp_co_layout_default.present) { /* the platform config's drives section */
@@ -119,6 +122,13 @@ static int co_setup(uint32_t timeout_ms, int force_ff, int divider)
         for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
             co.link.master.node[k].force_ff = 1u;
         }
+    }
+    if (cia402) { /* CiA 402 cyclic synchronous position: no chamber pressures, no force object */
+        for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
+            co.link.master.node[k].profile = (uint8_t)SP_CO_PROFILE_402;
+            co.link.master.node[k].force_ff = 0u;
+        }
+        co.link.master.pressure_feedback = 0u;
     }
     if (divider > 0) { /* SYNC every `divider` ticks: the drives' watchdog 3 periods, the TPDO supervision 3 + 5 ms */
         co.link.master.sync_divider = (uint8_t)divider;
@@ -202,7 +212,8 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
 int main(int argc, char **argv)
 {
     const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
-    int lockstep = 0, ff = 1, timing = 0, canopen = sp_co_layout_default.present ? 1 : 0, co_force_ff = 0;
+    int lockstep = 0, ff = 1, timing = 0, canopen = sp_co_layout_default.present ? 1 : 0, co_force_ff = 0,
+        co_cia402 = 0;
     int co_divider = 0;
     long co_sp_timeout = 0;
     long fb_timeout = 0;
@@ -227,6 +238,8 @@ int main(int argc, char **argv)
             canopen = 1;
         } else if (strcmp(a, "--canopen-force-ff") == 0) {
             canopen = 1, co_force_ff = 1;
+        } else if (strcmp(a, "--cia402") == 0) {
+            canopen = 1, co_cia402 = 1;
         } else if (v != NULL && strcmp(a, "--canopen-sync-divider") == 0) {
             char *end;
             co_divider = (int)strtol(v, &end, 10), i++, canopen = 1;
@@ -309,7 +322,11 @@ int main(int argc, char **argv)
         }
     }
 
-    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff, co_divider) != 0) {
+    if (co_cia402 && co_force_ff) {
+        fprintf(stderr, "sp_controller: --canopen-force-ff is CiA 408's vendor object; not with --cia402\n");
+        return 2;
+    }
+    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff, co_divider, co_cia402) != 0) {
         fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;
     }
@@ -399,9 +416,11 @@ int main(int argc, char **argv)
     fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s, wrench source %s%s\n",
             lockstep ? "lockstep" : "real-time", ifs[0], ifs[1], ifs[2], ff ? "on" : "off",
             cfg.ctrl.wrench_source == SP_WRENCH_SENSOR ? "sensor" : "cylinders",
-            canopen ? (sp_co_layout_default.present ? ", drives: CiA 408 as the platform config's drives section"
-                                                    : ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)")
-                    : "");
+            canopen
+                ? (sp_co_layout_default.present ? ", drives: CANopen as the platform config's drives section"
+                                                : (co_cia402 ? ", drives: CiA 402 nodes 1-3 (axis_a) and 4-6 (axis_b)"
+                                                             : ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)"))
+                : "");
 
     run_stats_t rs;
     memset(&rs, 0, sizeof rs);

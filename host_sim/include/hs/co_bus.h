@@ -14,10 +14,13 @@
  *  - hs_co_bus_tick(): heartbeats, EMCY, the nodes' watchdogs.
  *
  * Scaling: position count = round((length - zero) / m_per_count). The
- * drive's own reference generator (interpolate = 1) feeds its position loop
- * the velocity of consecutive setpoints (setpoint difference over the SYNC
- * period), as a drive's interpolating demand value generator does; with 0
- * it steps from setpoint to setpoint.
+ * drive's own reference generator moves the setpoint on between SYNCs, as
+ * a drive's interpolating demand value generator does: interpolate = 2
+ * (the default) second order, the acceleration from the last three
+ * setpoints and the velocity at the SYNC from the last two plus half a
+ * period of that acceleration (position sp + v t + a t^2 / 2, velocity
+ * v + a t); 1 first order (the velocity of the last two setpoints, the
+ * acceleration 0); 0 steps from setpoint to setpoint.
  */
 #ifndef HS_CO_BUS_H
 #define HS_CO_BUS_H
@@ -34,16 +37,23 @@ typedef struct {
     double zero[HS_LEGS];       /**< leg length at count 0, m */
     double m_per_count;         /**< m per count (1e-6) */
     double sync_period;         /**< s between SYNCs, measured by the bus (for the interpolation) */
-    uint8_t interpolate;        /**< 1: velocity feed-forward from consecutive setpoints */
+    uint8_t interpolate;        /**< 2: second order (default), 1: first order, 0: steps (above) */
     int32_t last_setpoint[HS_LEGS];
-    double velocity[HS_LEGS]; /**< m/s from the setpoints */
-    uint32_t ms_since_sync;   /**< ms since the last SYNC */
+    int32_t prev_setpoint[HS_LEGS]; /**< the one before last_setpoint */
+    double velocity[HS_LEGS];       /**< m/s from the setpoints */
+    double accel[HS_LEGS];          /**< m/s^2 from three setpoints (interpolate = 2) */
+    uint32_t ms_since_sync;         /**< ms since the last SYNC */
 } hs_co_bus_t;
 
 /** Six nodes (node ids and bus indices per leg), count 0 at zero[i] (m),
  *  m_per_count > 0. HS_E_ARG for NULL or a bad node id, bus or scale. */
 hs_status_t hs_co_bus_init(hs_co_bus_t *b, const uint8_t node_id[HS_LEGS], const uint8_t bus[HS_LEGS],
                            const double zero[HS_LEGS], double m_per_count);
+
+/** Presents every drive as a node of the device profile (0 = CiA 408, the
+ *  default; 1 = CiA 402): the nodes are powered up again with that
+ *  profile's defaults. HS_E_ARG for NULL or another profile. */
+hs_status_t hs_co_bus_set_profile(hs_co_bus_t *b, uint8_t profile);
 
 /** One frame from the master to every node of its bus; answers in tx
  *  (*n_tx of them, at most HS_CO_BUS_MAX_TX). HS_E_ARG for NULL. */

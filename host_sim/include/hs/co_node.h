@@ -1,10 +1,13 @@
 /*
  * hs/co_node.h - a simulated drive presenting itself as a CiA 408 node
- * (docs/canopen.md, config/eds/stewart_sim_drive.eds): an object dictionary
+ * (docs/canopen.md, config/eds/stewart_sim_drive.eds) or as a CiA 402 node
+ * in cyclic synchronous position mode (config/eds/stewart_sim_drive_402.eds;
+ * hs_co_node_init_profile): an object dictionary
  * with the objects the master uses, an expedited SDO server, NMT, a
  * heartbeat and EMCY producer, RPDO1 applied and TPDO1/TPDO2 sent on SYNC,
  * the RPDO event timer as the setpoint watchdog, and the CiA 408 device
- * state machine (sp_co408_next).
+ * state machine (sp_co408_next) or the CiA 402 one (sp_co402_next: the
+ * setpoint is followed in OPERATION_ENABLED).
  *
  * The node knows nothing of hydraulics: the caller gives it the measured
  * position (drive counts) and pressures (kPa) before each SYNC and reads the
@@ -67,12 +70,23 @@ typedef struct {
     uint8_t abort_sub;
     uint32_t abort_code;
     uint32_t sdo_count; /**< SDO requests served (figure) */
+    /* CiA 402 (profile 1); at the end so that the CiA 408 fields keep their place */
+    uint8_t profile;           /**< 0: CiA 408, 1: CiA 402 (sp_co_profile_t's values) */
+    sp_co402_state_t state402; /**< CiA 402 device state */
+    /* the heartbeat consumer (0x1016.1: node id << 16 | ms; 0 = off) */
+    uint8_t hbc_seen;        /**< 1 once the watched node's heartbeat arrived (monitoring runs) */
+    uint32_t hbc_elapsed_ms; /**< ms since the watched node's last heartbeat */
 } hs_co_node_t;
 
 /** Powers a node up with the EDS's defaults; it boots (sends its boot-up)
  *  on its first tick. HS_E_ARG for NULL, a node id outside 1..127 or a bus
  *  >= SP_CAN_BUSES. */
 hs_status_t hs_co_node_init(hs_co_node_t *n, uint8_t node_id, uint8_t bus);
+
+/** As hs_co_node_init, with the device profile: 0 = CiA 408 (the same as
+ *  hs_co_node_init), 1 = CiA 402 (the 402 EDS's objects and defaults).
+ *  HS_E_ARG also for another profile. */
+hs_status_t hs_co_node_init_profile(hs_co_node_t *n, uint8_t node_id, uint8_t bus, uint8_t profile);
 
 /** The entry index.sub, or NULL. */
 hs_co_entry_t *hs_co_node_find(hs_co_node_t *n, uint16_t index, uint8_t sub);
@@ -88,8 +102,11 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
 /**
  * Advances the node's clocks by ms milliseconds (1..1000): the boot-up after
  * a reset, the heartbeat producer (0x1017), the RPDO event timer (0x1400.5:
- * in ACTIVE, no RPDO1 within it raises EMCY 0x8250 and a fault), and a
- * pending EMCY. HS_E_ARG for NULL.
+ * in ACTIVE, no RPDO1 within it raises EMCY 0x8250 and a fault), the
+ * heartbeat consumer (0x1016.1: once the watched node's heartbeat was seen,
+ * silence beyond its time raises EMCY 0x8130 and a fault; CiA 301's
+ * monitoring starts with the first heartbeat), and a pending EMCY.
+ * HS_E_ARG for NULL.
  */
 hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_CO_MAX_TX], uint8_t *n_tx);
 
@@ -97,7 +114,8 @@ hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_C
  *  the fault reaction at the next SYNC. */
 hs_status_t hs_co_node_raise(hs_co_node_t *n, uint16_t code);
 
-/** 1 when the setpoint is to be followed (operational and ACTIVE). */
+/** 1 when the setpoint is to be followed (operational and ACTIVE; CiA 402:
+ *  operational and OPERATION_ENABLED). */
 int hs_co_node_follows(const hs_co_node_t *n);
 
 #endif /* HS_CO_NODE_H */

@@ -162,6 +162,9 @@ REVISION = Entry(0x1018, 3, "Identity: revision number", UNSIGNED32, READ, False
                  "scan lists it")
 SERIAL = Entry(0x1018, 4, "Identity: serial number", UNSIGNED32, READ, False,
                "scan lists it; tells two drives of one type apart")
+CONSUMER_HEARTBEAT = Entry(0x1016, 1, "Consumer heartbeat time 1", UNSIGNED32, WRITE, False,
+                           "bits 16..22 the master's node id, 0..15 ms: the drive watches the master's "
+                           "heartbeat (written where present)")
 SYNC_COB_ID = Entry(0x1005, 0, "COB-ID SYNC", UNSIGNED32, READ, False,
                     "the drive consumes SYNC on 0x080 (the master produces it)")
 CYCLE_PERIOD = Entry(0x1006, 0, "Communication cycle period", UNSIGNED32, WRITE, False,
@@ -170,7 +173,13 @@ EMCY_COB_ID = Entry(0x1014, 0, "COB-ID EMCY", UNSIGNED32, READ, False,
                     "the master consumes EMCY on 0x080 + node id")
 
 COMMUNICATION = (DEVICE_TYPE, ERROR_REGISTER, PRODUCER_HEARTBEAT, IDENTITY_COUNT, VENDOR_ID,
-                 PRODUCT_CODE, REVISION, SERIAL, SYNC_COB_ID, CYCLE_PERIOD, EMCY_COB_ID)
+                 PRODUCT_CODE, REVISION, SERIAL, CONSUMER_HEARTBEAT, SYNC_COB_ID, CYCLE_PERIOD, EMCY_COB_ID)
+
+#: The master's own heartbeat (it has no object dictionary on the bus): its
+#: node id, its period, and the time a drive's consumer allows (three periods).
+MASTER_NODE_ID = 127
+MASTER_HEARTBEAT_MS = 100
+MASTER_HEARTBEAT_TIMEOUT_MS = 3 * MASTER_HEARTBEAT_MS
 
 # PDO communication parameter sub-indices the master writes (0x1400.. / 0x1800..).
 PDO_COMM_COB_ID = 1

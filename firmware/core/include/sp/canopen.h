@@ -227,4 +227,68 @@ sp_co408_state_t sp_co408_target(sp_co_request_t req);
  */
 sp_co408_state_t sp_co408_next(sp_co408_state_t s, uint16_t control, uint16_t prev_control, int fault);
 
+/* ---- CiA 402 device state machine (drives and motion control) ---- */
+
+/** CiA 402 controlword commands (0x6040; bits 0..3 and 7). */
+#define SP_CO402_CW_DISABLE_VOLTAGE 0x0000u /**< -> switch on disabled */
+#define SP_CO402_CW_QUICK_STOP 0x0002u      /**< operation enabled -> quick stop active */
+#define SP_CO402_CW_SHUTDOWN 0x0006u        /**< -> ready to switch on */
+#define SP_CO402_CW_SWITCH_ON 0x0007u       /**< ready to switch on -> switched on (operation enabled -> switched on) */
+#define SP_CO402_CW_ENABLE_OPERATION 0x000Fu /**< switched on -> operation enabled */
+#define SP_CO402_CW_FAULT_RESET 0x0080u      /**< fault -> switch on disabled, on its rising edge */
+
+#define SP_CO402_PROFILE 402u /**< 0x1000 bits 0..15 */
+#define SP_CO402_MODE_CSP 8   /**< 0x6060 / 0x6061: cyclic synchronous position */
+
+/** CiA 402 device states, from the statusword (mask, value: docs/canopen.md). */
+typedef enum {
+    SP_CO402_NOT_READY = 0,          /**< not ready to switch on (0x4F, 0x00) */
+    SP_CO402_SWITCH_ON_DISABLED = 1, /**< (0x4F, 0x40) */
+    SP_CO402_READY = 2,              /**< ready to switch on (0x6F, 0x21) */
+    SP_CO402_SWITCHED_ON = 3,        /**< (0x6F, 0x23) */
+    SP_CO402_OPERATION_ENABLED = 4,  /**< (0x6F, 0x27) */
+    SP_CO402_QUICK_STOP_ACTIVE = 5,  /**< (0x6F, 0x07) */
+    SP_CO402_FAULT_REACTION = 6,     /**< fault reaction active (0x4F, 0x0F) */
+    SP_CO402_FAULT = 7,              /**< (0x4F, 0x08) */
+    SP_CO402_UNKNOWN = 8             /**< any other bit pattern */
+} sp_co402_state_t;
+
+/** The device state a statusword shows (bits 0..3, 5, 6; the others ignored). */
+sp_co402_state_t sp_co402_state(uint16_t status);
+
+/** 1 for FAULT_REACTION and FAULT. */
+int sp_co402_is_fault(sp_co402_state_t s);
+
+/** The statusword bits of a state (as the simulated drive sends them; 0 for UNKNOWN). */
+uint16_t sp_co402_status_bits(sp_co402_state_t s);
+
+/** Short name of a state ("OPERATION_ENABLED", ...). Never NULL. */
+const char *sp_co402_state_name(sp_co402_state_t s);
+
+/** The device state a request leads to: DISABLED -> READY (ready to switch
+ *  on: shutdown), HOLD and ACTIVE -> OPERATION_ENABLED (HOLD: the master
+ *  holds the target position, docs/canopen.md). */
+sp_co402_state_t sp_co402_target(sp_co_request_t req);
+
+/**
+ * The controlword the master sends to move a drive in state s one step
+ * towards target: shutdown, switch on, enable operation, disable voltage
+ * (out of quick stop, and from a fault state, so that a later fault reset
+ * has its rising edge). reset != 0 gives the fault reset (0x0080, sent for
+ * one SYNC period); quick_stop != 0 gives the quick stop command (0x0002)
+ * whatever the state. Pure; never fails.
+ */
+uint16_t sp_co402_control_word(sp_co402_state_t s, sp_co402_state_t target, int reset, int quick_stop);
+
+/**
+ * The CiA 402 state machine as a drive runs it (the simulated drive and the
+ * tests; one transition per call, at SYNC): NOT_READY -> SWITCH_ON_DISABLED
+ * by itself; the controlword's commands (shutdown, switch on, enable
+ * operation, disable voltage, quick stop; "switch on + enable operation"
+ * from READY goes to SWITCHED_ON first); fault != 0 moves any other state
+ * to FAULT_REACTION, FAULT_REACTION goes on to FAULT, and FAULT leaves to
+ * SWITCH_ON_DISABLED on bit 7's rising edge when the fault is gone.
+ */
+sp_co402_state_t sp_co402_next(sp_co402_state_t s, uint16_t control, uint16_t prev_control, int fault);
+
 #endif /* SP_CANOPEN_H */

@@ -1,8 +1,12 @@
 /*
- * sp/canopen_master.h - the controller as CANopen master of up to six CiA 408
- * drives (docs/canopen.md): NMT, SYNC producer, RPDO1/TPDO1/TPDO2, a
- * heartbeat and an EMCY consumer per node, and an SDO client that configures
- * each drive at start-up and reads back what it wrote.
+ * sp/canopen_master.h - the controller as CANopen master of up to six
+ * drives (docs/canopen.md), each of device profile CiA 408 (fluid power,
+ * axis position control) or CiA 402 (cyclic synchronous position): NMT,
+ * SYNC producer, RPDO1/TPDO1/TPDO2, a heartbeat and an EMCY consumer per
+ * node, its own heartbeat producer, and an SDO client that configures each
+ * drive at start-up and reads back what it wrote. The profile is a table
+ * (objects, PDO mapping, mode writes) and the device state machine each
+ * drive is driven through; everything else is shared.
  *
  * Pure and allocation-free: the state is a plain struct the caller owns,
  * time is an input (now_ms, the caller's millisecond count; the controller
@@ -17,9 +21,10 @@
  *
  * Start-up, per node and in parallel across nodes (one SDO transfer
  * outstanding per node): NMT reset communication -> boot-up seen (else
- * NO_BOOT) -> read 0x1000 (profile 408, else WRONG_PROFILE) -> the writes of
- * the plan (sp_co_plan_build; optional objects the drive lacks are skipped)
- * -> read back every final value (a difference is READBACK) -> NMT start ->
+ * NO_BOOT) -> read 0x1000 (the node's profile, 408 or 402, else
+ * WRONG_PROFILE) -> the writes of the plan (sp_co_plan_build; optional
+ * objects the drive lacks are skipped) -> read back every final value (a
+ * difference is READBACK; CiA 402: then 0x6061 must show 8) -> NMT start ->
  * a heartbeat showing operational -> running. Nothing is asked beyond
  * DISABLED until every node runs; sp_co_master_output_t.ready says when
  * every node runs and shows the requested device state.
@@ -50,6 +55,12 @@
 #define SP_CO_TRANSMISSION_SYNC 1u   /**< PDO transmission type: every SYNC */
 #define SP_CO_PDO_COB_INVALID 0x80000000u
 
+/** A drive's device profile (sp_co_node_cfg_t.profile). */
+typedef enum {
+    SP_CO_PROFILE_408 = 0, /**< CiA 408 fluid power, axis position control */
+    SP_CO_PROFILE_402 = 1  /**< CiA 402 drives, cyclic synchronous position (mode 8) */
+} sp_co_profile_t;
+
 /** One drive on the master's buses. */
 typedef struct {
     uint8_t node_id;      /**< 1..127, unique per bus */
@@ -58,7 +69,8 @@ typedef struct {
     int8_t control_mode;  /**< 0x6043 value of axis position control (default 8) */
     uint8_t write_prefix; /**< 1: write unit metre and the prefix below to 0x6600.2/.3 */
     int8_t unit_prefix;   /**< decimal exponent of the drive's count (-6: 1 um) */
-    uint8_t force_ff;     /**< 1: RPDO1 also maps the vendor force feed-forward 0x2120.0 (8 bytes) */
+    uint8_t force_ff;     /**< 1: RPDO1 also maps the vendor force feed-forward 0x2120.0 (8 bytes; CiA 408) */
+    uint8_t profile;      /**< sp_co_profile_t (0 = CiA 408) */
 } sp_co_node_cfg_t;
 
 /** The master's configuration (from the platform config's `drives`). */
@@ -74,18 +86,24 @@ typedef struct {
     uint16_t sdo_timeout_ms;       /**< no SDO answer within this = SDO_TIMEOUT */
     uint16_t state_timeout_ms;     /**< device state not reached within this = DEVICE_STATE */
     uint16_t pdo_timeout_ms;       /**< no TPDO1 within this while running = PDO_TIMEOUT */
+    uint16_t master_heartbeat_ms;  /**< the master's own heartbeat (0x700 + master_node_id) every this many
+                                        ms on each bus in use, so that drives can supervise it; 0 = none */
+    uint8_t master_node_id;        /**< the master's node id for its heartbeat, 1..127, unique on its buses */
 } sp_co_master_cfg_t;
 
 /** The defaults of docs/canopen.md for n nodes: heartbeat 20 ms, timeout 50
  *  ms, setpoint watchdog 3 ms, boot 2000 ms, SDO 100 ms, state 100 ms, PDO
- *  10 ms, divider 1, pressure feedback on; node i: id i+1 on bus
- *  SP_BUS_AXIS_A for legs 1-3 and SP_BUS_AXIS_B for 4-6, control mode 8,
- *  prefix -6 written. SP_E_ARG for NULL or n outside 1..SP_CO_MAX_NODES. */
+ *  10 ms, divider 1, pressure feedback on, the master's heartbeat every 100
+ *  ms as node 127; node i: CiA 408, id i+1 on bus SP_BUS_AXIS_A for legs
+ *  1-3 and SP_BUS_AXIS_B for 4-6, control mode 8, prefix -6 written.
+ *  SP_E_ARG for NULL or n outside 1..SP_CO_MAX_NODES. */
 sp_status_t sp_co_master_cfg_default(sp_co_master_cfg_t *cfg, uint8_t n);
 
 /** SP_OK if the configuration is usable; SP_E_ARG for a node id outside
- *  1..127, a duplicate id on a bus, a bus index out of range, a zero
- *  divider or timeout, or a heartbeat timeout not above the heartbeat. */
+ *  1..127, a duplicate id on a bus (the master's own id included when it
+ *  sends a heartbeat), a bus index out of range, an unknown profile, the
+ *  force feed-forward on a CiA 402 drive, a zero divider or timeout, or a
+ *  heartbeat timeout not above the heartbeat. */
 sp_status_t sp_co_master_cfg_check(const sp_co_master_cfg_t *cfg);
 
 /** One SDO write of a drive's start-up plan. */
@@ -101,10 +119,14 @@ typedef struct {
 /**
  * The SDO writes that configure node k (0-based) of cfg, in order; the same
  * list as tools/stewart/drives/plan.py (a Python test compares them): the
- * producer heartbeat, the device mode (0x6042 = 1) and control mode (0x6043),
- * the unit and prefix (optional), the cycle period 0x1006 (optional, us),
- * then per PDO (RPDO1 with the force feed-forward as its third entry where
- * force_ff, TPDO1, TPDO2 with pressure feedback): COB-ID invalid,
+ * producer heartbeat, the consumer heartbeat 0x1016.1 watching the master's
+ * (optional; master node id << 16 | 3 x master_heartbeat_ms, saturated to
+ * 65535 ms; left out when the master sends none); CiA 408: the device mode (0x6042 = 1) and control
+ * mode (0x6043), the unit and prefix (optional); CiA 402: the mode of
+ * operation (0x6060 = 8) and the interpolation period 0x60C2.1/.2 (the
+ * divider in ms, optional); the cycle period 0x1006 (optional, us), then
+ * per PDO (RPDO1 with the force feed-forward as its third entry where
+ * force_ff, TPDO1, TPDO2 with pressure feedback on CiA 408): COB-ID invalid,
  * mapping count 0, entries, count, transmission type 1, the RPDO's event
  * timer, COB-ID valid. *n gets the count. SP_E_ARG for NULL or k out of range.
  */
@@ -118,7 +140,7 @@ typedef enum {
     SP_CO_F_SDO_ABORT = 2,      /**< the drive aborted an SDO transfer (object, abort code) */
     SP_CO_F_SDO_TIMEOUT = 3,    /**< no SDO answer within sdo_timeout_ms (object) */
     SP_CO_F_SDO_PROTOCOL = 4,   /**< an SDO answer the master cannot use (segmented) */
-    SP_CO_F_WRONG_PROFILE = 5,  /**< 0x1000 bits 0..15 are not 408 (value) */
+    SP_CO_F_WRONG_PROFILE = 5,  /**< 0x1000 bits 0..15 are not the node's profile, 408 or 402 (value) */
     SP_CO_F_READBACK = 6,       /**< a value read back differs from the one written */
     SP_CO_F_HEARTBEAT_LOST = 7, /**< no heartbeat within heartbeat_timeout_ms */
     SP_CO_F_NMT_STATE = 8,      /**< a running node reported another NMT state or booted again */
@@ -137,7 +159,7 @@ typedef struct {
     uint8_t sub;      /**< SDO faults: the object's sub-index */
     uint16_t index;   /**< SDO faults: the object's index; EMCY: the error code */
     uint32_t detail;  /**< abort code; value read; status word; NMT state; EMCY register */
-    uint32_t expect;  /**< READBACK: the value written; WRONG_PROFILE: 408 */
+    uint32_t expect;  /**< READBACK: the value written (0x6061: 8); WRONG_PROFILE: 408 or 402 */
     uint32_t time_ms; /**< now_ms when it latched */
 } sp_co_fault_t;
 
@@ -176,6 +198,10 @@ typedef struct {
     uint16_t pb_kpa;      /**< last chamber pressure B, kPa */
     uint8_t tpdo2_fresh;  /**< 1: TPDO2 arrived since the last step */
     uint8_t tpdo1_fresh;  /**< 1: TPDO1 arrived since the last step */
+    uint8_t mode_checked; /**< CiA 402: 1 once 0x6061 was read back as 8 */
+    uint8_t holding;      /**< CiA 402: 1 while the target is held at hold_target */
+    int32_t hold_target;  /**< CiA 402: the target position held while HOLD is asked, counts */
+    int32_t last_target;  /**< CiA 402: the target position of the last RPDO1, counts */
     sp_co_fault_t fault;  /**< the first fault latched (code NONE: none) */
 } sp_co_node_t;
 
@@ -186,6 +212,7 @@ typedef struct {
         was_running;  /**< 1 once every node has run (a later restart of one asks HOLD of the others, not DISABLED) */
     uint8_t last_req; /**< the request of the last step */
     uint32_t ticks;   /**< steps since start (the SYNC divider counts these) */
+    uint32_t hb_sent; /**< now_ms of the master's last heartbeat */
 } sp_co_master_t;
 
 /** Zeroes the state (every node OFF). SP_E_ARG for NULL. */
@@ -233,13 +260,22 @@ typedef struct {
 /**
  * One control tick: checks the timeouts (a boot-up, SDO answer, heartbeat,
  * TPDO1 or device state overdue latches its fault), advances each node's
- * start-up by at most one SDO request, emits pending NMT commands, and on
- * SYNC ticks (every sync_divider steps) the RPDO1 of each running node
- * (control word of the effective request, setpoint) and one SYNC per bus in
- * use, after the RPDOs. The effective request is DISABLED until every node
- * has run for the first time; after that at most HOLD while any node has a
- * fault or is starting again; else in->request. SP_E_ARG for NULL
- * arguments (out is then untouched).
+ * start-up by at most one SDO request, emits pending NMT commands, the
+ * master's own heartbeat when due (operational once every node has run,
+ * else pre-operational), and on SYNC ticks (every sync_divider steps) the
+ * RPDO1 of each running node (control word of the effective request,
+ * setpoint) and one SYNC per bus in use, after the RPDOs. The effective
+ * request is DISABLED until every node has run for the first time; after
+ * that at most HOLD while any node has a fault or is starting again; else
+ * in->request.
+ *
+ * CiA 408: the control word of the request (the drive holds by itself in
+ * HOLD). CiA 402: the controlword moves the drive one step per SYNC towards
+ * the request's state (sp_co402_control_word), a node with a latched fault
+ * of its own gets the quick stop command, and the target position is the
+ * drive's actual position until operation is enabled, in->setpoint while
+ * ACTIVE, and the last target sent, latched, while HOLD (the master holds).
+ * SP_E_ARG for NULL arguments (out is then untouched).
  */
 sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
                               sp_co_master_output_t *out);
