@@ -32,7 +32,11 @@
  * refreshed for SP_LEGS / SP_CTRL_LEG_GROUPS legs a tick, in turn
  * (sp_setpoints_held), the other legs' reactions, moments and axial terms
  * kept from the tick that last refreshed them; the rest of the inverse
- * dynamics, the leg rates and the factorisation are always this tick's.
+ * dynamics and the leg rates are always this tick's. The forces' solve
+ * factorises J^T every SP_CTRL_LEG_GROUPS ticks; the ticks between refine
+ * the last tick's forces with that factorisation (sp_inverse_dynamics_held,
+ * hold.lu_keep; docs/model.md, "The factorisation kept over ticks"), and
+ * the estimate's chord step uses it too.
  * A kept term is at most SP_CTRL_LEG_GROUPS - 1 ticks old (docs/model.md,
  * "Leg masses kept over ticks"). A reference repeated at rest is computed
  * until every leg's terms are its own, and only then reused. The default
