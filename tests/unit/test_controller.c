@@ -156,7 +156,7 @@ static void test_engage_run_park(void **state)
  * feed-forward switches change (which must not reuse). While moving, the
  * leg-mass terms of all legs but one group are kept from earlier ticks
  * (sp/controller.h, "The leg masses' terms"), and the forces' factorisation
- * is made every SP_CTRL_LEG_GROUPS ticks, the ticks between refining from
+ * is made every SP_CTRL_LU_KEEP ticks, the ticks between refining from
  * the last forces: lengths, rates and Jacobian are still the same bit for
  * bit, the factorisation too on the ticks that make it, the forces within
  * force_tol N (0: exact). Returns the largest force difference, N. */
@@ -189,7 +189,7 @@ static double check_fresh_setpoints(const rig_t *r, unsigned ff, double force_to
             assert_int_equal(lu.zk[i], r->ctrl.est.ref_lu.zk[i]);
         }
     }
-    assert_true(r->ctrl.legs.lu_age < (SP_CTRL_LEG_GROUPS > 1u ? SP_CTRL_LEG_GROUPS : 1u));
+    assert_true(r->ctrl.legs.lu_age < (SP_CTRL_LEG_GROUPS > 1u ? SP_CTRL_LU_KEEP : 1u));
     assert_memory_equal(&model.jac, &r->ctrl.model.jac, sizeof model.jac);
     assert_int_equal(r->ctrl.est.ref_lu.valid, 1);
     assert_true(worst <= force_tol);

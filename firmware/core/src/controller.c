@@ -165,9 +165,10 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->setpoint_ff = 0u;
     ctrl->legs.held = 0u; /* no leg terms kept: the first setpoints compute every leg */
     ctrl->legs.fresh = 0u;
-    /* the forces' factorisation made every SP_CTRL_LEG_GROUPS ticks, the
-     * ticks between refining from the last forces (sp_inverse_dynamics_held) */
-    ctrl->legs.lu_keep = (uint8_t)SP_CTRL_LEG_GROUPS;
+    /* the forces' factorisation made every SP_CTRL_LU_KEEP ticks, the
+     * ticks between refining from the last forces (sp_inverse_dynamics_held;
+     * only with the leg terms kept: SP_CTRL_LEG_GROUPS > 1) */
+    ctrl->legs.lu_keep = (uint8_t)SP_CTRL_LU_KEEP;
     ctrl->legs.lu_age = 0u;
     ctrl->legs_exact = 0u;
     ctrl->leg_group = 0u;

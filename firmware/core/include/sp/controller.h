@@ -33,7 +33,7 @@
  * (sp_setpoints_held), the other legs' reactions, moments and axial terms
  * kept from the tick that last refreshed them; the rest of the inverse
  * dynamics and the leg rates are always this tick's. The forces' solve
- * factorises J^T every SP_CTRL_LEG_GROUPS ticks; the ticks between refine
+ * factorises J^T every SP_CTRL_LU_KEEP ticks; the ticks between refine
  * the last tick's forces with that factorisation (sp_inverse_dynamics_held,
  * hold.lu_keep; docs/model.md, "The factorisation kept over ticks"), and
  * the estimate's chord step uses it too.
@@ -270,6 +270,12 @@ typedef struct {
  *  SP_LEGS / SP_CTRL_LEG_GROUPS legs, in turn. 1: every leg every tick,
  *  the plain computation (sp_setpoints_of) that the tests compare with. */
 #define SP_CTRL_LEG_GROUPS 6u
+
+/** Ticks over which one factorisation of J^T serves the forces' solve
+ *  (sp_leg_hold_t.lu_keep; "The forces' solve" above): the ticks between
+ *  refine the last forces with it, and the estimate's chord step uses it.
+ *  1: a fresh factorisation every tick (the plain computation). */
+#define SP_CTRL_LU_KEEP 6u
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */
 #define SP_ALL_LEGS ((UINT32_C(1) << SP_LEGS) - 1u)
