@@ -293,6 +293,7 @@ static double random_system(uint64_t *rng, int kind, int transpose, sp_jacobian_
  *    intermediate to 29 significant bits of max |b|; the int64 fallback,
  *    taken when x passes 2^29 at b's scale, rounds each product);
  *  - sp_solve6 on the same matrix: sp_lu6_solve's bits;
+ *  - sp_lu6_solve_grow (25 significant bits of max |b|): within 16 E;
  *  - sp_lu6_solve_transposed (int64 throughout): within 2 E;
  *  - spi_lu6_solve_t32, when it accepts (27 significant bits of max |b|):
  *    within 4 E; when it refuses, x untouched.
@@ -306,6 +307,7 @@ static void test_solves_reference(void **state)
 {
     uint64_t rng = 41;
     double worst[4] = {0, 0, 0, 0}; /* error / bound: solve, transposed, t32, vs xd */
+    double worst_grow = 0;
     int fallback64 = 0;
     int refused = 0;
     (void)state;
@@ -332,6 +334,13 @@ static void test_solves_reference(void **state)
         assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
         assert_int_equal(sp_solve6(&m, tr, b, x6), SP_OK);
         assert_memory_equal(x6, x, sizeof x);
+        /* sp_lu6_solve_grow: b rounded to 25 significant bits (16 times
+         * sp_lu6_solve's 2^-29 of max |b|): within 16 E */
+        assert_int_equal(sp_lu6_solve_grow(&lu, b, x6), SP_OK);
+        for (int i = 0; i < 6; ++i) {
+            worst_grow = fmax(worst_grow, (double)(fabsl(x6[i] - want[i]) / (16 * err)));
+            assert_near(x6[i], want[i], 16 * err, "system %d (kind %d): grow x[%d]", n, kind, i);
+        }
         assert_int_equal(sp_lu6_solve_transposed(&lu, bt, xt), SP_OK);
         for (int i = 0; i < 6; ++i) {
             x32[i] = INT64_C(0x7777777777777777);
@@ -373,6 +382,7 @@ static void test_solves_reference(void **state)
                   "vs the exact solution %.2f; int64 fallback %d, t32 refused %d\n",
                   worst[0], worst[1], worst[2], worst[3], fallback64, refused);
     assert_true(fallback64 > 200 && refused > 200);
+    print_message("sp_lu6_solve_grow vs ref_solve, worst error / bound %.2f\n", worst_grow);
 }
 
 /* The fallbacks on systems built to need them: x_5 = 512 b_5 (x' = 512
@@ -404,6 +414,15 @@ static void test_solve_fallbacks(void **state)
     assert_true(x[0] == 7 && x[5] == 7);
     assert_int_equal(sp_lu6_solve_transposed(&lu, b, x), SP_OK);
     assert_true(x[5] == 512000000 && x[0] == 1000);
+    assert_int_equal(sp_lu6_solve_grow(&lu, b, x), SP_OK); /* int64 here too: 512 > 16 */
+    assert_true(x[0] == 1000 && x[1] == -1000 && x[2] == 0 && x[5] == 512000000);
+    /* x_5 = 16 b_5: past sp_lu6_solve's 32-bit range, within the grow's */
+    m.j[5][5] = 1 << 24;
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+    assert_int_equal(sp_lu6_solve_grow(&lu, b, x), SP_OK);
+    assert_true(x[0] == 1000 && x[1] == -1000 && x[2] == 0 && x[5] == 16000000);
+    assert_int_equal(sp_lu6_solve(&lu, b, x), SP_OK);
+    assert_true(x[0] == 1000 && x[5] == 16000000);
 
     memset(&m, 0, sizeof m);
     for (int i = 0; i < 6; ++i) {

@@ -165,6 +165,11 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->setpoint_ff = 0u;
     ctrl->legs.held = 0u; /* no leg terms kept: the first setpoints compute every leg */
     ctrl->legs.fresh = 0u;
+    /* the forces' factorisation made every SP_CTRL_LU_KEEP ticks, the
+     * ticks between refining from the last forces (sp_inverse_dynamics_held;
+     * only with the leg terms kept: SP_CTRL_LEG_GROUPS > 1) */
+    ctrl->legs.lu_keep = (uint8_t)SP_CTRL_LU_KEEP;
+    ctrl->legs.lu_age = 0u;
     ctrl->legs_exact = 0u;
     ctrl->leg_group = 0u;
     ctrl->ref_orient.valid = 0u;
@@ -700,10 +705,16 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
     unsigned i;
     int same = ctrl->have_setpoint && same_motion(ref, &ctrl->reference);
-    if (flags == 0u && same && ctrl->est.ref_lu.valid && ctrl->setpoint_ff == ff && ctrl->legs_exact == SP_ALL_LEGS) {
+    if (flags == 0u && same && ctrl->est.ref_lu.valid && ctrl->setpoint_ff == ff && ctrl->legs_exact == SP_ALL_LEGS &&
+        ctrl->legs.lu_age == 0u) {
         return 1;
     }
     if (flags == 0u) {
+        if (same) {
+            /* a repeated reference: factorised afresh, so that its forces
+             * become sp_setpoints_of's once every leg is its own */
+            ctrl->legs.lu_age = ctrl->legs.lu_keep;
+        }
         /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
          * (one group: every leg, nothing kept) */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;

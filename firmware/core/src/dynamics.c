@@ -489,6 +489,35 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     return sp_inverse_dynamics_jac(platform, motion, ik, &jac, ext_force, force, lu);
 }
 
+/* The refinement's right-hand side (sp_inverse_dynamics_held): r = b -
+ * J^T fq 2^16 in Q24, J^T fq summed exactly in Q36 (|J| < 2^31 Q28 and
+ * |fq| < 2^24 Q8: each product below 2^55, six below 2^58) and rounded
+ * once (ties up). Returns 0 (r unusable) when an fq is 2^24 or more in
+ * magnitude or an r_k leaves sp_lu6_solve's range (|b| < 2^56 is
+ * checked by the caller: |r| < 2^57 fits). */
+static int id_residual(const sp_jacobian_t *jac, const int32_t fq[SP_LEGS], const int64_t b[SP_LEGS],
+                       int64_t r[SP_LEGS])
+{
+    unsigned i;
+    unsigned k;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (fq[i] >= (INT32_C(1) << 24) || fq[i] <= -(INT32_C(1) << 24)) {
+            return 0;
+        }
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t acc = 0;
+        for (i = 0u; i < SP_LEGS; ++i) {
+            acc += (int64_t)jac->j[i][k] * fq[i];
+        }
+        r[k] = b[k] - ((acc + (INT64_C(1) << 11)) >> 12);
+        if (r[k] >= (INT64_C(1) << 56) || r[k] <= -(INT64_C(1) << 56)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* sp_inverse_dynamics_jac, and the leg rates in rate when rate is not NULL
  * (sp_inverse_dynamics_rates). */
 static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -510,9 +539,15 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     int ovf = 0;
     int legs_on;
     unsigned keep = 0u;
+    sp_leg_hold_t *kept_lu = NULL; /* where the factorisation's age and the forces are kept */
+    int refine = 0;                /* 1: refine from hold->fq with the kept *lu */
 
     if (force == NULL || lu == NULL) {
         return SP_E_ARG;
+    }
+    if (hold != NULL && hold->lu_keep > 1u) {
+        kept_lu = hold;
+        refine = lu->valid && hold->held == SP_ALL_LEG_BITS && hold->lu_age + 1u < hold->lu_keep;
     }
     if (hold != NULL) {
         /* nothing computed yet: kept again only on success */
@@ -592,12 +627,44 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
             return SP_E_OVERFLOW; /* sp_solve6's range */
         }
     }
-    st = sp_lu6_factor(jac, 1, lu);
-    if (st == SP_OK) {
-        st = sp_lu6_solve(lu, b, f); /* = sp_solve6(&jac, 1, b, f) */
+    if (refine) {
+        /* one refinement step with the kept factorisation (still in *lu:
+         * only its valid flag was cleared above) */
+        int64_t r[SP_LEGS];
+        int64_t df[SP_LEGS];
+        refine = id_residual(jac, kept_lu->fq, b, r);
+        if (refine) {
+            lu->valid = 1u;
+            st = sp_lu6_solve_grow(lu, r, df);
+            if (st == SP_OK) {
+                for (k = 0u; k < SP_LEGS; ++k) {
+                    f[k] = (int64_t)kept_lu->fq[k] * 65536 + df[k]; /* below 2^41 + 2^56 */
+                }
+                kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
+            } else {
+                refine = 0; /* factorise instead */
+            }
+        }
+    }
+    if (!refine) {
+        st = sp_lu6_factor(jac, 1, lu);
+        if (st == SP_OK) {
+            st = sp_lu6_solve(lu, b, f); /* = sp_solve6(&jac, 1, b, f) */
+        }
+        if (kept_lu != NULL) {
+            kept_lu->lu_age = 0u;
+        }
     }
     if (st != SP_OK) {
         return st;
+    }
+    if (kept_lu != NULL) {
+        for (k = 0u; k < SP_LEGS; ++k) {
+            /* the next refinement's start: f rounded to Q8 (ties up), held
+             * within int32 (an |fq| of 2^24 or more is never refined from) */
+            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
+            kept_lu->fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
+        }
     }
     for (k = 0u; k < SP_LEGS; ++k) {
         /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */

@@ -450,6 +450,29 @@ sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x
     return lu_solve64(lu, b, x);
 }
 
+sp_status_t sp_lu6_solve_grow(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
+{
+    uint64_t m;
+    unsigned i;
+
+    if (lu == NULL || b == NULL || x == NULL) {
+        return SP_E_ARG;
+    }
+    m = max_abs64(b);
+    if (m >= (uint64_t)RHS_MAX || !lu->valid || m == 0u) {
+        for (i = 0u; i < SP_LEGS; ++i) {
+            x[i] = 0;
+        }
+        return !lu->valid ? SP_E_ARG : (m != 0u) ? SP_E_OVERFLOW : SP_OK;
+    }
+    /* b' in [2^24, 2^25): room for a solution 16 times max |b'| larger
+     * than sp_lu6_solve's; e >= -31 as m < 2^56 */
+    if (lu_solve32(lu, b, s32_exponent(m, 24u), x)) {
+        return SP_OK;
+    }
+    return lu_solve64(lu, b, x);
+}
+
 #define LT_MAX (INT64_C(1) << 61) /* spi_mul64_q30_up's range */
 
 sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])

@@ -28,18 +28,22 @@
  *                  forces and the model's (sp/wrench.h);
  *   7. divergence  of the estimate from the reference;
  *   8. output.
- * The leg masses' terms (the force feed-forward's heaviest part) can be
+ * The leg masses' terms (the force feed-forward's heaviest part) are
  * refreshed for SP_LEGS / SP_CTRL_LEG_GROUPS legs a tick, in turn
  * (sp_setpoints_held), the other legs' reactions, moments and axial terms
  * kept from the tick that last refreshed them; the rest of the inverse
- * dynamics, the leg rates and the factorisation are always this tick's.
+ * dynamics and the leg rates are always this tick's. The forces' solve
+ * factorises J^T every SP_CTRL_LU_KEEP ticks; the ticks between refine
+ * the last tick's forces with that factorisation (sp_inverse_dynamics_held,
+ * hold.lu_keep; docs/model.md, "The factorisation kept over ticks"), and
+ * the estimate's chord step uses it too.
  * A kept term is at most SP_CTRL_LEG_GROUPS - 1 ticks old (docs/model.md,
  * "Leg masses kept over ticks"). A reference repeated at rest is computed
  * until every leg's terms are its own, and only then reused. The default
- * is one group (every leg every tick): with six groups the M4 tick is
- * about 1,350 instructions shorter, but the demo's figures moved (the
- * unloaded wrench estimate 112 N / 91 N m -> 122 N / 86 N m, the surge's
- * tracking RMS 0.0774 -> 0.0775 mm; docs/m4.md).
+ * is six groups (one leg a tick): the M4 tick is about 1,840 instructions
+ * shorter than with one group (every leg every tick, nothing kept), and
+ * the demo's figures stay within their bounds (docs/m4.md, "Why the leg
+ * terms are kept").
  * Values derived once from the config (the limits in absolute coordinates,
  * the stream filter's gains) are prepared by sp_ctrl_init
  * (sp_ctrl_prepared_t), apart from the tick's state.
@@ -263,8 +267,15 @@ typedef struct {
 
 /** Ticks over which every leg's leg-mass terms are refreshed once
  *  ("The leg masses' terms" above; divides SP_LEGS): each tick refreshes
- *  SP_LEGS / SP_CTRL_LEG_GROUPS legs, in turn. */
-#define SP_CTRL_LEG_GROUPS 1u
+ *  SP_LEGS / SP_CTRL_LEG_GROUPS legs, in turn. 1: every leg every tick,
+ *  the plain computation (sp_setpoints_of) that the tests compare with. */
+#define SP_CTRL_LEG_GROUPS 6u
+
+/** Ticks over which one factorisation of J^T serves the forces' solve
+ *  (sp_leg_hold_t.lu_keep; "The forces' solve" above): the ticks between
+ *  refine the last forces with it, and the estimate's chord step uses it.
+ *  1: a fresh factorisation every tick (the plain computation). */
+#define SP_CTRL_LU_KEEP 6u
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */
 #define SP_ALL_LEGS ((UINT32_C(1) << SP_LEGS) - 1u)

@@ -88,6 +88,10 @@ typedef struct {
     sp_q16_t axial[SP_LEGS]; /**< leg i's axial term s_i, N, Q16 */
     uint8_t held;            /**< bit i: leg i's terms are kept (computed by an earlier call) */
     uint8_t fresh;           /**< out: bit i: leg i's terms were computed by the last call (all when it kept none) */
+    int32_t fq[SP_LEGS]; /**< the last call's solved forces without the axial terms, N, Q8 (the refinement's start) */
+    uint8_t lu_keep;     /**< in: calls over which one factorisation may serve (0 or 1: a fresh one every call) */
+    uint8_t lu_age;      /**< in/out: calls since *lu was factorised (0: by this call); lu_keep - 1 or more
+                                  makes the next call factorise */
 } sp_leg_hold_t;
 
 /**
@@ -99,10 +103,22 @@ typedef struct {
  * each leg every SP_CTRL_LEG_GROUPS ticks); the leg rates are always this
  * motion's. With refresh = 0x3F, or hold NULL, or every kept leg computed
  * at this same motion, the forces and rates are sp_inverse_dynamics_rates'
- * bit for bit (the sums are exact). hold->fresh says which legs this call computed. For
+ * bit for bit (the sums are exact), provided the call factorised (below).
+ * hold->fresh says which legs this call computed. For
  * inputs outside the leg terms' fast envelope (dynamics.c) every leg is
  * computed and none kept (hold->held = 0), as on any error. Errors as
  * sp_inverse_dynamics_rates.
+ * The factorisation kept (hold->lu_keep > 1): when the last call
+ * succeeded (hold->held all legs), *lu is still its factorisation
+ * (lu->valid) and hold->lu_age + 1 < hold->lu_keep, the call does not
+ * factorise this motion's J^T but takes one refinement step from the last
+ * call's forces hold->fq with *lu: r = b - J^T fq (this J, exact in Q36,
+ * rounded once to Q24), F = fq + LU^-1 r, and counts hold->lu_age up;
+ * otherwise (also when |fq| >= 2^24 Q8 or r leaves the solve's range)
+ * it factorises into *lu and sets hold->lu_age to 0. The refined forces
+ * differ from a fresh solve by at most |I - J_old^-T J^T| |F - fq| plus
+ * the solve's rounding (docs/model.md, "The factorisation kept over
+ * ticks"); *lu then stays the older motion's factorisation.
  */
 sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                                      const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],

@@ -75,6 +75,18 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
 sp_status_t sp_lu6_solve(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
 
 /**
+ * sp_lu6_solve for a right-hand side whose solution may be many times
+ * larger than it (a residual: sp_inverse_dynamics_held's refinement):
+ * the 32-bit path scales max |b| into [2^24, 2^25) instead of [2^28,
+ * 2^29), so it takes the int64 path only for a solution more than about
+ * 16 times larger than sp_lu6_solve allows. Not bit-identical to
+ * sp_lu6_solve: each step rounds within 2^-24 of max |b| (instead of
+ * 2^-28), times the elimination's growth (tests/unit/test_lu6.c). Same
+ * formats, ranges and errors.
+ */
+sp_status_t sp_lu6_solve_grow(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
+/**
  * Solves A^T x = b with a factorisation of A (U^T, then L^T, then the row
  * swaps undone): the transposed system at the cost of one solve, no new
  * factorisation. Same formats, ranges and errors as sp_lu6_solve. Not
