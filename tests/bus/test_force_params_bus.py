@@ -21,6 +21,8 @@ the machine key, and CTRL_AUTH counts no bad tag.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import signal
 import subprocess
 import sys
@@ -51,19 +53,17 @@ class Ran:
         self.returncode, self.stdout, self.stderr = returncode, stdout, stderr
 
 
-def op(capsys, *args, check=None) -> Ran:
+def op(*args, check=None) -> Ran:
     """`stewart op ARGS` in this process (cli.main: the command's own code,
     without a Python start-up, which costs seconds on a loaded machine)."""
-    before = capsys.readouterr()  # the test's own prints so far
-    rc = cli.main(["op", *map(str, args)])
-    out = capsys.readouterr()
-    with capsys.disabled():
-        print(before.out, end="")
-        print(f"$ stewart op {' '.join(map(str, args))} -> {rc}\n{out.out}{out.err}")
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = cli.main(["op", *map(str, args)])
+    print(f"$ stewart op {' '.join(map(str, args))} -> {rc}\n{out.getvalue()}{err.getvalue()}")
     if check is not None:
-        assert rc == check, out.err
-    assert "Traceback" not in out.err
-    return Ran(rc, out.out, out.err)
+        assert rc == check, err.getvalue()
+    assert "Traceback" not in err.getvalue()
+    return Ran(rc, out.getvalue(), err.getvalue())
 
 
 def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
@@ -179,7 +179,7 @@ def rig(tmp_path_factory):
             print((out / name).read_text()[-1500:])
 
 
-def test_force_params_taken_refused_and_checked(rig, capsys):
+def test_force_params_taken_refused_and_checked(rig):
     out, rec = rig
     key = auth.read_key(auth.key_file())
     t0 = time.monotonic()
@@ -202,7 +202,7 @@ def test_force_params_taken_refused_and_checked(rig, capsys):
 
     # -- in position control: a set is taken and sets the approach speed
     k = rec.mark()
-    r = op(capsys, "force", *target, "--mass", 20, "--damping", 1e5, "--stiffness", 0, "--duration", 1.5, check=0)
+    r = op("force", *target, "--mass", 20, "--damping", 1e5, "--stiffness", 0, "--duration", 1.5, check=0)
     assert "FORCE parameters: mass 20, damping 100000, stiffness 0" in r.stdout
     fast = approach_speed(rec.since(k))
     assert not np.any(rec.since(k)[:, 2]), "a CmdRejected while setting the parameters"
@@ -219,7 +219,7 @@ def test_force_params_taken_refused_and_checked(rig, capsys):
     try:
         rec.wait_mode("FORCE", k, timeout=60)
         refused_at = rec.mark()
-        r = op(capsys, "guide", "z", "--mass", 20, "--damping", 1e5, "--stiffness", 0, check=1)
+        r = op("guide", "z", "--mass", 20, "--damping", 1e5, "--stiffness", 0, check=1)
         assert "they change only in position control" in r.stderr and "force control is FORCE" in r.stderr
         assert np.any(rec.since(refused_at)[:, 2] == 1), "no CmdRejected in CTRL_STATUS"
         t_refused = rec.since(refused_at)[-1, 0]  # the controller's tick when the tool had its answer
@@ -243,7 +243,7 @@ def test_force_params_taken_refused_and_checked(rig, capsys):
 
     # -- out of range: refused by the tool, nothing on the bus
     n = len(rec.params)
-    r = op(capsys, "force", *target, "--mass", 20, "--damping", 50, "--stiffness", 0, check=2)
+    r = op("force", *target, "--mass", 20, "--damping", 50, "--stiffness", 0, check=2)
     assert "force: damping 50 N s/m is out of range" in r.stderr
     time.sleep(0.1)
     assert len(rec.params) == n
