@@ -218,15 +218,16 @@ static int controller_listens(const sp_can_frame_t *f)
     return f->id == SP_ID_SYNC || (f->id >= SP_ID_AXIS_FEEDBACK_1 && f->id < SP_ID_AXIS_FEEDBACK_1 + SP_AXIS_SLOTS);
 }
 
-/* Signs the operator's authenticated frames among in[0..n) (sp/protocol.h:
- * OP_TARGET_POSE, OP_FORCE, OP_COMMAND but NONE, STOP, PARK, ESTOP) with
- * the next counter; without a key or a session they go unsigned (counted). */
+/* Signs the operator's authenticated frames among in[0..n)
+ * (sp_proto_frame_needs_auth: OP_TARGET_POSE, OP_FORCE, OP_FORCE_PARAMS,
+ * OP_COMMAND but NONE, STOP, PARK, ESTOP) with the next counter; without a
+ * key or a session they go unsigned (counted). The scenario language sends
+ * no OP_FORCE_PARAMS today (the controller's configured admittance serves
+ * its runs); one it sent would be signed here like the others. */
 static void sign_frames(sim_t *s, sp_can_frame_t *f, uint32_t n)
 {
     for (uint32_t i = 0; i < n; i++) {
-        sp_proto_auth_layout_t lay;
-        if (f[i].bus != SP_BUS_OPS || sp_proto_auth_layout(f[i].id, &lay) != SP_OK ||
-            (f[i].id == SP_ID_OP_COMMAND && !sp_proto_command_needs_auth(f[i].data[0]))) {
+        if (f[i].bus != SP_BUS_OPS || !sp_proto_frame_needs_auth(&f[i])) {
             continue;
         }
         if (s->have_key && s->session_known && s->auth_counter < UINT32_MAX &&

@@ -9,10 +9,12 @@ frame on the bus (it records the operator's), and sends
 
 * forgeries: each authenticated command (ENGAGE, RUN_TRIG, MOVE_TO with its
   OP_TARGET_POSE, STREAM with streamed OP_TARGET_POSE, FORCE and GUIDE with
-  an OP_FORCE, RESET) with no code, and with a code under another key
-  (the right session and the next counter: only the key is wrong);
+  an OP_FORCE, RESET) and OP_FORCE_PARAMS with no code, and with a code
+  under another key (the right session and the next counter: only the key
+  is wrong);
 * replays of the genuine operator's recorded frames (its ENGAGE, its
-  MOVE_TO target and command, its streamed targets, an OP_FORCE);
+  MOVE_TO target and command, its streamed targets, an OP_FORCE, an
+  OP_FORCE_PARAMS);
 * STOP, PARK and ESTOP with no code and any alive counter.
 
 Every forged and replayed frame is rejected and counted (CTRL_AUTH's
@@ -43,7 +45,7 @@ from stewart import protocol as pr
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
 STEWART = [sys.executable, "-m", "stewart.cli"]
-ID = {"OP_COMMAND": 0x040, "OP_TARGET_POSE": 0x050, "OP_FORCE": 0x048}
+ID = {"OP_COMMAND": 0x040, "OP_TARGET_POSE": 0x050, "OP_FORCE": 0x048, "OP_FORCE_PARAMS": 0x049}
 POSE_TOL = 0.5e-3  # m, rad: the stranger's frames leave the pose where it was
 
 
@@ -203,6 +205,7 @@ def test_a_third_node_cannot_engage_or_move_but_can_stop(rig):
 
     pose_sig = pr.pose_to_signals([0.03, -0.02, 2.6, 0.0, 0.0, 0.05])
     force_sig = pr.force_signals(4, [0, 0, -200.0, 0, 0, 0])
+    params_sig = pr.force_params_signals(4, "GUIDE", 20.0, 1e4, 0.0)  # a light, fast hand guiding
 
     # -- IDLE: the stranger's ENGAGE and RESET are rejected; nothing moves
     forge("ENGAGE", "OP_COMMAND", cmd("ENGAGE"))
@@ -241,8 +244,14 @@ def test_a_third_node_cannot_engage_or_move_but_can_stop(rig):
     signer.session, signer.counter = session, int(a2["LastCounter"])
     genuine_force = signer.sign(ID["OP_FORCE"], s.frame("OP_FORCE", force_sig, 0))
     s.send(ID["OP_FORCE"], genuine_force)
+    # and a genuine OP_FORCE_PARAMS (taken in position control: the same
+    # parameters again, nothing moves), recorded
+    genuine_params = signer.sign(ID["OP_FORCE_PARAMS"],
+                                 s.frame("OP_FORCE_PARAMS", pr.force_params_signals(4, "GUIDE", 20.0, 2500.0, 0.0),
+                                         0))
+    s.send(ID["OP_FORCE_PARAMS"], genuine_params)
     a3, _ = s.settle()
-    assert a3["LastCounter"] == signer.counter  # taken
+    assert a3["LastCounter"] == signer.counter  # both taken
     bad0, rep0 = int(a3["BadTag"]), int(a3["Replayed"])
     last0 = int(a3["LastCounter"])
 
@@ -255,6 +264,7 @@ def test_a_third_node_cannot_engage_or_move_but_can_stop(rig):
         forge("STREAM", "OP_TARGET_POSE", pose_sig)
     forge("FORCE", "OP_FORCE", force_sig)
     forge("FORCE", "OP_COMMAND", cmd("FORCE"))
+    forge("FORCE_PARAMS", "OP_FORCE_PARAMS", params_sig)
     forge("GUIDE", "OP_COMMAND", cmd("GUIDE"))
     forge("SET_FEEDFORWARD", "OP_COMMAND", cmd("SET_FEEDFORWARD", option=0))
     # -- replays of the genuine operator's frames
@@ -271,6 +281,7 @@ def test_a_third_node_cannot_engage_or_move_but_can_stop(rig):
     replay("MOVE_TO", move)
     replay("STREAM", stream)
     replay("FORCE", [(ID["OP_FORCE"], genuine_force)])
+    replay("FORCE_PARAMS", [(ID["OP_FORCE_PARAMS"], genuine_params)])
     a4, st4 = s.settle()
     n_forged = sum(tried.values())
     n_replayed = sum(replayed.values())

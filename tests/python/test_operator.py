@@ -48,6 +48,7 @@ class FakeController:
         self.commands = []
         self.targets = 0
         self.last_target = None
+        self.force_params = []      # the OP_FORCE_PARAMS taken (signals)
         self.auth_last = 0          # the last accepted authentication counter
         self.auth_rejected = 0
         self.auth_checker = auth.Signer(self.proto.db, KEY)
@@ -126,6 +127,8 @@ class FakeController:
                     self.last_target = pr.signals_to_pose(r.signals)
                 elif r.name == "OP_COMMAND":
                     queue.append(r.signals)
+                elif r.name == "OP_FORCE_PARAMS":
+                    self.force_params.append(r.signals)
             self.tick += 1
             rejected = 0
             if queue:
@@ -275,6 +278,45 @@ def test_node_signs_and_reports_authentication(ctrl, tmp_path, capsys, monkeypat
     assert rc == 2 and "need the machine key (--key FILE or STEWART_KEY)" in err
     rc, out, err = _op(capsys, ctrl.channel, "--key", str(tmp_path / "missing.key"), "reset")
     assert rc == 2 and "cannot read the key file" in err
+
+
+def test_force_params_are_signed(ctrl, tmp_path, capsys):
+    """OP_FORCE_PARAMS is signed like OP_FORCE: the stand-in checks its code
+    and takes it; without a key it is not sent; under another key it is
+    rejected and `stewart op guide --mass ...` says why; a value out of
+    range never reaches the bus."""
+    node = _node(ctrl.channel)
+    try:
+        node.wait_status(timeout=2.0)
+        for _ in range(2):  # a new sender's first frame may meet the E2E check
+            node.send_force_params(4, "GUIDE", 40.0, 2e5, 10.0)
+            node.wait_status(timeout=2.0, after=node.status.seq)
+        end = time.monotonic() + 2.0
+        while not ctrl.force_params and time.monotonic() < end:
+            time.sleep(0.01)
+    finally:
+        node.close()
+    assert ctrl.auth_rejected == 0 and ctrl.force_params, ctrl.auth_rejected
+    p = ctrl.force_params[-1]
+    assert int(p["Mask"]) == 4 and int(p["Mode"]) == 2  # GUIDE
+    assert p["Mass"] == pytest.approx(40.0) and p["Damping"] == pytest.approx(2e5)
+    assert p["Stiffness"] == pytest.approx(10.0)
+    taken = len(ctrl.force_params)
+    bare = opnode.OperatorNode(can.Bus(interface="virtual", channel=ctrl.channel)).start()
+    try:
+        with pytest.raises(opnode.OpError, match="OP_FORCE_PARAMS: .*need the machine key"):
+            bare.send_force_params(4, "GUIDE", 40.0, 2e5, 10.0)
+    finally:
+        bare.close()
+    other = tmp_path / "other.key"
+    auth.new_key_file(other)
+    rc, out, err = _op(capsys, ctrl.channel, "--key", str(other), "guide", "z",
+                       "--mass", "40", "--damping", "3e5", "--stiffness", "0")
+    assert rc == 1 and "admittance parameters rejected: its authentication code did not check" in err, (out, err)
+    assert ctrl.auth_rejected >= 2 and len(ctrl.force_params) == taken
+    rc, out, err = _op(capsys, ctrl.channel, "guide", "z", "--mass", "40", "--damping", "50", "--stiffness", "0")
+    assert rc == 2 and "damping 50 N s/m is out of range" in err, (out, err)
+    assert len(ctrl.force_params) == taken
 
 
 # -- the command line -----------------------------------------------------------------

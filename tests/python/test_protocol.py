@@ -22,7 +22,7 @@ SPEC = {
     "OP_TARGET_POSE": (0x050, 32, ("ops",)),
     "OP_HEARTBEAT": (0x060, 4, ("ops",)),
     "OP_FORCE": (0x048, 32, ("ops",)),
-    "OP_FORCE_PARAMS": (0x049, 12, ("ops",)),
+    "OP_FORCE_PARAMS": (0x049, 24, ("ops",)),
     "FT_SENSOR": (0x038, 20, ("axis_b",)),
     "CTRL_STATUS": (0x100, 32, ("ops",)),
     "CTRL_MONITOR": (0x101, 64, ("ops",)),
@@ -408,7 +408,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "38.0 %" in text and "46.2 %" in text and "46.0 %" in text
+    assert "38.0 %" in text and "46.2 %" in text and "46.3 %" in text
 
 
 def test_doc_cli_check(tmp_path):
@@ -443,4 +443,4 @@ def test_force_params_ranges_are_refused_by_name(proto):
         lo, hi = pr.FORCE_PARAM_RANGES[s.name.lower()]
         assert (s.minimum, s.maximum) == (lo, hi), s.name
     data = proto.encode("OP_FORCE_PARAMS", pr.force_params_signals(4, "FORCE", 40.0, 5e5, 0.0), 0)
-    assert data.hex() == "0410900150c300000000002a"
+    assert data.hex() == "0410900150c300000000000000000000000000000000ac27"  # auth fields 0 until signed

@@ -114,6 +114,7 @@ def test_c_signs_like_python():
     L = lib()
     rng = random.Random(17)
     n = 0
+    signed = set()
     for vec in VECTORS["vectors"]:
         s = _signer()
         if vec["frame_id"] not in s.layout:
@@ -138,7 +139,9 @@ def test_c_signs_like_python():
             assert L.sp_proto_sign(C.byref(f2), k2, C.c_uint32(session), C.c_uint32(counter)) == 0
             assert bytes(f2.data[: f2.len]) != want
             n += 1
-    assert n >= 3 * 3 * 40
+            signed.add(vec["message"])
+    assert signed == {"OP_COMMAND", "OP_TARGET_POSE", "OP_FORCE", "OP_FORCE_PARAMS"}
+    assert n >= 4 * 3 * 40
     # counter 0 is never valid; a message without the fields is refused
     f = frame(0x060, bytes(4))
     assert L.sp_proto_sign(C.byref(f), (C.c_uint8 * 16)(), C.c_uint32(1), C.c_uint32(1)) != 0

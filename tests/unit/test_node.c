@@ -161,6 +161,7 @@ static void send_force_params(rig_t *r, uint8_t mask, double mass, int32_t dampi
     sp_msg_force_params_t m = {mask, 1u, (sp_q16_t)(mass * 65536.0), damping, stiffness};
     sp_can_frame_t f;
     assert_int_equal(sp_proto_encode_force_params(&m, r->params_counter++, &f), SP_OK);
+    sign(r, &f);
     assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
 }
 
@@ -791,7 +792,7 @@ static void test_force_params_frames(void **state)
     sp_msg_force_params_t m = {0x07u, 2u, (sp_q16_t)(35.5 * 65536.0), 2500, 1000}, back;
     assert_int_equal(sp_proto_encode_force_params(&m, 3u, &f), SP_OK);
     assert_int_equal(f.id, SP_ID_OP_FORCE_PARAMS);
-    assert_int_equal(f.len, 12u);
+    assert_int_equal(f.len, 24u);
     assert_int_equal(sp_proto_decode_force_params(&f, &back, &counter, &why), SP_OK);
     assert_int_equal(counter, 3u);
     assert_int_equal(back.mask, m.mask);
@@ -831,6 +832,100 @@ static void test_force_params_frames(void **state)
     f.bus = SP_BUS_AXIS_A;
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_WRONG_BUS);
+}
+
+/* OP_FORCE_PARAMS is authenticated as OP_FORCE (docs/security.md): without
+ * a code, under another key or another session it is a bad tag, a genuine
+ * frame sent again is a replay, a keyless node says no-key; each is counted,
+ * the admittance keeps its parameters and the genuine operator's next frame
+ * (next counter, next alive counter) is taken and reaches the admittance. */
+static void test_force_params_auth_over_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    sp_can_frame_t f;
+    sp_proto_error_t why;
+    sp_auth_key_t other;
+    rig_init(&r);
+    for (uint32_t i = 0; i < SP_AUTH_KEY_BYTES; i++) {
+        other.k[i] = (uint8_t)(r.key.k[i] ^ (i == 9u ? 0x80u : 0x00u)); /* one bit off */
+    }
+    rig_tick(&r);
+    const int32_t damping0 = r.node.ctrl.prep.force.admit.axis[2].damping;
+    sp_msg_force_params_t m = {0x04u, 1u, 40 * 65536, 500000, 0};
+    assert_true(damping0 != m.damping);
+    /* no code: the encoder's frame as it is */
+    assert_int_equal(sp_proto_encode_force_params(&m, r.params_counter, &f), SP_OK);
+    assert_int_equal(sp_proto_frame_needs_auth(&f), 1);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    /* another key; the right key and another session */
+    assert_int_equal(sp_proto_sign(&f, &other, RIG_SESSION, 1u), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    assert_int_equal(sp_proto_sign(&f, &r.key, RIG_SESSION + 1u, 1u), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    /* a genuine code on a changed payload (the damping's bytes 4..6) */
+    assert_int_equal(sp_proto_encode_force_params(&m, r.params_counter, &f), SP_OK);
+    sign(&r, &f);
+    f.data[4] ^= 0x01u;
+    assert_int_equal(sp_e2e_seal(&f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    rig_tick(&r);
+    assert_int_equal(r.node.force_params_fresh, 0u);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].damping, damping0);
+    assert_int_equal(r.node.auth.last, 0u);
+    /* the genuine frame (the alive counter none of the refused ones used up): taken */
+    assert_int_equal(sp_proto_encode_force_params(&m, r.params_counter++, &f), SP_OK);
+    sign(&r, &f);
+    const sp_can_frame_t recorded = f;
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_OK);
+    assert_int_equal(r.node.auth.last, r.auth_counter);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 0u);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].damping, 500000);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].mass, 40 * 65536);
+    /* its replay: refused as such, even with another set's values re-sealed
+     * (the code no longer checks then: a bad tag) */
+    assert_int_equal(sp_node_receive(&r.node, &recorded, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_REPLAYED);
+    f = recorded;
+    f.data[4] = 0x10u;
+    assert_int_equal(sp_e2e_seal(&f), SP_OK);
+    assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_BAD_TAG);
+    rig_tick(&r);
+    assert_int_equal(r.node.force_params_fresh, 0u);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].damping, 500000);
+    /* 5 bad tags, 1 replay, counted and in CTRL_AUTH */
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_AUTH_BAD_TAG], 5u);
+    assert_int_equal(r.node.stats.rejected[SP_PROTO_AUTH_REPLAYED], 1u);
+    for (uint32_t t = 0; t < SP_PROTO_AUTH_PERIOD; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.auth.bad_tag, 5u);
+    assert_int_equal(r.auth.replayed, 1u);
+    /* the next genuine set is still taken */
+    send_force_params(&r, 0x04u, 20.0, 2000000, 0);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 0u);
+    assert_int_equal(r.node.ctrl.prep.force.admit.axis[2].damping, 2000000);
+
+    /* a keyless node: no-key, counted, nothing taken */
+    static rig_t n;
+    rig_init(&n);
+    n.cfg.auth_key = NULL;
+    assert_int_equal(sp_node_init(&n.node, &n.cfg), SP_OK);
+    rig_tick(&n);
+    assert_int_equal(sp_proto_encode_force_params(&m, n.params_counter++, &f), SP_OK);
+    sign(&n, &f);
+    assert_int_equal(sp_node_receive(&n.node, &f, &why), SP_E_FRAME);
+    assert_int_equal(why, SP_PROTO_AUTH_NO_KEY);
+    assert_int_equal(n.node.stats.rejected[SP_PROTO_AUTH_NO_KEY], 1u);
+    rig_tick(&n);
+    assert_int_equal(n.node.ctrl.prep.force.admit.axis[2].damping, damping0);
 }
 
 /* Command authentication over frames (docs/security.md): a stranger's
@@ -982,6 +1077,7 @@ int main(void)
         cmocka_unit_test(test_operator_heartbeat_over_frames),
         cmocka_unit_test(test_force_commands_over_frames),
         cmocka_unit_test(test_auth_over_frames),
+        cmocka_unit_test(test_force_params_auth_over_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -116,7 +116,7 @@ def run_key(directory: str | Path) -> Path:
 
 class Signer:
     """Signs the operator's authenticated frames (OP_COMMAND but NONE, STOP,
-    PARK, ESTOP; OP_TARGET_POSE; OP_FORCE) with the machine key, the
+    PARK, ESTOP; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) with the machine key, the
     controller's session and the next counter; the layout (AuthCounter,
     AuthTag) comes from the DBC. ``session`` None: not known yet."""
 

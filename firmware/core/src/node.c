@@ -160,6 +160,22 @@ static sp_proto_error_t authenticate(sp_node_t *node, const sp_can_frame_t *f)
     }
 }
 
+/* The checks of a decoded operator frame (identifier, length, CRC and ranges
+ * checked): its authentication code when it must carry one
+ * (sp_proto_frame_needs_auth: the authenticated messages' table), then its
+ * alive counter. A stranger's frames fail the first and so never touch the
+ * genuine operator's E2E sequence. SP_PROTO_OK when the frame may be used. */
+static sp_proto_error_t admit(sp_node_t *node, const sp_can_frame_t *f, sp_e2e_rx_t *rx, uint8_t counter)
+{
+    if (sp_proto_frame_needs_auth(f)) {
+        sp_proto_error_t e = authenticate(node, f);
+        if (e != SP_PROTO_OK) {
+            return e;
+        }
+    }
+    return sequence(node, rx, counter);
+}
+
 static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
 {
     sp_proto_error_t e = SP_PROTO_OK;
@@ -169,17 +185,12 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         if (sp_proto_decode_command(f, &m, &counter, &e) != SP_OK) {
             return reject(node, e, why);
         }
-        if (sp_proto_command_needs_auth(m.command)) {
-            e = authenticate(node, f);
-            if (e != SP_PROTO_OK) {
-                return reject(node, e, why);
-            }
-        }
-        e = sequence(node, &node->rx_command, counter);
+        e = admit(node, f, &node->rx_command, counter);
         /* ESTOP, STOP and PARK (a valid CRC) are taken even when their
          * alive counter repeats or jumps: a second operator process, a
          * resent emergency stop, any node on the bus (they carry no
-         * authentication code either). Refusing a stop is never the safe side. */
+         * authentication code either, so e can only be the counter's).
+         * Refusing a stop is never the safe side. */
         if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK) {
             return reject(node, e, why);
         }
@@ -201,11 +212,7 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         if (sp_proto_decode_target(f, &pose, &counter, &e) != SP_OK) {
             return reject(node, e, why);
         }
-        e = authenticate(node, f);
-        if (e != SP_PROTO_OK) {
-            return reject(node, e, why);
-        }
-        e = sequence(node, &node->rx_target, counter);
+        e = admit(node, f, &node->rx_target, counter);
         if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }
@@ -219,7 +226,7 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         if (sp_proto_decode_heartbeat(f, &counter, &e) != SP_OK) {
             return reject(node, e, why);
         }
-        e = sequence(node, &node->rx_heartbeat, counter);
+        e = admit(node, f, &node->rx_heartbeat, counter);
         if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }
@@ -232,11 +239,7 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         if (sp_proto_decode_force(f, &m, &counter, &e) != SP_OK) {
             return reject(node, e, why);
         }
-        e = authenticate(node, f);
-        if (e != SP_PROTO_OK) {
-            return reject(node, e, why);
-        }
-        e = sequence(node, &node->rx_force, counter);
+        e = admit(node, f, &node->rx_force, counter);
         if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }
@@ -250,7 +253,7 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         if (sp_proto_decode_force_params(f, &m, &counter, &e) != SP_OK) {
             return reject(node, e, why); /* out-of-range parameters: counted by name */
         }
-        e = sequence(node, &node->rx_force_params, counter);
+        e = admit(node, f, &node->rx_force_params, counter);
         if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }

@@ -950,30 +950,50 @@ sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint
 }
 
 /* ---- command authentication (docs/security.md) ---- */
+/* The authenticated messages, one row each: their fields' offsets are
+ * generated from the DBC (gen_can_c.py). A message the table lacks is not
+ * authenticated: sp_proto_frame_needs_auth, the signer and the node's check
+ * all read this table. */
+static const struct {
+    uint32_t id;
+    sp_proto_auth_layout_t lay;
+} auth_messages[] = {
+    {SP_ID_OP_COMMAND,
+     {STEWART_CAN_OP_COMMAND_LENGTH, SP_CAN_OP_COMMAND_AUTH_COUNTER_BYTE, SP_CAN_OP_COMMAND_AUTH_TAG_BYTE,
+      SP_CAN_OP_COMMAND_AUTH_TAG_BYTES}},
+    {SP_ID_OP_TARGET_POSE,
+     {STEWART_CAN_OP_TARGET_POSE_LENGTH, SP_CAN_OP_TARGET_POSE_AUTH_COUNTER_BYTE, SP_CAN_OP_TARGET_POSE_AUTH_TAG_BYTE,
+      SP_CAN_OP_TARGET_POSE_AUTH_TAG_BYTES}},
+    {SP_ID_OP_FORCE,
+     {STEWART_CAN_OP_FORCE_LENGTH, SP_CAN_OP_FORCE_AUTH_COUNTER_BYTE, SP_CAN_OP_FORCE_AUTH_TAG_BYTE,
+      SP_CAN_OP_FORCE_AUTH_TAG_BYTES}},
+    {SP_ID_OP_FORCE_PARAMS,
+     {STEWART_CAN_OP_FORCE_PARAMS_LENGTH, SP_CAN_OP_FORCE_PARAMS_AUTH_COUNTER_BYTE,
+      SP_CAN_OP_FORCE_PARAMS_AUTH_TAG_BYTE, SP_CAN_OP_FORCE_PARAMS_AUTH_TAG_BYTES}},
+};
+
 sp_status_t sp_proto_auth_layout(uint32_t id, sp_proto_auth_layout_t *lay)
 {
     if (lay == NULL) {
         return SP_E_ARG;
     }
-    if (id == SP_ID_OP_COMMAND) {
-        lay->length = STEWART_CAN_OP_COMMAND_LENGTH;
-        lay->counter_byte = SP_CAN_OP_COMMAND_AUTH_COUNTER_BYTE;
-        lay->tag_byte = SP_CAN_OP_COMMAND_AUTH_TAG_BYTE;
-        lay->tag_bytes = SP_CAN_OP_COMMAND_AUTH_TAG_BYTES;
-    } else if (id == SP_ID_OP_TARGET_POSE) {
-        lay->length = STEWART_CAN_OP_TARGET_POSE_LENGTH;
-        lay->counter_byte = SP_CAN_OP_TARGET_POSE_AUTH_COUNTER_BYTE;
-        lay->tag_byte = SP_CAN_OP_TARGET_POSE_AUTH_TAG_BYTE;
-        lay->tag_bytes = SP_CAN_OP_TARGET_POSE_AUTH_TAG_BYTES;
-    } else if (id == SP_ID_OP_FORCE) {
-        lay->length = STEWART_CAN_OP_FORCE_LENGTH;
-        lay->counter_byte = SP_CAN_OP_FORCE_AUTH_COUNTER_BYTE;
-        lay->tag_byte = SP_CAN_OP_FORCE_AUTH_TAG_BYTE;
-        lay->tag_bytes = SP_CAN_OP_FORCE_AUTH_TAG_BYTES;
-    } else {
-        return SP_E_ARG;
+    for (uint32_t i = 0; i < (uint32_t)(sizeof auth_messages / sizeof auth_messages[0]); i++) {
+        if (auth_messages[i].id == id) {
+            *lay = auth_messages[i].lay;
+            return SP_OK;
+        }
     }
-    return SP_OK;
+    return SP_E_ARG;
+}
+
+int sp_proto_frame_needs_auth(const sp_can_frame_t *f)
+{
+    sp_proto_auth_layout_t lay;
+    if (f == NULL || sp_proto_auth_layout(f->id, &lay) != SP_OK) {
+        return 0;
+    }
+    /* OP_COMMAND's Command is its first byte (the DBC: bits 0-7) */
+    return f->id != SP_ID_OP_COMMAND || (f->len > 0u && sp_proto_command_needs_auth(f->data[0]));
 }
 
 int sp_proto_command_needs_auth(uint8_t command)

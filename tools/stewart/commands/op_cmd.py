@@ -373,9 +373,15 @@ def _send_params(node, args, mask, params) -> int:
     sent = node.send_force_params(mask, mode, *params)
     try:
         node.wait_for("FORCE_PARAMS", lambda s: True, _t(args, 5.0), mark, st, sent, settle=20)
-    except Refused:
-        _err(f"{args.op}: admittance parameters refused (force control is {node.status.force_mode}: "
-             "they change only in position control)")
+    except Refused as e:
+        why = node.auth_reason()  # signed as OP_FORCE: a rejection for the code says why
+        if why is not None:
+            _err(f"{args.op}: admittance parameters rejected: {why}")
+        elif node.status.force_mode != "OFF":
+            _err(f"{args.op}: admittance parameters refused (force control is {node.status.force_mode}: "
+                 "they change only in position control)")
+        else:
+            _err(f"{args.op}: admittance parameters {e}")
         return 1
     print(f"{mode} parameters: mass {params[0]:g}, damping {params[1]:g}, stiffness {params[2]:g} "
           f"(axes mask {mask})")

@@ -196,8 +196,9 @@ sp_status_t sp_proto_encode_auth(const sp_msg_auth_t *m, uint8_t counter, sp_can
  *  or length and a bad CRC; SP_E_ARG on NULL. */
 sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint8_t *counter, sp_proto_error_t *error);
 
-/** Where an authenticated message (OP_COMMAND, OP_TARGET_POSE, OP_FORCE)
- *  keeps its authentication fields: byte offsets generated from the DBC. */
+/** Where an authenticated message (OP_COMMAND, OP_TARGET_POSE, OP_FORCE,
+ *  OP_FORCE_PARAMS) keeps its authentication fields: byte offsets generated
+ *  from the DBC. */
 typedef struct {
     uint32_t length;       /**< the message's length, bytes */
     uint32_t counter_byte; /**< AuthCounter: the counter's low 16 bits, little-endian */
@@ -214,9 +215,16 @@ sp_status_t sp_proto_auth_layout(uint32_t id, sp_proto_auth_layout_t *lay);
  *  authentication: any node may stop the platform); 0 otherwise. */
 int sp_proto_command_needs_auth(uint8_t command);
 
+/** 1 when frame `f` must carry a valid authentication code: its identifier
+ *  is an authenticated message's (sp_proto_auth_layout) and, for
+ *  OP_COMMAND, its Command needs it (sp_proto_command_needs_auth); 0
+ *  otherwise and for NULL. Looks at the identifier and OP_COMMAND's first
+ *  byte only: the frame's CRC and length are the decoder's to check. */
+int sp_proto_frame_needs_auth(const sp_can_frame_t *f);
+
 /**
  * Signs an encoded authenticated frame (OP_COMMAND, OP_TARGET_POSE,
- * OP_FORCE, as its encoder made it): writes the counter's low 16 bits and
+ * OP_FORCE, OP_FORCE_PARAMS, as its encoder made it): writes the counter's low 16 bits and
  * the code (sp_auth_tag over the bytes before the tag, under `key`, with
  * `session` and the full `counter`), then seals the CRC again. SP_E_ARG for
  * NULL, another message or length, or counter 0 (never valid).
@@ -248,7 +256,8 @@ sp_status_t sp_proto_encode_monitor(const sp_msg_monitor_t *m, uint8_t counter, 
 sp_status_t sp_proto_encode_wrench(const sp_msg_wrench_t *m, uint8_t counter, sp_can_frame_t *f);
 
 /**
- * OP_FORCE (ID 0x048, 20 bytes, ops bus, CRC-16): the mask, then each
+ * OP_FORCE (ID 0x048, 32 bytes, ops bus, CRC-16; authenticated: the
+ * encoder leaves AuthCounter and AuthTag 0, sp_proto_sign fills them): the mask, then each
  * target component rounded to the nearest 1/32 N or N m (Q8 / 8, ties away
  * from zero). A component beyond +-16383.97 (SP_PROTO_FT_MAX_Q8) is
  * saturated, never wrapped, and the call returns SP_E_RANGE (the frame is
@@ -266,7 +275,8 @@ sp_status_t sp_proto_decode_force(const sp_can_frame_t *f, sp_msg_force_t *m, ui
                                   sp_proto_error_t *error);
 
 /**
- * OP_FORCE_PARAMS (ID 0x049, 12 bytes, ops bus, CRC-8): mask, mode, the
+ * OP_FORCE_PARAMS (ID 0x049, 24 bytes, ops bus, CRC-16; authenticated as
+ * OP_FORCE: sp_proto_sign fills AuthCounter and AuthTag): mask, mode, the
  * mass rounded to 0.1 kg, the damping to 10 N s/m (ties away from zero),
  * the stiffness in N/m. SP_E_ARG on NULL, a mask of 0 or above 63, a mode
  * other than 1 or 2, or a value outside the documented ranges (nothing is
