@@ -185,8 +185,8 @@ static hold_t run_hold(double k_e, double seconds, double remove_at, int32_t k_c
     }
     sp_admit_t st;
     assert_int_equal(sp_admit_configure(&c, &st), SP_OK);
-    sp_contact_config_t cc = {q8(100.0), SP_Q30_ONE / 2, 2u, 1u, q8(20000.0)};
-    sp_contact_t cs = {0u, 0u, 0u, 0u};
+    sp_contact_config_t cc = {q8(100.0), SP_Q30_ONE / 2, 2u, 1u, q8(20000.0), 0, 0u};
+    sp_contact_t cs = {0u, 0u, 0u, 0u, 0};
     sp_wrench_t filt;
     sp_wrench_reset(&filt);
     int32_t sec[SP_WRENCH_SECTIONS] = {0};
@@ -361,8 +361,8 @@ static void test_release_is_critically_damped(void **state)
 static void test_contact_events(void **state)
 {
     (void)state;
-    sp_contact_config_t cc = {q8(100.0), SP_Q30_ONE / 4, 3u, 1u, q8(5000.0)};
-    sp_contact_t cs = {0u, 0u, 0u, 0u};
+    sp_contact_config_t cc = {q8(100.0), SP_Q30_ONE / 4, 3u, 1u, q8(5000.0), 0, 0u};
+    sp_contact_t cs = {0u, 0u, 0u, 0u, 0};
     sp_q8_t w[SP_AXES] = {0}, t[SP_AXES] = {0};
     t[2] = q8(-2000.0); /* push down */
     w[2] = q8(50.0);    /* the world pushes up, below the threshold */
@@ -571,8 +571,8 @@ static void test_contact_equals_plain(void **state)
     for (int run = 0; run < 300; ++run) {
         sp_contact_config_t cc = {q8(tu_uniform(&rng, 10.0, 300.0)), (sp_q30_t)(tu_next(&rng) % (uint64_t)SP_Q30_ONE),
                                   (uint8_t)(1u + tu_next(&rng) % 5u), (uint8_t)(tu_next(&rng) % 30u),
-                                  q8(tu_uniform(&rng, 3000.0, 20000.0))};
-        sp_contact_t a = {0u, 0u, 0u, 0u}, b = {0u, 0u, 0u, 0u};
+                                  q8(tu_uniform(&rng, 3000.0, 20000.0)), 0, 0u};
+        sp_contact_t a = {0u, 0u, 0u, 0u, 0}, b = {0u, 0u, 0u, 0u, 0};
         sp_q8_t t[SP_AXES] = {0}, w[SP_AXES] = {0};
         for (unsigned k = 0; k < 3u; ++k) {
             t[k] = (tu_next(&rng) % 5u == 0u) ? 0 : q8(tu_uniform(&rng, -4000.0, 4000.0));
@@ -595,7 +595,7 @@ static void test_contact_equals_plain(void **state)
         }
     }
     assert_true(events > 1000);
-    sp_contact_t cs = {0u, 0u, 0u, 0u};
+    sp_contact_t cs = {0u, 0u, 0u, 0u, 0};
     sp_q8_t w0[SP_AXES] = {0};
     assert_int_equal(sp_contact_step_to(NULL, &cs, w0, NULL), 0u);
 }

@@ -83,12 +83,22 @@ sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, con
         cfg->force.contact.made = SP_CONTACT_MADE_CYLINDERS_Q8;
         cfg->force.contact.lost_ratio = SP_CONTACT_LOST_CYLINDERS_Q30;
         cfg->force.admit.crossover = SP_CROSSOVER_CYLINDERS_Q16;
+        cfg->force.contact.made_slow = SP_CONTACT_MADE_SLOW_CYLINDERS_Q8;
+        cfg->force.contact.slow_shift = SP_CONTACT_SLOW_SHIFT_CYLINDERS;
+        cfg->force.admit.secant_margin = SP_SECANT_MARGIN_CYLINDERS_Q8;
+        cfg->force.admit.boost = SP_BOOST_CYLINDERS;
+        cfg->force.admit.boost_band = SP_BOOST_BAND_CYLINDERS_Q8;
     } else {
         sp_force_config_t d;
         (void)sp_force_default_config(&d, SP_Q30_ONE, cfg->tick_us);
         cfg->force.contact.made = d.contact.made;
         cfg->force.contact.lost_ratio = d.contact.lost_ratio;
         cfg->force.admit.crossover = d.admit.crossover;
+        cfg->force.contact.made_slow = d.contact.made_slow;
+        cfg->force.contact.slow_shift = d.contact.slow_shift;
+        cfg->force.admit.secant_margin = d.admit.secant_margin;
+        cfg->force.admit.boost = d.admit.boost;
+        cfg->force.admit.boost_band = d.admit.boost_band;
     }
     return SP_OK;
 }

@@ -31,11 +31,16 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     cfg->admit.secant_travel = SP_Q24_ONE / 100000; /* 10 um */
     cfg->admit.filter_alpha = filter_alpha;
     cfg->admit.tick_us = tick_us;
+    cfg->admit.secant_margin = 0;
+    cfg->admit.boost = 0u;
+    cfg->admit.boost_band = 0;
     cfg->contact.made = 100 * SP_Q8_ONE;
     cfg->contact.lost_ratio = SP_Q30_ONE / 2;
     cfg->contact.lost_ticks = 2u;
     cfg->contact.arm_ticks = 100u;
     cfg->contact.excess = 10000 * SP_Q8_ONE;
+    cfg->contact.made_slow = 0;
+    cfg->contact.slow_shift = 0u;
     cfg->target_max_force = 8000 * SP_Q8_ONE;
     cfg->target_max_moment = 1000 * SP_Q8_ONE;
     cfg->settled = SP_Q24_ONE / 1000000; /* 1 um */
@@ -59,6 +64,7 @@ sp_status_t sp_force_reset(sp_force_t *f)
     f->contact.armed = 0u;
     f->contact.low = 0u;
     f->contact.high = 0u;
+    f->contact.slow = 0;
     return SP_OK;
 }
 
