@@ -293,10 +293,19 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
             const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
             /* held within +-2^30: a 32 x 32-bit product */
             int64_t f = forced ? clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
-            if (forced && cfg->boost > 1u && s->k_hat > 0) {
-                /* far from the target the error counts boost times */
+            if (forced && cfg->boost > 1u && s->k_hat > 0 && x_meas != NULL) {
+                /* far from the target the error counts boost times, while
+                 * the force the reference will make once the platform has
+                 * caught up with it (k_hat times the reference's lead on
+                 * the filtered pose, Q24 x N/m -> Q8) is far from it too:
+                 * on a stiff surface the drives lag and the boost would
+                 * wind the reference up past the target */
                 int64_t band = cfg->boost_band;
-                int64_t ex = (f > band) ? f - band : ((f < -band) ? f + band : 0);
+                int64_t lead = (int64_t)s->d - s->x_f[3];
+                int64_t fp = clamp64(f - (((int64_t)s->k_hat * lead + (INT64_C(1) << 15)) >> 16), WRENCH_MAX);
+                int64_t e1 = (f > band) ? f - band : ((f < -band) ? f + band : 0);
+                int64_t e2 = (fp > band) ? fp - band : ((fp < -band) ? fp + band : 0);
+                int64_t ex = (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
                 f = clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
             }
             v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +

@@ -253,9 +253,13 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
     }
     bounds(cfg, lim, &pos_ref->pose, moving, lo, hi);
     if (x_meas != NULL) {
+        /* the measured pose less the position reference: what d would be
+         * with the platform on the reference (the secant's changes, the
+         * reference's lead) */
+        sp_flags_t flags = 0u; /* saturation is the documented result */
         for (unsigned k = 0; k < 3u; ++k) {
-            x[k] = x_meas->pos[k];
-            x[3u + k] = x_meas->rpy[k];
+            x[k] = spi_sub(x_meas->pos[k], pos_ref->pose.pos[k], &flags);
+            x[3u + k] = spi_sub(x_meas->rpy[k], pos_ref->pose.rpy[k], &flags);
         }
     }
     uint8_t contact = f->contact.made ? f->mask : 0u;
