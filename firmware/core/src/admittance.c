@@ -112,8 +112,8 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
 {
     if (cfg == NULL || st == NULL || cfg->crossover <= 0 || cfg->k_min < 1 || cfg->k_max < cfg->k_min ||
         cfg->secant_force <= 0 || cfg->secant_travel <= 0 || cfg->filter_alpha <= 0 || cfg->filter_alpha > SP_Q30_ONE ||
-        cfg->secant_margin < 0 || cfg->boost > 16u || cfg->boost_band < 0 ||
-        cfg->tick_us < 100u || cfg->tick_us > TICK_MAX_US) {
+        cfg->secant_margin < 0 || cfg->boost > 16u || cfg->boost_band < 0 || cfg->tick_us < 100u ||
+        cfg->tick_us > TICK_MAX_US) {
         return SP_E_ARG;
     }
     sp_admit_t fresh;
@@ -305,7 +305,8 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                 int64_t fp = clamp64(f - (((int64_t)s->k_hat * lead + (INT64_C(1) << 15)) >> 16), WRENCH_MAX);
                 int64_t e1 = (f > band) ? f - band : ((f < -band) ? f + band : 0);
                 int64_t e2 = (fp > band) ? fp - band : ((fp < -band) ? fp + band : 0);
-                int64_t ex = (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
+                int64_t ex =
+                    (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
                 f = clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
             }
             v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +
