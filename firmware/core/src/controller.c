@@ -910,6 +910,33 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     }
 }
 
+/* In contact under force control the legs carry the push too: with the
+ * force feed-forward on, each leg's force setpoint gets its share of the
+ * wrench force control holds against (J^-T of minus the wrench it uses,
+ * through the reference's factorisation), so the drives do not have to
+ * build the contact force from a position error (on a stiff surface they
+ * lagged the reference by tens of um, hundreds of N, for a second). */
+static void contact_feedforward(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const int32_t *w,
+                                sp_ctrl_output_t *out)
+{
+    int64_t b[SP_LEGS], f[SP_LEGS];
+    unsigned i;
+    if (w == NULL || !cfg->force_feedforward || ctrl->force.mode != SP_FORCE_FORCE || !ctrl->force.contact.made ||
+        !ctrl->est.ref_lu.valid || !ctrl->have_setpoint) {
+        return;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        b[i] = -(int64_t)w[i] * 65536; /* Q8 -> Q24: within 2^55 */
+    }
+    if (sp_lu6_solve(&ctrl->est.ref_lu, b, f) != SP_OK) {
+        return;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        int64_t v = (int64_t)out->setpoint[i].force + spi_round_away(f[i], 16u); /* Q24 -> Q8 */
+        out->setpoint[i].force = (sp_q8_t)((v > INT32_MAX) ? INT32_MAX : ((v < INT32_MIN) ? INT32_MIN : v));
+    }
+}
+
 static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uint32_t fk_iterations, int rejected,
                          sp_ctrl_output_t *out)
 {
@@ -918,6 +945,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     for (i = 0u; i < SP_LEGS; ++i) {
         out->setpoint[i] = ctrl->setpoint[i];
     }
+    contact_feedforward(cfg, ctrl, w, out);
     out->drive_mode = (ctrl->state == SP_STATE_IDLE || ctrl->state == SP_STATE_ESTOP ||
                        (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
                           ? SP_DRIVE_HOLD
