@@ -44,14 +44,15 @@ def scenario(stiffness: float, hold: float) -> str:
             + "end\n")
 
 
-def run_one(hs_sim: Path, out: Path, source: str, stiffness: float, hold: float) -> dict:
+def run_one(hs_sim: Path, out: Path, source: str, stiffness: float, hold: float, seed: int | None = None) -> dict:
     key = auth.run_key(out).resolve()
-    name = f"{source}_{stiffness:g}"
+    name = f"{source}_{stiffness:g}" + (f"_s{seed}" if seed is not None else "")
     scn = out / f"{name}.scenario"
     scn.write_text(scenario(stiffness, hold))
     log, truth = out / f"{name}.log", out / f"{name}.truth.csv"
     p = subprocess.run([str(hs_sim), "--inproc", "--wrench-source", source, "--scenario", str(scn),
-                        "--log", str(log), "--truth", str(truth), "--key", str(key), "--session", "1"],
+                        "--log", str(log), "--truth", str(truth), "--key", str(key), "--session", "1"]
+                       + (["--seed", str(seed)] if seed is not None else []),
                        capture_output=True, text=True, check=False)
     if p.returncode != 0:
         return {"error": f"hs_sim exited {p.returncode}: {p.stdout[-500:]}{p.stderr[-500:]}"}
@@ -73,6 +74,7 @@ def main() -> int:
     ap.add_argument("--sources", default="sensor,cylinders")
     ap.add_argument("--stiffness", default="1e5,1e6,1e7")
     ap.add_argument("--hold", type=float, default=2.0)
+    ap.add_argument("--seeds", default="", help="comma-separated hs_sim --seed values (default: hs_sim's)")
     a = ap.parse_args()
     hs_sim = Path(a.build) / "host_sim" / "hs_sim"
     out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="force_hold_"))
@@ -81,9 +83,10 @@ def main() -> int:
     print("| source | surface | RMS error | overshoot | p-p, last second | contact flag after true 100 N "
           "| removal: detected | travel after it |")
     print("|---|---|---|---|---|---|---|---|")
+    seeds = [int(x) for x in a.seeds.split(",") if x] or [None]
     for source in a.sources.split(","):
-        for k in (float(s) for s in a.stiffness.split(",")):
-            r = run_one(hs_sim, out, source, k, a.hold)
+        for k, seed in ((float(s), sd) for s in a.stiffness.split(",") for sd in seeds):
+            r = run_one(hs_sim, out, source, k, a.hold, seed)
             if "error" in r:
                 print(f"| {source} | {k:g} N/m | {r['error']} |")
                 continue
@@ -92,7 +95,8 @@ def main() -> int:
                 print(f"| {source} | {k:g} N/m | no contact |")
                 continue
             det = lo["detected_ticks"]
-            print(f"| {source} | {k:.0e} N/m | {h['rms_pct']:.2f} % | {h['overshoot_pct']:.2f} % | "
+            label = f"{k:.0e} N/m" + (f" (seed {seed})" if seed is not None else "")
+            print(f"| {source} | {label} | {h['rms_pct']:.2f} % | {h['overshoot_pct']:.2f} % | "
                   f"{h['pp_pct']:.2f} % | {h['flag_after_truth_ms']} ms | "
                   f"{det if det is not None else 'not'} ticks | {lo['travel_max_mm']:.2f} mm |", flush=True)
     return 0

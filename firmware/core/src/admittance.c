@@ -428,9 +428,10 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
         } else {
             st->high = 0u;
         }
-        /* below the level once armed; before, below made / 2 (or the
-         * low-passed push-back below made_slow / 2) */
-        int below = st->armed ? (dot < level) : (slow_on ? (st->slow < made_slow / 2) : (dot < (made / 2) * t_norm));
+        /* below the level once armed; before, below made / 2 (with
+         * made_slow, and the low-passed push-back below made_slow / 2:
+         * contact made by either level is lost only when both fall) */
+        int below = st->armed ? (dot < level) : ((dot < (made / 2) * t_norm) && (!slow_on || st->slow < made_slow / 2));
         if (below) {
             st->low = (st->low < UINT8_MAX) ? (uint8_t)(st->low + 1u) : st->low;
             if (st->low >= cfg->lost_ticks) {

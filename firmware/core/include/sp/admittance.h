@@ -218,8 +218,9 @@ typedef struct {
      *  low-pass of time constant 2^slow_shift ticks reaches made_slow (a
      *  lower level than made, for a noisy wrench: on a soft surface the
      *  force rises slowly and the filter's lag costs little), and, until
-     *  armed, lost when that filtered push-back falls below made_slow / 2
-     *  (instead of the push-back below made / 2). N, Q8; 0: off */
+     *  armed, lost only when that filtered push-back is below made_slow / 2
+     *  as well as the push-back below made / 2 (contact made by either
+     *  level is lost when both fall). N, Q8; 0: off */
     sp_q8_t made_slow;
     uint8_t slow_shift; /**< see made_slow, 1..12 (0: off) */
 } sp_contact_config_t;
@@ -245,8 +246,9 @@ typedef struct {
  * when p >= made; lost when, in contact, p stays for lost_ticks
  * consecutive ticks below lost_ratio |F_target| once it has reached that
  * level in this contact (armed), or below made / 2 before (the state then
- * leaves contact; with made_slow, the low-passed p against made_slow and
- * made_slow / 2, see sp_contact_config_t); excess
+ * leaves contact; with made_slow, also made when the low-passed p reaches
+ * made_slow, and lost before armed only when it is below made_slow / 2
+ * too, see sp_contact_config_t); excess
  * when |F_ext| > excess, in any state. With F_target = 0 (hand guiding)
  * only excess is checked. Returns the events (0 on NULL). |F| is computed
  * in 64 bits (no overflow for any Q8 input); the comparison of p with the
