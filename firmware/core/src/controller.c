@@ -149,6 +149,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         return st;
     }
     ctrl->park_after_release = 0u;
+    ctrl->contact_ff_cols = 0u;
     sp_motion_at_rest(&ctrl->pos_ref, &p->park);
     sp_ft_tare_reset(&ctrl->ft_tare);
     sp_ft_tare_reset(&ctrl->cyl_tare);
@@ -912,27 +913,60 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 
 /* In contact under force control the legs carry the push too: with the
  * force feed-forward on, each leg's force setpoint gets its share of the
- * wrench force control holds against (J^-T of minus the wrench it uses,
- * through the reference's factorisation), so the drives do not have to
- * build the contact force from a position error (on a stiff surface they
- * lagged the reference by tens of um, hundreds of N, for a second). */
-static void contact_feedforward(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const int32_t *w,
-                                sp_ctrl_output_t *out)
+ * wrench force control holds against on its force-controlled axes (the
+ * columns of J^-T, made once per contact from the reference's
+ * factorisation, one axis a tick, then six products a tick per axis), so
+ * the drives do not have to build the contact force from a position
+ * error: on a stiff surface they lagged the reference by tens of um,
+ * hundreds of N, for a second. */
+static void contact_ff_prepare(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
-    int64_t b[SP_LEGS], f[SP_LEGS];
-    unsigned i;
-    if (w == NULL || !cfg->force_feedforward || ctrl->force.mode != SP_FORCE_FORCE || !ctrl->force.contact.made ||
-        !ctrl->est.ref_lu.valid || !ctrl->have_setpoint) {
+    unsigned k;
+    int64_t b[SP_LEGS] = {0, 0, 0, 0, 0, 0}, f[SP_LEGS];
+    uint8_t todo = (uint8_t)(ctrl->force.mask & (uint8_t)~ctrl->contact_ff_cols);
+    if (!cfg->force_feedforward || ctrl->force.mode != SP_FORCE_FORCE || !ctrl->force.contact.made) {
+        ctrl->contact_ff_cols = 0u;
         return;
     }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        b[i] = -(int64_t)w[i] * 65536; /* Q8 -> Q24: within 2^55 */
+    if (todo == 0u || !ctrl->est.ref_lu.valid) {
+        return;
     }
+    k = 0u;
+    while ((todo & (1u << k)) == 0u) { /* todo != 0: ends below 6 */
+        ++k;
+    }
+    b[k] = INT64_C(1) << 24; /* a unit wrench, Q24 */
     if (sp_lu6_solve(&ctrl->est.ref_lu, b, f) != SP_OK) {
         return;
     }
+    for (unsigned i = 0u; i < SP_LEGS; ++i) {
+        ctrl->contact_ff[k][i] = (int32_t)((f[i] > INT32_MAX) ? INT32_MAX : ((f[i] < INT32_MIN) ? INT32_MIN : f[i]));
+    }
+    ctrl->contact_ff_cols = (uint8_t)(ctrl->contact_ff_cols | (1u << k));
+}
+
+static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_t *w, sp_ctrl_output_t *out)
+{
+    int64_t f[SP_LEGS] = {0, 0, 0, 0, 0, 0};
+    unsigned i, k;
+    uint8_t mask = ctrl->force.mask;
+    if (w == NULL || ctrl->contact_ff_cols == 0u || ctrl->contact_ff_cols != mask ||
+        ctrl->force.mode != SP_FORCE_FORCE) {
+        return;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        if ((mask & (1u << k)) != 0u) {
+            /* the legs push against the world's wrench: -w, held within
+             * 2^28 Q8 (1 MN), times a column: 32 x 32-bit products, six
+             * of them below 2^62 */
+            int32_t wk = (w[k] > (1 << 28)) ? -(1 << 28) : ((w[k] < -(1 << 28)) ? (1 << 28) : -w[k]);
+            for (i = 0u; i < SP_LEGS; ++i) {
+                f[i] += (int64_t)ctrl->contact_ff[k][i] * wk;
+            }
+        }
+    }
     for (i = 0u; i < SP_LEGS; ++i) {
-        int64_t v = (int64_t)out->setpoint[i].force + spi_round_away(f[i], 16u); /* Q24 -> Q8 */
+        int64_t v = (int64_t)out->setpoint[i].force + spi_round_away(f[i], 24u); /* Q24 x Q8 -> Q8 */
         out->setpoint[i].force = (sp_q8_t)((v > INT32_MAX) ? INT32_MAX : ((v < INT32_MIN) ? INT32_MIN : v));
     }
 }
@@ -945,7 +979,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     for (i = 0u; i < SP_LEGS; ++i) {
         out->setpoint[i] = ctrl->setpoint[i];
     }
-    contact_feedforward(cfg, ctrl, w, out);
+    contact_feedforward(ctrl, w, out);
     out->drive_mode = (ctrl->state == SP_STATE_IDLE || ctrl->state == SP_STATE_ESTOP ||
                        (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
                           ? SP_DRIVE_HOLD
@@ -1017,6 +1051,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         }
         have_model = motion_setpoints(cfg, ctrl, &ref, flags);
     }
+    contact_ff_prepare(cfg, ctrl);
     wrench(cfg, ctrl, have_model);
     cylinder_wrench(cfg, ctrl);
     check_divergence(cfg, ctrl);
