@@ -88,6 +88,7 @@ sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, con
         cfg->force.admit.secant_margin = SP_SECANT_MARGIN_CYLINDERS_Q8;
         cfg->force.admit.boost = SP_BOOST_CYLINDERS;
         cfg->force.admit.boost_band = SP_BOOST_BAND_CYLINDERS_Q8;
+        cfg->force.contact_ff = 1u;
     } else {
         sp_force_config_t d;
         (void)sp_force_default_config(&d, SP_Q30_ONE, cfg->tick_us);
@@ -99,6 +100,7 @@ sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, con
         cfg->force.admit.secant_margin = d.admit.secant_margin;
         cfg->force.admit.boost = d.admit.boost;
         cfg->force.admit.boost_band = d.admit.boost_band;
+        cfg->force.contact_ff = d.contact_ff;
     }
     return SP_OK;
 }
@@ -919,12 +921,13 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
  * the drives do not have to build the contact force from a position
  * error: on a stiff surface they lagged the reference by tens of um,
  * hundreds of N, for a second. */
-static void contact_ff_prepare(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
+SPI_NOINLINE static void contact_ff_prepare(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
     unsigned k;
     int64_t b[SP_LEGS] = {0, 0, 0, 0, 0, 0}, f[SP_LEGS];
     uint8_t todo = (uint8_t)(ctrl->force.mask & (uint8_t)~ctrl->contact_ff_cols);
-    if (!cfg->force_feedforward || ctrl->force.mode != SP_FORCE_FORCE || !ctrl->force.contact.made) {
+    if (!cfg->force_feedforward || !ctrl->prep.force.contact_ff || ctrl->force.mode != SP_FORCE_FORCE ||
+        !ctrl->force.contact.made) {
         ctrl->contact_ff_cols = 0u;
         return;
     }
@@ -945,7 +948,7 @@ static void contact_ff_prepare(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     ctrl->contact_ff_cols = (uint8_t)(ctrl->contact_ff_cols | (1u << k));
 }
 
-static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_t *w, sp_ctrl_output_t *out)
+SPI_NOINLINE static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_t *w, sp_ctrl_output_t *out)
 {
     int64_t f[SP_LEGS] = {0, 0, 0, 0, 0, 0};
     unsigned i, k;
@@ -979,7 +982,9 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     for (i = 0u; i < SP_LEGS; ++i) {
         out->setpoint[i] = ctrl->setpoint[i];
     }
-    contact_feedforward(ctrl, w, out);
+    if (ctrl->contact_ff_cols != 0u) {
+        contact_feedforward(ctrl, w, out);
+    }
     out->drive_mode = (ctrl->state == SP_STATE_IDLE || ctrl->state == SP_STATE_ESTOP ||
                        (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
                           ? SP_DRIVE_HOLD
@@ -1051,7 +1056,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         }
         have_model = motion_setpoints(cfg, ctrl, &ref, flags);
     }
-    contact_ff_prepare(cfg, ctrl);
+    if ((ctrl->prep.force.contact_ff && ctrl->force.mode == SP_FORCE_FORCE) || ctrl->contact_ff_cols != 0u) {
+        contact_ff_prepare(cfg, ctrl); /* out of line: position control pays one test */
+    }
     wrench(cfg, ctrl, have_model);
     cylinder_wrench(cfg, ctrl);
     check_divergence(cfg, ctrl);

@@ -44,6 +44,7 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     cfg->target_max_force = 8000 * SP_Q8_ONE;
     cfg->target_max_moment = 1000 * SP_Q8_ONE;
     cfg->settled = SP_Q24_ONE / 1000000; /* 1 um */
+    cfg->contact_ff = 0u;
     return SP_OK;
 }
 
@@ -252,14 +253,20 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         }
     }
     bounds(cfg, lim, &pos_ref->pose, moving, lo, hi);
-    if (x_meas != NULL) {
+    if (x_meas != NULL && cfg->contact_ff) {
         /* the measured pose less the position reference: what d would be
-         * with the platform on the reference (the secant's changes, the
-         * reference's lead) */
+         * with the platform on the reference (the boost's lead; the
+         * secant's changes as with the pose itself while the reference
+         * holds still) */
         sp_flags_t flags = 0u; /* saturation is the documented result */
         for (unsigned k = 0; k < 3u; ++k) {
             x[k] = spi_sub(x_meas->pos[k], pos_ref->pose.pos[k], &flags);
             x[3u + k] = spi_sub(x_meas->rpy[k], pos_ref->pose.rpy[k], &flags);
+        }
+    } else if (x_meas != NULL) {
+        for (unsigned k = 0; k < 3u; ++k) {
+            x[k] = x_meas->pos[k];
+            x[3u + k] = x_meas->rpy[k];
         }
     }
     uint8_t contact = f->contact.made ? f->mask : 0u;

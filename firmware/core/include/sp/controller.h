@@ -393,7 +393,8 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
 
 /** ... and beyond 100 N from the target the force error counts four
  *  times (the loop crosses over at about 24 rad/s far from the target, at
- *  6 rad/s near it, where the estimate's noise matters). */
+ *  6 rad/s near it, where the estimate's noise matters), and the legs'
+ *  force setpoints carry the contact wrench's share (force.contact_ff). */
 #define SP_BOOST_CYLINDERS 4u
 #define SP_BOOST_BAND_CYLINDERS_Q8 (100 * 256)
 
