@@ -292,7 +292,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         } else {
             const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
             /* held within +-2^30: a 32 x 32-bit product */
-            int64_t f = forced ? clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
+            int32_t f = forced ? (int32_t)clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
             if (forced && cfg->boost > 1u && s->k_hat > 0 && x_meas != NULL) {
                 /* far from the target the error counts boost times, while
                  * the force the reference will make once the platform has
@@ -307,7 +307,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                 int64_t e2 = (fp > band) ? fp - band : ((fp < -band) ? fp + band : 0);
                 int64_t ex =
                     (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
-                f = clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
+                f = (int32_t)clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
             }
             v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +
                 (((int64_t)c->c_f * f + (INT64_C(1) << 21)) >> 22) -
@@ -400,16 +400,16 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
     }
     const int64_t t_norm = tp->t_norm;
     int64_t made = (cfg->made > (int32_t)WRENCH_MAX) ? WRENCH_MAX : cfg->made;
-    const int slow_on = cfg->made_slow > 0 && cfg->slow_shift > 0u && cfg->slow_shift <= 12u;
-    int64_t made_slow = 0;
-    if (slow_on) {
-        /* |dot| < 3 2^60 and |slow| <= 2^61 after the clamp: the difference fits */
+    int64_t made_slow = 0; /* made_slow |F_target|, Q16; 0: off */
+    if (cfg->made_slow > 0 && cfg->slow_shift != 0u) {
+        /* |dot| < 3 2^60 and |slow| <= 2^61 after the clamp: the difference
+         * fits; the shift held to 15 */
         int64_t in = clamp64(dot, INT64_C(1) << 61);
-        st->slow += (in - st->slow) / (INT64_C(1) << cfg->slow_shift);
+        st->slow += (in - st->slow) / (INT64_C(1) << (cfg->slow_shift & 15u));
         made_slow = ((cfg->made_slow > (int32_t)WRENCH_MAX) ? WRENCH_MAX : cfg->made_slow) * t_norm;
     }
     if (!st->made) {
-        if (dot >= made * t_norm || (slow_on && st->slow >= made_slow)) {
+        if (dot >= made * t_norm || (made_slow > 0 && st->slow >= made_slow)) {
             st->made = 1u;
             st->armed = 0u;
             st->low = 0u;
@@ -431,8 +431,8 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
         /* below the level once armed; before, below made / 2 (with
          * made_slow, and the low-passed push-back below made_slow / 2:
          * contact made by either level is lost only when both fall) */
-        int below = st->armed ? (dot < level) : ((dot < (made / 2) * t_norm) && (!slow_on || st->slow < made_slow / 2));
-        if (below) {
+        int64_t floor_ = st->armed ? level : (made / 2) * t_norm;
+        if (dot < floor_ && (st->armed || made_slow == 0 || st->slow < made_slow / 2)) {
             st->low = (st->low < UINT8_MAX) ? (uint8_t)(st->low + 1u) : st->low;
             if (st->low >= cfg->lost_ticks) {
                 st->made = 0u;

@@ -222,7 +222,7 @@ typedef struct {
      *  as well as the push-back below made / 2 (contact made by either
      *  level is lost when both fall). N, Q8; 0: off */
     sp_q8_t made_slow;
-    uint8_t slow_shift; /**< see made_slow, 1..12 (0: off) */
+    uint8_t slow_shift; /**< see made_slow, 1..15 (0: off; above 15 the low 4 bits) */
 } sp_contact_config_t;
 
 /** Contact supervision state. */
