@@ -91,8 +91,11 @@ typedef struct {
     sp_q8_t secant_margin;
     /** in contact, with the secant trusted, the part of the force error
      *  beyond boost_band counts `boost` times: the loop crosses over at
-     *  about boost w_c while far from the target and at w_c near it;
-     *  0 or 1: off, at most 16 */
+     *  about boost w_c while far from the target and at w_c near it; only
+     *  the part that the force predicted at the reference shares (the
+     *  wrench plus k_hat times d less the filtered x_meas, so x_meas must
+     *  then be the pose less the position reference, as sp_force_step
+     *  passes it with contact_ff); 0 or 1: off, at most 16 */
     uint8_t boost;
     sp_q8_t boost_band; /**< see boost, N (N m), Q8, >= 0 */
 } sp_admit_config_t;
@@ -184,7 +187,9 @@ sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_
  *   mask     bit k: axis k is force-controlled in SP_ADMIT_FORCE;
  *   w_ext    the filtered wrench the world exerts on the platform, N / N m, Q8;
  *   w_target the wrench the platform is to exert, N / N m, Q8;
- *   x_meas   the measured (estimated) pose, m / rad, Q24, used for the
+ *   x_meas   the measured (estimated) pose, m / rad, Q24 (or the pose
+ *            less the position reference: the secant uses only its
+ *            changes; the boost needs that one), used for the
  *            stiffness secant of the forced axes, whose filter it passes
  *            (primed the first tick an axis is forced; may be NULL: no
  *            adaptation this tick);

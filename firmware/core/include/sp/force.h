@@ -61,7 +61,7 @@ typedef struct {
      *  share to the legs' force setpoints (with its force feed-forward on)
      *  and the admittance gets the measured pose less the position
      *  reference (the boost's lead); 0: neither (the sensor's default: its
-     *  figures do not need it, and a Cortex-M4 tick pays about 300
+     *  figures do not need it, and a Cortex-M4 force tick pays about 370
      *  instructions for it) */
     uint8_t contact_ff;
 } sp_force_config_t;
