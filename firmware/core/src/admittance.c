@@ -112,7 +112,8 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
 {
     if (cfg == NULL || st == NULL || cfg->crossover <= 0 || cfg->k_min < 1 || cfg->k_max < cfg->k_min ||
         cfg->secant_force <= 0 || cfg->secant_travel <= 0 || cfg->filter_alpha <= 0 || cfg->filter_alpha > SP_Q30_ONE ||
-        cfg->tick_us < 100u || cfg->tick_us > TICK_MAX_US) {
+        cfg->secant_margin < 0 || cfg->boost > 16u || cfg->boost_band < 0 || cfg->tick_us < 100u ||
+        cfg->tick_us > TICK_MAX_US) {
         return SP_E_ARG;
     }
     sp_admit_t fresh;
@@ -153,8 +154,15 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, sp_admit_axis_state
     int64_t dw = (int64_t)w - s->w_contact;
     int64_t adx = (dx < 0) ? -dx : dx;
     int64_t adw = (dw < 0) ? -dw : dw;
-    /* the world pushes back: the wrench changes against the travel */
-    if (adx < cfg->secant_travel || adw < cfg->secant_force || (dx > 0) == (dw > 0)) {
+    if (cfg->secant_margin > 0) {
+        /* an upper bound: the change against the travel (none if the noise
+         * shows it along the travel) plus the noise's bound */
+        if (adx < cfg->secant_travel) {
+            return 0;
+        }
+        adw = (((dx > 0) != (dw > 0)) ? adw : 0) + cfg->secant_margin;
+    } else if (adx < cfg->secant_travel || adw < cfg->secant_force || (dx > 0) == (dw > 0)) {
+        /* the world pushes back: the wrench changes against the travel */
         return 0;
     }
     sp_flags_t flags = 0u;
@@ -285,6 +293,22 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
             const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
             /* held within +-2^30: a 32 x 32-bit product */
             int32_t f = forced ? (int32_t)clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
+            if (forced && cfg->boost > 1u && s->k_hat > 0 && x_meas != NULL) {
+                /* far from the target the error counts boost times, while
+                 * the force the reference will make once the platform has
+                 * caught up with it (k_hat times the reference's lead on
+                 * the filtered pose, Q24 x N/m -> Q8) is far from it too:
+                 * on a stiff surface the drives lag and the boost would
+                 * wind the reference up past the target */
+                int64_t band = cfg->boost_band;
+                int64_t lead = (int64_t)s->d - s->x_f[3];
+                int64_t fp = clamp64(f - (((int64_t)s->k_hat * lead + (INT64_C(1) << 15)) >> 16), WRENCH_MAX);
+                int64_t e1 = (f > band) ? f - band : ((f < -band) ? f + band : 0);
+                int64_t e2 = (fp > band) ? fp - band : ((fp < -band) ? fp + band : 0);
+                int64_t ex =
+                    (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
+                f = (int32_t)clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
+            }
             v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +
                 (((int64_t)c->c_f * f + (INT64_C(1) << 21)) >> 22) -
                 (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
@@ -371,12 +395,21 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
         st->armed = 0u;
         st->low = 0u;
         st->high = 0u;
+        st->slow = 0;
         return events;
     }
     const int64_t t_norm = tp->t_norm;
     int64_t made = (cfg->made > (int32_t)WRENCH_MAX) ? WRENCH_MAX : cfg->made;
+    int64_t made_slow = 0; /* made_slow |F_target|, Q16; 0: off */
+    if (cfg->made_slow > 0 && cfg->slow_shift != 0u) {
+        /* |dot| < 3 2^60 and |slow| <= 2^61 after the clamp: the difference
+         * fits; the shift held to 15 */
+        int64_t in = clamp64(dot, INT64_C(1) << 61);
+        st->slow += (in - st->slow) / (INT64_C(1) << (cfg->slow_shift & 15u));
+        made_slow = ((cfg->made_slow > (int32_t)WRENCH_MAX) ? WRENCH_MAX : cfg->made_slow) * t_norm;
+    }
     if (!st->made) {
-        if (dot >= made * t_norm) {
+        if (dot >= made * t_norm || (made_slow > 0 && st->slow >= made_slow)) {
             st->made = 1u;
             st->armed = 0u;
             st->low = 0u;
@@ -395,8 +428,11 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
         } else {
             st->high = 0u;
         }
+        /* below the level once armed; before, below made / 2 (with
+         * made_slow, and the low-passed push-back below made_slow / 2:
+         * contact made by either level is lost only when both fall) */
         int64_t floor_ = st->armed ? level : (made / 2) * t_norm;
-        if (dot < floor_) {
+        if (dot < floor_ && (st->armed || made_slow == 0 || st->slow < made_slow / 2)) {
             st->low = (st->low < UINT8_MAX) ? (uint8_t)(st->low + 1u) : st->low;
             if (st->low >= cfg->lost_ticks) {
                 st->made = 0u;

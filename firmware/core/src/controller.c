@@ -83,12 +83,24 @@ sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, con
         cfg->force.contact.made = SP_CONTACT_MADE_CYLINDERS_Q8;
         cfg->force.contact.lost_ratio = SP_CONTACT_LOST_CYLINDERS_Q30;
         cfg->force.admit.crossover = SP_CROSSOVER_CYLINDERS_Q16;
+        cfg->force.contact.made_slow = SP_CONTACT_MADE_SLOW_CYLINDERS_Q8;
+        cfg->force.contact.slow_shift = SP_CONTACT_SLOW_SHIFT_CYLINDERS;
+        cfg->force.admit.secant_margin = SP_SECANT_MARGIN_CYLINDERS_Q8;
+        cfg->force.admit.boost = SP_BOOST_CYLINDERS;
+        cfg->force.admit.boost_band = SP_BOOST_BAND_CYLINDERS_Q8;
+        cfg->force.contact_ff = 1u;
     } else {
         sp_force_config_t d;
         (void)sp_force_default_config(&d, SP_Q30_ONE, cfg->tick_us);
         cfg->force.contact.made = d.contact.made;
         cfg->force.contact.lost_ratio = d.contact.lost_ratio;
         cfg->force.admit.crossover = d.admit.crossover;
+        cfg->force.contact.made_slow = d.contact.made_slow;
+        cfg->force.contact.slow_shift = d.contact.slow_shift;
+        cfg->force.admit.secant_margin = d.admit.secant_margin;
+        cfg->force.admit.boost = d.admit.boost;
+        cfg->force.admit.boost_band = d.admit.boost_band;
+        cfg->force.contact_ff = d.contact_ff;
     }
     return SP_OK;
 }
@@ -139,6 +151,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         return st;
     }
     ctrl->park_after_release = 0u;
+    ctrl->contact_ff_cols = 0u;
     sp_motion_at_rest(&ctrl->pos_ref, &p->park);
     sp_ft_tare_reset(&ctrl->ft_tare);
     sp_ft_tare_reset(&ctrl->cyl_tare);
@@ -911,6 +924,67 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     }
 }
 
+/* In contact under force control the legs carry the push too: with the
+ * force feed-forward on, each leg's force setpoint gets its share of the
+ * wrench force control holds against on its force-controlled axes (the
+ * columns of J^-T, made once per contact from the reference's
+ * factorisation, one axis a tick, then six products a tick per axis), so
+ * the drives do not have to build the contact force from a position
+ * error: on a stiff surface they lagged the reference by tens of um,
+ * hundreds of N, for a second. */
+SPI_NOINLINE static void contact_ff_prepare(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
+{
+    unsigned k;
+    int64_t b[SP_LEGS] = {0, 0, 0, 0, 0, 0}, f[SP_LEGS];
+    uint8_t todo = (uint8_t)(ctrl->force.mask & (uint8_t)~ctrl->contact_ff_cols);
+    if (!cfg->force_feedforward || !ctrl->prep.force.contact_ff || ctrl->force.mode != SP_FORCE_FORCE ||
+        !ctrl->force.contact.made) {
+        ctrl->contact_ff_cols = 0u;
+        return;
+    }
+    if (todo == 0u || !ctrl->est.ref_lu.valid) {
+        return;
+    }
+    k = 0u;
+    while ((todo & (1u << k)) == 0u) { /* todo != 0: ends below 6 */
+        ++k;
+    }
+    b[k] = INT64_C(1) << 24; /* a unit wrench, Q24 */
+    if (sp_lu6_solve(&ctrl->est.ref_lu, b, f) != SP_OK) {
+        return;
+    }
+    for (unsigned i = 0u; i < SP_LEGS; ++i) {
+        ctrl->contact_ff[k][i] = (int32_t)((f[i] > INT32_MAX) ? INT32_MAX : ((f[i] < INT32_MIN) ? INT32_MIN : f[i]));
+    }
+    ctrl->contact_ff_cols = (uint8_t)(ctrl->contact_ff_cols | (1u << k));
+}
+
+SPI_NOINLINE static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_t *w, sp_ctrl_output_t *out)
+{
+    int64_t f[SP_LEGS] = {0, 0, 0, 0, 0, 0};
+    unsigned i, k;
+    uint8_t mask = ctrl->force.mask;
+    if (w == NULL || ctrl->contact_ff_cols == 0u || ctrl->contact_ff_cols != mask ||
+        ctrl->force.mode != SP_FORCE_FORCE) {
+        return;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        if ((mask & (1u << k)) != 0u) {
+            /* the legs push against the world's wrench: -w, held within
+             * 2^28 Q8 (1 MN), times a column: 32 x 32-bit products, six
+             * of them below 2^62 */
+            int32_t wk = (w[k] > (1 << 28)) ? -(1 << 28) : ((w[k] < -(1 << 28)) ? (1 << 28) : -w[k]);
+            for (i = 0u; i < SP_LEGS; ++i) {
+                f[i] += (int64_t)ctrl->contact_ff[k][i] * wk;
+            }
+        }
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        int64_t v = (int64_t)out->setpoint[i].force + spi_round_away(f[i], 24u); /* Q24 x Q8 -> Q8 */
+        out->setpoint[i].force = (sp_q8_t)((v > INT32_MAX) ? INT32_MAX : ((v < INT32_MIN) ? INT32_MIN : v));
+    }
+}
+
 static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uint32_t fk_iterations, int rejected,
                          sp_ctrl_output_t *out)
 {
@@ -918,6 +992,9 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     unsigned i;
     for (i = 0u; i < SP_LEGS; ++i) {
         out->setpoint[i] = ctrl->setpoint[i];
+    }
+    if (ctrl->contact_ff_cols != 0u) {
+        contact_feedforward(ctrl, w, out);
     }
     out->drive_mode = (ctrl->state == SP_STATE_IDLE || ctrl->state == SP_STATE_ESTOP ||
                        (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
@@ -989,6 +1066,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
             force_control(cfg, ctrl, &ref);
         }
         have_model = motion_setpoints(cfg, ctrl, &ref, flags);
+    }
+    if ((ctrl->prep.force.contact_ff && ctrl->force.mode == SP_FORCE_FORCE) || ctrl->contact_ff_cols != 0u) {
+        contact_ff_prepare(cfg, ctrl); /* out of line: position control pays one test */
     }
     wrench(cfg, ctrl, have_model);
     cylinder_wrench(cfg, ctrl);

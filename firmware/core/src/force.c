@@ -31,14 +31,20 @@ sp_status_t sp_force_default_config(sp_force_config_t *cfg, sp_q30_t filter_alph
     cfg->admit.secant_travel = SP_Q24_ONE / 100000; /* 10 um */
     cfg->admit.filter_alpha = filter_alpha;
     cfg->admit.tick_us = tick_us;
+    cfg->admit.secant_margin = 0;
+    cfg->admit.boost = 0u;
+    cfg->admit.boost_band = 0;
     cfg->contact.made = 100 * SP_Q8_ONE;
     cfg->contact.lost_ratio = SP_Q30_ONE / 2;
     cfg->contact.lost_ticks = 2u;
     cfg->contact.arm_ticks = 100u;
     cfg->contact.excess = 10000 * SP_Q8_ONE;
+    cfg->contact.made_slow = 0;
+    cfg->contact.slow_shift = 0u;
     cfg->target_max_force = 8000 * SP_Q8_ONE;
     cfg->target_max_moment = 1000 * SP_Q8_ONE;
     cfg->settled = SP_Q24_ONE / 1000000; /* 1 um */
+    cfg->contact_ff = 0u;
     return SP_OK;
 }
 
@@ -59,6 +65,7 @@ sp_status_t sp_force_reset(sp_force_t *f)
     f->contact.armed = 0u;
     f->contact.low = 0u;
     f->contact.high = 0u;
+    f->contact.slow = 0;
     return SP_OK;
 }
 
@@ -246,7 +253,17 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
         }
     }
     bounds(cfg, lim, &pos_ref->pose, moving, lo, hi);
-    if (x_meas != NULL) {
+    if (x_meas != NULL && cfg->contact_ff) {
+        /* the measured pose less the position reference: what d would be
+         * with the platform on the reference (the boost's lead; the
+         * secant's changes as with the pose itself while the reference
+         * holds still) */
+        sp_flags_t flags = 0u; /* saturation is the documented result */
+        for (unsigned k = 0; k < 3u; ++k) {
+            x[k] = spi_sub(x_meas->pos[k], pos_ref->pose.pos[k], &flags);
+            x[3u + k] = spi_sub(x_meas->rpy[k], pos_ref->pose.rpy[k], &flags);
+        }
+    } else if (x_meas != NULL) {
         for (unsigned k = 0; k < 3u; ++k) {
             x[k] = x_meas->pos[k];
             x[3u + k] = x_meas->rpy[k];

@@ -83,6 +83,21 @@ typedef struct {
     sp_q24_t secant_travel; /**< |travel| since contact before the secant is trusted, m (rad), Q24, > 0 */
     sp_q30_t filter_alpha;  /**< the wrench filter's section gain (sp_wrench_alpha), Q30, (0, 1] */
     uint32_t tick_us;       /**< dt, us, within [100, 100000] */
+    /** the wrench's noise bound, N (N m), Q8, >= 0: the secant becomes
+     *  (|change of wrench| + margin) / |travel|, an upper bound of k_e
+     *  while the noise stays within it (the loop then crosses over at w_c
+     *  or below), trusted once the travel reaches secant_travel; 0: the
+     *  plain secant, trusted after secant_force too */
+    sp_q8_t secant_margin;
+    /** in contact, with the secant trusted, the part of the force error
+     *  beyond boost_band counts `boost` times: the loop crosses over at
+     *  about boost w_c while far from the target and at w_c near it; only
+     *  the part that the force predicted at the reference shares (the
+     *  wrench plus k_hat times d less the filtered x_meas, so x_meas must
+     *  then be the pose less the position reference, as sp_force_step
+     *  passes it with contact_ff); 0 or 1: off, at most 16 */
+    uint8_t boost;
+    sp_q8_t boost_band; /**< see boost, N (N m), Q8, >= 0 */
 } sp_admit_config_t;
 
 /** Coefficients of the discretised law for one damping. */
@@ -172,7 +187,9 @@ sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_
  *   mask     bit k: axis k is force-controlled in SP_ADMIT_FORCE;
  *   w_ext    the filtered wrench the world exerts on the platform, N / N m, Q8;
  *   w_target the wrench the platform is to exert, N / N m, Q8;
- *   x_meas   the measured (estimated) pose, m / rad, Q24, used for the
+ *   x_meas   the measured (estimated) pose, m / rad, Q24 (or the pose
+ *            less the position reference: the secant uses only its
+ *            changes; the boost needs that one), used for the
  *            stiffness secant of the forced axes, whose filter it passes
  *            (primed the first tick an axis is forced; may be NULL: no
  *            adaptation this tick);
@@ -202,6 +219,15 @@ typedef struct {
     uint8_t lost_ticks;  /**< ... for this many consecutive ticks, >= 1 */
     uint8_t arm_ticks;   /**< the lost level counts once the push-back held it this many ticks on end (0, 1: at once) */
     sp_q8_t excess;      /**< excessive force: |force part of W_ext| above this, N, Q8, > made */
+    /** contact is made also when the push-back through a first-order
+     *  low-pass of time constant 2^slow_shift ticks reaches made_slow (a
+     *  lower level than made, for a noisy wrench: on a soft surface the
+     *  force rises slowly and the filter's lag costs little), and, until
+     *  armed, lost only when that filtered push-back is below made_slow / 2
+     *  as well as the push-back below made / 2 (contact made by either
+     *  level is lost when both fall). N, Q8; 0: off */
+    sp_q8_t made_slow;
+    uint8_t slow_shift; /**< see made_slow, 1..15 (0: off; above 15 the low 4 bits) */
 } sp_contact_config_t;
 
 /** Contact supervision state. */
@@ -210,6 +236,7 @@ typedef struct {
     uint8_t armed; /**< 1 once the push-back held the lost level arm_ticks ticks in this contact */
     uint8_t low;   /**< consecutive ticks below the level that counts */
     uint8_t high;  /**< consecutive ticks at or above the lost level (until armed) */
+    int64_t slow;  /**< the push-back times |F_target| through the made_slow low-pass, Q16 (0 with no target) */
 } sp_contact_t;
 
 /** Events of sp_contact_step. */
@@ -224,7 +251,9 @@ typedef struct {
  * when p >= made; lost when, in contact, p stays for lost_ticks
  * consecutive ticks below lost_ratio |F_target| once it has reached that
  * level in this contact (armed), or below made / 2 before (the state then
- * leaves contact); excess
+ * leaves contact; with made_slow, also made when the low-passed p reaches
+ * made_slow, and lost before armed only when it is below made_slow / 2
+ * too, see sp_contact_config_t); excess
  * when |F_ext| > excess, in any state. With F_target = 0 (hand guiding)
  * only excess is checked. Returns the events (0 on NULL). |F| is computed
  * in 64 bits (no overflow for any Q8 input); the comparison of p with the

@@ -336,10 +336,15 @@ typedef struct {
                                           costs no sine) */
     sp_motion_t pos_ref;             /**< the position reference of the last tick (before force control's offset) */
     sp_force_t force;                /**< force control */
-    uint8_t park_after_release;      /**< PARK during force control: park once released */
-    sp_ft_tare_t ft_tare;            /**< the force/torque sensor's bias */
-    sp_ft_tare_t cyl_tare;           /**< the cylinders' estimate's bias at rest (TARE on that source) */
-    int32_t cyl_wrench[6];           /**< the cylinders' estimate less cyl_tare's bias, N, N m, Q8 */
+    /** the legs' forces per unit wrench on the force-controlled axes
+     *  (columns of J^-T, Q24), made one column a tick once contact is made
+     *  (the contact's force feed-forward, controller.c) */
+    int32_t contact_ff[6][SP_LEGS];
+    uint8_t contact_ff_cols;                   /**< bit k: column k of contact_ff is this contact's */
+    uint8_t park_after_release;                /**< PARK during force control: park once released */
+    sp_ft_tare_t ft_tare;                      /**< the force/torque sensor's bias */
+    sp_ft_tare_t cyl_tare;                     /**< the cylinders' estimate's bias at rest (TARE on that source) */
+    int32_t cyl_wrench[6];                     /**< the cylinders' estimate less cyl_tare's bias, N, N m, Q8 */
     int32_t ft_section[SP_WRENCH_SECTIONS][6]; /**< the sensor's wrench through the wrench filter's sections, Q8 */
     uint32_t ft_missed;                        /**< ticks since the last sensor reading (saturates) */
     uint8_t ft_valid;                          /**< 1 while ft_section follows the sensor */
@@ -380,6 +385,29 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
  *  20): the estimate's noise reaches the true force up to the crossover,
  *  so half of it halves the noise's band. Q16. */
 #define SP_CROSSOVER_CYLINDERS_Q16 (6 * 65536)
+
+/** ... and contact counts also from 120 N of the push-back through a
+ *  64 ms low-pass (2^6 ticks at 1 ms; its peaks at rest and approaching
+ *  stay within about 35 N), so a soft surface, whose force rises slowly,
+ *  is in contact about 0.1 s after the true 100 N, not 0.75 s (1e5 N/m at
+ *  2 mm/s). N, Q8; the shift in ticks. */
+#define SP_CONTACT_MADE_SLOW_CYLINDERS_Q8 (120 * 256)
+#define SP_CONTACT_SLOW_SHIFT_CYLINDERS 6u
+
+/** ... and the surface's stiffness is bounded from above by the secant
+ *  with 60 N of the estimate's noise added to the change of force (its
+ *  peaks in free space, unfiltered by the low-pass above), trusted after
+ *  10 um: the loop never crosses over above w_c, and on a soft surface
+ *  the axis speeds up as soon as it has travelled, not once the force has
+ *  risen by 30 N. N, Q8. */
+#define SP_SECANT_MARGIN_CYLINDERS_Q8 (60 * 256)
+
+/** ... and beyond 100 N from the target the force error counts four
+ *  times (the loop crosses over at about 24 rad/s far from the target, at
+ *  6 rad/s near it, where the estimate's noise matters), and the legs'
+ *  force setpoints carry the contact wrench's share (force.contact_ff). */
+#define SP_BOOST_CYLINDERS 4u
+#define SP_BOOST_BAND_CYLINDERS_Q8 (100 * 256)
 
 /** Chooses force control's wrench source (SP_WRENCH_CYLINDERS or
  *  SP_WRENCH_SENSOR), the sensor's mounting (NULL: keep cfg's) and the

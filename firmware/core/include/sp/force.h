@@ -57,6 +57,13 @@ typedef struct {
     sp_q8_t target_max_force;       /**< largest |force part| of a target, N, Q8 (below contact.excess) */
     sp_q8_t target_max_moment;      /**< largest |moment component| of a target, N m, Q8 */
     sp_q24_t settled;               /**< RELEASE ends when every |d| is below this (m or rad), Q24 */
+    /** 1: in FORCE, in contact, the controller adds the contact wrench's
+     *  share to the legs' force setpoints (with its force feed-forward on)
+     *  and the admittance gets the measured pose less the position
+     *  reference (the boost's lead); 0: neither (the sensor's default: its
+     *  figures do not need it, and a Cortex-M4 force tick pays about 370
+     *  instructions for it) */
+    uint8_t contact_ff;
 } sp_force_config_t;
 
 /** Force-control state. */
