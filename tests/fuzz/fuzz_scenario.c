@@ -85,7 +85,7 @@ static void check_result(const hs_scenario_t *sc, hs_status_t st, const hs_scena
         }
         for (int i = 0; i < sc->n; i++) {
             const hs_action_t *a = &sc->action[i];
-            if ((int)a->kind < (int)HS_ACTION_CMD || (int)a->kind > (int)HS_ACTION_INJECT || a->line < 1 ||
+            if ((int)a->kind < (int)HS_ACTION_CMD || (int)a->kind > (int)HS_ACTION_FTSENSOR || a->line < 1 ||
                 a->line > max_line || (i > 0 && a->line <= sc->action[i - 1].line) ||
                 memchr(a->text, '\0', sizeof a->text) == NULL || memchr(a->path, '\0', sizeof a->path) == NULL) {
                 __builtin_trap();
@@ -95,6 +95,14 @@ static void check_result(const hs_scenario_t *sc, hs_status_t st, const hs_scena
                 __builtin_trap();
             }
             if (a->kind == HS_ACTION_FAULT && (a->bits < 1u || a->bits > 0xFFu)) {
+                __builtin_trap();
+            }
+            if (a->kind == HS_ACTION_FORCE &&
+                (a->force.mask > 63u ||
+                 (a->cmd.command != 0u && a->cmd.command != SP_CMD_FORCE && a->cmd.command != SP_CMD_GUIDE))) {
+                __builtin_trap();
+            }
+            if (a->kind == HS_ACTION_FTSENSOR && a->bits > 1u) {
                 __builtin_trap();
             }
             if (a->kind == HS_ACTION_INJECT) {
