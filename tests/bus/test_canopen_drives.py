@@ -185,6 +185,10 @@ def test_closed_loop_with_cia402_drives_in_lockstep(tmp_path):
     res = analyze(r.log, tmp_path / "an", truth=r.truth, plots=False)
     assert res.summary["bad_frames"] == 0 and res.summary["frames"]["canopen"] > 5000, res.summary["frames"]
     assert not res.summary["faults_seen"]
+    # canopen.csv: the statuswords decoded by CiA 402's table (the profile from each node's 0x1000 in the log)
+    rows = (tmp_path / "an" / "canopen.csv").read_text().splitlines()
+    states = {r.split(",")[5] for r in rows[1:] if r.split(",")[3] == "tpdo1"}
+    assert "OPERATION_ENABLED" in states and not states & {"ACTIVE", "HOLD", "FAULT_REACTION"}, states
     [seg] = [s for s in res.segments if "surge" in s.label]
     err = segment_metrics(res.data, seg)["moving_axis_error"]
     print("CiA 402 lockstep surge:", err)

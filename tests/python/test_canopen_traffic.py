@@ -48,3 +48,37 @@ def test_every_kind_decoded():
     assert s["frames"]["axis_a node 1"]["sdo_request"] == 2 and s["frames"]["axis_a"]["sync"] == 1
     assert s["sdo_aborts"][0]["object"] == "0x6043.0" and s["emcy"][0]["code"] == "0x8250"
     assert s["nmt_states"]["axis_a node 1"] == ["operational"]
+
+
+# CiA 402 statuswords: 0x0237 is OPERATION_ENABLED (mask 0x6F -> 0x27); read
+# as a CiA 408 status word its bits 0..3 (0b0111) would say FAULT_REACTION.
+LOG_402 = """(0000000000.001000) vcan1 601#4000100000000000
+(0000000000.001000) vcan1 581#4300100092010000
+(0000000000.002000) vcan1 181#370264000000
+(0000000000.002000) vcan1 182#370264000000
+(0000000000.002000) vcan2 184#500200000000
+(0000000000.002000) vcan2 185#0F0000000000
+"""
+
+
+def test_cia402_statusword_by_profile():
+    frames = read_frames(LOG_402.splitlines())
+    ifaces = {"vcan1": "axis_a", "vcan2": "axis_b"}
+    rows = traffic.decode(frames, ifaces, {("axis_b", 4): "cia402", ("axis_b", 5): "cia408"})
+    states = [(r[2], r[5]) for r in rows if r[3] == "tpdo1"]
+    # node 1: 402 by its 0x1000 answer (0x192) in the log; node 2: no profile known, CiA 408;
+    # node 4: 402 by the config (0x0250: SWITCH_ON_DISABLED); node 5: 408 by the config (0x000F: ACTIVE)
+    assert states == [(1, "OPERATION_ENABLED"), (2, "FAULT_REACTION"), (4, "SWITCH_ON_DISABLED"), (5, "ACTIVE")]
+    assert traffic.state_402(0x0008) == "FAULT" and traffic.state_402(0x0021) == "READY_TO_SWITCH_ON"
+    assert traffic.state_402(0x0007) == "QUICK_STOP_ACTIVE" and traffic.state_408(0x0007) == "FAULT_REACTION"
+
+
+def test_profiles_from_the_config_drives():
+    from stewart.drives import layout as lo
+
+    legs = tuple(lo.Drive(i + 1, "cia402" if i < 3 else "cia408", "can_0" if i < 3 else "can_1", node_id=i + 1)
+                 for i in range(6))
+    p = traffic.profiles_from_drives(lo.Drives(legs))
+    assert p[("can_0", 1)] == p[("axis_a", 3)] == "cia402"
+    assert p[("can_1", 4)] == p[("axis_b", 6)] == "cia408"
+    assert traffic.profiles_from_drives(lo.native_default()) == {}

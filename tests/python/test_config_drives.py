@@ -118,20 +118,23 @@ def test_six_drives_on_one_bus_at_1ms_is_143_percent_and_refused():
     rows = layout.bus_rows(p.drives, "can_0")
     cyclic = sum(r.us_per_ms for r in rows if not r.name.startswith("heartbeat"))
     assert cyclic == pytest.approx(1435.0)
-    assert layout.bus_load(p.drives, "can_0") == pytest.approx((1435 + 7 * 65 / 20) / 10)
+    # the heartbeats: six drives every 20 ms, the master (node 127) every 100 ms
+    hb = 6 * 65 / 20 + 65 / 100
+    assert layout.bus_load(p.drives, "can_0") == pytest.approx((1435 + hb) / 10)
     msg = _error(_with(s))
-    assert "drives.legs: bus can_0: worst-case load 145.8 % is above 50 %" in msg
-    # divider 3 would be (1435 / 3 + 22.75) / 10 = 50.1 %; 4 gives 38.15 %
-    assert "drives.sync_divider = 4 (SYNC and PDOs every 4 ms" in msg and "38.1 %" in msg
+    assert "drives.legs: bus can_0: worst-case load 145.5 % is above 50 %" in msg
+    # divider 3: (1435 / 3 + 20.15) / 10 = 49.8 % (50.1 % with the master's heartbeat counted every 20 ms)
+    assert "drives.sync_divider = 3 (SYNC and PDOs every 3 ms" in msg and "49.8 %" in msg
 
 
 @pytest.mark.parametrize("per_bus, divider, pressure, percent, fits", [
-    (3, 1, True, (55 + 3 * (115 + 115 + 95) + 4 * 65 / 20) / 10, False),   # 104.3
-    (3, 2, True, ((55 + 3 * 325) / 2 + 4 * 65 / 20) / 10, False),          # 52.8
-    (3, 3, True, ((55 + 3 * 325) / 3 + 4 * 65 / 20) / 10, True),           # 35.6
-    (3, 2, False, ((55 + 3 * 230) / 2 + 4 * 65 / 20) / 10, True),          # 38.6
-    (2, 1, False, (55 + 2 * 230 + 3 * 65 / 20) / 10, False),               # 52.5
-    (2, 2, True, ((55 + 2 * 325) / 2 + 3 * 65 / 20) / 10, True),           # 36.2
+    # heartbeats: the drives' every 20 ms, the master's (node 127) every 100 ms
+    (3, 1, True, (55 + 3 * (115 + 115 + 95) + 3 * 65 / 20 + 65 / 100) / 10, False),   # 104.0
+    (3, 2, True, ((55 + 3 * 325) / 2 + 3 * 65 / 20 + 65 / 100) / 10, False),          # 52.5
+    (3, 3, True, ((55 + 3 * 325) / 3 + 3 * 65 / 20 + 65 / 100) / 10, True),           # 35.4
+    (3, 2, False, ((55 + 3 * 230) / 2 + 3 * 65 / 20 + 65 / 100) / 10, True),          # 38.3
+    (2, 1, False, (55 + 2 * 230 + 2 * 65 / 20 + 65 / 100) / 10, False),               # 52.2
+    (2, 2, True, ((55 + 2 * 325) / 2 + 2 * 65 / 20 + 65 / 100) / 10, True),           # 36.0
 ])
 def test_layouts_by_hand(per_bus, divider, pressure, percent, fits):
     s = _section(divider, pressure, per_bus)
@@ -149,7 +152,7 @@ def test_ways_out_are_named_and_each_fits():
     p = config.from_dict(_with(s), check_bus_load=False)
     ways = layout.ways_out(p.drives, "can_0")
     assert ways[0].startswith("a SYNC divider: drives.sync_divider = 3")
-    assert ways[1].startswith("more buses: at most 1 drive per bus at this SYNC period (38.6 %), 6 CANopen buses")
+    assert ways[1].startswith("more buses: at most 1 drive per bus at this SYNC period (38.4 %), 6 CANopen buses")
     assert ways[2].startswith("no pressure TPDO") and ways[2].endswith("(still over)")
 
 
@@ -159,13 +162,14 @@ def test_busload_reports_the_canopen_buses(tmp_path, capsys):
     assert cli.main(["busload", "--config", str(ok)]) == 0
     out = capsys.readouterr().out
     assert "CANopen bus can_0: classic CAN 1 Mbit/s, SYNC every 3 ms" in out
-    assert "**356.3 us = 35.6 %** (ok)" in out
+    assert "**353.7 us = 35.4 %** (ok)" in out
+    assert "| heartbeat (master, node 127) | 1 | 1 | 100 | 65 | 0.7 |" in out
     assert "bus axis_a" in out   # the DBC's buses stay: the config's CANopen buses are others
     over = tmp_path / "over.json"
     over.write_text(json.dumps(_with(_section(divider=1))))
     assert cli.main(["busload", "--config", str(over)]) == 1
     out = capsys.readouterr().out
-    assert "104.3 %** (OVER LIMIT)" in out and "Ways out for can_0:" in out
+    assert "104.0 %** (OVER LIMIT)" in out and "Ways out for can_0:" in out
     bad = tmp_path / "bad.json"
     s = _section()
     s["legs"][1]["node_id"] = 10

@@ -40,6 +40,7 @@ class FakeController:
         self.proto = pr.Protocol()
         self.state = "IDLE"
         self.faults = 0
+        self.drives_starting = 0    # the CANopen master still starting the drives: ENGAGE refused
         self.ff = 1
         self.tick = 0
         self.timer = 0
@@ -86,7 +87,7 @@ class FakeController:
         if name == "ESTOP":
             self.state, self.faults = "ESTOP", self.faults | 0x40
             return True
-        if name == "ENGAGE" and s == "IDLE":
+        if name == "ENGAGE" and s == "IDLE" and not self.drives_starting:
             self.state, self.timer = "ENGAGING", 20
             return True
         if name in ("RUN_TRIG", "STREAM") and s == "READY":
@@ -143,7 +144,7 @@ class FakeController:
                         self.state, self.state)
             sig = {"Tick": self.tick, "State": self.state, "Faults": self.faults, "FkIterations": 1,
                    "EstimateValid": 1, "CmdRejected": rejected, "DriveMode": 1 if self.state != "IDLE" else 0,
-                   "FeedForward": self.ff, "X": 0.0, "Y": 0.0, "Z": 2.55, "Roll": 0.0, "Pitch": 0.0, "Yaw": 0.0}
+                   "FeedForward": self.ff, "DrivesStarting": self.drives_starting, "X": 0.0, "Y": 0.0, "Z": 2.55, "Roll": 0.0, "Pitch": 0.0, "Yaw": 0.0}
             if self.tick % 10 == 0:
                 a = self.proto.encode("CTRL_AUTH", {"Session": SESSION, "LastCounter": self.auth_last,
                                                     "BadTag": self.auth_rejected, "KeySet": 1}, bus="ops")
@@ -188,6 +189,21 @@ def test_command_answers_and_refusal(ctrl):
         ans = node.command("ESTOP", lambda s: s.state == "ESTOP", timeout=5, sync=False)
         assert ans.status.state == "ESTOP" and ans.status.faults == ["estop"]
         assert ans.ticks <= 3
+    finally:
+        node.close()
+
+
+def test_engage_refused_while_the_drives_start(ctrl):
+    """ENGAGE while the CANopen master still starts the drives: refused
+    (CmdRejected) with the reason DrivesStarting names; taken once they run."""
+    ctrl.drives_starting = 1
+    node = _node(ctrl.channel)
+    try:
+        with pytest.raises(opnode.Refused, match="still starting the drives"):
+            node.command("ENGAGE", lambda s: s.state == "READY", timeout=5)
+        assert ctrl.state == "IDLE"
+        ctrl.drives_starting = 0
+        assert node.command("ENGAGE", lambda s: s.state == "READY", timeout=5).status.state == "READY"
     finally:
         node.close()
 

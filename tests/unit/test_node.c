@@ -207,6 +207,38 @@ static void send_heartbeat(rig_t *r, uint8_t counter)
     assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
 }
 
+/* ENGAGE while the CANopen master is still starting the drives (the port
+ * sets drives_starting): refused with the reason in CTRL_STATUS
+ * (CmdRejected, DrivesStarting), counted, the controller stays IDLE; once
+ * every drive runs the same ENGAGE is taken. */
+static void test_engage_refused_while_drives_start(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    for (uint32_t t = 0; t < 5u; t++) {
+        rig_tick(&r); /* every drive heard, an estimate */
+    }
+    assert_int_equal(r.node.out.estimate_valid, 1u);
+    r.node.drives_starting = 1u;
+    send_command(&r, SP_CMD_ENGAGE);
+    rig_tick(&r);
+    sp_msg_status_t s = last_status(&r);
+    assert_int_equal(s.cmd_rejected, 1u);
+    assert_int_equal(s.drives_starting, 1u);
+    assert_int_equal(r.node.stats.cmd_refused, 1u);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_IDLE);
+    r.node.drives_starting = 0u;
+    send_command(&r, SP_CMD_ENGAGE);
+    rig_tick(&r);
+    s = last_status(&r);
+    assert_int_equal(s.cmd_rejected, 0u);
+    assert_int_equal(s.drives_starting, 0u);
+    assert_int_equal(r.node.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(r.node.stats.cmd_refused, 1u);
+}
+
 /* OP_HEARTBEAT over frames: a heartbeat with a bad CRC is dropped and arms
  * nothing; a good one arms the supervision; silent for the timeout while
  * RUNNING, CTRL_STATUS reports the operator-silent fault (bit 8) and the
@@ -1076,6 +1108,7 @@ int main(void)
         cmocka_unit_test(test_force_params_frames),
         cmocka_unit_test(test_operator_heartbeat_over_frames),
         cmocka_unit_test(test_force_commands_over_frames),
+        cmocka_unit_test(test_engage_refused_while_drives_start),
         cmocka_unit_test(test_auth_over_frames),
         cmocka_unit_test(test_force_params_auth_over_frames),
     };

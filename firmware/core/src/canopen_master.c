@@ -69,7 +69,7 @@ sp_status_t sp_co_master_cfg_default(sp_co_master_cfg_t *cfg, uint8_t n)
     cfg->sdo_timeout_ms = 100u;
     cfg->state_timeout_ms = 100u;
     cfg->pdo_timeout_ms = 10u;
-    cfg->master_heartbeat_ms = 100u;
+    cfg->master_heartbeat_ms = SP_CO_MASTER_HEARTBEAT_MS;
     cfg->master_node_id = SP_CO_NODE_MAX;
     return SP_OK;
 }

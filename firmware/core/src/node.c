@@ -351,7 +351,8 @@ static void count_send(sp_node_t *node, sp_status_t st, uint32_t *n)
 
 /* The next queued operator command into node->in.cmd (none: SP_CMD_NONE).
  * SET_FEEDFORWARD is a tuning switch, applied here and only while no motion
- * is under way; returns 1 when it is refused. FORCE and GUIDE take the mask
+ * is under way; ENGAGE is refused while drives_starting (the CANopen master
+ * has not started every drive); returns 1 when a command is refused. FORCE and GUIDE take the mask
  * and target of the last OP_FORCE; with no command queued, a fresh OP_FORCE
  * while the controller is in FORCE becomes a FORCE command (the target
  * update; the controller refuses another mask). */
@@ -366,7 +367,9 @@ SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
         const sp_msg_command_t *c = &node->cmd_queue[node->cmd_head];
         node->cmd_head = (uint8_t)((node->cmd_head + 1u) % SP_NODE_CMD_QUEUE);
         node->cmd_count--;
-        if (c->command == SP_CMD_SET_FEEDFORWARD) {
+        if (c->command == SP_CMD_ENGAGE && node->drives_starting) {
+            rejected = 1; /* the CANopen master has not started every drive: nothing may move yet */
+        } else if (c->command == SP_CMD_SET_FEEDFORWARD) {
             if (node->ctrl.state == SP_STATE_IDLE || node->ctrl.state == SP_STATE_READY) {
                 cfg->ctrl.force_feedforward = c->option;
             } else {
@@ -475,6 +478,7 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     s.estimate = node->out.estimate;
     s.reset_refused_legs = node->out.reset_refused_legs;
     s.reset_refused_cause = node->out.reset_refused_cause;
+    s.drives_starting = node->drives_starting;
     count_send(node, sp_proto_encode_status(&s, node->tx_counter_status++, &out[*n]), n);
     node->tx_counter_status &= 0x0Fu;
 

@@ -593,6 +593,7 @@ sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp
     s.feed_forward = m->feedforward ? 1u : 0u;
     s.force_mode = m->force_mode;
     s.contact = m->contact ? 1u : 0u;
+    s.drives_starting = m->drives_starting ? 1u : 0u;
     s.x = v[0];
     s.y = v[1];
     s.z = v[2];
@@ -635,6 +636,7 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
     m->reset_refused_cause = s.reset_refused_cause;
     m->force_mode = s.force_mode;
     m->contact = s.contact;
+    m->drives_starting = s.drives_starting;
     pose_from_bus(v, &m->estimate);
     *counter = s.counter;
     return SP_OK;

@@ -177,6 +177,8 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
     if (co.on) {
         co.now_ms++;
         (void)sp_co_link_feedback(&co.m, &co.link, node->in.drive);
+        node->drives_starting =
+            (uint8_t)(co.out.all_running ? 0u : 1u); /* the master's last step: ENGAGE refused until all run */
     }
     (void)sp_node_tick(cfg, node, tx, &n);
     if (co.on) {

@@ -140,6 +140,8 @@ __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
 #if SP_DRIVE_CIA408
     g_co_now++;
     (void)sp_co_link_feedback(&g_com, &g_co, g_node.in.drive);
+    g_node.drives_starting =
+        (uint8_t)(g_coout.all_running ? 0u : 1u); /* the master's last step: ENGAGE refused until all run */
 #endif
     (void)sp_node_tick(&g_cfg, &g_node, g_tx, &n);
 #if SP_DRIVE_CIA408

@@ -74,7 +74,8 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
 
         ifmap = {i: b for i, b in parse_bus_map(buses).items() if b in CANOPEN_BUSES}
         step(f"writing {out / 'canopen.csv'}")
-        rows = traffic.decode(frames.result(), ifmap)
+        # each node's device state by its profile (the config's drives; else its 0x1000 in the log)
+        rows = traffic.decode(frames.result(), ifmap, traffic.profiles_from_drives(plat.drives))
         traffic.write_csv(rows, out / "canopen.csv")
         files.append(out / "canopen.csv")
         summary["canopen"] = traffic.summary(rows)

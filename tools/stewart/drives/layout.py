@@ -8,7 +8,8 @@ bit stuffing (``classic_frame_bits``, the one formula, in stewart/canframe.py).
 Per SYNC period (``sync_divider`` control ticks) each CANopen bus carries one
 SYNC (no data), and per drive its setpoint RPDO and its actual-value TPDO
 (plus the pressure TPDO when force feedback is on); every ``heartbeat_ms``
-each drive and the master send one heartbeat (1 byte). SDO traffic happens
+each drive sends one heartbeat (1 byte), and the master its own every
+``objects.MASTER_HEARTBEAT_MS`` (the firmware's SP_CO_MASTER_HEARTBEAT_MS). SDO traffic happens
 only before the drives are started, EMCY only on a fault: neither is in the
 cyclic budget. Standard library only.
 """
@@ -123,7 +124,8 @@ def bus_rows(drives: Drives, bus: str, n_drives: int | None = None, divider: int
     rows = [("SYNC", 1, 0, period), ("RPDO1 setpoint", n, rx, period), ("TPDO1 actual", n, tx, period)]
     if with_pressure:
         rows.append(("TPDO2 pressures", n, ob.TPDO_PRESSURES.data_bytes, period))
-    rows.append(("heartbeat (drives + master)", n + 1, 1, float(drives.heartbeat_ms)))
+    rows.append(("heartbeat (drives)", n, 1, float(drives.heartbeat_ms)))
+    rows.append((f"heartbeat (master, node {ob.MASTER_NODE_ID})", 1, 1, float(ob.MASTER_HEARTBEAT_MS)))
     out = []
     for name, count, nbytes, per in rows:
         bits = classic_frame_bits(nbytes)

@@ -178,7 +178,22 @@ COMMUNICATION = (DEVICE_TYPE, ERROR_REGISTER, PRODUCER_HEARTBEAT, IDENTITY_COUNT
 #: The master's own heartbeat (it has no object dictionary on the bus): its
 #: node id, its period, and the time a drive's consumer allows (three periods).
 MASTER_NODE_ID = 127
-MASTER_HEARTBEAT_MS = 100
+
+
+def _firmware_master_heartbeat_ms() -> int:
+    """The period the firmware defines (SP_CO_MASTER_HEARTBEAT_MS in
+    sp/canopen_master.h): the one source, read from the header."""
+    import re
+
+    from .. import REPO_ROOT
+    header = REPO_ROOT / "firmware" / "core" / "include" / "sp" / "canopen_master.h"
+    m = re.search(r"^#define\s+SP_CO_MASTER_HEARTBEAT_MS\s+(\d+)u?\b", header.read_text(), re.M)
+    if m is None:
+        raise RuntimeError(f"{header}: no SP_CO_MASTER_HEARTBEAT_MS definition")
+    return int(m[1])
+
+
+MASTER_HEARTBEAT_MS = _firmware_master_heartbeat_ms()
 MASTER_HEARTBEAT_TIMEOUT_MS = 3 * MASTER_HEARTBEAT_MS
 
 # PDO communication parameter sub-indices the master writes (0x1400.. / 0x1800..).

@@ -10,7 +10,10 @@ writes at start-up):
 - EMCY (0x081-0x0FF): error code, its CiA 301 class, error register;
 - RPDO1 (0x201-0x27F): control word and position setpoint (counts), and the
   force feed-forward (daN) when it is 8 bytes (vendor object 0x2120);
-- TPDO1 (0x181-0x1FF): status word, the CiA 408 device state, actual position;
+- TPDO1 (0x181-0x1FF): status word, the device state, actual position;
+  the state by the node's profile: CiA 402's statusword table for a node
+  the config says is ``cia402`` (or whose 0x1000 the log shows read as
+  402), else CiA 408's device states;
 - TPDO2 (0x281-0x2FF): chamber pressures A and B (kPa);
 - SDO (0x581-0x5FF answers, 0x601-0x67F requests): command, object, value
   or abort code;
@@ -34,6 +37,33 @@ NMT_STATES = {0x00: "boot-up", 0x04: "stopped", 0x05: "operational", 0x7F: "pre-
 NMT_COMMANDS = {ob.NMT_START: "start", ob.NMT_STOP: "stop", ob.NMT_PRE_OPERATIONAL: "pre-operational",
                 ob.NMT_RESET_NODE: "reset node", ob.NMT_RESET_COMMUNICATION: "reset communication"}
 STATES_408 = {v: k for k, v in ob.SW408.items()}
+
+
+def state_408(word: int) -> str:
+    """CiA 408 device state of a status word (bits 0..3), ``unknown`` for none."""
+    return STATES_408.get(word & ob.SW408_MASK, "unknown")
+
+
+def state_402(word: int) -> str:
+    """CiA 402 state of a statusword (its (mask, value) table), ``unknown`` for none."""
+    for name, (mask, value) in ob.SW402.items():
+        if word & mask == value:
+            return name
+    return "unknown"
+
+
+def profiles_from_drives(drives) -> dict[tuple[str, int], str]:
+    """{(bus, node): protocol} of a config's CANopen drives, with the
+    config's CANopen buses in order as the controller's axis_a and axis_b
+    (sp/canopen_link.h) and as themselves."""
+    out: dict[tuple[str, int], str] = {}
+    order = drives.buses()
+    for d in drives.canopen:
+        out[(d.bus, d.node_id)] = d.protocol
+        k = order.index(d.bus)
+        if k < 2:
+            out[(("axis_a", "axis_b")[k], d.node_id)] = d.protocol
+    return out
 EMCY_CLASSES = {0x0: "error reset", 0x1: "generic", 0x2: "current", 0x3: "voltage", 0x4: "temperature",
                 0x5: "device hardware", 0x6: "device software", 0x7: "additional modules", 0x8: "monitoring",
                 0x9: "external", 0xF: "device specific"}
@@ -70,10 +100,13 @@ def _emcy_class(code: int) -> str:
     return EMCY_CLASSES.get(code >> 12, "additional functions")
 
 
-def decode(frames, ifaces: dict[str, str]) -> list[tuple]:
+def decode(frames, ifaces: dict[str, str], profiles: dict[tuple[str, int], str] | None = None) -> list[tuple]:
     """Rows (COLUMNS) of every classic CANopen frame on the interfaces named
     in ``ifaces`` ({iface: bus}), in log order. ``frames``: a
-    :class:`stewart.analysis.logfile.LogFrames`."""
+    :class:`stewart.analysis.logfile.LogFrames`. ``profiles``:
+    {(bus, node): "cia408" or "cia402"} (:func:`profiles_from_drives`);
+    a node not in it takes the profile its 0x1000 answer in the log shows
+    (from then on), else CiA 408."""
     rows: list[tuple] = []
     if len(frames.line_no) == 0:
         return rows
@@ -86,6 +119,8 @@ def decode(frames, ifaces: dict[str, str]) -> list[tuple]:
     word, pos = _u16(data, 0), _i32(data, 2)
     force = _u16(data, 6)
     force = np.where(force >= 1 << 15, force - (1 << 16), force)
+    given = dict(profiles or {})
+    seen: dict[tuple[str, int], str] = {}  # from the 0x1000 answers in the log
     for i in range(len(sel)):
         k, f, n = int(kind[i]), int(fid[i]), int(dlc[i])
         node = f & 0x7F
@@ -102,7 +137,8 @@ def decode(frames, ifaces: dict[str, str]) -> list[tuple]:
         elif k in (3, 4) and n >= 6:  # TPDO1 / RPDO1
             r[4] = f"0x{int(word[i]):04X}"
             if k == 3:
-                r[5] = STATES_408.get(int(word[i]) & ob.SW408_MASK, "unknown")
+                prof = given.get((bus[i], node)) or seen.get((bus[i], node), "cia408")
+                r[5] = state_402(int(word[i])) if prof == "cia402" else state_408(int(word[i]))
             r[6] = int(pos[i])
             if k == 4 and n == 8:
                 r[7] = int(force[i])
@@ -119,6 +155,8 @@ def decode(frames, ifaces: dict[str, str]) -> list[tuple]:
                 r[11] = "read" if cmd >> 5 == 2 else f"write 0x{value:X}"
             else:
                 r[11] = "written" if cmd == 0x60 else f"value 0x{value:X}"
+                if k == 6 and cmd != 0x80 and cmd != 0x60 and (index, sub) == (0x1000, 0):
+                    seen[(bus[i], node)] = {402: "cia402", 408: "cia408"}.get(value & 0xFFFF, "cia408")
         elif k == 8 and n >= 1:      # heartbeat
             r[10] = int(d[0]) & 0x7F
             r[11] = NMT_STATES.get(int(d[0]) & 0x7F, "unknown state")

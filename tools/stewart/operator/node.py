@@ -128,6 +128,7 @@ class Status:
     pose: list[float]
     force_mode: str = "OFF"  # force control: OFF, FORCE, GUIDE, RELEASE, HOLD
     contact: bool = False
+    drives_starting: bool = False  # the CANopen master is still starting the drives (ENGAGE refused)
     seq: int = 0          # how many statuses this node had received
     t: float = 0.0        # receive time (time.monotonic)
     stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
@@ -140,7 +141,8 @@ class Status:
                 f"feed-forward {'on' if self.feedforward else 'off'}, tick {self.tick}, "
                 f"pose [{pose}]" + ("" if self.estimate_valid else " (no estimate)")
                 + ("" if self.force_mode == "OFF" else
-                   f", force control {self.force_mode}{' in contact' if self.contact else ''}"))
+                   f", force control {self.force_mode}{' in contact' if self.contact else ''}")
+                + (", drives starting (CANopen start-up)" if self.drives_starting else ""))
 
 
 @dataclass
@@ -177,6 +179,9 @@ def refusal_reason(command: str, before: Status | None, at: Status | None) -> st
     if state not in allowed:
         return f"{command} is accepted in {'/'.join(allowed)} only; the controller was {state}"
     if command == "ENGAGE":
+        if st.drives_starting:
+            return ("the CANopen master is still starting the drives (configuring them by SDO, or a drive "
+                    "not yet operational): wait for the start-up to end, then ENGAGE again")
         return "no pose estimate yet, or a drive not heard from"
     if command == "RUN_TRIG":
         return "an end of the motion is outside the workspace or a leg's stroke, or the frequency is not usable"
@@ -437,6 +442,7 @@ class OperatorNode:
                 estimate_valid=bool(f["EstimateValid"].raw(w)),
                 pose=[f[n].value(w) for n in pr.POSE_SIGNALS],
                 force_mode=_name(FORCE_MODES, f["ForceMode"].raw(w)), contact=bool(f["Contact"].raw(w)),
+                drives_starting=bool(f["DrivesStarting"].raw(w)),
                 auth_last=self.auth["last_counter"] if self.auth else -1, t=time.monotonic(),
                 stamp=float(msg.timestamp) if msg.timestamp else time.time())
             with self._cond:

@@ -54,6 +54,9 @@
 #define SP_CO_UNIT_METRE 0x01u       /**< CiA 303-2 SI unit code of 0x6600.2 */
 #define SP_CO_TRANSMISSION_SYNC 1u   /**< PDO transmission type: every SYNC */
 #define SP_CO_PDO_COB_INVALID 0x80000000u
+/** The master's own heartbeat period, ms (sp_co_master_cfg_default; the
+ *  config's layout and `stewart busload` read this line: the one source). */
+#define SP_CO_MASTER_HEARTBEAT_MS 100u
 
 /** A drive's device profile (sp_co_node_cfg_t.profile). */
 typedef enum {

@@ -101,6 +101,10 @@ typedef struct {
     sp_node_stats_t stats;
     const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
     uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */
+    uint8_t drives_starting;            /**< set by the port: 1 while the CANopen master is still starting the drives
+                                  (not every drive operational); ENGAGE is then refused (cmd_rejected,
+                                  stats.cmd_refused) and CTRL_STATUS DrivesStarting says why. 0 (native
+                                  drives) after sp_node_init. */
 } sp_node_t;
 
 /** Defaults for a platform: sp_ctrl_default_config, sync_master = 1, no

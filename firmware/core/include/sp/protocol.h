@@ -152,6 +152,7 @@ typedef struct {
     uint8_t reset_refused_legs;  /**< ResetRefusedLegs: bit i, leg i + 1 refused the last fault reset (6 bits;
                                       higher bits are not sent) */
     uint8_t reset_refused_cause; /**< ResetRefusedCause: the refusing drives' fault bits */
+    uint8_t drives_starting;     /**< DrivesStarting: 1 while the CANopen master starts the drives (ENGAGE refused) */
 } sp_msg_status_t;
 
 typedef struct {
