@@ -78,14 +78,22 @@ def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: flo
 
 
 class Recorder:
-    """Hears CTRL_STATUS, CTRL_AUTH and OP_FORCE_PARAMS on vcan0 (a thread)."""
+    """Hears CTRL_STATUS, CTRL_AUTH and OP_FORCE_PARAMS on vcan0 (a thread
+    per socket). CTRL_STATUS comes every tick: on a loaded machine its
+    socket's queue may overflow and lose some (the speed fits need no
+    particular one; reading them all would slow the lockstep loop that
+    shares the UML's CPU). The few OP_FORCE_PARAMS and CTRL_AUTH frames
+    (CTRL_AUTH at 100 Hz) have a socket of their own, whose queue holds
+    seconds of them: none is lost."""
 
     def __init__(self):
         import can
 
-        self.bus = can.Bus(interface="socketcan", channel="vcan0", fd=True,
-                           can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False}
-                                        for i in (ID_PARAMS, ID_STATUS, ID_AUTH)])
+        def ops_bus(ids):
+            return can.Bus(interface="socketcan", channel="vcan0", fd=True,
+                           can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
+
+        self.buses = [ops_bus([ID_STATUS]), ops_bus([ID_PARAMS, ID_AUTH])]
         self.proto = pr.Protocol()
         self.status: list[tuple[int, int, int, float]] = []  # tick, ForceMode, CmdRejected, Z
         self.state = None
@@ -93,17 +101,20 @@ class Recorder:
         self.params: list[bytes] = []
         self._lock = threading.Lock()
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._read, daemon=True)
-        self._thread.start()
+        self._threads = [threading.Thread(target=self._read, args=(b,), daemon=True) for b in self.buses]
+        for t in self._threads:
+            t.start()
 
     def close(self):
         self._stop.set()
-        self._thread.join(2)
-        self.bus.shutdown()
+        for t in self._threads:
+            t.join(2)
+        for b in self.buses:
+            b.shutdown()
 
-    def _read(self):
+    def _read(self, bus):
         while not self._stop.is_set():
-            m = self.bus.recv(timeout=0.1)
+            m = bus.recv(timeout=0.1)
             if m is None:
                 continue
             fid, data = m.arbitration_id, bytes(m.data)
