@@ -359,6 +359,18 @@ static int m4_same_bytes(const void *a, const void *b, uint32_t n)
  * control), for the per-tick increment of force control. */
 static uint32_t twin_net16[M4_MAX_TICKS + M4_TAIL_TICKS + 1u];
 
+/* The tick kinds of the breakdown: a tick with a command; a moving tick
+ * (ENGAGING, RUNNING, PARKING, READY under force control) that factorised
+ * the forces' J^T (the factorisation's bytes changed), one that refined
+ * them from the kept factorisation (its age counted up); every other tick
+ * (at rest, holding: the setpoints kept). */
+#define KINDS 4u
+#define KIND_CMD 0u
+#define KIND_LU 1u
+#define KIND_REFINE 2u
+#define KIND_REST 3u
+static const char *const kind_keys[KINDS] = {"k_command", "k_factorise", "k_refine", "k_rest"};
+
 /* The counts of one scenario run. */
 typedef struct {
     m4_stat_t by_state[7];
@@ -373,7 +385,19 @@ typedef struct {
     diff_stat_t incr_slide; /* ... those of the slide */
     m4_stat_t own;          /* force control's own step (sp_force_step), again on a copy, in the run's ticks */
     uint32_t own_mismatch;  /* copies whose step did not reproduce the tick's (not counted in `own`) */
+    m4_stat_t kind[KINDS];  /* ticks by kind (kind_names): which kind makes the maximum */
+    uint32_t worst_tick;    /* the highest tick: its index, */
+    uint8_t worst_state;    /* the state it began in, */
+    uint8_t worst_cmd;      /* its command (SP_CMD_NONE: none) */
+    uint8_t worst_kind;     /* and its kind */
 } scenario_counts_t;
+
+static const char *const kind_names[KINDS] = {
+    "  ticks with a command",
+    "  moving ticks that factorise J^T",
+    "  moving ticks that refine (kept LU)",
+    "  other ticks (at rest, holding)",
+};
 
 static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r)
 {
@@ -395,6 +419,13 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
     diff_reset(&r->incr_slide);
     m4_stat_reset(&r->own);
     r->own_mismatch = 0u;
+    for (k = 0u; k < KINDS; ++k) {
+        m4_stat_reset(&r->kind[k]);
+    }
+    r->worst_tick = 0u;
+    r->worst_state = 0u;
+    r->worst_cmd = 0u;
+    r->worst_kind = 0u;
     (void)m4_scenario_init(sc, &sp_platform_default, motion);
     sp_mps2_stack_paint();
     top = sp_mps2_stack_pointer();
@@ -414,7 +445,28 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
         int sliding = before == SP_STATE_RUNNING && sc->phase == 3u;
         uint32_t tick = sc->ticks;
         uint32_t net;
+        unsigned kind;
+        static sp_lu6_t lu_before;
+        uint8_t cmd = (uint8_t)sc->in.cmd.type;
+        uint8_t age_before = sc->ctrl.legs.lu_age;
+        lu_before = sc->ctrl.est.ref_lu;
         M4_MEASURE(net, sink = (int32_t)run_tick(sc));
+        if (cmd != (uint8_t)SP_CMD_NONE) {
+            kind = KIND_CMD;
+        } else if (sc->ctrl.est.ref_lu.valid && !m4_same_bytes(&lu_before, &sc->ctrl.est.ref_lu, sizeof lu_before)) {
+            kind = KIND_LU;
+        } else if (sc->ctrl.est.ref_lu.valid && sc->ctrl.legs.lu_age != age_before) {
+            kind = KIND_REFINE;
+        } else {
+            kind = KIND_REST;
+        }
+        m4_stat_add(&r->kind[kind], net);
+        if (net > r->all.max16) {
+            r->worst_tick = tick;
+            r->worst_state = (uint8_t)before;
+            r->worst_cmd = cmd;
+            r->worst_kind = (uint8_t)kind;
+        }
         if ((unsigned)before < 7u) {
             m4_stat_add(&r->by_state[before], net);
         }
@@ -462,6 +514,21 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
 
 static void print_scenario_end(const m4_scenario_t *sc, const scenario_counts_t *r)
 {
+    unsigned k;
+    for (k = 0u; k < KINDS; ++k) {
+        if (r->kind[k].calls != 0u) {
+            m4_stat_print(kind_keys[k], kind_names[k], &r->kind[k]);
+        }
+    }
+    m4_out_str("highest tick: ");
+    m4_out_u32(r->worst_tick);
+    m4_out_str(", began in ");
+    m4_out_str(sp_state_name((sp_state_t)r->worst_state));
+    m4_out_str(", command ");
+    m4_out_u32(r->worst_cmd);
+    m4_out_str(",");
+    m4_out_str(kind_names[r->worst_kind] + 1);
+    m4_out_nl();
     m4_out_str("scenario: ");
     m4_out_u32(sc->ticks);
     m4_out_str(" ticks, final state ");

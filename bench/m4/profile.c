@@ -6,7 +6,9 @@
  * marks where the count starts (profile.sh ignores everything before its
  * first execution), then PROFILE_TICKS ticks in RUNNING (the paper's
  * surge), or, in the force scenario (PROFILE_MOTION M4_MOTION_FORCE),
- * PROFILE_TICKS ticks from the FORCE command's tick on. Not a measurement program: icount.c gives the figures.
+ * PROFILE_TICKS ticks from the FORCE command's tick on; with
+ * PROFILE_START_CMD, from the first tick with that command (the ENGAGE
+ * tick: sp_m4_profile_engage). Not a measurement program: icount.c gives the figures.
  */
 #include "m4_vectors.h"
 #include "sp_mps2.h"
@@ -37,8 +39,12 @@ int main(void)
         return 1;
     }
     while (n < PROFILE_TICKS && m4_scenario_prepare(&scenario)) {
+#ifdef PROFILE_START_CMD
+        int start = scenario.in.cmd.type == PROFILE_START_CMD;
+#else
         int start = (scenario.motion == M4_MOTION_FORCE) ? scenario.in.cmd.type == SP_CMD_FORCE
                                                          : scenario.out.state == SP_STATE_RUNNING;
+#endif
         if (!started && start) {
             profile_begin();
             started = 1;

@@ -10,6 +10,13 @@
 #else
 #define SPI_COLD
 #endif
+/* SPI_LEG_TERMS_AT_REST 1: leg_terms takes the short path for a motion at
+ * rest (leg_terms_at_rest); 0 (tests/unit/test_dynamics_rest.c's plain
+ * reference): every motion through the general formulas. */
+#ifndef SPI_LEG_TERMS_AT_REST
+#define SPI_LEG_TERMS_AT_REST 1
+#endif
+
 /* leg_terms is SPI_NOINLINE: inlined into id_solve, GCC spills the
  * caller's values around its loop (-Os: 51 instructions per tick more, and
  * a deeper stack: id_solve's frame grows by more than leg_terms' own). */
@@ -280,7 +287,129 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  * Legs in `keep` (bit i: leg i; hold not NULL) take their reaction and
  * axial term from *hold instead (sp_inverse_dynamics_held); the others'
  * are written to *hold when it is not NULL.
+ * id_solve gives a motion at rest to leg_terms_at_rest (the same bits).
  */
+/* 1 when the motion is at rest (v, w, a and wd all zero). A moving
+ * reference has a rate or an acceleration that is not zero, mostly the
+ * first ones looked at: the test stops there. */
+SPI_INLINE int at_rest(const sp_motion_t *m, const sp_q24_t wd[3])
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (m->vel[k] != 0 || m->rpy_rate[k] != 0) {
+            return 0;
+        }
+    }
+    for (k = 0u; k < 3u; ++k) {
+        if (m->acc[k] != 0 || wd[k] != 0) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/*
+ * leg_terms for a motion at rest (v, a, the angle rates and wd all zero:
+ * the ENGAGE tick, READY, the first tick of a park; the caller checks
+ * with at_rest), 0 outside leg_terms' envelope: w_b, v_A, a_A, L' and
+ * u.a_A are then exactly 0 in leg_terms' formulas (wb: 2^29 >> 30, v_A:
+ * 2^23 >> 24, a_A: 2^27 >> 28, L': 2^29 >> 30), and so is every term that
+ * multiplies them. What is left per leg, with leg_terms' roundings:
+ *   hw = (m_r + K1 q) g e_z,   s_i = -(K1 q) g u_z,
+ * about 60 % of a leg's cost less (the ENGAGE tick computes all six).
+ * The same bits as leg_terms' general formulas (tests/unit/
+ * test_dynamics_rest.c builds them with SPI_LEG_TERMS_AT_REST 0).
+ */
+SPI_NOINLINE static int leg_terms_at_rest(const sp_platform_t *p, const sp_ik_t *ik, int64_t b[SP_LEGS],
+                                          sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold,
+                                          unsigned keep, sp_flags_t *flags)
+{
+    const sp_leg_mass_t *lm = &p->leg_mass;
+    const int32_t mr = lm->rod_mass; /* Q16 */
+    const int32_t dc = lm->cylinder_com;
+    const int32_t dr = lm->rod_com;
+    int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
+    int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
+    int32_t g20, k1, lmin;
+    unsigned i;
+    unsigned k;
+
+    /* leg_terms' global envelope, its rates and accelerations 0 */
+    if ((out_of(p->gravity, 28u) | out_of(dc, 26u) | out_of(dr, 26u) |
+         (((uint32_t)lm->cylinder_mass + (uint32_t)mr) >> 25)) != 0u) {
+        return 0;
+    }
+    lmin = (dc > dr) ? dc : dr;
+    if (lmin < (INT32_C(1) << 23)) {
+        lmin = INT32_C(1) << 23; /* 0.5 m */
+    }
+    g20 = fit(p->gravity, 4u);
+    /* K1 = m_c d_c - m_r d_r, Q16, as leg_terms */
+    k1 = fit((int64_t)lm->cylinder_mass * dc, 24u) - fit((int64_t)mr * dr, 24u);
+    if (keep != 0u) {
+        for (k = 0u; k < 3u; ++k) {
+            fsum[k] = hold->fsum[k];
+            msum[k] = hold->msum[k];
+        }
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        const int32_t len = ik->length[i];
+        int32_t q, kq, guz, hz;
+        int64_t mo[3];
+        unsigned sh;
+
+        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
+            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
+            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
+        }
+        if (((keep >> i) & 1u) != 0u) {
+            axial[i] = hold->axial[i];
+            continue;
+        }
+        q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
+        q >>= (sh - 54u);
+        kq = fit((int64_t)k1 * q, 30u);                /* k_g - m_r = K1 q */
+        guz = fit((int64_t)g20 * ik->unit[i][2], 30u); /* g u_z, Q20 */
+        /* hw = (0, 0, (m_r + K1 q) g), narrowed as in leg_terms (x and y:
+         * 2^19 >> 20 = 0) */
+        hz = spi_narrow_floor((int64_t)(mr + kq) * g20 + (INT64_C(1) << 19), 20u, flags);
+        mo[0] = (int64_t)r[1] * hz;
+        mo[1] = -(int64_t)r[0] * hz;
+        mo[2] = 0;
+        fsum[2] += hz;
+        for (k = 0u; k < 3u; ++k) {
+            msum[k] += mo[k];
+            if (hold != NULL) {
+                if (keep != 0u) {
+                    fsum[k] -= hold->hw[i][k];
+                    msum[k] -= hold->mo[i][k];
+                }
+                hold->hw[i][k] = (k == 2u) ? hz : 0;
+                hold->mo[i][k] = mo[k];
+            }
+        }
+        axial[i] = spi_narrow_floor(-(int64_t)kq * guz + (INT64_C(1) << 19), 20u, flags);
+        if (hold != NULL) {
+            hold->axial[i] = axial[i];
+        }
+    }
+    if (hold != NULL) {
+        for (k = 0u; k < 3u; ++k) {
+            hold->fsum[k] = fsum[k];
+            hold->msum[k] = msum[k];
+        }
+    }
+    for (k = 0u; k < 3u; ++k) {
+        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
+        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        rate[i] = 0; /* L' at rest */
+    }
+    return 1;
+}
+
 SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t wd[3],
                                   int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS],
                                   sp_leg_hold_t *hold, unsigned keep, sp_flags_t *flags)
@@ -609,7 +738,10 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     }
     if (legs_on) {
         sp_q24_t rt[SP_LEGS];
-        if (leg_terms(platform, ik, motion, omega_dot, b, axial, (rate != NULL) ? rate : rt, hold, keep, &flags)) {
+        sp_q24_t *lr = (rate != NULL) ? rate : rt;
+        if ((SPI_LEG_TERMS_AT_REST && at_rest(motion, omega_dot) &&
+             leg_terms_at_rest(platform, ik, b, axial, lr, hold, keep, &flags)) ||
+            leg_terms(platform, ik, motion, omega_dot, b, axial, lr, hold, keep, &flags)) {
             have_rates = 1;
         } else {
             leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, &flags);

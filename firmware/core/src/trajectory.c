@@ -339,6 +339,9 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
         int32_t dv;
         int32_t da;
         int64_t dp;
+        if (d == 0) {
+            continue; /* an axis that does not move: at rest at `from`, as set above */
+        }
         if (d >= INT32_MIN && d <= INT32_MAX) {
             /* the common case, |d| < 128 m or rad: 32x32 products, the
              * same values as below */
