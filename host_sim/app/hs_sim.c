@@ -28,7 +28,7 @@
  * neither sent nor read. The master's SYNC sets the pace: each SYNC (the
  * one on axis_b closes the cycle) is one plant cycle of 1 ms, whatever the
  * wall clock (log timestamps are simulated time); --timeout-ms of silence
- * ends the run (exit 3). With --lockstep the plant stays the time master
+ * ends the run (exit 3; the first cycle waits at least 10 s). With --lockstep the plant stays the time master
  * (deterministic, byte-identical logs): each cycle it sends only SYNC(t) on
  * both axis buses (the lockstep clock; no native feedback), the controller
  * ticks on it and its CANopen master sends NMT/SDO/RPDO1/SYNC, the nodes
@@ -807,6 +807,14 @@ static uint32_t inproc_answer(sim_t *s, sp_can_frame_t raw[SP_NODE_MAX_TX])
     return n;
 }
 
+/* The first cycle waits at least 10 s: a controller that has just opened
+ * its sockets on a loaded machine may take seconds to its first tick (the
+ * start-up, not a silence of the loop); later cycles wait timeout_ms. */
+static long cycle_timeout_ms(uint64_t cycle, long timeout_ms)
+{
+    return (cycle == 0u && timeout_ms < 10000) ? 10000 : timeout_ms;
+}
+
 /* Lockstep: one cycle's wait for the controller's answer (raw frames into
  * keep[0..*nkeep)). 0 ok, 3 silent, -1 error. */
 static int lockstep_wait(sim_t *s, uint32_t tick, sp_can_frame_t *keep, uint32_t *nkeep_out, uint32_t max_keep,
@@ -1419,12 +1427,12 @@ int main(int argc, char **argv)
             if (s.inproc) {
                 nraw = inproc_answer(&s, raw);
             } else {
-                r = lockstep_wait(&s, sync_tick, raw, &nraw, 4 * RX_BUF, timeout_ms);
+                r = lockstep_wait(&s, sync_tick, raw, &nraw, 4 * RX_BUF, cycle_timeout_ms(tick, timeout_ms));
             }
             if (r != 0) {
                 if (r == 3) {
                     fprintf(stderr, "hs_sim: the controller did not answer cycle %" PRIu64 " within %ld ms\n", tick,
-                            timeout_ms);
+                            cycle_timeout_ms(tick, timeout_ms));
                 }
                 rc = (r == 3) ? 3 : 1;
                 break;

@@ -187,7 +187,7 @@ def _runner(specs: list[RunSpec], bins: Binaries, out: Path, progress: bool, key
             f"{q(ctl)} > {shlex.quote(str(out / (s.name + '.controller.txt')))} 2>&1 &",
             "ctl=$!",
             "# the controller says so once its socket is open: start the plant only then",
-            f"for i in $(seq 100); do grep -q 'mode on' {shlex.quote(str(out / (s.name + '.controller.txt')))} "
+            f"for i in $(seq 600); do grep -q 'mode on' {shlex.quote(str(out / (s.name + '.controller.txt')))} "
             "2>/dev/null && break; sleep 0.05; done",
             f"{q(plant)} 2>&1 | tee {shlex.quote(str(out / (s.name + '.plant.txt')))}",
             "rc=${PIPESTATUS[0]}",

@@ -43,7 +43,9 @@
  * counted and reported. Lockstep mode: the plant sends SYNC and sets the
  * pace; each tick runs when SYNC has arrived on both axis buses, which makes
  * runs deterministic. Ends after N ticks (0: until SIGINT/SIGTERM) or when
- * the plant has been silent for --timeout-ms in lockstep; prints a summary.
+ * the plant has been silent for --timeout-ms in lockstep (before its first
+ * SYNC: at least FIRST_SYNC_TIMEOUT_MS, the plant's start-up on a loaded
+ * machine); prints a summary.
  * --feedback-timeout relaxes the drive supervision (default 2 ticks: a
  * silent drive faults the controller on the third tick); only for hosts
  * that cannot keep 1 ms deadlines, such as user-mode Linux in real time.
@@ -106,6 +108,10 @@ typedef struct {
 } co_t;
 
 static co_t co;
+
+/* Lockstep: the silence allowed before the plant's first SYNC, ms (the
+ * plant starts after this process and may take seconds on a loaded machine). */
+#define FIRST_SYNC_TIMEOUT_MS 10000L
 
 static int co_setup(uint32_t timeout_ms, int force_ff, int divider, int cia402)
 {
@@ -474,8 +480,8 @@ int main(int argc, char **argv)
                  * always lands in the same tick. */
                 tick(&port, &cfg, &node, &rs, timing);
                 silent_ms = 0;
-            } else if (silent_ms >= timeout_ms) {
-                fprintf(stderr, "sp_controller: no SYNC from the plant for %ld ms, stopping\n", timeout_ms);
+            } else if (silent_ms >= timeout_ms && (rs.ticks > 0u || silent_ms >= FIRST_SYNC_TIMEOUT_MS)) {
+                fprintf(stderr, "sp_controller: no SYNC from the plant for %ld ms, stopping\n", silent_ms);
                 break;
             }
         }

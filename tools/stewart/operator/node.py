@@ -230,6 +230,7 @@ class OperatorNode:
         self._unsigned = au.Signer(self.proto.db, bytes(au.KEY_BYTES))  # which frames need a code
         self.auth: dict | None = None          # the last CTRL_AUTH
         self._auth_at_send: dict | None = None
+        self._auth_stamp = 0.0                 # when the last CTRL_AUTH was received (time.time())
         self._signed_counter: int | None = None  # the counter of the last signed frame
         self._rx = {fid: e2e.E2EReceiver() for fid in self._readers}
         self._tx: dict[str, int] = {}
@@ -465,6 +466,7 @@ class OperatorNode:
                  "key_set": bool(f["KeySet"].raw(w))}
             with self._cond:
                 self.auth = a
+                self._auth_stamp = float(msg.timestamp) if msg.timestamp else time.time()
                 if self.signer is not None:
                     self.signer.follow(a["session"], a["last_counter"])
                 self._cond.notify_all()
@@ -486,6 +488,22 @@ class OperatorNode:
                                    "(is it running, and is this the ops bus?)")
                 self._cond.wait(left)
             return self.status
+
+    def fresh_auth(self, timeout: float = 2.0) -> None:
+        """Waits for a CTRL_AUTH received after this call (every 10 ms), so
+        that the counter of the next signed frame continues from the
+        controller's newest LastCounter: another operator process may have
+        signed frames since this one last heard (on a loaded machine its
+        receive queue may hold older ones), and a counter at or below
+        LastCounter is refused as a replay."""
+        now, end = time.time(), time.monotonic() + timeout
+        with self._cond:
+            while self._auth_stamp < now:
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise NoAnswer(f"no CTRL_AUTH from the controller within {timeout:g} s "
+                                   "(its session and counter are needed to sign)")
+                self._cond.wait(left)
 
     def _mark(self) -> int:
         with self._cond:
@@ -541,6 +559,10 @@ class OperatorNode:
                 if k == reject_window and first_change is None and signed is not None and taken_k is None:
                     why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
                     raise Refused(f"{command} rejected: {why}")
+                if k == reject_window and first_change is None and signed is not None and not done(st):
+                    why = self.auth_reason()  # another process's counters went past this one's
+                    if why is not None:
+                        raise Refused(f"{command} rejected: {why}")
                 if k == reject_window and before is not None and first_change is None \
                         and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
                     # the refusal's status frame was not seen, but nothing happened
@@ -559,6 +581,8 @@ class OperatorNode:
             self.send_command("NONE")
             self.wait_status(timeout=2.0, after=before.seq)
             before = self.status
+        if self.signer is not None and command not in au.Signer.EXEMPT_COMMANDS:
+            self.fresh_auth()
         mark = self._mark()
         sent_wall = self.send_command(command, **signals)
         self._sent_mono = time.monotonic()
