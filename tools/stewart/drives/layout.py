@@ -9,9 +9,10 @@ Per SYNC period (``sync_divider`` control ticks) each CANopen bus carries one
 SYNC (no data), and per drive its setpoint RPDO and its actual-value TPDO
 (plus the pressure TPDO when force feedback is on); every ``heartbeat_ms``
 each drive sends one heartbeat (1 byte), and the master its own every
-the config's ``drives.master_heartbeat_ms`` (default ``objects.MASTER_HEARTBEAT_MS``, the firmware's SP_CO_MASTER_HEARTBEAT_MS). SDO traffic happens
-only before the drives are started, EMCY only on a fault: neither is in the
-cyclic budget. Standard library only.
+``drives.master_heartbeat_ms`` of the config (default
+``objects.MASTER_HEARTBEAT_MS``, the firmware's SP_CO_MASTER_HEARTBEAT_MS;
+0: none). SDO traffic happens only before the drives are started, EMCY
+only on a fault: neither is in the cyclic budget. Standard library only.
 """
 
 from __future__ import annotations
