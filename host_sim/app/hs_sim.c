@@ -6,7 +6,7 @@
  *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
  *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
  *          [--setpoint-timeout CYCLES] [--canopen] [--cia402] [--tick0 N] [--key FILE]
- *          [--session N] [--wrench-source cylinders|sensor]
+ *          [--session N] [--wrench-source cylinders|sensor] [--sdo-delay-ms MS]
  *
  * Command authentication (docs/security.md): the scenario's commands, MOVE_TO
  * and streamed targets and force targets are signed, as `stewart op` signs
@@ -36,6 +36,11 @@
  * Not with --inproc. --cia402 (implies --canopen) presents every drive as a
  * CiA 402 node in cyclic synchronous position mode instead (the profile per
  * leg comes from the config's drives section when it has one).
+ * --sdo-delay-ms MS (0..1000, default 0; with --canopen) makes every node a
+ * slow SDO server: each answer goes out MS ms of plant time after the
+ * request (a drive storing each object), so that the master's start-up by
+ * SDO lasts (tests/bus/test_canopen_engage_refused.py); keep MS below the
+ * master's SDO timeout (100 ms).
  *
  * Lockstep (deterministic): the plant is the time master. Each cycle t it
  * runs the scenario's actions due at t (operator commands on the ops bus),
@@ -144,6 +149,7 @@ typedef struct {
     uint64_t play_start;
     int canopen;                  /* --canopen: the drives are CiA 408 nodes (hs/co_bus.h), real time */
     int cia402;                   /* --cia402: ... CiA 402 nodes (cyclic synchronous position) */
+    uint16_t sdo_delay_ms;        /* --sdo-delay-ms: each node answers an SDO request this late */
     hs_co_bus_t co;               /* their state */
     uint64_t co_sent;             /* frames the nodes sent */
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
@@ -965,7 +971,8 @@ static void usage(void)
             "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
             "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
             "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen] [--cia402]\n"
-            "              [--tick0 N] [--key FILE] [--session N] [--wrench-source cylinders|sensor]\n");
+            "              [--tick0 N] [--key FILE] [--session N] [--wrench-source cylinders|sensor]\n"
+            "              [--sdo-delay-ms MS]\n");
 }
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -1225,6 +1232,8 @@ int main(int argc, char **argv)
             s.wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS, i++;
         } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
             s.tick0 = (uint32_t)u, i++;
+        } else if (strcmp(a, "--sdo-delay-ms") == 0 && parse_u64(v, &u) == 0 && u <= 1000) {
+            s.sdo_delay_ms = (uint16_t)u, i++;
         } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
             timeout_ms = (long)u, i++;
         } else {
@@ -1286,6 +1295,9 @@ int main(int argc, char **argv)
     if (s.canopen && canopen_init(&s, &par) != 0) {
         fprintf(stderr, "hs_sim: cannot set up the CiA 408 nodes\n");
         return 1;
+    }
+    for (int i = 0; s.canopen && i < HS_LEGS; i++) {
+        s.co.node[i].sdo_delay_ms = s.sdo_delay_ms;
     }
     (void)hs_inject_init(&s.inj, par.sensors.seed ^ UINT64_C(0x9E3779B97F4A7C15));
     s.strokes_ok = 1;

@@ -455,6 +455,11 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
         sdo_serve(n, f, out);
         if (out->len == 0u) {
             *n_tx = 0u;
+        } else if (n->sdo_delay_ms != 0u) { /* the slow server: the answer waits (a newer request replaces it) */
+            n->sdo_held = *out;
+            n->sdo_holding = 1u;
+            n->sdo_wait_ms = n->sdo_delay_ms;
+            *n_tx = 0u;
         }
         return HS_OK;
     }
@@ -496,7 +501,15 @@ hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_C
         return HS_OK;
     }
     if (n->nmt == SP_CO_NMT_STATE_BOOTUP) {
+        n->sdo_holding = 0u; /* a reset drops an answer held back */
         return HS_OK;
+    }
+    if (n->sdo_holding) {
+        n->sdo_wait_ms = (uint16_t)(ms >= n->sdo_wait_ms ? 0u : n->sdo_wait_ms - ms);
+        if (n->sdo_wait_ms == 0u && (f = next_tx(tx, n_tx)) != NULL) {
+            *f = n->sdo_held;
+            n->sdo_holding = 0u;
+        }
     }
     hb = od_value(n, 0x1017u, 0u);
     n->hb_elapsed_ms += ms;

@@ -253,6 +253,30 @@ static void assert_still(void)
     }
 }
 
+/* A slow SDO server (hs_sim --sdo-delay-ms; a drive storing each object):
+ * every answer 20 ms late, within the master's SDO timeout. The start-up
+ * takes the 53 transfers in a row of each drive (the drives in parallel),
+ * at least 53 x 20 ms, and ends with every drive ready; the controller's
+ * request does not hurry it. */
+static void test_slow_sdo_server(void **state)
+{
+    uint8_t k;
+    (void)state;
+    for (k = 0u; k < N; k++) {
+        rig.node[k].sdo_delay_ms = 20u;
+    }
+    rig.in.request = SP_CO_REQ_ACTIVE;
+    RUN_UNTIL(rig.out.ready || rig.out.fault_mask != 0u, 53u * 20u);
+    assert_false(rig.out.ready); /* still configuring after 53 x 20 ms */
+    assert_int_equal(rig.out.fault_mask, 0u);
+    RUN_UNTIL(rig.out.ready || rig.out.fault_mask != 0u, 3000u);
+    assert_int_equal(rig.out.fault_mask, 0u);
+    assert_true(rig.out.ready);
+    assert_int_equal(sdo_total(), N * (1u + 29u + 23u));
+    printf("canopen start-up with 20 ms SDO answers: ready after %u ms\n", (unsigned)rig.now);
+    assert_in_range(rig.now, 53u * 20u, 53u * 24u + 100u);
+}
+
 static void test_sdo_abort(void **state)
 {
     (void)state;
@@ -633,6 +657,7 @@ int main(void)
         cmocka_unit_test_setup(test_heartbeat_lost, setup),
         cmocka_unit_test_setup(test_drive_watchdog, setup),
         cmocka_unit_test_setup(test_master_heartbeat, setup),
+        cmocka_unit_test_setup(test_slow_sdo_server, setup),
         cmocka_unit_test_setup(test_402_startup, setup402),
         cmocka_unit_test_setup(test_402_mode_not_shown, setup402),
         cmocka_unit_test_setup(test_402_wrong_profile, setup402),

@@ -84,6 +84,13 @@ def test_a_valid_cia408_layout():
      "drives.legs[2].node_id: 127 is the master's own heartbeat id"),
     (lambda s: s["legs"][4].update(protocol="cia402", force_feedforward=True),
      "drives.legs[4].force_feedforward: only for cia408 drives"),
+    (lambda s: s.update(master_heartbeat_ms=21846), "t.json: drives.master_heartbeat_ms: 21846 is outside 0..21845"),
+    (lambda s: s.update(master_heartbeat_ms=-1), "t.json: drives.master_heartbeat_ms: -1 is outside 0..21845"),
+    (lambda s: s.update(master_heartbeat_ms=50.5), "t.json: drives.master_heartbeat_ms: expected an integer"),
+    (lambda s: s.update(master_node_id=0), "t.json: drives.master_node_id: 0 is outside 1..127"),
+    (lambda s: s.update(master_node_id=128), "t.json: drives.master_node_id: 128 is outside 1..127"),
+    (lambda s: s.update(master_node_id=12),
+     "t.json: drives.legs[2].node_id: 12 is the master's own heartbeat id (drives.master_node_id)"),
 ])
 def test_validation_names_the_bad_key(mutate, message):
     s = _section()
@@ -208,8 +215,9 @@ def test_force_feedforward_key():
 def test_the_firmware_gets_the_config_layout():
     from stewart import gen_platform
 
-    assert "sp_co_layout_default = {0}; /* the config's drives are native */" in gen_platform.c_source(
-        config.load(REPO_ROOT / "config" / "platform_default.json"))
+    native = gen_platform.c_source(config.load(REPO_ROOT / "config" / "platform_default.json"))
+    assert ".present = 0u," in native   # native drives: the master's keys only, for the built-in layout
+    assert ".master = {.master_heartbeat_ms = 100u, .master_node_id = 127u}," in native
     s = _section(divider=3)
     s["legs"][4]["force_feedforward"] = True
     s["legs"][5]["scaling"] = {"position_per_count": 2e-6, "length_at_zero": 1.5, "direction": -1}
@@ -267,3 +275,34 @@ def test_three_canopen_buses_fail_the_build():
     with pytest.raises(config.ConfigError) as e:
         gen_platform.c_source(p)
     assert "drives.legs: 3 CANopen buses (can_0, can_1, can_2); the controller has 2 drive buses" in str(e.value)
+
+
+def test_master_heartbeat_keys():
+    """drives.master_heartbeat_ms and master_node_id: defaults 100 ms and 127
+    (the firmware's SP_CO_MASTER_HEARTBEAT_MS); they reach the drives' plan
+    (0x1016.1), the bus load, and the firmware's layout, CANopen or native."""
+    from stewart import gen_platform
+    from stewart.drives import plan
+
+    p = config.from_dict(_with(_section()), "t.json")
+    assert (p.drives.master_heartbeat_ms, p.drives.master_node_id) == (100, 127)
+    s = _section()
+    s.update(master_heartbeat_ms=250, master_node_id=100)
+    p = config.from_dict(_with(s), "t.json")
+    w = {(x.index, x.subindex): x.value for x in plan.drive_writes(p.drives.legs[0], p.drives)}
+    assert w[(0x1016, 1)] == (100 << 16) | 750          # three periods, as the firmware writes it
+    rows = layout.bus_rows(p.drives, "can_0")
+    hb = [r for r in rows if r.name == "heartbeat (master, node 100)"]
+    assert len(hb) == 1 and hb[0].period_ms == 250.0
+    text = gen_platform.c_source(p)
+    assert ".master_heartbeat_ms = 250u," in text and ".master_node_id = 100u," in text
+    s["master_heartbeat_ms"] = 0                        # off: no consumer write, no row, node 127 free for a drive
+    s["legs"][0]["node_id"] = 127
+    p = config.from_dict(_with(s), "t.json")
+    assert (0x1016, 1) not in {(x.index, x.subindex) for x in plan.drive_writes(p.drives.legs[0], p.drives)}
+    assert not [r for r in layout.bus_rows(p.drives, "can_0") if "master" in r.name]
+    # a native config may carry the master's keys alone (the ports' built-in CANopen layout takes them)
+    p = config.from_dict(_with({"master_heartbeat_ms": 40, "master_node_id": 99}), "t.json")
+    assert {d.protocol for d in p.drives.legs} == {"native"}
+    assert ".master = {.master_heartbeat_ms = 40u, .master_node_id = 99u}," in gen_platform.c_source(p)
+    assert "drives.legs: missing" in _error(_with({"master_node_id": 99, "sync_divider": 2}))

@@ -306,7 +306,10 @@ def _integer(where: str, v, lo: int, hi: int) -> int:
 
 
 _DRIVES_KEYS = {"legs", "buses", "sync_divider", "heartbeat_ms", "heartbeat_timeout_ms",
-                "setpoint_timeout_ms", "pressure_feedback"}
+                "setpoint_timeout_ms", "pressure_feedback", "master_heartbeat_ms", "master_node_id"}
+#: The master's heartbeat period's ceiling (ms): a drive's consumer time,
+#: three periods, must fit 0x1016.1's 16 bits.
+MASTER_HEARTBEAT_MAX_MS = 0xFFFF // 3
 _LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode", "force_feedforward"}
 _SCALING_KEYS = {"position_per_count", "length_at_zero", "direction"}
 
@@ -322,6 +325,13 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
     for key in s:
         if key not in _DRIVES_KEYS:
             raise ConfigError(f"drives.{key}: unknown key (known: {', '.join(sorted(_DRIVES_KEYS))})")
+    master_hb = _integer("drives.master_heartbeat_ms", s.get("master_heartbeat_ms", _objects.MASTER_HEARTBEAT_MS),
+                         0, MASTER_HEARTBEAT_MAX_MS)
+    master_node = _integer("drives.master_node_id", s.get("master_node_id", _objects.MASTER_NODE_ID), 1, 127)
+    if "legs" not in s and set(s) <= {"master_heartbeat_ms", "master_node_id"}:
+        # native drives with the master's keys only (the built-in CANopen layout uses them)
+        return dataclasses.replace(_layout.native_default(), master_heartbeat_ms=master_hb,
+                                   master_node_id=master_node)
     legs_in = _require(s, "legs", "drives.")
     if not isinstance(legs_in, list) or len(legs_in) != LEGS:
         raise ConfigError(f"drives.legs: expected a list of {LEGS} objects, leg 1 first")
@@ -379,8 +389,8 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
         if bus not in bitrates:
             raise ConfigError(f"{w}.bus: {bus} has no bit rate in drives.buses")
         node = _integer(f"{w}.node_id", _require(leg, "node_id", f"{w}."), 1, 127)
-        if node == _objects.MASTER_NODE_ID:
-            raise ConfigError(f"{w}.node_id: {node} is the master's own heartbeat id (use 1..126)")
+        if master_hb and node == master_node:
+            raise ConfigError(f"{w}.node_id: {node} is the master's own heartbeat id (drives.master_node_id)")
         if (bus, node) in used:
             raise ConfigError(f"{w}.node_id: node {node} on bus {bus} is already leg {used[(bus, node)]}'s")
         used[(bus, node)] = i + 1
@@ -421,7 +431,7 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
     for name in bitrates:
         if name not in canopen_buses:
             raise ConfigError(f"drives.buses.{name}: no CANopen drive is on this bus")
-    return _layout.Drives(tuple(legs), bitrates, divider, hb, hb_timeout, wd, pressure)
+    return _layout.Drives(tuple(legs), bitrates, divider, hb, hb_timeout, wd, pressure, master_hb, master_node)
 
 
 def _check_bus_load(drives: _layout.Drives) -> None:

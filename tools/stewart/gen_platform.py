@@ -137,15 +137,14 @@ def _rows(m) -> str:
 _DRIVE_BUSES = ("SP_BUS_AXIS_A", "SP_BUS_AXIS_B")
 #: Master timeouts the config does not set (docs/canopen.md): boot, SDO, device state.
 _BOOT_MS, _SDO_MS, _STATE_MS = 2000, 100, 100
-#: The master's own heartbeat (docs/canopen.md): period and node id.
-_MASTER_HB_MS, _MASTER_NODE = _plan.ob.MASTER_HEARTBEAT_MS, _plan.ob.MASTER_NODE_ID
 #: sp_co_profile_t of each CANopen protocol.
 _PROFILE = {"cia408": "SP_CO_PROFILE_408", "cia402": "SP_CO_PROFILE_402"}
 
 
-def canopen_layout(p: cfg.Platform) -> dict | None:
+def canopen_layout(p: cfg.Platform) -> dict:
     """The config's ``drives`` section as the firmware's sp_co_layout_t
-    fields, or None when every leg is native. Raises ConfigError (naming the
+    fields; when every leg is native only the master's heartbeat period and
+    node id (which the ports' built-in CANopen layout takes). Raises ConfigError (naming the
     key) for what the firmware cannot drive: native drives with CANopen ones
     (one drive protocol per image; CiA 408 and CiA 402 drives may share the
     master), more than two CANopen buses, a resolution that is not a whole
@@ -153,7 +152,7 @@ def canopen_layout(p: cfg.Platform) -> dict | None:
     d = p.drives
     protos = {leg.protocol for leg in d.legs}
     if protos == {"native"}:
-        return None
+        return {"master_heartbeat_ms": d.master_heartbeat_ms, "master_node_id": d.master_node_id}
     if "native" in protos:
         raise cfg.ConfigError("drives.legs: the firmware drives every leg with one protocol (one per image); "
                               f"the config mixes {', '.join(sorted(protos))}")
@@ -168,8 +167,9 @@ def canopen_layout(p: cfg.Platform) -> dict | None:
         if abs(nm - round(nm)) > 1e-6 * max(1.0, nm) or not 1 <= round(nm) <= 1_000_000:
             raise cfg.ConfigError(f"{w}.scaling.position_per_count: {leg.scaling.position_per_count:g} m is not "
                                   "a whole number of nm per count in 1..1000000 (the firmware's scaling)")
-        if leg.node_id == _MASTER_NODE:
-            raise cfg.ConfigError(f"{w}.node_id: {_MASTER_NODE} is the master's own heartbeat id")
+        if d.master_heartbeat_ms and leg.node_id == d.master_node_id:
+            raise cfg.ConfigError(f"{w}.node_id: {leg.node_id} is the master's own heartbeat id "
+                                  "(drives.master_node_id)")
         prefix = _plan.unit_prefix(leg.scaling.position_per_count) if leg.protocol == "cia408" else None
         nodes.append({"node_id": leg.node_id, "bus": _DRIVE_BUSES[buses.index(leg.bus)], "leg": leg.leg,
                       "control_mode": leg.control_mode, "write_prefix": int(prefix is not None),
@@ -182,12 +182,18 @@ def canopen_layout(p: cfg.Platform) -> dict | None:
             "pressure": int(d.pressure_feedback and "cia408" in protos),
             "heartbeat_ms": d.heartbeat_ms, "heartbeat_timeout_ms": d.heartbeat_timeout_ms,
             "setpoint_timeout_ms": d.setpoint_timeout_ms, "pdo_timeout_ms": max(10, 3 * d.sync_divider + 1),
-            "bitrate": {_DRIVE_BUSES[i]: d.bitrates.get(b, 1_000_000) for i, b in enumerate(buses)}}
+            "bitrate": {_DRIVE_BUSES[i]: d.bitrates.get(b, 1_000_000) for i, b in enumerate(buses)},
+            "master_heartbeat_ms": d.master_heartbeat_ms, "master_node_id": d.master_node_id}
 
 
-def _layout_c(lay: dict | None) -> str:
-    if lay is None:
-        return "const sp_co_layout_t sp_co_layout_default = {0}; /* the config's drives are native */\n"
+def _layout_c(lay: dict) -> str:
+    if "nodes" not in lay:  # native drives: the master's heartbeat keys only (the ports' built-in layout)
+        return f"""/* the config's drives are native; the built-in CANopen layout takes the master's heartbeat */
+const sp_co_layout_t sp_co_layout_default = {{
+    .present = 0u,
+    .master = {{.master_heartbeat_ms = {lay["master_heartbeat_ms"]}u, .master_node_id = {lay["master_node_id"]}u}},
+}};
+"""
     nodes = ",\n".join(
         f"            {{{n['node_id']}u, {n['bus']}, {n['leg']}u, {n['control_mode']}, {n['write_prefix']}u, "
         f"{n['unit_prefix']}, {n['force_ff']}u, {n['profile']}}}" for n in lay["nodes"])
@@ -210,8 +216,8 @@ def _layout_c(lay: dict | None) -> str:
         .sdo_timeout_ms = {_SDO_MS}u,
         .state_timeout_ms = {_STATE_MS}u,
         .pdo_timeout_ms = {lay["pdo_timeout_ms"]}u,
-        .master_heartbeat_ms = {_MASTER_HB_MS}u,
-        .master_node_id = {_MASTER_NODE}u,
+        .master_heartbeat_ms = {lay["master_heartbeat_ms"]}u,
+        .master_node_id = {lay["master_node_id"]}u,
     }},
     .scaling = {{
 {scal}

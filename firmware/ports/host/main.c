@@ -123,6 +123,9 @@ static int co_setup(uint32_t timeout_ms, int force_ff, int divider, int cia402)
     } else if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
                sp_co_link_cfg_default(&co.link, &sp_platform_default, ik.length) != SP_OK) {
         return -1;
+    } else { /* the built-in layout: the master's heartbeat period and node id from the config */
+        co.link.master.master_heartbeat_ms = sp_co_layout_default.master.master_heartbeat_ms;
+        co.link.master.master_node_id = sp_co_layout_default.master.master_node_id;
     }
     if (force_ff) {
         for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {

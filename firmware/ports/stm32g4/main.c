@@ -103,6 +103,9 @@ static sp_status_t co_init(void)
     } else if (sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik) != SP_OK ||
                sp_co_link_cfg_default(&g_co, &sp_platform_default, ik.length) != SP_OK) {
         return SP_E_ARG;
+    } else { /* the built-in layout: the master's heartbeat period and node id from the config */
+        g_co.master.master_heartbeat_ms = sp_co_layout_default.master.master_heartbeat_ms;
+        g_co.master.master_node_id = sp_co_layout_default.master.master_node_id;
     }
     if (g_cfg.ctrl.feedback_timeout_ticks <= g_co.master.sync_divider) {
         g_cfg.ctrl.feedback_timeout_ticks = (uint32_t)g_co.master.sync_divider + 2u;

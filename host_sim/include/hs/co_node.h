@@ -76,6 +76,13 @@ typedef struct {
     /* the heartbeat consumer (0x1016.1: node id << 16 | ms; 0 = off) */
     uint8_t hbc_seen;        /**< 1 once the watched node's heartbeat arrived (monitoring runs) */
     uint32_t hbc_elapsed_ms; /**< ms since the watched node's last heartbeat */
+    /* test knob: a slow SDO server (a drive that takes its time over each
+     * object, as one storing it does): each answer goes out sdo_delay_ms
+     * after the request, from hs_co_node_tick (0: at once) */
+    uint16_t sdo_delay_ms;
+    uint8_t sdo_holding;     /**< 1: sdo_held waits for its time */
+    uint16_t sdo_wait_ms;    /**< ms left before sdo_held goes out */
+    sp_can_frame_t sdo_held; /**< the answer held back */
 } hs_co_node_t;
 
 /** Powers a node up with the EDS's defaults; it boots (sends its boot-up)
@@ -105,7 +112,8 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
  * in ACTIVE, no RPDO1 within it raises EMCY 0x8250 and a fault), the
  * heartbeat consumer (0x1016.1: once the watched node's heartbeat was seen,
  * silence beyond its time raises EMCY 0x8130 and a fault; CiA 301's
- * monitoring starts with the first heartbeat), and a pending EMCY.
+ * monitoring starts with the first heartbeat), a pending EMCY, and an SDO
+ * answer held back by sdo_delay_ms once its time has come.
  * HS_E_ARG for NULL.
  */
 hs_status_t hs_co_node_tick(hs_co_node_t *n, uint32_t ms, sp_can_frame_t tx[HS_CO_MAX_TX], uint8_t *n_tx);

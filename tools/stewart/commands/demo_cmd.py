@@ -18,7 +18,16 @@ simulated drive's vendor force feed-forward 0x2120 into RPDO1, ``ff_off``
 is the standard position-only setpoint (what a drive without the vendor
 object gets), ``main_repeat`` the determinism check; the force-control runs
 are left out; the summary adds each drive bus's CANopen load as if classic
-CAN at 1 Mbit/s. Writes into OUT (default out/demo):
+CAN at 1 Mbit/s.
+
+With ``--cia402`` the six drives are CiA 402 nodes in cyclic synchronous
+position mode (docs/canopen.md "CiA 402"), SYNC every 3 ms: ``main`` and
+``main_repeat`` with them (the target position only: CiA 402 has no force
+object), and the comparison run is ``native``, the native protocol with
+force feed-forward (the default demo's ``main``), so the summary gives the
+tracking of the CiA 402 drives against the native one's; the force-control
+runs are left out, the drive buses' CANopen load is added. Writes into OUT
+(default out/demo):
 
   main.log              CAN log of all three buses, candump -L format, simulated time
   main.truth.csv        the plant's true pose, leg lengths and forces per tick
@@ -35,6 +44,7 @@ CAN at 1 Mbit/s. Writes into OUT (default out/demo):
   force_sensor/signals.csv, force_cylinders/signals.csv   their signals, with control_mode
                         and force_target_fx..mz
   ff_off/, ff_off.log, main_repeat.log, *.plant.txt, *.controller.txt, *.scenario
+                        (native/, native.log with --cia402)
 
 Exit status: 0 all runs ended as planned and the logs are clean and
 deterministic; 1 otherwise (the figures are still printed); 2 not built.
@@ -85,18 +95,32 @@ def run(args: argparse.Namespace) -> int:
     scenario = cl.demo_scenario(amplitude=0.09, frequency=0.5, cycles=cycles, fade=1.0)
     # SYNC every 3 ms: six drives on the two classic buses at 1 Mbit/s with pressures and the force object
     # fit within 50 % only so (docs/canopen.md, stewart busload)
-    co = {"canopen": True, "canopen_force_ff": True, "canopen_sync_divider": 3} if args.cia408 else {}
-    if args.cia408:  # the master configures the drives by SDO first (about 70 ms): ENGAGE after that
+    if args.cia408 and args.cia402:
+        print("stewart demo: --cia408 or --cia402, not both", file=sys.stderr)
+        return 2
+    canopen = args.cia408 or args.cia402
+    profile = "CiA 408" if args.cia408 else "CiA 402"
+    if args.cia408:
+        co = {"canopen": True, "canopen_force_ff": True, "canopen_sync_divider": 3}
+    elif args.cia402:  # cyclic synchronous position: the target position only, no pressures
+        co = {"cia402": True, "canopen_sync_divider": 3}
+    else:
+        co = {}
+    native_scenario = scenario
+    if canopen:  # the master configures the drives by SDO first (about 70 ms): ENGAGE after that
         scenario = "delay 0.2\n" + scenario
     specs = [cl.RunSpec("main", scenario, **co)]
+    compare = "native" if args.cia402 else "ff_off"
     if not args.no_compare:
         if args.cia408:  # the standard objects only: the position setpoint without the vendor force object
             specs.append(cl.RunSpec("ff_off", scenario, canopen=True, canopen_sync_divider=3))
+        elif args.cia402:  # the native protocol with force feed-forward: the reference the drives are held to
+            specs.append(cl.RunSpec("native", native_scenario))
         else:
             specs.append(cl.RunSpec("ff_off", scenario, feedforward=False))
     if not args.no_determinism:
         specs.append(cl.RunSpec("main_repeat", scenario, **co))
-    if not args.no_force and not args.cia408:
+    if not args.no_force and not canopen:
         from .. import forcecontrol as fc
 
         out.mkdir(parents=True, exist_ok=True)
@@ -125,15 +149,22 @@ def run(args: argparse.Namespace) -> int:
     figures: dict = {"runs": {n: r.figures for n, r in results.items()}}
     seg_on = {s.index: segment_metrics(res.data, s) for s in res.segments}
     figures["segments"] = {}
-    if "ff_off" in results and results["ff_off"].log.exists():
-        res2 = analyze(results["ff_off"].log, out / "ff_off", truth=results["ff_off"].truth)
+    if compare in results and results[compare].log.exists():
+        res2 = analyze(results[compare].log, out / compare, truth=results[compare].truth)
         for k, (s1, s2) in enumerate(match_segments(res.segments, res2.segments), start=1):
             path = out / f"compare{k}.png"
-            plot_compare([("ff on", res.data, s1), ("ff off", res2.data, s2)], path)
+            names = ("CiA 402", "native") if args.cia402 else ("ff on", "ff off")
+            plot_compare([(names[0], res.data, s1), (names[1], res2.data, s2)], path)
             m1 = segment_metrics(res.data, s1)["moving_axis_error"]
             m2 = segment_metrics(res2.data, s2)["moving_axis_error"]
-            figures["segments"][s1.label] = {"ff_on": m1, "ff_off": m2}
-            if m1 and m2:
+            figures["segments"][s1.label] = {"cia402": m1, "native": m2} if args.cia402 else \
+                {"ff_on": m1, "ff_off": m2}
+            if m1 and m2 and args.cia402:
+                lines.append(f"{s1.label.replace(' ff=on', '')}: tracking error RMS {m1['rms']:.3f} {m1['unit']} "
+                             f"with CiA 402 drives (SYNC 3 ms, target position only), {m2['rms']:.3f} native "
+                             f"with force feed-forward (max {m1['max']:.3f} vs {m2['max']:.3f}): "
+                             f"{m1['rms'] / m2['rms']:.1f}x the native error -> {path}")
+            elif m1 and m2:
                 on, off = ("CiA 408 with the force object 0x2120", "position only") if args.cia408 else \
                     ("with force feed-forward", "without")
                 lines.append(f"{s1.label.replace(' ff=on', '')}: tracking error RMS {m1['rms']:.3f} {m1['unit']} "
@@ -183,15 +214,16 @@ def run(args: argparse.Namespace) -> int:
         lines += fl
         if name == "force_sensor":
             ok = ok and not (rf.summary["bad_frames"] or rf.summary["malformed_lines"]) and "contact_lost_tick" not in ff
-    if args.cia408:
+    if canopen:
         from ..drives.measured import canopen_load
 
         loads = canopen_load(main.log, {"vcan1": "axis_a", "vcan2": "axis_b"})
         figures["canopen_bus_load"] = loads
+        kinds = "RPDO1 with the force object, SYNC, TPDO1, TPDO2" if args.cia408 else "RPDO1, SYNC, TPDO1"
         for bus, m in loads.items():
-            lines.append(f"CiA 408 drive bus {bus}: cyclic CANopen load {m['load_percent']:.1f} % as classic CAN at "
-                         f"1 Mbit/s ({m['frames_per_ms']:.2f} frames/ms: RPDO1 with the force object, SYNC, TPDO1, "
-                         f"TPDO2, heartbeats; start-up {m['startup_frames']} NMT/SDO frames)")
+            lines.append(f"{profile} drive bus {bus}: cyclic CANopen load {m['load_percent']:.1f} % as classic CAN "
+                         f"at 1 Mbit/s ({m['frames_per_ms']:.2f} frames/ms: {kinds}, heartbeats; start-up "
+                         f"{m['startup_frames']} NMT/SDO frames)")
     tc = _tick_compute(build)
     if tc:
         lines.append(f"host benchmark: {tc}")
@@ -221,5 +253,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-force", action="store_true", help="skip the force-control runs")
     p.add_argument("--cia408", action="store_true",
                    help="the drives as CiA 408 nodes behind the controller's CANopen master (docs/canopen.md)")
+    p.add_argument("--cia402", action="store_true",
+                   help="the drives as CiA 402 nodes (cyclic synchronous position) behind the CANopen master, "
+                        "compared with the native protocol (docs/canopen.md)")
     p.add_argument("--timeout", type=float, default=1800, help="seconds for all runs (default 1800)")
     p.set_defaults(func=run)

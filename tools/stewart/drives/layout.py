@@ -9,9 +9,10 @@ Per SYNC period (``sync_divider`` control ticks) each CANopen bus carries one
 SYNC (no data), and per drive its setpoint RPDO and its actual-value TPDO
 (plus the pressure TPDO when force feedback is on); every ``heartbeat_ms``
 each drive sends one heartbeat (1 byte), and the master its own every
-``objects.MASTER_HEARTBEAT_MS`` (the firmware's SP_CO_MASTER_HEARTBEAT_MS). SDO traffic happens
-only before the drives are started, EMCY only on a fault: neither is in the
-cyclic budget. Standard library only.
+``drives.master_heartbeat_ms`` of the config (default
+``objects.MASTER_HEARTBEAT_MS``, the firmware's SP_CO_MASTER_HEARTBEAT_MS;
+0: none). SDO traffic happens only before the drives are started, EMCY
+only on a fault: neither is in the cyclic budget. Standard library only.
 """
 
 from __future__ import annotations
@@ -67,6 +68,8 @@ class Drives:
     heartbeat_timeout_ms: int = 50        # the master's consumer timeout per drive
     setpoint_timeout_ms: int = 3          # RPDO event timer: the drive's setpoint watchdog
     pressure_feedback: bool = True        # map the chamber pressures (TPDO2)
+    master_heartbeat_ms: int = ob.MASTER_HEARTBEAT_MS  # the master's own heartbeat period (0 = off)
+    master_node_id: int = ob.MASTER_NODE_ID            # the node id it sends that heartbeat as
 
     @property
     def canopen(self) -> tuple[Drive, ...]:
@@ -125,7 +128,8 @@ def bus_rows(drives: Drives, bus: str, n_drives: int | None = None, divider: int
     if with_pressure:
         rows.append(("TPDO2 pressures", n, ob.TPDO_PRESSURES.data_bytes, period))
     rows.append(("heartbeat (drives)", n, 1, float(drives.heartbeat_ms)))
-    rows.append((f"heartbeat (master, node {ob.MASTER_NODE_ID})", 1, 1, float(ob.MASTER_HEARTBEAT_MS)))
+    if drives.master_heartbeat_ms:
+        rows.append((f"heartbeat (master, node {drives.master_node_id})", 1, 1, float(drives.master_heartbeat_ms)))
     out = []
     for name, count, nbytes, per in rows:
         bits = classic_frame_bits(nbytes)

@@ -175,8 +175,9 @@ EMCY_COB_ID = Entry(0x1014, 0, "COB-ID EMCY", UNSIGNED32, READ, False,
 COMMUNICATION = (DEVICE_TYPE, ERROR_REGISTER, PRODUCER_HEARTBEAT, IDENTITY_COUNT, VENDOR_ID,
                  PRODUCT_CODE, REVISION, SERIAL, CONSUMER_HEARTBEAT, SYNC_COB_ID, CYCLE_PERIOD, EMCY_COB_ID)
 
-#: The master's own heartbeat (it has no object dictionary on the bus): its
-#: node id, its period, and the time a drive's consumer allows (three periods).
+#: The master's own heartbeat (it has no object dictionary on the bus): the
+#: defaults of its node id and period (the config's drives.master_node_id and
+#: master_heartbeat_ms set them; a drive's consumer allows three periods).
 MASTER_NODE_ID = 127
 
 
@@ -194,7 +195,6 @@ def _firmware_master_heartbeat_ms() -> int:
 
 
 MASTER_HEARTBEAT_MS = _firmware_master_heartbeat_ms()
-MASTER_HEARTBEAT_TIMEOUT_MS = 3 * MASTER_HEARTBEAT_MS
 
 # PDO communication parameter sub-indices the master writes (0x1400.. / 0x1800..).
 PDO_COMM_COB_ID = 1

@@ -73,11 +73,12 @@ def drive_writes(drive: Drive, drives: Drives) -> list[Write]:
     prof = ob.profile(drive.protocol)
     out = [Write(ob.PRODUCER_HEARTBEAT.index, 0, ob.UNSIGNED16, drives.heartbeat_ms,
                  f"heartbeat every {drives.heartbeat_ms} ms (the master's timeout: "
-                 f"{drives.heartbeat_timeout_ms} ms)"),
-           Write(ob.CONSUMER_HEARTBEAT.index, ob.CONSUMER_HEARTBEAT.subindex, ob.UNSIGNED32,
-                 (ob.MASTER_NODE_ID << 16) | ob.MASTER_HEARTBEAT_TIMEOUT_MS,
-                 f"watch the master's heartbeat (node {ob.MASTER_NODE_ID}, {ob.MASTER_HEARTBEAT_TIMEOUT_MS} ms)",
-                 optional=True)]
+                 f"{drives.heartbeat_timeout_ms} ms)")]
+    if drives.master_heartbeat_ms:  # the drive watches the master: three of its periods (0x1016.1)
+        t = min(3 * drives.master_heartbeat_ms, 0xFFFF)
+        out.append(Write(ob.CONSUMER_HEARTBEAT.index, ob.CONSUMER_HEARTBEAT.subindex, ob.UNSIGNED32,
+                         (drives.master_node_id << 16) | t,
+                         f"watch the master's heartbeat (node {drives.master_node_id}, {t} ms)", optional=True))
     for index, sub, value in prof.mode_writes:
         entry = next(e for e in prof.entries if e.index == index and e.subindex == sub)
         if index == ob.CONTROL_MODE.index and drive.protocol == "cia408":
