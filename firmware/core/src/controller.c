@@ -171,6 +171,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->faults = 0u;
     ctrl->tick = 0u;
     ctrl->sup.seen_mask = 0u;
+    ctrl->sup.no_force_mask = 0u;
     sp_estimate_init(&ctrl->est, &p->park);
     ctrl->mode = SP_MODE_TRIG;
     ctrl->park_after = 0u;
@@ -281,6 +282,11 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
             seen |= UINT32_C(1) << i;
             sup->last_length[i] = fb->length;
             sup->last_force[i] = fb->force;
+            if (fb->no_force != 0u) {
+                sup->no_force_mask |= UINT32_C(1) << i;
+            } else {
+                sup->no_force_mask &= ~(UINT32_C(1) << i);
+            }
             sup->last_faults[i] = fb->faults;
             drive_fault |= (fb->faults != 0u) ? 1 : 0;
         } else if (missed < UINT32_MAX) {
@@ -761,12 +767,15 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 /* ---- 6. the external wrench ------------------------------------------------ */
 
 /* The estimate follows the measurements on ticks with a model of this
- * tick's reference and every drive heard from; otherwise it is invalid.
+ * tick's reference, every drive heard from and every drive measuring its
+ * force (a drive without, e.g. CiA 402, gives no cylinder force: the
+ * estimate would be the model's forces against zeros); otherwise it is
+ * invalid.
  * Out of line: its arrays stay off sp_ctrl_step's frame, which is on the
  * tick's deepest call chain (setpoints -> inverse dynamics). */
 SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
 {
-    int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
+    int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS && ctrl->sup.no_force_mask == 0u;
     const sp_q8_t *friction = NULL;
     const sp_q8_t *correction = NULL;
     sp_q8_t observed[SP_LEGS];
@@ -1015,6 +1024,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     out->drive_fault_reset = ctrl->drive_reset.edge;
     out->reset_refused_legs = ctrl->drive_reset.refused_legs;
     out->reset_refused_cause = ctrl->drive_reset.refused_cause;
+    out->force_unmeasured = (uint8_t)ctrl->sup.no_force_mask;
     out->force_mode = (uint8_t)ctrl->force.mode;
     out->contact = ctrl->force.contact.made;
     for (i = 0u; i < 6u; ++i) {
