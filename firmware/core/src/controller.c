@@ -269,6 +269,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
     sp_supervision_t *sup = &ctrl->sup;
     const sp_limits_t *lim = &ctrl->prep.limits;
     uint32_t seen = sup->seen_mask;
+    uint32_t no_force = sup->no_force_mask;
     uint32_t timeout = cfg->feedback_timeout_ticks;
     int comms_ok = 1;
     int drive_fault = 0;
@@ -282,11 +283,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
             seen |= UINT32_C(1) << i;
             sup->last_length[i] = fb->length;
             sup->last_force[i] = fb->force;
-            if (fb->no_force != 0u) {
-                sup->no_force_mask |= UINT32_C(1) << i;
-            } else {
-                sup->no_force_mask &= ~(UINT32_C(1) << i);
-            }
+            no_force = (no_force & ~(UINT32_C(1) << i)) | ((uint32_t)(fb->no_force & 1u) << i);
             sup->last_faults[i] = fb->faults;
             drive_fault |= (fb->faults != 0u) ? 1 : 0;
         } else if (missed < UINT32_MAX) {
@@ -297,6 +294,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
         out |= sp_limits_measured_out(lim, sup->last_length[i]);
     }
     sup->seen_mask = seen;
+    sup->no_force_mask = no_force;
     if (seen != SP_ALL_LEGS) {
         comms_ok = 0; /* a drive never heard from */
     }

@@ -160,12 +160,13 @@ typedef enum {
 
 /** Feedback of one axis drive for this tick. */
 typedef struct {
-    uint8_t fresh;    /**< 1 if a valid frame arrived since the last tick */
-    sp_q24_t length;  /**< measured joint-to-joint length, m, Q24 */
-    sp_q8_t force;    /**< measured cylinder force, N, Q8 */
-    uint16_t faults;  /**< the drive's fault bits (0: none): the DBC's eight, and
+    uint8_t fresh;   /**< 1 if a valid frame arrived since the last tick */
+    sp_q24_t length; /**< measured joint-to-joint length, m, Q24 */
+    sp_q8_t force;   /**< measured cylinder force, N, Q8 */
+    uint16_t faults; /**< the drive's fault bits (0: none): the DBC's eight, and
                           SP_DRIVE_FAULT_STATE when the drive reports the FAULT state */
-    uint8_t no_force; /**< 1: the drive measures no cylinder force (a CiA 402 drive, a CiA 408
+    uint8_t
+        no_force; /**< 1 (bit 0; the others ignored): the drive measures no cylinder force (a CiA 402 drive, a CiA 408
                            drive without pressure feedback): `force` is no measurement and the
                            cylinders' wrench estimate is invalid; 0 (the native drives): measured */
 } sp_drive_feedback_t;
