@@ -521,6 +521,18 @@ static void test_link(void **state)
     assert_int_equal(fb[2].faults, SP_CO_LINK_FAULT);
     assert_int_equal(fb[0].fresh, 0u);
     assert_int_equal(fb[4].fresh, 0u); /* cleared: no TPDO */
+    assert_int_equal(fb[1].no_force, 0u);
+    /* no pressures mapped (pressure_feedback off; CiA 402 likewise): no force measured, not 0 N */
+    cfg.master.pressure_feedback = 0u;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].no_force, 1u);
+    assert_int_equal(fb[1].force, 0);
+    cfg.master.pressure_feedback = 1u;
+    cfg.master.node[0].profile = (uint8_t)SP_CO_PROFILE_402;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].no_force, 1u);
+    assert_int_equal(fb[2].no_force, 0u); /* node 2 stays CiA 408 */
+    cfg.master.node[0].profile = (uint8_t)SP_CO_PROFILE_408;
 
     /* input: the request follows the drive mode, setpoints by scaling */
     memset(&out, 0, sizeof out);
