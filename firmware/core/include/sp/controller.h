@@ -165,10 +165,11 @@ typedef struct {
     sp_q8_t force;   /**< measured cylinder force, N, Q8 */
     uint16_t faults; /**< the drive's fault bits (0: none): the DBC's eight, and
                           SP_DRIVE_FAULT_STATE when the drive reports the FAULT state */
-    uint8_t
-        no_force; /**< 1 (bit 0; the others ignored): the drive measures no cylinder force (a CiA 402 drive, a CiA 408
-                           drive without pressure feedback): `force` is no measurement and the
-                           cylinders' wrench estimate is invalid; 0 (the native drives): measured */
+    /** 1 (bit 0; the others ignored): the drive measures no cylinder force
+     *  (a CiA 402 drive, a CiA 408 drive without pressure feedback): `force`
+     *  is no measurement and the cylinders' wrench estimate is invalid;
+     *  0 (the native drives): measured */
+    uint8_t no_force;
 } sp_drive_feedback_t;
 
 /** sp_drive_feedback_t.faults: the drive is in its FAULT state (above the DBC's 8 fault bits). */
