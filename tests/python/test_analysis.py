@@ -492,3 +492,21 @@ def test_wrench_metrics_against_a_known_error():
     assert w["loaded"]["n"] == 40  # ticks 120..198, even ones
     est[170, 1] += 101.0
     assert not wrench_metrics(data)["loaded"]["within"]
+
+
+def test_wrench_metrics_never_valid():
+    """An estimate never valid (drives without force measurement: CTRL_WRENCH
+    Valid 0, its columns NaN) is said so, not taken for a missing truth."""
+    from types import SimpleNamespace
+
+    from stewart.analysis.metrics import format_wrench, wrench_metrics
+
+    n = 50
+    data = SimpleNamespace(truth={"wrench": np.zeros((n, 6))}, est_wrench=np.full((n, 6), np.nan),
+                           ticks=np.arange(n), state=np.full(n, STATES.index("RUNNING")))
+    w = wrench_metrics(data)
+    assert w["valid_ticks"] == 0
+    assert format_wrench(w) == ["wrench estimate: never valid (CTRL_WRENCH Valid 0 on every tick: "
+                                "the drives measure no cylinder force)"]
+    data.est_wrench[10] = 0.0
+    assert wrench_metrics(data)["valid_ticks"] == 1

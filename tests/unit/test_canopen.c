@@ -34,6 +34,8 @@
 #include <cmocka.h>
 
 #include "sp/canopen_link.h"
+#include "sp/controller.h"
+#include "sp/kinematics.h"
 #include "sp/platform.h"
 
 static void assert_bytes(const sp_can_frame_t *f, uint32_t id, const uint8_t *want, uint8_t len)
@@ -519,6 +521,18 @@ static void test_link(void **state)
     assert_int_equal(fb[2].faults, SP_CO_LINK_FAULT);
     assert_int_equal(fb[0].fresh, 0u);
     assert_int_equal(fb[4].fresh, 0u); /* cleared: no TPDO */
+    assert_int_equal(fb[1].no_force, 0u);
+    /* no pressures mapped (pressure_feedback off; CiA 402 likewise): no force measured, not 0 N */
+    cfg.master.pressure_feedback = 0u;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].no_force, 1u);
+    assert_int_equal(fb[1].force, 0);
+    cfg.master.pressure_feedback = 1u;
+    cfg.master.node[0].profile = (uint8_t)SP_CO_PROFILE_402;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].no_force, 1u);
+    assert_int_equal(fb[2].no_force, 0u); /* node 2 stays CiA 408 */
+    cfg.master.node[0].profile = (uint8_t)SP_CO_PROFILE_408;
 
     /* input: the request follows the drive mode, setpoints by scaling */
     memset(&out, 0, sizeof out);
@@ -580,6 +594,160 @@ static void test_link(void **state)
         assert_int_equal(sp_co_link_cfg_from_layout(NULL, &lay, &sp_platform_default), SP_E_ARG);
     }
     assert_int_equal(sp_co_link_feedback(&m, &cfg, NULL), SP_E_ARG);
+}
+
+/* The controller closed over the link around an ideal plant: each drive
+ * reaches its setpoint length by the next tick and pushes with the
+ * setpoint's force, reported (CiA 408 with pressure feedback) as the
+ * chamber pressure that gives it, in whole kPa. */
+typedef struct {
+    sp_co_link_cfg_t link;
+    sp_co_master_t m;
+    sp_ctrl_config_t cfg;
+    sp_ctrl_t ctrl;
+    sp_ctrl_input_t in;
+    sp_ctrl_output_t out;
+    sp_q24_t length[SP_LEGS];
+    double force[SP_LEGS]; /* N */
+} co_rig_t;
+
+static void co_rig_init(co_rig_t *r, uint8_t source, uint8_t profile_402_mask)
+{
+    sp_ik_t ik;
+    uint32_t k;
+    memset(r, 0, sizeof *r);
+    assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik), SP_OK);
+    memcpy(r->length, ik.length, sizeof r->length);
+    assert_int_equal(sp_co_link_cfg_default(&r->link, &sp_platform_default, ik.length), SP_OK);
+    for (k = 0u; k < SP_LEGS; k++) {
+        uint8_t leg = r->link.master.node[k].leg;
+        if ((profile_402_mask & (1u << (leg - 1u))) != 0u) {
+            r->link.master.node[k].profile = (uint8_t)SP_CO_PROFILE_402;
+        }
+    }
+    assert_int_equal(sp_co_link_cfg_check(&r->link), SP_OK);
+    assert_int_equal(sp_ctrl_default_config(&r->cfg, &sp_platform_default), SP_OK);
+    assert_int_equal(sp_ctrl_set_wrench_source(&r->cfg, source, NULL), SP_OK);
+    r->cfg.ft_tare_samples = 20u;
+    r->cfg.friction_observer = 0u; /* the ideal plant has no seal friction: the model's forces hold it */
+    assert_int_equal(sp_ctrl_init(&r->ctrl, &r->cfg), SP_OK);
+}
+
+static uint16_t kpa_of(double force_n, sp_q30_t area_q30)
+{
+    double kpa = force_n / ((double)area_q30 / 1073741824.0) / 1000.0;
+    return kpa > 65535.0 ? (uint16_t)65535u : (uint16_t)lround(kpa);
+}
+
+static void co_rig_tick(co_rig_t *r, sp_cmd_type_t cmd)
+{
+    uint32_t k;
+    for (k = 0u; k < SP_LEGS; k++) {
+        sp_co_node_t *nd = &r->m.node[k];
+        uint32_t leg = (uint32_t)r->link.master.node[k].leg - 1u;
+        double f = r->force[leg];
+        nd->tpdo1_fresh = 1u;
+        assert_int_equal(sp_co_length_to_count(&r->link.scaling[leg], r->length[leg], &nd->actual), SP_OK);
+        nd->pa_kpa = f > 0.0 ? kpa_of(f, sp_platform_default.piston_area) : 0u;
+        nd->pb_kpa = f < 0.0 ? kpa_of(-f, sp_platform_default.annulus_area) : 0u;
+    }
+    assert_int_equal(sp_co_link_feedback(&r->m, &r->link, r->in.drive), SP_OK);
+    r->in.cmd.type = cmd;
+    r->in.ft_fresh = 1u; /* a sensor at rest (read only with the sensor as wrench source) */
+    r->in.ft_reading[2] = 15 * 256;
+    assert_int_equal(sp_ctrl_step(&r->cfg, &r->ctrl, &r->in, &r->out), SP_OK);
+    r->in.cmd.type = SP_CMD_NONE;
+    if (r->out.drive_mode == SP_DRIVE_ACTIVE) {
+        for (k = 0u; k < SP_LEGS; k++) {
+            r->length[k] = r->out.setpoint[k].length;
+            r->force[k] = (double)r->out.setpoint[k].force / 256.0;
+        }
+    }
+}
+
+static void co_rig_ready(co_rig_t *r)
+{
+    int n;
+    for (n = 0; n < 3; n++) {
+        co_rig_tick(r, SP_CMD_NONE);
+    }
+    co_rig_tick(r, SP_CMD_ENGAGE);
+    assert_int_equal(r->out.cmd_rejected, 0);
+    for (n = 0; n < 20000 && r->out.state != SP_STATE_READY; n++) {
+        co_rig_tick(r, SP_CMD_NONE);
+    }
+    assert_int_equal(r->out.state, SP_STATE_READY);
+    for (n = 0; n < 200; n++) { /* at rest: the filters settle */
+        co_rig_tick(r, SP_CMD_NONE);
+    }
+}
+
+/* FORCE on z (1 kN down on the world) as the operator would send it. */
+static void co_rig_force(co_rig_t *r)
+{
+    memset(r->in.cmd.force_target, 0, sizeof r->in.cmd.force_target);
+    r->in.cmd.force_mask = 0x04u;
+    r->in.cmd.force_target[2] = -1000 * 256;
+    co_rig_tick(r, SP_CMD_FORCE);
+}
+
+/* The wrench estimate's validity follows the drives' force measurement:
+ * CiA 408 with pressures gives a valid estimate near zero (nothing
+ * outside pushes; the pressures' 1 kPa steps); a CiA 402 drive on any leg measures no force: the estimate is
+ * invalid (not the model's forces against zeros, tens of kN), the leg
+ * is named in force_unmeasured, and force control and TARE on the
+ * cylinders are refused, while the force/torque sensor's still work. */
+static void test_link_wrench_validity(void **state)
+{
+    static co_rig_t r;
+    double biggest = 0.0;
+    int k;
+    (void)state;
+
+    co_rig_init(&r, SP_WRENCH_CYLINDERS, 0u); /* CiA 408, pressure feedback on */
+    co_rig_ready(&r);
+    assert_int_equal(r.out.wrench_valid, 1);
+    assert_int_equal(r.out.force_unmeasured, 0u);
+    for (k = 0; k < 3; k++) {
+        biggest = fmax(biggest, fabs((double)r.out.wrench[k] / 256.0));
+    }
+    print_message("CiA 408 with pressures at rest: |force estimate| <= %.1f N\n", biggest);
+    assert_true(biggest < 20.0); /* 1 kPa steps: under 1 N per cylinder */
+    co_rig_tick(&r, SP_CMD_TARE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+
+    co_rig_init(&r, SP_WRENCH_CYLINDERS, 0x3Fu); /* every drive CiA 402 */
+    co_rig_ready(&r);
+    assert_int_equal(r.out.wrench_valid, 0);
+    assert_int_equal(r.out.force_unmeasured, 0x3Fu);
+    for (k = 0; k < SP_LEGS; k++) {
+        assert_int_equal(r.in.drive[k].no_force, 1u);
+        assert_int_equal(r.in.drive[k].force, 0);
+    }
+    co_rig_tick(&r, SP_CMD_TARE);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    co_rig_force(&r);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.force_mode, SP_FORCE_OFF);
+    assert_int_equal(r.out.state, SP_STATE_READY); /* refused, not a fault */
+    assert_int_equal(r.out.faults, 0u);
+
+    co_rig_init(&r, SP_WRENCH_CYLINDERS, 0x10u); /* one CiA 402 drive, on leg 5 */
+    co_rig_ready(&r);
+    assert_int_equal(r.out.wrench_valid, 0);
+    assert_int_equal(r.out.force_unmeasured, 0x10u);
+
+    co_rig_init(&r, SP_WRENCH_SENSOR, 0x3Fu); /* CiA 402 with the force/torque sensor */
+    co_rig_ready(&r);
+    assert_int_equal(r.out.wrench_valid, 0);
+    co_rig_tick(&r, SP_CMD_TARE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    for (k = 0; k < 40; k++) {
+        co_rig_tick(&r, SP_CMD_NONE);
+    }
+    co_rig_force(&r);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.force_mode, SP_FORCE_FORCE);
 }
 
 /* CiA 402: the statusword table (every state's bits decode to it, other
@@ -661,6 +829,7 @@ int main(void)
         cmocka_unit_test(test_scaling),
         cmocka_unit_test(test_master_input_checks),
         cmocka_unit_test(test_link),
+        cmocka_unit_test(test_link_wrench_validity),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

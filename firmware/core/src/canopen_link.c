@@ -85,8 +85,14 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
         if (sp_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK) {
             st = SP_E_OVERFLOW;
         }
-        /* the pressures in Pa, as the native feedback carries them (kPa x 1000 < 2^32) */
-        d->force = spi_cylinder_force(cfg->platform, (uint32_t)nd->pa_kpa * 1000u, (uint32_t)nd->pb_kpa * 1000u);
+        if (cfg->master.pressure_feedback && cfg->master.node[k].profile != (uint8_t)SP_CO_PROFILE_402) {
+            /* the pressures in Pa, as the native feedback carries them (kPa x 1000 < 2^32) */
+            d->force = spi_cylinder_force(cfg->platform, (uint32_t)nd->pa_kpa * 1000u, (uint32_t)nd->pb_kpa * 1000u);
+            d->no_force = 0u;
+        } else {
+            d->force = 0; /* no pressures mapped (CiA 402, or no pressure feedback): no force measured */
+            d->no_force = 1u;
+        }
         d->faults = nd->fault.code != (uint8_t)SP_CO_F_NONE ? (uint16_t)SP_CO_LINK_FAULT : 0u;
         d->fresh = 1u;
     }

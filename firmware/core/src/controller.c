@@ -171,6 +171,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->faults = 0u;
     ctrl->tick = 0u;
     ctrl->sup.seen_mask = 0u;
+    ctrl->sup.no_force_mask = 0u;
     sp_estimate_init(&ctrl->est, &p->park);
     ctrl->mode = SP_MODE_TRIG;
     ctrl->park_after = 0u;
@@ -268,6 +269,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
     sp_supervision_t *sup = &ctrl->sup;
     const sp_limits_t *lim = &ctrl->prep.limits;
     uint32_t seen = sup->seen_mask;
+    uint32_t no_force = sup->no_force_mask;
     uint32_t timeout = cfg->feedback_timeout_ticks;
     int comms_ok = 1;
     int drive_fault = 0;
@@ -281,6 +283,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
             seen |= UINT32_C(1) << i;
             sup->last_length[i] = fb->length;
             sup->last_force[i] = fb->force;
+            no_force = (no_force & ~(UINT32_C(1) << i)) | ((uint32_t)(fb->no_force & 1u) << i);
             sup->last_faults[i] = fb->faults;
             drive_fault |= (fb->faults != 0u) ? 1 : 0;
         } else if (missed < UINT32_MAX) {
@@ -291,6 +294,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
         out |= sp_limits_measured_out(lim, sup->last_length[i]);
     }
     sup->seen_mask = seen;
+    sup->no_force_mask = no_force;
     if (seen != SP_ALL_LEGS) {
         comms_ok = 0; /* a drive never heard from */
     }
@@ -761,12 +765,15 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 /* ---- 6. the external wrench ------------------------------------------------ */
 
 /* The estimate follows the measurements on ticks with a model of this
- * tick's reference and every drive heard from; otherwise it is invalid.
+ * tick's reference, every drive heard from and every drive measuring its
+ * force (a drive without, e.g. CiA 402, gives no cylinder force: the
+ * estimate would be the model's forces against zeros); otherwise it is
+ * invalid.
  * Out of line: its arrays stay off sp_ctrl_step's frame, which is on the
  * tick's deepest call chain (setpoints -> inverse dynamics). */
 SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int have_model)
 {
-    int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS;
+    int ok = have_model && ctrl->sup.seen_mask == SP_ALL_LEGS && ctrl->sup.no_force_mask == 0u;
     const sp_q8_t *friction = NULL;
     const sp_q8_t *correction = NULL;
     sp_q8_t observed[SP_LEGS];
@@ -1015,6 +1022,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     out->drive_fault_reset = ctrl->drive_reset.edge;
     out->reset_refused_legs = ctrl->drive_reset.refused_legs;
     out->reset_refused_cause = ctrl->drive_reset.refused_cause;
+    out->force_unmeasured = (uint8_t)ctrl->sup.no_force_mask;
     out->force_mode = (uint8_t)ctrl->force.mode;
     out->contact = ctrl->force.contact.made;
     for (i = 0u; i < 6u; ++i) {

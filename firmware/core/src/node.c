@@ -117,6 +117,7 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     d.fresh = 1u;
     d.length = m.length;
     d.force = spi_cylinder_force(node->ctrl_platform, m.pressure_a, m.pressure_b);
+    d.no_force = 0u; /* the native feedback carries both chamber pressures */
     /* a drive in FAULT counts as faulty even without bits; bit 8, above the
      * DBC's eight, keeps the reported bits (a refused reset's cause) as sent */
     d.faults = (uint16_t)(m.faults | ((m.state == SP_DRIVE_STATE_FAULT) ? SP_DRIVE_FAULT_STATE : 0u));

@@ -219,14 +219,16 @@ def wrench_metrics(data: LogData, settle_ticks: int = WRENCH_SETTLE_TICKS) -> di
     ``settle_ticks`` after the last change of the true wrench: the largest
     |error| of force (N) and moment (N m) while unloaded (in RUNNING and in
     every state), and while loaded per axis against 2 % of the load plus
-    100 N / 50 N m. None without truth wrench columns."""
+    100 N / 50 N m. None without truth wrench columns; ``{"valid_ticks": 0}``
+    when the estimate was never valid (CTRL_WRENCH Valid 0 throughout: e.g.
+    drives that measure no cylinder force, CiA 402)."""
     if data.truth is None or data.truth.get("wrench") is None:
         return None
     truth = data.truth["wrench"]
     est = data.est_wrench
     ok = np.isfinite(est).all(axis=1) & np.isfinite(truth).all(axis=1)
     if not ok.any():
-        return None
+        return {"settle_ticks": int(settle_ticks), "valid_ticks": 0}
     # ticks since the last change of the true wrench
     changed = np.ones(len(data.ticks), dtype=bool)
     changed[1:] = np.any(truth[1:] != truth[:-1], axis=1) | (np.diff(data.ticks) != 1)
@@ -243,7 +245,7 @@ def wrench_metrics(data: LogData, settle_ticks: int = WRENCH_SETTLE_TICKS) -> di
         return {"force_N": float(np.max(e[:, :3])), "moment_Nm": float(np.max(e[:, 3:])),
                 "rms": [float(x) for x in np.sqrt(np.mean(err[mask] ** 2, axis=0))], "n": int(mask.sum())}
 
-    out: dict[str, Any] = {"settle_ticks": int(settle_ticks),
+    out: dict[str, Any] = {"settle_ticks": int(settle_ticks), "valid_ticks": int(ok.sum()),
                            "unloaded_running": worst(settled & ~loaded & running),
                            "unloaded": worst(settled & ~loaded)}
     m = settled & loaded
@@ -260,6 +262,9 @@ def format_wrench(w: Mapping[str, Any] | None) -> list[str]:
     """Printed lines of :func:`wrench_metrics`."""
     if not w:
         return ["wrench estimate: no truth to compare with"]
+    if w.get("valid_ticks") == 0:
+        return ["wrench estimate: never valid (CTRL_WRENCH Valid 0 on every tick: "
+                "the drives measure no cylinder force)"]
     lines = []
     for key, what in (("unloaded_running", "no load, RUNNING"), ("unloaded", "no load, any state"),
                       ("loaded", "constant load")):

@@ -81,7 +81,10 @@ sp_status_t sp_co_link_cfg_check(const sp_co_link_cfg_t *cfg);
  * The controller's drive feedback from the master's nodes: fresh when the
  * node's TPDO1 arrived since the master's last step, the length from its
  * actual position (scaling), the force from its TPDO2 pressures (the last
- * ones; 0 N before any), and SP_CO_LINK_FAULT in faults while the master
+ * ones; 0 N before any) with no_force 0 on a CiA 408 drive with pressure
+ * feedback, else (a CiA 402 drive, or pressure_feedback off: no pressures
+ * mapped) force 0 with no_force 1, which makes the controller's wrench
+ * estimate invalid; and SP_CO_LINK_FAULT in faults while the master
  * has a fault latched on the node. Legs are untouched when not fresh except
  * for their fresh flag (cleared). SP_E_ARG for NULL; SP_E_OVERFLOW when a
  * length saturated (the length is then the Q24 range's end).

@@ -165,6 +165,11 @@ typedef struct {
     sp_q8_t force;   /**< measured cylinder force, N, Q8 */
     uint16_t faults; /**< the drive's fault bits (0: none): the DBC's eight, and
                           SP_DRIVE_FAULT_STATE when the drive reports the FAULT state */
+    /** 1 (bit 0; the others ignored): the drive measures no cylinder force
+     *  (a CiA 402 drive, a CiA 408 drive without pressure feedback): `force`
+     *  is no measurement and the cylinders' wrench estimate is invalid;
+     *  0 (the native drives): measured */
+    uint8_t no_force;
 } sp_drive_feedback_t;
 
 /** sp_drive_feedback_t.faults: the drive is in its FAULT state (above the DBC's 8 fault bits). */
@@ -193,17 +198,21 @@ typedef struct {
     uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
     int32_t wrench
         [6]; /**< external wrench estimate, as reported (sp_wrench_smooth): force N, moment about o' N m, base frame, Q8 */
-    uint8_t estimate_valid;    /**< 1 once FK has a pose */
-    uint8_t cmd_rejected;      /**< 1 if this tick's command was refused */
-    uint8_t wrench_valid;      /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard) */
-    uint8_t force_mode;        /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
-    uint8_t contact;           /**< 1 while force control is in contact */
-    sp_q8_t force_target[6];   /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
-    int32_t force_wrench[6];   /**< the wrench force control uses (the source of the config), N, N m, Q8 */
-    uint8_t drive_fault_reset; /**< 1 on the tick RESET asks the drives to clear their faults (the
+    uint8_t estimate_valid;      /**< 1 once FK has a pose */
+    uint8_t cmd_rejected;        /**< 1 if this tick's command was refused */
+    uint8_t wrench_valid;        /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard,
+                                    every drive measuring its force: force_unmeasured 0) */
+    uint8_t force_mode;          /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
+    uint8_t contact;             /**< 1 while force control is in contact */
+    sp_q8_t force_target[6];     /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
+    int32_t force_wrench[6];     /**< the wrench force control uses (the source of the config), N, N m, Q8 */
+    uint8_t drive_fault_reset;   /**< 1 on the tick RESET asks the drives to clear their faults (the
                                       setpoints' FaultReset), else 0 */
     uint8_t reset_refused_legs;  /**< bit i: leg i's drive refused the last fault reset (0: none refused) */
     uint8_t reset_refused_cause; /**< the fault bits the refusing drives still reported (their cause) */
+    uint8_t force_unmeasured;    /**< bit i: leg i's drive measures no cylinder force (sp_drive_feedback_t.no_force):
+                                      the wrench estimate is invalid, and FORCE, GUIDE and TARE with the
+                                      cylinders as wrench source are refused for this reason */
 } sp_ctrl_output_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
@@ -287,6 +296,7 @@ typedef struct {
     sp_q24_t last_length[SP_LEGS]; /**< the last measured lengths, m, Q24 */
     sp_q8_t last_force[SP_LEGS];   /**< the last measured cylinder forces, N, Q8 */
     uint16_t last_faults[SP_LEGS]; /**< the fault bits of each drive's last frame (0: none) */
+    uint32_t no_force_mask;        /**< drives whose last frame measured no force (bit i: leg i) */
 } sp_supervision_t;
 
 /** A RESET that waits for the drives to clear their faults (the fault
