@@ -52,9 +52,10 @@ sp_q30_t sp_fric_exp_neg(sp_q24_t u)
     d3 = (int32_t)(((int64_t)d2 * d + (INT64_C(1) << 29)) >> 30);
     poly = SP_Q30_ONE - d + (d2 >> 1) - (d3 / 6);
     acc = (int32_t)(((int64_t)fric_exp_table[j] * poly + (INT64_C(1) << 29)) >> 30);
-    /* acc is in (0, 1]: the shift by k keeps it in Q30's range */
+    /* acc is in (0, 1]: the shift by k keeps it in Q30's range, and acc +
+     * 2^(k-1) <= 2^30 + 2^29 + a few LSB fits 32 unsigned bits */
     if (k > 0u) {
-        acc = (int32_t)(((int64_t)acc + (INT64_C(1) << (k - 1u))) >> k);
+        acc = (int32_t)(((uint32_t)acc + (1u << (k - 1u))) >> k);
     }
     return (acc > SP_Q30_ONE) ? SP_Q30_ONE : acc;
 }
@@ -119,14 +120,15 @@ static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
  * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
  * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip). */
-static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int64_t dx,
+static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int32_t dx,
                         const fric_tick_t *t, sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
     int32_t fc = p->coulomb_friction[i];
     sp_q24_t v;
     sp_q8_t viscous;
-    int64_t adx, av, a, g, target, phi_new, dphi, damping = 0;
+    int32_t adx; /* |dx| <= INT32_MAX (run clamps dx to +-INT32_MAX) */
+    int64_t av, a, g, target, phi_new, dphi, damping = 0;
     sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
     sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
     if (dx == 0) {
@@ -143,8 +145,8 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
     if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
         /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
          * give a ratio below 8 (2^27 in Q24) and a square below 2^54 */
-        int64_t ratio = (av * o->inv_vs) >> 22;
-        es = sp_fric_exp_neg((sp_q24_t)((ratio * ratio + (INT64_C(1) << 23)) >> 24));
+        int32_t ratio = (int32_t)((av * o->inv_vs) >> 22);
+        es = sp_fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
     }
     /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
     a = ((int64_t)o->slip[i] * adx) >> 8;
@@ -157,8 +159,10 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
              * 32-bit division, relative error below 2^-28), Q30 */
             unsigned sh;
             int32_t inv = spi_recip((uint32_t)g, &sh);
-            int64_t scale = ((int64_t)fc * inv) >> (sh - 30u);
-            a = FRIC_Q30(a * scale);
+            /* scale <= 2^30 (inv never above 2^sh / g, F_c <= g) and a <
+             * 2^29 here: a 32 x 32-bit product */
+            int32_t scale = (int32_t)(((int64_t)fc * inv) >> (sh - 30u));
+            a = FRIC_Q30((int64_t)(int32_t)a * scale);
         }
     }
     eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : sp_fric_exp_neg((sp_q24_t)a);
@@ -221,7 +225,7 @@ static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const 
         t.tick_us = tick_us;
         t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
         for (int i = 0; i < SP_LEGS; ++i) {
-            int64_t dx = clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
+            int32_t dx = (int32_t)clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
             o->length[i] = length[i];
             friction[i] = leg_step(p, o, i, &o->phi[i], dx, &t, &flags);
         }
