@@ -27,7 +27,9 @@ static const int32_t fric_exp_table[FRIC_EXP_STEPS] = {
 /* largest |bristle deflection step| carried into the damping term, Q36 m (64 m) */
 #define FRIC_DZ_MAX_Q36 (INT64_C(1) << 42)
 
-sp_q30_t sp_fric_exp_neg(sp_q24_t u)
+/* sp_fric_exp_neg's body, inline in the leg step (its two calls a leg
+ * are most of a moving tick's exps: no call, no saved registers). */
+SPI_INLINE sp_q30_t fric_exp_neg(sp_q24_t u)
 {
     uint32_t k;
     uint32_t j;
@@ -58,6 +60,11 @@ sp_q30_t sp_fric_exp_neg(sp_q24_t u)
         acc = (int32_t)(((uint32_t)acc + (1u << (k - 1u))) >> k);
     }
     return (acc > SP_Q30_ONE) ? SP_Q30_ONE : acc;
+}
+
+sp_q30_t sp_fric_exp_neg(sp_q24_t u)
+{
+    return fric_exp_neg(u);
 }
 
 /* round(num / den) for den > 0, ties away from zero; |num| < 2^62. */
@@ -146,7 +153,7 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
         /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
          * give a ratio below 8 (2^27 in Q24) and a square below 2^54 */
         int32_t ratio = (int32_t)((av * o->inv_vs) >> 22);
-        es = sp_fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
+        es = fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
     }
     /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
     a = ((int64_t)o->slip[i] * adx) >> 8;
@@ -165,7 +172,7 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
             a = FRIC_Q30((int64_t)(int32_t)a * scale);
         }
     }
-    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : sp_fric_exp_neg((sp_q24_t)a);
+    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
     target = dx > 0 ? g : -g;
     /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
     phi_new = target + FRIC_Q30(((int64_t)*phi - target) * eb);
