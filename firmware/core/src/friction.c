@@ -149,26 +149,29 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
     }
     adx = dx < 0 ? -dx : dx;
     av = v < 0 ? -(int64_t)v : (int64_t)v;
-    if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
-        /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
-         * give a ratio below 8 (2^27 in Q24) and a square below 2^54 */
-        int32_t ratio = (int32_t)((av * o->inv_vs) >> 22);
-        es = fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
-    }
     /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
     a = ((int64_t)o->slip[i] * adx) >> 8;
     g = fc;
-    if (es != 0) {
-        /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8; a scaled by F_c / g (Q30, in (0, 1]) */
-        g += FRIC_Q30(((int64_t)p->breakaway_friction[i] - fc) * es);
+    if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+        /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
+         * give a ratio below 8 (2^27 in Q24) and a square below 2^54; e
+         * is then above exp(-16), never 0 */
+        int32_t ratio = (int32_t)((av * o->inv_vs) >> 22);
+        es = fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
+        /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8 (0 <= F_s - F_c <
+         * 2^31); a scaled by F_c / g (Q30, in (0, 1]) */
+        g += FRIC_Q30((int64_t)(p->breakaway_friction[i] - fc) * es);
         if (a < ((int64_t)FRIC_BRISTLE_A_MAX << 24)) {
             /* F_c / g = F_c inv / 2^sh (the normalised reciprocal: one
-             * 32-bit division, relative error below 2^-28), Q30 */
+             * 32-bit division, relative error below 2^-28), Q30. F_c <= g
+             * normalised as g (shifted by clz(g) = 62 - sh) stays below
+             * 2^32: the high word of its product with inv is exactly
+             * (F_c inv) >> (sh - 30), at most 2^30 */
             unsigned sh;
             int32_t inv = spi_recip((uint32_t)g, &sh);
-            /* scale <= 2^30 (inv never above 2^sh / g, F_c <= g) and a <
-             * 2^29 here: a 32 x 32-bit product */
-            int32_t scale = (int32_t)(((int64_t)fc * inv) >> (sh - 30u));
+            uint32_t fc_norm = (uint32_t)fc << (62u - sh);
+            int32_t scale = (int32_t)(((uint64_t)fc_norm * (uint32_t)inv) >> 32);
+            /* a < 2^29 here: a 32 x 32-bit product */
             a = FRIC_Q30((int64_t)(int32_t)a * scale);
         }
     }
