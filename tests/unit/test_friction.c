@@ -1,8 +1,9 @@
 /*
  * test_friction.c - the friction observer (sp/friction.h) against a double
  * precision reference of the same discrete law, and its exp(-u) against
- * libm. (Against the plant's continuous LuGre friction:
- * tests/plant/test_plant_fric_obs.c.)
+ * libm; and bit for bit against its plain first version (friction_plain.c)
+ * on random platforms, states and length steps. (Against the plant's
+ * continuous LuGre friction: tests/plant/test_plant_fric_obs.c.)
  */
 #include <math.h>
 #include <setjmp.h>
@@ -15,6 +16,7 @@
 #include <cmocka.h>
 
 #include "assert_near.h"
+#include "friction_plain.h"
 #include "sp/friction.h"
 #include "test_util.h"
 
@@ -279,13 +281,150 @@ static void test_errors_and_saturation(void **state)
     assert_int_equal(o.phi[2], 0);
 }
 
+/* |v| of a log-scale int32, at least lo */
+static int32_t mag(uint64_t *rng, int32_t lo)
+{
+    int32_t v = tu_i32_logscale(rng);
+    v = (v < 0) ? -v : v;
+    return (v < lo) ? lo : v;
+}
+
+/* A platform whose friction sp_fric_obs_check accepts: half of them the
+ * default scaled by random factors, half with every magnitude log-uniform
+ * over all widths; some legs without bristles or without damping. */
+static void random_platform(uint64_t *rng, sp_platform_t *p)
+{
+    int wild = (int)(tu_next(rng) & 1u);
+    *p = sp_platform_default;
+    p->stribeck_velocity = wild ? mag(rng, 1) : (int32_t)(p->stribeck_velocity * tu_uniform(rng, 0.2, 5.0));
+    for (int i = 0; i < SP_LEGS; ++i) {
+        if (wild) {
+            p->viscous_friction[i] = mag(rng, 0);
+            p->coulomb_friction[i] = mag(rng, 1);
+            p->breakaway_friction[i] =
+                p->coulomb_friction[i] +
+                (int32_t)((uint32_t)mag(rng, 0) % ((uint32_t)(INT32_MAX - p->coulomb_friction[i]) + 1u));
+            p->bristle_stiffness[i] = mag(rng, 0);
+            p->bristle_damping[i] = mag(rng, 0);
+        } else {
+            double k = tu_uniform(rng, 0.1, 10.0);
+            p->coulomb_friction[i] = (int32_t)(p->coulomb_friction[i] * k);
+            p->breakaway_friction[i] = (int32_t)(p->breakaway_friction[i] * k);
+            p->bristle_stiffness[i] = (int32_t)(p->bristle_stiffness[i] * tu_uniform(rng, 0.1, 10.0));
+        }
+        switch (tu_next(rng) % 8u) {
+        case 0:
+            p->bristle_stiffness[i] = 0;
+            break;
+        case 1:
+            p->bristle_damping[i] = 0;
+            break;
+        default:
+            break;
+        }
+    }
+    assert_int_equal(sp_fric_obs_check(p), SP_OK);
+}
+
+/* A length step: none, one near the Stribeck range (a few v_s ticks), one
+ * of any width, or a jump across the whole int32 range. */
+static int64_t random_step(uint64_t *rng, const sp_platform_t *p, uint32_t tick_us)
+{
+    switch (tu_next(rng) % 6u) {
+    case 0:
+        return 0;
+    case 1:
+    case 2: {
+        double vs_tick = (double)p->stribeck_velocity * tick_us * 1e-6; /* Q24 per tick */
+        double d = tu_uniform(rng, 0.0, 6.0) * vs_tick + tu_uniform(rng, -2.0, 2.0);
+        return (int64_t)((tu_next(rng) & 1u) ? d : -d);
+    }
+    case 3:
+        return (int64_t)tu_i32(rng) * 2;
+    default:
+        return tu_i32_logscale(rng);
+    }
+}
+
+static sp_q8_t random_phi(uint64_t *rng, const sp_platform_t *p, int i)
+{
+    if (tu_next(rng) % 16u == 0u) {
+        return tu_i32(rng); /* outside the law's bound |phi| <= F_s: still the same */
+    }
+    return (sp_q8_t)tu_uniform(rng, -(double)p->breakaway_friction[i], (double)p->breakaway_friction[i]);
+}
+
+/* The observer's step equals its plain first version bit for bit (outputs,
+ * state, status) over 3000 random platforms, 40 ticks each, random bristle
+ * states and steps of every width, at ticks that divide a second and ones
+ * that do not; exp(-u) likewise over random arguments and every k. */
+static void test_equals_plain(void **state)
+{
+    static const uint32_t ticks[] = {1000u, 500u, 250u, 1u, 3u, 7u, 999u, SP_FRIC_TICK_MAX_US};
+    uint64_t rng = UINT64_C(0x14F);
+    long moving = 0;
+    (void)state;
+    for (int n = 0; n < 2000000; ++n) {
+        sp_q24_t u = (n % 2 == 0) ? tu_i32_logscale(&rng) : tu_i32(&rng);
+        assert_int_equal(sp_fric_exp_neg(u), plain_fric_exp_neg(u));
+    }
+    for (int32_t k = 0; k <= 32; ++k) {
+        for (int32_t e = -64; e <= 64; ++e) {
+            sp_q24_t u = k * 11629080 + e;
+            assert_int_equal(sp_fric_exp_neg(u), plain_fric_exp_neg(u));
+        }
+    }
+    for (int n = 0; n < 3000; ++n) {
+        sp_platform_t p;
+        sp_fric_obs_t o, ref;
+        sp_q24_t len[SP_LEGS];
+        sp_q8_t f[SP_LEGS], f_ref[SP_LEGS];
+        sp_status_t first;
+        uint32_t tick_us = (n % 5 == 4) ? 1u + (uint32_t)(tu_next(&rng) % SP_FRIC_TICK_MAX_US) : ticks[n % 8];
+        random_platform(&rng, &p);
+        sp_fric_obs_reset(&o);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            len[i] = tu_i32(&rng) / 4;
+        }
+        first = sp_fric_obs_step(&p, &o, len, tick_us, f); /* wild platforms saturate sigma_0 / F_c */
+        assert_true(first == SP_OK || first == SP_E_OVERFLOW);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            o.phi[i] = random_phi(&rng, &p, i);
+        }
+        ref = o;
+        for (int t = 0; t < 40; ++t) {
+            sp_status_t st, st_ref;
+            if (tu_next(&rng) % 8u == 0u) {
+                for (int i = 0; i < SP_LEGS; ++i) {
+                    o.phi[i] = random_phi(&rng, &p, i);
+                    ref.phi[i] = o.phi[i];
+                }
+            }
+            for (int i = 0; i < SP_LEGS; ++i) {
+                int64_t l = (int64_t)len[i] + random_step(&rng, &p, tick_us);
+                len[i] = (sp_q24_t)((l > INT32_MAX) ? INT32_MAX : (l < INT32_MIN) ? INT32_MIN : l);
+                moving += (len[i] != o.length[i]);
+            }
+            st = sp_fric_obs_step(&p, &o, len, tick_us, f);
+            st_ref = plain_fric_obs_run(&p, &ref, len, tick_us, f_ref);
+            assert_int_equal(st, st_ref);
+            assert_memory_equal(f, f_ref, sizeof f);
+            assert_memory_equal(o.phi, ref.phi, sizeof o.phi);
+            assert_memory_equal(o.length, ref.length, sizeof o.length);
+            assert_memory_equal(o.slip, ref.slip, sizeof o.slip);
+            assert_memory_equal(o.tau, ref.tau, sizeof o.tau);
+            assert_true(o.inv_vs == ref.inv_vs && o.valid == ref.valid);
+        }
+    }
+    assert_true(moving > 3000L * 40L * SP_LEGS / 2L); /* most leg-ticks moved */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_exp_neg),
-        cmocka_unit_test(test_against_double_reference),
-        cmocka_unit_test(test_hold_and_reversal),
-        cmocka_unit_test(test_errors_and_saturation),
+        cmocka_unit_test(test_exp_neg),           cmocka_unit_test(test_against_double_reference),
+        cmocka_unit_test(test_hold_and_reversal), cmocka_unit_test(test_errors_and_saturation),
+        cmocka_unit_test(test_equals_plain),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -27,7 +27,9 @@ static const int32_t fric_exp_table[FRIC_EXP_STEPS] = {
 /* largest |bristle deflection step| carried into the damping term, Q36 m (64 m) */
 #define FRIC_DZ_MAX_Q36 (INT64_C(1) << 42)
 
-sp_q30_t sp_fric_exp_neg(sp_q24_t u)
+/* sp_fric_exp_neg's body, inline in the leg step (its two calls a leg
+ * are most of a moving tick's exps: no call, no saved registers). */
+SPI_INLINE sp_q30_t fric_exp_neg(sp_q24_t u)
 {
     uint32_t k;
     uint32_t j;
@@ -52,11 +54,17 @@ sp_q30_t sp_fric_exp_neg(sp_q24_t u)
     d3 = (int32_t)(((int64_t)d2 * d + (INT64_C(1) << 29)) >> 30);
     poly = SP_Q30_ONE - d + (d2 >> 1) - (d3 / 6);
     acc = (int32_t)(((int64_t)fric_exp_table[j] * poly + (INT64_C(1) << 29)) >> 30);
-    /* acc is in (0, 1]: the shift by k keeps it in Q30's range */
+    /* acc is in (0, 1]: the shift by k keeps it in Q30's range, and acc +
+     * 2^(k-1) <= 2^30 + 2^29 + a few LSB fits 32 unsigned bits */
     if (k > 0u) {
-        acc = (int32_t)(((int64_t)acc + (INT64_C(1) << (k - 1u))) >> k);
+        acc = (int32_t)(((uint32_t)acc + (1u << (k - 1u))) >> k);
     }
     return (acc > SP_Q30_ONE) ? SP_Q30_ONE : acc;
+}
+
+sp_q30_t sp_fric_exp_neg(sp_q24_t u)
+{
+    return fric_exp_neg(u);
 }
 
 /* round(num / den) for den > 0, ties away from zero; |num| < 2^62. */
@@ -119,14 +127,15 @@ static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
  * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
  * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip). */
-static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int64_t dx,
+static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int32_t dx,
                         const fric_tick_t *t, sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
     int32_t fc = p->coulomb_friction[i];
     sp_q24_t v;
     sp_q8_t viscous;
-    int64_t adx, av, a, g, target, phi_new, dphi, damping = 0;
+    int32_t adx; /* |dx| <= INT32_MAX (run clamps dx to +-INT32_MAX) */
+    int64_t av, a, g, target, phi_new, dphi, damping = 0;
     sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
     sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
     if (dx == 0) {
@@ -140,28 +149,33 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
     }
     adx = dx < 0 ? -dx : dx;
     av = v < 0 ? -(int64_t)v : (int64_t)v;
-    if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
-        /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
-         * give a ratio below 8 (2^27 in Q24) and a square below 2^54 */
-        int64_t ratio = (av * o->inv_vs) >> 22;
-        es = sp_fric_exp_neg((sp_q24_t)((ratio * ratio + (INT64_C(1) << 23)) >> 24));
-    }
     /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
     a = ((int64_t)o->slip[i] * adx) >> 8;
     g = fc;
-    if (es != 0) {
-        /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8; a scaled by F_c / g (Q30, in (0, 1]) */
-        g += FRIC_Q30(((int64_t)p->breakaway_friction[i] - fc) * es);
+    if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+        /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
+         * give a ratio below 8 (2^27 in Q24) and a square below 2^54; e
+         * is then above exp(-16), never 0 */
+        int32_t ratio = (int32_t)((av * o->inv_vs) >> 22);
+        es = fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
+        /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8 (0 <= F_s - F_c <
+         * 2^31); a scaled by F_c / g (Q30, in (0, 1]) */
+        g += FRIC_Q30((int64_t)(p->breakaway_friction[i] - fc) * es);
         if (a < ((int64_t)FRIC_BRISTLE_A_MAX << 24)) {
             /* F_c / g = F_c inv / 2^sh (the normalised reciprocal: one
-             * 32-bit division, relative error below 2^-28), Q30 */
+             * 32-bit division, relative error below 2^-28), Q30. F_c <= g
+             * normalised as g (shifted by clz(g) = 62 - sh) stays below
+             * 2^32: the high word of its product with inv is exactly
+             * (F_c inv) >> (sh - 30), at most 2^30 */
             unsigned sh;
             int32_t inv = spi_recip((uint32_t)g, &sh);
-            int64_t scale = ((int64_t)fc * inv) >> (sh - 30u);
-            a = FRIC_Q30(a * scale);
+            uint32_t fc_norm = (uint32_t)fc << (62u - sh);
+            int32_t scale = (int32_t)(((uint64_t)fc_norm * (uint32_t)inv) >> 32);
+            /* a < 2^29 here: a 32 x 32-bit product */
+            a = FRIC_Q30((int64_t)(int32_t)a * scale);
         }
     }
-    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : sp_fric_exp_neg((sp_q24_t)a);
+    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
     target = dx > 0 ? g : -g;
     /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
     phi_new = target + FRIC_Q30(((int64_t)*phi - target) * eb);
@@ -221,7 +235,7 @@ static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const 
         t.tick_us = tick_us;
         t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
         for (int i = 0; i < SP_LEGS; ++i) {
-            int64_t dx = clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
+            int32_t dx = (int32_t)clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
             o->length[i] = length[i];
             friction[i] = leg_step(p, o, i, &o->phi[i], dx, &t, &flags);
         }
