@@ -1000,6 +1000,10 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
                        (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
                           ? SP_DRIVE_HOLD
                           : SP_DRIVE_ACTIVE;
+    /* load holding: valves at null, blocking valves closed in ESTOP and in a
+     * FAULT that holds; open again only once RESET re-engages */
+    out->drive_block =
+        (ctrl->state == SP_STATE_ESTOP || (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl))) ? 1u : 0u;
     out->state = ctrl->state;
     out->faults = ctrl->faults;
     out->tick = ctrl->tick;

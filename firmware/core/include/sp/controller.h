@@ -70,6 +70,15 @@
  *             RESET. ESTOP cancels a reset under way.
  *   ESTOP     emergency stop: drives commanded to HOLD at once; latched until
  *             RESET.
+ * Load holding: in ESTOP, and in FAULT while the drives hold (every fault
+ * but the park reaction under way), out->drive_block is 1: the drives put
+ * their servo valves at null and close their blocking (load-holding)
+ * valves (the setpoints' Block), so the legs hold the load by those valves
+ * even if a servo valve leaks or sticks or the supply pressure drops. It
+ * returns to 0 only when the drives are told to move again: the re-engage
+ * of a RESET (ENGAGING). IDLE before the first ENGAGE keeps the valves
+ * open (drives holding by their position loops), as a parked platform
+ * that has not failed.
  *
  * Operator link (operator_link.c, sp_ctrl_operator_link): once an operator
  * heartbeat (OP_HEARTBEAT) has been heard, an operator silent for
@@ -204,6 +213,8 @@ typedef struct {
                                       setpoints' FaultReset), else 0 */
     uint8_t reset_refused_legs;  /**< bit i: leg i's drive refused the last fault reset (0: none refused) */
     uint8_t reset_refused_cause; /**< the fault bits the refusing drives still reported (their cause) */
+    uint8_t drive_block;         /**< 1: the drives' servo valves at null, their blocking valves closed
+                                      (ESTOP, FAULT holding; the setpoints' Block), else 0 */
 } sp_ctrl_output_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
