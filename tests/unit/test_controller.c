@@ -629,8 +629,9 @@ static void test_estop_and_divergence(void **state)
 }
 
 /* Load holding: the blocking valves closed (drive_block) from the ESTOP
- * tick and in a FAULT that holds, through a RESET still waiting for the
- * drives, open again only on the re-engage; open in IDLE and while moving. */
+ * tick and SP_CTRL_FAULT_BLOCK_TICKS into a FAULT that holds, through a
+ * RESET still waiting for the drives, open again only on the re-engage;
+ * open in IDLE and while moving. */
 static void test_estop_closes_blocking_valves(void **state)
 {
     static rig_t r;
@@ -677,18 +678,35 @@ static void test_estop_closes_blocking_valves(void **state)
     assert_int_equal(r.out.drive_block, 0);
     run_until(&r, SP_STATE_READY, 20000);
     assert_int_equal(r.out.drive_block, 0);
-    /* a fault whose reaction is to hold (a silent drive): closed too */
+    /* a fault whose reaction is to hold (a silent drive): closed too, once
+     * the position loops have held for SP_CTRL_FAULT_BLOCK_TICKS */
     r.silent[1] = 1;
-    for (n = 0; n < 5; ++n) {
+    for (n = 0; n < 5 && r.out.state != SP_STATE_FAULT; ++n) {
         rig_tick(&r, SP_CMD_NONE);
     }
     assert_int_equal(r.out.state, SP_STATE_FAULT);
-    assert_int_equal(r.out.drive_block, 1);
     r.silent[1] = 0;
+    for (n = 0; r.out.drive_block == 0u && n < 1000; ++n) {
+        assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(n, (int)SP_CTRL_FAULT_BLOCK_TICKS);
     for (n = 0; n < 10; ++n) {
         rig_tick(&r, SP_CMD_NONE);
         assert_int_equal(r.out.drive_block, 1);
     }
+    /* ESTOP in a holding fault: closed at once */
+    rig_tick(&r, SP_CMD_RESET);
+    run_until(&r, SP_STATE_READY, 20000);
+    r.silent[1] = 1;
+    for (n = 0; n < 5 && r.out.state != SP_STATE_FAULT; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    r.silent[1] = 0;
+    assert_int_equal(r.out.drive_block, 0);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_block, 1);
     rig_tick(&r, SP_CMD_RESET);
     assert_int_equal(r.out.drive_block, 0);
     run_until(&r, SP_STATE_READY, 20000);

@@ -219,6 +219,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->drive_reset.edge = 0u;
     ctrl->drive_reset.refused_legs = 0u;
     ctrl->drive_reset.refused_cause = 0u;
+    ctrl->fault_hold_ticks = 0u;
     return SP_OK;
 }
 
@@ -1001,9 +1002,9 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
                           ? SP_DRIVE_HOLD
                           : SP_DRIVE_ACTIVE;
     /* load holding: valves at null, blocking valves closed in ESTOP and in a
-     * FAULT that holds; open again only once RESET re-engages */
-    out->drive_block =
-        (ctrl->state == SP_STATE_ESTOP || (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl))) ? 1u : 0u;
+     * FAULT that has held for SP_CTRL_FAULT_BLOCK_TICKS; open again only once
+     * RESET re-engages */
+    out->drive_block = (ctrl->state == SP_STATE_ESTOP || ctrl->fault_hold_ticks > SP_CTRL_FAULT_BLOCK_TICKS) ? 1u : 0u;
     out->state = ctrl->state;
     out->faults = ctrl->faults;
     out->tick = ctrl->tick;
@@ -1077,6 +1078,11 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     wrench(cfg, ctrl, have_model);
     cylinder_wrench(cfg, ctrl);
     check_divergence(cfg, ctrl);
+    if (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)) {
+        ctrl->fault_hold_ticks += (ctrl->fault_hold_ticks < UINT32_MAX) ? 1u : 0u;
+    } else {
+        ctrl->fault_hold_ticks = 0u;
+    }
     write_output(cfg, ctrl, fk_iterations, rejected, out);
     return SP_OK;
 }
