@@ -256,13 +256,15 @@ class OperatorNode:
         except (NotImplementedError, self._can.CanError, OSError):
             pass
         sock = getattr(self.bus, "socket", None)
-        if sock is not None:  # SocketCAN: room for a slow start (2 MB)
-            try:
-                import socket
+        if sock is not None:  # SocketCAN: room for a slow start (2 MB), beyond rmem_max where allowed
+            import socket
 
-                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
-            except OSError:
-                pass
+            for opt in (getattr(socket, "SO_RCVBUFFORCE", 33), socket.SO_RCVBUF):
+                try:
+                    sock.setsockopt(socket.SOL_SOCKET, opt, 1 << 21)
+                    break
+                except OSError:
+                    pass
         if self.heartbeat_enabled:
             self.send_heartbeat()
         t = threading.Thread(target=self._receive_loop, name="op-rx", daemon=True)
