@@ -23,9 +23,9 @@ pytestmark = pytest.mark.skipif(not _built(), reason="needs build/host-release (
 
 # Stated tolerances: the largest excursion of the true pose from the last
 # safe reference after a detected fault (the platform coasts into the
-# hydraulic hold, the blocking valves closed: measured 0.5-5.2 mm,
-# 0.0-1.6 mrad on the subset; the valve stuck open in the surge, stopped by
-# the blocking valves: 10.2 mm, 4.2 mrad).
+# hydraulic hold: measured 0.6-7.0 mm, 0.1-1.7 mrad on the subset; the
+# valve stuck open in the surge, stopped by the blocking valves: 10.6 mm,
+# 3.4 mrad).
 EXCURSION_MM = 15.0
 EXCURSION_MRAD = 5.0
 
