@@ -246,6 +246,7 @@ class OperatorNode:
         self._threads: list[threading.Thread] = []
         self.rx_error: str | None = None
         self._sent_mono = 0.0
+        self._sent_after = 0.0
 
     # -- life cycle --------------------------------------------------------
     def start(self) -> "OperatorNode":
@@ -310,6 +311,7 @@ class OperatorNode:
                 self.counters.send_errors += 1
                 raise OpError(f"cannot send {name}: {e}") from None
             self.counters.sent += 1
+            self._sent_after = time.time()  # the frame is on the bus from here on
         return wall
 
     def _sign(self, name: str, frame_id: int, data: bytes) -> bytes:
@@ -515,6 +517,11 @@ class OperatorNode:
         first_change: int | None = None
         idx = 0
         k = 0
+        # statuses stamped after the last send returned: only these can say
+        # the frame was not taken (this process may be held up between its
+        # clock read before the send and the send for many ticks)
+        sent_after = max(self._sent_after, sent_wall)
+        k_after = 0
         signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
         taken_k: int | None = None  # the first status after CTRL_AUTH showed the frame accepted
         while True:
@@ -534,16 +541,17 @@ class OperatorNode:
                 if st.stamp < sent_wall:
                     continue
                 k += 1
+                k_after += st.stamp >= sent_after
                 if st.cmd_rejected and k <= reject_window:
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
                 if first_change is None and before is not None and st.state != before.state:
                     first_change = k
                 if taken_k is None and (signed is None or st.auth_last >= signed):
                     taken_k = k
-                if k == reject_window and first_change is None and signed is not None and taken_k is None:
+                if k_after == reject_window and first_change is None and signed is not None and taken_k is None:
                     why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
                     raise Refused(f"{command} rejected: {why}")
-                if k == reject_window and before is not None and first_change is None \
+                if k_after == reject_window and before is not None and first_change is None \
                         and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
                     # the refusal's status frame was not seen, but nothing happened
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
