@@ -59,13 +59,7 @@ def status():
     return json.loads(r.stdout)
 
 
-# ticks: the test's operator processes are niced and may stall. The
-# heartbeat is paced by the wall clock, the timeout by the controller's
-# ticks, which in lockstep run 1.0-1.8x real time inside user-mode Linux:
-# with 1000, a run whose heartbeats were held up while `op stop` started
-# (Python start-up costs seconds of CPU there) latched OPERATOR_SILENT
-# once on a loaded machine
-OPERATOR_TIMEOUT = 5000
+OPERATOR_TIMEOUT = 1000      # ticks: the test's operator processes are niced and may stall
 
 
 @pytest.fixture(scope="module")
