@@ -143,6 +143,7 @@ hs_status_t hs_bus_receive(hs_bus_t *bus, hs_plant_t *plant, const sp_can_frame_
         (void)hs_plant_set_setpoint(plant, 3 * b + s, (double)sp->length / (double)SP_Q24_ONE,
                                     (double)sp->velocity / (double)SP_Q24_ONE, (double)sp->force / (double)SP_Q8_ONE,
                                     mode);
+        (void)hs_plant_set_block(plant, 3 * b + s, m.block);
     }
     if (m.tick == bus->tick) {
         bus->got_setpoints[b] = 1u;

@@ -32,6 +32,15 @@ hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, dou
     return HS_OK;
 }
 
+hs_status_t hs_drive_set_block(hs_drive_t *d, int closed)
+{
+    if (d == NULL) {
+        return HS_E_ARG;
+    }
+    d->block_request = (closed != 0);
+    return HS_OK;
+}
+
 static void enter_hold(hs_drive_t *d, double meas_length)
 {
     d->state = HS_DRIVE_HOLD;
@@ -41,18 +50,20 @@ static void enter_hold(hs_drive_t *d, double meas_length)
 void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_length)
 {
     if (d->fresh) {
+        int released = d->blocked && !d->block_request;
         d->fresh = 0;
         d->missed = 0;
+        d->blocked = d->block_request;
         if (d->state == HS_DRIVE_FAULT) {
             return;
         }
-        if (d->request == HS_REQ_ACTIVE && (d->faults & HS_FAULT_TIMEOUT) == 0u) {
+        if (d->request == HS_REQ_ACTIVE && !d->blocked && (d->faults & HS_FAULT_TIMEOUT) == 0u) {
             if (d->state != HS_DRIVE_ACTIVE) {
                 d->state = HS_DRIVE_ACTIVE;
                 d->ref_valid = 0;
             }
-        } else if (d->state != HS_DRIVE_HOLD) {
-            enter_hold(d, meas_length);
+        } else if (d->state != HS_DRIVE_HOLD || released) {
+            enter_hold(d, meas_length); /* released: hold where the blocking valves held it */
         }
         return;
     }
@@ -78,6 +89,11 @@ double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_
     d->sp_age += h;
     hp_meas = fm - d->meas_lp;
     d->meas_lp += k * hp_meas;
+    if (d->blocked) {
+        d->command = 0.0;
+        d->error = 0.0;
+        return 0.0;
+    }
     if (d->state == HS_DRIVE_HOLD) {
         target = d->hold_length;
     } else if (d->state == HS_DRIVE_ACTIVE) {
@@ -198,7 +214,7 @@ void hs_drive_monitor(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_p
     sensor_balance(d, dp, c, meas_length, meas_pa, meas_pb, meas_spool, h);
     spool_model_step(d, c, d->command, h);
     {
-        double target = (d->state == HS_DRIVE_FAULT) ? 0.0 : 1.0;
+        double target = (d->state == HS_DRIVE_FAULT || d->blocked) ? 0.0 : 1.0;
         double step = (dp->block_time > 0.0) ? h / dp->block_time : 1.0;
         if (d->block < target) {
             d->block = fmin(d->block + step, target);

@@ -729,6 +729,14 @@ hs_status_t hs_plant_set_setpoint(hs_plant_t *pl, int leg, double length, double
     return hs_drive_setpoint(&pl->drive[leg], length, velocity, force, mode);
 }
 
+hs_status_t hs_plant_set_block(hs_plant_t *pl, int leg, int closed)
+{
+    if (bad_leg(pl, leg)) {
+        return HS_E_ARG;
+    }
+    return hs_drive_set_block(&pl->drive[leg], closed);
+}
+
 hs_status_t hs_plant_set_forces(hs_plant_t *pl, const double force[HS_LEGS])
 {
     if (pl == NULL || force == NULL) {

@@ -26,14 +26,8 @@ figures (tried, accepted, counted) are printed for the README.
 
 from __future__ import annotations
 
-import os
-import re
-import signal
 import subprocess
-import sys
-import threading
 import time
-from pathlib import Path
 
 import pytest
 
@@ -42,85 +36,44 @@ from stewart import auth
 from stewart import closedloop as cl
 from stewart import protocol as pr
 
+import busrig
+
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
-STEWART = [sys.executable, "-m", "stewart.cli"]
 ID = {"OP_COMMAND": 0x040, "OP_TARGET_POSE": 0x050, "OP_FORCE": 0x048, "OP_FORCE_PARAMS": 0x049}
 POSE_TOL = 0.5e-3  # m, rad: the stranger's frames leave the pose where it was
 
 
-def op(*args, check=None, timeout=120):
-    r = subprocess.run(STEWART + ["op", *map(str, args)], capture_output=True, text=True, timeout=timeout,
-                       cwd=REPO_ROOT)
-    print(f"$ stewart op {' '.join(map(str, args))} -> {r.returncode}\n{r.stdout}{r.stderr}")
-    if check is not None:
-        assert r.returncode == check, r.stderr
-    assert "Traceback" not in r.stderr
-    return r
+op = busrig.op
 
 
-def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if text in path.read_text():
-            return
-        if proc.poll() is not None:
-            pytest.fail(f"{path.name}: the process ended at start-up:\n{path.read_text()}")
-        time.sleep(0.05)
-    pytest.fail(f"{path.name}: no '{text}' line within {timeout_s} s:\n{path.read_text()}")
-
-
-class Stranger:
-    """A third node on the ops bus: hears everything, sends what it likes."""
+class Stranger(busrig.Listener):
+    """A third node on the ops bus: hears everything, sends what it likes.
+    The operator's frames it records and CTRL_AUTH come on one socket, none
+    lost; CTRL_STATUS (1 kHz) on another, only its latest needed."""
 
     def __init__(self):
-        import can
-
-        self._can = can
-        self.bus = can.Bus(interface="socketcan", channel="vcan0", fd=True,
-                           can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False}
-                                        for i in (*ID.values(), 0x100, 0x103)])
-        import socket
-
-        self.bus.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
         self.proto = pr.Protocol()
         self.recorded: list[tuple[int, bytes]] = []  # the genuine operator's authenticated frames
         self.sent = 0
         self._latest: dict[int, tuple[float, bytes]] = {}
-        self._cond = threading.Condition()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._read, daemon=True)
-        self._thread.start()
+        super().__init__(every=[*ID.values(), 0x103], stream=[0x100])
 
-    def close(self):
-        self._stop.set()
-        self._thread.join(2)
-        self.bus.shutdown()
-
-    def _read(self):
-        """Hears every frame on the bus (a thread: the socket's queue would
-        overflow while the operator's processes run)."""
-        while not self._stop.is_set():
-            m = self.bus.recv(timeout=0.1)
-            if m is None:
-                continue
-            fid, data = m.arbitration_id, bytes(m.data)
-            with self._cond:
-                if fid in ID.values():
-                    self.recorded.append((fid, data))
-                self._latest[fid] = (m.timestamp, data)  # the kernel's receive time
-                self._cond.notify_all()
+    def on_frame(self, fid: int, data: bytes, timestamp: float) -> None:
+        if fid in ID.values():
+            self.recorded.append((fid, data))
+        self._latest[fid] = (timestamp, data)  # the kernel's receive time
 
     def fresh(self, name: str, timeout: float = 10.0) -> dict:
         """The first CTRL_AUTH or CTRL_STATUS heard after this call, decoded."""
         fid = self.proto.message(name).frame_id
         t0 = time.time()
         end = time.monotonic() + timeout
-        with self._cond:
+        with self.cond:
             while fid not in self._latest or self._latest[fid][0] <= t0:
                 left = end - time.monotonic()
                 assert left > 0, f"no {name} on vcan0 within {timeout} s"
-                self._cond.wait(left)
+                self.cond.wait(left)
             data = self._latest[fid][1]
         return self.proto.decode(fid, data, bus="ops", check_counter=False)[1]
 
@@ -132,8 +85,7 @@ class Stranger:
         return self.fresh("CTRL_AUTH"), self.fresh("CTRL_STATUS")
 
     def send(self, fid: int, data: bytes) -> None:
-        self.bus.send(self._can.Message(arbitration_id=fid, data=data, is_extended_id=False, is_fd=True,
-                                        bitrate_switch=True))
+        super().send(fid, data)
         self.sent += 1
         time.sleep(0.002)  # a frame or two per controller tick, as an operator would
 
@@ -148,32 +100,8 @@ def _pose(st: dict) -> list[float]:
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     out = tmp_path_factory.mktemp("auth")
-    bins = cl.Binaries.find()
-    ctl_out = open(out / "controller.txt", "w")
-    plant_out = open(out / "plant.txt", "w")
-    ctl = subprocess.Popen([str(bins.controller), "--lockstep", "--timeout-ms", "60000", "--operator-timeout",
-                            "0"], stdout=ctl_out, stderr=subprocess.STDOUT, text=True)
-    _wait_for_line(out / "controller.txt", "mode on", ctl)
-    plant = subprocess.Popen([str(bins.plant), "--lockstep", "--ticks", "100000000", "--timeout-ms", "60000"],
-                             stdout=plant_out, stderr=subprocess.STDOUT, text=True)
-    _wait_for_line(out / "plant.txt", "mode on", plant)
-    s = Stranger()
-    try:
+    with busrig.controller_and_plant(out, controller=["--operator-timeout", "0"]), Stranger() as s:
         yield out, s
-    finally:
-        s.close()
-        for p in (plant, ctl):
-            p.send_signal(signal.SIGINT)
-        for p in (plant, ctl):
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-        ctl_out.close()
-        plant_out.close()
-        for name in ("controller.txt", "plant.txt"):
-            print((out / name).read_text()[-1500:])
 
 
 def test_a_third_node_cannot_engage_or_move_but_can_stop(rig):
@@ -297,7 +225,7 @@ def test_a_third_node_cannot_engage_or_move_but_can_stop(rig):
     assert int(a4["Replayed"]) - rep0 == n_replayed
 
     # -- any node may stop the platform: the operator runs, the stranger stops it
-    run = subprocess.Popen(STEWART + ["op", "run", "x", "0.02", "0.5", "--fade", "0.3"], cwd=REPO_ROOT,
+    run = subprocess.Popen(busrig.STEWART + ["op", "run", "x", "0.02", "0.5", "--fade", "0.3"], cwd=REPO_ROOT,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     first = run.stdout.readline()
     assert first.startswith("RUN_TRIG: RUNNING"), (first, run.communicate())

@@ -21,6 +21,8 @@ import pytest
 
 from stewart import REPO_ROOT, closedloop as cl
 
+import busrig
+
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
 STEWART = REPO_ROOT / ".venv" / "bin" / "stewart"
@@ -28,28 +30,34 @@ DEFAULT = REPO_ROOT / "config" / "platform_default.json"
 
 
 @pytest.fixture
-def plant():
+def plant(tmp_path):
     """hs_sim --canopen with a SYNC producer of its own (every 2 ms on both
-    drive buses): the plant runs one cycle per SYNC, as under a master."""
+    drive buses): the plant runs one cycle per SYNC, as under a master. The
+    tests start once the plant says its sockets are open (a fixed sleep was
+    too short on a loaded machine)."""
     import can
 
     bins = cl.Binaries.find()
-    p = subprocess.Popen([str(bins.plant), "--canopen", "--ops", "vcan0", "--axis-a", "vcan1", "--axis-b", "vcan2",
-                          "--timeout-ms", "60000"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = tmp_path / "plant.txt"
+    with open(log, "w") as f:
+        p = subprocess.Popen([str(bins.plant), "--canopen", "--ops", "vcan0", "--axis-a", "vcan1", "--axis-b",
+                              "vcan2", "--timeout-ms", "60000"], stdout=f, stderr=subprocess.STDOUT, text=True)
     buses = [can.Bus(interface="socketcan", channel=ch) for ch in ("vcan1", "vcan2")]
-    time.sleep(0.3)
-    tasks = [b.send_periodic(can.Message(arbitration_id=0x080, data=b"", is_extended_id=False), 0.002)
-             for b in buses]
-    time.sleep(0.5)  # the boot-ups
-    assert p.poll() is None, p.communicate()
-    yield p
-    for t in tasks:
-        t.stop()
-    for b in buses:
-        b.shutdown()
-    p.terminate()
-    out, err = p.communicate(timeout=10)
-    print(out, err)
+    try:
+        busrig.wait_for_line(log, "mode on", p)
+        tasks = [b.send_periodic(can.Message(arbitration_id=0x080, data=b"", is_extended_id=False), 0.002)
+                 for b in buses]
+        time.sleep(0.5)  # the boot-ups
+        assert p.poll() is None, log.read_text()
+        yield p
+        for t in tasks:
+            t.stop()
+    finally:
+        for b in buses:
+            b.shutdown()
+        p.terminate()
+        p.wait(timeout=10)
+        print(log.read_text())
 
 
 def _stewart(*args, timeout=60):
@@ -107,17 +115,20 @@ def test_closed_loop_with_cia408_drives(tmp_path):
     scn = tmp_path / "canopen.scn"
     scn.write_text(SCENARIO)
     truth = tmp_path / "truth.csv"
-    ctrl = subprocess.Popen([str(bins.controller), "--canopen", "--canopen-timeout-ms", "2000",
-                             "--feedback-timeout", "50", "--operator-timeout", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = tmp_path / "controller.txt"
+    with open(log, "w") as f:
+        ctrl = subprocess.Popen([str(bins.controller), "--canopen", "--canopen-timeout-ms", "2000",
+                                 "--feedback-timeout", "50", "--operator-timeout", "0"],
+                                stdout=f, stderr=subprocess.STDOUT, text=True)
     try:
-        time.sleep(0.3)
+        busrig.wait_for_line(log, "mode on", ctrl)  # its sockets open (a fixed 0.3 s was fragile under load)
         plant = subprocess.run([str(bins.plant), "--canopen", "--scenario", str(scn), "--truth", str(truth)],
                                capture_output=True, text=True, timeout=240)
     finally:
         ctrl.terminate()
-        c_out, c_err = ctrl.communicate(timeout=20)
-    print(plant.stdout, plant.stderr, c_out, c_err)
+        ctrl.wait(timeout=20)
+    c_out = log.read_text()
+    print(plant.stdout, plant.stderr, c_out)
     assert plant.returncode == 0, plant.stdout + plant.stderr
     assert "faults 0x0000" in c_out, c_out
     m = re.search(r"sp_controller canopen: ready (\d)(.*)", c_out)

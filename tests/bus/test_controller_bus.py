@@ -5,6 +5,7 @@ Runs inside ``stewart vcan --fd`` (vcan0..vcan2); skipped elsewhere.
 """
 
 import re
+import signal
 import subprocess
 import time
 from pathlib import Path
@@ -26,12 +27,36 @@ def summary_counts(text: str) -> dict[str, int]:
     return {k: int(v) for k, v in re.findall(r"([a-z-]+) (\d+)", line)}
 
 
+def wait_ticks(proto: Protocol, n: int, timeout: float = 60.0) -> None:
+    """Waits until the controller's CTRL_STATUS Tick has advanced by n from
+    the first status sent after this call (a socket opened now hears only
+    later frames)."""
+    bus = can.Bus(interface="socketcan", channel="vcan0", fd=True,
+                  can_filters=[{"can_id": 0x100, "can_mask": 0x7FF, "extended": False}])
+    try:
+        first = None
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            m = bus.recv(timeout=0.5)
+            if m is None:
+                continue
+            tick = proto.decode(0x100, bytes(m.data), check_counter=False)[1]["Tick"]
+            first = tick if first is None else first
+            if tick - first >= n:
+                return
+        pytest.fail(f"the controller's tick did not advance by {n} within {timeout} s")
+    finally:
+        bus.shutdown()
+
+
 def test_controller_frames_decode_and_bad_frames_are_rejected():
     assert CONTROLLER.exists(), "build the host-release preset first"
     proto = Protocol()
     ops = can.Bus(interface="socketcan", channel="vcan0", fd=True)
     axis = can.Bus(interface="socketcan", channel="vcan1", fd=True)
-    proc = subprocess.Popen([str(CONTROLLER), "--ticks", "1500"], stdout=subprocess.PIPE,
+    # stopped by SIGINT once it has taken the test's frames (a fixed 1.5 s
+    # run could end before a loaded machine had sent them); 10 min at most
+    proc = subprocess.Popen([str(CONTROLLER), "--ticks", "600000"], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:
         received = {"ops": [], "axis_a": []}
@@ -57,7 +82,9 @@ def test_controller_frames_decode_and_bad_frames_are_rejected():
                                  is_extended_id=False))
             time.sleep(0.01)
         ops.send(can.Message(arbitration_id=0x40, data=out_of_range, is_fd=True, bitrate_switch=True,
-                                 is_extended_id=False))
+                             is_extended_id=False))
+        wait_ticks(proto, 50)  # it reads its socket every tick: 50 ticks on, it has taken them all
+        proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:

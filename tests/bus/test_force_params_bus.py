@@ -25,10 +25,7 @@ import contextlib
 import io
 import signal
 import subprocess
-import sys
-import threading
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -37,10 +34,12 @@ from stewart import REPO_ROOT
 from stewart import auth, cli
 from stewart import closedloop as cl
 from stewart import protocol as pr
+from stewart.operator.node import _Reader as FieldReader
+
+import busrig
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
-STEWART = [sys.executable, "-m", "stewart.cli"]
 ID_PARAMS, ID_STATUS, ID_AUTH = 0x049, 0x100, 0x103
 PUSH_N = 2000.0  # the FORCE target on z, N
 SPEED_TOL = 0.10  # relative: the approach speed against target / damping (7 runs: within 4.0 %)
@@ -66,77 +65,42 @@ def op(*args, check=None) -> Ran:
     return Ran(rc, out.getvalue(), err.getvalue())
 
 
-def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if text in path.read_text():
-            return
-        if proc.poll() is not None:
-            pytest.fail(f"{path.name}: the process ended at start-up:\n{path.read_text()}")
-        time.sleep(0.05)
-    pytest.fail(f"{path.name}: no '{text}' line within {timeout_s} s:\n{path.read_text()}")
-
-
-class Recorder:
-    """Hears CTRL_STATUS, CTRL_AUTH and OP_FORCE_PARAMS on vcan0 (a thread
-    per socket). CTRL_STATUS comes every tick: on a loaded machine its
-    socket's queue may overflow and lose some (the speed fits need no
-    particular one; reading them all would slow the lockstep loop that
-    shares the UML's CPU). The few OP_FORCE_PARAMS and CTRL_AUTH frames
-    (CTRL_AUTH at 100 Hz) have a socket of their own, whose queue holds
-    seconds of them: none is lost."""
+class Recorder(busrig.Listener):
+    """Hears CTRL_STATUS, CTRL_AUTH and OP_FORCE_PARAMS on vcan0. The few
+    OP_FORCE_PARAMS and CTRL_AUTH (100 Hz) are counted, on a socket of their
+    own (busrig's doc); CTRL_STATUS is read with the operator node's field
+    reader (no cantools call per frame: the thread keeps up with 1 kHz)."""
 
     def __init__(self):
-        import can
-
-        def ops_bus(ids):
-            return can.Bus(interface="socketcan", channel="vcan0", fd=True,
-                           can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
-
-        self.buses = [ops_bus([ID_STATUS]), ops_bus([ID_PARAMS, ID_AUTH])]
         self.proto = pr.Protocol()
+        self.fields = FieldReader(self.proto, "CTRL_STATUS").fields
         self.status: list[tuple[int, int, int, float]] = []  # tick, ForceMode, CmdRejected, Z
         self.state = None
         self.auth: dict | None = None
         self.params: list[bytes] = []
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._threads = [threading.Thread(target=self._read, args=(b,), daemon=True) for b in self.buses]
-        for t in self._threads:
-            t.start()
+        super().__init__(every=[ID_PARAMS, ID_AUTH], stream=[ID_STATUS])
 
-    def close(self):
-        self._stop.set()
-        for t in self._threads:
-            t.join(2)
-        for b in self.buses:
-            b.shutdown()
+    def on_frame(self, fid: int, data: bytes, timestamp: float) -> None:
+        if fid == ID_PARAMS:
+            self.params.append(data)
+        elif fid == ID_AUTH:
+            self.auth = self.proto.decode(fid, data, bus="ops", check_counter=False)[1]
+        else:
+            w, f = int.from_bytes(data, "little"), self.fields
+            self.state = STATES[f["State"].raw(w)]
+            self.status.append((f["Tick"].raw(w), f["ForceMode"].raw(w), f["CmdRejected"].raw(w), f["Z"].value(w)))
 
-    def _read(self, bus):
-        while not self._stop.is_set():
-            m = bus.recv(timeout=0.1)
-            if m is None:
-                continue
-            fid, data = m.arbitration_id, bytes(m.data)
-            if fid == ID_PARAMS:
-                with self._lock:
-                    self.params.append(data)
-                continue
-            sig = self.proto.decode(fid, data, bus="ops", check_counter=False)[1]
-            with self._lock:
-                if fid == ID_AUTH:
-                    self.auth = sig
-                else:
-                    self.state = STATES[int(sig["State"])]
-                    self.status.append((int(sig["Tick"]), int(sig["ForceMode"]), int(sig["CmdRejected"]),
-                                        float(sig["Z"])))
+    def lost(self, k: int) -> int:
+        """Statuses missing (Tick gaps) from the k-th heard on."""
+        ticks = self.since(k)[:, 0]
+        return int(np.sum(np.diff(ticks) - 1)) if len(ticks) > 1 else 0
 
     def mark(self) -> int:
-        with self._lock:
+        with self.cond:
             return len(self.status)
 
     def since(self, k: int) -> np.ndarray:
-        with self._lock:
+        with self.cond:
             return np.array(self.status[k:], dtype=float).reshape(-1, 4)
 
     def wait_mode(self, mode: str, k: int, timeout: float = 20.0) -> None:
@@ -161,33 +125,9 @@ def approach_speed(rows: np.ndarray) -> float:
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     out = tmp_path_factory.mktemp("force_params")
-    bins = cl.Binaries.find()
-    ctl_out = open(out / "controller.txt", "w")
-    plant_out = open(out / "plant.txt", "w")
-    ctl = subprocess.Popen([str(bins.controller), "--lockstep", "--timeout-ms", "60000", "--operator-timeout",
-                            "0", "--wrench-source", "sensor"], stdout=ctl_out, stderr=subprocess.STDOUT,
-                           text=True)
-    _wait_for_line(out / "controller.txt", "mode on", ctl)
-    plant = subprocess.Popen([str(bins.plant), "--lockstep", "--ticks", "100000000", "--timeout-ms", "60000"],
-                             stdout=plant_out, stderr=subprocess.STDOUT, text=True)
-    _wait_for_line(out / "plant.txt", "mode on", plant)
-    rec = Recorder()
-    try:
+    ctl = ["--operator-timeout", "0", "--wrench-source", "sensor"]
+    with busrig.controller_and_plant(out, controller=ctl), Recorder() as rec:
         yield out, rec
-    finally:
-        rec.close()
-        for p in (plant, ctl):
-            p.send_signal(signal.SIGINT)
-        for p in (plant, ctl):
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-        ctl_out.close()
-        plant_out.close()
-        for name in ("controller.txt", "plant.txt"):
-            print((out / name).read_text()[-1500:])
 
 
 def test_force_params_taken_refused_and_checked(rig):
@@ -224,7 +164,7 @@ def test_force_params_taken_refused_and_checked(rig):
     # force control runs a second operator's set (1e5) is refused and the
     # approach goes on at the speed of the set in force
     k = rec.mark()
-    hold = subprocess.Popen(STEWART + ["op", "force", *map(str, target), "--mass", "20", "--damping", "4e5",
+    hold = subprocess.Popen(busrig.STEWART + ["op", "force", *map(str, target), "--mass", "20", "--damping", "4e5",
                                        "--stiffness", "0"], cwd=REPO_ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -232,7 +172,8 @@ def test_force_params_taken_refused_and_checked(rig):
         refused_at = rec.mark()
         r = op("guide", "z", "--mass", 20, "--damping", 1e5, "--stiffness", 0, check=1)
         assert "they change only in position control" in r.stderr and "force control is FORCE" in r.stderr
-        assert np.any(rec.since(refused_at)[:, 2] == 1), "no CmdRejected in CTRL_STATUS"
+        assert np.any(rec.since(refused_at)[:, 2] == 1), \
+            f"no CmdRejected in CTRL_STATUS ({rec.lost(refused_at)} statuses lost since)"
         t_refused = rec.since(refused_at)[-1, 0]  # the controller's tick when the tool had its answer
         time.sleep(1.0)  # the approach goes on
         hold.send_signal(signal.SIGINT)

@@ -11,8 +11,9 @@ command, force control (tare, force, a target update, position, guide),
 stop, park, estop, reset, and a silent operator (the process that
 runs the motion killed) latching OPERATOR_SILENT and stopping the platform.
 Command-to-state-change latency (ENGAGE -> ENGAGING, ESTOP -> ESTOP) is
-counted in controller ticks on the candump log: CTRL_STATUS frames after the
-command frame up to the first one with the new state.
+counted in controller ticks on the candump log: from the last CTRL_STATUS
+before the command frame to the first one with the new state (their Tick
+signals: a status candump missed does not change the count).
 """
 
 from __future__ import annotations
@@ -23,7 +24,6 @@ import os
 import signal
 import socket
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -34,25 +34,22 @@ from stewart import closedloop as cl
 from stewart import protocol as pr
 from stewart.operator.sources import encode_datagram
 
+import busrig
+
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
 REALTIME = os.environ.get("STEWART_OP_REALTIME") == "1"
 # in real time the operator's processes run at a lower priority than the
 # controller and the plant: starting Python costs user-mode Linux seconds
 # of CPU, which would starve the 1 kHz pair (in lockstep the pair waits)
-STEWART = (["nice", "-n", "15"] if REALTIME else []) + [sys.executable, "-m", "stewart.cli"]
+PREFIX = ["nice", "-n", "15"] if REALTIME else []
+STEWART = PREFIX + busrig.STEWART
 LATENCY_TICKS = 3            # the issue's bound: state change at most 3 ticks after the frame is on the bus
 HOME_MM = 1.0                # back at home after a stream, per axis (mm / mrad)
 
 
 def op(*args, timeout=120, check=None):
-    r = subprocess.run(STEWART + ["op", *map(str, args)], capture_output=True, text=True, timeout=timeout,
-                       cwd=REPO_ROOT)
-    print(f"$ stewart op {' '.join(map(str, args))} -> {r.returncode}\n{r.stdout}{r.stderr}")
-    if check is not None:
-        assert r.returncode == check, r.stderr
-    assert "Traceback" not in r.stderr
-    return r
+    return busrig.op(*args, timeout=timeout, check=check, prefix=PREFIX)
 
 
 def status():
@@ -68,56 +65,26 @@ OPERATOR_TIMEOUT = 1000      # ticks: the test's operator processes are niced an
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     out = tmp_path_factory.mktemp("op_session")
-    bins = cl.Binaries.find()
+    # the command frames and CTRL_STATUS only (the latencies need no more),
+    # not CTRL_MONITOR and CTRL_WRENCH (1,500 of the bus's 2,600 frames a
+    # second), in a queue beyond rmem_max (candump -r: SO_RCVBUFFORCE as root)
     log = open(out / "ops.log", "w")
-    dump = subprocess.Popen(["candump", "-L", "vcan0"], stdout=log, stderr=subprocess.DEVNULL)
-    ctl_cmd = [str(bins.controller), "--operator-timeout", str(OPERATOR_TIMEOUT)]
-    plant_cmd = [str(bins.plant)]
+    dump = subprocess.Popen(["candump", "-L", "-r", str(busrig.RCVBUF), "vcan0,040:7FF,100:7FF"], stdout=log,
+                            stderr=subprocess.DEVNULL)
+    ctl_args = ["--operator-timeout", str(OPERATOR_TIMEOUT)]
+    plant_args = []
     if REALTIME:
-        rt = _realtime_prefix()
-        ctl_cmd = rt + ctl_cmd + ["--feedback-timeout", "1000"]
-        plant_cmd = rt + plant_cmd + ["--setpoint-timeout", "1000"]
-    else:
-        ctl_cmd += ["--lockstep", "--timeout-ms", "60000"]
-        plant_cmd += ["--lockstep", "--ticks", "100000000", "--timeout-ms", "60000"]
-    # the plant starts only once the controller says its sockets are open:
-    # in lockstep the plant's cycle 0 is sent once, and a controller that
-    # binds after it would wait for it forever (the pair never starts)
-    ctl_out = open(out / "controller.txt", "w")
-    plant_out = open(out / "plant.txt", "w")
-    ctl = subprocess.Popen(ctl_cmd, stdout=ctl_out, stderr=subprocess.STDOUT, text=True)
-    _wait_for_line(out / "controller.txt", "mode on", ctl)
-    plant = subprocess.Popen(plant_cmd, stdout=plant_out, stderr=subprocess.STDOUT, text=True)
-    _wait_for_line(out / "plant.txt", "mode on", plant)
-    time.sleep(0.5)
+        ctl_args += ["--feedback-timeout", "1000"]
+        plant_args += ["--setpoint-timeout", "1000"]
     try:
-        yield out
+        with busrig.controller_and_plant(out, ctl_args, plant_args, lockstep=not REALTIME,
+                                         prefix=_realtime_prefix() if REALTIME else ()):
+            time.sleep(0.5)
+            yield out
     finally:
-        for p in (plant, ctl, dump):
-            p.send_signal(signal.SIGINT)
-        for p in (plant, ctl):
-            try:
-                p.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        dump.send_signal(signal.SIGINT)
         dump.wait(timeout=10)
-        for f in (ctl_out, plant_out, log):
-            f.close()
-        for name in ("plant.txt", "controller.txt"):
-            print((out / name).read_text()[-1500:])
-
-
-def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
-    """Waits until `proc` has written `text` to `path` (its start-up line)."""
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if text in path.read_text():
-            return
-        if proc.poll() is not None:
-            pytest.fail(f"{path.name}: the process ended at start-up:\n{path.read_text()}")
-        time.sleep(0.05)
-    pytest.fail(f"{path.name}: no '{text}' line within {timeout_s} s:\n{path.read_text()}")
+        log.close()
 
 
 def _realtime_prefix() -> list[str]:
@@ -141,26 +108,30 @@ def _frames(path: Path):
         yield float(parts[0].strip("()")), int(ident, 16), bytes.fromhex(data)
 
 
-def latencies(path: Path, command: str, to_state: str) -> list[int]:
-    """For each OP_COMMAND `command` frame: CTRL_STATUS frames after it up to
-    the first in `to_state` (None when it never came within 50)."""
+def latencies(path: Path, command: str, to_state: str) -> list[int | None]:
+    """For each OP_COMMAND `command` frame: the controller's ticks from the
+    last CTRL_STATUS before it to the first in `to_state` (None when it did
+    not come within 50). In ticks (CTRL_STATUS's Tick), not frames: a
+    status candump missed neither shortens nor hides a latency."""
     proto = pr.Protocol()
     cmd_no = pr.value_names("OP_COMMAND", "Command").index(command)
     state_no = pr.value_names("CTRL_STATUS", "State").index(to_state)
     out = []
-    pending = None
+    last = pending = None
     for _, fid, data in _frames(path):
-        if fid == 0x040 and data[0] == cmd_no and pending is None:
-            pending = 0
-        elif fid == 0x100 and pending is not None:
-            pending += 1
+        if fid == 0x040 and data[0] == cmd_no and pending is None and last is not None:
+            pending = last
+        elif fid == 0x100:
             _, sig = proto.decode(fid, data, check_counter=False)
-            if int(sig["State"]) == state_no:
-                out.append(pending)
-                pending = None
-            elif pending > 50:
-                out.append(None)
-                pending = None
+            last = int(sig["Tick"])
+            if pending is not None:
+                ticks = (last - pending) & 0xFFFFFFFF
+                if int(sig["State"]) == state_no:
+                    out.append(ticks)
+                    pending = None
+                elif ticks > 50:
+                    out.append(None)
+                    pending = None
     return out
 
 

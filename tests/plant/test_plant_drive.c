@@ -14,6 +14,8 @@
  * - Raised bits: communication (warning, state kept), valve (-> FAULT).
  * - End stop bit when a cylinder is beyond its stroke.
  * - Non-finite state: step undone, HS_E_NUMERIC, internal bit on every drive.
+ * - Block (load holding): valve at null, blocking valves closed in 20 ms,
+ *   a stuck-open spool held; released with HOLD, no jump.
  * - Argument checks.
  */
 #include <math.h>
@@ -139,6 +141,70 @@ static void test_init_valve_null(void **state)
         assert_true(st.valve_cmd[i] == 0.0);
         assert_true(st.spool[i] == 0.0);
     }
+}
+
+/* Block (the setpoints' load-holding request): valve at null at once, the
+ * setpoints and an ACTIVE request ignored, the blocking valves closed in
+ * block_time; a spool stuck 15 % open (under the valve monitor's 0.2) then
+ * moves nothing but the piston leakage allows. Released with HOLD: the valves open within block_time and
+ * the drive holds where they held it (no jump back). */
+static void test_block(void **state)
+{
+    hs_state_t st;
+    double pose[6], held[6];
+    int n;
+    (void)state;
+    start();
+    for (n = 0; n < 10; ++n) {
+        send_all(HS_REQ_ACTIVE, 0.0);
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+    }
+    for (int i = 0; i < HS_LEGS; ++i) {
+        assert_int_equal(hs_plant_set_block(&plant, i, 1), HS_OK);
+    }
+    for (n = 1; n <= 25; ++n) {
+        send_all(HS_REQ_ACTIVE, 0.005); /* ignored while blocked */
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+        expect_all(HS_DRIVE_HOLD, 0u);
+        assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+        for (int i = 0; i < HS_LEGS; ++i) {
+            assert_true(st.valve_cmd[i] == 0.0);
+            assert_true(st.block[i] < 1.0);
+            if (n >= 20) {
+                assert_true(st.block[i] == 0.0); /* block_time 20 ms */
+            }
+        }
+    }
+    hs_plant_pose(&plant, held);
+    assert_int_equal(hs_plant_inject_valve(&plant, 1, 1, 0.15), HS_OK);
+    for (n = 0; n < 500; ++n) {
+        send_all(HS_REQ_HOLD, 0.0);
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+    }
+    hs_plant_pose(&plant, pose);
+    print_message("blocked, spool of leg 2 stuck 15 %% open: %.3f mm in 0.5 s\n", pt_pos_error(pose, held) * 1e3);
+    assert_true(pt_pos_error(pose, held) < 0.2e-3);
+    assert_int_equal(hs_plant_inject_valve(&plant, 1, 0, 0.0), HS_OK);
+    /* released with HOLD: open again in block_time, holding where it is */
+    hs_plant_pose(&plant, held);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        assert_int_equal(hs_plant_set_block(&plant, i, 0), HS_OK);
+    }
+    for (n = 0; n < 300; ++n) {
+        send_all(HS_REQ_HOLD, 0.0);
+        assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+    }
+    assert_int_equal(hs_plant_state(&plant, &st), HS_OK);
+    for (int i = 0; i < HS_LEGS; ++i) {
+        assert_true(st.block[i] == 1.0);
+    }
+    expect_all(HS_DRIVE_HOLD, 0u);
+    hs_plant_pose(&plant, pose);
+    assert_true(pt_pos_error(pose, held) < 20e-6);
+    send_all(HS_REQ_ACTIVE, 0.0);
+    assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+    expect_all(HS_DRIVE_ACTIVE, 0u);
+    assert_int_equal(hs_plant_set_block(&plant, 6, 1), HS_E_ARG);
 }
 
 static void test_following_error(void **state)
@@ -288,6 +354,7 @@ int main(void)
         cmocka_unit_test(test_init_valve_null), cmocka_unit_test(test_following_error),
         cmocka_unit_test(test_raised_faults),   cmocka_unit_test(test_end_stop_bit),
         cmocka_unit_test(test_numeric_failure), cmocka_unit_test(test_arguments),
+        cmocka_unit_test(test_block),
     };
     return cmocka_run_group_tests_name("plant_drive", tests, NULL, NULL);
 }

@@ -628,6 +628,94 @@ static void test_estop_and_divergence(void **state)
     assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
 }
 
+/* Load holding: the blocking valves closed (drive_block) from the ESTOP
+ * tick and SP_CTRL_FAULT_BLOCK_TICKS into a FAULT that holds, through a
+ * RESET still waiting for the drives, open again only on the re-engage;
+ * open in IDLE and while moving. */
+static void test_estop_closes_blocking_valves(void **state)
+{
+    static rig_t r;
+    int n;
+    (void)state;
+    rig_init(&r);
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_IDLE);
+    assert_int_equal(r.out.drive_block, 0);
+    engage(&r);
+    assert_int_equal(r.out.drive_block, 0);
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    for (n = 0; n < 500; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.drive_block, 0);
+    }
+    /* ESTOP: closed in that very tick, and latched */
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+    assert_int_equal(r.out.drive_block, 1);
+    rig_tick(&r, SP_CMD_ENGAGE); /* refused: no way round RESET */
+    assert_int_equal(r.out.cmd_rejected, 1);
+    for (n = 0; n < 100; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.drive_block, 1);
+    }
+    /* a drive faulted meanwhile: RESET waits for it with the valves closed */
+    r.in.drive[2].faults = 0x20u | SP_DRIVE_FAULT_STATE;
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.drive_fault_reset, 1);
+    assert_int_equal(r.out.drive_block, 1);
+    rig_tick(&r, SP_CMD_NONE);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_block, 1);
+    r.in.drive[2].faults = 0u;
+    rig_tick(&r, SP_CMD_NONE);
+    assert_true(r.out.state == SP_STATE_ENGAGING || r.out.state == SP_STATE_READY);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_ACTIVE);
+    assert_int_equal(r.out.drive_block, 0);
+    run_until(&r, SP_STATE_READY, 20000);
+    assert_int_equal(r.out.drive_block, 0);
+    /* a fault whose reaction is to hold (a silent drive): closed too, once
+     * the position loops have held for SP_CTRL_FAULT_BLOCK_TICKS */
+    r.silent[1] = 1;
+    for (n = 0; n < 5 && r.out.state != SP_STATE_FAULT; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.state, SP_STATE_FAULT);
+    r.silent[1] = 0;
+    for (n = 0; r.out.drive_block == 0u && n < 1000; ++n) {
+        assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(n, (int)SP_CTRL_FAULT_BLOCK_TICKS);
+    for (n = 0; n < 10; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_int_equal(r.out.drive_block, 1);
+    }
+    /* ESTOP in a holding fault: closed at once */
+    rig_tick(&r, SP_CMD_RESET);
+    run_until(&r, SP_STATE_READY, 20000);
+    r.silent[1] = 1;
+    for (n = 0; n < 5 && r.out.state != SP_STATE_FAULT; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    r.silent[1] = 0;
+    assert_int_equal(r.out.drive_block, 0);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_block, 1);
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.drive_block, 0);
+    run_until(&r, SP_STATE_READY, 20000);
+    /* parked again (PARK -> IDLE): a platform that has not failed, valves open */
+    rig_tick(&r, SP_CMD_PARK);
+    run_until(&r, SP_STATE_IDLE, 20000);
+    assert_int_equal(r.out.drive_block, 0);
+}
+
 static void test_fk_failure_faults(void **state)
 {
     static rig_t r;
@@ -1265,6 +1353,7 @@ int main(void)
         cmocka_unit_test(test_stream_target_reachability),
         cmocka_unit_test(test_estimate_matches_full_fk),
         cmocka_unit_test(test_estop_and_divergence),
+        cmocka_unit_test(test_estop_closes_blocking_valves),
         cmocka_unit_test(test_fk_failure_faults),
         cmocka_unit_test(test_cylinder_estimate_tare),
         cmocka_unit_test(test_force_hold_and_contact_lost),

@@ -220,6 +220,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->drive_reset.edge = 0u;
     ctrl->drive_reset.refused_legs = 0u;
     ctrl->drive_reset.refused_cause = 0u;
+    ctrl->fault_hold_ticks = 0u;
     return SP_OK;
 }
 
@@ -1007,6 +1008,10 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
                        (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)))
                           ? SP_DRIVE_HOLD
                           : SP_DRIVE_ACTIVE;
+    /* load holding: valves at null, blocking valves closed in ESTOP and in a
+     * FAULT that has held for SP_CTRL_FAULT_BLOCK_TICKS; open again only once
+     * RESET re-engages */
+    out->drive_block = (ctrl->state == SP_STATE_ESTOP || ctrl->fault_hold_ticks > SP_CTRL_FAULT_BLOCK_TICKS) ? 1u : 0u;
     out->state = ctrl->state;
     out->faults = ctrl->faults;
     out->tick = ctrl->tick;
@@ -1081,6 +1086,11 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     wrench(cfg, ctrl, have_model);
     cylinder_wrench(cfg, ctrl);
     check_divergence(cfg, ctrl);
+    if (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)) {
+        ctrl->fault_hold_ticks += (ctrl->fault_hold_ticks < UINT32_MAX) ? 1u : 0u;
+    } else {
+        ctrl->fault_hold_ticks = 0u;
+    }
     write_output(cfg, ctrl, fk_iterations, rejected, out);
     return SP_OK;
 }

@@ -427,6 +427,7 @@ SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t
         m.tick = tick;
         m.mode = (uint8_t)node->out.drive_mode;
         m.fault_reset = node->out.drive_fault_reset;
+        m.block = node->out.drive_block;
         for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
             m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
         }

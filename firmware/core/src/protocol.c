@@ -311,6 +311,7 @@ sp_status_t sp_proto_encode_setpoints(const sp_msg_setpoints_t *m, uint8_t count
     s.velocity_3 = q24_to_vel(m->setpoint[2].velocity, &sat);
     s.force_3 = q8_to_force(m->setpoint[2].force, &sat);
     s.fault_reset = m->fault_reset ? 1u : 0u;
+    s.block = m->block ? 1u : 0u;
     clear(f);
     return finish(f, SP_ID_AXIS_SETPOINTS, bus, stewart_can_axis_setpoints_pack(f->data, &s, SP_CAN_MAX_DATA),
                   STEWART_CAN_AXIS_SETPOINTS_LENGTH, sat);
@@ -346,6 +347,7 @@ sp_status_t sp_proto_decode_setpoints(const sp_can_frame_t *f, sp_msg_setpoints_
     m->setpoint[2].velocity = vel_to_q24(s.velocity_3);
     m->setpoint[2].force = force_to_q8(s.force_3);
     m->fault_reset = s.fault_reset;
+    m->block = s.block;
     *counter = s.counter;
     return SP_OK;
 }

@@ -60,7 +60,9 @@
  *     closed blocking valve.
  *   Blocking valves: load-holding valves between the servo valve and the
  *     cylinder (pilot-operated check valves), closed by the drive in FAULT
- *     (its safety chain) in block_time, open otherwise: closed, no oil
+ *     (its safety chain) and while the master asks for them closed (the
+ *     setpoints' Block: valve at null, setpoints ignored; the controller's
+ *     ESTOP and holding FAULT) in block_time, open otherwise: closed, no oil
  *     flows to or from the chambers but the piston's internal leakage, so
  *     a cylinder whose servo valve is stuck open stops. `block` is their
  *     opening (1 open, 0 closed); the plant scales the valve flows by it.
@@ -114,6 +116,8 @@ typedef struct {
     double chk_travel;          /**< the smaller |predicted travel| of the two chambers (0 if they disagree), m */
     int chk_valid;              /**< a balance is under way */
     double block;               /**< blocking valves' opening, 0 (closed) .. 1 (open) */
+    int block_request;          /**< the last setpoint's Block (1: closed), applied at the next cycle */
+    int blocked;                /**< the master asks for the blocking valves closed, valve at null */
     double spool_error_peak;    /**< the largest spool_error seen (the monitors' margin, for reports) */
     double chk_travel_peak;     /**< the largest chk_travel seen, m */
 } hs_drive_t;
@@ -131,6 +135,15 @@ void hs_drive_init(hs_drive_t *d, double force0);
 hs_status_t hs_drive_setpoint(hs_drive_t *d, double length, double velocity, double force, hs_drive_request_t mode);
 
 /**
+ * The master's load-holding request with the next setpoint (the DBC's
+ * Block): closed != 0 puts the valve at null and closes the blocking
+ * valves from the next cycle that applies a fresh setpoint, the setpoints
+ * and the requested mode then ignored (the drive holds, HOLD); 0 opens
+ * them again, a drive in HOLD then holds where it is. HS_E_ARG for NULL.
+ */
+hs_status_t hs_drive_set_block(hs_drive_t *d, int closed);
+
+/**
  * Start of a cycle: applies the request of a fresh setpoint (state
  * transitions), runs the watchdog. meas_length (m) is the drive's current
  * length measurement, latched as the target when entering HOLD.
@@ -140,6 +153,7 @@ void hs_drive_cycle(hs_drive_t *d, const hs_drive_params_t *dp, double meas_leng
 /**
  * One control substep of h seconds: returns the valve command (-1..1) from
  * the measured length (m) and chamber pressures (Pa); 0 in INIT and FAULT
+ * and while blocked
  * (the measured-force low-pass still runs). Checks the following error.
  * Advances the setpoint age by h.
  */
@@ -152,7 +166,7 @@ double hs_drive_update(hs_drive_t *d, const hs_drive_params_t *dp, const hs_cyl_
  * measured at the substep's start, fraction of full opening), the sensor
  * plausibility (meas_length m, meas_pa and meas_pb Pa: the same samples
  * hs_drive_update got) and the blocking valves (`block` moves towards 0 in
- * FAULT, else towards 1, at 1 / block_time per second). A fault found here
+ * FAULT or blocked, else towards 1, at 1 / block_time per second). A fault found here
  * puts the drive in FAULT with its command at 0 (read d->command after).
  * Non-finite inputs: no check fires on them (the plant's internal fault
  * covers a non-finite state).

@@ -216,6 +216,13 @@ hs_status_t hs_plant_rebalance(hs_plant_t *plant);
 hs_status_t hs_plant_add_mass(hs_plant_t *plant, double mass, const double point[3]);
 
 /**
+ * Load holding of drive `leg` (0..5) from its next cycle (hs_drive_set_block:
+ * closed != 0 puts its valve at null and closes its blocking valves; 0
+ * opens them). HS_E_ARG for a bad leg.
+ */
+hs_status_t hs_plant_set_block(hs_plant_t *plant, int leg, int closed);
+
+/**
  * Setpoint of drive `leg` (0..5) for the next cycle: length (m), velocity
  * (m/s), force feed-forward (N, positive pushes out), requested mode. Feeds
  * the watchdog. HS_E_ARG for a bad leg, non-finite values or an unknown mode.

@@ -247,6 +247,7 @@ class OperatorNode:
         self._threads: list[threading.Thread] = []
         self.rx_error: str | None = None
         self._sent_mono = 0.0
+        self._sent_after = 0.0
 
     # -- life cycle --------------------------------------------------------
     def start(self) -> "OperatorNode":
@@ -257,13 +258,15 @@ class OperatorNode:
         except (NotImplementedError, self._can.CanError, OSError):
             pass
         sock = getattr(self.bus, "socket", None)
-        if sock is not None:  # SocketCAN: room for a slow start (2 MB)
-            try:
-                import socket
+        if sock is not None:  # SocketCAN: room for a slow start (2 MB), beyond rmem_max where allowed
+            import socket
 
-                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
-            except OSError:
-                pass
+            for opt in (getattr(socket, "SO_RCVBUFFORCE", 33), socket.SO_RCVBUF):
+                try:
+                    sock.setsockopt(socket.SOL_SOCKET, opt, 1 << 21)
+                    break
+                except OSError:
+                    pass
         if self.heartbeat_enabled:
             self.send_heartbeat()
         t = threading.Thread(target=self._receive_loop, name="op-rx", daemon=True)
@@ -309,6 +312,7 @@ class OperatorNode:
                 self.counters.send_errors += 1
                 raise OpError(f"cannot send {name}: {e}") from None
             self.counters.sent += 1
+            self._sent_after = time.time()  # the frame is on the bus from here on
         return wall
 
     def _sign(self, name: str, frame_id: int, data: bytes) -> bytes:
@@ -531,6 +535,11 @@ class OperatorNode:
         first_change: int | None = None
         idx = 0
         k = 0
+        # statuses stamped after the last send returned: only these can say
+        # the frame was not taken (this process may be held up between its
+        # clock read before the send and the send for many ticks)
+        sent_after = max(self._sent_after, sent_wall)
+        k_after = 0
         signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
         taken_k: int | None = None  # the first status after CTRL_AUTH showed the frame accepted
         while True:
@@ -550,20 +559,21 @@ class OperatorNode:
                 if st.stamp < sent_wall:
                     continue
                 k += 1
+                k_after += st.stamp >= sent_after
                 if st.cmd_rejected and k <= reject_window:
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
                 if first_change is None and before is not None and st.state != before.state:
                     first_change = k
                 if taken_k is None and (signed is None or st.auth_last >= signed):
                     taken_k = k
-                if k == reject_window and first_change is None and signed is not None and taken_k is None:
+                if k_after == reject_window and first_change is None and signed is not None and taken_k is None:
                     why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
                     raise Refused(f"{command} rejected: {why}")
-                if k == reject_window and first_change is None and signed is not None and not done(st):
+                if k_after == reject_window and first_change is None and signed is not None and not done(st):
                     why = self.auth_reason()  # another process's counters went past this one's
                     if why is not None:
                         raise Refused(f"{command} rejected: {why}")
-                if k == reject_window and before is not None and first_change is None \
+                if k_after == reject_window and before is not None and first_change is None \
                         and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
                     # the refusal's status frame was not seen, but nothing happened
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")

@@ -70,6 +70,16 @@
  *             RESET. ESTOP cancels a reset under way.
  *   ESTOP     emergency stop: drives commanded to HOLD at once; latched until
  *             RESET.
+ * Load holding: from the tick ESTOP is taken, and in FAULT once the
+ * drives have held for SP_CTRL_FAULT_BLOCK_TICKS (every fault but the park
+ * reaction under way), out->drive_block is 1: the drives put their servo
+ * valves at null and close their blocking (load-holding) valves (the
+ * setpoints' Block), so the legs hold the load by those valves even if a
+ * servo valve leaks or sticks or the supply pressure drops. It returns to
+ * 0 only when the drives are told to move again: the re-engage of a RESET
+ * (ENGAGING). IDLE before the first ENGAGE keeps the valves
+ * open (drives holding by their position loops), as a parked platform
+ * that has not failed.
  *
  * Operator link (operator_link.c, sp_ctrl_operator_link): once an operator
  * heartbeat (OP_HEARTBEAT) has been heard, an operator silent for
@@ -213,6 +223,8 @@ typedef struct {
     uint8_t force_unmeasured;    /**< bit i: leg i's drive measures no cylinder force (sp_drive_feedback_t.no_force):
                                       the wrench estimate is invalid, and FORCE, GUIDE and TARE with the
                                       cylinders as wrench source are refused for this reason */
+    uint8_t drive_block;         /**< 1: the drives' servo valves at null, their blocking valves closed
+                                      (ESTOP, FAULT holding; the setpoints' Block), else 0 */
 } sp_ctrl_output_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
@@ -285,6 +297,13 @@ typedef struct {
  *  refine the last forces with it, and the estimate's chord step uses it.
  *  1: a fresh factorisation every tick (the plain computation). */
 #define SP_CTRL_LU_KEEP 6u
+
+/** Ticks a FAULT holds by the drives' position loops before the blocking
+ *  valves close (out->drive_block): the loops first bring a moving
+ *  platform to rest (closed at once, the platform rings on its oil columns
+ *  with little damping: 8.5 mm, still 1.7 mm a second later, after a fault
+ *  in the surge). ESTOP closes them at once. */
+#define SP_CTRL_FAULT_BLOCK_TICKS 500u
 
 /** sp_supervision_t.seen_mask once every drive has been heard from. */
 #define SP_ALL_LEGS ((UINT32_C(1) << SP_LEGS) - 1u)
@@ -363,6 +382,7 @@ typedef struct {
     uint8_t ft_frame_valid;                    /**< 1 once ft_frame was made (0 at init: make it) */
     sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
     sp_drive_reset_t drive_reset;              /**< RESET's fault reset of the drives */
+    uint32_t fault_hold_ticks;                 /**< ticks of the current holding FAULT (saturates; 0 otherwise) */
 } sp_ctrl_t;
 
 /**

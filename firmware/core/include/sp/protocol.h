@@ -79,6 +79,8 @@ typedef struct {
     sp_setpoint_t setpoint[SP_AXIS_SLOTS]; /**< slots 1..3 of the bus */
     uint8_t fault_reset;                   /**< FaultReset: 1 asks the drives to clear their faults (on the
                                                 rising edge); any non-zero is sent as 1 */
+    uint8_t block;                         /**< Block: 1 = valves at null, blocking valves closed (load
+                                                holding); any non-zero is sent as 1 */
 } sp_msg_setpoints_t;
 
 typedef struct {

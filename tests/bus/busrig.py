@@ -1,0 +1,169 @@
+"""What the bus tests share: the operator tool run as a process, the
+controller and the plant started in order, and a listener on the ops bus
+that cannot lose the frames a test counts.
+
+Why a listener has two sockets (and large queues): the ops bus carries CTRL_STATUS,
+CTRL_MONITOR (1 kHz each) and CTRL_WRENCH (500 Hz). A socket that hears
+one of those and a rare frame too shares one receive queue (about 425 KB
+inside user-mode Linux: net.core.rmem_max caps SO_RCVBUF); on a loaded
+machine the reading thread falls behind, the queue fills and the kernel
+drops whatever comes next, the rare frame as readily as a status. So the
+frames a test must hear every one of (operator commands, OP_FORCE_PARAMS,
+CTRL_AUTH at 100 Hz) get a socket of their own, whose queue holds seconds
+of them, and the 1 kHz stream another. Both ask for a queue beyond
+rmem_max (ops_socket), so that a reading thread held up for seconds loses
+nothing; a test that needs one particular status (a CmdRejected lasts one
+tick) should still say, when it misses it, whether statuses were lost
+(Tick gaps).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import pytest
+
+from stewart import REPO_ROOT
+from stewart import closedloop as cl
+
+STEWART = [sys.executable, "-m", "stewart.cli"]
+
+
+def op(*args, check: int | None = None, timeout: float = 120, prefix: Iterable[str] = ()):
+    """`stewart op ARGS` as its own process (printed, no traceback allowed;
+    `check`: the exit code it must have)."""
+    r = subprocess.run([*prefix, *STEWART, "op", *map(str, args)], capture_output=True, text=True, timeout=timeout,
+                       cwd=REPO_ROOT)
+    print(f"$ stewart op {' '.join(map(str, args))} -> {r.returncode}\n{r.stdout}{r.stderr}")
+    if check is not None:
+        assert r.returncode == check, r.stderr
+    assert "Traceback" not in r.stderr
+    return r
+
+
+def wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
+    """Waits until `proc` has written `text` to `path` (its start-up line)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if text in path.read_text():
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"{path.name}: the process ended at start-up:\n{path.read_text()}")
+        time.sleep(0.05)
+    pytest.fail(f"{path.name}: no '{text}' line within {timeout_s} s:\n{path.read_text()}")
+
+
+@contextlib.contextmanager
+def controller_and_plant(out: Path, controller: Iterable[str] = (), plant: Iterable[str] = (),
+                         lockstep: bool = True, prefix: Iterable[str] = ()) -> Iterator[None]:
+    """sp_controller, then hs_sim (host-release build), their output in
+    ``out``/controller.txt and plant.txt. The plant starts only once the
+    controller says its sockets are open ("mode on"): in lockstep the
+    plant's cycle 0 is sent once, and a controller that binds after it would
+    wait for it forever. In lockstep both get a 60 s stall timeout and the
+    plant runs until stopped. On leaving: SIGINT to both (killed after
+    10 s), the tails of their output printed."""
+    bins = cl.Binaries.find()
+    ctl_cmd = [*prefix, str(bins.controller), *controller]
+    plant_cmd = [*prefix, str(bins.plant), *plant]
+    if lockstep:
+        ctl_cmd += ["--lockstep", "--timeout-ms", "60000"]
+        plant_cmd += ["--lockstep", "--ticks", "100000000", "--timeout-ms", "60000"]
+    with open(out / "controller.txt", "w") as ctl_out, open(out / "plant.txt", "w") as plant_out:
+        procs = []
+        try:
+            procs.append(subprocess.Popen(ctl_cmd, stdout=ctl_out, stderr=subprocess.STDOUT, text=True))
+            wait_for_line(out / "controller.txt", "mode on", procs[0])
+            procs.insert(0, subprocess.Popen(plant_cmd, stdout=plant_out, stderr=subprocess.STDOUT, text=True))
+            wait_for_line(out / "plant.txt", "mode on", procs[0])
+            yield
+        finally:
+            for p in procs:
+                p.send_signal(signal.SIGINT)
+            for p in procs:
+                try:
+                    p.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+            for name in ("controller.txt", "plant.txt"):
+                print((out / name).read_text()[-1500:])
+
+
+#: The receive queue asked for (bytes): seconds of the 1 kHz status.
+RCVBUF = 16 << 20
+
+
+def ops_socket(ids: Iterable[int]):
+    """A python-can CAN FD socket on vcan0 hearing only these identifiers,
+    its receive queue RCVBUF: SO_RCVBUFFORCE where allowed (root, as inside
+    user-mode Linux: beyond net.core.rmem_max), else SO_RCVBUF (capped)."""
+    import socket
+
+    import can
+
+    bus = can.Bus(interface="socketcan", channel="vcan0", fd=True,
+                  can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
+    try:
+        bus.socket.setsockopt(socket.SOL_SOCKET, getattr(socket, "SO_RCVBUFFORCE", 33), RCVBUF)
+    except OSError:
+        bus.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RCVBUF)
+    return bus
+
+
+class Listener:
+    """Hears the ops bus on two sockets, a thread each (see the module's
+    doc): `every` the identifiers of which no frame may be lost, `stream`
+    those of the 1 kHz stream. Each frame goes to on_frame(id, data, kernel
+    receive time) with self.cond held (notified after); send() uses the
+    `every` socket, so that the listener does not hear its own frames (the
+    `stream` socket's filter must not pass them either). A context manager:
+    closed on leaving."""
+
+    def __init__(self, every: Iterable[int], stream: Iterable[int]):
+        self.every = ops_socket(every)
+        self.stream = ops_socket(stream)
+        self.cond = threading.Condition()
+        self._stop = threading.Event()
+        self._threads = [threading.Thread(target=self._read, args=(b,), daemon=True)
+                         for b in (self.every, self.stream)]
+        for t in self._threads:
+            t.start()
+
+    def on_frame(self, fid: int, data: bytes, timestamp: float) -> None:
+        raise NotImplementedError
+
+    def send(self, fid: int, data: bytes) -> None:
+        import can
+
+        self.every.send(can.Message(arbitration_id=fid, data=data, is_extended_id=False, is_fd=True,
+                                    bitrate_switch=True))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(2)
+        for b in (self.every, self.stream):
+            b.shutdown()
+
+    def _read(self, bus) -> None:
+        while not self._stop.is_set():
+            m = bus.recv(timeout=0.1)
+            if m is None:
+                continue
+            with self.cond:
+                self.on_frame(m.arbitration_id, bytes(m.data), m.timestamp)
+                self.cond.notify_all()
