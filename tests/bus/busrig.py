@@ -101,20 +101,23 @@ def controller_and_plant(out: Path, controller: Iterable[str] = (), plant: Itera
 RCVBUF = 16 << 20
 
 
-def ops_socket(ids: Iterable[int]):
+def ops_socket(ids: Iterable[int], rcvbuf: int | None = RCVBUF):
     """A python-can CAN FD socket on vcan0 hearing only these identifiers,
-    its receive queue RCVBUF: SO_RCVBUFFORCE where allowed (root, as inside
-    user-mode Linux: beyond net.core.rmem_max), else SO_RCVBUF (capped)."""
+    its receive queue rcvbuf: SO_RCVBUFFORCE where allowed (root, as inside
+    user-mode Linux: beyond net.core.rmem_max), else SO_RCVBUF (capped);
+    None: the system's default queue."""
     import socket
 
     import can
 
     bus = can.Bus(interface="socketcan", channel="vcan0", fd=True,
                   can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
+    if rcvbuf is None:
+        return bus
     try:
-        bus.socket.setsockopt(socket.SOL_SOCKET, getattr(socket, "SO_RCVBUFFORCE", 33), RCVBUF)
+        bus.socket.setsockopt(socket.SOL_SOCKET, getattr(socket, "SO_RCVBUFFORCE", 33), rcvbuf)
     except OSError:
-        bus.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RCVBUF)
+        bus.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
     return bus
 
 
@@ -127,10 +130,11 @@ class Listener:
     `stream` socket's filter must not pass them either). A context manager:
     closed on leaving."""
 
-    def __init__(self, every: Iterable[int], stream: Iterable[int]):
+    def __init__(self, every: Iterable[int], stream: Iterable[int], stream_rcvbuf: int | None = RCVBUF):
         self.every = ops_socket(every)
-        self.stream = ops_socket(stream)
+        self.stream = ops_socket(stream, stream_rcvbuf)
         self.cond = threading.Condition()
+        self._stream_stamp = 0.0  # the kernel receive time of the newest stream frame handled
         self._stop = threading.Event()
         self._threads = [threading.Thread(target=self._read, args=(b,), daemon=True)
                          for b in (self.every, self.stream)]
@@ -166,4 +170,17 @@ class Listener:
                 continue
             with self.cond:
                 self.on_frame(m.arbitration_id, bytes(m.data), m.timestamp)
+                if bus is self.stream:
+                    self._stream_stamp = m.timestamp
                 self.cond.notify_all()
+
+    def sync(self, timeout: float = 60.0) -> None:
+        """Returns once the stream's thread has handled every frame the bus
+        carried before this call: with a queue of seconds the thread may be
+        that far behind on a loaded machine (nothing lost, but late)."""
+        now, end = time.time(), time.monotonic() + timeout
+        with self.cond:
+            while self._stream_stamp < now:
+                left = end - time.monotonic()
+                assert left > 0, f"the listener did not catch up with the bus within {timeout} s"
+                self.cond.wait(left)

@@ -258,15 +258,17 @@ class OperatorNode:
         except (NotImplementedError, self._can.CanError, OSError):
             pass
         sock = getattr(self.bus, "socket", None)
-        if sock is not None:  # SocketCAN: room for a slow start (2 MB), beyond rmem_max where allowed
+        if sock is not None:  # SocketCAN: room for a slow start (2 MB, capped by net.core.rmem_max)
+            # not beyond rmem_max (SO_RCVBUFFORCE): a reader that cannot
+            # keep up with the controller's ~2,600 frames a second (Python
+            # inside user-mode Linux on a loaded machine) would fall seconds
+            # behind instead of losing old frames, and answer from stale ones
             import socket
 
-            for opt in (getattr(socket, "SO_RCVBUFFORCE", 33), socket.SO_RCVBUF):
-                try:
-                    sock.setsockopt(socket.SOL_SOCKET, opt, 1 << 21)
-                    break
-                except OSError:
-                    pass
+            try:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+            except OSError:
+                pass
         if self.heartbeat_enabled:
             self.send_heartbeat()
         t = threading.Thread(target=self._receive_loop, name="op-rx", daemon=True)
@@ -493,7 +495,7 @@ class OperatorNode:
                 self._cond.wait(left)
             return self.status
 
-    def fresh_auth(self, timeout: float = 2.0) -> None:
+    def fresh_auth(self, timeout: float = 5.0) -> None:
         """Waits for a CTRL_AUTH received after this call (every 10 ms), so
         that the counter of the next signed frame continues from the
         controller's newest LastCounter: another operator process may have
@@ -505,8 +507,7 @@ class OperatorNode:
             while self._auth_stamp < now:
                 left = end - time.monotonic()
                 if left <= 0:
-                    raise NoAnswer(f"no CTRL_AUTH from the controller within {timeout:g} s "
-                                   "(its session and counter are needed to sign)")
+                    return  # signed with the newest heard; a replay would be reported with its reason
                 self._cond.wait(left)
 
     def _mark(self) -> int:
