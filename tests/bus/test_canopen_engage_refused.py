@@ -32,13 +32,14 @@ import signal
 import subprocess
 import threading
 import time
-from pathlib import Path
 
 import pytest
 
 from stewart import cli
 from stewart import closedloop as cl
 from stewart import protocol as pr
+
+import busrig
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 
@@ -124,17 +125,6 @@ class Recorder:
             time.sleep(0.01)
 
 
-def _wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if text in path.read_text():
-            return
-        if proc.poll() is not None:
-            pytest.fail(f"{path.name}: the process ended at start-up:\n{path.read_text()}")
-        time.sleep(0.05)
-    pytest.fail(f"{path.name}: no '{text}' line within {timeout_s} s:\n{path.read_text()}")
-
-
 def test_engage_refused_while_the_drives_are_configured(tmp_path):
     import can
 
@@ -151,7 +141,7 @@ def test_engage_refused_while_the_drives_are_configured(tmp_path):
         with open(ctl_log, "w") as c_out, open(plant_log, "w") as p_out:
             procs.append(subprocess.Popen([str(bins.controller), "--lockstep", "--canopen", "--timeout-ms", "60000",
                                            "--operator-timeout", "0"], stdout=c_out, stderr=subprocess.STDOUT))
-            _wait_for_line(ctl_log, "mode on", procs[0])
+            busrig.wait_for_line(ctl_log, "mode on", procs[0])
             procs.append(subprocess.Popen([str(bins.plant), "--lockstep", "--canopen", "--ticks", "100000000",
                                            "--timeout-ms", "60000", "--sdo-delay-ms", str(SDO_DELAY_MS)],
                                           stdout=p_out, stderr=subprocess.STDOUT))

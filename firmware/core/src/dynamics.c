@@ -136,6 +136,23 @@ static void com_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion
     torque_body[2] += spi_round_up((int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0], 16u);
 }
 
+/* The legs' summed force (N, Q16) and moment (N m, Q40) into b's wrench
+ * rows (Q24), and kept in hold for the next ticks (when hold != NULL). */
+SPI_INLINE void legs_sums_done(const int64_t fsum[3], const int64_t msum[3], sp_leg_hold_t *hold, int64_t b[6])
+{
+    unsigned k;
+    if (hold != NULL) {
+        for (k = 0u; k < 3u; ++k) {
+            hold->fsum[k] = fsum[k];
+            hold->msum[k] = msum[k];
+        }
+    }
+    for (k = 0u; k < 3u; ++k) {
+        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
+        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
+    }
+}
+
 /*
  * Leg masses (sp_leg_mass_t; docs/model.md "Leg masses"). Leg i, of unit
  * vector u, length L and rate L', with platform joint A (arm r from o',
@@ -227,10 +244,7 @@ SPI_COLD static void leg_terms_wide(const sp_platform_t *p, const sp_ik_t *ik, c
         msum[1] += (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
         msum[2] += (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
     }
-    for (k = 0u; k < 3u; ++k) {
-        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
-        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
-    }
+    legs_sums_done(fsum, msum, NULL, b);
 }
 
 /* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
@@ -394,16 +408,7 @@ SPI_NOINLINE static int leg_terms_at_rest(const sp_platform_t *p, const sp_ik_t 
             hold->axial[i] = axial[i];
         }
     }
-    if (hold != NULL) {
-        for (k = 0u; k < 3u; ++k) {
-            hold->fsum[k] = fsum[k];
-            hold->msum[k] = msum[k];
-        }
-    }
-    for (k = 0u; k < 3u; ++k) {
-        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
-        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
-    }
+    legs_sums_done(fsum, msum, hold, b);
     for (i = 0u; i < SP_LEGS; ++i) {
         rate[i] = 0; /* L' at rest */
     }
@@ -577,16 +582,7 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
             hold->axial[i] = axial[i];
         }
     }
-    if (hold != NULL) {
-        for (k = 0u; k < 3u; ++k) {
-            hold->fsum[k] = fsum[k];
-            hold->msum[k] = msum[k];
-        }
-    }
-    for (k = 0u; k < 3u; ++k) {
-        b[k] += fsum[k] * 256;                   /* Q16 -> Q24 */
-        b[3u + k] += spi_round_up(msum[k], 16u); /* Q40 -> Q24 */
-    }
+    legs_sums_done(fsum, msum, hold, b);
     for (i = 0u; i < SP_LEGS; ++i) {
         rate[i] = rt[i];
     }
