@@ -59,7 +59,12 @@ def status():
     return json.loads(r.stdout)
 
 
-OPERATOR_TIMEOUT = 1000      # ticks: the test's operator processes are niced and may stall
+# ticks: the test's operator processes are niced and their heartbeat
+# threads stall while another Python process starts (seconds of CPU in
+# user-mode Linux); in lockstep the pair runs up to ~3x real time, so 1000
+# ticks were ~0.35 s of wall clock and a loaded run once latched
+# OPERATOR_SILENT under a live `op run`. 5000 ticks: >= 1.7 s.
+OPERATOR_TIMEOUT = 5000
 
 
 @pytest.fixture(scope="module")
