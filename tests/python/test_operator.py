@@ -264,6 +264,14 @@ def test_refusal_reasons():
     st = opnode.Status(1, "READY", [], 0, True, "ACTIVE", True, True, [0] * 6)
     assert "outside the workspace" in opnode.refusal_reason("MOVE_TO", st, st)
     assert "accepted in FAULT/ESTOP only" in opnode.refusal_reason("RESET", st, st)
+    assert "measure no cylinder force" not in opnode.refusal_reason("FORCE", st, st)
+    # drives without force measurement (CTRL_STATUS ForceUnmeasured): named
+    # in the status line and in the reason a FORCE or GUIDE was refused
+    st = opnode.Status(1, "READY", [], 0, True, "ACTIVE", True, True, [0] * 6, force_unmeasured=[2, 5])
+    assert "no cylinder force from leg(s) 2,5" in st.line()
+    for cmd in ("FORCE", "GUIDE"):
+        assert "leg(s) 2,5 measure no cylinder force" in opnode.refusal_reason(cmd, st, st)
+    assert opnode._legs(0x12) == [2, 5] and opnode._legs(0) == []
 
 
 def test_node_signs_and_reports_authentication(ctrl, tmp_path, capsys, monkeypatch):

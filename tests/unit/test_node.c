@@ -207,6 +207,28 @@ static void send_heartbeat(rig_t *r, uint8_t counter)
     assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
 }
 
+/* Drives that measure no cylinder force (the CiA 402 / 408-without-
+ * pressures link sets no_force in the node's drive input): CTRL_STATUS
+ * names their legs in ForceUnmeasured while they say so, and the wrench
+ * estimate is invalid; native feedback (both pressures) clears it. */
+static void test_status_names_legs_without_force(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    for (uint32_t t = 0; t < 5u; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(last_status(&r).force_unmeasured, 0u);
+    r.node.in.drive[1].no_force = 1u; /* as sp_co_link_feedback leaves it */
+    r.node.in.drive[4].no_force = 1u;
+    rig_tick(&r);
+    assert_int_equal(last_status(&r).force_unmeasured, 0x12u);
+    assert_int_equal(r.node.out.wrench_valid, 0u);
+    rig_tick(&r); /* native feedback of the last tick: every leg measures */
+    assert_int_equal(last_status(&r).force_unmeasured, 0u);
+}
+
 /* ENGAGE while the CANopen master is still starting the drives (the port
  * sets drives_starting): refused with the reason in CTRL_STATUS
  * (CmdRejected, DrivesStarting), counted, the controller stays IDLE; once
@@ -1109,6 +1131,7 @@ int main(void)
         cmocka_unit_test(test_operator_heartbeat_over_frames),
         cmocka_unit_test(test_force_commands_over_frames),
         cmocka_unit_test(test_engage_refused_while_drives_start),
+        cmocka_unit_test(test_status_names_legs_without_force),
         cmocka_unit_test(test_auth_over_frames),
         cmocka_unit_test(test_force_params_auth_over_frames),
     };

@@ -473,7 +473,8 @@ def _status(node, args, _):
         print(json.dumps({"tick": st.tick, "state": st.state, "faults": st.faults,
                           "drive_mode": st.drive_mode, "feedforward": st.feedforward,
                           "estimate_valid": st.estimate_valid, "pose": st.pose,
-                          "force_mode": st.force_mode, "contact": st.contact}))
+                          "force_mode": st.force_mode, "contact": st.contact,
+                          "drives_starting": st.drives_starting, "force_unmeasured": st.force_unmeasured}))
     else:
         print(st.line())
     return 0

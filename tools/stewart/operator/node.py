@@ -129,6 +129,7 @@ class Status:
     force_mode: str = "OFF"  # force control: OFF, FORCE, GUIDE, RELEASE, HOLD
     contact: bool = False
     drives_starting: bool = False  # the CANopen master is still starting the drives (ENGAGE refused)
+    force_unmeasured: list[int] = field(default_factory=list)  # legs (1-6) whose drive measures no force
     seq: int = 0          # how many statuses this node had received
     t: float = 0.0        # receive time (time.monotonic)
     stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
@@ -142,7 +143,9 @@ class Status:
                 f"pose [{pose}]" + ("" if self.estimate_valid else " (no estimate)")
                 + ("" if self.force_mode == "OFF" else
                    f", force control {self.force_mode}{' in contact' if self.contact else ''}")
-                + (", drives starting (CANopen start-up)" if self.drives_starting else ""))
+                + (", drives starting (CANopen start-up)" if self.drives_starting else "")
+                + (f", no cylinder force from leg(s) {','.join(map(str, self.force_unmeasured))}"
+                   if self.force_unmeasured else ""))
 
 
 @dataclass
@@ -195,13 +198,21 @@ def refusal_reason(command: str, before: Status | None, at: Status | None) -> st
         if st.force_mode in ("RELEASE", "HOLD"):
             return f"force control is {st.force_mode} (wait for it to end, or reset the fault)"
         why = ("a target beyond the controller's limits (8 kN, 1 kN m), an empty mask, or no valid wrench "
-               "(the force/torque sensor not tared, or silent)")
+               "(the force/torque sensor not tared, or silent"
+               + (f"; or, on the cylinders' estimate: the drive(s) of leg(s) "
+                  f"{','.join(map(str, st.force_unmeasured))} measure no cylinder force" if st.force_unmeasured
+                  else "") + ")")
         if st.force_mode != "OFF":
             why += f", or other axes than those of the {st.force_mode} in force"
         return why
     if command == "TARE":
         return "the sensor is tared in READY under position control, with the sensor as the wrench source"
     return "refused by the controller"
+
+
+def _legs(mask: int) -> list[int]:
+    """The legs (1-6) of a 6-bit leg mask."""
+    return [i + 1 for i in range(6) if mask >> i & 1]
 
 
 def _name(names, raw: int) -> str:
@@ -450,6 +461,7 @@ class OperatorNode:
                 pose=[f[n].value(w) for n in pr.POSE_SIGNALS],
                 force_mode=_name(FORCE_MODES, f["ForceMode"].raw(w)), contact=bool(f["Contact"].raw(w)),
                 drives_starting=bool(f["DrivesStarting"].raw(w)),
+                force_unmeasured=_legs(f["ForceUnmeasured"].raw(w)),
                 auth_last=self.auth["last_counter"] if self.auth else -1, t=time.monotonic(),
                 stamp=float(msg.timestamp) if msg.timestamp else time.time())
             with self._cond:

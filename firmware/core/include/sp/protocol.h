@@ -155,6 +155,8 @@ typedef struct {
                                       higher bits are not sent) */
     uint8_t reset_refused_cause; /**< ResetRefusedCause: the refusing drives' fault bits */
     uint8_t drives_starting;     /**< DrivesStarting: 1 while the CANopen master starts the drives (ENGAGE refused) */
+    uint8_t force_unmeasured;    /**< ForceUnmeasured: bit i, leg i + 1's drive measures no cylinder force (6 bits;
+                                      higher bits are not sent) */
 } sp_msg_status_t;
 
 typedef struct {
