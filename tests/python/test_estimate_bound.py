@@ -36,3 +36,15 @@ def test_firmware_limit_within_the_bound(platform):
     assert fw <= 0.8 * b
     _, ep, er = estimate_bound.check(platform, fw, samples=2000, seed=4)
     assert ep < 0.6e-6 and er < 0.6e-6
+
+
+def test_aged_factorisation(platform):
+    """The step through a kept factorisation (docs/model.md's table,
+    `--aged`): age 0 is the fresh step of `check` exactly, and the added
+    error grows with the age about linearly (first order in age x speed)."""
+    fw = estimate_bound.firmware_limit()
+    _, ep0, er0 = estimate_bound.check(platform, fw, samples=500, seed=7)
+    assert estimate_bound.aged_check(platform, fw, 0, 0.5, 0.5, samples=500, seed=7) == (ep0, er0)
+    e = [max(estimate_bound.aged_check(platform, fw, age, 0.5, 0.5, samples=500, seed=7)) for age in (2, 4, 8)]
+    assert e[0] < e[1] < e[2]
+    assert (e[2] - e[1]) == pytest.approx(2 * (e[1] - e[0]), rel=0.2)  # ages 2, 4, 8

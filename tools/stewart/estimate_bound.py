@@ -155,6 +155,36 @@ def check(platform, limit, samples=4000, seed=2, scale_to=None):
     return float(np.max(d_l)), float(np.max(ep)), float(np.max(er))
 
 
+def aged_check(platform, limit, age_ticks, lin_speed, ang_speed, samples=4000, seed=2, tick_s=1e-3):
+    """As `check`, with the step solved through the factorisation the
+    controller keeps (SP_CTRL_LU_KEEP): J^T made `age_ticks` ticks earlier,
+    at the reference moved back along a random velocity of `lin_speed`
+    (m/s) and `ang_speed` (rad/s, Euler rates), the error still measured
+    against the true pose ref + the tracking error, whose |dL|_inf is
+    `limit` (m) through this tick's J. Returns the worst position (m) and
+    angle (rad) errors. age_ticks 0 is `check`'s fresh factorisation."""
+    rng = np.random.default_rng(seed)
+    ref = sample_references(platform, rng, samples)
+    jac = jacobians(platform, ref)
+    direction = rng.normal(size=(samples, 6))
+    direction *= rng.uniform(0.0, 1.0, size=(samples, 6)) ** 2
+    d_l, _, _ = step_errors(platform, ref, jac, direction, np.full(samples, 1e-4))
+    scale = 1e-4 * limit / d_l
+    d_l, _, _ = step_errors(platform, ref, jac, direction, scale)
+    scale *= limit / d_l
+    vel = np.zeros((samples, 6))
+    for part, speed in ((slice(0, 3), lin_speed), (slice(3, 6), ang_speed)):
+        u = rng.normal(size=(samples, 3))
+        vel[:, part] = speed * u / np.linalg.norm(u, axis=1)[:, None]
+    old = ref - age_ticks * tick_s * vel
+    _, ep, er = step_errors(platform, ref, jacobians(platform, old), direction, scale)
+    return float(np.max(ep)), float(np.max(er))
+
+
+#: the speeds of docs/model.md's table: (m/s, rad/s)
+AGED_SPEEDS = ((0.28, 0.0), (0.0, 0.28), (0.3, 0.15), (0.5, 0.0), (0.0, 0.3), (0.5, 0.5))
+
+
 def firmware_limit() -> float:
     """SP_ESTIMATE_STEP_MAX of sp/estimate.h, m."""
     text = (REPO_ROOT / "firmware" / "core" / "include" / "sp" / "estimate.h").read_text()
@@ -168,7 +198,23 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=20000)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--aged", type=int, nargs="+", metavar="TICKS",
+                    help="instead: the step's worst error at SP_ESTIMATE_STEP_MAX through a factorisation "
+                         "this many ticks old, at the speeds of docs/model.md's table (e.g. --aged 0 5 6)")
     args = ap.parse_args(argv)
+    if args.aged:
+        platform = cfg.load(REPO_ROOT / "config" / "platform_default.json")
+        fw = firmware_limit()
+        print(f"|L_meas - L_ref|_inf = {fw * 1e3:.4f} mm (SP_ESTIMATE_STEP_MAX), {args.samples} samples a cell; "
+              "worst step error (um, urad) by the factorisation's age")
+        print("speed (m/s, rad/s) | " + " | ".join(f"{a} ticks" for a in args.aged))
+        for lin, ang in AGED_SPEEDS:
+            cells = []
+            for age in args.aged:
+                ep, er = aged_check(platform, fw, age, lin, ang, args.samples, args.seed + 1)
+                cells.append(f"{ep * 1e6:.2f}, {er * 1e6:.2f}")
+            print(f"{lin:.2f}, {ang:.2f} | " + " | ".join(cells))
+        return 0
     platform = cfg.load(REPO_ROOT / "config" / "platform_default.json")
     b, thr = bound(platform, args.samples, args.seed)
     print(f"1 um / 1 urad bound on |L_meas - L_ref|_inf: {b * 1e3:.4f} mm "
