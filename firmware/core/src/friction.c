@@ -187,7 +187,7 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
         return viscous;
     }
     adx = dx < 0 ? -dx : dx;
-    if (tab != NULL && (uint32_t)adx <= tab->count && ((tab->legs >> i) & 1u) != 0u) {
+    if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
         /* the table's entries: those of the lines below, prepared at init */
         es = tab->fade[adx - 1];
         eb = tab->relax[adx - 1];
