@@ -457,10 +457,16 @@ static void test_table_prepare(void **state)
     assert_int_equal(table.count, 335);
     assert_int_equal(table.legs, 0x3F);
     assert_int_equal(table.tick_us, 1000);
-    /* the fade at 1 um/ms and 19.9 um/ms against the law in double (the
-     * exp's error, 64 LSB of Q30, and the input's rounding: 1e-7) */
-    assert_true(fabs(table.fade[16] / 1073741824.0 - exp(-pow(17.0 / 16777216.0 / 1e-3 / 0.005, 2))) < 1e-7);
-    assert_true(fabs(table.fade[333] / 1073741824.0 - exp(-pow(334.0 / 16777216.0 / 1e-3 / 0.005, 2))) < 1e-7);
+    /* the relaxation at 1 um/ms and 19.9 um/ms against the law in double
+     * (sigma_0 / g within 2^-28 relative, two exps' errors of 64 LSB of
+     * Q30, the inputs' rounding: 1e-7) */
+    for (int n = 17; n <= 334; n += 317) {
+        double v = n / 16777216.0 / 1e-3;
+        double fc = p.coulomb_friction[0] / 256.0;
+        double g = fc + (p.breakaway_friction[0] / 256.0 - fc) * exp(-pow(v / (p.stribeck_velocity / 16777216.0), 2));
+        assert_true(fabs(table.relax[n - 1] / 1073741824.0 - exp(-p.bristle_stiffness[0] * (n / 16777216.0) / g)) <
+                    1e-7);
+    }
     /* 0.5 ms: half the increments reach 4 v_s */
     assert_int_equal(sp_fric_table_prepare(&p, 500u, &table), SP_OK);
     assert_int_equal(table.count, 167);

@@ -165,7 +165,7 @@ SPI_INLINE sp_q30_t fric_relax_slow(int64_t a, int32_t fc, int64_t g)
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
  * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip),
  * or, for a leg of the table's (tab non-NULL: its tick and platform are
- * this step's) and |dx| within it, two table entries. */
+ * this step's) and |dx| within it, one exp and the table's relaxation. */
 static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
                         int32_t dx, const fric_tick_t *t, sp_flags_t *flags)
 {
@@ -174,7 +174,7 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
     sp_q24_t v;
     sp_q8_t viscous;
     int32_t adx; /* |dx| <= INT32_MAX (run clamps dx to +-INT32_MAX) */
-    int64_t g, target, phi_new, dphi, damping = 0;
+    int64_t av, g, target, phi_new, dphi, damping = 0;
     sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
     sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
     if (dx == 0) {
@@ -187,13 +187,14 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
         return viscous;
     }
     adx = dx < 0 ? -dx : dx;
+    av = v < 0 ? -(int64_t)v : (int64_t)v;
     if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
-        /* the table's entries: those of the lines below, prepared at init */
-        es = tab->fade[adx - 1];
-        eb = tab->relax[adx - 1];
+        /* below 4 v_s (the table's entries are): the lines below with
+         * fric_relax_slow's value prepared at init */
+        es = fric_fade(av, o->inv_vs);
         g = fric_level(fc, p->breakaway_friction[i], es);
+        eb = tab->relax[adx - 1];
     } else {
-        int64_t av = v < 0 ? -(int64_t)v : (int64_t)v;
         /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
         int64_t a = ((int64_t)o->slip[i] * adx) >> 8;
         if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
@@ -351,13 +352,11 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
     /* |v| grows with |dx|: the entries below 4 v_s are the first ones */
     for (n = 1u; n <= SP_FRIC_TABLE_LEN; ++n) {
         sp_q24_t v = per_second(&t, (int64_t)n, &flags); /* n x 10^6 < 2^31: exact */
-        sp_q30_t es;
         if ((int64_t)v >= (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
             break;
         }
-        es = fric_fade(v, tab->inv_vs);
-        tab->fade[n - 1u] = es;
-        tab->relax[n - 1u] = fric_relax_slow(((int64_t)slip * (int32_t)n) >> 8, fc, fric_level(fc, fs, es));
+        tab->relax[n - 1u] =
+            fric_relax_slow(((int64_t)slip * (int32_t)n) >> 8, fc, fric_level(fc, fs, fric_fade(v, tab->inv_vs)));
     }
     tab->count = (uint16_t)(n - 1u);
     return SP_OK;

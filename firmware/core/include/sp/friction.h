@@ -50,20 +50,21 @@ typedef struct {
 /** Entries of the observer's Stribeck table (sp_fric_table_t): the
  *  length increments |dx| = 1..SP_FRIC_TABLE_LEN (Q24 LSB per tick). 336
  *  covers the default seals' region below 4 v_s at 1 ms (v_s = 5 mm/s:
- *  |dx| < 20 um = 335.5 LSB); 2,688 bytes. */
+ *  |dx| < 20 um = 335.5 LSB); 1,344 bytes. */
 #define SP_FRIC_TABLE_LEN 336u
 
 /**
  * What a slow leg's step needs, prepared per |dx| (sp_fric_table_prepare).
- * Below 4 v_s the Stribeck fade e = exp(-(v/v_s)^2) and, for a leg of
- * given sigma_0, F_c and F_s, the bristle relaxation exp(-sigma_0 |dx| / g)
- * depend on |dx| alone at a given tick: two exps and a reciprocal a leg
- * and tick become two loads.
+ * Below 4 v_s the bristle relaxation exp(-sigma_0 |dx| / g), g = F_c +
+ * (F_s - F_c) exp(-(v/v_s)^2), depends on |dx| alone for a leg of given
+ * sigma_0, F_c and F_s at a given tick: one of the slow leg's two exps and
+ * its reciprocal F_c / g become one load. (The fade exp(-(v/v_s)^2) too
+ * would save its exp, about 45 instructions a slow leg, for another
+ * 1,344 bytes: more RAM than the CiA 408 image has left.)
  */
 typedef struct {
-    sp_q30_t fade[SP_FRIC_TABLE_LEN];  /**< e at |dx| = index + 1, Q30 */
-    sp_q30_t relax[SP_FRIC_TABLE_LEN]; /**< exp(-sigma_0 |dx| / g) at |dx| = index + 1, Q30, of the
-                                            table's legs */
+    sp_q30_t relax[SP_FRIC_TABLE_LEN]; /**< exp(-sigma_0 |dx| / g) at |dx| = index + 1, Q30, of the table's
+                                            legs */
     int64_t inv_vs;                    /**< 2^46 / v_s, as the observer keeps it */
     uint32_t tick_us;                  /**< the tick it was prepared for, us */
     uint16_t count;                    /**< entries prepared: |dx| in 1..count is below 4 v_s */
@@ -112,8 +113,8 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
  * Prepares the Stribeck table of platform p at the tick tick_us (us,
  * 1..SP_FRIC_TICK_MAX_US) for sp_fric_obs_step_table: for |dx| = 1, 2, ...
  * while |v| = |dx| / dt stays below 4 v_s (at most SP_FRIC_TABLE_LEN
- * entries), the fade and the relaxation that sp_fric_obs_step computes
- * for the first leg with bristles; tab->legs marks that leg and every leg
+ * entries), the relaxation that sp_fric_obs_step computes for the first
+ * leg with bristles; tab->legs marks that leg and every leg
  * with its sigma_0, F_c and F_s. The entries are computed by the step's
  * own code, so a step with the table is bit for bit the step without it.
  * About 200 Cortex-M4 instructions an entry (at init, not in a tick).
@@ -126,7 +127,7 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
 /**
  * sp_fric_obs_step with a table prepared by sp_fric_table_prepare from
  * the same platform: a leg of tab->legs with |dx| <= tab->count takes its
- * fade and relaxation from the table instead of two exps and a reciprocal.
+ * relaxation from the table instead of an exp and a reciprocal.
  * Same results, state and returns as sp_fric_obs_step, bit for bit (a
  * table of another tick or Stribeck velocity, or NULL, is not used).
  */
