@@ -164,7 +164,11 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->ft_valid = 0u;
     ctrl->ft_frame_valid = 0u;
     /* SP_E_RANGE (legs outside its envelope) leaves the rigid body */
-    (void)sp_motion_error_body(p, &ctrl->prep.motion_body);
+    {
+        sp_me_body_t body;
+        (void)sp_motion_error_body(p, &body);
+        (void)sp_motion_error_m6(&body, &ctrl->prep.motion_body); /* cannot fail: no NULL */
+    }
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
     (void)sp_stream_gains(&ctrl->prep.stream, cfg->tick_us, cfg->stream_omega);
     sp_wrench_reset(&ctrl->wrench);
@@ -800,7 +804,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
-            sp_motion_error_wrench_body_t(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
+            sp_motion_error_wrench_m6(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
                 SP_E_ARG) {
             correction = dw;
         }
