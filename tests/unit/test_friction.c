@@ -354,15 +354,19 @@ static sp_q8_t random_phi(uint64_t *rng, const sp_platform_t *p, int i)
     return (sp_q8_t)tu_uniform(rng, -(double)p->breakaway_friction[i], (double)p->breakaway_friction[i]);
 }
 
-/* The observer's step equals its plain first version bit for bit (outputs,
- * state, status) over 3000 random platforms, 40 ticks each, random bristle
- * states and steps of every width, at ticks that divide a second and ones
- * that do not; exp(-u) likewise over random arguments and every k. */
+/* The observer's step, without and with its Stribeck table, equals its
+ * plain first version bit for bit (outputs, state, status) over 3000
+ * random platforms (half of them with the six legs' seals alike, as the
+ * table's legs), 40 ticks each, random bristle states and steps of every
+ * width, at ticks that divide a second and ones that do not; exp(-u)
+ * likewise over random arguments and every k. */
 static void test_equals_plain(void **state)
 {
     static const uint32_t ticks[] = {1000u, 500u, 250u, 1u, 3u, 7u, 999u, SP_FRIC_TICK_MAX_US};
     uint64_t rng = UINT64_C(0x14F);
+    static sp_fric_table_t table;
     long moving = 0;
+    long tabled = 0;
     (void)state;
     for (int n = 0; n < 2000000; ++n) {
         sp_q24_t u = (n % 2 == 0) ? tu_i32_logscale(&rng) : tu_i32(&rng);
@@ -376,12 +380,21 @@ static void test_equals_plain(void **state)
     }
     for (int n = 0; n < 3000; ++n) {
         sp_platform_t p;
-        sp_fric_obs_t o, ref;
+        sp_fric_obs_t o, ot, ref;
         sp_q24_t len[SP_LEGS];
-        sp_q8_t f[SP_LEGS], f_ref[SP_LEGS];
+        sp_q8_t f[SP_LEGS], ft[SP_LEGS], f_ref[SP_LEGS];
         sp_status_t first;
         uint32_t tick_us = (n % 5 == 4) ? 1u + (uint32_t)(tu_next(&rng) % SP_FRIC_TICK_MAX_US) : ticks[n % 8];
         random_platform(&rng, &p);
+        if (n % 2 == 0) {
+            for (int i = 1; i < SP_LEGS; ++i) {
+                p.bristle_stiffness[i] = p.bristle_stiffness[0];
+                p.coulomb_friction[i] = p.coulomb_friction[0];
+                p.breakaway_friction[i] = p.breakaway_friction[0];
+            }
+        }
+        /* a table of another tick now and then: not used */
+        assert_int_equal(sp_fric_table_prepare(&p, (n % 16 == 15) ? tick_us % 1000u + 1u : tick_us, &table), SP_OK);
         sp_fric_obs_reset(&o);
         for (int i = 0; i < SP_LEGS; ++i) {
             len[i] = tu_i32(&rng) / 4;
@@ -392,23 +405,32 @@ static void test_equals_plain(void **state)
             o.phi[i] = random_phi(&rng, &p, i);
         }
         ref = o;
+        ot = o;
         for (int t = 0; t < 40; ++t) {
             sp_status_t st, st_ref;
             if (tu_next(&rng) % 8u == 0u) {
                 for (int i = 0; i < SP_LEGS; ++i) {
                     o.phi[i] = random_phi(&rng, &p, i);
                     ref.phi[i] = o.phi[i];
+                    ot.phi[i] = o.phi[i];
                 }
             }
             for (int i = 0; i < SP_LEGS; ++i) {
                 int64_t l = (int64_t)len[i] + random_step(&rng, &p, tick_us);
                 len[i] = (sp_q24_t)((l > INT32_MAX) ? INT32_MAX : (l < INT32_MIN) ? INT32_MIN : l);
+                int64_t d = (int64_t)len[i] - o.length[i];
                 moving += (len[i] != o.length[i]);
+                tabled += (d != 0 && (((unsigned)table.legs >> i) & 1u) && (d < 0 ? -d : d) <= (int64_t)table.count);
             }
             st = sp_fric_obs_step(&p, &o, len, tick_us, f);
             st_ref = plain_fric_obs_run(&p, &ref, len, tick_us, f_ref);
             assert_int_equal(st, st_ref);
             assert_memory_equal(f, f_ref, sizeof f);
+            assert_int_equal(sp_fric_obs_step_table(&p, &ot, &table, len, tick_us, ft), st_ref);
+            assert_memory_equal(ft, f_ref, sizeof ft);
+            assert_memory_equal(ot.phi, o.phi, sizeof o.phi);
+            assert_memory_equal(ot.length, o.length, sizeof o.length);
+            assert_true(ot.inv_vs == o.inv_vs && ot.valid == o.valid);
             assert_memory_equal(o.phi, ref.phi, sizeof o.phi);
             assert_memory_equal(o.length, ref.length, sizeof o.length);
             assert_memory_equal(o.slip, ref.slip, sizeof o.slip);
@@ -416,7 +438,54 @@ static void test_equals_plain(void **state)
             assert_true(o.inv_vs == ref.inv_vs && o.valid == ref.valid);
         }
     }
-    assert_true(moving > 3000L * 40L * SP_LEGS / 2L); /* most leg-ticks moved */
+    assert_true(moving > 3000L * 40L * SP_LEGS / 2L);  /* most leg-ticks moved */
+    assert_true(tabled > 3000L * 40L * SP_LEGS / 20L); /* and many took the table's entries */
+}
+
+/* The table of the default platform at 1 ms covers its whole region below
+ * 4 v_s (|dx| < 20 um = 335.5 LSB of Q24) for all six legs; a leg with
+ * other seals is left out; bad arguments leave it empty. */
+static void test_table_prepare(void **state)
+{
+    sp_platform_t p = sp_platform_default;
+    static sp_fric_table_t table;
+    sp_fric_obs_t o;
+    sp_q24_t len[SP_LEGS] = {0};
+    sp_q8_t f[SP_LEGS];
+    (void)state;
+    assert_int_equal(sp_fric_table_prepare(&p, 1000u, &table), SP_OK);
+    assert_int_equal(table.count, 335);
+    assert_int_equal(table.legs, 0x3F);
+    assert_int_equal(table.tick_us, 1000);
+    /* the relaxation at 1 um/ms and 19.9 um/ms against the law in double
+     * (sigma_0 / g within 2^-28 relative, two exps' errors of 64 LSB of
+     * Q30, the inputs' rounding: 1e-7) */
+    for (int n = 17; n <= 334; n += 317) {
+        double v = n / 16777216.0 / 1e-3;
+        double fc = p.coulomb_friction[0] / 256.0;
+        double g = fc + (p.breakaway_friction[0] / 256.0 - fc) * exp(-pow(v / (p.stribeck_velocity / 16777216.0), 2));
+        assert_true(fabs(table.relax[n - 1] / 1073741824.0 - exp(-p.bristle_stiffness[0] * (n / 16777216.0) / g)) <
+                    1e-7);
+    }
+    /* 0.5 ms: half the increments reach 4 v_s */
+    assert_int_equal(sp_fric_table_prepare(&p, 500u, &table), SP_OK);
+    assert_int_equal(table.count, 167);
+    p.coulomb_friction[3] += 1;
+    assert_int_equal(sp_fric_table_prepare(&p, 1000u, &table), SP_OK);
+    assert_int_equal(table.legs, 0x37);
+    p.bristle_stiffness[0] = 0;
+    assert_int_equal(sp_fric_table_prepare(&p, 1000u, &table), SP_OK);
+    assert_int_equal(table.legs, 0x36); /* leg 1's seals: the first with bristles */
+    assert_int_equal(sp_fric_table_prepare(&p, 0u, &table), SP_E_ARG);
+    assert_int_equal(table.count, 0);
+    assert_int_equal(sp_fric_table_prepare(NULL, 1000u, &table), SP_E_ARG);
+    assert_int_equal(sp_fric_table_prepare(&p, 1000u, NULL), SP_E_ARG);
+    p.bristle_stiffness[1] = -1;
+    assert_int_equal(sp_fric_table_prepare(&p, 1000u, &table), SP_E_ARG);
+    sp_fric_obs_reset(&o);
+    assert_int_equal(sp_fric_obs_step_table(&p, &o, &table, len, 1000u, f), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step_table(&sp_platform_default, &o, NULL, len, 0u, f), SP_E_ARG);
+    assert_int_equal(sp_fric_obs_step_table(&sp_platform_default, &o, NULL, len, 1000u, f), SP_OK);
 }
 
 int main(void)
@@ -424,7 +493,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_exp_neg),           cmocka_unit_test(test_against_double_reference),
         cmocka_unit_test(test_hold_and_reversal), cmocka_unit_test(test_errors_and_saturation),
-        cmocka_unit_test(test_equals_plain),
+        cmocka_unit_test(test_equals_plain),      cmocka_unit_test(test_table_prepare),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -384,13 +384,20 @@ static void test_motion_error_wrench_vs_double(void **state)
     uint64_t rng = 0x5EED0002u;
     sp_platform_t p;
     double worst = 0.0;
+    double worst6 = 0.0;
+    sp_me_body_t body;
+    sp_me_m6_t m6;
     (void)state;
     test_platform(&p, 1);
+    /* massless legs: the platform's rigid body */
+    assert_int_equal(sp_motion_error_body(&p, &body), SP_OK);
+    assert_int_equal(sp_motion_error_m6(&body, &m6), SP_OK);
+    assert_int_equal(m6.frame, 1);
     for (int n = 0; n < 20000; ++n) {
         sp_pose_t pose;
         sp_ik_t ik;
         sp_q24_t da[6];
-        sp_q8_t dw[6];
+        sp_q8_t dw[6], dw6[6];
         double want[6];
         random_pose(&rng, &pose);
         assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
@@ -399,15 +406,42 @@ static void test_motion_error_wrench_vs_double(void **state)
             da[k] = tu_i32_logscale(&rng) >> 1;
         }
         assert_int_equal(sp_motion_error_wrench(&p, &ik, da, dw), SP_OK);
+        assert_int_equal(sp_motion_error_wrench_m6(&m6, &ik.rot, ik.sc, da, dw6), SP_OK);
         ref_wrench(&p, &ik, da, want);
         for (int k = 0; k < 6; ++k) {
             double got = dw[k] / 256.0;
             double tol = 0.01 + 1e-7 * fabs(want[k]);
             worst = fmax(worst, fabs(got - want[k]) / tol);
+            worst6 = fmax(worst6, fabs(dw6[k] / 256.0 - want[k]) / tol);
             assert_near(got, want[k], tol, "case %d component %d", n, k);
+            assert_near(dw6[k] / 256.0, want[k], tol, "motion frame: case %d component %d", n, k);
         }
     }
-    printf("wrench vs double: worst %.3f of the tolerance\n", worst);
+    printf("wrench vs double: worst %.3f of the tolerance; in the motion frame (m6) %.3f\n", worst, worst6);
+    /* NULL; a body outside the motion frame's envelope takes the plain
+     * computation, bit for bit */
+    {
+        sp_ik_t ik;
+        sp_q24_t da[6] = {q24(1.5), q24(-2.0), q24(0.3), q24(0.7), q24(-0.4), q24(2.5)};
+        sp_q8_t dw[6] = {1, 1, 1, 1, 1, 1};
+        sp_q8_t dw6[6];
+        assert_int_equal(sp_motion_error_m6(NULL, &m6), SP_E_ARG);
+        assert_int_equal(sp_motion_error_m6(&body, NULL), SP_E_ARG);
+        assert_int_equal(sp_motion_error_wrench_m6(NULL, &ik.rot, ik.sc, da, dw), SP_E_ARG);
+        assert_int_equal(dw[0], 0);
+        assert_int_equal(sp_inverse_kinematics(&p, &p.home, &ik), SP_OK);
+        assert_int_equal(sp_motion_error_wrench_m6(&m6, &ik.rot, NULL, da, dw), SP_E_ARG);
+        body.mass = (sp_q16_t)(INT32_C(1) << 29); /* 8192 kg */
+        assert_int_equal(sp_motion_error_m6(&body, &m6), SP_OK);
+        assert_int_equal(m6.frame, 0);
+        assert_int_equal(sp_motion_error_wrench_m6(&m6, &ik.rot, ik.sc, da, dw6), SP_OK);
+        assert_int_equal(sp_motion_error_wrench_body_t(&body, &ik.rot, ik.sc, da, dw), SP_OK);
+        assert_memory_equal(dw6, dw, sizeof dw);
+        body.mass = p.mass;
+        body.inertia[1][2] = -(sp_q16_t)(INT32_C(1) << 29);
+        assert_int_equal(sp_motion_error_m6(&body, &m6), SP_OK);
+        assert_int_equal(m6.frame, 0);
+    }
     /* NULL and saturation */
     {
         sp_ik_t ik;

@@ -118,6 +118,8 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     /* the observer's parameters, once: a platform it cannot run with
      * leaves the estimate on the feed-forward's friction, as before */
     ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
+    /* its slow legs' exps, once (SP_E_ARG: an empty table, not used) */
+    (void)sp_fric_table_prepare(p, cfg->tick_us, &ctrl->prep.fric_table);
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     }
@@ -162,7 +164,11 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->ft_valid = 0u;
     ctrl->ft_frame_valid = 0u;
     /* SP_E_RANGE (legs outside its envelope) leaves the rigid body */
-    (void)sp_motion_error_body(p, &ctrl->prep.motion_body);
+    {
+        sp_me_body_t body;
+        (void)sp_motion_error_body(p, &body);
+        (void)sp_motion_error_m6(&body, &ctrl->prep.motion_body); /* cannot fail: no NULL */
+    }
     (void)sp_limits_prepare(&ctrl->prep.limits, p, cfg->stroke_margin); /* cannot fail: no NULL */
     (void)sp_stream_gains(&ctrl->prep.stream, cfg->tick_us, cfg->stream_omega);
     sp_wrench_reset(&ctrl->wrench);
@@ -783,8 +789,8 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
         /* the observer follows every measured length, engaged or not; a
          * failure (bad parameters) leaves the feed-forward's friction */
         sp_status_t st = ctrl->prep.fric_obs_ok
-                             ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, ctrl->sup.last_length,
-                                                         cfg->tick_us, observed)
+                             ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, &ctrl->prep.fric_table,
+                                                         ctrl->sup.last_length, cfg->tick_us, observed)
                              : SP_E_ARG;
         friction = (st == SP_OK || st == SP_E_OVERFLOW) ? observed : NULL;
     }
@@ -798,7 +804,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
         if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
-            sp_motion_error_wrench_body_t(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
+            sp_motion_error_wrench_m6(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
                 SP_E_ARG) {
             correction = dw;
         }

@@ -17,11 +17,11 @@ void spi_orientation_sc(const sp_q24_t rpy[3], sp_rot_t *rot, sp_q30_t sc[6]);
  * sp_sincos_q24 gives them); two-term entries rounded once. */
 void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot);
 
-/* sp_fric_obs_step for a platform that passed sp_fric_obs_check (the
- * controller's, checked at init): the same step, results and returns,
- * without checking the friction parameters again. */
-sp_status_t spi_fric_obs_step_checked(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
-                                      uint32_t tick_us, sp_q8_t friction[SP_LEGS]);
+/* sp_fric_obs_step_table for a platform that passed sp_fric_obs_check
+ * (the controller's, checked at init): the same step, results and
+ * returns, without checking the friction parameters again. */
+sp_status_t spi_fric_obs_step_checked(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab,
+                                      const sp_q24_t length[SP_LEGS], uint32_t tick_us, sp_q8_t friction[SP_LEGS]);
 
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
  * arms, legs and lengths (not the unit vectors). SP_E_RANGE for a leg

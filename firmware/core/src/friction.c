@@ -121,21 +121,60 @@ static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
 /* round(x / 2^30) of a product below 2^62 in magnitude */
 #define FRIC_Q30(x) (((x) + (INT64_C(1) << 29)) >> 30)
 
+/* The Stribeck fade e = exp(-(v/v_s)^2), Q30, of a speed av = |v| below
+ * 4 v_s (m/s, Q24) with inv_vs = 2^46 / v_s. (v / v_s)^2 in Q24: av <
+ * 4 v_s < 2^31 and inv_vs < 2^46 / v_s give a ratio below 8 (2^27 in
+ * Q24) and a square below 2^54; e is then above exp(-16), never 0. */
+SPI_INLINE sp_q30_t fric_fade(int64_t av, int64_t inv_vs)
+{
+    int32_t ratio = (int32_t)((av * inv_vs) >> 22);
+    return fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
+}
+
+/* The Stribeck level g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8
+ * (0 <= F_s - F_c < 2^31). */
+SPI_INLINE int64_t fric_level(int32_t fc, int32_t fs, sp_q30_t es)
+{
+    return fc + FRIC_Q30((int64_t)(fs - fc) * es);
+}
+
+/* The bristle relaxation exp(-sigma_0 |dx| / g), Q30, below 4 v_s: a =
+ * (sigma_0 / F_c) |dx| (Q24, a at g = F_c) scaled by F_c / g. */
+SPI_INLINE sp_q30_t fric_relax_slow(int64_t a, int32_t fc, int64_t g)
+{
+    if (a < ((int64_t)FRIC_BRISTLE_A_MAX << 24)) {
+        /* F_c / g = F_c inv / 2^sh (the normalised reciprocal: one
+         * 32-bit division, relative error below 2^-28), Q30. F_c <= g
+         * normalised as g (shifted by clz(g) = 62 - sh) stays below
+         * 2^32: the high word of its product with inv is exactly
+         * (F_c inv) >> (sh - 30), at most 2^30 */
+        unsigned sh;
+        int32_t inv = spi_recip((uint32_t)g, &sh);
+        uint32_t fc_norm = (uint32_t)fc << (62u - sh);
+        int32_t scale = (int32_t)(((uint64_t)fc_norm * (uint32_t)inv) >> 32);
+        /* a < 2^29 here: a 32 x 32-bit product */
+        a = FRIC_Q30((int64_t)(int32_t)a * scale);
+    }
+    return (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
+}
+
 /* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
  * the friction (N, Q8). The leg's constants kept by the state at its first
  * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
  * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
- * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip). */
-static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int32_t dx,
-                        const fric_tick_t *t, sp_flags_t *flags)
+ * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip),
+ * or, for a leg of the table's (tab non-NULL: its tick and platform are
+ * this step's) and |dx| within it, one exp and the table's relaxation. */
+static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
+                        int32_t dx, const fric_tick_t *t, sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
     int32_t fc = p->coulomb_friction[i];
     sp_q24_t v;
     sp_q8_t viscous;
     int32_t adx; /* |dx| <= INT32_MAX (run clamps dx to +-INT32_MAX) */
-    int64_t av, a, g, target, phi_new, dphi, damping = 0;
+    int64_t av, g, target, phi_new, dphi, damping = 0;
     sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
     sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
     if (dx == 0) {
@@ -149,33 +188,24 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
     }
     adx = dx < 0 ? -dx : dx;
     av = v < 0 ? -(int64_t)v : (int64_t)v;
-    /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
-    a = ((int64_t)o->slip[i] * adx) >> 8;
-    g = fc;
-    if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
-        /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
-         * give a ratio below 8 (2^27 in Q24) and a square below 2^54; e
-         * is then above exp(-16), never 0 */
-        int32_t ratio = (int32_t)((av * o->inv_vs) >> 22);
-        es = fric_exp_neg((sp_q24_t)(((int64_t)ratio * ratio + (INT64_C(1) << 23)) >> 24));
-        /* g = F_c + (F_s - F_c) e in [F_c, F_s], N Q8 (0 <= F_s - F_c <
-         * 2^31); a scaled by F_c / g (Q30, in (0, 1]) */
-        g += FRIC_Q30((int64_t)(p->breakaway_friction[i] - fc) * es);
-        if (a < ((int64_t)FRIC_BRISTLE_A_MAX << 24)) {
-            /* F_c / g = F_c inv / 2^sh (the normalised reciprocal: one
-             * 32-bit division, relative error below 2^-28), Q30. F_c <= g
-             * normalised as g (shifted by clz(g) = 62 - sh) stays below
-             * 2^32: the high word of its product with inv is exactly
-             * (F_c inv) >> (sh - 30), at most 2^30 */
-            unsigned sh;
-            int32_t inv = spi_recip((uint32_t)g, &sh);
-            uint32_t fc_norm = (uint32_t)fc << (62u - sh);
-            int32_t scale = (int32_t)(((uint64_t)fc_norm * (uint32_t)inv) >> 32);
-            /* a < 2^29 here: a 32 x 32-bit product */
-            a = FRIC_Q30((int64_t)(int32_t)a * scale);
+    if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
+        /* below 4 v_s (the table's entries are): the lines below with
+         * fric_relax_slow's value prepared at init */
+        es = fric_fade(av, o->inv_vs);
+        g = fric_level(fc, p->breakaway_friction[i], es);
+        eb = tab->relax[adx - 1];
+    } else {
+        /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
+        int64_t a = ((int64_t)o->slip[i] * adx) >> 8;
+        if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+            es = fric_fade(av, o->inv_vs);
+            g = fric_level(fc, p->breakaway_friction[i], es);
+            eb = fric_relax_slow(a, fc, g);
+        } else {
+            g = fc;
+            eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
         }
     }
-    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
     target = dx > 0 ? g : -g;
     /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
     phi_new = target + FRIC_Q30(((int64_t)*phi - target) * eb);
@@ -208,8 +238,8 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
 }
 
 /* The step after the checks: p's parameters are those params_ok accepts. */
-static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
-                                uint32_t tick_us, sp_q8_t friction[SP_LEGS])
+static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab,
+                                const sp_q24_t length[SP_LEGS], uint32_t tick_us, sp_q8_t friction[SP_LEGS])
 {
     sp_flags_t flags = 0u;
     if (!o->valid) {
@@ -234,10 +264,13 @@ static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const 
         fric_tick_t t;
         t.tick_us = tick_us;
         t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+        if (tab != NULL && (tab->tick_us != tick_us || tab->inv_vs != o->inv_vs)) {
+            tab = NULL; /* prepared for another tick or Stribeck velocity */
+        }
         for (int i = 0; i < SP_LEGS; ++i) {
             int32_t dx = (int32_t)clamp64((int64_t)length[i] - o->length[i], INT32_MAX, &flags);
             o->length[i] = length[i];
-            friction[i] = leg_step(p, o, i, &o->phi[i], dx, &t, &flags);
+            friction[i] = leg_step(p, o, tab, i, &o->phi[i], dx, &t, &flags);
         }
     }
     return sp_flags_status(flags);
@@ -255,15 +288,76 @@ sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_
         tick_us > SP_FRIC_TICK_MAX_US || !params_ok(p)) {
         return SP_E_ARG;
     }
-    return fric_obs_run(p, o, length, tick_us, friction);
+    return fric_obs_run(p, o, NULL, length, tick_us, friction);
 }
 
-sp_status_t spi_fric_obs_step_checked(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
-                                      uint32_t tick_us, sp_q8_t friction[SP_LEGS])
+sp_status_t sp_fric_obs_step_table(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab,
+                                   const sp_q24_t length[SP_LEGS], uint32_t tick_us, sp_q8_t friction[SP_LEGS])
+{
+    if (p == NULL || o == NULL || length == NULL || friction == NULL || tick_us == 0u ||
+        tick_us > SP_FRIC_TICK_MAX_US || !params_ok(p)) {
+        return SP_E_ARG;
+    }
+    return fric_obs_run(p, o, tab, length, tick_us, friction);
+}
+
+sp_status_t spi_fric_obs_step_checked(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab,
+                                      const sp_q24_t length[SP_LEGS], uint32_t tick_us, sp_q8_t friction[SP_LEGS])
 {
     if (p == NULL || o == NULL || length == NULL || friction == NULL || tick_us == 0u ||
         tick_us > SP_FRIC_TICK_MAX_US) {
         return SP_E_ARG;
     }
-    return fric_obs_run(p, o, length, tick_us, friction);
+    return fric_obs_run(p, o, tab, length, tick_us, friction);
+}
+
+sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_fric_table_t *tab)
+{
+    sp_flags_t flags = 0u;
+    fric_tick_t t;
+    int c = -1;
+    int32_t sigma0, fc, fs, slip;
+    uint32_t n;
+    if (tab == NULL) {
+        return SP_E_ARG;
+    }
+    tab->count = 0u;
+    tab->legs = 0u;
+    tab->tick_us = tick_us;
+    tab->inv_vs = 0;
+    if (p == NULL || tick_us == 0u || tick_us > SP_FRIC_TICK_MAX_US || !params_ok(p)) {
+        return SP_E_ARG;
+    }
+    for (int i = SP_LEGS - 1; i >= 0; --i) {
+        if (p->bristle_stiffness[i] > 0) {
+            c = i; /* the first leg with bristles */
+        }
+    }
+    if (c < 0) {
+        return SP_OK; /* no bristles: nothing to tabulate */
+    }
+    sigma0 = p->bristle_stiffness[c];
+    fc = p->coulomb_friction[c];
+    fs = p->breakaway_friction[c];
+    for (int i = 0; i < SP_LEGS; ++i) {
+        if (p->bristle_stiffness[i] == sigma0 && p->coulomb_friction[i] == fc && p->breakaway_friction[i] == fs) {
+            tab->legs = (uint8_t)(tab->legs | (1u << i));
+        }
+    }
+    /* the constants as the observer's first step keeps them */
+    slip = sp_sat32(((int64_t)sigma0 << 16) / fc, &flags);
+    tab->inv_vs = (INT64_C(1) << 46) / p->stribeck_velocity;
+    t.tick_us = tick_us;
+    t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+    /* |v| grows with |dx|: the entries below 4 v_s are the first ones */
+    for (n = 1u; n <= SP_FRIC_TABLE_LEN; ++n) {
+        sp_q24_t v = per_second(&t, (int64_t)n, &flags); /* n x 10^6 < 2^31: exact */
+        if ((int64_t)v >= (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+            break;
+        }
+        tab->relax[n - 1u] =
+            fric_relax_slow(((int64_t)slip * (int32_t)n) >> 8, fc, fric_level(fc, fs, fric_fade(v, tab->inv_vs)));
+    }
+    tab->count = (uint16_t)(n - 1u);
+    return SP_OK;
 }

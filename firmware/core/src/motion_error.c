@@ -243,6 +243,101 @@ sp_status_t sp_motion_error_wrench_body_t(const sp_me_body_t *body, const sp_rot
                      (const sp_q30_t(*)[3])rot->t, sc, da, dw);
 }
 
+/* dW = M6 da in the motion frame, where the body's mass, first moment m c
+ * and inertia are constants: the linear acceleration turned in (T da),
+ * the body-frame wrench
+ *   f_b = m T da + dw' x (m c),   m_b = I dw' + (m c) x (T da),
+ * and both turned out (R = T^T): the same law as me_wrench (R f_b = m da
+ * + (R dw') x (m R c), R m_b = R I dw' + (m R c) x da), with m R c no
+ * longer formed per tick and each sum rounded once. b within the
+ * envelope of sp_motion_error_m6 (mass, m c, I below 2^29 in Q16). */
+static sp_status_t me_wrench_frame(const sp_me_m6_t *b, const sp_q30_t (*t)[3], const sp_q30_t sc[6],
+                                   const sp_q24_t da[6], sp_q8_t dw[6])
+{
+    sp_flags_t flags = 0u;
+    const sp_q16_t *mc = b->first;
+    const sp_q16_t(*in)[3] = (const sp_q16_t(*)[3])b->body.inertia;
+    sp_q16_t m = b->body.mass;
+    sp_q24_t wd[3]; /* body angular acceleration dw', rad/s^2, Q24 */
+    sp_q24_t ab[3]; /* T da, motion frame, m/s^2, Q24 */
+    int32_t fb[3];  /* f_b, N, Q8 */
+    int32_t mb[3];  /* m_b, N m, Q8 */
+    unsigned k;
+    me_body_acc(sc, &da[3], wd, &flags);
+    for (k = 0u; k < 3u; ++k) {
+        /* (T v)_k = sum_r T[k][r] v_r: Q30 x Q24 sums below 2^63 */
+        ab[k] = spi_narrow_floor((int64_t)t[k][0] * da[0] + (int64_t)t[k][1] * da[1] + (int64_t)t[k][2] * da[2] +
+                                     (INT64_C(1) << 29),
+                                 30u, &flags);
+    }
+    /* Q16 x Q24 products below 2^29 x 2^31 = 2^60: the sums of three
+     * (f_b) and five (m_b) below 2^63, and in Q8 below 5 x 2^28 < 2^31 */
+    fb[0] =
+        (int32_t)(((int64_t)m * ab[0] + (int64_t)wd[1] * mc[2] - (int64_t)wd[2] * mc[1] + (INT64_C(1) << 31)) >> 32);
+    fb[1] =
+        (int32_t)(((int64_t)m * ab[1] + (int64_t)wd[2] * mc[0] - (int64_t)wd[0] * mc[2] + (INT64_C(1) << 31)) >> 32);
+    fb[2] =
+        (int32_t)(((int64_t)m * ab[2] + (int64_t)wd[0] * mc[1] - (int64_t)wd[1] * mc[0] + (INT64_C(1) << 31)) >> 32);
+    mb[0] = (int32_t)(((int64_t)in[0][0] * wd[0] + (int64_t)in[0][1] * wd[1] + (int64_t)in[0][2] * wd[2] +
+                       (int64_t)mc[1] * ab[2] - (int64_t)mc[2] * ab[1] + (INT64_C(1) << 31)) >>
+                      32);
+    mb[1] = (int32_t)(((int64_t)in[1][0] * wd[0] + (int64_t)in[1][1] * wd[1] + (int64_t)in[1][2] * wd[2] +
+                       (int64_t)mc[2] * ab[0] - (int64_t)mc[0] * ab[2] + (INT64_C(1) << 31)) >>
+                      32);
+    mb[2] = (int32_t)(((int64_t)in[2][0] * wd[0] + (int64_t)in[2][1] * wd[1] + (int64_t)in[2][2] * wd[2] +
+                       (int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0] + (INT64_C(1) << 31)) >>
+                      32);
+    for (k = 0u; k < 3u; ++k) {
+        /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q8 below 2^61 each */
+        dw[k] = spi_narrow_floor((int64_t)t[0][k] * fb[0] + (int64_t)t[1][k] * fb[1] + (int64_t)t[2][k] * fb[2] +
+                                     (INT64_C(1) << 29),
+                                 30u, &flags);
+        dw[3u + k] = spi_narrow_floor((int64_t)t[0][k] * mb[0] + (int64_t)t[1][k] * mb[1] + (int64_t)t[2][k] * mb[2] +
+                                          (INT64_C(1) << 29),
+                                      30u, &flags);
+    }
+    return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
+}
+
+/* The envelope of the body-frame form: |x| below 2^29 (Q16: 8192 kg,
+ * kg m, kg m^2). */
+#define ME_M6_MAX (INT64_C(1) << 29)
+
+sp_status_t sp_motion_error_m6(const sp_me_body_t *body, sp_me_m6_t *m6)
+{
+    unsigned j, k;
+    int ok;
+    if (body == NULL || m6 == NULL) {
+        return SP_E_ARG;
+    }
+    m6->body = *body;
+    ok = body->mass > -ME_M6_MAX && body->mass < ME_M6_MAX;
+    for (j = 0u; j < 3u; ++j) {
+        /* m c: Q16 x Q24 (below 2^62), rounded to Q16 */
+        int64_t first = ((int64_t)body->mass * body->center_of_mass[j] + (INT64_C(1) << 23)) >> 24;
+        ok = ok && first > -ME_M6_MAX && first < ME_M6_MAX;
+        m6->first[j] = ok ? (sp_q16_t)first : 0;
+        for (k = 0u; k < 3u; ++k) {
+            ok = ok && body->inertia[j][k] > -ME_M6_MAX && body->inertia[j][k] < ME_M6_MAX;
+        }
+    }
+    m6->frame = ok ? 1u : 0u;
+    return SP_OK;
+}
+
+sp_status_t sp_motion_error_wrench_m6(const sp_me_m6_t *m6, const sp_rot_t *rot, const sp_q30_t sc[6],
+                                      const sp_q24_t da[6], sp_q8_t dw[6])
+{
+    if (m6 == NULL || rot == NULL || sc == NULL || da == NULL || dw == NULL) {
+        return me_bad_args(dw);
+    }
+    if (!m6->frame) {
+        return me_wrench(m6->body.mass, (const sp_q16_t(*)[3])m6->body.inertia, m6->body.center_of_mass,
+                         (const sp_q30_t(*)[3])rot->t, sc, da, dw);
+    }
+    return me_wrench_frame(m6, (const sp_q30_t(*)[3])rot->t, sc, da, dw);
+}
+
 /* round(x / 2^s) (ties up) of an int64 below 2^62 in magnitude */
 #define ME_SHR(x, s) (((x) + (INT64_C(1) << ((s)-1u))) >> (s))
 

@@ -280,9 +280,10 @@ typedef struct {
     sp_q30_t wrench_alpha;            /**< the wrench filter's gain (sp_wrench_alpha) */
     sp_wrench_smooth_t wrench_smooth; /**< the reported estimate's smoother (sp_wrench_smooth) */
     uint8_t fric_obs_ok;              /**< 1: the platform's friction passed sp_fric_obs_check */
-    sp_me_body_t motion_body;         /**< the rigid body with the legs' inertia at home, for the wrench's
-                                   motion correction (sp_motion_error_body; the rigid body alone
-                                   when the legs are outside its envelope) */
+    sp_fric_table_t fric_table;       /**< the friction observer's Stribeck table (sp_fric_table_prepare) */
+    sp_me_m6_t motion_body;           /**< the rigid body with the legs' inertia at home, for the wrench's
+                                   motion correction (sp_motion_error_body, then sp_motion_error_m6; the
+                                   rigid body alone when the legs are outside its envelope) */
     sp_force_config_t force;          /**< cfg->force with the wrench filter's gain and the tick */
 } sp_ctrl_prepared_t;
 

@@ -47,6 +47,30 @@ typedef struct {
     uint8_t valid;            /**< 0 after reset: the next step only records the lengths */
 } sp_fric_obs_t;
 
+/** Entries of the observer's Stribeck table (sp_fric_table_t): the
+ *  length increments |dx| = 1..SP_FRIC_TABLE_LEN (Q24 LSB per tick). 336
+ *  covers the default seals' region below 4 v_s at 1 ms (v_s = 5 mm/s:
+ *  |dx| < 20 um = 335.5 LSB); 1,344 bytes. */
+#define SP_FRIC_TABLE_LEN 336u
+
+/**
+ * What a slow leg's step needs, prepared per |dx| (sp_fric_table_prepare).
+ * Below 4 v_s the bristle relaxation exp(-sigma_0 |dx| / g), g = F_c +
+ * (F_s - F_c) exp(-(v/v_s)^2), depends on |dx| alone for a leg of given
+ * sigma_0, F_c and F_s at a given tick: one of the slow leg's two exps and
+ * its reciprocal F_c / g become one load. (The fade exp(-(v/v_s)^2) too
+ * would save its exp, about 45 instructions a slow leg, for another
+ * 1,344 bytes: more RAM than the CiA 408 image has left.)
+ */
+typedef struct {
+    sp_q30_t relax[SP_FRIC_TABLE_LEN]; /**< exp(-sigma_0 |dx| / g) at |dx| = index + 1, Q30, of the table's
+                                            legs */
+    int64_t inv_vs;                    /**< 2^46 / v_s, as the observer keeps it */
+    uint32_t tick_us;                  /**< the tick it was prepared for, us */
+    uint16_t count;                    /**< entries prepared: |dx| in 1..count is below 4 v_s */
+    uint8_t legs;                      /**< bit i: leg i has the table's sigma_0, F_c and F_s */
+} sp_fric_table_t;
+
 /**
  * Reset the observer: bristles unloaded (phi = 0), no length recorded. The
  * next sp_fric_obs_step records the lengths only. A NULL o is ignored.
@@ -84,6 +108,31 @@ void sp_fric_obs_reset(sp_fric_obs_t *o);
  */
 sp_status_t sp_fric_obs_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS], uint32_t tick_us,
                              sp_q8_t friction[SP_LEGS]);
+
+/**
+ * Prepares the Stribeck table of platform p at the tick tick_us (us,
+ * 1..SP_FRIC_TICK_MAX_US) for sp_fric_obs_step_table: for |dx| = 1, 2, ...
+ * while |v| = |dx| / dt stays below 4 v_s (at most SP_FRIC_TABLE_LEN
+ * entries), the relaxation that sp_fric_obs_step computes for the first
+ * leg with bristles; tab->legs marks that leg and every leg
+ * with its sigma_0, F_c and F_s. The entries are computed by the step's
+ * own code, so a step with the table is bit for bit the step without it.
+ * About 200 Cortex-M4 instructions an entry (at init, not in a tick).
+ * Returns SP_OK (no leg with bristles: an empty table); SP_E_ARG on NULL
+ * p, a tick out of range or parameters sp_fric_obs_check refuses (tab,
+ * when not NULL, is then empty: count 0).
+ */
+sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_fric_table_t *tab);
+
+/**
+ * sp_fric_obs_step with a table prepared by sp_fric_table_prepare from
+ * the same platform: a leg of tab->legs with |dx| <= tab->count takes its
+ * relaxation from the table instead of an exp and a reciprocal.
+ * Same results, state and returns as sp_fric_obs_step, bit for bit (a
+ * table of another tick or Stribeck velocity, or NULL, is not used).
+ */
+sp_status_t sp_fric_obs_step_table(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab,
+                                   const sp_q24_t length[SP_LEGS], uint32_t tick_us, sp_q8_t friction[SP_LEGS]);
 
 /**
  * SP_OK when the platform's friction parameters are ones sp_fric_obs_step
