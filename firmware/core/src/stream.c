@@ -21,7 +21,6 @@ sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t ome
 void sp_stream_start(sp_stream_t *s, const sp_motion_t *from)
 {
     unsigned i;
-    s->out = *from;
     s->target = from->pose;
     s->stopping = 0u;
     s->anchor_valid = 0u;
@@ -120,9 +119,9 @@ SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32
     *x = spi_narrow_away(x48, 24u, flags);
 }
 
-void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_flags_t *flags)
+void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_motion_t *m,
+                    sp_flags_t *flags)
 {
-    sp_motion_t *m = &s->out;
     unsigned a;
     *flags |= g->flags;
     for (a = 0u; a < 3u; ++a) {
@@ -133,9 +132,8 @@ void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_li
     }
 }
 
-int sp_stream_settled(const sp_stream_t *s, const sp_pose_t *pose)
+int sp_stream_settled(const sp_motion_t *m, const sp_pose_t *pose)
 {
-    const sp_motion_t *m = &s->out;
     unsigned k;
     for (k = 0u; k < 3u; ++k) {
         if (spi_farther(m->pose.pos[k], pose->pos[k], STREAM_SETTLED) ||
