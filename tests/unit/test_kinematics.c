@@ -516,6 +516,10 @@ static void test_body_rates_reference(void **state)
             d[k] = ref_q24(random_rate(&rng, 4.0));
             dd[k] = ref_q24(random_rate(&rng, 32.0));
             sp_sincos_q24(a[k], &sc[2 * k], &sc[2 * k + 1]);
+            if (n % 10 == 7) { /* no turning: the zero path, on and off the circle */
+                d[k] = 0;
+                dd[k] = 0;
+            }
         }
         if (n % 3 == 2) { /* off the unit circle: up to 1.25 in magnitude */
             for (int k = 0; k < 4; ++k) {
@@ -539,6 +543,12 @@ static void test_body_rates_reference(void **state)
             continue;
         }
         assert_int_equal(st, SP_OK);
+        if (n % 10 == 7) {
+            for (int k = 0; k < 3; ++k) {
+                assert_int_equal(w[k], 0);
+                assert_int_equal(wd[k], 0);
+            }
+        }
         if (n % 3 != 2) {
             assert_memory_equal(w, w2, sizeof w);
             assert_memory_equal(wd, wd2, sizeof wd);
@@ -1098,6 +1108,24 @@ static void test_inverse_kinematics_kept(void **state)
     assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
     assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
     assert_memory_equal(&ikk, &ik, sizeof ik);
+    /* translations only (the surge: the arms kept), then the same keep
+     * for another platform: its arms made afresh (keep.platform) */
+    for (int n = 0; n < 64; ++n) {
+        pose.pos[n % 3] += (int32_t)tu_uniform(&rng, -2e5, 2e5);
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    {
+        sp_platform_t p2;
+        double hz2;
+        random_platform(&rng, &p2, &hz2);
+        pose.pos[2] = (int32_t)(hz2 * 16777216.0);
+        assert_int_equal(sp_inverse_kinematics(&p2, &pose, &ik), SP_OK);
+        assert_int_equal(sp_inverse_kinematics_kept(&p2, &pose, &keep, &ikk), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+        assert_ptr_equal(keep.platform, &p2);
+    }
     assert_int_equal(sp_inverse_kinematics_kept(NULL, &pose, &keep, &ikk), SP_E_ARG);
     assert_int_equal(sp_inverse_kinematics_kept(&p, NULL, &keep, &ikk), SP_E_ARG);
     assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, NULL), SP_E_ARG);
