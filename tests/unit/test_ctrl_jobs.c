@@ -217,6 +217,89 @@ static void test_stream_follows_within_limits(void **state)
     assert_int_equal(sp_stream_gains(NULL, 1000u, 0), SP_E_ARG);
 }
 
+/* The stream filter's plain reference: its first version, every sum
+ * saturating through the public fixed-point functions. */
+static void plain_stream_step(int64_t x[6], int64_t v[6], const sp_pose_t *target, const sp_stream_gains_t *g,
+                              const sp_move_limits_t *move, sp_motion_t *m, sp_flags_t *flags)
+{
+    *flags |= g->flags;
+    for (unsigned a = 0u; a < 6u; ++a) {
+        sp_q24_t t = (a < 3u) ? target->pos[a] : target->rpy[a - 3u];
+        int64_t t48 = (int64_t)t * (INT64_C(1) << 24);
+        int64_t vmax = (int64_t)move->vel_max[a] * (INT64_C(1) << 24);
+        int32_t amax = move->acc_max[a];
+        int32_t acmd = 0;
+        sp_q24_t *px = (a < 3u) ? &m->pose.pos[a] : &m->pose.rpy[a - 3u];
+        sp_q24_t *pv = (a < 3u) ? &m->vel[a] : &m->rpy_rate[a - 3u];
+        sp_q24_t *pa = (a < 3u) ? &m->acc[a] : &m->rpy_acc[a - 3u];
+        if (x[a] == t48 && v[a] == 0) {
+            *px = t;
+            *pv = 0;
+            *pa = 0;
+            continue;
+        }
+        int32_t err = sp_narrow(sp_add64(t48, -x[a], flags), 24u, flags);
+        acmd = sp_sub(sp_mul(g->w2, err, 24u, flags), sp_mul(g->two_w, (int32_t)sp_rshift_round(v[a], 24u), 24u, flags),
+                      flags);
+        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+        v[a] += (int64_t)acmd * g->dt;
+        v[a] = v[a] > vmax ? vmax : (v[a] < -vmax ? -vmax : v[a]);
+        x[a] = sp_add64(x[a], sp_mul64(v[a], g->dt, 24u, flags), flags);
+        *pa = acmd;
+        *pv = (sp_q24_t)sp_rshift_round(v[a], 24u);
+        *px = sp_narrow(x[a], 24u, flags);
+    }
+}
+
+/* sp_stream_step (its fast path for a tick below 1 s and positions below
+ * 64 m, and the saturating one) against plain_stream_step bit for bit:
+ * outputs, state and flags, over random targets near and far (up to the
+ * Q24 range), bandwidths, limits and ticks up to 5 s. */
+static void test_stream_step_reference(void **state)
+{
+    (void)state;
+    uint64_t rng = 83;
+    static const uint32_t ticks[4] = {1000u, 250u, 4000u, 5000000u};
+    int far = 0;
+    for (int n = 0; n < 400; ++n) {
+        sp_stream_gains_t g;
+        sp_move_limits_t move;
+        sp_stream_t s;
+        sp_motion_t from, out, want;
+        int64_t x[6], v[6];
+        double span = (n % 4 == 3) ? 2147483647.0 : 2e7;
+        far += (n % 4 == 3) ? 1 : 0;
+        assert_int_equal(sp_stream_gains(&g, ticks[n % 4], (int32_t)tu_uniform(&rng, 1.0, 60.0) * SP_Q24_ONE), SP_OK);
+        for (int a = 0; a < 6; ++a) {
+            move.vel_max[a] = (int32_t)tu_uniform(&rng, 1e5, 2.1e9);
+            move.acc_max[a] = (int32_t)tu_uniform(&rng, 1e5, 2.1e9);
+            move.jerk_max[a] = SP_Q24_ONE;
+        }
+        sp_motion_at_rest(&from, &P->home);
+        sp_stream_start(&s, &from);
+        for (int a = 0; a < 6; ++a) {
+            x[a] = s.x[a];
+            v[a] = s.v[a];
+        }
+        for (int t = 0; t < 300; ++t) {
+            sp_flags_t f1 = 0u, f2 = 0u;
+            if (t % 60 == 0) {
+                for (int a = 0; a < 3; ++a) {
+                    s.target.pos[a] = (int32_t)tu_uniform(&rng, -span, span);
+                    s.target.rpy[a] = (int32_t)tu_uniform(&rng, -span, span);
+                }
+            }
+            sp_stream_step(&s, &g, &move, &out, &f1);
+            plain_stream_step(x, v, &s.target, &g, &move, &want, &f2);
+            assert_memory_equal(&out, &want, sizeof out);
+            assert_memory_equal(s.x, x, sizeof x);
+            assert_memory_equal(s.v, v, sizeof v);
+            assert_int_equal(f1, f2);
+        }
+    }
+    assert_int_equal(far, 100);
+}
+
 static void test_stream_offer_rules(void **state)
 {
     (void)state;
@@ -958,6 +1041,7 @@ int main(void)
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),
+        cmocka_unit_test(test_stream_step_reference),
         cmocka_unit_test(test_stream_offer_rules),
         cmocka_unit_test(test_estimate_cold_warm_and_failure),
         cmocka_unit_test(test_estimate_step_accuracy),
