@@ -731,6 +731,30 @@ static void test_fk_failure_faults(void **state)
     assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
 }
 
+/* The fade's rate kept in the generator (made once per motion and tick
+ * length) against one made afresh every tick: the same motion and status,
+ * through a fade-in and a fade-out with the tick length changing. */
+static void test_trig_fade_rate_kept(void **state)
+{
+    sp_trig_t g;
+    (void)state;
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_Z, q24(0.05), q24(1.0), 1000u, 400u), SP_OK);
+    for (int n = 0; n < 1200; ++n) {
+        static const uint32_t tick_us[3] = {1000u, 1000u, 250u};
+        sp_trig_t fresh = g;
+        sp_motion_t m, mf;
+        fresh.fade_tick_us = 0u; /* nothing kept: made this tick */
+        if (n == 600) {
+            sp_trig_stop(&g);
+            sp_trig_stop(&fresh);
+        }
+        assert_int_equal(sp_trig_step(&g, tick_us[n % 3], &m), sp_trig_step(&fresh, tick_us[n % 3], &mf));
+        assert_memory_equal(&m, &mf, sizeof m);
+        assert_int_equal(g.fade_rate, fresh.fade_rate);
+    }
+    assert_int_equal(g.finished, 1);
+}
+
 static void test_trig_generator(void **state)
 {
     sp_trig_t g;
@@ -1339,6 +1363,7 @@ static void test_operator_link_force(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_trig_fade_rate_kept),
         cmocka_unit_test(test_trig_generator),
         cmocka_unit_test(test_set_wrench_source),
         cmocka_unit_test(test_move_respects_limits),

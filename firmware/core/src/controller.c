@@ -206,6 +206,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->trig.tick = 0u;
     ctrl->trig.stop_tick = UINT32_MAX;
     ctrl->trig.finished = 1;
+    ctrl->trig.fade_tick_us = 0u;
     ctrl->move.duration_ticks = 0u;
     ctrl->move.tick = 0u;
     ctrl->move.from = p->park;
