@@ -137,6 +137,68 @@ static void test_limits_reachable_near_is_sufficient(void **state)
     assert_true(near > checked / 4); /* the bound decides most small steps */
 }
 
+/* sp_limits_setpoints_ok's plain reference: six signed comparisons a leg. */
+static int plain_setpoints_ok(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
+                              const sp_q8_t force[SP_LEGS])
+{
+    for (int i = 0; i < SP_LEGS; ++i) {
+        if (length[i] < lim->length_min || length[i] > lim->length_max || (int64_t)rate[i] > lim->rate_max ||
+            (int64_t)rate[i] < -(int64_t)lim->rate_max || (int64_t)force[i] > lim->force_max ||
+            (int64_t)force[i] < -(int64_t)lim->force_max) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* A value near one of the bounds (or anywhere, or an int32 extreme). */
+static int32_t near_bound(uint64_t *rng, int32_t lo, int32_t hi)
+{
+    double r = tu_uniform(rng, 0.0, 1.0);
+    int64_t v;
+    if (r < 0.1) {
+        return (r < 0.05) ? INT32_MIN : INT32_MAX;
+    }
+    if (r < 0.3) {
+        v = (int64_t)tu_uniform(rng, -2147483648.0, 2147483647.0);
+    } else {
+        v = ((r < 0.65) ? (int64_t)lo : (int64_t)hi) + (int64_t)tu_uniform(rng, -3.0, 3.99);
+    }
+    return (int32_t)((v > INT32_MAX) ? INT32_MAX : ((v < INT32_MIN) ? INT32_MIN : v));
+}
+
+/* sp_limits_setpoints_ok (one unsigned compare a bound pair) against the
+ * plain reference on values at and around every bound and the int32
+ * extremes, for limits from the platform's to empty and negative ones. */
+static void test_limits_setpoints_reference(void **state)
+{
+    (void)state;
+    uint64_t rng = 97;
+    int ok = 0;
+    for (int n = 0; n < 20000; ++n) {
+        sp_limits_t lim = default_limits();
+        sp_q24_t len[SP_LEGS], rate[SP_LEGS];
+        sp_q8_t force[SP_LEGS];
+        if (n % 5 == 1) { /* any limits: empty, negative, extreme */
+            lim.length_min = near_bound(&rng, lim.length_min, lim.length_max);
+            lim.length_max = near_bound(&rng, lim.length_min, lim.length_max);
+            lim.rate_max = near_bound(&rng, -lim.rate_max, lim.rate_max);
+            lim.force_max = near_bound(&rng, -lim.force_max, lim.force_max);
+        }
+        for (int i = 0; i < SP_LEGS; ++i) {
+            /* mostly inside, so that later legs are reached too */
+            int inside = tu_uniform(&rng, 0.0, 1.0) < 0.9;
+            len[i] = inside ? lim.length_min : near_bound(&rng, lim.length_min, lim.length_max);
+            rate[i] = inside ? 0 : near_bound(&rng, -(lim.rate_max | 1), lim.rate_max);
+            force[i] = inside ? 0 : near_bound(&rng, -(lim.force_max | 1), lim.force_max);
+        }
+        int want = plain_setpoints_ok(&lim, len, rate, force);
+        assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), want);
+        ok += want;
+    }
+    assert_true(ok > 1000 && ok < 19000);
+}
+
 static void test_limits_setpoints_and_measured(void **state)
 {
     (void)state;
@@ -1039,6 +1101,7 @@ int main(void)
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
+        cmocka_unit_test(test_limits_setpoints_reference),
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),
         cmocka_unit_test(test_stream_step_reference),
