@@ -449,11 +449,23 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
      * saturated (SP_E_OVERFLOW) beyond int32. */
     cpsr = spi_mul30_up(cp, sr);
     cpcr = spi_mul30_up(cp, cr);
-    spsr = spi_mul30_up(sp, sr);
-    spcr = spi_mul30_up(sp, cr);
     dr = rpy_rate[0];
     dp = rpy_rate[1];
     dy = rpy_rate[2];
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_acc[0] | rpy_acc[1]) == 0) {
+        /* turning in yaw alone: the rows below with their zero terms
+         * left out (each exactly 0, and every product of two rates is 0),
+         * the same sums rounded the same way */
+        omega[0] = spi_narrow_floor(half - dy * sp, 30u, &flags);
+        omega[1] = spi_narrow_floor(dy * cpsr + half, 30u, &flags);
+        omega[2] = spi_narrow_floor(dy * cpcr + half, 30u, &flags);
+        omega_dot[0] = spi_narrow_floor(half - (int64_t)rpy_acc[2] * sp, 30u, &flags);
+        omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[2] * cpsr + half, 30u, &flags);
+        omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr + half, 30u, &flags);
+        return sp_flags_status(flags);
+    }
+    spsr = spi_mul30_up(sp, sr);
+    spcr = spi_mul30_up(sp, cr);
 
     /* eq (10) */
     omega[0] = spi_narrow_floor(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
