@@ -18,6 +18,7 @@
 
 #include "assert_near.h"
 #include "sp/controller.h"
+#include "test_util.h"
 
 static double f24(int32_t v)
 {
@@ -731,6 +732,79 @@ static void test_fk_failure_faults(void **state)
     assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
 }
 
+/* The fade's rate kept in the generator (made once per motion and tick
+ * length) against one made afresh every tick: the same motion and status,
+ * through a fade-in and a fade-out with the tick length changing. */
+static void test_trig_fade_rate_kept(void **state)
+{
+    sp_trig_t g;
+    (void)state;
+    assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, SP_AXIS_Z, q24(0.05), q24(1.0), 1000u, 400u), SP_OK);
+    for (int n = 0; n < 1200; ++n) {
+        static const uint32_t tick_us[3] = {1000u, 1000u, 250u};
+        sp_trig_t fresh = g;
+        sp_motion_t m, mf;
+        fresh.fade_tick_us = 0u; /* nothing kept: made this tick */
+        if (n == 600) {
+            sp_trig_stop(&g);
+            sp_trig_stop(&fresh);
+        }
+        assert_int_equal(sp_trig_step(&g, tick_us[n % 3], &m), sp_trig_step(&fresh, tick_us[n % 3], &mf));
+        assert_memory_equal(&m, &mf, sizeof m);
+        assert_int_equal(g.fade_rate, fresh.fade_rate);
+    }
+    assert_int_equal(g.finished, 1);
+}
+
+/* The trig generator's motion at full amplitude as first written: every
+ * product by the envelope e = 1 (Q30) and its derivatives 0, through the
+ * public fixed-point functions (round to nearest, ties away; saturating). */
+static sp_status_t plain_trig_full(const sp_trig_t *g, sp_motion_t *out)
+{
+    sp_flags_t flags = 0u;
+    const int32_t e = INT32_C(1) << 30, de = 0, dde = 0;
+    sp_q30_t s, c;
+    int32_t theta = (int32_t)sp_rshift_round((int64_t)(int32_t)g->phase * INT64_C(105414357), 32u);
+    sp_sincos_q24(theta, &s, &c);
+    int32_t wc = sp_mul(g->omega, c, 30u, &flags);
+    int64_t pos = sp_rshift_round((int64_t)sp_mul(s, e, 30u, &flags), 6u);
+    int64_t vel = (int64_t)sp_mul(wc, e, 30u, &flags) + sp_mul(de, s, 30u, &flags);
+    int64_t acc = -(int64_t)sp_mul(sp_mul(sp_mul(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e, 30u, &flags) +
+                  2 * (int64_t)sp_mul(wc, de, 24u, &flags) + sp_mul(dde, s, 30u, &flags);
+    unsigned a = (unsigned)g->axis;
+    sp_motion_at_rest(out, &g->centre);
+    sp_q24_t *p = (a < 3u) ? &out->pose.pos[a] : &out->pose.rpy[a - 3u];
+    *p = sp_add(*p, sp_mul(g->amplitude, sp_sat32(pos, &flags), 24u, &flags), &flags);
+    *((a < 3u) ? &out->vel[a] : &out->rpy_rate[a - 3u]) = sp_mul(g->amplitude, sp_sat32(vel, &flags), 24u, &flags);
+    *((a < 3u) ? &out->acc[a] : &out->rpy_acc[a - 3u]) = sp_mul(g->amplitude, sp_sat32(acc, &flags), 24u, &flags);
+    return sp_flags_status(flags);
+}
+
+/* sp_trig_step at full amplitude (its short path: no products by the
+ * envelope) against plain_trig_full, bit for bit with the status, on
+ * every axis, frequencies up to 10 Hz (omega^2 saturating above 1.8 Hz)
+ * and amplitudes up to +-1. */
+static void test_trig_full_amplitude(void **state)
+{
+    uint64_t rng = 71;
+    (void)state;
+    for (int n = 0; n < 60; ++n) {
+        sp_trig_t g;
+        sp_q24_t amp = (sp_q24_t)tu_uniform(&rng, -16777216.0, 16777216.0);
+        sp_q24_t hz = (sp_q24_t)tu_uniform(&rng, 0.01 * 16777216.0, 10.0 * 16777216.0);
+        assert_int_equal(sp_trig_start(&g, &sp_platform_default.home, (sp_axis_t)(n % 6), amp, hz, 1000u, 100u), SP_OK);
+        for (int t = 0; t < 400; ++t) {
+            sp_motion_t m, want;
+            sp_status_t st_want = plain_trig_full(&g, &want);
+            sp_status_t st = sp_trig_step(&g, 1000u, &m);
+            if (t > 100) { /* past the fade-in: full amplitude */
+                assert_int_equal(st, st_want);
+                assert_memory_equal(&m, &want, sizeof m);
+            }
+        }
+    }
+}
+
 static void test_trig_generator(void **state)
 {
     sp_trig_t g;
@@ -1339,6 +1413,8 @@ static void test_operator_link_force(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_trig_fade_rate_kept),
+        cmocka_unit_test(test_trig_full_amplitude),
         cmocka_unit_test(test_trig_generator),
         cmocka_unit_test(test_set_wrench_source),
         cmocka_unit_test(test_move_respects_limits),

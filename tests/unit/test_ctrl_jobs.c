@@ -137,6 +137,68 @@ static void test_limits_reachable_near_is_sufficient(void **state)
     assert_true(near > checked / 4); /* the bound decides most small steps */
 }
 
+/* sp_limits_setpoints_ok's plain reference: six signed comparisons a leg. */
+static int plain_setpoints_ok(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
+                              const sp_q8_t force[SP_LEGS])
+{
+    for (int i = 0; i < SP_LEGS; ++i) {
+        if (length[i] < lim->length_min || length[i] > lim->length_max || (int64_t)rate[i] > lim->rate_max ||
+            (int64_t)rate[i] < -(int64_t)lim->rate_max || (int64_t)force[i] > lim->force_max ||
+            (int64_t)force[i] < -(int64_t)lim->force_max) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* A value near one of the bounds (or anywhere, or an int32 extreme). */
+static int32_t near_bound(uint64_t *rng, int32_t lo, int32_t hi)
+{
+    double r = tu_uniform(rng, 0.0, 1.0);
+    int64_t v;
+    if (r < 0.1) {
+        return (r < 0.05) ? INT32_MIN : INT32_MAX;
+    }
+    if (r < 0.3) {
+        v = (int64_t)tu_uniform(rng, -2147483648.0, 2147483647.0);
+    } else {
+        v = ((r < 0.65) ? (int64_t)lo : (int64_t)hi) + (int64_t)tu_uniform(rng, -3.0, 3.99);
+    }
+    return (int32_t)((v > INT32_MAX) ? INT32_MAX : ((v < INT32_MIN) ? INT32_MIN : v));
+}
+
+/* sp_limits_setpoints_ok (one unsigned compare a bound pair) against the
+ * plain reference on values at and around every bound and the int32
+ * extremes, for limits from the platform's to empty and negative ones. */
+static void test_limits_setpoints_reference(void **state)
+{
+    (void)state;
+    uint64_t rng = 97;
+    int ok = 0;
+    for (int n = 0; n < 20000; ++n) {
+        sp_limits_t lim = default_limits();
+        sp_q24_t len[SP_LEGS], rate[SP_LEGS];
+        sp_q8_t force[SP_LEGS];
+        if (n % 5 == 1) { /* any limits: empty, negative, extreme */
+            lim.length_min = near_bound(&rng, lim.length_min, lim.length_max);
+            lim.length_max = near_bound(&rng, lim.length_min, lim.length_max);
+            lim.rate_max = near_bound(&rng, -lim.rate_max, lim.rate_max);
+            lim.force_max = near_bound(&rng, -lim.force_max, lim.force_max);
+        }
+        for (int i = 0; i < SP_LEGS; ++i) {
+            /* mostly inside, so that later legs are reached too */
+            int inside = tu_uniform(&rng, 0.0, 1.0) < 0.9;
+            len[i] = inside ? lim.length_min : near_bound(&rng, lim.length_min, lim.length_max);
+            rate[i] = inside ? 0 : near_bound(&rng, -(lim.rate_max | 1), lim.rate_max);
+            force[i] = inside ? 0 : near_bound(&rng, -(lim.force_max | 1), lim.force_max);
+        }
+        int want = plain_setpoints_ok(&lim, len, rate, force);
+        assert_int_equal(sp_limits_setpoints_ok(&lim, len, rate, force), want);
+        ok += want;
+    }
+    assert_true(ok > 1000 && ok < 19000);
+}
+
 static void test_limits_setpoints_and_measured(void **state)
 {
     (void)state;
@@ -181,7 +243,8 @@ static void test_stream_follows_within_limits(void **state)
     assert_int_equal(g.dt, 16777); /* 1 ms in Q24 */
     sp_motion_at_rest(&at_home, &P->home);
     sp_stream_start(&s, &at_home);
-    assert_int_equal(sp_stream_settled(&s, &P->home), 1);
+    sp_motion_t out = at_home;
+    assert_int_equal(sp_stream_settled(&out, &P->home), 1);
 
     sp_pose_t target = P->home;
     target.pos[0] += SP_Q24_MILLI(40);
@@ -191,16 +254,16 @@ static void test_stream_follows_within_limits(void **state)
     double vmax = 0.0;
     double amax = 0.0;
     for (int t = 0; t < 3000; ++t) {
-        sp_stream_step(&s, &g, &cfg.move, &flags);
-        vmax = fmax(vmax, fabs((double)s.out.vel[0]));
-        amax = fmax(amax, fabs((double)s.out.acc[0]));
+        sp_stream_step(&s, &g, &cfg.move, &out, &flags);
+        vmax = fmax(vmax, fabs((double)out.vel[0]));
+        amax = fmax(amax, fabs((double)out.acc[0]));
     }
     assert_int_equal(flags, 0u);
     assert_true(vmax <= (double)cfg.move.vel_max[0]);
     assert_true(amax <= (double)cfg.move.acc_max[0]);
     assert_true(vmax > 0.5 * (double)cfg.move.vel_max[0]); /* it did move */
-    assert_int_equal(sp_stream_settled(&s, &target), 1);
-    assert_int_equal(s.out.pose.pos[0], target.pos[0]);
+    assert_int_equal(sp_stream_settled(&out, &target), 1);
+    assert_int_equal(out.pose.pos[0], target.pos[0]);
 
     /* after stop: the target is home and nothing more is taken */
     sp_stream_stop(&s, &P->home);
@@ -211,9 +274,92 @@ static void test_stream_follows_within_limits(void **state)
     assert_int_equal(sp_stream_gains(&g, 1000u, 100 * SP_Q24_ONE), SP_OK);
     assert_int_equal(g.flags, SP_FLAG_OVERFLOW);
     flags = 0u;
-    sp_stream_step(&s, &g, &cfg.move, &flags);
+    sp_stream_step(&s, &g, &cfg.move, &out, &flags);
     assert_int_equal(flags, SP_FLAG_OVERFLOW);
     assert_int_equal(sp_stream_gains(NULL, 1000u, 0), SP_E_ARG);
+}
+
+/* The stream filter's plain reference: its first version, every sum
+ * saturating through the public fixed-point functions. */
+static void plain_stream_step(int64_t x[6], int64_t v[6], const sp_pose_t *target, const sp_stream_gains_t *g,
+                              const sp_move_limits_t *move, sp_motion_t *m, sp_flags_t *flags)
+{
+    *flags |= g->flags;
+    for (unsigned a = 0u; a < 6u; ++a) {
+        sp_q24_t t = (a < 3u) ? target->pos[a] : target->rpy[a - 3u];
+        int64_t t48 = (int64_t)t * (INT64_C(1) << 24);
+        int64_t vmax = (int64_t)move->vel_max[a] * (INT64_C(1) << 24);
+        int32_t amax = move->acc_max[a];
+        int32_t acmd = 0;
+        sp_q24_t *px = (a < 3u) ? &m->pose.pos[a] : &m->pose.rpy[a - 3u];
+        sp_q24_t *pv = (a < 3u) ? &m->vel[a] : &m->rpy_rate[a - 3u];
+        sp_q24_t *pa = (a < 3u) ? &m->acc[a] : &m->rpy_acc[a - 3u];
+        if (x[a] == t48 && v[a] == 0) {
+            *px = t;
+            *pv = 0;
+            *pa = 0;
+            continue;
+        }
+        int32_t err = sp_narrow(sp_add64(t48, -x[a], flags), 24u, flags);
+        acmd = sp_sub(sp_mul(g->w2, err, 24u, flags), sp_mul(g->two_w, (int32_t)sp_rshift_round(v[a], 24u), 24u, flags),
+                      flags);
+        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+        v[a] += (int64_t)acmd * g->dt;
+        v[a] = v[a] > vmax ? vmax : (v[a] < -vmax ? -vmax : v[a]);
+        x[a] = sp_add64(x[a], sp_mul64(v[a], g->dt, 24u, flags), flags);
+        *pa = acmd;
+        *pv = (sp_q24_t)sp_rshift_round(v[a], 24u);
+        *px = sp_narrow(x[a], 24u, flags);
+    }
+}
+
+/* sp_stream_step (its fast path for a tick below 1 s and positions below
+ * 64 m, and the saturating one) against plain_stream_step bit for bit:
+ * outputs, state and flags, over random targets near and far (up to the
+ * Q24 range), bandwidths, limits and ticks up to 5 s. */
+static void test_stream_step_reference(void **state)
+{
+    (void)state;
+    uint64_t rng = 83;
+    static const uint32_t ticks[4] = {1000u, 250u, 4000u, 5000000u};
+    int far = 0;
+    for (int n = 0; n < 400; ++n) {
+        sp_stream_gains_t g;
+        sp_move_limits_t move;
+        sp_stream_t s;
+        sp_motion_t from, out, want;
+        int64_t x[6], v[6];
+        double span = (n % 4 == 3) ? 2147483647.0 : 2e7;
+        far += (n % 4 == 3) ? 1 : 0;
+        assert_int_equal(sp_stream_gains(&g, ticks[n % 4], (int32_t)tu_uniform(&rng, 1.0, 60.0) * SP_Q24_ONE), SP_OK);
+        for (int a = 0; a < 6; ++a) {
+            move.vel_max[a] = (int32_t)tu_uniform(&rng, 1e5, 2.1e9);
+            move.acc_max[a] = (int32_t)tu_uniform(&rng, 1e5, 2.1e9);
+            move.jerk_max[a] = SP_Q24_ONE;
+        }
+        sp_motion_at_rest(&from, &P->home);
+        sp_stream_start(&s, &from);
+        for (int a = 0; a < 6; ++a) {
+            x[a] = s.x[a];
+            v[a] = s.v[a];
+        }
+        for (int t = 0; t < 300; ++t) {
+            sp_flags_t f1 = 0u, f2 = 0u;
+            if (t % 60 == 0) {
+                for (int a = 0; a < 3; ++a) {
+                    s.target.pos[a] = (int32_t)tu_uniform(&rng, -span, span);
+                    s.target.rpy[a] = (int32_t)tu_uniform(&rng, -span, span);
+                }
+            }
+            sp_stream_step(&s, &g, &move, &out, &f1);
+            plain_stream_step(x, v, &s.target, &g, &move, &want, &f2);
+            assert_memory_equal(&out, &want, sizeof out);
+            assert_memory_equal(s.x, x, sizeof x);
+            assert_memory_equal(s.v, v, sizeof v);
+            assert_int_equal(f1, f2);
+        }
+    }
+    assert_int_equal(far, 100);
 }
 
 static void test_stream_offer_rules(void **state)
@@ -955,8 +1101,10 @@ int main(void)
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
+        cmocka_unit_test(test_limits_setpoints_reference),
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),
+        cmocka_unit_test(test_stream_step_reference),
         cmocka_unit_test(test_stream_offer_rules),
         cmocka_unit_test(test_estimate_cold_warm_and_failure),
         cmocka_unit_test(test_estimate_step_accuracy),

@@ -488,6 +488,32 @@ static void plain_body_rates(const sp_q30_t sc[6], const sp_q24_t d[3], const sp
     ref_body_rates_sc(s, dv, ddv, w, wd);
 }
 
+/* floor((v + 2^(s-1)) / 2^s): the core's rounding of a row (ties up). */
+static int64_t round_up_shift(int64_t v, unsigned s)
+{
+    return (v + (INT64_C(1) << (s - 1u))) >> s;
+}
+
+/* sp_body_rates_sc's rows on the unit circle as first written: every term,
+ * each row's exact int64 sum rounded once (ties up); for results in range. */
+static void int_body_rates(const sp_q30_t sc[6], const sp_q24_t d[3], const sp_q24_t dd[3], sp_q24_t w[3],
+                           sp_q24_t wd[3])
+{
+    const int64_t one = INT64_C(1) << 30;
+    int64_t sr = sc[0], cr = sc[1], sp = sc[2], cp = sc[3];
+    int64_t cpsr = round_up_shift(cp * sr, 30u), cpcr = round_up_shift(cp * cr, 30u);
+    int64_t spsr = round_up_shift(sp * sr, 30u), spcr = round_up_shift(sp * cr, 30u);
+    int64_t dr = d[0], dp = d[1], dy = d[2];
+    int64_t dp_dr = round_up_shift(dp * dr, 24u), dy_dp = round_up_shift(dy * dp, 24u);
+    int64_t dy_dr = round_up_shift(dy * dr, 24u);
+    w[0] = (sp_q24_t)round_up_shift(dr * one - dy * sp, 30u);
+    w[1] = (sp_q24_t)round_up_shift(dp * cr + dy * cpsr, 30u);
+    w[2] = (sp_q24_t)round_up_shift(dy * cpcr - dp * sr, 30u);
+    wd[0] = (sp_q24_t)round_up_shift(dd[0] * one - dd[2] * sp - dy_dp * cp, 30u);
+    wd[1] = (sp_q24_t)round_up_shift(dd[1] * cr - dp_dr * sr + dd[2] * cpsr - dy_dp * spsr + dy_dr * cpcr, 30u);
+    wd[2] = (sp_q24_t)round_up_shift(dd[2] * cpcr - dd[1] * sr - dp_dr * cr - dy_dp * spcr - dy_dr * cpsr, 30u);
+}
+
 /* sp_body_rates_sc, both paths (sines and cosines on the unit circle, and
  * off it: the saturating path), on 6000 random inputs (rates up to 4 rad/s,
  * accelerations up to 32 rad/s^2, |sin|, |cos| up to 1.25), against
@@ -516,6 +542,11 @@ static void test_body_rates_reference(void **state)
             d[k] = ref_q24(random_rate(&rng, 4.0));
             dd[k] = ref_q24(random_rate(&rng, 32.0));
             sp_sincos_q24(a[k], &sc[2 * k], &sc[2 * k + 1]);
+            if (n % 10 == 7 || (n % 10 == 3 && k < 2)) {
+                /* no turning (the zero path) or yaw alone, on and off the circle */
+                d[k] = 0;
+                dd[k] = 0;
+            }
         }
         if (n % 3 == 2) { /* off the unit circle: up to 1.25 in magnitude */
             for (int k = 0; k < 4; ++k) {
@@ -539,7 +570,17 @@ static void test_body_rates_reference(void **state)
             continue;
         }
         assert_int_equal(st, SP_OK);
+        if (n % 10 == 7) {
+            for (int k = 0; k < 3; ++k) {
+                assert_int_equal(w[k], 0);
+                assert_int_equal(wd[k], 0);
+            }
+        }
         if (n % 3 != 2) {
+            sp_q24_t wi[3], wdi[3];
+            int_body_rates(sc, d, dd, wi, wdi); /* every path equals the rows as first written */
+            assert_memory_equal(w, wi, sizeof w);
+            assert_memory_equal(wd, wdi, sizeof wd);
             assert_memory_equal(w, w2, sizeof w);
             assert_memory_equal(wd, wd2, sizeof wd);
         }
@@ -1098,6 +1139,24 @@ static void test_inverse_kinematics_kept(void **state)
     assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
     assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
     assert_memory_equal(&ikk, &ik, sizeof ik);
+    /* translations only (the surge: the arms kept), then the same keep
+     * for another platform: its arms made afresh (keep.platform) */
+    for (int n = 0; n < 64; ++n) {
+        pose.pos[n % 3] += (int32_t)tu_uniform(&rng, -2e5, 2e5);
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    {
+        sp_platform_t p2;
+        double hz2;
+        random_platform(&rng, &p2, &hz2);
+        pose.pos[2] = (int32_t)(hz2 * 16777216.0);
+        assert_int_equal(sp_inverse_kinematics(&p2, &pose, &ik), SP_OK);
+        assert_int_equal(sp_inverse_kinematics_kept(&p2, &pose, &keep, &ikk), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+        assert_ptr_equal(keep.platform, &p2);
+    }
     assert_int_equal(sp_inverse_kinematics_kept(NULL, &pose, &keep, &ikk), SP_E_ARG);
     assert_int_equal(sp_inverse_kinematics_kept(&p, NULL, &keep, &ikk), SP_E_ARG);
     assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, NULL), SP_E_ARG);

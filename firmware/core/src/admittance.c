@@ -102,6 +102,9 @@ sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_
         s->x_contact = 0;
         s->w_contact = 0;
         s->k_hat = 0;
+        s->damping_k = 0; /* none kept (k >= k_min >= 1) */
+        s->damping_w = 0;
+        s->damping_of_k = 0;
         s->in_contact = 0u;
     }
     st->primed = 0u;
@@ -169,8 +172,15 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, sp_admit_axis_state
     int32_t k = sp_div(adw, (int32_t)clamp64(adx, INT32_MAX), 16u, &flags); /* Q8 / Q24 -> N/m */
     k = (k < cfg->k_min) ? cfg->k_min : ((k > cfg->k_max) ? cfg->k_max : k);
     s->k_hat = k;
-    int32_t d = sp_div((int64_t)k, cfg->crossover, 16u, &flags); /* (N/m) / (rad/s, Q16) */
-    return (d < 1) ? 1 : d;
+    if (k != s->damping_k || cfg->crossover != s->damping_w) {
+        /* a new quotient only for a new k (or crossover): a pure function
+         * of the two, its flags unused */
+        int32_t d = sp_div((int64_t)k, cfg->crossover, 16u, &flags); /* (N/m) / (rad/s, Q16) */
+        s->damping_of_k = (d < 1) ? 1 : d;
+        s->damping_k = k;
+        s->damping_w = cfg->crossover;
+    }
+    return s->damping_of_k;
 }
 
 /* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist),

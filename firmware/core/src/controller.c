@@ -212,6 +212,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->trig.tick = 0u;
     ctrl->trig.stop_tick = UINT32_MAX;
     ctrl->trig.finished = 1;
+    ctrl->trig.fade_tick_us = 0u;
     ctrl->move.duration_ticks = 0u;
     ctrl->move.tick = 0u;
     ctrl->move.from = p->park;
@@ -625,9 +626,8 @@ static void running_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_m
             ctrl->state = SP_STATE_READY;
         }
     } else {
-        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &cfg->move, flags);
-        *ref = ctrl->stream.out;
-        if (ctrl->stream.stopping && sp_stream_settled(&ctrl->stream, &p->home)) {
+        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &cfg->move, ref, flags);
+        if (ctrl->stream.stopping && sp_stream_settled(ref, &p->home)) {
             sp_motion_at_rest(ref, &p->home);
             ctrl->state = SP_STATE_READY;
         }
@@ -640,10 +640,13 @@ static void running_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_m
     }
 }
 
-/* The reference of this tick into *ref, by state. Returns 1 when the drives
+/* The position reference of this tick, by state, written in place into
+ * ctrl->pos_ref (no copy of the motion a tick). Returns 1 when the drives
  * hold (no motion: IDLE, ESTOP, FAULT without the park reaction). */
-static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref, sp_flags_t *flags)
+static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *flags)
 {
+    sp_motion_t *ref = &ctrl->pos_ref;
+    unsigned k;
     switch (ctrl->state) {
     case SP_STATE_ENGAGING:
     case SP_STATE_PARKING:
@@ -655,7 +658,13 @@ static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *
         running_reference(cfg, ctrl, ref, flags);
         return 0;
     case SP_STATE_READY:
-        sp_motion_at_rest(ref, &ctrl->pos_ref.pose);
+        /* at rest where the last position reference was (its pose kept) */
+        for (k = 0u; k < 3u; ++k) {
+            ref->vel[k] = 0;
+            ref->rpy_rate[k] = 0;
+            ref->acc[k] = 0;
+            ref->rpy_acc[k] = 0;
+        }
         return 0;
     case SP_STATE_FAULT:
         if (park_reaction_active(ctrl)) {
@@ -887,21 +896,25 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     ctrl->ft_valid = 1u;
 }
 
-/* Force control over this tick's position reference (READY, RUNNING):
- * *ref becomes the position reference plus force control's offset. A lost
- * contact and a retract after an excessive force latch their faults; a
- * PARK that waited for the release starts the park. */
-SPI_NOINLINE static void force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref)
+/* Force control over this tick's position reference ctrl->pos_ref (READY,
+ * RUNNING): *ref becomes the position reference plus force control's
+ * offset, and 1 is returned; 0 when force control made no reference (the
+ * position reference stands). A lost contact and a retract after an
+ * excessive force latch their faults; a PARK that waited for the release
+ * starts the park. */
+SPI_NOINLINE static int force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref)
 {
     uint32_t events = 0u;
+    int made = 0;
     if (ctrl->state != SP_STATE_READY && ctrl->state != SP_STATE_RUNNING) {
         (void)sp_force_reset(&ctrl->force); /* no computation: coefficients kept */
         ctrl->park_after_release = 0u;
-        return;
+        return 0;
     }
     if (ctrl->force.mode != SP_FORCE_OFF) {
         (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &ctrl->prep.limits, &ctrl->pos_ref,
                             force_wrench(cfg, ctrl), ctrl->est.valid ? &ctrl->est.pose : NULL, ref, &events);
+        made = 1; /* sp_force_step writes *ref whatever its status */
     }
     if ((events & SP_CONTACT_LOST) != 0u) {
         raise_fault(cfg, ctrl, SP_FAULT_CONTACT_LOST);
@@ -913,6 +926,7 @@ SPI_NOINLINE static void force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *c
         ctrl->park_after_release = 0u;
         (void)command_stop(cfg, ctrl, SP_CMD_PARK);
     }
+    return made;
 }
 
 /* ---- 7. divergence, 8. outputs -------------------------------------------- */
@@ -1047,7 +1061,8 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
 sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, sp_ctrl_output_t *out)
 {
     sp_flags_t flags = 0u;
-    sp_motion_t ref;
+    sp_motion_t forced; /* the reference under force control */
+    const sp_motion_t *ref = &ctrl->pos_ref;
     uint32_t fk_iterations;
     int active;
     int comms_ok;
@@ -1072,19 +1087,17 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {
         rejected |= !take_stream_target(cfg, ctrl, &in->stream_target);
     }
-    if (reference(cfg, ctrl, &ref, &flags)) {
-        ctrl->pos_ref = ref;
-        hold_setpoints(ctrl, &ref);
+    if (reference(cfg, ctrl, &flags)) {
+        hold_setpoints(ctrl, ref);
         if (ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) {
             (void)sp_force_reset(&ctrl->force); /* no computation: coefficients kept */
             ctrl->park_after_release = 0u;
         }
     } else {
-        ctrl->pos_ref = ref;
-        if (ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) {
-            force_control(cfg, ctrl, &ref);
+        if ((ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) && force_control(cfg, ctrl, &forced)) {
+            ref = &forced;
         }
-        have_model = motion_setpoints(cfg, ctrl, &ref, flags);
+        have_model = motion_setpoints(cfg, ctrl, ref, flags);
     }
     if ((ctrl->prep.force.contact_ff && ctrl->force.mode == SP_FORCE_FORCE) || ctrl->contact_ff_cols != 0u) {
         contact_ff_prepare(cfg, ctrl); /* out of line: position control pays one test */

@@ -109,10 +109,54 @@ SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsign
     return spi_narrow_floor(acc, 30u, flags);
 }
 
+/* Leg i of a pose from its arm (ik->arm[i]): the leg vector and its
+ * length, one correctly rounded square root of the exact |l|^2. Returns 0
+ * for a leg component of 64 m or more or a leg shorter than 1 mm, else 1. */
+SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+{
+    const int32_t *b = platform->base_joint[i];
+    int32_t l0;
+    int32_t l1;
+    int32_t l2;
+    uint64_t len2;
+    uint32_t hi;
+
+    if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
+        !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
+        !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
+        return 0;
+    }
+    if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
+        return 0; /* a component reaches 64 m */
+    }
+    ik->leg[i][0] = l0;
+    ik->leg[i][1] = l1;
+    ik->leg[i][2] = l2;
+    /* |l|^2, Q48: each |l_c| < 2^30, so the sum is below 3 * 2^60 */
+    len2 = (uint64_t)((int64_t)l0 * l0 + (int64_t)l1 * l1 + (int64_t)l2 * l2);
+    hi = (uint32_t)(len2 >> 32);
+    if (hi != 0u) {
+        /* |l| >= 2^16 (3.9 mm), above the 1 mm minimum. len2 2^z with z
+         * even has its top word in [2^30, 2^32); hi < 3 * 2^28 makes
+         * z >= 2. r = floor(sqrt(len2 2^z)), and floor(2 |l|) =
+         * r >> (z/2 - 1); round(|l|) = (floor(2 |l|) + 1) >> 1 (no
+         * ties: |l|^2 is an integer). Below 2^31. */
+        unsigned z = spi_clz32(hi) & ~1u;
+        uint32_t lo = (uint32_t)len2;
+        uint32_t r = spi_sqrt_norm((hi << z) | (lo >> (32u - z)), lo << z);
+        ik->length[i] = (sp_q24_t)(((r >> ((z >> 1) - 1u)) + 1u) >> 1);
+    } else {
+        ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* below 2^16 */
+        if (ik->length[i] < LEG_LENGTH_MIN) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
- * arms, legs and lengths. Every leg costs three 3-term dot products (exact
- * 64-bit sums, rounded) and one correctly rounded square root of the exact
- * |l|^2. */
+ * arms, legs and lengths. Every leg costs three 3-term dot products for
+ * its arm (exact 64-bit sums, rounded) and leg_of_arm. */
 sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
 {
     sp_flags_t flags = 0u;
@@ -122,48 +166,31 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
         /* copies: the stores to ik below could alias the platform */
         const int32_t a[3] = {platform->platform_joint[i][0], platform->platform_joint[i][1],
                               platform->platform_joint[i][2]};
-        const int32_t *b = platform->base_joint[i];
-        int32_t l0;
-        int32_t l1;
-        int32_t l2;
-        uint64_t len2;
-        uint32_t hi;
-
         ik->arm[i][0] = arm_component(a, &ik->rot, 0u, &flags);
         ik->arm[i][1] = arm_component(a, &ik->rot, 1u, &flags);
         ik->arm[i][2] = arm_component(a, &ik->rot, 2u, &flags);
-        if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
-            !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
-            !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
+        if (!leg_of_arm(platform, pose, ik, i)) {
             return SP_E_RANGE;
-        }
-        if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
-            return SP_E_RANGE; /* a component reaches 64 m */
-        }
-        ik->leg[i][0] = l0;
-        ik->leg[i][1] = l1;
-        ik->leg[i][2] = l2;
-        /* |l|^2, Q48: each |l_c| < 2^30, so the sum is below 3 * 2^60 */
-        len2 = (uint64_t)((int64_t)l0 * l0 + (int64_t)l1 * l1 + (int64_t)l2 * l2);
-        hi = (uint32_t)(len2 >> 32);
-        if (hi != 0u) {
-            /* |l| >= 2^16 (3.9 mm), above the 1 mm minimum. len2 2^z with z
-             * even has its top word in [2^30, 2^32); hi < 3 * 2^28 makes
-             * z >= 2. r = floor(sqrt(len2 2^z)), and floor(2 |l|) =
-             * r >> (z/2 - 1); round(|l|) = (floor(2 |l|) + 1) >> 1 (no
-             * ties: |l|^2 is an integer). Below 2^31. */
-            unsigned z = spi_clz32(hi) & ~1u;
-            uint32_t lo = (uint32_t)len2;
-            uint32_t r = spi_sqrt_norm((hi << z) | (lo >> (32u - z)), lo << z);
-            ik->length[i] = (sp_q24_t)(((r >> ((z >> 1) - 1u)) + 1u) >> 1);
-        } else {
-            ik->length[i] = (sp_q24_t)sp_isqrt64(len2); /* below 2^16 */
-            if (ik->length[i] < LEG_LENGTH_MIN) {
-                return SP_E_RANGE;
-            }
         }
     }
     return sp_flags_status(flags);
+}
+
+/* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone. */
+static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *pose, const sp_q24_t arm[SP_LEGS][3],
+                                sp_ik_t *ik)
+{
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        ik->arm[i][0] = arm[i][0];
+        ik->arm[i][1] = arm[i][1];
+        ik->arm[i][2] = arm[i][2];
+        if (!leg_of_arm(platform, pose, ik, i)) {
+            return SP_E_RANGE;
+        }
+    }
+    return SP_OK;
 }
 
 /* The unit vectors u = l / |l| (Q24 / Q24 -> Q30) of a successful
@@ -235,7 +262,32 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     for (k = 0u; k < 6u; ++k) {
         ik->sc[k] = keep->sc[k];
     }
-    st = spi_ik_lengths(platform, pose, ik);
+    if (changed) {
+        /* a turning reference: the plain IK, no arms kept (keeping them
+         * would cost the turning ticks) */
+        keep->arms_valid = 0u;
+        st = spi_ik_lengths(platform, pose, ik);
+    } else {
+        if (!keep->arms_valid || keep->platform != platform) {
+            /* the orientation held a second tick: its arms, as
+             * spi_ik_lengths makes them (functions of T and the platform
+             * only), kept for the ticks it holds on */
+            keep->arm_flags = 0u;
+            for (k = 0u; k < SP_LEGS; ++k) {
+                const int32_t a[3] = {platform->platform_joint[k][0], platform->platform_joint[k][1],
+                                      platform->platform_joint[k][2]};
+                keep->arm[k][0] = arm_component(a, &keep->rot, 0u, &keep->arm_flags);
+                keep->arm[k][1] = arm_component(a, &keep->rot, 1u, &keep->arm_flags);
+                keep->arm[k][2] = arm_component(a, &keep->rot, 2u, &keep->arm_flags);
+            }
+            keep->platform = platform;
+            keep->arms_valid = 1u;
+        }
+        st = ik_legs_kept(platform, pose, (const sp_q24_t(*)[3])keep->arm, ik);
+        if (st == SP_OK) {
+            st = sp_flags_status(keep->arm_flags); /* spi_ik_lengths' status */
+        }
+    }
     if (st == SP_OK) {
         spi_ik_units(ik);
     }
@@ -372,6 +424,15 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
         return SP_E_ARG;
     }
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_rate[2] | rpy_acc[0] | rpy_acc[1] | rpy_acc[2]) == 0) {
+        /* no turning (a translation, rest): every product below is 0 and
+         * each row rounds to 0 exactly, for any sc */
+        for (unsigned k = 0u; k < 3u; ++k) {
+            omega[k] = 0;
+            omega_dot[k] = 0;
+        }
+        return SP_OK;
+    }
     sr = sc[0];
     cr = sc[1];
     sp = sc[2];
@@ -388,11 +449,23 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
      * saturated (SP_E_OVERFLOW) beyond int32. */
     cpsr = spi_mul30_up(cp, sr);
     cpcr = spi_mul30_up(cp, cr);
-    spsr = spi_mul30_up(sp, sr);
-    spcr = spi_mul30_up(sp, cr);
     dr = rpy_rate[0];
     dp = rpy_rate[1];
     dy = rpy_rate[2];
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_acc[0] | rpy_acc[1]) == 0) {
+        /* turning in yaw alone: the rows below with their zero terms
+         * left out (each exactly 0, and every product of two rates is 0),
+         * the same sums rounded the same way */
+        omega[0] = spi_narrow_floor(half - dy * sp, 30u, &flags);
+        omega[1] = spi_narrow_floor(dy * cpsr + half, 30u, &flags);
+        omega[2] = spi_narrow_floor(dy * cpcr + half, 30u, &flags);
+        omega_dot[0] = spi_narrow_floor(half - (int64_t)rpy_acc[2] * sp, 30u, &flags);
+        omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[2] * cpsr + half, 30u, &flags);
+        omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr + half, 30u, &flags);
+        return sp_flags_status(flags);
+    }
+    spsr = spi_mul30_up(sp, sr);
+    spcr = spi_mul30_up(sp, cr);
 
     /* eq (10) */
     omega[0] = spi_narrow_floor(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);

@@ -122,10 +122,22 @@ int sp_limits_setpoints_ok(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS
 {
     const sp_q24_t vmax = lim->rate_max;
     const sp_q8_t fmax = lim->force_max;
+    uint32_t lspan;
+    uint32_t vspan;
+    uint32_t fspan;
     unsigned i;
+    if (lim->length_min > lim->length_max || vmax < 0 || fmax < 0) {
+        return 0; /* no value lies in an empty interval */
+    }
+    /* each test lo <= x <= hi as one unsigned compare, (x - lo) mod 2^32
+     * <= hi - lo (exact for int32 x, lo <= hi); |x| <= m as x + m in
+     * [0, 2 m] (m <= 2^31 - 1: 2 m fits uint32) */
+    lspan = (uint32_t)lim->length_max - (uint32_t)lim->length_min;
+    vspan = 2u * (uint32_t)vmax;
+    fspan = 2u * (uint32_t)fmax;
     for (i = 0u; i < SP_LEGS; ++i) {
-        if (length[i] < lim->length_min || length[i] > lim->length_max || rate[i] > vmax || rate[i] < -vmax ||
-            force[i] > fmax || force[i] < -fmax) {
+        if ((uint32_t)length[i] - (uint32_t)lim->length_min > lspan || (uint32_t)rate[i] + (uint32_t)vmax > vspan ||
+            (uint32_t)force[i] + (uint32_t)fmax > fspan) {
             return 0;
         }
     }

@@ -4,6 +4,10 @@
 
 /* Settled: within 1 um (1 urad) and 1 um/s (1 urad/s), Q24. */
 #define STREAM_SETTLED INT32_C(16)
+/* stream_axis' fast path: a tick below 1 s (dt < 2^24, Q24) and a state
+ * position below 64 m (2^54, Q48) */
+#define STREAM_DT_FAST (INT32_C(1) << 24)
+#define STREAM_X_FAST (INT64_C(1) << 54)
 
 sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega)
 {
@@ -21,7 +25,6 @@ sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t ome
 void sp_stream_start(sp_stream_t *s, const sp_motion_t *from)
 {
     unsigned i;
-    s->out = *from;
     s->target = from->pose;
     s->stopping = 0u;
     s->anchor_valid = 0u;
@@ -104,6 +107,26 @@ SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32
         *x = target;
         return;
     }
+    if (g->dt < STREAM_DT_FAST && x48 < STREAM_X_FAST && x48 > -STREAM_X_FAST) {
+        /* the common case (a tick below 1 s, |x| below 64 m): the same
+         * values as below with no sum that can overflow. |target48 - x48|
+         * < 2^55 + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step
+         * |v48 dt / 2^24| < 2^55 and |x48| stays below 2^56: neither
+         * spi_add64 saturates and every rounded value is below 2^62 */
+        int32_t vq = (int32_t)spi_round_away(v48, 24u);
+        err = spi_sat(spi_round_away(target48 - x48, 24u), flags);
+        acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, vq, 24u, flags), flags);
+        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+        v48 += (int64_t)acmd * g->dt; /* Q48 */
+        v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+        x48 += spi_mul64_up(v48, g->dt, 24u, flags);
+        *v48p = v48;
+        *x48p = x48;
+        *acc = acmd;
+        *v = (sp_q24_t)spi_round_away(v48, 24u);
+        *x = spi_sat(spi_round_away(x48, 24u), flags);
+        return;
+    }
     /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
      * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
     err = spi_narrow_away(spi_add64(target48, -x48, flags), 24u, flags);
@@ -120,9 +143,9 @@ SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32
     *x = spi_narrow_away(x48, 24u, flags);
 }
 
-void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_flags_t *flags)
+void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_motion_t *m,
+                    sp_flags_t *flags)
 {
-    sp_motion_t *m = &s->out;
     unsigned a;
     *flags |= g->flags;
     for (a = 0u; a < 3u; ++a) {
@@ -133,9 +156,8 @@ void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_li
     }
 }
 
-int sp_stream_settled(const sp_stream_t *s, const sp_pose_t *pose)
+int sp_stream_settled(const sp_motion_t *m, const sp_pose_t *pose)
 {
-    const sp_motion_t *m = &s->out;
     unsigned k;
     for (k = 0u; k < 3u; ++k) {
         if (spi_farther(m->pose.pos[k], pose->pos[k], STREAM_SETTLED) ||

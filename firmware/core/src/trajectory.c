@@ -82,6 +82,7 @@ sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis,
     g->tick = 0u;
     g->phase = 0u;
     g->stop_tick = UINT32_MAX;
+    g->fade_tick_us = 0u;
     if (centre == NULL) {
         return SP_E_ARG;
     }
@@ -124,10 +125,18 @@ static int32_t inv_duration_q24(uint64_t dt_us, sp_flags_t *flags)
 }
 
 /* The envelope's rate during a fade, 1/s in Q24: fade_ticks * tick_us is in
- * [1e5, 6e7] (sp_trig_start). */
-static int32_t fade_rate(const sp_trig_t *g, uint32_t tick_us, sp_flags_t *flags)
+ * [1e5, 6e7] (sp_trig_start). Made once per motion (and whenever the tick
+ * length changes) and kept with its flags: the same value and flags every
+ * fade tick. */
+static int32_t fade_rate(sp_trig_t *g, uint32_t tick_us, sp_flags_t *flags)
 {
-    return inv_duration_q24((uint64_t)g->fade_ticks * tick_us, flags);
+    if (g->fade_tick_us != tick_us) {
+        g->fade_flags = 0u;
+        g->fade_rate = inv_duration_q24((uint64_t)g->fade_ticks * tick_us, &g->fade_flags);
+        g->fade_tick_us = tick_us;
+    }
+    *flags |= g->fade_flags;
+    return g->fade_rate;
 }
 
 sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
@@ -188,11 +197,20 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     /* offset = A s e; velocity = A (w c e + s e');
      * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24. */
     wc = spi_mul_away(g->omega, c, 30u, &flags);
-    pos = spi_round_away((int64_t)spi_mul_away(s, e, 30u, &flags), 6u); /* s e, Q24 */
-    vel = (int64_t)spi_mul_away(wc, e, 30u, &flags) + spi_mul_away(de, s, 30u, &flags);
-    acc = -(int64_t)spi_mul_away(spi_mul_away(spi_mul_away(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e, 30u,
-                                 &flags) +
-          2 * (int64_t)spi_mul_away(wc, de, 24u, &flags) + spi_mul_away(dde, s, 30u, &flags);
+    if (rate == 0) {
+        /* at full amplitude, e = 1 (2^30) and e' = e'' = 0: a product by
+         * e is its other factor exactly (round(x 2^30 / 2^30) = x, no
+         * saturation), those by e' and e'' are 0: the same values */
+        pos = spi_round_away(s, 6u);
+        vel = wc;
+        acc = -(int64_t)spi_mul_away(spi_mul_away(g->omega, g->omega, 24u, &flags), s, 30u, &flags);
+    } else {
+        pos = spi_round_away((int64_t)spi_mul_away(s, e, 30u, &flags), 6u); /* s e, Q24 */
+        vel = (int64_t)spi_mul_away(wc, e, 30u, &flags) + spi_mul_away(de, s, 30u, &flags);
+        acc = -(int64_t)spi_mul_away(spi_mul_away(spi_mul_away(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e,
+                                     30u, &flags) +
+              2 * (int64_t)spi_mul_away(wc, de, 24u, &flags) + spi_mul_away(dde, s, 30u, &flags);
+    }
 
     a = (unsigned)g->axis;
     *axis_ref(&out->pose, a) =

@@ -58,20 +58,30 @@ sp_status_t sp_inverse_kinematics(const sp_platform_t *platform, const sp_pose_t
 
 /** The orientation of the last pose given to sp_inverse_kinematics_kept:
  *  its angles, their sines and cosines and T, kept so that an angle that
- *  repeats costs no sine. Set valid to 0 before the first call. */
+ *  repeats costs no sine; and once an orientation repeats (a translation,
+ *  e.g. the surge), the legs' arms A_im T, so that it costs no arm. Set
+ *  valid to 0 before the first call. */
 typedef struct {
-    sp_q24_t rpy[3]; /**< the angles sc and rot are of, rad, Q24 */
-    sp_q30_t sc[6];  /**< sin, cos of rpy (sp_sincos_q24), Q30 */
-    sp_rot_t rot;    /**< T of rpy */
-    uint8_t valid;   /**< 1 when rpy, sc and rot belong together */
+    sp_q24_t rpy[3];               /**< the angles sc and rot are of, rad, Q24 */
+    sp_q30_t sc[6];                /**< sin, cos of rpy (sp_sincos_q24), Q30 */
+    sp_rot_t rot;                  /**< T of rpy */
+    sp_q24_t arm[SP_LEGS][3];      /**< the arms A_im T of `platform` at rot, m, Q24 */
+    sp_flags_t arm_flags;          /**< SP_FLAG_OVERFLOW when an arm saturated */
+    const sp_platform_t *platform; /**< the platform the arms are of */
+    uint8_t arms_valid;            /**< 1 when arm, arm_flags and platform belong to rot */
+    uint8_t valid;                 /**< 1 when rpy, sc and rot belong together */
 } sp_orient_keep_t;
 
 /**
  * sp_inverse_kinematics with the orientation kept from the last call in
  * *keep: each angle equal to the kept one takes its kept sine and cosine,
- * and T is rebuilt only when an angle changed. The sines are a pure
- * function of the angle, so the result is sp_inverse_kinematics' bit for
- * bit (tests/unit/test_kinematics.c). keep NULL: sp_inverse_kinematics.
+ * and T is rebuilt only when an angle changed; the legs' arms are made
+ * once an orientation repeats and kept while it holds (made again for
+ * another platform pointer). The sines are a pure function of the angle,
+ * the arms of T and the platform, so the result is sp_inverse_kinematics'
+ * bit for bit (tests/unit/test_kinematics.c); a platform changed in place
+ * under the same pointer needs valid set to 0. keep NULL:
+ * sp_inverse_kinematics.
  * *keep is updated to this pose's orientation whatever the status (the
  * orientation cannot fail). Errors as sp_inverse_kinematics.
  */

@@ -26,7 +26,6 @@ typedef struct {
 
 /** The filter's state. */
 typedef struct {
-    sp_motion_t out;                 /**< the filter's output: pose, velocity, acceleration, Q24 */
     int64_t x[6];                    /**< position per axis (x, y, z, roll, pitch, yaw), m or rad, Q48 */
     int64_t v[6];                    /**< velocity per axis, m/s or rad/s, Q48 */
     sp_pose_t target;                /**< the target in force */
@@ -46,8 +45,8 @@ typedef struct {
 sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega);
 
 /** Starts the filter at `from` (the controller starts it from READY, at
- *  rest): the output is *from, the state from's pose with zero velocity,
- *  the target from's pose; no anchor, not stopping. */
+ *  rest): the state from's pose with zero velocity, the target from's
+ *  pose; no anchor, not stopping. */
 void sp_stream_start(sp_stream_t *s, const sp_motion_t *from);
 
 /** Sends the filter to `home` for good: the target becomes home, and no
@@ -68,15 +67,18 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
                     const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS]);
 
 /**
- * One tick of the filter towards the target: s->out becomes the reference
- * of this tick. Axis a's velocity and acceleration are limited to
- * move->vel_max[a] and move->acc_max[a]. Intermediates saturate and set
- * SP_FLAG_OVERFLOW in *flags (never NULL), as do the gains' flags.
+ * One tick of the filter towards the target: *out (every field) becomes
+ * the reference of this tick: pose, velocity, acceleration, Q24. The filter
+ * keeps no copy of it (the controller has it written where it is used).
+ * Axis a's velocity and acceleration are limited to move->vel_max[a] and
+ * move->acc_max[a]. Intermediates saturate and set SP_FLAG_OVERFLOW in
+ * *flags (never NULL), as do the gains' flags.
  */
-void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_flags_t *flags);
+void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_motion_t *out,
+                    sp_flags_t *flags);
 
-/** 1 when the output is within 1 um (1 urad) of `pose` and slower than
- *  1 um/s (1 urad/s) on every axis, else 0. */
-int sp_stream_settled(const sp_stream_t *s, const sp_pose_t *pose);
+/** 1 when the filter's output m (sp_stream_step's) is within 1 um (1 urad)
+ *  of `pose` and slower than 1 um/s (1 urad/s) on every axis, else 0. */
+int sp_stream_settled(const sp_motion_t *m, const sp_pose_t *pose);
 
 #endif /* SP_STREAM_H */

@@ -42,19 +42,23 @@ void sp_motion_at_rest(sp_motion_t *m, const sp_pose_t *pose);
  * increment per tick: it wraps modulo one cycle by design, without drift.
  */
 typedef struct {
-    sp_pose_t centre;    /**< pose the motion is about */
-    sp_axis_t axis;      /**< which axis moves */
-    sp_q24_t amplitude;  /**< m or rad, Q24 */
-    sp_q24_t omega;      /**< 2 pi f, rad/s, Q24 */
-    uint32_t phase_step; /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
-    uint32_t phase;      /**< current phase, 2^-32 turn */
-    uint32_t fade_ticks; /**< fade-in and fade-out length, ticks */
-    uint32_t tick;       /**< ticks since start while they matter: it stops at fade_ticks once the
+    sp_pose_t centre;      /**< pose the motion is about */
+    sp_axis_t axis;        /**< which axis moves */
+    sp_q24_t amplitude;    /**< m or rad, Q24 */
+    sp_q24_t omega;        /**< 2 pi f, rad/s, Q24 */
+    uint32_t phase_step;   /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
+    uint32_t phase;        /**< current phase, 2^-32 turn */
+    uint32_t fade_ticks;   /**< fade-in and fade-out length, ticks */
+    uint32_t tick;         /**< ticks since start while they matter: it stops at fade_ticks once the
                               fade-in is done and counts again from the stop, so a motion that runs
                               for any time (2^32 ticks are 49.7 days) can still be stopped; it never
                               reaches the stop_tick sentinel (at most 2 fade_ticks) */
-    uint32_t stop_tick;  /**< tick at which the fade-out began (UINT32_MAX: none yet) */
-    int finished;        /**< 1 once the fade-out has ended: output is the centre, at rest */
+    uint32_t stop_tick;    /**< tick at which the fade-out began (UINT32_MAX: none yet) */
+    int finished;          /**< 1 once the fade-out has ended: output is the centre, at rest */
+    uint32_t fade_tick_us; /**< the tick length fade_rate was computed for (0: none) */
+    sp_q24_t fade_rate;    /**< the envelope's rate in a fade, 1 / (fade_ticks tick), 1/s, Q24 (kept by
+                                 sp_trig_step: a division once per motion, not per fade tick) */
+    sp_flags_t fade_flags; /**< its flags (SP_FLAG_OVERFLOW when it saturated), passed on each fade tick */
 } sp_trig_t;
 
 /**
