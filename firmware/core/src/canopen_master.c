@@ -232,6 +232,9 @@ sp_status_t sp_co_master_start(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
         restart_node(&m->node[k], now_ms);
         (void)sp_co_plan_build(cfg, k, plan, &m->node[k].plan_n);
     }
+    for (k = 0u; k < cfg->n_nodes; k++) { /* checked above: bus < SP_CAN_BUSES, id <= 127 */
+        m->node_of[cfg->node[k].bus][cfg->node[k].node_id] = (uint8_t)(k + 1u);
+    }
     m->started = 1u;
     m->hb_sent = now_ms; /* the master's first heartbeat one period after the start */
     m->last_req = SP_CO_REQ_DISABLED;
@@ -399,15 +402,35 @@ static sp_status_t on_sdo(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8
     return SP_OK;
 }
 
-static int node_index(const sp_co_master_cfg_t *cfg, uint8_t bus, uint8_t id)
+static int node_index(const sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint8_t bus, uint8_t id)
 {
     uint8_t k;
+    if (bus < SP_CAN_BUSES) { /* the table of the start; valid while the config still says so */
+        k = m->node_of[bus][id];
+        if (k != 0u && k <= cfg->n_nodes && k <= SP_CO_MAX_NODES && cfg->node[k - 1u].bus == bus &&
+            cfg->node[k - 1u].node_id == id) {
+            return (int)k - 1;
+        }
+    }
     for (k = 0u; k < cfg->n_nodes && k < SP_CO_MAX_NODES; k++) {
         if (cfg->node[k].bus == bus && cfg->node[k].node_id == id) {
             return (int)k;
         }
     }
     return -1;
+}
+
+/* Little-endian fields of a received PDO (as sp_co_tpdo1_parse and
+ * sp_co_tpdo2_parse read them; the tests compare the two). */
+static uint16_t le16(const uint8_t *p)
+{
+    return (uint16_t)((uint32_t)p[0] | ((uint32_t)p[1] << 8));
+}
+
+static int32_t le32_signed(const uint8_t *p)
+{
+    uint32_t v = (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+    return v <= (uint32_t)INT32_MAX ? (int32_t)v : (int32_t)(v - 0x80000000u) - INT32_MAX - 1;
 }
 
 static void on_heartbeat(sp_co_node_t *nd, uint8_t state, uint32_t now_ms)
@@ -453,8 +476,11 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
     }
     base = f->id & 0x780u; /* function code: the identifier's top 4 bits */
     id = (uint8_t)(f->id & 0x7Fu);
-    k = node_index(cfg, f->bus, id);
-    if (k < 0 || id == 0u) {
+    if (id == 0u) {
+        return SP_OK;
+    }
+    k = node_index(m, cfg, f->bus, id);
+    if (k < 0) {
         return SP_OK;
     }
     nd = &m->node[k];
@@ -478,29 +504,24 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
         }
         return SP_OK;
     }
-    case SP_CO_COB_TPDO1: {
-        uint16_t status;
-        int32_t actual;
-        if (sp_co_tpdo1_parse(f, id, &status, &actual) != SP_OK) {
+    case SP_CO_COB_TPDO1: /* the mapping is fixed by the plan: status word, then the position */
+        if (f->len != 6u || f->id > 0x7FFu) {
             return SP_E_FRAME;
         }
-        nd->status = status;
-        nd->actual = actual;
+        nd->status = le16(&f->data[0]);
+        nd->actual = le32_signed(&f->data[2]);
         nd->tpdo1_last = now_ms;
         nd->tpdo1_seen = 1u;
         nd->tpdo1_fresh = 1u;
         return SP_OK;
-    }
-    case SP_CO_COB_TPDO2: {
-        uint16_t pa, pb;
-        if (sp_co_tpdo2_parse(f, id, &pa, &pb) != SP_OK) {
+    case SP_CO_COB_TPDO2: /* chamber pressures A, B */
+        if (f->len != 4u || f->id > 0x7FFu) {
             return SP_E_FRAME;
         }
-        nd->pa_kpa = pa;
-        nd->pb_kpa = pb;
+        nd->pa_kpa = le16(&f->data[0]);
+        nd->pb_kpa = le16(&f->data[2]);
         nd->tpdo2_fresh = 1u;
         return SP_OK;
-    }
     case SP_CO_COB_SDO_TX:
         return on_sdo(nd, cfg, (uint8_t)k, f, now_ms);
     default:
@@ -553,37 +574,59 @@ static uint32_t wanted_bits(const sp_co_node_cfg_t *nc, sp_co_request_t eff)
                                                      : sp_co408_status_bits(sp_co408_target(eff));
 }
 
-static int shows_target(const sp_co_node_cfg_t *nc, uint16_t status, sp_co_request_t eff)
+/* The node's status word decoded by its profile (seen_state, seen_fault),
+ * again only when the word (or the profile) changed since the last time:
+ * the word arrives every SYNC and changes with the device state only. */
+static void decode_status(sp_co_node_t *nd, const sp_co_node_cfg_t *nc)
 {
-    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_state(status) == sp_co402_target(eff)
-                                                     : sp_co408_state(status) == sp_co408_target(eff);
+    uint8_t profile =
+        nc->profile == (uint8_t)SP_CO_PROFILE_402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
+    if (nd->seen_valid && nd->seen_status == nd->status && nd->seen_profile == profile) {
+        return;
+    }
+    if (profile == (uint8_t)SP_CO_PROFILE_402) {
+        sp_co402_state_t st = sp_co402_state(nd->status);
+        nd->seen_state = (uint8_t)st;
+        nd->seen_fault = (uint8_t)(sp_co402_is_fault(st) != 0);
+    } else {
+        sp_co408_state_t st = sp_co408_state(nd->status);
+        nd->seen_state = (uint8_t)st;
+        nd->seen_fault = (uint8_t)(sp_co408_is_fault(st) != 0);
+    }
+    nd->seen_status = nd->status;
+    nd->seen_profile = profile;
+    nd->seen_valid = 1u;
 }
 
-static int shows_fault(const sp_co_node_cfg_t *nc, uint16_t status)
+/* The state a request leads to, per profile (index sp_co_profile_t). */
+typedef struct {
+    uint8_t state[2];
+} targets_t;
+
+static int shows_target(const sp_co_node_t *nd, const targets_t *t)
 {
-    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_is_fault(sp_co402_state(status))
-                                                     : sp_co408_is_fault(sp_co408_state(status));
+    return nd->seen_state == t->state[nd->seen_profile == (uint8_t)SP_CO_PROFILE_402 ? 1 : 0];
 }
 
-/* The status word against the effective request, every tick: a fault state
- * latches at once (except while a fault reset is under way), leaving the
- * requested state once reached latches too; not reaching it is the caller's
- * timeout. */
-static void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, uint32_t now)
+/* The status word against the effective request, every tick (decoded:
+ * decode_status): a fault state latches at once (except while a fault
+ * reset is under way), leaving the requested state once reached latches
+ * too; not reaching it is the caller's timeout. */
+static void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
+                        uint32_t now)
 {
-    uint32_t want = wanted_bits(nc, eff);
     if (nd->phase != SP_CO_PHASE_RUN || !nd->tpdo1_seen || nd->fault.code != (uint8_t)SP_CO_F_NONE) {
         return;
     }
-    if (shows_target(nc, nd->status, eff)) {
+    if (shows_target(nd, t)) {
         nd->state_ok = 1u;
         nd->resetting = 0u;
         return;
     }
-    if (shows_fault(nc, nd->status) && !nd->resetting) {
-        latch(nd, SP_CO_F_DEVICE_FAULT, 0u, 0u, nd->status, want, now);
+    if (nd->seen_fault && !nd->resetting) {
+        latch(nd, SP_CO_F_DEVICE_FAULT, 0u, 0u, nd->status, wanted_bits(nc, eff), now);
     } else if (nd->state_ok) {
-        latch(nd, SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status, want, now);
+        latch(nd, SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status, wanted_bits(nc, eff), now);
     }
 }
 
@@ -598,7 +641,7 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
 {
     int faulted = nd->fault.code != (uint8_t)SP_CO_F_NONE;
     if (nc->profile == (uint8_t)SP_CO_PROFILE_402) {
-        sp_co402_state_t s = sp_co402_state(nd->status);
+        sp_co402_state_t s = (sp_co402_state_t)nd->seen_state; /* decode_status: this tick's word */
         uint16_t cw = sp_co402_control_word(s, sp_co402_target(eff), nd->reset_edge != 0u, faulted);
         int32_t target;
         if (s != SP_CO402_OPERATION_ENABLED) {
@@ -636,6 +679,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     uint8_t k, all_running = 1u, any_fault = 0u, ready = 1u, sync_tick;
     uint32_t now;
     sp_co_request_t eff;
+    targets_t targets;
     if (m == NULL || cfg == NULL || in == NULL || out == NULL || cfg->n_nodes > SP_CO_MAX_NODES ||
         cfg->sync_divider == 0u) {
         return SP_E_ARG;
@@ -662,7 +706,8 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
         uint8_t n = 0u;
         uint16_t index;
         uint8_t sub;
-        if (nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK) {
+        int sdo_phase = nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK;
+        if (sdo_phase) {
             (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
         }
         timeouts(nd, cfg, pr, plan, now);
@@ -672,7 +717,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
                 nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
             nd->phase_since = now;
             nd->nmt_pending = 0u;
-        } else if (!nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
+        } else if (sdo_phase && !nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
             sp_can_frame_t *f = &out->tx[out->n_tx++];
             if (nd->phase == SP_CO_PHASE_WRITE) {
                 (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
@@ -703,6 +748,8 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     } else if ((!all_running || any_fault) && eff == SP_CO_REQ_ACTIVE) {
         eff = SP_CO_REQ_HOLD; /* a drive restarting or faulted: the others hold where they are */
     }
+    targets.state[0] = (uint8_t)sp_co408_target(eff);
+    targets.state[1] = (uint8_t)sp_co402_target(eff);
     if ((uint8_t)eff != m->last_req) {
         m->last_req = (uint8_t)eff;
         for (k = 0u; k < cfg->n_nodes; k++) {
@@ -712,11 +759,12 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     }
     for (k = 0u; k < cfg->n_nodes; k++) {
         sp_co_node_t *nd = &m->node[k];
-        check_state(nd, &cfg->node[k], eff, now);
+        decode_status(nd, &cfg->node[k]);
+        check_state(nd, &cfg->node[k], eff, &targets, now);
         if (nd->phase == SP_CO_PHASE_RUN && !nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
             now - nd->req_since > cfg->state_timeout_ms) {
-            latch(nd, shows_fault(&cfg->node[k], nd->status) ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u,
-                  nd->status, wanted_bits(&cfg->node[k], eff), now);
+            latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
+                  wanted_bits(&cfg->node[k], eff), now);
         }
         if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
             out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
