@@ -437,6 +437,84 @@ static void test_scaling(void **state)
     assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
 }
 
+/* The plain int64 conversions the 32-bit ones replaced (canopen_scaling.h):
+ * the same factors, the sign carried through a 64-bit difference; the
+ * values and statuses must be equal bit for bit (the bytes on the bus). */
+static int32_t ref_sat32(int64_t v, sp_status_t *st)
+{
+    if (v > INT32_MAX || v < INT32_MIN) {
+        *st = SP_E_OVERFLOW;
+        return v > 0 ? INT32_MAX : INT32_MIN;
+    }
+    return (int32_t)v;
+}
+
+static int64_t ref_signed_round(int64_t sign, uint64_t mag, unsigned shift)
+{
+    int64_t q = (int64_t)((mag + ((uint64_t)1 << (shift - 1u))) >> shift);
+    return sign < 0 ? -q : q;
+}
+
+static sp_status_t ref_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count)
+{
+    sp_status_t st = SP_OK;
+    int64_t diff = ((int64_t)length_q24 - (int64_t)s->zero_q24) * s->direction;
+    *count = ref_sat32(ref_signed_round(diff, (uint64_t)(diff < 0 ? -diff : diff) * s->count_per_q24, 24u), &st);
+    return st;
+}
+
+static sp_status_t ref_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24)
+{
+    sp_status_t st = SP_OK;
+    int64_t c = (int64_t)count * s->direction, q24;
+    if (c > s->count_limit || c < -s->count_limit) {
+        *length_q24 = c > 0 ? INT32_MAX : INT32_MIN;
+        return SP_E_OVERFLOW;
+    }
+    q24 = ref_signed_round(c, (uint64_t)(c < 0 ? -c : c) * s->q24_per_count_q28, 28u);
+    *length_q24 = ref_sat32((int64_t)s->zero_q24 + q24, &st);
+    return st;
+}
+
+static void test_scaling_reference(void **state)
+{
+    static const uint32_t nms[] = {1u, 2u, 3u, 100u, 999u, 1000u, 7919u, 65536u, 999999u, 1000000u};
+    static const int32_t zeros[] = {0, 0x01D99999, -0x01D99999, INT32_MAX, INT32_MIN};
+    static const int32_t edges[] = {0, 1, -1, 2, -2, INT32_MAX, INT32_MIN, INT32_MAX - 1, INT32_MIN + 1, 0x01000000};
+    sp_co_scaling_t s;
+    uint32_t k, z, seed = 777u;
+    int32_t i;
+    (void)state;
+    memset(&s, 0, sizeof s);
+    for (k = 0u; k < sizeof nms / sizeof nms[0]; k++) {
+        for (z = 0u; z < sizeof zeros / sizeof zeros[0]; z++) {
+            int dir;
+            for (dir = -1; dir <= 1; dir += 2) {
+                s.nm_per_count = nms[k];
+                s.zero_q24 = zeros[z];
+                s.direction = (int8_t)dir;
+                assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+                for (i = 0; i < 3000; i++) {
+                    int32_t v, a = 0, b = 0;
+                    seed = seed * 1664525u + 1013904223u;
+                    if (i < (int32_t)(sizeof edges / sizeof edges[0])) {
+                        v = edges[i];
+                    } else if (i & 1) {
+                        v = (int32_t)(seed >> 1); /* the whole int32 range */
+                        v = (seed & 2u) != 0u ? -v - 1 : v;
+                    } else {
+                        v = zeros[z] / 2 + (int32_t)(seed >> 6) - 0x02000000; /* near the zero */
+                    }
+                    assert_int_equal(sp_co_length_to_count(&s, v, &a), ref_to_count(&s, v, &b));
+                    assert_int_equal(a, b);
+                    assert_int_equal(sp_co_count_to_length(&s, v, &a), ref_to_length(&s, v, &b));
+                    assert_int_equal(a, b);
+                }
+            }
+        }
+    }
+}
+
 static void test_master_input_checks(void **state)
 {
     sp_co_master_t m;
@@ -827,6 +905,7 @@ int main(void)
         cmocka_unit_test(test_plan),
         cmocka_unit_test(test_cfg_check),
         cmocka_unit_test(test_scaling),
+        cmocka_unit_test(test_scaling_reference),
         cmocka_unit_test(test_master_input_checks),
         cmocka_unit_test(test_link),
         cmocka_unit_test(test_link_wrench_validity),

@@ -1,6 +1,8 @@
 /* canopen_master.c - the CANopen master of CiA 408 and CiA 402 drives (sp/canopen_master.h). */
 #include "sp/canopen_master.h"
 
+#include "canopen_scaling.h"
+
 /* What differs between the two profiles, as data: the device type, the
  * PDO mappings of RPDO1 (the force feed-forward third, CiA 408 only) and
  * TPDO1, and the object read back after the plan (0: none). */
@@ -485,14 +487,12 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
     }
     nd = &m->node[k];
     switch (base) {
-    case SP_CO_COB_HEARTBEAT: {
-        uint8_t node, state;
-        if (sp_co_heartbeat_parse(f, &node, &state) != SP_OK) {
+    case SP_CO_COB_HEARTBEAT: /* as sp_co_heartbeat_parse reads it: 1 byte, the toggle bit masked off */
+        if (f->len != 1u || f->id > 0x7FFu) {
             return SP_E_FRAME;
         }
-        on_heartbeat(nd, state, now_ms);
+        on_heartbeat(nd, (uint8_t)(f->data[0] & 0x7Fu), now_ms);
         return SP_OK;
-    }
     case SP_CO_COB_EMCY: {
         uint8_t node, reg;
         uint16_t code;
@@ -529,6 +529,16 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
     }
 }
 
+/* A running node's timeouts: heartbeat, then TPDO1. */
+static void run_timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint32_t now)
+{
+    if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
+        latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
+    } else if (now - nd->tpdo1_last > cfg->pdo_timeout_ms) {
+        latch(nd, SP_CO_F_PDO_TIMEOUT, 0u, 0u, now - nd->tpdo1_last, cfg->pdo_timeout_ms, now);
+    }
+}
+
 static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const profile_t *pr,
                      const sp_co_sdo_write_t *plan, uint32_t now)
 {
@@ -554,11 +564,7 @@ static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const prof
         }
         break;
     case SP_CO_PHASE_RUN:
-        if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
-            latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
-        } else if (now - nd->tpdo1_last > cfg->pdo_timeout_ms) {
-            latch(nd, SP_CO_F_PDO_TIMEOUT, 0u, 0u, now - nd->tpdo1_last, cfg->pdo_timeout_ms, now);
-        }
+        run_timeouts(nd, cfg, now);
         break;
     default:
         break;
@@ -635,14 +641,16 @@ static int emit(sp_co_master_output_t *out)
     return out->n_tx < SP_CO_MAX_TX;
 }
 
-/* One node's RPDO1 of a SYNC tick under the effective request eff. */
-static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, int32_t setpoint,
-                      int16_t force, sp_can_frame_t *f)
+/* One node's RPDO1 of a SYNC tick under the effective request eff (t: its
+ * target states; cw408: CiA 408's control word of eff without a fault or
+ * reset, the common case, computed once per step). */
+static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
+                      uint16_t cw408, int32_t setpoint, int16_t force, sp_can_frame_t *f)
 {
     int faulted = nd->fault.code != (uint8_t)SP_CO_F_NONE;
     if (nc->profile == (uint8_t)SP_CO_PROFILE_402) {
         sp_co402_state_t s = (sp_co402_state_t)nd->seen_state; /* decode_status: this tick's word */
-        uint16_t cw = sp_co402_control_word(s, sp_co402_target(eff), nd->reset_edge != 0u, faulted);
+        uint16_t cw = sp_co402_control_word(s, (sp_co402_state_t)t->state[1], nd->reset_edge != 0u, faulted);
         int32_t target;
         if (s != SP_CO402_OPERATION_ENABLED) {
             target = nd->actual; /* no jump when operation becomes enabled */
@@ -660,8 +668,11 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
         nd->last_target = target;
         (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, target);
     } else {
-        sp_co_request_t r = faulted && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
-        uint16_t cw = sp_co408_control_word(r, nd->reset_edge != 0u);
+        uint16_t cw = cw408;
+        if (faulted || nd->reset_edge != 0u) {
+            sp_co_request_t r = faulted && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
+            cw = sp_co408_control_word(r, nd->reset_edge != 0u);
+        }
         if (nc->force_ff) {
             (void)sp_co_rpdo1_ff_frame(f, nc->bus, nc->node_id, cw, setpoint, force);
         } else {
@@ -670,6 +681,41 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
     }
     if (nd->reset_edge > 0u) {
         nd->reset_edge--;
+    }
+}
+
+/* A node that is not running (or has an NMT command pending): its
+ * timeouts, then its NMT command or the next SDO request of its start-up. */
+static void node_startup(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8_t k, uint32_t now,
+                         sp_co_master_output_t *out)
+{
+    const sp_co_node_cfg_t *nc = &cfg->node[k];
+    const profile_t *pr = profile_of(nc);
+    sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
+    uint8_t n = 0u;
+    uint16_t index;
+    uint8_t sub;
+    int sdo_phase = nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK;
+    if (sdo_phase) {
+        (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
+    }
+    timeouts(nd, cfg, pr, plan, now);
+    if (nd->nmt_pending != 0u && emit(out)) {
+        (void)sp_co_nmt_frame(&out->tx[out->n_tx++], nc->bus, (sp_co_nmt_cmd_t)nd->nmt_pending, nc->node_id);
+        nd->phase =
+            nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
+        nd->phase_since = now;
+        nd->nmt_pending = 0u;
+    } else if (sdo_phase && !nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
+        sp_can_frame_t *f = &out->tx[out->n_tx++];
+        if (nd->phase == SP_CO_PHASE_WRITE) {
+            (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
+                                           plan[nd->step].value);
+        } else {
+            (void)sp_co_sdo_upload_frame(f, nc->bus, nc->node_id, index, sub);
+        }
+        nd->sdo_busy = 1u;
+        nd->sdo_since = now;
     }
 }
 
@@ -700,33 +746,10 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     }
     for (k = 0u; k < cfg->n_nodes; k++) {
         sp_co_node_t *nd = &m->node[k];
-        const sp_co_node_cfg_t *nc = &cfg->node[k];
-        const profile_t *pr = profile_of(nc);
-        sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
-        uint8_t n = 0u;
-        uint16_t index;
-        uint8_t sub;
-        int sdo_phase = nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK;
-        if (sdo_phase) {
-            (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
-        }
-        timeouts(nd, cfg, pr, plan, now);
-        if (nd->nmt_pending != 0u && emit(out)) {
-            (void)sp_co_nmt_frame(&out->tx[out->n_tx++], nc->bus, (sp_co_nmt_cmd_t)nd->nmt_pending, nc->node_id);
-            nd->phase =
-                nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
-            nd->phase_since = now;
-            nd->nmt_pending = 0u;
-        } else if (sdo_phase && !nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
-            sp_can_frame_t *f = &out->tx[out->n_tx++];
-            if (nd->phase == SP_CO_PHASE_WRITE) {
-                (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
-                                               plan[nd->step].value);
-            } else {
-                (void)sp_co_sdo_upload_frame(f, nc->bus, nc->node_id, index, sub);
-            }
-            nd->sdo_busy = 1u;
-            nd->sdo_since = now;
+        if (nd->phase == SP_CO_PHASE_RUN && nd->nmt_pending == 0u) {
+            run_timeouts(nd, cfg, now); /* running: nothing of the start-up to do */
+        } else {
+            node_startup(nd, cfg, k, now, out);
         }
         if (nd->phase != SP_CO_PHASE_RUN) {
             all_running = 0u;
@@ -793,6 +816,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     }
     if (sync_tick) {
         uint8_t bus_used[SP_CAN_BUSES] = {0u};
+        uint16_t cw408 = sp_co408_control_word(eff, 0);
         for (k = 0u; k < cfg->n_nodes; k++) {
             sp_co_node_t *nd = &m->node[k];
             const sp_co_node_cfg_t *nc = &cfg->node[k];
@@ -801,7 +825,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
             }
             bus_used[nc->bus] = 1u;
             if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
-                node_rpdo(nd, nc, eff, in->setpoint[k], in->force_dan[k], &out->tx[out->n_tx++]);
+                node_rpdo(nd, nc, eff, &targets, cw408, in->setpoint[k], in->force_dan[k], &out->tx[out->n_tx++]);
             }
         }
         for (k = 0u; k < SP_CAN_BUSES; k++) {
@@ -853,58 +877,18 @@ sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s)
     return SP_OK;
 }
 
-static int scaling_ok(const sp_co_scaling_t *s)
-{
-    return scaling_fields_ok(s) && s->count_per_q24 != 0u && s->q24_per_count_q28 != 0u;
-}
-
-static int32_t sat32(int64_t v, sp_status_t *st)
-{
-    if (v > INT32_MAX) {
-        *st = SP_E_OVERFLOW;
-        return INT32_MAX;
-    }
-    if (v < INT32_MIN) {
-        *st = SP_E_OVERFLOW;
-        return INT32_MIN;
-    }
-    return (int32_t)v;
-}
-
-/* round(mag / 2^shift) of a non-negative mag, with the sign put back */
-static int64_t signed_shift_round(int64_t sign, uint64_t mag, unsigned shift)
-{
-    int64_t q = (int64_t)((mag + ((uint64_t)1 << (shift - 1u))) >> shift);
-    return sign < 0 ? -q : q;
-}
-
 sp_status_t sp_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count)
 {
-    sp_status_t st = SP_OK;
-    int64_t diff;
-    if (!scaling_ok(s) || count == NULL) {
+    if (!spi_co_scaling_ok(s) || count == NULL) {
         return SP_E_ARG;
     }
-    diff = ((int64_t)length_q24 - (int64_t)s->zero_q24) * s->direction; /* |diff| < 2^32 */
-    /* |diff| x count_per_q24 < 2^32 x 2^30 */
-    *count = sat32(signed_shift_round(diff, (uint64_t)(diff < 0 ? -diff : diff) * s->count_per_q24, 24u), &st);
-    return st;
+    return spi_co_length_to_count(s, length_q24, count);
 }
 
 sp_status_t sp_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24)
 {
-    sp_status_t st = SP_OK;
-    int64_t c, q24;
-    if (!scaling_ok(s) || length_q24 == NULL) {
+    if (!spi_co_scaling_ok(s) || length_q24 == NULL) {
         return SP_E_ARG;
     }
-    c = (int64_t)count * s->direction;
-    if (c > s->count_limit || c < -s->count_limit) {
-        *length_q24 = c > 0 ? INT32_MAX : INT32_MIN;
-        return SP_E_OVERFLOW;
-    }
-    /* |c| x nm < 2^37 nm-counts, x 2^52 / 1e9 < 2^60 */
-    q24 = signed_shift_round(c, (uint64_t)(c < 0 ? -c : c) * s->q24_per_count_q28, 28u);
-    *length_q24 = sat32((int64_t)s->zero_q24 + q24, &st);
-    return st;
+    return spi_co_count_to_length(s, count, length_q24);
 }
