@@ -2,6 +2,7 @@
 #include "sp/canopen_master.h"
 
 #include "canopen_scaling.h"
+#include "fixed_inline.h"
 
 /* What differs between the two profiles, as data: the device type, the
  * PDO mappings of RPDO1 (the force feed-forward third, CiA 408 only) and
@@ -530,7 +531,7 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
 }
 
 /* A running node's timeouts: heartbeat, then TPDO1. */
-static void run_timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint32_t now)
+SPI_INLINE void run_timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint32_t now)
 {
     if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
         latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
@@ -583,7 +584,7 @@ static uint32_t wanted_bits(const sp_co_node_cfg_t *nc, sp_co_request_t eff)
 /* The node's status word decoded by its profile (seen_state, seen_fault),
  * again only when the word (or the profile) changed since the last time:
  * the word arrives every SYNC and changes with the device state only. */
-static void decode_status(sp_co_node_t *nd, const sp_co_node_cfg_t *nc)
+SPI_INLINE void decode_status(sp_co_node_t *nd, const sp_co_node_cfg_t *nc)
 {
     uint8_t profile =
         nc->profile == (uint8_t)SP_CO_PROFILE_402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
@@ -609,7 +610,7 @@ typedef struct {
     uint8_t state[2];
 } targets_t;
 
-static int shows_target(const sp_co_node_t *nd, const targets_t *t)
+SPI_INLINE int shows_target(const sp_co_node_t *nd, const targets_t *t)
 {
     return nd->seen_state == t->state[nd->seen_profile == (uint8_t)SP_CO_PROFILE_402 ? 1 : 0];
 }
@@ -618,8 +619,8 @@ static int shows_target(const sp_co_node_t *nd, const targets_t *t)
  * decode_status): a fault state latches at once (except while a fault
  * reset is under way), leaving the requested state once reached latches
  * too; not reaching it is the caller's timeout. */
-static void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
-                        uint32_t now)
+SPI_INLINE void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
+                            uint32_t now)
 {
     if (nd->phase != SP_CO_PHASE_RUN || !nd->tpdo1_seen || nd->fault.code != (uint8_t)SP_CO_F_NONE) {
         return;
@@ -644,6 +645,34 @@ static int emit(sp_co_master_output_t *out)
 /* One node's RPDO1 of a SYNC tick under the effective request eff (t: its
  * target states; cw408: CiA 408's control word of eff without a fault or
  * reset, the common case, computed once per step). */
+/* RPDO1 by the mapping the plan wrote (sp_co_plan_build): the control word,
+ * the position setpoint and, with the force feed-forward, 0x2120 (i16,
+ * daN); the bytes of sp_co_rpdo1_frame and sp_co_rpdo1_ff_frame (the tests
+ * compare them), written once each without their argument checks (the
+ * master's config was checked; a node id out of range leaves the frame as
+ * the builders do). */
+SPI_INLINE void put_rpdo1(sp_can_frame_t *f, const sp_co_node_cfg_t *nc, uint16_t cw, int32_t setpoint, int ff,
+                          int16_t force)
+{
+    uint32_t v = (uint32_t)setpoint; /* two's complement, modulo 2^32 */
+    uint32_t fv = (uint32_t)(uint16_t)force;
+    if (nc->node_id < SP_CO_NODE_MIN || nc->node_id > SP_CO_NODE_MAX) {
+        return;
+    }
+    f->id = SP_CO_COB_RPDO1 + nc->node_id;
+    f->bus = nc->bus;
+    f->len = ff ? 8u : 6u;
+    f->flags = 0u;
+    f->data[0] = (uint8_t)(cw & 0xFFu);
+    f->data[1] = (uint8_t)(cw >> 8);
+    f->data[2] = (uint8_t)(v & 0xFFu);
+    f->data[3] = (uint8_t)((v >> 8) & 0xFFu);
+    f->data[4] = (uint8_t)((v >> 16) & 0xFFu);
+    f->data[5] = (uint8_t)(v >> 24);
+    f->data[6] = ff ? (uint8_t)(fv & 0xFFu) : 0u;
+    f->data[7] = ff ? (uint8_t)(fv >> 8) : 0u;
+}
+
 static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
                       uint16_t cw408, int32_t setpoint, int16_t force, sp_can_frame_t *f)
 {
@@ -666,18 +695,14 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
             target = nd->hold_target;
         }
         nd->last_target = target;
-        (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, target);
+        put_rpdo1(f, nc, cw, target, 0, 0);
     } else {
         uint16_t cw = cw408;
         if (faulted || nd->reset_edge != 0u) {
             sp_co_request_t r = faulted && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
             cw = sp_co408_control_word(r, nd->reset_edge != 0u);
         }
-        if (nc->force_ff) {
-            (void)sp_co_rpdo1_ff_frame(f, nc->bus, nc->node_id, cw, setpoint, force);
-        } else {
-            (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, setpoint);
-        }
+        put_rpdo1(f, nc, cw, setpoint, nc->force_ff != 0u, force);
     }
     if (nd->reset_edge > 0u) {
         nd->reset_edge--;
@@ -744,20 +769,24 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     if (m->ticks < UINT32_MAX) {
         m->ticks++;
     }
-    for (k = 0u; k < cfg->n_nodes; k++) {
-        sp_co_node_t *nd = &m->node[k];
-        if (nd->phase == SP_CO_PHASE_RUN && nd->nmt_pending == 0u) {
-            run_timeouts(nd, cfg, now); /* running: nothing of the start-up to do */
-        } else {
-            node_startup(nd, cfg, k, now, out);
+    {
+        sp_co_node_t *nd = m->node;
+        uint32_t bit = 1u, mask = 0u;
+        for (k = 0u; k < cfg->n_nodes; k++, nd++, bit <<= 1) {
+            if (nd->phase == SP_CO_PHASE_RUN && nd->nmt_pending == 0u) {
+                run_timeouts(nd, cfg, now); /* running: nothing of the start-up to do */
+            } else {
+                node_startup(nd, cfg, k, now, out);
+            }
+            if (nd->phase != SP_CO_PHASE_RUN) {
+                all_running = 0u;
+            }
+            if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+                any_fault = 1u;
+                mask |= bit;
+            }
         }
-        if (nd->phase != SP_CO_PHASE_RUN) {
-            all_running = 0u;
-        }
-        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
-            any_fault = 1u;
-            out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
-        }
+        out->fault_mask = (uint8_t)mask;
     }
     eff = (sp_co_request_t)in->request;
     if (eff > SP_CO_REQ_ACTIVE) {
@@ -780,24 +809,29 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
             m->node[k].state_ok = 0u;
         }
     }
-    for (k = 0u; k < cfg->n_nodes; k++) {
-        sp_co_node_t *nd = &m->node[k];
-        decode_status(nd, &cfg->node[k]);
-        check_state(nd, &cfg->node[k], eff, &targets, now);
-        if (nd->phase == SP_CO_PHASE_RUN && !nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
-            now - nd->req_since > cfg->state_timeout_ms) {
-            latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
-                  wanted_bits(&cfg->node[k], eff), now);
+    {
+        sp_co_node_t *nd = m->node;
+        const sp_co_node_cfg_t *nc = cfg->node;
+        uint32_t bit = 1u, mask = out->fault_mask;
+        for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++, bit <<= 1) {
+            decode_status(nd, nc);
+            if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
+                check_state(nd, nc, eff, &targets, now);
+                if (!nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
+                    now - nd->req_since > cfg->state_timeout_ms) {
+                    latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
+                          wanted_bits(nc, eff), now);
+                }
+            }
+            if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+                mask |= bit;
+                any_fault = 1u;
+            }
+            ready = (uint8_t)(ready && nd->state_ok);
+            nd->tpdo1_fresh = 0u;
+            nd->tpdo2_fresh = 0u;
         }
-        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
-            out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
-            any_fault = 1u;
-        }
-        if (!nd->state_ok) {
-            ready = 0u;
-        }
-        nd->tpdo1_fresh = 0u;
-        nd->tpdo2_fresh = 0u;
+        out->fault_mask = (uint8_t)mask;
     }
     if (cfg->master_heartbeat_ms != 0u && now - m->hb_sent >= cfg->master_heartbeat_ms) {
         uint8_t hb_bus[SP_CAN_BUSES] = {0u};
@@ -817,9 +851,9 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     if (sync_tick) {
         uint8_t bus_used[SP_CAN_BUSES] = {0u};
         uint16_t cw408 = sp_co408_control_word(eff, 0);
-        for (k = 0u; k < cfg->n_nodes; k++) {
-            sp_co_node_t *nd = &m->node[k];
-            const sp_co_node_cfg_t *nc = &cfg->node[k];
+        sp_co_node_t *nd = m->node;
+        const sp_co_node_cfg_t *nc = cfg->node;
+        for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++) {
             if (nc->bus >= SP_CAN_BUSES) {
                 continue; /* the config changed after the check: never index past the array */
             }

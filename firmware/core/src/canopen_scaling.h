@@ -7,22 +7,24 @@
  *
  * Magnitudes fit 32 bits (|length - zero| < 2^32, |count| <= 2^31), so
  * each conversion is one 32 x 32 (or 32 x 64) bit product, a rounding
- * shift and the sign put back: no division per value.
+ * shift and the sign put back: no division per value. Always inlined
+ * (SPI_INLINE), also at -Os: the check alone costs less than the call.
  */
 #ifndef SP_CANOPEN_SCALING_H
 #define SP_CANOPEN_SCALING_H
 
+#include "fixed_inline.h"
 #include "sp/canopen_master.h"
 
 /* 1 when s is usable: the fields in their ranges and the factors prepared. */
-static inline int spi_co_scaling_ok(const sp_co_scaling_t *s)
+SPI_INLINE int spi_co_scaling_ok(const sp_co_scaling_t *s)
 {
     return s != NULL && s->nm_per_count >= 1u && s->nm_per_count <= 1000000u &&
            (s->direction == 1 || s->direction == -1) && s->count_per_q24 != 0u && s->q24_per_count_q28 != 0u;
 }
 
 /* round(q / 2^shift) as an int32 with the sign neg, saturated (*st = SP_E_OVERFLOW). */
-static inline int32_t spi_co_signed_round(uint64_t q, unsigned shift, int neg, sp_status_t *st)
+SPI_INLINE int32_t spi_co_signed_round(uint64_t q, unsigned shift, int neg, sp_status_t *st)
 {
     uint64_t r = (q + ((uint64_t)1 << (shift - 1u))) >> shift;
     if (neg) {
@@ -40,7 +42,7 @@ static inline int32_t spi_co_signed_round(uint64_t q, unsigned shift, int neg, s
 }
 
 /* sp_co_length_to_count of a checked scaling (spi_co_scaling_ok). */
-static inline sp_status_t spi_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count)
+SPI_INLINE sp_status_t spi_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count)
 {
     sp_status_t st = SP_OK;
     int below = length_q24 < s->zero_q24;
@@ -52,7 +54,7 @@ static inline sp_status_t spi_co_length_to_count(const sp_co_scaling_t *s, int32
 }
 
 /* sp_co_count_to_length of a checked scaling (spi_co_scaling_ok). */
-static inline sp_status_t spi_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24)
+SPI_INLINE sp_status_t spi_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24)
 {
     sp_status_t st = SP_OK;
     int neg = (count < 0) != (s->direction < 0);
