@@ -942,6 +942,32 @@ static void test_link_wrench_validity(void **state)
  * bits ignored), the controlword the master sends from each state towards
  * each target, and the drive's side: the master's words walk the drive's
  * state machine to the target in at most 3 SYNCs from switch on disabled. */
+/* sp_co402_state's lookup against the plain search of the (mask, value)
+ * rows of docs/canopen.md, first match, for every statusword. */
+static sp_co402_state_t ref_state402(uint16_t status)
+{
+    static const struct {
+        uint16_t mask, value;
+    } rows[] = {{0x4Fu, 0x00u}, {0x4Fu, 0x40u}, {0x6Fu, 0x21u}, {0x6Fu, 0x23u},
+                {0x6Fu, 0x27u}, {0x6Fu, 0x07u}, {0x4Fu, 0x0Fu}, {0x4Fu, 0x08u}};
+    uint32_t i;
+    for (i = 0u; i < sizeof rows / sizeof rows[0]; i++) {
+        if ((status & rows[i].mask) == rows[i].value) {
+            return (sp_co402_state_t)i;
+        }
+    }
+    return SP_CO402_UNKNOWN;
+}
+
+static void test_cia402_state_lookup(void **state)
+{
+    uint32_t w;
+    (void)state;
+    for (w = 0u; w <= 0xFFFFu; w++) {
+        assert_int_equal(sp_co402_state((uint16_t)w), ref_state402((uint16_t)w));
+    }
+}
+
 static void test_cia402_states(void **state)
 {
     sp_co402_state_t s, t;
@@ -1012,6 +1038,7 @@ int main(void)
         cmocka_unit_test(test_pdo_emcy),
         cmocka_unit_test(test_cia408_states),
         cmocka_unit_test(test_cia402_states),
+        cmocka_unit_test(test_cia402_state_lookup),
         cmocka_unit_test(test_plan),
         cmocka_unit_test(test_cfg_check),
         cmocka_unit_test(test_scaling),

@@ -506,19 +506,38 @@ sp_co408_state_t sp_co408_next(sp_co408_state_t s, uint16_t control, uint16_t pr
 
 /* ---- CiA 402 ---- */
 
+/* The statusword's state by its six bits that matter (0..3, 5, 6: index
+ * bits 0..3, then 4..5), looked up instead of searched: the rows of
+ * docs/canopen.md's (mask, value) table in order, the first that matches;
+ * the unit test compares every word with that search. */
+#define S_NR SP_CO402_NOT_READY
+#define S_SD SP_CO402_SWITCH_ON_DISABLED
+#define S_RD SP_CO402_READY
+#define S_SO SP_CO402_SWITCHED_ON
+#define S_OE SP_CO402_OPERATION_ENABLED
+#define S_QS SP_CO402_QUICK_STOP_ACTIVE
+#define S_FR SP_CO402_FAULT_REACTION
+#define S_F SP_CO402_FAULT
+#define S_U SP_CO402_UNKNOWN
+static const uint8_t state402[64] = {
+    S_NR, S_U,  S_U, S_U,  S_U, S_U, S_U, S_QS, S_F, S_U, S_U, S_U, S_U, S_U, S_U, S_FR, /* bit 6 = 0, bit 5 = 0 */
+    S_NR, S_RD, S_U, S_SO, S_U, S_U, S_U, S_OE, S_F, S_U, S_U, S_U, S_U, S_U, S_U, S_FR, /* bit 6 = 0, bit 5 = 1 */
+    S_SD, S_U,  S_U, S_U,  S_U, S_U, S_U, S_U,  S_U, S_U, S_U, S_U, S_U, S_U, S_U, S_U,  /* bit 6 = 1, bit 5 = 0 */
+    S_SD, S_U,  S_U, S_U,  S_U, S_U, S_U, S_U,  S_U, S_U, S_U, S_U, S_U, S_U, S_U, S_U,  /* bit 6 = 1, bit 5 = 1 */
+};
+#undef S_NR
+#undef S_SD
+#undef S_RD
+#undef S_SO
+#undef S_OE
+#undef S_QS
+#undef S_FR
+#undef S_F
+#undef S_U
+
 sp_co402_state_t sp_co402_state(uint16_t status)
 {
-    static const struct {
-        uint16_t mask, value;
-    } table[] = {{0x4Fu, 0x00u}, {0x4Fu, 0x40u}, {0x6Fu, 0x21u}, {0x6Fu, 0x23u},
-                 {0x6Fu, 0x27u}, {0x6Fu, 0x07u}, {0x4Fu, 0x0Fu}, {0x4Fu, 0x08u}};
-    uint32_t i;
-    for (i = 0u; i < sizeof table / sizeof table[0]; i++) {
-        if ((status & table[i].mask) == table[i].value) {
-            return (sp_co402_state_t)i;
-        }
-    }
-    return SP_CO402_UNKNOWN;
+    return (sp_co402_state_t)state402[(status & 0x0Fu) | ((uint32_t)(status >> 1) & 0x30u)];
 }
 
 int sp_co402_is_fault(sp_co402_state_t s)
