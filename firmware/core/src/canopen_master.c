@@ -584,10 +584,15 @@ static uint32_t wanted_bits(const sp_co_node_cfg_t *nc, sp_co_request_t eff)
 /* The node's status word decoded by its profile (seen_state, seen_fault),
  * again only when the word (or the profile) changed since the last time:
  * the word arrives every SYNC and changes with the device state only. */
+/* The node's profile as decode_status keeps it (seen_profile). */
+SPI_INLINE uint8_t profile_index(const sp_co_node_cfg_t *nc)
+{
+    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
+}
+
 SPI_INLINE void decode_status(sp_co_node_t *nd, const sp_co_node_cfg_t *nc)
 {
-    uint8_t profile =
-        nc->profile == (uint8_t)SP_CO_PROFILE_402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
+    uint8_t profile = profile_index(nc);
     if (nd->seen_valid && nd->seen_status == nd->status && nd->seen_profile == profile) {
         return;
     }
@@ -814,6 +819,14 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
         const sp_co_node_cfg_t *nc = cfg->node;
         uint32_t bit = 1u, mask = out->fault_mask;
         for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++, bit <<= 1) {
+            if (nd->state_ok && nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
+                nd->seen_valid && nd->seen_status == nd->status && nd->seen_profile == profile_index(nc)) {
+                /* settled: the requested state shown (state_ok; a new request clears it above) by the word
+                 * decoded and checked already; until the word changes there is nothing to check */
+                nd->tpdo1_fresh = 0u;
+                nd->tpdo2_fresh = 0u;
+                continue;
+            }
             decode_status(nd, nc);
             if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
                 check_state(nd, nc, eff, &targets, now);
