@@ -6,25 +6,6 @@ static int node_ok(uint8_t node)
     return node >= SP_CO_NODE_MIN && node <= SP_CO_NODE_MAX;
 }
 
-static sp_status_t start_frame(sp_can_frame_t *f, uint8_t bus, uint32_t id, uint8_t len)
-{
-    if (f == NULL || bus >= SP_CAN_BUSES) {
-        return SP_E_ARG;
-    }
-    /* Classic frames: the 8 bytes a classic frame can carry are written (zero
-     * past len); data[8..64) is left as it was (see sp/canopen.h). Clearing
-     * the whole 64-byte buffer costs about 290 instructions per frame on the
-     * M4 with newlib-nano's byte-wise memset. */
-    f->id = id;
-    f->bus = bus;
-    f->len = len;
-    f->flags = 0u;
-    for (uint32_t i = 0u; i < 8u; i++) {
-        f->data[i] = 0u;
-    }
-    return SP_OK;
-}
-
 static void put_u16(uint8_t *p, uint16_t v)
 {
     p[0] = (uint8_t)(v & 0xFFu);
@@ -37,6 +18,33 @@ static void put_u32(uint8_t *p, uint32_t v)
     p[1] = (uint8_t)((v >> 8) & 0xFFu);
     p[2] = (uint8_t)((v >> 16) & 0xFFu);
     p[3] = (uint8_t)(v >> 24);
+}
+
+/* The header of a classic frame; the caller writes all of data[0..8). */
+static sp_status_t frame_head(sp_can_frame_t *f, uint8_t bus, uint32_t id, uint8_t len)
+{
+    if (f == NULL || bus >= SP_CAN_BUSES) {
+        return SP_E_ARG;
+    }
+    f->id = id;
+    f->bus = bus;
+    f->len = len;
+    f->flags = 0u;
+    return SP_OK;
+}
+
+static sp_status_t start_frame(sp_can_frame_t *f, uint8_t bus, uint32_t id, uint8_t len)
+{
+    if (frame_head(f, bus, id, len) != SP_OK) {
+        return SP_E_ARG;
+    }
+    /* Classic frames: the 8 bytes a classic frame can carry are written (zero
+     * past len); data[8..64) is left as it was (see sp/canopen.h). Clearing
+     * the whole 64-byte buffer costs about 290 instructions per frame on the
+     * M4 with newlib-nano's byte-wise memset. */
+    put_u32(&f->data[0], 0u);
+    put_u32(&f->data[4], 0u);
+    return SP_OK;
 }
 
 static uint16_t get_u16(const uint8_t *p)
@@ -109,13 +117,16 @@ sp_status_t sp_co_heartbeat_parse(const sp_can_frame_t *f, uint8_t *node, uint8_
     return SP_OK;
 }
 
+/* The PDOs write each of their 8 bytes once: the fields, then zeros. */
 static sp_status_t pdo6_frame(sp_can_frame_t *f, uint8_t bus, uint32_t base, uint8_t node, uint16_t word, int32_t v)
 {
-    if (!node_ok(node) || start_frame(f, bus, base + node, 6u) != SP_OK) {
+    if (!node_ok(node) || frame_head(f, bus, base + node, 6u) != SP_OK) {
         return SP_E_ARG;
     }
     put_u16(&f->data[0], word);
     put_u32(&f->data[2], i32_to_u32(v));
+    f->data[6] = 0u;
+    f->data[7] = 0u;
     return SP_OK;
 }
 
@@ -142,7 +153,7 @@ sp_status_t sp_co_rpdo1_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *c
 sp_status_t sp_co_rpdo1_ff_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t control, int32_t setpoint,
                                  int16_t force_dan)
 {
-    if (!node_ok(node) || start_frame(f, bus, SP_CO_COB_RPDO1 + node, 8u) != SP_OK) {
+    if (!node_ok(node) || frame_head(f, bus, SP_CO_COB_RPDO1 + node, 8u) != SP_OK) {
         return SP_E_ARG;
     }
     put_u16(&f->data[0], control);
@@ -178,11 +189,12 @@ sp_status_t sp_co_tpdo1_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *s
 
 sp_status_t sp_co_tpdo2_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t pa_kpa, uint16_t pb_kpa)
 {
-    if (!node_ok(node) || start_frame(f, bus, SP_CO_COB_TPDO2 + node, 4u) != SP_OK) {
+    if (!node_ok(node) || frame_head(f, bus, SP_CO_COB_TPDO2 + node, 4u) != SP_OK) {
         return SP_E_ARG;
     }
     put_u16(&f->data[0], pa_kpa);
     put_u16(&f->data[2], pb_kpa);
+    put_u32(&f->data[4], 0u);
     return SP_OK;
 }
 
@@ -494,19 +506,38 @@ sp_co408_state_t sp_co408_next(sp_co408_state_t s, uint16_t control, uint16_t pr
 
 /* ---- CiA 402 ---- */
 
+/* The statusword's state by its six bits that matter (0..3, 5, 6: index
+ * bits 0..3, then 4..5), looked up instead of searched: the rows of
+ * docs/canopen.md's (mask, value) table in order, the first that matches;
+ * the unit test compares every word with that search. */
+#define S_NR SP_CO402_NOT_READY
+#define S_SD SP_CO402_SWITCH_ON_DISABLED
+#define S_RD SP_CO402_READY
+#define S_SO SP_CO402_SWITCHED_ON
+#define S_OE SP_CO402_OPERATION_ENABLED
+#define S_QS SP_CO402_QUICK_STOP_ACTIVE
+#define S_FR SP_CO402_FAULT_REACTION
+#define S_F SP_CO402_FAULT
+#define S_U SP_CO402_UNKNOWN
+static const uint8_t state402[64] = {
+    S_NR, S_U,  S_U, S_U,  S_U, S_U, S_U, S_QS, S_F, S_U, S_U, S_U, S_U, S_U, S_U, S_FR, /* bit 6 = 0, bit 5 = 0 */
+    S_NR, S_RD, S_U, S_SO, S_U, S_U, S_U, S_OE, S_F, S_U, S_U, S_U, S_U, S_U, S_U, S_FR, /* bit 6 = 0, bit 5 = 1 */
+    S_SD, S_U,  S_U, S_U,  S_U, S_U, S_U, S_U,  S_U, S_U, S_U, S_U, S_U, S_U, S_U, S_U,  /* bit 6 = 1, bit 5 = 0 */
+    S_SD, S_U,  S_U, S_U,  S_U, S_U, S_U, S_U,  S_U, S_U, S_U, S_U, S_U, S_U, S_U, S_U,  /* bit 6 = 1, bit 5 = 1 */
+};
+#undef S_NR
+#undef S_SD
+#undef S_RD
+#undef S_SO
+#undef S_OE
+#undef S_QS
+#undef S_FR
+#undef S_F
+#undef S_U
+
 sp_co402_state_t sp_co402_state(uint16_t status)
 {
-    static const struct {
-        uint16_t mask, value;
-    } table[] = {{0x4Fu, 0x00u}, {0x4Fu, 0x40u}, {0x6Fu, 0x21u}, {0x6Fu, 0x23u},
-                 {0x6Fu, 0x27u}, {0x6Fu, 0x07u}, {0x4Fu, 0x0Fu}, {0x4Fu, 0x08u}};
-    uint32_t i;
-    for (i = 0u; i < sizeof table / sizeof table[0]; i++) {
-        if ((status & table[i].mask) == table[i].value) {
-            return (sp_co402_state_t)i;
-        }
-    }
-    return SP_CO402_UNKNOWN;
+    return (sp_co402_state_t)state402[(status & 0x0Fu) | ((uint32_t)(status >> 1) & 0x30u)];
 }
 
 int sp_co402_is_fault(sp_co402_state_t s)

@@ -1,6 +1,7 @@
 /* canopen_link.c - the controller's drives over CANopen (sp/canopen_link.h). */
 #include "sp/canopen_link.h"
 
+#include "canopen_scaling.h"
 #include "core_internal.h"
 
 sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *platform,
@@ -82,7 +83,8 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
             continue;
         }
         d = &fb[leg];
-        if (sp_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK) {
+        if (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
+            spi_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK) {
             st = SP_E_OVERFLOW;
         }
         if (cfg->master.pressure_feedback && cfg->master.node[k].profile != (uint8_t)SP_CO_PROFILE_402) {
@@ -125,7 +127,8 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
             in->force_dan[k] = force_dan(out->setpoint[leg].force, cfg->scaling[leg].direction);
         }
         if (leg < SP_LEGS &&
-            sp_co_length_to_count(&cfg->scaling[leg], out->setpoint[leg].length, &in->setpoint[k]) != SP_OK) {
+            (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
+             spi_co_length_to_count(&cfg->scaling[leg], out->setpoint[leg].length, &in->setpoint[k]) != SP_OK)) {
             st = SP_E_OVERFLOW;
         }
     }

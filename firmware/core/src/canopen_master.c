@@ -1,6 +1,9 @@
 /* canopen_master.c - the CANopen master of CiA 408 and CiA 402 drives (sp/canopen_master.h). */
 #include "sp/canopen_master.h"
 
+#include "canopen_scaling.h"
+#include "fixed_inline.h"
+
 /* What differs between the two profiles, as data: the device type, the
  * PDO mappings of RPDO1 (the force feed-forward third, CiA 408 only) and
  * TPDO1, and the object read back after the plan (0: none). */
@@ -232,6 +235,9 @@ sp_status_t sp_co_master_start(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
         restart_node(&m->node[k], now_ms);
         (void)sp_co_plan_build(cfg, k, plan, &m->node[k].plan_n);
     }
+    for (k = 0u; k < cfg->n_nodes; k++) { /* checked above: bus < SP_CAN_BUSES, id <= 127 */
+        m->node_of[cfg->node[k].bus][cfg->node[k].node_id] = (uint8_t)(k + 1u);
+    }
     m->started = 1u;
     m->hb_sent = now_ms; /* the master's first heartbeat one period after the start */
     m->last_req = SP_CO_REQ_DISABLED;
@@ -399,15 +405,35 @@ static sp_status_t on_sdo(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8
     return SP_OK;
 }
 
-static int node_index(const sp_co_master_cfg_t *cfg, uint8_t bus, uint8_t id)
+static int node_index(const sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint8_t bus, uint8_t id)
 {
     uint8_t k;
+    if (bus < SP_CAN_BUSES) { /* the table of the start; valid while the config still says so */
+        k = m->node_of[bus][id];
+        if (k != 0u && k <= cfg->n_nodes && k <= SP_CO_MAX_NODES && cfg->node[k - 1u].bus == bus &&
+            cfg->node[k - 1u].node_id == id) {
+            return (int)k - 1;
+        }
+    }
     for (k = 0u; k < cfg->n_nodes && k < SP_CO_MAX_NODES; k++) {
         if (cfg->node[k].bus == bus && cfg->node[k].node_id == id) {
             return (int)k;
         }
     }
     return -1;
+}
+
+/* Little-endian fields of a received PDO (as sp_co_tpdo1_parse and
+ * sp_co_tpdo2_parse read them; the tests compare the two). */
+static uint16_t le16(const uint8_t *p)
+{
+    return (uint16_t)((uint32_t)p[0] | ((uint32_t)p[1] << 8));
+}
+
+static int32_t le32_signed(const uint8_t *p)
+{
+    uint32_t v = (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) | ((uint32_t)p[3] << 24);
+    return v <= (uint32_t)INT32_MAX ? (int32_t)v : (int32_t)(v - 0x80000000u) - INT32_MAX - 1;
 }
 
 static void on_heartbeat(sp_co_node_t *nd, uint8_t state, uint32_t now_ms)
@@ -453,20 +479,21 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
     }
     base = f->id & 0x780u; /* function code: the identifier's top 4 bits */
     id = (uint8_t)(f->id & 0x7Fu);
-    k = node_index(cfg, f->bus, id);
-    if (k < 0 || id == 0u) {
+    if (id == 0u) {
+        return SP_OK;
+    }
+    k = node_index(m, cfg, f->bus, id);
+    if (k < 0) {
         return SP_OK;
     }
     nd = &m->node[k];
     switch (base) {
-    case SP_CO_COB_HEARTBEAT: {
-        uint8_t node, state;
-        if (sp_co_heartbeat_parse(f, &node, &state) != SP_OK) {
+    case SP_CO_COB_HEARTBEAT: /* as sp_co_heartbeat_parse reads it: 1 byte, the toggle bit masked off */
+        if (f->len != 1u || f->id > 0x7FFu) {
             return SP_E_FRAME;
         }
-        on_heartbeat(nd, state, now_ms);
+        on_heartbeat(nd, (uint8_t)(f->data[0] & 0x7Fu), now_ms);
         return SP_OK;
-    }
     case SP_CO_COB_EMCY: {
         uint8_t node, reg;
         uint16_t code;
@@ -478,33 +505,38 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
         }
         return SP_OK;
     }
-    case SP_CO_COB_TPDO1: {
-        uint16_t status;
-        int32_t actual;
-        if (sp_co_tpdo1_parse(f, id, &status, &actual) != SP_OK) {
+    case SP_CO_COB_TPDO1: /* the mapping is fixed by the plan: status word, then the position */
+        if (f->len != 6u || f->id > 0x7FFu) {
             return SP_E_FRAME;
         }
-        nd->status = status;
-        nd->actual = actual;
+        nd->status = le16(&f->data[0]);
+        nd->actual = le32_signed(&f->data[2]);
         nd->tpdo1_last = now_ms;
         nd->tpdo1_seen = 1u;
         nd->tpdo1_fresh = 1u;
         return SP_OK;
-    }
-    case SP_CO_COB_TPDO2: {
-        uint16_t pa, pb;
-        if (sp_co_tpdo2_parse(f, id, &pa, &pb) != SP_OK) {
+    case SP_CO_COB_TPDO2: /* chamber pressures A, B */
+        if (f->len != 4u || f->id > 0x7FFu) {
             return SP_E_FRAME;
         }
-        nd->pa_kpa = pa;
-        nd->pb_kpa = pb;
+        nd->pa_kpa = le16(&f->data[0]);
+        nd->pb_kpa = le16(&f->data[2]);
         nd->tpdo2_fresh = 1u;
         return SP_OK;
-    }
     case SP_CO_COB_SDO_TX:
         return on_sdo(nd, cfg, (uint8_t)k, f, now_ms);
     default:
         return SP_OK;
+    }
+}
+
+/* A running node's timeouts: heartbeat, then TPDO1. */
+SPI_INLINE void run_timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint32_t now)
+{
+    if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
+        latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
+    } else if (now - nd->tpdo1_last > cfg->pdo_timeout_ms) {
+        latch(nd, SP_CO_F_PDO_TIMEOUT, 0u, 0u, now - nd->tpdo1_last, cfg->pdo_timeout_ms, now);
     }
 }
 
@@ -533,11 +565,7 @@ static void timeouts(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, const prof
         }
         break;
     case SP_CO_PHASE_RUN:
-        if (now - nd->hb_last >= cfg->heartbeat_timeout_ms) { /* silent for the whole timeout */
-            latch(nd, SP_CO_F_HEARTBEAT_LOST, 0u, 0u, now - nd->hb_last, cfg->heartbeat_timeout_ms, now);
-        } else if (now - nd->tpdo1_last > cfg->pdo_timeout_ms) {
-            latch(nd, SP_CO_F_PDO_TIMEOUT, 0u, 0u, now - nd->tpdo1_last, cfg->pdo_timeout_ms, now);
-        }
+        run_timeouts(nd, cfg, now);
         break;
     default:
         break;
@@ -553,37 +581,64 @@ static uint32_t wanted_bits(const sp_co_node_cfg_t *nc, sp_co_request_t eff)
                                                      : sp_co408_status_bits(sp_co408_target(eff));
 }
 
-static int shows_target(const sp_co_node_cfg_t *nc, uint16_t status, sp_co_request_t eff)
+/* The node's status word decoded by its profile (seen_state, seen_fault),
+ * again only when the word (or the profile) changed since the last time:
+ * the word arrives every SYNC and changes with the device state only. */
+/* The node's profile as decode_status keeps it (seen_profile). */
+SPI_INLINE uint8_t profile_index(const sp_co_node_cfg_t *nc)
 {
-    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_state(status) == sp_co402_target(eff)
-                                                     : sp_co408_state(status) == sp_co408_target(eff);
+    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
 }
 
-static int shows_fault(const sp_co_node_cfg_t *nc, uint16_t status)
+SPI_INLINE void decode_status(sp_co_node_t *nd, const sp_co_node_cfg_t *nc)
 {
-    return nc->profile == (uint8_t)SP_CO_PROFILE_402 ? sp_co402_is_fault(sp_co402_state(status))
-                                                     : sp_co408_is_fault(sp_co408_state(status));
+    uint8_t profile = profile_index(nc);
+    if (nd->seen_valid && nd->seen_status == nd->status && nd->seen_profile == profile) {
+        return;
+    }
+    if (profile == (uint8_t)SP_CO_PROFILE_402) {
+        sp_co402_state_t st = sp_co402_state(nd->status);
+        nd->seen_state = (uint8_t)st;
+        nd->seen_fault = (uint8_t)(sp_co402_is_fault(st) != 0);
+    } else {
+        sp_co408_state_t st = sp_co408_state(nd->status);
+        nd->seen_state = (uint8_t)st;
+        nd->seen_fault = (uint8_t)(sp_co408_is_fault(st) != 0);
+    }
+    nd->seen_status = nd->status;
+    nd->seen_profile = profile;
+    nd->seen_valid = 1u;
 }
 
-/* The status word against the effective request, every tick: a fault state
- * latches at once (except while a fault reset is under way), leaving the
- * requested state once reached latches too; not reaching it is the caller's
- * timeout. */
-static void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, uint32_t now)
+/* The state a request leads to, per profile (index sp_co_profile_t). */
+typedef struct {
+    uint8_t state[2];
+} targets_t;
+
+SPI_INLINE int shows_target(const sp_co_node_t *nd, const targets_t *t)
 {
-    uint32_t want = wanted_bits(nc, eff);
+    return nd->seen_state == t->state[nd->seen_profile == (uint8_t)SP_CO_PROFILE_402 ? 1 : 0];
+}
+
+/* The status word against the effective request, every tick (decoded:
+ * decode_status): a fault state latches at once (except while a fault
+ * reset is under way), leaving the requested state once reached latches
+ * too; not reaching it is the caller's timeout. */
+SPI_INLINE void check_state(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
+                            uint32_t now)
+{
     if (nd->phase != SP_CO_PHASE_RUN || !nd->tpdo1_seen || nd->fault.code != (uint8_t)SP_CO_F_NONE) {
         return;
     }
-    if (shows_target(nc, nd->status, eff)) {
+    if (shows_target(nd, t)) {
         nd->state_ok = 1u;
         nd->resetting = 0u;
         return;
     }
-    if (shows_fault(nc, nd->status) && !nd->resetting) {
-        latch(nd, SP_CO_F_DEVICE_FAULT, 0u, 0u, nd->status, want, now);
+    if (nd->seen_fault && !nd->resetting) {
+        latch(nd, SP_CO_F_DEVICE_FAULT, 0u, 0u, nd->status, wanted_bits(nc, eff), now);
     } else if (nd->state_ok) {
-        latch(nd, SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status, want, now);
+        latch(nd, SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status, wanted_bits(nc, eff), now);
     }
 }
 
@@ -592,14 +647,44 @@ static int emit(sp_co_master_output_t *out)
     return out->n_tx < SP_CO_MAX_TX;
 }
 
-/* One node's RPDO1 of a SYNC tick under the effective request eff. */
-static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, int32_t setpoint,
-                      int16_t force, sp_can_frame_t *f)
+/* One node's RPDO1 of a SYNC tick under the effective request eff (t: its
+ * target states; cw408: CiA 408's control word of eff without a fault or
+ * reset, the common case, computed once per step). */
+/* RPDO1 by the mapping the plan wrote (sp_co_plan_build): the control word,
+ * the position setpoint and, with the force feed-forward, 0x2120 (i16,
+ * daN); the bytes of sp_co_rpdo1_frame and sp_co_rpdo1_ff_frame (the tests
+ * compare them), written once each without their argument checks (the
+ * master's config was checked; a node id out of range leaves the frame as
+ * the builders do). */
+SPI_INLINE void put_rpdo1(sp_can_frame_t *f, const sp_co_node_cfg_t *nc, uint16_t cw, int32_t setpoint, int ff,
+                          int16_t force)
+{
+    uint32_t v = (uint32_t)setpoint; /* two's complement, modulo 2^32 */
+    uint32_t fv = (uint32_t)(uint16_t)force;
+    if (nc->node_id < SP_CO_NODE_MIN || nc->node_id > SP_CO_NODE_MAX) {
+        return;
+    }
+    f->id = SP_CO_COB_RPDO1 + nc->node_id;
+    f->bus = nc->bus;
+    f->len = ff ? 8u : 6u;
+    f->flags = 0u;
+    f->data[0] = (uint8_t)(cw & 0xFFu);
+    f->data[1] = (uint8_t)(cw >> 8);
+    f->data[2] = (uint8_t)(v & 0xFFu);
+    f->data[3] = (uint8_t)((v >> 8) & 0xFFu);
+    f->data[4] = (uint8_t)((v >> 16) & 0xFFu);
+    f->data[5] = (uint8_t)(v >> 24);
+    f->data[6] = ff ? (uint8_t)(fv & 0xFFu) : 0u;
+    f->data[7] = ff ? (uint8_t)(fv >> 8) : 0u;
+}
+
+static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_request_t eff, const targets_t *t,
+                      uint16_t cw408, int32_t setpoint, int16_t force, sp_can_frame_t *f)
 {
     int faulted = nd->fault.code != (uint8_t)SP_CO_F_NONE;
     if (nc->profile == (uint8_t)SP_CO_PROFILE_402) {
-        sp_co402_state_t s = sp_co402_state(nd->status);
-        uint16_t cw = sp_co402_control_word(s, sp_co402_target(eff), nd->reset_edge != 0u, faulted);
+        sp_co402_state_t s = (sp_co402_state_t)nd->seen_state; /* decode_status: this tick's word */
+        uint16_t cw = sp_co402_control_word(s, (sp_co402_state_t)t->state[1], nd->reset_edge != 0u, faulted);
         int32_t target;
         if (s != SP_CO402_OPERATION_ENABLED) {
             target = nd->actual; /* no jump when operation becomes enabled */
@@ -615,18 +700,52 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
             target = nd->hold_target;
         }
         nd->last_target = target;
-        (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, target);
+        put_rpdo1(f, nc, cw, target, 0, 0);
     } else {
-        sp_co_request_t r = faulted && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
-        uint16_t cw = sp_co408_control_word(r, nd->reset_edge != 0u);
-        if (nc->force_ff) {
-            (void)sp_co_rpdo1_ff_frame(f, nc->bus, nc->node_id, cw, setpoint, force);
-        } else {
-            (void)sp_co_rpdo1_frame(f, nc->bus, nc->node_id, cw, setpoint);
+        uint16_t cw = cw408;
+        if (faulted || nd->reset_edge != 0u) {
+            sp_co_request_t r = faulted && eff == SP_CO_REQ_ACTIVE ? SP_CO_REQ_HOLD : eff;
+            cw = sp_co408_control_word(r, nd->reset_edge != 0u);
         }
+        put_rpdo1(f, nc, cw, setpoint, nc->force_ff != 0u, force);
     }
     if (nd->reset_edge > 0u) {
         nd->reset_edge--;
+    }
+}
+
+/* A node that is not running (or has an NMT command pending): its
+ * timeouts, then its NMT command or the next SDO request of its start-up. */
+static void node_startup(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8_t k, uint32_t now,
+                         sp_co_master_output_t *out)
+{
+    const sp_co_node_cfg_t *nc = &cfg->node[k];
+    const profile_t *pr = profile_of(nc);
+    sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
+    uint8_t n = 0u;
+    uint16_t index;
+    uint8_t sub;
+    int sdo_phase = nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK;
+    if (sdo_phase) {
+        (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
+    }
+    timeouts(nd, cfg, pr, plan, now);
+    if (nd->nmt_pending != 0u && emit(out)) {
+        (void)sp_co_nmt_frame(&out->tx[out->n_tx++], nc->bus, (sp_co_nmt_cmd_t)nd->nmt_pending, nc->node_id);
+        nd->phase =
+            nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
+        nd->phase_since = now;
+        nd->nmt_pending = 0u;
+    } else if (sdo_phase && !nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
+        sp_can_frame_t *f = &out->tx[out->n_tx++];
+        if (nd->phase == SP_CO_PHASE_WRITE) {
+            (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
+                                           plan[nd->step].value);
+        } else {
+            (void)sp_co_sdo_upload_frame(f, nc->bus, nc->node_id, index, sub);
+        }
+        nd->sdo_busy = 1u;
+        nd->sdo_since = now;
     }
 }
 
@@ -636,6 +755,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     uint8_t k, all_running = 1u, any_fault = 0u, ready = 1u, sync_tick;
     uint32_t now;
     sp_co_request_t eff;
+    targets_t targets;
     if (m == NULL || cfg == NULL || in == NULL || out == NULL || cfg->n_nodes > SP_CO_MAX_NODES ||
         cfg->sync_divider == 0u) {
         return SP_E_ARG;
@@ -654,42 +774,24 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     if (m->ticks < UINT32_MAX) {
         m->ticks++;
     }
-    for (k = 0u; k < cfg->n_nodes; k++) {
-        sp_co_node_t *nd = &m->node[k];
-        const sp_co_node_cfg_t *nc = &cfg->node[k];
-        const profile_t *pr = profile_of(nc);
-        sp_co_sdo_write_t plan[SP_CO_PLAN_MAX];
-        uint8_t n = 0u;
-        uint16_t index;
-        uint8_t sub;
-        if (nd->phase >= SP_CO_PHASE_IDENTITY && nd->phase <= SP_CO_PHASE_READBACK) {
-            (void)sp_co_plan_build(cfg, k, plan, &n); /* only while starting up */
-        }
-        timeouts(nd, cfg, pr, plan, now);
-        if (nd->nmt_pending != 0u && emit(out)) {
-            (void)sp_co_nmt_frame(&out->tx[out->n_tx++], nc->bus, (sp_co_nmt_cmd_t)nd->nmt_pending, nc->node_id);
-            nd->phase =
-                nd->nmt_pending == (uint8_t)SP_CO_NMT_START ? (uint8_t)SP_CO_PHASE_START : (uint8_t)SP_CO_PHASE_BOOT;
-            nd->phase_since = now;
-            nd->nmt_pending = 0u;
-        } else if (!nd->sdo_busy && current_object(nd, pr, plan, &index, &sub) && emit(out)) {
-            sp_can_frame_t *f = &out->tx[out->n_tx++];
-            if (nd->phase == SP_CO_PHASE_WRITE) {
-                (void)sp_co_sdo_download_frame(f, nc->bus, nc->node_id, index, sub, plan[nd->step].size,
-                                               plan[nd->step].value);
+    {
+        sp_co_node_t *nd = m->node;
+        uint32_t bit = 1u, mask = 0u;
+        for (k = 0u; k < cfg->n_nodes; k++, nd++, bit <<= 1) {
+            if (nd->phase == SP_CO_PHASE_RUN && nd->nmt_pending == 0u) {
+                run_timeouts(nd, cfg, now); /* running: nothing of the start-up to do */
             } else {
-                (void)sp_co_sdo_upload_frame(f, nc->bus, nc->node_id, index, sub);
+                node_startup(nd, cfg, k, now, out);
             }
-            nd->sdo_busy = 1u;
-            nd->sdo_since = now;
+            if (nd->phase != SP_CO_PHASE_RUN) {
+                all_running = 0u;
+            }
+            if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+                any_fault = 1u;
+                mask |= bit;
+            }
         }
-        if (nd->phase != SP_CO_PHASE_RUN) {
-            all_running = 0u;
-        }
-        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
-            any_fault = 1u;
-            out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
-        }
+        out->fault_mask = (uint8_t)mask;
     }
     eff = (sp_co_request_t)in->request;
     if (eff > SP_CO_REQ_ACTIVE) {
@@ -703,6 +805,8 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     } else if ((!all_running || any_fault) && eff == SP_CO_REQ_ACTIVE) {
         eff = SP_CO_REQ_HOLD; /* a drive restarting or faulted: the others hold where they are */
     }
+    targets.state[0] = (uint8_t)sp_co408_target(eff);
+    targets.state[1] = (uint8_t)sp_co402_target(eff);
     if ((uint8_t)eff != m->last_req) {
         m->last_req = (uint8_t)eff;
         for (k = 0u; k < cfg->n_nodes; k++) {
@@ -710,23 +814,37 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
             m->node[k].state_ok = 0u;
         }
     }
-    for (k = 0u; k < cfg->n_nodes; k++) {
-        sp_co_node_t *nd = &m->node[k];
-        check_state(nd, &cfg->node[k], eff, now);
-        if (nd->phase == SP_CO_PHASE_RUN && !nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
-            now - nd->req_since > cfg->state_timeout_ms) {
-            latch(nd, shows_fault(&cfg->node[k], nd->status) ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u,
-                  nd->status, wanted_bits(&cfg->node[k], eff), now);
+    {
+        sp_co_node_t *nd = m->node;
+        const sp_co_node_cfg_t *nc = cfg->node;
+        uint32_t bit = 1u, mask = out->fault_mask;
+        for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++, bit <<= 1) {
+            if (nd->state_ok && nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
+                nd->seen_valid && nd->seen_status == nd->status && nd->seen_profile == profile_index(nc)) {
+                /* settled: the requested state shown (state_ok; a new request clears it above) by the word
+                 * decoded and checked already; until the word changes there is nothing to check */
+                nd->tpdo1_fresh = 0u;
+                nd->tpdo2_fresh = 0u;
+                continue;
+            }
+            decode_status(nd, nc);
+            if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
+                check_state(nd, nc, eff, &targets, now);
+                if (!nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
+                    now - nd->req_since > cfg->state_timeout_ms) {
+                    latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
+                          wanted_bits(nc, eff), now);
+                }
+            }
+            if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+                mask |= bit;
+                any_fault = 1u;
+            }
+            ready = (uint8_t)(ready && nd->state_ok);
+            nd->tpdo1_fresh = 0u;
+            nd->tpdo2_fresh = 0u;
         }
-        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
-            out->fault_mask = (uint8_t)(out->fault_mask | (1u << k));
-            any_fault = 1u;
-        }
-        if (!nd->state_ok) {
-            ready = 0u;
-        }
-        nd->tpdo1_fresh = 0u;
-        nd->tpdo2_fresh = 0u;
+        out->fault_mask = (uint8_t)mask;
     }
     if (cfg->master_heartbeat_ms != 0u && now - m->hb_sent >= cfg->master_heartbeat_ms) {
         uint8_t hb_bus[SP_CAN_BUSES] = {0u};
@@ -745,15 +863,16 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     }
     if (sync_tick) {
         uint8_t bus_used[SP_CAN_BUSES] = {0u};
-        for (k = 0u; k < cfg->n_nodes; k++) {
-            sp_co_node_t *nd = &m->node[k];
-            const sp_co_node_cfg_t *nc = &cfg->node[k];
+        uint16_t cw408 = sp_co408_control_word(eff, 0);
+        sp_co_node_t *nd = m->node;
+        const sp_co_node_cfg_t *nc = cfg->node;
+        for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++) {
             if (nc->bus >= SP_CAN_BUSES) {
                 continue; /* the config changed after the check: never index past the array */
             }
             bus_used[nc->bus] = 1u;
             if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
-                node_rpdo(nd, nc, eff, in->setpoint[k], in->force_dan[k], &out->tx[out->n_tx++]);
+                node_rpdo(nd, nc, eff, &targets, cw408, in->setpoint[k], in->force_dan[k], &out->tx[out->n_tx++]);
             }
         }
         for (k = 0u; k < SP_CAN_BUSES; k++) {
@@ -805,58 +924,18 @@ sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s)
     return SP_OK;
 }
 
-static int scaling_ok(const sp_co_scaling_t *s)
-{
-    return scaling_fields_ok(s) && s->count_per_q24 != 0u && s->q24_per_count_q28 != 0u;
-}
-
-static int32_t sat32(int64_t v, sp_status_t *st)
-{
-    if (v > INT32_MAX) {
-        *st = SP_E_OVERFLOW;
-        return INT32_MAX;
-    }
-    if (v < INT32_MIN) {
-        *st = SP_E_OVERFLOW;
-        return INT32_MIN;
-    }
-    return (int32_t)v;
-}
-
-/* round(mag / 2^shift) of a non-negative mag, with the sign put back */
-static int64_t signed_shift_round(int64_t sign, uint64_t mag, unsigned shift)
-{
-    int64_t q = (int64_t)((mag + ((uint64_t)1 << (shift - 1u))) >> shift);
-    return sign < 0 ? -q : q;
-}
-
 sp_status_t sp_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, int32_t *count)
 {
-    sp_status_t st = SP_OK;
-    int64_t diff;
-    if (!scaling_ok(s) || count == NULL) {
+    if (!spi_co_scaling_ok(s) || count == NULL) {
         return SP_E_ARG;
     }
-    diff = ((int64_t)length_q24 - (int64_t)s->zero_q24) * s->direction; /* |diff| < 2^32 */
-    /* |diff| x count_per_q24 < 2^32 x 2^30 */
-    *count = sat32(signed_shift_round(diff, (uint64_t)(diff < 0 ? -diff : diff) * s->count_per_q24, 24u), &st);
-    return st;
+    return spi_co_length_to_count(s, length_q24, count);
 }
 
 sp_status_t sp_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24)
 {
-    sp_status_t st = SP_OK;
-    int64_t c, q24;
-    if (!scaling_ok(s) || length_q24 == NULL) {
+    if (!spi_co_scaling_ok(s) || length_q24 == NULL) {
         return SP_E_ARG;
     }
-    c = (int64_t)count * s->direction;
-    if (c > s->count_limit || c < -s->count_limit) {
-        *length_q24 = c > 0 ? INT32_MAX : INT32_MIN;
-        return SP_E_OVERFLOW;
-    }
-    /* |c| x nm < 2^37 nm-counts, x 2^52 / 1e9 < 2^60 */
-    q24 = signed_shift_round(c, (uint64_t)(c < 0 ? -c : c) * s->q24_per_count_q28, 28u);
-    *length_q24 = sat32((int64_t)s->zero_q24 + q24, &st);
-    return st;
+    return spi_co_count_to_length(s, count, length_q24);
 }

@@ -206,6 +206,14 @@ typedef struct {
     int32_t hold_target;  /**< CiA 402: the target position held while HOLD is asked, counts */
     int32_t last_target;  /**< CiA 402: the target position of the last RPDO1, counts */
     sp_co_fault_t fault;  /**< the first fault latched (code NONE: none) */
+    /* The status word decoded once per change (sp_co_master_step), not per
+     * use: valid while seen_status == status and seen_profile == the node's
+     * profile. Derived; zeroed state is simply "not decoded yet". */
+    uint16_t seen_status; /**< the status word seen_state was decoded from */
+    uint8_t seen_valid;   /**< 1: seen_state, seen_fault are those of seen_status */
+    uint8_t seen_profile; /**< sp_co_profile_t seen_state is of */
+    uint8_t seen_state;   /**< sp_co408_state_t or sp_co402_state_t of seen_status */
+    uint8_t seen_fault;   /**< 1: seen_state is a fault state */
 } sp_co_node_t;
 
 typedef struct {
@@ -216,6 +224,11 @@ typedef struct {
     uint8_t last_req; /**< the request of the last step */
     uint32_t ticks;   /**< steps since start (the SYNC divider counts these) */
     uint32_t hb_sent; /**< now_ms of the master's last heartbeat */
+    /** Derived at sp_co_master_start: 1 + the node k with (bus, node id),
+     *  0 = none, so that a received frame finds its node without a search
+     *  (checked against the config on use: a config changed since the start
+     *  falls back to the search). */
+    uint8_t node_of[SP_CAN_BUSES][SP_CO_NODE_MAX + 1u];
 } sp_co_master_t;
 
 /** Zeroes the state (every node OFF). SP_E_ARG for NULL. */
