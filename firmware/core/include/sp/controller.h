@@ -296,7 +296,7 @@ typedef struct {
  *  (sp_leg_hold_t.lu_keep; "The forces' solve" above): the ticks between
  *  refine the last forces with it, and the estimate's chord step uses it.
  *  1: a fresh factorisation every tick (the plain computation). */
-#define SP_CTRL_LU_KEEP 6u
+#define SP_CTRL_LU_KEEP 7u
 
 /** Ticks a FAULT holds by the drives' position loops before the blocking
  *  valves close (out->drive_block): the loops first bring a moving
