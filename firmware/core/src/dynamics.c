@@ -449,7 +449,6 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     int64_t ac[3];               /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
     int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
     int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
-    sp_q24_t rt[SP_LEGS];
     int32_t g20, mcdc, k1, nn, k2, lmin;
     uint32_t out;
     unsigned todo; /* bit i: leg i's terms still to compute */
@@ -476,30 +475,6 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     if (lmin < (INT32_C(1) << 23)) {
         lmin = INT32_C(1) << 23; /* 0.5 m */
     }
-    for (k = 0u; k < 3u; ++k) {
-        wb[k] = (int32_t)(wa[k] >> 30);
-        /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
-         * |.| <= |w'| < 111 rad/s^2 */
-        ab[k] =
-            fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] + (int64_t)ik->rot.t[2][k] * wd[2],
-                30u);
-        vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
-        ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
-    }
-    g20 = fit(p->gravity, 4u);
-    /* the per-call constants, Q16 (m_c, m_r < 512 kg, d < 4 m) */
-    mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u);     /* m_c d_c < 2048 */
-    nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
-    k1 = mcdc - nn;                                       /* K1 */
-    k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
-    if (keep != 0u) {
-        /* the kept legs' reactions and moments, summed when computed */
-        for (k = 0u; k < 3u; ++k) {
-            fsum[k] = hold->fsum[k];
-            msum[k] = hold->msum[k];
-        }
-    }
-
     /* the envelope's per-leg part */
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
@@ -509,22 +484,49 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     if (out != 0u) {
         return 0; /* an L outside (lmin, 8 m) or an |r_c| >= 4 m */
     }
-    legs_rates_jac(jac, m->vel, wb, rt);
+    for (k = 0u; k < 3u; ++k) {
+        wb[k] = (int32_t)(wa[k] >> 30);
+    }
+    legs_rates_jac(jac, m->vel, wb, rate);
     if (keep != 0u) {
-        /* the kept legs' axial terms (the others' are overwritten below) */
+        /* the kept legs' reactions, moments (summed when computed) and
+         * axial terms (the others' are overwritten below) */
+        for (k = 0u; k < 3u; ++k) {
+            fsum[k] = hold->fsum[k];
+            msum[k] = hold->msum[k];
+        }
         for (i = 0u; i < SP_LEGS; ++i) {
             axial[i] = hold->axial[i];
         }
     }
-    for (todo = SP_ALL_LEG_BITS & ~keep; todo != 0u; todo &= todo - 1u) {
+    todo = SP_ALL_LEG_BITS & ~keep;
+    if (todo != 0u) {
+        /* what the legs to compute share (none on a tick that keeps all) */
+        for (k = 0u; k < 3u; ++k) {
+            /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
+             * |.| <= |w'| < 111 rad/s^2 */
+            ab[k] = fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] +
+                            (int64_t)ik->rot.t[2][k] * wd[2],
+                        30u);
+            vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
+            ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
+        }
+        g20 = fit(p->gravity, 4u);
+        /* the per-call constants, Q16 (m_c, m_r < 512 kg, d < 4 m) */
+        mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u);     /* m_c d_c < 2048 */
+        nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
+        k1 = mcdc - nn;                                       /* K1 */
+        k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
+    }
+    for (; todo != 0u; todo &= todo - 1u) {
         /* the legs not kept, lowest first */
         const unsigned leg = 31u - spi_clz32(todo & (0u - todo));
         const sp_q24_t *r = ik->arm[leg];
         const sp_q30_t *u = ik->unit[leg];
         const int32_t len = ik->length[leg];
-        const int32_t ld = rt[leg]; /* L' */
-        int32_t va[3];              /* v_A, m/s, Q24 */
-        int32_t aa[3];              /* a_A, m/s^2, Q20 */
+        const int32_t ld = rate[leg]; /* L' */
+        int32_t va[3];                /* v_A, m/s, Q24 */
+        int32_t aa[3];                /* a_A, m/s^2, Q20 */
         int32_t ua, ld2, vv, q, q2, tq, kq, dmu, mu, cq, c1, nq2, guz, hw[3];
         unsigned sh;
 
@@ -609,9 +611,6 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
         }
     }
     legs_sums_done(fsum, msum, hold, b);
-    for (i = 0u; i < SP_LEGS; ++i) {
-        rate[i] = rt[i];
-    }
     return 1;
 }
 
