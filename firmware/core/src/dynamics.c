@@ -266,9 +266,10 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  * intermediate, so that only the outputs (the leg reactions hw and the
  * axial terms, N in Q16, as in leg_terms_wide) need a saturating
  * narrowing: every other product and sum is exact or rounded once, with no
- * test. Also returns the leg rates L' in rate (m/s, Q24), bit for bit
- * sp_leg_rates(ik, m->vel, m->rpy_rate): the same w_b and the same
- * roundings. Returns 0 (b, axial and rate untouched) when an input is
+ * test. Also returns the leg rates L' in rate (m/s, Q24), J_i . [v; w_b]
+ * from the Jacobian's rows (legs_rates_jac; w_b as sp_leg_rates), for
+ * every leg: only the legs computed need v_A. Returns 0 (b, axial and
+ * rate untouched) when an input is
  * outside the envelope; the caller then runs leg_terms_wide. wd: the body
  * angular acceleration (Q24, sp_body_rates_sc).
  *
