@@ -1162,6 +1162,65 @@ static void test_inverse_kinematics_kept(void **state)
     assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, NULL), SP_E_ARG);
 }
 
+/* The leg rates of the inverse dynamics with leg masses (leg_terms: L'_i
+ * = J_i . [v; w_b], the Jacobian's rows in Q28 and w_b rounded to Q24)
+ * against plain_leg_rates (double, from the IK's own values), over random
+ * platforms with legs and motions up to 1 m/s, 1 rad/s, 10 m/s^2 and
+ * 10 rad/s^2: |error| <= 0.5 (the rounding of the sum) + 0.5 sum_c
+ * |J_i,3+c| (w_b's) + (sum_c |v_c| + |w_b,c|) / 2^5 (each J entry
+ * within 2^-29) LSB of Q24, and within 2 LSB of sp_leg_rates (measured:
+ * printed). */
+static void test_inverse_dynamics_rates_reference(void **state)
+{
+    uint64_t rng = 47;
+    double worst = 0.0;
+    int worst_lsb = 0;
+    (void)state;
+    for (int n = 0; n < N_POSES; ++n) {
+        sp_platform_t p;
+        double hz, q[6], want[SP_LEGS], w_max, v_max, c_max, w[3];
+        sp_motion_t m;
+        sp_ik_t ik;
+        sp_jacobian_t jac;
+        sp_lu6_t lu;
+        sp_q8_t f[SP_LEGS];
+        sp_q24_t rt[SP_LEGS], rl[SP_LEGS];
+        random_platform(&rng, &p, &hz);
+        p.leg_mass.cylinder_mass = ref_q16(tu_uniform(&rng, 0.0, 120.0));
+        p.leg_mass.cylinder_com = ref_q24(tu_uniform(&rng, 0.1, 1.0));
+        p.leg_mass.rod_mass = ref_q16(tu_uniform(&rng, 1.0, 60.0));
+        p.leg_mass.rod_com = ref_q24(tu_uniform(&rng, 0.1, 1.0));
+        random_pose(&rng, hz, &m.pose, q);
+        for (int k = 0; k < 3; ++k) {
+            m.vel[k] = ref_q24(tu_uniform(&rng, -1, 1));
+            m.rpy_rate[k] = ref_q24(tu_uniform(&rng, -1, 1));
+            m.acc[k] = ref_q24(tu_uniform(&rng, -10, 10));
+            m.rpy_acc[k] = ref_q24(tu_uniform(&rng, -10, 10));
+        }
+        assert_int_equal(sp_inverse_kinematics(&p, &m.pose, &ik), SP_OK);
+        assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+        assert_int_equal(sp_inverse_dynamics_rates(&p, &m, &ik, &jac, NULL, f, &lu, rt), SP_OK);
+        assert_int_equal(sp_leg_rates(&ik, m.vel, m.rpy_rate, rl), SP_OK);
+        plain_leg_rates(&ik, m.vel, m.rpy_rate, want, &w_max, &v_max, &c_max);
+        w[0] = ref_f24(m.rpy_rate[0]) * ref_f30(ik.rot.t[0][0]) - ref_f24(m.rpy_rate[1]) * ref_f30(ik.sc[4]);
+        w[1] = ref_f24(m.rpy_rate[0]) * ref_f30(ik.rot.t[0][1]) + ref_f24(m.rpy_rate[1]) * ref_f30(ik.sc[5]);
+        w[2] = ref_f24(m.rpy_rate[0]) * ref_f30(ik.rot.t[0][2]) + ref_f24(m.rpy_rate[2]);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            double tol = 0.5;
+            double err = fabs(ref_f24(rt[i]) - want[i]) * 16777216.0;
+            for (int c = 0; c < 3; ++c) {
+                tol += 0.5 * fabs(ldexp((double)jac.j[i][3 + c], -28)) + (fabs(ref_f24(m.vel[c])) + fabs(w[c])) / 32.0;
+            }
+            worst = fmax(worst, err / tol);
+            assert_true(err <= tol);
+            worst_lsb = (abs(rt[i] - rl[i]) > worst_lsb) ? abs(rt[i] - rl[i]) : worst_lsb;
+            assert_true(abs(rt[i] - rl[i]) <= 2);
+        }
+    }
+    print_message("ID leg rates from the Jacobian: worst error %.3f of its bound, %d LSB from sp_leg_rates\n", worst,
+                  worst_lsb);
+}
+
 static void test_inverse_dynamics_held(void **state)
 {
     uint64_t rng = 29;
@@ -1336,6 +1395,7 @@ int main(void)
         cmocka_unit_test(test_inverse_dynamics),
         cmocka_unit_test(test_inverse_dynamics_legs_power),
         cmocka_unit_test(test_inverse_kinematics_kept),
+        cmocka_unit_test(test_inverse_dynamics_rates_reference),
         cmocka_unit_test(test_inverse_dynamics_held),
         cmocka_unit_test(test_check_legs),
     };

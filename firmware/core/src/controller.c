@@ -749,10 +749,17 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
             ctrl->legs.lu_age = ctrl->legs.lu_keep;
         }
         /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
-         * (one group: every leg, nothing kept) */
+         * (one group: every leg, nothing kept); none on a tick that is due
+         * to factorise J^T (its age, not a repeated reference), so that
+         * the factorisation and a leg's terms never share a tick: the
+         * turn's other SP_CTRL_LU_KEEP - 1 ticks refresh the groups */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
-        unsigned refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
-        ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
+        unsigned refresh = 0u;
+        if (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || same ||
+            ctrl->legs.held != SP_ALL_LEGS || ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep) {
+            refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
+            ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
+        }
         st = sp_setpoints_held(cfg->platform, &ctrl->prep.limits, &ctrl->prep.friction, ref, ff, ctrl->setpoint,
                                &ctrl->est.ref_lu, &ctrl->model, (SP_CTRL_LEG_GROUPS > 1u) ? &ctrl->legs : NULL, refresh,
                                &ctrl->ref_orient);

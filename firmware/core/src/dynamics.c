@@ -266,9 +266,10 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  * intermediate, so that only the outputs (the leg reactions hw and the
  * axial terms, N in Q16, as in leg_terms_wide) need a saturating
  * narrowing: every other product and sum is exact or rounded once, with no
- * test. Also returns the leg rates L' in rate (m/s, Q24), bit for bit
- * sp_leg_rates(ik, m->vel, m->rpy_rate): the same w_b and the same
- * roundings. Returns 0 (b, axial and rate untouched) when an input is
+ * test. Also returns the leg rates L' in rate (m/s, Q24), J_i . [v; w_b]
+ * from the Jacobian's rows (legs_rates_jac; w_b as sp_leg_rates), for
+ * every leg: only the legs computed need v_A. Returns 0 (b, axial and
+ * rate untouched) when an input is
  * outside the envelope; the caller then runs leg_terms_wide. wd: the body
  * angular acceleration (Q24, sp_body_rates_sc).
  *
@@ -415,9 +416,28 @@ SPI_NOINLINE static int leg_terms_at_rest(const sp_platform_t *p, const sp_ik_t 
     return 1;
 }
 
-SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t wd[3],
-                                  int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS],
-                                  sp_leg_hold_t *hold, unsigned keep, sp_flags_t *flags)
+/* The legs' rates L'_i = J_i . [v; w_b] (m/s, Q24) from the Jacobian's
+ * rows (Q28) and v, w_b (Q24): six exact products (each below 2^57 in
+ * leg_terms' envelope: |J_i| entries below 8, |v_c|, |w_b,c| below 4)
+ * summed (|L'| < 55 m/s: below 2^58 in Q52) and rounded once, ties up.
+ * Out of line: a plain loop, its x in registers. */
+SPI_NOINLINE static void legs_rates_jac(const sp_jacobian_t *jac, const sp_q24_t v[3], const sp_q24_t wb[3],
+                                        sp_q24_t rate[SP_LEGS])
+{
+    const int32_t x0 = v[0], x1 = v[1], x2 = v[2], x3 = wb[0], x4 = wb[1], x5 = wb[2];
+    unsigned i;
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const int32_t *ji = jac->j[i];
+        rate[i] = fit((int64_t)ji[0] * x0 + (int64_t)ji[1] * x1 + (int64_t)ji[2] * x2 + (int64_t)ji[3] * x3 +
+                          (int64_t)ji[4] * x4 + (int64_t)ji[5] * x5,
+                      28u);
+    }
+}
+
+SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_jacobian_t *jac,
+                                  const sp_motion_t *m, const sp_q24_t wd[3], int64_t b[SP_LEGS],
+                                  sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned keep,
+                                  sp_flags_t *flags)
 {
     const sp_leg_mass_t *lm = &p->leg_mass;
     const int32_t mr = lm->rod_mass; /* Q16 */
@@ -430,9 +450,9 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     int64_t ac[3];               /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
     int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
     int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
-    sp_q24_t rt[SP_LEGS];
     int32_t g20, mcdc, k1, nn, k2, lmin;
     uint32_t out;
+    unsigned todo; /* bit i: leg i's terms still to compute */
     unsigned i;
     unsigned k;
 
@@ -456,57 +476,66 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     if (lmin < (INT32_C(1) << 23)) {
         lmin = INT32_C(1) << 23; /* 0.5 m */
     }
+    /* the envelope's per-leg part */
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const sp_q24_t *r = ik->arm[i];
+        out |= (uint32_t)((uint32_t)ik->length[i] - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u) |
+               out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u);
+    }
+    if (out != 0u) {
+        return 0; /* an L outside (lmin, 8 m) or an |r_c| >= 4 m */
+    }
     for (k = 0u; k < 3u; ++k) {
         wb[k] = (int32_t)(wa[k] >> 30);
-        /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
-         * |.| <= |w'| < 111 rad/s^2 */
-        ab[k] =
-            fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] + (int64_t)ik->rot.t[2][k] * wd[2],
-                30u);
-        vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
-        ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
     }
-    g20 = fit(p->gravity, 4u);
-    /* the per-call constants, Q16 (m_c, m_r < 512 kg, d < 4 m) */
-    mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u);     /* m_c d_c < 2048 */
-    nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
-    k1 = mcdc - nn;                                       /* K1 */
-    k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
+    legs_rates_jac(jac, m->vel, wb, rate);
     if (keep != 0u) {
-        /* the kept legs' reactions and moments, summed when computed */
+        /* the kept legs' reactions, moments (summed when computed) and
+         * axial terms (the others' are overwritten below) */
         for (k = 0u; k < 3u; ++k) {
             fsum[k] = hold->fsum[k];
             msum[k] = hold->msum[k];
         }
+        for (i = 0u; i < SP_LEGS; ++i) {
+            axial[i] = hold->axial[i];
+        }
     }
-
-    for (i = 0u; i < SP_LEGS; ++i) {
-        const sp_q24_t *r = ik->arm[i];
-        const sp_q30_t *u = ik->unit[i];
-        const int32_t len = ik->length[i];
-        int32_t va[3]; /* v_A, m/s, Q24 */
-        int32_t aa[3]; /* a_A, m/s^2, Q20 */
-        int32_t ld, ua, ld2, vv, q, q2, tq, kq, dmu, mu, cq, c1, nq2, guz, hw[3];
+    todo = SP_ALL_LEG_BITS & ~keep;
+    if (todo != 0u) {
+        /* what the legs to compute share (none on a tick that keeps all) */
+        for (k = 0u; k < 3u; ++k) {
+            /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
+             * |.| <= |w'| < 111 rad/s^2 */
+            ab[k] = fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] +
+                            (int64_t)ik->rot.t[2][k] * wd[2],
+                        30u);
+            vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
+            ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
+        }
+        g20 = fit(p->gravity, 4u);
+        /* the per-call constants, Q16 (m_c, m_r < 512 kg, d < 4 m) */
+        mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u);     /* m_c d_c < 2048 */
+        nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
+        k1 = mcdc - nn;                                       /* K1 */
+        k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
+    }
+    for (; todo != 0u; todo &= todo - 1u) {
+        /* the legs not kept, lowest first */
+        const unsigned leg = 31u - spi_clz32(todo & (0u - todo));
+        const sp_q24_t *r = ik->arm[leg];
+        const sp_q30_t *u = ik->unit[leg];
+        const int32_t len = ik->length[leg];
+        const int32_t ld = rate[leg]; /* L' */
+        int32_t va[3];                /* v_A, m/s, Q24 */
+        int32_t aa[3];                /* a_A, m/s^2, Q20 */
+        int32_t ua, ld2, vv, q, q2, tq, kq, dmu, mu, cq, c1, nq2, guz, hw[3];
         unsigned sh;
 
-        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
-            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
-            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
-        }
-        /* v_A = v + w_b x r rounded once, as sp_leg_rates: products below
-         * 2^53, |v_A| < 55 m/s */
+        /* v_A = v + w_b x r rounded once: products below 2^53, |v_A| <
+         * 55 m/s */
         va[0] = (int32_t)((vb[0] + (int64_t)wb[1] * r[2] - (int64_t)wb[2] * r[1]) >> 24);
         va[1] = (int32_t)((vb[1] + (int64_t)wb[2] * r[0] - (int64_t)wb[0] * r[2]) >> 24);
         va[2] = (int32_t)((vb[2] + (int64_t)wb[0] * r[1] - (int64_t)wb[1] * r[0]) >> 24);
-        /* L' = u.v_A (Q24, as sp_leg_rates; |.| < 55): a sum below 2^62 */
-        ld = fit((int64_t)u[0] * va[0] + (int64_t)u[1] * va[1] + (int64_t)u[2] * va[2], 30u);
-        rt[i] = ld;
-        if (((keep >> i) & 1u) != 0u) {
-            /* a kept leg: its reaction, moment and axial term as computed
-             * before, already in the kept sums */
-            axial[i] = hold->axial[i];
-            continue;
-        }
         /* a_A = a + w_b' x r + w_b x (v_A - v), one Q48 sum (below
          * 1213 2^48 < 2^59) rounded once to Q20 */
         {
@@ -564,28 +593,25 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
                 if (hold != NULL) {
                     /* a kept sum drops the leg's earlier terms: exact */
                     if (keep != 0u) {
-                        fsum[k] -= hold->hw[i][k];
-                        msum[k] -= hold->mo[i][k];
+                        fsum[k] -= hold->hw[leg][k];
+                        msum[k] -= hold->mo[leg][k];
                     }
-                    hold->hw[i][k] = hw[k];
-                    hold->mo[i][k] = mo[k];
+                    hold->hw[leg][k] = hw[k];
+                    hold->mo[leg][k] = mo[k];
                 }
             }
         }
         /* s_i, Q36: (m_r - mu) u.a_A, (m_r - k_g) g u_z (each below
          * 512 1213 2^36, 4096 16 2^36) and (N q^2 vv + 2 (C / L) L'^2) 2^4
          * (below 3 1024 3025 2^36): below 2^60 */
-        axial[i] = spi_narrow_floor(((int64_t)nq2 * vv + (int64_t)cq * ld2 * 2) * 16 - (int64_t)dmu * ua -
-                                        (int64_t)kq * guz + (INT64_C(1) << 19),
-                                    20u, flags);
+        axial[leg] = spi_narrow_floor(((int64_t)nq2 * vv + (int64_t)cq * ld2 * 2) * 16 - (int64_t)dmu * ua -
+                                          (int64_t)kq * guz + (INT64_C(1) << 19),
+                                      20u, flags);
         if (hold != NULL) {
-            hold->axial[i] = axial[i];
+            hold->axial[leg] = axial[leg];
         }
     }
     legs_sums_done(fsum, msum, hold, b);
-    for (i = 0u; i < SP_LEGS; ++i) {
-        rate[i] = rt[i];
-    }
     return 1;
 }
 
@@ -737,7 +763,7 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
         sp_q24_t *lr = (rate != NULL) ? rate : rt;
         if ((SPI_LEG_TERMS_AT_REST && at_rest(motion, omega_dot) &&
              leg_terms_at_rest(platform, ik, b, axial, lr, hold, keep, &flags)) ||
-            leg_terms(platform, ik, motion, omega_dot, b, axial, lr, hold, keep, &flags)) {
+            leg_terms(platform, ik, jac, motion, omega_dot, b, axial, lr, hold, keep, &flags)) {
             have_rates = 1;
         } else {
             leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, &flags);

@@ -37,7 +37,10 @@
  * the last tick's forces with that factorisation (sp_inverse_dynamics_held,
  * hold.lu_keep; docs/model.md, "The factorisation kept over ticks"), and
  * the estimate's chord step uses it too.
- * A kept term is at most SP_CTRL_LEG_GROUPS - 1 ticks old (docs/model.md,
+ * The tick that factorises refreshes no leg (the factorisation and a
+ * leg's terms are the two heaviest jobs of the feed-forward: never on the
+ * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 1
+ * ticks. A kept term is at most SP_CTRL_LEG_GROUPS ticks old (docs/model.md,
  * "Leg masses kept over ticks"). A reference repeated at rest is computed
  * until every leg's terms are its own, and only then reused. The default
  * is six groups (one leg a tick): the M4 tick is about 1,840 instructions
@@ -296,8 +299,11 @@ typedef struct {
 /** Ticks over which one factorisation of J^T serves the forces' solve
  *  (sp_leg_hold_t.lu_keep; "The forces' solve" above): the ticks between
  *  refine the last forces with it, and the estimate's chord step uses it.
- *  1: a fresh factorisation every tick (the plain computation). */
-#define SP_CTRL_LU_KEEP 6u
+ *  1: a fresh factorisation every tick (the plain computation). Above
+ *  SP_CTRL_LEG_GROUPS (> 1), the tick that factorises refreshes no leg
+ *  (motion_setpoints): SP_CTRL_LEG_GROUPS + 1 gives each of the turn's
+ *  other ticks one group. */
+#define SP_CTRL_LU_KEEP 7u
 
 /** Ticks a FAULT holds by the drives' position loops before the blocking
  *  valves close (out->drive_block): the loops first bring a moving

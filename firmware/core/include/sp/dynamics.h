@@ -56,10 +56,12 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
 /**
  * sp_inverse_dynamics_jac (same forces, bit for bit, same errors) that
  * also returns the leg rates d|l_i|/dt of the motion in rate (m/s, Q24),
- * bit for bit sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate): the
- * leg-mass terms compute them anyway (the joint velocities), so a caller
+ * within 2 LSB of sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate)
+ * (measured 1; tests/unit/test_kinematics.c bounds both against float64):
+ * with leg masses they are J_i . [v; w_b] from jac's rows, rounded once,
+ * which costs less than the joint velocities of every leg, so a caller
  * that needs both (sp_setpoints_of) computes them once. Where the leg
- * terms do not (massless legs, or inputs outside their envelope, see
+ * terms do not run (massless legs, or inputs outside their envelope, see
  * dynamics.c) sp_leg_rates runs. rate is valid on SP_OK only; its errors
  * (SP_E_OVERFLOW beyond +-128 m/s) are returned like the forces'.
  * SP_E_ARG if rate is NULL.

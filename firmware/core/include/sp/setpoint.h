@@ -56,7 +56,8 @@ typedef struct {
 
 /**
  * The setpoints of a reference motion: the leg lengths of its pose (IK),
- * their rates (sp_leg_rates) and the force feed-forward: the cylinder
+ * their rates (sp_inverse_dynamics_rates': within 2 LSB of sp_leg_rates)
+ * and the force feed-forward: the cylinder
  * forces of its motion (sp_inverse_dynamics_jac, no external force) when
  * ff has SP_FF_DYNAMICS, plus the friction at the leg rates when ff has
  * SP_FF_FRICTION (0 when ff is 0). *model gets the full model forces
