@@ -6,6 +6,7 @@
 # (stream: the STREAM scenario's RUNNING ticks, sp_m4_profile_stream.elf;
 # force: the force scenario's FORCE command and the 2000 ticks after it;
 # engage: the surge's ENGAGE tick alone, sp_m4_profile_engage.elf;
+# trig: the surge's RUN_TRIG tick alone, sp_m4_profile_trig.elf;
 # slide: the force scenario's 50 mm slide in FORCE, the MOVE_TO tick and
 # the 843 after it)
 # PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
@@ -15,6 +16,7 @@ top=${2:-25}
 elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ "${3:-}" = force ] && : "${PROFILE_TICKS:=2001}"
 [ "${3:-}" = engage ] && : "${PROFILE_TICKS:=1}"
+[ "${3:-}" = trig ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = slide ] && : "${PROFILE_TICKS:=844}"
 [ -f "$elf" ] || { echo "profile: $elf is missing (build the m4-core preset)" >&2; exit 1; }
 log=$(mktemp -d)

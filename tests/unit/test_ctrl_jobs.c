@@ -137,6 +137,47 @@ static void test_limits_reachable_near_is_sufficient(void **state)
     assert_true(near > checked / 4); /* the bound decides most small steps */
 }
 
+/* sp_limits_pose_reachable_from gives sp_limits_pose_reachable's verdict
+ * (its plain reference) with and without the base's lengths, for ends
+ * near and far from the base, inside and outside the workspace box and
+ * the strokes; near ends are decided without the IK. */
+static void test_limits_reachable_from_is_pose_reachable(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    uint64_t rng = 0xF00Du;
+    int by_bound = 0;
+    int refused_box = 0;
+    int refused_legs = 0;
+    int accepted = 0;
+    for (int n = 0; n < 4000; ++n) {
+        sp_pose_t base = random_pose(&rng, 0.1, 0.1);
+        sp_q24_t base_len[SP_LEGS];
+        if (!sp_limits_pose_reachable(&lim, P, &base, base_len)) {
+            continue;
+        }
+        double step = pow(10.0, tu_uniform(&rng, -4.0, 0.0)); /* 0.1 mm .. 1 m, rad */
+        sp_pose_t q = base;
+        for (int k = 0; k < 3; ++k) {
+            q.pos[k] += q24(tu_uniform(&rng, -step, step));
+            q.rpy[k] += q24(tu_uniform(&rng, -step, step));
+        }
+        int want = sp_limits_pose_reachable(&lim, P, &q, NULL);
+        assert_int_equal(sp_limits_pose_reachable_from(&lim, P, &base, base_len, &q), want);
+        assert_int_equal(sp_limits_pose_reachable_from(&lim, P, &base, NULL, &q), want);
+        accepted += want;
+        if (!want) {
+            refused_box += !sp_limits_in_workspace(&lim, &q);
+            refused_legs += sp_limits_in_workspace(&lim, &q);
+        }
+        by_bound += sp_limits_in_workspace(&lim, &q) && sp_limits_reachable_near(&lim, &base, base_len, &q);
+    }
+    assert_true(accepted > 500);
+    assert_true(by_bound > 500);
+    assert_true(refused_box > 100);
+    assert_true(refused_legs > 10);
+}
+
 /* sp_limits_setpoints_ok's plain reference: six signed comparisons a leg. */
 static int plain_setpoints_ok(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
                               const sp_q8_t force[SP_LEGS])
@@ -1101,6 +1142,7 @@ int main(void)
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
+        cmocka_unit_test(test_limits_reachable_from_is_pose_reachable),
         cmocka_unit_test(test_limits_setpoints_reference),
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),

@@ -355,11 +355,20 @@ static void start_running(sp_ctrl_t *ctrl, sp_motion_mode_t mode)
     ctrl->state = SP_STATE_RUNNING;
 }
 
+/* Is a motion's end reachable (sp_limits_pose_reachable's verdict)? From
+ * the last reference, whose IK lengths ctrl->model.ref keeps while its
+ * factorisation is valid: an end near it needs no IK. */
+static int end_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *end)
+{
+    int known = ctrl->est.ref_lu.valid && ctrl->have_setpoint;
+    return sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->reference.pose,
+                                         known ? ctrl->model.ref.length : NULL, end);
+}
+
 /* RUN_TRIG from READY: both ends of the motion must be reachable. */
 static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     const sp_platform_t *p = cfg->platform;
-    const sp_limits_t *lim = &ctrl->prep.limits;
     sp_pose_t lo = p->home;
     sp_pose_t hi = p->home;
     unsigned a = (unsigned)cmd->axis;
@@ -372,7 +381,7 @@ static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
     *l = sp_sub(*l, cmd->amplitude, NULL);
     *h = sp_add(*h, cmd->amplitude, NULL);
-    if (!sp_limits_pose_reachable(lim, p, &lo, NULL) || !sp_limits_pose_reachable(lim, p, &hi, NULL) ||
+    if (!end_reachable(cfg, ctrl, &lo) || !end_reachable(cfg, ctrl, &hi) ||
         sp_trig_start(&ctrl->trig, &p->home, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
                       cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) != SP_OK) {
         return 0;
@@ -539,7 +548,7 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_RUN_TRIG:
         return ctrl->force.mode == SP_FORCE_OFF && command_run_trig(cfg, ctrl, cmd);
     case SP_CMD_MOVE_TO:
-        if (ctrl->state != SP_STATE_READY || !sp_limits_pose_reachable(&ctrl->prep.limits, p, &cmd->target, NULL) ||
+        if (ctrl->state != SP_STATE_READY || !end_reachable(cfg, ctrl, &cmd->target) ||
             !start_move(cfg, ctrl, &ctrl->pos_ref.pose, &cmd->target)) {
             return 0;
         }

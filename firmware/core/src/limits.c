@@ -117,6 +117,18 @@ int sp_limits_reachable_near(const sp_limits_t *lim, const sp_pose_t *base, cons
     return 1;
 }
 
+int sp_limits_pose_reachable_from(const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *base,
+                                  const sp_q24_t base_length[SP_LEGS], const sp_pose_t *pose)
+{
+    if (!sp_limits_in_workspace(lim, pose)) {
+        return 0;
+    }
+    if (base_length != NULL && sp_limits_reachable_near(lim, base, base_length, pose)) {
+        return 1; /* sufficient: the IK would say the same */
+    }
+    return sp_limits_legs_reachable(lim, platform, pose, NULL);
+}
+
 int sp_limits_setpoints_ok(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS], const sp_q24_t rate[SP_LEGS],
                            const sp_q8_t force[SP_LEGS])
 {

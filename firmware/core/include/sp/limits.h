@@ -95,6 +95,16 @@ int sp_limits_reachable_near(const sp_limits_t *lim, const sp_pose_t *base, cons
                              const sp_pose_t *pose);
 
 /**
+ * sp_limits_pose_reachable's verdict, bit for bit, from a base pose whose
+ * IK lengths are known (`base_length`; NULL: none known): the workspace
+ * box first, then sp_limits_reachable_near from the base, and the IK only
+ * where that test is not conclusive. Near the base (a motion's ends around
+ * the reference it starts from) it costs no IK. 1 if reachable, else 0.
+ */
+int sp_limits_pose_reachable_from(const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *base,
+                                  const sp_q24_t base_length[SP_LEGS], const sp_pose_t *pose);
+
+/**
  * 1 if the setpoints of a reference keep every limit: lengths inside the
  * stroke less the margin, |rate| <= rate_max (m/s, Q24) and |force| <=
  * force_max (N, Q8) on every leg; else 0.
