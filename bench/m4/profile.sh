@@ -7,6 +7,7 @@
 # force: the force scenario's FORCE command and the 2000 ticks after it;
 # engage: the surge's ENGAGE tick alone, sp_m4_profile_engage.elf;
 # trig: the surge's RUN_TRIG tick alone, sp_m4_profile_trig.elf;
+# stream_start: the STREAM command's tick alone;
 # slide: the force scenario's 50 mm slide in FORCE, the MOVE_TO tick and
 # the 843 after it)
 # PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
@@ -17,6 +18,7 @@ elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ "${3:-}" = force ] && : "${PROFILE_TICKS:=2001}"
 [ "${3:-}" = engage ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = trig ] && : "${PROFILE_TICKS:=1}"
+[ "${3:-}" = stream_start ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = slide ] && : "${PROFILE_TICKS:=844}"
 [ -f "$elf" ] || { echo "profile: $elf is missing (build the m4-core preset)" >&2; exit 1; }
 log=$(mktemp -d)

@@ -1183,6 +1183,83 @@ static void test_move_plan_against_plain(void **state)
     assert_true(kinds[0] > 1000 && kinds[1] > 10 && kinds[2] > 5);
 }
 
+/* The first sample of a planned move as sp_move_step's general path
+ * makes it: the smoothstep's E, E', E'' at u = 0 through the public
+ * fixed-point functions, every moving axis's products by them and by the
+ * rate 1/duration (its saturation flagged), the pose `from` plus D E. */
+static sp_status_t plain_move_first(const sp_move_t *mv, uint32_t tick_us, sp_motion_t *out)
+{
+    sp_flags_t flags = 0u;
+    const int64_t one = INT64_C(1) << 30;
+    const int64_t u = 0;
+    int64_t u2 = sp_rshift_round(u * u, 30u);
+    int64_t u3 = sp_rshift_round(u2 * u, 30u);
+    int64_t v2 = sp_rshift_round((one - u) * (one - u), 30u);
+    int64_t e = sp_rshift_round(u3 * (10 * one - 15 * u + 6 * u2), 30u);
+    int64_t de = sp_rshift_round(30 * sp_rshift_round(u2 * v2, 30u), 6u);
+    int64_t dde = sp_rshift_round(60 * sp_rshift_round(sp_rshift_round(u * (one - u), 30u) * (one - 2 * u), 30u), 6u);
+    uint64_t dt_us = (uint64_t)mv->duration_ticks * tick_us;
+    int32_t rate = sp_sat32((int64_t)(((UINT64_C(1) << 24) * UINT64_C(1000000)) / dt_us), &flags);
+    sp_motion_at_rest(out, &mv->from);
+    for (int a = 0; a < 6; ++a) {
+        int64_t d = (int64_t)sp_pose_axis(&mv->to, (sp_axis_t)a) - sp_pose_axis(&mv->from, (sp_axis_t)a);
+        if (d == 0) {
+            continue;
+        }
+        int32_t dv = sp_sat32(sp_rshift_round(d * de, 24u), &flags);
+        int32_t da = sp_sat32(sp_rshift_round(d * dde, 24u), &flags);
+        int64_t dp = sp_rshift_round(d * e, 30u);
+        sp_q24_t *p = (a < 3) ? &out->pose.pos[a] : &out->pose.rpy[a - 3];
+        *p = sp_sat32(*p + dp, &flags);
+        *((a < 3) ? &out->vel[a] : &out->rpy_rate[a - 3]) = sp_sat32(sp_rshift_round((int64_t)dv * rate, 24u), &flags);
+        *((a < 3) ? &out->acc[a] : &out->rpy_acc[a - 3]) = sp_sat32(
+            sp_rshift_round((int64_t)sp_sat32(sp_rshift_round((int64_t)da * rate, 24u), &flags) * rate, 24u), &flags);
+    }
+    return sp_flags_status(flags);
+}
+
+/* sp_move_step's first sample (its short path: `from` at rest, no
+ * smoothstep) against plain_move_first, bit for bit with the status, on
+ * random moves from 0.1 um to 1 m or rad, some short enough for the rate
+ * to saturate; the second sample then comes from the general path. */
+static void test_move_first_sample(void **state)
+{
+    uint64_t rng = 4242u;
+    int saturated = 0;
+    int planned = 0;
+    (void)state;
+    for (int n = 0; n < 5000; ++n) {
+        sp_pose_t to = sp_platform_default.home;
+        sp_move_limits_t lim;
+        sp_move_t mv;
+        sp_motion_t m, want;
+        int done = 1;
+        for (int a = 0; a < 6; ++a) {
+            rng = rng * 6364136223846793005u + 1442695040888963407u;
+            double u = (double)(rng >> 11) / 9007199254740992.0;
+            double dist = ((rng >> 3) % 3u == 0u) ? 0.0 : (u - 0.5) * 2.0 * pow(10.0, -7.0 + 7.0 * u);
+            *((a < 3) ? &to.pos[a] : &to.rpy[a - 3]) += q24(dist);
+            lim.vel_max[a] = q24(0.25);
+            lim.acc_max[a] = q24(n % 2 ? 1.0 : 100.0);
+            lim.jerk_max[a] = q24(n % 2 ? 5.0 : 120.0);
+        }
+        if (sp_move_plan(&mv, &sp_platform_default.home, &to, &lim, 1000u) != SP_OK || mv.duration_ticks == 0u) {
+            continue;
+        }
+        ++planned;
+        sp_status_t st_want = plain_move_first(&mv, 1000u, &want);
+        saturated += st_want != SP_OK;
+        assert_int_equal(sp_move_step(&mv, 1000u, &m, &done), st_want);
+        assert_int_equal(done, 0);
+        assert_memory_equal(&m, &want, sizeof m);
+        assert_int_equal(mv.tick, 1u);
+        (void)sp_move_step(&mv, 1000u, &m, &done);
+        assert_int_equal(mv.tick, (mv.duration_ticks > 1u) ? 2u : 1u);
+    }
+    print_message("move first samples: %d moves, %d with a saturated rate\n", planned, saturated);
+    assert_true(planned > 3000 && saturated > 5);
+}
+
 /* ---- force control on a force/torque sensor ---------------------------- */
 
 /* A surface under the tool (the sensor at o', its axes the platform's) at
@@ -1419,6 +1496,7 @@ int main(void)
         cmocka_unit_test(test_set_wrench_source),
         cmocka_unit_test(test_move_respects_limits),
         cmocka_unit_test(test_move_plan_against_plain),
+        cmocka_unit_test(test_move_first_sample),
         cmocka_unit_test(test_engage_run_park),
         cmocka_unit_test(test_rest_reuses_setpoints),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),

@@ -342,12 +342,19 @@ sp_status_t sp_move_step(sp_move_t *mv, uint32_t tick_us, sp_motion_t *out, int 
     }
     *done = 0;
     sp_motion_at_rest(out, &mv->from);
-    u = (int32_t)udiv64((uint64_t)mv->tick << 30, mv->duration_ticks);
     if (mv->tick == 0u || mv->rate_tick_us != tick_us) {
         /* once per move (and whenever the tick length changes) */
         mv->rate = inv_duration_q24((uint64_t)mv->duration_ticks * tick_us, &flags);
         mv->rate_tick_us = (flags == 0u) ? tick_us : 0u; /* a saturated rate is not kept */
     }
+    if (mv->tick == 0u) {
+        /* the first sample, u = 0: E = E' = E'' = 0, so every product
+         * below is 0 and the sample is `from` at rest, as set above (the
+         * move's command tick: no smoothstep, no division) */
+        ++mv->tick;
+        return sp_flags_status(flags);
+    }
+    u = (int32_t)udiv64((uint64_t)mv->tick << 30, mv->duration_ticks);
     rate = mv->rate;
     smoothstep(u, &e, &de, &dde);
     for (a = 0u; a < 6u; ++a) {
