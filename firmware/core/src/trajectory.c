@@ -228,6 +228,19 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     return sp_flags_status(flags);
 }
 
+/* The value of axis a (0..5: x, y, z, roll, pitch, yaw) of a pose. */
+static sp_q24_t axis_of(const sp_pose_t *pose, unsigned a)
+{
+    return (a < 3u) ? pose->pos[a] : pose->rpy[a - 3u];
+}
+
+/* ceil(n / d) for d >= 1 and n < 2^64 - 2^32 (the plan's bounds: n <
+ * 2^32 * 6e10): the 32-bit division whenever the quotient fits. */
+static uint64_t ceil_div(uint64_t n, uint32_t d)
+{
+    return udiv64(n + d - 1u, d);
+}
+
 /* Smallest r with r^3 >= v (v < 2^63); bounded bisection. */
 static uint64_t icbrt_ceil(uint64_t v)
 {
@@ -269,7 +282,7 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
     mv->rate_tick_us = 0u;
     mv->rate = 0;
     for (a = 0u; a < 6u; ++a) {
-        int64_t d = (int64_t)sp_pose_axis(to, (sp_axis_t)a) - sp_pose_axis(from, (sp_axis_t)a);
+        int64_t d = (int64_t)axis_of(to, a) - axis_of(from, a);
         uint64_t dm = (uint64_t)(d < 0 ? -d : d); /* Q24, < 2^32 */
         uint64_t t;
         t_acc[a] = 0u;
@@ -281,10 +294,10 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
             continue;
         }
         /* velocity: T = 1.875 D / v, ms */
-        t = (dm * 1875u + (uint64_t)lim->vel_max[a] - 1u) / (uint64_t)lim->vel_max[a];
+        t = ceil_div(dm * 1875u, (uint32_t)lim->vel_max[a]);
         t_ms = t > t_ms ? t : t_ms;
         /* acceleration: T^2 = 5.7735 D / a; in ms^2: 5773503 D / a */
-        t = (dm * 5773503u + (uint64_t)lim->acc_max[a] - 1u) / (uint64_t)lim->acc_max[a];
+        t = ceil_div(dm * 5773503u, (uint32_t)lim->acc_max[a]);
         if (t > MOVE_MAX_MS * MOVE_MAX_MS) {
             return SP_E_RANGE;
         }
@@ -294,7 +307,7 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
         if (dm >= (UINT64_C(1) << 28)) {
             return SP_E_RANGE;
         }
-        t = (dm * UINT64_C(60000000000) + (uint64_t)lim->jerk_max[a] - 1u) / (uint64_t)lim->jerk_max[a];
+        t = ceil_div(dm * UINT64_C(60000000000), (uint32_t)lim->jerk_max[a]);
         if (t > MOVE_MAX_MS * MOVE_MAX_MS * MOVE_MAX_MS) {
             return SP_E_RANGE;
         }
@@ -302,10 +315,14 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
     }
     /* T = the largest bound of all axes. A root needs computing only
      * where its power exceeds the largest T so far: its root is then
-     * larger (otherwise it is not, and the maximum is the same) */
+     * larger (otherwise it is not, and the maximum is the same). An axis
+     * at rest has no bounds (0) */
     for (a = 0u; a < 6u; ++a) {
         if (t_ms > MOVE_MAX_MS) {
             return SP_E_RANGE;
+        }
+        if (t_acc[a] == 0u) {
+            continue;
         }
         if (t_acc[a] > t_ms * t_ms) {
             t_ms = isqrt_ceil(t_acc[a]);
@@ -318,7 +335,8 @@ sp_status_t sp_move_plan(sp_move_t *mv, const sp_pose_t *from, const sp_pose_t *
         return SP_E_RANGE;
     }
     mv->to = *to;
-    mv->duration_ticks = (uint32_t)((t_ms * 1000u + tick_us - 1u) / tick_us);
+    /* t_ms <= 6e5 and tick_us <= 1e5: the sum is below 2^32 */
+    mv->duration_ticks = ((uint32_t)t_ms * 1000u + tick_us - 1u) / tick_us;
     return SP_OK;
 }
 
