@@ -139,6 +139,21 @@ static int32_t fade_rate(sp_trig_t *g, uint32_t tick_us, sp_flags_t *flags)
     return g->fade_rate;
 }
 
+/* The generator's first step (the command's tick; its sample, the centre
+ * at rest, is already in *out): u = 0 and the phase 0, so E = E' = E'' = 0
+ * and sin(theta) = 0, and every product of sp_trig_step's general path
+ * has a zero factor. Of its flags only the fade rate's and omega^2's
+ * (saturating above 1.8 Hz) can be raised: the same here. */
+static sp_status_t trig_first(sp_trig_t *g, uint32_t tick_us)
+{
+    sp_flags_t flags = 0u;
+    (void)fade_rate(g, tick_us, &flags);
+    (void)spi_mul_away(g->omega, g->omega, 24u, &flags);
+    g->phase += g->phase_step;
+    ++g->tick; /* in the fade-in: fade_ticks >= 1 (sp_trig_start) */
+    return sp_flags_status(flags);
+}
+
 sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
 {
     sp_flags_t flags = 0u;
@@ -174,6 +189,9 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
         u = (int32_t)udiv64((uint64_t)(g->fade_ticks - k) << 30, g->fade_ticks);
         rate = -fade_rate(g, tick_us, &flags);
     } else if (g->tick < g->fade_ticks) {
+        if (g->tick == 0u) {
+            return trig_first(g, tick_us);
+        }
         u = (int32_t)udiv64((uint64_t)g->tick << 30, g->fade_ticks);
         rate = fade_rate(g, tick_us, &flags);
     } else {
