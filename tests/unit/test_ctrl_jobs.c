@@ -137,6 +137,93 @@ static void test_limits_reachable_near_is_sufficient(void **state)
     assert_true(near > checked / 4); /* the bound decides most small steps */
 }
 
+/* sp_limits_reachable_near as first written: 64-bit sums and products,
+ * each leg's two ends compared in int64. */
+static int plain_reachable_near(const sp_limits_t *lim, const sp_pose_t *base, const sp_q24_t base_length[SP_LEGS],
+                                const sp_pose_t *pose)
+{
+    uint64_t dpos = 0u, drot = 0u;
+    for (int k = 0; k < 3; ++k) {
+        dpos += (uint64_t)llabs((int64_t)pose->pos[k] - base->pos[k]);
+        drot += (uint64_t)llabs((int64_t)pose->rpy[k] - base->rpy[k]);
+    }
+    if (drot >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
+        return 0;
+    }
+    uint64_t delta = dpos + (((uint64_t)lim->joint_reach * drot) >> 24) + 5u;
+    if (delta >= (UINT64_C(1) << 31)) {
+        return 0;
+    }
+    for (int k = 0; k < SP_LEGS; ++k) {
+        int64_t l = base_length[k];
+        if (l - (int64_t)delta < lim->length_min || l + (int64_t)delta > lim->length_max) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* sp_limits_reachable_near against plain_reachable_near, verdict for
+ * verdict: random bases and lengths (some at and beyond the margins),
+ * steps from 0 to beyond 128 rad, margins from none to an empty stroke,
+ * platforms too large to bound. */
+static void test_limits_reachable_near_against_plain(void **state)
+{
+    (void)state;
+    uint64_t rng = 0xBEEFu;
+    int yes = 0;
+    int no = 0;
+    for (int n = 0; n < 20000; ++n) {
+        sp_limits_t lim = default_limits();
+        if (n % 50 == 0) {
+            lim.joint_reach = UINT32_MAX;
+        } else if (n % 50 == 1) {
+            lim.length_min = lim.length_max + 1; /* an empty stroke */
+        } else if (n % 50 == 2) {
+            lim.length_min = INT32_MIN;
+            lim.length_max = INT32_MAX;
+        }
+        sp_pose_t base = random_pose(&rng, 0.2, 0.3);
+        sp_q24_t len[SP_LEGS];
+        for (int i = 0; i < SP_LEGS; ++i) {
+            double span = (double)lim.length_max - (double)lim.length_min;
+            double f = tu_uniform(&rng, -0.05, 1.05);
+            double l = (double)lim.length_min + f * (span > 0 ? span : 1e6);
+            len[i] = (sp_q24_t)fmax(fmin(l, 2147483647.0), -2147483648.0);
+            if (n % 7 == 3) {
+                len[i] = (i % 2) ? lim.length_min : lim.length_max; /* at the margins */
+            }
+        }
+        double step = (n % 97 == 0) ? 200.0 : pow(10.0, tu_uniform(&rng, -7.0, 0.5));
+        sp_pose_t q = base;
+        for (int k = 0; k < 3; ++k) {
+            q.pos[k] = (sp_q24_t)fmax(fmin(q.pos[k] + tu_uniform(&rng, -step, step) * 16777216.0, 2147483647.0),
+                                      -2147483648.0);
+            q.rpy[k] = (sp_q24_t)fmax(fmin(q.rpy[k] + tu_uniform(&rng, -step, step) * 16777216.0, 2147483647.0),
+                                      -2147483648.0);
+        }
+        if (n % 7 == 4 || n % 7 == 5) {
+            /* every leg exactly at, or one LSB beyond, the bound's ends */
+            uint64_t dpos = 0u, drot = 0u;
+            for (int k = 0; k < 3; ++k) {
+                dpos += (uint64_t)llabs((int64_t)q.pos[k] - base.pos[k]);
+                drot += (uint64_t)llabs((int64_t)q.rpy[k] - base.rpy[k]);
+            }
+            int64_t delta = (int64_t)(dpos + (((uint64_t)lim.joint_reach * drot) >> 24) + 5u);
+            int64_t out = (n % 7 == 5) ? 1 : 0;
+            for (int i = 0; i < SP_LEGS; ++i) {
+                int64_t l = (i == n % SP_LEGS) ? lim.length_min + delta - out : lim.length_max - delta + out;
+                len[i] = (sp_q24_t)((l > INT32_MAX) ? INT32_MAX : ((l < INT32_MIN) ? INT32_MIN : l));
+            }
+        }
+        int want = plain_reachable_near(&lim, &base, len, &q);
+        assert_int_equal(sp_limits_reachable_near(&lim, &base, len, &q), want);
+        yes += want;
+        no += !want;
+    }
+    assert_true(yes > 2000 && no > 2000);
+}
+
 /* sp_limits_pose_reachable_from gives sp_limits_pose_reachable's verdict
  * (its plain reference) with and without the base's lengths, for ends
  * near and far from the base, inside and outside the workspace box and
@@ -1142,6 +1229,7 @@ int main(void)
         cmocka_unit_test(test_limits_prepare),
         cmocka_unit_test(test_limits_workspace_edges),
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
+        cmocka_unit_test(test_limits_reachable_near_against_plain),
         cmocka_unit_test(test_limits_reachable_from_is_pose_reachable),
         cmocka_unit_test(test_limits_setpoints_reference),
         cmocka_unit_test(test_limits_setpoints_and_measured),

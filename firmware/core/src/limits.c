@@ -95,6 +95,9 @@ int sp_limits_reachable_near(const sp_limits_t *lim, const sp_pose_t *base, cons
     uint64_t dpos = 0u;
     uint64_t drot = 0u;
     uint64_t delta;
+    int64_t lo;
+    int64_t hi;
+    uint32_t span;
     unsigned k;
 
     for (k = 0u; k < 3u; ++k) {
@@ -104,13 +107,23 @@ int sp_limits_reachable_near(const sp_limits_t *lim, const sp_pose_t *base, cons
     if (drot >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
         return 0; /* more than 128 rad or a 256 m platform: not worth bounding */
     }
-    delta = dpos + (((uint64_t)lim->joint_reach * drot) >> 24) + 5u; /* Q24 x Q24 -> Q24, truncated: +1 */
+    /* Q24 x Q24 -> Q24, truncated: +1; a 32 x 32-bit product */
+    delta = dpos + (((uint64_t)lim->joint_reach * (uint32_t)drot) >> 24) + 5u;
     if (delta >= (UINT64_C(1) << 31)) {
         return 0;
     }
+    /* every leg l - delta >= length_min and l + delta <= length_max, i.e.
+     * l in [lo, hi]: an int32 interval when not empty (length_min <= lo,
+     * hi <= length_max), each leg one unsigned compare as in
+     * sp_limits_setpoints_ok */
+    lo = (int64_t)lim->length_min + (int64_t)delta;
+    hi = (int64_t)lim->length_max - (int64_t)delta;
+    if (lo > hi) {
+        return 0;
+    }
+    span = (uint32_t)(hi - lo);
     for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t l = base_length[k];
-        if (l - (int64_t)delta < lim->length_min || l + (int64_t)delta > lim->length_max) {
+        if ((uint32_t)base_length[k] - (uint32_t)lo > span) {
             return 0;
         }
     }
