@@ -8,7 +8,9 @@
  * surge), or, in the force scenario (PROFILE_MOTION M4_MOTION_FORCE),
  * PROFILE_TICKS ticks from the FORCE command's tick on; with
  * PROFILE_START_CMD, from the first tick with that command (the ENGAGE
- * tick: sp_m4_profile_engage). Not a measurement program: icount.c gives the figures.
+ * tick: sp_m4_profile_engage; the RUN_TRIG tick: sp_m4_profile_trig; the
+ * STREAM tick: sp_m4_profile_stream_start). Not a measurement program:
+ * icount.c gives the figures.
  */
 #include "m4_vectors.h"
 #include "sp_mps2.h"
