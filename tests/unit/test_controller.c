@@ -419,6 +419,15 @@ static void test_move_and_stream(void **state)
     assert_int_equal(r.out.cmd_rejected, 0);
     run_until(&r, SP_STATE_READY, 20000);
     assert_memory_equal(&r.out.reference.pose, &target, sizeof target);
+    /* RUN_TRIG runs about home from home at rest: READY 0.1 m away it
+     * would be a step of the setpoints, so it is refused and nothing moves */
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    rig_tick(&r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    assert_memory_equal(&r.out.reference.pose, &target, sizeof target);
     /* the move kept within its limits */
     /* stream: a reachable target is followed, an unreachable one refused */
     rig_tick(&r, SP_CMD_STREAM);

@@ -366,6 +366,25 @@ static int end_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, con
 }
 
 /* RUN_TRIG from READY: both ends of the motion must be reachable. */
+/* The trig motion runs about home and its first sample is home at rest:
+ * from a reference elsewhere (READY after a MOVE_TO) it would be a step
+ * of the setpoints. RUN_TRIG needs the last reference within
+ * SP_CTRL_TRIG_HOME_TOL of home on every axis (refused otherwise: move
+ * home first). */
+#define SP_CTRL_TRIG_HOME_TOL 168 /* Q24: 10 um, 10 urad */
+
+static int at_home(const sp_pose_t *pose, const sp_pose_t *home)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (spi_farther(pose->pos[k], home->pos[k], SP_CTRL_TRIG_HOME_TOL) ||
+            spi_farther(pose->rpy[k], home->rpy[k], SP_CTRL_TRIG_HOME_TOL)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     const sp_platform_t *p = cfg->platform;
@@ -374,7 +393,7 @@ static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     unsigned a = (unsigned)cmd->axis;
     sp_q24_t *l;
     sp_q24_t *h;
-    if (ctrl->state != SP_STATE_READY || a >= SP_AXIS_COUNT) {
+    if (ctrl->state != SP_STATE_READY || a >= SP_AXIS_COUNT || !at_home(&ctrl->reference.pose, &p->home)) {
         return 0;
     }
     l = (a < 3u) ? &lo.pos[a] : &lo.rpy[a - 3u];
