@@ -50,32 +50,84 @@ static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
     return same;
 }
 
-/* Is a streamed target reachable (sp_stream_offer's rule)? */
+/* sp_limits_reachable_near's bound, split in two so that a base's part is
+ * computed once: how far (m, Q24) a leg can move from `base` to `pose`,
+ * or -1 when the bound is not conclusive (the same rule, term for term). */
+static int64_t near_delta(const sp_limits_t *lim, const sp_pose_t *base, const sp_pose_t *pose)
+{
+    uint64_t dpos = 0u;
+    uint64_t drot = 0u;
+    uint64_t delta;
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        dpos += spi_dist32(pose->pos[k], base->pos[k]);
+        drot += spi_dist32(pose->rpy[k], base->rpy[k]);
+    }
+    if (drot >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
+        return -1;
+    }
+    delta = dpos + (((uint64_t)lim->joint_reach * drot) >> 24) + 5u;
+    return (delta >= (UINT64_C(1) << 31)) ? -1 : (int64_t)delta;
+}
+
+/* ... and the base's part: the least room (m, Q24) of its legs to the
+ * stroke limits, min over the legs of l - length_min and length_max - l
+ * (negative when a leg is outside). sp_limits_reachable_near(base, length,
+ * pose) is near_delta(base, pose) in [0, legs_room(length)]. */
+static int64_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
+{
+    int64_t room = INT64_MAX;
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t lo = (int64_t)length[k] - lim->length_min;
+        int64_t hi = (int64_t)lim->length_max - length[k];
+        room = (lo < room) ? lo : room;
+        room = (hi < room) ? hi : room;
+    }
+    return room;
+}
+
+static void set_anchor(sp_stream_t *s, const sp_pose_t *pose, int64_t room)
+{
+    s->anchor = *pose;
+    s->anchor_room = room;
+    s->anchor_valid = 1u;
+}
+
+/* Is a streamed target reachable (sp_stream_offer's rule)? The anchor's
+ * room is kept, so that the targets near it cost the distance alone; the
+ * last reference (its legs' room computed here) becomes the anchor when it
+ * proves a target. Every test is sufficient (sp_limits_reachable_near), so
+ * their order does not change the answer. */
 static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *t,
                             const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS])
 {
     sp_q24_t length[SP_LEGS];
-    unsigned i;
+    int64_t delta;
     if (same_pose(t, &s->target)) {
         return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
     }
     if (!sp_limits_in_workspace(lim, t)) {
         return 0;
     }
-    if (ref_length != NULL && sp_limits_reachable_near(lim, ref_pose, ref_length, t)) {
-        return 1;
+    if (s->anchor_valid) {
+        delta = near_delta(lim, &s->anchor, t);
+        if (delta >= 0 && delta <= s->anchor_room) {
+            return 1;
+        }
     }
-    if (s->anchor_valid && sp_limits_reachable_near(lim, &s->anchor, s->anchor_length, t)) {
-        return 1;
+    if (ref_length != NULL) {
+        int64_t room = legs_room(lim, ref_length);
+        delta = near_delta(lim, ref_pose, t);
+        if (delta >= 0 && delta <= room) {
+            set_anchor(s, ref_pose, room);
+            return 1;
+        }
     }
     if (!sp_limits_legs_reachable(lim, platform, t, length)) {
         return 0;
     }
-    s->anchor = *t;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        s->anchor_length[i] = length[i];
-    }
-    s->anchor_valid = 1u;
+    set_anchor(s, t, legs_room(lim, length));
     return 1;
 }
 
