@@ -356,6 +356,9 @@ static void test_stream_step_reference(void **state)
             assert_memory_equal(&out, &want, sizeof out);
             assert_memory_equal(s.x, x, sizeof x);
             assert_memory_equal(s.v, v, sizeof v);
+            for (int a = 0; a < 6; ++a) {
+                assert_int_equal(s.vq[a], sp_rshift_round(v[a], 24u)); /* the kept damping velocity */
+            }
             assert_int_equal(f1, f2);
         }
     }

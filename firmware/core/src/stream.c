@@ -31,6 +31,7 @@ void sp_stream_start(sp_stream_t *s, const sp_motion_t *from)
     for (i = 0u; i < 6u; ++i) {
         s->x[i] = (int64_t)sp_pose_axis(&from->pose, (sp_axis_t)i) * (INT64_C(1) << 24);
         s->v[i] = 0;
+        s->vq[i] = 0;
     }
 }
 
@@ -143,13 +144,14 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
 
 /* One axis of the filter: target (Q24), state x48, v48 (Q48), outputs x,
  * v, acc (Q24). */
-SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t vel_max, int32_t amax,
+SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max, int32_t amax,
                             const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc, sp_flags_t *flags)
 {
     int64_t target48 = (int64_t)target * (INT64_C(1) << 24);
     int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
     int64_t x48 = *x48p;
     int64_t v48 = *v48p;
+    int32_t vq = *vqp; /* round(v48 / 2^24): the last tick's output velocity */
     int32_t err;
     int32_t acmd;
     if (x48 == target48 && v48 == 0) {
@@ -165,7 +167,6 @@ SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32
          * < 2^55 + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step
          * |v48 dt / 2^24| < 2^55 and |x48| stays below 2^56: neither
          * spi_add64 saturates and every rounded value is below 2^62 */
-        int32_t vq = (int32_t)spi_round_away(v48, 24u);
         err = spi_sat(spi_round_away(target48 - x48, 24u), flags);
         acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, vq, 24u, flags), flags);
         acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
@@ -174,24 +175,27 @@ SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32
         x48 += spi_mul64_up(v48, g->dt, 24u, flags);
         *v48p = v48;
         *x48p = x48;
+        vq = (sp_q24_t)spi_round_away(v48, 24u);
+        *vqp = vq;
         *acc = acmd;
-        *v = (sp_q24_t)spi_round_away(v48, 24u);
+        *v = vq;
         *x = spi_sat(spi_round_away(x48, 24u), flags);
         return;
     }
     /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
      * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
     err = spi_narrow_away(spi_add64(target48, -x48, flags), 24u, flags);
-    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags),
-                   spi_mul_away(g->two_w, (int32_t)spi_round_away(v48, 24u), 24u, flags), flags);
+    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, vq, 24u, flags), flags);
     acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
     v48 += (int64_t)acmd * g->dt; /* Q48 */
     v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
     x48 = spi_add64(x48, spi_mul64_up(v48, g->dt, 24u, flags), flags);
     *v48p = v48;
     *x48p = x48;
+    vq = (sp_q24_t)spi_round_away(v48, 24u);
+    *vqp = vq;
     *acc = acmd;
-    *v = (sp_q24_t)spi_round_away(v48, 24u);
+    *v = vq;
     *x = spi_narrow_away(x48, 24u, flags);
 }
 
@@ -201,10 +205,10 @@ void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_li
     unsigned a;
     *flags |= g->flags;
     for (a = 0u; a < 3u; ++a) {
-        stream_axis(s->target.pos[a], &s->x[a], &s->v[a], move->vel_max[a], move->acc_max[a], g, &m->pose.pos[a],
-                    &m->vel[a], &m->acc[a], flags);
-        stream_axis(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], move->vel_max[3u + a], move->acc_max[3u + a], g,
-                    &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        stream_axis(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
+                    &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
+        stream_axis(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
+                    move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
     }
 }
 

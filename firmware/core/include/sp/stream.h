@@ -26,12 +26,13 @@ typedef struct {
 
 /** The filter's state. */
 typedef struct {
-    int64_t x[6];         /**< position per axis (x, y, z, roll, pitch, yaw), m or rad, Q48 */
-    int64_t v[6];         /**< velocity per axis, m/s or rad/s, Q48 */
-    sp_pose_t target;     /**< the target in force */
-    sp_pose_t anchor;     /**< a pose whose leg lengths are known: the last reference that proved a target by
+    int64_t x[6];        /**< position per axis (x, y, z, roll, pitch, yaw), m or rad, Q48 */
+    int64_t v[6];        /**< velocity per axis, m/s or rad/s, Q48 */
+    int32_t vq[6];       /**< v rounded to Q24 (the last output velocity), m/s or rad/s: the next tick's damping term */
+    sp_pose_t target;    /**< the target in force */
+    sp_pose_t anchor;    /**< a pose whose leg lengths are known: the last reference that proved a target by
                               sp_limits_reachable_near, or the last streamed target whose IK was computed */
-    int64_t anchor_room;  /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24 */
+    int64_t anchor_room; /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24 */
     uint8_t anchor_valid; /**< 1 once anchor holds a pose */
     uint8_t stopping;     /**< 1 after sp_stream_stop: settling on the home pose */
 } sp_stream_t;
