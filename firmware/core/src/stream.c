@@ -142,60 +142,78 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
     return 1;
 }
 
-/* One axis of the filter: target (Q24), state x48, v48 (Q48), outputs x,
- * v, acc (Q24). */
-SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max, int32_t amax,
-                            const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc, sp_flags_t *flags)
+/* One axis of the filter: target (Q24), state x48, v48 (Q48) and vq
+ * (round(v48 / 2^24)), outputs x, v, acc (Q24). Returns 1 when the axis
+ * rests on its target (every term 0: outputs written, state kept). */
+SPI_INLINE int stream_at_rest(sp_q24_t target, int64_t x48, int64_t v48, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc)
 {
-    int64_t target48 = (int64_t)target * (INT64_C(1) << 24);
-    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
-    int64_t x48 = *x48p;
-    int64_t v48 = *v48p;
-    int32_t vq = *vqp; /* round(v48 / 2^24): the last tick's output velocity */
-    int32_t err;
-    int32_t acmd;
-    if (x48 == target48 && v48 == 0) {
-        /* at rest on the target: every term below is 0 */
+    if (x48 == (int64_t)target * (INT64_C(1) << 24) && v48 == 0) {
         *acc = 0;
         *v = 0;
         *x = target;
+        return 1;
+    }
+    return 0;
+}
+
+/* The common case (sp_stream_step checks it once for all six axes: a tick
+ * below 1 s, dt < 2^24, and |x48| below 64 m, 2^54): the same values as
+ * stream_axis_sat with no sum that can overflow. |target48 - x48| < 2^55
+ * + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step |v48 dt / 2^24|
+ * < 2^55 and |x48| stays below 2^56: neither spi_add64 saturates and every
+ * rounded value is below 2^62. */
+SPI_INLINE void stream_axis_fast(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
+                                 int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc,
+                                 sp_flags_t *flags)
+{
+    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t err;
+    int32_t acmd;
+    if (stream_at_rest(target, x48, v48, x, v, acc)) {
         return;
     }
-    if (g->dt < STREAM_DT_FAST && x48 < STREAM_X_FAST && x48 > -STREAM_X_FAST) {
-        /* the common case (a tick below 1 s, |x| below 64 m): the same
-         * values as below with no sum that can overflow. |target48 - x48|
-         * < 2^55 + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step
-         * |v48 dt / 2^24| < 2^55 and |x48| stays below 2^56: neither
-         * spi_add64 saturates and every rounded value is below 2^62 */
-        err = spi_sat(spi_round_away(target48 - x48, 24u), flags);
-        acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, vq, 24u, flags), flags);
-        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-        v48 += (int64_t)acmd * g->dt; /* Q48 */
-        v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
-        x48 += spi_mul64_up(v48, g->dt, 24u, flags);
-        *v48p = v48;
-        *x48p = x48;
-        vq = (sp_q24_t)spi_round_away(v48, 24u);
-        *vqp = vq;
-        *acc = acmd;
-        *v = vq;
-        *x = spi_sat(spi_round_away(x48, 24u), flags);
+    err = spi_sat(spi_round_away((int64_t)target * (INT64_C(1) << 24) - x48, 24u), flags);
+    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, *vqp, 24u, flags), flags);
+    acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+    v48 += (int64_t)acmd * g->dt; /* Q48 */
+    v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+    x48 += spi_mul64_up(v48, g->dt, 24u, flags);
+    *v48p = v48;
+    *x48p = x48;
+    *vqp = (sp_q24_t)spi_round_away(v48, 24u);
+    *acc = acmd;
+    *v = *vqp;
+    *x = spi_sat(spi_round_away(x48, 24u), flags);
+}
+
+/* Any tick and position: every sum saturates. |v48| <= vmax < 2^55
+ * (clamped below, and 0 at the start), so its Q24 value fits int32 and
+ * v48 + acmd dt (< 2^52) cannot overflow. */
+SPI_INLINE void stream_axis_sat(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
+                                int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc,
+                                sp_flags_t *flags)
+{
+    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t err;
+    int32_t acmd;
+    if (stream_at_rest(target, x48, v48, x, v, acc)) {
         return;
     }
-    /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
-     * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
-    err = spi_narrow_away(spi_add64(target48, -x48, flags), 24u, flags);
-    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, vq, 24u, flags), flags);
+    err = spi_narrow_away(spi_add64((int64_t)target * (INT64_C(1) << 24), -x48, flags), 24u, flags);
+    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, *vqp, 24u, flags), flags);
     acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
     v48 += (int64_t)acmd * g->dt; /* Q48 */
     v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
     x48 = spi_add64(x48, spi_mul64_up(v48, g->dt, 24u, flags), flags);
     *v48p = v48;
     *x48p = x48;
-    vq = (sp_q24_t)spi_round_away(v48, 24u);
-    *vqp = vq;
+    *vqp = (sp_q24_t)spi_round_away(v48, 24u);
     *acc = acmd;
-    *v = vq;
+    *v = *vqp;
     *x = spi_narrow_away(x48, 24u, flags);
 }
 
@@ -203,12 +221,25 @@ void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_li
                     sp_flags_t *flags)
 {
     unsigned a;
+    int fast = g->dt < STREAM_DT_FAST;
     *flags |= g->flags;
+    for (a = 0u; a < 6u; ++a) {
+        fast &= (s->x[a] < STREAM_X_FAST) & (s->x[a] > -STREAM_X_FAST); /* each axis changes its own x alone */
+    }
+    if (fast) {
+        for (a = 0u; a < 3u; ++a) {
+            stream_axis_fast(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
+                             &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
+            stream_axis_fast(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
+                             move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        }
+        return;
+    }
     for (a = 0u; a < 3u; ++a) {
-        stream_axis(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
-                    &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
-        stream_axis(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
-                    move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        stream_axis_sat(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
+                        &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
+        stream_axis_sat(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
+                        move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
     }
 }
 
