@@ -41,14 +41,16 @@ void sp_stream_stop(sp_stream_t *s, const sp_pose_t *home)
     s->stopping = 1u;
 }
 
+/* Early out: a streamed target usually differs from the last in x. */
 static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
 {
     unsigned i;
-    int same = 1;
     for (i = 0u; i < 3u; ++i) {
-        same &= (a->pos[i] == b->pos[i]) & (a->rpy[i] == b->rpy[i]);
+        if (a->pos[i] != b->pos[i] || a->rpy[i] != b->rpy[i]) {
+            return 0;
+        }
     }
-    return same;
+    return 1;
 }
 
 /* sp_limits_reachable_near's bound, split in two so that a base's part is
