@@ -484,10 +484,63 @@ static void test_stream_step_reference(void **state)
             assert_memory_equal(&out, &want, sizeof out);
             assert_memory_equal(s.x, x, sizeof x);
             assert_memory_equal(s.v, v, sizeof v);
+            for (int a = 0; a < 6; ++a) {
+                assert_int_equal(s.vq[a], sp_rshift_round(v[a], 24u)); /* the kept damping velocity */
+            }
             assert_int_equal(f1, f2);
         }
     }
     assert_int_equal(far, 100);
+}
+
+/* sp_stream_offer (its anchor with the kept room, tested before the
+ * reference) against the plain rule, sp_limits_reachable_near around the
+ * reference or else the target's own IK, over random walks of targets that
+ * wander to the stroke limits and back: the same answers, target by target. */
+static void test_stream_offer_reference(void **state)
+{
+    (void)state;
+    sp_limits_t lim = default_limits();
+    uint64_t rng = 29;
+    int taken = 0, refused = 0, by_ik = 0;
+    for (int n = 0; n < 40; ++n) {
+        sp_stream_t s;
+        sp_motion_t at_home;
+        sp_pose_t ref = P->home;
+        sp_q24_t ref_len[SP_LEGS];
+        double step = (n % 2 == 0) ? 2e5 : 2e6; /* ~12 mm or ~120 mm a target */
+        sp_motion_at_rest(&at_home, &P->home);
+        sp_stream_start(&s, &at_home);
+        assert_int_equal(sp_limits_pose_reachable(&lim, P, &ref, ref_len), 1);
+        sp_pose_t t = P->home;
+        for (int k = 0; k < 60; ++k) {
+            sp_pose_t want_target = s.target;
+            for (int a = 0; a < 3; ++a) {
+                double dp = t.pos[a] - P->home.pos[a] + tu_uniform(&rng, -step, step);
+                double dr = t.rpy[a] - P->home.rpy[a] + tu_uniform(&rng, -step, step) * 0.5;
+                t.pos[a] = P->home.pos[a] + (int32_t)fmax(fmin(dp, 1e7), -1e7); /* within 0.6 m */
+                t.rpy[a] = P->home.rpy[a] + (int32_t)fmax(fmin(dr, 1e7), -1e7); /* within 0.6 rad */
+            }
+            int plain = sp_limits_in_workspace(&lim, &t) && (sp_limits_reachable_near(&lim, &ref, ref_len, &t) ||
+                                                             sp_limits_legs_reachable(&lim, P, &t, NULL));
+            by_ik += plain && !sp_limits_reachable_near(&lim, &ref, ref_len, &t);
+            int got = sp_stream_offer(&s, &lim, P, &t, &ref, (k % 5 == 4) ? NULL : ref_len);
+            assert_int_equal(got, plain);
+            if (got) {
+                taken += 1;
+                want_target = t;
+                /* the reference follows the last target taken */
+                ref = t;
+                assert_int_equal(sp_limits_pose_reachable(&lim, P, &ref, ref_len), 1);
+            } else {
+                refused += 1;
+                t = s.target;
+            }
+            assert_memory_equal(&s.target, &want_target, sizeof want_target);
+        }
+    }
+    printf("offer: %d taken, %d refused, %d by IK\n", taken, refused, by_ik);
+    assert_true(taken > 1500 && refused > 100 && by_ik > 300);
 }
 
 static void test_stream_offer_rules(void **state)
@@ -501,11 +554,22 @@ static void test_stream_offer_rules(void **state)
     sp_stream_start(&s, &at_home);
     assert_int_equal(sp_limits_pose_reachable(&lim, P, &P->home, home_len), 1);
 
-    /* near the reference: taken by the bound, no anchor made */
+    /* near the reference: taken by the bound, the reference becomes the
+     * anchor with its legs' least room to the stroke limits */
     sp_pose_t t = P->home;
     t.pos[2] += SP_Q24_MILLI(1);
     assert_int_equal(sp_stream_offer(&s, &lim, P, &t, &P->home, home_len), 1);
-    assert_int_equal(s.anchor_valid, 0);
+    assert_int_equal(s.anchor_valid, 1);
+    assert_memory_equal(&s.anchor, &P->home, sizeof P->home);
+    int64_t room = INT64_MAX;
+    for (int i = 0; i < SP_LEGS; ++i) {
+        int64_t lo = (int64_t)home_len[i] - lim.length_min;
+        int64_t hi = (int64_t)lim.length_max - home_len[i];
+        room = (lo < room) ? lo : room;
+        room = (hi < room) ? hi : room;
+    }
+    assert_true(room > 0);
+    assert_int_equal(s.anchor_room, room);
     /* far (the bound is not conclusive) but reachable: its own IK decides
      * and it becomes the anchor */
     int found = 0;
@@ -1231,6 +1295,7 @@ int main(void)
         cmocka_unit_test(test_limits_reachable_near_is_sufficient),
         cmocka_unit_test(test_limits_reachable_near_against_plain),
         cmocka_unit_test(test_limits_reachable_from_is_pose_reachable),
+        cmocka_unit_test(test_stream_offer_reference),
         cmocka_unit_test(test_limits_setpoints_reference),
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),

@@ -31,6 +31,7 @@ void sp_stream_start(sp_stream_t *s, const sp_motion_t *from)
     for (i = 0u; i < 6u; ++i) {
         s->x[i] = (int64_t)sp_pose_axis(&from->pose, (sp_axis_t)i) * (INT64_C(1) << 24);
         s->v[i] = 0;
+        s->vq[i] = 0;
     }
 }
 
@@ -40,42 +41,96 @@ void sp_stream_stop(sp_stream_t *s, const sp_pose_t *home)
     s->stopping = 1u;
 }
 
+/* Early out: a streamed target usually differs from the last in x. */
 static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
 {
     unsigned i;
-    int same = 1;
     for (i = 0u; i < 3u; ++i) {
-        same &= (a->pos[i] == b->pos[i]) & (a->rpy[i] == b->rpy[i]);
+        if (a->pos[i] != b->pos[i] || a->rpy[i] != b->rpy[i]) {
+            return 0;
+        }
     }
-    return same;
+    return 1;
 }
 
-/* Is a streamed target reachable (sp_stream_offer's rule)? */
+/* sp_limits_reachable_near's bound, split in two so that a base's part is
+ * computed once: how far (m, Q24) a leg can move from `base` to `pose`,
+ * or -1 when the bound is not conclusive (the same rule, term for term). */
+static int64_t near_delta(const sp_limits_t *lim, const sp_pose_t *base, const sp_pose_t *pose)
+{
+    uint64_t dpos = 0u;
+    uint64_t drot = 0u;
+    uint64_t delta;
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        dpos += spi_dist32(pose->pos[k], base->pos[k]);
+        drot += spi_dist32(pose->rpy[k], base->rpy[k]);
+    }
+    if (drot >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
+        return -1;
+    }
+    delta = dpos + (((uint64_t)lim->joint_reach * drot) >> 24) + 5u;
+    return (delta >= (UINT64_C(1) << 31)) ? -1 : (int64_t)delta;
+}
+
+/* ... and the base's part: the least room (m, Q24) of its legs to the
+ * stroke limits, min over the legs of l - length_min and length_max - l
+ * (negative when a leg is outside). sp_limits_reachable_near(base, length,
+ * pose) is near_delta(base, pose) in [0, legs_room(length)]. */
+static int64_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
+{
+    int64_t room = INT64_MAX;
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        int64_t lo = (int64_t)length[k] - lim->length_min;
+        int64_t hi = (int64_t)lim->length_max - length[k];
+        room = (lo < room) ? lo : room;
+        room = (hi < room) ? hi : room;
+    }
+    return room;
+}
+
+static void set_anchor(sp_stream_t *s, const sp_pose_t *pose, int64_t room)
+{
+    s->anchor = *pose;
+    s->anchor_room = room;
+    s->anchor_valid = 1u;
+}
+
+/* Is a streamed target reachable (sp_stream_offer's rule)? The anchor's
+ * room is kept, so that the targets near it cost the distance alone; the
+ * last reference (its legs' room computed here) becomes the anchor when it
+ * proves a target. Every test is sufficient (sp_limits_reachable_near), so
+ * their order does not change the answer. */
 static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *t,
                             const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS])
 {
     sp_q24_t length[SP_LEGS];
-    unsigned i;
+    int64_t delta;
     if (same_pose(t, &s->target)) {
         return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
     }
     if (!sp_limits_in_workspace(lim, t)) {
         return 0;
     }
-    if (ref_length != NULL && sp_limits_reachable_near(lim, ref_pose, ref_length, t)) {
-        return 1;
+    if (s->anchor_valid) {
+        delta = near_delta(lim, &s->anchor, t);
+        if (delta >= 0 && delta <= s->anchor_room) {
+            return 1;
+        }
     }
-    if (s->anchor_valid && sp_limits_reachable_near(lim, &s->anchor, s->anchor_length, t)) {
-        return 1;
+    if (ref_length != NULL) {
+        int64_t room = legs_room(lim, ref_length);
+        delta = near_delta(lim, ref_pose, t);
+        if (delta >= 0 && delta <= room) {
+            set_anchor(s, ref_pose, room);
+            return 1;
+        }
     }
     if (!sp_limits_legs_reachable(lim, platform, t, length)) {
         return 0;
     }
-    s->anchor = *t;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        s->anchor_length[i] = length[i];
-    }
-    s->anchor_valid = 1u;
+    set_anchor(s, t, legs_room(lim, length));
     return 1;
 }
 
@@ -89,57 +144,78 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
     return 1;
 }
 
-/* One axis of the filter: target (Q24), state x48, v48 (Q48), outputs x,
- * v, acc (Q24). */
-SPI_INLINE void stream_axis(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t vel_max, int32_t amax,
-                            const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc, sp_flags_t *flags)
+/* One axis of the filter: target (Q24), state x48, v48 (Q48) and vq
+ * (round(v48 / 2^24)), outputs x, v, acc (Q24). Returns 1 when the axis
+ * rests on its target (every term 0: outputs written, state kept). */
+SPI_INLINE int stream_at_rest(sp_q24_t target, int64_t x48, int64_t v48, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc)
 {
-    int64_t target48 = (int64_t)target * (INT64_C(1) << 24);
+    if (x48 == (int64_t)target * (INT64_C(1) << 24) && v48 == 0) {
+        *acc = 0;
+        *v = 0;
+        *x = target;
+        return 1;
+    }
+    return 0;
+}
+
+/* The common case (sp_stream_step checks it once for all six axes: a tick
+ * below 1 s, dt < 2^24, and |x48| below 64 m, 2^54): the same values as
+ * stream_axis_sat with no sum that can overflow. |target48 - x48| < 2^55
+ * + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step |v48 dt / 2^24|
+ * < 2^55 and |x48| stays below 2^56: neither spi_add64 saturates and every
+ * rounded value is below 2^62. */
+SPI_INLINE void stream_axis_fast(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
+                                 int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc,
+                                 sp_flags_t *flags)
+{
     int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
     int64_t x48 = *x48p;
     int64_t v48 = *v48p;
     int32_t err;
     int32_t acmd;
-    if (x48 == target48 && v48 == 0) {
-        /* at rest on the target: every term below is 0 */
-        *acc = 0;
-        *v = 0;
-        *x = target;
+    if (stream_at_rest(target, x48, v48, x, v, acc)) {
         return;
     }
-    if (g->dt < STREAM_DT_FAST && x48 < STREAM_X_FAST && x48 > -STREAM_X_FAST) {
-        /* the common case (a tick below 1 s, |x| below 64 m): the same
-         * values as below with no sum that can overflow. |target48 - x48|
-         * < 2^55 + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step
-         * |v48 dt / 2^24| < 2^55 and |x48| stays below 2^56: neither
-         * spi_add64 saturates and every rounded value is below 2^62 */
-        int32_t vq = (int32_t)spi_round_away(v48, 24u);
-        err = spi_sat(spi_round_away(target48 - x48, 24u), flags);
-        acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, vq, 24u, flags), flags);
-        acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-        v48 += (int64_t)acmd * g->dt; /* Q48 */
-        v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
-        x48 += spi_mul64_up(v48, g->dt, 24u, flags);
-        *v48p = v48;
-        *x48p = x48;
-        *acc = acmd;
-        *v = (sp_q24_t)spi_round_away(v48, 24u);
-        *x = spi_sat(spi_round_away(x48, 24u), flags);
+    err = spi_sat(spi_round_away((int64_t)target * (INT64_C(1) << 24) - x48, 24u), flags);
+    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, *vqp, 24u, flags), flags);
+    acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+    v48 += (int64_t)acmd * g->dt; /* Q48 */
+    v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+    x48 += spi_mul64_up(v48, g->dt, 24u, flags);
+    *v48p = v48;
+    *x48p = x48;
+    *vqp = (sp_q24_t)spi_round_away(v48, 24u);
+    *acc = acmd;
+    *v = *vqp;
+    *x = spi_sat(spi_round_away(x48, 24u), flags);
+}
+
+/* Any tick and position: every sum saturates. |v48| <= vmax < 2^55
+ * (clamped below, and 0 at the start), so its Q24 value fits int32 and
+ * v48 + acmd dt (< 2^52) cannot overflow. */
+SPI_INLINE void stream_axis_sat(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
+                                int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc,
+                                sp_flags_t *flags)
+{
+    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t err;
+    int32_t acmd;
+    if (stream_at_rest(target, x48, v48, x, v, acc)) {
         return;
     }
-    /* |v48| <= vmax < 2^55 (clamped below, and 0 at the start), so its Q24
-     * value fits int32 and v48 + acmd dt (< 2^52) cannot overflow */
-    err = spi_narrow_away(spi_add64(target48, -x48, flags), 24u, flags);
-    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags),
-                   spi_mul_away(g->two_w, (int32_t)spi_round_away(v48, 24u), 24u, flags), flags);
+    err = spi_narrow_away(spi_add64((int64_t)target * (INT64_C(1) << 24), -x48, flags), 24u, flags);
+    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, *vqp, 24u, flags), flags);
     acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
     v48 += (int64_t)acmd * g->dt; /* Q48 */
     v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
     x48 = spi_add64(x48, spi_mul64_up(v48, g->dt, 24u, flags), flags);
     *v48p = v48;
     *x48p = x48;
+    *vqp = (sp_q24_t)spi_round_away(v48, 24u);
     *acc = acmd;
-    *v = (sp_q24_t)spi_round_away(v48, 24u);
+    *v = *vqp;
     *x = spi_narrow_away(x48, 24u, flags);
 }
 
@@ -147,12 +223,25 @@ void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_li
                     sp_flags_t *flags)
 {
     unsigned a;
+    int fast = g->dt < STREAM_DT_FAST;
     *flags |= g->flags;
+    for (a = 0u; a < 6u; ++a) {
+        fast &= (s->x[a] < STREAM_X_FAST) & (s->x[a] > -STREAM_X_FAST); /* each axis changes its own x alone */
+    }
+    if (fast) {
+        for (a = 0u; a < 3u; ++a) {
+            stream_axis_fast(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
+                             &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
+            stream_axis_fast(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
+                             move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        }
+        return;
+    }
     for (a = 0u; a < 3u; ++a) {
-        stream_axis(s->target.pos[a], &s->x[a], &s->v[a], move->vel_max[a], move->acc_max[a], g, &m->pose.pos[a],
-                    &m->vel[a], &m->acc[a], flags);
-        stream_axis(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], move->vel_max[3u + a], move->acc_max[3u + a], g,
-                    &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        stream_axis_sat(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
+                        &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
+        stream_axis_sat(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
+                        move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
     }
 }
 

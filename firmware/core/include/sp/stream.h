@@ -26,13 +26,15 @@ typedef struct {
 
 /** The filter's state. */
 typedef struct {
-    int64_t x[6];                    /**< position per axis (x, y, z, roll, pitch, yaw), m or rad, Q48 */
-    int64_t v[6];                    /**< velocity per axis, m/s or rad/s, Q48 */
-    sp_pose_t target;                /**< the target in force */
-    sp_pose_t anchor;                /**< the last streamed target whose IK was computed (reachable) */
-    sp_q24_t anchor_length[SP_LEGS]; /**< its leg lengths, m, Q24 */
-    uint8_t anchor_valid;            /**< 1 once anchor holds a target */
-    uint8_t stopping;                /**< 1 after sp_stream_stop: settling on the home pose */
+    int64_t x[6];        /**< position per axis (x, y, z, roll, pitch, yaw), m or rad, Q48 */
+    int64_t v[6];        /**< velocity per axis, m/s or rad/s, Q48 */
+    int32_t vq[6];       /**< v rounded to Q24 (the last output velocity), m/s or rad/s: the next tick's damping term */
+    sp_pose_t target;    /**< the target in force */
+    sp_pose_t anchor;    /**< a pose whose leg lengths are known: the last reference that proved a target by
+                              sp_limits_reachable_near, or the last streamed target whose IK was computed */
+    int64_t anchor_room; /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24 */
+    uint8_t anchor_valid; /**< 1 once anchor holds a pose */
+    uint8_t stopping;     /**< 1 after sp_stream_stop: settling on the home pose */
 } sp_stream_t;
 
 /**
@@ -58,10 +60,13 @@ void sp_stream_stop(sp_stream_t *s, const sp_pose_t *home);
  * it is reachable, else 0 (the previous target stays); always 0 after
  * sp_stream_stop. Reachable means: the target in force again; else inside
  * the workspace box and either within the bound of
- * sp_limits_reachable_near around the last reference (`ref_pose` with its
- * IK lengths `ref_length`, NULL when they are not known) or around the
- * anchor, or else by the target's own IK (sp_limits_pose_reachable), whose
- * target then becomes the anchor.
+ * sp_limits_reachable_near around the anchor or around the last reference
+ * (`ref_pose` with its IK lengths `ref_length`, NULL when they are not
+ * known), which then becomes the anchor, or else by the target's own IK
+ * (sp_limits_pose_reachable), whose target then becomes the anchor. The
+ * anchor keeps its legs' room, so a target near it costs no leg loop; the
+ * bound is sufficient, so the order of the tests does not change the
+ * answer.
  */
 int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *target,
                     const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS]);
