@@ -1098,7 +1098,7 @@ static void test_inverse_dynamics_legs_power(void **state)
  * one's with probability 1/2 (the controller's references: surge keeps
  * all three, yaw two), from an invalid keep, and with keep NULL; an
  * out-of-range pose fails as the plain IK does and the next call is
- * still exact. */
+ * still exact; the same over turns about the vertical alone. */
 static void test_inverse_kinematics_kept(void **state)
 {
     uint64_t rng = 31;
@@ -1146,6 +1146,35 @@ static void test_inverse_kinematics_kept(void **state)
         assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
         assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
         assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    /* turning about the vertical alone (roll = pitch = 0, yaw and the
+     * position moving every call: the arms' shorter sums, arms_about_z),
+     * a pose 100 m away among them, then a platform joint of 128 m whose
+     * turned arm saturates: the plain IK's error */
+    pose.rpy[0] = 0;
+    pose.rpy[1] = 0;
+    for (int n = 0; n < N_POSES; ++n) {
+        pose.rpy[2] = (int32_t)tu_uniform(&rng, -3.3 * 16777216.0, 3.3 * 16777216.0);
+        pose.pos[n % 3] += (int32_t)tu_uniform(&rng, -2e5, 2e5);
+        pose.pos[0] = (n == N_POSES / 2) ? INT32_C(100) << 24 : pose.pos[0];
+        memset(&ik, 0, sizeof ik);
+        memset(&ikk, 0xA5, sizeof ikk);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), sp_inverse_kinematics(&p, &pose, &ik));
+        if (n == N_POSES / 2) {
+            assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+            pose.pos[0] = 0;
+            continue;
+        }
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    {
+        sp_platform_t pw = p;
+        pw.platform_joint[3][0] = INT32_MAX - 5; /* 128 m: the turned arm leaves int32 */
+        pw.platform_joint[3][1] = INT32_MAX - 5;
+        pose.rpy[2] = 13176795; /* pi/4 */
+        pose.pos[0] = 0;
+        assert_int_equal(sp_inverse_kinematics_kept(&pw, &pose, &keep, &ikk), sp_inverse_kinematics(&pw, &pose, &ik));
+        assert_int_not_equal(sp_inverse_kinematics(&pw, &pose, &ik), SP_OK);
     }
     {
         sp_platform_t p2;

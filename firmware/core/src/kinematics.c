@@ -176,6 +176,62 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
     return sp_flags_status(flags);
 }
 
+/* Is T a turn about the vertical alone (roll = pitch = 0: T's third row
+ * and column exactly e_z, as sp_sincos_q24 gives sin 0 = 0 and
+ * cos 0 = 2^30)? */
+SPI_INLINE int turn_about_z(const sp_rot_t *rot)
+{
+    return (rot->t[0][2] | rot->t[1][2] | rot->t[2][0] | rot->t[2][1]) == 0 && rot->t[2][2] == SP_Q30_ONE;
+}
+
+/* The arms A_im T of every leg at a T that turns about the vertical alone
+ * (turn_about_z), as arm_component makes them: every arm's height is a_z
+ * and x and y are two-term sums. The products left out are exactly 0 and
+ * a_z 2^30 rounds to a_z, so the arms are arm_component's bit for bit. */
+static void arms_about_z(const sp_platform_t *platform, const sp_rot_t *rot, sp_q24_t arm[SP_LEGS][3],
+                         sp_flags_t *flags)
+{
+    unsigned k;
+
+    for (k = 0u; k < SP_LEGS; ++k) {
+        const int32_t a0 = platform->platform_joint[k][0];
+        const int32_t a1 = platform->platform_joint[k][1];
+        const int32_t a2 = platform->platform_joint[k][2];
+        arm[k][0] =
+            spi_narrow_floor((int64_t)a0 * rot->t[0][0] + (int64_t)a1 * rot->t[1][0] + (INT64_C(1) << 29), 30u, flags);
+        arm[k][1] =
+            spi_narrow_floor((int64_t)a0 * rot->t[0][1] + (int64_t)a1 * rot->t[1][1] + (INT64_C(1) << 29), 30u, flags);
+        arm[k][2] = a2;
+    }
+}
+
+/* leg_of_arm for every leg of ik->arm: SP_E_RANGE when one fails. */
+static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+{
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (!leg_of_arm(platform, pose, ik, i)) {
+            return SP_E_RANGE;
+        }
+    }
+    return SP_OK;
+}
+
+/* spi_ik_lengths for a reference turning about the vertical alone
+ * (turn_about_z of ik->rot): its arms with fewer products (arms_about_z),
+ * the same bits and status. Out of line: the ticks whose orientation
+ * holds do not carry its registers. */
+SPI_NOINLINE static sp_status_t ik_turning_z(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+{
+    sp_flags_t flags = 0u;
+    sp_status_t st;
+
+    arms_about_z(platform, &ik->rot, ik->arm, &flags);
+    st = ik_legs(platform, pose, ik);
+    return (st == SP_OK) ? sp_flags_status(flags) : st; /* spi_ik_lengths' status */
+}
+
 /* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone. */
 static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *pose, const sp_q24_t arm[SP_LEGS][3],
                                 sp_ik_t *ik)
@@ -263,10 +319,10 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
         ik->sc[k] = keep->sc[k];
     }
     if (changed) {
-        /* a turning reference: the plain IK, no arms kept (keeping them
-         * would cost the turning ticks) */
+        /* a turning reference: no arms kept (keeping them would cost the
+         * turning ticks) */
         keep->arms_valid = 0u;
-        st = spi_ik_lengths(platform, pose, ik);
+        st = turn_about_z(&keep->rot) ? ik_turning_z(platform, pose, ik) : spi_ik_lengths(platform, pose, ik);
     } else {
         if (!keep->arms_valid || keep->platform != platform) {
             /* the orientation held a second tick: its arms, as

@@ -77,7 +77,9 @@ typedef struct {
  * *keep: each angle equal to the kept one takes its kept sine and cosine,
  * and T is rebuilt only when an angle changed; the legs' arms are made
  * once an orientation repeats and kept while it holds (made again for
- * another platform pointer). The sines are a pure function of the angle,
+ * another platform pointer); a turn about the vertical alone (roll =
+ * pitch = 0) makes its arms with two products a component instead of
+ * three (the third is exactly 0). The sines are a pure function of the angle,
  * the arms of T and the platform, so the result is sp_inverse_kinematics'
  * bit for bit (tests/unit/test_kinematics.c); a platform changed in place
  * under the same pointer needs valid set to 0. keep NULL:
