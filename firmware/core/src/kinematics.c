@@ -6,31 +6,55 @@
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
 #define LEG_LENGTH_MIN SP_Q24_MILLI(1)       /* 1 mm */
 
-/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (from
- * sp_sincos_q24: each within 1.05 LSB of Q30, at most 2^30 + 1). Entries
- * with two terms are rounded once, from the exact sum. */
-void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
+/* T's entries that yaw does not enter (its third column), from the sines
+ * and cosines sc = {sin, cos} of roll, pitch, yaw (from sp_sincos_q24:
+ * each within 1.05 LSB of Q30, at most 2^30 + 1), and tilt = {sin pitch
+ * sin roll, sin pitch cos roll}, the products the yaw entries take. */
+SPI_INLINE void rot_tilt(const sp_q30_t sc[6], sp_rot_t *rot, sp_q30_t tilt[2])
 {
     sp_q30_t sr = sc[0];
     sp_q30_t cr = sc[1];
     sp_q30_t sp = sc[2];
     sp_q30_t cp = sc[3];
+
+    tilt[0] = spi_mul30_up(sp, sr);
+    tilt[1] = spi_mul30_up(sp, cr);
+    rot->t[0][2] = -sp;
+    rot->t[1][2] = spi_mul30_up(cp, sr);
+    rot->t[2][2] = spi_mul30_up(cp, cr);
+}
+
+/* T's entries that yaw enters (its first two columns), from sc and
+ * rot_tilt's tilt. Entries with two terms are rounded once, from the
+ * exact sum. */
+SPI_INLINE void rot_yaw(const sp_q30_t sc[6], const sp_q30_t tilt[2], sp_rot_t *rot)
+{
+    sp_q30_t sr = sc[0];
+    sp_q30_t cr = sc[1];
+    sp_q30_t cp = sc[3];
     sp_q30_t sy = sc[4];
     sp_q30_t cy = sc[5];
-    sp_q30_t spsr = spi_mul30_up(sp, sr);
-    sp_q30_t spcr = spi_mul30_up(sp, cr);
+    sp_q30_t spsr = tilt[0];
+    sp_q30_t spcr = tilt[1];
 
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
     rot->t[0][0] = spi_mul30_up(cy, cp);
     rot->t[0][1] = spi_mul30_up(sy, cp);
-    rot->t[0][2] = -sp;
     rot->t[1][0] = spi_dot30_up(cy, spsr, -sy, cr);
     rot->t[1][1] = spi_dot30_up(sy, spsr, cy, cr);
-    rot->t[1][2] = spi_mul30_up(cp, sr);
     rot->t[2][0] = spi_dot30_up(cy, spcr, sy, sr);
     rot->t[2][1] = spi_dot30_up(sy, spcr, -cy, sr);
-    rot->t[2][2] = spi_mul30_up(cp, cr);
+}
+
+/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw:
+ * rot_tilt and rot_yaw. */
+void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
+{
+    sp_q30_t tilt[2];
+
+    rot_tilt(sc, rot, tilt);
+    rot_yaw(sc, tilt, rot);
 }
 
 /* T of the angles, keeping their sines and cosines in sc. */
@@ -295,6 +319,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     sp_status_t st;
     unsigned k;
     int changed;
+    int tilted;
 
     if (keep == NULL) {
         return sp_inverse_kinematics(platform, pose, ik);
@@ -303,15 +328,22 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
         return SP_E_ARG;
     }
     changed = !keep->valid;
+    tilted = !keep->valid; /* roll or pitch changed */
     for (k = 0u; k < 3u; ++k) {
         if (!keep->valid || pose->rpy[k] != keep->rpy[k]) {
             sp_sincos_q24(pose->rpy[k], &keep->sc[2u * k], &keep->sc[2u * k + 1u]);
             keep->rpy[k] = pose->rpy[k];
             changed = 1;
+            tilted |= (k < 2u);
         }
     }
+    if (tilted) {
+        rot_tilt(keep->sc, &keep->rot, keep->tilt);
+    }
     if (changed) {
-        spi_rot_from_sincos(keep->sc, &keep->rot);
+        /* T's yaw entries; its third column and tilt kept while roll and
+         * pitch hold (a turn in yaw alone): spi_rot_from_sincos' T */
+        rot_yaw(keep->sc, keep->tilt, &keep->rot);
         keep->valid = 1u;
     }
     ik->rot = keep->rot;
