@@ -327,6 +327,10 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     if (platform == NULL || pose == NULL || ik == NULL) {
         return SP_E_ARG;
     }
+    if (!keep->valid || keep->near_of != platform) {
+        keep->near = (uint8_t)spi_joints_near(platform);
+        keep->near_of = platform;
+    }
     changed = !keep->valid;
     tilted = !keep->valid; /* roll or pitch changed */
     for (k = 0u; k < 3u; ++k) {
@@ -653,14 +657,20 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
     return sp_flags_status(flags);
 }
 
-sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
+/* A moment entry r x u (Q54 with the rounding half) -> Q28: saturated
+ * and flagged beyond int32, or, with near (arms below 2^26 in
+ * magnitude, so the entry is below 2^31: spi_jacobian_near), the shift
+ * alone, which gives the same value. */
+SPI_INLINE int32_t moment_q28(int64_t x, int near, sp_flags_t *flags)
 {
-    sp_flags_t flags = 0u;
+    return near ? (int32_t)(x >> 26) : spi_narrow_floor(x, 26u, flags);
+}
+
+/* sp_jacobian's rows; near: see moment_q28. */
+SPI_INLINE void jacobian_rows(const sp_ik_t *ik, sp_jacobian_t *jac, int near, sp_flags_t *flags)
+{
     unsigned i;
 
-    if (ik == NULL || jac == NULL) {
-        return SP_E_ARG;
-    }
     for (i = 0u; i < SP_LEGS; ++i) {
         const int32_t r[3] = {ik->arm[i][0], ik->arm[i][1], ik->arm[i][2]};
         const int32_t u[3] = {ik->unit[i][0], ik->unit[i][1], ik->unit[i][2]};
@@ -672,9 +682,43 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
         /* r x u: Q24 x Q30 = Q54 -> Q28; a difference of two int32 products
          * stays within 2^63 - 2^31 (only -2^31 * -2^31 reaches 2^62), and
          * the rounding half 2^25 keeps it below 2^63 */
-        jac->j[i][3] = spi_narrow_floor((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), 26u, &flags);
-        jac->j[i][4] = spi_narrow_floor((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), 26u, &flags);
-        jac->j[i][5] = spi_narrow_floor((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][3] = moment_q28((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), near, flags);
+        jac->j[i][4] = moment_q28((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), near, flags);
+        jac->j[i][5] = moment_q28((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), near, flags);
     }
+}
+
+sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
+{
+    sp_flags_t flags = 0u;
+
+    if (ik == NULL || jac == NULL) {
+        return SP_E_ARG;
+    }
+    jacobian_rows(ik, jac, 0, &flags);
     return sp_flags_status(flags);
+}
+
+/* sp_jacobian for an ik whose arms are all below 2^26 (4 m) in magnitude
+ * (a platform near: spi_joints_near): |r x u| <= |r| |u| < 2^56 (1 +
+ * 2^-27), so no moment leaves int32 and each is the shift alone. */
+void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac)
+{
+    jacobian_rows(ik, jac, 1, NULL);
+}
+
+int spi_joints_near(const sp_platform_t *platform)
+{
+    uint32_t out = 0u;
+    unsigned i;
+    unsigned c;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        for (c = 0u; c < 3u; ++c) {
+            /* a_c in [-2^25, 2^25) (2 m) exactly when a_c + 2^25 is in
+             * [0, 2^26) */
+            out |= ((uint32_t)platform->platform_joint[i][c] + (UINT32_C(1) << 25)) >> 26;
+        }
+    }
+    return out == 0u;
 }

@@ -70,6 +70,9 @@ typedef struct {
     sp_q24_t arm[SP_LEGS][3];      /**< the arms A_im T of `platform` at rot, m, Q24 */
     sp_flags_t arm_flags;          /**< SP_FLAG_OVERFLOW when an arm saturated */
     const sp_platform_t *platform; /**< the platform the arms are of */
+    const sp_platform_t *near_of;  /**< the platform `near` is of */
+    uint8_t near;                  /**< 1 when every platform joint of near_of is within 2 m in each axis
+                                        (its Jacobian cannot saturate: sp_setpoints_held skips those tests) */
     uint8_t arms_valid;            /**< 1 when arm, arm_flags and platform belong to rot */
     uint8_t valid;                 /**< 1 when rpy, sc and rot belong together */
 } sp_orient_keep_t;
