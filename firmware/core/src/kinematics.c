@@ -208,25 +208,13 @@ SPI_INLINE int turn_about_z(const sp_rot_t *rot)
     return (rot->t[0][2] | rot->t[1][2] | rot->t[2][0] | rot->t[2][1]) == 0 && rot->t[2][2] == SP_Q30_ONE;
 }
 
-/* The arms A_im T of every leg at a T that turns about the vertical alone
- * (turn_about_z), as arm_component makes them: every arm's height is a_z
- * and x and y are two-term sums. The products left out are exactly 0 and
- * a_z 2^30 rounds to a_z, so the arms are arm_component's bit for bit. */
-static void arms_about_z(const sp_platform_t *platform, const sp_rot_t *rot, sp_q24_t arm[SP_LEGS][3],
-                         sp_flags_t *flags)
+/* arm_component for a joint a within 2 m in each axis: the exact sum over
+ * 2^30 is below 2^26, so the shift alone is its value. */
+SPI_INLINE int32_t arm_near(const int32_t a[3], const sp_rot_t *rot, unsigned c)
 {
-    unsigned k;
-
-    for (k = 0u; k < SP_LEGS; ++k) {
-        const int32_t a0 = platform->platform_joint[k][0];
-        const int32_t a1 = platform->platform_joint[k][1];
-        const int32_t a2 = platform->platform_joint[k][2];
-        arm[k][0] =
-            spi_narrow_floor((int64_t)a0 * rot->t[0][0] + (int64_t)a1 * rot->t[1][0] + (INT64_C(1) << 29), 30u, flags);
-        arm[k][1] =
-            spi_narrow_floor((int64_t)a0 * rot->t[0][1] + (int64_t)a1 * rot->t[1][1] + (INT64_C(1) << 29), 30u, flags);
-        arm[k][2] = a2;
-    }
+    return (int32_t)(((int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] +
+                      (INT64_C(1) << 29)) >>
+                     30);
 }
 
 /* leg_of_arm for every leg of ik->arm: SP_E_RANGE when one fails. */
@@ -242,18 +230,38 @@ static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose,
     return SP_OK;
 }
 
-/* spi_ik_lengths for a reference turning about the vertical alone
- * (turn_about_z of ik->rot): its arms with fewer products (arms_about_z),
- * the same bits and status. Out of line: the ticks whose orientation
- * holds do not carry its registers. */
-SPI_NOINLINE static sp_status_t ik_turning_z(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+/* spi_ik_lengths of ik->rot for a platform with spi_joints_near (every
+ * joint within 2 m in each axis: each arm's exact sum over 2^30 is below
+ * 2^26, so the shift alone is arm_component's value, never saturated),
+ * the same bits and status. A turn about the vertical alone
+ * (turn_about_z) makes each arm's x and y from two products and keeps its
+ * height a_z: the products left out are exactly 0 and a_z 2^30 rounds to
+ * a_z. Out of line: the ticks whose orientation holds do not carry its
+ * registers. */
+SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
 {
-    sp_flags_t flags = 0u;
-    sp_status_t st;
+    const sp_rot_t *rot = &ik->rot;
+    const int64_t half = INT64_C(1) << 29;
+    unsigned k;
 
-    arms_about_z(platform, &ik->rot, ik->arm, &flags);
-    st = ik_legs(platform, pose, ik);
-    return (st == SP_OK) ? sp_flags_status(flags) : st; /* spi_ik_lengths' status */
+    if (turn_about_z(rot)) {
+        for (k = 0u; k < SP_LEGS; ++k) {
+            const int32_t a0 = platform->platform_joint[k][0];
+            const int32_t a1 = platform->platform_joint[k][1];
+            ik->arm[k][2] = platform->platform_joint[k][2];
+            ik->arm[k][0] = (int32_t)(((int64_t)a0 * rot->t[0][0] + (int64_t)a1 * rot->t[1][0] + half) >> 30);
+            ik->arm[k][1] = (int32_t)(((int64_t)a0 * rot->t[0][1] + (int64_t)a1 * rot->t[1][1] + half) >> 30);
+        }
+    } else {
+        for (k = 0u; k < SP_LEGS; ++k) {
+            const int32_t a[3] = {platform->platform_joint[k][0], platform->platform_joint[k][1],
+                                  platform->platform_joint[k][2]};
+            ik->arm[k][0] = arm_near(a, rot, 0u);
+            ik->arm[k][1] = arm_near(a, rot, 1u);
+            ik->arm[k][2] = arm_near(a, rot, 2u);
+        }
+    }
+    return ik_legs(platform, pose, ik);
 }
 
 /* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone. */
@@ -358,7 +366,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
         /* a turning reference: no arms kept (keeping them would cost the
          * turning ticks) */
         keep->arms_valid = 0u;
-        st = turn_about_z(&keep->rot) ? ik_turning_z(platform, pose, ik) : spi_ik_lengths(platform, pose, ik);
+        st = keep->near ? ik_lengths_near(platform, pose, ik) : spi_ik_lengths(platform, pose, ik);
     } else {
         if (!keep->arms_valid || keep->platform != platform) {
             /* the orientation held a second tick: its arms, as
