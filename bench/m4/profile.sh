@@ -4,6 +4,7 @@
 # QEMU's translation-block trace and prints the instructions executed per
 # function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N] [stream]
 # (stream: the STREAM scenario's RUNNING ticks, sp_m4_profile_stream.elf;
+# yaw: the yaw scenario's, sp_m4_profile_yaw.elf;
 # force: the force scenario's FORCE command and the 2000 ticks after it;
 # engage: the surge's ENGAGE tick alone, sp_m4_profile_engage.elf;
 # trig: the surge's RUN_TRIG tick alone, sp_m4_profile_trig.elf;

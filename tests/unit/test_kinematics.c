@@ -34,6 +34,7 @@
 
 #include <cmocka.h>
 
+#include "../../firmware/core/src/core_internal.h"
 #include "assert_near.h"
 #include "ref_model.h"
 #include "sp/dynamics.h"
@@ -1093,12 +1094,65 @@ static void test_inverse_dynamics_legs_power(void **state)
  * within 1.5 N of the fresh solve over the same motions (measured
  * 0.88 N), and a call that factorises gives the plain forces bit for
  * bit. */
+/* spi_jacobian_near against sp_jacobian, bit for bit: random platforms
+ * and poses, and a platform whose joints sit at the bound (-2 m or 2 m -
+ * 1 LSB in every axis, the longest arms spi_joints_near admits) turned
+ * every way;
+ * spi_joints_near at and beside its bound. */
+static void test_jacobian_near(void **state)
+{
+    uint64_t rng = 77;
+    sp_platform_t p;
+    double hz, q[6];
+    sp_pose_t pose;
+    sp_ik_t ik;
+    sp_jacobian_t jac, jac_near;
+    (void)state;
+    for (int n = 0; n < N_POSES; ++n) {
+        if (n % 100 == 0) {
+            random_platform(&rng, &p, &hz);
+            assert_true(spi_joints_near(&p));
+        }
+        random_pose(&rng, hz, &pose, q);
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        memset(&jac_near, 0xA5, sizeof jac_near);
+        assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+        spi_jacobian_near(&ik, &jac_near);
+        assert_memory_equal(&jac_near, &jac, sizeof jac);
+    }
+    for (int i = 0; i < SP_LEGS; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            p.platform_joint[i][c] = ((i + c) % 2) ? (INT32_C(1) << 25) - 1 : -(INT32_C(1) << 25);
+        }
+        p.base_joint[i][2] = -(INT32_C(8) << 24); /* far below: every leg longer than the arms */
+    }
+    assert_true(spi_joints_near(&p));
+    for (int n = 0; n < N_POSES; ++n) {
+        for (int k = 0; k < 3; ++k) {
+            pose.rpy[k] = (int32_t)tu_uniform(&rng, -3.2 * 16777216.0, 3.2 * 16777216.0);
+            pose.pos[k] = (int32_t)tu_uniform(&rng, -2.0 * 16777216.0, 2.0 * 16777216.0);
+        }
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+        spi_jacobian_near(&ik, &jac_near);
+        assert_memory_equal(&jac_near, &jac, sizeof jac);
+    }
+    p.platform_joint[4][1] = INT32_C(1) << 25;
+    assert_false(spi_joints_near(&p));
+    p.platform_joint[4][1] = -(INT32_C(1) << 25) - 1;
+    assert_false(spi_joints_near(&p));
+    p.platform_joint[4][1] = INT32_MIN;
+    assert_false(spi_joints_near(&p));
+    p.platform_joint[4][1] = -(INT32_C(1) << 25);
+    assert_true(spi_joints_near(&p));
+}
+
 /* sp_inverse_kinematics_kept against the plain sp_inverse_kinematics, bit
  * for bit, over a sequence of poses where each angle repeats the last
  * one's with probability 1/2 (the controller's references: surge keeps
  * all three, yaw two), from an invalid keep, and with keep NULL; an
  * out-of-range pose fails as the plain IK does and the next call is
- * still exact. */
+ * still exact; the same over turns about the vertical alone. */
 static void test_inverse_kinematics_kept(void **state)
 {
     uint64_t rng = 31;
@@ -1146,6 +1200,35 @@ static void test_inverse_kinematics_kept(void **state)
         assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
         assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), SP_OK);
         assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    /* turning about the vertical alone (roll = pitch = 0, yaw and the
+     * position moving every call: the arms' shorter sums, arms_about_z),
+     * a pose 100 m away among them, then a platform joint of 128 m whose
+     * turned arm saturates: the plain IK's error */
+    pose.rpy[0] = 0;
+    pose.rpy[1] = 0;
+    for (int n = 0; n < N_POSES; ++n) {
+        pose.rpy[2] = (int32_t)tu_uniform(&rng, -3.3 * 16777216.0, 3.3 * 16777216.0);
+        pose.pos[n % 3] += (int32_t)tu_uniform(&rng, -2e5, 2e5);
+        pose.pos[0] = (n == N_POSES / 2) ? INT32_C(100) << 24 : pose.pos[0];
+        memset(&ik, 0, sizeof ik);
+        memset(&ikk, 0xA5, sizeof ikk);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), sp_inverse_kinematics(&p, &pose, &ik));
+        if (n == N_POSES / 2) {
+            assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_E_RANGE);
+            pose.pos[0] = 0;
+            continue;
+        }
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    {
+        sp_platform_t pw = p;
+        pw.platform_joint[3][0] = INT32_MAX - 5; /* 128 m: the turned arm leaves int32 */
+        pw.platform_joint[3][1] = INT32_MAX - 5;
+        pose.rpy[2] = 13176795; /* pi/4 */
+        pose.pos[0] = 0;
+        assert_int_equal(sp_inverse_kinematics_kept(&pw, &pose, &keep, &ikk), sp_inverse_kinematics(&pw, &pose, &ik));
+        assert_int_not_equal(sp_inverse_kinematics(&pw, &pose, &ik), SP_OK);
     }
     {
         sp_platform_t p2;
@@ -1394,6 +1477,7 @@ int main(void)
         cmocka_unit_test(test_forward_kinematics_failures),
         cmocka_unit_test(test_inverse_dynamics),
         cmocka_unit_test(test_inverse_dynamics_legs_power),
+        cmocka_unit_test(test_jacobian_near),
         cmocka_unit_test(test_inverse_kinematics_kept),
         cmocka_unit_test(test_inverse_dynamics_rates_reference),
         cmocka_unit_test(test_inverse_dynamics_held),

@@ -33,6 +33,17 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
  * Cannot fail. */
 void spi_ik_units(sp_ik_t *ik);
 
+/* 1 when every platform joint of `platform` is in [-2 m, 2 m) (Q24:
+ * [-2^25, 2^25)) in each axis, else 0. The arms A_im T of such a platform
+ * are below sqrt(3) 2 m (1 + 2^-28) + 1 LSB < 4 m (2^26), so its IK's
+ * Jacobian cannot saturate: spi_jacobian_near applies. */
+int spi_joints_near(const sp_platform_t *platform);
+
+/* sp_jacobian for an ik of a platform with spi_joints_near (arms below
+ * 2^26): the same entries, without the saturation tests no entry can
+ * fail (tests/unit/test_kinematics.c proves them equal). Cannot fail. */
+void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac);
+
 /* sp_lu6_solve_transposed in 32-bit intermediates, block-scaled (lu6.c):
  * returns 1 and x on success, 0 (x untouched) when an intermediate would
  * leave the 32-bit range or b is 0 or out of range: the caller then uses

@@ -6,31 +6,55 @@
 #define LEG_COMPONENT_MAX (INT32_C(1) << 30) /* 64 m in Q24 */
 #define LEG_LENGTH_MIN SP_Q24_MILLI(1)       /* 1 mm */
 
-/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw (from
- * sp_sincos_q24: each within 1.05 LSB of Q30, at most 2^30 + 1). Entries
- * with two terms are rounded once, from the exact sum. */
-void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
+/* T's entries that yaw does not enter (its third column), from the sines
+ * and cosines sc = {sin, cos} of roll, pitch, yaw (from sp_sincos_q24:
+ * each within 1.05 LSB of Q30, at most 2^30 + 1), and tilt = {sin pitch
+ * sin roll, sin pitch cos roll}, the products the yaw entries take. */
+SPI_INLINE void rot_tilt(const sp_q30_t sc[6], sp_rot_t *rot, sp_q30_t tilt[2])
 {
     sp_q30_t sr = sc[0];
     sp_q30_t cr = sc[1];
     sp_q30_t sp = sc[2];
     sp_q30_t cp = sc[3];
+
+    tilt[0] = spi_mul30_up(sp, sr);
+    tilt[1] = spi_mul30_up(sp, cr);
+    rot->t[0][2] = -sp;
+    rot->t[1][2] = spi_mul30_up(cp, sr);
+    rot->t[2][2] = spi_mul30_up(cp, cr);
+}
+
+/* T's entries that yaw enters (its first two columns), from sc and
+ * rot_tilt's tilt. Entries with two terms are rounded once, from the
+ * exact sum. */
+SPI_INLINE void rot_yaw(const sp_q30_t sc[6], const sp_q30_t tilt[2], sp_rot_t *rot)
+{
+    sp_q30_t sr = sc[0];
+    sp_q30_t cr = sc[1];
+    sp_q30_t cp = sc[3];
     sp_q30_t sy = sc[4];
     sp_q30_t cy = sc[5];
-    sp_q30_t spsr = spi_mul30_up(sp, sr);
-    sp_q30_t spcr = spi_mul30_up(sp, cr);
+    sp_q30_t spsr = tilt[0];
+    sp_q30_t spcr = tilt[1];
 
     /* T = (Rz(yaw) Ry(pitch) Rx(roll))^T: row r of T is column r of the
      * column-vector rotation. */
     rot->t[0][0] = spi_mul30_up(cy, cp);
     rot->t[0][1] = spi_mul30_up(sy, cp);
-    rot->t[0][2] = -sp;
     rot->t[1][0] = spi_dot30_up(cy, spsr, -sy, cr);
     rot->t[1][1] = spi_dot30_up(sy, spsr, cy, cr);
-    rot->t[1][2] = spi_mul30_up(cp, sr);
     rot->t[2][0] = spi_dot30_up(cy, spcr, sy, sr);
     rot->t[2][1] = spi_dot30_up(sy, spcr, -cy, sr);
-    rot->t[2][2] = spi_mul30_up(cp, cr);
+}
+
+/* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw:
+ * rot_tilt and rot_yaw. */
+void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot)
+{
+    sp_q30_t tilt[2];
+
+    rot_tilt(sc, rot, tilt);
+    rot_yaw(sc, tilt, rot);
 }
 
 /* T of the angles, keeping their sines and cosines in sc. */
@@ -176,6 +200,70 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
     return sp_flags_status(flags);
 }
 
+/* Is T a turn about the vertical alone (roll = pitch = 0: T's third row
+ * and column exactly e_z, as sp_sincos_q24 gives sin 0 = 0 and
+ * cos 0 = 2^30)? */
+SPI_INLINE int turn_about_z(const sp_rot_t *rot)
+{
+    return (rot->t[0][2] | rot->t[1][2] | rot->t[2][0] | rot->t[2][1]) == 0 && rot->t[2][2] == SP_Q30_ONE;
+}
+
+/* arm_component for a joint a within 2 m in each axis: the exact sum over
+ * 2^30 is below 2^26, so the shift alone is its value. */
+SPI_INLINE int32_t arm_near(const int32_t a[3], const sp_rot_t *rot, unsigned c)
+{
+    return (int32_t)(((int64_t)a[0] * rot->t[0][c] + (int64_t)a[1] * rot->t[1][c] + (int64_t)a[2] * rot->t[2][c] +
+                      (INT64_C(1) << 29)) >>
+                     30);
+}
+
+/* leg_of_arm for every leg of ik->arm: SP_E_RANGE when one fails. */
+static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+{
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (!leg_of_arm(platform, pose, ik, i)) {
+            return SP_E_RANGE;
+        }
+    }
+    return SP_OK;
+}
+
+/* spi_ik_lengths of ik->rot for a platform with spi_joints_near (every
+ * joint within 2 m in each axis: each arm's exact sum over 2^30 is below
+ * 2^26, so the shift alone is arm_component's value, never saturated),
+ * the same bits and status. A turn about the vertical alone
+ * (turn_about_z) makes each arm's x and y from two products and keeps its
+ * height a_z: the products left out are exactly 0 and a_z 2^30 rounds to
+ * a_z. Out of line: the ticks whose orientation holds do not carry its
+ * registers. */
+SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+{
+    const sp_rot_t *rot = &ik->rot;
+    const int64_t half = INT64_C(1) << 29;
+    unsigned k;
+
+    if (turn_about_z(rot)) {
+        for (k = 0u; k < SP_LEGS; ++k) {
+            const int32_t a0 = platform->platform_joint[k][0];
+            const int32_t a1 = platform->platform_joint[k][1];
+            ik->arm[k][2] = platform->platform_joint[k][2];
+            ik->arm[k][0] = (int32_t)(((int64_t)a0 * rot->t[0][0] + (int64_t)a1 * rot->t[1][0] + half) >> 30);
+            ik->arm[k][1] = (int32_t)(((int64_t)a0 * rot->t[0][1] + (int64_t)a1 * rot->t[1][1] + half) >> 30);
+        }
+    } else {
+        for (k = 0u; k < SP_LEGS; ++k) {
+            const int32_t a[3] = {platform->platform_joint[k][0], platform->platform_joint[k][1],
+                                  platform->platform_joint[k][2]};
+            ik->arm[k][0] = arm_near(a, rot, 0u);
+            ik->arm[k][1] = arm_near(a, rot, 1u);
+            ik->arm[k][2] = arm_near(a, rot, 2u);
+        }
+    }
+    return ik_legs(platform, pose, ik);
+}
+
 /* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone. */
 static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *pose, const sp_q24_t arm[SP_LEGS][3],
                                 sp_ik_t *ik)
@@ -239,6 +327,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     sp_status_t st;
     unsigned k;
     int changed;
+    int tilted;
 
     if (keep == NULL) {
         return sp_inverse_kinematics(platform, pose, ik);
@@ -246,16 +335,27 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     if (platform == NULL || pose == NULL || ik == NULL) {
         return SP_E_ARG;
     }
+    if (!keep->valid || keep->near_of != platform) {
+        keep->near = (uint8_t)spi_joints_near(platform);
+        keep->near_of = platform;
+    }
     changed = !keep->valid;
+    tilted = !keep->valid; /* roll or pitch changed */
     for (k = 0u; k < 3u; ++k) {
         if (!keep->valid || pose->rpy[k] != keep->rpy[k]) {
             sp_sincos_q24(pose->rpy[k], &keep->sc[2u * k], &keep->sc[2u * k + 1u]);
             keep->rpy[k] = pose->rpy[k];
             changed = 1;
+            tilted |= (k < 2u);
         }
     }
+    if (tilted) {
+        rot_tilt(keep->sc, &keep->rot, keep->tilt);
+    }
     if (changed) {
-        spi_rot_from_sincos(keep->sc, &keep->rot);
+        /* T's yaw entries; its third column and tilt kept while roll and
+         * pitch hold (a turn in yaw alone): spi_rot_from_sincos' T */
+        rot_yaw(keep->sc, keep->tilt, &keep->rot);
         keep->valid = 1u;
     }
     ik->rot = keep->rot;
@@ -263,10 +363,10 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
         ik->sc[k] = keep->sc[k];
     }
     if (changed) {
-        /* a turning reference: the plain IK, no arms kept (keeping them
-         * would cost the turning ticks) */
+        /* a turning reference: no arms kept (keeping them would cost the
+         * turning ticks) */
         keep->arms_valid = 0u;
-        st = spi_ik_lengths(platform, pose, ik);
+        st = keep->near ? ik_lengths_near(platform, pose, ik) : spi_ik_lengths(platform, pose, ik);
     } else {
         if (!keep->arms_valid || keep->platform != platform) {
             /* the orientation held a second tick: its arms, as
@@ -565,14 +665,20 @@ sp_status_t sp_leg_rates(const sp_ik_t *ik, const sp_q24_t vel[3], const sp_q24_
     return sp_flags_status(flags);
 }
 
-sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
+/* A moment entry r x u (Q54 with the rounding half) -> Q28: saturated
+ * and flagged beyond int32, or, with near (arms below 2^26 in
+ * magnitude, so the entry is below 2^31: spi_jacobian_near), the shift
+ * alone, which gives the same value. */
+SPI_INLINE int32_t moment_q28(int64_t x, int near, sp_flags_t *flags)
 {
-    sp_flags_t flags = 0u;
+    return near ? (int32_t)(x >> 26) : spi_narrow_floor(x, 26u, flags);
+}
+
+/* sp_jacobian's rows; near: see moment_q28. */
+SPI_INLINE void jacobian_rows(const sp_ik_t *ik, sp_jacobian_t *jac, int near, sp_flags_t *flags)
+{
     unsigned i;
 
-    if (ik == NULL || jac == NULL) {
-        return SP_E_ARG;
-    }
     for (i = 0u; i < SP_LEGS; ++i) {
         const int32_t r[3] = {ik->arm[i][0], ik->arm[i][1], ik->arm[i][2]};
         const int32_t u[3] = {ik->unit[i][0], ik->unit[i][1], ik->unit[i][2]};
@@ -584,9 +690,43 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
         /* r x u: Q24 x Q30 = Q54 -> Q28; a difference of two int32 products
          * stays within 2^63 - 2^31 (only -2^31 * -2^31 reaches 2^62), and
          * the rounding half 2^25 keeps it below 2^63 */
-        jac->j[i][3] = spi_narrow_floor((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), 26u, &flags);
-        jac->j[i][4] = spi_narrow_floor((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), 26u, &flags);
-        jac->j[i][5] = spi_narrow_floor((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), 26u, &flags);
+        jac->j[i][3] = moment_q28((int64_t)r[1] * u[2] - (int64_t)r[2] * u[1] + (INT64_C(1) << 25), near, flags);
+        jac->j[i][4] = moment_q28((int64_t)r[2] * u[0] - (int64_t)r[0] * u[2] + (INT64_C(1) << 25), near, flags);
+        jac->j[i][5] = moment_q28((int64_t)r[0] * u[1] - (int64_t)r[1] * u[0] + (INT64_C(1) << 25), near, flags);
     }
+}
+
+sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
+{
+    sp_flags_t flags = 0u;
+
+    if (ik == NULL || jac == NULL) {
+        return SP_E_ARG;
+    }
+    jacobian_rows(ik, jac, 0, &flags);
     return sp_flags_status(flags);
+}
+
+/* sp_jacobian for an ik whose arms are all below 2^26 (4 m) in magnitude
+ * (a platform near: spi_joints_near): |r x u| <= |r| |u| < 2^56 (1 +
+ * 2^-27), so no moment leaves int32 and each is the shift alone. */
+void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac)
+{
+    jacobian_rows(ik, jac, 1, NULL);
+}
+
+int spi_joints_near(const sp_platform_t *platform)
+{
+    uint32_t out = 0u;
+    unsigned i;
+    unsigned c;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        for (c = 0u; c < 3u; ++c) {
+            /* a_c in [-2^25, 2^25) (2 m) exactly when a_c + 2^25 is in
+             * [0, 2^26) */
+            out |= ((uint32_t)platform->platform_joint[i][c] + (UINT32_C(1) << 25)) >> 26;
+        }
+    }
+    return out == 0u;
 }

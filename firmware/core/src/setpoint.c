@@ -1,5 +1,6 @@
 #include "sp/setpoint.h"
 
+#include "core_internal.h"
 #include "fixed_inline.h"
 
 sp_status_t sp_friction_prepare(const sp_platform_t *platform, sp_friction_t *fr)
@@ -62,7 +63,9 @@ sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *
         return SP_E_RANGE;
     }
     st = sp_inverse_kinematics_kept(platform, &ref->pose, orient, &ik);
-    if (st == SP_OK) {
+    if (st == SP_OK && orient != NULL && orient->near) {
+        spi_jacobian_near(&ik, &model->jac); /* a platform whose Jacobian cannot saturate */
+    } else if (st == SP_OK) {
         st = sp_jacobian(&ik, &model->jac);
     }
     if (st == SP_OK) {

@@ -65,9 +65,14 @@ typedef struct {
     sp_q24_t rpy[3];               /**< the angles sc and rot are of, rad, Q24 */
     sp_q30_t sc[6];                /**< sin, cos of rpy (sp_sincos_q24), Q30 */
     sp_rot_t rot;                  /**< T of rpy */
+    sp_q30_t tilt[2];              /**< sin pitch sin roll, sin pitch cos roll (rounded, Q30): T's products of
+                                        roll and pitch that its yaw entries take, kept while those hold */
     sp_q24_t arm[SP_LEGS][3];      /**< the arms A_im T of `platform` at rot, m, Q24 */
     sp_flags_t arm_flags;          /**< SP_FLAG_OVERFLOW when an arm saturated */
     const sp_platform_t *platform; /**< the platform the arms are of */
+    const sp_platform_t *near_of;  /**< the platform `near` is of */
+    uint8_t near;                  /**< 1 when every platform joint of near_of is within 2 m in each axis
+                                        (its Jacobian cannot saturate: sp_setpoints_held skips those tests) */
     uint8_t arms_valid;            /**< 1 when arm, arm_flags and platform belong to rot */
     uint8_t valid;                 /**< 1 when rpy, sc and rot belong together */
 } sp_orient_keep_t;
@@ -75,9 +80,12 @@ typedef struct {
 /**
  * sp_inverse_kinematics with the orientation kept from the last call in
  * *keep: each angle equal to the kept one takes its kept sine and cosine,
- * and T is rebuilt only when an angle changed; the legs' arms are made
+ * and T is rebuilt only when an angle changed (only its yaw entries when
+ * roll and pitch hold); the legs' arms are made
  * once an orientation repeats and kept while it holds (made again for
- * another platform pointer). The sines are a pure function of the angle,
+ * another platform pointer); a turn about the vertical alone (roll =
+ * pitch = 0) makes its arms with two products a component instead of
+ * three (the third is exactly 0). The sines are a pure function of the angle,
  * the arms of T and the platform, so the result is sp_inverse_kinematics'
  * bit for bit (tests/unit/test_kinematics.c); a platform changed in place
  * under the same pointer needs valid set to 0. keep NULL:
