@@ -326,18 +326,16 @@ def _send_udp(port: int, proc) -> None:
 
 
 def _send_telemetry(port: int, proc) -> None:
-    """Once the stream listens: 2 s of vehicle telemetry at 200 Hz (a gentle
-    surge of 1 m/s^2 for a second with a slow yaw rate, gravity on z), then
-    silence."""
+    """Once the stream listens: 400 datagrams of vehicle telemetry, 2 s at
+    200 Hz (a gentle surge of 1 m/s^2 for a second with a slow yaw rate,
+    gravity on z), then silence. A count, not 2 s of wall clock: on a
+    loaded machine the sleeps stretch and a timed sender sent 117."""
     line = proc.stdout.readline()
     assert "listening on UDP" in line, line
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     seq = 1
-    t0 = time.time()
-    while proc.poll() is None:
-        t = time.time() - t0
-        if t > 2.0:
-            break
+    while proc.poll() is None and seq <= 400:
+        t = (seq - 1) * 0.005
         ax = 1.0 if t < 1.0 else 0.0
         values = [ax, 0.0, 9.81, 0.0, 0.0, 0.05 * math.sin(math.pi * t)]
         s.sendto(encode_datagram(seq, values, cueing=True, binary=(seq % 2 == 0)), ("127.0.0.1", port))

@@ -378,6 +378,25 @@ def test_cli_session_and_exit_codes(ctrl, capsys):
     assert rc == 0 and "state IDLE" in out and "CTRL_STATUS" in out and "heartbeats" in out
 
 
+def test_observers_send_no_heartbeat(ctrl, capsys):
+    """`status` and `watch` only listen: a status poll or a monitoring
+    screen must not keep the operator supervision satisfied for a
+    commanding process that died; `watch --heartbeat` sends them."""
+    ch = ctrl.channel
+    n = len(ctrl.heartbeats)
+    assert _op(capsys, ch, "status")[0] == 0
+    assert _op(capsys, ch, "watch", "--duration", "0.3", "--rate", "10")[0] == 0
+    time.sleep(0.1)
+    assert len(ctrl.heartbeats) == n
+    assert _op(capsys, ch, "watch", "--duration", "0.3", "--rate", "10", "--heartbeat")[0] == 0
+    time.sleep(0.1)
+    assert len(ctrl.heartbeats) >= n + 5      # 15 in 0.3 s at 20 ms
+    n = len(ctrl.heartbeats)
+    assert _op(capsys, ch, "stop")[0] == 0    # a command's process sends them
+    time.sleep(0.1)
+    assert len(ctrl.heartbeats) > n
+
+
 def test_cli_stream_csv(ctrl, capsys, tmp_path):
     ch = ctrl.channel
     assert _op(capsys, ch, "engage")[0] == 0

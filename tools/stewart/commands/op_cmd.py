@@ -98,6 +98,8 @@ def register(sub) -> None:
     w = ops.add_parser("watch", help="live view (q or Ctrl-C quits)")
     w.add_argument("--rate", type=float, default=5.0, help="refreshes per second")
     w.add_argument("--duration", type=float, help="quit after this many s")
+    w.add_argument("--heartbeat", action="store_true", help="send OP_HEARTBEAT: keep a running motion's "
+                   "operator supervision satisfied while this watch runs (default: listen only)")
     rec = ops.add_parser("record", help="record the bus to a file: .log (candump), .blf, .asc, .mf4, ...")
     rec.add_argument("file")
     rec.add_argument("--duration", type=float, help="s (default: until Ctrl-C)")
@@ -176,7 +178,9 @@ def run(args) -> int:
         return 2
     if args.op == "record":
         return _record(bus, args)
-    node = OperatorNode(bus, heartbeat=True, key=key)
+    # observers send no heartbeat: a status poll or a watch screen must not
+    # keep the operator link alive for a commanding process that died
+    node = OperatorNode(bus, heartbeat=args.op not in OBSERVERS or getattr(args, "heartbeat", False), key=key)
     try:
         node.start()
         return ACTIONS[args.op](node, args, prepared)
@@ -188,6 +192,10 @@ def run(args) -> int:
         return 130
     finally:
         node.close()
+
+
+#: Actions that only listen: no OP_HEARTBEAT (docs/operator.md).
+OBSERVERS = ("status", "watch")
 
 
 def _prepare(args):
