@@ -618,6 +618,9 @@ class OperatorNode:
                 if switch and missed and first_change is None and taken_k is not None \
                         and k >= taken_k + COMMAND_QUEUE and not done(st):
                     # carried out by now: taken, the state would have changed
+                    why = self.auth_reason() if signed is not None else None
+                    if why is not None:  # another process's counter went past this one's
+                        raise Refused(f"{command} rejected: {why}")
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)} (the controller "
                                   f"had the command and stayed {st.state}; the status that said CmdRejected "
                                   f"was among the {missed} status(es) this node missed)")
