@@ -21,6 +21,11 @@ transfers per drive) lasts over 3 s of plant time. While it runs:
 Frames are recorded in threads, one socket per kind: CTRL_STATUS (every
 tick) on its own, the rare ones (OP_COMMAND, the drives' SDO answers) on
 sockets of their own, whose queues cannot be overrun by the status stream.
+The refusal is one status (CmdRejected lasts the tick the command was
+refused on): the status socket has a queue of seconds (busrig.ops_socket)
+and its thread reads only the fields it keeps (no cantools decode per
+frame), so it loses none and leaves the operator node, whose reader
+shares this process, the time to keep up.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ import pytest
 from stewart import cli
 from stewart import closedloop as cl
 from stewart import protocol as pr
+from stewart.operator.node import _Reader as FieldReader
 
 import busrig
 
@@ -61,9 +67,9 @@ def op(*args) -> tuple[int, str, str]:
 
 
 class Recorder:
-    """CTRL_STATUS on one socket (every tick; a loaded machine may lose some,
-    which nothing here needs), OP_COMMAND on another, the SDO answers of
-    both drive buses on one each: (kernel timestamp, ...) rows."""
+    """CTRL_STATUS on one socket (every tick, none lost: a queue of
+    seconds), OP_COMMAND on another, the SDO answers of both drive buses
+    on one each: (kernel timestamp, ...) rows."""
 
     def __init__(self):
         import can
@@ -73,12 +79,13 @@ class Recorder:
                            can_filters=[{"can_id": can_id, "can_mask": mask, "extended": False}])
 
         self.proto = pr.Protocol()
+        self.fields = FieldReader(self.proto, "CTRL_STATUS").fields
         self.status: list[tuple[float, int, str, int, int]] = []  # t, tick, state, CmdRejected, DrivesStarting
         self.commands: list[float] = []
         self.sdo: list[tuple[float, int]] = []                     # t, node id
         self._lock = threading.Lock()
         self._stop = threading.Event()
-        self.buses = [(bus("vcan0", ID_STATUS, 0x7FF, fd=True), self._on_status),
+        self.buses = [(busrig.ops_socket([ID_STATUS]), self._on_status),
                       (bus("vcan0", ID_COMMAND, 0x7FF, fd=True), self._on_command),
                       (bus("vcan1", SDO_TX, 0x780), self._on_sdo),
                       (bus("vcan2", SDO_TX, 0x780), self._on_sdo)]
@@ -100,10 +107,10 @@ class Recorder:
                 on(m)
 
     def _on_status(self, m):
-        sig = self.proto.decode(m.arbitration_id, bytes(m.data), bus="ops", check_counter=False)[1]
+        w, f = int.from_bytes(m.data, "little"), self.fields
         with self._lock:
-            self.status.append((m.timestamp, int(sig["Tick"]), STATES[int(sig["State"])], int(sig["CmdRejected"]),
-                                int(sig["DrivesStarting"])))
+            self.status.append((m.timestamp, f["Tick"].raw(w), STATES[f["State"].raw(w)], f["CmdRejected"].raw(w),
+                                f["DrivesStarting"].raw(w)))
 
     def _on_command(self, m):
         with self._lock:
@@ -118,10 +125,15 @@ class Recorder:
         with self._lock:
             return list(self.status), list(self.commands), list(self.sdo)
 
+    def lost(self) -> int:
+        """Statuses missing (Tick gaps): none, with the queue of seconds."""
+        ticks = [s[1] for s in self.snapshot()[0]]
+        return sum(b - a - 1 for a, b in zip(ticks, ticks[1:]) if b > a + 1)
+
     def wait(self, what: str, pred, timeout: float) -> None:
         end = time.monotonic() + timeout
         while not pred(*self.snapshot()):
-            assert time.monotonic() < end, f"{what}: not within {timeout} s"
+            assert time.monotonic() < end, f"{what}: not within {timeout} s ({self.lost()} statuses lost)"
             time.sleep(0.01)
 
 
@@ -154,7 +166,7 @@ def test_engage_refused_while_the_drives_are_configured(tmp_path):
             t_refused = time.time()
             print(f"[{time.monotonic() - t0:.1f} s] `stewart op engage` answered in {time.monotonic() - t_op:.1f} s")
             assert rc == 1 and "ENGAGE refused" in err and "still starting the drives" in err, err
-            # CmdRejected stays set until the next command: the recorder's status stream shows it too
+            # the status of the refusal's tick (CmdRejected lasts one): the recorder, losing none, has it too
             rec.wait("OP_COMMAND, then CTRL_STATUS CmdRejected with DrivesStarting",
                      lambda st, cmd, sd: cmd and any(s[0] > cmd[0] and s[3] == 1 and s[4] == 1 for s in st), 10)
             status, commands, sdo = rec.snapshot()

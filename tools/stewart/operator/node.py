@@ -58,6 +58,12 @@ ACCEPTED_IN = {
     "NONE": STATES,
 }
 MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "FORCE", "GUIDE")
+#: Commands that, taken, change the state on the tick they are carried out
+#: (firmware/core/src/controller.c, command()): ENGAGE from IDLE to
+#: ENGAGING, the others from READY to RUNNING. Once the controller has had
+#: such a command and the state is still the one it was sent in, it was
+#: refused, even if the one status that said so was not heard.
+SWITCH_STATE_FROM = {"ENGAGE": "IDLE", "RUN_TRIG": "READY", "MOVE_TO": "READY", "STREAM": "READY"}
 FORCE_MODES = pr.value_names("CTRL_STATUS", "ForceMode")
 
 
@@ -261,6 +267,7 @@ class OperatorNode:
         self.rx_error: str | None = None
         self._sent_mono = 0.0
         self._sent_after = 0.0
+        self._mark_tick: int | None = None     # the newest status's Tick when the record began
 
     # -- life cycle --------------------------------------------------------
     def start(self) -> "OperatorNode":
@@ -526,6 +533,7 @@ class OperatorNode:
 
     def _mark(self) -> int:
         with self._cond:
+            self._mark_tick = self.status.tick if self.status is not None else None
             self.statuses = []
             self._keep_statuses = True
             return self._seq
@@ -535,6 +543,16 @@ class OperatorNode:
                  reject_window: int = 50, settle: int = 5) -> Answer:
         """Waits until `done(status)`, or a refusal (CmdRejected within
         `reject_window` statuses after the send).
+
+        CmdRejected lasts one tick, and the one status that carries it may
+        never arrive: a reader that falls behind the controller's ~2,600
+        frames a second (Python on a loaded machine) finds its receive
+        queue full, and the kernel drops what comes next. The statuses
+        missed are counted (Tick gaps); when some were, a command of
+        SWITCH_STATE_FROM that the controller has had (as below: CTRL_AUTH
+        showed its counter, then the command queue's depth of statuses
+        more) while the state stayed the one it was sent in was refused,
+        and is reported so, with the reason the state tells.
 
         Only statuses the interface stamped after the command was sent
         count (k = 1, 2, ...: the controller's ticks after the frame went on
@@ -557,6 +575,9 @@ class OperatorNode:
         k_after = 0
         signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
         taken_k: int | None = None  # the first status after CTRL_AUTH showed the frame accepted
+        prev_tick = self._mark_tick  # Tick of the last status seen (gaps: statuses the queue dropped)
+        missed = 0
+        switch = before is not None and SWITCH_STATE_FROM.get(command) == before.state
         while True:
             with self._cond:
                 while idx >= len(self.statuses):
@@ -566,11 +587,15 @@ class OperatorNode:
                     if left <= 0:
                         st = self.status
                         raise NoAnswer(f"{command}: no answer within {timeout:g} s"
-                                       + (f" (state {st.state})" if st else " (no status received)"))
+                                       + (f" (state {st.state}; {missed} status(es) missed since the send)"
+                                          if st else " (no status received)"))
                     self._cond.wait(left)
                 batch = self.statuses[idx:]
                 idx = len(self.statuses)
             for st in batch:
+                if prev_tick is not None and st.tick > prev_tick + 1:
+                    missed += st.tick - prev_tick - 1
+                prev_tick = st.tick
                 if st.stamp < sent_wall:
                     continue
                 k += 1
@@ -592,6 +617,15 @@ class OperatorNode:
                         and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
                     # the refusal's status frame was not seen, but nothing happened
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
+                if switch and missed and first_change is None and taken_k is not None \
+                        and k >= taken_k + COMMAND_QUEUE and not done(st):
+                    # carried out by now: taken, the state would have changed
+                    why = self.auth_reason() if signed is not None else None
+                    if why is not None:  # another process's counter went past this one's
+                        raise Refused(f"{command} rejected: {why}")
+                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)} (the controller "
+                                  f"had the command and stayed {st.state}; the status that said CmdRejected "
+                                  f"was among the {missed} status(es) this node missed)")
                 if done(st) and (first_change is not None
                                  or (k >= settle and taken_k is not None and k >= taken_k + COMMAND_QUEUE)):
                     self._keep_statuses = False
