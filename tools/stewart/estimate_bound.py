@@ -137,20 +137,25 @@ def bound(platform, samples=4000, seed=1, tol_pos=1e-6, tol_rot=1e-6, refine=64,
     return float(min(np.min(thr), np.min(w_thr))), thr
 
 
-def check(platform, limit, samples=4000, seed=2, scale_to=None):
-    """The step's worst position and angle errors (m, rad) over random
-    references and directions with |dL|_inf exactly `limit` (m)."""
-    rng = np.random.default_rng(seed)
+def _at_limit(platform, limit, rng, samples):
+    """Random references, their J, and tracking errors of random direction
+    scaled so that |dL|_inf = `limit` (m) through that J (to first order,
+    then one correction for the second-order part)."""
     ref = sample_references(platform, rng, samples)
     jac = jacobians(platform, ref)
     direction = rng.normal(size=(samples, 6))
     direction *= rng.uniform(0.0, 1.0, size=(samples, 6)) ** 2
-    # scale each direction so that |dL|_inf = limit (to first order, then
-    # one correction for the second-order part)
     d_l, _, _ = step_errors(platform, ref, jac, direction, np.full(samples, 1e-4))
     scale = 1e-4 * limit / d_l
     d_l, _, _ = step_errors(platform, ref, jac, direction, scale)
     scale *= limit / d_l
+    return ref, jac, direction, scale
+
+
+def check(platform, limit, samples=4000, seed=2):
+    """The step's worst position and angle errors (m, rad) over random
+    references and directions with |dL|_inf exactly `limit` (m)."""
+    ref, jac, direction, scale = _at_limit(platform, limit, np.random.default_rng(seed), samples)
     d_l, ep, er = step_errors(platform, ref, jac, direction, scale)
     return float(np.max(d_l)), float(np.max(ep)), float(np.max(er))
 
@@ -164,14 +169,7 @@ def aged_check(platform, limit, age_ticks, lin_speed, ang_speed, samples=4000, s
     `limit` (m) through this tick's J. Returns the worst position (m) and
     angle (rad) errors. age_ticks 0 is `check`'s fresh factorisation."""
     rng = np.random.default_rng(seed)
-    ref = sample_references(platform, rng, samples)
-    jac = jacobians(platform, ref)
-    direction = rng.normal(size=(samples, 6))
-    direction *= rng.uniform(0.0, 1.0, size=(samples, 6)) ** 2
-    d_l, _, _ = step_errors(platform, ref, jac, direction, np.full(samples, 1e-4))
-    scale = 1e-4 * limit / d_l
-    d_l, _, _ = step_errors(platform, ref, jac, direction, scale)
-    scale *= limit / d_l
+    ref, _, direction, scale = _at_limit(platform, limit, rng, samples)
     vel = np.zeros((samples, 6))
     for part, speed in ((slice(0, 3), lin_speed), (slice(3, 6), ang_speed)):
         u = rng.normal(size=(samples, 3))
