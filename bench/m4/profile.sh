@@ -3,7 +3,8 @@
 # sp_m4_profile.elf (profile.c: 300 RUNNING ticks of the golden scenario) with
 # QEMU's translation-block trace and prints the instructions executed per
 # function, most first. Usage: bench/m4/profile.sh [M4 build dir] [top N] [stream]
-# (stream: the STREAM scenario's RUNNING ticks, sp_m4_profile_stream.elf;
+# (stream: the STREAM scenario's first 2000 RUNNING ticks, all four of its
+# target poses, sp_m4_profile_stream.elf;
 # yaw: the yaw scenario's, sp_m4_profile_yaw.elf;
 # force: the force scenario's FORCE command and the 2000 ticks after it;
 # engage: the surge's ENGAGE tick alone, sp_m4_profile_engage.elf;
@@ -17,6 +18,7 @@ dir=${1:-build/m4-core}
 top=${2:-25}
 elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ "${3:-}" = force ] && : "${PROFILE_TICKS:=2001}"
+[ "${3:-}" = stream ] && : "${PROFILE_TICKS:=2000}"
 [ "${3:-}" = engage ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = trig ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = stream_start ] && : "${PROFILE_TICKS:=1}"
