@@ -74,6 +74,9 @@ sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis,
                           sp_q24_t frequency_hz, uint32_t tick_us, uint32_t fade_ticks)
 {
     int64_t step;
+    int64_t rate; /* the fade's rate, 1/s, Q24 */
+    int64_t peak; /* w^2 + 4 w r + 6 r^2, Q24 */
+    sp_q24_t omega;
 
     if (g == NULL) {
         return SP_E_ARG;
@@ -97,9 +100,25 @@ sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis,
     if (step <= 0 || step >= (INT64_C(1) << 31)) {
         return SP_E_ARG;
     }
+    omega = sp_mul(frequency_hz, TWO_PI_Q28, 28u, NULL);
+    /* the acceleration's peak, |A| (w^2 + 4 w r + 6 r^2) with r the fade's
+     * rate (w^2 s E, 2 w c E' r and s E'' r^2 at their peaks 1, 1.875 and
+     * 5.77), below SP_TRIG_ACC_MAX: every sample then fits Q24. w < 2^30
+     * and r <= 10 / s (a fade of 0.1 s at least): the sum is below 2^37
+     * and its product by |A| <= 2^24 below 2^61. */
+    rate = (int64_t)(((UINT64_C(1) << 24) * (uint64_t)US_PER_S) / ((uint64_t)fade_ticks * tick_us));
+    peak = (((int64_t)omega * omega) >> 24) + 4 * (((int64_t)omega * rate) >> 24) + 6 * ((rate * rate) >> 24);
+    if (((peak * (amplitude < 0 ? -(int64_t)amplitude : (int64_t)amplitude)) >> 24) >= SP_TRIG_ACC_MAX) {
+        return SP_E_RANGE;
+    }
     g->axis = axis;
     g->amplitude = amplitude;
-    g->omega = sp_mul(frequency_hz, TWO_PI_Q28, 28u, NULL);
+    g->omega = omega;
+    g->omega2 = spi_round_away((int64_t)omega * omega, 24u);
+    /* narrow: every term of the acceleration within int32 (its bound
+     * below 128 / s^2 in Q24: below 1.8 Hz and with fades of 0.22 s and
+     * longer at least), computed as first written */
+    g->wide = (peak >= (INT64_C(1) << 31)) ? 1u : 0u;
     g->phase_step = (uint32_t)step;
     g->fade_ticks = fade_ticks;
     g->finished = 0;
@@ -142,16 +161,40 @@ static int32_t fade_rate(sp_trig_t *g, uint32_t tick_us, sp_flags_t *flags)
 /* The generator's first step (the command's tick; its sample, the centre
  * at rest, is already in *out): u = 0 and the phase 0, so E = E' = E'' = 0
  * and sin(theta) = 0, and every product of sp_trig_step's general path
- * has a zero factor. Of its flags only the fade rate's and omega^2's
- * (saturating above 1.8 Hz) can be raised: the same here. */
+ * has a zero factor. Of its flags only the fade rate's can be raised: the
+ * same here. */
 static sp_status_t trig_first(sp_trig_t *g, uint32_t tick_us)
 {
     sp_flags_t flags = 0u;
     (void)fade_rate(g, tick_us, &flags);
-    (void)spi_mul_away(g->omega, g->omega, 24u, &flags);
     g->phase += g->phase_step;
     ++g->tick; /* in the fade-in: fade_ticks >= 1 (sp_trig_start) */
     return sp_flags_status(flags);
+}
+
+/* x f for x in Q24 (|x| < 2^38) and f in Q30 (|f| <= 2^30), Q24: the
+ * 32-bit product, rounded away from zero, when x fits int32, else in two
+ * parts, x = xh 2^16 + xl (xl in [0, 2^16)): xh f (below 2^52) plus xl f
+ * / 2^16 (floor), rounded from Q30 + 14: within one step of x f, and x
+ * itself for f = 2^30. */
+static int64_t trig_mul_q30(int64_t x, int32_t f, sp_flags_t *flags)
+{
+    if (x >= INT32_MIN && x <= INT32_MAX) {
+        return spi_mul_away((int32_t)x, f, 30u, flags);
+    }
+    return spi_round_away((x >> 16) * f + (((x & 0xFFFF) * f) >> 16), 14u);
+}
+
+/* The acceleration of a wide motion (sp_trig_t.wide), -w^2 s e + 2 w c e'
+ * + s e'' (Q24, below 2^38), in 64 bits: w^2 below 2^37 (10 Hz), w c e'
+ * below 2^35 (63 rad/s x 18.75 / s), e'' = E'' (du/dt)^2 below 2^34 (5.77
+ * x 10^2 / s^2, a fade of 0.1 s) from dde_r = E'' du/dt (Q24). */
+static int64_t trig_acc_wide(const sp_trig_t *g, sp_q30_t s, int32_t e, int32_t wc, int32_t de, int32_t dde_r,
+                             int32_t rate, sp_flags_t *flags)
+{
+    int64_t dde_rr = spi_round_away((int64_t)dde_r * rate, 24u);
+    return -trig_mul_q30(trig_mul_q30(g->omega2, s, flags), e, flags) + 2 * spi_round_away((int64_t)wc * de, 24u) +
+           trig_mul_q30(dde_rr, s, flags);
 }
 
 sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
@@ -204,16 +247,17 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
         dde = 0;
     } else {
         smoothstep(u, &e, &de, &dde);
-        /* e' = E'(u) du/dt, e'' = E''(u) (du/dt)^2, Q24 */
+        /* e' = E'(u) du/dt, Q24; E'' du/dt (below 5.77 x 10 / s, Q24) */
         de = spi_mul_away(de, rate, 24u, &flags);
-        dde = spi_mul_away(spi_mul_away(dde, rate, 24u, &flags), rate, 24u, &flags);
+        dde = spi_mul_away(dde, rate, 24u, &flags);
     }
 
     theta = (int32_t)spi_round_away((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
     sp_sincos_q24(theta, &s, &c);
 
     /* offset = A s e; velocity = A (w c e + s e');
-     * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24. */
+     * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24; each
+     * term of a narrow motion's within int32 (sp_trig_start) */
     wc = spi_mul_away(g->omega, c, 30u, &flags);
     if (rate == 0) {
         /* at full amplitude, e = 1 (2^30) and e' = e'' = 0: a product by
@@ -221,20 +265,25 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
          * saturation), those by e' and e'' are 0: the same values */
         pos = spi_round_away(s, 6u);
         vel = wc;
-        acc = -(int64_t)spi_mul_away(spi_mul_away(g->omega, g->omega, 24u, &flags), s, 30u, &flags);
+        acc =
+            g->wide ? -trig_mul_q30(g->omega2, s, &flags) : -(int64_t)spi_mul_away((int32_t)g->omega2, s, 30u, &flags);
     } else {
         pos = spi_round_away((int64_t)spi_mul_away(s, e, 30u, &flags), 6u); /* s e, Q24 */
         vel = (int64_t)spi_mul_away(wc, e, 30u, &flags) + spi_mul_away(de, s, 30u, &flags);
-        acc = -(int64_t)spi_mul_away(spi_mul_away(spi_mul_away(g->omega, g->omega, 24u, &flags), s, 30u, &flags), e,
-                                     30u, &flags) +
-              2 * (int64_t)spi_mul_away(wc, de, 24u, &flags) + spi_mul_away(dde, s, 30u, &flags);
+        acc = g->wide ? trig_acc_wide(g, s, e, wc, de, dde, rate, &flags)
+                      : -(int64_t)spi_mul_away(spi_mul_away((int32_t)g->omega2, s, 30u, &flags), e, 30u, &flags) +
+                            2 * (int64_t)spi_mul_away(wc, de, 24u, &flags) +
+                            spi_mul_away(spi_mul_away(dde, rate, 24u, &flags), s, 30u, &flags);
     }
 
     a = (unsigned)g->axis;
     *axis_ref(&out->pose, a) =
         spi_add(*axis_ref(&out->pose, a), spi_mul_away(g->amplitude, spi_sat(pos, &flags), 24u, &flags), &flags);
     *vec_ref(out, a, 1) = spi_mul_away(g->amplitude, spi_sat(vel, &flags), 24u, &flags);
-    *vec_ref(out, a, 2) = spi_mul_away(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
+    /* a wide motion: |A| <= 2^24 and |acc| < 2^38, the product fits; the
+     * result below SP_TRIG_ACC_MAX (sp_trig_start) */
+    *vec_ref(out, a, 2) = g->wide ? spi_sat(spi_round_away((int64_t)g->amplitude * acc, 24u), &flags)
+                                  : spi_mul_away(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
 
     g->phase += g->phase_step; /* modulo one turn by design */
     /* counts the fade-in and the fade-out only: a tick counting the whole

@@ -193,7 +193,8 @@ def refusal_reason(command: str, before: Status | None, at: Status | None) -> st
                     "not yet operational): wait for the start-up to end, then ENGAGE again")
         return "no pose estimate yet, or a drive not heard from"
     if command == "RUN_TRIG":
-        return ("an end of the motion is outside the workspace or a leg's stroke, the frequency is not usable, "
+        return ("an end of the motion is outside the workspace or a leg's stroke, the frequency is outside "
+                "(0, 10] Hz, its acceleration bound |A| (w^2 + 4 w / fade + 6 / fade^2) reaches 64 m/s^2 (rad/s^2), "
                 "or the platform is not at home (the motion runs about home: `stewart op move 0 0 0 0 0 0 "
                 "--relative` first)")
     if command == "MOVE_TO":

@@ -46,6 +46,9 @@ typedef struct {
     sp_axis_t axis;        /**< which axis moves */
     sp_q24_t amplitude;    /**< m or rad, Q24 */
     sp_q24_t omega;        /**< 2 pi f, rad/s, Q24 */
+    int64_t omega2;        /**< omega^2 rounded to Q24, rad^2/s^2 (below 2^37: beyond int32 above 1.8 Hz) */
+    uint8_t wide;          /**< 1: the acceleration's terms may leave int32 (above 1.8 Hz, or a fade below
+                                0.22 s): summed in 64 bits */
     uint32_t phase_step;   /**< f * tick * 2^32 (turns per tick, 2^-32 units) */
     uint32_t phase;        /**< current phase, 2^-32 turn */
     uint32_t fade_ticks;   /**< fade-in and fade-out length, ticks */
@@ -61,12 +64,19 @@ typedef struct {
     sp_flags_t fade_flags; /**< its flags (SP_FLAG_OVERFLOW when it saturated), passed on each fade tick */
 } sp_trig_t;
 
+/** The highest peak acceleration a trigonometric motion may reach, m/s^2
+ *  or rad/s^2, Q24 (64: beyond any hexapod; every sample then fits Q24). */
+#define SP_TRIG_ACC_MAX (INT64_C(1) << 30)
+
 /**
  * Starts a trigonometric motion. frequency in Hz (Q24, 0 < f <= 10, below
  * half the tick rate), tick length in us (1..100000), fade in ticks (0.1 s
  * to 60 s long). amplitude in m or rad (Q24,
  * |A| <= 1 m or 1 rad; sign allowed). Returns SP_E_ARG for NULL or values
- * outside these ranges (the generator is then left finished, at the centre).
+ * outside these ranges, SP_E_RANGE for a motion whose acceleration bound
+ * |A| (w^2 + 4 w r + 6 r^2) (w = 2 pi f, r = 1 / fade time) reaches
+ * SP_TRIG_ACC_MAX (the generator is then left finished, at the centre).
+ * An accepted motion's samples never saturate.
  */
 sp_status_t sp_trig_start(sp_trig_t *g, const sp_pose_t *centre, sp_axis_t axis, sp_q24_t amplitude,
                           sp_q24_t frequency_hz, uint32_t tick_us, uint32_t fade_ticks);
