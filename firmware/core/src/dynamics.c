@@ -640,31 +640,35 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     return sp_inverse_dynamics_jac(platform, motion, ik, &jac, ext_force, force, lu);
 }
 
+/* 1 when |x| >= 2^24, else 0: x is in (-2^24, 2^24) exactly when x +
+ * 2^24 - 1 (modulo 2^32) is below 2^25 - 1. */
+SPI_INLINE uint32_t beyond24(int32_t x)
+{
+    return (uint32_t)((uint32_t)x + UINT32_C(0xFFFFFF) >= UINT32_C(0x1FFFFFF));
+}
+
 /* The refinement's right-hand side (sp_inverse_dynamics_held): r = b -
  * J^T fq 2^16 in Q24, J^T fq summed exactly in Q36 (|J| < 2^31 Q28 and
  * |fq| < 2^24 Q8: each product below 2^55, six below 2^58) and rounded
  * once (ties up). Returns 0 (r unusable) when an fq is 2^24 or more in
- * magnitude or an r_k leaves sp_lu6_solve's range (|b| < 2^56 is
- * checked by the caller: |r| < 2^57 fits). */
-static int id_residual(const sp_jacobian_t *jac, const int32_t fq[SP_LEGS], const int64_t b[SP_LEGS],
-                       int64_t r[SP_LEGS])
+ * magnitude. |b| < 2^56 (checked by the caller) keeps |r| below 2^57:
+ * an r_k beyond sp_lu6_solve's range fails that solve (SP_E_OVERFLOW),
+ * which the caller takes as it would a 0 here (it factorises).
+ * Out of line, a column of J^T at a time with the six forces in
+ * registers (inlined into id_solve, GCC reloaded them and the Jacobian's
+ * address for most products: -Os, about 280 instructions against 150). */
+SPI_NOINLINE static int id_residual(const sp_jacobian_t *jac, const int32_t fq[SP_LEGS], const int64_t b[SP_LEGS],
+                                    int64_t r[SP_LEGS])
 {
-    unsigned i;
+    const int32_t f0 = fq[0], f1 = fq[1], f2 = fq[2], f3 = fq[3], f4 = fq[4], f5 = fq[5];
     unsigned k;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        if (fq[i] >= (INT32_C(1) << 24) || fq[i] <= -(INT32_C(1) << 24)) {
-            return 0;
-        }
+    if ((beyond24(f0) | beyond24(f1) | beyond24(f2) | beyond24(f3) | beyond24(f4) | beyond24(f5)) != 0u) {
+        return 0;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t acc = 0;
-        for (i = 0u; i < SP_LEGS; ++i) {
-            acc += (int64_t)jac->j[i][k] * fq[i];
-        }
+        int64_t acc = (int64_t)jac->j[0][k] * f0 + (int64_t)jac->j[1][k] * f1 + (int64_t)jac->j[2][k] * f2 +
+                      (int64_t)jac->j[3][k] * f3 + (int64_t)jac->j[4][k] * f4 + (int64_t)jac->j[5][k] * f5;
         r[k] = b[k] - ((acc + (INT64_C(1) << 11)) >> 12);
-        if (r[k] >= (INT64_C(1) << 56) || r[k] <= -(INT64_C(1) << 56)) {
-            return 0;
-        }
     }
     return 1;
 }
