@@ -39,13 +39,32 @@ SPI_INLINE int64_t add_ck(int64_t a, int64_t b, int *ovf)
 #endif
 }
 
+/* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
+SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
+{
+    return ((uint32_t)x + (UINT32_C(1) << k)) >> (k + 1u);
+}
+
 /* I w and I v for I in Q16 (kg m^2) and w, v in Q24, in one pass over I:
  * Q40 sums (each product at most 2^62; an overflowing sum sets *ovf)
- * narrowed to Q24: |out| < 3 2^46. */
+ * narrowed to Q24: |out| < 3 2^46. Rates below 32 rad/s (and rad/s^2)
+ * in each component, far beyond any motion base, keep each product below
+ * 2^60 and the sums below 2^62: no overflow is possible, and none is
+ * tested for (the same bits). */
 static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3], int64_t iw[3],
                            int64_t iv[3], int *ovf)
 {
     unsigned r;
+    if ((out_of(w[0], 29u) | out_of(w[1], 29u) | out_of(w[2], 29u) | out_of(v[0], 29u) | out_of(v[1], 29u) |
+         out_of(v[2], 29u)) == 0u) {
+        for (r = 0u; r < 3u; ++r) {
+            int64_t a = (int64_t)inertia[r][0] * w[0] + (int64_t)inertia[r][1] * w[1] + (int64_t)inertia[r][2] * w[2];
+            int64_t b = (int64_t)inertia[r][0] * v[0] + (int64_t)inertia[r][1] * v[1] + (int64_t)inertia[r][2] * v[2];
+            iw[r] = spi_round_away(a, 16u);
+            iv[r] = spi_round_away(b, 16u);
+        }
+        return;
+    }
     for (r = 0u; r < 3u; ++r) {
         int32_t i0 = inertia[r][0];
         int32_t i1 = inertia[r][1];
@@ -245,12 +264,6 @@ SPI_COLD static void leg_terms_wide(const sp_platform_t *p, const sp_ik_t *ik, c
         msum[2] += (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
     }
     legs_sums_done(fsum, msum, NULL, b);
-}
-
-/* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
-SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
-{
-    return ((uint32_t)x + (UINT32_C(1) << k)) >> (k + 1u);
 }
 
 /* round(v / 2^s) (ties up) as int32, for a v whose bound (argued at each
