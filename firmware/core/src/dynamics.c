@@ -290,7 +290,8 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  *   m_c + m_r < 512 kg, d_c, d_r < 4 m, |g| < 16 m/s^2,
  *   |v_c| < 4 m/s, |a_c| < 64 m/s^2, |w_b,c| < 4 rad/s (base frame),
  *   |w'_c| < 64 rad/s^2 (body frame), c = each component,
- *   per leg: max(d_c, d_r, 0.5 m) < L < 8 m and |r_c| < 4 m.
+ *   per leg computed (not kept): max(d_c, d_r, 0.5 m) < L < 8 m and
+ *   |r_c| < 4 m (the rates need no per-leg bound: |J_i| entries < 8).
  * Then (|.| Euclidean) |w_b| < 6.93, |w_b'| < 111, |a| < 111, |v| < 6.93,
  * |r| < 6.93 and
  *   |w_b x r| < 48 m/s, |v_A| < 55 m/s, |L'| <= |v_A|, |v_A|^2 < 3025,
@@ -387,13 +388,15 @@ SPI_NOINLINE static int leg_terms_at_rest(const sp_platform_t *p, const sp_ik_t 
         int64_t mo[3];
         unsigned sh;
 
-        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
-            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
-            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
-        }
         if (((keep >> i) & 1u) != 0u) {
             axial[i] = hold->axial[i];
             continue;
+        }
+        /* the envelope's per-leg part, for the legs to compute (as
+         * leg_terms: when it fails here, it fails there) */
+        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
+            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
+            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
         }
         q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
         q >>= (sh - 54u);
@@ -456,13 +459,14 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     const int32_t mr = lm->rod_mass; /* Q16 */
     const int32_t dc = lm->cylinder_com;
     const int32_t dr = lm->rod_com;
-    int64_t wa[3];               /* w_b 2^30, as sp_leg_rates */
-    sp_q24_t wb[3];              /* angular velocity, base frame, Q24 */
-    sp_q24_t ab[3];              /* angular acceleration, base frame, Q24 */
-    int64_t vb[3];               /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
-    int64_t ac[3];               /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
-    int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
-    int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
+    int64_t wa[3];           /* w_b 2^30, as sp_leg_rates */
+    sp_q24_t wb[3];          /* angular velocity, base frame, Q24 */
+    sp_q24_t ab[3];          /* angular acceleration, base frame, Q24 */
+    int64_t vb[3];           /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
+    int64_t ac[3];           /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
+    int64_t sums[2][3];      /* the sums when nothing is kept (hold NULL) */
+    int64_t *fsum = sums[0]; /* N, Q16 */
+    int64_t *msum = sums[1]; /* N m, Q40 */
     int32_t g20, mcdc, k1, nn, k2, lmin;
     uint32_t out;
     unsigned todo; /* bit i: leg i's terms still to compute */
@@ -489,11 +493,16 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     if (lmin < (INT32_C(1) << 23)) {
         lmin = INT32_C(1) << 23; /* 0.5 m */
     }
-    /* the envelope's per-leg part */
+    todo = SP_ALL_LEG_BITS & ~keep;
+    /* the envelope's per-leg part, for the legs to compute (a kept leg's
+     * terms were computed within it) */
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
-        out |= (uint32_t)((uint32_t)ik->length[i] - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u) |
-               out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u);
+        if (((todo >> i) & 1u) != 0u) {
+            out |=
+                (uint32_t)((uint32_t)ik->length[i] - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u) |
+                out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u);
+        }
     }
     if (out != 0u) {
         return 0; /* an L outside (lmin, 8 m) or an |r_c| >= 4 m */
@@ -502,18 +511,22 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
         wb[k] = (int32_t)(wa[k] >> 30);
     }
     legs_rates_jac(jac, m->vel, wb, rate);
+    if (hold != NULL) {
+        /* the sums updated where they are kept */
+        fsum = hold->fsum;
+        msum = hold->msum;
+    }
     if (keep != 0u) {
-        /* the kept legs' reactions, moments (summed when computed) and
-         * axial terms (the others' are overwritten below) */
-        for (k = 0u; k < 3u; ++k) {
-            fsum[k] = hold->fsum[k];
-            msum[k] = hold->msum[k];
-        }
+        /* the kept legs' axial terms (the others' are overwritten below) */
         for (i = 0u; i < SP_LEGS; ++i) {
             axial[i] = hold->axial[i];
         }
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            fsum[k] = 0;
+            msum[k] = 0;
+        }
     }
-    todo = SP_ALL_LEG_BITS & ~keep;
     if (todo != 0u) {
         /* what the legs to compute share (none on a tick that keeps all) */
         for (k = 0u; k < 3u; ++k) {
@@ -624,7 +637,7 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
             hold->axial[leg] = axial[leg];
         }
     }
-    legs_sums_done(fsum, msum, hold, b);
+    legs_sums_done(fsum, msum, NULL, b); /* kept in *hold already */
     return 1;
 }
 
