@@ -699,6 +699,40 @@ SPI_NOINLINE static int id_residual(const sp_jacobian_t *jac, const int32_t fq[S
     return 1;
 }
 
+/* The forces F = f + axial (f in Q24, the axial terms in Q16) rounded to
+ * Q8 (ties away from zero, saturating and flagging), and, when fq is not
+ * NULL, f alone rounded to Q8 (ties up, held within int32: an |fq| of
+ * 2^24 or more is never refined from) as the next refinement's start.
+ * With every |f_k| below 2^45 (2 MN) neither can leave int32 (|f +
+ * axial 2^8| < 2^45 + 2^39 rounds below 2^30): rounded without the
+ * tests, the same bits. */
+SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS], sp_q8_t force[SP_LEGS],
+                          int32_t fq[SP_LEGS], sp_flags_t *flags)
+{
+    uint32_t out = 0u;
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        out |= out_of((int32_t)(f[k] >> 32), 13u);
+    }
+    if (out == 0u) {
+        for (k = 0u; k < SP_LEGS; ++k) {
+            if (fq != NULL) {
+                fq[k] = (int32_t)((f[k] + (INT64_C(1) << 15)) >> 16);
+            }
+            force[k] = (int32_t)spi_round_away(f[k] + (int64_t)axial[k] * 256, 16u);
+        }
+        return;
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        if (fq != NULL) {
+            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
+            fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
+        }
+        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
+        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, flags);
+    }
+}
+
 /* sp_inverse_dynamics_jac, and the leg rates in rate when rate is not NULL
  * (sp_inverse_dynamics_rates). */
 static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -842,18 +876,7 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     if (st != SP_OK) {
         return st;
     }
-    if (kept_lu != NULL) {
-        for (k = 0u; k < SP_LEGS; ++k) {
-            /* the next refinement's start: f rounded to Q8 (ties up), held
-             * within int32 (an |fq| of 2^24 or more is never refined from) */
-            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
-            kept_lu->fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
-        }
-    }
-    for (k = 0u; k < SP_LEGS; ++k) {
-        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
-        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, &flags);
-    }
+    id_finish(f, axial, force, (kept_lu != NULL) ? kept_lu->fq : NULL, &flags);
     if (flags == 0u && rate != NULL && !have_rates) {
         st = sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate);
         if (st != SP_OK) {
