@@ -16,6 +16,12 @@
 #ifndef SPI_LEG_TERMS_AT_REST
 #define SPI_LEG_TERMS_AT_REST 1
 #endif
+/* SPI_ID_RANGE_FAST 1: inertia_times2 and id_finish skip their overflow
+ * tests for inputs whose range rules overflow out; 0 (tests/unit/
+ * test_dynamics_plain.c's plain reference): every input tested. */
+#ifndef SPI_ID_RANGE_FAST
+#define SPI_ID_RANGE_FAST 1
+#endif
 
 /* leg_terms is SPI_NOINLINE: inlined into id_solve, GCC spills the
  * caller's values around its loop (-Os: 51 instructions per tick more, and
@@ -55,8 +61,8 @@ static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], co
                            int64_t iv[3], int *ovf)
 {
     unsigned r;
-    if ((out_of(w[0], 29u) | out_of(w[1], 29u) | out_of(w[2], 29u) | out_of(v[0], 29u) | out_of(v[1], 29u) |
-         out_of(v[2], 29u)) == 0u) {
+    if (SPI_ID_RANGE_FAST && (out_of(w[0], 29u) | out_of(w[1], 29u) | out_of(w[2], 29u) | out_of(v[0], 29u) |
+                              out_of(v[1], 29u) | out_of(v[2], 29u)) == 0u) {
         for (r = 0u; r < 3u; ++r) {
             int64_t a = (int64_t)inertia[r][0] * w[0] + (int64_t)inertia[r][1] * w[1] + (int64_t)inertia[r][2] * w[2];
             int64_t b = (int64_t)inertia[r][0] * v[0] + (int64_t)inertia[r][1] * v[1] + (int64_t)inertia[r][2] * v[2];
@@ -714,7 +720,7 @@ SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS
     for (k = 0u; k < SP_LEGS; ++k) {
         out |= out_of((int32_t)(f[k] >> 32), 13u);
     }
-    if (out == 0u) {
+    if (SPI_ID_RANGE_FAST && out == 0u) {
         for (k = 0u; k < SP_LEGS; ++k) {
             if (fq != NULL) {
                 fq[k] = (int32_t)((f[k] + (INT64_C(1) << 15)) >> 16);
