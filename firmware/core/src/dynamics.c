@@ -56,21 +56,12 @@ SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
  * narrowed to Q24: |out| < 3 2^46. Rates below 32 rad/s (and rad/s^2)
  * in each component, far beyond any motion base, keep each product below
  * 2^60 and the sums below 2^62: no overflow is possible, and none is
- * tested for (the same bits). */
-static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3], int64_t iw[3],
-                           int64_t iv[3], int *ovf)
+ * tested for (inertia_times2, the same bits); other rates take
+ * inertia_times2_checked, every sum tested. */
+SPI_COLD static void inertia_times2_checked(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3],
+                                            int64_t iw[3], int64_t iv[3], int *ovf)
 {
     unsigned r;
-    if (SPI_ID_RANGE_FAST && (out_of(w[0], 29u) | out_of(w[1], 29u) | out_of(w[2], 29u) | out_of(v[0], 29u) |
-                              out_of(v[1], 29u) | out_of(v[2], 29u)) == 0u) {
-        for (r = 0u; r < 3u; ++r) {
-            int64_t a = (int64_t)inertia[r][0] * w[0] + (int64_t)inertia[r][1] * w[1] + (int64_t)inertia[r][2] * w[2];
-            int64_t b = (int64_t)inertia[r][0] * v[0] + (int64_t)inertia[r][1] * v[1] + (int64_t)inertia[r][2] * v[2];
-            iw[r] = spi_round_away(a, 16u);
-            iv[r] = spi_round_away(b, 16u);
-        }
-        return;
-    }
     for (r = 0u; r < 3u; ++r) {
         int32_t i0 = inertia[r][0];
         int32_t i1 = inertia[r][1];
@@ -83,6 +74,23 @@ static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], co
         b = add_ck(b, (int64_t)i2 * v[2], ovf);
         iw[r] = spi_round_away64(a, 16u);
         iv[r] = spi_round_away64(b, 16u);
+    }
+}
+
+SPI_INLINE void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3], int64_t iw[3],
+                               int64_t iv[3], int *ovf)
+{
+    unsigned r;
+    if (!SPI_ID_RANGE_FAST || (out_of(w[0], 29u) | out_of(w[1], 29u) | out_of(w[2], 29u) | out_of(v[0], 29u) |
+                               out_of(v[1], 29u) | out_of(v[2], 29u)) != 0u) {
+        inertia_times2_checked(inertia, w, v, iw, iv, ovf);
+        return;
+    }
+    for (r = 0u; r < 3u; ++r) {
+        int64_t a = (int64_t)inertia[r][0] * w[0] + (int64_t)inertia[r][1] * w[1] + (int64_t)inertia[r][2] * w[2];
+        int64_t b = (int64_t)inertia[r][0] * v[0] + (int64_t)inertia[r][1] * v[1] + (int64_t)inertia[r][2] * v[2];
+        iw[r] = spi_round_away(a, 16u);
+        iv[r] = spi_round_away(b, 16u);
     }
 }
 
@@ -710,8 +718,22 @@ SPI_NOINLINE static int id_residual(const sp_jacobian_t *jac, const int32_t fq[S
  * NULL, f alone rounded to Q8 (ties up, held within int32: an |fq| of
  * 2^24 or more is never refined from) as the next refinement's start.
  * With every |f_k| below 2^45 (2 MN) neither can leave int32 (|f +
- * axial 2^8| < 2^45 + 2^39 rounds below 2^30): rounded without the
- * tests, the same bits. */
+ * axial 2^8| < 2^45 + 2^39 rounds below 2^30): id_finish rounds them
+ * without the tests, the same bits; larger ones take id_finish_checked. */
+SPI_COLD static void id_finish_checked(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS], sp_q8_t force[SP_LEGS],
+                                       int32_t fq[SP_LEGS], sp_flags_t *flags)
+{
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        if (fq != NULL) {
+            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
+            fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
+        }
+        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
+        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, flags);
+    }
+}
+
 SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS], sp_q8_t force[SP_LEGS],
                           int32_t fq[SP_LEGS], sp_flags_t *flags)
 {
@@ -720,22 +742,15 @@ SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS
     for (k = 0u; k < SP_LEGS; ++k) {
         out |= out_of((int32_t)(f[k] >> 32), 13u);
     }
-    if (SPI_ID_RANGE_FAST && out == 0u) {
-        for (k = 0u; k < SP_LEGS; ++k) {
-            if (fq != NULL) {
-                fq[k] = (int32_t)((f[k] + (INT64_C(1) << 15)) >> 16);
-            }
-            force[k] = (int32_t)spi_round_away(f[k] + (int64_t)axial[k] * 256, 16u);
-        }
+    if (!SPI_ID_RANGE_FAST || out != 0u) {
+        id_finish_checked(f, axial, force, fq, flags);
         return;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
         if (fq != NULL) {
-            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
-            fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
+            fq[k] = (int32_t)((f[k] + (INT64_C(1) << 15)) >> 16);
         }
-        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
-        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, flags);
+        force[k] = (int32_t)spi_round_away(f[k] + (int64_t)axial[k] * 256, 16u);
     }
 }
 
