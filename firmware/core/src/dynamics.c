@@ -473,15 +473,16 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     const int32_t mr = lm->rod_mass; /* Q16 */
     const int32_t dc = lm->cylinder_com;
     const int32_t dr = lm->rod_com;
-    int64_t wa[3];           /* w_b 2^30, as sp_leg_rates */
-    sp_q24_t wb[3];          /* angular velocity, base frame, Q24 */
-    sp_q24_t ab[3];          /* angular acceleration, base frame, Q24 */
-    int64_t vb[3];           /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
-    int64_t ac[3];           /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
-    int64_t sums[2][3];      /* the sums when nothing is kept (hold NULL) */
-    int64_t *fsum = sums[0]; /* N, Q16 */
-    int64_t *msum = sums[1]; /* N m, Q40 */
-    int32_t g20, mcdc, k1, nn, k2, lmin;
+    int64_t wa[3];                                     /* w_b 2^30, as sp_leg_rates */
+    sp_q24_t wb[3];                                    /* angular velocity, base frame, Q24 */
+    sp_q24_t ab[3];                                    /* angular acceleration, base frame, Q24 */
+    int64_t vb[3];                                     /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
+    int64_t ac[3];                                     /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
+    int64_t sums[2][3];                                /* the sums when nothing is kept (hold NULL) */
+    int64_t *fsum = sums[0];                           /* N, Q16 */
+    int64_t *msum = sums[1];                           /* N m, Q40 */
+    int32_t g20 = 0, mcdc = 0, k1 = 0, nn = 0, k2 = 0; /* set when a leg is to compute */
+    int32_t lmin;
     uint32_t out;
     unsigned todo; /* bit i: leg i's terms still to compute */
     unsigned i;
