@@ -16,6 +16,12 @@
 #ifndef SPI_LEG_TERMS_AT_REST
 #define SPI_LEG_TERMS_AT_REST 1
 #endif
+/* SPI_ID_RANGE_FAST 1: inertia_times2 and id_finish skip their overflow
+ * tests for inputs whose range rules overflow out; 0 (tests/unit/
+ * test_dynamics_plain.c's plain reference): every input tested. */
+#ifndef SPI_ID_RANGE_FAST
+#define SPI_ID_RANGE_FAST 1
+#endif
 
 /* leg_terms is SPI_NOINLINE: inlined into id_solve, GCC spills the
  * caller's values around its loop (-Os: 51 instructions per tick more, and
@@ -39,11 +45,21 @@ SPI_INLINE int64_t add_ck(int64_t a, int64_t b, int *ovf)
 #endif
 }
 
+/* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
+SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
+{
+    return ((uint32_t)x + (UINT32_C(1) << k)) >> (k + 1u);
+}
+
 /* I w and I v for I in Q16 (kg m^2) and w, v in Q24, in one pass over I:
  * Q40 sums (each product at most 2^62; an overflowing sum sets *ovf)
- * narrowed to Q24: |out| < 3 2^46. */
-static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3], int64_t iw[3],
-                           int64_t iv[3], int *ovf)
+ * narrowed to Q24: |out| < 3 2^46. Rates below 32 rad/s (and rad/s^2)
+ * in each component, far beyond any motion base, keep each product below
+ * 2^60 and the sums below 2^62: no overflow is possible, and none is
+ * tested for (inertia_times2, the same bits); other rates take
+ * inertia_times2_checked, every sum tested. */
+SPI_COLD static void inertia_times2_checked(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3],
+                                            int64_t iw[3], int64_t iv[3], int *ovf)
 {
     unsigned r;
     for (r = 0u; r < 3u; ++r) {
@@ -58,6 +74,23 @@ static void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], co
         b = add_ck(b, (int64_t)i2 * v[2], ovf);
         iw[r] = spi_round_away64(a, 16u);
         iv[r] = spi_round_away64(b, 16u);
+    }
+}
+
+SPI_INLINE void inertia_times2(const sp_q16_t inertia[3][3], const sp_q24_t w[3], const sp_q24_t v[3], int64_t iw[3],
+                               int64_t iv[3], int *ovf)
+{
+    unsigned r;
+    if (!SPI_ID_RANGE_FAST || (out_of(w[0], 29u) | out_of(w[1], 29u) | out_of(w[2], 29u) | out_of(v[0], 29u) |
+                               out_of(v[1], 29u) | out_of(v[2], 29u)) != 0u) {
+        inertia_times2_checked(inertia, w, v, iw, iv, ovf);
+        return;
+    }
+    for (r = 0u; r < 3u; ++r) {
+        int64_t a = (int64_t)inertia[r][0] * w[0] + (int64_t)inertia[r][1] * w[1] + (int64_t)inertia[r][2] * w[2];
+        int64_t b = (int64_t)inertia[r][0] * v[0] + (int64_t)inertia[r][1] * v[1] + (int64_t)inertia[r][2] * v[2];
+        iw[r] = spi_round_away(a, 16u);
+        iv[r] = spi_round_away(b, 16u);
     }
 }
 
@@ -247,12 +280,6 @@ SPI_COLD static void leg_terms_wide(const sp_platform_t *p, const sp_ik_t *ik, c
     legs_sums_done(fsum, msum, NULL, b);
 }
 
-/* x in [-2^k, 2^k) (0 <= k <= 30): 1 when it is not. */
-SPI_INLINE uint32_t out_of(int32_t x, unsigned k)
-{
-    return ((uint32_t)x + (UINT32_C(1) << k)) >> (k + 1u);
-}
-
 /* round(v / 2^s) (ties up) as int32, for a v whose bound (argued at each
  * use) keeps the result within int32: no test. */
 SPI_INLINE int32_t fit(int64_t v, unsigned s)
@@ -277,7 +304,8 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  *   m_c + m_r < 512 kg, d_c, d_r < 4 m, |g| < 16 m/s^2,
  *   |v_c| < 4 m/s, |a_c| < 64 m/s^2, |w_b,c| < 4 rad/s (base frame),
  *   |w'_c| < 64 rad/s^2 (body frame), c = each component,
- *   per leg: max(d_c, d_r, 0.5 m) < L < 8 m and |r_c| < 4 m.
+ *   per leg computed (not kept): max(d_c, d_r, 0.5 m) < L < 8 m and
+ *   |r_c| < 4 m (the rates need no per-leg bound: |J_i| entries < 8).
  * Then (|.| Euclidean) |w_b| < 6.93, |w_b'| < 111, |a| < 111, |v| < 6.93,
  * |r| < 6.93 and
  *   |w_b x r| < 48 m/s, |v_A| < 55 m/s, |L'| <= |v_A|, |v_A|^2 < 3025,
@@ -374,13 +402,15 @@ SPI_NOINLINE static int leg_terms_at_rest(const sp_platform_t *p, const sp_ik_t 
         int64_t mo[3];
         unsigned sh;
 
-        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
-            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
-            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
-        }
         if (((keep >> i) & 1u) != 0u) {
             axial[i] = hold->axial[i];
             continue;
+        }
+        /* the envelope's per-leg part, for the legs to compute (as
+         * leg_terms: when it fails here, it fails there) */
+        if ((uint32_t)len - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u ||
+            (out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u)) != 0u) {
+            return 0; /* L outside (lmin, 8 m) or |r_c| >= 4 m */
         }
         q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
         q >>= (sh - 54u);
@@ -443,14 +473,16 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     const int32_t mr = lm->rod_mass; /* Q16 */
     const int32_t dc = lm->cylinder_com;
     const int32_t dr = lm->rod_com;
-    int64_t wa[3];               /* w_b 2^30, as sp_leg_rates */
-    sp_q24_t wb[3];              /* angular velocity, base frame, Q24 */
-    sp_q24_t ab[3];              /* angular acceleration, base frame, Q24 */
-    int64_t vb[3];               /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
-    int64_t ac[3];               /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
-    int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
-    int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
-    int32_t g20, mcdc, k1, nn, k2, lmin;
+    int64_t wa[3];                                     /* w_b 2^30, as sp_leg_rates */
+    sp_q24_t wb[3];                                    /* angular velocity, base frame, Q24 */
+    sp_q24_t ab[3];                                    /* angular acceleration, base frame, Q24 */
+    int64_t vb[3];                                     /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
+    int64_t ac[3];                                     /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
+    int64_t sums[2][3];                                /* the sums when nothing is kept (hold NULL) */
+    int64_t *fsum = sums[0];                           /* N, Q16 */
+    int64_t *msum = sums[1];                           /* N m, Q40 */
+    int32_t g20 = 0, mcdc = 0, k1 = 0, nn = 0, k2 = 0; /* set when a leg is to compute */
+    int32_t lmin;
     uint32_t out;
     unsigned todo; /* bit i: leg i's terms still to compute */
     unsigned i;
@@ -476,11 +508,16 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     if (lmin < (INT32_C(1) << 23)) {
         lmin = INT32_C(1) << 23; /* 0.5 m */
     }
-    /* the envelope's per-leg part */
+    todo = SP_ALL_LEG_BITS & ~keep;
+    /* the envelope's per-leg part, for the legs to compute (a kept leg's
+     * terms were computed within it) */
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
-        out |= (uint32_t)((uint32_t)ik->length[i] - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u) |
-               out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u);
+        if (((todo >> i) & 1u) != 0u) {
+            out |=
+                (uint32_t)((uint32_t)ik->length[i] - (uint32_t)lmin - 1u >= (UINT32_C(1) << 27) - (uint32_t)lmin - 1u) |
+                out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u);
+        }
     }
     if (out != 0u) {
         return 0; /* an L outside (lmin, 8 m) or an |r_c| >= 4 m */
@@ -489,18 +526,22 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
         wb[k] = (int32_t)(wa[k] >> 30);
     }
     legs_rates_jac(jac, m->vel, wb, rate);
+    if (hold != NULL) {
+        /* the sums updated where they are kept */
+        fsum = hold->fsum;
+        msum = hold->msum;
+    }
     if (keep != 0u) {
-        /* the kept legs' reactions, moments (summed when computed) and
-         * axial terms (the others' are overwritten below) */
-        for (k = 0u; k < 3u; ++k) {
-            fsum[k] = hold->fsum[k];
-            msum[k] = hold->msum[k];
-        }
+        /* the kept legs' axial terms (the others' are overwritten below) */
         for (i = 0u; i < SP_LEGS; ++i) {
             axial[i] = hold->axial[i];
         }
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            fsum[k] = 0;
+            msum[k] = 0;
+        }
     }
-    todo = SP_ALL_LEG_BITS & ~keep;
     if (todo != 0u) {
         /* what the legs to compute share (none on a tick that keeps all) */
         for (k = 0u; k < 3u; ++k) {
@@ -611,7 +652,7 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
             hold->axial[leg] = axial[leg];
         }
     }
-    legs_sums_done(fsum, msum, hold, b);
+    legs_sums_done(fsum, msum, NULL, b); /* kept in *hold already */
     return 1;
 }
 
@@ -640,33 +681,78 @@ sp_status_t sp_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motio
     return sp_inverse_dynamics_jac(platform, motion, ik, &jac, ext_force, force, lu);
 }
 
+/* 1 when |x| >= 2^24, else 0: x is in (-2^24, 2^24) exactly when x +
+ * 2^24 - 1 (modulo 2^32) is below 2^25 - 1. */
+SPI_INLINE uint32_t beyond24(int32_t x)
+{
+    return (uint32_t)((uint32_t)x + UINT32_C(0xFFFFFF) >= UINT32_C(0x1FFFFFF));
+}
+
 /* The refinement's right-hand side (sp_inverse_dynamics_held): r = b -
  * J^T fq 2^16 in Q24, J^T fq summed exactly in Q36 (|J| < 2^31 Q28 and
  * |fq| < 2^24 Q8: each product below 2^55, six below 2^58) and rounded
  * once (ties up). Returns 0 (r unusable) when an fq is 2^24 or more in
- * magnitude or an r_k leaves sp_lu6_solve's range (|b| < 2^56 is
- * checked by the caller: |r| < 2^57 fits). */
-static int id_residual(const sp_jacobian_t *jac, const int32_t fq[SP_LEGS], const int64_t b[SP_LEGS],
-                       int64_t r[SP_LEGS])
+ * magnitude. |b| < 2^56 (checked by the caller) keeps |r| below 2^57:
+ * an r_k beyond sp_lu6_solve's range fails that solve (SP_E_OVERFLOW),
+ * which the caller takes as it would a 0 here (it factorises).
+ * Out of line, a column of J^T at a time with the six forces in
+ * registers (inlined into id_solve, GCC reloaded them and the Jacobian's
+ * address for most products: -Os, about 280 instructions against 150). */
+SPI_NOINLINE static int id_residual(const sp_jacobian_t *jac, const int32_t fq[SP_LEGS], const int64_t b[SP_LEGS],
+                                    int64_t r[SP_LEGS])
 {
-    unsigned i;
+    const int32_t f0 = fq[0], f1 = fq[1], f2 = fq[2], f3 = fq[3], f4 = fq[4], f5 = fq[5];
     unsigned k;
-    for (i = 0u; i < SP_LEGS; ++i) {
-        if (fq[i] >= (INT32_C(1) << 24) || fq[i] <= -(INT32_C(1) << 24)) {
-            return 0;
-        }
+    if ((beyond24(f0) | beyond24(f1) | beyond24(f2) | beyond24(f3) | beyond24(f4) | beyond24(f5)) != 0u) {
+        return 0;
     }
     for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t acc = 0;
-        for (i = 0u; i < SP_LEGS; ++i) {
-            acc += (int64_t)jac->j[i][k] * fq[i];
-        }
+        int64_t acc = (int64_t)jac->j[0][k] * f0 + (int64_t)jac->j[1][k] * f1 + (int64_t)jac->j[2][k] * f2 +
+                      (int64_t)jac->j[3][k] * f3 + (int64_t)jac->j[4][k] * f4 + (int64_t)jac->j[5][k] * f5;
         r[k] = b[k] - ((acc + (INT64_C(1) << 11)) >> 12);
-        if (r[k] >= (INT64_C(1) << 56) || r[k] <= -(INT64_C(1) << 56)) {
-            return 0;
-        }
     }
     return 1;
+}
+
+/* The forces F = f + axial (f in Q24, the axial terms in Q16) rounded to
+ * Q8 (ties away from zero, saturating and flagging), and, when fq is not
+ * NULL, f alone rounded to Q8 (ties up, held within int32: an |fq| of
+ * 2^24 or more is never refined from) as the next refinement's start.
+ * With every |f_k| below 2^45 (2 MN) neither can leave int32 (|f +
+ * axial 2^8| < 2^45 + 2^39 rounds below 2^30): id_finish rounds them
+ * without the tests, the same bits; larger ones take id_finish_checked. */
+SPI_COLD static void id_finish_checked(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS], sp_q8_t force[SP_LEGS],
+                                       int32_t fq[SP_LEGS], sp_flags_t *flags)
+{
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        if (fq != NULL) {
+            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
+            fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
+        }
+        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
+        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, flags);
+    }
+}
+
+SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS], sp_q8_t force[SP_LEGS],
+                          int32_t fq[SP_LEGS], sp_flags_t *flags)
+{
+    uint32_t out = 0u;
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        out |= out_of((int32_t)(f[k] >> 32), 13u);
+    }
+    if (!SPI_ID_RANGE_FAST || out != 0u) {
+        id_finish_checked(f, axial, force, fq, flags);
+        return;
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        if (fq != NULL) {
+            fq[k] = (int32_t)((f[k] + (INT64_C(1) << 15)) >> 16);
+        }
+        force[k] = (int32_t)spi_round_away(f[k] + (int64_t)axial[k] * 256, 16u);
+    }
 }
 
 /* sp_inverse_dynamics_jac, and the leg rates in rate when rate is not NULL
@@ -812,18 +898,7 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     if (st != SP_OK) {
         return st;
     }
-    if (kept_lu != NULL) {
-        for (k = 0u; k < SP_LEGS; ++k) {
-            /* the next refinement's start: f rounded to Q8 (ties up), held
-             * within int32 (an |fq| of 2^24 or more is never refined from) */
-            int64_t q = (f[k] + (INT64_C(1) << 15)) >> 16;
-            kept_lu->fq[k] = (q > INT32_MAX) ? INT32_MAX : ((q < INT32_MIN) ? INT32_MIN : (int32_t)q);
-        }
-    }
-    for (k = 0u; k < SP_LEGS; ++k) {
-        /* Q24 -> Q8, with the legs' axial terms (Q16; 0 for massless legs) */
-        force[k] = spi_narrow_away(f[k] + (int64_t)axial[k] * 256, 16u, &flags);
-    }
+    id_finish(f, axial, force, (kept_lu != NULL) ? kept_lu->fq : NULL, &flags);
     if (flags == 0u && rate != NULL && !have_rates) {
         st = sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate);
         if (st != SP_OK) {
