@@ -158,12 +158,30 @@ SPI_INLINE sp_q30_t fric_relax_slow(int64_t a, int32_t fc, int64_t g)
     return (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
 }
 
+/* The bristle force phi relaxed towards target = s F_c by exp(-a) (a Q24
+ * >= 0; N Q8): a leg sliding faster than 4 v_s. Once there, phi is
+ * within 1 LSB of its level: round(d exp(-a)) for d = phi - target in
+ * {-1, 0, 1} is d while exp(-a) is above 1/2, that is a < ln 2, and 0
+ * beyond (fric_exp_neg is above 2^29 exactly on [0, FRIC_LN2_Q24):
+ * tests/unit/test_friction.c checks every u below 2 ln 2, and beyond
+ * that it is a quarter at most), so such a leg takes no exp. */
+SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int64_t a)
+{
+    int64_t d = phi - target;
+    sp_q30_t eb;
+    if (d >= -1 && d <= 1) {
+        return (a < FRIC_LN2_Q24) ? phi : target;
+    }
+    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
+    return target + FRIC_Q30(d * eb);
+}
+
 /* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
  * the friction (N, Q8). The leg's constants kept by the state at its first
  * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
  * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
- * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip),
+ * exp, none once its phi is within 1 LSB of F_c (fric_slide); slower, two exps and one 32-bit division (F_c / g, spi_recip),
  * or, for a leg of the table's (tab non-NULL: its tick and platform are
  * this step's) and |dx| within it, one exp and the table's relaxation. */
 static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
@@ -202,8 +220,10 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
             g = fric_level(fc, p->breakaway_friction[i], es);
             eb = fric_relax_slow(a, fc, g);
         } else {
-            g = fc;
-            eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
+            /* faster than 4 v_s: g = F_c, no damping (es = 0) */
+            phi_new = fric_slide(*phi, dx > 0 ? fc : -fc, a);
+            *phi = (sp_q8_t)phi_new;
+            return spi_sat(phi_new + viscous, flags);
         }
     }
     target = dx > 0 ? g : -g;
