@@ -169,17 +169,24 @@ SPI_INLINE sp_q30_t fric_relax_slow(int64_t a, int32_t fc, int64_t g)
     return (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
 }
 
-/* The bristle force phi relaxed towards target = s F_c by exp(-a) (a Q24
- * >= 0; N Q8): a leg sliding faster than 4 v_s. Once there, phi is
- * within 1 LSB of its level: round(d exp(-a)) for d = phi - target in
- * {-1, 0, 1} is d while exp(-a) is above 1/2, that is a < ln 2, and 0
- * beyond (fric_exp_neg is above 2^29 exactly on [0, FRIC_LN2_Q24):
- * tests/unit/test_friction.c checks every u below 2 ln 2, and beyond
- * that it is a quarter at most), so such a leg takes no exp. */
-SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int64_t a)
+/* The bristle force phi relaxed towards target = s F_c by exp(-a), a =
+ * (sigma_0 / F_c) |dx| (slip 1/m Q8, adx = |dx| m Q24; N Q8): a leg
+ * sliding faster than 4 v_s. Once there, phi is at or within 1 LSB of
+ * its level: at it, it stays (no a needed); next to it, round(d exp(-a))
+ * for d = phi - target = +-1 is d while exp(-a) is above 1/2, that is
+ * a < ln 2, and 0 beyond (fric_exp_neg is above 2^29 exactly on
+ * [0, FRIC_LN2_Q24): tests/unit/test_friction.c checks every u below
+ * 2 ln 2, and beyond that it is a quarter at most). Such a leg takes no
+ * exp. */
+SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int32_t slip, int32_t adx)
 {
     int64_t d = phi - target;
+    int64_t a; /* (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
     sp_q30_t eb;
+    if (d == 0) {
+        return phi;
+    }
+    a = ((int64_t)slip * adx) >> 8;
     if (d >= -1 && d <= 1) {
         return (a < FRIC_LN2_Q24) ? phi : target;
     }
@@ -234,15 +241,14 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
         g = fric_level(fc, p->breakaway_friction[i], es);
         eb = tab->relax[adx - 1];
     } else {
-        /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
-        int64_t a = ((int64_t)o->slip[i] * adx) >> 8;
         if (av < t->fast) {
             es = fric_fade(av, o->inv_vs);
             g = fric_level(fc, p->breakaway_friction[i], es);
-            eb = fric_relax_slow(a, fc, g);
+            /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
+            eb = fric_relax_slow(((int64_t)o->slip[i] * adx) >> 8, fc, g);
         } else {
             /* faster than 4 v_s: g = F_c, no damping (es = 0) */
-            phi_new = fric_slide(*phi, dx > 0 ? fc : -fc, a);
+            phi_new = fric_slide(*phi, dx > 0 ? fc : -fc, o->slip[i], adx);
             *phi = (sp_q8_t)phi_new;
             return spi_sat(phi_new + viscous, flags);
         }
