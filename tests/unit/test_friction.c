@@ -50,6 +50,26 @@ static void test_exp_neg(void **state)
     assert_int_equal(sp_fric_exp_neg((sp_q24_t)(31.0 * 0.6931471805599453 * Q24) + 1), 0);
 }
 
+/* The fast leg's shortcut (friction.c, fric_slide): exp(-u) is above 1/2
+ * (2^29 in Q30) for every u below ln 2 (11629080 in Q24) and below 1/2
+ * from there on: every u up to 2 ln 2, where exp(-u) is at most 1/4 +
+ * 1 LSB, and spot checks beyond. */
+static void test_exp_neg_half(void **state)
+{
+    const sp_q24_t ln2 = 11629080;
+    (void)state;
+    for (sp_q24_t u = 0; u < 2 * ln2; ++u) {
+        sp_q30_t e = sp_fric_exp_neg(u);
+        if (u < ln2 ? e <= (1 << 29) : e >= (1 << 29)) {
+            fail_msg("exp(-%d / 2^24) = %d against 2^29", (int)u, (int)e);
+        }
+    }
+    assert_true(sp_fric_exp_neg(2 * ln2) <= (1 << 28) + 1);
+    for (sp_q24_t u = 2 * ln2; u < INT32_MAX - 999999; u += 999999) {
+        assert_true(sp_fric_exp_neg(u) <= (1 << 28) + 1);
+    }
+}
+
 /* The same discrete law in double (sp/friction.h), one leg. */
 typedef struct {
     double s0, s1, cv, fc, fs, vs;
@@ -351,6 +371,11 @@ static sp_q8_t random_phi(uint64_t *rng, const sp_platform_t *p, int i)
     if (tu_next(rng) % 16u == 0u) {
         return tu_i32(rng); /* outside the law's bound |phi| <= F_s: still the same */
     }
+    if (tu_next(rng) % 4u == 0u) {
+        /* at or next to the Coulomb level, where a fast leg settles */
+        int32_t near = p->coulomb_friction[i] + (int32_t)(tu_next(rng) % 5u) - 2;
+        return (tu_next(rng) & 1u) ? near : -near;
+    }
     return (sp_q8_t)tu_uniform(rng, -(double)p->breakaway_friction[i], (double)p->breakaway_friction[i]);
 }
 
@@ -442,6 +467,43 @@ static void test_equals_plain(void **state)
     assert_true(tabled > 3000L * 40L * SP_LEGS / 20L); /* and many took the table's entries */
 }
 
+/* A fast leg at or next to its Coulomb level (fric_slide's shortcut)
+ * equals the plain step where exp(-a) crosses 1/2: seals whose
+ * a = (sigma_0 / F_c) |dx| is ln 2 (11629080 in Q24) at |dx| = 8 LSB,
+ * and 1 LSB of Q24 around it, all faster than 4 v_s at 1 ms. */
+static void test_fast_leg_at_level(void **state)
+{
+    sp_platform_t p = sp_platform_default;
+    (void)state;
+    p.stribeck_velocity = 1000; /* 4 v_s = 4 LSB per tick */
+    for (int i = 0; i < SP_LEGS; ++i) {
+        p.coulomb_friction[i] = 65536;       /* 256 N */
+        p.breakaway_friction[i] = 2 * 65536; /* 512 N */
+        p.bristle_stiffness[i] = 372130560;  /* sigma_0 / F_c = 2^8 ln 2 / 8 LSB, Q8 */
+    }
+    for (int32_t adx = 7; adx <= 9; ++adx) {
+        for (int32_t off = -2; off <= 2; ++off) {
+            for (int sign = -1; sign <= 1; sign += 2) {
+                sp_fric_obs_t o, ref;
+                sp_q24_t len[SP_LEGS] = {0};
+                sp_q8_t f[SP_LEGS], f_ref[SP_LEGS];
+                sp_fric_obs_reset(&o);
+                assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, f), SP_OK);
+                assert_int_equal(o.slip[0], 372130560); /* a = slip |dx| / 2^8 */
+                for (int i = 0; i < SP_LEGS; ++i) {
+                    o.phi[i] = (i % 2 == 0 ? sign : -sign) * (65536 + off);
+                    len[i] = (i < 3 ? sign : -sign) * adx;
+                }
+                ref = o;
+                assert_int_equal(sp_fric_obs_step(&p, &o, len, 1000u, f), SP_OK);
+                assert_int_equal(plain_fric_obs_run(&p, &ref, len, 1000u, f_ref), SP_OK);
+                assert_memory_equal(f, f_ref, sizeof f);
+                assert_memory_equal(o.phi, ref.phi, sizeof o.phi);
+            }
+        }
+    }
+}
+
 /* The table of the default platform at 1 ms covers its whole region below
  * 4 v_s (|dx| < 20 um = 335.5 LSB of Q24) for all six legs; a leg with
  * other seals is left out; bad arguments leave it empty. */
@@ -491,9 +553,14 @@ static void test_table_prepare(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_exp_neg),           cmocka_unit_test(test_against_double_reference),
-        cmocka_unit_test(test_hold_and_reversal), cmocka_unit_test(test_errors_and_saturation),
-        cmocka_unit_test(test_equals_plain),      cmocka_unit_test(test_table_prepare),
+        cmocka_unit_test(test_exp_neg),
+        cmocka_unit_test(test_exp_neg_half),
+        cmocka_unit_test(test_against_double_reference),
+        cmocka_unit_test(test_hold_and_reversal),
+        cmocka_unit_test(test_errors_and_saturation),
+        cmocka_unit_test(test_equals_plain),
+        cmocka_unit_test(test_fast_leg_at_level),
+        cmocka_unit_test(test_table_prepare),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -102,20 +102,31 @@ static int params_ok(const sp_platform_t *p)
     return 1;
 }
 
-/* What one tick needs besides the platform: the tick and its rate
- * multiplier (1e6 / tick_us when that is a whole number, else 0: divide). */
+/* What one tick needs besides the platform, the same for every leg: the
+ * tick and its rate multiplier (1e6 / tick_us when that is a whole number,
+ * else 0: divide), once a tick rather than once a leg. */
 typedef struct {
     uint32_t tick_us;
     int32_t per_s; /* ticks per second when exact, else 0 */
+    int64_t fast;  /* 4 v_s, m/s Q24: from this speed on a leg slides at F_c */
+    int32_t small; /* |dx| below which |v| < 2^24 (16 m/s) at an exact tick, else 0 */
 } fric_tick_t;
 
-/* d / dt for d in Q24 (|d| < 2^32): Q24 per second, saturated. */
-static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
+static void fric_tick_init(fric_tick_t *t, const sp_platform_t *p, uint32_t tick_us)
+{
+    t->tick_us = tick_us;
+    t->per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+    t->fast = (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity;
+    t->small = (t->per_s != 0) ? (int32_t)((UINT32_C(1) << 24) / (uint32_t)t->per_s) : 0;
+}
+
+/* d / dt for d in Q24: Q24 per second, saturated. */
+SPI_INLINE sp_q24_t per_second(const fric_tick_t *t, int32_t d, sp_flags_t *flags)
 {
     if (t->per_s != 0) {
-        return spi_sat(d * t->per_s, flags);
+        return spi_sat((int64_t)d * t->per_s, flags);
     }
-    return spi_sat(div_round(d * 1000000, (int64_t)t->tick_us), flags);
+    return spi_sat(div_round((int64_t)d * 1000000, (int64_t)t->tick_us), flags);
 }
 
 /* round(x / 2^30) of a product below 2^62 in magnitude */
@@ -158,14 +169,42 @@ SPI_INLINE sp_q30_t fric_relax_slow(int64_t a, int32_t fc, int64_t g)
     return (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
 }
 
+/* The bristle force phi relaxed towards target = s F_c by exp(-a), a =
+ * (sigma_0 / F_c) |dx| (slip 1/m Q8, adx = |dx| m Q24; N Q8): a leg
+ * sliding faster than 4 v_s. Once there, phi is at or within 1 LSB of
+ * its level: at it, it stays (no a needed); next to it, round(d exp(-a))
+ * for d = phi - target = +-1 is d while exp(-a) is above 1/2, that is
+ * a < ln 2, and 0 beyond (fric_exp_neg is above 2^29 exactly on
+ * [0, FRIC_LN2_Q24): tests/unit/test_friction.c checks every u below
+ * 2 ln 2, and beyond that it is a quarter at most). Such a leg takes no
+ * exp. */
+SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int32_t slip, int32_t adx)
+{
+    int64_t d = phi - target;
+    int64_t a; /* (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
+    sp_q30_t eb;
+    if (d == 0) {
+        return phi;
+    }
+    a = ((int64_t)slip * adx) >> 8;
+    if (d >= -1 && d <= 1) {
+        return (a < FRIC_LN2_Q24) ? phi : target;
+    }
+    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
+    return target + FRIC_Q30(d * eb);
+}
+
 /* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
  * the friction (N, Q8). The leg's constants kept by the state at its first
  * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
  * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
  * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
- * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip),
- * or, for a leg of the table's (tab non-NULL: its tick and platform are
- * this step's) and |dx| within it, one exp and the table's relaxation. */
+ * exp, none once its phi is within 1 LSB of F_c (fric_slide); slower,
+ * two exps and one 32-bit division (F_c / g, spi_recip), or, for a leg
+ * of the table's (tab non-NULL: its tick and platform are this step's)
+ * and |dx| within it, one exp and the table's relaxation. Below 16 m/s
+ * at a tick that divides a second (t->small) the speed and the viscous
+ * force take no saturation. */
 static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
                         int32_t dx, const fric_tick_t *t, sp_flags_t *flags)
 {
@@ -180,13 +219,20 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
     if (dx == 0) {
         return (sigma0 == 0) ? 0 : *phi; /* at rest: the bristles hold, no viscous force */
     }
-    v = per_second(t, dx, flags); /* m/s, Q24 */
-    viscous = spi_narrow_floor((int64_t)p->viscous_friction[i] * v + (INT64_C(1) << 23), 24u, flags);
+    adx = dx < 0 ? -dx : dx;
+    if (adx < t->small) {
+        /* the common case, in 32 bits: |v| < 2^24 needs no saturation,
+         * nor does c_v v (c_v < 2^31: below 2^55) in Q8 */
+        v = dx * t->per_s;
+        viscous = (sp_q8_t)(((int64_t)p->viscous_friction[i] * v + (INT64_C(1) << 23)) >> 24);
+    } else {
+        v = per_second(t, dx, flags); /* m/s, Q24 */
+        viscous = spi_narrow_floor((int64_t)p->viscous_friction[i] * v + (INT64_C(1) << 23), 24u, flags);
+    }
     if (sigma0 == 0) {
         *phi = 0;
         return viscous;
     }
-    adx = dx < 0 ? -dx : dx;
     av = v < 0 ? -(int64_t)v : (int64_t)v;
     if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
         /* below 4 v_s (the table's entries are): the lines below with
@@ -195,15 +241,16 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
         g = fric_level(fc, p->breakaway_friction[i], es);
         eb = tab->relax[adx - 1];
     } else {
-        /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
-        int64_t a = ((int64_t)o->slip[i] * adx) >> 8;
-        if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+        if (av < t->fast) {
             es = fric_fade(av, o->inv_vs);
             g = fric_level(fc, p->breakaway_friction[i], es);
-            eb = fric_relax_slow(a, fc, g);
+            /* a at g = F_c: (sigma_0 / F_c) |dx|, Q24 (slip Q8 x |dx| Q24 >> 8) */
+            eb = fric_relax_slow(((int64_t)o->slip[i] * adx) >> 8, fc, g);
         } else {
-            g = fc;
-            eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : fric_exp_neg((sp_q24_t)a);
+            /* faster than 4 v_s: g = F_c, no damping (es = 0) */
+            phi_new = fric_slide(*phi, dx > 0 ? fc : -fc, o->slip[i], adx);
+            *phi = (sp_q8_t)phi_new;
+            return spi_sat(phi_new + viscous, flags);
         }
     }
     target = dx > 0 ? g : -g;
@@ -262,8 +309,7 @@ static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const 
     }
     {
         fric_tick_t t;
-        t.tick_us = tick_us;
-        t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+        fric_tick_init(&t, p, tick_us);
         if (tab != NULL && (tab->tick_us != tick_us || tab->inv_vs != o->inv_vs)) {
             tab = NULL; /* prepared for another tick or Stribeck velocity */
         }
@@ -347,12 +393,11 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
     /* the constants as the observer's first step keeps them */
     slip = sp_sat32(((int64_t)sigma0 << 16) / fc, &flags);
     tab->inv_vs = (INT64_C(1) << 46) / p->stribeck_velocity;
-    t.tick_us = tick_us;
-    t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+    fric_tick_init(&t, p, tick_us);
     /* |v| grows with |dx|: the entries below 4 v_s are the first ones */
     for (n = 1u; n <= SP_FRIC_TABLE_LEN; ++n) {
-        sp_q24_t v = per_second(&t, (int64_t)n, &flags); /* n x 10^6 < 2^31: exact */
-        if ((int64_t)v >= (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
+        sp_q24_t v = per_second(&t, (int32_t)n, &flags); /* n x 10^6 < 2^31: exact */
+        if ((int64_t)v >= t.fast) {
             break;
         }
         tab->relax[n - 1u] =

@@ -94,7 +94,8 @@ void sp_fric_obs_reset(sp_fric_obs_t *o);
  * keeps sigma_0 / F_c per leg, so a platform whose friction changes needs a
  * reset. At rest (no length change) a leg costs nothing but its held phi;
  * sliding faster than 4 v_s takes no division (the Stribeck excess there,
- * exp(-16), is taken as 0). A leg with
+ * exp(-16), is taken as 0) and, once its phi is within 1 LSB of F_c (as
+ * a steady slide leaves it), no exp either. A leg with
  * sigma_0 = 0 has no bristles: its phi stays 0 and its friction is the
  * viscous part c_v v only.
  *
