@@ -39,6 +39,14 @@ void spi_ik_units(sp_ik_t *ik);
  * Jacobian cannot saturate: spi_jacobian_near applies. */
 int spi_joints_near(const sp_platform_t *platform);
 
+/* 1 when `platform` has spi_joints_near and every base joint is in
+ * [-8 m, 8 m) (Q24: [-2^27, 2^27)) in each axis, else 0. Every leg vector
+ * arm + pos - base of such a platform at a position within 16 m
+ * ([-2^28, 2^28) in each axis) is below 2^26 + 2^28 + 2^27 < 2^29 in each
+ * component: its IK cannot overflow or leave the 64 m range
+ * (sp_inverse_kinematics_kept then skips those tests). */
+int spi_legs_fit(const sp_platform_t *platform);
+
 /* sp_jacobian for an ik of a platform with spi_joints_near (arms below
  * 2^26): the same entries, without the saturation tests no entry can
  * fail (tests/unit/test_kinematics.c proves them equal). Cannot fail. */

@@ -133,26 +133,14 @@ SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsign
     return spi_narrow_floor(acc, 30u, flags);
 }
 
-/* Leg i of a pose from its arm (ik->arm[i]): the leg vector and its
- * length, one correctly rounded square root of the exact |l|^2. Returns 0
- * for a leg component of 64 m or more or a leg shorter than 1 mm, else 1. */
-SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+/* The length of leg i, l = (l0, l1, l2) with every |l_c| < 2^30 (stored
+ * into ik->leg[i]): one correctly rounded square root of the exact |l|^2.
+ * Returns 0 for a leg shorter than 1 mm, else 1. */
+SPI_INLINE int leg_length(sp_ik_t *ik, unsigned i, int32_t l0, int32_t l1, int32_t l2)
 {
-    const int32_t *b = platform->base_joint[i];
-    int32_t l0;
-    int32_t l1;
-    int32_t l2;
     uint64_t len2;
     uint32_t hi;
 
-    if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
-        !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
-        !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
-        return 0;
-    }
-    if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
-        return 0; /* a component reaches 64 m */
-    }
     ik->leg[i][0] = l0;
     ik->leg[i][1] = l1;
     ik->leg[i][2] = l2;
@@ -176,6 +164,50 @@ SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, 
         }
     }
     return 1;
+}
+
+/* Leg i of a pose from its arm (ik->arm[i]): the leg vector and its
+ * length (leg_length). Returns 0 for a leg component of 64 m or more or a
+ * leg shorter than 1 mm, else 1. */
+SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+{
+    const int32_t *b = platform->base_joint[i];
+    int32_t l0;
+    int32_t l1;
+    int32_t l2;
+
+    if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
+        !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
+        !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
+        return 0;
+    }
+    if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
+        return 0; /* a component reaches 64 m */
+    }
+    return leg_length(ik, i, l0, l1, l2);
+}
+
+/* leg_of_arm for legs that fit (legs_fit): every component is
+ * arm + pos - base with |arm_c| < 2^26, |pos_c| < 2^28 and |b_c| < 2^27,
+ * so it is below 2^29 in magnitude: no int32 overflow and no component
+ * of 64 m, the tests leg_of_arm makes cannot fail and are left out. */
+SPI_INLINE int leg_fit(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+{
+    const int32_t *b = platform->base_joint[i];
+
+    return leg_length(ik, i, ik->arm[i][0] + (pose->pos[0] - b[0]), ik->arm[i][1] + (pose->pos[1] - b[1]),
+                      ik->arm[i][2] + (pose->pos[2] - b[2]));
+}
+
+/* Do the legs of a pose fit (leg_fit), for a platform with
+ * spi_legs_fit? Its position within 16 m (Q24: [-2^28, 2^28)) in each
+ * axis. */
+SPI_INLINE int pose_fits(const sp_pose_t *pose)
+{
+    /* p in [-2^28, 2^28) exactly when p + 2^28 is in [0, 2^29) */
+    const uint32_t off = UINT32_C(1) << 28;
+    uint32_t out = ((uint32_t)pose->pos[0] + off) | ((uint32_t)pose->pos[1] + off) | ((uint32_t)pose->pos[2] + off);
+    return (out >> 29) == 0u;
 }
 
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
@@ -236,9 +268,11 @@ static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose,
  * the same bits and status. A turn about the vertical alone
  * (turn_about_z) makes each arm's x and y from two products and keeps its
  * height a_z: the products left out are exactly 0 and a_z 2^30 rounds to
- * a_z. Out of line: the ticks whose orientation holds do not carry its
- * registers. */
-SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+ * a_z. With fit (legs_fit: the platform's spi_legs_fit and pose_fits)
+ * each leg follows its arm in the same pass, by leg_fit. Out of line: the
+ * ticks whose orientation holds do not carry its registers. */
+SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik,
+                                                int fit)
 {
     const sp_rot_t *rot = &ik->rot;
     const int64_t half = INT64_C(1) << 29;
@@ -251,6 +285,9 @@ SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, c
             ik->arm[k][2] = platform->platform_joint[k][2];
             ik->arm[k][0] = (int32_t)(((int64_t)a0 * rot->t[0][0] + (int64_t)a1 * rot->t[1][0] + half) >> 30);
             ik->arm[k][1] = (int32_t)(((int64_t)a0 * rot->t[0][1] + (int64_t)a1 * rot->t[1][1] + half) >> 30);
+            if (fit && !leg_fit(platform, pose, ik, k)) {
+                return SP_E_RANGE;
+            }
         }
     } else {
         for (k = 0u; k < SP_LEGS; ++k) {
@@ -259,14 +296,18 @@ SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, c
             ik->arm[k][0] = arm_near(a, rot, 0u);
             ik->arm[k][1] = arm_near(a, rot, 1u);
             ik->arm[k][2] = arm_near(a, rot, 2u);
+            if (fit && !leg_fit(platform, pose, ik, k)) {
+                return SP_E_RANGE;
+            }
         }
     }
-    return ik_legs(platform, pose, ik);
+    return fit ? SP_OK : ik_legs(platform, pose, ik);
 }
 
-/* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone. */
+/* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone (or
+ * leg_fit with fit, see ik_lengths_near). */
 static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *pose, const sp_q24_t arm[SP_LEGS][3],
-                                sp_ik_t *ik)
+                                sp_ik_t *ik, int fit)
 {
     unsigned i;
 
@@ -274,7 +315,7 @@ static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *
         ik->arm[i][0] = arm[i][0];
         ik->arm[i][1] = arm[i][1];
         ik->arm[i][2] = arm[i][2];
-        if (!leg_of_arm(platform, pose, ik, i)) {
+        if (!(fit ? leg_fit(platform, pose, ik, i) : leg_of_arm(platform, pose, ik, i))) {
             return SP_E_RANGE;
         }
     }
@@ -328,6 +369,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     unsigned k;
     int changed;
     int tilted;
+    int fit;
 
     if (keep == NULL) {
         return sp_inverse_kinematics(platform, pose, ik);
@@ -337,8 +379,10 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     }
     if (!keep->valid || keep->near_of != platform) {
         keep->near = (uint8_t)spi_joints_near(platform);
+        keep->fit = (uint8_t)spi_legs_fit(platform);
         keep->near_of = platform;
     }
+    fit = keep->fit && pose_fits(pose);
     changed = !keep->valid;
     tilted = !keep->valid; /* roll or pitch changed */
     for (k = 0u; k < 3u; ++k) {
@@ -366,7 +410,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
         /* a turning reference: no arms kept (keeping them would cost the
          * turning ticks) */
         keep->arms_valid = 0u;
-        st = keep->near ? ik_lengths_near(platform, pose, ik) : spi_ik_lengths(platform, pose, ik);
+        st = keep->near ? ik_lengths_near(platform, pose, ik, fit) : spi_ik_lengths(platform, pose, ik);
     } else {
         if (!keep->arms_valid || keep->platform != platform) {
             /* the orientation held a second tick: its arms, as
@@ -383,7 +427,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
             keep->platform = platform;
             keep->arms_valid = 1u;
         }
-        st = ik_legs_kept(platform, pose, (const sp_q24_t(*)[3])keep->arm, ik);
+        st = ik_legs_kept(platform, pose, (const sp_q24_t(*)[3])keep->arm, ik, fit);
         if (st == SP_OK) {
             st = sp_flags_status(keep->arm_flags); /* spi_ik_lengths' status */
         }
@@ -729,4 +773,20 @@ int spi_joints_near(const sp_platform_t *platform)
         }
     }
     return out == 0u;
+}
+
+int spi_legs_fit(const sp_platform_t *platform)
+{
+    uint32_t out = 0u;
+    unsigned i;
+    unsigned c;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        for (c = 0u; c < 3u; ++c) {
+            /* b_c in [-2^27, 2^27) (8 m) exactly when b_c + 2^27 is in
+             * [0, 2^28) */
+            out |= ((uint32_t)platform->base_joint[i][c] + (UINT32_C(1) << 27)) >> 28;
+        }
+    }
+    return out == 0u && spi_joints_near(platform);
 }

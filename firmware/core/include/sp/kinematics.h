@@ -73,6 +73,8 @@ typedef struct {
     const sp_platform_t *near_of;  /**< the platform `near` is of */
     uint8_t near;                  /**< 1 when every platform joint of near_of is within 2 m in each axis
                                         (its Jacobian cannot saturate: sp_setpoints_held skips those tests) */
+    uint8_t fit;                   /**< 1 when near_of also has its base joints within 8 m in each axis: the
+                                        legs of a pose within 16 m cannot overflow (the IK skips those tests) */
     uint8_t arms_valid;            /**< 1 when arm, arm_flags and platform belong to rot */
     uint8_t valid;                 /**< 1 when rpy, sc and rot belong together */
 } sp_orient_keep_t;
