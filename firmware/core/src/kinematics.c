@@ -166,6 +166,26 @@ SPI_INLINE int leg_length(sp_ik_t *ik, unsigned i, int32_t l0, int32_t l1, int32
     return 1;
 }
 
+/* The unit vector u = l / |l| (Q24 / Q24 -> Q30) of leg i of a successful
+ * ik_lengths, l = (l0, l1, l2) its leg and m its length, with one
+ * reciprocal: 1/|l| = inv 2^z / 2^62 with z = clz(|l|), so
+ * u_c = l_c inv 2^z / 2^32 = (l_c 2^(z-1)) inv / 2^31, rounded (ties
+ * up). |l_c| <= |l| (the rounded length is at least the floor of the root)
+ * < 2^(32-z), so l_c 2^(z-1) fits int32: a constant shift. inv is never
+ * above the exact reciprocal and has 31 significant bits (relative error
+ * below 2^-28): the error is at most 3 LSB of Q30 and |u_c| <= 2^30. */
+SPI_INLINE void leg_unit(sp_ik_t *ik, unsigned i, int32_t l0, int32_t l1, int32_t l2, uint32_t m)
+{
+    unsigned z = spi_clz32(m); /* >= 1: m in [2^14, 2^31) */
+    uint32_t q = spi_recip_norm(m << z);
+    int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
+    int32_t sc = INT32_C(1) << (z - 1u);
+    /* l_c 2^(z-1) is exact, see above */
+    ik->unit[i][0] = (sp_q30_t)(((int64_t)(l0 * sc) * inv + (INT64_C(1) << 30)) >> 31);
+    ik->unit[i][1] = (sp_q30_t)(((int64_t)(l1 * sc) * inv + (INT64_C(1) << 30)) >> 31);
+    ik->unit[i][2] = (sp_q30_t)(((int64_t)(l2 * sc) * inv + (INT64_C(1) << 30)) >> 31);
+}
+
 /* Leg i of a pose from its arm (ik->arm[i]): the leg vector and its
  * length (leg_length). Returns 0 for a leg component of 64 m or more or a
  * leg shorter than 1 mm, else 1. */
@@ -187,16 +207,23 @@ SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, 
     return leg_length(ik, i, l0, l1, l2);
 }
 
-/* leg_of_arm for legs that fit (legs_fit): every component is
- * arm + pos - base with |arm_c| < 2^26, |pos_c| < 2^28 and |b_c| < 2^27,
- * so it is below 2^29 in magnitude: no int32 overflow and no component
- * of 64 m, the tests leg_of_arm makes cannot fail and are left out. */
+/* leg_of_arm for legs that fit (legs_fit), and the leg's unit vector
+ * (leg_unit) from the values at hand: every component is arm + pos - base
+ * with |arm_c| < 2^26, |pos_c| <= 2^28 and |b_c| <= 2^27, so it is below
+ * 2^29 in magnitude: no int32 overflow and no component of 64 m, the
+ * tests leg_of_arm makes cannot fail and are left out. */
 SPI_INLINE int leg_fit(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
 {
     const int32_t *b = platform->base_joint[i];
+    int32_t l0 = ik->arm[i][0] + (pose->pos[0] - b[0]);
+    int32_t l1 = ik->arm[i][1] + (pose->pos[1] - b[1]);
+    int32_t l2 = ik->arm[i][2] + (pose->pos[2] - b[2]);
 
-    return leg_length(ik, i, ik->arm[i][0] + (pose->pos[0] - b[0]), ik->arm[i][1] + (pose->pos[1] - b[1]),
-                      ik->arm[i][2] + (pose->pos[2] - b[2]));
+    if (!leg_length(ik, i, l0, l1, l2)) {
+        return 0;
+    }
+    leg_unit(ik, i, l0, l1, l2, (uint32_t)ik->length[i]);
+    return 1;
 }
 
 /* Do the legs of a pose fit (leg_fit), for a platform with
@@ -322,28 +349,13 @@ static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *
     return SP_OK;
 }
 
-/* The unit vectors u = l / |l| (Q24 / Q24 -> Q30) of a successful
- * ik_lengths, with one reciprocal per leg: 1/|l| = inv 2^z / 2^62 with
- * z = clz(|l|), so u_c = l_c inv 2^z / 2^32 = (l_c 2^(z-1)) inv / 2^31,
- * rounded (ties up). |l_c| <= |l| (the rounded length is at least the
- * floor of the root) < 2^(32-z), so l_c 2^(z-1) fits int32: a constant
- * shift. inv is never above the exact reciprocal and has 31 significant
- * bits (relative error below 2^-28): the error is at most 3 LSB of Q30 and
- * |u_c| <= 2^30. */
+/* The unit vectors of a successful ik_lengths: leg_unit of every leg. */
 void spi_ik_units(sp_ik_t *ik)
 {
     unsigned i;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        uint32_t m = (uint32_t)ik->length[i]; /* in [2^14, 2^31) */
-        unsigned z = spi_clz32(m);            /* >= 1 */
-        uint32_t q = spi_recip_norm(m << z);
-        int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
-        int32_t sc = INT32_C(1) << (z - 1u);
-        /* l_c 2^(z-1) is exact, see above; unrolled */
-        ik->unit[i][0] = (sp_q30_t)(((int64_t)(ik->leg[i][0] * sc) * inv + (INT64_C(1) << 30)) >> 31);
-        ik->unit[i][1] = (sp_q30_t)(((int64_t)(ik->leg[i][1] * sc) * inv + (INT64_C(1) << 30)) >> 31);
-        ik->unit[i][2] = (sp_q30_t)(((int64_t)(ik->leg[i][2] * sc) * inv + (INT64_C(1) << 30)) >> 31);
+        leg_unit(ik, i, ik->leg[i][0], ik->leg[i][1], ik->leg[i][2], (uint32_t)ik->length[i]);
     }
 }
 
@@ -432,8 +444,8 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
             st = sp_flags_status(keep->arm_flags); /* spi_ik_lengths' status */
         }
     }
-    if (st == SP_OK) {
-        spi_ik_units(ik);
+    if (st == SP_OK && !fit) {
+        spi_ik_units(ik); /* leg_fit made them with the legs */
     }
     return st;
 }
