@@ -1,5 +1,7 @@
 #include "sp/kinematics.h"
 
+#include <string.h>
+
 #include "core_internal.h"
 #include "fixed_inline.h"
 
@@ -45,6 +47,26 @@ SPI_INLINE void rot_yaw(const sp_q30_t sc[6], const sp_q30_t tilt[2], sp_rot_t *
     rot->t[1][1] = spi_dot30_up(sy, spsr, cy, cr);
     rot->t[2][0] = spi_dot30_up(cy, spcr, sy, sr);
     rot->t[2][1] = spi_dot30_up(sy, spcr, -cy, sr);
+}
+
+/* Are roll and pitch 0 (sc as sp_sincos_q24 gives them: sin 0 = 0,
+ * cos 0 = 2^30)? */
+SPI_INLINE int level(const sp_q30_t sc[6])
+{
+    return (sc[0] | sc[2]) == 0 && sc[1] == SP_Q30_ONE && sc[3] == SP_Q30_ONE;
+}
+
+/* rot_yaw for level sc: each product of a sine or cosine with cos 0 =
+ * 2^30 (or sin 0 = 0, and tilt is then 0) rounds to the factor itself, so
+ * T's yaw entries are yaw's sine and cosine. */
+SPI_INLINE void rot_level(const sp_q30_t sc[6], sp_rot_t *rot)
+{
+    rot->t[0][0] = sc[5];
+    rot->t[0][1] = sc[4];
+    rot->t[1][0] = -sc[4];
+    rot->t[1][1] = sc[5];
+    rot->t[2][0] = 0;
+    rot->t[2][1] = 0;
 }
 
 /* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw:
@@ -411,13 +433,15 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     if (changed) {
         /* T's yaw entries; its third column and tilt kept while roll and
          * pitch hold (a turn in yaw alone): spi_rot_from_sincos' T */
-        rot_yaw(keep->sc, keep->tilt, &keep->rot);
+        if (level(keep->sc)) {
+            rot_level(keep->sc, &keep->rot);
+        } else {
+            rot_yaw(keep->sc, keep->tilt, &keep->rot);
+        }
         keep->valid = 1u;
     }
     ik->rot = keep->rot;
-    for (k = 0u; k < 6u; ++k) {
-        ik->sc[k] = keep->sc[k];
-    }
+    memcpy(ik->sc, keep->sc, sizeof ik->sc);
     if (changed) {
         /* a turning reference: no arms kept (keeping them would cost the
          * turning ticks) */

@@ -86,8 +86,13 @@ typedef struct {
  * roll and pitch hold); the legs' arms are made
  * once an orientation repeats and kept while it holds (made again for
  * another platform pointer); a turn about the vertical alone (roll =
- * pitch = 0) makes its arms with two products a component instead of
- * three (the third is exactly 0). The sines are a pure function of the angle,
+ * pitch = 0) takes T's yaw entries as yaw's sine and cosine (each
+ * product with cos 0 rounds to its factor) and makes its arms with two
+ * products a component instead of three (the third is exactly 0); a
+ * platform with spi_legs_fit's bounds (joints within 2 m, base joints
+ * within 8 m) at a position within 16 m skips the legs' overflow tests,
+ * which cannot fail, and makes each leg's unit vector in the same pass.
+ * The sines are a pure function of the angle,
  * the arms of T and the platform, so the result is sp_inverse_kinematics'
  * bit for bit (tests/unit/test_kinematics.c); a platform changed in place
  * under the same pointer needs valid set to 0. keep NULL:
