@@ -581,8 +581,40 @@ SPI_INLINE int unit_pair(sp_q30_t s, sp_q30_t c)
     return (uint64_t)((int64_t)s * s + (int64_t)c * c) <= (UINT64_C(1) << 60) + (UINT64_C(1) << 33) + 16u;
 }
 
-sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
-                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+/* sp_body_rates_sc turning in yaw alone (roll and pitch rates and
+ * accelerations 0): its rows with their zero terms left out (each exactly
+ * 0, and every product of two rates is 0), the same sums rounded the same
+ * way. Out of line: the general rows keep their registers. */
+SPI_NOINLINE static sp_status_t body_rates_yaw(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3],
+                                               const sp_q24_t rpy_acc[3], sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    sp_flags_t flags = 0u;
+    const int64_t half = INT64_C(1) << 29;
+    const int64_t dy = rpy_rate[2];
+    const int64_t ay = rpy_acc[2];
+    sp_q30_t sp;
+    sp_q30_t cpsr;
+    sp_q30_t cpcr;
+
+    if (!unit_pair(sc[0], sc[1]) || !unit_pair(sc[2], sc[3])) {
+        return body_rates_wide(sc, rpy_rate, rpy_acc, omega, omega_dot);
+    }
+    sp = sc[2];
+    cpsr = spi_mul30_up(sc[3], sc[0]);
+    cpcr = spi_mul30_up(sc[3], sc[1]);
+    omega[0] = spi_narrow_floor(half - dy * sp, 30u, &flags);
+    omega[1] = spi_narrow_floor(dy * cpsr + half, 30u, &flags);
+    omega[2] = spi_narrow_floor(dy * cpcr + half, 30u, &flags);
+    omega_dot[0] = spi_narrow_floor(half - ay * sp, 30u, &flags);
+    omega_dot[1] = spi_narrow_floor(ay * cpsr + half, 30u, &flags);
+    omega_dot[2] = spi_narrow_floor(ay * cpcr + half, 30u, &flags);
+    return sp_flags_status(flags);
+}
+
+/* sp_body_rates_sc's rows for rates and accelerations not all 0 and not
+ * in yaw alone. */
+SPI_NOINLINE static sp_status_t body_rates_rows(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3],
+                                                const sp_q24_t rpy_acc[3], sp_q24_t omega[3], sp_q24_t omega_dot[3])
 {
     sp_flags_t flags = 0u;
     sp_q30_t sr;
@@ -601,18 +633,6 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     sp_q24_t dy_dr;
     const int64_t half = INT64_C(1) << 29;
 
-    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
-        return SP_E_ARG;
-    }
-    if ((rpy_rate[0] | rpy_rate[1] | rpy_rate[2] | rpy_acc[0] | rpy_acc[1] | rpy_acc[2]) == 0) {
-        /* no turning (a translation, rest): every product below is 0 and
-         * each row rounds to 0 exactly, for any sc */
-        for (unsigned k = 0u; k < 3u; ++k) {
-            omega[k] = 0;
-            omega_dot[k] = 0;
-        }
-        return SP_OK;
-    }
     sr = sc[0];
     cr = sc[1];
     sp = sc[2];
@@ -632,18 +652,6 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     dr = rpy_rate[0];
     dp = rpy_rate[1];
     dy = rpy_rate[2];
-    if ((rpy_rate[0] | rpy_rate[1] | rpy_acc[0] | rpy_acc[1]) == 0) {
-        /* turning in yaw alone: the rows below with their zero terms
-         * left out (each exactly 0, and every product of two rates is 0),
-         * the same sums rounded the same way */
-        omega[0] = spi_narrow_floor(half - dy * sp, 30u, &flags);
-        omega[1] = spi_narrow_floor(dy * cpsr + half, 30u, &flags);
-        omega[2] = spi_narrow_floor(dy * cpcr + half, 30u, &flags);
-        omega_dot[0] = spi_narrow_floor(half - (int64_t)rpy_acc[2] * sp, 30u, &flags);
-        omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[2] * cpsr + half, 30u, &flags);
-        omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr + half, 30u, &flags);
-        return sp_flags_status(flags);
-    }
     spsr = spi_mul30_up(sp, sr);
     spcr = spi_mul30_up(sp, cr);
 
@@ -665,6 +673,39 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
                                         (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
                                     30u, &flags);
     return sp_flags_status(flags);
+}
+
+sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
+        return SP_E_ARG;
+    }
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_rate[2] | rpy_acc[0] | rpy_acc[1] | rpy_acc[2]) == 0) {
+        /* no turning (a translation, rest): every product below is 0 and
+         * each row rounds to 0 exactly, for any sc */
+        for (unsigned k = 0u; k < 3u; ++k) {
+            omega[k] = 0;
+            omega_dot[k] = 0;
+        }
+        return SP_OK;
+    }
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_acc[0] | rpy_acc[1]) != 0) {
+        return body_rates_rows(sc, rpy_rate, rpy_acc, omega, omega_dot);
+    }
+    if (level(sc)) {
+        /* turning in yaw alone about the vertical (roll = pitch = 0):
+         * body_rates_yaw's rows with sp = cp sr = 0 and cp cr = 2^30, each
+         * exact: w = yaw rate e_z, dw/dt = yaw acceleration e_z */
+        omega[0] = 0;
+        omega[1] = 0;
+        omega[2] = rpy_rate[2];
+        omega_dot[0] = 0;
+        omega_dot[1] = 0;
+        omega_dot[2] = rpy_acc[2];
+        return SP_OK;
+    }
+    return body_rates_yaw(sc, rpy_rate, rpy_acc, omega, omega_dot);
 }
 
 /* sp_leg_rates' legs for any w (|w_c| up to 2^31): each step rounded and

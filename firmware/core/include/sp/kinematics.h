@@ -123,7 +123,10 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
  * sp_body_rates from the sines and cosines sc = {sin, cos} of roll, pitch,
  * yaw (Q30, as in sp_ik_t.sc) instead of the angles: no sine is computed.
  * Bit-identical to sp_body_rates for the sines of the same angles (yaw's
- * are not used). Same units, ranges and errors.
+ * are not used). Same units, ranges and errors. Work that cannot change
+ * the result is skipped: no turning gives 0, and a turn in yaw alone at
+ * roll = pitch = 0 (sin 0 = 0, cos 0 = 2^30) gives the yaw rate and
+ * acceleration about e_z exactly, with no product.
  */
 sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
                              sp_q24_t omega[3], sp_q24_t omega_dot[3]);
