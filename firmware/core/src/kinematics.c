@@ -833,7 +833,21 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
  * 2^-27), so no moment leaves int32 and each is the shift alone. */
 void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac)
 {
-    jacobian_rows(ik, jac, 1, NULL);
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const int32_t r[3] = {ik->arm[i][0], ik->arm[i][1], ik->arm[i][2]};
+        const int32_t u[3] = {ik->unit[i][0], ik->unit[i][1], ik->unit[i][2]};
+        /* -r_c is exact (|r_c| < 2^26): each moment is one product plus
+         * one product accumulated, the same exact sum as jacobian_rows' */
+        const int32_t nr[3] = {-r[0], -r[1], -r[2]};
+        jac->j[i][0] = ((u[0] >> 1) + 1) >> 1;
+        jac->j[i][1] = ((u[1] >> 1) + 1) >> 1;
+        jac->j[i][2] = ((u[2] >> 1) + 1) >> 1;
+        jac->j[i][3] = (int32_t)(((int64_t)r[1] * u[2] + (int64_t)nr[2] * u[1] + (INT64_C(1) << 25)) >> 26);
+        jac->j[i][4] = (int32_t)(((int64_t)r[2] * u[0] + (int64_t)nr[0] * u[2] + (INT64_C(1) << 25)) >> 26);
+        jac->j[i][5] = (int32_t)(((int64_t)r[0] * u[1] + (int64_t)nr[1] * u[0] + (INT64_C(1) << 25)) >> 26);
+    }
 }
 
 int spi_joints_near(const sp_platform_t *platform)
