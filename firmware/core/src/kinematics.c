@@ -655,22 +655,24 @@ SPI_NOINLINE static sp_status_t body_rates_rows(const sp_q30_t sc[6], const sp_q
     spsr = spi_mul30_up(sp, sr);
     spcr = spi_mul30_up(sp, cr);
 
-    /* eq (10) */
-    omega[0] = spi_narrow_floor(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
+    /* eq (10); each subtracted product taken as a product with the
+     * negated sine or cosine (exact: all are within 2^30 + 4 in
+     * magnitude), the same exact sums in multiply-accumulates */
+    omega[0] = spi_narrow_floor(dr * SP_Q30_ONE + dy * -sp + half, 30u, &flags);
     omega[1] = spi_narrow_floor(dp * cr + dy * cpsr + half, 30u, &flags);
-    omega[2] = spi_narrow_floor(dy * cpcr - dp * sr + half, 30u, &flags);
+    omega[2] = spi_narrow_floor(dy * cpcr + dp * -sr + half, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
     dp_dr = spi_narrow_floor(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
     dy_dp = spi_narrow_floor(dy * dp + (INT64_C(1) << 23), 24u, &flags);
     dy_dr = spi_narrow_floor(dy * dr + (INT64_C(1) << 23), 24u, &flags);
     omega_dot[0] = spi_narrow_floor(
-        (int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp - (int64_t)dy_dp * cp + half, 30u, &flags);
-    omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
-                                        (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
+        (int64_t)rpy_acc[0] * SP_Q30_ONE + (int64_t)rpy_acc[2] * -sp + (int64_t)dy_dp * -cp + half, 30u, &flags);
+    omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[1] * cr + (int64_t)dp_dr * -sr + (int64_t)rpy_acc[2] * cpsr +
+                                        (int64_t)dy_dp * -spsr + (int64_t)dy_dr * cpcr + half,
                                     30u, &flags);
-    omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr - (int64_t)rpy_acc[1] * sr - (int64_t)dp_dr * cr -
-                                        (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
+    omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr + (int64_t)rpy_acc[1] * -sr + (int64_t)dp_dr * -cr +
+                                        (int64_t)dy_dp * -spcr + (int64_t)dy_dr * -cpsr + half,
                                     30u, &flags);
     return sp_flags_status(flags);
 }
