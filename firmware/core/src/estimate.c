@@ -39,7 +39,9 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
         /* lengths are positive Q24 values: the difference cannot wrap */
         sp_flags_t flags = 0u;
         d[i] = spi_sub_sat(length[i], ref->length[i], &flags);
-        beyond |= spi_dist32(d[i], 0) > (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
+        /* |d| <= STEP_MAX exactly when d + STEP_MAX (modulo 2^32) is at
+         * most 2 STEP_MAX: one addition and one comparison */
+        beyond |= ((uint32_t)d[i] + (uint32_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
     }
     if (beyond == 0u) {
         st = sp_fk_chord_step(&e->ref_lu, reference, ref->sc, d, est);
