@@ -47,6 +47,9 @@ int spi_joints_near(const sp_platform_t *platform);
  * (sp_inverse_kinematics_kept then skips those tests). */
 int spi_legs_fit(const sp_platform_t *platform);
 
+/* sp_fk_default_options' values (fk.c), for a copy without a call. */
+extern const sp_fk_options_t spi_fk_defaults;
+
 /* sp_jacobian for an ik of a platform with spi_joints_near (arms below
  * 2^26): the same entries, without the saturation tests no entry can
  * fail (tests/unit/test_kinematics.c proves them equal). Cannot fail. */
