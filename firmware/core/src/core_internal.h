@@ -51,8 +51,10 @@ int spi_legs_fit(const sp_platform_t *platform);
 extern const sp_fk_options_t spi_fk_defaults;
 
 /* sp_jacobian for an ik of a platform with spi_joints_near (arms below
- * 2^26): the same entries, without the saturation tests no entry can
- * fail (tests/unit/test_kinematics.c proves them equal). Cannot fail. */
+ * 2^26) whose unit vectors the IK made (|u_c| <= 2^30): the same
+ * entries, without the saturation tests no entry can fail and with each
+ * Q30 -> Q28 rounding in one addition (tests/unit/test_kinematics.c
+ * proves them equal). Cannot fail. */
 void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac);
 
 /* sp_lu6_solve_transposed in 32-bit intermediates, block-scaled (lu6.c):

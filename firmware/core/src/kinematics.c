@@ -843,9 +843,11 @@ void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac)
         /* -r_c is exact (|r_c| < 2^26): each moment is one product plus
          * one product accumulated, the same exact sum as jacobian_rows' */
         const int32_t nr[3] = {-r[0], -r[1], -r[2]};
-        jac->j[i][0] = ((u[0] >> 1) + 1) >> 1;
-        jac->j[i][1] = ((u[1] >> 1) + 1) >> 1;
-        jac->j[i][2] = ((u[2] >> 1) + 1) >> 1;
+        /* Q30 -> Q28 rounded (ties up) as jacobian_rows, floor((u + 2) /
+         * 4), in one addition: the IK's units are within 2^30 + 3 */
+        jac->j[i][0] = (u[0] + 2) >> 2;
+        jac->j[i][1] = (u[1] + 2) >> 2;
+        jac->j[i][2] = (u[2] + 2) >> 2;
         jac->j[i][3] = (int32_t)(((int64_t)r[1] * u[2] + (int64_t)nr[2] * u[1] + (INT64_C(1) << 25)) >> 26);
         jac->j[i][4] = (int32_t)(((int64_t)r[2] * u[0] + (int64_t)nr[0] * u[2] + (INT64_C(1) << 25)) >> 26);
         jac->j[i][5] = (int32_t)(((int64_t)r[0] * u[1] + (int64_t)nr[1] * u[0] + (INT64_C(1) << 25)) >> 26);
