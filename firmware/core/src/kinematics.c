@@ -281,14 +281,6 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
     return sp_flags_status(flags);
 }
 
-/* Is T a turn about the vertical alone (roll = pitch = 0: T's third row
- * and column exactly e_z, as sp_sincos_q24 gives sin 0 = 0 and
- * cos 0 = 2^30)? */
-SPI_INLINE int turn_about_z(const sp_rot_t *rot)
-{
-    return (rot->t[0][2] | rot->t[1][2] | rot->t[2][0] | rot->t[2][1]) == 0 && rot->t[2][2] == SP_Q30_ONE;
-}
-
 /* arm_component for a joint a within 2 m in each axis: the exact sum over
  * 2^30 is below 2^26, so the shift alone is its value. */
 SPI_INLINE int32_t arm_near(const int32_t a[3], const sp_rot_t *rot, unsigned c)
@@ -314,20 +306,21 @@ static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose,
 /* spi_ik_lengths of ik->rot for a platform with spi_joints_near (every
  * joint within 2 m in each axis: each arm's exact sum over 2^30 is below
  * 2^26, so the shift alone is arm_component's value, never saturated),
- * the same bits and status. A turn about the vertical alone
- * (turn_about_z) makes each arm's x and y from two products and keeps its
- * height a_z: the products left out are exactly 0 and a_z 2^30 rounds to
- * a_z. With fit (legs_fit: the platform's spi_legs_fit and pose_fits)
+ * the same bits and status. A turn about the vertical alone (flat: the
+ * caller's level sc, roll = pitch = 0, so that T's third row and column
+ * are exactly e_z) makes each arm's x and y from two products and keeps
+ * its height a_z: the products left out are exactly 0 and a_z 2^30 rounds
+ * to a_z. With fit (legs_fit: the platform's spi_legs_fit and pose_fits)
  * each leg follows its arm in the same pass, by leg_fit. Out of line: the
  * ticks whose orientation holds do not carry its registers. */
 SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik,
-                                                int fit)
+                                                int fit, int flat)
 {
     const sp_rot_t *rot = &ik->rot;
     const int64_t half = INT64_C(1) << 29;
     unsigned k;
 
-    if (turn_about_z(rot)) {
+    if (flat) {
         for (k = 0u; k < SP_LEGS; ++k) {
             const int32_t a0 = platform->platform_joint[k][0];
             const int32_t a1 = platform->platform_joint[k][1];
@@ -404,6 +397,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     int changed;
     int tilted;
     int fit;
+    int flat = 0; /* roll = pitch = 0 (level) */
 
     if (keep == NULL) {
         return sp_inverse_kinematics(platform, pose, ik);
@@ -433,7 +427,8 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     if (changed) {
         /* T's yaw entries; its third column and tilt kept while roll and
          * pitch hold (a turn in yaw alone): spi_rot_from_sincos' T */
-        if (level(keep->sc)) {
+        flat = level(keep->sc);
+        if (flat) {
             rot_level(keep->sc, &keep->rot);
         } else {
             rot_yaw(keep->sc, keep->tilt, &keep->rot);
@@ -446,7 +441,7 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
         /* a turning reference: no arms kept (keeping them would cost the
          * turning ticks) */
         keep->arms_valid = 0u;
-        st = keep->near ? ik_lengths_near(platform, pose, ik, fit) : spi_ik_lengths(platform, pose, ik);
+        st = keep->near ? ik_lengths_near(platform, pose, ik, fit, flat) : spi_ik_lengths(platform, pose, ik);
     } else {
         if (!keep->arms_valid || keep->platform != platform) {
             /* the orientation held a second tick: its arms, as
