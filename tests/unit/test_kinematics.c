@@ -518,8 +518,9 @@ static void int_body_rates(const sp_q30_t sc[6], const sp_q24_t d[3], const sp_q
 /* sp_body_rates_sc, both paths (sines and cosines on the unit circle, and
  * off it: the saturating path), on 6000 random inputs (rates up to 4 rad/s,
  * accelerations up to 32 rad/s^2, |sin|, |cos| up to 1.25), against
- * plain_body_rates; sp_body_rates is sp_body_rates_sc of
- * sp_sincos_q24's values bit for bit. The core rounds the products of two
+ * plain_body_rates; on the circle, every path (yaw alone, level or not,
+ * among them) equals the rows as first written (int_body_rates) bit for
+ * bit, and sp_body_rates is sp_body_rates_sc of sp_sincos_q24's values. The core rounds the products of two
  * sines or cosines (0.5 LSB of Q30: 2^-7 LSB of Q24 per rad/s they
  * multiply), the products of two rates (0.5 LSB) and each result (0.5 LSB):
  * within these ranges |error| <= 0.5 + 4 / 128 LSB for w, and 0.5 + 0.5
@@ -542,6 +543,13 @@ static void test_body_rates_reference(void **state)
             a[k] = ref_q24(tu_uniform(&rng, -3.2, 3.2));
             d[k] = ref_q24(random_rate(&rng, 4.0));
             dd[k] = ref_q24(random_rate(&rng, 32.0));
+            if (n % 10 == 5 && k < 2) {
+                /* yaw alone about the vertical (roll = pitch = 0: the
+                 * level path), on and off the circle */
+                a[k] = 0;
+                d[k] = 0;
+                dd[k] = 0;
+            }
             sp_sincos_q24(a[k], &sc[2 * k], &sc[2 * k + 1]);
             if (n % 10 == 7 || (n % 10 == 3 && k < 2)) {
                 /* no turning (the zero path) or yaw alone, on and off the circle */
@@ -1245,6 +1253,68 @@ static void test_inverse_kinematics_kept(void **state)
     assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, NULL), SP_E_ARG);
 }
 
+/* sp_inverse_kinematics_kept's legs without the overflow tests
+ * (spi_legs_fit, leg_fit) against the plain IK, bit for bit and status for
+ * status, at the bounds they rest on: platform joints at -2 m or 2 m -
+ * 1 LSB, base joints at -8 m or 8 m - 1 LSB, positions at -16 m or
+ * 16 m - 1 LSB in each axis (the longest legs leg_fit takes), turned every
+ * way and about the vertical alone, turning and held; positions one LSB
+ * beyond (the tested legs); spi_legs_fit at and beside its bound. */
+static void test_legs_fit(void **state)
+{
+    uint64_t rng = 5;
+    sp_platform_t p;
+    double hz;
+    sp_orient_keep_t keep;
+    sp_pose_t pose;
+    sp_ik_t ik, ikk;
+    const int32_t pos_lo = -(INT32_C(1) << 28);
+    const int32_t pos_hi = (INT32_C(1) << 28) - 1;
+    (void)state;
+    random_platform(&rng, &p, &hz);
+    assert_true(spi_legs_fit(&p));
+    for (int i = 0; i < SP_LEGS; ++i) {
+        for (int c = 0; c < 3; ++c) {
+            p.platform_joint[i][c] = ((i + c) % 2) ? (INT32_C(1) << 25) - 1 : -(INT32_C(1) << 25);
+            p.base_joint[i][c] = ((i + c) % 3) ? (INT32_C(1) << 27) - 1 : -(INT32_C(1) << 27);
+        }
+    }
+    assert_true(spi_legs_fit(&p));
+    memset(&keep, 0x5A, sizeof keep);
+    keep.valid = 0u;
+    for (int n = 0; n < N_POSES; ++n) {
+        int beyond = (n % 7 == 3);
+        for (int k = 0; k < 3; ++k) {
+            if (n % 3 != 2) { /* every third pose keeps the orientation */
+                pose.rpy[k] = (int32_t)tu_uniform(&rng, -3.2 * 16777216.0, 3.2 * 16777216.0);
+            }
+            pose.pos[k] = tu_uniform(&rng, 0.0, 1.0) < 0.5 ? pos_lo : pos_hi;
+        }
+        if (n % 5 == 0) {
+            pose.rpy[0] = 0; /* about the vertical alone */
+            pose.rpy[1] = 0;
+        }
+        if (beyond) {
+            pose.pos[n % 3] = (pose.pos[n % 3] < 0) ? pos_lo - 1 : pos_hi + 1;
+        }
+        memset(&ik, 0, sizeof ik);
+        memset(&ikk, 0xA5, sizeof ikk);
+        assert_int_equal(sp_inverse_kinematics_kept(&p, &pose, &keep, &ikk), sp_inverse_kinematics(&p, &pose, &ik));
+        assert_int_equal(sp_inverse_kinematics(&p, &pose, &ik), SP_OK);
+        assert_memory_equal(&ikk, &ik, sizeof ik);
+    }
+    p.base_joint[2][1] = INT32_C(1) << 27;
+    assert_false(spi_legs_fit(&p));
+    p.base_joint[2][1] = -(INT32_C(1) << 27) - 1;
+    assert_false(spi_legs_fit(&p));
+    p.base_joint[2][1] = INT32_MIN;
+    assert_false(spi_legs_fit(&p));
+    p.base_joint[2][1] = -(INT32_C(1) << 27);
+    assert_true(spi_legs_fit(&p));
+    p.platform_joint[1][0] = INT32_C(1) << 25; /* joints no longer near */
+    assert_false(spi_legs_fit(&p));
+}
+
 /* The leg rates of the inverse dynamics with leg masses (leg_terms: L'_i
  * = J_i . [v; w_b], the Jacobian's rows in Q28 and w_b rounded to Q24)
  * against plain_leg_rates (double, from the IK's own values), over random
@@ -1479,6 +1549,7 @@ int main(void)
         cmocka_unit_test(test_inverse_dynamics_legs_power),
         cmocka_unit_test(test_jacobian_near),
         cmocka_unit_test(test_inverse_kinematics_kept),
+        cmocka_unit_test(test_legs_fit),
         cmocka_unit_test(test_inverse_dynamics_rates_reference),
         cmocka_unit_test(test_inverse_dynamics_held),
         cmocka_unit_test(test_check_legs),

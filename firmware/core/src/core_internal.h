@@ -39,9 +39,22 @@ void spi_ik_units(sp_ik_t *ik);
  * Jacobian cannot saturate: spi_jacobian_near applies. */
 int spi_joints_near(const sp_platform_t *platform);
 
+/* 1 when `platform` has spi_joints_near and every base joint is in
+ * [-8 m, 8 m) (Q24: [-2^27, 2^27)) in each axis, else 0. Every leg vector
+ * arm + pos - base of such a platform at a position within 16 m
+ * ([-2^28, 2^28) in each axis) is below 2^26 + 2^28 + 2^27 < 2^29 in each
+ * component: its IK cannot overflow or leave the 64 m range
+ * (sp_inverse_kinematics_kept then skips those tests). */
+int spi_legs_fit(const sp_platform_t *platform);
+
+/* sp_fk_default_options' values (fk.c), for a copy without a call. */
+extern const sp_fk_options_t spi_fk_defaults;
+
 /* sp_jacobian for an ik of a platform with spi_joints_near (arms below
- * 2^26): the same entries, without the saturation tests no entry can
- * fail (tests/unit/test_kinematics.c proves them equal). Cannot fail. */
+ * 2^26) whose unit vectors the IK made (|u_c| <= 2^30): the same
+ * entries, without the saturation tests no entry can fail and with each
+ * Q30 -> Q28 rounding in one addition (tests/unit/test_kinematics.c
+ * proves them equal). Cannot fail. */
 void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac);
 
 /* sp_lu6_solve_transposed in 32-bit intermediates, block-scaled (lu6.c):

@@ -1,5 +1,6 @@
 #include "sp/estimate.h"
 
+#include "core_internal.h"
 #include "fixed_inline.h"
 
 void sp_estimate_init(sp_estimate_t *e, const sp_pose_t *park)
@@ -39,7 +40,9 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
         /* lengths are positive Q24 values: the difference cannot wrap */
         sp_flags_t flags = 0u;
         d[i] = spi_sub_sat(length[i], ref->length[i], &flags);
-        beyond |= spi_dist32(d[i], 0) > (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
+        /* |d| <= STEP_MAX exactly when d + STEP_MAX (modulo 2^32) is at
+         * most 2 STEP_MAX: one addition and one comparison */
+        beyond |= ((uint32_t)d[i] + (uint32_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
     }
     if (beyond == 0u) {
         st = sp_fk_chord_step(&e->ref_lu, reference, ref->sc, d, est);
@@ -61,12 +64,11 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
 sp_status_t sp_estimate_step(const sp_platform_t *platform, sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
                              const sp_pose_t *reference, const sp_fk_cache_t *ref, uint32_t *iterations)
 {
-    sp_fk_options_t opt;
+    sp_fk_options_t opt = spi_fk_defaults; /* sp_fk_default_options */
     sp_fk_info_t info;
     sp_pose_t est;
     sp_status_t st = SP_E_NO_CONVERGENCE;
 
-    sp_fk_default_options(&opt);
     *iterations = 0u;
     if (e->valid && e->ref_lu.valid && ref != NULL) {
         st = from_reference(platform, e, length, reference, ref, &opt, &est, iterations);

@@ -216,10 +216,22 @@ sp_q24_t sp_sqrt_q24(sp_q24_t a, sp_flags_t *flags)
     return (sp_q24_t)sp_isqrt64((uint64_t)a << 24);
 }
 
-/* round(a b / 2^32), ties up: the high word of a 32x32 product, rounded. */
+/* The int32 of a uint32 modulo 2^32, without an implementation-defined
+ * conversion (the compiler emits nothing). */
+SPI_INLINE int32_t u32_to_i32(uint32_t u)
+{
+    return (u <= 0x7FFFFFFFu) ? (int32_t)u : -(int32_t)(~u) - 1;
+}
+
+/* round(a b / 2^32), ties up: the high word of a 32x32 product, rounded.
+ * Taken as the high word of the unsigned sum (the same bits): a value the
+ * compiler sees as 32 bits wide, so that a product of it stays one 32x32
+ * multiply (from spi_round_up's int64, GCC made the next mulhi a 64x64
+ * one). */
 SPI_INLINE int32_t mulhi(int32_t a, int32_t b)
 {
-    return (int32_t)spi_round_up((int64_t)a * b, 32u);
+    uint64_t v = (uint64_t)((int64_t)a * b) + (UINT64_C(1) << 31);
+    return u32_to_i32((uint32_t)(v >> 32));
 }
 
 /* floor(a b / 2^32): the high word alone (one SMMUL instead of a rounding
@@ -227,13 +239,6 @@ SPI_INLINE int32_t mulhi(int32_t a, int32_t b)
 SPI_INLINE int32_t mulhi_floor(int32_t a, int32_t b)
 {
     return (int32_t)(((int64_t)a * b) >> 32);
-}
-
-/* The int32 of a uint32 modulo 2^32, without an implementation-defined
- * conversion (the compiler emits nothing). */
-SPI_INLINE int32_t u32_to_i32(uint32_t u)
-{
-    return (u <= 0x7FFFFFFFu) ? (int32_t)u : -(int32_t)(~u) - 1;
 }
 
 void sp_sincos_q24(sp_q24_t angle, sp_q30_t *sin_out, sp_q30_t *cos_out)

@@ -5,15 +5,19 @@
 
 #define COS_PITCH_MIN SP_Q30_MILLI(10) /* 0.01 */
 
+const sp_fk_options_t spi_fk_defaults = {
+    8u,               /* max_iterations */
+    4,                /* tolerance: 0.24 um */
+    SP_Q24_MILLI(50), /* max_jump_pos: 50 mm */
+    SP_Q24_MILLI(50), /* max_jump_rot: 50 mrad */
+};
+
 void sp_fk_default_options(sp_fk_options_t *opt)
 {
     if (opt == NULL) {
         return;
     }
-    opt->max_iterations = 8u;
-    opt->tolerance = 4;                   /* 0.24 um */
-    opt->max_jump_pos = SP_Q24_MILLI(50); /* 50 mm */
-    opt->max_jump_rot = SP_Q24_MILLI(50); /* 50 mrad */
+    *opt = spi_fk_defaults;
 }
 
 /* The length residuals l - length (Q24, saturated) into neg_res (negated,

@@ -1,5 +1,7 @@
 #include "sp/kinematics.h"
 
+#include <string.h>
+
 #include "core_internal.h"
 #include "fixed_inline.h"
 
@@ -45,6 +47,26 @@ SPI_INLINE void rot_yaw(const sp_q30_t sc[6], const sp_q30_t tilt[2], sp_rot_t *
     rot->t[1][1] = spi_dot30_up(sy, spsr, cy, cr);
     rot->t[2][0] = spi_dot30_up(cy, spcr, sy, sr);
     rot->t[2][1] = spi_dot30_up(sy, spcr, -cy, sr);
+}
+
+/* Are roll and pitch 0 (sc as sp_sincos_q24 gives them: sin 0 = 0,
+ * cos 0 = 2^30)? */
+SPI_INLINE int level(const sp_q30_t sc[6])
+{
+    return (sc[0] | sc[2]) == 0 && sc[1] == SP_Q30_ONE && sc[3] == SP_Q30_ONE;
+}
+
+/* rot_yaw for level sc: each product of a sine or cosine with cos 0 =
+ * 2^30 (or sin 0 = 0, and tilt is then 0) rounds to the factor itself, so
+ * T's yaw entries are yaw's sine and cosine. */
+SPI_INLINE void rot_level(const sp_q30_t sc[6], sp_rot_t *rot)
+{
+    rot->t[0][0] = sc[5];
+    rot->t[0][1] = sc[4];
+    rot->t[1][0] = -sc[4];
+    rot->t[1][1] = sc[5];
+    rot->t[2][0] = 0;
+    rot->t[2][1] = 0;
 }
 
 /* T from the sines and cosines sc = {sin, cos} of roll, pitch, yaw:
@@ -133,26 +155,14 @@ SPI_INLINE int32_t arm_component(const int32_t a[3], const sp_rot_t *rot, unsign
     return spi_narrow_floor(acc, 30u, flags);
 }
 
-/* Leg i of a pose from its arm (ik->arm[i]): the leg vector and its
- * length, one correctly rounded square root of the exact |l|^2. Returns 0
- * for a leg component of 64 m or more or a leg shorter than 1 mm, else 1. */
-SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+/* The length of leg i, l = (l0, l1, l2) with every |l_c| < 2^30 (stored
+ * into ik->leg[i]): one correctly rounded square root of the exact |l|^2.
+ * Returns 0 for a leg shorter than 1 mm, else 1. */
+SPI_INLINE int leg_length(sp_ik_t *ik, unsigned i, int32_t l0, int32_t l1, int32_t l2)
 {
-    const int32_t *b = platform->base_joint[i];
-    int32_t l0;
-    int32_t l1;
-    int32_t l2;
     uint64_t len2;
     uint32_t hi;
 
-    if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
-        !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
-        !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
-        return 0;
-    }
-    if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
-        return 0; /* a component reaches 64 m */
-    }
     ik->leg[i][0] = l0;
     ik->leg[i][1] = l1;
     ik->leg[i][2] = l2;
@@ -178,6 +188,77 @@ SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, 
     return 1;
 }
 
+/* The unit vector u = l / |l| (Q24 / Q24 -> Q30) of leg i of a successful
+ * ik_lengths, l = (l0, l1, l2) its leg and m its length, with one
+ * reciprocal: 1/|l| = inv 2^z / 2^62 with z = clz(|l|), so
+ * u_c = l_c inv 2^z / 2^32 = (l_c 2^(z-1)) inv / 2^31, rounded (ties
+ * up). |l_c| <= |l| (the rounded length is at least the floor of the root)
+ * < 2^(32-z), so l_c 2^(z-1) fits int32: a constant shift. inv is never
+ * above the exact reciprocal and has 31 significant bits (relative error
+ * below 2^-28): the error is at most 3 LSB of Q30 and |u_c| <= 2^30. */
+SPI_INLINE void leg_unit(sp_ik_t *ik, unsigned i, int32_t l0, int32_t l1, int32_t l2, uint32_t m)
+{
+    unsigned z = spi_clz32(m); /* >= 1: m in [2^14, 2^31) */
+    uint32_t q = spi_recip_norm(m << z);
+    int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
+    int32_t sc = INT32_C(1) << (z - 1u);
+    /* l_c 2^(z-1) is exact, see above */
+    ik->unit[i][0] = (sp_q30_t)(((int64_t)(l0 * sc) * inv + (INT64_C(1) << 30)) >> 31);
+    ik->unit[i][1] = (sp_q30_t)(((int64_t)(l1 * sc) * inv + (INT64_C(1) << 30)) >> 31);
+    ik->unit[i][2] = (sp_q30_t)(((int64_t)(l2 * sc) * inv + (INT64_C(1) << 30)) >> 31);
+}
+
+/* Leg i of a pose from its arm (ik->arm[i]): the leg vector and its
+ * length (leg_length). Returns 0 for a leg component of 64 m or more or a
+ * leg shorter than 1 mm, else 1. */
+SPI_INLINE int leg_of_arm(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+{
+    const int32_t *b = platform->base_joint[i];
+    int32_t l0;
+    int32_t l1;
+    int32_t l2;
+
+    if (!leg_component(ik->arm[i][0], pose->pos[0], b[0], &l0) ||
+        !leg_component(ik->arm[i][1], pose->pos[1], b[1], &l1) ||
+        !leg_component(ik->arm[i][2], pose->pos[2], b[2], &l2)) {
+        return 0;
+    }
+    if (((range_bits(l0) | range_bits(l1) | range_bits(l2)) & UINT32_C(0x80000000)) != 0u) {
+        return 0; /* a component reaches 64 m */
+    }
+    return leg_length(ik, i, l0, l1, l2);
+}
+
+/* leg_of_arm for legs that fit (legs_fit), and the leg's unit vector
+ * (leg_unit) from the values at hand: every component is arm + pos - base
+ * with |arm_c| < 2^26, |pos_c| <= 2^28 and |b_c| <= 2^27, so it is below
+ * 2^29 in magnitude: no int32 overflow and no component of 64 m, the
+ * tests leg_of_arm makes cannot fail and are left out. */
+SPI_INLINE int leg_fit(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik, unsigned i)
+{
+    const int32_t *b = platform->base_joint[i];
+    int32_t l0 = ik->arm[i][0] + (pose->pos[0] - b[0]);
+    int32_t l1 = ik->arm[i][1] + (pose->pos[1] - b[1]);
+    int32_t l2 = ik->arm[i][2] + (pose->pos[2] - b[2]);
+
+    if (!leg_length(ik, i, l0, l1, l2)) {
+        return 0;
+    }
+    leg_unit(ik, i, l0, l1, l2, (uint32_t)ik->length[i]);
+    return 1;
+}
+
+/* Do the legs of a pose fit (leg_fit), for a platform with
+ * spi_legs_fit? Its position within 16 m (Q24: [-2^28, 2^28)) in each
+ * axis. */
+SPI_INLINE int pose_fits(const sp_pose_t *pose)
+{
+    /* p in [-2^28, 2^28) exactly when p + 2^28 is in [0, 2^29) */
+    const uint32_t off = UINT32_C(1) << 28;
+    uint32_t out = ((uint32_t)pose->pos[0] + off) | ((uint32_t)pose->pos[1] + off) | ((uint32_t)pose->pos[2] + off);
+    return (out >> 29) == 0u;
+}
+
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
  * arms, legs and lengths. Every leg costs three 3-term dot products for
  * its arm (exact 64-bit sums, rounded) and leg_of_arm. */
@@ -198,14 +279,6 @@ sp_status_t spi_ik_lengths(const sp_platform_t *platform, const sp_pose_t *pose,
         }
     }
     return sp_flags_status(flags);
-}
-
-/* Is T a turn about the vertical alone (roll = pitch = 0: T's third row
- * and column exactly e_z, as sp_sincos_q24 gives sin 0 = 0 and
- * cos 0 = 2^30)? */
-SPI_INLINE int turn_about_z(const sp_rot_t *rot)
-{
-    return (rot->t[0][2] | rot->t[1][2] | rot->t[2][0] | rot->t[2][1]) == 0 && rot->t[2][2] == SP_Q30_ONE;
 }
 
 /* arm_component for a joint a within 2 m in each axis: the exact sum over
@@ -233,24 +306,30 @@ static sp_status_t ik_legs(const sp_platform_t *platform, const sp_pose_t *pose,
 /* spi_ik_lengths of ik->rot for a platform with spi_joints_near (every
  * joint within 2 m in each axis: each arm's exact sum over 2^30 is below
  * 2^26, so the shift alone is arm_component's value, never saturated),
- * the same bits and status. A turn about the vertical alone
- * (turn_about_z) makes each arm's x and y from two products and keeps its
- * height a_z: the products left out are exactly 0 and a_z 2^30 rounds to
- * a_z. Out of line: the ticks whose orientation holds do not carry its
- * registers. */
-SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik)
+ * the same bits and status. A turn about the vertical alone (flat: the
+ * caller's level sc, roll = pitch = 0, so that T's third row and column
+ * are exactly e_z) makes each arm's x and y from two products and keeps
+ * its height a_z: the products left out are exactly 0 and a_z 2^30 rounds
+ * to a_z. With fit (legs_fit: the platform's spi_legs_fit and pose_fits)
+ * each leg follows its arm in the same pass, by leg_fit. Out of line: the
+ * ticks whose orientation holds do not carry its registers. */
+SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, const sp_pose_t *pose, sp_ik_t *ik,
+                                                int fit, int flat)
 {
     const sp_rot_t *rot = &ik->rot;
     const int64_t half = INT64_C(1) << 29;
     unsigned k;
 
-    if (turn_about_z(rot)) {
+    if (flat) {
         for (k = 0u; k < SP_LEGS; ++k) {
             const int32_t a0 = platform->platform_joint[k][0];
             const int32_t a1 = platform->platform_joint[k][1];
             ik->arm[k][2] = platform->platform_joint[k][2];
             ik->arm[k][0] = (int32_t)(((int64_t)a0 * rot->t[0][0] + (int64_t)a1 * rot->t[1][0] + half) >> 30);
             ik->arm[k][1] = (int32_t)(((int64_t)a0 * rot->t[0][1] + (int64_t)a1 * rot->t[1][1] + half) >> 30);
+            if (fit && !leg_fit(platform, pose, ik, k)) {
+                return SP_E_RANGE;
+            }
         }
     } else {
         for (k = 0u; k < SP_LEGS; ++k) {
@@ -259,14 +338,18 @@ SPI_NOINLINE static sp_status_t ik_lengths_near(const sp_platform_t *platform, c
             ik->arm[k][0] = arm_near(a, rot, 0u);
             ik->arm[k][1] = arm_near(a, rot, 1u);
             ik->arm[k][2] = arm_near(a, rot, 2u);
+            if (fit && !leg_fit(platform, pose, ik, k)) {
+                return SP_E_RANGE;
+            }
         }
     }
-    return ik_legs(platform, pose, ik);
+    return fit ? SP_OK : ik_legs(platform, pose, ik);
 }
 
-/* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone. */
+/* spi_ik_lengths with the arms (of ik->rot) given: leg_of_arm alone (or
+ * leg_fit with fit, see ik_lengths_near). */
 static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *pose, const sp_q24_t arm[SP_LEGS][3],
-                                sp_ik_t *ik)
+                                sp_ik_t *ik, int fit)
 {
     unsigned i;
 
@@ -274,35 +357,20 @@ static sp_status_t ik_legs_kept(const sp_platform_t *platform, const sp_pose_t *
         ik->arm[i][0] = arm[i][0];
         ik->arm[i][1] = arm[i][1];
         ik->arm[i][2] = arm[i][2];
-        if (!leg_of_arm(platform, pose, ik, i)) {
+        if (!(fit ? leg_fit(platform, pose, ik, i) : leg_of_arm(platform, pose, ik, i))) {
             return SP_E_RANGE;
         }
     }
     return SP_OK;
 }
 
-/* The unit vectors u = l / |l| (Q24 / Q24 -> Q30) of a successful
- * ik_lengths, with one reciprocal per leg: 1/|l| = inv 2^z / 2^62 with
- * z = clz(|l|), so u_c = l_c inv 2^z / 2^32 = (l_c 2^(z-1)) inv / 2^31,
- * rounded (ties up). |l_c| <= |l| (the rounded length is at least the
- * floor of the root) < 2^(32-z), so l_c 2^(z-1) fits int32: a constant
- * shift. inv is never above the exact reciprocal and has 31 significant
- * bits (relative error below 2^-28): the error is at most 3 LSB of Q30 and
- * |u_c| <= 2^30. */
+/* The unit vectors of a successful ik_lengths: leg_unit of every leg. */
 void spi_ik_units(sp_ik_t *ik)
 {
     unsigned i;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        uint32_t m = (uint32_t)ik->length[i]; /* in [2^14, 2^31) */
-        unsigned z = spi_clz32(m);            /* >= 1 */
-        uint32_t q = spi_recip_norm(m << z);
-        int32_t inv = (q > 0x7FFFFFFFu) ? 0x7FFFFFFF : (int32_t)q; /* as spi_recip */
-        int32_t sc = INT32_C(1) << (z - 1u);
-        /* l_c 2^(z-1) is exact, see above; unrolled */
-        ik->unit[i][0] = (sp_q30_t)(((int64_t)(ik->leg[i][0] * sc) * inv + (INT64_C(1) << 30)) >> 31);
-        ik->unit[i][1] = (sp_q30_t)(((int64_t)(ik->leg[i][1] * sc) * inv + (INT64_C(1) << 30)) >> 31);
-        ik->unit[i][2] = (sp_q30_t)(((int64_t)(ik->leg[i][2] * sc) * inv + (INT64_C(1) << 30)) >> 31);
+        leg_unit(ik, i, ik->leg[i][0], ik->leg[i][1], ik->leg[i][2], (uint32_t)ik->length[i]);
     }
 }
 
@@ -328,6 +396,8 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     unsigned k;
     int changed;
     int tilted;
+    int fit;
+    int flat = 0; /* roll = pitch = 0 (level) */
 
     if (keep == NULL) {
         return sp_inverse_kinematics(platform, pose, ik);
@@ -337,8 +407,10 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     }
     if (!keep->valid || keep->near_of != platform) {
         keep->near = (uint8_t)spi_joints_near(platform);
+        keep->fit = (uint8_t)spi_legs_fit(platform);
         keep->near_of = platform;
     }
+    fit = keep->fit && pose_fits(pose);
     changed = !keep->valid;
     tilted = !keep->valid; /* roll or pitch changed */
     for (k = 0u; k < 3u; ++k) {
@@ -355,18 +427,21 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
     if (changed) {
         /* T's yaw entries; its third column and tilt kept while roll and
          * pitch hold (a turn in yaw alone): spi_rot_from_sincos' T */
-        rot_yaw(keep->sc, keep->tilt, &keep->rot);
+        flat = level(keep->sc);
+        if (flat) {
+            rot_level(keep->sc, &keep->rot);
+        } else {
+            rot_yaw(keep->sc, keep->tilt, &keep->rot);
+        }
         keep->valid = 1u;
     }
     ik->rot = keep->rot;
-    for (k = 0u; k < 6u; ++k) {
-        ik->sc[k] = keep->sc[k];
-    }
+    memcpy(ik->sc, keep->sc, sizeof ik->sc);
     if (changed) {
         /* a turning reference: no arms kept (keeping them would cost the
          * turning ticks) */
         keep->arms_valid = 0u;
-        st = keep->near ? ik_lengths_near(platform, pose, ik) : spi_ik_lengths(platform, pose, ik);
+        st = keep->near ? ik_lengths_near(platform, pose, ik, fit, flat) : spi_ik_lengths(platform, pose, ik);
     } else {
         if (!keep->arms_valid || keep->platform != platform) {
             /* the orientation held a second tick: its arms, as
@@ -383,13 +458,13 @@ sp_status_t sp_inverse_kinematics_kept(const sp_platform_t *platform, const sp_p
             keep->platform = platform;
             keep->arms_valid = 1u;
         }
-        st = ik_legs_kept(platform, pose, (const sp_q24_t(*)[3])keep->arm, ik);
+        st = ik_legs_kept(platform, pose, (const sp_q24_t(*)[3])keep->arm, ik, fit);
         if (st == SP_OK) {
             st = sp_flags_status(keep->arm_flags); /* spi_ik_lengths' status */
         }
     }
-    if (st == SP_OK) {
-        spi_ik_units(ik);
+    if (st == SP_OK && !fit) {
+        spi_ik_units(ik); /* leg_fit made them with the legs */
     }
     return st;
 }
@@ -501,8 +576,40 @@ SPI_INLINE int unit_pair(sp_q30_t s, sp_q30_t c)
     return (uint64_t)((int64_t)s * s + (int64_t)c * c) <= (UINT64_C(1) << 60) + (UINT64_C(1) << 33) + 16u;
 }
 
-sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
-                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+/* sp_body_rates_sc turning in yaw alone (roll and pitch rates and
+ * accelerations 0): its rows with their zero terms left out (each exactly
+ * 0, and every product of two rates is 0), the same sums rounded the same
+ * way. Out of line: the general rows keep their registers. */
+SPI_NOINLINE static sp_status_t body_rates_yaw(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3],
+                                               const sp_q24_t rpy_acc[3], sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    sp_flags_t flags = 0u;
+    const int64_t half = INT64_C(1) << 29;
+    const int64_t dy = rpy_rate[2];
+    const int64_t ay = rpy_acc[2];
+    sp_q30_t sp;
+    sp_q30_t cpsr;
+    sp_q30_t cpcr;
+
+    if (!unit_pair(sc[0], sc[1]) || !unit_pair(sc[2], sc[3])) {
+        return body_rates_wide(sc, rpy_rate, rpy_acc, omega, omega_dot);
+    }
+    sp = sc[2];
+    cpsr = spi_mul30_up(sc[3], sc[0]);
+    cpcr = spi_mul30_up(sc[3], sc[1]);
+    omega[0] = spi_narrow_floor(half - dy * sp, 30u, &flags);
+    omega[1] = spi_narrow_floor(dy * cpsr + half, 30u, &flags);
+    omega[2] = spi_narrow_floor(dy * cpcr + half, 30u, &flags);
+    omega_dot[0] = spi_narrow_floor(half - ay * sp, 30u, &flags);
+    omega_dot[1] = spi_narrow_floor(ay * cpsr + half, 30u, &flags);
+    omega_dot[2] = spi_narrow_floor(ay * cpcr + half, 30u, &flags);
+    return sp_flags_status(flags);
+}
+
+/* sp_body_rates_sc's rows for rates and accelerations not all 0 and not
+ * in yaw alone. */
+SPI_NOINLINE static sp_status_t body_rates_rows(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3],
+                                                const sp_q24_t rpy_acc[3], sp_q24_t omega[3], sp_q24_t omega_dot[3])
 {
     sp_flags_t flags = 0u;
     sp_q30_t sr;
@@ -521,18 +628,6 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     sp_q24_t dy_dr;
     const int64_t half = INT64_C(1) << 29;
 
-    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
-        return SP_E_ARG;
-    }
-    if ((rpy_rate[0] | rpy_rate[1] | rpy_rate[2] | rpy_acc[0] | rpy_acc[1] | rpy_acc[2]) == 0) {
-        /* no turning (a translation, rest): every product below is 0 and
-         * each row rounds to 0 exactly, for any sc */
-        for (unsigned k = 0u; k < 3u; ++k) {
-            omega[k] = 0;
-            omega_dot[k] = 0;
-        }
-        return SP_OK;
-    }
     sr = sc[0];
     cr = sc[1];
     sp = sc[2];
@@ -552,39 +647,62 @@ sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], c
     dr = rpy_rate[0];
     dp = rpy_rate[1];
     dy = rpy_rate[2];
-    if ((rpy_rate[0] | rpy_rate[1] | rpy_acc[0] | rpy_acc[1]) == 0) {
-        /* turning in yaw alone: the rows below with their zero terms
-         * left out (each exactly 0, and every product of two rates is 0),
-         * the same sums rounded the same way */
-        omega[0] = spi_narrow_floor(half - dy * sp, 30u, &flags);
-        omega[1] = spi_narrow_floor(dy * cpsr + half, 30u, &flags);
-        omega[2] = spi_narrow_floor(dy * cpcr + half, 30u, &flags);
-        omega_dot[0] = spi_narrow_floor(half - (int64_t)rpy_acc[2] * sp, 30u, &flags);
-        omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[2] * cpsr + half, 30u, &flags);
-        omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr + half, 30u, &flags);
-        return sp_flags_status(flags);
-    }
     spsr = spi_mul30_up(sp, sr);
     spcr = spi_mul30_up(sp, cr);
 
-    /* eq (10) */
-    omega[0] = spi_narrow_floor(dr * SP_Q30_ONE - dy * sp + half, 30u, &flags);
+    /* eq (10); each subtracted product taken as a product with the
+     * negated sine or cosine (exact: all are within 2^30 + 4 in
+     * magnitude), the same exact sums in multiply-accumulates */
+    omega[0] = spi_narrow_floor(dr * SP_Q30_ONE + dy * -sp + half, 30u, &flags);
     omega[1] = spi_narrow_floor(dp * cr + dy * cpsr + half, 30u, &flags);
-    omega[2] = spi_narrow_floor(dy * cpcr - dp * sr + half, 30u, &flags);
+    omega[2] = spi_narrow_floor(dy * cpcr + dp * -sr + half, 30u, &flags);
 
     /* d/dt of eq (10): the angle accelerations plus the products of rates. */
     dp_dr = spi_narrow_floor(dp * dr + (INT64_C(1) << 23), 24u, &flags); /* products below 2^62 */
     dy_dp = spi_narrow_floor(dy * dp + (INT64_C(1) << 23), 24u, &flags);
     dy_dr = spi_narrow_floor(dy * dr + (INT64_C(1) << 23), 24u, &flags);
     omega_dot[0] = spi_narrow_floor(
-        (int64_t)rpy_acc[0] * SP_Q30_ONE - (int64_t)rpy_acc[2] * sp - (int64_t)dy_dp * cp + half, 30u, &flags);
-    omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[1] * cr - (int64_t)dp_dr * sr + (int64_t)rpy_acc[2] * cpsr -
-                                        (int64_t)dy_dp * spsr + (int64_t)dy_dr * cpcr + half,
+        (int64_t)rpy_acc[0] * SP_Q30_ONE + (int64_t)rpy_acc[2] * -sp + (int64_t)dy_dp * -cp + half, 30u, &flags);
+    omega_dot[1] = spi_narrow_floor((int64_t)rpy_acc[1] * cr + (int64_t)dp_dr * -sr + (int64_t)rpy_acc[2] * cpsr +
+                                        (int64_t)dy_dp * -spsr + (int64_t)dy_dr * cpcr + half,
                                     30u, &flags);
-    omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr - (int64_t)rpy_acc[1] * sr - (int64_t)dp_dr * cr -
-                                        (int64_t)dy_dp * spcr - (int64_t)dy_dr * cpsr + half,
+    omega_dot[2] = spi_narrow_floor((int64_t)rpy_acc[2] * cpcr + (int64_t)rpy_acc[1] * -sr + (int64_t)dp_dr * -cr +
+                                        (int64_t)dy_dp * -spcr + (int64_t)dy_dr * -cpsr + half,
                                     30u, &flags);
     return sp_flags_status(flags);
+}
+
+sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
+                             sp_q24_t omega[3], sp_q24_t omega_dot[3])
+{
+    if (sc == NULL || rpy_rate == NULL || rpy_acc == NULL || omega == NULL || omega_dot == NULL) {
+        return SP_E_ARG;
+    }
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_rate[2] | rpy_acc[0] | rpy_acc[1] | rpy_acc[2]) == 0) {
+        /* no turning (a translation, rest): every product below is 0 and
+         * each row rounds to 0 exactly, for any sc */
+        for (unsigned k = 0u; k < 3u; ++k) {
+            omega[k] = 0;
+            omega_dot[k] = 0;
+        }
+        return SP_OK;
+    }
+    if ((rpy_rate[0] | rpy_rate[1] | rpy_acc[0] | rpy_acc[1]) != 0) {
+        return body_rates_rows(sc, rpy_rate, rpy_acc, omega, omega_dot);
+    }
+    if (level(sc)) {
+        /* turning in yaw alone about the vertical (roll = pitch = 0):
+         * body_rates_yaw's rows with sp = cp sr = 0 and cp cr = 2^30, each
+         * exact: w = yaw rate e_z, dw/dt = yaw acceleration e_z */
+        omega[0] = 0;
+        omega[1] = 0;
+        omega[2] = rpy_rate[2];
+        omega_dot[0] = 0;
+        omega_dot[1] = 0;
+        omega_dot[2] = rpy_acc[2];
+        return SP_OK;
+    }
+    return body_rates_yaw(sc, rpy_rate, rpy_acc, omega, omega_dot);
 }
 
 /* sp_leg_rates' legs for any w (|w_c| up to 2^31): each step rounded and
@@ -712,7 +830,23 @@ sp_status_t sp_jacobian(const sp_ik_t *ik, sp_jacobian_t *jac)
  * 2^-27), so no moment leaves int32 and each is the shift alone. */
 void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac)
 {
-    jacobian_rows(ik, jac, 1, NULL);
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        const int32_t r[3] = {ik->arm[i][0], ik->arm[i][1], ik->arm[i][2]};
+        const int32_t u[3] = {ik->unit[i][0], ik->unit[i][1], ik->unit[i][2]};
+        /* -r_c is exact (|r_c| < 2^26): each moment is one product plus
+         * one product accumulated, the same exact sum as jacobian_rows' */
+        const int32_t nr[3] = {-r[0], -r[1], -r[2]};
+        /* Q30 -> Q28 rounded (ties up) as jacobian_rows, floor((u + 2) /
+         * 4), in one addition: the IK's units are within 2^30 + 3 */
+        jac->j[i][0] = (u[0] + 2) >> 2;
+        jac->j[i][1] = (u[1] + 2) >> 2;
+        jac->j[i][2] = (u[2] + 2) >> 2;
+        jac->j[i][3] = (int32_t)(((int64_t)r[1] * u[2] + (int64_t)nr[2] * u[1] + (INT64_C(1) << 25)) >> 26);
+        jac->j[i][4] = (int32_t)(((int64_t)r[2] * u[0] + (int64_t)nr[0] * u[2] + (INT64_C(1) << 25)) >> 26);
+        jac->j[i][5] = (int32_t)(((int64_t)r[0] * u[1] + (int64_t)nr[1] * u[0] + (INT64_C(1) << 25)) >> 26);
+    }
 }
 
 int spi_joints_near(const sp_platform_t *platform)
@@ -729,4 +863,20 @@ int spi_joints_near(const sp_platform_t *platform)
         }
     }
     return out == 0u;
+}
+
+int spi_legs_fit(const sp_platform_t *platform)
+{
+    uint32_t out = 0u;
+    unsigned i;
+    unsigned c;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        for (c = 0u; c < 3u; ++c) {
+            /* b_c in [-2^27, 2^27) (8 m) exactly when b_c + 2^27 is in
+             * [0, 2^28) */
+            out |= ((uint32_t)platform->base_joint[i][c] + (UINT32_C(1) << 27)) >> 28;
+        }
+    }
+    return out == 0u && spi_joints_near(platform);
 }

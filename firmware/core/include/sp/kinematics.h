@@ -73,6 +73,8 @@ typedef struct {
     const sp_platform_t *near_of;  /**< the platform `near` is of */
     uint8_t near;                  /**< 1 when every platform joint of near_of is within 2 m in each axis
                                         (its Jacobian cannot saturate: sp_setpoints_held skips those tests) */
+    uint8_t fit;                   /**< 1 when near_of also has its base joints within 8 m in each axis: the
+                                        legs of a pose within 16 m cannot overflow (the IK skips those tests) */
     uint8_t arms_valid;            /**< 1 when arm, arm_flags and platform belong to rot */
     uint8_t valid;                 /**< 1 when rpy, sc and rot belong together */
 } sp_orient_keep_t;
@@ -84,8 +86,13 @@ typedef struct {
  * roll and pitch hold); the legs' arms are made
  * once an orientation repeats and kept while it holds (made again for
  * another platform pointer); a turn about the vertical alone (roll =
- * pitch = 0) makes its arms with two products a component instead of
- * three (the third is exactly 0). The sines are a pure function of the angle,
+ * pitch = 0) takes T's yaw entries as yaw's sine and cosine (each
+ * product with cos 0 rounds to its factor) and makes its arms with two
+ * products a component instead of three (the third is exactly 0); a
+ * platform with spi_legs_fit's bounds (joints within 2 m, base joints
+ * within 8 m) at a position within 16 m skips the legs' overflow tests,
+ * which cannot fail, and makes each leg's unit vector in the same pass.
+ * The sines are a pure function of the angle,
  * the arms of T and the platform, so the result is sp_inverse_kinematics'
  * bit for bit (tests/unit/test_kinematics.c); a platform changed in place
  * under the same pointer needs valid set to 0. keep NULL:
@@ -116,7 +123,10 @@ sp_status_t sp_body_rates(const sp_q24_t rpy[3], const sp_q24_t rpy_rate[3], con
  * sp_body_rates from the sines and cosines sc = {sin, cos} of roll, pitch,
  * yaw (Q30, as in sp_ik_t.sc) instead of the angles: no sine is computed.
  * Bit-identical to sp_body_rates for the sines of the same angles (yaw's
- * are not used). Same units, ranges and errors.
+ * are not used). Same units, ranges and errors. Work that cannot change
+ * the result is skipped: no turning gives 0, and a turn in yaw alone at
+ * roll = pitch = 0 (sin 0 = 0, cos 0 = 2^30) gives the yaw rate and
+ * acceleration about e_z exactly, with no product.
  */
 sp_status_t sp_body_rates_sc(const sp_q30_t sc[6], const sp_q24_t rpy_rate[3], const sp_q24_t rpy_acc[3],
                              sp_q24_t omega[3], sp_q24_t omega_dot[3]);
