@@ -407,6 +407,21 @@ static void test_stream_follows_within_limits(void **state)
     assert_int_equal(sp_stream_gains(NULL, 1000u, 0), SP_E_ARG);
 }
 
+/* The filter's step round(v dt / 2^24) (Q48 x Q24 -> Q48): sp_mul64's,
+ * except that its ties are rounded up (not away from zero) while |v dt| <
+ * 2^61 (the firmware's spi_mul64_up; it takes sp_mul64's path beyond):
+ * they differ by 1 at a negative tie alone. */
+static int64_t plain_step(int64_t v, int32_t dt, sp_flags_t *flags)
+{
+    int64_t r = sp_mul64(v, dt, 24u, flags);
+    int64_t ph = (v >> 32) * dt; /* the high word's product, below 2^55 */
+    int tie = (((uint64_t)(v & 0xFFFFFF) * (uint32_t)dt) & 0xFFFFFFu) == 0x800000u;
+    if (tie && (v < 0) != (dt < 0) && ph >= -(INT64_C(1) << 53) && ph < (INT64_C(1) << 53)) {
+        r += 1;
+    }
+    return r;
+}
+
 /* The stream filter's plain reference: its first version, every sum
  * saturating through the public fixed-point functions. */
 static void plain_stream_step(int64_t x[6], int64_t v[6], const sp_pose_t *target, const sp_stream_gains_t *g,
@@ -434,15 +449,15 @@ static void plain_stream_step(int64_t x[6], int64_t v[6], const sp_pose_t *targe
         acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
         v[a] += (int64_t)acmd * g->dt;
         v[a] = v[a] > vmax ? vmax : (v[a] < -vmax ? -vmax : v[a]);
-        x[a] = sp_add64(x[a], sp_mul64(v[a], g->dt, 24u, flags), flags);
+        x[a] = sp_add64(x[a], plain_step(v[a], g->dt, flags), flags);
         *pa = acmd;
         *pv = (sp_q24_t)sp_rshift_round(v[a], 24u);
         *px = sp_narrow(x[a], 24u, flags);
     }
 }
 
-/* sp_stream_step (its fast path for a tick below 1 s and positions below
- * 64 m, and the saturating one) against plain_stream_step bit for bit:
+/* sp_stream_step (its common case in 32-bit steps, and the saturating
+ * general one) against plain_stream_step bit for bit:
  * outputs, state and flags, over random targets near and far (up to the
  * Q24 range), bandwidths, limits and ticks up to 5 s. */
 static void test_stream_step_reference(void **state)
@@ -491,6 +506,74 @@ static void test_stream_step_reference(void **state)
         }
     }
     assert_int_equal(far, 100);
+}
+
+/* One of a few values at the edges of sp_stream_step's common case. */
+static int32_t pick(uint64_t *rng, const int32_t *v, unsigned n)
+{
+    return v[tu_next(rng) % n];
+}
+
+/* sp_stream_step against plain_stream_step at the edges of its common
+ * case (stream_axis_near): states on and next to the rounding ties of x,
+ * v and err (a fraction of one half, one half +- 1 LSB of Q48), a tick of
+ * 0.5 s for the step's own ties, errors and velocities at the 2^23 bound,
+ * limits at 2^30 and 0, velocities at and beyond the limit (the clamp),
+ * positions at the 64 m bound: outputs, state and flags, three ticks from
+ * each state. */
+static void test_stream_step_edges(void **state)
+{
+    (void)state;
+    uint64_t rng = 5;
+    static const int32_t frac[] = {0, 1, 0x7FFFFF, 0x800000, 0x800001, 0xFFFFFF, 0x400000};
+    static const int32_t near[] = {0,        1,        -1,       2,         -2,        0x7FFFFD,
+                                   0x7FFFFE, 0x7FFFFF, 0x800000, -0x7FFFFE, -0x7FFFFF, -0x800000};
+    static const int32_t lims[] = {0, 1, 1 << 22, (1 << 30) - 1, 1 << 30, INT32_MAX, 16777216};
+    static const int32_t xis[] = {0, -1, (1 << 30) - 1, -(1 << 30), 1 << 30, -(1 << 30) - 1, 12345678};
+    static const uint32_t ticks[] = {1000u, 500000u, 999999u, 1000000u};
+    for (int n = 0; n < 4000; ++n) {
+        sp_stream_gains_t g;
+        sp_move_limits_t move;
+        sp_stream_t s;
+        sp_motion_t from, out, want;
+        int64_t x[6], v[6];
+        assert_int_equal(sp_stream_gains(&g, ticks[n % 4], (int32_t)tu_uniform(&rng, 0.5, 11.0) * SP_Q24_ONE), SP_OK);
+        sp_motion_at_rest(&from, &P->home);
+        sp_stream_start(&s, &from);
+        for (int a = 0; a < 6; ++a) {
+            int32_t xi = (n % 3 == 0) ? pick(&rng, xis, 7) : (int32_t)tu_uniform(&rng, -3e7, 3e7);
+            int32_t vi = (n % 2 == 0) ? pick(&rng, near, 12) : (int32_t)tu_uniform(&rng, -1e7, 1e7);
+            move.vel_max[a] = (n % 5 == 0) ? (int32_t)tu_uniform(&rng, 1e5, 5e6) : pick(&rng, lims, 7);
+            move.acc_max[a] = (n % 7 == 0) ? pick(&rng, lims, 7) : (int32_t)tu_uniform(&rng, 1e5, 1e8);
+            move.jerk_max[a] = SP_Q24_ONE;
+            if (n % 11 == 0) {
+                vi = move.vel_max[a] - (int32_t)(tu_next(&rng) % 3u); /* at the limit */
+            }
+            s.x[a] = (int64_t)xi * (INT64_C(1) << 24) + pick(&rng, frac, 7);
+            s.v[a] = (int64_t)vi * (INT64_C(1) << 24) + pick(&rng, frac, 7);
+            s.vq[a] = (int32_t)sp_rshift_round(s.v[a], 24u);
+            int32_t t = (int32_t)((uint32_t)xi + (uint32_t)pick(&rng, near, 12));
+            if (a < 3) {
+                s.target.pos[a] = t;
+            } else {
+                s.target.rpy[a - 3] = t;
+            }
+            x[a] = s.x[a];
+            v[a] = s.v[a];
+        }
+        for (int t = 0; t < 3; ++t) {
+            sp_flags_t f1 = 0u, f2 = 0u;
+            sp_stream_step(&s, &g, &move, &out, &f1);
+            plain_stream_step(x, v, &s.target, &g, &move, &want, &f2);
+            assert_memory_equal(&out, &want, sizeof out);
+            assert_memory_equal(s.x, x, sizeof x);
+            assert_memory_equal(s.v, v, sizeof v);
+            for (int a = 0; a < 6; ++a) {
+                assert_int_equal(s.vq[a], sp_rshift_round(v[a], 24u));
+            }
+            assert_int_equal(f1, f2);
+        }
+    }
 }
 
 /* sp_stream_offer (its anchor with the kept room, tested before the
@@ -1300,6 +1383,7 @@ int main(void)
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),
         cmocka_unit_test(test_stream_step_reference),
+        cmocka_unit_test(test_stream_step_edges),
         cmocka_unit_test(test_stream_offer_rules),
         cmocka_unit_test(test_estimate_cold_warm_and_failure),
         cmocka_unit_test(test_estimate_step_accuracy),

@@ -4,10 +4,12 @@
 
 /* Settled: within 1 um (1 urad) and 1 um/s (1 urad/s), Q24. */
 #define STREAM_SETTLED INT32_C(16)
-/* stream_axis' fast path: a tick below 1 s (dt < 2^24, Q24) and a state
- * position below 64 m (2^54, Q48) */
-#define STREAM_DT_FAST (INT32_C(1) << 24)
-#define STREAM_X_FAST (INT64_C(1) << 54)
+/* stream_axis_near's common case: a tick below 1 s (dt < 2^24, Q24), a
+ * state position below 64 m (2^54, Q48), a velocity limit below 64 m/s
+ * (2^30, Q24) */
+#define STREAM_DT_NEAR (UINT32_C(1) << 24)
+#define STREAM_X_NEAR (INT64_C(1) << 54)
+#define STREAM_V_NEAR (UINT32_C(1) << 30)
 
 sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega)
 {
@@ -144,68 +146,29 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
     return 1;
 }
 
-/* One axis of the filter: target (Q24), state x48, v48 (Q48) and vq
- * (round(v48 / 2^24)), outputs x, v, acc (Q24). Returns 1 when the axis
- * rests on its target (every term 0: outputs written, state kept). */
-SPI_INLINE int stream_at_rest(sp_q24_t target, int64_t x48, int64_t v48, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc)
+/* One axis of the filter, the general way: target (Q24), state x48, v48
+ * (Q48) and vq (round(v48 / 2^24)), outputs x, v, acc (Q24), for any tick
+ * and state; every sum saturates. |v48| <= vmax < 2^55 (clamped below,
+ * and 0 at the start), so its Q24 value fits int32 and v48 + acmd dt
+ * (< 2^56) cannot overflow. Resting on its target (every term 0), the
+ * outputs are written and the state kept. */
+SPI_NOINLINE static void stream_axis_sat(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
+                                         int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v,
+                                         sp_q24_t *acc, sp_flags_t *flags)
 {
-    if (x48 == (int64_t)target * (INT64_C(1) << 24) && v48 == 0) {
+    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+    int64_t t48 = (int64_t)target * (INT64_C(1) << 24);
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t err;
+    int32_t acmd;
+    if (x48 == t48 && v48 == 0) {
         *acc = 0;
         *v = 0;
         *x = target;
-        return 1;
-    }
-    return 0;
-}
-
-/* The common case (sp_stream_step checks it once for all six axes: a tick
- * below 1 s, dt < 2^24, and |x48| below 64 m, 2^54): the same values as
- * stream_axis_sat with no sum that can overflow. |target48 - x48| < 2^55
- * + 2^54; |v48| <= vmax < 2^55 and dt < 2^24, so the step |v48 dt / 2^24|
- * < 2^55 and |x48| stays below 2^56: neither spi_add64 saturates and every
- * rounded value is below 2^62. */
-SPI_INLINE void stream_axis_fast(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
-                                 int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc,
-                                 sp_flags_t *flags)
-{
-    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
-    int64_t x48 = *x48p;
-    int64_t v48 = *v48p;
-    int32_t err;
-    int32_t acmd;
-    if (stream_at_rest(target, x48, v48, x, v, acc)) {
         return;
     }
-    err = spi_sat(spi_round_away((int64_t)target * (INT64_C(1) << 24) - x48, 24u), flags);
-    acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, *vqp, 24u, flags), flags);
-    acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-    v48 += (int64_t)acmd * g->dt; /* Q48 */
-    v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
-    x48 += spi_mul64_up(v48, g->dt, 24u, flags);
-    *v48p = v48;
-    *x48p = x48;
-    *vqp = (sp_q24_t)spi_round_away(v48, 24u);
-    *acc = acmd;
-    *v = *vqp;
-    *x = spi_sat(spi_round_away(x48, 24u), flags);
-}
-
-/* Any tick and position: every sum saturates. |v48| <= vmax < 2^55
- * (clamped below, and 0 at the start), so its Q24 value fits int32 and
- * v48 + acmd dt (< 2^52) cannot overflow. */
-SPI_INLINE void stream_axis_sat(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
-                                int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc,
-                                sp_flags_t *flags)
-{
-    int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
-    int64_t x48 = *x48p;
-    int64_t v48 = *v48p;
-    int32_t err;
-    int32_t acmd;
-    if (stream_at_rest(target, x48, v48, x, v, acc)) {
-        return;
-    }
-    err = spi_narrow_away(spi_add64((int64_t)target * (INT64_C(1) << 24), -x48, flags), 24u, flags);
+    err = spi_narrow_away(spi_add64(t48, -x48, flags), 24u, flags);
     acmd = spi_sub(spi_mul_away(g->w2, err, 24u, flags), spi_mul_away(g->two_w, *vqp, 24u, flags), flags);
     acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
     v48 += (int64_t)acmd * g->dt; /* Q48 */
@@ -219,29 +182,115 @@ SPI_INLINE void stream_axis_sat(sp_q24_t target, int64_t *x48p, int64_t *v48p, i
     *x = spi_narrow_away(x48, 24u, flags);
 }
 
+/* round(a b / 2^24), ties away from zero, for |a b| < 2^62: the rounding's
+ * bias (2^23, less 1 when the product is negative, i.e. when a and b have
+ * opposite signs; a product of 0 rounds to 0 with either) added by the
+ * multiply itself. */
+SPI_INLINE int64_t stream_mul24(int32_t a, int32_t b)
+{
+    int32_t neg = (int32_t)((uint32_t)(a ^ b) >> 31);
+    return ((int64_t)a * b + (INT32_C(0x800000) - neg)) >> 24;
+}
+
+/* floor(v / 2^24) of a Q48 value v with |v| < 2^55 (the Q24 part: it fits
+ * int32), from v's two words. */
+SPI_INLINE int32_t stream_floor24(int64_t v)
+{
+    return (int32_t)(((uint32_t)((uint64_t)v >> 32) << 8) | ((uint32_t)v >> 24));
+}
+
+/* round(v / 2^24), ties away from zero, of that v from i = floor(v / 2^24)
+ * and its fraction f = v mod 2^24: i + 1 when f is above one half, or
+ * exactly one half and i >= 0 (v > 0). */
+SPI_INLINE int32_t stream_round24(int32_t i, uint32_t f)
+{
+    return i + (int32_t)(f + (i >= 0 ? 1u : 0u) > 0x800000u);
+}
+
+/* The same axis in the common case, with the same values and no sum that
+ * can saturate; returns 0 (nothing written) outside it. The common case:
+ * a tick below 1 s (checked by the caller, 0 <= dt < 2^24), |x48| < 2^54
+ * (64 m), |target - x48 / 2^24| and |vq| below 2^23 - 1 (0.5 m, 0.5 m/s),
+ * 0 <= vel_max < 2^30 (64 m/s) and 0 <= amax < 2^30. Then:
+ *  - x48 = xi 2^24 + xf (xi = floor(x48 / 2^24), |xi| < 2^30, 0 <= xf <
+ *    2^24) gives target48 - x48 = d 2^24 - xf with d = target - xi, so
+ *    err = d, or d - 1 when xf is above one half (at one half exactly:
+ *    when d <= 0, ties away from zero), in 32 bits (d wraps only when
+ *    it is beyond 2^30, never into the range tested);
+ *  - |err| <= 2^23 and |vq| < 2^23 bound both products by 2^30 and
+ *    their difference by 2^31 - 128: no saturation;
+ *  - |v48 + acmd dt| < 2^47 + 2^54, so vi = floor(v48 / 2^24) fits int32,
+ *    and -vel_max <= vi < vel_max proves |v48| < vmax (no clamp);
+ *  - v48 = vi 2^24 + vf makes the step round(v48 dt / 2^24) = vi dt +
+ *    round(vf dt / 2^24) (ties up, as spi_mul64_up), both 32 x 32-bit
+ *    products, exact;
+ *  - |step| <= |v48| <= vmax < 2^54, so |x48| stays below 2^55 - 2^24
+ *    and its Q24 value fits int32. */
+SPI_INLINE int stream_axis_near(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
+                                int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc)
+{
+    int64_t x48 = *x48p;
+    int64_t v48 = *v48p;
+    int32_t vq = *vqp;
+    uint32_t xf = (uint32_t)x48 & 0xFFFFFFu;
+    uint32_t vf;
+    int32_t d;
+    int32_t err;
+    int32_t acmd;
+    int32_t vi;
+    if (x48 < -STREAM_X_NEAR || x48 >= STREAM_X_NEAR || ((uint32_t)vel_max | (uint32_t)amax) >= STREAM_V_NEAR) {
+        return 0;
+    }
+    d = (int32_t)((uint32_t)target - (uint32_t)stream_floor24(x48));
+    if ((((uint32_t)d + 0x7FFFFFu) | ((uint32_t)vq + 0x7FFFFFu)) >= 0xFFFFFFu) {
+        return 0;
+    }
+    if (d == 0 && xf == 0u && v48 == 0) { /* at rest on the target */
+        *acc = 0;
+        *v = 0;
+        *x = target;
+        return 1;
+    }
+    err = d - (int32_t)(xf + (d <= 0 ? 1u : 0u) > 0x800000u);
+    acmd = (int32_t)(stream_mul24(g->w2, err) - stream_mul24(g->two_w, vq));
+    acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
+    v48 += (int64_t)acmd * g->dt; /* Q48 */
+    vi = stream_floor24(v48);
+    if ((uint32_t)vi + (uint32_t)vel_max >= 2u * (uint32_t)vel_max) { /* |v48| may reach vmax */
+        int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
+        v48 = v48 > vmax ? vmax : (v48 < -vmax ? -vmax : v48);
+        vi = stream_floor24(v48);
+    }
+    vf = (uint32_t)v48 & 0xFFFFFFu;
+    x48 += (int64_t)vi * g->dt + (int64_t)(((uint64_t)vf * (uint32_t)g->dt + 0x800000u) >> 24);
+    vq = stream_round24(vi, vf);
+    *v48p = v48;
+    *x48p = x48;
+    *vqp = vq;
+    *acc = acmd;
+    *v = vq;
+    *x = stream_round24(stream_floor24(x48), (uint32_t)x48 & 0xFFFFFFu);
+    return 1;
+}
+
 void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_motion_t *m,
                     sp_flags_t *flags)
 {
     unsigned a;
-    int fast = g->dt < STREAM_DT_FAST;
+    int near_dt = (uint32_t)g->dt < STREAM_DT_NEAR; /* a tick below 1 s */
     *flags |= g->flags;
-    for (a = 0u; a < 6u; ++a) {
-        fast &= (s->x[a] < STREAM_X_FAST) & (s->x[a] > -STREAM_X_FAST); /* each axis changes its own x alone */
-    }
-    if (fast) {
-        for (a = 0u; a < 3u; ++a) {
-            stream_axis_fast(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
-                             &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
-            stream_axis_fast(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
-                             move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+    for (a = 0u; a < 3u; ++a) { /* a position and an angle a turn: their fields share the offsets */
+        unsigned r = 3u + a;
+        if (!near_dt || !stream_axis_near(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a],
+                                          move->acc_max[a], g, &m->pose.pos[a], &m->vel[a], &m->acc[a])) {
+            stream_axis_sat(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
+                            &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
         }
-        return;
-    }
-    for (a = 0u; a < 3u; ++a) {
-        stream_axis_sat(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
-                        &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
-        stream_axis_sat(s->target.rpy[a], &s->x[3u + a], &s->v[3u + a], &s->vq[3u + a], move->vel_max[3u + a],
-                        move->acc_max[3u + a], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        if (!near_dt || !stream_axis_near(s->target.rpy[a], &s->x[r], &s->v[r], &s->vq[r], move->vel_max[r],
+                                          move->acc_max[r], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a])) {
+            stream_axis_sat(s->target.rpy[a], &s->x[r], &s->v[r], &s->vq[r], move->vel_max[r], move->acc_max[r], g,
+                            &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
+        }
     }
 }
 
