@@ -585,7 +585,7 @@ static void test_stream_offer_reference(void **state)
     (void)state;
     sp_limits_t lim = default_limits();
     uint64_t rng = 29;
-    int taken = 0, refused = 0, by_ik = 0;
+    int taken = 0, refused = 0, by_ik = 0, out_box = 0;
     for (int n = 0; n < 40; ++n) {
         sp_stream_t s;
         sp_motion_t at_home;
@@ -607,6 +607,7 @@ static void test_stream_offer_reference(void **state)
             int plain = sp_limits_in_workspace(&lim, &t) && (sp_limits_reachable_near(&lim, &ref, ref_len, &t) ||
                                                              sp_limits_legs_reachable(&lim, P, &t, NULL));
             by_ik += plain && !sp_limits_reachable_near(&lim, &ref, ref_len, &t);
+            out_box += !sp_limits_in_workspace(&lim, &t);
             int got = sp_stream_offer(&s, &lim, P, &t, &ref, (k % 5 == 4) ? NULL : ref_len);
             assert_int_equal(got, plain);
             if (got) {
@@ -622,8 +623,8 @@ static void test_stream_offer_reference(void **state)
             assert_memory_equal(&s.target, &want_target, sizeof want_target);
         }
     }
-    printf("offer: %d taken, %d refused, %d by IK\n", taken, refused, by_ik);
-    assert_true(taken > 1500 && refused > 100 && by_ik > 300);
+    printf("offer: %d taken, %d refused, %d by IK, %d outside the box\n", taken, refused, by_ik, out_box);
+    assert_true(taken > 1500 && refused > 100 && by_ik > 300 && out_box > 30);
 }
 
 static void test_stream_offer_rules(void **state)
@@ -653,6 +654,17 @@ static void test_stream_offer_rules(void **state)
     }
     assert_true(room > 0);
     assert_int_equal(s.anchor_room, room);
+    /* and its least room to the workspace box, positions and angles apart */
+    int64_t box[2] = {INT64_MAX, INT64_MAX};
+    for (int a = 0; a < 6; ++a) {
+        int64_t at = sp_pose_axis(&P->home, (sp_axis_t)a);
+        int64_t lo = at - lim.ws_lo[a], hi = lim.ws_hi[a] - at;
+        int64_t r = (lo < hi) ? lo : hi;
+        box[a / 3] = (r < box[a / 3]) ? r : box[a / 3];
+    }
+    assert_true(box[0] > 0 && box[1] > 0);
+    assert_int_equal(s.anchor_box[0], box[0]);
+    assert_int_equal(s.anchor_box[1], box[1]);
     /* far (the bound is not conclusive) but reachable: its own IK decides
      * and it becomes the anchor */
     int found = 0;

@@ -55,30 +55,37 @@ static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
     return 1;
 }
 
-/* sp_limits_reachable_near's bound, split in two so that a base's part is
- * computed once: how far (m, Q24) a leg can move from `base` to `pose`,
- * or -1 when the bound is not conclusive (the same rule, term for term). */
-static int64_t near_delta(const sp_limits_t *lim, const sp_pose_t *base, const sp_pose_t *pose)
+/* How far `pose` is from `base`: the sums over the axes of |pose - base|,
+ * positions (m) and angles (rad), Q24, each below 3 2^32. */
+static void pose_dist(const sp_pose_t *base, const sp_pose_t *pose, uint64_t d[2])
 {
-    uint64_t dpos = 0u;
-    uint64_t drot = 0u;
-    uint64_t delta;
     unsigned k;
+    d[0] = 0u;
+    d[1] = 0u;
     for (k = 0u; k < 3u; ++k) {
-        dpos += spi_dist32(pose->pos[k], base->pos[k]);
-        drot += spi_dist32(pose->rpy[k], base->rpy[k]);
+        d[0] += spi_dist32(pose->pos[k], base->pos[k]);
+        d[1] += spi_dist32(pose->rpy[k], base->rpy[k]);
     }
-    if (drot >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
+}
+
+/* sp_limits_reachable_near's bound, split in two so that a base's part is
+ * computed once: how far (m, Q24) a leg can move over the distances d
+ * (pose_dist), or -1 when the bound is not conclusive (the same rule,
+ * term for term). */
+static int64_t near_delta(const sp_limits_t *lim, const uint64_t d[2])
+{
+    uint64_t delta;
+    if (d[1] >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
         return -1;
     }
-    delta = dpos + (((uint64_t)lim->joint_reach * drot) >> 24) + 5u;
+    delta = d[0] + (((uint64_t)lim->joint_reach * d[1]) >> 24) + 5u;
     return (delta >= (UINT64_C(1) << 31)) ? -1 : (int64_t)delta;
 }
 
 /* ... and the base's part: the least room (m, Q24) of its legs to the
  * stroke limits, min over the legs of l - length_min and length_max - l
  * (negative when a leg is outside). sp_limits_reachable_near(base, length,
- * pose) is near_delta(base, pose) in [0, legs_room(length)]. */
+ * pose) is near_delta(pose_dist(base, pose)) in [0, legs_room(length)]. */
 static int64_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
 {
     int64_t room = INT64_MAX;
@@ -92,47 +99,77 @@ static int64_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
     return room;
 }
 
-static void set_anchor(sp_stream_t *s, const sp_pose_t *pose, int64_t room)
+/* The least room (Q24) of a pose to the workspace box's faces, positions
+ * (room[0], m) and angles (room[1], rad) apart, negative when it is
+ * outside: a pose whose pose_dist from it is within both is inside the
+ * box (no axis moves farther than the sum over its kind). */
+static void box_room(const sp_limits_t *lim, const sp_pose_t *pose, int64_t room[2])
+{
+    unsigned a;
+    room[0] = INT64_MAX;
+    room[1] = INT64_MAX;
+    for (a = 0u; a < 6u; ++a) {
+        int64_t at = sp_pose_axis(pose, (sp_axis_t)a);
+        int64_t lo = at - lim->ws_lo[a];
+        int64_t hi = lim->ws_hi[a] - at;
+        int64_t *r = &room[a / 3u];
+        *r = (lo < *r) ? lo : *r;
+        *r = (hi < *r) ? hi : *r;
+    }
+}
+
+SPI_NOINLINE static void set_anchor(sp_stream_t *s, const sp_limits_t *lim, const sp_pose_t *pose, int64_t room)
 {
     s->anchor = *pose;
     s->anchor_room = room;
+    box_room(lim, pose, s->anchor_box);
     s->anchor_valid = 1u;
 }
 
 /* Is a streamed target reachable (sp_stream_offer's rule)? The anchor's
- * room is kept, so that the targets near it cost the distance alone; the
- * last reference (its legs' room computed here) becomes the anchor when it
- * proves a target. Every test is sufficient (sp_limits_reachable_near), so
- * their order does not change the answer. */
+ * rooms are kept, to its legs' stroke limits and to the workspace box, so
+ * that a target near it costs the distance alone (no leg loop, no box
+ * test); the last reference (its legs' room computed here) becomes the
+ * anchor when it proves a target. Every test is sufficient
+ * (sp_limits_reachable_near; the box room), so their order does not change
+ * the answer. */
 static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *t,
                             const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS])
 {
     sp_q24_t length[SP_LEGS];
+    uint64_t d[2];
     int64_t delta;
+    int anchor_near = 0;
     if (same_pose(t, &s->target)) {
         return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
+    }
+    if (s->anchor_valid) {
+        pose_dist(&s->anchor, t, d);
+        delta = near_delta(lim, d);
+        anchor_near = delta >= 0 && delta <= s->anchor_room;
+        if (anchor_near && (int64_t)d[0] <= s->anchor_box[0] && (int64_t)d[1] <= s->anchor_box[1]) {
+            return 1; /* near the anchor, inside the box */
+        }
     }
     if (!sp_limits_in_workspace(lim, t)) {
         return 0;
     }
-    if (s->anchor_valid) {
-        delta = near_delta(lim, &s->anchor, t);
-        if (delta >= 0 && delta <= s->anchor_room) {
-            return 1;
-        }
+    if (anchor_near) {
+        return 1;
     }
     if (ref_length != NULL) {
         int64_t room = legs_room(lim, ref_length);
-        delta = near_delta(lim, ref_pose, t);
+        pose_dist(ref_pose, t, d);
+        delta = near_delta(lim, d);
         if (delta >= 0 && delta <= room) {
-            set_anchor(s, ref_pose, room);
+            set_anchor(s, lim, ref_pose, room);
             return 1;
         }
     }
     if (!sp_limits_legs_reachable(lim, platform, t, length)) {
         return 0;
     }
-    set_anchor(s, t, legs_room(lim, length));
+    set_anchor(s, lim, t, legs_room(lim, length));
     return 1;
 }
 
