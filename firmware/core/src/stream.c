@@ -237,11 +237,12 @@ SPI_INLINE int32_t stream_floor24(int64_t v)
 }
 
 /* round(v / 2^24), ties away from zero, of that v from i = floor(v / 2^24)
- * and its fraction f = v mod 2^24: i + 1 when f is above one half, or
- * exactly one half and i >= 0 (v > 0). */
+ * and its fraction f = v mod 2^24: spi_round_away's bias (2^23, less 1
+ * when v < 0, i.e. i < 0) added to the fraction alone, whose carry is the
+ * rounding. */
 SPI_INLINE int32_t stream_round24(int32_t i, uint32_t f)
 {
-    return i + (int32_t)(f + (i >= 0 ? 1u : 0u) > 0x800000u);
+    return i + (int32_t)((f + 0x800000u - ((uint32_t)i >> 31)) >> 24);
 }
 
 /* The same axis in the common case, with the same values and no sum that
@@ -264,7 +265,7 @@ SPI_INLINE int32_t stream_round24(int32_t i, uint32_t f)
  *  - |step| <= |v48| <= vmax < 2^54, so |x48| stays below 2^55 - 2^24
  *    and its Q24 value fits int32. */
 SPI_INLINE int stream_axis_near(sp_q24_t target, int64_t *x48p, int64_t *v48p, int32_t *vqp, int32_t vel_max,
-                                int32_t amax, const sp_stream_gains_t *g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc)
+                                int32_t amax, sp_stream_gains_t g, sp_q24_t *x, sp_q24_t *v, sp_q24_t *acc)
 {
     int64_t x48 = *x48p;
     int64_t v48 = *v48p;
@@ -288,10 +289,10 @@ SPI_INLINE int stream_axis_near(sp_q24_t target, int64_t *x48p, int64_t *v48p, i
         *x = target;
         return 1;
     }
-    err = d - (int32_t)(xf + (d <= 0 ? 1u : 0u) > 0x800000u);
-    acmd = (int32_t)(stream_mul24(g->w2, err) - stream_mul24(g->two_w, vq));
+    err = d - (int32_t)((xf + 0x7FFFFFu + ((uint32_t)(d - 1) >> 31)) >> 24); /* the fraction rounds d down */
+    acmd = (int32_t)(stream_mul24(g.w2, err) - stream_mul24(g.two_w, vq));
     acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
-    v48 += (int64_t)acmd * g->dt; /* Q48 */
+    v48 += (int64_t)acmd * g.dt; /* Q48 */
     vi = stream_floor24(v48);
     if ((uint32_t)vi + (uint32_t)vel_max >= 2u * (uint32_t)vel_max) { /* |v48| may reach vmax */
         int64_t vmax = (int64_t)vel_max * (INT64_C(1) << 24);
@@ -299,7 +300,7 @@ SPI_INLINE int stream_axis_near(sp_q24_t target, int64_t *x48p, int64_t *v48p, i
         vi = stream_floor24(v48);
     }
     vf = (uint32_t)v48 & 0xFFFFFFu;
-    x48 += (int64_t)vi * g->dt + (int64_t)(((uint64_t)vf * (uint32_t)g->dt + 0x800000u) >> 24);
+    x48 += (int64_t)vi * g.dt + (int64_t)(((uint64_t)vf * (uint32_t)g.dt + 0x800000u) >> 24);
     vq = stream_round24(vi, vf);
     *v48p = v48;
     *x48p = x48;
@@ -314,17 +315,18 @@ void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_li
                     sp_flags_t *flags)
 {
     unsigned a;
-    int near_dt = (uint32_t)g->dt < STREAM_DT_NEAR; /* a tick below 1 s */
+    sp_stream_gains_t gv = *g;                      /* read once */
+    int near_dt = (uint32_t)gv.dt < STREAM_DT_NEAR; /* a tick below 1 s */
     *flags |= g->flags;
     for (a = 0u; a < 3u; ++a) { /* a position and an angle a turn: their fields share the offsets */
         unsigned r = 3u + a;
         if (!near_dt || !stream_axis_near(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a],
-                                          move->acc_max[a], g, &m->pose.pos[a], &m->vel[a], &m->acc[a])) {
+                                          move->acc_max[a], gv, &m->pose.pos[a], &m->vel[a], &m->acc[a])) {
             stream_axis_sat(s->target.pos[a], &s->x[a], &s->v[a], &s->vq[a], move->vel_max[a], move->acc_max[a], g,
                             &m->pose.pos[a], &m->vel[a], &m->acc[a], flags);
         }
         if (!near_dt || !stream_axis_near(s->target.rpy[a], &s->x[r], &s->v[r], &s->vq[r], move->vel_max[r],
-                                          move->acc_max[r], g, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a])) {
+                                          move->acc_max[r], gv, &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a])) {
             stream_axis_sat(s->target.rpy[a], &s->x[r], &s->v[r], &s->vq[r], move->vel_max[r], move->acc_max[r], g,
                             &m->pose.rpy[a], &m->rpy_rate[a], &m->rpy_acc[a], flags);
         }
