@@ -71,22 +71,30 @@ static void pose_dist(const sp_pose_t *base, const sp_pose_t *pose, uint64_t d[2
 /* sp_limits_reachable_near's bound, split in two so that a base's part is
  * computed once: how far (m, Q24) a leg can move over the distances d
  * (pose_dist), or -1 when the bound is not conclusive (the same rule,
- * term for term). */
-static int64_t near_delta(const sp_limits_t *lim, const uint64_t d[2])
+ * term for term; a conclusive bound is below 2^31, and so are then both
+ * distances). */
+static int32_t near_delta(const sp_limits_t *lim, const uint64_t d[2])
 {
     uint64_t delta;
     if (d[1] >= (UINT64_C(1) << 31) || lim->joint_reach == UINT32_MAX) {
         return -1;
     }
     delta = d[0] + (((uint64_t)lim->joint_reach * d[1]) >> 24) + 5u;
-    return (delta >= (UINT64_C(1) << 31)) ? -1 : (int64_t)delta;
+    return (delta >= (UINT64_C(1) << 31)) ? -1 : (int32_t)delta;
+}
+
+/* A room (Q24) saturated to int32: beyond, it proves every bound that can
+ * be tested against it (all below 2^31), or none. */
+static int32_t room32(int64_t room)
+{
+    return (room > INT32_MAX) ? INT32_MAX : (room < INT32_MIN) ? INT32_MIN : (int32_t)room;
 }
 
 /* ... and the base's part: the least room (m, Q24) of its legs to the
  * stroke limits, min over the legs of l - length_min and length_max - l
  * (negative when a leg is outside). sp_limits_reachable_near(base, length,
  * pose) is near_delta(pose_dist(base, pose)) in [0, legs_room(length)]. */
-static int64_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
+static int32_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
 {
     int64_t room = INT64_MAX;
     unsigned k;
@@ -96,29 +104,30 @@ static int64_t legs_room(const sp_limits_t *lim, const sp_q24_t length[SP_LEGS])
         room = (lo < room) ? lo : room;
         room = (hi < room) ? hi : room;
     }
-    return room;
+    return room32(room);
 }
 
 /* The least room (Q24) of a pose to the workspace box's faces, positions
  * (room[0], m) and angles (room[1], rad) apart, negative when it is
  * outside: a pose whose pose_dist from it is within both is inside the
  * box (no axis moves farther than the sum over its kind). */
-static void box_room(const sp_limits_t *lim, const sp_pose_t *pose, int64_t room[2])
+static void box_room(const sp_limits_t *lim, const sp_pose_t *pose, int32_t room[2])
 {
+    int64_t r[2] = {INT64_MAX, INT64_MAX};
     unsigned a;
-    room[0] = INT64_MAX;
-    room[1] = INT64_MAX;
     for (a = 0u; a < 6u; ++a) {
         int64_t at = sp_pose_axis(pose, (sp_axis_t)a);
         int64_t lo = at - lim->ws_lo[a];
         int64_t hi = lim->ws_hi[a] - at;
-        int64_t *r = &room[a / 3u];
-        *r = (lo < *r) ? lo : *r;
-        *r = (hi < *r) ? hi : *r;
+        int64_t *k = &r[a / 3u];
+        *k = (lo < *k) ? lo : *k;
+        *k = (hi < *k) ? hi : *k;
     }
+    room[0] = room32(r[0]);
+    room[1] = room32(r[1]);
 }
 
-SPI_NOINLINE static void set_anchor(sp_stream_t *s, const sp_limits_t *lim, const sp_pose_t *pose, int64_t room)
+SPI_NOINLINE static void set_anchor(sp_stream_t *s, const sp_limits_t *lim, const sp_pose_t *pose, int32_t room)
 {
     s->anchor = *pose;
     s->anchor_room = room;
@@ -138,7 +147,7 @@ static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_pla
 {
     sp_q24_t length[SP_LEGS];
     uint64_t d[2];
-    int64_t delta;
+    int32_t delta;
     int anchor_near = 0;
     if (same_pose(t, &s->target)) {
         return 1; /* the target in force (checked when it was taken, or the reference STREAM began at) */
@@ -147,7 +156,7 @@ static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_pla
         pose_dist(&s->anchor, t, d);
         delta = near_delta(lim, d);
         anchor_near = delta >= 0 && delta <= s->anchor_room;
-        if (anchor_near && (int64_t)d[0] <= s->anchor_box[0] && (int64_t)d[1] <= s->anchor_box[1]) {
+        if (anchor_near && (int32_t)d[0] <= s->anchor_box[0] && (int32_t)d[1] <= s->anchor_box[1]) {
             return 1; /* near the anchor, inside the box */
         }
     }
@@ -158,7 +167,7 @@ static int target_reachable(sp_stream_t *s, const sp_limits_t *lim, const sp_pla
         return 1;
     }
     if (ref_length != NULL) {
-        int64_t room = legs_room(lim, ref_length);
+        int32_t room = legs_room(lim, ref_length);
         pose_dist(ref_pose, t, d);
         delta = near_delta(lim, d);
         if (delta >= 0 && delta <= room) {

@@ -32,9 +32,10 @@ typedef struct {
     sp_pose_t target;    /**< the target in force */
     sp_pose_t anchor;    /**< a pose whose leg lengths are known: the last reference that proved a target by
                               sp_limits_reachable_near, or the last streamed target whose IK was computed */
-    int64_t anchor_room; /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24 */
-    int64_t anchor_box[2]; /**< its least room to the workspace box's faces (sp_limits_t), positions (m) and
-                                angles (rad), Q24; negative when it is outside */
+    int32_t anchor_room; /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24,
+                                saturated to int32 */
+    int32_t anchor_box[2]; /**< its least room to the workspace box's faces (sp_limits_t), positions (m) and
+                                angles (rad), Q24, saturated to int32; negative when it is outside */
     uint8_t anchor_valid;  /**< 1 once anchor holds a pose */
     uint8_t stopping;      /**< 1 after sp_stream_stop: settling on the home pose */
 } sp_stream_t;
