@@ -517,7 +517,8 @@ static int32_t pick(uint64_t *rng, const int32_t *v, unsigned n)
 /* sp_stream_step against plain_stream_step at the edges of its common
  * case (stream_axis_near): states on and next to the rounding ties of x,
  * v and err (a fraction of one half, one half +- 1 LSB of Q48), a tick of
- * 0.5 s for the step's own ties, errors and velocities at the 2^23 bound,
+ * 0.5 s for the step's own ties, errors at the 2^22 bound and velocities
+ * at the 2^23 one,
  * limits at 2^30 and 0, velocities at and beyond the limit (the clamp),
  * positions at the 64 m bound: outputs, state and flags, three ticks from
  * each state. */
@@ -526,8 +527,8 @@ static void test_stream_step_edges(void **state)
     (void)state;
     uint64_t rng = 5;
     static const int32_t frac[] = {0, 1, 0x7FFFFF, 0x800000, 0x800001, 0xFFFFFF, 0x400000};
-    static const int32_t near[] = {0,        1,        -1,       2,         -2,        0x7FFFFD,
-                                   0x7FFFFE, 0x7FFFFF, 0x800000, -0x7FFFFE, -0x7FFFFF, -0x800000};
+    static const int32_t near[] = {0,         1,         -1,       2,        -2,        0x3FFFFF, 0x400000,
+                                   -0x400000, -0x400001, 0x7FFFFF, 0x800000, -0x800000, -0x800001};
     static const int32_t lims[] = {0, 1, 1 << 22, (1 << 30) - 1, 1 << 30, INT32_MAX, 16777216};
     static const int32_t xis[] = {0, -1, (1 << 30) - 1, -(1 << 30), 1 << 30, -(1 << 30) - 1, 12345678};
     static const uint32_t ticks[] = {1000u, 500000u, 999999u, 1000000u};
@@ -537,12 +538,13 @@ static void test_stream_step_edges(void **state)
         sp_stream_t s;
         sp_motion_t from, out, want;
         int64_t x[6], v[6];
-        assert_int_equal(sp_stream_gains(&g, ticks[n % 4], (int32_t)tu_uniform(&rng, 0.5, 11.0) * SP_Q24_ONE), SP_OK);
+        int32_t omega = (int32_t)tu_uniform(&rng, 0.5, 11.3) * SP_Q24_ONE; /* w^2 up to 121, near 2^31 in Q24 */
+        assert_int_equal(sp_stream_gains(&g, ticks[n % 4], (n % 6 == 5) ? -omega : omega), SP_OK);
         sp_motion_at_rest(&from, &P->home);
         sp_stream_start(&s, &from);
         for (int a = 0; a < 6; ++a) {
             int32_t xi = (n % 3 == 0) ? pick(&rng, xis, 7) : (int32_t)tu_uniform(&rng, -3e7, 3e7);
-            int32_t vi = (n % 2 == 0) ? pick(&rng, near, 12) : (int32_t)tu_uniform(&rng, -1e7, 1e7);
+            int32_t vi = (n % 2 == 0) ? pick(&rng, near, 13) : (int32_t)tu_uniform(&rng, -1e7, 1e7);
             move.vel_max[a] = (n % 5 == 0) ? (int32_t)tu_uniform(&rng, 1e5, 5e6) : pick(&rng, lims, 7);
             move.acc_max[a] = (n % 7 == 0) ? pick(&rng, lims, 7) : (int32_t)tu_uniform(&rng, 1e5, 1e8);
             move.jerk_max[a] = SP_Q24_ONE;
@@ -552,7 +554,7 @@ static void test_stream_step_edges(void **state)
             s.x[a] = (int64_t)xi * (INT64_C(1) << 24) + pick(&rng, frac, 7);
             s.v[a] = (int64_t)vi * (INT64_C(1) << 24) + pick(&rng, frac, 7);
             s.vq[a] = (int32_t)sp_rshift_round(s.v[a], 24u);
-            int32_t t = (int32_t)((uint32_t)xi + (uint32_t)pick(&rng, near, 12));
+            int32_t t = (int32_t)((uint32_t)xi + (uint32_t)pick(&rng, near, 13));
             if (a < 3) {
                 s.target.pos[a] = t;
             } else {

@@ -257,15 +257,16 @@ SPI_INLINE int32_t stream_round24(int32_t i, uint32_t f)
 /* The same axis in the common case, with the same values and no sum that
  * can saturate; returns 0 (nothing written) outside it. The common case:
  * a tick below 1 s (checked by the caller, 0 <= dt < 2^24), |x48| < 2^54
- * (64 m), |target - x48 / 2^24| and |vq| below 2^23 - 1 (0.5 m, 0.5 m/s),
- * 0 <= vel_max < 2^30 (64 m/s) and 0 <= amax < 2^30. Then:
+ * (64 m), -2^22 <= target - floor(x48 / 2^24) < 2^22 (0.25 m),
+ * -2^23 <= vq < 2^23 (0.5 m/s), 0 <= vel_max < 2^30 (64 m/s) and
+ * 0 <= amax < 2^30. Then:
  *  - x48 = xi 2^24 + xf (xi = floor(x48 / 2^24), |xi| < 2^30, 0 <= xf <
  *    2^24) gives target48 - x48 = d 2^24 - xf with d = target - xi, so
  *    err = d, or d - 1 when xf is above one half (at one half exactly:
  *    when d <= 0, ties away from zero), in 32 bits (d wraps only when
  *    it is beyond 2^30, never into the range tested);
- *  - |err| <= 2^23 and |vq| < 2^23 bound both products by 2^30 and
- *    their difference by 2^31 - 128: no saturation;
+ *  - |err| <= 2^22 + 1 and |vq| <= 2^23 bound the products by 2^29 + 2^7
+ *    and 2^30, their difference below 2^31: no saturation;
  *  - |v48 + acmd dt| < 2^47 + 2^54, so vi = floor(v48 / 2^24) fits int32,
  *    and -vel_max <= vi < vel_max proves |v48| < vmax (no clamp);
  *  - v48 = vi 2^24 + vf makes the step round(v48 dt / 2^24) = vi dt +
@@ -289,7 +290,7 @@ SPI_INLINE int stream_axis_near(sp_q24_t target, int64_t *x48p, int64_t *v48p, i
         return 0;
     }
     d = (int32_t)((uint32_t)target - (uint32_t)stream_floor24(x48));
-    if ((((uint32_t)d + 0x7FFFFFu) | ((uint32_t)vq + 0x7FFFFFu)) >= 0xFFFFFFu) {
+    if ((((uint32_t)d + 0x400000u) | (((uint32_t)vq + 0x800000u) >> 1)) >= 0x800000u) { /* d, vq outside the bounds */
         return 0;
     }
     if (d == 0 && xf == 0u && v48 == 0) { /* at rest on the target */

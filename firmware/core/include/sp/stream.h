@@ -67,9 +67,9 @@ void sp_stream_stop(sp_stream_t *s, const sp_pose_t *home);
  * (`ref_pose` with its IK lengths `ref_length`, NULL when they are not
  * known), which then becomes the anchor, or else by the target's own IK
  * (sp_limits_pose_reachable), whose target then becomes the anchor. The
- * anchor keeps its legs' room, so a target near it costs no leg loop; the
- * bound is sufficient, so the order of the tests does not change the
- * answer.
+ * anchor keeps its legs' room and its room to the workspace box, so a
+ * target near it costs neither a leg loop nor the box test; every bound is
+ * sufficient, so the order of the tests does not change the answer.
  */
 int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *target,
                     const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS]);
@@ -79,8 +79,14 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
  * the reference of this tick: pose, velocity, acceleration, Q24. The filter
  * keeps no copy of it (the controller has it written where it is used).
  * Axis a's velocity and acceleration are limited to move->vel_max[a] and
- * move->acc_max[a]. Intermediates saturate and set SP_FLAG_OVERFLOW in
- * *flags (never NULL), as do the gains' flags.
+ * move->acc_max[a]. Per axis: err = round(target - x), acc =
+ * clamp(round(w^2 err) - round(2 w vq)), v += acc dt (clamped), x +=
+ * round(v dt) (Q48; ties up while |v dt| < 2^61, else away from zero),
+ * outputs rounded to Q24, ties away from zero. Intermediates saturate and
+ * set SP_FLAG_OVERFLOW in *flags (never NULL), as do the gains' flags. In
+ * the common case (a tick below 1 s, positions below 64 m, error and
+ * velocity below 0.5, limits below 2^30) the same values come from 32-bit
+ * steps, none of which can saturate.
  */
 void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_motion_t *out,
                     sp_flags_t *flags);
