@@ -405,6 +405,16 @@ static void test_stream_follows_within_limits(void **state)
     sp_stream_step(&s, &g, &cfg.move, &out, &flags);
     assert_int_equal(flags, SP_FLAG_OVERFLOW);
     assert_int_equal(sp_stream_gains(NULL, 1000u, 0), SP_E_ARG);
+    /* a tick of 128 s or more: dt saturates (flagged), never wraps */
+    assert_int_equal(sp_stream_gains(&g, 127999999u, SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, 0u);
+    assert_int_equal(g.dt, 2147483631); /* floor(127999999 2^24 / 10^6) */
+    assert_int_equal(sp_stream_gains(&g, 128000000u, SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, SP_FLAG_OVERFLOW);
+    assert_int_equal(g.dt, INT32_MAX);
+    assert_int_equal(sp_stream_gains(&g, UINT32_MAX, SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, SP_FLAG_OVERFLOW);
+    assert_int_equal(g.dt, INT32_MAX);
 }
 
 /* The filter's step round(v dt / 2^24) (Q48 x Q24 -> Q48): sp_mul64's,

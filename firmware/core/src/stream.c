@@ -10,6 +10,8 @@
 #define STREAM_DT_NEAR (UINT32_C(1) << 24)
 #define STREAM_X_NEAR (INT64_C(1) << 54)
 #define STREAM_V_NEAR (UINT32_C(1) << 30)
+/* The tick whose dt (Q24 s) reaches 2^31: 128 s */
+#define STREAM_TICK_MAX_US UINT32_C(128000000)
 
 sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega)
 {
@@ -17,8 +19,12 @@ sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t ome
         return SP_E_ARG;
     }
     g->flags = 0u;
-    /* tick_us 2^24 / 10^6 < 2^32 / 10^6 2^24 fits 32 bits for any tick_us */
-    g->dt = (int32_t)spi_udiv64_32((uint64_t)tick_us << 24, 1000000u, NULL);
+    if (tick_us >= STREAM_TICK_MAX_US) { /* dt would leave int32 */
+        g->dt = INT32_MAX;
+        g->flags |= SP_FLAG_OVERFLOW;
+    } else { /* tick_us 2^24 < 2^31 10^6: the quotient fits int32 */
+        g->dt = (int32_t)spi_udiv64_32((uint64_t)tick_us << 24, 1000000u, NULL);
+    }
     g->w2 = spi_mul_away(omega, omega, 24u, &g->flags);
     g->two_w = spi_add(omega, omega, &g->flags);
     return SP_OK;

@@ -41,11 +41,11 @@ typedef struct {
 } sp_stream_t;
 
 /**
- * The gains for a tick of tick_us microseconds (any uint32: dt =
- * tick_us 2^24 / 10^6 fits 32 bits) and a bandwidth omega (rad/s, Q24).
- * omega^2 and 2 omega saturate at the Q24 range and set SP_FLAG_OVERFLOW
- * in g->flags, which every sp_stream_step then passes on. SP_E_ARG on NULL,
- * else SP_OK.
+ * The gains for a tick of tick_us microseconds (dt = tick_us 2^24 / 10^6,
+ * truncated) and a bandwidth omega (rad/s, Q24). dt (from a tick of 128 s
+ * on), omega^2 and 2 omega saturate at the Q24 range and set
+ * SP_FLAG_OVERFLOW in g->flags, which every sp_stream_step then passes on.
+ * SP_E_ARG on NULL, else SP_OK.
  */
 sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega);
 
