@@ -405,6 +405,31 @@ static void test_stream_follows_within_limits(void **state)
     sp_stream_step(&s, &g, &cfg.move, &out, &flags);
     assert_int_equal(flags, SP_FLAG_OVERFLOW);
     assert_int_equal(sp_stream_gains(NULL, 1000u, 0), SP_E_ARG);
+    /* a tick of 128 s or more: dt saturates (flagged), never wraps */
+    assert_int_equal(sp_stream_gains(&g, 127999999u, SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, 0u);
+    assert_int_equal(g.dt, 2147483631); /* floor(127999999 2^24 / 10^6) */
+    assert_int_equal(sp_stream_gains(&g, 128000000u, SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, SP_FLAG_OVERFLOW);
+    assert_int_equal(g.dt, INT32_MAX);
+    assert_int_equal(sp_stream_gains(&g, UINT32_MAX, SP_Q24_ONE), SP_OK);
+    assert_int_equal(g.flags, SP_FLAG_OVERFLOW);
+    assert_int_equal(g.dt, INT32_MAX);
+}
+
+/* The filter's step round(v dt / 2^24) (Q48 x Q24 -> Q48): sp_mul64's,
+ * except that its ties are rounded up (not away from zero) while |v dt| <
+ * 2^61 (the firmware's spi_mul64_up; it takes sp_mul64's path beyond):
+ * they differ by 1 at a negative tie alone. */
+static int64_t plain_step(int64_t v, int32_t dt, sp_flags_t *flags)
+{
+    int64_t r = sp_mul64(v, dt, 24u, flags);
+    int64_t ph = (v >> 32) * dt; /* the high word's product, below 2^55 */
+    int tie = (((uint64_t)(v & 0xFFFFFF) * (uint32_t)dt) & 0xFFFFFFu) == 0x800000u;
+    if (tie && (v < 0) != (dt < 0) && ph >= -(INT64_C(1) << 53) && ph < (INT64_C(1) << 53)) {
+        r += 1;
+    }
+    return r;
 }
 
 /* The stream filter's plain reference: its first version, every sum
@@ -434,15 +459,15 @@ static void plain_stream_step(int64_t x[6], int64_t v[6], const sp_pose_t *targe
         acmd = acmd > amax ? amax : (acmd < -amax ? -amax : acmd);
         v[a] += (int64_t)acmd * g->dt;
         v[a] = v[a] > vmax ? vmax : (v[a] < -vmax ? -vmax : v[a]);
-        x[a] = sp_add64(x[a], sp_mul64(v[a], g->dt, 24u, flags), flags);
+        x[a] = sp_add64(x[a], plain_step(v[a], g->dt, flags), flags);
         *pa = acmd;
         *pv = (sp_q24_t)sp_rshift_round(v[a], 24u);
         *px = sp_narrow(x[a], 24u, flags);
     }
 }
 
-/* sp_stream_step (its fast path for a tick below 1 s and positions below
- * 64 m, and the saturating one) against plain_stream_step bit for bit:
+/* sp_stream_step (its common case in 32-bit steps, and the saturating
+ * general one) against plain_stream_step bit for bit:
  * outputs, state and flags, over random targets near and far (up to the
  * Q24 range), bandwidths, limits and ticks up to 5 s. */
 static void test_stream_step_reference(void **state)
@@ -493,6 +518,76 @@ static void test_stream_step_reference(void **state)
     assert_int_equal(far, 100);
 }
 
+/* One of a few values at the edges of sp_stream_step's common case. */
+static int32_t pick(uint64_t *rng, const int32_t *v, unsigned n)
+{
+    return v[tu_next(rng) % n];
+}
+
+/* sp_stream_step against plain_stream_step at the edges of its common
+ * case (stream_axis_near): states on and next to the rounding ties of x,
+ * v and err (a fraction of one half, one half +- 1 LSB of Q48), a tick of
+ * 0.5 s for the step's own ties, errors at the 2^22 bound and velocities
+ * at the 2^23 one,
+ * limits at 2^30 and 0, velocities at and beyond the limit (the clamp),
+ * positions at the 64 m bound: outputs, state and flags, three ticks from
+ * each state. */
+static void test_stream_step_edges(void **state)
+{
+    (void)state;
+    uint64_t rng = 5;
+    static const int32_t frac[] = {0, 1, 0x7FFFFF, 0x800000, 0x800001, 0xFFFFFF, 0x400000};
+    static const int32_t near[] = {0,         1,         -1,       2,        -2,        0x3FFFFF, 0x400000,
+                                   -0x400000, -0x400001, 0x7FFFFF, 0x800000, -0x800000, -0x800001};
+    static const int32_t lims[] = {0, 1, 1 << 22, (1 << 30) - 1, 1 << 30, INT32_MAX, 16777216};
+    static const int32_t xis[] = {0, -1, (1 << 30) - 1, -(1 << 30), 1 << 30, -(1 << 30) - 1, 12345678};
+    static const uint32_t ticks[] = {1000u, 500000u, 999999u, 1000000u};
+    for (int n = 0; n < 4000; ++n) {
+        sp_stream_gains_t g;
+        sp_move_limits_t move;
+        sp_stream_t s;
+        sp_motion_t from, out, want;
+        int64_t x[6], v[6];
+        int32_t omega = (int32_t)tu_uniform(&rng, 0.5, 11.3) * SP_Q24_ONE; /* w^2 up to 121, near 2^31 in Q24 */
+        assert_int_equal(sp_stream_gains(&g, ticks[n % 4], (n % 6 == 5) ? -omega : omega), SP_OK);
+        sp_motion_at_rest(&from, &P->home);
+        sp_stream_start(&s, &from);
+        for (int a = 0; a < 6; ++a) {
+            int32_t xi = (n % 3 == 0) ? pick(&rng, xis, 7) : (int32_t)tu_uniform(&rng, -3e7, 3e7);
+            int32_t vi = (n % 2 == 0) ? pick(&rng, near, 13) : (int32_t)tu_uniform(&rng, -1e7, 1e7);
+            move.vel_max[a] = (n % 5 == 0) ? (int32_t)tu_uniform(&rng, 1e5, 5e6) : pick(&rng, lims, 7);
+            move.acc_max[a] = (n % 7 == 0) ? pick(&rng, lims, 7) : (int32_t)tu_uniform(&rng, 1e5, 1e8);
+            move.jerk_max[a] = SP_Q24_ONE;
+            if (n % 11 == 0) {
+                vi = move.vel_max[a] - (int32_t)(tu_next(&rng) % 3u); /* at the limit */
+            }
+            s.x[a] = (int64_t)xi * (INT64_C(1) << 24) + pick(&rng, frac, 7);
+            s.v[a] = (int64_t)vi * (INT64_C(1) << 24) + pick(&rng, frac, 7);
+            s.vq[a] = (int32_t)sp_rshift_round(s.v[a], 24u);
+            int32_t t = (int32_t)((uint32_t)xi + (uint32_t)pick(&rng, near, 13));
+            if (a < 3) {
+                s.target.pos[a] = t;
+            } else {
+                s.target.rpy[a - 3] = t;
+            }
+            x[a] = s.x[a];
+            v[a] = s.v[a];
+        }
+        for (int t = 0; t < 3; ++t) {
+            sp_flags_t f1 = 0u, f2 = 0u;
+            sp_stream_step(&s, &g, &move, &out, &f1);
+            plain_stream_step(x, v, &s.target, &g, &move, &want, &f2);
+            assert_memory_equal(&out, &want, sizeof out);
+            assert_memory_equal(s.x, x, sizeof x);
+            assert_memory_equal(s.v, v, sizeof v);
+            for (int a = 0; a < 6; ++a) {
+                assert_int_equal(s.vq[a], sp_rshift_round(v[a], 24u));
+            }
+            assert_int_equal(f1, f2);
+        }
+    }
+}
+
 /* sp_stream_offer (its anchor with the kept room, tested before the
  * reference) against the plain rule, sp_limits_reachable_near around the
  * reference or else the target's own IK, over random walks of targets that
@@ -502,7 +597,7 @@ static void test_stream_offer_reference(void **state)
     (void)state;
     sp_limits_t lim = default_limits();
     uint64_t rng = 29;
-    int taken = 0, refused = 0, by_ik = 0;
+    int taken = 0, refused = 0, by_ik = 0, out_box = 0;
     for (int n = 0; n < 40; ++n) {
         sp_stream_t s;
         sp_motion_t at_home;
@@ -524,6 +619,7 @@ static void test_stream_offer_reference(void **state)
             int plain = sp_limits_in_workspace(&lim, &t) && (sp_limits_reachable_near(&lim, &ref, ref_len, &t) ||
                                                              sp_limits_legs_reachable(&lim, P, &t, NULL));
             by_ik += plain && !sp_limits_reachable_near(&lim, &ref, ref_len, &t);
+            out_box += !sp_limits_in_workspace(&lim, &t);
             int got = sp_stream_offer(&s, &lim, P, &t, &ref, (k % 5 == 4) ? NULL : ref_len);
             assert_int_equal(got, plain);
             if (got) {
@@ -539,8 +635,8 @@ static void test_stream_offer_reference(void **state)
             assert_memory_equal(&s.target, &want_target, sizeof want_target);
         }
     }
-    printf("offer: %d taken, %d refused, %d by IK\n", taken, refused, by_ik);
-    assert_true(taken > 1500 && refused > 100 && by_ik > 300);
+    printf("offer: %d taken, %d refused, %d by IK, %d outside the box\n", taken, refused, by_ik, out_box);
+    assert_true(taken > 1500 && refused > 100 && by_ik > 300 && out_box > 30);
 }
 
 static void test_stream_offer_rules(void **state)
@@ -570,6 +666,17 @@ static void test_stream_offer_rules(void **state)
     }
     assert_true(room > 0);
     assert_int_equal(s.anchor_room, room);
+    /* and its least room to the workspace box, positions and angles apart */
+    int64_t box[2] = {INT64_MAX, INT64_MAX};
+    for (int a = 0; a < 6; ++a) {
+        int64_t at = sp_pose_axis(&P->home, (sp_axis_t)a);
+        int64_t lo = at - lim.ws_lo[a], hi = lim.ws_hi[a] - at;
+        int64_t r = (lo < hi) ? lo : hi;
+        box[a / 3] = (r < box[a / 3]) ? r : box[a / 3];
+    }
+    assert_true(box[0] > 0 && box[1] > 0);
+    assert_int_equal(s.anchor_box[0], box[0]);
+    assert_int_equal(s.anchor_box[1], box[1]);
     /* far (the bound is not conclusive) but reachable: its own IK decides
      * and it becomes the anchor */
     int found = 0;
@@ -1300,6 +1407,7 @@ int main(void)
         cmocka_unit_test(test_limits_setpoints_and_measured),
         cmocka_unit_test(test_stream_follows_within_limits),
         cmocka_unit_test(test_stream_step_reference),
+        cmocka_unit_test(test_stream_step_edges),
         cmocka_unit_test(test_stream_offer_rules),
         cmocka_unit_test(test_estimate_cold_warm_and_failure),
         cmocka_unit_test(test_estimate_step_accuracy),

@@ -32,17 +32,20 @@ typedef struct {
     sp_pose_t target;    /**< the target in force */
     sp_pose_t anchor;    /**< a pose whose leg lengths are known: the last reference that proved a target by
                               sp_limits_reachable_near, or the last streamed target whose IK was computed */
-    int64_t anchor_room; /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24 */
-    uint8_t anchor_valid; /**< 1 once anchor holds a pose */
-    uint8_t stopping;     /**< 1 after sp_stream_stop: settling on the home pose */
+    int32_t anchor_room; /**< min over its legs of the room to the stroke limits (sp_limits_t), m, Q24,
+                                saturated to int32 */
+    int32_t anchor_box[2]; /**< its least room to the workspace box's faces (sp_limits_t), positions (m) and
+                                angles (rad), Q24, saturated to int32; negative when it is outside */
+    uint8_t anchor_valid;  /**< 1 once anchor holds a pose */
+    uint8_t stopping;      /**< 1 after sp_stream_stop: settling on the home pose */
 } sp_stream_t;
 
 /**
- * The gains for a tick of tick_us microseconds (any uint32: dt =
- * tick_us 2^24 / 10^6 fits 32 bits) and a bandwidth omega (rad/s, Q24).
- * omega^2 and 2 omega saturate at the Q24 range and set SP_FLAG_OVERFLOW
- * in g->flags, which every sp_stream_step then passes on. SP_E_ARG on NULL,
- * else SP_OK.
+ * The gains for a tick of tick_us microseconds (dt = tick_us 2^24 / 10^6,
+ * truncated) and a bandwidth omega (rad/s, Q24). dt (from a tick of 128 s
+ * on), omega^2 and 2 omega saturate at the Q24 range and set
+ * SP_FLAG_OVERFLOW in g->flags, which every sp_stream_step then passes on.
+ * SP_E_ARG on NULL, else SP_OK.
  */
 sp_status_t sp_stream_gains(sp_stream_gains_t *g, uint32_t tick_us, sp_q24_t omega);
 
@@ -64,9 +67,9 @@ void sp_stream_stop(sp_stream_t *s, const sp_pose_t *home);
  * (`ref_pose` with its IK lengths `ref_length`, NULL when they are not
  * known), which then becomes the anchor, or else by the target's own IK
  * (sp_limits_pose_reachable), whose target then becomes the anchor. The
- * anchor keeps its legs' room, so a target near it costs no leg loop; the
- * bound is sufficient, so the order of the tests does not change the
- * answer.
+ * anchor keeps its legs' room and its room to the workspace box, so a
+ * target near it costs neither a leg loop nor the box test; every bound is
+ * sufficient, so the order of the tests does not change the answer.
  */
 int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t *platform, const sp_pose_t *target,
                     const sp_pose_t *ref_pose, const sp_q24_t ref_length[SP_LEGS]);
@@ -76,8 +79,14 @@ int sp_stream_offer(sp_stream_t *s, const sp_limits_t *lim, const sp_platform_t 
  * the reference of this tick: pose, velocity, acceleration, Q24. The filter
  * keeps no copy of it (the controller has it written where it is used).
  * Axis a's velocity and acceleration are limited to move->vel_max[a] and
- * move->acc_max[a]. Intermediates saturate and set SP_FLAG_OVERFLOW in
- * *flags (never NULL), as do the gains' flags.
+ * move->acc_max[a]. Per axis: err = round(target - x), acc =
+ * clamp(round(w^2 err) - round(2 w vq)), v += acc dt (clamped), x +=
+ * round(v dt) (Q48; ties up while |v dt| < 2^61, else away from zero),
+ * outputs rounded to Q24, ties away from zero. Intermediates saturate and
+ * set SP_FLAG_OVERFLOW in *flags (never NULL), as do the gains' flags. In
+ * the common case (a tick below 1 s, positions below 64 m, error and
+ * velocity below 0.5, limits below 2^30) the same values come from 32-bit
+ * steps, none of which can saturate.
  */
 void sp_stream_step(sp_stream_t *s, const sp_stream_gains_t *g, const sp_move_limits_t *move, sp_motion_t *out,
                     sp_flags_t *flags);
