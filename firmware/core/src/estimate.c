@@ -24,28 +24,30 @@ static int within_jump(const sp_pose_t *a, const sp_pose_t *b, const sp_fk_optio
     return 1;
 }
 
-/* The warm estimate from the reference: the single step within the bound,
- * chord steps beyond it. SP_E_DISCONTINUITY when the result is too far
- * from the previous estimate. */
+/* The warm estimate from the reference into *est: the single step within
+ * the bound, chord steps beyond it. SP_E_DISCONTINUITY when the result is
+ * too far from the previous estimate. */
 static sp_status_t from_reference(const sp_platform_t *platform, const sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
                                   const sp_pose_t *reference, const sp_fk_cache_t *ref, const sp_fk_options_t *opt,
                                   sp_pose_t *est, uint32_t *iterations)
 {
-    sp_q24_t d[SP_LEGS];
-    uint32_t beyond = 0u;
+    int64_t d[SP_LEGS];
+    uint64_t beyond = 0u;
     sp_status_t st;
     unsigned i;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        /* lengths are positive Q24 values: the difference cannot wrap */
-        sp_flags_t flags = 0u;
-        d[i] = spi_sub_sat(length[i], ref->length[i], &flags);
-        /* |d| <= STEP_MAX exactly when d + STEP_MAX (modulo 2^32) is at
-         * most 2 STEP_MAX: one addition and one comparison */
-        beyond |= ((uint32_t)d[i] + (uint32_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
+        /* exact in int64 (no saturation to test); |d| <= STEP_MAX exactly
+         * when d + STEP_MAX (modulo 2^64) is at most 2 STEP_MAX: one
+         * addition and one comparison */
+        d[i] = (int64_t)length[i] - ref->length[i];
+        beyond |= ((uint64_t)d[i] + (uint64_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint64_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
     }
     if (beyond == 0u) {
-        st = sp_fk_chord_step(&e->ref_lu, reference, ref->sc, d, est);
+        /* the step in place on a copy of the reference (ref_lu valid,
+         * nothing NULL: sp_fk_chord_step's checks hold) */
+        *est = *reference;
+        st = spi_fk_chord_step_in(&e->ref_lu, ref->sc, d, est);
         *iterations = 1u;
     } else {
         sp_fk_options_t copt = *opt;

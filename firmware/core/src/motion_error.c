@@ -9,6 +9,10 @@
  * rad/s^2). */
 #define ME_HI INT32_C(0x3FFFFFFF)
 #define ME_LO (-ME_HI - 1)
+/* The errors held small, |e| < 2^29 (32 m, rad): the double difference of
+ * three of them is below 4 x 2^29 = 2^31, an int32. */
+#define ME_SMALL_MAX UINT32_C(0x1FFFFFFF)
+#define ME_SMALL(v) ((uint32_t)(v) + ME_SMALL_MAX <= 2u * ME_SMALL_MAX)
 
 sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us)
 {
@@ -34,6 +38,7 @@ void sp_motion_error_reset(sp_motion_error_t *me)
         me->e2[k] = 0;
     }
     me->count = 0u;
+    me->small = 0u;
 }
 
 /* v held within [ME_LO, ME_HI], flagging when it was not. */
@@ -64,10 +69,27 @@ static int32_t me_wrap(int64_t d)
     return (int32_t)d;
 }
 
+/* e - 2 e1 + e2 narrowed to int32: in 32 bits when all three are small
+ * (`small`, ME_SMALL: the sum cannot leave int32), else exact in 64 bits
+ * (|.| < 2^33) and held (beyond int32 the product with k >= 1 is held
+ * anyway). */
+SPI_INLINE int32_t me_d2(int32_t e, int32_t e1, int32_t e2, int small)
+{
+    int64_t d2;
+    if (small) {
+        return e - 2 * e1 + e2;
+    }
+    d2 = (int64_t)e - 2 * (int64_t)e1 + e2;
+    return (d2 > INT32_MAX) ? INT32_MAX : ((d2 < INT32_MIN) ? INT32_MIN : (int32_t)d2);
+}
+
 sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, const sp_pose_t *ref, sp_q24_t da[6])
 {
     sp_flags_t flags = 0u;
     sp_q24_t e[6];
+    uint32_t big = 0u;
+    unsigned small;
+    int all_small;
     unsigned k;
     if (me == NULL || da == NULL) {
         return SP_E_ARG;
@@ -81,8 +103,14 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
     }
     for (k = 0u; k < 3u; ++k) {
         e[k] = spi_sat((int64_t)est->pos[k] - ref->pos[k], &flags);
+        big |= ME_SMALL(e[k]) ? 0u : 1u;
+        /* wrapped: |.| <= pi, small */
         e[3u + k] = me_wrap((int64_t)est->rpy[k] - ref->rpy[k]);
     }
+    small = (big == 0u) ? 1u : 0u;
+    /* this tick's, e1's and e2's errors small */
+    all_small = small != 0u && me->small == 3u;
+    me->small = (uint8_t)(((unsigned)me->small << 1u | small) & 3u);
     if (me->count < 2u) {
         for (k = 0u; k < 6u; ++k) {
             me->e2[k] = me->e1[k];
@@ -93,10 +121,7 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
         return (flags == 0u) ? SP_E_BUSY : SP_E_OVERFLOW;
     }
     for (k = 0u; k < 6u; ++k) {
-        /* the double difference, exact (|.| < 2^33), narrowed: beyond
-         * int32 the product with k >= 1 is held anyway */
-        int64_t d2 = (int64_t)e[k] - 2 * (int64_t)me->e1[k] + me->e2[k];
-        int32_t d = (d2 > INT32_MAX) ? INT32_MAX : ((d2 < INT32_MIN) ? INT32_MIN : (int32_t)d2);
+        int32_t d = me_d2(e[k], me->e1[k], me->e2[k], all_small);
         da[k] = me_hold((int64_t)d * me->k, &flags); /* m/s^2, Q24 */
         me->e2[k] = me->e1[k];
         me->e1[k] = e[k];

@@ -53,6 +53,8 @@ typedef struct {
     sp_q24_t e2[6]; /**< e two ticks back, Q24 */
     int32_t k;      /**< 1 / dt^2, s^-2 (integer, rounded: 10^6 at 1 kHz) */
     uint8_t count;  /**< errors held in e1, e2: 0, 1 or 2 */
+    uint8_t small;  /**< bit 0: e1, bit 1: e2 within |e| < 2^29 on every axis (their double
+                         difference with a small e is then an int32: 32-bit arithmetic) */
 } sp_motion_error_t;
 
 /**
