@@ -31,23 +31,28 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
                                   const sp_pose_t *reference, const sp_fk_cache_t *ref, const sp_fk_options_t *opt,
                                   sp_pose_t *est, uint32_t *iterations)
 {
-    int64_t d[SP_LEGS];
-    uint64_t beyond = 0u;
+    sp_q24_t d[SP_LEGS];
+    uint32_t beyond = 0u;
     sp_status_t st;
     unsigned i;
 
     for (i = 0u; i < SP_LEGS; ++i) {
-        /* exact in int64 (no saturation to test); |d| <= STEP_MAX exactly
-         * when d + STEP_MAX (modulo 2^64) is at most 2 STEP_MAX: one
-         * addition and one comparison */
-        d[i] = (int64_t)length[i] - ref->length[i];
-        beyond |= ((uint64_t)d[i] + (uint64_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint64_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
+        /* lengths are positive Q24 values: the difference cannot wrap */
+        sp_flags_t flags = 0u;
+        d[i] = spi_sub_sat(length[i], ref->length[i], &flags);
+        /* |d| <= STEP_MAX exactly when d + STEP_MAX (modulo 2^32) is at
+         * most 2 STEP_MAX: one addition and one comparison */
+        beyond |= ((uint32_t)d[i] + (uint32_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
     }
     if (beyond == 0u) {
         /* the step in place on a copy of the reference (ref_lu valid,
          * nothing NULL: sp_fk_chord_step's checks hold) */
+        int64_t b[SP_LEGS];
+        for (i = 0u; i < SP_LEGS; ++i) {
+            b[i] = d[i];
+        }
         *est = *reference;
-        st = spi_fk_chord_step_in(&e->ref_lu, ref->sc, d, est);
+        st = spi_fk_chord_step_in(&e->ref_lu, ref->sc, b, est);
         *iterations = 1u;
     } else {
         sp_fk_options_t copt = *opt;

@@ -12,7 +12,6 @@
 /* The errors held small, |e| < 2^29 (32 m, rad): the double difference of
  * three of them is below 4 x 2^29 = 2^31, an int32. */
 #define ME_SMALL_MAX UINT32_C(0x1FFFFFFF)
-#define ME_SMALL(v) ((uint32_t)(v) + ME_SMALL_MAX <= 2u * ME_SMALL_MAX)
 
 sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us)
 {
@@ -70,7 +69,7 @@ static int32_t me_wrap(int64_t d)
 }
 
 /* e - 2 e1 + e2 narrowed to int32: in 32 bits when all three are small
- * (`small`, ME_SMALL: the sum cannot leave int32), else exact in 64 bits
+ * (`small`, |.| <= ME_SMALL_MAX: the sum cannot leave int32), else exact in 64 bits
  * (|.| < 2^33) and held (beyond int32 the product with k >= 1 is held
  * anyway). */
 SPI_INLINE int32_t me_d2(int32_t e, int32_t e1, int32_t e2, int small)
@@ -102,8 +101,13 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
         return SP_E_BUSY;
     }
     for (k = 0u; k < 3u; ++k) {
-        e[k] = spi_sat((int64_t)est->pos[k] - ref->pos[k], &flags);
-        big |= ME_SMALL(e[k]) ? 0u : 1u;
+        int64_t dp = (int64_t)est->pos[k] - ref->pos[k];
+        if ((uint64_t)dp + ME_SMALL_MAX <= 2u * ME_SMALL_MAX) {
+            e[k] = (int32_t)dp; /* small: no saturation to test */
+        } else {
+            e[k] = spi_sat(dp, &flags);
+            big = 1u;
+        }
         /* wrapped: |.| <= pi, small */
         e[3u + k] = me_wrap((int64_t)est->rpy[k] - ref->rpy[k]);
     }
@@ -137,21 +141,24 @@ SPI_INLINE int64_t me_p(int32_t a, int32_t b, unsigned s)
 
 /* The body angular acceleration dw' = E(angles) d(rpy)'' of zero angle
  * rates (eq 10's derivative without its rate products), from the sines
- * and cosines sc of roll and pitch (Q30) and the angle accelerations a
- * (rad/s^2, Q24): the three rows of sp_body_rates_sc written out, each sum
- * of two Q24 x Q30 products (|a| <= 2^31, coefficients within a few LSB of
- * 2^30: below 2^62) rounded once (ties up) and saturated beyond int32.
- * Bit-identical to sp_body_rates_sc's omega_dot for zero rates and sines
- * and cosines of one angle (test_motion_error_rows_vs_body_rates). */
-SPI_INLINE void me_body_acc(const sp_q30_t sc[6], const sp_q24_t a[3], sp_q24_t wd[3], sp_flags_t *flags)
+ * and cosines sc of roll and pitch (Q30), T = t of those sines (as the IK
+ * builds it: its third column is -sin pitch, cos pitch sin roll, cos
+ * pitch cos roll, the products E takes, read rather than formed again)
+ * and the angle accelerations a (rad/s^2, Q24): the three rows of
+ * sp_body_rates_sc written out, each sum of two Q24 x Q30 products
+ * (|a| <= 2^31, coefficients within a few LSB of 2^30: below 2^62)
+ * rounded once (ties up) and saturated beyond int32. Bit-identical to
+ * sp_body_rates_sc's omega_dot for zero rates and sines and cosines of one
+ * angle (test_motion_error_rows_vs_body_rates). */
+SPI_INLINE void me_body_acc(const sp_q30_t sc[6], const sp_q30_t (*t)[3], const sp_q24_t a[3], sp_q24_t wd[3],
+                            sp_flags_t *flags)
 {
     const int64_t half = INT64_C(1) << 29;
     sp_q30_t sr = sc[0];
     sp_q30_t cr = sc[1];
     sp_q30_t sp = sc[2];
-    sp_q30_t cp = sc[3];
-    sp_q30_t cpsr = spi_mul30_up(cp, sr);
-    sp_q30_t cpcr = spi_mul30_up(cp, cr);
+    sp_q30_t cpsr = t[1][2]; /* spi_mul30_up(cp, sr), rot_tilt's */
+    sp_q30_t cpcr = t[2][2]; /* spi_mul30_up(cp, cr) */
     wd[0] = spi_narrow_floor((int64_t)a[0] * SP_Q30_ONE - (int64_t)a[2] * sp + half, 30u, flags);
     wd[1] = spi_narrow_floor((int64_t)a[1] * cr + (int64_t)a[2] * cpsr + half, 30u, flags);
     wd[2] = spi_narrow_floor((int64_t)a[2] * cpcr - (int64_t)a[1] * sr + half, 30u, flags);
@@ -170,7 +177,7 @@ static sp_status_t me_wrench(sp_q16_t mass, const sp_q16_t (*inertia)[3], const 
     sp_q8_t iw[3];  /* I dw', motion frame, N m, Q8 */
     unsigned k;
 
-    me_body_acc(sc, &da[3], wd, &flags);
+    me_body_acc(sc, t, &da[3], wd, &flags);
     for (k = 0u; k < 3u; ++k) {
         /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q24 sums below 2^63 */
         ab[k] = spi_narrow_floor((int64_t)t[0][k] * wd[0] + (int64_t)t[1][k] * wd[1] + (int64_t)t[2][k] * wd[2] +
@@ -288,7 +295,7 @@ static sp_status_t me_wrench_frame(const sp_me_m6_t *b, const sp_q30_t (*t)[3], 
     int32_t fb[3];  /* f_b, N, Q8 */
     int32_t mb[3];  /* m_b, N m, Q8 */
     unsigned k;
-    me_body_acc(sc, &da[3], wd, &flags);
+    me_body_acc(sc, t, &da[3], wd, &flags);
     for (k = 0u; k < 3u; ++k) {
         /* (T v)_k = sum_r T[k][r] v_r: Q30 x Q24 sums below 2^63 */
         ab[k] = spi_narrow_floor((int64_t)t[k][0] * da[0] + (int64_t)t[k][1] * da[1] + (int64_t)t[k][2] * da[2] +
