@@ -275,6 +275,16 @@ sp_status_t sp_motion_error_wrench_body_t(const sp_me_body_t *body, const sp_rot
                      (const sp_q30_t(*)[3])rot->t, sc, da, dw);
 }
 
+/* round(s / 2^32) (ties up) as an int32, for s below 2^62: the high
+ * word of s + 2^31, taken from its unsigned shift so that the compiler
+ * keeps it a 32-bit value (an int64 >> 32 narrowed and widened again is
+ * folded back to the int64, and each product with it then takes a
+ * 64 x 64-bit multiply). GCC and Clang convert to int32 modulo 2^32. */
+SPI_INLINE int32_t me_q32(int64_t s)
+{
+    return (int32_t)(uint32_t)((uint64_t)(s + (INT64_C(1) << 31)) >> 32);
+}
+
 /* dW = M6 da in the motion frame, where the body's mass, first moment m c
  * and inertia are constants: the linear acceleration turned in (T da),
  * the body-frame wrench
@@ -304,21 +314,15 @@ static sp_status_t me_wrench_frame(const sp_me_m6_t *b, const sp_q30_t (*t)[3], 
     }
     /* Q16 x Q24 products below 2^29 x 2^31 = 2^60: the sums of three
      * (f_b) and five (m_b) below 2^63, and in Q8 below 5 x 2^28 < 2^31 */
-    fb[0] =
-        (int32_t)(((int64_t)m * ab[0] + (int64_t)wd[1] * mc[2] - (int64_t)wd[2] * mc[1] + (INT64_C(1) << 31)) >> 32);
-    fb[1] =
-        (int32_t)(((int64_t)m * ab[1] + (int64_t)wd[2] * mc[0] - (int64_t)wd[0] * mc[2] + (INT64_C(1) << 31)) >> 32);
-    fb[2] =
-        (int32_t)(((int64_t)m * ab[2] + (int64_t)wd[0] * mc[1] - (int64_t)wd[1] * mc[0] + (INT64_C(1) << 31)) >> 32);
-    mb[0] = (int32_t)(((int64_t)in[0][0] * wd[0] + (int64_t)in[0][1] * wd[1] + (int64_t)in[0][2] * wd[2] +
-                       (int64_t)mc[1] * ab[2] - (int64_t)mc[2] * ab[1] + (INT64_C(1) << 31)) >>
-                      32);
-    mb[1] = (int32_t)(((int64_t)in[1][0] * wd[0] + (int64_t)in[1][1] * wd[1] + (int64_t)in[1][2] * wd[2] +
-                       (int64_t)mc[2] * ab[0] - (int64_t)mc[0] * ab[2] + (INT64_C(1) << 31)) >>
-                      32);
-    mb[2] = (int32_t)(((int64_t)in[2][0] * wd[0] + (int64_t)in[2][1] * wd[1] + (int64_t)in[2][2] * wd[2] +
-                       (int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0] + (INT64_C(1) << 31)) >>
-                      32);
+    fb[0] = me_q32((int64_t)m * ab[0] + (int64_t)wd[1] * mc[2] - (int64_t)wd[2] * mc[1]);
+    fb[1] = me_q32((int64_t)m * ab[1] + (int64_t)wd[2] * mc[0] - (int64_t)wd[0] * mc[2]);
+    fb[2] = me_q32((int64_t)m * ab[2] + (int64_t)wd[0] * mc[1] - (int64_t)wd[1] * mc[0]);
+    mb[0] = me_q32((int64_t)in[0][0] * wd[0] + (int64_t)in[0][1] * wd[1] + (int64_t)in[0][2] * wd[2] +
+                   (int64_t)mc[1] * ab[2] - (int64_t)mc[2] * ab[1]);
+    mb[1] = me_q32((int64_t)in[1][0] * wd[0] + (int64_t)in[1][1] * wd[1] + (int64_t)in[1][2] * wd[2] +
+                   (int64_t)mc[2] * ab[0] - (int64_t)mc[0] * ab[2]);
+    mb[2] = me_q32((int64_t)in[2][0] * wd[0] + (int64_t)in[2][1] * wd[1] + (int64_t)in[2][2] * wd[2] +
+                   (int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0]);
     for (k = 0u; k < 3u; ++k) {
         /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q8 below 2^61 each */
         dw[k] = spi_narrow_floor((int64_t)t[0][k] * fb[0] + (int64_t)t[1][k] * fb[1] + (int64_t)t[2][k] * fb[2] +
