@@ -43,19 +43,18 @@ static sp_q24_t fk_residuals(const sp_q24_t l[SP_LEGS], const sp_q24_t length[SP
 static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const sp_q30_t sc[6])
 {
     sp_flags_t flags = 0u;
-    int32_t d[SP_LEGS];
+    int32_t w[3]; /* the small rotation dw, rad, base frame, Q24 */
     int32_t d_roll;
     int64_t x;
     unsigned sh;
     int32_t inv;
     unsigned i;
 
-    /* a step of 128 m or 128 rad means the iteration diverged */
-    for (i = 0u; i < SP_LEGS; ++i) {
-        d[i] = spi_sat(delta[i], &flags);
-    }
+    /* a step of 128 m or 128 rad means the iteration diverged; the
+     * translation added as it is narrowed */
     for (i = 0u; i < 3u; ++i) {
-        q->pos[i] = spi_add(q->pos[i], d[i], &flags);
+        q->pos[i] = spi_add(q->pos[i], spi_sat(delta[i], &flags), &flags);
+        w[i] = spi_sat(delta[3u + i], &flags);
     }
     /* Small rotation dw to Euler increments (inverse of the map used in
      * sp_leg_rates), with the sines of q's own orientation:
@@ -68,7 +67,7 @@ static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const s
     /* cy wx + sy wy (Q24) times 1/cp; the common case, a small step, is
      * an int32 times inv: one 32 x 32-bit product, the value of
      * spi_mul64_up (rounded once, ties up, as it rounds) */
-    x = spi_round_away((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u);
+    x = spi_round_away((int64_t)w[0] * sc[5] + (int64_t)w[1] * sc[4], 30u);
     if ((uint64_t)x + UINT64_C(0x80000000) <= UINT64_C(0xFFFFFFFF)) {
         d_roll = spi_sat(spi_round_up((int64_t)(int32_t)x * inv, sh - 30u), &flags);
     } else {
@@ -76,8 +75,8 @@ static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const s
     }
     q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
     q->rpy[1] =
-        spi_add(q->rpy[1], spi_sat(spi_round_away((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags), &flags);
-    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul_away(d_roll, sc[2], 30u, &flags), &flags), &flags);
+        spi_add(q->rpy[1], spi_sat(spi_round_away((int64_t)w[1] * sc[5] - (int64_t)w[0] * sc[4], 30u), &flags), &flags);
+    q->rpy[2] = spi_add(q->rpy[2], spi_add(w[2], spi_mul_away(d_roll, sc[2], 30u, &flags), &flags), &flags);
     return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
 }
 
