@@ -22,6 +22,7 @@ sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us)
     t2 = (uint64_t)tick_us * tick_us; /* <= 10^12 */
     /* round(10^12 / t^2): in [1, 10^8] */
     me->k = (int32_t)((UINT64_C(1000000000000) + t2 / 2u) / t2);
+    me->lim = ME_HI / me->k; /* in [10, 2^30 - 1] */
     sp_motion_error_reset(me);
     return SP_OK;
 }
@@ -126,7 +127,9 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
     }
     for (k = 0u; k < 6u; ++k) {
         int32_t d = me_d2(e[k], me->e1[k], me->e2[k], all_small);
-        da[k] = me_hold((int64_t)d * me->k, &flags); /* m/s^2, Q24 */
+        /* m/s^2, Q24: |d| <= lim within the hold, a 32-bit product */
+        da[k] = ((uint32_t)d + (uint32_t)me->lim <= 2u * (uint32_t)me->lim) ? d * me->k
+                                                                            : me_hold((int64_t)d * me->k, &flags);
         me->e2[k] = me->e1[k];
         me->e1[k] = e[k];
     }

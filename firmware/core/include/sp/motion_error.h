@@ -52,6 +52,7 @@ typedef struct {
     sp_q24_t e1[6]; /**< e of the previous tick: m (x, y, z), rad (rpy), Q24 */
     sp_q24_t e2[6]; /**< e two ticks back, Q24 */
     int32_t k;      /**< 1 / dt^2, s^-2 (integer, rounded: 10^6 at 1 kHz) */
+    int32_t lim;    /**< the largest |d| whose d k is within the held range: (2^30 - 1) / k */
     uint8_t count;  /**< errors held in e1, e2: 0, 1 or 2 */
     uint8_t small;  /**< bit 0: e1, bit 1: e2 within |e| < 2^29 on every axis (their double
                          difference with a small e is then an int32: 32-bit arithmetic) */
