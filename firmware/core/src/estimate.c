@@ -71,16 +71,17 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
 sp_status_t sp_estimate_step(const sp_platform_t *platform, sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
                              const sp_pose_t *reference, const sp_fk_cache_t *ref, uint32_t *iterations)
 {
-    sp_fk_options_t opt = spi_fk_defaults; /* sp_fk_default_options */
-    sp_fk_info_t info;
     sp_pose_t est;
     sp_status_t st = SP_E_NO_CONVERGENCE;
 
     *iterations = 0u;
     if (e->valid && e->ref_lu.valid && ref != NULL) {
-        st = from_reference(platform, e, length, reference, ref, &opt, &est, iterations);
+        /* the default options read in place (sp_fk_default_options) */
+        st = from_reference(platform, e, length, reference, ref, &spi_fk_defaults, &est, iterations);
     }
     if (st != SP_OK) {
+        sp_fk_options_t opt = spi_fk_defaults;
+        sp_fk_info_t info;
         if (!e->valid) {
             /* cold start from the parked pose, no continuity to check */
             opt.max_iterations = SP_ESTIMATE_COLD_STEPS;
