@@ -63,7 +63,9 @@ typedef struct {
  * (sp_motion_error_reset). 1/dt^2 is kept as the integer
  * round(10^12 / tick_us^2): exact for 1 ms (10^6) and every tick that
  * divides 10^6 us into a power-of-two-and-five count (0.1, 0.125, 0.2,
- * 0.25, 0.5, 2, 4, 5, 8, 10 ms), else within 0.5 / k relative.
+ * 0.25, 0.5, 2, 4, 5, 8, 10 ms), else within 0.5 / k relative; with it
+ * lim = (2^30 - 1) / k, below which a double difference's product stays
+ * in 32 bits (sp_motion_error_step).
  * SP_E_ARG (nothing changed) on NULL or a tick out of range.
  */
 sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us);
