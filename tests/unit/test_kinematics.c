@@ -35,6 +35,7 @@
 #include <cmocka.h>
 
 #include "../../firmware/core/src/core_internal.h"
+#include "../../firmware/core/src/fixed_inline.h"
 #include "assert_near.h"
 #include "ref_model.h"
 #include "sp/dynamics.h"
@@ -883,6 +884,107 @@ static void test_fk_chord(void **state)
     print_message("FK chord: worst iterations %u; worst error %.3g m, %.3g rad\n", worst_it, worst[0], worst[1]);
 }
 
+/* The chord step's Euler update as it was written before its d_roll
+ * product took one 32 x 32-bit multiply for a small step: the plain
+ * reference (every product through spi_mul64_up, every sum saturated). */
+static sp_status_t fk_update_plain(sp_pose_t *q, const int64_t delta[SP_LEGS], const sp_q30_t sc[6])
+{
+    sp_flags_t flags = 0u;
+    int32_t d[SP_LEGS];
+    int32_t d_roll;
+    unsigned sh;
+    int32_t inv;
+    for (int i = 0; i < SP_LEGS; ++i) {
+        d[i] = spi_sat(delta[i], &flags);
+    }
+    for (int i = 0; i < 3; ++i) {
+        q->pos[i] = spi_add(q->pos[i], d[i], &flags);
+    }
+    if (sc[3] < SP_Q30_MILLI(10)) {
+        return SP_E_SINGULAR;
+    }
+    inv = spi_recip((uint32_t)sc[3], &sh);
+    d_roll =
+        spi_sat(spi_mul64_up(spi_round_away((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u, &flags),
+                &flags);
+    q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
+    q->rpy[1] =
+        spi_add(q->rpy[1], spi_sat(spi_round_away((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags), &flags);
+    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul_away(d_roll, sc[2], 30u, &flags), &flags), &flags);
+    return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
+}
+
+/* sp_fk_chord_step against the plain reference (the same solves, then
+ * fk_update_plain) on random poses and increments from 1 um to 10 cm, bit
+ * for bit, status and pose; and the d_roll product's identity on its own:
+ * round(x inv / 2^s) of an int32 x in one 32 x 32-bit product equals
+ * spi_mul64_up for every reciprocal of a cosine the update accepts. */
+static void test_fk_chord_step_plain(void **state)
+{
+    uint64_t rng = 0xC40D5u;
+    int steps = 0;
+    (void)state;
+    for (int n = 0; n < 200000; ++n) {
+        int32_t x = (int32_t)(uint32_t)tu_next(&rng);
+        int32_t cp = SP_Q30_MILLI(10) + (int32_t)(tu_next(&rng) % (uint64_t)(SP_Q30_ONE - SP_Q30_MILLI(10) + 2));
+        unsigned sh;
+        sp_flags_t f = 0u;
+        int32_t inv = spi_recip((uint32_t)cp, &sh);
+        if (n % 4 == 0) {
+            x = (int32_t)(tu_next(&rng) % 2001u) - 1000; /* the common, small case */
+        }
+        assert_true(spi_round_up((int64_t)x * inv, sh - 30u) == spi_mul64_up(x, inv, sh - 30u, &f));
+        assert_int_equal(f, 0u);
+    }
+    for (int n = 0; n < N_POSES; ++n) {
+        sp_platform_t p;
+        double hz;
+        sp_pose_t truth;
+        sp_ik_t ik;
+        sp_jacobian_t jac;
+        sp_lu6_t lu;
+        double q[6];
+        sp_q24_t l[6];
+        random_fk_case(&rng, &p, &hz, &truth, q, l);
+        assert_int_equal(sp_inverse_kinematics(&p, &truth, &ik), SP_OK);
+        assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+        assert_int_equal(sp_lu6_factor(&jac, 1, &lu), SP_OK);
+        for (int m = 0; m < 8; ++m) {
+            double scale = pow(10.0, -6.0 + 5.0 * (double)m / 7.0); /* 1 um .. 10 cm */
+            sp_q24_t d[SP_LEGS];
+            int64_t b[SP_LEGS];
+            int64_t delta[SP_LEGS];
+            sp_pose_t out = truth;
+            sp_pose_t want = truth;
+            sp_status_t st_want = SP_OK;
+            for (int i = 0; i < SP_LEGS; ++i) {
+                d[i] = ref_q24(tu_uniform(&rng, -scale, scale));
+                b[i] = d[i];
+            }
+            if (m == 0 && n % 8 == 0) {
+                memset(d, 0, sizeof d);
+                memset(b, 0, sizeof b);
+            }
+            if (b[0] | b[1] | b[2] | b[3] | b[4] | b[5]) {
+                if (!spi_lu6_solve_t32(&lu, b, delta)) {
+                    st_want = sp_lu6_solve_transposed(&lu, b, delta);
+                }
+                if (st_want == SP_OK) {
+                    st_want = fk_update_plain(&want, delta, ik.sc);
+                }
+            }
+            sp_status_t st = sp_fk_chord_step(&lu, &truth, ik.sc, d, &out);
+            assert_int_equal(st, st_want);
+            if (st == SP_OK) {
+                assert_memory_equal(&out, &want, sizeof out);
+                ++steps;
+            }
+        }
+    }
+    print_message("chord step vs plain reference: %d steps bit for bit\n", steps);
+    assert_true(steps > N_POSES * 6);
+}
+
 static void test_forward_kinematics_failures(void **state)
 {
     uint64_t rng = 18;
@@ -1544,6 +1646,7 @@ int main(void)
         cmocka_unit_test(test_rates_wide_paths),
         cmocka_unit_test(test_forward_kinematics),
         cmocka_unit_test(test_fk_chord),
+        cmocka_unit_test(test_fk_chord_step_plain),
         cmocka_unit_test(test_forward_kinematics_failures),
         cmocka_unit_test(test_inverse_dynamics),
         cmocka_unit_test(test_inverse_dynamics_legs_power),

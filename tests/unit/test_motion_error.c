@@ -241,6 +241,121 @@ static void test_motion_error_vs_reference(void **state)
     }
 }
 
+/* sp_motion_error_step as it was written before its 32-bit double
+ * difference: every difference in int64, saturated, held; the plain
+ * reference of (a2). */
+typedef struct {
+    int32_t e1[6], e2[6];
+    int count;
+} me_plain_t;
+
+static int32_t me_plain_sat(int64_t v, int *flag)
+{
+    if (v > INT32_MAX || v < INT32_MIN) {
+        *flag = 1;
+        return (v > 0) ? INT32_MAX : INT32_MIN;
+    }
+    return (int32_t)v;
+}
+
+static sp_status_t me_plain_step(me_plain_t *p, int32_t k_dt, const sp_pose_t *est, const sp_pose_t *ref,
+                                 sp_q24_t da[6])
+{
+    int flag = 0;
+    int32_t e[6];
+    for (int k = 0; k < 3; ++k) {
+        e[k] = me_plain_sat((int64_t)est->pos[k] - ref->pos[k], &flag);
+        int64_t d = (int64_t)est->rpy[k] - ref->rpy[k];
+        if (d < -52707179 || d >= 52707179) {
+            int64_t r = (d + 52707179) % 105414357;
+            d = ((r < 0) ? r + 105414357 : r) - 52707179;
+        }
+        e[3 + k] = (int32_t)d;
+    }
+    for (int k = 0; k < 6; ++k) {
+        int unused = 0;
+        int64_t d2 = (int64_t)e[k] - 2 * (int64_t)p->e1[k] + p->e2[k];
+        int64_t v = (int64_t)me_plain_sat(d2, &unused) * k_dt; /* d2 held to int32, not flagged */
+        if (p->count >= 2 && (v > 0x3FFFFFFF || v < -0x40000000)) {
+            flag = 1;
+            v = (v > 0) ? 0x3FFFFFFF : -0x40000000;
+        }
+        da[k] = (p->count < 2) ? 0 : (sp_q24_t)v;
+        p->e2[k] = p->e1[k];
+        p->e1[k] = e[k];
+    }
+    if (p->count < 2) {
+        p->count += 1;
+        return flag ? SP_E_OVERFLOW : SP_E_BUSY;
+    }
+    return flag ? SP_E_OVERFLOW : SP_OK;
+}
+
+/* (a2) against the plain reference on errors of every size: positions
+ * from micrometres to the int32 extremes, so that the errors cross the
+ * 2^29 bound of the 32-bit double difference in every order of the three
+ * ticks it takes, and the saturated and held paths; every value, status
+ * and tick bit for bit, with resets between runs. */
+static void test_motion_error_vs_plain(void **state)
+{
+    uint64_t rng = 0x5EED0A2u;
+    sp_motion_error_t me;
+    int fast = 0, slow = 0;
+    (void)state;
+    for (int run = 0; run < 200; ++run) {
+        me_plain_t plain;
+        memset(&plain, 0, sizeof plain);
+        assert_int_equal(sp_motion_error_init(&me, (run % 3 == 2) ? 250u : 1000u), SP_OK);
+        for (int n = 0; n < 300; ++n) {
+            sp_pose_t est, ref;
+            sp_q24_t da[6], want[6];
+            int big = 0;
+            for (int k = 0; k < 3; ++k) {
+                /* the size of this tick's error: mostly small, now and
+                 * then beyond 2^29 or at the extremes */
+                unsigned kind = (unsigned)(tu_next(&rng) % 16u);
+                int32_t r = tu_i32(&rng);
+                int32_t e;
+                if (kind < 10u) {
+                    e = (int32_t)(tu_next(&rng) % 2001u) - 1000;
+                } else if (kind < 14u) {
+                    e = (int32_t)(tu_next(&rng) % 0x40000003u) - 0x20000001; /* about the bound */
+                } else {
+                    e = tu_i32(&rng);
+                }
+                ref.pos[k] = (kind == 15u) ? INT32_MIN + (int32_t)(tu_next(&rng) % 8u) : r / 2;
+                est.pos[k] = (int32_t)(((int64_t)ref.pos[k] + e > INT32_MAX)
+                                           ? INT32_MAX
+                                           : (((int64_t)ref.pos[k] + e < INT32_MIN) ? INT32_MIN : ref.pos[k] + e));
+                if (kind == 15u) {
+                    est.pos[k] = INT32_MAX - (int32_t)(tu_next(&rng) % 8u); /* the difference saturates */
+                }
+                int64_t dp = (int64_t)est.pos[k] - ref.pos[k];
+                big |= (dp > 0x1FFFFFFF || dp < -0x1FFFFFFF);
+                ref.rpy[k] = tu_i32(&rng) / 8;
+                est.rpy[k] = (kind & 1u) ? tu_i32(&rng) : ref.rpy[k] + (int32_t)(tu_next(&rng) % 4001u) - 2000;
+            }
+            sp_status_t st_want = me_plain_step(&plain, me.k, &est, &ref, want);
+            sp_status_t st = sp_motion_error_step(&me, &est, &ref, da);
+            assert_int_equal(st, st_want);
+            assert_memory_equal(da, want, sizeof da);
+            assert_memory_equal(me.e1, plain.e1, sizeof me.e1);
+            assert_memory_equal(me.e2, plain.e2, sizeof me.e2);
+            if (n >= 2) {
+                fast += big ? 0 : 1;
+                slow += big ? 1 : 0;
+            }
+            if (tu_next(&rng) % 97u == 0u) {
+                /* a tick without a pose: both histories start again */
+                assert_int_equal(sp_motion_error_step(&me, NULL, &ref, da), SP_E_BUSY);
+                memset(&plain, 0, sizeof plain);
+            }
+        }
+    }
+    print_message("motion error vs plain: %d ticks with small errors, %d with large\n", fast, slow);
+    assert_true(fast > 10000 && slow > 10000);
+}
+
 /* (b) e = A sin(w t) at 2 Hz in x: the chain's force is m times the
  * filtered -A w^2 sin(w t), against the exact response. */
 static void test_motion_error_sine_2hz(void **state)
@@ -730,6 +845,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_motion_error_api),
         cmocka_unit_test(test_motion_error_vs_reference),
+        cmocka_unit_test(test_motion_error_vs_plain),
         cmocka_unit_test(test_motion_error_sine_2hz),
         cmocka_unit_test(test_motion_error_quantisation_noise),
         cmocka_unit_test(test_motion_error_wrench_vs_double),

@@ -47,6 +47,13 @@ int spi_joints_near(const sp_platform_t *platform);
  * (sp_inverse_kinematics_kept then skips those tests). */
 int spi_legs_fit(const sp_platform_t *platform);
 
+/* sp_fk_chord_step's step in place, without its argument checks (lu_t
+ * valid, nothing NULL): *q (from on entry, its sines sc) moved by
+ * J^-1 b, b the leg-length increments (m, Q24, widened); b all zero leaves
+ * *q as it is. The same errors; on an error *q is partly updated (the
+ * caller drops it). */
+sp_status_t spi_fk_chord_step_in(const sp_lu6_t *lu_t, const sp_q30_t sc[6], const int64_t b[SP_LEGS], sp_pose_t *q);
+
 /* sp_fk_default_options' values (fk.c), for a copy without a call. */
 extern const sp_fk_options_t spi_fk_defaults;
 

@@ -24,9 +24,9 @@ static int within_jump(const sp_pose_t *a, const sp_pose_t *b, const sp_fk_optio
     return 1;
 }
 
-/* The warm estimate from the reference: the single step within the bound,
- * chord steps beyond it. SP_E_DISCONTINUITY when the result is too far
- * from the previous estimate. */
+/* The warm estimate from the reference into *est: the single step within
+ * the bound, chord steps beyond it. SP_E_DISCONTINUITY when the result is
+ * too far from the previous estimate. */
 static sp_status_t from_reference(const sp_platform_t *platform, const sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
                                   const sp_pose_t *reference, const sp_fk_cache_t *ref, const sp_fk_options_t *opt,
                                   sp_pose_t *est, uint32_t *iterations)
@@ -45,7 +45,14 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
         beyond |= ((uint32_t)d[i] + (uint32_t)SP_ESTIMATE_STEP_MAX) > 2u * (uint32_t)SP_ESTIMATE_STEP_MAX ? 1u : 0u;
     }
     if (beyond == 0u) {
-        st = sp_fk_chord_step(&e->ref_lu, reference, ref->sc, d, est);
+        /* the step in place on a copy of the reference (ref_lu valid,
+         * nothing NULL: sp_fk_chord_step's checks hold) */
+        int64_t b[SP_LEGS];
+        for (i = 0u; i < SP_LEGS; ++i) {
+            b[i] = d[i];
+        }
+        *est = *reference;
+        st = spi_fk_chord_step_in(&e->ref_lu, ref->sc, b, est);
         *iterations = 1u;
     } else {
         sp_fk_options_t copt = *opt;
@@ -64,16 +71,17 @@ static sp_status_t from_reference(const sp_platform_t *platform, const sp_estima
 sp_status_t sp_estimate_step(const sp_platform_t *platform, sp_estimate_t *e, const sp_q24_t length[SP_LEGS],
                              const sp_pose_t *reference, const sp_fk_cache_t *ref, uint32_t *iterations)
 {
-    sp_fk_options_t opt = spi_fk_defaults; /* sp_fk_default_options */
-    sp_fk_info_t info;
     sp_pose_t est;
     sp_status_t st = SP_E_NO_CONVERGENCE;
 
     *iterations = 0u;
     if (e->valid && e->ref_lu.valid && ref != NULL) {
-        st = from_reference(platform, e, length, reference, ref, &opt, &est, iterations);
+        /* the default options read in place (sp_fk_default_options) */
+        st = from_reference(platform, e, length, reference, ref, &spi_fk_defaults, &est, iterations);
     }
     if (st != SP_OK) {
+        sp_fk_options_t opt = spi_fk_defaults;
+        sp_fk_info_t info;
         if (!e->valid) {
             /* cold start from the parked pose, no continuity to check */
             opt.max_iterations = SP_ESTIMATE_COLD_STEPS;

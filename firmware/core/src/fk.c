@@ -43,18 +43,18 @@ static sp_q24_t fk_residuals(const sp_q24_t l[SP_LEGS], const sp_q24_t length[SP
 static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const sp_q30_t sc[6])
 {
     sp_flags_t flags = 0u;
-    int32_t d[SP_LEGS];
+    int32_t w[3]; /* the small rotation dw, rad, base frame, Q24 */
     int32_t d_roll;
+    int64_t x;
     unsigned sh;
     int32_t inv;
     unsigned i;
 
-    /* a step of 128 m or 128 rad means the iteration diverged */
-    for (i = 0u; i < SP_LEGS; ++i) {
-        d[i] = spi_sat(delta[i], &flags);
-    }
+    /* a step of 128 m or 128 rad means the iteration diverged; the
+     * translation added as it is narrowed */
     for (i = 0u; i < 3u; ++i) {
-        q->pos[i] = spi_add(q->pos[i], d[i], &flags);
+        q->pos[i] = spi_add(q->pos[i], spi_sat(delta[i], &flags), &flags);
+        w[i] = spi_sat(delta[3u + i], &flags);
     }
     /* Small rotation dw to Euler increments (inverse of the map used in
      * sp_leg_rates), with the sines of q's own orientation:
@@ -64,13 +64,19 @@ static sp_status_t fk_update(sp_pose_t *q, const int64_t delta[SP_LEGS], const s
         return SP_E_SINGULAR;
     }
     inv = spi_recip((uint32_t)sc[3], &sh); /* 1/cp = inv / 2^sh, sh in [54, 61] */
-    d_roll =
-        spi_sat(spi_mul64_up(spi_round_away((int64_t)d[3] * sc[5] + (int64_t)d[4] * sc[4], 30u), inv, sh - 30u, &flags),
-                &flags);
+    /* cy wx + sy wy (Q24) times 1/cp; the common case, a small step, is
+     * an int32 times inv: one 32 x 32-bit product, the value of
+     * spi_mul64_up (rounded once, ties up, as it rounds) */
+    x = spi_round_away((int64_t)w[0] * sc[5] + (int64_t)w[1] * sc[4], 30u);
+    if ((uint64_t)x + UINT64_C(0x80000000) <= UINT64_C(0xFFFFFFFF)) {
+        d_roll = spi_sat(spi_round_up((int64_t)(int32_t)x * inv, sh - 30u), &flags);
+    } else {
+        d_roll = spi_sat(spi_mul64_up(x, inv, sh - 30u, &flags), &flags);
+    }
     q->rpy[0] = spi_add(q->rpy[0], d_roll, &flags);
     q->rpy[1] =
-        spi_add(q->rpy[1], spi_sat(spi_round_away((int64_t)d[4] * sc[5] - (int64_t)d[3] * sc[4], 30u), &flags), &flags);
-    q->rpy[2] = spi_add(q->rpy[2], spi_add(d[5], spi_mul_away(d_roll, sc[2], 30u, &flags), &flags), &flags);
+        spi_add(q->rpy[1], spi_sat(spi_round_away((int64_t)w[1] * sc[5] - (int64_t)w[0] * sc[4], 30u), &flags), &flags);
+    q->rpy[2] = spi_add(q->rpy[2], spi_add(w[2], spi_mul_away(d_roll, sc[2], 30u, &flags), &flags), &flags);
     return (flags != 0u) ? SP_E_NO_CONVERGENCE : SP_OK;
 }
 
@@ -281,14 +287,35 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
     return st;
 }
 
+sp_status_t spi_fk_chord_step_in(const sp_lu6_t *lu_t, const sp_q30_t sc[6], const int64_t b[SP_LEGS], sp_pose_t *q)
+{
+    int64_t delta[SP_LEGS];
+    uint64_t any = 0u;
+    unsigned i;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        any |= (uint64_t)b[i];
+    }
+    if (any == 0u) {
+        return SP_OK; /* no increment: q as it is, no solve */
+    }
+    /* J delta = dL with J = (J^T)^T: the transposed solve of the
+     * factorisation of J^T */
+    if (!spi_lu6_solve_t32(lu_t, b, delta)) {
+        sp_status_t st = sp_lu6_solve_transposed(lu_t, b, delta);
+        if (st != SP_OK) {
+            return st;
+        }
+    }
+    return fk_update(q, delta, sc);
+}
+
 sp_status_t sp_fk_chord_step(const sp_lu6_t *lu_t, const sp_pose_t *from, const sp_q30_t sc[6],
                              const sp_q24_t d_length[SP_LEGS], sp_pose_t *pose)
 {
     int64_t b[SP_LEGS];
-    int64_t delta[SP_LEGS];
     sp_pose_t q;
-    sp_status_t st = SP_OK;
-    uint32_t any = 0u;
+    sp_status_t st;
     unsigned i;
 
     if (lu_t == NULL || from == NULL || sc == NULL || d_length == NULL || pose == NULL || !lu_t->valid) {
@@ -296,19 +323,9 @@ sp_status_t sp_fk_chord_step(const sp_lu6_t *lu_t, const sp_pose_t *from, const 
     }
     for (i = 0u; i < SP_LEGS; ++i) {
         b[i] = d_length[i];
-        any |= (uint32_t)d_length[i];
     }
     q = *from;
-    if (any != 0u) {
-        /* J delta = dL with J = (J^T)^T: the transposed solve of the
-         * factorisation of J^T (b = 0 is the case above) */
-        if (!spi_lu6_solve_t32(lu_t, b, delta)) {
-            st = sp_lu6_solve_transposed(lu_t, b, delta);
-        }
-        if (st == SP_OK) {
-            st = fk_update(&q, delta, sc);
-        }
-    }
+    st = spi_fk_chord_step_in(lu_t, sc, b, &q);
     if (st == SP_OK) {
         *pose = q;
     }

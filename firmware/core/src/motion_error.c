@@ -9,6 +9,9 @@
  * rad/s^2). */
 #define ME_HI INT32_C(0x3FFFFFFF)
 #define ME_LO (-ME_HI - 1)
+/* The errors held small, |e| < 2^29 (32 m, rad): the double difference of
+ * three of them is below 4 x 2^29 = 2^31, an int32. */
+#define ME_SMALL_MAX UINT32_C(0x1FFFFFFF)
 
 sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us)
 {
@@ -19,6 +22,7 @@ sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us)
     t2 = (uint64_t)tick_us * tick_us; /* <= 10^12 */
     /* round(10^12 / t^2): in [1, 10^8] */
     me->k = (int32_t)((UINT64_C(1000000000000) + t2 / 2u) / t2);
+    me->lim = ME_HI / me->k; /* in [10, 2^30 - 1] */
     sp_motion_error_reset(me);
     return SP_OK;
 }
@@ -34,6 +38,7 @@ void sp_motion_error_reset(sp_motion_error_t *me)
         me->e2[k] = 0;
     }
     me->count = 0u;
+    me->small = 0u;
 }
 
 /* v held within [ME_LO, ME_HI], flagging when it was not. */
@@ -64,10 +69,27 @@ static int32_t me_wrap(int64_t d)
     return (int32_t)d;
 }
 
+/* e - 2 e1 + e2 narrowed to int32: in 32 bits when all three are small
+ * (`small`, |.| <= ME_SMALL_MAX: the sum cannot leave int32), else exact in 64 bits
+ * (|.| < 2^33) and held (beyond int32 the product with k >= 1 is held
+ * anyway). */
+SPI_INLINE int32_t me_d2(int32_t e, int32_t e1, int32_t e2, int small)
+{
+    int64_t d2;
+    if (small) {
+        return e - 2 * e1 + e2;
+    }
+    d2 = (int64_t)e - 2 * (int64_t)e1 + e2;
+    return (d2 > INT32_MAX) ? INT32_MAX : ((d2 < INT32_MIN) ? INT32_MIN : (int32_t)d2);
+}
+
 sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, const sp_pose_t *ref, sp_q24_t da[6])
 {
     sp_flags_t flags = 0u;
     sp_q24_t e[6];
+    uint32_t big = 0u;
+    unsigned small;
+    int all_small;
     unsigned k;
     if (me == NULL || da == NULL) {
         return SP_E_ARG;
@@ -80,9 +102,20 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
         return SP_E_BUSY;
     }
     for (k = 0u; k < 3u; ++k) {
-        e[k] = spi_sat((int64_t)est->pos[k] - ref->pos[k], &flags);
+        int64_t dp = (int64_t)est->pos[k] - ref->pos[k];
+        if ((uint64_t)dp + ME_SMALL_MAX <= 2u * ME_SMALL_MAX) {
+            e[k] = (int32_t)dp; /* small: no saturation to test */
+        } else {
+            e[k] = spi_sat(dp, &flags);
+            big = 1u;
+        }
+        /* wrapped: |.| <= pi, small */
         e[3u + k] = me_wrap((int64_t)est->rpy[k] - ref->rpy[k]);
     }
+    small = (big == 0u) ? 1u : 0u;
+    /* this tick's, e1's and e2's errors small */
+    all_small = small != 0u && me->small == 3u;
+    me->small = (uint8_t)(((unsigned)me->small << 1u | small) & 3u);
     if (me->count < 2u) {
         for (k = 0u; k < 6u; ++k) {
             me->e2[k] = me->e1[k];
@@ -93,11 +126,10 @@ sp_status_t sp_motion_error_step(sp_motion_error_t *me, const sp_pose_t *est, co
         return (flags == 0u) ? SP_E_BUSY : SP_E_OVERFLOW;
     }
     for (k = 0u; k < 6u; ++k) {
-        /* the double difference, exact (|.| < 2^33), narrowed: beyond
-         * int32 the product with k >= 1 is held anyway */
-        int64_t d2 = (int64_t)e[k] - 2 * (int64_t)me->e1[k] + me->e2[k];
-        int32_t d = (d2 > INT32_MAX) ? INT32_MAX : ((d2 < INT32_MIN) ? INT32_MIN : (int32_t)d2);
-        da[k] = me_hold((int64_t)d * me->k, &flags); /* m/s^2, Q24 */
+        int32_t d = me_d2(e[k], me->e1[k], me->e2[k], all_small);
+        /* m/s^2, Q24: |d| <= lim within the hold, a 32-bit product */
+        da[k] = ((uint32_t)d + (uint32_t)me->lim <= 2u * (uint32_t)me->lim) ? d * me->k
+                                                                            : me_hold((int64_t)d * me->k, &flags);
         me->e2[k] = me->e1[k];
         me->e1[k] = e[k];
     }
@@ -112,21 +144,24 @@ SPI_INLINE int64_t me_p(int32_t a, int32_t b, unsigned s)
 
 /* The body angular acceleration dw' = E(angles) d(rpy)'' of zero angle
  * rates (eq 10's derivative without its rate products), from the sines
- * and cosines sc of roll and pitch (Q30) and the angle accelerations a
- * (rad/s^2, Q24): the three rows of sp_body_rates_sc written out, each sum
- * of two Q24 x Q30 products (|a| <= 2^31, coefficients within a few LSB of
- * 2^30: below 2^62) rounded once (ties up) and saturated beyond int32.
- * Bit-identical to sp_body_rates_sc's omega_dot for zero rates and sines
- * and cosines of one angle (test_motion_error_rows_vs_body_rates). */
-SPI_INLINE void me_body_acc(const sp_q30_t sc[6], const sp_q24_t a[3], sp_q24_t wd[3], sp_flags_t *flags)
+ * and cosines sc of roll and pitch (Q30), T = t of those sines (as the IK
+ * builds it: its third column is -sin pitch, cos pitch sin roll, cos
+ * pitch cos roll, the products E takes, read rather than formed again)
+ * and the angle accelerations a (rad/s^2, Q24): the three rows of
+ * sp_body_rates_sc written out, each sum of two Q24 x Q30 products
+ * (|a| <= 2^31, coefficients within a few LSB of 2^30: below 2^62)
+ * rounded once (ties up) and saturated beyond int32. Bit-identical to
+ * sp_body_rates_sc's omega_dot for zero rates and sines and cosines of one
+ * angle (test_motion_error_rows_vs_body_rates). */
+SPI_INLINE void me_body_acc(const sp_q30_t sc[6], const sp_q30_t (*t)[3], const sp_q24_t a[3], sp_q24_t wd[3],
+                            sp_flags_t *flags)
 {
     const int64_t half = INT64_C(1) << 29;
     sp_q30_t sr = sc[0];
     sp_q30_t cr = sc[1];
     sp_q30_t sp = sc[2];
-    sp_q30_t cp = sc[3];
-    sp_q30_t cpsr = spi_mul30_up(cp, sr);
-    sp_q30_t cpcr = spi_mul30_up(cp, cr);
+    sp_q30_t cpsr = t[1][2]; /* spi_mul30_up(cp, sr), rot_tilt's */
+    sp_q30_t cpcr = t[2][2]; /* spi_mul30_up(cp, cr) */
     wd[0] = spi_narrow_floor((int64_t)a[0] * SP_Q30_ONE - (int64_t)a[2] * sp + half, 30u, flags);
     wd[1] = spi_narrow_floor((int64_t)a[1] * cr + (int64_t)a[2] * cpsr + half, 30u, flags);
     wd[2] = spi_narrow_floor((int64_t)a[2] * cpcr - (int64_t)a[1] * sr + half, 30u, flags);
@@ -145,7 +180,7 @@ static sp_status_t me_wrench(sp_q16_t mass, const sp_q16_t (*inertia)[3], const 
     sp_q8_t iw[3];  /* I dw', motion frame, N m, Q8 */
     unsigned k;
 
-    me_body_acc(sc, &da[3], wd, &flags);
+    me_body_acc(sc, t, &da[3], wd, &flags);
     for (k = 0u; k < 3u; ++k) {
         /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q24 sums below 2^63 */
         ab[k] = spi_narrow_floor((int64_t)t[0][k] * wd[0] + (int64_t)t[1][k] * wd[1] + (int64_t)t[2][k] * wd[2] +
@@ -243,6 +278,16 @@ sp_status_t sp_motion_error_wrench_body_t(const sp_me_body_t *body, const sp_rot
                      (const sp_q30_t(*)[3])rot->t, sc, da, dw);
 }
 
+/* round(s / 2^32) (ties up) as an int32, for s below 2^62: the high
+ * word of s + 2^31, taken from its unsigned shift so that the compiler
+ * keeps it a 32-bit value (an int64 >> 32 narrowed and widened again is
+ * folded back to the int64, and each product with it then takes a
+ * 64 x 64-bit multiply). GCC and Clang convert to int32 modulo 2^32. */
+SPI_INLINE int32_t me_q32(int64_t s)
+{
+    return (int32_t)(uint32_t)((uint64_t)(s + (INT64_C(1) << 31)) >> 32);
+}
+
 /* dW = M6 da in the motion frame, where the body's mass, first moment m c
  * and inertia are constants: the linear acceleration turned in (T da),
  * the body-frame wrench
@@ -263,7 +308,7 @@ static sp_status_t me_wrench_frame(const sp_me_m6_t *b, const sp_q30_t (*t)[3], 
     int32_t fb[3];  /* f_b, N, Q8 */
     int32_t mb[3];  /* m_b, N m, Q8 */
     unsigned k;
-    me_body_acc(sc, &da[3], wd, &flags);
+    me_body_acc(sc, t, &da[3], wd, &flags);
     for (k = 0u; k < 3u; ++k) {
         /* (T v)_k = sum_r T[k][r] v_r: Q30 x Q24 sums below 2^63 */
         ab[k] = spi_narrow_floor((int64_t)t[k][0] * da[0] + (int64_t)t[k][1] * da[1] + (int64_t)t[k][2] * da[2] +
@@ -272,21 +317,15 @@ static sp_status_t me_wrench_frame(const sp_me_m6_t *b, const sp_q30_t (*t)[3], 
     }
     /* Q16 x Q24 products below 2^29 x 2^31 = 2^60: the sums of three
      * (f_b) and five (m_b) below 2^63, and in Q8 below 5 x 2^28 < 2^31 */
-    fb[0] =
-        (int32_t)(((int64_t)m * ab[0] + (int64_t)wd[1] * mc[2] - (int64_t)wd[2] * mc[1] + (INT64_C(1) << 31)) >> 32);
-    fb[1] =
-        (int32_t)(((int64_t)m * ab[1] + (int64_t)wd[2] * mc[0] - (int64_t)wd[0] * mc[2] + (INT64_C(1) << 31)) >> 32);
-    fb[2] =
-        (int32_t)(((int64_t)m * ab[2] + (int64_t)wd[0] * mc[1] - (int64_t)wd[1] * mc[0] + (INT64_C(1) << 31)) >> 32);
-    mb[0] = (int32_t)(((int64_t)in[0][0] * wd[0] + (int64_t)in[0][1] * wd[1] + (int64_t)in[0][2] * wd[2] +
-                       (int64_t)mc[1] * ab[2] - (int64_t)mc[2] * ab[1] + (INT64_C(1) << 31)) >>
-                      32);
-    mb[1] = (int32_t)(((int64_t)in[1][0] * wd[0] + (int64_t)in[1][1] * wd[1] + (int64_t)in[1][2] * wd[2] +
-                       (int64_t)mc[2] * ab[0] - (int64_t)mc[0] * ab[2] + (INT64_C(1) << 31)) >>
-                      32);
-    mb[2] = (int32_t)(((int64_t)in[2][0] * wd[0] + (int64_t)in[2][1] * wd[1] + (int64_t)in[2][2] * wd[2] +
-                       (int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0] + (INT64_C(1) << 31)) >>
-                      32);
+    fb[0] = me_q32((int64_t)m * ab[0] + (int64_t)wd[1] * mc[2] - (int64_t)wd[2] * mc[1]);
+    fb[1] = me_q32((int64_t)m * ab[1] + (int64_t)wd[2] * mc[0] - (int64_t)wd[0] * mc[2]);
+    fb[2] = me_q32((int64_t)m * ab[2] + (int64_t)wd[0] * mc[1] - (int64_t)wd[1] * mc[0]);
+    mb[0] = me_q32((int64_t)in[0][0] * wd[0] + (int64_t)in[0][1] * wd[1] + (int64_t)in[0][2] * wd[2] +
+                   (int64_t)mc[1] * ab[2] - (int64_t)mc[2] * ab[1]);
+    mb[1] = me_q32((int64_t)in[1][0] * wd[0] + (int64_t)in[1][1] * wd[1] + (int64_t)in[1][2] * wd[2] +
+                   (int64_t)mc[2] * ab[0] - (int64_t)mc[0] * ab[2]);
+    mb[2] = me_q32((int64_t)in[2][0] * wd[0] + (int64_t)in[2][1] * wd[1] + (int64_t)in[2][2] * wd[2] +
+                   (int64_t)mc[0] * ab[1] - (int64_t)mc[1] * ab[0]);
     for (k = 0u; k < 3u; ++k) {
         /* (R v)_k = sum_r T[r][k] v_r: Q30 x Q8 below 2^61 each */
         dw[k] = spi_narrow_floor((int64_t)t[0][k] * fb[0] + (int64_t)t[1][k] * fb[1] + (int64_t)t[2][k] * fb[2] +

@@ -52,7 +52,10 @@ typedef struct {
     sp_q24_t e1[6]; /**< e of the previous tick: m (x, y, z), rad (rpy), Q24 */
     sp_q24_t e2[6]; /**< e two ticks back, Q24 */
     int32_t k;      /**< 1 / dt^2, s^-2 (integer, rounded: 10^6 at 1 kHz) */
+    int32_t lim;    /**< the largest |d| whose d k is within the held range: (2^30 - 1) / k */
     uint8_t count;  /**< errors held in e1, e2: 0, 1 or 2 */
+    uint8_t small;  /**< bit 0: e1, bit 1: e2 within |e| < 2^29 on every axis (their double
+                         difference with a small e is then an int32: 32-bit arithmetic) */
 } sp_motion_error_t;
 
 /**
@@ -60,7 +63,9 @@ typedef struct {
  * (sp_motion_error_reset). 1/dt^2 is kept as the integer
  * round(10^12 / tick_us^2): exact for 1 ms (10^6) and every tick that
  * divides 10^6 us into a power-of-two-and-five count (0.1, 0.125, 0.2,
- * 0.25, 0.5, 2, 4, 5, 8, 10 ms), else within 0.5 / k relative.
+ * 0.25, 0.5, 2, 4, 5, 8, 10 ms), else within 0.5 / k relative; with it
+ * lim = (2^30 - 1) / k, below which a double difference's product stays
+ * in 32 bits (sp_motion_error_step).
  * SP_E_ARG (nothing changed) on NULL or a tick out of range.
  */
 sp_status_t sp_motion_error_init(sp_motion_error_t *me, uint32_t tick_us);
