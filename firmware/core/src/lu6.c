@@ -170,6 +170,7 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
 
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
 {
+    int32_t w[SP_LEGS][SP_LEGS];
     int32_t *r[SP_LEGS];
     sp_flags_t flags = 0u;
     uint32_t any = 0u;
@@ -188,13 +189,13 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
             LU_UNROLL
             for (j = 0u; j < SP_LEGS; ++j) {
                 int32_t v = m->j[j][i];
-                lu->a[i][j] = v;
+                w[i][j] = v;
                 any |= (uint32_t)(v ^ (v >> 31));
             }
         }
     } else {
         const int32_t *src = &m->j[0][0];
-        int32_t *dst = &lu->a[0][0];
+        int32_t *dst = &w[0][0];
         for (i = 0u; i < SP_LEGS * SP_LEGS; ++i) {
             int32_t v = src[i];
             dst[i] = v;
@@ -204,16 +205,22 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
     bound = any + 1u; /* <= 2^31 */
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
-        r[i] = lu->a[i];
+        r[i] = w[i];
     }
     if (!lu_step(lu, r, 0u, &bound, &flags) || !lu_step(lu, r, 1u, &bound, &flags) ||
         !lu_step(lu, r, 2u, &bound, &flags) || !lu_step(lu, r, 3u, &bound, &flags) ||
         !lu_step(lu, r, 4u, &bound, &flags) || !lu_step(lu, r, 5u, &bound, &flags)) {
         return SP_E_SINGULAR;
     }
+    /* the rows in pivot order (the solves then read them at constant
+     * offsets); pivot row i is row perm[i] of A */
     LU_UNROLL
-    for (i = 0u; i < SP_LEGS; ++i) { /* pivot row i is row perm[i] of A */
-        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)lu->a) / sizeof lu->a[0]);
+    for (i = 0u; i < SP_LEGS; ++i) {
+        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)w) / sizeof w[0]);
+        LU_UNROLL
+        for (j = 0u; j < SP_LEGS; ++j) {
+            lu->a[i][j] = r[i][j];
+        }
     }
     if (flags != 0u) {
         return sp_flags_status(flags);
@@ -271,14 +278,14 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
         for (i = k + 1u; i < SP_LEGS; ++i) {
             /* |r| < 2^56 at the start and at most doubles per column:
              * below 2^62 at the end, no overflow */
-            int32_t l = lu->a[lu->perm[i]][k];
+            int32_t l = lu->a[i][k];
             if (l != 0) {
                 r[i] -= spi_mul64_q30_up(r[k], l);
             }
         }
     }
     for (k = SP_LEGS; k-- > 0u;) {
-        const int32_t *uk = lu->a[lu->perm[k]];
+        const int32_t *uk = lu->a[k];
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
             s = spi_add64(s, -spi_mul64_up(x[j], uk[j], 28u, &flags), &flags);
@@ -331,21 +338,22 @@ SPI_INLINE int s32_exponent(uint64_t m, unsigned top)
     return (int)spi_clz64(m) - (int)(63u - top);
 }
 
-/* b 2^e as int32 into bs (in b's order), for max |b| 2^e below 2^(top+1):
- * exact for e >= 0, else round(b / 2^-e) with ties up (-e in [1, 31]). */
-SPI_INLINE void s32_scale_in(const int64_t b[SP_LEGS], int e, int32_t bs[SP_LEGS])
+/* b[perm[k]] 2^e (b[k]'s when perm is NULL) as int32 into bs[k], for
+ * max |b| 2^e below 2^(top+1): exact for e >= 0, else round(b / 2^-e)
+ * with ties up (-e in [1, 31]). */
+SPI_INLINE void s32_scale_in(const int64_t b[SP_LEGS], int e, const uint8_t *perm, int32_t bs[SP_LEGS])
 {
     unsigned i;
     if (e >= 0) {
         LU_UNROLL
         for (i = 0u; i < SP_LEGS; ++i) {
-            bs[i] = (int32_t)((uint32_t)b[i] << e);
+            bs[i] = (int32_t)((uint32_t)b[perm != NULL ? perm[i] : i] << e);
         }
     } else {
         unsigned sh = (unsigned)-e;
         LU_UNROLL
         for (i = 0u; i < SP_LEGS; ++i) {
-            uint64_t t = (uint64_t)b[i] + (UINT64_C(1) << (sh - 1u));
+            uint64_t t = (uint64_t)b[perm != NULL ? perm[i] : i] + (UINT64_C(1) << (sh - 1u));
             bs[i] = (int32_t)(((uint32_t)t >> sh) | ((uint32_t)(t >> 32) << (32u - sh)));
         }
     }
@@ -388,7 +396,7 @@ SPI_INLINE void s32_scale_out(const int32_t w[SP_LEGS], int e, const uint8_t *pe
  */
 static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64_t x[SP_LEGS])
 {
-    const int32_t *u[SP_LEGS];
+    const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
     int32_t w[SP_LEGS];
@@ -397,11 +405,7 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
     unsigned j;
     unsigned k;
 
-    LU_UNROLL
-    for (k = 0u; k < SP_LEGS; ++k) {
-        u[k] = lu->a[lu->perm[k]];
-    }
-    s32_scale_in(b, e, bs);
+    s32_scale_in(b, e, lu->perm, bs); /* P b' */
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
         int64_t acc = 0;
@@ -409,7 +413,7 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
         for (k = 0u; k < i; ++k) {
             acc += (int64_t)u[i][k] * y[k];
         }
-        if (!narrow_up_ok((int64_t)bs[lu->perm[i]] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
+        if (!narrow_up_ok((int64_t)bs[i] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
             return 0;
         }
     }
@@ -491,7 +495,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t s = b[k];
         for (j = 0u; j < k; ++j) {
-            s = spi_add64(s, -spi_mul64_up(y[j], lu->a[lu->perm[j]][k], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_up(y[j], lu->a[j][k], 28u, &flags), &flags);
         }
         y[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -499,7 +503,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = SP_LEGS; k-- > 0u;) {
         int64_t s = y[k];
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            int32_t l = lu->a[lu->perm[i]][k];
+            int32_t l = lu->a[i][k];
             if (l != 0) {
                 if (y[i] >= LT_MAX || y[i] <= -LT_MAX) {
                     flags |= SP_FLAG_OVERFLOW;
@@ -532,7 +536,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
  */
 int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
-    const int32_t *u[SP_LEGS];
+    const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
     int32_t sk;
@@ -546,11 +550,7 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         return 0;
     }
     e = s32_exponent(m, 26u);
-    s32_scale_in(b, e, bs);
-    LU_UNROLL
-    for (k = 0u; k < SP_LEGS; ++k) {
-        u[k] = lu->a[lu->perm[k]];
-    }
+    s32_scale_in(b, e, NULL, bs);
     LU_UNROLL
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t acc = 0;
