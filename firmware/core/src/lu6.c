@@ -316,19 +316,26 @@ SPI_INLINE int narrow_up_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
     return 1;
 }
 
-/* narrow_up_ok(v, s, 30, r) for a variable shift s in [2, 31], in 32-bit
- * operations (the bias 2^(s-1) + 2^(s+30) is one bit in each word). */
-SPI_INLINE int narrow30_up_ok(int64_t v, unsigned s, int32_t *r)
+/*
+ * y = v / a_kk as the 32-bit solves divide (v int64, |v| below 2^62):
+ * sk = round(v / 2^(30 - z)) (ties up) in [-2^30, 2^30), then y =
+ * round(sk inv / 2^31) in [-2^29, 2^29); returns 0 when either is out of
+ * its range. The first rounding as a multiply: v 2^(z + 2) + 2^31 + 2^62
+ * (96 bits, from one unsigned and one signed multiply-accumulate of v's
+ * words) has sk + 2^30 in its bits 32 and up, which must be in [0, 2^31):
+ * the same bits and the same refusals as shifting v by the pivot's
+ * variable 30 - z (tests/unit/test_lu6.c, test_solves32_bits).
+ */
+SPI_INLINE int div_pivot_ok(const sp_lu6_t *lu, unsigned k, int64_t v, int32_t *y)
 {
-    uint64_t t = (uint64_t)v + (((uint64_t)(UINT32_C(1) << (s - 2u)) << 32) | (UINT32_C(1) << (s - 1u)));
-    uint32_t lo = (uint32_t)t;
-    uint32_t hi = (uint32_t)(t >> 32);
-    uint32_t q = (lo >> s) | (hi << (32u - s)); /* t / 2^s modulo 2^32 */
-    if ((hi >> s) != 0u || (q >> 31) != 0u) {
+    int32_t p = INT32_C(4) << lu->zk[k]; /* 2^(z + 2), z in [0, 12] */
+    uint64_t lo = (uint64_t)(uint32_t)v * (uint32_t)p + ((UINT64_C(1) << 62) | (UINT64_C(1) << 31));
+    int32_t vh = (int32_t)((uint64_t)v >> 32);
+    int64_t hi = (int64_t)vh * p + (int64_t)(lo >> 32); /* bits 32..95 */
+    if ((uint64_t)hi >= (UINT64_C(1) << 31)) {
         return 0;
     }
-    *r = (int32_t)q - (INT32_C(1) << 30);
-    return 1;
+    return narrow_up_ok((int64_t)((int32_t)hi - (INT32_C(1) << 30)) * lu->inv[k], 31u, 29u, y);
 }
 
 /* The block exponent e of the 32-bit solves for max |b| = m (0 < m <
@@ -400,7 +407,6 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
     int32_t w[SP_LEGS];
-    int32_t sk;
     unsigned i;
     unsigned j;
     unsigned k;
@@ -424,8 +430,7 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
         for (j = k + 1u; j < SP_LEGS; ++j) {
             acc += (int64_t)u[k][j] * w[j];
         }
-        if (!narrow30_up_ok((int64_t)y[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
-            !narrow_up_ok((int64_t)sk * lu->inv[k], 31u, 29u, &w[k])) {
+        if (!div_pivot_ok(lu, k, (int64_t)y[k] * (INT64_C(1) << 28) - acc, &w[k])) {
             return 0;
         }
     }
@@ -539,7 +544,6 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
     const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
-    int32_t sk;
     uint64_t m = max_abs64(b);
     int e;
     unsigned i;
@@ -558,8 +562,7 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         for (j = 0u; j < k; ++j) {
             acc += (int64_t)u[j][k] * y[j];
         }
-        if (!narrow30_up_ok((int64_t)bs[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
-            !narrow_up_ok((int64_t)sk * lu->inv[k], 31u, 29u, &y[k])) {
+        if (!div_pivot_ok(lu, k, (int64_t)bs[k] * (INT64_C(1) << 28) - acc, &y[k])) {
             return 0;
         }
     }
