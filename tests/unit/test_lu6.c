@@ -499,7 +499,7 @@ static int ref_solve_t32(const sp_lu6_t *lu, const int64_t b[6], int64_t x[6])
 /*
  * The 32-bit solves bit for bit against ref_solve32 / ref_solve_t32 on
  * 30000 random systems (random_system's three kinds, and one in five
- * with |A^-1| up to 250; either factorisation) and right-hand sides of every magnitude from 1 to 2^55
+ * with |A^-1| up to 250; either factorisation) and right-hand sides of every magnitude from 1 to 2^56
  * (b's signs and sizes mixed, powers of two among them: the scaling's
  * edges), including the many that need the int64 fallback (counted: the
  * test needs both outcomes).
@@ -522,8 +522,8 @@ static void test_solves32_bits(void **state)
             random_matrix(&rng, 0.005, n, &m, md);
         }
         assert_int_equal(sp_lu6_factor(&m, tr, &lu), SP_OK);
-        if (n % 4 != 0) { /* a random b of random magnitude, not A xd */
-            int bits = 1 + (int)(tu_next(&rng) % 55u);
+        if (n % 4 != 0) {                              /* a random b of random magnitude, not A xd */
+            int bits = 1 + (int)(tu_next(&rng) % 56u); /* |b| below 2^56 */
             for (int i = 0; i < 6; ++i) {
                 int bi = 1 + (int)(tu_next(&rng) % (uint64_t)bits);
                 int64_t v = (int64_t)(tu_next(&rng) >> (64 - bi));

@@ -378,9 +378,13 @@ SPI_INLINE void s32_scale_out(const int32_t w[SP_LEGS], int e, const uint8_t *pe
             x[perm != NULL ? perm[k] : k] = (int64_t)((w[k] + (INT32_C(1) << (e - 1))) >> e);
         }
     } else {
+        /* w 2^n, n = -e in [0, 31], from its two words: w << n below,
+         * w >> (32 - n) (arithmetic, as (w >> 1) >> (31 - n)) above */
+        unsigned n = (unsigned)-e;
         LU_UNROLL
         for (k = 0u; k < SP_LEGS; ++k) {
-            x[perm != NULL ? perm[k] : k] = (int64_t)w[k] * (INT64_C(1) << -e);
+            uint32_t hi = (uint32_t)((w[k] >> 1) >> (31u - n));
+            x[perm != NULL ? perm[k] : k] = (int64_t)(((uint64_t)hi << 32) | ((uint32_t)w[k] << n));
         }
     }
 }
