@@ -317,6 +317,34 @@ SPI_INLINE int narrow_up_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
 }
 
 /*
+ * The 32-bit solves' sums start from c 2^s (+ a rounding bias below 2^s,
+ * + hi_bias 2^32) and add the products with the unknowns found so far
+ * NEGATED (each |t| < 2^30: -t fits): c 2^s - sum m t = c 2^s + sum m
+ * (-t), one multiply-accumulate a product and no 64-bit shift or
+ * subtraction, the same integers. The start's two words: c >> (32 - s)
+ * (arithmetic) above, c << s | bias below.
+ */
+SPI_INLINE int64_t s32_start(int32_t c, unsigned s, uint32_t bias, uint32_t hi_bias)
+{
+    uint32_t hi = (uint32_t)(c >> (32u - s)) + hi_bias;
+    return (int64_t)(((uint64_t)hi << 32) | (((uint32_t)c << s) | bias));
+}
+
+/* round(v / 2^30) (ties up) into *r when it is in [-2^lim, 2^lim), for t
+ * = v + 2^29 + 2^(30 + lim) (the bias already in the sum, from
+ * s32_start(c, 30, 2^29, 2^(lim - 2))): narrow_up_ok(v, 30, lim, r). */
+SPI_INLINE int narrow30_biased_ok(int64_t t, unsigned lim, int32_t *r)
+{
+    uint32_t hi = (uint32_t)((uint64_t)t >> 32);
+    uint32_t lo = (uint32_t)((uint64_t)t >> 30);
+    if ((hi >> 30) != 0u || (lo >> (lim + 1u)) != 0u) {
+        return 0;
+    }
+    *r = (int32_t)lo - (INT32_C(1) << lim);
+    return 1;
+}
+
+/*
  * y = v / a_kk as the 32-bit solves divide (v int64, |v| below 2^62):
  * sk = round(v / 2^(30 - z)) (ties up) in [-2^30, 2^30), then y =
  * round(sk inv / 2^31) in [-2^29, 2^29); returns 0 when either is out of
@@ -410,7 +438,9 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
     const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
+    int32_t ny[SP_LEGS]; /* -y */
     int32_t w[SP_LEGS];
+    int32_t nw[SP_LEGS]; /* -w */
     unsigned i;
     unsigned j;
     unsigned k;
@@ -418,25 +448,27 @@ static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64
     s32_scale_in(b, e, lu->perm, bs); /* P b' */
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(bs[i], 30u, UINT32_C(1) << 29, UINT32_C(1) << 28);
         LU_UNROLL
         for (k = 0u; k < i; ++k) {
-            acc += (int64_t)u[i][k] * y[k];
+            acc += (int64_t)u[i][k] * ny[k];
         }
-        if (!narrow_up_ok((int64_t)bs[i] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
+        if (!narrow30_biased_ok(acc, 30u, &y[i])) {
             return 0;
         }
+        ny[i] = -y[i];
     }
     LU_UNROLL
     for (k = SP_LEGS; k-- > 0u;) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(y[k], 28u, 0u, 0u);
         LU_UNROLL
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            acc += (int64_t)u[k][j] * w[j];
+            acc += (int64_t)u[k][j] * nw[j];
         }
-        if (!div_pivot_ok(lu, k, (int64_t)y[k] * (INT64_C(1) << 28) - acc, &w[k])) {
+        if (!div_pivot_ok(lu, k, acc, &w[k])) {
             return 0;
         }
+        nw[k] = -w[k];
     }
     s32_scale_out(w, e, NULL, x);
     return 1;
@@ -548,6 +580,7 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
     const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
+    int32_t ny[SP_LEGS]; /* -y */
     uint64_t m = max_abs64(b);
     int e;
     unsigned i;
@@ -561,25 +594,27 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
     s32_scale_in(b, e, NULL, bs);
     LU_UNROLL
     for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(bs[k], 28u, 0u, 0u);
         LU_UNROLL
         for (j = 0u; j < k; ++j) {
-            acc += (int64_t)u[j][k] * y[j];
+            acc += (int64_t)u[j][k] * ny[j];
         }
-        if (!div_pivot_ok(lu, k, (int64_t)bs[k] * (INT64_C(1) << 28) - acc, &y[k])) {
+        if (!div_pivot_ok(lu, k, acc, &y[k])) {
             return 0;
         }
+        ny[k] = -y[k];
     }
     LU_UNROLL
     for (k = SP_LEGS; k-- > 0u;) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(y[k], 30u, UINT32_C(1) << 29, UINT32_C(1) << 27);
         LU_UNROLL
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            acc += (int64_t)u[i][k] * y[i];
+            acc += (int64_t)u[i][k] * ny[i]; /* ny[i] = -v_i here */
         }
-        if (!narrow_up_ok((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &y[k])) {
+        if (!narrow30_biased_ok(acc, 29u, &y[k])) {
             return 0;
         }
+        ny[k] = -y[k];
     }
     s32_scale_out(y, e, lu->perm, x);
     return 1;
