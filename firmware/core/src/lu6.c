@@ -363,7 +363,17 @@ SPI_INLINE int div_pivot_ok(const sp_lu6_t *lu, unsigned k, int64_t v, int32_t *
     if ((uint64_t)hi >= (UINT64_C(1) << 31)) {
         return 0;
     }
-    return narrow_up_ok((int64_t)((int32_t)hi - (INT32_C(1) << 30)) * lu->inv[k], 31u, 29u, y);
+    /* narrow_up_ok(sk inv, 31, 29, y): t = sk inv + 2^30 + 2^60 (below
+     * 2^62 in magnitude) must be in [0, 2^61), a test of its high word */
+    {
+        int64_t t =
+            (int64_t)((int32_t)hi - (INT32_C(1) << 30)) * lu->inv[k] + ((INT64_C(1) << 60) | (INT64_C(1) << 30));
+        if (((uint32_t)((uint64_t)t >> 32) >> 29) != 0u) {
+            return 0;
+        }
+        *y = (int32_t)(uint32_t)((uint64_t)t >> 31) - (INT32_C(1) << 29);
+    }
+    return 1;
 }
 
 /* The block exponent e of the 32-bit solves for max |b| = m (0 < m <
