@@ -14,6 +14,10 @@
  *    test_solves_reference); sp_solve6 is sp_lu6_factor + sp_lu6_solve bit
  *    for bit; on well-conditioned matrices the solutions are within the
  *    header's bounds of the exact solution of the unfactored system;
+ *  - the 32-bit solves (sp_lu6_solve's and sp_lu6_solve_grow's path,
+ *    spi_lu6_solve_t32) bit for bit against their plain references
+ *    (ref_solve32, ref_solve_t32: the algorithm as first written, with
+ *    its roundings and refusals), test_solves32_bits;
  *  - the fallbacks (the int64 solve, the 32-bit transposed solve's
  *    refusal) on systems built to need them, and the errors.
  */
