@@ -14,6 +14,10 @@
  *    test_solves_reference); sp_solve6 is sp_lu6_factor + sp_lu6_solve bit
  *    for bit; on well-conditioned matrices the solutions are within the
  *    header's bounds of the exact solution of the unfactored system;
+ *  - the 32-bit solves (sp_lu6_solve's and sp_lu6_solve_grow's path,
+ *    spi_lu6_solve_t32) bit for bit against their plain references
+ *    (ref_solve32, ref_solve_t32: the algorithm as first written, with
+ *    its roundings and refusals), test_solves32_bits;
  *  - the fallbacks (the int64 solve, the 32-bit transposed solve's
  *    refusal) on systems built to need them, and the errors.
  */
@@ -131,7 +135,7 @@ static void check_factor(const sp_jacobian_t *m, int transpose)
     }
     for (int k = 0; k < 6; ++k) {
         assert_int_equal(lu.perm[k], perm[k]);
-        assert_memory_equal(lu.a[lu.perm[k]], a[k], sizeof a[k]);
+        assert_memory_equal(lu.a[k], a[k], sizeof a[k]);
     }
 }
 
@@ -190,9 +194,9 @@ static void test_factor_paths(void **state)
 static void ref_solve(const sp_lu6_t *lu, int transpose, const int64_t b[6], long double x[6])
 {
     long double l[6][6], u[6][6], y[6];
-    for (int k = 0; k < 6; ++k) { /* row k of L and U: pivot row k, row perm[k] of lu->a */
+    for (int k = 0; k < 6; ++k) { /* row k of L and U: pivot row k, lu->a[k] */
         for (int j = 0; j < 6; ++j) {
-            int32_t v = lu->a[lu->perm[k]][j];
+            int32_t v = lu->a[k][j];
             l[k][j] = (j < k) ? (long double)v / (1 << 30) : (j == k) ? 1.0L : 0.0L;
             u[k][j] = (j >= k) ? (long double)v / (1 << 28) : 0.0L;
         }
@@ -385,6 +389,186 @@ static void test_solves_reference(void **state)
     print_message("sp_lu6_solve_grow vs ref_solve, worst error / bound %.2f\n", worst_grow);
 }
 
+/*
+ * The 32-bit solves as first written (sessions before 14), plainly: the
+ * optimised ones must give their bits exactly, and refuse exactly where
+ * they refuse. round(v / 2^s) ties up, accepted when it is in [-2^lim,
+ * 2^lim) (else the solve refuses: returns 0).
+ */
+static int ref_narrow(int64_t v, int s, int lim, int32_t *r)
+{
+    int64_t q = (v + ((int64_t)1 << (s - 1))) >> s; /* v below 2^62 here */
+    if (q < -((int64_t)1 << lim) || q >= ((int64_t)1 << lim)) {
+        return 0;
+    }
+    *r = (int32_t)q;
+    return 1;
+}
+
+/* max |b| 2^e in [2^top, 2^(top+1)) (0 < max |b| < 2^56) */
+static int ref_exponent(const int64_t b[6], int top)
+{
+    uint64_t m = (uint64_t)max_abs_i64(b);
+    int h = 0; /* the highest set bit of m */
+    while ((m >> h) > 1u) {
+        ++h;
+    }
+    return top - h;
+}
+
+/* b 2^e: exact for e >= 0, else rounded ties up */
+static int32_t ref_scale_in(int64_t b, int e)
+{
+    return (int32_t)((e >= 0) ? b * ((int64_t)1 << e) : (b + ((int64_t)1 << (-e - 1))) >> -e);
+}
+
+/* w 2^-e: exact for e <= 0, else rounded ties up */
+static int64_t ref_scale_out(int32_t w, int e)
+{
+    return (e > 0) ? ((int64_t)w + ((int64_t)1 << (e - 1))) >> e : (int64_t)w * ((int64_t)1 << -e);
+}
+
+/* y = s / a_kk as the 32-bit solves divide: round(s / 2^(30 - z)) in
+ * [-2^30, 2^30), times inv, round(/ 2^31) in [-2^29, 2^29) */
+static int ref_div_pivot(const sp_lu6_t *lu, int k, int64_t s, int32_t *y)
+{
+    int32_t sk;
+    return ref_narrow(s, 30 - lu->zk[k], 30, &sk) && ref_narrow((int64_t)sk * lu->inv[k], 31, 29, y);
+}
+
+/* sp_lu6_solve's (top 28) and sp_lu6_solve_grow's (top 24) 32-bit path:
+ * L y = P b', U x' = y */
+static int ref_solve32(const sp_lu6_t *lu, const int64_t b[6], int top, int64_t x[6])
+{
+    int e = ref_exponent(b, top);
+    int32_t y[6], w[6];
+    for (int i = 0; i < 6; ++i) {
+        int64_t acc = 0;
+        for (int k = 0; k < i; ++k) {
+            acc += (int64_t)lu->a[i][k] * y[k];
+        }
+        if (!ref_narrow((int64_t)ref_scale_in(b[lu->perm[i]], e) * ((int64_t)1 << 30) - acc, 30, 30, &y[i])) {
+            return 0;
+        }
+    }
+    for (int k = 5; k >= 0; --k) {
+        int64_t acc = 0;
+        for (int j = k + 1; j < 6; ++j) {
+            acc += (int64_t)lu->a[k][j] * w[j];
+        }
+        if (!ref_div_pivot(lu, k, (int64_t)y[k] * ((int64_t)1 << 28) - acc, &w[k])) {
+            return 0;
+        }
+    }
+    for (int k = 0; k < 6; ++k) {
+        x[k] = ref_scale_out(w[k], e);
+    }
+    return 1;
+}
+
+/* spi_lu6_solve_t32: U^T y = b', L^T v = y, x = P^T v */
+static int ref_solve_t32(const sp_lu6_t *lu, const int64_t b[6], int64_t x[6])
+{
+    int32_t y[6];
+    int64_t m = max_abs_i64(b);
+    int e;
+    if (m == 0 || m >= ((int64_t)1 << 56)) {
+        return 0;
+    }
+    e = ref_exponent(b, 26);
+    for (int k = 0; k < 6; ++k) {
+        int64_t acc = 0;
+        for (int j = 0; j < k; ++j) {
+            acc += (int64_t)lu->a[j][k] * y[j];
+        }
+        if (!ref_div_pivot(lu, k, (int64_t)ref_scale_in(b[k], e) * ((int64_t)1 << 28) - acc, &y[k])) {
+            return 0;
+        }
+    }
+    for (int k = 5; k >= 0; --k) {
+        int64_t acc = 0;
+        for (int i = k + 1; i < 6; ++i) {
+            acc += (int64_t)lu->a[i][k] * y[i];
+        }
+        if (!ref_narrow((int64_t)y[k] * ((int64_t)1 << 30) - acc, 30, 29, &y[k])) {
+            return 0;
+        }
+    }
+    for (int k = 0; k < 6; ++k) {
+        x[lu->perm[k]] = ref_scale_out(y[k], e);
+    }
+    return 1;
+}
+
+/*
+ * The 32-bit solves bit for bit against ref_solve32 / ref_solve_t32 on
+ * 30000 random systems (random_system's three kinds, and one in five
+ * with |A^-1| up to 250; either factorisation) and right-hand sides of every magnitude from 1 to 2^56
+ * (b's signs and sizes mixed, powers of two among them: the scaling's
+ * edges), including the many that need the int64 fallback (counted: the
+ * test needs both outcomes).
+ */
+static void test_solves32_bits(void **state)
+{
+    uint64_t rng = 47;
+    int taken[3] = {0, 0, 0};
+    int refused[3] = {0, 0, 0};
+    (void)state;
+    for (int n = 0; n < 30000; ++n) {
+        sp_jacobian_t m;
+        sp_lu6_t lu;
+        double xd[6];
+        int64_t b[6], bt[6], x[6], want[6];
+        int tr = n & 1;
+        (void)random_system(&rng, n % 3, tr, &m, xd, b, bt);
+        if (n % 5 == 4) { /* |A^-1| up to 250: the grow solve's refusals */
+            double md[6][6];
+            random_matrix(&rng, 0.005, n, &m, md);
+        }
+        assert_int_equal(sp_lu6_factor(&m, tr, &lu), SP_OK);
+        if (n % 4 != 0) {                              /* a random b of random magnitude, not A xd */
+            int bits = 1 + (int)(tu_next(&rng) % 56u); /* |b| below 2^56 */
+            for (int i = 0; i < 6; ++i) {
+                int bi = 1 + (int)(tu_next(&rng) % (uint64_t)bits);
+                int64_t v = (int64_t)(tu_next(&rng) >> (64 - bi));
+                if (tu_next(&rng) % 7u == 0u) {
+                    v = (int64_t)1 << (bi - 1); /* a power of two */
+                }
+                b[i] = (tu_next(&rng) & 1u) ? -v : v;
+            }
+        }
+        if (max_abs_i64(b) == 0) {
+            continue;
+        }
+        for (int top = 24; top <= 28; top += 4) {
+            int t = top == 28;
+            if (ref_solve32(&lu, b, top, want)) {
+                assert_int_equal(t ? sp_lu6_solve(&lu, b, x) : sp_lu6_solve_grow(&lu, b, x), SP_OK);
+                assert_memory_equal(x, want, sizeof x);
+                ++taken[t];
+            } else {
+                ++refused[t];
+            }
+        }
+        for (int i = 0; i < 6; ++i) {
+            x[i] = want[i] = 12345;
+        }
+        if (ref_solve_t32(&lu, b, want)) {
+            assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 1);
+            ++taken[2];
+        } else {
+            assert_int_equal(spi_lu6_solve_t32(&lu, b, x), 0);
+            ++refused[2];
+        }
+        assert_memory_equal(x, want, sizeof x);
+    }
+    printf("32-bit solves: solve %d taken %d refused, grow %d / %d, t32 %d / %d\n", taken[1], refused[1], taken[0],
+           refused[0], taken[2], refused[2]);
+    for (int t = 0; t < 3; ++t) {
+        assert_true(taken[t] > 1000 && refused[t] > 100);
+    }
+}
+
 /* The fallbacks on systems built to need them: x_5 = 512 b_5 (x' = 512
  * max |b'| > 2^29: sp_lu6_solve's int64 solve, exact here; the 32-bit
  * transposed solve refuses, x untouched); growth in L (1 on the diagonal,
@@ -503,9 +687,8 @@ static void test_solve_errors(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_factor_paths),
-        cmocka_unit_test(test_solves_reference),
-        cmocka_unit_test(test_solve_fallbacks),
+        cmocka_unit_test(test_factor_paths),  cmocka_unit_test(test_solves_reference),
+        cmocka_unit_test(test_solves32_bits), cmocka_unit_test(test_solve_fallbacks),
         cmocka_unit_test(test_solve_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -170,6 +170,7 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
 
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
 {
+    int32_t w[SP_LEGS][SP_LEGS];
     int32_t *r[SP_LEGS];
     sp_flags_t flags = 0u;
     uint32_t any = 0u;
@@ -188,13 +189,13 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
             LU_UNROLL
             for (j = 0u; j < SP_LEGS; ++j) {
                 int32_t v = m->j[j][i];
-                lu->a[i][j] = v;
+                w[i][j] = v;
                 any |= (uint32_t)(v ^ (v >> 31));
             }
         }
     } else {
         const int32_t *src = &m->j[0][0];
-        int32_t *dst = &lu->a[0][0];
+        int32_t *dst = &w[0][0];
         for (i = 0u; i < SP_LEGS * SP_LEGS; ++i) {
             int32_t v = src[i];
             dst[i] = v;
@@ -204,16 +205,22 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
     bound = any + 1u; /* <= 2^31 */
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
-        r[i] = lu->a[i];
+        r[i] = w[i];
     }
     if (!lu_step(lu, r, 0u, &bound, &flags) || !lu_step(lu, r, 1u, &bound, &flags) ||
         !lu_step(lu, r, 2u, &bound, &flags) || !lu_step(lu, r, 3u, &bound, &flags) ||
         !lu_step(lu, r, 4u, &bound, &flags) || !lu_step(lu, r, 5u, &bound, &flags)) {
         return SP_E_SINGULAR;
     }
+    /* the rows in pivot order (the solves then read them at constant
+     * offsets); pivot row i is row perm[i] of A */
     LU_UNROLL
-    for (i = 0u; i < SP_LEGS; ++i) { /* pivot row i is row perm[i] of A */
-        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)lu->a) / sizeof lu->a[0]);
+    for (i = 0u; i < SP_LEGS; ++i) {
+        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)w) / sizeof w[0]);
+        LU_UNROLL
+        for (j = 0u; j < SP_LEGS; ++j) {
+            lu->a[i][j] = r[i][j];
+        }
     }
     if (flags != 0u) {
         return sp_flags_status(flags);
@@ -271,14 +278,14 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
         for (i = k + 1u; i < SP_LEGS; ++i) {
             /* |r| < 2^56 at the start and at most doubles per column:
              * below 2^62 at the end, no overflow */
-            int32_t l = lu->a[lu->perm[i]][k];
+            int32_t l = lu->a[i][k];
             if (l != 0) {
                 r[i] -= spi_mul64_q30_up(r[k], l);
             }
         }
     }
     for (k = SP_LEGS; k-- > 0u;) {
-        const int32_t *uk = lu->a[lu->perm[k]];
+        const int32_t *uk = lu->a[k];
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
             s = spi_add64(s, -spi_mul64_up(x[j], uk[j], 28u, &flags), &flags);
@@ -309,18 +316,63 @@ SPI_INLINE int narrow_up_ok(int64_t v, unsigned s, unsigned lim, int32_t *r)
     return 1;
 }
 
-/* narrow_up_ok(v, s, 30, r) for a variable shift s in [2, 31], in 32-bit
- * operations (the bias 2^(s-1) + 2^(s+30) is one bit in each word). */
-SPI_INLINE int narrow30_up_ok(int64_t v, unsigned s, int32_t *r)
+/*
+ * The 32-bit solves' sums start from c 2^s (+ a rounding bias below 2^s,
+ * + hi_bias 2^32) and add the products with the unknowns found so far
+ * NEGATED (each |t| < 2^30: -t fits): c 2^s - sum m t = c 2^s + sum m
+ * (-t), one multiply-accumulate a product and no 64-bit shift or
+ * subtraction, the same integers. The start's two words: c >> (32 - s)
+ * (arithmetic) above, c << s | bias below.
+ */
+SPI_INLINE int64_t s32_start(int32_t c, unsigned s, uint32_t bias, uint32_t hi_bias)
 {
-    uint64_t t = (uint64_t)v + (((uint64_t)(UINT32_C(1) << (s - 2u)) << 32) | (UINT32_C(1) << (s - 1u)));
-    uint32_t lo = (uint32_t)t;
-    uint32_t hi = (uint32_t)(t >> 32);
-    uint32_t q = (lo >> s) | (hi << (32u - s)); /* t / 2^s modulo 2^32 */
-    if ((hi >> s) != 0u || (q >> 31) != 0u) {
+    uint32_t hi = (uint32_t)(c >> (32u - s)) + hi_bias;
+    return (int64_t)(((uint64_t)hi << 32) | (((uint32_t)c << s) | bias));
+}
+
+/* round(v / 2^30) (ties up) into *r when it is in [-2^lim, 2^lim), for t
+ * = v + 2^29 + 2^(30 + lim) (the bias already in the sum, from
+ * s32_start(c, 30, 2^29, 2^(lim - 2))): narrow_up_ok(v, 30, lim, r). */
+SPI_INLINE int narrow30_biased_ok(int64_t t, unsigned lim, int32_t *r)
+{
+    uint32_t hi = (uint32_t)((uint64_t)t >> 32);
+    uint32_t lo = (uint32_t)((uint64_t)t >> 30);
+    if ((hi >> 30) != 0u || (lo >> (lim + 1u)) != 0u) {
         return 0;
     }
-    *r = (int32_t)q - (INT32_C(1) << 30);
+    *r = (int32_t)lo - (INT32_C(1) << lim);
+    return 1;
+}
+
+/*
+ * y = v / a_kk as the 32-bit solves divide (v int64, |v| below 2^62):
+ * sk = round(v / 2^(30 - z)) (ties up) in [-2^30, 2^30), then y =
+ * round(sk inv / 2^31) in [-2^29, 2^29); returns 0 when either is out of
+ * its range. The first rounding as a multiply: v 2^(z + 2) + 2^31 + 2^62
+ * (96 bits, from one unsigned and one signed multiply-accumulate of v's
+ * words) has sk + 2^30 in its bits 32 and up, which must be in [0, 2^31):
+ * the same bits and the same refusals as shifting v by the pivot's
+ * variable 30 - z (tests/unit/test_lu6.c, test_solves32_bits).
+ */
+SPI_INLINE int div_pivot_ok(const sp_lu6_t *lu, unsigned k, int64_t v, int32_t *y)
+{
+    int32_t p = INT32_C(4) << lu->zk[k]; /* 2^(z + 2), z in [0, 12] */
+    uint64_t lo = (uint64_t)(uint32_t)v * (uint32_t)p + ((UINT64_C(1) << 62) | (UINT64_C(1) << 31));
+    int32_t vh = (int32_t)((uint64_t)v >> 32);
+    int64_t hi = (int64_t)vh * p + (int64_t)(lo >> 32); /* bits 32..95 */
+    if ((uint64_t)hi >= (UINT64_C(1) << 31)) {
+        return 0;
+    }
+    /* narrow_up_ok(sk inv, 31, 29, y): t = sk inv + 2^30 + 2^60 (below
+     * 2^62 in magnitude) must be in [0, 2^61), a test of its high word */
+    {
+        int64_t t =
+            (int64_t)((int32_t)hi - (INT32_C(1) << 30)) * lu->inv[k] + ((INT64_C(1) << 60) | (INT64_C(1) << 30));
+        if (((uint32_t)((uint64_t)t >> 32) >> 29) != 0u) {
+            return 0;
+        }
+        *y = (int32_t)(uint32_t)((uint64_t)t >> 31) - (INT32_C(1) << 29);
+    }
     return 1;
 }
 
@@ -331,21 +383,22 @@ SPI_INLINE int s32_exponent(uint64_t m, unsigned top)
     return (int)spi_clz64(m) - (int)(63u - top);
 }
 
-/* b 2^e as int32 into bs (in b's order), for max |b| 2^e below 2^(top+1):
- * exact for e >= 0, else round(b / 2^-e) with ties up (-e in [1, 31]). */
-SPI_INLINE void s32_scale_in(const int64_t b[SP_LEGS], int e, int32_t bs[SP_LEGS])
+/* b[perm[k]] 2^e (b[k]'s when perm is NULL) as int32 into bs[k], for
+ * max |b| 2^e below 2^(top+1): exact for e >= 0, else round(b / 2^-e)
+ * with ties up (-e in [1, 31]). */
+SPI_INLINE void s32_scale_in(const int64_t b[SP_LEGS], int e, const uint8_t *perm, int32_t bs[SP_LEGS])
 {
     unsigned i;
     if (e >= 0) {
         LU_UNROLL
         for (i = 0u; i < SP_LEGS; ++i) {
-            bs[i] = (int32_t)((uint32_t)b[i] << e);
+            bs[i] = (int32_t)((uint32_t)b[perm != NULL ? perm[i] : i] << e);
         }
     } else {
         unsigned sh = (unsigned)-e;
         LU_UNROLL
         for (i = 0u; i < SP_LEGS; ++i) {
-            uint64_t t = (uint64_t)b[i] + (UINT64_C(1) << (sh - 1u));
+            uint64_t t = (uint64_t)b[perm != NULL ? perm[i] : i] + (UINT64_C(1) << (sh - 1u));
             bs[i] = (int32_t)(((uint32_t)t >> sh) | ((uint32_t)(t >> 32) << (32u - sh)));
         }
     }
@@ -363,9 +416,13 @@ SPI_INLINE void s32_scale_out(const int32_t w[SP_LEGS], int e, const uint8_t *pe
             x[perm != NULL ? perm[k] : k] = (int64_t)((w[k] + (INT32_C(1) << (e - 1))) >> e);
         }
     } else {
+        /* w 2^n, n = -e in [0, 31], from its two words: w << n below,
+         * w >> (32 - n) (arithmetic, as (w >> 1) >> (31 - n)) above */
+        unsigned n = (unsigned)-e;
         LU_UNROLL
         for (k = 0u; k < SP_LEGS; ++k) {
-            x[perm != NULL ? perm[k] : k] = (int64_t)w[k] * (INT64_C(1) << -e);
+            uint32_t hi = (uint32_t)((w[k] >> 1) >> (31u - n));
+            x[perm != NULL ? perm[k] : k] = (int64_t)(((uint64_t)hi << 32) | ((uint32_t)w[k] << n));
         }
     }
 }
@@ -388,42 +445,40 @@ SPI_INLINE void s32_scale_out(const int32_t w[SP_LEGS], int e, const uint8_t *pe
  */
 static int lu_solve32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int e, int64_t x[SP_LEGS])
 {
-    const int32_t *u[SP_LEGS];
+    const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
+    int32_t ny[SP_LEGS]; /* -y */
     int32_t w[SP_LEGS];
-    int32_t sk;
+    int32_t nw[SP_LEGS]; /* -w */
     unsigned i;
     unsigned j;
     unsigned k;
 
-    LU_UNROLL
-    for (k = 0u; k < SP_LEGS; ++k) {
-        u[k] = lu->a[lu->perm[k]];
-    }
-    s32_scale_in(b, e, bs);
+    s32_scale_in(b, e, lu->perm, bs); /* P b' */
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(bs[i], 30u, UINT32_C(1) << 29, UINT32_C(1) << 28);
         LU_UNROLL
         for (k = 0u; k < i; ++k) {
-            acc += (int64_t)u[i][k] * y[k];
+            acc += (int64_t)u[i][k] * ny[k];
         }
-        if (!narrow_up_ok((int64_t)bs[lu->perm[i]] * (INT64_C(1) << 30) - acc, 30u, 30u, &y[i])) {
+        if (!narrow30_biased_ok(acc, 30u, &y[i])) {
             return 0;
         }
+        ny[i] = -y[i];
     }
     LU_UNROLL
     for (k = SP_LEGS; k-- > 0u;) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(y[k], 28u, 0u, 0u);
         LU_UNROLL
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            acc += (int64_t)u[k][j] * w[j];
+            acc += (int64_t)u[k][j] * nw[j];
         }
-        if (!narrow30_up_ok((int64_t)y[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
-            !narrow_up_ok((int64_t)sk * lu->inv[k], 31u, 29u, &w[k])) {
+        if (!div_pivot_ok(lu, k, acc, &w[k])) {
             return 0;
         }
+        nw[k] = -w[k];
     }
     s32_scale_out(w, e, NULL, x);
     return 1;
@@ -491,7 +546,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t s = b[k];
         for (j = 0u; j < k; ++j) {
-            s = spi_add64(s, -spi_mul64_up(y[j], lu->a[lu->perm[j]][k], 28u, &flags), &flags);
+            s = spi_add64(s, -spi_mul64_up(y[j], lu->a[j][k], 28u, &flags), &flags);
         }
         y[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -499,7 +554,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = SP_LEGS; k-- > 0u;) {
         int64_t s = y[k];
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            int32_t l = lu->a[lu->perm[i]][k];
+            int32_t l = lu->a[i][k];
             if (l != 0) {
                 if (y[i] >= LT_MAX || y[i] <= -LT_MAX) {
                     flags |= SP_FLAG_OVERFLOW;
@@ -532,10 +587,10 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
  */
 int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS])
 {
-    const int32_t *u[SP_LEGS];
+    const int32_t(*u)[SP_LEGS] = lu->a; /* the rows of L and U in pivot order */
     int32_t bs[SP_LEGS];
     int32_t y[SP_LEGS];
-    int32_t sk;
+    int32_t ny[SP_LEGS]; /* -y */
     uint64_t m = max_abs64(b);
     int e;
     unsigned i;
@@ -546,33 +601,30 @@ int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP
         return 0;
     }
     e = s32_exponent(m, 26u);
-    s32_scale_in(b, e, bs);
+    s32_scale_in(b, e, NULL, bs);
     LU_UNROLL
     for (k = 0u; k < SP_LEGS; ++k) {
-        u[k] = lu->a[lu->perm[k]];
-    }
-    LU_UNROLL
-    for (k = 0u; k < SP_LEGS; ++k) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(bs[k], 28u, 0u, 0u);
         LU_UNROLL
         for (j = 0u; j < k; ++j) {
-            acc += (int64_t)u[j][k] * y[j];
+            acc += (int64_t)u[j][k] * ny[j];
         }
-        if (!narrow30_up_ok((int64_t)bs[k] * (INT64_C(1) << 28) - acc, 30u - lu->zk[k], &sk) ||
-            !narrow_up_ok((int64_t)sk * lu->inv[k], 31u, 29u, &y[k])) {
+        if (!div_pivot_ok(lu, k, acc, &y[k])) {
             return 0;
         }
+        ny[k] = -y[k];
     }
     LU_UNROLL
     for (k = SP_LEGS; k-- > 0u;) {
-        int64_t acc = 0;
+        int64_t acc = s32_start(y[k], 30u, UINT32_C(1) << 29, UINT32_C(1) << 27);
         LU_UNROLL
         for (i = k + 1u; i < SP_LEGS; ++i) {
-            acc += (int64_t)u[i][k] * y[i];
+            acc += (int64_t)u[i][k] * ny[i]; /* ny[i] = -v_i here */
         }
-        if (!narrow_up_ok((int64_t)y[k] * (INT64_C(1) << 30) - acc, 30u, 29u, &y[k])) {
+        if (!narrow30_biased_ok(acc, 29u, &y[k])) {
             return 0;
         }
+        ny[k] = -y[k];
     }
     s32_scale_out(y, e, lu->perm, x);
     return 1;

@@ -40,9 +40,10 @@ sp_status_t sp_solve6(const sp_jacobian_t *m, int transpose, const int64_t b[SP_
 
 /** A pivoted LU factorisation of a 6x6 matrix A in Q28, as sp_solve6
  *  computes it: P A = L U, with (P A)_k = A_perm[k] (the k-th pivot row is
- *  row perm[k] of A; the rows are not moved). a[perm[k]] holds row k of U
- *  on and above the diagonal (Q28) and row k of L's multipliers below it
- *  (Q30, |l| <= 1, unit diagonal implied); inv and zk are each pivot's
+ *  row perm[k] of A). The rows are stored in pivot order, so that the
+ *  solves read them at constant offsets: a[k] holds row k of U on and
+ *  above the diagonal (Q28) and row k of L's multipliers below it (Q30,
+ *  |l| <= 1, unit diagonal implied); inv and zk are each pivot's
  *  normalised reciprocal (see sp_solve6). valid is 1 only after a
  *  successful sp_lu6_factor. */
 typedef struct {
