@@ -771,11 +771,6 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         return 1;
     }
     if (flags == 0u) {
-        if (same) {
-            /* a repeated reference: factorised afresh, so that its forces
-             * become sp_setpoints_of's once every leg is its own */
-            ctrl->legs.lu_age = ctrl->legs.lu_keep;
-        }
         /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
          * (one group: every leg, nothing kept); none on a tick that is due
          * to factorise J^T (its age, not a repeated reference), so that
@@ -783,6 +778,14 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
          * turn's other SP_CTRL_LU_KEEP - 1 ticks refresh the groups */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
         unsigned refresh = 0u;
+        if (same &&
+            ((ctrl->legs_exact | (((1u << per) - 1u) << (ctrl->leg_group * per))) & SP_ALL_LEGS) == SP_ALL_LEGS) {
+            /* a repeated reference whose legs this tick's group completes:
+             * factorised afresh, so that its forces become
+             * sp_setpoints_of's (the ticks before refine, as a moving
+             * reference's do: one factorisation, not one a tick) */
+            ctrl->legs.lu_age = ctrl->legs.lu_keep;
+        }
         if (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || same ||
             ctrl->legs.held != SP_ALL_LEGS || ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep) {
             refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
