@@ -234,24 +234,36 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     sp_admit_report_t rep = {0u, 0u};
     const int32_t dt_q38 = st->dt_q38;
     const int64_t rate_q16 = st->rate_q16;
+    /* the axes not forced: no contact, no secant, not primed; those at
+     * rest on the position reference stay there (the return to d = 0 and
+     * the brake both leave v = 0, d = 0, inside every bound), so the law
+     * runs on the forced axes and the others still moving only (under
+     * force control on one or two axes, most are at rest) */
+    const uint8_t forced_mask = (mode == SP_ADMIT_FORCE) ? (uint8_t)(mask & 0x3Fu) : 0u;
+    uint8_t work = forced_mask;
+    st->primed &= forced_mask;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        sp_admit_axis_state_t *s = &st->axis[k];
+        if ((forced_mask & (1u << k)) == 0u) {
+            s->in_contact = 0u;
+            s->k_hat = 0;
+            if (s->d == 0 && s->v == 0) {
+                s->a = 0;
+            } else {
+                work = (uint8_t)(work | (1u << k));
+            }
+        }
+    }
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &st->axis[k];
         const uint8_t bit = (uint8_t)(1u << k);
-        const int forced = mode == SP_ADMIT_FORCE && (mask & bit) != 0u;
+        const int forced = (forced_mask & bit) != 0u;
 
-        if (!forced) {
-            s->in_contact = 0u;
-            s->k_hat = 0;
-            st->primed &= (uint8_t)~bit;
-            if (s->d == 0 && s->v == 0) {
-                /* at rest on the position reference: the return to d = 0
-                 * and the brake both leave it there (v = 0, d = 0, inside
-                 * every bound), so nothing to compute */
-                s->a = 0;
-                continue;
-            }
-        } else if (x_meas != NULL) {
+        if ((work & bit) == 0u) {
+            continue;
+        }
+        if (forced && x_meas != NULL) {
             /* the pose through the wrench filter's sections, for the secant;
              * primed with the measurement the first tick the axis is forced */
             const int primed = (st->primed & bit) != 0u;
