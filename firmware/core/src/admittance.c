@@ -451,7 +451,8 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
     uint32_t events = 0u;
     int64_t dot = 0, f2 = 0;
     for (unsigned k = 0; k < 3u; ++k) {
-        int64_t f = clamp64(w_ext[k], WRENCH_MAX);
+        /* held within +-2^30 (an int32 reading: 32-bit compares) */
+        int64_t f = clamp32(w_ext[k], -(int32_t)WRENCH_MAX, (int32_t)WRENCH_MAX);
         dot -= f * tp->t[k]; /* the push-back times |F_target|, Q16 */
         f2 += f * f;
     }
