@@ -113,6 +113,26 @@ static void expect_plain(const sp_ft_mount_t *mount, const sp_rot_t *T, const sp
             fail_msg("case %d component %d: plain %d, to_base %d, frame + apply %d", c, k, want[k], got[k], got2[k]);
         }
     }
+    /* the reading less a tare's bias in one pass: the plain transform of
+     * the tare's output (the difference saturated to int32); biases of
+     * none, the reading's negative (the difference saturates at the
+     * extremes) and of another component */
+    sp_q8_t bias[6], tared[6];
+    int sat = 0;
+    for (int k = 0; k < 6; k++) {
+        bias[k] =
+            (c % 3 == 0) ? 0 : ((c % 3 == 1) ? (sp_q8_t)(-(int64_t)reading[k] / 2 * 2 - 1) : reading[(k + 1) % 6]);
+        tared[k] = plain_sat32((int64_t)reading[k] - bias[k], &sat);
+    }
+    sp_status_t s3 = plain_ft_to_base(mount, T, tared, want);
+    assert_int_equal(sp_ft_apply_tared(&fr, reading, bias, got), s3);
+    for (int k = 0; k < 6; k++) {
+        if (got[k] != want[k]) {
+            fail_msg("case %d component %d: plain of the tared reading %d, apply_tared %d", c, k, want[k], got[k]);
+        }
+    }
+    assert_int_equal(sp_ft_apply_tared(NULL, reading, bias, got), SP_E_ARG);
+    assert_int_equal(sp_ft_apply_tared(&fr, reading, NULL, got), SP_E_ARG);
 }
 
 static hs_ft_params_t ideal(void)

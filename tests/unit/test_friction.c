@@ -467,6 +467,73 @@ static void test_equals_plain(void **state)
     assert_true(tabled > 3000L * 40L * SP_LEGS / 20L); /* and many took the table's entries */
 }
 
+/* The table's step keeps each leg's last Stribeck fade (a function of
+ * the speed alone) for its next tick at the same speed: legs creeping by
+ * the same few LSB tick after tick, now and then another step, a reset
+ * or a tick the table was not made for, equal the plain first version
+ * bit for bit (outputs, bristles, status), over 400 platforms of the
+ * table's seals, 200 ticks each; most leg-ticks reuse a kept fade. */
+static void test_fade_kept(void **state)
+{
+    static sp_fric_table_t table;
+    uint64_t rng = UINT64_C(0xFADE);
+    long reused = 0;
+    long tabled = 0;
+    (void)state;
+    for (int n = 0; n < 400; ++n) {
+        sp_platform_t p;
+        sp_fric_obs_t o, ref;
+        sp_q24_t len[SP_LEGS];
+        int32_t creep[SP_LEGS];
+        int32_t last_v[SP_LEGS] = {0, 0, 0, 0, 0, 0};
+        sp_q8_t f[SP_LEGS], f_ref[SP_LEGS];
+        const uint32_t tick_us = (n % 2 == 0) ? 1000u : 500u;
+        random_platform(&rng, &p);
+        for (int i = 1; i < SP_LEGS; ++i) {
+            p.bristle_stiffness[i] = p.bristle_stiffness[0];
+            p.coulomb_friction[i] = p.coulomb_friction[0];
+            p.breakaway_friction[i] = p.breakaway_friction[0];
+        }
+        assert_int_equal(sp_fric_table_prepare(&p, tick_us, &table), SP_OK);
+        sp_fric_obs_reset(&o);
+        sp_fric_obs_reset(&ref);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            len[i] = tu_i32(&rng) / 4;
+            creep[i] = 1 + (int32_t)(tu_next(&rng) % 8u);
+        }
+        for (int t = 0; t < 200; ++t) {
+            /* 1 tick in 50 at another tick (the table unused), 1 in 100 a reset */
+            uint32_t tk = (t % 50 == 49) ? tick_us + 1u : tick_us;
+            if (t % 100 == 99) {
+                sp_fric_obs_reset(&o);
+                sp_fric_obs_reset(&ref);
+            }
+            for (int i = 0; i < SP_LEGS; ++i) {
+                uint32_t r = (uint32_t)(tu_next(&rng) % 16u);
+                int32_t dx = (r == 0u) ? creep[i] + 1 : ((r == 1u) ? -creep[i] : creep[i]);
+                if (r == 2u && table.count > 0u) {
+                    dx = (int32_t)table.count; /* the table's last entry */
+                }
+                len[i] += dx;
+                if (o.valid && tk == tick_us && table.count > 0u && (dx < 0 ? -dx : dx) <= (int32_t)table.count) {
+                    int32_t v = (dx < 0 ? -dx : dx);
+                    ++tabled;
+                    reused += (v == last_v[i]) ? 1 : 0;
+                    last_v[i] = v;
+                }
+            }
+            sp_status_t st = sp_fric_obs_step_table(&p, &o, &table, len, tk, f);
+            sp_status_t st_ref = plain_fric_obs_run(&p, &ref, len, tk, f_ref);
+            assert_int_equal(st, st_ref);
+            assert_memory_equal(f, f_ref, sizeof f);
+            assert_memory_equal(o.phi, ref.phi, sizeof o.phi);
+            assert_memory_equal(o.length, ref.length, sizeof o.length);
+        }
+    }
+    assert_true(tabled > 400L * 200L * SP_LEGS / 4L);
+    assert_true(reused > tabled / 2L); /* most tabled leg-ticks at the speed of the one before */
+}
+
 /* A fast leg at or next to its Coulomb level (fric_slide's shortcut)
  * equals the plain step where exp(-a) crosses 1/2: seals whose
  * a = (sigma_0 / F_c) |dx| is ln 2 (11629080 in Q24) at |dx| = 8 LSB,
@@ -559,6 +626,7 @@ int main(void)
         cmocka_unit_test(test_hold_and_reversal),
         cmocka_unit_test(test_errors_and_saturation),
         cmocka_unit_test(test_equals_plain),
+        cmocka_unit_test(test_fade_kept),
         cmocka_unit_test(test_fast_leg_at_level),
         cmocka_unit_test(test_table_prepare),
     };

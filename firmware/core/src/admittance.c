@@ -102,9 +102,7 @@ sp_status_t sp_admit_restart(sp_admit_t *st, const sp_admit_coef_t free_coef[SP_
         s->x_contact = 0;
         s->w_contact = 0;
         s->k_hat = 0;
-        s->damping_k = 0; /* none kept (k >= k_min >= 1) */
-        s->damping_w = 0;
-        s->damping_of_k = 0;
+        s->window_w = 0; /* no windows made (a crossover is > 0) */
         s->in_contact = 0u;
     }
     st->primed = 0u;
@@ -148,10 +146,10 @@ sp_status_t sp_admit_configure(const sp_admit_config_t *cfg, sp_admit_t *st)
     return SP_OK;
 }
 
-/* The damping an axis in contact should use: the secant stiffness of the
- * filtered wrench against the filtered pose since contact, over w_c;
- * 0 while the secant is not yet trusted. */
-static int32_t contact_damping(const sp_admit_config_t *cfg, sp_admit_axis_state_t *s, sp_q8_t w)
+/* The secant stiffness an axis in contact has: the filtered wrench against
+ * the filtered pose since contact, N/m within [k_min, k_max] (kept as
+ * k_hat); 0 while the secant is not yet trusted. */
+static int32_t contact_stiffness(const sp_admit_config_t *cfg, sp_admit_axis_state_t *s, sp_q8_t w)
 {
     int64_t dx = (int64_t)s->x_f[3] - s->x_contact;
     int64_t dw = (int64_t)w - s->w_contact;
@@ -172,15 +170,50 @@ static int32_t contact_damping(const sp_admit_config_t *cfg, sp_admit_axis_state
     int32_t k = sp_div(adw, (int32_t)clamp64(adx, INT32_MAX), 16u, &flags); /* Q8 / Q24 -> N/m */
     k = (k < cfg->k_min) ? cfg->k_min : ((k > cfg->k_max) ? cfg->k_max : k);
     s->k_hat = k;
-    if (k != s->damping_k || cfg->crossover != s->damping_w) {
-        /* a new quotient only for a new k (or crossover): a pure function
-         * of the two, its flags unused */
-        int32_t d = sp_div((int64_t)k, cfg->crossover, 16u, &flags); /* (N/m) / (rad/s, Q16) */
-        s->damping_of_k = (d < 1) ? 1 : d;
-        s->damping_k = k;
-        s->damping_w = cfg->crossover;
+    return k;
+}
+
+/* The contact damping of stiffness k at crossover w > 0: k / w_c, N s/m,
+ * as sp_div rounds it (to nearest, ties away), at least 1. */
+static int32_t damping_of(int32_t k, int32_t w)
+{
+    sp_flags_t flags = 0u;                          /* a pure function of k and w: flags unused */
+    int32_t d = sp_div((int64_t)k, w, 16u, &flags); /* (N/m) / (rad/s, Q16) */
+    return (d < 1) ? 1 : d;
+}
+
+/* The least stiffness k >= 0 whose damping_of(k, w) is at least x, held
+ * within [0, 2^31] (2^31: none). damping_of is floor((k 2^16 +
+ * floor(w / 2)) / w) held within [1, INT32_MAX], rising with k: for x >= 2
+ * it is at least x exactly when k 2^16 >= x w - floor(w / 2). No division. */
+static uint32_t least_k(int64_t x, int32_t w)
+{
+    if (x <= 1) {
+        return 0u;
     }
-    return s->damping_of_k;
+    if (x > INT32_MAX) {
+        return UINT32_C(1) << 31;
+    }
+    uint64_t need = (uint64_t)(uint32_t)x * (uint32_t)w - ((uint32_t)w >> 1); /* below 2^62 */
+    uint64_t k = (need + 65535u) >> 16;
+    return (k > (UINT64_C(1) << 31)) ? (UINT32_C(1) << 31) : (uint32_t)k;
+}
+
+/* The windows of k for the damping in use and the free-space one at
+ * crossover w > 0 (made again when either damping or w changes: on a
+ * tick that adapted, not on every tick the secant moves). */
+static void make_windows(sp_admit_axis_state_t *s, int32_t w)
+{
+    int64_t c = s->coef.damping;
+    int64_t tol = c / 16;
+    int64_t f = s->free_coef.damping;
+    s->keep_lo = least_k(c - tol, w);
+    s->keep_hi = least_k(c + tol + 1, w);
+    s->free_lo = least_k(f, w);
+    s->free_hi = least_k(f + 1, w);
+    s->window_w = w;
+    s->window_c = s->coef.damping;
+    s->window_f = s->free_coef.damping;
 }
 
 /* Holds v towards the bounds: v_max, then the braking speed sqrt(2 a dist),
@@ -234,24 +267,36 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     sp_admit_report_t rep = {0u, 0u};
     const int32_t dt_q38 = st->dt_q38;
     const int64_t rate_q16 = st->rate_q16;
+    /* the axes not forced: no contact, no secant, not primed; those at
+     * rest on the position reference stay there (the return to d = 0 and
+     * the brake both leave v = 0, d = 0, inside every bound), so the law
+     * runs on the forced axes and the others still moving only (under
+     * force control on one or two axes, most are at rest) */
+    const uint8_t forced_mask = (mode == SP_ADMIT_FORCE) ? (uint8_t)(mask & 0x3Fu) : 0u;
+    uint8_t work = forced_mask;
+    st->primed &= forced_mask;
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        sp_admit_axis_state_t *s = &st->axis[k];
+        if ((forced_mask & (1u << k)) == 0u) {
+            s->in_contact = 0u;
+            s->k_hat = 0;
+            if (s->d == 0 && s->v == 0) {
+                s->a = 0;
+            } else {
+                work = (uint8_t)(work | (1u << k));
+            }
+        }
+    }
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &st->axis[k];
         const uint8_t bit = (uint8_t)(1u << k);
-        const int forced = mode == SP_ADMIT_FORCE && (mask & bit) != 0u;
+        const int forced = (forced_mask & bit) != 0u;
 
-        if (!forced) {
-            s->in_contact = 0u;
-            s->k_hat = 0;
-            st->primed &= (uint8_t)~bit;
-            if (s->d == 0 && s->v == 0) {
-                /* at rest on the position reference: the return to d = 0
-                 * and the brake both leave it there (v = 0, d = 0, inside
-                 * every bound), so nothing to compute */
-                s->a = 0;
-                continue;
-            }
-        } else if (x_meas != NULL) {
+        if ((work & bit) == 0u) {
+            continue;
+        }
+        if (forced && x_meas != NULL) {
             /* the pose through the wrench filter's sections, for the secant;
              * primed with the measurement the first tick the axis is forced */
             const int primed = (st->primed & bit) != 0u;
@@ -271,8 +316,23 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
                     s->w_contact = w_ext[k];
                     s->k_hat = 0;
                 }
-                int32_t dc = (x_meas != NULL) ? contact_damping(cfg, s, w_ext[k]) : 0;
-                damping = (dc > 0) ? dc : ((s->k_hat > 0) ? s->coef.damping : s->free_coef.damping);
+                int32_t kc = (x_meas != NULL) ? contact_stiffness(cfg, s, w_ext[k]) : 0;
+                const int32_t w = cfg->crossover;
+                if (kc > 0 && w > 0) {
+                    /* k / w_c: the windows of k tell whether it is the
+                     * free-space damping or within the tolerance of the
+                     * one in use; the quotient is taken only when neither
+                     * (the law's coefficients are then made from it) */
+                    if (w != s->window_w || s->coef.damping != s->window_c || s->free_coef.damping != s->window_f) {
+                        make_windows(s, w);
+                    }
+                    const uint32_t ku = (uint32_t)kc;
+                    damping = (ku >= s->free_lo && ku < s->free_hi)
+                                  ? s->free_coef.damping
+                                  : ((ku >= s->keep_lo && ku < s->keep_hi) ? s->coef.damping : damping_of(kc, w));
+                } else {
+                    damping = (kc > 0) ? 1 : ((s->k_hat > 0) ? s->coef.damping : s->free_coef.damping);
+                }
             } else {
                 s->in_contact = 0u;
                 s->k_hat = 0;
@@ -391,7 +451,8 @@ uint32_t sp_contact_step_to(const sp_contact_config_t *cfg, sp_contact_t *st, co
     uint32_t events = 0u;
     int64_t dot = 0, f2 = 0;
     for (unsigned k = 0; k < 3u; ++k) {
-        int64_t f = clamp64(w_ext[k], WRENCH_MAX);
+        /* held within +-2^30 (an int32 reading: 32-bit compares) */
+        int64_t f = clamp32(w_ext[k], -(int32_t)WRENCH_MAX, (int32_t)WRENCH_MAX);
         dot -= f * tp->t[k]; /* the push-back times |F_target|, Q16 */
         f2 += f * f;
     }

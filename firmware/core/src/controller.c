@@ -897,7 +897,9 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
         return;
     }
     ctrl->ft_missed = 0u;
-    (void)sp_ft_tare_step(&ctrl->ft_tare, in->ft_reading, tared);
+    if (ctrl->ft_tare.needed != 0u) {
+        (void)sp_ft_tare_step(&ctrl->ft_tare, in->ft_reading, tared); /* its sums, and its bias when done */
+    }
     /* the sensor's frame (S = T^T R_m, r = T^T pos) changes only when the
      * platform turns: made again only for new sines (sp_ft_to_base's
      * result, bit for bit) */
@@ -918,7 +920,8 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
         }
         ctrl->ft_frame_valid = 1u;
     }
-    (void)sp_ft_apply(&ctrl->ft_frame, tared, base); /* saturates, never wraps */
+    /* the reading less the bias (sp_ft_tare_step's output), turned */
+    (void)sp_ft_apply_tared(&ctrl->ft_frame, in->ft_reading, ctrl->ft_tare.bias, base); /* saturates, never wraps */
     for (k = 0u; k < 6u; ++k) {
         /* held within [-2^30, 2^30 - 1] Q8 (4.19 MN, MN m), as the cylinders'
          * estimate: each section's step is then one 32 x 32-bit product */

@@ -205,7 +205,7 @@ SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int32_t slip, int32_t
  * and |dx| within it, one exp and the table's relaxation. Below 16 m/s
  * at a tick that divides a second (t->small) the speed and the viscous
  * force take no saturation. */
-static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
+static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
                         int32_t dx, const fric_tick_t *t, sp_flags_t *flags)
 {
     int32_t sigma0 = p->bristle_stiffness[i];
@@ -236,8 +236,15 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, const sp
     av = v < 0 ? -(int64_t)v : (int64_t)v;
     if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
         /* below 4 v_s (the table's entries are): the lines below with
-         * fric_relax_slow's value prepared at init */
-        es = fric_fade(av, o->inv_vs);
+         * fric_relax_slow's value prepared at init; the fade is a
+         * function of the speed alone, kept for the leg's next tick at
+         * the same speed (a leg holding still or creeping moves by the
+         * same few LSB tick after tick) */
+        if (av != o->fade_v[i]) {
+            o->fade_v[i] = (int32_t)av;
+            o->fade[i] = fric_fade(av, o->inv_vs);
+        }
+        es = o->fade[i];
         g = fric_level(fc, p->breakaway_friction[i], es);
         eb = tab->relax[adx - 1];
     } else {
@@ -277,6 +284,8 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
     for (int i = 0; i < SP_LEGS; ++i) {
         o->phi[i] = 0;
         o->length[i] = 0;
+        o->fade_v[i] = 0;
+        o->fade[i] = SP_Q30_ONE; /* fric_fade(0) */
         o->slip[i] = 0;
         o->tau[i] = 0;
     }
@@ -293,6 +302,8 @@ static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const 
         for (int i = 0; i < SP_LEGS; ++i) {
             o->length[i] = length[i];
             friction[i] = 0;
+            o->fade_v[i] = 0; /* no fade kept for this inv_vs yet: fric_fade(0) */
+            o->fade[i] = SP_Q30_ONE;
             /* sigma_0 / F_c, 1/m, Q8 (sigma_0 Q0 x 2^16 / F_c Q8) */
             o->slip[i] = (p->bristle_stiffness[i] > 0)
                              ? sp_sat32(((int64_t)p->bristle_stiffness[i] << 16) / p->coulomb_friction[i], &flags)

@@ -10,7 +10,7 @@
 
 #define IN_MAX (INT64_C(1) << 30)
 
-static int64_t clamp_in(int32_t v, int *sat)
+static int64_t clamp_in(int64_t v, int *sat)
 {
     if (v > IN_MAX || v < -IN_MAX) {
         *sat = 1;
@@ -48,18 +48,24 @@ sp_status_t sp_ft_frame(const sp_ft_mount_t *mount, const sp_rot_t *T, sp_ft_fra
 
 sp_status_t sp_ft_apply(const sp_ft_frame_t *fr, const sp_q8_t reading[6], sp_q8_t out[6])
 {
-    if (fr == NULL || reading == NULL || out == NULL) {
+    static const sp_q8_t no_bias[6] = {0, 0, 0, 0, 0, 0};
+    return sp_ft_apply_tared(fr, reading, no_bias, out); /* reading - 0: the reading */
+}
+
+sp_status_t sp_ft_apply_tared(const sp_ft_frame_t *fr, const sp_q8_t reading[6], const sp_q8_t bias[6], sp_q8_t out[6])
+{
+    if (fr == NULL || reading == NULL || bias == NULL || out == NULL) {
         return SP_E_ARG;
     }
     int sat = 0;
-    sp_flags_t flags = 0u;
-    /* the reading held within +-2^30: each product with an int32 entry of S
-     * below 2^61, three of them below 2^63 */
+    /* the reading less the bias held within +-2^30: each product with an
+     * int32 entry of S below 2^61, three of them below 2^63 */
     int32_t f_s[3], m_s[3];
     for (unsigned k = 0; k < 3u; ++k) {
-        f_s[k] = (int32_t)clamp_in(reading[k], &sat);
-        m_s[k] = (int32_t)clamp_in(reading[3u + k], &sat);
+        f_s[k] = (int32_t)clamp_in((int64_t)reading[k] - bias[k], &sat);
+        m_s[k] = (int32_t)clamp_in((int64_t)reading[3u + k] - bias[3u + k], &sat);
     }
+    sp_flags_t flags = 0u;
     int64_t f[3], m[3];
     for (unsigned i = 0; i < 3u; ++i) {
         const int32_t *si = fr->s[i];

@@ -121,10 +121,14 @@ typedef struct {
     sp_q24_t x_contact;        /**< x_f when contact was made, Q24 */
     sp_q8_t w_contact;         /**< the filtered wrench when contact was made, Q8 */
     int32_t k_hat;             /**< the surface stiffness estimate, N/m (0: none yet) */
-    int32_t damping_k;         /**< the stiffness damping_of_k was computed for, N/m (0: none) */
-    int32_t damping_w;         /**< ... and the crossover, rad/s, Q16 */
-    int32_t damping_of_k;      /**< the contact damping k / w_c of them, N s/m (kept: the estimate sits at
-                                    a bound of [k_min, k_max] for most ticks, and the quotient is the same) */
+    int32_t window_w;          /**< the crossover the windows below were made for, rad/s, Q16 (0: none) */
+    int32_t window_c;          /**< ... the damping in use (coef.damping) */
+    int32_t window_f;          /**< ... and the free-space damping (free_coef.damping), N s/m */
+    uint32_t keep_lo;          /**< the stiffnesses k whose damping k / w_c is within coef.damping's
+                                    tolerance: keep_lo <= k < keep_hi, N/m */
+    uint32_t keep_hi;          /**< (see keep_lo) */
+    uint32_t free_lo;          /**< ... and those whose damping is the free-space one: free_lo <= k < free_hi */
+    uint32_t free_hi;          /**< (see free_lo) */
     uint8_t in_contact;        /**< 1 from contact made until it is lost or force control ends */
 } sp_admit_axis_state_t;
 

@@ -44,6 +44,8 @@ typedef struct {
     int32_t slip[SP_LEGS];    /**< sigma_0 / F_c per leg, 1/m, Q8: taken from the platform at the first step */
     int32_t tau[SP_LEGS];     /**< sigma_1 / sigma_0 per leg, s, Q30: taken at the first step */
     int64_t inv_vs;           /**< 2^46 / v_s (v_s in Q24): taken at the first step */
+    int32_t fade_v[SP_LEGS];  /**< per leg, the last speed |v| below 4 v_s whose fade was taken, m/s Q24 */
+    sp_q30_t fade[SP_LEGS];   /**< its Stribeck fade exp(-(v/v_s)^2), Q30 (|v| = 0: 1) */
     uint8_t valid;            /**< 0 after reset: the next step only records the lengths */
 } sp_fric_obs_t;
 
@@ -128,7 +130,10 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
 /**
  * sp_fric_obs_step with a table prepared by sp_fric_table_prepare from
  * the same platform: a leg of tab->legs with |dx| <= tab->count takes its
- * relaxation from the table instead of an exp and a reciprocal.
+ * relaxation from the table instead of an exp and a reciprocal, and its
+ * Stribeck fade from o->fade when its speed is the one it was kept for
+ * (the leg's last such step: a leg holding still or creeping repeats its
+ * step), else one exp.
  * Same results, state and returns as sp_fric_obs_step, bit for bit (a
  * table of another tick or Stribeck velocity, or NULL, is not used).
  */

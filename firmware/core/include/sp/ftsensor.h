@@ -75,6 +75,17 @@ sp_status_t sp_ft_frame(const sp_ft_mount_t *mount, const sp_rot_t *T, sp_ft_fra
  */
 sp_status_t sp_ft_apply(const sp_ft_frame_t *fr, const sp_q8_t reading[6], sp_q8_t out[6]);
 
+/**
+ * sp_ft_apply of the reading less a tare's bias (N, N m, Q8), the
+ * difference taken in 64 bits: the same result and status, bit for bit,
+ * as sp_ft_apply of sp_ft_tare_step's output (reading - bias saturated to
+ * int32, which the input's hold at +-2^30 makes the same), in one pass
+ * (what the controller does each tick once the tare is done).
+ * SP_E_ARG (out untouched) on NULL, SP_E_OVERFLOW when something
+ * saturated, else SP_OK.
+ */
+sp_status_t sp_ft_apply_tared(const sp_ft_frame_t *fr, const sp_q8_t reading[6], const sp_q8_t bias[6], sp_q8_t out[6]);
+
 /** The tare's state. */
 typedef struct {
     int64_t sum[6];  /**< readings summed so far, Q8 */
