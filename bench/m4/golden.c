@@ -12,7 +12,8 @@
  *     sp_check_legs and sp_forward_kinematics (warm start from a guess
  *     +-1 mm, +-1 mrad away); icount.c counts instructions on the same ones;
  *   - M4_PRIM_CASES random arguments of each fixed-point primitive;
- *   - three controller scenarios of m4_vectors.h on the ideal plant, every
+ *   - three controller scenarios of m4_vectors.h (the plant follows the
+ *     setpoints with a tracking error, m4_scenario.c), every
  *     tick's output, the wrench estimate and force control's included: the
  *     paper's surge (ENGAGE, the 90 mm 0.5 Hz surge, PARK), STREAM (a new
  *     target every tick in all six axes) and force control (TARE, FORCE

@@ -4,7 +4,7 @@
  * kinematics, leg rates, inverse dynamics, forward kinematics warm-started
  * about one tick away, the fixed-point primitives they are made of, and the
  * whole controller tick over the golden scenario (ENGAGE, the paper's 90 mm
- * 0.5 Hz surge, PARK; ideal plant), by state, against the budget of issue 7
+ * 0.5 Hz surge, PARK; a plant that follows with a tracking error), by state, against the budget of issue 7
  * (<= 10,000 instructions per tick). Also the stack the tick uses (measured
  * high-water mark) and the controller's RAM. The motions are the first
  * ones of golden.c (same generator, same seed). scripts/m4_bench.sh runs it next to icount_float.c.
