@@ -849,7 +849,9 @@ void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac)
     }
 }
 
-int spi_joints_near(const sp_platform_t *platform)
+/* Every coordinate of six joints in [-2^(bits-1), 2^(bits-1)) of Q24:
+ * c + 2^(bits-1) in [0, 2^bits), one unsigned shift each. */
+static int joints_within(const sp_q24_t joint[SP_LEGS][3], unsigned bits)
 {
     uint32_t out = 0u;
     unsigned i;
@@ -857,26 +859,18 @@ int spi_joints_near(const sp_platform_t *platform)
 
     for (i = 0u; i < SP_LEGS; ++i) {
         for (c = 0u; c < 3u; ++c) {
-            /* a_c in [-2^25, 2^25) (2 m) exactly when a_c + 2^25 is in
-             * [0, 2^26) */
-            out |= ((uint32_t)platform->platform_joint[i][c] + (UINT32_C(1) << 25)) >> 26;
+            out |= ((uint32_t)joint[i][c] + (UINT32_C(1) << (bits - 1u))) >> bits;
         }
     }
     return out == 0u;
 }
 
+int spi_joints_near(const sp_platform_t *platform)
+{
+    return joints_within(platform->platform_joint, 26u); /* a_c within 2 m */
+}
+
 int spi_legs_fit(const sp_platform_t *platform)
 {
-    uint32_t out = 0u;
-    unsigned i;
-    unsigned c;
-
-    for (i = 0u; i < SP_LEGS; ++i) {
-        for (c = 0u; c < 3u; ++c) {
-            /* b_c in [-2^27, 2^27) (8 m) exactly when b_c + 2^27 is in
-             * [0, 2^28) */
-            out |= ((uint32_t)platform->base_joint[i][c] + (UINT32_C(1) << 27)) >> 28;
-        }
-    }
-    return out == 0u && spi_joints_near(platform);
+    return joints_within(platform->base_joint, 28u) && spi_joints_near(platform); /* b_c within 8 m */
 }
