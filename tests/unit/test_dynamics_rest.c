@@ -21,33 +21,10 @@
 #include "sp/kinematics.h"
 #include "test_util.h"
 
-/* the plain reference: dynamics.c without the short path, its public
- * functions renamed (its statics are this file's own) */
+/* the plain reference: dynamics.c without the short path
+ * (plain_dynamics.h) */
 #define SPI_LEG_TERMS_AT_REST 0
-#define sp_inverse_dynamics plain_inverse_dynamics
-#define sp_inverse_dynamics_lu plain_inverse_dynamics_lu
-#define sp_inverse_dynamics_jac plain_inverse_dynamics_jac
-#define sp_inverse_dynamics_rates plain_inverse_dynamics_rates
-#define sp_inverse_dynamics_held plain_inverse_dynamics_held
-sp_status_t plain_inverse_dynamics(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
-                                   const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS]);
-sp_status_t plain_inverse_dynamics_lu(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
-                                      const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu);
-sp_status_t plain_inverse_dynamics_jac(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
-                                       const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
-                                       sp_lu6_t *lu);
-sp_status_t plain_inverse_dynamics_rates(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
-                                         const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
-                                         sp_lu6_t *lu, sp_q24_t rate[SP_LEGS]);
-sp_status_t plain_inverse_dynamics_held(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
-                                        const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
-                                        sp_lu6_t *lu, sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh);
-#include "dynamics.c"
-#undef sp_inverse_dynamics
-#undef sp_inverse_dynamics_lu
-#undef sp_inverse_dynamics_jac
-#undef sp_inverse_dynamics_rates
-#undef sp_inverse_dynamics_held
+#include "plain_dynamics.h"
 
 #define N_CASES 4000
 
