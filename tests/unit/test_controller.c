@@ -792,10 +792,13 @@ static double plain_trig_peak(sp_q24_t amp, sp_q24_t hz, uint32_t tick_us, uint3
 /* The trig generator's motion at full amplitude as first written: every
  * product by the envelope e = 1 (Q30) and its derivatives 0, through the
  * public fixed-point functions (round to nearest, ties away; saturating). */
-static sp_status_t plain_trig_full(const sp_trig_t *g, sp_motion_t *out)
+/* A trig sample from its envelope e (Q30), e' (Q24) and e'' (Q24, int64)
+ * at the generator's phase, through the public fixed-point functions
+ * (round to nearest, ties away; saturating): offset A s e, velocity
+ * A (w c e + s e'), acceleration A (-w^2 s e + 2 w c e' + s e''). */
+static sp_status_t plain_trig_sample(const sp_trig_t *g, int32_t e, int32_t de, int64_t dde_rr, sp_flags_t flags,
+                                     sp_motion_t *out)
 {
-    sp_flags_t flags = 0u;
-    const int32_t e = INT32_C(1) << 30, de = 0, dde = 0;
     sp_q30_t s, c;
     int32_t theta = (int32_t)sp_rshift_round((int64_t)(int32_t)g->phase * INT64_C(105414357), 32u);
     sp_sincos_q24(theta, &s, &c);
@@ -803,8 +806,8 @@ static sp_status_t plain_trig_full(const sp_trig_t *g, sp_motion_t *out)
     int64_t pos = sp_rshift_round((int64_t)sp_mul(s, e, 30u, &flags), 6u);
     int64_t vel = (int64_t)sp_mul(wc, e, 30u, &flags) + sp_mul(de, s, 30u, &flags);
     int64_t w2 = sp_rshift_round((int64_t)g->omega * g->omega, 24u);
-    int64_t acc = -plain_mul_q30(plain_mul_q30(w2, s, &flags), e, &flags) + 2 * (int64_t)sp_mul(wc, de, 24u, &flags) +
-                  sp_mul(dde, s, 30u, &flags);
+    int64_t acc = -plain_mul_q30(plain_mul_q30(w2, s, &flags), e, &flags) + 2 * sp_rshift_round((int64_t)wc * de, 24u) +
+                  plain_mul_q30(dde_rr, s, &flags);
     unsigned a = (unsigned)g->axis;
     sp_motion_at_rest(out, &g->centre);
     sp_q24_t *p = (a < 3u) ? &out->pose.pos[a] : &out->pose.rpy[a - 3u];
@@ -813,6 +816,11 @@ static sp_status_t plain_trig_full(const sp_trig_t *g, sp_motion_t *out)
     *((a < 3u) ? &out->acc[a] : &out->rpy_acc[a - 3u]) =
         sp_sat32(sp_rshift_round((int64_t)g->amplitude * acc, 24u), &flags);
     return sp_flags_status(flags);
+}
+
+static sp_status_t plain_trig_full(const sp_trig_t *g, sp_motion_t *out)
+{
+    return plain_trig_sample(g, INT32_C(1) << 30, 0, 0, 0u, out);
 }
 
 /* sp_trig_step at full amplitude (its short path: no products by the
@@ -911,23 +919,7 @@ static sp_status_t plain_trig_first(const sp_trig_t *g, uint32_t tick_us, sp_mot
     int32_t rate = sp_sat32((int64_t)(((UINT64_C(1) << 24) * UINT64_C(1000000)) / dt_us), &flags);
     de = sp_mul(de, rate, 24u, &flags);
     int64_t dde_rr = sp_rshift_round((int64_t)sp_mul(dde, rate, 24u, &flags) * rate, 24u);
-    sp_q30_t s, c;
-    int32_t theta = (int32_t)sp_rshift_round((int64_t)(int32_t)g->phase * INT64_C(105414357), 32u);
-    sp_sincos_q24(theta, &s, &c);
-    int32_t wc = sp_mul(g->omega, c, 30u, &flags);
-    int64_t pos = sp_rshift_round((int64_t)sp_mul(s, e, 30u, &flags), 6u);
-    int64_t vel = (int64_t)sp_mul(wc, e, 30u, &flags) + sp_mul(de, s, 30u, &flags);
-    int64_t w2 = sp_rshift_round((int64_t)g->omega * g->omega, 24u);
-    int64_t acc = -plain_mul_q30(plain_mul_q30(w2, s, &flags), e, &flags) + 2 * sp_rshift_round((int64_t)wc * de, 24u) +
-                  plain_mul_q30(dde_rr, s, &flags);
-    unsigned a = (unsigned)g->axis;
-    sp_motion_at_rest(out, &g->centre);
-    sp_q24_t *p = (a < 3u) ? &out->pose.pos[a] : &out->pose.rpy[a - 3u];
-    *p = sp_add(*p, sp_mul(g->amplitude, sp_sat32(pos, &flags), 24u, &flags), &flags);
-    *((a < 3u) ? &out->vel[a] : &out->rpy_rate[a - 3u]) = sp_mul(g->amplitude, sp_sat32(vel, &flags), 24u, &flags);
-    *((a < 3u) ? &out->acc[a] : &out->rpy_acc[a - 3u]) =
-        sp_sat32(sp_rshift_round((int64_t)g->amplitude * acc, 24u), &flags);
-    return sp_flags_status(flags);
+    return plain_trig_sample(g, e, de, dde_rr, flags, out);
 }
 
 /* sp_trig_step's first sample (its short path: the centre at rest)
