@@ -3,9 +3,10 @@
 
 sp_controller and hs_sim --canopen in lockstep over vcan (inside ``stewart
 vcan``): the plant's six CiA 408 nodes are slow SDO servers
-(``--sdo-delay-ms``: each answer 60 ms of plant time after its request,
-below the master's 100 ms SDO timeout), so the start-up by SDO (53
-transfers per drive) lasts over 3 s of plant time. While it runs:
+(``--sdo-delay-ms``: each answer 80 ms of plant time after its request,
+below the master's 100 ms SDO timeout; in lockstep both count the same
+ticks), so the start-up by SDO (53 transfers per drive) lasts over 4 s of
+plant time, about as long in wall time. While it runs:
 
 * `stewart op engage` is refused: it exits 1 and says why (the drives are
   still starting), CTRL_STATUS shows CmdRejected with DrivesStarting, the
@@ -51,7 +52,7 @@ pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan
 
 ID_COMMAND, ID_STATUS = 0x040, 0x100
 SDO_TX = 0x580          # + node id: a drive's SDO answer
-SDO_DELAY_MS = 60       # plant time per SDO answer (the master's SDO timeout: 100 ms)
+SDO_DELAY_MS = 80       # plant time per SDO answer (the master's SDO timeout: 100 ms)
 STATES = pr.value_names("CTRL_STATUS", "State")
 
 
@@ -163,7 +164,6 @@ def test_engage_refused_while_the_drives_are_configured(tmp_path):
 
             t_op = time.monotonic()
             rc, _, err = op("engage", "--timeout", 10)
-            t_refused = time.time()
             print(f"[{time.monotonic() - t0:.1f} s] `stewart op engage` answered in {time.monotonic() - t_op:.1f} s")
             assert rc == 1 and "ENGAGE refused" in err and "still starting the drives" in err, err
             # the status of the refusal's tick (CmdRejected lasts one): the recorder, losing none, has it too
@@ -171,7 +171,9 @@ def test_engage_refused_while_the_drives_are_configured(tmp_path):
                      lambda st, cmd, sd: cmd and any(s[0] > cmd[0] and s[3] == 1 and s[4] == 1 for s in st), 10)
             status, commands, sdo = rec.snapshot()
             assert all(s[2] == "IDLE" for s in status if s[0] > commands[0]), {s[2] for s in status}
-            # the start-up was still running: the drives answer SDO requests after the refusal
+            # the start-up was still running: the drives answer SDO requests after the refusal's tick (its
+            # status's kernel time: `stewart op` returns later, seconds later on a loaded machine)
+            t_refused = next(s[0] for s in status if s[0] > commands[0] and s[3] == 1)
             rec.wait("an SDO answer after the refusal", lambda st, cmd, sd: any(t > t_refused for t, _ in sd), 10)
             print(f"[{time.monotonic() - t0:.1f} s] ENGAGE refused, {len(sdo)} SDO answers so far")
 
@@ -184,7 +186,7 @@ def test_engage_refused_while_the_drives_are_configured(tmp_path):
             print(f"[{time.monotonic() - t0:.1f} s] drives started: ticks {first[1]}..{done[1]} "
                   f"({done[1] - first[1]} ms of controller time), {len(sdo)} SDO answers from nodes {nodes}")
             assert nodes == [1, 2, 3, 4, 5, 6]
-            # every answer took its 60 ms: the start-up lasted at least one node's transfers in a row
+            # every answer took its SDO_DELAY_MS: the start-up lasted at least one node's transfers in a row
             assert done[1] - first[1] >= 0.9 * per_node * SDO_DELAY_MS, (done[1] - first[1], per_node)
 
             with opnode.OperatorNode(can.Bus(interface="socketcan", channel="vcan0", fd=True),
