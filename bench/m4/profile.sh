@@ -13,6 +13,11 @@
 # slide: the force scenario's 50 mm slide in FORCE, the MOVE_TO tick and
 # the 843 after it)
 # PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
+# PROFILE_ABOVE=n keeps only the ticks whose controller step (between
+# profile.c's tick markers) executed more than n instructions, and divides
+# by their number: what the highest ticks spend their instructions in.
+# PROFILE_FUNC=name (with PROFILE_ABOVE, 1 for every tick) lists that
+# function's translation blocks by start address instead (objdump -d).
 set -euo pipefail
 dir=${1:-build/m4-core}
 top=${2:-25}
@@ -27,19 +32,32 @@ elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 log=$(mktemp -d)
 trap 'rm -rf "$log"' EXIT
 mkfifo "$log/fifo"
-awk '
+awk -v above="${PROFILE_ABOVE:-0}" -v only="${PROFILE_FUNC:-}" '
   /^IN:/ { intb = 1; start = ""; n = 0; fn = $2; next }
   /^Trace/ && !on { split($0, f, "/"); if (func["0x" f[2]] == "profile_begin") on = 1; else next }
   intb && /^0x[0-9a-f]+:/ { if (start == "") start = substr($1, 1, length($1) - 1); n++; next }
   intb && /^$/ { if (start != "") { size[start] = n; func[start] = fn }; intb = 0; next }
+  /^Trace/ && above > 0 {
+    split($0, f, "/"); a = "0x" f[2]; k = (a in func) ? func[a] : "?"
+    if (k == "profile_tick") { intick = 1; split("", tc); tt = 0; next }
+    if (k == "profile_tick_end") {
+      intick = 0
+      if (tt > above) { for (j in tc) per[j] += tc[j]; tot += tt; kept++ }
+      next
+    }
+    if (intick) { tt += size[a]; if (only == "" || k == only) tc[only == "" ? k : a] += size[a] }
+    next
+  }
   /^Trace/ { split($0, f, "/"); a = "0x" f[2]; cnt[a]++; next }
   END {
     for (a in cnt) { k = (a in func) ? func[a] : "?"; per[k] += cnt[a] * size[a]; tot += cnt[a] * size[a] }
+    if (above > 0 && kept == 0) { print "profile: no tick above " above " instructions"; exit }
     printf "%-28s %12s %6s\n", "function", "instructions", "%"
     for (k in per) printf "%-28s %12d %6.1f\n", k, per[k], 100 * per[k] / tot | "sort -k2 -nr | head -'"$top"'"
     close("sort -k2 -nr | head -'"$top"'")
     printf "%-28s %12d\n", "total", tot
-    printf "%-28s %12d\n", "per tick", tot / '"${PROFILE_TICKS:-300}"'
+    if (above > 0) printf "%-28s %12d (%d ticks above %d)\n", "per tick", tot / kept, kept, above
+    else printf "%-28s %12d\n", "per tick", tot / '"${PROFILE_TICKS:-300}"'
   }' "$log/fifo" &
 qemu-system-arm -M mps2-an386 -display none -monitor none -serial none \
   -semihosting-config enable=on,target=native -kernel "$elf" \
