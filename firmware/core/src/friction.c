@@ -24,6 +24,9 @@ static const int32_t fric_exp_table[FRIC_EXP_STEPS] = {
 #define FRIC_STRIBECK_RATIO_MAX 4
 /* sigma_0 |dx| / g at and beyond which exp(-a) is taken as 0 (exp(-32) = 1.3e-14) */
 #define FRIC_BRISTLE_A_MAX 32
+/* |dphi| (N, Q8) below which the damping term's clamps cannot act: 2^23
+ * (32,768 N) */
+#define FRIC_DPHI_SMALL (INT64_C(1) << 23)
 /* largest |bristle deflection step| carried into the damping term, Q36 m (64 m) */
 #define FRIC_DZ_MAX_Q36 (INT64_C(1) << 42)
 
@@ -274,8 +277,16 @@ static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_
         /* sigma_1 e dz/dt = e (dphi tau) / dt. dphi tau in N s, Q24 (|dphi|
          * held below 2^31, tau < 2^31: the product < 2^62, held below 2^40
          * after the shift), per second (x 10^6 at most: < 2^60), then Q8 */
-        int64_t ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
-        int64_t per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
+        int64_t ns, per;
+        if (dphi > -FRIC_DPHI_SMALL && dphi < FRIC_DPHI_SMALL) {
+            /* the common case (|dphi| <= 2 F_s for a leg within the law's
+             * bound): |dphi tau| < 2^54, so ns is within 2^40 without
+             * the clamps (which would not act): one 32 x 32-bit product */
+            ns = ((int64_t)(int32_t)dphi * o->tau[i]) >> 14;
+        } else {
+            ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
+        }
+        per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
         damping = FRIC_Q30(clamp64(spi_round_away64(per, 16u), INT32_MAX, flags) * es);
     }
     return spi_sat(phi_new + damping + viscous, flags);
