@@ -102,33 +102,15 @@ static sp_q24_t per_second(const fric_tick_t *t, int64_t d, sp_flags_t *flags)
 /* round(x / 2^30) of a product below 2^62 in magnitude */
 #define FRIC_Q30(x) (((x) + (INT64_C(1) << 29)) >> 30)
 
-/* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
- * the friction (N, Q8). The leg's constants kept by the state at its first
- * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
- * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
- * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
- * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip). */
-static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int64_t dx,
-                        const fric_tick_t *t, sp_flags_t *flags)
+/* The slow leg's terms of leg_step below: the Stribeck fade es (0 at
+ * and beyond 4 v_s), the level g (N, Q8) and the relaxation eb = exp(-a)
+ * of a leg with bristles, |dx| = adx (Q24) at the speed av = |v| (m/s Q24). */
+static sp_q30_t slow_terms(const sp_platform_t *p, const sp_fric_obs_t *o, int i, int64_t adx, int64_t av,
+                           sp_q30_t *es_out, int64_t *g_out)
 {
-    int32_t sigma0 = p->bristle_stiffness[i];
     int32_t fc = p->coulomb_friction[i];
-    sp_q24_t v;
-    sp_q8_t viscous;
-    int64_t adx, av, a, g, target, phi_new, dphi, damping = 0;
-    sp_q30_t es = 0; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
-    sp_q30_t eb;     /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
-    if (dx == 0) {
-        return (sigma0 == 0) ? 0 : *phi; /* at rest: the bristles hold, no viscous force */
-    }
-    v = per_second(t, dx, flags); /* m/s, Q24 */
-    viscous = spi_narrow_floor((int64_t)p->viscous_friction[i] * v + (INT64_C(1) << 23), 24u, flags);
-    if (sigma0 == 0) {
-        *phi = 0;
-        return viscous;
-    }
-    adx = dx < 0 ? -dx : dx;
-    av = v < 0 ? -(int64_t)v : (int64_t)v;
+    int64_t a, g;
+    sp_q30_t es = 0;
     if (av < (int64_t)FRIC_STRIBECK_RATIO_MAX * p->stribeck_velocity) {
         /* (v / v_s)^2 in Q24: av < 4 v_s < 2^31 and inv_vs < 2^46 / v_s
          * give a ratio below 8 (2^27 in Q24) and a square below 2^54 */
@@ -150,7 +132,49 @@ static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, s
             a = FRIC_Q30(a * scale);
         }
     }
-    eb = (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : plain_fric_exp_neg((sp_q24_t)a);
+    *es_out = es;
+    *g_out = g;
+    return (a >= ((int64_t)FRIC_BRISTLE_A_MAX << 24)) ? 0 : plain_fric_exp_neg((sp_q24_t)a);
+}
+
+void plain_fric_slow_terms(const sp_platform_t *p, const sp_fric_obs_t *o, int i, uint32_t tick_us, int32_t adx,
+                           sp_q30_t *es, sp_q30_t *eb)
+{
+    fric_tick_t t;
+    sp_flags_t flags = 0u;
+    int64_t g;
+    t.tick_us = tick_us;
+    t.per_s = (1000000u % tick_us == 0u) ? (int32_t)(1000000u / tick_us) : 0;
+    *eb = slow_terms(p, o, i, adx, per_second(&t, adx, &flags), es, &g);
+}
+
+/* One leg: dx (m, Q24, |dx| < 2^31) over the tick; updates *phi, returns
+ * the friction (N, Q8). The leg's constants kept by the state at its first
+ * step (slip = sigma_0 / F_c, 1/m Q8; tau = sigma_1 / sigma_0, s Q30;
+ * inv_vs = 2^46 / v_s) turn the law's divisions into products: at rest
+ * (dx = 0) a leg returns its held phi; faster than 4 v_s it needs one
+ * exp; slower, two exps and one 32-bit division (F_c / g, spi_recip). */
+static sp_q8_t leg_step(const sp_platform_t *p, const sp_fric_obs_t *o, int i, sp_q8_t *phi, int64_t dx,
+                        const fric_tick_t *t, sp_flags_t *flags)
+{
+    int32_t sigma0 = p->bristle_stiffness[i];
+    sp_q24_t v;
+    sp_q8_t viscous;
+    int64_t adx, av, g, target, phi_new, dphi, damping = 0;
+    sp_q30_t es; /* Stribeck fade exp(-(v/v_s)^2), Q30 */
+    sp_q30_t eb; /* bristle relaxation exp(-sigma_0 |dx| / g), Q30 */
+    if (dx == 0) {
+        return (sigma0 == 0) ? 0 : *phi; /* at rest: the bristles hold, no viscous force */
+    }
+    v = per_second(t, dx, flags); /* m/s, Q24 */
+    viscous = spi_narrow_floor((int64_t)p->viscous_friction[i] * v + (INT64_C(1) << 23), 24u, flags);
+    if (sigma0 == 0) {
+        *phi = 0;
+        return viscous;
+    }
+    adx = dx < 0 ? -dx : dx;
+    av = v < 0 ? -(int64_t)v : (int64_t)v;
+    eb = slow_terms(p, o, i, adx, av, &es, &g);
     target = dx > 0 ? g : -g;
     /* exact relaxation towards s g: a convex combination, |phi_new| <= max(|phi|, g) */
     phi_new = target + FRIC_Q30(((int64_t)*phi - target) * eb);

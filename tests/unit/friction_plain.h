@@ -13,4 +13,11 @@ sp_q30_t plain_fric_exp_neg(sp_q24_t u);
 sp_status_t plain_fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const sp_q24_t length[SP_LEGS],
                                uint32_t tick_us, sp_q8_t friction[SP_LEGS]);
 
+/* What the plain step computes for leg i (with bristles) of p at the
+ * increment |dx| = adx (Q24 LSB) over tick_us, with the constants o keeps
+ * (a valid o): the Stribeck fade *es (0 at and beyond 4 v_s) and the
+ * bristle relaxation *eb, both Q30; what sp_fric_table_prepare tabulates. */
+void plain_fric_slow_terms(const sp_platform_t *p, const sp_fric_obs_t *o, int i, uint32_t tick_us, int32_t adx,
+                           sp_q30_t *es, sp_q30_t *eb);
+
 #endif /* FRICTION_PLAIN_H */

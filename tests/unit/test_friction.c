@@ -379,6 +379,36 @@ static sp_q8_t random_phi(uint64_t *rng, const sp_platform_t *p, int i)
     return (sp_q8_t)tu_uniform(rng, -(double)p->breakaway_friction[i], (double)p->breakaway_friction[i]);
 }
 
+/* Every entry of a Stribeck table (its fade, when the build keeps the
+ * fades, and its relaxation) is what the plain step computes for the
+ * table's first leg at that increment: o is the observer after its first
+ * step on p (its kept constants). */
+static long check_table_entries(const sp_platform_t *p, const sp_fric_obs_t *o, const sp_fric_table_t *tab)
+{
+    int c = 0;
+    if (tab->count == 0u) {
+        return 0;
+    }
+    while (((tab->legs >> c) & 1u) == 0u) {
+        ++c;
+    }
+    assert_true(tab->inv_vs == o->inv_vs);
+    for (uint32_t n = 1u; n <= tab->count; ++n) {
+        sp_q30_t es, eb;
+        plain_fric_slow_terms(p, o, c, tab->tick_us, (int32_t)n, &es, &eb);
+        assert_true(es > 0); /* below 4 v_s */
+#if SP_FRIC_FADE_TABLE
+        if (tab->fade[n - 1u] != es) {
+            fail_msg("fade at |dx| = %u: %d, plain %d", (unsigned)n, (int)tab->fade[n - 1u], (int)es);
+        }
+#endif
+        if (tab->relax[n - 1u] != eb) {
+            fail_msg("relaxation at |dx| = %u: %d, plain %d", (unsigned)n, (int)tab->relax[n - 1u], (int)eb);
+        }
+    }
+    return (long)tab->count;
+}
+
 /* The observer's step, without and with its Stribeck table, equals its
  * plain first version bit for bit (outputs, state, status) over 3000
  * random platforms (half of them with the six legs' seals alike, as the
@@ -392,6 +422,7 @@ static void test_equals_plain(void **state)
     static sp_fric_table_t table;
     long moving = 0;
     long tabled = 0;
+    long entries = 0;
     (void)state;
     for (int n = 0; n < 2000000; ++n) {
         sp_q24_t u = (n % 2 == 0) ? tu_i32_logscale(&rng) : tu_i32(&rng);
@@ -426,6 +457,7 @@ static void test_equals_plain(void **state)
         }
         first = sp_fric_obs_step(&p, &o, len, tick_us, f); /* wild platforms saturate sigma_0 / F_c */
         assert_true(first == SP_OK || first == SP_E_OVERFLOW);
+        entries += check_table_entries(&p, &o, &table);
         for (int i = 0; i < SP_LEGS; ++i) {
             o.phi[i] = random_phi(&rng, &p, i);
         }
@@ -465,10 +497,14 @@ static void test_equals_plain(void **state)
     }
     assert_true(moving > 3000L * 40L * SP_LEGS / 2L);  /* most leg-ticks moved */
     assert_true(tabled > 3000L * 40L * SP_LEGS / 20L); /* and many took the table's entries */
+    printf("  %ld table entries equal to the plain step's fade and relaxation\n", entries);
+    assert_true(entries > 3000L * 10L);
 }
 
-/* The table's step keeps each leg's last Stribeck fade (a function of
- * the speed alone) for its next tick at the same speed: legs creeping by
+/* The table's step takes each leg's Stribeck fade (a function of the
+ * speed alone) from the table, or, in a build without the table's fades
+ * (SP_FRIC_FADE_TABLE 0, test_friction_nofade), keeps each leg's last one
+ * for its next tick at the same speed: legs creeping by
  * the same few LSB tick after tick, now and then another step, a reset
  * or a tick the table was not made for, equal the plain first version
  * bit for bit (outputs, bristles, status), over 400 platforms of the

@@ -119,7 +119,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
      * leaves the estimate on the feed-forward's friction, as before */
     ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
     /* its slow legs' exps, once (SP_E_ARG: an empty table, not used) */
-    (void)sp_fric_table_prepare(p, cfg->tick_us, &ctrl->prep.fric_table);
+    (void)sp_fric_table_prepare(p, cfg->tick_us, &ctrl->fric_table);
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     }
@@ -836,7 +836,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
         /* the observer follows every measured length, engaged or not; a
          * failure (bad parameters) leaves the feed-forward's friction */
         sp_status_t st = ctrl->prep.fric_obs_ok
-                             ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, &ctrl->prep.fric_table,
+                             ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, &ctrl->fric_table,
                                                          ctrl->sup.last_length, cfg->tick_us, observed)
                              : SP_E_ARG;
         friction = (st == SP_OK || st == SP_E_OVERFLOW) ? observed : NULL;

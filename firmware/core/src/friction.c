@@ -24,6 +24,9 @@ static const int32_t fric_exp_table[FRIC_EXP_STEPS] = {
 #define FRIC_STRIBECK_RATIO_MAX 4
 /* sigma_0 |dx| / g at and beyond which exp(-a) is taken as 0 (exp(-32) = 1.3e-14) */
 #define FRIC_BRISTLE_A_MAX 32
+/* |dphi| (N, Q8) below which the damping term's clamps cannot act: 2^23
+ * (32,768 N) */
+#define FRIC_DPHI_SMALL (INT64_C(1) << 23)
 /* largest |bristle deflection step| carried into the damping term, Q36 m (64 m) */
 #define FRIC_DZ_MAX_Q36 (INT64_C(1) << 42)
 
@@ -202,9 +205,10 @@ SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int32_t slip, int32_t
  * exp, none once its phi is within 1 LSB of F_c (fric_slide); slower,
  * two exps and one 32-bit division (F_c / g, spi_recip), or, for a leg
  * of the table's (tab non-NULL: its tick and platform are this step's)
- * and |dx| within it, one exp and the table's relaxation. Below 16 m/s
- * at a tick that divides a second (t->small) the speed and the viscous
- * force take no saturation. */
+ * and |dx| within it, the table's fade and relaxation (no exp; with
+ * SP_FRIC_FADE_TABLE 0, one exp unless its speed is its last one). Below
+ * 16 m/s at a tick that divides a second (t->small) the speed and the
+ * viscous force take no saturation. */
 static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
                         int32_t dx, const fric_tick_t *t, sp_flags_t *flags)
 {
@@ -236,15 +240,19 @@ static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_
     av = v < 0 ? -(int64_t)v : (int64_t)v;
     if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
         /* below 4 v_s (the table's entries are): the lines below with
-         * fric_relax_slow's value prepared at init; the fade is a
-         * function of the speed alone, kept for the leg's next tick at
-         * the same speed (a leg holding still or creeping moves by the
-         * same few LSB tick after tick) */
+         * fric_fade's and fric_relax_slow's values prepared at init */
+#if SP_FRIC_FADE_TABLE
+        es = tab->fade[adx - 1];
+#else
+        /* the fade is a function of the speed alone, kept for the leg's
+         * next tick at the same speed (a leg holding still or creeping
+         * moves by the same few LSB tick after tick) */
         if (av != o->fade_v[i]) {
             o->fade_v[i] = (int32_t)av;
             o->fade[i] = fric_fade(av, o->inv_vs);
         }
         es = o->fade[i];
+#endif
         g = fric_level(fc, p->breakaway_friction[i], es);
         eb = tab->relax[adx - 1];
     } else {
@@ -269,8 +277,16 @@ static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_
         /* sigma_1 e dz/dt = e (dphi tau) / dt. dphi tau in N s, Q24 (|dphi|
          * held below 2^31, tau < 2^31: the product < 2^62, held below 2^40
          * after the shift), per second (x 10^6 at most: < 2^60), then Q8 */
-        int64_t ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
-        int64_t per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
+        int64_t ns, per;
+        if (dphi > -FRIC_DPHI_SMALL && dphi < FRIC_DPHI_SMALL) {
+            /* the common case (|dphi| <= 2 F_s for a leg within the law's
+             * bound): |dphi tau| < 2^54, so ns is within 2^40 without
+             * the clamps (which would not act): one 32 x 32-bit product */
+            ns = ((int64_t)(int32_t)dphi * o->tau[i]) >> 14;
+        } else {
+            ns = clamp64((clamp64(dphi, INT32_MAX, flags) * o->tau[i]) >> 14, INT64_C(1) << 40, flags);
+        }
+        per = (t->per_s != 0) ? ns * t->per_s : div_round(ns * 1000000, (int64_t)t->tick_us);
         damping = FRIC_Q30(clamp64(spi_round_away64(per, 16u), INT32_MAX, flags) * es);
     }
     return spi_sat(phi_new + damping + viscous, flags);
@@ -411,8 +427,11 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
         if ((int64_t)v >= t.fast) {
             break;
         }
-        tab->relax[n - 1u] =
-            fric_relax_slow(((int64_t)slip * (int32_t)n) >> 8, fc, fric_level(fc, fs, fric_fade(v, tab->inv_vs)));
+        sp_q30_t es = fric_fade(v, tab->inv_vs);
+#if SP_FRIC_FADE_TABLE
+        tab->fade[n - 1u] = es;
+#endif
+        tab->relax[n - 1u] = fric_relax_slow(((int64_t)slip * (int32_t)n) >> 8, fc, fric_level(fc, fs, es));
     }
     tab->count = (uint16_t)(n - 1u);
     return SP_OK;

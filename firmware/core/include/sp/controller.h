@@ -283,7 +283,6 @@ typedef struct {
     sp_q30_t wrench_alpha;            /**< the wrench filter's gain (sp_wrench_alpha) */
     sp_wrench_smooth_t wrench_smooth; /**< the reported estimate's smoother (sp_wrench_smooth) */
     uint8_t fric_obs_ok;              /**< 1: the platform's friction passed sp_fric_obs_check */
-    sp_fric_table_t fric_table;       /**< the friction observer's Stribeck table (sp_fric_table_prepare) */
     sp_me_m6_t motion_body;           /**< the rigid body with the legs' inertia at home, for the wrench's
                                    motion correction (sp_motion_error_body, then sp_motion_error_m6; the
                                    rigid body alone when the legs are outside its envelope) */
@@ -390,6 +389,11 @@ typedef struct {
     sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
     sp_drive_reset_t drive_reset;              /**< RESET's fault reset of the drives */
     uint32_t fault_hold_ticks;                 /**< ticks of the current holding FAULT (saturates; 0 otherwise) */
+    /** the friction observer's Stribeck table (sp_fric_table_prepare),
+     *  made at init like prep; last, so that its 2,704 bytes (1,360
+     *  without the fades, SP_FRIC_FADE_TABLE 0) leave the other members
+     *  within a load's reach of the struct's start */
+    sp_fric_table_t fric_table;
 } sp_ctrl_t;
 
 /**
