@@ -432,24 +432,31 @@ static int command_stop(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_cmd_typ
 }
 
 /* The wrench force control would use this tick, NULL when its source is
- * not valid: the cylinders' estimate (less its bias at rest once tared),
- * or the tared sensor's. */
+ * not valid: the cylinders' estimate (less its bias at rest once tared:
+ * before, the bias is 0 and the estimate is read as it is), or the tared
+ * sensor's. */
 static const int32_t *force_wrench(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl)
 {
     if (cfg->wrench_source == SP_WRENCH_SENSOR) {
         return ctrl->ft_valid ? ctrl->ft_section[SP_WRENCH_SECTIONS - 1u] : NULL;
     }
-    return ctrl->wrench.valid ? ctrl->cyl_wrench : NULL;
+    if (!ctrl->wrench.valid) {
+        return NULL;
+    }
+    return ctrl->cyl_tare.tared ? ctrl->cyl_wrench : ctrl->wrench.wrench;
 }
 
 /* The cylinders' estimate less its bias (wrench_source CYLINDERS): a TARE
  * averages ft_tare_samples ticks of the estimate at rest into the bias, as
- * it does the sensor's readings. Outside a tare the difference is taken
- * here, without sp_ft_tare_step's saturation, which cannot act: the
- * estimate lies within [-2^30, 2^30 - 1] (the wrench filter's range,
- * sp/wrench.h) and so does the bias (0, or a rounded mean of estimates),
- * so their difference lies within +-(2^31 - 1), an int32 (the same value,
- * bit for bit; test_controller's tare test compares the two). */
+ * it does the sensor's readings. Until a tare has completed the bias is 0
+ * (sp_ft_tare_reset; sp_ft_tare_start keeps it) and force_wrench reads the
+ * estimate itself: no difference to take. After, outside a tare, the
+ * difference is taken here, without sp_ft_tare_step's saturation, which
+ * cannot act: the estimate lies within [-2^30, 2^30 - 1] (the wrench
+ * filter's range, sp/wrench.h) and so does the bias (a rounded mean of
+ * estimates), so their difference lies within +-(2^31 - 1), an int32 (the
+ * same value, bit for bit; test_controller's tare test compares the
+ * two). */
 static void cylinder_wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
     unsigned k;
@@ -461,8 +468,10 @@ static void cylinder_wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
                               ctrl->cyl_wrench); /* its sums, its bias when done */
         return;
     }
-    for (k = 0u; k < 6u; ++k) {
-        ctrl->cyl_wrench[k] = ctrl->wrench.wrench[k] - ctrl->cyl_tare.bias[k];
+    if (ctrl->cyl_tare.tared) {
+        for (k = 0u; k < 6u; ++k) {
+            ctrl->cyl_wrench[k] = ctrl->wrench.wrench[k] - ctrl->cyl_tare.bias[k];
+        }
     }
 }
 
