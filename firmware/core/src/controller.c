@@ -739,9 +739,11 @@ static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *f
 
 /* *dst = *src (distinct motions), member by member: each member (24 or
  * 12 bytes) is copied in registers, where the whole-struct assignment (72
- * bytes) is a call to memcpy on the M4 (-Os: 56 instructions of its word
- * loop), twice a tick (the accepted reference, and the output's). */
-static void copy_motion(sp_motion_t *dst, const sp_motion_t *src)
+ * bytes) is a call to memcpy on the M4 (56 instructions of its word loop),
+ * twice a tick (the accepted reference, and the output's): 24 a copy.
+ * Out of line: inlined into sp_ctrl_step, its registers took 8 bytes more
+ * of that frame, on the tick's deepest call chain, and it ran slower. */
+SPI_NOINLINE static void copy_motion(sp_motion_t *dst, const sp_motion_t *src)
 {
     /* written out: as a loop, GCC makes it a call to memmove again */
     dst->pose = src->pose;
