@@ -1041,7 +1041,8 @@ static void test_friction_force(void **state)
  * component at a time, every step written out in int64: the raw input is
  * the kept force path of the previous tick plus the correction, held
  * within [-2^30, 2^30 - 1]; the sections with alpha held within [0, 1],
- * each section's last value held in that range; then this tick's force
+ * each section's last value in that range (the state cannot leave it:
+ * test_wrench_state_stays_in_range); then this tick's force
  * path: d = F_model - F clamped to +-2^29, (J^T d)_k summed exactly and
  * rounded once to Q8, kept for the next tick. */
 static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int valid, const int64_t kept_in[6],
@@ -1057,7 +1058,8 @@ static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int va
         raw = raw > hi ? hi : (raw < lo ? lo : raw);
         if (valid) {
             for (unsigned n = 0u; n < SP_WRENCH_SECTIONS; ++n) {
-                int64_t last = sec_in[n][k] > hi ? hi : (sec_in[n][k] < lo ? lo : sec_in[n][k]);
+                int64_t last = sec_in[n][k];
+                assert_true(last >= lo && last <= hi); /* the state's range (test_wrench_state_stays_in_range) */
                 raw = last + ((a * (raw - last) + (INT64_C(1) << 29)) >> 30);
                 assert_true(raw >= lo && raw <= hi);
             }
@@ -1077,7 +1079,8 @@ static void wrench_reference(const int32_t sec_in[SP_WRENCH_SECTIONS][6], int va
  * over the whole allowed range (|entry| < 8, Q28), forces of every size up
  * to the int32 range (the clamp on d), kept force paths up to the largest
  * J^T d (6 x 8 x 2^29 < 2^35), corrections of every size or none,
- * sections anywhere in int32 and gains outside [0, 1]. */
+ * sections anywhere in their range [-2^30, 2^30 - 1], its ends included,
+ * and gains outside [0, 1]. */
 static void test_wrench_matches_reference(void **state)
 {
     (void)state;
@@ -1104,7 +1107,11 @@ static void test_wrench_matches_reference(void **state)
             w.force_wrench[k] = big ? (int64_t)tu_i32(&rng) * 16 : (int64_t)tu_i32_logscale(&rng);
             corr[k] = (n % 5 == 2) ? tu_i32(&rng) : tu_i32_logscale(&rng);
             for (unsigned s = 0u; s < SP_WRENCH_SECTIONS; ++s) {
-                w.section[s][k] = (n % 8) == (int)(1u + 2u * s) % 8 ? tu_i32(&rng) : (tu_i32(&rng) >> 3);
+                int32_t v = tu_i32(&rng);
+                w.section[s][k] = (n % 8) == (int)(1u + 2u * s) % 8 ? (v >> 1) : (v >> 3);
+                if ((n % 11) == (int)s) {
+                    w.section[s][k] = (v < 0) ? -(INT32_C(1) << 30) : (INT32_C(1) << 30) - 1; /* the ends */
+                }
             }
         }
         memcpy(sec, w.section, sizeof sec);
@@ -1121,6 +1128,108 @@ static void test_wrench_matches_reference(void **state)
         assert_int_equal(w.valid, 1);
         assert_memory_equal(w.force_wrench, want_kept, sizeof want_kept);
         assert_int_equal(w.have_force, 1);
+    }
+}
+
+/* The plain reference of sp_wrench_smooth's arithmetic (sp/wrench.h), one
+ * component, as it was written before session 15: the section's last
+ * value held within [-2^30, 2^30 - 1] before each step, in int64. */
+static void smooth_reference(sp_wrench_t *w, unsigned k, int64_t alpha, int64_t jump, unsigned persist, unsigned hold)
+{
+    const int64_t hi = (INT64_C(1) << 30) - 1;
+    const int64_t lo = -(INT64_C(1) << 30);
+    int64_t x = w->wrench[k];
+    int64_t v;
+    int64_t d;
+    if (w->follow[k] > 0u) {
+        w->follow[k]--;
+        w->slow[k] = (int32_t)x;
+        w->smooth[k] = (int32_t)x;
+        return;
+    }
+    v = w->slow[k] > hi ? hi : (w->slow[k] < lo ? lo : w->slow[k]);
+    v = v + ((alpha * (x - v) + (INT64_C(1) << 29)) >> 30);
+    d = x - v;
+    if (d > jump || d < -jump) {
+        w->excess[k]++;
+        if (w->excess[k] >= persist) {
+            w->excess[k] = 0u;
+            w->follow[k] = (uint8_t)(hold - 1u);
+            v = x;
+            w->smooth[k] = (int32_t)x;
+        } else {
+            w->smooth[k] = (int32_t)(d > 0 ? x - jump : x + jump);
+        }
+    } else {
+        w->excess[k] = 0u;
+        w->smooth[k] = (int32_t)v;
+    }
+    w->slow[k] = (int32_t)v;
+}
+
+/* The bound that lets sp_wrench_step and sp_wrench_smooth step their
+ * sections without holding the last value in range first: from a reset,
+ * over ticks of inputs of every size (forces, Jacobians, corrections up to
+ * the int32 range, gains outside [0, 1], ticks without a model), every
+ * section, the estimate, the smoother's section and the reported value
+ * stay within [-2^30, 2^30 - 1]; and the smoother equals its plain
+ * reference (which holds its section in range) bit for bit on the way. */
+static void test_wrench_state_stays_in_range(void **state)
+{
+    (void)state;
+    const int32_t hi = (INT32_C(1) << 30) - 1;
+    const int32_t lo = -(INT32_C(1) << 30);
+    uint64_t rng = 1515u;
+    sp_wrench_t w;
+    sp_wrench_t ref;
+    sp_wrench_smooth_t p;
+    sp_model_t model;
+    sp_wrench_reset(&w);
+    for (int n = 0; n < 40000; ++n) {
+        sp_q8_t meas[SP_LEGS];
+        sp_q8_t corr[6];
+        int big = (n / 50) % 3 == 0; /* runs of extreme ticks */
+        sp_q30_t alpha = (n % 13) == 7 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
+        for (int i = 0; i < SP_LEGS; ++i) {
+            for (int k = 0; k < 6; ++k) {
+                model.jac.j[i][k] = big ? tu_i32(&rng) : (int32_t)(tu_i32(&rng) >> 4);
+            }
+            model.force[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
+            meas[i] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        }
+        for (int k = 0; k < 6; ++k) {
+            corr[k] = big ? tu_i32(&rng) : tu_i32_logscale(&rng);
+        }
+        sp_wrench_step(&w, (n % 331) == 5 ? NULL : &model, NULL, meas, (n % 7) == 3 ? NULL : corr, alpha);
+        p.alpha = (n % 17) == 2 ? tu_i32(&rng) : (sp_q30_t)(tu_next(&rng) % ((uint64_t)SP_Q30_ONE + 1u));
+        p.jump[0] = (n % 5) == 1 ? tu_i32(&rng) : (int32_t)(tu_next(&rng) % (1u << 20)) + 1;
+        p.jump[1] = (n % 5) == 2 ? tu_i32(&rng) : (int32_t)(tu_next(&rng) % (1u << 20)) + 1;
+        p.persist = (uint8_t)(tu_next(&rng) % 6u);
+        p.hold = (uint8_t)(tu_next(&rng) % 6u);
+        ref = w;
+        sp_wrench_smooth(&w, &p);
+        if (ref.valid && ref.smooth_valid) {
+            int64_t a = p.alpha < 0 ? 0 : (p.alpha > SP_Q30_ONE ? SP_Q30_ONE : p.alpha);
+            unsigned persist = p.persist < 1u ? 1u : p.persist;
+            unsigned hold = p.hold < 1u ? 1u : p.hold;
+            for (unsigned k = 0u; k < 6u; ++k) {
+                int64_t j = p.jump[k < 3u ? 0 : 1];
+                j = j < 1 ? 1 : (j > (INT64_C(1) << 30) ? (INT64_C(1) << 30) : j);
+                smooth_reference(&ref, k, a, j, persist, hold);
+            }
+            assert_memory_equal(w.smooth, ref.smooth, sizeof w.smooth);
+            assert_memory_equal(w.slow, ref.slow, sizeof w.slow);
+            assert_memory_equal(w.follow, ref.follow, sizeof w.follow);
+            assert_memory_equal(w.excess, ref.excess, sizeof w.excess);
+        }
+        for (unsigned k = 0u; k < 6u; ++k) {
+            for (unsigned s = 0u; s < SP_WRENCH_SECTIONS; ++s) {
+                assert_true(w.section[s][k] >= lo && w.section[s][k] <= hi);
+            }
+            assert_true(w.wrench[k] >= lo && w.wrench[k] <= hi);
+            assert_true(w.slow[k] >= lo && w.slow[k] <= hi);
+            assert_true(w.smooth[k] >= lo && w.smooth[k] <= hi);
+        }
     }
 }
 
@@ -1395,6 +1504,7 @@ int main(void)
         cmocka_unit_test(test_friction_force),
         cmocka_unit_test(test_wrench_estimate),
         cmocka_unit_test(test_wrench_matches_reference),
+        cmocka_unit_test(test_wrench_state_stays_in_range),
         cmocka_unit_test(test_wrench_smooth),
         cmocka_unit_test(test_wrench_motion_error_correction),
         cmocka_unit_test(test_limits_prepare),

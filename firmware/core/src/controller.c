@@ -432,25 +432,47 @@ static int command_stop(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_cmd_typ
 }
 
 /* The wrench force control would use this tick, NULL when its source is
- * not valid: the cylinders' estimate (less its bias at rest once tared),
- * or the tared sensor's. */
+ * not valid: the cylinders' estimate (less its bias at rest once tared:
+ * before, the bias is 0 and the estimate is read as it is), or the tared
+ * sensor's. */
 static const int32_t *force_wrench(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl)
 {
     if (cfg->wrench_source == SP_WRENCH_SENSOR) {
         return ctrl->ft_valid ? ctrl->ft_section[SP_WRENCH_SECTIONS - 1u] : NULL;
     }
-    return ctrl->wrench.valid ? ctrl->cyl_wrench : NULL;
+    if (!ctrl->wrench.valid) {
+        return NULL;
+    }
+    return ctrl->cyl_tare.tared ? ctrl->cyl_wrench : ctrl->wrench.wrench;
 }
 
 /* The cylinders' estimate less its bias (wrench_source CYLINDERS): a TARE
  * averages ft_tare_samples ticks of the estimate at rest into the bias, as
- * it does the sensor's readings. */
+ * it does the sensor's readings. Until a tare has completed the bias is 0
+ * (sp_ft_tare_reset; sp_ft_tare_start keeps it) and force_wrench reads the
+ * estimate itself: no difference to take. After, outside a tare, the
+ * difference is taken here, without sp_ft_tare_step's saturation, which
+ * cannot act: the estimate lies within [-2^30, 2^30 - 1] (the wrench
+ * filter's range, sp/wrench.h) and so does the bias (a rounded mean of
+ * estimates), so their difference lies within +-(2^31 - 1), an int32 (the
+ * same value, bit for bit; test_controller's tare test compares the
+ * two). */
 static void cylinder_wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
+    unsigned k;
     if (cfg->wrench_source == SP_WRENCH_SENSOR || !ctrl->wrench.valid) {
         return;
     }
-    (void)sp_ft_tare_step(&ctrl->cyl_tare, ctrl->wrench.wrench, ctrl->cyl_wrench); /* saturates */
+    if (ctrl->cyl_tare.needed != 0u) {
+        (void)sp_ft_tare_step(&ctrl->cyl_tare, ctrl->wrench.wrench,
+                              ctrl->cyl_wrench); /* its sums, its bias when done */
+        return;
+    }
+    if (ctrl->cyl_tare.tared) {
+        for (k = 0u; k < 6u; ++k) {
+            ctrl->cyl_wrench[k] = ctrl->wrench.wrench[k] - ctrl->cyl_tare.bias[k];
+        }
+    }
 }
 
 /* FORCE, GUIDE (READY or RUNNING, with a valid wrench and pose; the
@@ -715,6 +737,22 @@ static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *f
 
 /* ---- 5. setpoints, every limit checked ---------------------------------------------- */
 
+/* *dst = *src (distinct motions), member by member: each member (24 or
+ * 12 bytes) is copied in registers, where the whole-struct assignment (72
+ * bytes) is a call to memcpy on the M4 (56 instructions of its word loop),
+ * twice a tick (the accepted reference, and the output's): 24 a copy.
+ * Out of line: inlined into sp_ctrl_step, its registers took 8 bytes more
+ * of that frame, on the tick's deepest call chain, and it ran slower. */
+SPI_NOINLINE static void copy_motion(sp_motion_t *dst, const sp_motion_t *src)
+{
+    /* written out: as a loop, GCC makes it a call to memmove again */
+    dst->pose = src->pose;
+    dst->vel[0] = src->vel[0], dst->vel[1] = src->vel[1], dst->vel[2] = src->vel[2];
+    dst->rpy_rate[0] = src->rpy_rate[0], dst->rpy_rate[1] = src->rpy_rate[1], dst->rpy_rate[2] = src->rpy_rate[2];
+    dst->acc[0] = src->acc[0], dst->acc[1] = src->acc[1], dst->acc[2] = src->acc[2];
+    dst->rpy_acc[0] = src->rpy_acc[0], dst->rpy_acc[1] = src->rpy_acc[1], dst->rpy_acc[2] = src->rpy_acc[2];
+}
+
 /* Holding: the drives keep their lengths at rest (IDLE: where they are). */
 static void hold_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
 {
@@ -726,7 +764,7 @@ static void hold_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
         }
         ctrl->setpoint[i].velocity = 0;
     }
-    ctrl->reference = *ref;
+    copy_motion(&ctrl->reference, ref);
     ctrl->est.ref_lu.valid = 0u; /* no factorisation at this reference */
 }
 
@@ -802,7 +840,7 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         ctrl->legs_exact = (uint8_t)((same ? ctrl->legs_exact : 0u) | fresh);
         ctrl->have_setpoint = 1u;
         ctrl->setpoint_ff = (uint8_t)ff;
-        ctrl->reference = *ref;
+        copy_motion(&ctrl->reference, ref);
         return 1;
     }
     ctrl->est.ref_lu.valid = 0u; /* the reference stays the previous one */
@@ -1078,7 +1116,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     out->tick = ctrl->tick;
     out->estimate = ctrl->est.pose;
     out->estimate_valid = ctrl->est.valid;
-    out->reference = ctrl->reference;
+    copy_motion(&out->reference, &ctrl->reference);
     out->fk_iterations = fk_iterations;
     out->cmd_rejected = rejected ? 1u : 0u;
     for (i = 0u; i < 6u; ++i) {

@@ -375,11 +375,14 @@ typedef struct {
      *  (columns of J^-T, Q24), made one column a tick once contact is made
      *  (the contact's force feed-forward, controller.c) */
     int32_t contact_ff[6][SP_LEGS];
-    uint8_t contact_ff_cols;                   /**< bit k: column k of contact_ff is this contact's */
-    uint8_t park_after_release;                /**< PARK during force control: park once released */
-    sp_ft_tare_t ft_tare;                      /**< the force/torque sensor's bias */
-    sp_ft_tare_t cyl_tare;                     /**< the cylinders' estimate's bias at rest (TARE on that source) */
-    int32_t cyl_wrench[6];                     /**< the cylinders' estimate less cyl_tare's bias, N, N m, Q8 */
+    uint8_t contact_ff_cols;    /**< bit k: column k of contact_ff is this contact's */
+    uint8_t park_after_release; /**< PARK during force control: park once released */
+    sp_ft_tare_t ft_tare;       /**< the force/torque sensor's bias */
+    sp_ft_tare_t cyl_tare;      /**< the cylinders' estimate's bias at rest (TARE on that source) */
+    /** the cylinders' estimate less cyl_tare's bias, N, N m, Q8: kept once
+     *  cyl_tare.tared and while a tare runs (before, force control reads
+     *  wrench.wrench itself: the bias is 0) */
+    int32_t cyl_wrench[6];
     int32_t ft_section[SP_WRENCH_SECTIONS][6]; /**< the sensor's wrench through the wrench filter's sections, Q8 */
     uint32_t ft_missed;                        /**< ticks since the last sensor reading (saturates) */
     uint8_t ft_valid;                          /**< 1 while ft_section follows the sensor */

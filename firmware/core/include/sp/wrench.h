@@ -47,10 +47,14 @@
 
 #include "sp/setpoint.h"
 
-/** The estimate and the model it compares the next measurement with. */
 /** Sections of the wrench filter. */
 #define SP_WRENCH_SECTIONS 4u
 
+/** The estimate and the model it compares the next measurement with. Its
+ *  fields are sp_wrench_reset's, sp_wrench_step's and sp_wrench_smooth's
+ *  alone: the sections, wrench and slow stay within [-2^30, 2^30 - 1] of Q8
+ *  because nothing else writes them, and the steps rely on it (no
+ *  re-clamp of the state each tick). */
 typedef struct {
     int64_t force_wrench[6];                /**< the previous tick's J^T (F_model - F), N, N m, Q8 */
     int32_t wrench[6];                      /**< the estimate (the last section), N, N m, Q8 */
@@ -122,8 +126,9 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
  * in the ticks before, smooth is held at p->jump from wrench (a noise peak
  * of wrench shorter than p->persist ticks leaves slow alone). Hence
  * |smooth - wrench| <= jump at every tick. The first tick with w->valid
- * (and every tick without) sets smooth and slow to wrench. Values stay
- * within the range of w->wrench; nothing wraps. No-op on NULL; p's fields
+ * (and every tick without) sets smooth and slow to wrench. w->wrench must
+ * lie within [-2^30, 2^30 - 1] (sp_wrench_step's range); values stay
+ * within it; nothing wraps. No-op on NULL; p's fields
  * outside their ranges are used as their nearest valid value.
  */
 void sp_wrench_smooth(sp_wrench_t *w, const sp_wrench_smooth_t *p);
