@@ -86,7 +86,7 @@ hs_status_t hs_co_bus_apply(hs_co_bus_t *b, hs_plant_t *plant)
         double t = 1e-3 * (double)b->ms_since_sync;
         double a = follows ? b->accel[i] : 0.0;
         double v = follows ? b->velocity[i] : 0.0;
-        double force = follows ? 10.0 * (double)n->force_dan : 0.0;
+        double force = follows ? hs_co_node_force_n(n) : 0.0;
         (void)hs_plant_set_setpoint(plant, i, length + v * t + 0.5 * a * t * t, v + a * t, force,
                                     follows ? HS_REQ_ACTIVE : HS_REQ_HOLD);
     }

@@ -157,6 +157,8 @@ static void od_defaults_402(hs_co_node_t *n)
     od_add(n, 0x60C2u, 0u, 1u, HS_CO_RO, 2u);
     od_add(n, 0x60C2u, 1u, 1u, HS_CO_RW, 1u);
     od_add(n, 0x60C2u, 2u, 1u, HS_CO_RW, 0xFDu);       /* -3 */
+    od_add(n, 0x6076u, 0u, 4u, HS_CO_RO, 10000000u);   /* rated force 10 kN, in mN (a linear axis) */
+    od_add(n, 0x60B2u, 0u, 2u, HS_CO_RW, 0u);          /* torque/force offset, per mille of 0x6076 */
     od_add(n, 0x6502u, 0u, 4u, HS_CO_RO, 0x00000080u); /* bit 7: cyclic synchronous position */
 }
 
@@ -323,10 +325,8 @@ static uint32_t rpdo1_layout(hs_co_node_t *n, uint32_t *cob)
     if ((c & 0x80000000u) != 0u || od_value(n, 0x1600u, 1u) != 0x60400010u || od_value(n, 0x1600u, 2u) != target) {
         return 0u;
     }
-    if (n->profile == 1u) {
-        return count == 2u ? 2u : 0u;
-    }
-    if (count == 2u || (count == 3u && od_value(n, 0x1600u, 3u) == SP_CO_FORCE_FF_MAPPING)) {
+    if (count == 2u || (count == 3u && od_value(n, 0x1600u, 3u) ==
+                                           (n->profile == 1u ? SP_CO402_FORCE_FF_MAPPING : SP_CO_FORCE_FF_MAPPING))) {
         return count;
     }
     return 0u;
@@ -374,13 +374,14 @@ static void on_sync(hs_co_node_t *n, sp_can_frame_t *tx, uint8_t *n_tx)
     if (n->profile == 1u) {
         n->control = n->rx_control;
         n->setpoint = n->rx_setpoint;
-        n->force_dan = 0;
+        n->force_ff = n->rx_force_ff;
+        hs_co_node_find(n, 0x60B2u, 0u)->value = (uint16_t)n->force_ff;
         on_sync_402(n, prev, tx, n_tx);
         return;
     }
     n->control = n->rx_control;
     n->setpoint = n->rx_setpoint;
-    n->force_dan = n->rx_force_dan;
+    n->force_ff = n->rx_force_ff;
     if ((n->control & SP_CO408_CW_R) != 0u && (prev & SP_CO408_CW_R) == 0u) {
         n->fault = 0u; /* the fault reset clears the cause first */
     }
@@ -388,7 +389,7 @@ static void on_sync(hs_co_node_t *n, sp_can_frame_t *tx, uint8_t *n_tx)
     hs_co_node_find(n, 0x6040u, 0u)->value = n->control;
     hs_co_node_find(n, 0x6041u, 0u)->value = sp_co408_status_bits(n->state);
     hs_co_node_find(n, 0x6600u, 1u)->value = (uint32_t)n->setpoint;
-    hs_co_node_find(n, 0x2120u, 0u)->value = (uint16_t)n->force_dan;
+    hs_co_node_find(n, 0x2120u, 0u)->value = (uint16_t)n->force_ff;
     hs_co_node_find(n, 0x6601u, 1u)->value = (uint32_t)n->actual;
     if (pdo_ok(n, 0x1800u, 0x1A00u, 0x60410010u, 0x66010120u, &cob) && (f = next_tx(tx, n_tx)) != NULL) {
         (void)sp_co_tpdo1_frame(f, n->bus, n->node_id, sp_co408_status_bits(n->state), n->actual);
@@ -473,7 +474,7 @@ hs_status_t hs_co_node_receive(hs_co_node_t *n, const sp_can_frame_t *f, sp_can_
                           : sp_co_rpdo1_parse(&g, n->node_id, &cw, &sp)) == SP_OK) {
             n->rx_control = cw;
             n->rx_setpoint = sp;
-            n->rx_force_dan = force;
+            n->rx_force_ff = force;
             n->rpdo_seen = 1u;
             n->rpdo_age_ms = 0u;
         }
@@ -567,4 +568,18 @@ int hs_co_node_follows(const hs_co_node_t *n)
         return 0;
     }
     return n->profile == 1u ? n->state402 == SP_CO402_OPERATION_ENABLED : n->state == SP_CO408_ACTIVE;
+}
+
+double hs_co_node_force_n(const hs_co_node_t *n)
+{
+    uint32_t i;
+    if (n->profile != 1u) {
+        return 10.0 * (double)n->force_ff;
+    }
+    for (i = 0u; i < n->n_od; i++) {
+        if (n->od[i].index == 0x6076u && n->od[i].sub == 0u) {
+            return (double)n->force_ff * (double)n->od[i].value * 1e-6;
+        }
+    }
+    return 0.0;
 }

@@ -65,7 +65,7 @@ class Cfg(C.Structure):
 
 class Input(C.Structure):
     _fields_ = [("now_ms", C.c_uint32), ("request", C.c_uint8), ("setpoint", C.c_int32 * MAX_NODES),
-                ("force_dan", C.c_int16 * MAX_NODES)]
+                ("force_ff", C.c_int16 * MAX_NODES)]
 
 
 class Output(C.Structure):

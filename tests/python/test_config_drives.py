@@ -83,7 +83,12 @@ def test_a_valid_cia408_layout():
     (lambda s: s["legs"][2].update(node_id=127),
      "drives.legs[2].node_id: 127 is the master's own heartbeat id"),
     (lambda s: s["legs"][4].update(protocol="cia402", force_feedforward=True),
-     "drives.legs[4].force_feedforward: only for cia408 drives"),
+     "drives.legs[4].force_feedforward: a cia402 drive takes the force as its torque/force offset 0x60B2, "
+     "in per mille of its rated force: give scaling.rated_force"),
+    (lambda s: s["legs"][4]["scaling"].update(rated_force=5000.0),
+     "drives.legs[4].scaling.rated_force: only for cia402 drives"),
+    (lambda s: (s["legs"][4].update(protocol="cia402"), s["legs"][4]["scaling"].update(rated_force=50.0)),
+     "drives.legs[4].scaling.rated_force:"),
     (lambda s: s.update(master_heartbeat_ms=21846), "t.json: drives.master_heartbeat_ms: 21846 is outside 0..21845"),
     (lambda s: s.update(master_heartbeat_ms=-1), "t.json: drives.master_heartbeat_ms: -1 is outside 0..21845"),
     (lambda s: s.update(master_heartbeat_ms=50.5), "t.json: drives.master_heartbeat_ms: expected an integer"),
@@ -209,7 +214,10 @@ def test_force_feedforward_key():
     assert _error(_with(s)).endswith("drives.legs[2].force_feedforward: expected true or false")
     s = _section(protocol="cia402")
     s["legs"][0]["force_feedforward"] = True
-    assert "drives.legs[0].force_feedforward: only for cia408 drives" in _error(_with(s))
+    assert "drives.legs[0].force_feedforward: a cia402 drive takes the force" in _error(_with(s))
+    s["legs"][0]["scaling"]["rated_force"] = 12000.0   # CiA 402: 0x60B2 in per mille of 12 kN
+    p = config.from_dict(_with(s))
+    assert p.drives.legs[0].force_feedforward and p.drives.legs[0].scaling.rated_force == 12000.0
 
 
 def test_the_firmware_gets_the_config_layout():
@@ -225,7 +233,7 @@ def test_the_firmware_gets_the_config_layout():
     assert ".present = 1u," in text and ".n_nodes = 6u," in text and ".sync_divider = 3u," in text
     assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408}" in text   # can_0 -> axis_a
     assert "{11u, SP_BUS_AXIS_B, 5u, 8, 1u, -6, 1u, SP_CO_PROFILE_408}" in text   # can_1 -> axis_b, force ff
-    assert "{2000u, 25165824, -1, 0u, 0u, 0}" in text                # 2 um, 1.5 m in Q24, counting down
+    assert "{2000u, 25165824, -1, 0u, 0u, 0u, 0u, 0}" in text        # 2 um, 1.5 m in Q24, counting down
     assert ".setpoint_timeout_ms = 9u," in text and ".pdo_timeout_ms = 10u," in text
     assert "[SP_BUS_AXIS_A] = 1000000u, [SP_BUS_AXIS_B] = 1000000u" in text
     assert ".master_heartbeat_ms = 100u," in text and ".master_node_id = 127u," in text
@@ -242,6 +250,13 @@ def test_the_firmware_gets_a_cia402_layout():
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
     assert "{10u, SP_BUS_AXIS_A, 1u, 8, 0u, 0, 0u, SP_CO_PROFILE_402}" in text
     assert ".pressure_feedback = 0u," in text
+    s["legs"][1].update(force_feedforward=True)   # the torque/force offset 0x60B2, per mille of 8 kN
+    s["legs"][1]["scaling"]["rated_force"] = 8000
+    text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
+    assert "SP_BUS_AXIS_A, 2u, 8, 0u, 0, 1u, SP_CO_PROFILE_402}" in text
+    assert ", 8000u, 0u, 0u, 0u, 0}" in text
+    s["legs"][1].update(force_feedforward=False)
+    del s["legs"][1]["scaling"]["rated_force"]
     s["legs"][0]["protocol"] = "cia408"
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
     assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408}" in text

@@ -327,7 +327,23 @@ static void test_plan(void **state)
             assert_int_equal(p[i].value, 0x60640020u);
         }
     }
-    cfg.node[4].force_ff = 1u; /* CiA 408's vendor object: refused on a 402 drive */
+    cfg.node[4].force_ff = 1u; /* CiA 402's torque/force offset 0x60B2 as RPDO1's third entry */
+    assert_int_equal(sp_co_master_cfg_check(&cfg), SP_OK);
+    assert_int_equal(sp_co_plan_build(&cfg, 4u, p, &n), SP_OK);
+    {
+        int count = -1, third = -1;
+        for (i = 0u; i < n; i++) {
+            if (p[i].index == 0x1600u && p[i].sub == 0u && p[i].value != 0u) {
+                count = (int)p[i].value;
+            }
+            if (p[i].index == 0x1600u && p[i].sub == 3u) {
+                third = (int)(p[i].value == 0x60B20010u);
+            }
+        }
+        assert_int_equal(count, 3);
+        assert_int_equal(third, 1);
+    }
+    cfg.node[4].force_ff = 2u; /* a flag: 0 or 1 */
     assert_int_equal(sp_co_master_cfg_check(&cfg), SP_E_ARG);
     assert_int_equal(sp_co_plan_build(&cfg, 6u, p, &n), SP_E_ARG);
     assert_int_equal(sp_co_plan_build(NULL, 0u, p, &n), SP_E_ARG);
@@ -435,6 +451,98 @@ static void test_scaling(void **state)
     s.nm_per_count = 1000u;
     s.direction = 0;
     assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
+}
+
+/* CiA 402's torque/force offset (sp_co_force_to_permille, the link's
+ * per-tick conversion) against the exact quotient in long double: within
+ * 1 per mille over random forces of the whole Q8 range and rated forces
+ * of the whole allowed range, both directions, saturated at INT16; the
+ * bounds of rated_force_n in sp_co_scaling_prepare; a link config whose
+ * CiA 402 drive has the feed-forward but no rated force is refused, and
+ * sp_co_link_input sends each 402 node its per mille. */
+static void test_force_permille(void **state)
+{
+    sp_co_scaling_t s;
+    uint32_t seed = 9001u, t, exact_hits = 0u;
+    int16_t pm;
+    (void)state;
+    memset(&s, 0, sizeof s);
+    s.nm_per_count = 1000u;
+    s.direction = 1;
+    s.rated_force_n = 99u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
+    s.rated_force_n = 10000001u;
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_E_ARG);
+    s.rated_force_n = 0u; /* none: the length scaling alone */
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+    assert_int_equal(sp_co_force_to_permille(&s, 256, &pm), SP_E_ARG);
+    assert_int_equal(pm, 0);
+    assert_int_equal(sp_co_force_to_permille(NULL, 256, &pm), SP_E_ARG);
+    s.rated_force_n = 10000u; /* 10 N per mille */
+    assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+    assert_int_equal(sp_co_force_to_permille(&s, 12345 * 256, &pm), SP_OK);
+    assert_int_equal(pm, 1235); /* 1234.5 rounds away from zero */
+    assert_int_equal(sp_co_force_to_permille(&s, -12345 * 256, &pm), SP_OK);
+    assert_int_equal(pm, -1235);
+    assert_int_equal(sp_co_force_to_permille(&s, 400000 * 256, &pm), SP_E_OVERFLOW);
+    assert_int_equal(pm, INT16_MAX);
+    s.direction = -1;
+    assert_int_equal(sp_co_force_to_permille(&s, 400000 * 256, &pm), SP_E_OVERFLOW);
+    assert_int_equal(pm, INT16_MIN);
+    assert_int_equal(sp_co_force_to_permille(&s, 12345 * 256, &pm), SP_OK);
+    assert_int_equal(pm, -1235); /* the count falls as the leg extends: the force too */
+    for (t = 0u; t < 20000u; t++) {
+        long double q, want;
+        int32_t force;
+        sp_status_t st;
+        seed = seed * 1664525u + 1013904223u;
+        s.rated_force_n = 100u + seed % 9999901u;
+        s.direction = (seed & 0x80000000u) != 0u ? -1 : 1;
+        assert_int_equal(sp_co_scaling_prepare(&s), SP_OK);
+        seed = seed * 1664525u + 1013904223u;
+        force = (int32_t)seed >> (seed % 24u); /* every magnitude, both signs */
+        q = (long double)force / 256.0L * 1000.0L / (long double)s.rated_force_n * s.direction;
+        want = q < 0 ? -floorl(-q + 0.5L) : floorl(q + 0.5L);
+        st = sp_co_force_to_permille(&s, force, &pm);
+        if (want > 32767.0L || want < -32768.0L) {
+            assert_true(st == SP_E_OVERFLOW || fabsl(q) < 32768.5L);
+            assert_true(pm == INT16_MAX || pm == INT16_MIN || fabsl((long double)pm - q) <= 1.0L);
+            continue;
+        }
+        assert_true(fabsl((long double)pm - q) <= 1.0L);
+        exact_hits += ((long double)pm == want) ? 1u : 0u;
+    }
+    assert_true(exact_hits > 19000u); /* off by one only next to a half */
+
+    /* the link: a CiA 402 node with the feed-forward needs its leg's rated force */
+    {
+        sp_co_link_cfg_t cfg;
+        sp_ctrl_output_t out;
+        sp_co_master_input_t in;
+        sp_q24_t zero[SP_LEGS] = {0, 0, 0, 0, 0, 0};
+        uint32_t k;
+        assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
+        for (k = 0u; k < SP_LEGS; k++) {
+            cfg.master.node[k].profile = (uint8_t)SP_CO_PROFILE_402;
+        }
+        cfg.master.pressure_feedback = 0u;
+        assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+        cfg.master.node[0].force_ff = 1u;
+        assert_int_equal(sp_co_link_cfg_check(&cfg), SP_E_ARG); /* no rated force for its leg */
+        cfg.scaling[cfg.master.node[0].leg - 1u].rated_force_n = 5000u;
+        assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[cfg.master.node[0].leg - 1u]), SP_OK);
+        assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+        memset(&out, 0, sizeof out);
+        for (k = 0u; k < SP_LEGS; k++) {
+            out.setpoint[k].force = 2500 * 256; /* 2.5 kN: half the rated force */
+        }
+        out.drive_mode = SP_DRIVE_ACTIVE;
+        assert_int_equal(sp_co_link_input(&cfg, &out, 1u, &in), SP_OK);
+        assert_int_equal(in.force_ff[0], 500);
+        for (k = 1u; k < SP_LEGS; k++) {
+            assert_int_equal(in.force_ff[k], 0); /* CiA 402 without the feed-forward: none */
+        }
+    }
 }
 
 /* The plain int64 conversions the 32-bit ones replaced (canopen_scaling.h):
@@ -575,6 +683,7 @@ static void test_master_pdo_reference(void **state)
     }
     cfg.node[0].force_ff = 1u;
     cfg.node[1].force_ff = 1u;
+    cfg.node[3].force_ff = 1u; /* CiA 402 with the torque/force offset */
     assert_int_equal(sp_co_master_init(&m), SP_OK);
     assert_int_equal(sp_co_master_start(&m, &cfg, 0u), SP_OK);
     for (k = 0u; k < 6u; k++) { /* as after the start-up */
@@ -614,7 +723,7 @@ static void test_master_pdo_reference(void **state)
             assert_int_equal(sp_co_master_receive(&m, &cfg, &f, t), SP_E_FRAME);
             assert_int_equal(m.node[k].pa_kpa, pa);
             in.setpoint[k] = (int32_t)(seed ^ 0x5A5A5A5Au) / 3;
-            in.force_dan[k] = (int16_t)((int32_t)(seed >> 16) - 32768);
+            in.force_ff[k] = (int16_t)((int32_t)(seed >> 16) - 32768);
         }
         in.now_ms = t;
         assert_int_equal(sp_co_master_step(&m, &cfg, &in, &out), SP_OK);
@@ -630,7 +739,7 @@ static void test_master_pdo_reference(void **state)
             if (cfg.node[k].force_ff) {
                 assert_int_equal(sp_co_rpdo1_ff_parse(g, cfg.node[k].node_id, &cw, &sp, &ff), SP_OK);
                 assert_int_equal(sp_co_rpdo1_ff_frame(&ref, cfg.node[k].bus, cfg.node[k].node_id, cw, sp, ff), SP_OK);
-                assert_int_equal(ff, in.force_dan[k]);
+                assert_int_equal(ff, in.force_ff[k]);
             } else {
                 assert_int_equal(sp_co_rpdo1_parse(g, cfg.node[k].node_id, &cw, &sp), SP_OK);
                 assert_int_equal(sp_co_rpdo1_frame(&ref, cfg.node[k].bus, cfg.node[k].node_id, cw, sp), SP_OK);
@@ -741,11 +850,11 @@ static void test_link(void **state)
     out.setpoint[1].force = -12345 * 256; /* -1234.5 daN */
     out.setpoint[2].force = 400000 * 256; /* beyond INT16 daN */
     assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
-    assert_int_equal(in.force_dan[0], -1235);
-    assert_int_equal(in.force_dan[2], INT16_MAX); /* node 2: leg 3 */
+    assert_int_equal(in.force_ff[0], -1235);
+    assert_int_equal(in.force_ff[2], INT16_MAX); /* node 2: leg 3 */
     cfg.scaling[1].direction = -1;
     assert_int_equal(sp_co_link_input(&cfg, &out, 78u, &in), SP_OK);
-    assert_int_equal(in.force_dan[0], 1235); /* the count falls as the leg extends: the force too */
+    assert_int_equal(in.force_ff[0], 1235); /* the count falls as the leg extends: the force too */
     cfg.scaling[1].direction = 1;
     cfg.scaling[0].nm_per_count = 1u;
     assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[0]), SP_OK);
@@ -1043,6 +1152,7 @@ int main(void)
         cmocka_unit_test(test_cfg_check),
         cmocka_unit_test(test_scaling),
         cmocka_unit_test(test_scaling_reference),
+        cmocka_unit_test(test_force_permille),
         cmocka_unit_test(test_master_pdo_reference),
         cmocka_unit_test(test_master_input_checks),
         cmocka_unit_test(test_link),

@@ -111,7 +111,7 @@ class RunSpec:
     plant_args: tuple[str, ...] = ()  # more hs_sim options (e.g. the wrap tests' --tick0)
     wrench_source: str | None = None  #: force control's: "cylinders" or "sensor" (None: the config's)
     canopen: bool = False             #: the drives as CiA 408 nodes (sp_controller/hs_sim --canopen)
-    canopen_force_ff: bool = False    #: and the vendor force feed-forward 0x2120 in RPDO1
+    canopen_force_ff: bool = False    #: and the force feed-forward in RPDO1 (CiA 408: 0x2120; CiA 402: 0x60B2)
     canopen_sync_divider: int = 0     #: SYNC and PDOs every n ticks (0: the layout's)
     cia402: bool = False              #: the drives as CiA 402 nodes instead (--cia402; implies canopen)
 

@@ -311,7 +311,9 @@ _DRIVES_KEYS = {"legs", "buses", "sync_divider", "heartbeat_ms", "heartbeat_time
 #: three periods, must fit 0x1016.1's 16 bits.
 MASTER_HEARTBEAT_MAX_MS = 0xFFFF // 3
 _LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode", "force_feedforward"}
-_SCALING_KEYS = {"position_per_count", "length_at_zero", "direction"}
+_SCALING_KEYS = {"position_per_count", "length_at_zero", "direction", "rated_force"}
+#: CiA 402's rated force along the leg (N at 1000 per mille of 0x60B2): the firmware's bounds.
+RATED_FORCE_RANGE = (100.0, 10_000_000.0)
 
 
 def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
@@ -419,10 +421,16 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
         ff = leg.get("force_feedforward", False)
         if not isinstance(ff, bool):
             raise ConfigError(f"{w}.force_feedforward: expected true or false")
-        if ff and proto != "cia408":
-            raise ConfigError(f"{w}.force_feedforward: only for cia408 drives (the vendor object 0x2120 of the "
-                              "simulated drive, docs/canopen.md)")
-        legs.append(_layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction), mode, ff))
+        rated = None
+        if "rated_force" in sc:
+            if proto != "cia402":
+                raise ConfigError(f"{w}.scaling.rated_force: only for cia402 drives (the force of 1000 per mille "
+                                  "of the torque/force offset 0x60B2)")
+            rated = _number(f"{w}.scaling.rated_force", sc["rated_force"], *RATED_FORCE_RANGE)
+        if ff and proto == "cia402" and rated is None:
+            raise ConfigError(f"{w}.force_feedforward: a cia402 drive takes the force as its torque/force offset "
+                              "0x60B2, in per mille of its rated force: give scaling.rated_force (N along the leg)")
+        legs.append(_layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction, rated), mode, ff))
     canopen_buses = {dr.bus for dr in legs if dr.is_canopen}
     for dr in legs:
         if dr.protocol == "native" and dr.bus in canopen_buses:

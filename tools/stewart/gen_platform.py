@@ -177,7 +177,8 @@ def canopen_layout(p: cfg.Platform) -> dict:
                       "force_ff": int(leg.force_feedforward), "profile": _PROFILE[leg.protocol]})
         scaling.append({"nm_per_count": int(round(nm)), "zero_q24": _q(leg.scaling.length_at_zero, Q24,
                                                                        f"{w}.scaling.length_at_zero"),
-                        "direction": leg.scaling.direction})
+                        "direction": leg.scaling.direction,
+                        "rated_force_n": int(round(leg.scaling.rated_force or 0))})
     return {"nodes": nodes, "scaling": scaling, "sync_divider": d.sync_divider,
             "pressure": int(d.pressure_feedback and "cia408" in protos),
             "heartbeat_ms": d.heartbeat_ms, "heartbeat_timeout_ms": d.heartbeat_timeout_ms,
@@ -197,7 +198,8 @@ const sp_co_layout_t sp_co_layout_default = {{
     nodes = ",\n".join(
         f"            {{{n['node_id']}u, {n['bus']}, {n['leg']}u, {n['control_mode']}, {n['write_prefix']}u, "
         f"{n['unit_prefix']}, {n['force_ff']}u, {n['profile']}}}" for n in lay["nodes"])
-    scal = ",\n".join(f"        {{{s['nm_per_count']}u, {s['zero_q24']}, {s['direction']}, 0u, 0u, 0}}"
+    scal = ",\n".join(f"        {{{s['nm_per_count']}u, {s['zero_q24']}, {s['direction']}, {s['rated_force_n']}u, "
+                       "0u, 0u, 0u, 0}"
                        for s in lay["scaling"])
     rates = ", ".join(f"[{b}] = {r}u" for b, r in lay["bitrate"].items())
     return f"""const sp_co_layout_t sp_co_layout_default = {{

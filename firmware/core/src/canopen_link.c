@@ -61,6 +61,10 @@ sp_status_t sp_co_link_cfg_check(const sp_co_link_cfg_t *cfg)
         if (sp_co_length_to_count(&cfg->scaling[leg - 1u], 0, &probe) == SP_E_ARG) {
             return SP_E_ARG;
         }
+        if (cfg->master.node[k].profile == (uint8_t)SP_CO_PROFILE_402 && cfg->master.node[k].force_ff &&
+            cfg->scaling[leg - 1u].permille_per_n_q24 == 0u) {
+            return SP_E_ARG; /* 0x60B2 is per mille of a rated force the config did not give */
+        }
     }
     return SP_OK;
 }
@@ -122,9 +126,12 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
     for (k = 0u; k < cfg->master.n_nodes; k++) {
         uint32_t leg = (uint32_t)cfg->master.node[k].leg - 1u;
         in->setpoint[k] = 0;
-        in->force_dan[k] = 0;
-        if (leg < SP_LEGS) {
-            in->force_dan[k] = force_dan(out->setpoint[leg].force, cfg->scaling[leg].direction);
+        in->force_ff[k] = 0;
+        if (leg < SP_LEGS && cfg->master.node[k].profile != (uint8_t)SP_CO_PROFILE_402) {
+            in->force_ff[k] = force_dan(out->setpoint[leg].force, cfg->scaling[leg].direction);
+        } else if (leg < SP_LEGS && cfg->master.node[k].force_ff && cfg->scaling[leg].permille_per_n_q24 != 0u) {
+            /* saturated at INT16 (a force beyond 32.767 times the rated one): the setpoint still goes out */
+            (void)spi_co_force_to_permille(&cfg->scaling[leg], out->setpoint[leg].force, &in->force_ff[k]);
         }
         if (leg < SP_LEGS &&
             (!spi_co_scaling_ok(&cfg->scaling[leg]) ||

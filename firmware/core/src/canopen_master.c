@@ -17,7 +17,11 @@ typedef struct {
 
 static const profile_t profiles[2] = {
     {SP_CO408_PROFILE, {0x60400010u, 0x66000120u, SP_CO_FORCE_FF_MAPPING}, {0x60410010u, 0x66010120u}, 0u, 0u},
-    {SP_CO402_PROFILE, {0x60400010u, 0x607A0020u, 0u}, {0x60410010u, 0x60640020u}, 0x6061u, (uint8_t)SP_CO402_MODE_CSP},
+    {SP_CO402_PROFILE,
+     {0x60400010u, 0x607A0020u, SP_CO402_FORCE_FF_MAPPING},
+     {0x60410010u, 0x60640020u},
+     0x6061u,
+     (uint8_t)SP_CO402_MODE_CSP},
 };
 
 static const profile_t *profile_of(const sp_co_node_cfg_t *nc)
@@ -91,7 +95,7 @@ sp_status_t sp_co_master_cfg_check(const sp_co_master_cfg_t *cfg)
     for (k = 0u; k < cfg->n_nodes; k++) {
         const sp_co_node_cfg_t *a = &cfg->node[k];
         if (a->node_id < SP_CO_NODE_MIN || a->node_id > SP_CO_NODE_MAX || a->bus >= SP_CAN_BUSES ||
-            a->profile > (uint8_t)SP_CO_PROFILE_402 || (a->profile == (uint8_t)SP_CO_PROFILE_402 && a->force_ff)) {
+            a->profile > (uint8_t)SP_CO_PROFILE_402 || a->force_ff > 1u) {
             return SP_E_ARG;
         }
         if (cfg->master_heartbeat_ms != 0u && a->node_id == cfg->master_node_id) {
@@ -183,7 +187,7 @@ sp_status_t sp_co_plan_build(const sp_co_master_cfg_t *cfg, uint8_t k, sp_co_sdo
         }
     }
     add(&p, 0x1006u, 0u, 4u, (uint32_t)cfg->sync_divider * 1000u, 1u, 1u);
-    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, pr->rpdo1, !is402 && cfg->node[k].force_ff ? 3u : 2u,
+    add_pdo(&p, 0x1400u, 0x1600u, SP_CO_COB_RPDO1 + id, pr->rpdo1, cfg->node[k].force_ff ? 3u : 2u,
             cfg->setpoint_timeout_ms);
     add_pdo(&p, 0x1800u, 0x1A00u, SP_CO_COB_TPDO1 + id, pr->tpdo1, 2u, 0u);
     if (cfg->pressure_feedback && !is402) {
@@ -686,11 +690,13 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
         sp_co402_state_t s = (sp_co402_state_t)nd->seen_state; /* decode_status: this tick's word */
         uint16_t cw = sp_co402_control_word(s, (sp_co402_state_t)t->state[1], nd->reset_edge != 0u, faulted);
         int32_t target;
+        int16_t offset = 0; /* the force only with the setpoint it belongs to */
         if (s != SP_CO402_OPERATION_ENABLED) {
             target = nd->actual; /* no jump when operation becomes enabled */
             nd->holding = 0u;
         } else if (eff == SP_CO_REQ_ACTIVE && !faulted) {
             target = setpoint;
+            offset = force;
             nd->holding = 0u;
         } else {
             if (!nd->holding) {
@@ -700,7 +706,7 @@ static void node_rpdo(sp_co_node_t *nd, const sp_co_node_cfg_t *nc, sp_co_reques
             target = nd->hold_target;
         }
         nd->last_target = target;
-        put_rpdo1(f, nc, cw, target, 0, 0);
+        put_rpdo1(f, nc, cw, target, nc->force_ff != 0u, offset);
     } else {
         uint16_t cw = cw408;
         if (faulted || nd->reset_edge != 0u) {
@@ -872,7 +878,7 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
             }
             bus_used[nc->bus] = 1u;
             if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
-                node_rpdo(nd, nc, eff, &targets, cw408, in->setpoint[k], in->force_dan[k], &out->tx[out->n_tx++]);
+                node_rpdo(nd, nc, eff, &targets, cw408, in->setpoint[k], in->force_ff[k], &out->tx[out->n_tx++]);
             }
         }
         for (k = 0u; k < SP_CAN_BUSES; k++) {
@@ -905,7 +911,9 @@ sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t 
 static int scaling_fields_ok(const sp_co_scaling_t *s)
 {
     return s != NULL && s->nm_per_count >= 1u && s->nm_per_count <= 1000000u &&
-           (s->direction == 1 || s->direction == -1);
+           (s->direction == 1 || s->direction == -1) &&
+           (s->rated_force_n == 0u ||
+            (s->rated_force_n >= SP_CO_RATED_FORCE_MIN_N && s->rated_force_n <= SP_CO_RATED_FORCE_MAX_N));
 }
 
 sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s)
@@ -921,6 +929,9 @@ sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s)
         s->q24_per_count_q28 = (whole << 24) + ((rest << 24) + (uint64_t)NM_PER_M / 2u) / (uint64_t)NM_PER_M;
     }
     s->count_limit = Q24_RANGE_NM / (int64_t)s->nm_per_count + 1;
+    /* 1000 x 2^24 / rated: below 2^28 for rated >= 100 N */
+    s->permille_per_n_q24 =
+        s->rated_force_n != 0u ? (uint32_t)((((uint64_t)1000u << 24) + s->rated_force_n / 2u) / s->rated_force_n) : 0u;
     return SP_OK;
 }
 
@@ -938,4 +949,15 @@ sp_status_t sp_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32
         return SP_E_ARG;
     }
     return spi_co_count_to_length(s, count, length_q24);
+}
+
+sp_status_t sp_co_force_to_permille(const sp_co_scaling_t *s, sp_q8_t force_q8, int16_t *permille)
+{
+    if (!spi_co_scaling_ok(s) || s->permille_per_n_q24 == 0u || permille == NULL) {
+        if (permille != NULL) {
+            *permille = 0;
+        }
+        return SP_E_ARG;
+    }
+    return spi_co_force_to_permille(s, force_q8, permille);
 }

@@ -80,4 +80,20 @@ SPI_INLINE sp_status_t spi_co_count_to_length(const sp_co_scaling_t *s, int32_t 
     return st;
 }
 
+/* sp_co_force_to_permille of a checked scaling with a rated force: force
+ * (N Q8, |force| <= 2^31) x permille_per_n_q24 (< 2^28) < 2^59 is per mille
+ * in Q32, rounded half away from zero, saturated to INT16. */
+SPI_INLINE sp_status_t spi_co_force_to_permille(const sp_co_scaling_t *s, sp_q8_t force_q8, int16_t *permille)
+{
+    int neg = (force_q8 < 0) != (s->direction < 0);
+    uint32_t mag = force_q8 < 0 ? 0u - (uint32_t)force_q8 : (uint32_t)force_q8;
+    uint64_t r = ((uint64_t)mag * s->permille_per_n_q24 + ((uint64_t)1 << 31)) >> 32;
+    if (r > (uint64_t)INT16_MAX) {
+        *permille = neg ? (int16_t)INT16_MIN : (int16_t)INT16_MAX;
+        return SP_E_OVERFLOW;
+    }
+    *permille = neg ? (int16_t) - (int32_t)r : (int16_t)r;
+    return SP_OK;
+}
+
 #endif /* SP_CANOPEN_SCALING_H */

@@ -22,14 +22,16 @@
  * drive frames: as the platform config's drives section says (then
  * --canopen is the default), else the built-in layout: nodes 1-3 on axis_a
  * and 4-6 on axis_b, 1 um per count, count 0 at the park pose;
- * --canopen-force-ff (implies --canopen) maps the vendor force feed-forward
- * 0x2120 into every drive's RPDO1 (the simulated drive has it; real ones
- * may not); --canopen-sync-divider N (1..10, implies --canopen) sends SYNC
+ * --canopen-force-ff (implies --canopen) maps the force feed-forward into
+ * every drive's RPDO1: CiA 408's vendor object 0x2120 (the simulated drive
+ * has it; real ones may not), CiA 402's torque/force offset 0x60B2 (per
+ * mille of a rated force of HOST_402_RATED_FORCE_N, the simulated drive's
+ * 0x6076); --canopen-sync-divider N (1..10, implies --canopen) sends SYNC
  * and the PDOs every N ticks (the layout of two classic buses at 1 Mbit/s
  * with pressures needs 3, docs/canopen.md), the drives' watchdog 3N ms;
  * --cia402 (implies --canopen) drives every leg as a CiA 402 drive in cyclic
- * synchronous position mode (no pressure PDO, no force object; not with
- * --canopen-force-ff); the config's drives section may say so per leg.
+ * synchronous position mode (no pressure PDO); the config's drives
+ * section may say so per leg.
  * --canopen-timeout-ms relaxes the drives' setpoint watchdog (RPDO event
  * timer, default 3 ms), the master's TPDO supervision (10 ms) and its
  * heartbeat consumer (50 ms) to MS, for hosts that miss 1 ms deadlines
@@ -113,6 +115,10 @@ static co_t co;
  * plant starts after this process and may take seconds on a loaded machine). */
 #define FIRST_SYNC_TIMEOUT_MS 10000L
 
+/* The built-in CiA 402 layout's rated force along each leg, N (the
+ * simulated CiA 402 drive's 0x6076, 10 kN as mN): 0x60B2's 1000 per mille. */
+#define HOST_402_RATED_FORCE_N 10000u
+
 static int co_setup(uint32_t timeout_ms, int force_ff, int divider, int cia402)
 {
     sp_ik_t ik;
@@ -132,10 +138,15 @@ static int co_setup(uint32_t timeout_ms, int force_ff, int divider, int cia402)
             co.link.master.node[k].force_ff = 1u;
         }
     }
-    if (cia402) { /* CiA 402 cyclic synchronous position: no chamber pressures, no force object */
+    if (cia402) { /* CiA 402 cyclic synchronous position: no chamber pressures; the force as 0x60B2 */
         for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
             co.link.master.node[k].profile = (uint8_t)SP_CO_PROFILE_402;
-            co.link.master.node[k].force_ff = 0u;
+        }
+        for (uint8_t i = 0; i < SP_LEGS; i++) {
+            co.link.scaling[i].rated_force_n = HOST_402_RATED_FORCE_N;
+            if (sp_co_scaling_prepare(&co.link.scaling[i]) != SP_OK) {
+                return -1;
+            }
         }
         co.link.master.pressure_feedback = 0u;
     }
@@ -333,10 +344,6 @@ int main(int argc, char **argv)
         }
     }
 
-    if (co_cia402 && co_force_ff) {
-        fprintf(stderr, "sp_controller: --canopen-force-ff is CiA 408's vendor object; not with --cia402\n");
-        return 2;
-    }
     if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff, co_divider, co_cia402) != 0) {
         fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;

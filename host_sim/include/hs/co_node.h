@@ -54,8 +54,9 @@ typedef struct {
     uint16_t rx_control;     /**< control word received, applied at the next SYNC */
     int32_t rx_setpoint;     /**< setpoint received, applied at the next SYNC (counts) */
     int32_t setpoint;        /**< setpoint in force (counts) */
-    int16_t rx_force_dan;    /**< force feed-forward received (0x2120, daN; 0 without it in RPDO1) */
-    int16_t force_dan;       /**< force feed-forward in force, daN */
+    int16_t rx_force_ff;     /**< force feed-forward received (CiA 408: 0x2120, daN; CiA 402: 0x60B2, per
+                                  mille of the rated force 0x6076; 0 without it in RPDO1) */
+    int16_t force_ff;        /**< force feed-forward in force, the same unit (hs_co_node_force_n: in N) */
     uint8_t rpdo_seen;       /**< 1 once an RPDO1 arrived since operational */
     uint32_t rpdo_age_ms;    /**< ms since the last RPDO1 */
     uint32_t hb_elapsed_ms;  /**< ms since the last heartbeat */
@@ -125,5 +126,9 @@ hs_status_t hs_co_node_raise(hs_co_node_t *n, uint16_t code);
 /** 1 when the setpoint is to be followed (operational and ACTIVE; CiA 402:
  *  operational and OPERATION_ENABLED). */
 int hs_co_node_follows(const hs_co_node_t *n);
+
+/** The force feed-forward in force (N along the count): CiA 408's daN
+ *  times 10, CiA 402's per mille times the rated force 0x6076 (mN) / 10^6. */
+double hs_co_node_force_n(const hs_co_node_t *n);
 
 #endif /* HS_CO_NODE_H */

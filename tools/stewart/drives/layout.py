@@ -42,6 +42,7 @@ class Scaling:
     position_per_count: float    # m per count of the drive's position objects
     length_at_zero: float        # m, the leg length where the drive reads position 0
     direction: int = 1           # +1: the drive's position grows as the leg extends
+    rated_force: float | None = None  # N along the leg at 1000 per mille of CiA 402's 0x60B2
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,7 @@ class Drive:
     node_id: int | None = None   # 1..127 for CANopen drives
     scaling: Scaling | None = None
     control_mode: int = ob.CIA408_CONTROL_MODE_AXIS_POSITION
-    force_feedforward: bool = False   # CiA 408: RPDO1 also maps the vendor object 0x2120 (8 bytes)
+    force_feedforward: bool = False   # RPDO1 also maps CiA 408's vendor 0x2120 / CiA 402's 0x60B2 (8 bytes)
 
     @property
     def is_canopen(self) -> bool:
@@ -121,7 +122,7 @@ def bus_rows(drives: Drives, bus: str, n_drives: int | None = None, divider: int
     profiles = {dr.protocol for dr in on_bus} or {"cia408"}
     rx = max(ob.profile(x).pdo("setpoint").data_bytes for x in profiles)
     if any(dr.force_feedforward for dr in on_bus):
-        rx = max(rx, ob.RPDO_SETPOINT_408_FF.data_bytes)
+        rx = max(rx, ob.RPDO_SETPOINT_408_FF.data_bytes, ob.RPDO_SETPOINT_402_FF.data_bytes)
     tx = max(ob.profile(x).pdo("actual").data_bytes for x in profiles)
     with_pressure = p and "cia408" in profiles
     rows = [("SYNC", 1, 0, period), ("RPDO1 setpoint", n, rx, period), ("TPDO1 actual", n, tx, period)]

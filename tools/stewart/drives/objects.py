@@ -307,6 +307,13 @@ INTERP_PERIOD_VALUE = Entry(0x60C2, 1, "Interpolation time period: value", UNSIG
                             "the SYNC period in units of 10^index s (1 with index -3 = 1 ms)")
 INTERP_PERIOD_INDEX = Entry(0x60C2, 2, "Interpolation time period: index", INTEGER8, WRITE, False,
                             "-3: the value is in ms")
+# The force feed-forward of cyclic synchronous position mode: a standard
+# object (unlike CiA 408's), in per mille of the drive's rated torque or
+# force (0x6076); the config gives that force along the leg
+# (drives.legs[i].scaling.rated_force), mapped only where the config asks.
+TORQUE_OFFSET = Entry(0x60B2, 0, "Torque offset", INTEGER16, RPDO, False,
+                      "per mille of the rated torque/force (scaling.rated_force along the leg); the inverse "
+                      "dynamics force, where the config asks for it")
 
 CIA402_CSP = 8
 CW402 = {"SHUTDOWN": 0x0006, "SWITCH_ON": 0x0007, "ENABLE_OPERATION": 0x000F,
@@ -326,13 +333,17 @@ SW402 = {
 RPDO_SETPOINT_402 = Pdo("setpoint", "rx", 1, COB_RPDO1, (CONTROLWORD_402, TARGET_POSITION), True,
                         "controlword + target position, every SYNC; its event timer is the "
                         "drive's own setpoint watchdog")
+#: RPDO1 with the torque/force offset (8 bytes), instead of
+#: RPDO_SETPOINT_402 on a drive whose config sets force_feedforward.
+RPDO_SETPOINT_402_FF = Pdo("setpoint", "rx", 1, COB_RPDO1, (CONTROLWORD_402, TARGET_POSITION, TORQUE_OFFSET),
+                           False, "controlword + target position + torque/force offset, every SYNC")
 TPDO_ACTUAL_402 = Pdo("actual", "tx", 1, COB_TPDO1, (STATUSWORD_402, POSITION_ACTUAL), True,
                       "statusword + position actual value, after every SYNC")
 
 CIA402 = Profile(
     "cia402", 402, "CiA 402 cyclic synchronous position",
     COMMUNICATION + (CONTROLWORD_402, STATUSWORD_402, MODES_OF_OPERATION, MODES_DISPLAY,
-                     TARGET_POSITION, POSITION_ACTUAL, INTERP_PERIOD_VALUE, INTERP_PERIOD_INDEX),
+                     TARGET_POSITION, POSITION_ACTUAL, INTERP_PERIOD_VALUE, INTERP_PERIOD_INDEX, TORQUE_OFFSET),
     (RPDO_SETPOINT_402, TPDO_ACTUAL_402),
     ((0x6060, 0, CIA402_CSP),),
 )
@@ -354,10 +365,12 @@ def profile(name: str) -> Profile:
 
 def pdos_used(prof: Profile, pressure_feedback: bool, force_feedforward: bool = False) -> tuple[Pdo, ...]:
     """The PDOs the master configures on a drive of this profile (RPDO1 with
-    the force feed-forward on a CiA 408 drive that is configured for it)."""
+    the force feed-forward on a drive that is configured for it: CiA 408's
+    vendor object, CiA 402's torque/force offset)."""
     out = tuple(p for p in prof.pdos if p.required or (pressure_feedback and p is TPDO_PRESSURES))
-    if force_feedforward and prof is CIA408:
-        out = tuple(RPDO_SETPOINT_408_FF if p is RPDO_SETPOINT_408 else p for p in out)
+    if force_feedforward:
+        ff = {id(RPDO_SETPOINT_408): RPDO_SETPOINT_408_FF, id(RPDO_SETPOINT_402): RPDO_SETPOINT_402_FF}
+        out = tuple(ff.get(id(p), p) for p in out)
     return out
 
 

@@ -97,7 +97,7 @@ def drive_writes(drive: Drive, drives: Drives) -> list[Write]:
     out.append(Write(ob.CYCLE_PERIOD.index, 0, ob.UNSIGNED32, int(drives.sync_period_ms * 1000),
                      f"SYNC period {drives.sync_period_ms:g} ms (the drive may watch it)", optional=True))
     for pdo in ob.pdos_used(prof, drives.pressure_feedback and drive.protocol == "cia408",
-                            drive.force_feedforward and drive.protocol == "cia408"):
+                            drive.force_feedforward):
         out.extend(pdo_writes(pdo, drive.node_id, drives))
     return out
 

@@ -90,6 +90,17 @@ sp_status_t sp_co_rpdo1_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *c
 #define SP_CO_FORCE_FF_INDEX 0x2120u
 #define SP_CO_FORCE_FF_MAPPING 0x21200010u
 
+/** CiA 402's torque/force offset (0x60B2.0, INTEGER16, per mille of the
+ *  drive's rated torque or force): the force feed-forward of cyclic
+ *  synchronous position mode, RPDO1's third entry where the config asks
+ *  for it (the bytes of sp_co_rpdo1_ff_frame). The rated force of the
+ *  scaling (sp_co_scaling_t.rated_force_n) is bounded to
+ *  SP_CO_RATED_FORCE_MIN_N..SP_CO_RATED_FORCE_MAX_N N. */
+#define SP_CO402_FORCE_FF_INDEX 0x60B2u
+#define SP_CO402_FORCE_FF_MAPPING 0x60B20010u
+#define SP_CO_RATED_FORCE_MIN_N 100u
+#define SP_CO_RATED_FORCE_MAX_N 10000000u
+
 /** RPDO1 with the force feed-forward: control word, position setpoint and
  *  0x2120.0 (i16, daN); 8 bytes on 0x200 + node. */
 sp_status_t sp_co_rpdo1_ff_frame(sp_can_frame_t *f, uint8_t bus, uint8_t node, uint16_t control, int32_t setpoint,

@@ -16,8 +16,10 @@
  * CiA 408's axis position setpoint carries the position only: the drive
  * derives the velocity from consecutive setpoints, and the force
  * feed-forward goes only to drives configured with the vendor object
- * 0x2120 in RPDO1 (force_ff; docs/canopen.md says why). With a SYNC divider d the feedback arrives every d ticks:
- * the controller's feedback_timeout_ticks must exceed d.
+ * 0x2120 in RPDO1 (force_ff; docs/canopen.md says why); CiA 402 drives
+ * with force_ff get it as their torque/force offset 0x60B2. With a SYNC
+ * divider d the feedback arrives every d ticks: the controller's
+ * feedback_timeout_ticks must exceed d.
  */
 #ifndef SP_CANOPEN_LINK_H
 #define SP_CANOPEN_LINK_H
@@ -94,10 +96,12 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
 /**
  * The master's input from the controller's output: request ACTIVE while the
  * controller's drive mode is ACTIVE, else HOLD; each node's setpoint the
- * count of its leg's setpoint length, and its force feed-forward in daN
- * along the count (the setpoint's force x direction / 10 N, rounded,
- * saturated to INT16; sent only to drives with force_ff). now_ms is copied. SP_E_ARG for NULL;
- * SP_E_OVERFLOW when a count saturated.
+ * count of its leg's setpoint length, and its force feed-forward along
+ * the count: CiA 408, daN (the setpoint's force x direction / 10 N,
+ * rounded, saturated to INT16; sent only to drives with force_ff); CiA
+ * 402 with force_ff, per mille of the leg's rated force
+ * (sp_co_force_to_permille, saturated), else 0. now_ms is copied. SP_E_ARG
+ * for NULL; SP_E_OVERFLOW when a count saturated.
  */
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
                              sp_co_master_input_t *in);

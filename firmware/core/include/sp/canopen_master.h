@@ -43,6 +43,7 @@
 #include <stdint.h>
 
 #include "sp/canopen.h"
+#include "sp/fixed.h"
 
 #define SP_CO_MAX_NODES 6u /**< drives one master handles (one per leg) */
 #define SP_CO_PLAN_MAX 32u /**< SDO writes of one drive's plan, at most */
@@ -72,7 +73,9 @@ typedef struct {
     int8_t control_mode;  /**< 0x6043 value of axis position control (default 8) */
     uint8_t write_prefix; /**< 1: write unit metre and the prefix below to 0x6600.2/.3 */
     int8_t unit_prefix;   /**< decimal exponent of the drive's count (-6: 1 um) */
-    uint8_t force_ff;     /**< 1: RPDO1 also maps the vendor force feed-forward 0x2120.0 (8 bytes; CiA 408) */
+    uint8_t force_ff;     /**< 1: RPDO1 also maps a force feed-forward (8 bytes): CiA 408, the vendor object
+                               0x2120.0 (daN); CiA 402, the torque/force offset 0x60B2.0 (per mille of the
+                               rated force: the leg's sp_co_scaling_t.rated_force_n, which must be set) */
     uint8_t profile;      /**< sp_co_profile_t (0 = CiA 408) */
 } sp_co_node_cfg_t;
 
@@ -259,9 +262,11 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
 /** The controller's side of one tick. */
 typedef struct {
     uint32_t now_ms;
-    uint8_t request;                    /**< sp_co_request_t: what the controller's state asks of all drives */
-    int32_t setpoint[SP_CO_MAX_NODES];  /**< drive counts, per node (see sp_co_length_to_count) */
-    int16_t force_dan[SP_CO_MAX_NODES]; /**< force feed-forward, daN, per node (sent where force_ff) */
+    uint8_t request;                   /**< sp_co_request_t: what the controller's state asks of all drives */
+    int32_t setpoint[SP_CO_MAX_NODES]; /**< drive counts, per node (see sp_co_length_to_count) */
+    int16_t force_ff[SP_CO_MAX_NODES]; /**< force feed-forward in the drive's unit, per node (sent where
+                                             force_ff): daN (CiA 408, 0x2120), per mille of the rated force
+                                             (CiA 402, 0x60B2) */
 } sp_co_master_input_t;
 
 typedef struct {
@@ -301,20 +306,24 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
  *  k >= SP_CO_MAX_NODES. */
 sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t *phase, sp_co_fault_t *fault);
 
-/** Scaling of a leg length to a drive's position count. Set the first
- *  three fields, then sp_co_scaling_prepare() derives the rest (no division
- *  per tick). */
+/** Scaling of a leg length to a drive's position count, and of a force to
+ *  a CiA 402 drive's torque/force offset. Set the first four fields, then
+ *  sp_co_scaling_prepare() derives the rest (no division per tick). */
 typedef struct {
-    uint32_t nm_per_count;      /**< 1..1,000,000 (1 nm .. 1 mm per count) */
-    int32_t zero_q24;           /**< leg length at count 0, m Q24 */
-    int8_t direction;           /**< +1: the count grows as the leg extends; -1 */
-    uint32_t count_per_q24;     /**< derived: round(1e9 / nm_per_count), counts per Q24 step x 2^24 */
-    uint64_t q24_per_count_q28; /**< derived: round(nm_per_count x 2^52 / 1e9), Q24 steps per count x 2^28 */
-    int64_t count_limit;        /**< derived: counts beyond which a length leaves the Q24 range */
+    uint32_t nm_per_count;       /**< 1..1,000,000 (1 nm .. 1 mm per count) */
+    int32_t zero_q24;            /**< leg length at count 0, m Q24 */
+    int8_t direction;            /**< +1: the count grows as the leg extends; -1 */
+    uint32_t rated_force_n;      /**< N along the leg at 1000 per mille of CiA 402's 0x60B2 (the drive's rated
+                                     torque or force, 0x6076, through its gearing), 100..10,000,000; 0: none */
+    uint32_t count_per_q24;      /**< derived: round(1e9 / nm_per_count), counts per Q24 step x 2^24 */
+    uint32_t permille_per_n_q24; /**< derived: round(1000 x 2^24 / rated_force_n), 0 without a rated force */
+    uint64_t q24_per_count_q28;  /**< derived: round(nm_per_count x 2^52 / 1e9), Q24 steps per count x 2^28 */
+    int64_t count_limit;         /**< derived: counts beyond which a length leaves the Q24 range */
 } sp_co_scaling_t;
 
 /** Derives the per-tick factors. SP_E_ARG (nothing derived) for NULL,
- *  nm_per_count outside 1..1,000,000 or a direction other than +-1. */
+ *  nm_per_count outside 1..1,000,000, a direction other than +-1 or a
+ *  rated_force_n other than 0 or 100..10,000,000. */
 sp_status_t sp_co_scaling_prepare(sp_co_scaling_t *s);
 
 /** count = direction x round((length - zero) / nm_per_count), by the
@@ -327,5 +336,12 @@ sp_status_t sp_co_length_to_count(const sp_co_scaling_t *s, int32_t length_q24, 
  *  nearest (within 1 LSB of the exact value), saturated (SP_E_OVERFLOW).
  *  SP_E_ARG for an unprepared or bad scaling. */
 sp_status_t sp_co_count_to_length(const sp_co_scaling_t *s, int32_t count, int32_t *length_q24);
+
+/** CiA 402's torque/force offset (0x60B2, per mille of rated_force_n) of
+ *  a force along the leg (N Q8), signed by the direction, rounded to
+ *  nearest (within 1 of the exact quotient), saturated to INT16
+ *  (SP_E_OVERFLOW then). SP_E_ARG for an unprepared or bad scaling or one
+ *  without a rated force. */
+sp_status_t sp_co_force_to_permille(const sp_co_scaling_t *s, sp_q8_t force_q8, int16_t *permille);
 
 #endif /* SP_CANOPEN_MASTER_H */
