@@ -191,6 +191,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->legs.lu_keep = (uint8_t)SP_CTRL_LU_KEEP;
     ctrl->legs.lu_staged = (uint8_t)(SP_CTRL_LU_KEEP > SP_CTRL_LEG_GROUPS + 1u);
     ctrl->legs.lu_age = 0u;
+    ctrl->legs.lu_next.begun = 0u; /* no factorisation staged */
     ctrl->legs_exact = 0u;
     ctrl->leg_group = 0u;
     ctrl->ref_orient.valid = 0u;
