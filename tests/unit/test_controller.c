@@ -192,7 +192,9 @@ static double check_fresh_setpoints(const rig_t *r, unsigned ff, double force_to
             assert_int_equal(lu.zk[i], r->ctrl.est.ref_lu.zk[i]);
         }
     }
-    assert_true(r->ctrl.legs.lu_age < (SP_CTRL_LEG_GROUPS > 1u ? SP_CTRL_LU_KEEP : 1u));
+    /* up to SP_CTRL_LU_KEEP - 1 ticks old, or SP_CTRL_LU_KEEP on the tick
+     * that stages the next factorisation */
+    assert_true(r->ctrl.legs.lu_age < (SP_CTRL_LEG_GROUPS > 1u ? SP_CTRL_LU_KEEP + r->ctrl.legs.lu_next.begun : 1u));
     assert_memory_equal(&model.jac, &r->ctrl.model.jac, sizeof model.jac);
     assert_int_equal(r->ctrl.est.ref_lu.valid, 1);
     assert_true(worst <= force_tol);

@@ -39,6 +39,7 @@ typedef struct {
     int wide_rates; /* one of them at 32 or more */
     int big_force;  /* a force of 2 MN or more (or SP_E_OVERFLOW) */
     int refined;    /* held calls that refined from a kept factorisation */
+    int staged;     /* held calls that finished a staged factorisation and refined with it */
 } coverage_t;
 
 /* A random platform: mass up to 30 t, a full inertia tensor, leg masses,
@@ -146,8 +147,10 @@ static void test_single_calls_equal_plain(void **state)
 }
 
 /* Runs of held calls (one leg refreshed a call, the factorisation kept
- * over seven): the kept terms, the refinement's start and the
- * factorisation must stay the same bits along the run. */
+ * over seven, or over four and staged over two calls in every other
+ * pair of runs): the kept terms, the refinement's start and the
+ * factorisation must stay the same bits along the run; a finished staged
+ * factorisation is sp_lu6_factor's of the last call's J^T. */
 static void test_held_runs_equal_plain(void **state)
 {
     uint64_t rng = 42u;
@@ -159,11 +162,13 @@ static void test_held_runs_equal_plain(void **state)
         sp_motion_t m;
         sp_leg_hold_t h_new, h_ref;
         sp_lu6_t lu_new, lu_ref;
+        sp_jacobian_t jac_last;
         random_platform(&rng, &p);
         random_motion(&rng, &p, (n % 2 == 0) ? 1.0 : tu_uniform(&rng, 1.0, 100.0), &m);
         memset(&h_new, 0, sizeof h_new);
         memset(&lu_new, 0, sizeof lu_new);
-        h_new.lu_keep = 7u;
+        h_new.lu_staged = (uint8_t)((n / 2) % 2);
+        h_new.lu_keep = h_new.lu_staged ? 4u : 7u; /* staged: three in a run */
         h_ref = h_new;
         lu_ref = lu_new;
         for (int c = 0; c < RUN_CALLS; ++c) {
@@ -183,6 +188,7 @@ static void test_held_runs_equal_plain(void **state)
             }
             uint8_t age = h_new.lu_age;
             int may_refine = lu_new.valid && h_new.held == 0x3Fu && age + 1u < h_new.lu_keep;
+            int begun = h_new.lu_next.begun;
             sp_status_t a = sp_inverse_dynamics_held(&p, &m, &ik, &jac, NULL, f_new, &lu_new, r_new, &h_new, refresh);
             sp_status_t b =
                 plain_inverse_dynamics_held(&p, &m, &ik, &jac, NULL, f_ref, &lu_ref, r_ref, &h_ref, refresh);
@@ -193,15 +199,24 @@ static void test_held_runs_equal_plain(void **state)
             if (a == SP_OK) {
                 assert_memory_equal(r_new, r_ref, sizeof r_new);
                 cov.refined += (may_refine && h_new.lu_age == age + 1u);
+                if (begun && h_new.lu_age == 1u) {
+                    sp_lu6_t lu_last;
+                    memset(&lu_last, 0, sizeof lu_last); /* its padding, as lu_new's */
+                    assert_int_equal(sp_lu6_factor(&jac_last, 1, &lu_last), SP_OK);
+                    assert_memory_equal(&lu_new, &lu_last, sizeof lu_new);
+                    cov.staged++;
+                }
             }
+            jac_last = jac;
             note_coverage(&m, a, f_new, &cov);
             cov.compared++;
         }
     }
-    print_message("held runs: %d calls compared (%d refined; %d rates below 32, %d at or above, %d forces of 2 MN "
-                  "or more), every output and kept state the same bits\n",
-                  cov.compared, cov.refined, cov.fast_rates, cov.wide_rates, cov.big_force);
+    print_message("held runs: %d calls compared (%d refined, %d with a staged factorisation; %d rates below 32, %d "
+                  "at or above, %d forces of 2 MN or more), every output and kept state the same bits\n",
+                  cov.compared, cov.refined, cov.staged, cov.fast_rates, cov.wide_rates, cov.big_force);
     assert_true(cov.compared >= N_RUNS * RUN_CALLS * 8 / 10);
+    assert_true(cov.staged >= cov.compared / 60);
     assert_true(cov.refined >= cov.compared / 10 && cov.fast_rates >= cov.compared / 4 &&
                 cov.wide_rates >= cov.compared / 10);
 }

@@ -117,6 +117,34 @@ static void random_matrix(uint64_t *rng, double scale, int shift, sp_jacobian_t 
     }
 }
 
+/* The staged factorisation (sp_lu6_factor_begin, then _end) against the
+ * whole one: the same bits and status; an error of begin is one of the
+ * whole factorisation's (a singular pivot, or a saturated entry where
+ * a later pivot may yet be singular). */
+static void check_staged(const sp_jacobian_t *m, int transpose, const sp_lu6_t *lu, sp_status_t st)
+{
+    sp_lu6_stage_t part;
+    sp_lu6_t staged;
+    sp_status_t sb;
+    memset(&staged, 0x5A, sizeof staged);
+    sb = sp_lu6_factor_begin(m, transpose, &part);
+    assert_int_equal(part.begun, sb == SP_OK);
+    if (sb != SP_OK) {
+        assert_int_not_equal(st, SP_OK);
+        assert_true(sb == st || (sb == SP_E_OVERFLOW && st == SP_E_SINGULAR));
+        return;
+    }
+    assert_int_equal(sp_lu6_factor_end(&part, &staged), st);
+    assert_int_equal(part.begun, 0);
+    assert_int_equal(staged.valid, lu->valid);
+    if (st == SP_OK) {
+        assert_memory_equal(staged.a, lu->a, sizeof lu->a);
+        assert_memory_equal(staged.inv, lu->inv, sizeof lu->inv);
+        assert_memory_equal(staged.zk, lu->zk, sizeof lu->zk);
+        assert_memory_equal(staged.perm, lu->perm, sizeof lu->perm);
+    }
+}
+
 static void check_factor(const sp_jacobian_t *m, int transpose)
 {
     sp_lu6_t lu;
@@ -124,6 +152,7 @@ static void check_factor(const sp_jacobian_t *m, int transpose)
     int perm[6];
     sp_status_t st = sp_lu6_factor(m, transpose, &lu);
     int ref = ref_factor(m, transpose, &lu, a, perm);
+    check_staged(m, transpose, &lu, st);
     if (ref < 0) {
         assert_int_equal(st, SP_E_SINGULAR);
         return;
@@ -665,6 +694,14 @@ static void test_solve_errors(void **state)
     assert_int_equal(sp_solve6(&m, 0, b, x), SP_E_SINGULAR);
     assert_int_equal(sp_solve6(NULL, 0, b, x), SP_E_ARG);
     assert_int_equal(sp_lu6_factor(NULL, 0, &lu), SP_E_ARG);
+    {
+        sp_lu6_stage_t part;
+        memset(&part, 0, sizeof part);
+        assert_int_equal(sp_lu6_factor_begin(NULL, 0, &part), SP_E_ARG);
+        assert_int_equal(sp_lu6_factor_end(NULL, &lu), SP_E_ARG);
+        assert_int_equal(sp_lu6_factor_end(&part, &lu), SP_E_ARG); /* not begun */
+        assert_int_equal(lu.valid, 0);
+    }
     assert_int_equal(sp_lu6_solve(NULL, b, x), SP_E_ARG);
     assert_int_equal(sp_lu6_solve_transposed(NULL, b, x), SP_E_ARG);
 

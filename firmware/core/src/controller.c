@@ -189,7 +189,9 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
      * ticks between refining from the last forces (sp_inverse_dynamics_held;
      * only with the leg terms kept: SP_CTRL_LEG_GROUPS > 1) */
     ctrl->legs.lu_keep = (uint8_t)SP_CTRL_LU_KEEP;
+    ctrl->legs.lu_staged = (uint8_t)(SP_CTRL_LU_KEEP > SP_CTRL_LEG_GROUPS + 1u);
     ctrl->legs.lu_age = 0u;
+    ctrl->legs.lu_next.begun = 0u; /* no factorisation staged */
     ctrl->legs_exact = 0u;
     ctrl->leg_group = 0u;
     ctrl->ref_orient.valid = 0u;
@@ -811,9 +813,10 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     if (flags == 0u) {
         /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
          * (one group: every leg, nothing kept); none on a tick that is due
-         * to factorise J^T (its age, not a repeated reference), so that
-         * the factorisation and a leg's terms never share a tick: the
-         * turn's other SP_CTRL_LU_KEEP - 1 ticks refresh the groups */
+         * to factorise J^T (its age, not a repeated reference; staged: the
+         * two ticks that begin and finish it), so that the factorisation
+         * and a leg's terms never share a tick: the turn's other
+         * SP_CTRL_LU_KEEP - 1 (staged: - 2) ticks refresh the groups */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
         unsigned refresh = 0u;
         if (same &&
@@ -823,6 +826,7 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
              * sp_setpoints_of's (the ticks before refine, as a moving
              * reference's do: one factorisation, not one a tick) */
             ctrl->legs.lu_age = ctrl->legs.lu_keep;
+            ctrl->legs.lu_next.begun = 0u;
         }
         if (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || same ||
             ctrl->legs.held != SP_ALL_LEGS || ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep) {

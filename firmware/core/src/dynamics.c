@@ -778,13 +778,25 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     unsigned keep = 0u;
     sp_leg_hold_t *kept_lu = NULL; /* where the factorisation's age and the forces are kept */
     int refine = 0;                /* 1: refine from hold->fq with the kept *lu */
+    unsigned stage = 0u;           /* 1: then begin the staged factorisation; 2: finish it first */
 
     if (force == NULL || lu == NULL) {
         return SP_E_ARG;
     }
     if (hold != NULL && hold->lu_keep > 1u) {
         kept_lu = hold;
-        refine = lu->valid && hold->held == SP_ALL_LEG_BITS && hold->lu_age + 1u < hold->lu_keep;
+        refine = lu->valid && hold->held == SP_ALL_LEG_BITS;
+        if (hold->lu_next.begun) {
+            stage = 2u; /* the last call began it: finished, it serves this call */
+        } else if (hold->lu_age + 1u >= hold->lu_keep) {
+            /* due: a staged factorisation begins after this call's
+             * refinement (its last with *lu), else one is made now */
+            stage = (hold->lu_staged && hold->lu_age + 1u == hold->lu_keep) ? 1u : 0u;
+            refine = refine && stage != 0u;
+        }
+        if (!refine) {
+            hold->lu_next.begun = 0u; /* not finished: factorised afresh */
+        }
     }
     if (hold != NULL) {
         /* nothing computed yet: kept again only on success */
@@ -872,7 +884,12 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
          * only its valid flag was cleared above) */
         int64_t r[SP_LEGS];
         int64_t df[SP_LEGS];
-        refine = id_residual(jac, kept_lu->fq, b, r);
+        if (stage == 2u) {
+            /* the factorisation of the last call's J^T: one call old */
+            refine = (sp_lu6_factor_end(&kept_lu->lu_next, lu) == SP_OK);
+            kept_lu->lu_age = 0u;
+        }
+        refine = refine && id_residual(jac, kept_lu->fq, b, r);
         if (refine) {
             lu->valid = 1u;
             st = sp_lu6_solve_grow(lu, r, df);
@@ -881,6 +898,11 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
                     f[k] = (int64_t)kept_lu->fq[k] * 65536 + df[k]; /* below 2^41 + 2^56 */
                 }
                 kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
+                if (stage == 1u) {
+                    /* this call's J^T, half factorised (the next call
+                     * finishes it); a failure leaves it to a whole one */
+                    (void)sp_lu6_factor_begin(jac, 1, &kept_lu->lu_next);
+                }
             } else {
                 refine = 0; /* factorise instead */
             }

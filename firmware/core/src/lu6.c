@@ -44,8 +44,9 @@ SPI_INLINE uint64_t max_abs64(const int64_t b[SP_LEGS])
 #define RHS_MAX (INT64_C(1) << 56) /* |b| below this: no overflow in the elimination */
 
 /*
- * Step k of the elimination on the rows r[k..5] (pointers into lu->a, in
- * pivot order so far). Returns 0 for a pivot below SP_PIVOT_MIN.
+ * Step k of the elimination on the rows r[k..5] (pointers to the rows, in
+ * pivot order so far); the pivot's reciprocal and exponent into
+ * inv_out[k] and zk_out[k]. Returns 0 for a pivot below SP_PIVOT_MIN.
  *
  * *bound is at least every |entry| of the rows r[k..5] in the columns
  * k..5 (0x80000000 once it is not known to be below 2^31). With |l| <= 1
@@ -56,7 +57,8 @@ SPI_INLINE uint64_t max_abs64(const int64_t b[SP_LEGS])
  * rounded shift, subtraction); else each subtraction saturates and flags,
  * with the same rounding (the same bits whenever nothing saturates).
  */
-SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *bound, sp_flags_t *flags)
+SPI_INLINE int lu_step(int32_t *inv_out, uint8_t *zk_out, int32_t *r[SP_LEGS], unsigned k, uint32_t *bound,
+                       sp_flags_t *flags)
 {
     int32_t *rk;
     unsigned p = k;
@@ -101,8 +103,8 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
         }
         inv = (rk[k] < 0) ? -(int32_t)q : (int32_t)q;
     }
-    lu->zk[k] = (uint8_t)z;
-    lu->inv[k] = inv;
+    zk_out[k] = (uint8_t)z;
+    inv_out[k] = inv;
     if (k + 1u >= SP_LEGS) {
         return 1;
     }
@@ -168,22 +170,14 @@ SPI_INLINE int lu_step(sp_lu6_t *lu, int32_t *r[SP_LEGS], unsigned k, uint32_t *
     return 1;
 }
 
-sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
+/* The copy of A = M (transpose == 0) or M^T into w, and an upper bound
+ * of its magnitudes: v ^ (v >> 31) is |v| for v >= 0 and |v| - 1 below,
+ * so every |entry| <= (their OR) + 1 <= 2^31. */
+SPI_INLINE uint32_t lu_copy_in(const sp_jacobian_t *m, int transpose, int32_t w[SP_LEGS][SP_LEGS])
 {
-    int32_t w[SP_LEGS][SP_LEGS];
-    int32_t *r[SP_LEGS];
-    sp_flags_t flags = 0u;
     uint32_t any = 0u;
-    uint32_t bound;
     unsigned i;
     unsigned j;
-
-    if (m == NULL || lu == NULL) {
-        return SP_E_ARG;
-    }
-    lu->valid = 0u;
-    /* The copy, and an upper bound of its magnitudes: v ^ (v >> 31) is |v|
-     * for v >= 0 and |v| - 1 below, so every |entry| <= (their OR) + 1. */
     if (transpose) { /* the controller's case: rows unrolled, constant offsets */
         for (i = 0u; i < SP_LEGS; ++i) {
             LU_UNROLL
@@ -202,26 +196,152 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
             any |= (uint32_t)(v ^ (v >> 31));
         }
     }
-    bound = any + 1u; /* <= 2^31 */
+    return any + 1u;
+}
+
+/* The row order of r (pointers to the rows of a 6x6 array at w0, its
+ * first entry): r[i] is row order[i]. */
+SPI_INLINE void lu_order(int32_t *const r[SP_LEGS], const int32_t *w0, uint8_t order[SP_LEGS])
+{
+    unsigned i;
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
-        r[i] = w[i];
+        order[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)w0) / (SP_LEGS * sizeof *w0));
     }
-    if (!lu_step(lu, r, 0u, &bound, &flags) || !lu_step(lu, r, 1u, &bound, &flags) ||
-        !lu_step(lu, r, 2u, &bound, &flags) || !lu_step(lu, r, 3u, &bound, &flags) ||
-        !lu_step(lu, r, 4u, &bound, &flags) || !lu_step(lu, r, 5u, &bound, &flags)) {
-        return SP_E_SINGULAR;
-    }
-    /* the rows in pivot order (the solves then read them at constant
-     * offsets); pivot row i is row perm[i] of A */
+}
+
+/* The factorisation's pivot steps in two groups, the first
+ * SP_LU6_STAGE_STEPS (0 and 1) and the others (2 to 5), out of line:
+ * sp_lu6_factor and the staged factorisation share them. Each returns 0
+ * at a pivot below SP_PIVOT_MIN. */
+SPI_NOINLINE static int lu_steps_first(int32_t *inv, uint8_t *zk, int32_t *r[SP_LEGS], uint32_t *bound,
+                                       sp_flags_t *flags)
+{
+    return lu_step(inv, zk, r, 0u, bound, flags) && lu_step(inv, zk, r, 1u, bound, flags);
+}
+
+SPI_NOINLINE static int lu_steps_rest(int32_t *inv, uint8_t *zk, int32_t *r[SP_LEGS], uint32_t *bound,
+                                      sp_flags_t *flags)
+{
+    return lu_step(inv, zk, r, 2u, bound, flags) && lu_step(inv, zk, r, 3u, bound, flags) &&
+           lu_step(inv, zk, r, 4u, bound, flags) && lu_step(inv, zk, r, 5u, bound, flags);
+}
+
+/* The rows r (pointers to the rows of a 6x6 array at w0) in pivot order
+ * into lu->a, and their order into lu->perm (pivot row i is row perm[i]
+ * of A). */
+SPI_INLINE void lu_copy_out(int32_t *const r[SP_LEGS], const int32_t *w0, sp_lu6_t *lu)
+{
+    unsigned i;
+    unsigned j;
+    lu_order(r, w0, lu->perm);
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
-        lu->perm[i] = (uint8_t)((uintptr_t)((const char *)r[i] - (const char *)w) / sizeof w[0]);
         LU_UNROLL
         for (j = 0u; j < SP_LEGS; ++j) {
             lu->a[i][j] = r[i][j];
         }
     }
+}
+
+sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
+{
+    int32_t w[SP_LEGS][SP_LEGS];
+    int32_t *r[SP_LEGS];
+    sp_flags_t flags = 0u;
+    uint32_t bound;
+    unsigned i;
+
+    if (m == NULL || lu == NULL) {
+        return SP_E_ARG;
+    }
+    lu->valid = 0u;
+    bound = lu_copy_in(m, transpose, w);
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        r[i] = w[i];
+    }
+    if (!lu_steps_first(lu->inv, lu->zk, r, &bound, &flags) || !lu_steps_rest(lu->inv, lu->zk, r, &bound, &flags)) {
+        return SP_E_SINGULAR;
+    }
+    /* the rows in pivot order (the solves then read them at constant
+     * offsets) */
+    lu_copy_out(r, &w[0][0], lu);
+    if (flags != 0u) {
+        return sp_flags_status(flags);
+    }
+    lu->valid = 1u;
+    return SP_OK;
+}
+
+sp_status_t sp_lu6_factor_begin(const sp_jacobian_t *m, int transpose, sp_lu6_stage_t *part)
+{
+    int32_t *r[SP_LEGS];
+    sp_flags_t flags = 0u;
+    uint32_t bound;
+    unsigned i;
+
+    if (m == NULL || part == NULL) {
+        return SP_E_ARG;
+    }
+    part->begun = 0u;
+    bound = lu_copy_in(m, transpose, part->a);
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        r[i] = part->a[i];
+    }
+    if (!lu_steps_first(part->inv, part->zk, r, &bound, &flags)) {
+        return SP_E_SINGULAR;
+    }
+    lu_order(r, &part->a[0][0], part->order); /* the rows themselves stay where they are */
+    if (flags != 0u) {
+        return sp_flags_status(flags);
+    }
+    part->begun = 1u;
+    return SP_OK;
+}
+
+sp_status_t sp_lu6_factor_end(sp_lu6_stage_t *part, sp_lu6_t *lu)
+{
+    int32_t *r[SP_LEGS];
+    sp_flags_t flags = 0u;
+    uint32_t bound = 0u;
+    unsigned i;
+    unsigned j;
+
+    if (part == NULL || lu == NULL) {
+        return SP_E_ARG;
+    }
+    lu->valid = 0u;
+    if (!part->begun) {
+        return SP_E_ARG;
+    }
+    part->begun = 0u; /* its rows are changed below */
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        r[i] = part->a[part->order[i]];
+    }
+    /* a bound of the rows left from their entries (not the running one
+     * sp_lu6_factor carries to this step: a step may then take the other
+     * path, with the same bits, as neither saturates where that bound
+     * rules it out) */
+    LU_UNROLL
+    for (i = SP_LU6_STAGE_STEPS; i < SP_LEGS; ++i) {
+        LU_UNROLL
+        for (j = SP_LU6_STAGE_STEPS; j < SP_LEGS; ++j) {
+            bound |= (uint32_t)(r[i][j] ^ (r[i][j] >> 31));
+        }
+    }
+    bound += 1u;
+    if (!lu_steps_rest(lu->inv, lu->zk, r, &bound, &flags)) {
+        return SP_E_SINGULAR;
+    }
+    LU_UNROLL
+    for (i = 0u; i < SP_LU6_STAGE_STEPS; ++i) {
+        lu->inv[i] = part->inv[i];
+        lu->zk[i] = part->zk[i];
+    }
+    lu_copy_out(r, &part->a[0][0], lu);
     if (flags != 0u) {
         return sp_flags_status(flags);
     }

@@ -33,14 +33,17 @@
  * (sp_setpoints_held), the other legs' reactions, moments and axial terms
  * kept from the tick that last refreshed them; the rest of the inverse
  * dynamics and the leg rates are always this tick's. The forces' solve
- * factorises J^T every SP_CTRL_LU_KEEP ticks; the ticks between refine
- * the last tick's forces with that factorisation (sp_inverse_dynamics_held,
+ * factorises J^T once every SP_CTRL_LU_KEEP ticks, in two halves on two
+ * ticks (hold.lu_staged): the first refines its forces with the old
+ * factorisation and begins the new one of its own J^T, the second
+ * finishes it and refines with it, one tick old; the ticks between refine
+ * the last tick's forces with it too (sp_inverse_dynamics_held,
  * hold.lu_keep; docs/model.md, "The factorisation kept over ticks"), and
  * the estimate's chord step uses it too.
- * The tick that factorises refreshes no leg (the factorisation and a
+ * The two ticks that factorise refresh no leg (the factorisation and a
  * leg's terms are the two heaviest jobs of the feed-forward: never on the
- * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 1
- * ticks. A kept term is at most SP_CTRL_LEG_GROUPS ticks old (docs/model.md,
+ * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 2
+ * ticks. A kept term is at most SP_CTRL_LU_KEEP - 1 ticks old (docs/model.md,
  * "Leg masses kept over ticks"). A reference repeated at rest is computed
  * until every leg's terms are its own, and only then reused. The default
  * is six groups (one leg a tick): the M4 tick is about 1,840 instructions
@@ -301,8 +304,13 @@ typedef struct {
  *  1: a fresh factorisation every tick (the plain computation). Above
  *  SP_CTRL_LEG_GROUPS (> 1), the tick that factorises refreshes no leg
  *  (motion_setpoints): SP_CTRL_LEG_GROUPS + 1 gives each of the turn's
- *  other ticks one group. */
-#define SP_CTRL_LU_KEEP 7u
+ *  other ticks one group. Above that, the factorisation is staged over two
+ *  ticks, neither refreshing a leg (sp_leg_hold_t.lu_staged):
+ *  SP_CTRL_LEG_GROUPS + 2 (the default) gives each of the other ticks one
+ *  group. The tick's highest count on the Cortex-M4 falls from 10,507 to
+ *  10,363 instructions with it (docs/m4.md); the forces of a kept leg are
+ *  a tick older and the factorisation up to 8 ticks (docs/model.md). */
+#define SP_CTRL_LU_KEEP 8u
 
 /** Ticks a FAULT holds by the drives' position loops before the blocking
  *  valves close (out->drive_block): the loops first bring a moving

@@ -93,7 +93,9 @@ typedef struct {
     int32_t fq[SP_LEGS]; /**< the last call's solved forces without the axial terms, N, Q8 (the refinement's start) */
     uint8_t lu_keep;     /**< in: calls over which one factorisation may serve (0 or 1: a fresh one every call) */
     uint8_t lu_age;      /**< in/out: calls since *lu was factorised (0: by this call); lu_keep - 1 or more
-                                  makes the next call factorise */
+                                  makes the next call factorise (staged: begin to) */
+    uint8_t lu_staged;   /**< in: 1: the factorisation is staged over two calls (below) */
+    sp_lu6_stage_t lu_next; /**< in/out: the last call's J^T, half factorised, while lu_next.begun is 1 */
 } sp_leg_hold_t;
 
 /**
@@ -117,7 +119,16 @@ typedef struct {
  * call's forces hold->fq with *lu: r = b - J^T fq (this J, exact in Q36,
  * rounded once to Q24), F = fq + LU^-1 r, and counts hold->lu_age up;
  * otherwise (also when |fq| >= 2^24 Q8 or r leaves the solve's range)
- * it factorises into *lu and sets hold->lu_age to 0. The refined forces
+ * it factorises into *lu and sets hold->lu_age to 0.
+ * Staged (hold->lu_staged 1): the call due to factorise with
+ * hold->lu_age + 1 == hold->lu_keep refines once more with *lu (its age
+ * becomes lu_keep) and begins the factorisation of its J^T in
+ * hold->lu_next (sp_lu6_factor_begin); the next call, when it may refine
+ * (as above, whatever the age), finishes it into *lu (sp_lu6_factor_end:
+ * the exact factorisation of the last call's J^T) and refines with it,
+ * hold->lu_age 1; a call that may not refine drops it and factorises
+ * whole. A hold->lu_age of lu_keep or more with no begun stage
+ * (hold->lu_next.begun 0) makes the call factorise whole. The refined forces
  * differ from a fresh solve by at most |I - J_old^-T J^T| |F - fq| plus
  * the solve's rounding (docs/model.md, "The factorisation kept over
  * ticks"); *lu then stays the older motion's factorisation.

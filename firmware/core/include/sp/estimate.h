@@ -21,13 +21,13 @@
  * start. Every warm result is checked for continuity against the previous
  * estimate (sp_fk_default_options: 50 mm, 50 mrad).
  * The controller keeps the factorisation over up to SP_CTRL_LU_KEEP
- * ticks (sp_leg_hold_t.lu_keep): ref_lu is then J^T's at a reference up to
- * six ticks older, which adds up to |I - J_old^-1 J_ref| |x - x_ref| to
- * the step (the first factor grows with the age). At 0.4 mm, five ticks
- * (float64, docs/model.md, "The factorisation kept
- * over ticks"): within 0.52 um / 0.41 urad at the surge's 0.28 m/s, up
- * to 1.5 um / 2.1 urad at 0.5 m/s and 0.5 rad/s; the 1 um bound above is
- * for a fresh factorisation (SP_CTRL_LU_KEEP 1).
+ * ticks (sp_leg_hold_t.lu_keep, staged over two ticks): ref_lu is then
+ * J^T's at a reference up to eight ticks older, which adds up to
+ * |I - J_old^-1 J_ref| |x - x_ref| to the step (the first factor grows
+ * with the age). At 0.4 mm, eight ticks (float64, docs/model.md, "The
+ * factorisation kept over ticks"): within 1.24 um / 0.67 urad at the
+ * surge's 0.28 m/s, up to 2.44 um / 2.83 urad at 0.5 m/s and 0.5 rad/s;
+ * the 1 um bound above is for a fresh factorisation (SP_CTRL_LU_KEEP 1).
  */
 #ifndef SP_ESTIMATE_H
 #define SP_ESTIMATE_H
@@ -48,7 +48,7 @@ typedef struct {
     sp_pose_t pose;  /**< the estimate (the last valid one, or the park pose before the first) */
     uint8_t valid;   /**< 1 while pose is the forward kinematics of the last measured lengths */
     sp_lu6_t ref_lu; /**< factorisation of J^T at the reference of the last tick, or (kept by the
-                          controller) of one up to six ticks older (valid flag inside): written
+                          controller) of one up to eight ticks older (valid flag inside): written
                           by the inverse dynamics of the setpoints (sp_setpoints_held),
                           invalidated by the controller whenever the reference has none */
 } sp_estimate_t;

@@ -66,6 +66,38 @@ typedef struct {
  */
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
 
+/** The pivot steps the first call of the staged factorisation takes
+ *  (sp_lu6_factor_begin): columns 0 and 1, about half the work (step k
+ *  updates (5 - k)^2 entries). */
+#define SP_LU6_STAGE_STEPS 2u
+
+/** A factorisation in progress (sp_lu6_factor_begin): the rows of A
+ *  after the first SP_LU6_STAGE_STEPS pivot steps, in place (not moved:
+ *  row order[i] of a is the i-th in pivot order so far), and those
+ *  steps' reciprocals. Not a factorisation: the solves do not take it. */
+typedef struct {
+    int32_t a[SP_LEGS][SP_LEGS];
+    int32_t inv[SP_LU6_STAGE_STEPS];
+    uint8_t zk[SP_LU6_STAGE_STEPS];
+    uint8_t order[SP_LEGS];
+    uint8_t begun; /**< 1 after a successful sp_lu6_factor_begin, until sp_lu6_factor_end */
+} sp_lu6_stage_t;
+
+/**
+ * sp_lu6_factor in two calls (the controller spreads it over two ticks):
+ * sp_lu6_factor_begin copies A (as sp_lu6_factor) into *part and takes
+ * the first SP_LU6_STAGE_STEPS pivot steps; sp_lu6_factor_end takes the
+ * others on *part (used up: part->begun 0) and writes the factorisation
+ * into *lu, bit-identical to sp_lu6_factor's of the same A
+ * (tests/unit/test_lu6.c). Errors: SP_E_ARG (NULL, or end without a
+ * successful begin), SP_E_SINGULAR (a pivot below SP_PIVOT_MIN, in either
+ * call), SP_E_OVERFLOW (an entry saturated: reported by the call that
+ * saturated it, so that a begin's SP_E_OVERFLOW may be a matrix that
+ * sp_lu6_factor finds singular); part->begun or lu->valid is then 0.
+ */
+sp_status_t sp_lu6_factor_begin(const sp_jacobian_t *m, int transpose, sp_lu6_stage_t *part);
+sp_status_t sp_lu6_factor_end(sp_lu6_stage_t *part, sp_lu6_t *lu);
+
 /**
  * Solves A x = b with a factorisation of A: bit-identical to sp_solve6 on
  * the same matrix and b (the accuracy stated there). b and x in the same
