@@ -3,8 +3,10 @@
 # the instructions executed per IK, inverse dynamics, FK (warm start) and
 # controller tick, fixed point next to the single-precision float reference
 # (the ratio), against the tick budget, each compiled for size (the m4-core
-# preset) and for speed (-O2); then the flash and RAM of the core in the
-# golden-vector image. Builds the m4-core preset first if needed.
+# preset) and for speed (-O2); the CANopen master and its link alone
+# (co_icount.c) and the whole tick with them around the controller's step
+# (co_tick.c); then the flash and RAM of the core in the golden-vector
+# image. Builds the m4-core preset first if needed.
 # M4_BUILD_DIR overrides the build directory (default build/m4-core).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -18,7 +20,7 @@ if [ -z "${M4_BUILD_DIR:-}" ]; then
   fi
 fi
 elf=$dir/bench/m4
-for f in sp_m4_icount.elf sp_m4_icount_o2.elf sp_m4_co_icount.elf hardfp/sp_m4_icount_float.elf \
+for f in sp_m4_icount.elf sp_m4_icount_o2.elf sp_m4_co_icount.elf sp_m4_co_tick.elf hardfp/sp_m4_icount_float.elf \
          hardfp/sp_m4_icount_float_o2.elf sp_m4_golden.elf sp_m4_golden.map; do
   [ -f "$elf/$f" ] || { echo "m4_bench: $elf/$f is missing (build the m4-core preset)" >&2; exit 1; }
 done
@@ -69,6 +71,11 @@ echo
 # CiA 408 image's tick adds to the controller's step.
 run co_os "$elf/sp_m4_co_icount.elf"
 cat "$out/co_os.txt"
+echo
+# The whole tick the CiA 408 image runs: the controller's step with the
+# master and its link around it, in the scenarios above (issue 18).
+run co_tick_os "$elf/sp_m4_co_tick.elf"
+cat "$out/co_tick_os.txt"
 echo
 echo "== Cortex-M4: size of the golden-vector image (arm-none-eabi-size, bytes; the STM32 image's flash budget: 131072)"
 arm-none-eabi-size "$elf/sp_m4_golden.elf"
