@@ -4,7 +4,7 @@
  * instructions mean and max") on a Cortex-M4 (QEMU mps2-an386, -icount
  * shift=7,sleep=off; m4_count.h): the drives' frames received
  * (sp_co_master_receive), sp_co_link_feedback into the controller's drive
- * feedback, sp_ctrl_step, sp_co_link_input, sp_co_master_step, in the order
+ * feedback, sp_ctrl_step, sp_co_link_input_due, sp_co_master_step, in the order
  * of firmware/ports/stm32g4/main.c and sp/canopen_link.h, measured as one.
  *
  * The scenarios of icount.c (surge, yaw, stream: m4_scenario.c) with six
@@ -84,7 +84,7 @@ __attribute__((noipa)) static sp_status_t run_whole(uint32_t n, uint32_t now)
     }
     (void)sp_co_link_feedback(&m, &co_link, sc.in.drive);
     st = sp_ctrl_step(&sc.cfg, &sc.ctrl, &sc.in, &sc.out);
-    (void)sp_co_link_input(&co_link, &sc.out, now, &min);
+    (void)sp_co_link_input_due(&co_link, &m, &sc.out, now, &min);
     (void)sp_co_master_step(&m, &co_link.master, &min, &mout);
     return st;
 }
@@ -110,7 +110,7 @@ __attribute__((noipa)) static sp_status_t run_ctrl(void)
 
 __attribute__((noipa)) static void run_input(uint32_t now)
 {
-    (void)sp_co_link_input(&co_link, &sc.out, now, &min);
+    (void)sp_co_link_input_due(&co_link, &m, &sc.out, now, &min);
 }
 
 __attribute__((noipa)) static void run_step(void)
@@ -232,7 +232,7 @@ static void run_scenario(uint8_t motion, uint8_t divider, int parts, counts_t *r
         plant_force[k] = sc.in.drive[k].force;
     }
     /* the first SYNC, before the control loop */
-    (void)sp_co_link_input(&co_link, &sc.out, now, &min);
+    (void)sp_co_link_input_due(&co_link, &m, &sc.out, now, &min);
     (void)sp_co_master_step(&m, &co_link.master, &min, &mout);
     n = answers(plant_len, plant_force, mout.sync, now);
     while (m4_scenario_prepare(&sc)) {
@@ -326,7 +326,7 @@ static void print_counts(uint8_t motion, uint8_t divider, const counts_t *r)
         "  sp_co_master_receive (the frames)",
         "  sp_co_link_feedback",
         "  sp_ctrl_step",
-        "  sp_co_link_input",
+        "  sp_co_link_input_due",
         "  sp_co_master_step",
     };
     static const char *const part_keys[PARTS] = {"p_recv", "p_fb", "p_ctrl", "p_input", "p_step"};

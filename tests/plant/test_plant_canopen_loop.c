@@ -153,7 +153,7 @@ static void canopen_tick(loop_t *r)
     uint8_t n, i;
     (void)sp_co_link_feedback(&r->m, &r->link, r->in.drive);
     assert_int_equal(sp_ctrl_step(&r->cfg, &r->ctrl, &r->in, &r->out), SP_OK);
-    (void)sp_co_link_input(&r->link, &r->out, r->now, &r->min);
+    (void)sp_co_link_input_due(&r->link, &r->m, &r->out, r->now, &r->min);
     assert_int_equal(sp_co_master_step(&r->m, &r->link.master, &r->min, &r->mout), SP_OK);
     for (i = 0u; i < r->mout.n_tx; i++) {
         assert_int_equal(hs_co_bus_receive(&r->bus, &r->mout.tx[i], tx, &n), HS_OK);

@@ -988,6 +988,71 @@ static void co_rig_force(co_rig_t *r)
     co_rig_tick(r, SP_CMD_FORCE);
 }
 
+/* sp_co_link_input_due against sp_co_link_input every tick: two masters at
+ * SYNC divider 3 (CiA 408 with the force object, CiA 402 with 0x60B2),
+ * the same setpoints moving every tick and the drive mode switching: the
+ * same frames every tick, byte for byte; sp_co_master_sync_due says 1 on
+ * exactly the steps that send SYNC. */
+static void test_link_input_due(void **state)
+{
+    static sp_co_master_t ma, mb;
+    static sp_co_master_output_t oa, ob;
+    sp_co_link_cfg_t cfg;
+    sp_ctrl_output_t out;
+    sp_co_master_input_t ia, ib;
+    sp_q24_t zero[SP_LEGS] = {0, 0, 0, 0, 0, 0};
+    uint32_t t, k;
+    (void)state;
+    assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
+    cfg.master.sync_divider = 3u;
+    cfg.master.master_heartbeat_ms = 0u;
+    for (k = 0u; k < SP_LEGS; k++) {
+        cfg.master.node[k].force_ff = 1u;
+        cfg.scaling[k].rated_force_n = 8000u;
+        assert_int_equal(sp_co_scaling_prepare(&cfg.scaling[k]), SP_OK);
+    }
+    for (k = 3u; k < SP_LEGS; k++) {
+        cfg.master.node[k].profile = (uint8_t)SP_CO_PROFILE_402;
+    }
+    cfg.master.pressure_feedback = 1u;
+    assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
+    assert_int_equal(sp_co_master_sync_due(&ma, &cfg.master), 0); /* not started */
+    assert_int_equal(sp_co_master_init(&ma), SP_OK);
+    assert_int_equal(sp_co_master_init(&mb), SP_OK);
+    assert_int_equal(sp_co_master_start(&ma, &cfg.master, 0u), SP_OK);
+    assert_int_equal(sp_co_master_start(&mb, &cfg.master, 0u), SP_OK);
+    for (k = 0u; k < SP_LEGS; k++) { /* as after the start-up */
+        ma.node[k].phase = mb.node[k].phase = SP_CO_PHASE_RUN;
+        ma.node[k].nmt_pending = mb.node[k].nmt_pending = 0u;
+    }
+    memset(&out, 0, sizeof out);
+    memset(&ia, 0, sizeof ia);
+    memset(&ib, 0, sizeof ib);
+    for (t = 1u; t <= 300u; t++) {
+        int due = sp_co_master_sync_due(&mb, &cfg.master);
+        out.drive_mode = (t / 50u) % 2u == 0u ? SP_DRIVE_ACTIVE : SP_DRIVE_HOLD;
+        for (k = 0u; k < SP_LEGS; k++) {
+            out.setpoint[k].length = (sp_q24_t)(t * 977u + k * 100000u);
+            out.setpoint[k].force = (sp_q8_t)((int32_t)(t * 1301u) - (int32_t)(k * 90000u));
+        }
+        (void)sp_co_link_input(&cfg, &out, t, &ia);
+        (void)sp_co_link_input_due(&cfg, &mb, &out, t, &ib);
+        assert_int_equal(ia.request, ib.request);
+        assert_int_equal(sp_co_master_step(&ma, &cfg.master, &ia, &oa), SP_OK);
+        assert_int_equal(sp_co_master_step(&mb, &cfg.master, &ib, &ob), SP_OK);
+        assert_int_equal(ob.sync, (uint8_t)due);
+        assert_int_equal(oa.n_tx, ob.n_tx);
+        assert_int_equal(oa.sync, ob.sync);
+        for (k = 0u; k < oa.n_tx; k++) {
+            assert_int_equal(oa.tx[k].id, ob.tx[k].id);
+            assert_int_equal(oa.tx[k].len, ob.tx[k].len);
+            assert_memory_equal(oa.tx[k].data, ob.tx[k].data, oa.tx[k].len);
+        }
+    }
+    assert_int_equal(sp_co_link_input_due(NULL, &mb, &out, 1u, &ib), SP_E_ARG);
+    assert_int_equal(sp_co_link_input_due(&cfg, NULL, &out, 1u, &ib), SP_E_ARG);
+}
+
 /* The wrench estimate's validity follows the drives' force measurement:
  * CiA 408 with pressures gives a valid estimate near zero (nothing
  * outside pushes; the pressures' 1 kPa steps); a CiA 402 drive on any leg measures no force: the estimate is
@@ -1157,6 +1222,7 @@ int main(void)
         cmocka_unit_test(test_master_input_checks),
         cmocka_unit_test(test_link),
         cmocka_unit_test(test_link_wrench_validity),
+        cmocka_unit_test(test_link_input_due),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

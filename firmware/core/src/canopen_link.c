@@ -141,3 +141,17 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
     }
     return st;
 }
+
+sp_status_t sp_co_link_input_due(const sp_co_link_cfg_t *cfg, const sp_co_master_t *m, const sp_ctrl_output_t *out,
+                                 uint32_t now_ms, sp_co_master_input_t *in)
+{
+    if (cfg == NULL || m == NULL || out == NULL || in == NULL) {
+        return SP_E_ARG;
+    }
+    if (sp_co_master_sync_due(m, &cfg->master)) {
+        return sp_co_link_input(cfg, out, now_ms, in);
+    }
+    in->now_ms = now_ms;
+    in->request = out->drive_mode == SP_DRIVE_ACTIVE ? (uint8_t)SP_CO_REQ_ACTIVE : (uint8_t)SP_CO_REQ_HOLD;
+    return SP_OK;
+}

@@ -893,6 +893,14 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     return SP_OK;
 }
 
+int sp_co_master_sync_due(const sp_co_master_t *m, const sp_co_master_cfg_t *cfg)
+{
+    if (m == NULL || cfg == NULL || !m->started || cfg->sync_divider == 0u) {
+        return 0;
+    }
+    return m->ticks % cfg->sync_divider == 0u; /* sp_co_master_step's test, before it counts the tick */
+}
+
 sp_status_t sp_co_master_node_state(const sp_co_master_t *m, uint8_t k, uint8_t *phase, sp_co_fault_t *fault)
 {
     if (m == NULL || phase == NULL || fault == NULL || k >= SP_CO_MAX_NODES) {

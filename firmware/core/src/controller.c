@@ -273,8 +273,10 @@ static int drives_active(const sp_ctrl_t *ctrl)
  * last length; a silent or faulty drive is a fault while the drives are
  * active (`active`, the drive state at the start of the tick). Returns
  * whether every drive is heard from (comms ok); *leg_out becomes 1 when a
- * last measured length lies outside its stroke. */
-static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, int active, int *leg_out)
+ * last measured length lies outside its stroke, *heard 1 when any drive's
+ * feedback is fresh this tick. */
+static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, int active, int *leg_out,
+                     int *heard)
 {
     sp_supervision_t *sup = &ctrl->sup;
     const sp_limits_t *lim = &ctrl->prep.limits;
@@ -284,11 +286,13 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
     int comms_ok = 1;
     int drive_fault = 0;
     int out = 0;
+    int fresh = 0;
     unsigned i;
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_drive_feedback_t *fb = &in->drive[i];
         uint32_t missed = sup->missed[i];
         if (fb->fresh) {
+            fresh = 1;
             missed = 0u;
             seen |= UINT32_C(1) << i;
             sup->last_length[i] = fb->length;
@@ -315,6 +319,7 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
         raise_fault(cfg, ctrl, SP_FAULT_DRIVE);
     }
     *leg_out = out;
+    *heard = fresh;
     return comms_ok;
 }
 
@@ -322,12 +327,24 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
 
 /* The estimate from the measured lengths, once every drive has been heard
  * from; a failed estimate or a leg outside its stroke is a fault while the
- * drives are active (`active` as in supervise). Returns the FK's steps. */
+ * drives are active (`active` as in supervise). A tick without any fresh
+ * length (`heard` 0: drives that answer once per SYNC period of a CANopen
+ * layout, between their answers) keeps a valid estimate as it is: the
+ * lengths it came from are the last measured ones, and a new step from
+ * the moved reference would find the same pose again (at the cost of the
+ * steps; two of them once the reference has moved far). Returns the FK's
+ * steps (0 when kept). */
 /* Out of line, as the wrench job: off sp_ctrl_step's frame. */
-SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int active, int leg_out)
+SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int active, int leg_out, int heard)
 {
     uint32_t iterations = 0u;
     if (ctrl->sup.seen_mask != SP_ALL_LEGS) {
+        return 0u;
+    }
+    if (!heard && ctrl->est.valid) {
+        if (active && leg_out) {
+            raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
+        }
         return 0u;
     }
     /* ctrl->model.ref is the IK of ctrl->reference.pose while est.ref_lu
@@ -1150,6 +1167,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     int active;
     int comms_ok;
     int leg_out;
+    int heard;
     int rejected;
     int dropped;
     int have_model = 0;
@@ -1161,8 +1179,8 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     ctrl->tick += 1u; /* a sequence number: wraps modulo 2^32, as the DBC's Tick (sp_ctrl_t.tick) */
     active = drives_active(ctrl);
 
-    comms_ok = supervise(cfg, ctrl, in, active, &leg_out);
-    fk_iterations = estimate(cfg, ctrl, active, leg_out);
+    comms_ok = supervise(cfg, ctrl, in, active, &leg_out, &heard);
+    fk_iterations = estimate(cfg, ctrl, active, leg_out, heard);
     ft_sensor(cfg, ctrl, in);
     drive_reset_job(cfg, ctrl, comms_ok);
     cmd = sp_ctrl_operator_link(cfg, ctrl, in, &dropped);

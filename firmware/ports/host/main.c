@@ -210,7 +210,7 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
             }
         }
         n = k;
-        (void)sp_co_link_input(&co.link, &node->out, co.now_ms, &co.in);
+        (void)sp_co_link_input_due(&co.link, &co.m, &node->out, co.now_ms, &co.in);
         (void)sp_co_master_step(&co.m, &co.link.master, &co.in, &co.out);
         uint32_t co_sent = 0;
         if (port->send(port->ctx, co.out.tx, co.out.n_tx, &co_sent) != SP_OK || co_sent != co.out.n_tx) {

@@ -157,7 +157,7 @@ __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
         }
         n = m;
     }
-    (void)sp_co_link_input(&g_co, &g_node.out, g_co_now, &g_coin);
+    (void)sp_co_link_input_due(&g_co, &g_com, &g_node.out, g_co_now, &g_coin);
     (void)sp_co_master_step(&g_com, &g_co.master, &g_coin, &g_coout);
     co_send(p);
 #endif

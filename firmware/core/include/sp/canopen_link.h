@@ -9,8 +9,9 @@
  *     (the TPDOs answering the last SYNC);
  *  2. sp_co_link_feedback(): the controller's drive feedback from them;
  *  3. sp_ctrl_step();
- *  4. sp_co_link_input(): the master's request and setpoints from the
- *     controller's output;
+ *  4. sp_co_link_input() (or sp_co_link_input_due(), once per SYNC
+ *     period): the master's request and setpoints from the controller's
+ *     output;
  *  5. sp_co_master_step(): RPDO1 + SYNC on SYNC ticks.
  *
  * CiA 408's axis position setpoint carries the position only: the drive
@@ -105,5 +106,15 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
  */
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
                              sp_co_master_input_t *in);
+
+/**
+ * sp_co_link_input on the ticks whose master step sends SYNC
+ * (sp_co_master_sync_due(m, &cfg->master)); on the others only the request
+ * and now_ms, leaving in->setpoint and in->force_ff as they were (the step
+ * reads them on SYNC ticks only): with a SYNC divider d the conversion runs
+ * once in d ticks and the master sends the same frames. SP_E_ARG for NULL.
+ */
+sp_status_t sp_co_link_input_due(const sp_co_link_cfg_t *cfg, const sp_co_master_t *m, const sp_ctrl_output_t *out,
+                                 uint32_t now_ms, sp_co_master_input_t *in);
 
 #endif /* SP_CANOPEN_LINK_H */

@@ -301,6 +301,15 @@ typedef struct {
 sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
                               sp_co_master_output_t *out);
 
+/**
+ * 1 when the next sp_co_master_step of a started master is a SYNC tick (it
+ * sends the RPDO1s and SYNC: one step in sync_divider), else 0; 0 also for
+ * NULL arguments, a master not started or a divider of 0. The step reads
+ * in->setpoint and in->force_ff only on SYNC ticks: a caller may prepare
+ * them only then (sp_co_link_input_due).
+ */
+int sp_co_master_sync_due(const sp_co_master_t *m, const sp_co_master_cfg_t *cfg);
+
 /** Node k's phase (sp_co_phase_t) and latched fault, for callers that do
  *  not read the struct (the Python tools over ctypes). SP_E_ARG for NULL or
  *  k >= SP_CO_MAX_NODES. */
