@@ -179,6 +179,8 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->sup.seen_mask = 0u;
     ctrl->sup.no_force_mask = 0u;
     sp_estimate_init(&ctrl->est, &p->park);
+    ctrl->est_ref = p->park;
+    ctrl->est_ref_valid = 0u;
     ctrl->mode = SP_MODE_TRIG;
     ctrl->park_after = 0u;
     ctrl->have_setpoint = 0u;
@@ -329,12 +331,32 @@ static int supervise(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl
  * from; a failed estimate or a leg outside its stroke is a fault while the
  * drives are active (`active` as in supervise). A tick without any fresh
  * length (`heard` 0: drives that answer once per SYNC period of a CANopen
- * layout, between their answers) keeps a valid estimate as it is: the
- * lengths it came from are the last measured ones, and a new step from
- * the moved reference would find the same pose again (at the cost of the
- * steps; two of them once the reference has moved far). Returns the FK's
- * steps (0 when kept). */
+ * layout, between their answers) takes no step: a valid estimate moves by
+ * the reference's change since it was made (est_ref), so that the last
+ * measured tracking error is kept until the next answer. A step from the
+ * moved reference to the old lengths would find the old pose again, and
+ * the estimate would stand still between answers and jump at each: a
+ * tracking error growing and collapsing every SYNC period, whose second
+ * difference the wrench estimate's motion correction takes as
+ * acceleration. The angles add as numbers (no wrap: the platform's are
+ * far from +-pi). Returns the FK's steps (0 on such a tick). */
 /* Out of line, as the wrench job: off sp_ctrl_step's frame. */
+/* The estimate moved by the reference's change since est_ref (saturating:
+ * the poses are within their Q24 range, the sums of valid poses' small
+ * differences stay there), and est_ref to the reference. */
+static void follow_reference(sp_ctrl_t *ctrl)
+{
+    sp_flags_t flags = 0u; /* a saturated sum is held: the next answer replaces it */
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        ctrl->est.pose.pos[k] = spi_add(ctrl->est.pose.pos[k],
+                                        spi_sub_sat(ctrl->reference.pose.pos[k], ctrl->est_ref.pos[k], &flags), &flags);
+        ctrl->est.pose.rpy[k] = spi_add(ctrl->est.pose.rpy[k],
+                                        spi_sub_sat(ctrl->reference.pose.rpy[k], ctrl->est_ref.rpy[k], &flags), &flags);
+    }
+    ctrl->est_ref = ctrl->reference.pose;
+}
+
 SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int active, int leg_out, int heard)
 {
     uint32_t iterations = 0u;
@@ -342,6 +364,9 @@ SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
         return 0u;
     }
     if (!heard && ctrl->est.valid) {
+        if (ctrl->est_ref_valid && ctrl->have_setpoint) {
+            follow_reference(ctrl);
+        }
         if (active && leg_out) {
             raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
         }
@@ -354,6 +379,8 @@ SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
         active) {
         raise_fault(cfg, ctrl, SP_FAULT_FK);
     }
+    ctrl->est_ref = ctrl->reference.pose;
+    ctrl->est_ref_valid = ctrl->have_setpoint;
     if (active && leg_out) {
         raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
     }

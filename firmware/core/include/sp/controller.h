@@ -359,6 +359,11 @@ typedef struct {
                           may start it anywhere after sp_ctrl_init (the wrap tests do) */
     sp_supervision_t sup;
     sp_estimate_t est;               /**< the pose estimate, its FK cache and the factorisation at the reference */
+    sp_pose_t est_ref;               /**< the reference (pose) the estimate was last made or moved at: on a tick
+                                          without fresh lengths the estimate moves by the reference's change
+                                          since (the last measured tracking error is kept) */
+    uint8_t est_ref_valid;           /**< 1 when est_ref was a reference (have_setpoint then), else the estimate
+                                          stays as it is on such a tick */
     sp_motion_mode_t mode;           /**< RUNNING: the motion executing */
     uint8_t park_after;              /**< RUNNING: park once the motion ends */
     sp_trig_t trig;                  /**< RUN_TRIG's generator */
