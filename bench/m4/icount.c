@@ -361,7 +361,9 @@ static uint32_t twin_net16[M4_MAX_TICKS + M4_TAIL_TICKS + 1u];
 
 /* The tick kinds of the breakdown: a tick with a command; a moving tick
  * (ENGAGING, RUNNING, PARKING, READY under force control) that factorised
- * the forces' J^T (the factorisation's bytes changed), one that refined
+ * the forces' J^T (the factorisation's bytes changed, or its age restarted
+ * at 0: a Jacobian unchanged since the last factorisation gives the same
+ * bytes, as in the stream's settling tail), one that refined
  * them from the kept factorisation (its age counted up); every other tick
  * (at rest, holding: the setpoints kept). */
 #define KINDS 4u
@@ -453,8 +455,9 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
         M4_MEASURE(net, sink = (int32_t)run_tick(sc));
         if (cmd != (uint8_t)SP_CMD_NONE) {
             kind = KIND_CMD;
-        } else if (sc->ctrl.est.ref_lu.valid && !m4_same_bytes(&lu_before, &sc->ctrl.est.ref_lu, sizeof lu_before)) {
-            kind = KIND_LU;
+        } else if (sc->ctrl.est.ref_lu.valid && (!m4_same_bytes(&lu_before, &sc->ctrl.est.ref_lu, sizeof lu_before) ||
+                                                 (sc->ctrl.legs.lu_age == 0u && age_before != 0u))) {
+            kind = KIND_LU; /* bytes changed, or factorised again to the same bytes (its age restarted) */
         } else if (sc->ctrl.est.ref_lu.valid && sc->ctrl.legs.lu_age != age_before) {
             kind = KIND_REFINE;
         } else {

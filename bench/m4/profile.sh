@@ -9,13 +9,19 @@
 # force: the force scenario's FORCE command and the 2000 ticks after it;
 # engage: the surge's ENGAGE tick alone, sp_m4_profile_engage.elf;
 # trig: the surge's RUN_TRIG tick alone, sp_m4_profile_trig.elf;
+# stream_all: the STREAM scenario's whole RUNNING phase (5655 ticks, the
+# settling tail after PARK included), sp_m4_profile_stream_all.elf;
+# twin: the force scenario's position-control twin, every tick from ENGAGE
+# (13866 ticks), sp_m4_profile_twin.elf;
 # stream_start: the STREAM command's tick alone;
 # slide: the force scenario's 50 mm slide in FORCE, the MOVE_TO tick and
 # the 843 after it)
 # PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
 # PROFILE_ABOVE=n keeps only the ticks whose controller step (between
 # profile.c's tick markers) executed more than n instructions, and divides
-# by their number: what the highest ticks spend their instructions in.
+# by their number: what the highest ticks spend their instructions in;
+# PROFILE_LIST=1 with it also lists each kept tick (its index from the
+# first counted tick, 1 first, and its instructions) on stderr.
 # PROFILE_FUNC=name (with PROFILE_ABOVE, 1 for every tick) lists that
 # function's translation blocks by start address instead (objdump -d).
 set -euo pipefail
@@ -24,6 +30,8 @@ top=${2:-25}
 elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ "${3:-}" = force ] && : "${PROFILE_TICKS:=2001}"
 [ "${3:-}" = stream ] && : "${PROFILE_TICKS:=2000}"
+[ "${3:-}" = stream_all ] && : "${PROFILE_TICKS:=5655}"
+[ "${3:-}" = twin ] && : "${PROFILE_TICKS:=13866}"
 [ "${3:-}" = engage ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = trig ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = stream_start ] && : "${PROFILE_TICKS:=1}"
@@ -32,7 +40,7 @@ elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 log=$(mktemp -d)
 trap 'rm -rf "$log"' EXIT
 mkfifo "$log/fifo"
-awk -v above="${PROFILE_ABOVE:-0}" -v only="${PROFILE_FUNC:-}" '
+awk -v above="${PROFILE_ABOVE:-0}" -v only="${PROFILE_FUNC:-}" -v list="${PROFILE_LIST:-0}" '
   /^IN:/ { intb = 1; start = ""; n = 0; fn = $2; next }
   /^Trace/ && !on { split($0, f, "/"); if (func["0x" f[2]] == "profile_begin") on = 1; else next }
   intb && /^0x[0-9a-f]+:/ { if (start == "") start = substr($1, 1, length($1) - 1); n++; next }
@@ -42,7 +50,12 @@ awk -v above="${PROFILE_ABOVE:-0}" -v only="${PROFILE_FUNC:-}" '
     if (k == "profile_tick") { intick = 1; split("", tc); tt = 0; next }
     if (k == "profile_tick_end") {
       intick = 0
-      if (tt > above) { for (j in tc) per[j] += tc[j]; tot += tt; kept++ }
+      ticks++
+      if (tt > above) {
+        for (j in tc) per[j] += tc[j]
+        tot += tt; kept++
+        if (list) printf "tick %d: %d\n", ticks, tt > "/dev/stderr"
+      }
       next
     }
     if (intick) { tt += size[a]; if (only == "" || k == only) tc[only == "" ? k : a] += size[a] }

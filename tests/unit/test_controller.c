@@ -1457,6 +1457,57 @@ static void force_rig(rig_t *r, surface_t *s)
     s->z_s = f24(r->out.reference.pose.pos[2]) - 0.002; /* 2 mm below the tool */
 }
 
+/* Before a reference exists the sensor's frame is made at the estimate's
+ * angles: from the sines kept since init when the estimate is at park's
+ * angles (sp_ctrl_init keeps park's orientation), else from its own; both
+ * are sp_ft_frame of sp_orientation(estimate), bit for bit, and the
+ * ENGAGE tick's setpoints are those of a controller without the kept
+ * orientation (sp_setpoints_of). */
+static void test_ft_frame_before_reference(void **state)
+{
+    static rig_t r;
+    (void)state;
+    for (int tilted = 0; tilted < 2; ++tilted) {
+        sp_pose_t start = sp_platform_default.park;
+        sp_ik_t ik;
+        sp_rot_t rot;
+        sp_ft_frame_t want;
+        sp_setpoint_t sp[SP_LEGS];
+        sp_lu6_t lu;
+        sp_model_t model;
+        sp_motion_t at;
+        rig_init(&r);
+        r.cfg.wrench_source = SP_WRENCH_SENSOR;
+        assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
+        if (tilted) {
+            start.pos[2] += q24(0.05);
+            start.rpy[0] = q24(0.011);
+            start.rpy[1] = q24(-0.007);
+            start.rpy[2] = q24(0.013);
+        }
+        assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &start, &ik), SP_OK);
+        memcpy(r.plant_length, ik.length, sizeof r.plant_length);
+        r.in.ft_fresh = 1u;
+        rig_tick(&r, SP_CMD_NONE);
+        assert_true(r.out.estimate_valid);
+        assert_int_equal(r.ctrl.ft_frame_valid, 1);
+        assert_int_equal(sp_orientation(r.ctrl.est.pose.rpy, &rot), SP_OK);
+        assert_int_equal(sp_ft_frame(&r.cfg.ft_mount, &rot, &want), SP_OK);
+        assert_memory_equal(&r.ctrl.ft_frame, &want, sizeof want);
+        rig_tick(&r, SP_CMD_ENGAGE);
+        assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+        memcpy(&at, &r.ctrl.reference, sizeof at);
+        assert_int_equal(sp_setpoints_of(&sp_platform_default, &r.ctrl.prep.limits, &r.ctrl.prep.friction, &at,
+                                         r.ctrl.setpoint_ff, sp, &lu, &model),
+                         SP_OK);
+        for (int i = 0; i < SP_LEGS; ++i) {
+            assert_int_equal(r.out.setpoint[i].length, sp[i].length);
+            assert_int_equal(r.out.setpoint[i].velocity, sp[i].velocity);
+            assert_int_equal(r.out.setpoint[i].force, sp[i].force);
+        }
+    }
+}
+
 /* TARE on the cylinders' estimate: refused outside READY; in READY it
  * averages ft_tare_samples ticks of the estimate into the bias, and force
  * control's wrench is then the estimate less that bias, exactly. */
@@ -1664,6 +1715,7 @@ int main(void)
         cmocka_unit_test(test_estop_and_divergence),
         cmocka_unit_test(test_estop_closes_blocking_valves),
         cmocka_unit_test(test_fk_failure_faults),
+        cmocka_unit_test(test_ft_frame_before_reference),
         cmocka_unit_test(test_cylinder_estimate_tare),
         cmocka_unit_test(test_force_hold_and_contact_lost),
         cmocka_unit_test(test_force_release_and_park),

@@ -197,6 +197,17 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->legs_exact = 0u;
     ctrl->leg_group = 0u;
     ctrl->ref_orient.valid = 0u;
+    {
+        /* the reference's orientation kept from the park pose (where the
+         * platform starts and the estimate's cold start begins): the
+         * platform's bounds, park's sines and T, and (its second call, the
+         * orientation held) its arms. The ENGAGE tick's reference, at rest
+         * at the estimate, then pays for these only where its angles
+         * differ from park's; the IK is the same bit for bit either way. */
+        sp_ik_t park_ik;
+        (void)sp_inverse_kinematics_kept(p, &p->park, &ctrl->ref_orient, &park_ik);
+        (void)sp_inverse_kinematics_kept(p, &p->park, &ctrl->ref_orient, &park_ik);
+    }
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
@@ -991,8 +1002,13 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
      * result, bit for bit) */
     if (ctrl->est.ref_lu.valid && ctrl->have_setpoint) {
         sc = ctrl->model.ref.sc;
+    } else if (ctrl->ref_orient.valid && ctrl->ref_orient.rpy[0] == ctrl->est.pose.rpy[0] &&
+               ctrl->ref_orient.rpy[1] == ctrl->est.pose.rpy[1] && ctrl->ref_orient.rpy[2] == ctrl->est.pose.rpy[2]) {
+        sc = ctrl->ref_orient.sc; /* the estimate's sines (before a reference exists), kept for its angles */
     } else {
-        spi_orientation_sc(ctrl->est.pose.rpy, &rot, sc_est); /* its sines (before a reference exists) */
+        for (k = 0u; k < 3u; ++k) { /* the estimate's sines (before a reference exists): T is made below */
+            sp_sincos_q24(ctrl->est.pose.rpy[k], &sc_est[2u * k], &sc_est[2u * k + 1u]);
+        }
         sc = sc_est;
     }
     for (k = 0u; k < 6u; ++k) {
