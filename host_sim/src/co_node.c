@@ -162,18 +162,26 @@ static void od_defaults_402(hs_co_node_t *n)
     od_add(n, 0x6502u, 0u, 4u, HS_CO_RO, 0x00000080u); /* bit 7: cyclic synchronous position */
 }
 
+/* The entry's index in n's dictionary, or n->n_od when it has none. */
+static uint32_t od_slot(const hs_co_node_t *n, uint16_t index, uint8_t sub)
+{
+    uint32_t i;
+    for (i = 0u; i < n->n_od; i++) {
+        if (n->od[i].index == index && n->od[i].sub == sub) {
+            break;
+        }
+    }
+    return i;
+}
+
 hs_co_entry_t *hs_co_node_find(hs_co_node_t *n, uint16_t index, uint8_t sub)
 {
     uint32_t i;
     if (n == NULL) {
         return NULL;
     }
-    for (i = 0u; i < n->n_od; i++) {
-        if (n->od[i].index == index && n->od[i].sub == sub) {
-            return &n->od[i];
-        }
-    }
-    return NULL;
+    i = od_slot(n, index, sub);
+    return i < n->n_od ? &n->od[i] : NULL;
 }
 
 static int index_exists(const hs_co_node_t *n, uint16_t index)
@@ -576,10 +584,6 @@ double hs_co_node_force_n(const hs_co_node_t *n)
     if (n->profile != 1u) {
         return 10.0 * (double)n->force_ff;
     }
-    for (i = 0u; i < n->n_od; i++) {
-        if (n->od[i].index == 0x6076u && n->od[i].sub == 0u) {
-            return (double)n->force_ff * (double)n->od[i].value * 1e-6;
-        }
-    }
-    return 0.0;
+    i = od_slot(n, 0x6076u, 0u);
+    return i < n->n_od ? (double)n->force_ff * (double)n->od[i].value * 1e-6 : 0.0;
 }

@@ -113,6 +113,14 @@ static int16_t force_dan(sp_q8_t force_q8, int8_t direction)
     return (int16_t)(dan > INT16_MAX ? INT16_MAX : (dan < INT16_MIN ? INT16_MIN : dan));
 }
 
+/* The master's request (ACTIVE while the controller's drive mode is
+ * ACTIVE, else HOLD) and the time: every tick's part of the input. */
+static void link_request(const sp_ctrl_output_t *out, uint32_t now_ms, sp_co_master_input_t *in)
+{
+    in->now_ms = now_ms;
+    in->request = out->drive_mode == SP_DRIVE_ACTIVE ? (uint8_t)SP_CO_REQ_ACTIVE : (uint8_t)SP_CO_REQ_HOLD;
+}
+
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,
                              sp_co_master_input_t *in)
 {
@@ -121,8 +129,7 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
     if (cfg == NULL || out == NULL || in == NULL || cfg->master.n_nodes > SP_CO_MAX_NODES) {
         return SP_E_ARG;
     }
-    in->now_ms = now_ms;
-    in->request = out->drive_mode == SP_DRIVE_ACTIVE ? (uint8_t)SP_CO_REQ_ACTIVE : (uint8_t)SP_CO_REQ_HOLD;
+    link_request(out, now_ms, in);
     for (k = 0u; k < cfg->master.n_nodes; k++) {
         uint32_t leg = (uint32_t)cfg->master.node[k].leg - 1u;
         in->setpoint[k] = 0;
@@ -151,7 +158,6 @@ sp_status_t sp_co_link_input_due(const sp_co_link_cfg_t *cfg, const sp_co_master
     if (sp_co_master_sync_due(m, &cfg->master)) {
         return sp_co_link_input(cfg, out, now_ms, in);
     }
-    in->now_ms = now_ms;
-    in->request = out->drive_mode == SP_DRIVE_ACTIVE ? (uint8_t)SP_CO_REQ_ACTIVE : (uint8_t)SP_CO_REQ_HOLD;
+    link_request(out, now_ms, in);
     return SP_OK;
 }

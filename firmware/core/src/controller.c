@@ -378,20 +378,17 @@ SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
         if (ctrl->est_ref_valid && ctrl->have_setpoint) {
             follow_reference(ctrl);
         }
-        if (active && leg_out) {
-            raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
+    } else {
+        /* ctrl->model.ref is the IK of ctrl->reference.pose while est.ref_lu
+         * is valid (both written by the last successful sp_setpoints_of) */
+        if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &ctrl->model.ref,
+                             &iterations) != SP_OK &&
+            active) {
+            raise_fault(cfg, ctrl, SP_FAULT_FK);
         }
-        return 0u;
+        ctrl->est_ref = ctrl->reference.pose;
+        ctrl->est_ref_valid = ctrl->have_setpoint;
     }
-    /* ctrl->model.ref is the IK of ctrl->reference.pose while est.ref_lu
-     * is valid (both written by the last successful sp_setpoints_of) */
-    if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &ctrl->model.ref,
-                         &iterations) != SP_OK &&
-        active) {
-        raise_fault(cfg, ctrl, SP_FAULT_FK);
-    }
-    ctrl->est_ref = ctrl->reference.pose;
-    ctrl->est_ref_valid = ctrl->have_setpoint;
     if (active && leg_out) {
         raise_fault(cfg, ctrl, SP_FAULT_LEG_LIMIT);
     }
