@@ -579,6 +579,9 @@ class OperatorNode:
         prev_tick = self._mark_tick  # Tick of the last status seen (gaps: statuses the queue dropped)
         missed = 0
         switch = before is not None and SWITCH_STATE_FROM.get(command) == before.state
+        # a command the state before it does not take: only a change of state says it was taken (its
+        # CmdRejected status may be among those this node missed; ENGAGE in READY is "done" already)
+        unaccepted = before is not None and before.state not in ACCEPTED_IN.get(command, STATES)
         while True:
             with self._cond:
                 while idx >= len(self.statuses):
@@ -614,8 +617,7 @@ class OperatorNode:
                     why = self.auth_reason()  # another process's counters went past this one's
                     if why is not None:
                         raise Refused(f"{command} rejected: {why}")
-                if k_after == reject_window and before is not None and first_change is None \
-                        and before.state not in ACCEPTED_IN.get(command, STATES) and not done(st):
+                if k_after == reject_window and unaccepted and first_change is None:
                     # the refusal's status frame was not seen, but nothing happened
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
                 if switch and missed and first_change is None and taken_k is not None \
@@ -628,7 +630,8 @@ class OperatorNode:
                                   f"had the command and stayed {st.state}; the status that said CmdRejected "
                                   f"was among the {missed} status(es) this node missed)")
                 if done(st) and (first_change is not None
-                                 or (k >= settle and taken_k is not None and k >= taken_k + COMMAND_QUEUE)):
+                                 or (not unaccepted and k >= settle and taken_k is not None
+                                     and k >= taken_k + COMMAND_QUEUE)):
                     self._keep_statuses = False
                     return Answer(command, st, first_change if first_change is not None else k,
                                   st.t - self._sent_mono)
