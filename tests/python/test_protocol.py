@@ -181,11 +181,11 @@ def test_roundtrip_physical_values(proto):
 def test_status_helper(proto):
     data = proto.encode("CTRL_STATUS", {
         "Tick": 42, "State": "FAULT", "Faults": 0x0041, "FkIterations": 3, "EstimateValid": 1,
-        "CmdRejected": 1, "DriveMode": "HOLD", "FeedForward": 0,
+        "CmdRejected": 1, "Refusals": 5, "DriveMode": "HOLD", "FeedForward": 0,
         **pr.pose_to_signals([0.1, -0.2, 0.3, 0.01, -0.02, 0.5])})
     d = pr.status_to_dict(proto, proto.decode(0x100, data)[1])
     assert d["state"] == "FAULT" and d["faults"] == ["feedback_timeout", "estop"]
-    assert d["drive_mode"] == "HOLD" and d["cmd_rejected"] and not d["feedforward"]
+    assert d["drive_mode"] == "HOLD" and d["cmd_rejected"] and d["refusals"] == 5 and not d["feedforward"]
     assert d["pose"] == pytest.approx([0.1, -0.2, 0.3, 0.01, -0.02, 0.5], abs=0.5e-6)
 
 

@@ -248,9 +248,13 @@ static void test_engage_refused_while_drives_start(void **state)
     sp_msg_status_t s = last_status(&r);
     assert_int_equal(s.cmd_rejected, 1u);
     assert_int_equal(s.drives_starting, 1u);
+    assert_int_equal(s.refusals, 1u);
     assert_int_equal(r.node.stats.cmd_refused, 1u);
     rig_tick(&r);
     assert_int_equal(r.node.out.state, SP_STATE_IDLE);
+    s = last_status(&r); /* CmdRejected for one status; the count stays */
+    assert_int_equal(s.cmd_rejected, 0u);
+    assert_int_equal(s.refusals, 1u);
     r.node.drives_starting = 0u;
     send_command(&r, SP_CMD_ENGAGE);
     rig_tick(&r);
@@ -259,6 +263,32 @@ static void test_engage_refused_while_drives_start(void **state)
     assert_int_equal(s.drives_starting, 0u);
     assert_int_equal(r.node.out.state, SP_STATE_ENGAGING);
     assert_int_equal(r.node.stats.cmd_refused, 1u);
+    assert_int_equal(s.refusals, 1u);
+}
+
+/* CTRL_STATUS Refusals counts refused commands modulo 8 (3 bits): eight
+ * more refusals (a second ENGAGE, not taken outside IDLE) bring it back to
+ * where it was, one more moves it on; an accepted command leaves it. */
+static void test_status_counts_refusals_modulo_8(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    for (uint32_t t = 0; t < 5u; t++) {
+        rig_tick(&r);
+    }
+    send_command(&r, SP_CMD_ENGAGE);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(last_status(&r).refusals, 0u);
+    for (uint32_t k = 1u; k <= 9u; k++) {
+        send_command(&r, SP_CMD_ENGAGE);
+        rig_tick(&r);
+        sp_msg_status_t s = last_status(&r);
+        assert_int_equal(s.cmd_rejected, 1u);
+        assert_int_equal(s.refusals, k % 8u);
+        assert_int_equal(r.node.stats.cmd_refused, k);
+    }
 }
 
 /* OP_HEARTBEAT over frames: a heartbeat with a bad CRC is dropped and arms
@@ -1131,6 +1161,7 @@ int main(void)
         cmocka_unit_test(test_operator_heartbeat_over_frames),
         cmocka_unit_test(test_force_commands_over_frames),
         cmocka_unit_test(test_engage_refused_while_drives_start),
+        cmocka_unit_test(test_status_counts_refusals_modulo_8),
         cmocka_unit_test(test_status_names_legs_without_force),
         cmocka_unit_test(test_auth_over_frames),
         cmocka_unit_test(test_force_params_auth_over_frames),

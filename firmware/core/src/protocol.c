@@ -605,6 +605,7 @@ sp_status_t sp_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp
     s.reset_refused_legs = (uint8_t)(m->reset_refused_legs & 0x3Fu);
     s.reset_refused_cause = m->reset_refused_cause;
     s.force_unmeasured = (uint8_t)(m->force_unmeasured & 0x3Fu);
+    s.refusals = (uint8_t)(m->refusals & 0x07u);
     clear(f);
     return finish(f, SP_ID_CTRL_STATUS, SP_BUS_OPS, stewart_can_ctrl_status_pack(f->data, &s, SP_CAN_MAX_DATA),
                   STEWART_CAN_CTRL_STATUS_LENGTH, sat);
@@ -641,6 +642,7 @@ sp_status_t sp_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *m, 
     m->contact = s.contact;
     m->drives_starting = s.drives_starting;
     m->force_unmeasured = s.force_unmeasured;
+    m->refusals = s.refusals;
     pose_from_bus(v, &m->estimate);
     *counter = s.counter;
     return SP_OK;

@@ -4,8 +4,9 @@ One receive thread reads the controller's frames (CTRL_STATUS,
 CTRL_MONITOR, CTRL_WRENCH), checks their CRC and alive counter and keeps
 the latest of each; one thread sends OP_HEARTBEAT every 20 ms (the
 controller's operator-link supervision, docs/operator.md). Commands wait
-for the controller's answer: the state it should reach, or CTRL_STATUS's
-CmdRejected, with the reason the tool can tell from the state.
+for the controller's answer: the state it should reach, or a refusal
+(CTRL_STATUS's CmdRejected, or its count of refusals moved), with the
+reason the tool can tell from the state.
 
 A new process's first frame of a message may meet the controller's E2E
 check with its counter out of sequence (the controller remembers the last
@@ -58,12 +59,6 @@ ACCEPTED_IN = {
     "NONE": STATES,
 }
 MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "FORCE", "GUIDE")
-#: Commands that, taken, change the state on the tick they are carried out
-#: (firmware/core/src/controller.c, command()): ENGAGE from IDLE to
-#: ENGAGING, the others from READY to RUNNING. Once the controller has had
-#: such a command and the state is still the one it was sent in, it was
-#: refused, even if the one status that said so was not heard.
-SWITCH_STATE_FROM = {"ENGAGE": "IDLE", "RUN_TRIG": "READY", "MOVE_TO": "READY", "STREAM": "READY"}
 FORCE_MODES = pr.value_names("CTRL_STATUS", "ForceMode")
 
 
@@ -136,6 +131,7 @@ class Status:
     contact: bool = False
     drives_starting: bool = False  # the CANopen master is still starting the drives (ENGAGE refused)
     force_unmeasured: list[int] = field(default_factory=list)  # legs (1-6) whose drive measures no force
+    refusals: int = 0     # commands the controller refused since it started, modulo 8 (CTRL_STATUS Refusals)
     seq: int = 0          # how many statuses this node had received
     t: float = 0.0        # receive time (time.monotonic)
     stamp: float = 0.0    # the interface's receive timestamp (time.time() base)
@@ -184,7 +180,7 @@ def refusal_reason(command: str, before: Status | None, at: Status | None) -> st
         return ("the operator-silent fault is latched (the link was silent while the platform ran): "
                 "`stewart op reset` clears it")
     allowed = ACCEPTED_IN.get(command, ())
-    state = before.state if before is not None else st.state
+    state = st.state  # the refusing tick's (before's may be stale: sent before the queue emptied)
     if state not in allowed:
         return f"{command} is accepted in {'/'.join(allowed)} only; the controller was {state}"
     if command == "ENGAGE":
@@ -471,7 +467,7 @@ class OperatorNode:
                 pose=[f[n].value(w) for n in pr.POSE_SIGNALS],
                 force_mode=_name(FORCE_MODES, f["ForceMode"].raw(w)), contact=bool(f["Contact"].raw(w)),
                 drives_starting=bool(f["DrivesStarting"].raw(w)),
-                force_unmeasured=_legs(f["ForceUnmeasured"].raw(w)),
+                force_unmeasured=_legs(f["ForceUnmeasured"].raw(w)), refusals=f["Refusals"].raw(w),
                 auth_last=self.auth["last_counter"] if self.auth else -1, t=time.monotonic(),
                 stamp=float(msg.timestamp) if msg.timestamp else time.time())
             with self._cond:
@@ -542,46 +538,41 @@ class OperatorNode:
     def wait_for(self, command: str, done: Callable[[Status], bool], timeout: float,
                  mark: int, before: Status | None, sent_wall: float,
                  reject_window: int = 50, settle: int = 5) -> Answer:
-        """Waits until `done(status)`, or a refusal (CmdRejected within
-        `reject_window` statuses after the send).
+        """Waits until `done(status)` holds once the controller has carried
+        the command out, or a refusal.
 
-        CmdRejected lasts one tick, and the one status that carries it may
-        never arrive: a reader that falls behind the controller's ~2,600
-        frames a second (Python on a loaded machine) finds its receive
-        queue full, and the kernel drops what comes next. The statuses
-        missed are counted (Tick gaps); when some were, a command of
-        SWITCH_STATE_FROM that the controller has had (as below: CTRL_AUTH
-        showed its counter, then the command queue's depth of statuses
-        more) while the state stayed the one it was sent in was refused,
-        and is reported so, with the reason the state tells.
+        A refusal is told by CTRL_STATUS in two ways: CmdRejected on the one
+        status of the tick that refused it, and Refusals, the controller's
+        count of refused commands (modulo 8), kept on every later status.
+        This node may miss the first (a reader that falls behind the
+        controller's ~2,600 frames a second finds its receive queue full,
+        and the kernel drops what comes next); the second cannot be missed:
+        the command was refused when the count moved past the one of the
+        last status received before the send.
 
-        Only statuses the interface stamped after the command was sent
-        count (k = 1, 2, ...: the controller's ticks after the frame went on
-        the bus), so a backlog of older frames in the receive queue cannot
-        answer for it. `done` is believed once the state changed, or from
-        the `settle`-th status on (a command that changes no state: the
-        refusal would have come by then); for a signed command also not
-        before CTRL_AUTH has shown its counter accepted and the command
-        queue's depth of statuses more have come (the statuses counted from
-        the send may all come before the frame reached the controller, when
-        this process is held up between the two on a loaded machine)."""
+        The command was carried out once the controller had it and the
+        command queue's depth of statuses more came (one command executed
+        per tick): had it is, for a signed command, CTRL_AUTH showing its
+        counter accepted; for another, a status stamped after the send
+        returned (the frame was on the bus by then; this process may be held
+        up between its clock read and the send on a loaded machine). `done`
+        is believed from then on, and not before `settle` statuses, so a
+        command whose answer the state already showed (a second ENGAGE in
+        READY) is never taken for done before its refusal could count. Only
+        statuses the interface stamped after the send count, so a backlog
+        of older frames in the receive queue cannot answer for it."""
         end = time.monotonic() + timeout
         first_change: int | None = None
         idx = 0
         k = 0
-        # statuses stamped after the last send returned: only these can say
-        # the frame was not taken (this process may be held up between its
-        # clock read before the send and the send for many ticks)
         sent_after = max(self._sent_after, sent_wall)
         k_after = 0
         signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
-        taken_k: int | None = None  # the first status after CTRL_AUTH showed the frame accepted
-        prev_tick = self._mark_tick  # Tick of the last status seen (gaps: statuses the queue dropped)
+        taken_k: int | None = None    # the first status at which the controller had the frame
+        carried_out = False           # the command queue's depth of statuses after taken_k
+        refusals = before.refusals if before is not None else None  # the count before the send
+        prev_tick = self._mark_tick   # Tick of the last status seen (gaps: statuses the queue dropped)
         missed = 0
-        switch = before is not None and SWITCH_STATE_FROM.get(command) == before.state
-        # a command the state before it does not take: only a change of state says it was taken (its
-        # CmdRejected status may be among those this node missed; ENGAGE in READY is "done" already)
-        unaccepted = before is not None and before.state not in ACCEPTED_IN.get(command, STATES)
         while True:
             with self._cond:
                 while idx >= len(self.statuses):
@@ -601,15 +592,22 @@ class OperatorNode:
                     missed += st.tick - prev_tick - 1
                 prev_tick = st.tick
                 if st.stamp < sent_wall:
+                    refusals = st.refusals  # sent before the command was: its count cannot hold the refusal
                     continue
                 k += 1
                 k_after += st.stamp >= sent_after
-                if st.cmd_rejected and k <= reject_window:
+                if st.cmd_rejected and not carried_out and k <= reject_window:
                     raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
+                if not carried_out and refusals is not None and st.refusals != refusals:
+                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)} (CTRL_STATUS "
+                                  f"Refusals went from {refusals} to {st.refusals}; the status that said "
+                                  f"CmdRejected was not heard: {missed} status(es) missed since the send)")
                 if first_change is None and before is not None and st.state != before.state:
                     first_change = k
-                if taken_k is None and (signed is None or st.auth_last >= signed):
+                if taken_k is None and k_after > 0 and (signed is None or st.auth_last >= signed):
                     taken_k = k
+                if taken_k is not None and k >= taken_k + COMMAND_QUEUE:
+                    carried_out = True
                 if k_after == reject_window and first_change is None and signed is not None and taken_k is None:
                     why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
                     raise Refused(f"{command} rejected: {why}")
@@ -617,21 +615,7 @@ class OperatorNode:
                     why = self.auth_reason()  # another process's counters went past this one's
                     if why is not None:
                         raise Refused(f"{command} rejected: {why}")
-                if k_after == reject_window and unaccepted and first_change is None:
-                    # the refusal's status frame was not seen, but nothing happened
-                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
-                if switch and missed and first_change is None and taken_k is not None \
-                        and k >= taken_k + COMMAND_QUEUE and not done(st):
-                    # carried out by now: taken, the state would have changed
-                    why = self.auth_reason() if signed is not None else None
-                    if why is not None:  # another process's counter went past this one's
-                        raise Refused(f"{command} rejected: {why}")
-                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)} (the controller "
-                                  f"had the command and stayed {st.state}; the status that said CmdRejected "
-                                  f"was among the {missed} status(es) this node missed)")
-                if done(st) and (first_change is not None
-                                 or (not unaccepted and k >= settle and taken_k is not None
-                                     and k >= taken_k + COMMAND_QUEUE)):
+                if done(st) and carried_out and k >= settle:
                     self._keep_statuses = False
                     return Answer(command, st, first_change if first_change is not None else k,
                                   st.t - self._sent_mono)

@@ -157,6 +157,8 @@ typedef struct {
     uint8_t drives_starting;     /**< DrivesStarting: 1 while the CANopen master starts the drives (ENGAGE refused) */
     uint8_t force_unmeasured;    /**< ForceUnmeasured: bit i, leg i + 1's drive measures no cylinder force (6 bits;
                                       higher bits are not sent) */
+    uint8_t refusals;            /**< Refusals: commands refused since start, modulo 8 (3 bits; higher bits are
+                                      not sent), so that a reader missing the CmdRejected status still sees it */
 } sp_msg_status_t;
 
 typedef struct {
