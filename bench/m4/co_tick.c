@@ -83,6 +83,7 @@ __attribute__((noipa)) static sp_status_t run_whole(uint32_t n, uint32_t now)
         (void)sp_co_master_receive(&m, &co_link.master, &rx[i], now);
     }
     (void)sp_co_link_feedback(&m, &co_link, sc.in.drive);
+    sc.in.setpoints_idle = sp_co_link_setpoints_idle(&co_link, &m);
     st = sp_ctrl_step(&sc.cfg, &sc.ctrl, &sc.in, &sc.out);
     (void)sp_co_link_input_due(&co_link, &m, &sc.out, now, &min);
     (void)sp_co_master_step(&m, &co_link.master, &min, &mout);
@@ -101,6 +102,7 @@ __attribute__((noipa)) static void run_receive(uint32_t n, uint32_t now)
 __attribute__((noipa)) static void run_feedback(void)
 {
     (void)sp_co_link_feedback(&m, &co_link, sc.in.drive);
+    sc.in.setpoints_idle = sp_co_link_setpoints_idle(&co_link, &m);
 }
 
 __attribute__((noipa)) static sp_status_t run_ctrl(void)
@@ -210,7 +212,6 @@ static void run_scenario(uint8_t motion, uint8_t divider, int parts, counts_t *r
         m4_stat_reset(&r->sum);
     }
     (void)m4_scenario_init(&sc, &sp_platform_default, motion);
-    sc.cfg.feedback_timeout_ticks = (uint32_t)divider + 2u; /* feedback every `divider` ticks */
     (void)sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik);
     (void)sp_co_link_cfg_default(&co_link, &sp_platform_default, ik.length);
     co_link.master.sync_divider = divider;
@@ -219,6 +220,9 @@ static void run_scenario(uint8_t motion, uint8_t divider, int parts, counts_t *r
     for (k = 0u; k < co_link.master.n_nodes; k++) {
         co_link.master.node[k].force_ff = 1u; /* 0x2120 in RPDO1 */
     }
+    /* feedback every `divider` ticks: the controller's timeout and feedback period */
+    (void)sp_co_link_ctrl_config(&co_link, &sc.cfg);
+    (void)sp_ctrl_init(&sc.ctrl, &sc.cfg);
     (void)sp_co_master_init(&m);
     (void)sp_co_master_start(&m, &co_link.master, 0u);
     for (k = 0u; k < co_link.master.n_nodes; k++) { /* as after the start-up */

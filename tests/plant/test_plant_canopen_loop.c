@@ -85,6 +85,7 @@ static void init_ff(loop_t *r, int native, uint8_t divider, uint8_t force_ff)
     assert_int_equal(hs_plant_init(&r->plant, &r->par, hs_config_default.park), HS_OK);
     assert_int_equal(sp_ctrl_default_config(&r->cfg, &sp_platform_default), SP_OK);
     r->cfg.feedback_timeout_ticks = (uint32_t)divider + 2u;
+    r->cfg.feedback_divider = divider; /* as sp_co_link_ctrl_config sets it */
     assert_int_equal(sp_ctrl_init(&r->ctrl, &r->cfg), SP_OK);
     assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sp_platform_default.park, &ik), SP_OK);
     for (i = 0; i < SP_LEGS; i++) {
@@ -152,6 +153,7 @@ static void canopen_tick(loop_t *r)
     sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
     uint8_t n, i;
     (void)sp_co_link_feedback(&r->m, &r->link, r->in.drive);
+    r->in.setpoints_idle = sp_co_link_setpoints_idle(&r->link, &r->m);
     assert_int_equal(sp_ctrl_step(&r->cfg, &r->ctrl, &r->in, &r->out), SP_OK);
     (void)sp_co_link_input_due(&r->link, &r->m, &r->out, r->now, &r->min);
     assert_int_equal(sp_co_master_step(&r->m, &r->link.master, &r->min, &r->mout), SP_OK);

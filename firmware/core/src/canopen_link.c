@@ -161,3 +161,23 @@ sp_status_t sp_co_link_input_due(const sp_co_link_cfg_t *cfg, const sp_co_master
     link_request(out, now_ms, in);
     return SP_OK;
 }
+
+sp_status_t sp_co_link_ctrl_config(const sp_co_link_cfg_t *cfg, sp_ctrl_config_t *ctrl)
+{
+    if (cfg == NULL || ctrl == NULL || cfg->master.sync_divider == 0u) {
+        return SP_E_ARG;
+    }
+    ctrl->feedback_divider = cfg->master.sync_divider;
+    if (ctrl->feedback_timeout_ticks <= cfg->master.sync_divider) {
+        ctrl->feedback_timeout_ticks = (uint32_t)cfg->master.sync_divider + 2u;
+    }
+    return SP_OK;
+}
+
+uint8_t sp_co_link_setpoints_idle(const sp_co_link_cfg_t *cfg, const sp_co_master_t *m)
+{
+    if (cfg == NULL || m == NULL) {
+        return 1u;
+    }
+    return (uint8_t)(sp_co_master_sync_due(m, &cfg->master) ? 0u : 1u);
+}

@@ -67,6 +67,7 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->operator_timeout_ticks = 200u;
     cfg->drive_reset_ticks = 20u;
     cfg->operator_park = 0u;
+    cfg->feedback_divider = 1u;
     return SP_OK;
 }
 
@@ -110,21 +111,29 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     const sp_platform_t *p;
     sp_status_t st;
     unsigned i;
-    if (ctrl == NULL || cfg == NULL || cfg->platform == NULL) {
+    uint32_t div;
+    if (ctrl == NULL || cfg == NULL || cfg->platform == NULL || cfg->feedback_divider > 255u ||
+        cfg->tick_us > UINT32_MAX / 255u) {
         return SP_E_ARG;
     }
     p = cfg->platform;
+    /* the cylinders' estimate steps once per feedback period (below 1: every tick) */
+    div = (cfg->feedback_divider > 1u) ? cfg->feedback_divider : 1u;
+    ctrl->prep.feedback_us = cfg->tick_us * div;
     st = sp_friction_prepare(p, &ctrl->prep.friction);
     /* the observer's parameters, once: a platform it cannot run with
      * leaves the estimate on the feed-forward's friction, as before */
     ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
     /* its slow legs' exps, once (SP_E_ARG: an empty table, not used) */
-    (void)sp_fric_table_prepare(p, cfg->tick_us, &ctrl->fric_table);
+    (void)sp_fric_table_prepare(p, ctrl->prep.feedback_us, &ctrl->fric_table);
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     }
     if (st == SP_OK) {
-        st = sp_wrench_alpha(cfg->wrench_smooth_hz, cfg->tick_us, &ctrl->prep.wrench_smooth.alpha);
+        st = sp_wrench_alpha(cfg->wrench_cutoff_hz, ctrl->prep.feedback_us, &ctrl->prep.cyl_alpha);
+    }
+    if (st == SP_OK) {
+        st = sp_wrench_alpha(cfg->wrench_smooth_hz, ctrl->prep.feedback_us, &ctrl->prep.wrench_smooth.alpha);
     }
     if (st == SP_OK && (cfg->wrench_jump[0] < 1 || cfg->wrench_jump[1] < 1 || cfg->wrench_jump_persist < 1u ||
                         cfg->wrench_jump_hold < 1u)) {
@@ -133,11 +142,12 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st == SP_OK) {
         ctrl->prep.wrench_smooth.jump[0] = cfg->wrench_jump[0];
         ctrl->prep.wrench_smooth.jump[1] = cfg->wrench_jump[1];
-        ctrl->prep.wrench_smooth.persist = cfg->wrench_jump_persist;
-        ctrl->prep.wrench_smooth.hold = cfg->wrench_jump_hold;
+        /* counts of ticks, in the smoother's steps (one per feedback period), rounded up */
+        ctrl->prep.wrench_smooth.persist = (uint8_t)((cfg->wrench_jump_persist + div - 1u) / div);
+        ctrl->prep.wrench_smooth.hold = (uint8_t)((cfg->wrench_jump_hold + div - 1u) / div);
     }
     if (st == SP_OK) {
-        st = sp_motion_error_init(&ctrl->motion_error, cfg->tick_us);
+        st = sp_motion_error_init(&ctrl->motion_error, ctrl->prep.feedback_us);
     }
     if (st == SP_OK) {
         ctrl->prep.force = cfg->force;
@@ -185,6 +195,9 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->park_after = 0u;
     ctrl->have_setpoint = 0u;
     ctrl->setpoint_ff = 0u;
+    ctrl->model_pose = p->park;
+    ctrl->model_current = 1u;
+    ctrl->setpoints_deferred = 0u;
     ctrl->legs.held = 0u; /* no leg terms kept: the first setpoints compute every leg */
     ctrl->legs.fresh = 0u;
     /* the forces' factorisation made every SP_CTRL_LU_KEEP ticks, the
@@ -379,9 +392,9 @@ SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
             follow_reference(ctrl);
         }
     } else {
-        /* ctrl->model.ref is the IK of ctrl->reference.pose while est.ref_lu
+        /* ctrl->model.ref is the IK of ctrl->model_pose while est.ref_lu
          * is valid (both written by the last successful sp_setpoints_of) */
-        if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->reference.pose, &ctrl->model.ref,
+        if (sp_estimate_step(cfg->platform, &ctrl->est, ctrl->sup.last_length, &ctrl->model_pose, &ctrl->model.ref,
                              &iterations) != SP_OK &&
             active) {
             raise_fault(cfg, ctrl, SP_FAULT_FK);
@@ -410,12 +423,12 @@ static void start_running(sp_ctrl_t *ctrl, sp_motion_mode_t mode)
 }
 
 /* Is a motion's end reachable (sp_limits_pose_reachable's verdict)? From
- * the last reference, whose IK lengths ctrl->model.ref keeps while its
- * factorisation is valid: an end near it needs no IK. */
+ * the model's reference (model_pose), whose IK lengths ctrl->model.ref
+ * keeps while its factorisation is valid: an end near it needs no IK. */
 static int end_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *end)
 {
     int known = ctrl->est.ref_lu.valid && ctrl->have_setpoint;
-    return sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->reference.pose,
+    return sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose,
                                          known ? ctrl->model.ref.length : NULL, end);
 }
 
@@ -701,7 +714,7 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
 static int take_stream_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *target)
 {
     int known = ctrl->est.ref_lu.valid && ctrl->have_setpoint;
-    return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->reference.pose,
+    return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->model_pose,
                            known ? ctrl->model.ref.length : NULL);
 }
 
@@ -819,6 +832,8 @@ static void hold_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
         ctrl->setpoint[i].velocity = 0;
     }
     copy_motion(&ctrl->reference, ref);
+    ctrl->model_pose = ref->pose;
+    ctrl->model_current = 1u;
     ctrl->est.ref_lu.valid = 0u; /* no factorisation at this reference */
 }
 
@@ -857,7 +872,7 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     sp_status_t st = SP_E_OVERFLOW;
     unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
     unsigned i;
-    int same = ctrl->have_setpoint && same_motion(ref, &ctrl->reference);
+    int same = ctrl->have_setpoint && ctrl->model_current && same_motion(ref, &ctrl->reference);
     if (flags == 0u && same && ctrl->est.ref_lu.valid && ctrl->setpoint_ff == ff && ctrl->legs_exact == SP_ALL_LEGS &&
         ctrl->legs.lu_age == 0u) {
         return 1;
@@ -897,6 +912,8 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         ctrl->have_setpoint = 1u;
         ctrl->setpoint_ff = (uint8_t)ff;
         copy_motion(&ctrl->reference, ref);
+        ctrl->model_pose = ref->pose;
+        ctrl->model_current = 1u;
         return 1;
     }
     ctrl->est.ref_lu.valid = 0u; /* the reference stays the previous one */
@@ -907,7 +924,51 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         ctrl->setpoint[i].velocity = 0;
     }
     sp_motion_at_rest(&ctrl->reference, &ctrl->reference.pose);
+    ctrl->model_pose = ctrl->reference.pose;
+    ctrl->model_current = 1u;
     return 0;
+}
+
+/* A tick whose setpoints nobody sends (setpoints_idle: CANopen drives
+ * between SYNCs): the reference advances (the estimate follows it, the
+ * divergence check and the report use it), the setpoints and the model
+ * stay those of model_pose; the next tick that sends computes them for
+ * its own reference. Returns whether the kept model is valid (the wrench
+ * estimate's, on a tick with fresh feedback). */
+static int idle_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
+{
+    if (ctrl->model_current && !same_motion(ref, &ctrl->reference)) {
+        ctrl->model_current = 0u;
+    }
+    copy_motion(&ctrl->reference, ref);
+    return (ctrl->have_setpoint && ctrl->est.ref_lu.valid) ? 1 : 0;
+}
+
+/* The setpoints of a tick with divided feedback (feedback_divider > 1:
+ * CANopen drives that take setpoints and answer once per SYNC period).
+ * A tick that sends none keeps them (idle_setpoints), except that the
+ * first setpoints after a hold (no factorisation at the reference: every
+ * term and the whole factorisation to make, ENGAGE's or RESET's first) are
+ * made on a tick that neither sends nor receives; a tick that sends them
+ * while they are still to be made holds once (the reference's first
+ * sample is at rest where the platform stands: the held lengths) and
+ * leaves them to such a tick, so that the costliest setpoints never share
+ * a tick with the SYNC's frames or the answers' estimate. A second sending
+ * tick in a row makes them (a divider of 2 has no quiet tick). Returns
+ * whether a model of the tick's or a kept reference is valid. */
+static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, int idle, int heard)
+{
+    int fresh = ctrl->est.ref_lu.valid;
+    if (idle) {
+        return (!fresh && !heard) ? motion_setpoints(cfg, ctrl, ref, 0u) : idle_setpoints(ctrl, ref);
+    }
+    if (!fresh && !ctrl->setpoints_deferred) {
+        ctrl->setpoints_deferred = 1u;
+        hold_setpoints(ctrl, ref);
+        return 0;
+    }
+    ctrl->setpoints_deferred = 0u;
+    return motion_setpoints(cfg, ctrl, ref, 0u);
 }
 
 /* ---- 6. the external wrench ------------------------------------------------ */
@@ -931,7 +992,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
          * failure (bad parameters) leaves the feed-forward's friction */
         sp_status_t st = ctrl->prep.fric_obs_ok
                              ? spi_fric_obs_step_checked(cfg->platform, &ctrl->fric_obs, &ctrl->fric_table,
-                                                         ctrl->sup.last_length, cfg->tick_us, observed)
+                                                         ctrl->sup.last_length, ctrl->prep.feedback_us, observed)
                              : SP_E_ARG;
         friction = (st == SP_OK || st == SP_E_OVERFLOW) ? observed : NULL;
     }
@@ -944,7 +1005,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
      * estimate - reference, into the filter with the force path's wrench */
     if (ok && ctrl->est.valid) {
         sp_q24_t da[6];
-        if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->reference.pose, da) != SP_E_BUSY &&
+        if (sp_motion_error_step(&ctrl->motion_error, &ctrl->est.pose, &ctrl->model_pose, da) != SP_E_BUSY &&
             sp_motion_error_wrench_m6(&ctrl->prep.motion_body, &ctrl->model.rot, ctrl->model.ref.sc, da, dw) !=
                 SP_E_ARG) {
             correction = dw;
@@ -953,7 +1014,7 @@ SPI_NOINLINE static void wrench(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, in
         sp_motion_error_reset(&ctrl->motion_error);
     }
     sp_wrench_step(&ctrl->wrench, ok ? &ctrl->model : NULL, friction, ctrl->sup.last_force, correction,
-                   ctrl->prep.wrench_alpha);
+                   ctrl->prep.cyl_alpha);
     sp_wrench_smooth(&ctrl->wrench, &ctrl->prep.wrench_smooth);
 }
 
@@ -1238,12 +1299,19 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         if ((ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) && force_control(cfg, ctrl, &forced)) {
             ref = &forced;
         }
-        have_model = motion_setpoints(cfg, ctrl, ref, flags);
+        if (flags == 0u && cfg->feedback_divider > 1u) {
+            have_model = divided_setpoints(cfg, ctrl, ref, in->setpoints_idle, heard);
+        } else {
+            have_model = (in->setpoints_idle && flags == 0u) ? idle_setpoints(ctrl, ref)
+                                                             : motion_setpoints(cfg, ctrl, ref, flags);
+        }
     }
     if ((ctrl->prep.force.contact_ff && ctrl->force.mode == SP_FORCE_FORCE) || ctrl->contact_ff_cols != 0u) {
         contact_ff_prepare(cfg, ctrl); /* out of line: position control pays one test */
     }
-    wrench(cfg, ctrl, have_model);
+    if (cfg->feedback_divider <= 1u || heard) {
+        wrench(cfg, ctrl, have_model); /* a divided feedback: once per answer, at the model it was measured at */
+    }
     cylinder_wrench(cfg, ctrl);
     check_divergence(cfg, ctrl);
     if (ctrl->state == SP_STATE_FAULT && !park_reaction_active(ctrl)) {

@@ -197,6 +197,7 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
     if (co.on) {
         co.now_ms++;
         (void)sp_co_link_feedback(&co.m, &co.link, node->in.drive);
+        node->in.setpoints_idle = sp_co_link_setpoints_idle(&co.link, &co.m); /* setpoints on SYNC ticks only */
         node->drives_starting =
             (uint8_t)(co.out.all_running ? 0u : 1u); /* the master's last step: ENGAGE refused until all run */
     }
@@ -359,9 +360,10 @@ int main(int argc, char **argv)
     if (fb_timeout > 0) {
         cfg.ctrl.feedback_timeout_ticks = (uint32_t)fb_timeout;
     }
-    if (co.on && cfg.ctrl.feedback_timeout_ticks <= co.link.master.sync_divider) {
+    if (co.on && sp_co_link_ctrl_config(&co.link, &cfg.ctrl) != SP_OK) {
         /* CANopen feedback comes every sync_divider ticks */
-        cfg.ctrl.feedback_timeout_ticks = (uint32_t)co.link.master.sync_divider + 2u;
+        fprintf(stderr, "sp_controller: the CANopen layout's SYNC divider is 0\n");
+        return 1;
     }
     if (op_timeout >= 0) {
         cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;

@@ -107,8 +107,8 @@ static sp_status_t co_init(void)
         g_co.master.master_heartbeat_ms = sp_co_layout_default.master.master_heartbeat_ms;
         g_co.master.master_node_id = sp_co_layout_default.master.master_node_id;
     }
-    if (g_cfg.ctrl.feedback_timeout_ticks <= g_co.master.sync_divider) {
-        g_cfg.ctrl.feedback_timeout_ticks = (uint32_t)g_co.master.sync_divider + 2u;
+    if (sp_co_link_ctrl_config(&g_co, &g_cfg.ctrl) != SP_OK) { /* feedback every sync_divider ticks */
+        return SP_E_ARG;
     }
     if (sp_co_master_init(&g_com) != SP_OK || sp_co_master_start(&g_com, &g_co.master, 0u) != SP_OK) {
         return SP_E_ARG;
@@ -143,6 +143,7 @@ __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
 #if SP_DRIVE_CIA408
     g_co_now++;
     (void)sp_co_link_feedback(&g_com, &g_co, g_node.in.drive);
+    g_node.in.setpoints_idle = sp_co_link_setpoints_idle(&g_co, &g_com); /* setpoints on SYNC ticks only */
     g_node.drives_starting =
         (uint8_t)(g_coout.all_running ? 0u : 1u); /* the master's last step: ENGAGE refused until all run */
 #endif

@@ -7,7 +7,8 @@
  * Per tick, in this order:
  *  1. sp_co_master_receive() for the frames received since the last tick
  *     (the TPDOs answering the last SYNC);
- *  2. sp_co_link_feedback(): the controller's drive feedback from them;
+ *  2. sp_co_link_feedback(): the controller's drive feedback from them,
+ *     and sp_co_link_setpoints_idle(): whether this tick's setpoints leave;
  *  3. sp_ctrl_step();
  *  4. sp_co_link_input() (or sp_co_link_input_due(), once per SYNC
  *     period): the master's request and setpoints from the controller's
@@ -19,8 +20,10 @@
  * feed-forward goes only to drives configured with the vendor object
  * 0x2120 in RPDO1 (force_ff; docs/canopen.md says why); CiA 402 drives
  * with force_ff get it as their torque/force offset 0x60B2. With a SYNC
- * divider d the feedback arrives every d ticks: the controller's
- * feedback_timeout_ticks must exceed d.
+ * divider d the feedback arrives every d ticks: sp_co_link_ctrl_config
+ * makes the controller's config fit (feedback_divider d, a feedback
+ * timeout above d), and the controller computes setpoints only for the
+ * ticks that send them.
  */
 #ifndef SP_CANOPEN_LINK_H
 #define SP_CANOPEN_LINK_H
@@ -116,5 +119,21 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
  */
 sp_status_t sp_co_link_input_due(const sp_co_link_cfg_t *cfg, const sp_co_master_t *m, const sp_ctrl_output_t *out,
                                  uint32_t now_ms, sp_co_master_input_t *in);
+
+/**
+ * The controller's config for this layout's SYNC divider d (1..255):
+ * feedback_divider = d, and feedback_timeout_ticks d + 2 when it is d or
+ * less (feedback comes every d ticks). Call before sp_ctrl_init. SP_E_ARG
+ * for NULL or a divider of 0.
+ */
+sp_status_t sp_co_link_ctrl_config(const sp_co_link_cfg_t *cfg, sp_ctrl_config_t *ctrl);
+
+/**
+ * sp_ctrl_input_t.setpoints_idle for this tick: 1 when the master step
+ * after the controller's sends no SYNC (sp_co_master_sync_due 0, also
+ * while the master is not started), else 0. Call after
+ * sp_co_master_receive and before sp_ctrl_step. 1 for NULL.
+ */
+uint8_t sp_co_link_setpoints_idle(const sp_co_link_cfg_t *cfg, const sp_co_master_t *m);
 
 #endif /* SP_CANOPEN_LINK_H */

@@ -201,6 +201,10 @@ typedef struct {
                                   stays); refused too once STOP or PARK has sent the filter home */
     uint8_t ft_fresh;           /**< 1 if a force/torque sensor reading arrived */
     sp_q8_t ft_reading[6];      /**< the sensor's wrench on the tool, its axes, about its origin, N, N m, Q8 */
+    uint8_t setpoints_idle;     /**< 1: no setpoint leaves this tick (CANopen drives between SYNCs,
+                                     sp_co_master_sync_due 0): the reference advances, but its setpoints
+                                     and model are not computed (the last ones are kept); 0 (native
+                                     drives, every tick): computed */
 } sp_ctrl_input_t;
 
 typedef struct {
@@ -264,6 +268,12 @@ typedef struct {
     uint8_t operator_park;           /**< the silent operator's reaction: 0 STOP (back to READY), 1 PARK */
     uint32_t drive_reset_ticks;      /**< ticks RESET waits for the drives to clear their faults after the
                                           fault-reset edge before reporting the reset refused (20) */
+    uint32_t feedback_divider;       /**< ticks between the drives' feedback: 1 (or 0) every tick (native);
+                                          CANopen drives answer each SYNC, every sync_divider ticks. Above 1
+                                          the cylinders' wrench estimate, its friction observer and motion
+                                          correction step only on ticks with fresh feedback, their filters
+                                          made for that period (the smoother's persist and hold counts
+                                          divided by it, rounded up); 1..255, else sp_ctrl_init SP_E_ARG */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
@@ -283,7 +293,11 @@ typedef struct {
     sp_limits_t limits;               /**< workspace box, stroke, rate and force limits, joint reach */
     sp_stream_gains_t stream;         /**< the stream filter's dt and gains */
     sp_friction_t friction;           /**< the cylinders' friction model */
-    sp_q30_t wrench_alpha;            /**< the wrench filter's gain (sp_wrench_alpha) */
+    sp_q30_t wrench_alpha;            /**< the wrench filter's gain (sp_wrench_alpha) at the tick: the sensor's
+                                           path and the admittance */
+    sp_q30_t cyl_alpha;               /**< the cylinders' estimate's filter gain at the feedback period
+                                           (wrench_alpha when feedback_divider is 1) */
+    uint32_t feedback_us;             /**< the feedback period, us: tick_us * feedback_divider */
     sp_wrench_smooth_t wrench_smooth; /**< the reported estimate's smoother (sp_wrench_smooth) */
     uint8_t fric_obs_ok;              /**< 1: the platform's friction passed sp_fric_obs_check */
     sp_me_m6_t motion_body;           /**< the rigid body with the legs' inertia at home, for the wrench's
@@ -369,7 +383,12 @@ typedef struct {
     sp_trig_t trig;                  /**< RUN_TRIG's generator */
     sp_move_t move;                  /**< engage, park, MOVE_TO and the fault reaction's park move */
     sp_stream_t stream;              /**< STREAM's filter */
-    sp_motion_t reference;           /**< the last accepted reference */
+    sp_motion_t reference;           /**< the last accepted reference (advances on setpoints_idle ticks too) */
+    sp_pose_t model_pose;            /**< the reference pose that model, est.ref_lu and the setpoints were made
+                                          at: reference.pose but after setpoints_idle ticks */
+    uint8_t model_current;           /**< 1: model is of reference (no setpoints_idle tick moved it since) */
+    uint8_t setpoints_deferred;      /**< divided feedback: 1 when the last sending tick held, leaving the
+                                          first setpoints after a hold to a quiet tick */
     sp_setpoint_t setpoint[SP_LEGS]; /**< the last setpoints sent */
     uint8_t have_setpoint;           /**< 1 once a reference passed every limit */
     uint8_t setpoint_ff;             /**< the feed-forward switches (SP_FF_*) the last setpoints were made with */
