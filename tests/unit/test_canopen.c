@@ -1017,6 +1017,8 @@ static void test_link_input_due(void **state)
     cfg.master.pressure_feedback = 1u;
     assert_int_equal(sp_co_link_cfg_check(&cfg), SP_OK);
     assert_int_equal(sp_co_master_sync_due(&ma, &cfg.master), 0); /* not started */
+    assert_int_equal(sp_co_link_setpoints_idle(&cfg, &ma), 1);
+    assert_int_equal(sp_co_link_setpoints_idle(NULL, &ma), 1);
     assert_int_equal(sp_co_master_init(&ma), SP_OK);
     assert_int_equal(sp_co_master_init(&mb), SP_OK);
     assert_int_equal(sp_co_master_start(&ma, &cfg.master, 0u), SP_OK);
@@ -1030,6 +1032,7 @@ static void test_link_input_due(void **state)
     memset(&ib, 0, sizeof ib);
     for (t = 1u; t <= 300u; t++) {
         int due = sp_co_master_sync_due(&mb, &cfg.master);
+        assert_int_equal(sp_co_link_setpoints_idle(&cfg, &mb), due ? 0 : 1);
         out.drive_mode = (t / 50u) % 2u == 0u ? SP_DRIVE_ACTIVE : SP_DRIVE_HOLD;
         for (k = 0u; k < SP_LEGS; k++) {
             out.setpoint[k].length = (sp_q24_t)(t * 977u + k * 100000u);
@@ -1051,6 +1054,30 @@ static void test_link_input_due(void **state)
     }
     assert_int_equal(sp_co_link_input_due(NULL, &mb, &out, 1u, &ib), SP_E_ARG);
     assert_int_equal(sp_co_link_input_due(&cfg, NULL, &out, 1u, &ib), SP_E_ARG);
+}
+
+/* The controller's config for a layout: the feedback period is the SYNC
+ * divider, and a feedback timeout at or below it is raised above it (one
+ * above is kept); a divider of 0 is refused. */
+static void test_link_ctrl_config(void **state)
+{
+    sp_co_link_cfg_t cfg;
+    sp_ctrl_config_t ctrl;
+    sp_q24_t zero[SP_LEGS] = {0, 0, 0, 0, 0, 0};
+    (void)state;
+    assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
+    assert_int_equal(sp_ctrl_default_config(&ctrl, &sp_platform_default), SP_OK);
+    assert_int_equal(ctrl.feedback_divider, 1u);
+    cfg.master.sync_divider = 3u;
+    assert_int_equal(sp_co_link_ctrl_config(&cfg, &ctrl), SP_OK);
+    assert_int_equal(ctrl.feedback_divider, 3u);
+    assert_int_equal(ctrl.feedback_timeout_ticks, 5u);
+    ctrl.feedback_timeout_ticks = 4u;
+    assert_int_equal(sp_co_link_ctrl_config(&cfg, &ctrl), SP_OK);
+    assert_int_equal(ctrl.feedback_timeout_ticks, 4u);
+    cfg.master.sync_divider = 0u;
+    assert_int_equal(sp_co_link_ctrl_config(&cfg, &ctrl), SP_E_ARG);
+    assert_int_equal(sp_co_link_ctrl_config(NULL, &ctrl), SP_E_ARG);
 }
 
 /* The wrench estimate's validity follows the drives' force measurement:
@@ -1223,6 +1250,7 @@ int main(void)
         cmocka_unit_test(test_link),
         cmocka_unit_test(test_link_wrench_validity),
         cmocka_unit_test(test_link_input_due),
+        cmocka_unit_test(test_link_ctrl_config),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1034,6 +1034,106 @@ static void test_set_wrench_source(void **state)
     assert_int_equal(sp_ctrl_set_wrench_source(NULL, SP_WRENCH_SENSOR, NULL), SP_E_ARG);
 }
 
+/* One tick of CANopen drives at SYNC every 3 ticks (feedback_divider 3):
+ * phase 0 sends setpoints (the drives take them), the others are
+ * setpoints_idle; the drives' answers, fresh, arrive on phase 1. */
+static void divided_tick(rig_t *r, sp_cmd_type_t cmd, unsigned phase)
+{
+    for (int i = 0; i < SP_LEGS; ++i) {
+        r->in.drive[i].fresh = (uint8_t)(phase == 1u ? 1u : 0u);
+        r->in.drive[i].length = r->plant_length[i];
+        r->in.drive[i].force = 0;
+    }
+    r->in.setpoints_idle = (uint8_t)(phase != 0u ? 1u : 0u);
+    r->in.cmd.type = cmd;
+    assert_int_equal(sp_ctrl_step(&r->cfg, &r->ctrl, &r->in, &r->out), SP_OK);
+    r->in.cmd.type = SP_CMD_NONE;
+    if (phase == 0u && r->out.drive_mode == SP_DRIVE_ACTIVE) {
+        for (int i = 0; i < SP_LEGS; ++i) {
+            r->plant_length[i] = r->out.setpoint[i].length;
+        }
+    }
+}
+
+/* Divided feedback (setpoints and answers once per SYNC period of 3
+ * ticks): ENGAGE taken on a sending tick holds there (the lengths where
+ * the platform stands, no force), the answers' tick makes nothing, the
+ * quiet tick after makes the setpoints; in the surge every sending tick
+ * carries its own reference's setpoints (sp_setpoints_of's lengths and
+ * rates, forces within 5 N: refined from a factorisation up to 8 sending
+ * ticks old), the idle ticks keep them bit for bit while the reported
+ * reference moves, and the wrench estimate steps only on the answers'
+ * ticks. A divider above 255 is refused by sp_ctrl_init. */
+static void test_divided_feedback(void **state)
+{
+    (void)state;
+    static rig_t r;
+    unsigned t = 1u;
+    unsigned moved = 0u;
+    unsigned idle = 0u;
+    double worst = 0.0;
+    rig_init(&r);
+    r.cfg.feedback_divider = 256u;
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_E_ARG);
+    r.cfg.feedback_divider = 3u;
+    r.cfg.feedback_timeout_ticks = 5u;
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
+    for (; t < 6u; ++t) {
+        divided_tick(&r, SP_CMD_NONE, t % 3u);
+    }
+    assert_int_equal(t % 3u, 0u);
+    assert_true(r.out.estimate_valid);
+    divided_tick(&r, SP_CMD_ENGAGE, t++ % 3u);
+    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(r.ctrl.setpoints_deferred, 1);
+    assert_int_equal(r.ctrl.est.ref_lu.valid, 0);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_int_equal(r.out.setpoint[i].length, r.in.drive[i].length);
+        assert_int_equal(r.out.setpoint[i].force, 0);
+    }
+    divided_tick(&r, SP_CMD_NONE, t++ % 3u); /* the answers */
+    assert_int_equal(r.ctrl.est.ref_lu.valid, 0);
+    divided_tick(&r, SP_CMD_NONE, t++ % 3u); /* quiet: made here */
+    assert_int_equal(r.ctrl.est.ref_lu.valid, 1);
+    for (int n = 0; n < 20000 && r.out.state != SP_STATE_READY; ++n) {
+        divided_tick(&r, SP_CMD_NONE, t++ % 3u);
+    }
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    while (t % 3u != 0u) {
+        divided_tick(&r, SP_CMD_NONE, t++ % 3u);
+    }
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    divided_tick(&r, SP_CMD_RUN_TRIG, t++ % 3u);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    for (int n = 0; n < 3000; ++n) {
+        unsigned phase = t++ % 3u;
+        sp_setpoint_t before[SP_LEGS];
+        sp_pose_t ref_before = r.out.reference.pose;
+        sp_wrench_t w_before = r.ctrl.wrench;
+        memcpy(before, r.out.setpoint, sizeof before);
+        divided_tick(&r, SP_CMD_NONE, phase);
+        assert_int_equal(r.out.state, SP_STATE_RUNNING);
+        if (phase == 0u) {
+            worst = fmax(worst, check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, 5.0));
+        } else {
+            idle++;
+            assert_memory_equal(before, r.out.setpoint, sizeof before);
+            moved += (memcmp(&ref_before, &r.out.reference.pose, sizeof ref_before) != 0) ? 1u : 0u;
+        }
+        if (phase != 1u) {
+            assert_memory_equal(&w_before, &r.ctrl.wrench, sizeof w_before);
+        }
+    }
+    print_message("divided feedback: sending ticks' forces within %.3f N of sp_setpoints_of; the reference moved on "
+                  "%u of %u idle ticks\n",
+                  worst, moved, idle);
+    assert_true(moved >= idle * 9u / 10u);
+    assert_int_equal(r.out.faults, 0);
+}
+
 /* One tick with an operator heartbeat when `beat`. */
 static void link_tick(rig_t *r, sp_cmd_type_t cmd, int beat)
 {
@@ -1705,6 +1805,7 @@ int main(void)
         cmocka_unit_test(test_trig_first_sample),
         cmocka_unit_test(test_engage_run_park),
         cmocka_unit_test(test_rest_reuses_setpoints),
+        cmocka_unit_test(test_divided_feedback),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),
         cmocka_unit_test(test_reset_refused_while_silent),
         cmocka_unit_test(test_reset_clears_drive_faults),
