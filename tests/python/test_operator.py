@@ -321,6 +321,26 @@ def test_node_counts_bad_frames(ctrl):
         node.close()
 
 
+def test_node_reads_the_monitor_only_when_asked(ctrl):
+    """CTRL_MONITOR and CTRL_WRENCH (1.5 kHz together) are read only by a
+    node that shows them (`stewart op watch`): the others leave them to the
+    kernel's filter and keep up with CTRL_STATUS."""
+    proto = pr.Protocol()
+    frames = [(0x101, proto.encode("CTRL_MONITOR", {"Tick": 5}, 1)),
+              (0x102, proto.encode("CTRL_WRENCH", {"Tick": 6, "Valid": 1, "Fx": 12.5}, 1))]
+    for monitor in (False, True):
+        node = opnode.OperatorNode(can.Bus(interface="virtual", channel=ctrl.channel), monitor=monitor)
+        try:
+            for fid, data in frames:
+                node.handle(can.Message(arbitration_id=fid, data=data, is_fd=True))
+            if monitor:
+                assert node.monitor["tick"] == 5 and node.wrench["wrench"][0] == 12.5
+            else:
+                assert node.monitor is None and node.wrench is None and not node.counters.frames
+        finally:
+            node.close()
+
+
 def test_refusal_reasons():
     st = opnode.Status(1, "READY", ["operator_silent"], 0x100, True, "ACTIVE", True, True, [0] * 6)
     assert "reset" in opnode.refusal_reason("RUN_TRIG", st, st)

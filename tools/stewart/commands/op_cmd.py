@@ -180,7 +180,8 @@ def run(args) -> int:
         return _record(bus, args)
     # observers send no heartbeat: a status poll or a watch screen must not
     # keep the operator link alive for a commanding process that died
-    node = OperatorNode(bus, heartbeat=args.op not in OBSERVERS or getattr(args, "heartbeat", False), key=key)
+    node = OperatorNode(bus, heartbeat=args.op not in OBSERVERS or getattr(args, "heartbeat", False), key=key,
+                        monitor=args.op == "watch")
     try:
         node.start()
         return ACTIONS[args.op](node, args, prepared)
