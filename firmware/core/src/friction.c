@@ -205,8 +205,7 @@ SPI_INLINE int64_t fric_slide(int64_t phi, int64_t target, int32_t slip, int32_t
  * exp, none once its phi is within 1 LSB of F_c (fric_slide); slower,
  * two exps and one 32-bit division (F_c / g, spi_recip), or, for a leg
  * of the table's (tab non-NULL: its tick and platform are this step's)
- * and |dx| within it, the table's fade and relaxation (no exp; with
- * SP_FRIC_FADE_TABLE 0, one exp unless its speed is its last one). Below
+ * and |dx| within it, the table's fade and relaxation (no exp). Below
  * 16 m/s at a tick that divides a second (t->small) the speed and the
  * viscous force take no saturation. */
 static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab, int i, sp_q8_t *phi,
@@ -241,18 +240,7 @@ static sp_q8_t leg_step(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_
     if (tab != NULL && (uint32_t)adx <= tab->count && (((unsigned)tab->legs >> i) & 1u) != 0u) {
         /* below 4 v_s (the table's entries are): the lines below with
          * fric_fade's and fric_relax_slow's values prepared at init */
-#if SP_FRIC_FADE_TABLE
         es = tab->fade[adx - 1];
-#else
-        /* the fade is a function of the speed alone, kept for the leg's
-         * next tick at the same speed (a leg holding still or creeping
-         * moves by the same few LSB tick after tick) */
-        if (av != o->fade_v[i]) {
-            o->fade_v[i] = (int32_t)av;
-            o->fade[i] = fric_fade(av, o->inv_vs);
-        }
-        es = o->fade[i];
-#endif
         g = fric_level(fc, p->breakaway_friction[i], es);
         eb = tab->relax[adx - 1];
     } else {
@@ -300,8 +288,6 @@ void sp_fric_obs_reset(sp_fric_obs_t *o)
     for (int i = 0; i < SP_LEGS; ++i) {
         o->phi[i] = 0;
         o->length[i] = 0;
-        o->fade_v[i] = 0;
-        o->fade[i] = SP_Q30_ONE; /* fric_fade(0) */
         o->slip[i] = 0;
         o->tau[i] = 0;
     }
@@ -318,8 +304,6 @@ static sp_status_t fric_obs_run(const sp_platform_t *p, sp_fric_obs_t *o, const 
         for (int i = 0; i < SP_LEGS; ++i) {
             o->length[i] = length[i];
             friction[i] = 0;
-            o->fade_v[i] = 0; /* no fade kept for this inv_vs yet: fric_fade(0) */
-            o->fade[i] = SP_Q30_ONE;
             /* sigma_0 / F_c, 1/m, Q8 (sigma_0 Q0 x 2^16 / F_c Q8) */
             o->slip[i] = (p->bristle_stiffness[i] > 0)
                              ? sp_sat32(((int64_t)p->bristle_stiffness[i] << 16) / p->coulomb_friction[i], &flags)
@@ -428,9 +412,7 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
             break;
         }
         sp_q30_t es = fric_fade(v, tab->inv_vs);
-#if SP_FRIC_FADE_TABLE
         tab->fade[n - 1u] = es;
-#endif
         tab->relax[n - 1u] = fric_relax_slow(((int64_t)slip * (int32_t)n) >> 8, fc, fric_level(fc, fs, es));
     }
     tab->count = (uint16_t)(n - 1u);

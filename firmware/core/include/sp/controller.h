@@ -425,8 +425,7 @@ typedef struct {
     sp_drive_reset_t drive_reset;              /**< RESET's fault reset of the drives */
     uint32_t fault_hold_ticks;                 /**< ticks of the current holding FAULT (saturates; 0 otherwise) */
     /** the friction observer's Stribeck table (sp_fric_table_prepare),
-     *  made at init like prep; last, so that its 2,704 bytes (1,360
-     *  without the fades, SP_FRIC_FADE_TABLE 0) leave the other members
+     *  made at init like prep; last, so that its 2,704 bytes leave the other members
      *  within a load's reach of the struct's start */
     sp_fric_table_t fric_table;
 } sp_ctrl_t;

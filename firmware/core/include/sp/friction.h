@@ -44,9 +44,6 @@ typedef struct {
     int32_t slip[SP_LEGS];    /**< sigma_0 / F_c per leg, 1/m, Q8: taken from the platform at the first step */
     int32_t tau[SP_LEGS];     /**< sigma_1 / sigma_0 per leg, s, Q30: taken at the first step */
     int64_t inv_vs;           /**< 2^46 / v_s (v_s in Q24): taken at the first step */
-    int32_t fade_v[SP_LEGS];  /**< per leg, the last speed |v| below 4 v_s whose fade was taken, m/s Q24
-                                   (a build without the table's fades, SP_FRIC_FADE_TABLE 0) */
-    sp_q30_t fade[SP_LEGS];   /**< its Stribeck fade exp(-(v/v_s)^2), Q30 (|v| = 0: 1) */
     uint8_t valid;            /**< 0 after reset: the next step only records the lengths */
 } sp_fric_obs_t;
 
@@ -55,16 +52,6 @@ typedef struct {
  *  covers the default seals' region below 4 v_s at 1 ms (v_s = 5 mm/s:
  *  |dx| < 20 um = 335.5 LSB); 1,344 bytes an array. */
 #define SP_FRIC_TABLE_LEN 336u
-
-/** 1 (the default): the table keeps each |dx|'s Stribeck fade as well as
- *  its relaxation (sp_fric_table_t.fade, 1,344 bytes more). 0: it keeps
- *  the relaxation only, and a slow leg whose speed changed takes its fade
- *  by one exp (about 55 Cortex-M4 instructions); for an image short of
- *  RAM (the CiA 408 STM32 image). The same results either way. The whole
- *  build must see the same value (the table is part of sp_ctrl_t). */
-#ifndef SP_FRIC_FADE_TABLE
-#define SP_FRIC_FADE_TABLE 1
-#endif
 
 /**
  * What a slow leg's step needs, prepared per |dx| (sp_fric_table_prepare).
@@ -76,14 +63,12 @@ typedef struct {
 typedef struct {
     sp_q30_t relax[SP_FRIC_TABLE_LEN]; /**< exp(-sigma_0 |dx| / g) at |dx| = index + 1, Q30, of the table's
                                             legs */
-#if SP_FRIC_FADE_TABLE
-    sp_q30_t fade[SP_FRIC_TABLE_LEN]; /**< the Stribeck fade exp(-(v/v_s)^2) at |dx| = index + 1, Q30 (the
+    sp_q30_t fade[SP_FRIC_TABLE_LEN];  /**< the Stribeck fade exp(-(v/v_s)^2) at |dx| = index + 1, Q30 (the
                                            same for every leg) */
-#endif
-    int64_t inv_vs;   /**< 2^46 / v_s, as the observer keeps it */
-    uint32_t tick_us; /**< the tick it was prepared for, us */
-    uint16_t count;   /**< entries prepared: |dx| in 1..count is below 4 v_s */
-    uint8_t legs;     /**< bit i: leg i has the table's sigma_0, F_c and F_s */
+    int64_t inv_vs;                    /**< 2^46 / v_s, as the observer keeps it */
+    uint32_t tick_us;                  /**< the tick it was prepared for, us */
+    uint16_t count;                    /**< entries prepared: |dx| in 1..count is below 4 v_s */
+    uint8_t legs;                      /**< bit i: leg i has the table's sigma_0, F_c and F_s */
 } sp_fric_table_t;
 
 /**
@@ -144,10 +129,7 @@ sp_status_t sp_fric_table_prepare(const sp_platform_t *p, uint32_t tick_us, sp_f
  * sp_fric_obs_step with a table prepared by sp_fric_table_prepare from
  * the same platform: a leg of tab->legs with |dx| <= tab->count takes its
  * relaxation and its Stribeck fade from the table instead of two exps and
- * a reciprocal. (With SP_FRIC_FADE_TABLE 0 it takes its fade from o->fade
- * when its speed is the one it was kept for, the leg's last such step: a
- * leg holding still or creeping repeats its step; else one exp.)
- * Same results, state and returns as sp_fric_obs_step, bit for bit (a
+ * a reciprocal. Same results, state and returns as sp_fric_obs_step, bit for bit (a
  * table of another tick or Stribeck velocity, or NULL, is not used).
  */
 sp_status_t sp_fric_obs_step_table(const sp_platform_t *p, sp_fric_obs_t *o, const sp_fric_table_t *tab,
