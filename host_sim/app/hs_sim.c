@@ -87,7 +87,7 @@
  * moment about o'), each cylinder's friction and its blocking valves' opening
  * (0 closed .. 1 open, hs/drive.h; docs/closed_loop.md).
  *
- * Exit status: 0 the run ended (ticks done or scenario end), 1 I/O or set-up
+ * Exit status: 0 the run ended (ticks done, scenario end, or SIGINT/SIGTERM), 1 I/O or set-up
  * error, 2 usage or scenario syntax error (or a load or play file refused
  * while running), 3 the controller stopped
  * answering (lockstep), 4 a scenario wait timed out, 5 the plant's state
@@ -822,7 +822,8 @@ static long cycle_timeout_ms(uint64_t cycle, long timeout_ms)
 }
 
 /* Lockstep: one cycle's wait for the controller's answer (raw frames into
- * keep[0..*nkeep)). 0 ok, 3 silent, -1 error. */
+ * keep[0..*nkeep)). 0 ok, 3 silent, WAIT_STOPPED on SIGINT/SIGTERM, -1 error. */
+#define WAIT_STOPPED 6
 static int lockstep_wait(sim_t *s, uint32_t tick, sp_can_frame_t *keep, uint32_t *nkeep_out, uint32_t max_keep,
                          long timeout_ms)
 {
@@ -844,7 +845,7 @@ static int lockstep_wait(sim_t *s, uint32_t tick, sp_can_frame_t *keep, uint32_t
             }
         }
         if (sp_host_stop_requested()) {
-            return 3;
+            return WAIT_STOPPED; /* asked to stop: not a silent controller */
         }
         uint32_t got = 0;
         do {
@@ -1440,6 +1441,9 @@ int main(int argc, char **argv)
                 nraw = inproc_answer(&s, raw);
             } else {
                 r = lockstep_wait(&s, sync_tick, raw, &nraw, 4 * RX_BUF, cycle_timeout_ms(tick, timeout_ms));
+            }
+            if (r == WAIT_STOPPED) {
+                break; /* SIGINT/SIGTERM: the run ends as asked (exit 0) */
             }
             if (r != 0) {
                 if (r == 3) {

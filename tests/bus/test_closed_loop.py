@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -192,3 +193,17 @@ def test_real_time_mode_exchanges_frames(tmp_path):
     assert "bad-crc 0" in fr.group(2) and "wrong-sequence 0" in fr.group(2) and "out-of-range 0" in fr.group(2)
     data = read_log(tmp_path / "rt.log")
     assert data.stats.bad_frames == 0
+
+
+def test_plant_stopped_by_sigterm_exits_0():
+    """SIGTERM while the lockstep plant waits for a controller's answer
+    ends the run as asked: exit 0 and the summary, not exit 3 (a silent
+    controller), which the first cycle's 10 s wait would give only later."""
+    bins = cl.Binaries.find()
+    plant = subprocess.Popen([str(bins.plant), "--lockstep", "--ticks", "100000"], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    time.sleep(2.0)  # its signal handlers are set at start-up
+    plant.terminate()
+    out, err = plant.communicate(timeout=20)
+    assert plant.returncode == 0, err
+    assert "hs_sim summary:" in out and "exit 0" in out, out
