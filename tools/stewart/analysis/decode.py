@@ -68,6 +68,9 @@ class LogStats:
     stale_feedback: int = 0      #: feedback whose TickEcho no tick of the log matches
     setpoint_checked: int = 0    #: ticks with both CTRL_MONITOR and AXIS_SETPOINTS
     setpoint_mismatch: int = 0   #: of which the length setpoints differ by > 1 um
+    #: the CANopen drives' feedback in the leg columns (.canopen_legs): the
+    #: layout used, SYNCs placed and not, TPDOs used and left out by reason
+    canopen_feedback: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
     @property
@@ -87,6 +90,7 @@ class LogStats:
                 "stale_feedback": self.stale_feedback,
                 "setpoint_checked": self.setpoint_checked,
                 "setpoint_mismatch": self.setpoint_mismatch,
+                "canopen_feedback": dict(self.canopen_feedback),
                 "warnings": list(self.warnings)}
 
 
@@ -655,6 +659,15 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
         d.pressure_b[k, j] = vals["PressureB"]
         d.drive_state[k, j] = vals["State"]
         d.drive_faults[k, j] = vals["Faults"]
+    if stats.canopen and platform is not None:  # CANopen drives: their TPDOs into the leg columns
+        from .canopen_legs import TickFrames, fill_legs
+
+        line_at = np.zeros(n, dtype=np.int64)
+        time_at = np.zeros(n)
+        for k, g in enumerate(groups):
+            line_at[pos_in[k]] = g.line_no
+            time_at[pos_in[k]] = g.time
+        fill_legs(d, frames, ifmap, TickFrames(line_at[known], tick_of[known], time_at[known]), platform)
     d.force_frames = [(tk, w) for tk, w, _ in force_frames]
     force_targets(d)
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)

@@ -17,6 +17,7 @@ only on a fault: neither is in the cyclic budget. Standard library only.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -30,6 +31,11 @@ NATIVE_BUS = ("axis_a",) * 3 + ("axis_b",) * 3
 CLASSIC_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000)
 LOAD_LIMIT = 50.0
 CONTROL_TICK_MS = 1.0
+#: The controller's two drive buses: a config's CANopen buses, in leg order,
+#: are these (sp/canopen_link.h; the analysis' axis_a and axis_b).
+CONTROLLER_BUSES = ("axis_a", "axis_b")
+#: The built-in CANopen layout's resolution (:func:`builtin_canopen`), m per count.
+BUILTIN_POSITION_PER_COUNT = 1e-6
 
 
 @dataclass(frozen=True)
@@ -95,6 +101,37 @@ class Drives:
 def native_default() -> Drives:
     """Every leg on the native protocol (the default: no ``drives`` key)."""
     return Drives(tuple(Drive(i + 1, "native", NATIVE_BUS[i]) for i in range(LEGS)))
+
+
+def builtin_canopen(park_lengths, protocol: str = "cia408", base: Drives | None = None) -> Drives:
+    """The firmware's built-in CANopen layout, which ``sp_controller
+    --canopen`` uses when the config's drives are native
+    (``sp_co_master_cfg_default``, ``sp_co_link_cfg_default``): node i
+    drives leg i, nodes 1-3 on axis_a and 4-6 on axis_b, 1 um per count,
+    count 0 at the leg's length in the park pose (``park_lengths``, m, leg 1
+    first), direction +1; CiA 408 with the pressures mapped, or every node
+    ``cia402`` without them (``--cia402``). The SYNC divider is the command
+    line's (``--canopen-sync-divider``), not known here: ``sync_divider``
+    stays ``base``'s (the master's heartbeat keys too; default
+    :func:`native_default`)."""
+    if len(park_lengths) != LEGS:
+        raise ValueError(f"builtin_canopen: {LEGS} park lengths expected, got {len(park_lengths)}")
+    if protocol not in ob.CANOPEN_PROTOCOLS:
+        raise ValueError(f"builtin_canopen: {protocol!r} is not one of {', '.join(ob.CANOPEN_PROTOCOLS)}")
+    legs = tuple(Drive(i + 1, protocol, NATIVE_BUS[i], i + 1,
+                       Scaling(BUILTIN_POSITION_PER_COUNT, float(park_lengths[i])))
+                 for i in range(LEGS))
+    return dataclasses.replace(base or native_default(), legs=legs,
+                               bitrates={b: 1_000_000 for b in CONTROLLER_BUSES},
+                               pressure_feedback=protocol == "cia408")
+
+
+def controller_bus(drives: Drives, drive: Drive) -> str | None:
+    """The controller's bus (axis_a, axis_b) a CANopen drive of the layout
+    is on: the layout's CANopen buses in leg order; None beyond two."""
+    order = drives.buses()
+    k = order.index(drive.bus) if drive.bus in order else len(CONTROLLER_BUSES)
+    return CONTROLLER_BUSES[k] if k < len(CONTROLLER_BUSES) else None
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import objects as ob
+from .layout import controller_bus
 
 #: kinds of frame, in the CSV's ``kind`` column
 KINDS = ("nmt", "sync", "emcy", "tpdo1", "rpdo1", "tpdo2", "sdo_answer", "sdo_request", "heartbeat")
@@ -57,13 +58,38 @@ def profiles_from_drives(drives) -> dict[tuple[str, int], str]:
     config's CANopen buses in order as the controller's axis_a and axis_b
     (sp/canopen_link.h) and as themselves."""
     out: dict[tuple[str, int], str] = {}
-    order = drives.buses()
     for d in drives.canopen:
         out[(d.bus, d.node_id)] = d.protocol
-        k = order.index(d.bus)
-        if k < 2:
-            out[(("axis_a", "axis_b")[k], d.node_id)] = d.protocol
+        bus = controller_bus(drives, d)
+        if bus is not None:
+            out[(bus, d.node_id)] = d.protocol
     return out
+
+
+def profile_of_device_type(value: int) -> str:
+    """The profile a device type (0x1000) names in its bits 0..15:
+    ``cia402`` for 402, else ``cia408``."""
+    return "cia402" if value & 0xFFFF == 402 else "cia408"
+
+
+def profiles_in_log(frames, ifaces: dict[str, str]) -> dict[tuple[str, int], str]:
+    """{(bus, node): profile} of the nodes whose device type (0x1000) an
+    SDO upload answer in the log shows (the last answer of each node), on
+    the interfaces named in ``ifaces`` ({iface: bus})."""
+    if len(frames.line_no) == 0:
+        return {}
+    bus_of = np.array([ifaces.get(n, "") for n in frames.ifaces] + [""], dtype=object)
+    d = frames.data
+    sel = np.flatnonzero(~frames.fd & (bus_of[frames.iface] != "") & (frames.frame_id >= 0x581)
+                         & (frames.frame_id <= 0x5FF) & (frames.dlc == 8) & (d[:, 0] != 0x80)
+                         & (d[:, 0] != 0x60) & (d[:, 1] == 0x00) & (d[:, 2] == 0x10) & (d[:, 3] == 0))
+    out: dict[tuple[str, int], str] = {}
+    for i in sel.tolist():
+        value = int(d[i, 4]) | (int(d[i, 5]) << 8)
+        out[(bus_of[frames.iface[i]], int(frames.frame_id[i]) & 0x7F)] = profile_of_device_type(value)
+    return out
+
+
 EMCY_CLASSES = {0x0: "error reset", 0x1: "generic", 0x2: "current", 0x3: "voltage", 0x4: "temperature",
                 0x5: "device hardware", 0x6: "device software", 0x7: "additional modules", 0x8: "monitoring",
                 0x9: "external", 0xF: "device specific"}
@@ -156,7 +182,7 @@ def decode(frames, ifaces: dict[str, str], profiles: dict[tuple[str, int], str] 
             else:
                 r[11] = "written" if cmd == 0x60 else f"value 0x{value:X}"
                 if k == 6 and cmd != 0x80 and cmd != 0x60 and (index, sub) == (0x1000, 0):
-                    seen[(bus[i], node)] = {402: "cia402", 408: "cia408"}.get(value & 0xFFFF, "cia408")
+                    seen[(bus[i], node)] = profile_of_device_type(value)
         elif k == 8 and n >= 1:      # heartbeat
             r[10] = int(d[0]) & 0x7F
             r[11] = NMT_STATES.get(int(d[0]) & 0x7F, "unknown state")
