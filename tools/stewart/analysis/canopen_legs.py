@@ -52,7 +52,9 @@ layout with pressure feedback: the pressures in Pa, from which
 drives. CiA 402 nodes measure no force: their pressures and force stay NaN.
 
 TPDOs of a node the layout does not have, shorter than their mapping, or
-with no placed SYNC before them are left out and counted
+with no placed SYNC before them are left out and counted, as are the
+TPDOs used (``answers``: TPDO1s, and TPDO2s of the legs that take
+pressures)
 (``LogStats.canopen_feedback``, with a warning for each unknown node and
 the first short ones). numpy only.
 """
@@ -216,7 +218,6 @@ def fill_legs(data, frames, ifaces: dict[str, str], ticks: TickFrames, platform)
     counts["repeated"] = int(len(cand) - len(first))
     row = data.index_of(tick)
     keep &= row >= 0
-    counts["answers"] = int(keep.sum())
 
     code = {name: DRIVE_STATES.index(name) for name in DRIVE_STATES}
     data_bytes = frames.data[ti, :8]
@@ -236,9 +237,11 @@ def fill_legs(data, frames, ifaces: dict[str, str], ticks: TickFrames, platform)
             state = np.array([code[n] if n is not None else -1 for n in names], dtype=np.int64)[inv]
             data.drive_state[k, j] = state
             data.drive_faults[k, j] = np.where(state == code["FAULT"], FAULT_BIT, 0)
+            counts["answers"] += len(t1)
         if prof == "cia408" and drives.pressure_feedback:
             t2 = np.flatnonzero(keep & (leg == lg) & (t_kind == 2))
             if len(t2):
                 k = row[t2]
                 data.pressure_a[k, j] = _u16(data_bytes[t2], 0) * 1000.0
                 data.pressure_b[k, j] = _u16(data_bytes[t2], 2) * 1000.0
+                counts["answers"] += len(t2)

@@ -2,7 +2,9 @@
 line by line, each frame checked and decoded by :class:`stewart.protocol.Protocol`
 (cantools' per-frame decode, the E2E receiver per frame). It was the
 analysis' decoder until issue 16; the tests hold the whole-message decoder
-to it (tests/python/test_framedecode.py). About 30x slower."""
+to it (tests/python/test_framedecode.py). About 30x slower. The CANopen
+drives' leg columns come from the one whole-log step of both
+(:func:`.canopen_legs.fill_legs`)."""
 
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
     else:
         label = "<lines>"
         fh = None
-        lines = source
+        lines = source = list(source)   # read twice with CANopen drives (below)
 
     # First pass: good frames in log order, (kind, bus, name, signals, time).
     accepted: list[tuple[str, str, dict[str, float], float, int]] = []
@@ -208,6 +210,14 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
                 d.pressure_b[k, j] = fb["PressureB"]
                 d.drive_state[k, j] = fb["State"]
                 d.drive_faults[k, j] = fb["Faults"]
+    if stats.canopen and platform is not None:  # CANopen drives: the same step as read_log's
+        from .canopen_legs import TickFrames, fill_legs
+        from .logfile import read_frames
+
+        at = [i for i in range(n) if known[i] is not None]
+        fill_legs(d, read_frames(source), ifmap, TickFrames(
+            np.array([accepted[i][4] for i in at], dtype=np.int64), np.array([known[i] for i in at], dtype=np.int64),
+            np.array([accepted[i][3] for i in at], dtype=float)), platform)
     d.force_frames = force_frames
     force_targets(d)
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)

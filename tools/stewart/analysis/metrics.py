@@ -179,6 +179,13 @@ def format_summary(summary: Mapping[str, Any]) -> str:
                                                 summary["drive_faults_seen"].items())
                 if summary["drive_faults_seen"] else ""),
              f"tracking error = estimate(t) - reference(t - {summary['delay_ticks']} tick)"]
+    co = fr.get("canopen_feedback")
+    if co:
+        out = [f"{k.replace('_', ' ')} {co[k]}" for k in ("unplaced", "unknown_node", "short", "repeated") if co[k]]
+        lines.append(f"CANopen feedback ({co['layout']} layout): {co['answers']} TPDOs into the leg columns, "
+                     f"{co['syncs']} SYNCs placed on ticks"
+                     + (f", {co['syncs_unplaced']} not" if co["syncs_unplaced"] else "")
+                     + (f"; left out: {', '.join(out)}" if out else ""))
     if fr["setpoint_checked"] and fr["setpoint_mismatch"]:
         lines.append(f"WARNING: CTRL_MONITOR and AXIS_SETPOINTS length setpoints differ on "
                      f"{fr['setpoint_mismatch']} of {fr['setpoint_checked']} ticks")

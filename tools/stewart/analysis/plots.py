@@ -91,11 +91,16 @@ def plot_cylinders(data: LogData, seg: Segment, path: str | Path) -> None:
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 8.5), sharex=True)
     stretch, force = data.stretch[m], data.force[m]
+
+    def known(v):   # the rows with a value: CANopen drives answer every sync_divider ticks only
+        ok = np.isfinite(x) & np.isfinite(v)
+        return x[ok], v[ok]
+
     for j in range(6):
         c = colors[j % len(colors)]
-        a1.plot(x, stretch[:, j] * 1e3, color=c, lw=1.8, alpha=0.7, label=f"cyl.{j + 1}")
-        a2.plot(x, data.force_ff[m, j] / 1e3, color=c, lw=1.8, alpha=0.7, label=f"cyl.{j + 1}")
-        a2.plot(x, force[:, j] / 1e3, color=c, lw=0.8, ls="--")
+        a1.plot(*known(stretch[:, j] * 1e3), color=c, lw=1.8, alpha=0.7, label=f"cyl.{j + 1}")
+        a2.plot(*known(data.force_ff[m, j] / 1e3), color=c, lw=1.8, alpha=0.7, label=f"cyl.{j + 1}")
+        a2.plot(*known(force[:, j] / 1e3), color=c, lw=0.8, ls="--")
     a2.plot([], [], color="k", lw=1.8, label="feed-forward")
     a2.plot([], [], color="k", lw=0.8, ls="--", label="measured p_A A - p_B A_r")
     a1.set_ylabel("cylinder stretch (measured) [mm]")
