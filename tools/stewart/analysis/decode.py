@@ -10,7 +10,11 @@ AXIS_SETPOINTS the tick of its SYNC (modulo 2^32: unwrapped in log order, so a
 run through the wrap after 49.7 days keeps counting), AXIS_FEEDBACK the low 16 bits of its
 SYNC tick (``TickEcho``, unwrapped to the nearest tick seen in the log). In
 both the lockstep and the real-time mode of ``sp_controller`` the
-controller's tick equals the SYNC tick.
+controller's tick equals the SYNC tick. With CANopen drives the drive
+buses carry CiA 301 frames instead, which carry no tick: the drives' TPDOs
+go to the tick of the CANopen SYNC they answer, placed by the tick-carrying
+frames next to it in the log (:mod:`.canopen_legs`; needs the platform for
+the layout).
 
 CTRL_WRENCH comes every 2nd tick (500 Hz). Like any other value a row has
 no frame for, the wrench of a tick without one is missing (NaN, blank in
@@ -132,10 +136,10 @@ class LogData:
     force_ff: np.ndarray         #: (N, 6) CTRL_MONITOR ForceFf_i, N
     axis_length_sp: np.ndarray   #: (N, 6) AXIS_SETPOINTS Length_s, m
     axis_mode: np.ndarray        #: (N, 2) AXIS_SETPOINTS Mode on axis_a, axis_b
-    length: np.ndarray           #: (N, 6) AXIS_FEEDBACK Length, m
-    pressure_a: np.ndarray       #: (N, 6) Pa
+    length: np.ndarray           #: (N, 6) AXIS_FEEDBACK Length (CANopen: TPDO1's count scaled), m
+    pressure_a: np.ndarray       #: (N, 6) Pa (CANopen: CiA 408 TPDO2)
     pressure_b: np.ndarray       #: (N, 6) Pa
-    drive_state: np.ndarray      #: (N, 6)
+    drive_state: np.ndarray      #: (N, 6) DRIVE_STATES index (CANopen: the status word's, .canopen_legs)
     drive_faults: np.ndarray     #: (N, 6)
     est_wrench_valid: np.ndarray  #: (N,) CTRL_WRENCH Valid (-1: no frame on this tick)
     est_wrench: np.ndarray       #: (N, 6) CTRL_WRENCH Fx..Mz, N / N m (NaN unless Valid)
@@ -476,7 +480,9 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     ``buses``: the ``--bus`` text or a mapping {interface: bus}; default
     vcan0 = ops, vcan1 = axis_a, vcan2 = axis_b (and the bus names
     themselves). ``platform``: a validated :class:`stewart.config.Platform`
-    for the stretch and the measured force (None: those columns are NaN).
+    for the stretch and the measured force (None: those columns are NaN),
+    and with CANopen drives for their layout (None: their leg columns are
+    NaN).
 
     Whole messages at once: the log's frames are parsed column-wise
     (:func:`.logfile.read_frames`), grouped by ID, checked (CRC, counters,

@@ -20,7 +20,10 @@ writes at start-up):
 - heartbeat (0x701-0x77F): the NMT state (0 = boot-up).
 
 One row per frame in ``canopen.csv``; :func:`summary` counts them per bus
-and node and lists the EMCYs, SDO aborts and NMT states seen. numpy only.
+and node and lists the EMCYs, SDO aborts and NMT states seen. The leg
+columns of signals.csv (lengths, pressures, drive states per tick) come
+from the same TPDOs by the same profile rule (:func:`profiles_in_log`
+finds the device types; stewart/analysis/canopen_legs.py). numpy only.
 """
 
 from __future__ import annotations
