@@ -204,6 +204,16 @@ def test_without_a_tick_nearby_a_sync_is_not_placed():
     check_values(d, skip={(6, 4), (6, 5), (6, 6), (9, 1), (9, 2), (9, 3)})
 
 
+def test_a_bus_without_any_sync():
+    """axis_b's SYNCs all missing from the log: its answers are unplaced
+    (counted), axis_a's used."""
+    d = read_log(build(skip_sync={(t, "axis_b") for t in TICKS}), platform=MIXED)
+    fb = d.stats.canopen_feedback
+    assert fb["unplaced"] == 6 * len(TICKS) // DIVIDER and fb["syncs"] == len(TICKS) // DIVIDER
+    assert np.isnan(d.length[:, 3:]).all()
+    check_values(d, legs=(1, 2, 3))
+
+
 def test_unknown_node_short_tpdo_and_answer_before_any_sync():
     def noise(tick, out):
         if tick == 0:  # before any SYNC of axis_b: nothing to answer

@@ -202,6 +202,8 @@ def fill_legs(data, frames, ifaces: dict[str, str], ticks: TickFrames, platform)
     for b in range(len(_BUSES)):
         on_s = np.flatnonzero(bus[si] == b)
         on_t = np.flatnonzero(t_bus == b)
+        if len(on_s) == 0:   # no SYNC on this bus: nothing answered
+            continue
         k = np.searchsorted(frames.line_no[si[on_s]], t_line[on_t]) - 1
         sync_of[on_t] = np.where(k >= 0, on_s[np.maximum(k, 0)], -1)
     tick = np.where(sync_of >= 0, s_tick[np.maximum(sync_of, 0)], -1)
