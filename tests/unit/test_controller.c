@@ -94,6 +94,45 @@ static void engage(rig_t *r)
     run_until(r, SP_STATE_READY, 20000);
 }
 
+/* A platform resting just below its park pose, which lies on the
+ * workspace's floor (a payload the config does not know makes the legs
+ * sag by tens of um): ENGAGE starts from the floor, 40 um above where it
+ * stands, and reaches READY; 1 mm below, farther than SP_CTRL_ENGAGE_TOL
+ * (0.5 mm), the move's first reference leaves the limits as before. */
+static void test_engage_from_just_outside_the_workspace(void **state)
+{
+    static rig_t r;
+    sp_ik_t ik;
+    sp_pose_t sag = sp_platform_default.park;
+    const sp_q24_t floor_z = sp_platform_default.home.pos[2] + sp_platform_default.workspace_min.pos[2];
+    (void)state;
+    assert_int_equal(sp_platform_default.park.pos[2], floor_z); /* the premise: park on the floor */
+    rig_init(&r);
+    sag.pos[2] -= q24(40e-6);
+    assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sag, &ik), SP_OK);
+    memcpy(r.plant_length, ik.length, sizeof r.plant_length);
+    rig_tick(&r, SP_CMD_NONE);
+    assert_true(r.out.estimate_valid);
+    assert_true(r.out.estimate.pos[2] < floor_z - q24(35e-6));
+    rig_tick(&r, SP_CMD_ENGAGE);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.faults, 0);
+    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(r.out.reference.pose.pos[2], floor_z); /* the start: the floor */
+    assert_near(f24(r.out.reference.pose.pos[0]), f24(r.out.estimate.pos[0]), 1e-9, "x kept");
+    run_until(&r, SP_STATE_READY, 20000);
+    /* 1 mm below: not within the tolerance */
+    rig_init(&r);
+    sag = sp_platform_default.park;
+    sag.pos[2] -= q24(1e-3);
+    assert_int_equal(sp_inverse_kinematics(&sp_platform_default, &sag, &ik), SP_OK);
+    memcpy(r.plant_length, ik.length, sizeof r.plant_length);
+    rig_tick(&r, SP_CMD_NONE);
+    rig_tick(&r, SP_CMD_ENGAGE);
+    run_until(&r, SP_STATE_FAULT, 10);
+    assert_int_equal(r.out.faults, SP_FAULT_REFERENCE);
+}
+
 static void test_engage_run_park(void **state)
 {
     static rig_t r;
@@ -1804,6 +1843,7 @@ int main(void)
         cmocka_unit_test(test_move_first_sample),
         cmocka_unit_test(test_trig_first_sample),
         cmocka_unit_test(test_engage_run_park),
+        cmocka_unit_test(test_engage_from_just_outside_the_workspace),
         cmocka_unit_test(test_rest_reuses_setpoints),
         cmocka_unit_test(test_divided_feedback),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),

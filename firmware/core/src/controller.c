@@ -415,6 +415,39 @@ static int start_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pos
     return sp_move_plan(&ctrl->move, from, to, &cfg->move, cfg->tick_us) == SP_OK;
 }
 
+/* ENGAGE and RESET move to home from where the platform stands. A platform
+ * resting just outside the workspace box (parked on its boundary and
+ * sagging under a load the config does not know, a few tens of um) starts
+ * from the nearest pose of the box: on each axis outside the box by at most
+ * SP_CTRL_ENGAGE_TOL the start is the box's bound, a setpoint step of at
+ * most that much. Farther out the start stays the estimate, and the move's
+ * first reference leaves the limits (SP_FAULT_REFERENCE) as it always did:
+ * no jump of millimetres at engage. */
+#define SP_CTRL_ENGAGE_TOL 8389 /* Q24: 0.5 mm, 0.5 mrad */
+
+static sp_q24_t into_box(sp_q24_t v, sp_q24_t lo, sp_q24_t hi)
+{
+    if (v < lo && (int64_t)lo - v <= SP_CTRL_ENGAGE_TOL) {
+        return lo;
+    }
+    if (v > hi && (int64_t)v - hi <= SP_CTRL_ENGAGE_TOL) {
+        return hi;
+    }
+    return v;
+}
+
+static int start_engage(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
+{
+    const sp_limits_t *lim = &ctrl->prep.limits;
+    sp_pose_t from = ctrl->est.pose;
+    unsigned a;
+    for (a = 0u; a < 3u; ++a) {
+        from.pos[a] = into_box(from.pos[a], lim->ws_lo[a], lim->ws_hi[a]);
+        from.rpy[a] = into_box(from.rpy[a], lim->ws_lo[3u + a], lim->ws_hi[3u + a]);
+    }
+    return start_move(cfg, ctrl, &from, &cfg->platform->home);
+}
+
 static void start_running(sp_ctrl_t *ctrl, sp_motion_mode_t mode)
 {
     ctrl->mode = mode;
@@ -598,7 +631,7 @@ static uint32_t drive_faults(const sp_ctrl_t *ctrl, uint32_t *legs)
  * Returns 0 (nothing changed) without every drive heard or an estimate. */
 static int finish_reset(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int comms_ok)
 {
-    if (!comms_ok || !ctrl->est.valid || !start_move(cfg, ctrl, &ctrl->est.pose, &cfg->platform->home)) {
+    if (!comms_ok || !ctrl->est.valid || !start_engage(cfg, ctrl)) {
         return 0;
     }
     ctrl->faults = 0u;
@@ -638,7 +671,6 @@ static void drive_reset_job(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int co
  * when it is refused (the state unchanged). */
 SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd, int comms_ok)
 {
-    const sp_platform_t *p = cfg->platform;
     switch (cmd->type) {
     case SP_CMD_NONE:
         return 1;
@@ -647,8 +679,7 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
         raise_fault(cfg, ctrl, SP_FAULT_ESTOP);
         return 1;
     case SP_CMD_ENGAGE:
-        if (ctrl->state != SP_STATE_IDLE || !comms_ok || !ctrl->est.valid ||
-            !start_move(cfg, ctrl, &ctrl->est.pose, &p->home)) {
+        if (ctrl->state != SP_STATE_IDLE || !comms_ok || !ctrl->est.valid || !start_engage(cfg, ctrl)) {
             return 0;
         }
         ctrl->state = SP_STATE_ENGAGING;

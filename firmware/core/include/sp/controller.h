@@ -56,7 +56,11 @@
  *
  * States (what an operator of a motion base expects):
  *   IDLE      parked; drives hold. ENGAGE starts the engage move.
- *   ENGAGING  smooth move from the estimated (parked) pose to home.
+ *   ENGAGING  smooth move from the estimated (parked) pose to home (from
+ *             the workspace's bound on an axis where the estimate lies
+ *             outside it by at most 0.5 mm / 0.5 mrad: a platform parked
+ *             on the boundary that sags under its load; farther out the
+ *             move's first reference leaves the limits, SP_FAULT_REFERENCE).
  *   READY     engaged at home, holding; accepts RUN_TRIG, MOVE_TO, STREAM, PARK.
  *   RUNNING   a motion is executing; STOP ends it smoothly (back to READY),
  *             PARK ends it and then parks.
