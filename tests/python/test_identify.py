@@ -346,3 +346,47 @@ def test_cli_scenario_writes_scenario_and_csv(tmp_path, prior, capsys):
     assert lengths.min() > prior.leg_length_min and lengths.max() < prior.leg_length_max
     assert cli.main(["identify", "--scenario", str(scen), "--duration", "7"]) == 1
     assert "too short" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("step", [2, 3])
+def test_feedback_every_few_ticks(prior, truth, plan60, step):
+    """Drives that answer every `step` ticks (CANopen at a SYNC divider):
+    the same motion sampled on those ticks alone gives the parameters
+    within the issue's tolerances, the derivatives taken over the same
+    50 ms window (17 samples at 3 ticks); `feedback_step` finds the period
+    from the ticks that have lengths."""
+    lengths, force = simulate(truth, plan60, np.random.default_rng(3))
+    ticks = np.arange(plan60.t.size)
+    gap = np.full((ticks.size, 6), np.nan)
+    sampled = np.where((ticks % step == 0)[:, None], lengths, gap)
+    assert idf.feedback_step(ticks, sampled) == step
+    keep = ticks % step == 0
+    motion = idf.motion_from_lengths(prior, ticks[keep], lengths[keep], force[keep], np.ones(keep.sum(), bool),
+                                     step=step)
+    res = idf.identify_motion(prior, motion)
+    check_estimate(res.values, truth)
+    err = res.values - idf.derived(idf.theta_of(truth))
+    assert np.all(np.abs(err) < 4 * res.se + 1e-9), err / res.se
+    assert res.info["feedback_every_ticks"] == step
+    assert f"feedback every {step} ticks" in idf.format_result(res)
+    # taken as consecutive 1 ms samples, the same rows give accelerations step^2 too large: refused or wrong
+    wrong = idf.motion_from_lengths(prior, np.arange(keep.sum()), lengths[keep], force[keep],
+                                    np.ones(keep.sum(), bool))
+    try:
+        bad = idf.identify_motion(prior, wrong, check=False)
+        assert abs(bad.values[0] - truth.mass) > 0.05 * truth.mass
+    except idf.IdentifyError:
+        pass
+
+
+def test_feedback_step_of_native_and_sparse_logs():
+    ticks = np.arange(10)
+    full = np.ones((10, 6))
+    assert idf.feedback_step(ticks, full) == 1
+    one = np.full((10, 6), np.nan)
+    one[4] = 1.0
+    assert idf.feedback_step(ticks, one) == 1          # fewer than two samples: native
+    every3 = np.full((10, 6), np.nan)
+    every3[[0, 3, 6, 9]] = 1.0
+    every3[7] = 1.0                                      # a stray extra answer does not change the mode
+    assert idf.feedback_step(ticks, every3) == 3

@@ -145,12 +145,13 @@ def differentiate(x: np.ndarray, dt: float, half: int = SG_HALF, order: int = SG
     return tuple(out)
 
 
-def contiguous_runs(ticks: np.ndarray, ok: np.ndarray) -> list[tuple[int, int]]:
-    """[start, end) index ranges where ok holds on consecutive ticks."""
+def contiguous_runs(ticks: np.ndarray, ok: np.ndarray, step: int = 1) -> list[tuple[int, int]]:
+    """[start, end) index ranges where ok holds on consecutive samples,
+    ``step`` ticks apart."""
     runs = []
     start = None
     for i in range(len(ticks)):
-        good = bool(ok[i]) and (start is None or ticks[i] == ticks[i - 1] + 1)
+        good = bool(ok[i]) and (start is None or ticks[i] == ticks[i - 1] + step)
         if start is not None and not good:
             runs.append((start, i))
             start = None
@@ -432,21 +433,28 @@ def check_physical(res: Result) -> None:
 
 @dataclass
 class Motion:
-    """A run on consecutive ticks: pose, its rates and accelerations (NaN
-    where unknown), measured forces, and which ticks count (RUNNING)."""
+    """A run sampled every ``step`` ticks: pose, its rates and accelerations
+    (NaN where unknown), measured forces, and which samples count
+    (RUNNING)."""
     ticks: np.ndarray
     pose: np.ndarray
     rate: np.ndarray
     acc: np.ndarray
     force: np.ndarray
     running: np.ndarray
+    step: int = 1
 
 
 def motion_from_lengths(platform, ticks, lengths, force, running, guess=None,
-                        half: int = SG_HALF, order: int = SG_ORDER) -> Motion:
-    """Forward kinematics of every tick, then zero-phase differentiation on
-    each run of consecutive ticks with a pose (Savitzky-Golay, half window
-    ``half`` ticks, polynomial ``order``)."""
+                        half: int = SG_HALF, order: int = SG_ORDER, step: int = 1) -> Motion:
+    """Forward kinematics of every sample, then zero-phase differentiation
+    on each run of consecutive samples with a pose (Savitzky-Golay,
+    polynomial ``order``, half window ``half`` ticks: round(half / step)
+    samples, at least ``order``). ``step``: the ticks between samples (the
+    drives' feedback period: 1 natively, the SYNC divider with CANopen
+    drives that answer every few ticks)."""
+    if step < 1:
+        raise ValueError(f"motion_from_lengths: step must be >= 1 tick, got {step}")
     ticks = np.asarray(ticks, np.int64)
     lengths = np.asarray(lengths, float)
     n = ticks.size
@@ -459,16 +467,17 @@ def motion_from_lengths(platform, ticks, lengths, force, running, guess=None,
     # platform has several for one set of lengths): solve those ticks again
     # from the previous tick's pose, in order (rare).
     for i in range(1, n):
-        if ok[i] and ok[i - 1] and ticks[i] == ticks[i - 1] + 1 and np.max(np.abs(pose[i] - pose[i - 1])) > 5e-3:
+        if ok[i] and ok[i - 1] and ticks[i] == ticks[i - 1] + step and np.max(np.abs(pose[i] - pose[i - 1])) > 5e-3:
             p, p_ok = forward_kinematics_many(platform, lengths[i:i + 1], pose[i - 1:i])
             pose[i], ok[i] = p[0], p_ok[0]
     rate = np.full((n, 6), np.nan)
     acc = np.full((n, 6), np.nan)
     smooth = np.full((n, 6), np.nan)
-    for a, b in contiguous_runs(ticks, ok):
-        if b - a >= 2 * half + 1:
-            smooth[a:b], rate[a:b], acc[a:b] = differentiate(pose[a:b], TICK_S, half, order)
-    return Motion(ticks, smooth, rate, acc, np.asarray(force, float), np.asarray(running, bool))
+    h = max(int(round(half / step)), order)  # the same time window in samples
+    for a, b in contiguous_runs(ticks, ok, step):
+        if b - a >= 2 * h + 1:
+            smooth[a:b], rate[a:b], acc[a:b] = differentiate(pose[a:b], step * TICK_S, h, order)
+    return Motion(ticks, smooth, rate, acc, np.asarray(force, float), np.asarray(running, bool), step)
 
 
 def identify_motion(platform, motion: Motion, min_rate: float | None = None, check: bool = True) -> Result:
@@ -479,8 +488,22 @@ def identify_motion(platform, motion: Motion, min_rate: float | None = None, che
     pose = np.where(keep[:, None], motion.pose, np.nan)
     reg = build_regression(platform, pose, motion.rate, motion.acc, motion.force, min_rate)
     res = solve(reg, platform, min_rate, check)
-    res.info.update(running_ticks=int(np.sum(motion.running)), differentiated_ticks=int(np.sum(keep)))
+    res.info.update(running_ticks=int(np.sum(motion.running)), differentiated_ticks=int(np.sum(keep)),
+                    feedback_every_ticks=int(motion.step))
     return res
+
+
+def feedback_step(ticks: np.ndarray, lengths: np.ndarray) -> int:
+    """The drives' feedback period in ticks: the most common spacing of the
+    ticks whose six lengths are known (1 natively; the SYNC divider with
+    CANopen drives). 1 when fewer than two such ticks."""
+    have = np.asarray(ticks, np.int64)[np.all(np.isfinite(lengths), axis=1)]
+    gaps = np.diff(have)
+    gaps = gaps[gaps > 0]
+    if gaps.size == 0:
+        return 1
+    values, counts = np.unique(gaps, return_counts=True)
+    return int(values[np.argmax(counts)])
 
 
 def identify_log(log, platform, buses=None, min_rate: float | None = None,
@@ -499,8 +522,11 @@ def identify_log(log, platform, buses=None, min_rate: float | None = None,
     running = data.state == STATES.index("RUNNING")
     if not running.any():
         raise IdentifyError(f"{log}: the log has no tick in which the platform is RUNNING")
-    motion = motion_from_lengths(platform, data.ticks, data.length, data.force, running,
-                                 guess=data.estimate, half=half, order=order)
+    # drives that answer every few ticks (CANopen at a SYNC divider): their rows only
+    step = feedback_step(data.ticks, data.length)
+    rows = np.all(np.isfinite(data.length), axis=1) if step > 1 else slice(None)
+    motion = motion_from_lengths(platform, data.ticks[rows], data.length[rows], data.force[rows], running[rows],
+                                 guess=data.estimate[rows], half=half, order=order, step=step)
     res = identify_motion(platform, motion, min_rate)
     res.info.update(log=str(log), ticks_in_log=len(data), bad_frames=data.stats.bad_frames)
     return res
@@ -531,7 +557,9 @@ def updated_config(raw: dict, res: Result) -> dict:
 
 
 def format_result(res: Result) -> str:
-    lines = [f"{res.ticks} running ticks, {res.rows} rows (|leg rate| > {res.min_rate:g} m/s); "
+    every = int(res.info.get("feedback_every_ticks", 1))
+    sampled = f"samples (feedback every {every} ticks)" if every > 1 else "ticks"
+    lines = [f"{res.ticks} running {sampled}, {res.rows} rows (|leg rate| > {res.min_rate:g} m/s); "
              f"residual RMS {res.residual_rms:.1f} N; condition number of the scaled regressor "
              f"{res.condition:.3g}"]
     w = max(len(n) for n in REPORT_NAMES)
