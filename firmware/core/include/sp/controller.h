@@ -326,8 +326,9 @@ typedef struct {
  *  ticks, neither refreshing a leg (sp_leg_hold_t.lu_staged):
  *  SP_CTRL_LEG_GROUPS + 2 (the default) gives each of the other ticks one
  *  group. The tick's highest count on the Cortex-M4 falls from 10,507 to
- *  10,363 instructions with it (docs/m4.md); the forces of a kept leg are
- *  a tick older and the factorisation up to 8 ticks (docs/model.md). */
+ *  10,363 instructions with it (CHANGELOG.md, session 15); the forces of a
+ *  kept leg are a tick older and the factorisation up to 8 ticks
+ *  (docs/model.md). */
 #define SP_CTRL_LU_KEEP 8u
 
 /** Ticks a FAULT holds by the drives' position loops before the blocking
