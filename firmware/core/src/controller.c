@@ -140,8 +140,15 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         st = SP_E_ARG;
     }
     if (st == SP_OK) {
-        ctrl->prep.wrench_smooth.jump[0] = cfg->wrench_jump[0];
-        ctrl->prep.wrench_smooth.jump[1] = cfg->wrench_jump[1];
+        /* the thresholds at the same multiple of the filter's noise: one
+         * sample per period of div ticks leaves about sqrt(div) times the
+         * native noise (sqrt(div) in Q8; jump <= 2^30: the product < 2^42,
+         * held at 2^30) */
+        int64_t root_q8 = (int64_t)sp_isqrt64((uint64_t)div << 16);
+        for (i = 0u; i < 2u; ++i) {
+            int64_t j = ((int64_t)cfg->wrench_jump[i] * root_q8 + 128) >> 8;
+            ctrl->prep.wrench_smooth.jump[i] = (int32_t)(j > (INT64_C(1) << 30) ? (INT64_C(1) << 30) : j);
+        }
         /* counts of ticks, in the smoother's steps (one per feedback period), rounded up */
         ctrl->prep.wrench_smooth.persist = (uint8_t)((cfg->wrench_jump_persist + div - 1u) / div);
         ctrl->prep.wrench_smooth.hold = (uint8_t)((cfg->wrench_jump_hold + div - 1u) / div);

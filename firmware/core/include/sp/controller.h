@@ -277,7 +277,9 @@ typedef struct {
                                           the cylinders' wrench estimate, its friction observer and motion
                                           correction step only on ticks with fresh feedback, their filters
                                           made for that period (the smoother's persist and hold counts
-                                          divided by it, rounded up); 1..255, else sp_ctrl_init SP_E_ARG */
+                                          divided by it, rounded up, its jump thresholds multiplied by its
+                                          square root: one sample a period leaves about that much more
+                                          noise); 1..255, else sp_ctrl_init SP_E_ARG */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
