@@ -15,6 +15,11 @@ rmem_max (ops_socket), so that a reading thread held up for seconds loses
 nothing; a test that needs one particular status (a CmdRejected lasts one
 tick) should still say, when it misses it, whether statuses were lost
 (Tick gaps).
+
+python-can binds a socket before it sets the kernel's filter, so a frame
+sent in that instant passes whatever the filter says: every reader here
+checks the identifier of what it hears (a 64-byte CTRL_MONITOR once
+reached a reader of CTRL_STATUS that way).
 """
 
 from __future__ import annotations
@@ -131,8 +136,9 @@ class Listener:
     closed on leaving."""
 
     def __init__(self, every: Iterable[int], stream: Iterable[int], stream_rcvbuf: int | None = RCVBUF):
-        self.every = ops_socket(every)
-        self.stream = ops_socket(stream, stream_rcvbuf)
+        self._ids = {"every": set(every), "stream": set(stream)}
+        self.every = ops_socket(self._ids["every"])
+        self.stream = ops_socket(self._ids["stream"], stream_rcvbuf)
         self.cond = threading.Condition()
         self._stream_stamp = 0.0  # the kernel receive time of the newest stream frame handled
         self._stop = threading.Event()
@@ -164,9 +170,10 @@ class Listener:
             b.shutdown()
 
     def _read(self, bus) -> None:
+        ids = self._ids["stream" if bus is self.stream else "every"]
         while not self._stop.is_set():
             m = bus.recv(timeout=0.1)
-            if m is None:
+            if m is None or m.arbitration_id not in ids:  # not ours: heard before the filter was set
                 continue
             with self.cond:
                 self.on_frame(m.arbitration_id, bytes(m.data), m.timestamp)

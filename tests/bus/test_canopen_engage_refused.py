@@ -108,12 +108,16 @@ class Recorder:
                 on(m)
 
     def _on_status(self, m):
+        if m.arbitration_id != ID_STATUS:  # heard before the filter was set (busrig's doc)
+            return
         w, f = int.from_bytes(m.data, "little"), self.fields
         with self._lock:
             self.status.append((m.timestamp, f["Tick"].raw(w), STATES[f["State"].raw(w)], f["CmdRejected"].raw(w),
                                 f["DrivesStarting"].raw(w)))
 
     def _on_command(self, m):
+        if m.arbitration_id != ID_COMMAND:
+            return
         with self._lock:
             self.commands.append(m.timestamp)
 

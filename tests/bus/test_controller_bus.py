@@ -38,7 +38,7 @@ def wait_ticks(proto: Protocol, n: int, timeout: float = 60.0) -> None:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             m = bus.recv(timeout=0.5)
-            if m is None:
+            if m is None or m.arbitration_id != 0x100:  # heard before the filter was set (busrig's doc)
                 continue
             tick = proto.decode(0x100, bytes(m.data), check_counter=False)[1]["Tick"]
             first = tick if first is None else first
