@@ -109,3 +109,28 @@ def test_wrench_at_1khz_would_overload_the_ops_bus(tmp_path):
     assert bl.bus_load_percent(table["ops"]) == pytest.approx(58.12, abs=0.05)
     assert cli.main(["busload", "--dbc", str(faster)]) == 1
     assert cli.main(["busload"]) == 0
+
+
+@pytest.mark.parametrize("args, over, pct", [
+    (["cia408"], True, "104.0 %"),                           # SYNC every tick with pressures: over
+    (["cia408", "--force-ff"], True, "110.0 %"),
+    (["cia408", "--sync-divider", "3"], False, "35.4 %"),    # the demo's layout
+    (["cia402"], True, "75.5 %"),                            # no pressure TPDO, still over
+    (["cia402", "--sync-divider", "2"], False, "38.3 %"),
+])
+def test_builtin_canopen_layout(capsys, args, over, pct):
+    """sp_controller --canopen without a drives section runs a layout no
+    config check sees: busload --builtin computes it, and an overloaded one
+    fails with the SYNC divider that fits."""
+    rc = cli.main(["busload", "--builtin", *args])
+    out = capsys.readouterr().out
+    assert rc == (1 if over else 0)
+    assert out.count(pct) == 2  # axis_a and axis_b, three drives each
+    assert ("Ways out for axis_a" in out) == over
+    if over:
+        assert "drives.sync_divider = " in out
+
+
+def test_builtin_only_options_need_builtin(capsys):
+    assert cli.main(["busload", "--sync-divider", "3"]) == 2
+    assert "go with --builtin" in capsys.readouterr().err

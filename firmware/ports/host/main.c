@@ -349,6 +349,14 @@ int main(int argc, char **argv)
         fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;
     }
+    if (co.on && !sp_co_layout_default.present) {
+        /* the built-in layout's bus load is not checked at build time as a config layout's is: say how */
+        const unsigned div = co.link.master.sync_divider;
+        fprintf(stderr,
+                "sp_controller: CANopen built-in layout (the config has no drives section), SYNC every %u ms; "
+                "its load on a real bus: stewart busload --builtin %s --sync-divider %u%s\n",
+                div, co_cia402 ? "cia402" : "cia408", div, co_force_ff ? " --force-ff" : "");
+    }
     static sp_node_config_t cfg;
     static sp_node_t node;
     if (sp_node_default_config(&cfg, &sp_platform_default) != SP_OK) {

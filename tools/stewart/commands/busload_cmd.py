@@ -11,6 +11,12 @@ their buses carry SYNC, PDOs and heartbeats instead of the DBC's axis
 frames, classic CAN at the configured bit rate (stewart/drives/layout.py);
 a CANopen bus above the limit is reported with the ways out (more buses, a
 SYNC divider with the drives' interpolation, no pressure TPDO).
+
+``--builtin cia408|cia402`` computes instead the firmware's built-in
+CANopen layout, which ``sp_controller --canopen`` runs when the config has
+no drives section (nodes 1-3 on axis_a, 4-6 on axis_b, classic CAN at
+1 Mbit/s), with the command line's ``--sync-divider`` and
+``--force-ff``: the check to make before that layout goes on a real bus.
 """
 
 from __future__ import annotations
@@ -143,6 +149,23 @@ def run(args: argparse.Namespace) -> int:
         print(f"stewart busload: {exc}", file=sys.stderr)
         return 2
     drives = platform.drives
+    source = args.config
+    if args.builtin:
+        import dataclasses
+
+        from ..analysis.canopen_legs import layout_of
+
+        builtin, _ = layout_of(dataclasses.replace(platform, drives=layout.native_default()))
+        legs = tuple(dataclasses.replace(d, protocol=args.builtin, force_feedforward=args.force_ff)
+                     for d in builtin.legs)
+        drives = dataclasses.replace(builtin, legs=legs, sync_divider=args.sync_divider,
+                                     pressure_feedback=args.builtin == "cia408")
+        source = (f"the built-in layout, {args.builtin}, sp_controller --canopen-sync-divider "
+                  f"{args.sync_divider}{' --canopen-force-ff' if args.force_ff else ''}")
+    elif args.sync_divider != 1 or args.force_ff:
+        print("stewart busload: --sync-divider and --force-ff go with --builtin (a config layout "
+              "says them in its drives section)", file=sys.stderr)
+        return 2
     table = load_table(db, args.nominal, args.data)
     for bus in drives.buses():
         table.pop(bus, None)   # its drives speak CANopen: the DBC's axis frames are not there
@@ -151,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
     if drives.canopen:
         ctext, cok = layout.format_report(drives, args.limit)
         print()
-        print(f"Drives on CANopen ({args.config}), limit {args.limit:g} %:")
+        print(f"Drives on CANopen ({source}), limit {args.limit:g} %:")
         print(ctext)
         ok = ok and cok
     if not ok:
@@ -168,4 +191,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--limit", type=float, default=50.0, help="highest acceptable load, %%")
     p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
                    help="platform config: its drives section puts drives on CANopen buses")
+    p.add_argument("--builtin", choices=("cia408", "cia402"),
+                   help="the firmware's built-in CANopen layout (sp_controller --canopen without a drives "
+                        "section) instead of the config's drives")
+    p.add_argument("--sync-divider", type=int, default=1, choices=range(1, 11), metavar="N",
+                   help="with --builtin: SYNC and PDOs every N ms (sp_controller --canopen-sync-divider, "
+                        "default 1)")
+    p.add_argument("--force-ff", action="store_true",
+                   help="with --builtin: the force feed-forward in each RPDO (sp_controller --canopen-force-ff)")
     p.set_defaults(func=run)
