@@ -11,7 +11,10 @@
  * CiA 408 drives behind the master (sp_co_link_cfg_default: three drives on
  * each of two buses, pressures in TPDO2, the force feed-forward 0x2120 in
  * RPDO1), SYNC every 3 ticks (the CiA 408 layout of docs/canopen.md) and
- * every tick. The master is brought to its running state directly, as
+ * every tick; and six CiA 402 drives (cyclic synchronous position, the
+ * force feed-forward as 0x60B2, no pressures) with SYNC every 2 ticks, the
+ * rate at which CiA 402 fits two classic 1 Mbit/s buses (`stewart busload
+ * --builtin cia402 --sync-divider 2`: 38.3 %). The master is brought to its running state directly, as
  * co_icount.c does (the start-up's SDO traffic is before the control loop);
  * one unmeasured master step before the first tick sends the first SYNC.
  * After each tick that sent SYNC the drives answer, received at the start
@@ -27,7 +30,7 @@
  *
  * A second run of each scenario measures the five parts one by one (the
  * same ticks: the runs are deterministic), for where the instructions go.
- * Ends with a budget line per divider: the whole tick against 10,000.
+ * Ends with a budget line per layout: the whole tick against 10,000.
  * Exit status: 0, 3 if the counter's calibration failed.
  *
  * Run: qemu-system-arm -M mps2-an386 -display none -monitor none -serial
@@ -43,7 +46,15 @@
 #include "sp/kinematics.h"
 
 #define TICK_BUDGET 10000u
-#define PB_KPA 5000u /* the drives' rod-side pressure, 50 bar */
+#define PB_KPA 5000u       /* the drives' rod-side pressure, 50 bar */
+#define RATED_402_N 10000u /* the CiA 402 drives' rated force along the leg (0x60B2's 1000 per mille) */
+
+/* A drive layout: the profile of all six drives and the SYNC divider. */
+typedef struct {
+    uint8_t cia402;
+    uint8_t divider;
+} layout_t;
+#define LAYOUTS 3u
 
 /* The tick's place in the SYNC period. */
 #define KINDS 4u
@@ -150,7 +161,9 @@ typedef struct {
  * positions `len` (Q24), forces `force` (Q8 N). Returns the frame count. */
 static uint32_t answers(const sp_q24_t len[SP_LEGS], const sp_q8_t force[SP_LEGS], int sync, uint32_t now)
 {
-    uint16_t status = sp_co408_status_bits(sp_co408_target((sp_co_request_t)m.last_req));
+    const sp_co_request_t req = (sp_co_request_t)m.last_req;
+    const int cia402 = co_link.master.node[0].profile == (uint8_t)SP_CO_PROFILE_402;
+    uint16_t status = cia402 ? sp_co402_status_bits(sp_co402_target(req)) : sp_co408_status_bits(sp_co408_target(req));
     uint32_t n = 0u, k;
     for (k = 0u; k < co_link.master.n_nodes; k++) {
         const sp_co_node_cfg_t *nc = &co_link.master.node[k];
@@ -161,12 +174,14 @@ static uint32_t answers(const sp_q24_t len[SP_LEGS], const sp_q8_t force[SP_LEGS
             int64_t pa;
             (void)sp_co_length_to_count(&co_link.scaling[leg], len[leg], &count);
             (void)sp_co_tpdo1_frame(&rx[n++], nc->bus, nc->node_id, status, count);
-            /* pa A_piston - pb A_annulus = force: pa in kPa, rounded */
-            pa = ((int64_t)force[leg] * (INT64_C(1) << 22) + (int64_t)PB_KPA * 1000 * p->annulus_area +
-                  (int64_t)500 * p->piston_area) /
-                 ((int64_t)1000 * p->piston_area);
-            pa = pa < 0 ? 0 : (pa > 65535 ? 65535 : pa);
-            (void)sp_co_tpdo2_frame(&rx[n++], nc->bus, nc->node_id, (uint16_t)pa, (uint16_t)PB_KPA);
+            if (!cia402) { /* CiA 402: position only, no pressures */
+                /* pa A_piston - pb A_annulus = force: pa in kPa, rounded */
+                pa = ((int64_t)force[leg] * (INT64_C(1) << 22) + (int64_t)PB_KPA * 1000 * p->annulus_area +
+                      (int64_t)500 * p->piston_area) /
+                     ((int64_t)1000 * p->piston_area);
+                pa = pa < 0 ? 0 : (pa > 65535 ? 65535 : pa);
+                (void)sp_co_tpdo2_frame(&rx[n++], nc->bus, nc->node_id, (uint16_t)pa, (uint16_t)PB_KPA);
+            }
         }
         if (now % 20u == 0u) {
             (void)sp_co_heartbeat_frame(&rx[n++], nc->bus, nc->node_id, SP_CO_NMT_STATE_OPERATIONAL);
@@ -175,8 +190,9 @@ static uint32_t answers(const sp_q24_t len[SP_LEGS], const sp_q8_t force[SP_LEGS
     return n;
 }
 
-static void run_scenario(uint8_t motion, uint8_t divider, int parts, counts_t *r)
+static void run_scenario(uint8_t motion, layout_t lay, int parts, counts_t *r)
 {
+    const uint8_t divider = lay.divider;
     sp_ik_t ik;
     sp_drive_feedback_t seen[SP_LEGS]; /* the controller's feedback as the link left it */
     sp_q24_t plant_len[SP_LEGS];
@@ -218,7 +234,15 @@ static void run_scenario(uint8_t motion, uint8_t divider, int parts, counts_t *r
     co_link.master.pdo_timeout_ms = (uint16_t)(3u * divider + 5u);
     co_link.master.setpoint_timeout_ms = (uint16_t)(3u * divider);
     for (k = 0u; k < co_link.master.n_nodes; k++) {
-        co_link.master.node[k].force_ff = 1u; /* 0x2120 in RPDO1 */
+        co_link.master.node[k].force_ff = 1u; /* 0x2120 (CiA 408), 0x60B2 (CiA 402) in RPDO1 */
+        co_link.master.node[k].profile = lay.cia402 ? (uint8_t)SP_CO_PROFILE_402 : (uint8_t)SP_CO_PROFILE_408;
+    }
+    if (lay.cia402) {
+        co_link.master.pressure_feedback = 0u;
+        for (k = 0u; k < SP_LEGS; k++) {
+            co_link.scaling[k].rated_force_n = RATED_402_N;
+            (void)sp_co_scaling_prepare(&co_link.scaling[k]);
+        }
     }
     /* feedback every `divider` ticks: the controller's timeout and feedback period */
     (void)sp_co_link_ctrl_config(&co_link, &sc.cfg);
@@ -324,8 +348,9 @@ static void key(char *buf, const char *prefix, const char *name, uint8_t divider
     buf[i] = '\0';
 }
 
-static void print_counts(uint8_t motion, uint8_t divider, const counts_t *r)
+static void print_counts(uint8_t motion, layout_t lay, const counts_t *r)
 {
+    const uint8_t divider = lay.divider;
     static const char *const part_names[PARTS] = {
         "  sp_co_master_receive (the frames)",
         "  sp_co_link_feedback",
@@ -338,6 +363,7 @@ static void print_counts(uint8_t motion, uint8_t divider, const counts_t *r)
     unsigned i;
     m4_out_str("-- ");
     m4_out_str(motion_names[motion]);
+    m4_out_str(lay.cia402 ? ", CiA 402" : ", CiA 408");
     m4_out_str(", SYNC every ");
     m4_out_u32(divider);
     m4_out_str(divider == 1u ? " tick" : " ticks");
@@ -414,7 +440,7 @@ static void print_counts(uint8_t motion, uint8_t divider, const counts_t *r)
     m4_out_nl();
 }
 
-static void budget(uint8_t divider, const counts_t r[3])
+static void budget(layout_t lay, const counts_t r[3])
 {
     uint32_t over = 0u, max16 = 0u;
     unsigned i;
@@ -424,8 +450,9 @@ static void budget(uint8_t divider, const counts_t r[3])
         max16 = r[i].all.max16 > max16 ? r[i].all.max16 : max16;
         mean_ok = mean_ok && m4_stat_mean16(&r[i].run) <= TICK_BUDGET * 16u;
     }
-    m4_out_str("budget: whole CANopen tick (SYNC every ");
-    m4_out_u32(divider);
+    m4_out_str(lay.cia402 ? "budget: whole CANopen tick (CiA 402, SYNC every "
+                          : "budget: whole CANopen tick (CiA 408, SYNC every ");
+    m4_out_u32(lay.divider);
     m4_out_str(") <= ");
     m4_out_u32(TICK_BUDGET);
     m4_out_str(" instructions: RUNNING mean ");
@@ -456,30 +483,31 @@ static void budget(uint8_t divider, const counts_t r[3])
 
 int main(void)
 {
-    static const uint8_t dividers[2] = {3u, 1u};
-    static counts_t r[2][3];
+    /* CiA 408 at the layout of two classic buses with pressures, CiA 402 at its own, CiA 408 every tick */
+    static const layout_t layouts[LAYOUTS] = {{0u, 3u}, {1u, 2u}, {0u, 1u}};
+    static counts_t r[LAYOUTS][3];
     unsigned d, s;
-    m4_out_str("== Cortex-M4 instruction counts, the whole tick with six CiA 408 drives: frames received, "
+    m4_out_str("== Cortex-M4 instruction counts, the whole tick with six CANopen drives: frames received, "
                "link feedback, sp_ctrl_step, link input, master step (compiled for " M4_OPTIMISATION ")");
     m4_out_nl();
     if (m4_count_init() != 0) {
         (void)m4_out_flush();
         return 3;
     }
-    for (d = 0u; d < 2u; ++d) {
+    for (d = 0u; d < LAYOUTS; ++d) {
         for (s = 0u; s < 3u; ++s) {
-            run_scenario((uint8_t)s, dividers[d], 0, &r[d][s]);
-            run_scenario((uint8_t)s, dividers[d], 1, &r[d][s]);
+            run_scenario((uint8_t)s, layouts[d], 0, &r[d][s]);
+            run_scenario((uint8_t)s, layouts[d], 1, &r[d][s]);
         }
     }
     m4_stat_header();
-    for (d = 0u; d < 2u; ++d) {
+    for (d = 0u; d < LAYOUTS; ++d) {
         for (s = 0u; s < 3u; ++s) {
-            print_counts((uint8_t)s, dividers[d], &r[d][s]);
+            print_counts((uint8_t)s, layouts[d], &r[d][s]);
         }
     }
-    for (d = 0u; d < 2u; ++d) {
-        budget(dividers[d], r[d]);
+    for (d = 0u; d < LAYOUTS; ++d) {
+        budget(layouts[d], r[d]);
     }
     return m4_out_flush() == 0 ? 0 : 2;
 }

@@ -1073,7 +1073,7 @@ static void test_set_wrench_source(void **state)
     assert_int_equal(sp_ctrl_set_wrench_source(NULL, SP_WRENCH_SENSOR, NULL), SP_E_ARG);
 }
 
-/* One tick of CANopen drives at SYNC every 3 ticks (feedback_divider 3):
+/* One tick of CANopen drives at SYNC every 3 (or 2) ticks (feedback_divider):
  * phase 0 sends setpoints (the drives take them), the others are
  * setpoints_idle; the drives' answers, fresh, arrive on phase 1. */
 static void divided_tick(rig_t *r, sp_cmd_type_t cmd, unsigned phase)
@@ -1170,6 +1170,64 @@ static void test_divided_feedback(void **state)
                   "%u of %u idle ticks\n",
                   worst, moved, idle);
     assert_true(moved >= idle * 9u / 10u);
+    assert_int_equal(r.out.faults, 0);
+}
+
+/* Divided feedback at SYNC every 2 ticks (CiA 402's layout on two classic
+ * buses): no quiet tick, so ENGAGE taken on a sending tick makes the
+ * setpoints there, at rest where the platform stands (the measured
+ * lengths within 1 um, no velocity); then as at 3: every sending tick its
+ * own reference's setpoints (forces within 5 N of sp_setpoints_of), the
+ * answers' ticks keep them bit for bit. */
+static void test_divided_feedback_by_two(void **state)
+{
+    (void)state;
+    static rig_t r;
+    unsigned t = 1u;
+    double worst = 0.0;
+    rig_init(&r);
+    r.cfg.feedback_divider = 2u;
+    r.cfg.feedback_timeout_ticks = 4u;
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
+    for (; t < 6u; ++t) {
+        divided_tick(&r, SP_CMD_NONE, t % 2u);
+    }
+    assert_int_equal(t % 2u, 0u);
+    assert_true(r.out.estimate_valid);
+    divided_tick(&r, SP_CMD_ENGAGE, t++ % 2u);
+    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(r.ctrl.setpoints_deferred, 0);
+    assert_int_equal(r.ctrl.est.ref_lu.valid, 1);
+    for (int i = 0; i < SP_LEGS; ++i) {
+        assert_true(llabs((long long)r.out.setpoint[i].length - (long long)r.in.drive[i].length) <= q24(1e-6));
+        assert_int_equal(r.out.setpoint[i].velocity, 0);
+    }
+    for (int n = 0; n < 20000 && r.out.state != SP_STATE_READY; ++n) {
+        divided_tick(&r, SP_CMD_NONE, t++ % 2u);
+    }
+    assert_int_equal(r.out.state, SP_STATE_READY);
+    if (t % 2u != 0u) {
+        divided_tick(&r, SP_CMD_NONE, t++ % 2u);
+    }
+    r.in.cmd.axis = SP_AXIS_X;
+    r.in.cmd.amplitude = q24(0.05);
+    r.in.cmd.frequency = q24(0.5);
+    divided_tick(&r, SP_CMD_RUN_TRIG, t++ % 2u);
+    assert_int_equal(r.out.cmd_rejected, 0);
+    assert_int_equal(r.out.state, SP_STATE_RUNNING);
+    for (int n = 0; n < 3000; ++n) {
+        unsigned phase = t++ % 2u;
+        sp_setpoint_t before[SP_LEGS];
+        memcpy(before, r.out.setpoint, sizeof before);
+        divided_tick(&r, SP_CMD_NONE, phase);
+        assert_int_equal(r.out.state, SP_STATE_RUNNING);
+        if (phase == 0u) {
+            worst = fmax(worst, check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, 5.0));
+        } else {
+            assert_memory_equal(before, r.out.setpoint, sizeof before);
+        }
+    }
+    print_message("divided feedback by two: sending ticks' forces within %.3f N of sp_setpoints_of\n", worst);
     assert_int_equal(r.out.faults, 0);
 }
 
@@ -1846,6 +1904,7 @@ int main(void)
         cmocka_unit_test(test_engage_from_just_outside_the_workspace),
         cmocka_unit_test(test_rest_reuses_setpoints),
         cmocka_unit_test(test_divided_feedback),
+        cmocka_unit_test(test_divided_feedback_by_two),
         cmocka_unit_test(test_silent_drive_faults_within_3_ticks),
         cmocka_unit_test(test_reset_refused_while_silent),
         cmocka_unit_test(test_reset_clears_drive_faults),

@@ -992,15 +992,18 @@ static int idle_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
  * sample is at rest where the platform stands: the held lengths) and
  * leaves them to such a tick, so that the costliest setpoints never share
  * a tick with the SYNC's frames or the answers' estimate. A second sending
- * tick in a row makes them (a divider of 2 has no quiet tick). Returns
- * whether a model of the tick's or a kept reference is valid. */
+ * tick in a row makes them. A divider of 2 has no quiet tick: there the
+ * first sending tick makes them, while the reference is still at rest
+ * (the legs' terms at rest cost a third of a moving reference's, which a
+ * held tick would leave to the next sending tick). Returns whether a
+ * model of the tick's or a kept reference is valid. */
 static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, int idle, int heard)
 {
     int fresh = ctrl->est.ref_lu.valid;
     if (idle) {
         return (!fresh && !heard) ? motion_setpoints(cfg, ctrl, ref, 0u) : idle_setpoints(ctrl, ref);
     }
-    if (!fresh && !ctrl->setpoints_deferred) {
+    if (!fresh && !ctrl->setpoints_deferred && cfg->feedback_divider > 2u) {
         ctrl->setpoints_deferred = 1u;
         hold_setpoints(ctrl, ref);
         return 0;
