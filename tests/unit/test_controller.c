@@ -1094,23 +1094,68 @@ static void divided_tick(rig_t *r, sp_cmd_type_t cmd, unsigned phase)
     }
 }
 
+/* From ENGAGING at a divider's phase: on to READY, the surge started on a
+ * sending tick, 3000 ticks of it: every sending tick carries its own
+ * reference's setpoints (sp_setpoints_of's lengths and rates, forces
+ * within 5 N: refined from a factorisation up to 8 sending ticks old), the
+ * idle ticks keep them bit for bit while the reported reference moves
+ * (on 9 in 10 at least), and the wrench estimate steps only on the
+ * answers' ticks. Returns the worst force difference, N. */
+static double divided_surge(rig_t *r, unsigned *t, unsigned divider)
+{
+    unsigned moved = 0u;
+    unsigned idle = 0u;
+    double worst = 0.0;
+    for (int n = 0; n < 20000 && r->out.state != SP_STATE_READY; ++n) {
+        divided_tick(r, SP_CMD_NONE, (*t)++ % divider);
+    }
+    assert_int_equal(r->out.state, SP_STATE_READY);
+    while (*t % divider != 0u) {
+        divided_tick(r, SP_CMD_NONE, (*t)++ % divider);
+    }
+    r->in.cmd.axis = SP_AXIS_X;
+    r->in.cmd.amplitude = q24(0.05);
+    r->in.cmd.frequency = q24(0.5);
+    divided_tick(r, SP_CMD_RUN_TRIG, (*t)++ % divider);
+    assert_int_equal(r->out.cmd_rejected, 0);
+    assert_int_equal(r->out.state, SP_STATE_RUNNING);
+    for (int n = 0; n < 3000; ++n) {
+        unsigned phase = (*t)++ % divider;
+        sp_setpoint_t before[SP_LEGS];
+        sp_pose_t ref_before = r->out.reference.pose;
+        sp_wrench_t w_before = r->ctrl.wrench;
+        memcpy(before, r->out.setpoint, sizeof before);
+        divided_tick(r, SP_CMD_NONE, phase);
+        assert_int_equal(r->out.state, SP_STATE_RUNNING);
+        if (phase == 0u) {
+            worst = fmax(worst, check_fresh_setpoints(r, SP_FF_DYNAMICS | SP_FF_FRICTION, 5.0));
+        } else {
+            idle++;
+            assert_memory_equal(before, r->out.setpoint, sizeof before);
+            moved += (memcmp(&ref_before, &r->out.reference.pose, sizeof ref_before) != 0) ? 1u : 0u;
+        }
+        if (phase != 1u) {
+            assert_memory_equal(&w_before, &r->ctrl.wrench, sizeof w_before);
+        }
+    }
+    print_message("divided feedback by %u: sending ticks' forces within %.3f N of sp_setpoints_of; the reference "
+                  "moved on %u of %u idle ticks\n",
+                  divider, worst, moved, idle);
+    assert_true(moved >= idle * 9u / 10u);
+    assert_int_equal(r->out.faults, 0);
+    return worst;
+}
+
 /* Divided feedback (setpoints and answers once per SYNC period of 3
  * ticks): ENGAGE taken on a sending tick holds there (the lengths where
  * the platform stands, no force), the answers' tick makes nothing, the
- * quiet tick after makes the setpoints; in the surge every sending tick
- * carries its own reference's setpoints (sp_setpoints_of's lengths and
- * rates, forces within 5 N: refined from a factorisation up to 8 sending
- * ticks old), the idle ticks keep them bit for bit while the reported
- * reference moves, and the wrench estimate steps only on the answers'
- * ticks. A divider above 255 is refused by sp_ctrl_init. */
+ * quiet tick after makes the setpoints; then the surge (divided_surge). A
+ * divider above 255 is refused by sp_ctrl_init. */
 static void test_divided_feedback(void **state)
 {
     (void)state;
     static rig_t r;
     unsigned t = 1u;
-    unsigned moved = 0u;
-    unsigned idle = 0u;
-    double worst = 0.0;
     rig_init(&r);
     r.cfg.feedback_divider = 256u;
     assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_E_ARG);
@@ -1134,57 +1179,18 @@ static void test_divided_feedback(void **state)
     assert_int_equal(r.ctrl.est.ref_lu.valid, 0);
     divided_tick(&r, SP_CMD_NONE, t++ % 3u); /* quiet: made here */
     assert_int_equal(r.ctrl.est.ref_lu.valid, 1);
-    for (int n = 0; n < 20000 && r.out.state != SP_STATE_READY; ++n) {
-        divided_tick(&r, SP_CMD_NONE, t++ % 3u);
-    }
-    assert_int_equal(r.out.state, SP_STATE_READY);
-    while (t % 3u != 0u) {
-        divided_tick(&r, SP_CMD_NONE, t++ % 3u);
-    }
-    r.in.cmd.axis = SP_AXIS_X;
-    r.in.cmd.amplitude = q24(0.05);
-    r.in.cmd.frequency = q24(0.5);
-    divided_tick(&r, SP_CMD_RUN_TRIG, t++ % 3u);
-    assert_int_equal(r.out.cmd_rejected, 0);
-    assert_int_equal(r.out.state, SP_STATE_RUNNING);
-    for (int n = 0; n < 3000; ++n) {
-        unsigned phase = t++ % 3u;
-        sp_setpoint_t before[SP_LEGS];
-        sp_pose_t ref_before = r.out.reference.pose;
-        sp_wrench_t w_before = r.ctrl.wrench;
-        memcpy(before, r.out.setpoint, sizeof before);
-        divided_tick(&r, SP_CMD_NONE, phase);
-        assert_int_equal(r.out.state, SP_STATE_RUNNING);
-        if (phase == 0u) {
-            worst = fmax(worst, check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, 5.0));
-        } else {
-            idle++;
-            assert_memory_equal(before, r.out.setpoint, sizeof before);
-            moved += (memcmp(&ref_before, &r.out.reference.pose, sizeof ref_before) != 0) ? 1u : 0u;
-        }
-        if (phase != 1u) {
-            assert_memory_equal(&w_before, &r.ctrl.wrench, sizeof w_before);
-        }
-    }
-    print_message("divided feedback: sending ticks' forces within %.3f N of sp_setpoints_of; the reference moved on "
-                  "%u of %u idle ticks\n",
-                  worst, moved, idle);
-    assert_true(moved >= idle * 9u / 10u);
-    assert_int_equal(r.out.faults, 0);
+    (void)divided_surge(&r, &t, 3u);
 }
 
 /* Divided feedback at SYNC every 2 ticks (CiA 402's layout on two classic
  * buses): no quiet tick, so ENGAGE taken on a sending tick makes the
  * setpoints there, at rest where the platform stands (the measured
- * lengths within 1 um, no velocity); then as at 3: every sending tick its
- * own reference's setpoints (forces within 5 N of sp_setpoints_of), the
- * answers' ticks keep them bit for bit. */
+ * lengths within 1 um, no velocity); then the surge as at 3. */
 static void test_divided_feedback_by_two(void **state)
 {
     (void)state;
     static rig_t r;
     unsigned t = 1u;
-    double worst = 0.0;
     rig_init(&r);
     r.cfg.feedback_divider = 2u;
     r.cfg.feedback_timeout_ticks = 4u;
@@ -1202,33 +1208,7 @@ static void test_divided_feedback_by_two(void **state)
         assert_true(llabs((long long)r.out.setpoint[i].length - (long long)r.in.drive[i].length) <= q24(1e-6));
         assert_int_equal(r.out.setpoint[i].velocity, 0);
     }
-    for (int n = 0; n < 20000 && r.out.state != SP_STATE_READY; ++n) {
-        divided_tick(&r, SP_CMD_NONE, t++ % 2u);
-    }
-    assert_int_equal(r.out.state, SP_STATE_READY);
-    if (t % 2u != 0u) {
-        divided_tick(&r, SP_CMD_NONE, t++ % 2u);
-    }
-    r.in.cmd.axis = SP_AXIS_X;
-    r.in.cmd.amplitude = q24(0.05);
-    r.in.cmd.frequency = q24(0.5);
-    divided_tick(&r, SP_CMD_RUN_TRIG, t++ % 2u);
-    assert_int_equal(r.out.cmd_rejected, 0);
-    assert_int_equal(r.out.state, SP_STATE_RUNNING);
-    for (int n = 0; n < 3000; ++n) {
-        unsigned phase = t++ % 2u;
-        sp_setpoint_t before[SP_LEGS];
-        memcpy(before, r.out.setpoint, sizeof before);
-        divided_tick(&r, SP_CMD_NONE, phase);
-        assert_int_equal(r.out.state, SP_STATE_RUNNING);
-        if (phase == 0u) {
-            worst = fmax(worst, check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, 5.0));
-        } else {
-            assert_memory_equal(before, r.out.setpoint, sizeof before);
-        }
-    }
-    print_message("divided feedback by two: sending ticks' forces within %.3f N of sp_setpoints_of\n", worst);
-    assert_int_equal(r.out.faults, 0);
+    (void)divided_surge(&r, &t, 2u);
 }
 
 /* One tick with an operator heartbeat when `beat`. */
