@@ -403,3 +403,61 @@ def test_check_passes_for_the_simulated_cia402_drive_eds(capsys):
     assert "ok: every object and PDO mapping" in out and "absent" not in out
     assert cli.main(["drives", "check", "--eds", str(eds402), "--profile", "cia408"]) == 1
     assert "names profile 402, not 408" in capsys.readouterr().out
+
+
+# ---- CiA 402: the rated torque/force behind 0x60B2 -----------------------------
+
+EDS_402 = REPO_ROOT / "config" / "eds" / "stewart_sim_drive_402.eds"
+
+
+def _cia402_ff_config(tmp_path, rated_force: float):
+    d = json.loads(DEFAULT.read_text())
+    sec = _drives_section(divider=2)
+    for leg in sec["legs"]:
+        leg["protocol"] = "cia402"
+        leg["force_feedforward"] = True
+        leg["scaling"]["rated_force"] = rated_force
+    d["drives"] = sec
+    path = tmp_path / f"platform_cia402_{rated_force:g}.json"
+    path.write_text(json.dumps(d))
+    return path
+
+
+@pytest.mark.parametrize("rated_force, says", [
+    (10000, "0x6076 = 10000000 equals scaling.rated_force (10000 N along the leg) in mN"),
+    (5000, "0x6076 = 10000000 (the motor's rated torque in mN m, or force in mN for a linear motor) is not "
+           "scaling.rated_force (5000 N along the leg = 5e+06 mN)"),
+])
+def test_config_of_a_cia402_drive_reads_its_rated_force(tmp_path, capsys, rated_force, says):
+    """The simulated CiA 402 drive's 0x6076 is 10 kN (a linear axis, mN):
+    `drives config` reads it after the writes and sets it beside the
+    config's scaling.rated_force, which 0x60B2's per mille count in."""
+    d = SimDrive(5, EDS_402)
+    try:
+        args = ["drives", "config", "--config", str(_cia402_ff_config(tmp_path, rated_force)), "--bus", "can_a",
+                "--node", "5", *_bus(d)]
+        assert cli.main(args) == 0, capsys.readouterr().err
+    finally:
+        d.close()
+    out = capsys.readouterr().out
+    assert f"leg 1: node 5: {says}" in out
+    if rated_force != 10000:
+        assert "off by a factor 0.5" in out
+
+
+def test_config_of_a_cia402_drive_without_0x6076(tmp_path, capsys):
+    cp = configparser.RawConfigParser()
+    cp.optionxform = str
+    cp.read(EDS_402)
+    cp.remove_section("6076")
+    path = tmp_path / "no_6076.eds"
+    with path.open("w") as f:
+        cp.write(f, space_around_delimiters=False)
+    d = SimDrive(5, path)
+    try:
+        args = ["drives", "config", "--config", str(_cia402_ff_config(tmp_path, 10000)), "--bus", "can_a",
+                "--node", "5", *_bus(d)]
+        assert cli.main(args) == 0, capsys.readouterr().err
+    finally:
+        d.close()
+    assert "leg 1: node 5: the drive has no 0x6076 (rated torque/force)" in capsys.readouterr().out

@@ -152,6 +152,14 @@ def run_config(args) -> int:
                 if res.fixed else ""
             print(f"leg {d.leg}: node {d.node_id} on {d.bus}: wrote {len(res.written)} objects, read back "
                   f"{len(res.readback)}: all equal{skipped}{fixed}")
+            if d.protocol == "cia402" and d.force_feedforward and d.scaling is not None:
+                try:
+                    rated = session.read_rated(net, d.node_id)
+                except session.DriveError as exc:
+                    _err(f"leg {d.leg}: {exc}")
+                    failed += 1
+                    continue
+                print(f"leg {d.leg}: node {d.node_id}: {session.rated_note(rated, d.scaling.rated_force)}")
     finally:
         session.close_network(net)
     return 1 if failed else 0

@@ -142,6 +142,52 @@ def _read(node, node_id: int, w: Write) -> int:
         raise DriveError(f"node {node_id}: no SDO answer reading back {w.key}: {exc}") from None
 
 
+#: CiA 402's motor rated torque (mN m) or, for a linear motor, force (mN).
+RATED_TORQUE = (0x6076, 0)
+
+
+def read_rated(net, node_id: int) -> int | None:
+    """A CiA 402 drive's 0x6076 (UNSIGNED32): the torque or force that its
+    0x60B2 torque/force offset counts in per mille of; None when the drive
+    has no such object. Raises DriveError on another abort or no answer."""
+    import canopen
+
+    node = canopen.RemoteNode(node_id, canopen.ObjectDictionary())
+    net.add_node(node)
+    try:
+        data = node.sdo.upload(*RATED_TORQUE)
+    except canopen.SdoAbortedError as exc:
+        if exc.code in ABSENT_CODES:
+            return None
+        raise DriveError(f"node {node_id}: reading 0x6076.0 (rated torque/force): {_abort_text(exc)}") from None
+    except canopen.SdoCommunicationError as exc:
+        raise DriveError(f"node {node_id}: no SDO answer reading 0x6076.0 (rated torque/force): {exc}") from None
+    finally:
+        del net[node_id]
+    return int.from_bytes(data[:4].ljust(4, b"\0"), "little")
+
+
+def rated_note(rated: int | None, rated_force_n: float) -> str:
+    """What a commissioning engineer should compare: the drive's 0x6076
+    against the config's scaling.rated_force (N along the leg at 0x60B2's
+    1000 per mille). They agree to the letter for a linear motor on the leg
+    (mN); for a rotary motor (mN m) only through the leg's screw."""
+    config_mn = rated_force_n * 1000.0
+    if rated is None:
+        return ("the drive has no 0x6076 (rated torque/force): check scaling.rated_force "
+                f"({rated_force_n:g} N along the leg at 1000 per mille of 0x60B2) against its manual")
+    if rated == 0:
+        return ("0x6076 = 0: the drive gives no rated torque/force, so what its 0x60B2 counts in is "
+                "not known; check its manual")
+    if abs(rated - config_mn) <= 0.5:
+        return (f"0x6076 = {rated} equals scaling.rated_force ({rated_force_n:g} N along the leg) in mN: "
+                "right for a linear motor on the leg")
+    return (f"0x6076 = {rated} (the motor's rated torque in mN m, or force in mN for a linear motor) "
+            f"is not scaling.rated_force ({rated_force_n:g} N along the leg = {config_mn:g} mN): right only "
+            "if the leg's screw turns the one into the other; for a linear motor the force feed-forward "
+            f"would be off by a factor {config_mn / rated:.4g}")
+
+
 @dataclass
 class ConfigResult:
     node_id: int
