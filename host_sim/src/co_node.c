@@ -45,20 +45,10 @@ static void pdo_map(hs_co_node_t *n, uint16_t index, uint32_t count, uint32_t e1
     od_add(n, index, 4u, 4u, HS_CO_RW, 0u);
 }
 
-/* The EDS's objects (config/eds/stewart_sim_drive.eds) with its defaults,
- * except the three strings 0x1008-0x100A (they need a segmented transfer,
- * which this server does not offer); a Python test compares the two. */
-static void od_defaults_402(hs_co_node_t *n);
-
-static void od_defaults(hs_co_node_t *n)
+/* The communication objects both profiles share (the 408 EDS's 0x1001-0x1200). */
+static void od_common(hs_co_node_t *n, uint32_t product)
 {
     uint32_t id = n->node_id;
-    n->n_od = 0u;
-    if (n->profile == 1u) {
-        od_defaults_402(n);
-        return;
-    }
-    od_add(n, 0x1000u, 0u, 4u, HS_CO_RO, 0x00000198u);
     od_add(n, 0x1001u, 0u, 1u, HS_CO_RO, 0u);
     od_add(n, 0x1003u, 0u, 1u, HS_CO_RW, 0u);
     od_add(n, 0x1003u, 1u, 4u, HS_CO_RO, 0u);
@@ -70,12 +60,29 @@ static void od_defaults(hs_co_node_t *n)
     od_add(n, 0x1017u, 0u, 2u, HS_CO_RW, 0u);
     od_add(n, 0x1018u, 0u, 1u, HS_CO_RO, 4u);
     od_add(n, 0x1018u, 1u, 4u, HS_CO_RO, 0u);
-    od_add(n, 0x1018u, 2u, 4u, HS_CO_RO, 0x5348u);
+    od_add(n, 0x1018u, 2u, 4u, HS_CO_RO, product);
     od_add(n, 0x1018u, 3u, 4u, HS_CO_RO, 0x00010000u);
     od_add(n, 0x1018u, 4u, 4u, HS_CO_RO, 0u);
     od_add(n, 0x1200u, 0u, 1u, HS_CO_RO, 2u);
     od_add(n, 0x1200u, 1u, 4u, HS_CO_RO, 0x600u + id);
     od_add(n, 0x1200u, 2u, 4u, HS_CO_RO, 0x580u + id);
+}
+
+static void od_defaults_402(hs_co_node_t *n);
+
+/* The EDS's objects (config/eds/stewart_sim_drive.eds) with its defaults,
+ * except the three strings 0x1008-0x100A (they need a segmented transfer,
+ * which this server does not offer); a Python test compares the two. */
+static void od_defaults(hs_co_node_t *n)
+{
+    uint32_t id = n->node_id;
+    n->n_od = 0u;
+    if (n->profile == 1u) {
+        od_defaults_402(n);
+        return;
+    }
+    od_add(n, 0x1000u, 0u, 4u, HS_CO_RO, 0x00000198u);
+    od_common(n, 0x5348u);
     pdo_comm(n, 0x1400u, 0x200u + id);
     pdo_comm(n, 0x1401u, 0x80000300u + id);
     pdo_map(n, 0x1600u, 2u, 0x60400010u, 0x66000120u);
@@ -105,29 +112,6 @@ static void od_defaults(hs_co_node_t *n)
     od_add(n, 0x6614u, 1u, 4u, HS_CO_RW, 0u);
     od_add(n, 0x6614u, 2u, 1u, HS_CO_RO, 0x01u);
     od_add(n, 0x6614u, 3u, 1u, HS_CO_RO, 0xFAu);
-}
-
-/* The communication objects both profiles share (the 408 EDS's 0x1001-0x1200). */
-static void od_common(hs_co_node_t *n, uint32_t product)
-{
-    uint32_t id = n->node_id;
-    od_add(n, 0x1001u, 0u, 1u, HS_CO_RO, 0u);
-    od_add(n, 0x1003u, 0u, 1u, HS_CO_RW, 0u);
-    od_add(n, 0x1003u, 1u, 4u, HS_CO_RO, 0u);
-    od_add(n, 0x1005u, 0u, 4u, HS_CO_RW, 0x80u);
-    od_add(n, 0x1006u, 0u, 4u, HS_CO_RW, 0u);
-    od_add(n, 0x1014u, 0u, 4u, HS_CO_RO, 0x80u + id);
-    od_add(n, 0x1016u, 0u, 1u, HS_CO_RO, 1u);
-    od_add(n, 0x1016u, 1u, 4u, HS_CO_RW, 0u);
-    od_add(n, 0x1017u, 0u, 2u, HS_CO_RW, 0u);
-    od_add(n, 0x1018u, 0u, 1u, HS_CO_RO, 4u);
-    od_add(n, 0x1018u, 1u, 4u, HS_CO_RO, 0u);
-    od_add(n, 0x1018u, 2u, 4u, HS_CO_RO, product);
-    od_add(n, 0x1018u, 3u, 4u, HS_CO_RO, 0x00010000u);
-    od_add(n, 0x1018u, 4u, 4u, HS_CO_RO, 0u);
-    od_add(n, 0x1200u, 0u, 1u, HS_CO_RO, 2u);
-    od_add(n, 0x1200u, 1u, 4u, HS_CO_RO, 0x600u + id);
-    od_add(n, 0x1200u, 2u, 4u, HS_CO_RO, 0x580u + id);
 }
 
 /* config/eds/stewart_sim_drive_402.eds: a CiA 402 servo drive (0x1000 =
