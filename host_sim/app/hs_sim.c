@@ -1031,6 +1031,24 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
     } while (got == RX_BUF);
 }
 
+/* --canopen: one frame the plant heard, logged: an ops frame as usual, an
+ * axis bus's to the CANopen nodes, whose answers go out at once. */
+static void canopen_take(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
+{
+    log_frame(s, f, t_us);
+    if (f->bus == SP_BUS_OPS) {
+        take_frame(s, f);
+        return;
+    }
+    sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
+    uint8_t n = 0u;
+    (void)hs_co_bus_receive(&s->co, f, tx, &n);
+    if (n > 0u) {
+        (void)send_frames(s, tx, n, t_us);
+        s->co_sent += n;
+    }
+}
+
 /* --canopen: the frames up to and including the next SYNC on axis_b (the
  * master sends the SYNCs after the RPDOs, axis_b's last: it closes the
  * cycle). Every frame of an axis bus goes to the CiA 408 nodes (NMT, SDO,
@@ -1050,18 +1068,7 @@ static int canopen_frames(sim_t *s, uint64_t t_us)
             s->co_rx_n = got;
         }
         const sp_can_frame_t *f = &s->co_rx[s->co_rx_i++];
-        log_frame(s, f, t_us);
-        if (f->bus == SP_BUS_OPS) {
-            take_frame(s, f);
-            continue;
-        }
-        sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
-        uint8_t n = 0u;
-        (void)hs_co_bus_receive(&s->co, f, tx, &n);
-        if (n > 0u) {
-            (void)send_frames(s, tx, n, t_us);
-            s->co_sent += n;
-        }
+        canopen_take(s, f, t_us);
         if (f->id == SP_CO_COB_SYNC && f->bus == SP_BUS_AXIS_B) {
             return 1;
         }
@@ -1075,19 +1082,7 @@ static int canopen_frames(sim_t *s, uint64_t t_us)
 static void canopen_answer(sim_t *s, const sp_can_frame_t *raw, uint32_t n_raw, uint64_t t_us)
 {
     for (uint32_t k = 0; k < n_raw; k++) {
-        const sp_can_frame_t *f = &raw[k];
-        log_frame(s, f, t_us);
-        if (f->bus == SP_BUS_OPS) {
-            take_frame(s, f);
-            continue;
-        }
-        sp_can_frame_t tx[HS_CO_BUS_MAX_TX];
-        uint8_t n = 0u;
-        (void)hs_co_bus_receive(&s->co, f, tx, &n);
-        if (n > 0u) {
-            (void)send_frames(s, tx, n, t_us);
-            s->co_sent += n;
-        }
+        canopen_take(s, &raw[k], t_us);
     }
 }
 
