@@ -131,6 +131,8 @@ def test_closed_loop_with_cia408_drives(tmp_path):
     print(plant.stdout, plant.stderr, c_out)
     assert plant.returncode == 0, plant.stdout + plant.stderr
     assert "faults 0x0000" in c_out, c_out
+    # the built-in layout (no drives section) at SYNC every tick: named, with the check to make on a real bus
+    assert "stewart busload --builtin cia408 --sync-divider 1" in c_out, c_out
     m = re.search(r"sp_controller canopen: ready (\d)(.*)", c_out)
     assert m and m[1] == "1", c_out
     assert m[2].count("phase 6") == 6 and m[2].count(" none") == 6, m[2]   # every node running, no fault
