@@ -32,7 +32,7 @@ def test_cia402_demo_runs_cia402_drives_against_native(monkeypatch, tmp_path):
     assert rc == 1  # the fake runs wrote no log
     assert sorted(specs) == ["main", "main_repeat", "native"]
     for name in ("main", "main_repeat"):
-        assert specs[name].cia402 and specs[name].canopen_sync_divider == 3 and specs[name].canopen_force_ff  # 0x60B2
+        assert specs[name].cia402 and specs[name].canopen_sync_divider == 2 and specs[name].canopen_force_ff  # 0x60B2, 41 %
         assert specs[name].scenario.startswith("delay 0.2\n")  # ENGAGE after the start-up by SDO
     native = specs["native"]
     assert not (native.cia402 or native.canopen) and native.feedforward
