@@ -237,15 +237,20 @@ def test_config_of_a_silent_node_is_an_error(sim_drive, cia408_config, capsys):
     assert "leg 2: node 6: no SDO answer writing 0x1017.0" in capsys.readouterr().err
 
 
-def test_config_skips_optional_objects_the_drive_lacks(tmp_path, cia408_config, capsys):
+def _eds_without(tmp_path, eds_path, section: str):
+    """A copy of an EDS without one object's section (a drive that lacks it)."""
     cp = configparser.RawConfigParser()
     cp.optionxform = str
-    cp.read(EDS)
-    cp.remove_section("1006")
-    path = tmp_path / "no_1006.eds"
+    cp.read(eds_path)
+    cp.remove_section(section)
+    path = tmp_path / f"no_{section}.eds"
     with path.open("w") as f:
         cp.write(f, space_around_delimiters=False)
-    d = SimDrive(5, path)
+    return path
+
+
+def test_config_skips_optional_objects_the_drive_lacks(tmp_path, cia408_config, capsys):
+    d = SimDrive(5, _eds_without(tmp_path, EDS, "1006"))
     try:
         args = ["drives", "config", "--config", str(cia408_config), "--bus", "can_a", "--node", "5", *_bus(d)]
         assert cli.main(args) == 0
@@ -446,14 +451,7 @@ def test_config_of_a_cia402_drive_reads_its_rated_force(tmp_path, capsys, rated_
 
 
 def test_config_of_a_cia402_drive_without_0x6076(tmp_path, capsys):
-    cp = configparser.RawConfigParser()
-    cp.optionxform = str
-    cp.read(EDS_402)
-    cp.remove_section("6076")
-    path = tmp_path / "no_6076.eds"
-    with path.open("w") as f:
-        cp.write(f, space_around_delimiters=False)
-    d = SimDrive(5, path)
+    d = SimDrive(5, _eds_without(tmp_path, EDS_402, "6076"))
     try:
         args = ["drives", "config", "--config", str(_cia402_ff_config(tmp_path, 10000)), "--bus", "can_a",
                 "--node", "5", *_bus(d)]

@@ -1146,6 +1146,24 @@ static double divided_surge(rig_t *r, unsigned *t, unsigned divider)
     return worst;
 }
 
+/* Divided feedback at `divider` (rig initialised, the divider's timeout
+ * set): five ticks from the first answers (the estimate valid), then ENGAGE
+ * on a sending tick, taken. Returns the next tick's number. */
+static unsigned divided_engage(rig_t *r, unsigned divider)
+{
+    unsigned t = 1u;
+    r->cfg.feedback_divider = divider;
+    assert_int_equal(sp_ctrl_init(&r->ctrl, &r->cfg), SP_OK);
+    for (; t < 6u; ++t) {
+        divided_tick(r, SP_CMD_NONE, t % divider);
+    }
+    assert_int_equal(t % divider, 0u);
+    assert_true(r->out.estimate_valid);
+    divided_tick(r, SP_CMD_ENGAGE, t++ % divider);
+    assert_int_equal(r->out.state, SP_STATE_ENGAGING);
+    return t;
+}
+
 /* Divided feedback (setpoints and answers once per SYNC period of 3
  * ticks): ENGAGE taken on a sending tick holds there (the lengths where
  * the platform stands, no force), the answers' tick makes nothing, the
@@ -1155,20 +1173,12 @@ static void test_divided_feedback(void **state)
 {
     (void)state;
     static rig_t r;
-    unsigned t = 1u;
+    unsigned t;
     rig_init(&r);
     r.cfg.feedback_divider = 256u;
     assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_E_ARG);
-    r.cfg.feedback_divider = 3u;
     r.cfg.feedback_timeout_ticks = 5u;
-    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
-    for (; t < 6u; ++t) {
-        divided_tick(&r, SP_CMD_NONE, t % 3u);
-    }
-    assert_int_equal(t % 3u, 0u);
-    assert_true(r.out.estimate_valid);
-    divided_tick(&r, SP_CMD_ENGAGE, t++ % 3u);
-    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    t = divided_engage(&r, 3u);
     assert_int_equal(r.ctrl.setpoints_deferred, 1);
     assert_int_equal(r.ctrl.est.ref_lu.valid, 0);
     for (int i = 0; i < SP_LEGS; ++i) {
@@ -1190,18 +1200,10 @@ static void test_divided_feedback_by_two(void **state)
 {
     (void)state;
     static rig_t r;
-    unsigned t = 1u;
+    unsigned t;
     rig_init(&r);
-    r.cfg.feedback_divider = 2u;
     r.cfg.feedback_timeout_ticks = 4u;
-    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
-    for (; t < 6u; ++t) {
-        divided_tick(&r, SP_CMD_NONE, t % 2u);
-    }
-    assert_int_equal(t % 2u, 0u);
-    assert_true(r.out.estimate_valid);
-    divided_tick(&r, SP_CMD_ENGAGE, t++ % 2u);
-    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    t = divided_engage(&r, 2u);
     assert_int_equal(r.ctrl.setpoints_deferred, 0);
     assert_int_equal(r.ctrl.est.ref_lu.valid, 1);
     for (int i = 0; i < SP_LEGS; ++i) {

@@ -153,13 +153,12 @@ def run(args: argparse.Namespace) -> int:
     if args.builtin:
         import dataclasses
 
-        from ..analysis.canopen_legs import layout_of
+        from .. import model
 
-        builtin, _ = layout_of(dataclasses.replace(platform, drives=layout.native_default()))
-        legs = tuple(dataclasses.replace(d, protocol=args.builtin, force_feedforward=args.force_ff)
-                     for d in builtin.legs)
-        drives = dataclasses.replace(builtin, legs=legs, sync_divider=args.sync_divider,
-                                     pressure_feedback=args.builtin == "cia408")
+        park = model.inverse_kinematics(platform, platform.park).lengths
+        builtin = layout.builtin_canopen([float(x) for x in park], args.builtin)
+        legs = tuple(dataclasses.replace(d, force_feedforward=args.force_ff) for d in builtin.legs)
+        drives = dataclasses.replace(builtin, legs=legs, sync_divider=args.sync_divider)
         source = (f"the built-in layout, {args.builtin}, sp_controller --canopen-sync-divider "
                   f"{args.sync_divider}{' --canopen-force-ff' if args.force_ff else ''}")
     elif args.sync_divider != 1 or args.force_ff:
