@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Cost of ``stewart analyze``'s steps on one log: the whole-message
 decoder and the numpy writers against the per-frame reference path.
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * bench_fixed - prints, for each arithmetic function of sp/fixed.h, the
  * maximum error measured against a long double reference over random inputs

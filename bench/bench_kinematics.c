@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * bench_kinematics - host cost of the core's kinematics and dynamics on the
  * default platform (config/platform_default.json), over random poses and

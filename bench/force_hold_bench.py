@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Benchmark: the issue 15 hold figures per wrench source and stiffness.
 
     .venv/bin/python bench/force_hold_bench.py [--build build/host-release] [--out DIR]

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Benchmark: a pose stream at 1 kHz through python-can over vcan.
 
     .venv/bin/stewart vcan --fd --mem 2G -- .venv/bin/python bench/op_stream_bench.py [--seconds 60]

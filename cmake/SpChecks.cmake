@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # sp_forbid_symbols(<target> <regex>)
 # After <target> (a static library) is built, list the symbols its objects
 # reference but do not define; if any matches <regex>, the build fails.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Script mode: fails if a symbol of FILE matches REGEX in full.
 #   default:      the undefined symbols (what a library references: heap or
 #                 floating point pulled into the firmware)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Cross toolchain: Debian's arm-none-eabi GCC for a Cortex-M4.
 # The firmware is fixed point, so it is built for the soft-float ABI: any
 # floating-point operation that slips in becomes a call to an __aeabi_f* or

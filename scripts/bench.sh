@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Prints the benchmark figures: the host-release benchmarks (fixed-point
 # primitives, kinematics and the controller tick, the plant), accuracy of the
 # core against the float64 model, instruction counts of the core on a

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The main job: the firmware's controller (host build) commands the simulated
 # hydraulic hexapod over three CAN FD buses (vcan; user-mode Linux where the
 # kernel has no CAN) in deterministic lockstep: engage, the paper's surge and

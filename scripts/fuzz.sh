@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Builds the libFuzzer targets of tests/fuzz with clang (ASan + UBSan, and
 # LeakSanitizer with ASan) and runs them one after the other:
 #   node      the controller's receive path (firmware/core/src/node.c)

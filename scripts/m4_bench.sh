@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The portable core on a Cortex-M4 (QEMU mps2-an386; docs/m4.md): prints
 # the instructions executed per IK, inverse dynamics, FK (warm start) and
 # controller tick, fixed point next to the single-precision float reference

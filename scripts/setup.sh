@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs what the project needs on a fresh Debian bookworm machine:
 # Debian packages (compilers, cmocka, the Cortex-M4 toolchain, QEMU,
 # user-mode Linux and can-utils for the vcan bus) and the Python venv in

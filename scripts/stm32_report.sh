@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The NUCLEO-G474RE firmware's figures (docs/stm32g4.md): the image files,
 # flash and RAM against their budgets (128 KiB, 32 KiB), the flash of each
 # part (portable core per file, libgcc, C library, port), the worst-case

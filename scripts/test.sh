@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # All tests, from a fresh machine: set-up, every build preset (host debug with
 # sanitizers, host release, Cortex-M4 cross build), the benchmarks' figures,
 # the C unit tests (ctest) and the Python tests (pytest).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * co_icount.c - instructions per tick of the CANopen master and its link
  * (sp/canopen_master.h, sp/canopen_link.h) on a Cortex-M4 (QEMU mps2-an386,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * co_tick.c - instructions of the whole tick the firmware runs with CiA 408
  * drives (issue 18: "the tick with the CANopen master within 10,000

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * float_ref.c - single-precision float inverse kinematics and inverse
  * dynamics, step for step the algorithms of the fixed-point core

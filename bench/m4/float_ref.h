@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * float_ref.h - a single-precision float implementation of the core's
  * inverse kinematics and inverse dynamics, written for the Cortex-M4

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * golden.c - golden vectors of the portable core, built twice from this one
  * source: for the host, and for a Cortex-M4 (QEMU mps2-an386, semihosting).

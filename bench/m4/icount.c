@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * icount.c - instructions executed by the fixed-point core on a Cortex-M4
  * (QEMU mps2-an386 under -icount shift=7,sleep=off; m4_count.h): inverse

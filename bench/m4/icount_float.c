@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * icount_float.c - the side-by-side reference of icount.c: instructions
  * executed on a Cortex-M4F by a single-precision float implementation of

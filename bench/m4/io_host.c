@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* io_host.c - m4_io_write on the host: standard output. */
 #include <stdio.h>
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* io_mps2.c - m4_io_write on QEMU's mps2-an386: semihosting to QEMU's
  * standard output. */
 #include "m4_io.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_count.c - calibrated instruction counting on mps2-an386 (m4_count.h).
  */

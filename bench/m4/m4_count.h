@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_count.h - instruction counting on QEMU's mps2-an386 for the bench/m4
  * programs (icount.c, icount_float.c): SysTick under

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_io.c - buffered text output with a running FNV-1a hash (m4_io.h).
  * Portable C, no libc formatting: the host and the Cortex-M4 produce the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_io.h - the output of the bench/m4 programs, identical on the host and
  * on the Cortex-M4: a buffered text writer with hex and decimal formatting

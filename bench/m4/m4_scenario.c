@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_scenario.c - the controller scenario of the bench/m4 programs
  * (m4_vectors.h): ENGAGE, the paper's surge, PARK, with an ideal plant.

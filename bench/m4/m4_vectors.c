@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_vectors.c - deterministic inputs of the bench/m4 programs
  * (m4_vectors.h). Integer arithmetic only.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * m4_vectors.h - the deterministic inputs shared by the golden-vector
  * program, the instruction-count benchmark and the float reference's test:

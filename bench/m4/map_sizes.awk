@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # map_sizes.awk - flash and RAM of each part of a GNU ld map file (the
 # -Wl,-Map output of an mps2-an386 image; scripts/m4_bench.sh): the portable
 # core (libsp_core.a, per object file), the compiler's and the C library's

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * profile.c - a window of the controller scenario for an instruction
  * profile under QEMU's execution trace (bench/m4/profile.sh): which

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Instruction profile of the controller tick on the Cortex-M4 (QEMU): runs
 # sp_m4_profile.elf (profile.c: 300 RUNNING ticks of the golden scenario) with
 # QEMU's translation-block trace and prints the instructions executed per

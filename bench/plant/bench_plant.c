@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * bench_plant - speed of the plant simulator alone (no bus): simulated
  * seconds per wall-clock second in hydraulic mode, six cylinders under

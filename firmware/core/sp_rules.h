@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_rules.h - force-included (-include) before every translation unit of the
  * firmware core. It makes the core's two hard rules compiler-enforced:

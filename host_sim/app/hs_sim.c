@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs_sim - the simulated hydraulic hexapod on SocketCAN: the plant
  * (hs/plant.h) behind the drives' side of the protocol (hs/bus.h).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* bus.c - the drives' side of the CAN protocol for the plant (hs/bus.h). */
 #include "hs/bus.h"
 

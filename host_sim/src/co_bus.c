@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* co_bus.c - the plant's drives as CiA 408 nodes (hs/co_bus.h). */
 #include "hs/co_bus.h"
 

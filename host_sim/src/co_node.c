@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* co_node.c - a simulated drive as a CiA 408 or CiA 402 node (hs/co_node.h). */
 #include "hs/co_node.h"
 

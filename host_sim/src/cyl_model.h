@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * cyl_model.h - private: the cylinder model's right-hand side as inline
  * functions, so that the plant's and the rig's inner loops can inline them

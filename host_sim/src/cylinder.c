@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* cylinder.c - hydraulic cylinder and servo valve model (hs/cylinder.h). */
 #include "hs/cylinder.h"
 

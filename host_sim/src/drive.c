@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* drive.c - the axis drive of one cylinder (hs/drive.h). */
 #include "hs/drive.h"
 

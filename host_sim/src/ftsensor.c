@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * ftsensor.c - the six-axis force/torque sensor (hs/ftsensor.h).
  */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* inject.c - the fault injector on the bus (hs/inject.h). */
 #include "hs/inject.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* kin.c - rigid-body geometry in double precision (hs/kin.h). */
 #include "hs/kin.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* params.c - plant parameters from the platform config (hs/params.h). */
 #include "hs/params.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* plant.c - the simulated hydraulic hexapod (hs/plant.h). */
 #include "hs/plant.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* rig.c - one cylinder moving a mass along its axis (hs/rig.h). */
 #include "hs/rig.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* scenario.c - the scenario language of hs_sim: parser, file reader, player (hs/scenario.h). */
 #define _POSIX_C_SOURCE 200809L
 #include "hs/scenario.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* scenario_inject.c - the `inject` actions of the scenario language
  * (hs/scenario.h, "Fault injection"; docs/faults.md). */
 #define _POSIX_C_SOURCE 200809L

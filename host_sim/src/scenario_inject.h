@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* scenario_inject.h - the `inject` actions of the scenario language (internal to hs_scenario). */
 #ifndef HS_SCENARIO_INJECT_H
 #define HS_SCENARIO_INJECT_H

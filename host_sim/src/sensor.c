@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* sensor.c - quantisation and the seeded noise generator (hs/sensor.h). */
 #include "hs/sensor.h"
 

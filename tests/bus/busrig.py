@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """What the bus tests share: the operator tool run as a process, the
 controller and the plant started in order, and a listener on the ops bus
 that cannot lose the frames a test counts.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Command authentication on the bus (docs/security.md): a third node on
 the ops bus cannot engage or move the platform, while any node can stop it.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Bus smoke test: python-can over SocketCAN vcan with CAN FD frames.
 
 Meant to run inside ``stewart vcan --fd`` (which brings up vcan0..vcan2):

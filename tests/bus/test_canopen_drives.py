@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The plant's drives as CiA 408 nodes over SocketCAN vcan (issue 18).
 
 ``hs_sim --canopen`` (host-release build) runs the hydraulic plant with its

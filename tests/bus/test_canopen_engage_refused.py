@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """ENGAGE while the CANopen master is still configuring the drives by SDO
 (issue 18): refused, then taken once every drive runs.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Closed loop over vcan: the firmware's controller (sp_controller, host
 release build) against the simulated hexapod (hs_sim) in lockstep, decoded
 from the CAN log with the DBC (stewart.analysis).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The firmware's controller (sp_controller, host release build) on a real
 SocketCAN bus, checked by python-can + cantools from the same DBC.
 

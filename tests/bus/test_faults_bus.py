@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Faults over vcan (issue 17, docs/faults.md): a drive's latched fault
 cleared by the controller's RESET over CAN (the setpoints' FaultReset
 edge), a reset refused while the cause stays (reported in CTRL_STATUS with

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Force control in closed loop over vcan (issue 15), one short lockstep
 run with the force/torque sensor as the wrench source (the default
 config's): engage, tare, a 1e6 N/m plane 2 mm above the tool, FORCE on z

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Identification from a closed-loop run over vcan (issue 14): the plant
 carries 300 kg the firmware's config does not know, its centre 0.2 m off o'
 in x; a short excitation (``stewart identify --scenario``) is streamed by the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A whole operator session through `stewart op` over vcan against the
 simulated platform in real time (sp_controller the cycle master, hs_sim
 following the wall clock; docs/closed_loop.md).

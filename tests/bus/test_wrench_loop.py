@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The external wrench estimate in closed loop over vcan (issue 14): the
 controller's CTRL_WRENCH against the plant's true wrench, in a short run:
 engage, a short surge without load, a constant load of several kN and kN m

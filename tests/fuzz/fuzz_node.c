@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * libFuzzer target: random bytes become a stream of CAN frames fed to the
  * controller node's receive path, with a control tick every few frames.

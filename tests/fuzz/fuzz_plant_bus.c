@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * libFuzzer target: random bytes become a stream of CAN frames fed to the
  * plant's receive path (host_sim/src/bus.c, hs_bus_receive), as the

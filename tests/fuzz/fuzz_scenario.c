@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * libFuzzer target: random bytes as a scenario (host_sim/src/scenario.c),
  * through both readers: hs_scenario_parse on the text up to its first NUL,

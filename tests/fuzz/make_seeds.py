@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Seed corpora for the libFuzzer targets of tests/fuzz, from real inputs.
 
     python tests/fuzz/make_seeds.py OUTDIR

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Bit-exactness of the portable core on a Cortex-M4: runs the golden-vector
 # program (bench/m4/golden.c) built for the host and for QEMU's mps2-an386
 # and compares the two outputs byte for byte (docs/m4.md).

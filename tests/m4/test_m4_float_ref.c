@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_m4_float_ref - the single-precision float reference of the
  * Cortex-M4 instruction-count benchmark (bench/m4/float_ref.c) computes what

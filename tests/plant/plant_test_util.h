@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * plant_test_util.h - helpers shared by the plant tests: analytic
  * multi-sine motions about a pose (with exact velocities and

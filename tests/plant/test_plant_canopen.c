@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * The firmware's CANopen master (sp/canopen_master.h) against the plant's
  * CiA 408 nodes (hs/co_node.h), frame by frame on a simulated bus, one call

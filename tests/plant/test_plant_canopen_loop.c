@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Closed loop with CiA 408 drives, in process (issue 18): the firmware's
  * controller (sp_ctrl_step) and CANopen master with its link

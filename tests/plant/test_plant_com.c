@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Payload centre of mass and loads the config does not know (issue 14;
  * hs/plant.h, docs/plant.md "Centre of mass and loads").

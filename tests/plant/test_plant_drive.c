@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Axis drives in the plant (issue 5: setpoint-timeout watchdog, states and
  * fault bits reported in feedback).

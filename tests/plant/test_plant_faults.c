@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_plant_faults.c - the drives' fault reset over CAN (the setpoints'
  * FaultReset edge, hs/bus.h) and the plant's injected faults (hs/plant.h):

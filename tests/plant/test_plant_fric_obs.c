@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_plant_fric_obs.c - the firmware's friction observer (sp/friction.h)
  * against the plant's continuous LuGre seal friction.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Cylinder friction with stiction (issue 14; hs/cylinder.h, docs/plant.md
  * "Friction"): LuGre bristles with a Stribeck curve, default config

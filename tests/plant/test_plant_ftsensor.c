@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Tests of the six-axis force/torque sensor model (hs/ftsensor.h).
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Hydraulic cylinder, servo valve and axis drive models (issue 5, check 3,
  * and the behaviour the closed loop will rely on).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Optional leg masses of the plant (issue 5; docs/plant.md "Leg masses").
  *

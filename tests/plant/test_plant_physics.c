@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Plant physics against the firmware core (issue 5, checks 1 and 2).
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Sensors, parameters and geometry helpers of the plant (issue 5, check 5
  * and the plumbing the other checks rely on).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * The scenario language of hs_sim (hs/scenario.h): parser, file reader and
  * player, without a bus.

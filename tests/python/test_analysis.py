@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """stewart.analysis / ``stewart analyze``: a synthetic closed-loop log, built
 here frame by frame with the protocol encoder, decoded back and measured.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Command authentication: the firmware's SipHash-2-4 and frame codes
 (sp/auth.h, through the core library) against the ``siphash24`` package, an
 implementation we did not write, on many random keys and messages of every

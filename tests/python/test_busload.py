@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart busload``: frame bit counts and the per-bus load of the shipped DBC."""
 
 import subprocess

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart calc`` and ``stewart fk`` over CSV files: the fixed-point core
 behind a command line, with bad rows reported in place."""
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The firmware's CANopen master against the ``canopen`` library's node (issue 18).
 
 The master is the core's C code (``sp/canopen_master.h``, loaded from the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """signals.csv's leg columns from CANopen drives (stewart/analysis/canopen_legs.py):
 a synthetic log, built here frame by frame, with the controller's ops
 frames (CTRL_STATUS, CTRL_MONITOR: the ticks) and the drive buses' CiA 301

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The plant's CiA 408 node (hs/co_node.h) driven from the ``canopen`` library (issue 18).
 
 The node is the plant's C code (``libhs_co.so`` of the host-release build,

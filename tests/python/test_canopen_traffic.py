@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """CANopen frames of a CAN log decoded into signals (stewart/drives/traffic.py,
 ``stewart analyze``'s canopen.csv): every kind of the predefined connection
 set the master and the CiA 408 drives use, by the master's PDO layout."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The command line is installed and dispatches to its sub-commands."""
 
 import pkgutil

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The config validator: the default loads; every kind of bad file is a
 ConfigError naming the key, never another exception."""
 

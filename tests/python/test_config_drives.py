@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The platform config's ``drives`` section: validation names the bad key,
 and a CANopen layout above 50 % bus load is refused with the ways out."""
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Optional leg masses in the config's hydraulic section (issue 5): absent
 means 0 (off; the default config sets them); bad values are a ConfigError naming the key; gen_plant.py
 writes them into hs_config_default."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The ctypes mirrors of the core's structs (stewart.core) against the layout
 the shared library reports (firmware/core/abi/sp_abi.c), and the status
 names, which come from the core (sp_status_name)."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The fixed-point firmware core (the C code, through ctypes) against the
 independent float64 model, on 10,000 random poses and motions around home.
 

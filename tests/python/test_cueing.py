@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """stewart.cueing: the classical washout filter and ``stewart cueing``.
 
 Tolerances: the linear filters are exact ZOH discretisations, so step

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Property tests (hypothesis) of the Python decoders on corrupted input:
 the protocol's frame decoder (stewart.protocol) and the CAN log reader
 (stewart.analysis.logfile.parse_line, stewart.analysis.decode.read_log).

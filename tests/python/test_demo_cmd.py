@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart demo``'s runs per drive protocol (the runs themselves are the
 demo's and the bus tests'): which lockstep runs each switch asks for."""
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart drives`` against a drive played by the ``canopen`` library.
 
 A canopen ``LocalNode`` built from our EDS (config/eds/stewart_sim_drive.eds)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The controller's fault names in Python follow the firmware's SP_FAULT_* bits."""
 
 import re

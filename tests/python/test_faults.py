@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The fault-injection campaign's representative subset (issue 17,
 docs/faults.md): each row run in lockstep with the controller in the
 plant's process (``hs_sim --inproc``), its detection within its bound and a

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The whole-message decoder against its plain references.
 
 * :mod:`stewart.analysis.framedecode` against cantools' ``Message.decode``

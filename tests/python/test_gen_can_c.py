@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """tools/stewart/gen_can_c.py: the scale ratios of the firmware's protocol
 layer, generated from the DBC's factors (the C side's bit-exactness is
 checked by test_protocol_c.py on the shared test vectors)."""

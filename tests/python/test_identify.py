@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Identification (stewart.identify, ``stewart identify``) on synthetic runs
 of the float64 model: a payload 300 kg heavier than the config's with its
 centre of mass 0.2 m off o', other inertia and per-leg friction, and the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The float64 model checked against first principles, so that it can serve
 as the reference for the fixed-point core (tolerances are float64 ones)."""
 

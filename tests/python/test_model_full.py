@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The complete float64 model (centre-of-mass offset, leg masses, friction)
 checked against first principles that do not share its formulae:
 

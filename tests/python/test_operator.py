@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The operator node's interface-agnostic layer (stewart.operator) and
 `stewart op`, on python-can's `virtual` interface against a small
 stand-in controller in this process: it speaks the DBC (E2E counters and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """stewart.analysis.prefetch: a job run beside the caller gives the same
 value, and raises the same error, as the job run inline (numpy arrays come
 back whole through the pipe, a worker that dies is an error, not a hang);

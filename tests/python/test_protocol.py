@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The CAN protocol: DBC, E2E, encoder/decoder, shared test vectors, generated docs."""
 
 import json

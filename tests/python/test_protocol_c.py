@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """C and Python byte compatibility on the shared test vectors
 (protocol/test_vectors.json, produced by the Python side): the firmware's C
 protocol layer (through the core shared library) decodes every vector, and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """tools/stewart/stack_usage.py on small Cortex-M4 programs whose worst-case
 stack is known: GCC's frames summed along the deepest chain, libgcc calls
 GCC's call graph does not show, and the cases that are not a bound

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart vcan``: a command runs with vcan buses up (here: inside a
 user-mode Linux, as this machine's kernel has no CAN), gets its arguments,
 environment and working directory intact, passes its output and exit status

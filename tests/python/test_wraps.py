@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Through the wraps in closed loop (issue 17): the plant's SYNC tick (and
 with it the 16-bit TickEcho) and the controller's own tick started 6000
 ticks before 2^32 (``hs_sim --tick0``, test only), the controller in the

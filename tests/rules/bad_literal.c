@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The rule under test: floating-point arithmetic without the keywords (a
  * literal) compiles, but leaves soft-float helper calls in the Cortex-M4
  * object, which the symbol check rejects. */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* The rule under test: heap allocation in the core must not compile. */
 void *malloc(size_t n);
 int32_t *rules_bad(void);

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Script mode. Compiles SRC the way the firmware core is compiled (the
 # forced-include rules header, the project's warnings) and checks the
 # outcome: EXPECT=ok must compile, EXPECT=fail must be rejected.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # ctest style_clang_format: every C source and header of the project is
 # formatted as .clang-format says (clang-format --dry-run -Werror). Run with
 # -DCLANG_FORMAT=<program> -DROOT=<source dir>.

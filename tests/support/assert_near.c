@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* assert_near.c - assert_near for the cmocka tests (assert_near.h). */
 #include "assert_near.h"
 

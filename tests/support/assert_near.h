@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * assert_near.h - a cmocka assertion for numbers that must agree within a
  * tolerance:

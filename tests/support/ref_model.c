@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* ref_model.c - the double-precision reference model of the C tests
  * (ref_model.h). */
 #include "ref_model.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * ref_model.h - the double-precision reference model of the C tests: the
  * paper's equations written plainly in double, in the project's conventions

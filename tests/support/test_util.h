@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_util.h - shared helpers of the C tests and benchmarks: a seeded,
  * portable random generator (so every run checks the same inputs and a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * admittance_plain.c - the plain reference of sp/admittance.h (see
  * admittance_plain.h). The code of the first version, unchanged but for the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * admittance_plain.h - the admittance step and contact supervision as first
  * written (before the force-control tick's budget work of issue 15): every

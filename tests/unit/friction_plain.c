@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* friction_plain.c - the friction observer as it was before its tick was
  * trimmed (issue 14: fewer Cortex-M4 instructions per tick): the plain
  * reference test_friction.c holds firmware/core/src/friction.c to, bit for

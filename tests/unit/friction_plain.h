@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* friction_plain.h - the plain reference of the friction observer's
  * step and exp (friction_plain.c) for test_friction.c. */
 #ifndef FRICTION_PLAIN_H

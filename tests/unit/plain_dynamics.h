@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* plain_dynamics.h - a second copy of dynamics.c for a test's plain
  * reference: its public functions renamed plain_* (its statics are the
  * including file's own). Define the switch the test turns off

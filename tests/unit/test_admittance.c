@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of admittance control and contact supervision
  * (sp/admittance.h).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Command authentication (sp/auth.h): SipHash-2-4 against the values the
  * algorithm's authors publish, and the receiver's freshness check through
  * every outcome: accepted, forged, corrupted, replayed (now and a lap of

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * CANopen frames, the CiA 408 state machine, the start-up plan and the
  * master's configuration and scaling (sp/canopen.h, sp/canopen_master.h;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of the controller step (sp/controller.h) and the reference
  * generators (sp/trajectory.h) on the default platform, closed around an

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of the controller's jobs on their own, on the default
  * platform: the limits (sp/limits.h), the stream filter (sp/stream.h), the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_dynamics_plain.c - the inverse dynamics' untested fast ranges
  * (dynamics.c: inertia_times2 without overflow tests for rates below

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_dynamics_rest.c - the leg terms' short path for a motion at rest
  * (dynamics.c, leg_terms_at_rest) against its plain reference: the same

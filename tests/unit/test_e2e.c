@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* E2E protection: CRC check values, sealing and checking frames, and the
  * counter state machine (every transition). */
 #include <setjmp.h>

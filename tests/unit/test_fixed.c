@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of sp/fixed.h against long double references (64-bit mantissa:
  * exact for every 62-bit product), over random inputs spread across the

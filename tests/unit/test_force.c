@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of force control over the position reference (sp/force.h):
  * the modes and their refusals, the bounds (deflection, workspace), and a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_friction.c - the friction observer (sp/friction.h) against a double
  * precision reference of the same discrete law, and its exp(-u) against

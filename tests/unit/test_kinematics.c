@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of the fixed-point kinematics and dynamics (sp/kinematics.h,
  * sp/dynamics.h) on random 6-6 geometries and random poses, against the

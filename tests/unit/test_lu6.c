@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * test_lu6.c - the 6x6 factorisation and solves, every fast routine against
  * one plain reference, on thousands of seeded random systems:

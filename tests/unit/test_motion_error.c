@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Unit tests of the tracking error's acceleration and its wrench
  * (sp/motion_error.h), and of both through the wrench filter

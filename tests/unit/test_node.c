@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * The controller as a CAN node (sp/node.h) with the protocol layer
  * (sp/protocol.h): a drive-side rig in the test answers every SYNC with

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Host tools of the Stewart platform controller."""
 
 from pathlib import Path

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Accuracy of the fixed-point firmware core against the float64 model, on
 random poses and motions around home (the issue's box: +-0.2 m in x and y,
 +-0.15 m in z, +-15 deg about each axis, velocities to 1 m/s and 1 rad/s,

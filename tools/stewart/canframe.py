@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Worst-case length of one CAN frame, the one formula that `stewart busload`
 and the CANopen layouts (stewart/drives/layout.py) both use.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The ``stewart`` command line.
 
 Each sub-command lives in its own module under :mod:`stewart.commands` and

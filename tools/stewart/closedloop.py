@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Closed-loop runs: the firmware's controller (``sp_controller``) against the
 simulated hexapod (``hs_sim``) over vcan, in lockstep.
 

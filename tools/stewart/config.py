@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The platform config: one JSON file describes a 6-6 platform.
 
 This module reads and validates it; everything else (the host tools, the

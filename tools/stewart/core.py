@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The fixed-point firmware core, called from Python through ctypes.
 
 This is the same C code that runs on the controller (``firmware/core``),

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Motion cueing: a classical washout filter from vehicle telemetry to
 platform poses (docs/cueing.md explains the why of each part).
 

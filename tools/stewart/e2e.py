@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """End-to-end protection of the CAN frames: CRCs and the alive-counter check.
 
 The pattern of the AUTOSAR E2E profiles, as fixed for this project

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The bound of the firmware's one-step pose estimate (float64, numpy).
 
 The firmware's estimate (firmware/core/src/estimate.c) takes one chord step

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The fault-injection campaign (issue 17, docs/faults.md).
 
 Every injectable fault in each of the states ENGAGING, RUNNING (the paper's

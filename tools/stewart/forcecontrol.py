@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Force control in closed loop (issue 15): the scenario segments an
 operator would play (approach a surface, hold a force, slide, lose the
 contact, hand guiding) and the figures of a run, from the CAN log (the

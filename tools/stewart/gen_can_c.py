@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Generates the firmware's CAN pack/unpack C code from the DBC.
 
     python3 tools/stewart/gen_can_c.py CANTOOLS protocol/stewart.dbc OUTDIR

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Generates the plant simulator's default config (C source) from a config file.
 
 Run by the host_sim build (standard library only, before any venv exists):

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Generates the firmware's default platform (C source) from a config file.
 
 Run by the firmware build (standard library only, before any venv exists):

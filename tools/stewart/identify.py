@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Identification of the payload and the cylinder friction from a logged run.
 
 The dynamics of the float64 model (:mod:`stewart.model`) are linear in 22

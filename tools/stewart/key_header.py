@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The machine key of a firmware image (docs/security.md), for the build.
 
     python3 tools/stewart/key_header.py KEYFILE HEADER

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Independent float64 model of the paper's kinematics and dynamics (numpy).
 
 Written from the paper (Hitaka et al., eqs (1)-(15)) with the conventions of

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The CAN protocol on the Python side: one object that loads
 ``protocol/stewart.dbc`` (the single source of truth) and encodes and decodes
 its frames with the E2E protection of :mod:`stewart.e2e`.

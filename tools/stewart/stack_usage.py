@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Worst-case stack depth of a firmware image's call chains.
 
 Reads GCC's per-function call graphs (``-fcallgraph-info=su``: one ``.ci``

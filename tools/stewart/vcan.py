@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Run a command with virtual CAN buses (vcan0..vcanN-1) up, on any Linux.
 
 Two back ends:

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_abi.h - the memory layout of the core's structs that the host tools
  * mirror in Python (tools/stewart/core.py, ctypes): for each struct its size,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * admittance.c - admittance control and contact supervision (sp/admittance.h).
  */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * auth.c - SipHash-2-4 and the freshness check of the operator's commands
  * (sp/auth.h, docs/security.md). Written from the algorithm's definition;

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* canopen.c - CANopen frames and the CiA 408 device state machine (sp/canopen.h). */
 #include "sp/canopen.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* canopen_link.c - the controller's drives over CANopen (sp/canopen_link.h). */
 #include "sp/canopen_link.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* canopen_master.c - the CANopen master of CiA 408 and CiA 402 drives (sp/canopen_master.h). */
 #include "sp/canopen_master.h"
 

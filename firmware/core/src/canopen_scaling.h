@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * canopen_scaling.h - the per-tick arithmetic of sp_co_scaling_t (private
  * to the core: canopen_master.c's public sp_co_length_to_count and

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * core_internal.h - functions shared between the core's source files
  * (kinematics.c, lu6.c, fk.c, limits.c, node.c, canopen_link.c) that are

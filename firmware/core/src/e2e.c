@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/e2e.h"
 
 uint8_t sp_crc8_j1850(const uint8_t *data, uint32_t n)

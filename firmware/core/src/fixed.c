@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #include "fixed_inline.h"
 
 /* pi/2 2^31 = HALF_PI_HI + HALF_PI_LO / 2^24: the high part rounded to

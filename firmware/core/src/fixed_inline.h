@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * fixed_inline.h - private inline helpers of the fixed-point core (not part
  * of the public API; included by the core's own .c files only).

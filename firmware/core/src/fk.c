@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/kinematics.h"
 
 #include "core_internal.h"

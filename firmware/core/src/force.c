@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * force.c - force control modes over the position reference (sp/force.h).
  */

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* friction.c - friction observer (sp/friction.h). */
 #include "sp/friction.h"
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * ftsensor.c - the force/torque sensor's wrench in the controller's frame,
  * and its tare (sp/ftsensor.h).

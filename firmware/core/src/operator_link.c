@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * operator_link.c - the operator link's supervision (sp/controller.h,
  * sp_ctrl_operator_link): a silent operator ends a running motion, or

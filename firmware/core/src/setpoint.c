@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/setpoint.h"
 
 #include "core_internal.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/status.h"
 
 const char *sp_status_name(sp_status_t status)

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/wrench.h"
 
 #include "fixed_inline.h"

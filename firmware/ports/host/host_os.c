@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* host_os.c - stop flag on SIGINT/SIGTERM, the monotonic clock, the machine
  * key file and a random session value (host_os.h). */
 #define _GNU_SOURCE

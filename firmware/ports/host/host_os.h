@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * host_os.h - the little the host programs (sp_controller, hs_sim) need from
  * a POSIX (Linux) host besides CAN: a stop flag set by SIGINT/SIGTERM and a

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_controller - the firmware's controller on a Linux host: the portable
  * node (sp/node.h) on SocketCAN, at 1 kHz.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_replay - the controller offline on a recorded lockstep CAN log: what
  * the plant sent (feedback, SYNC, operator commands) goes through the

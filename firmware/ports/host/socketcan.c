@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /* Linux SocketCAN implementation of the CAN port (see socketcan.h). */
 #define _GNU_SOURCE
 #include "socketcan.h"

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * socketcan.h - the host port's CAN: Linux SocketCAN raw sockets, CAN FD,
  * non-blocking, batched with sendmmsg/recvmmsg, one socket per bus.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * mps2.c - semihosting output and exit, SysTick instruction counter and
  * stack high-water mark of the mps2-an386 port (see sp_mps2.h).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_mps2.h - the port of the portable core to QEMU's `mps2-an386` board
  * (ARM MPS2 with the AN386 Cortex-M4 image), used to run the core on a real

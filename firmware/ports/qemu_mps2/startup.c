@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * startup.c - vector table, reset handler and fault handlers of the
  * mps2-an386 port (Cortex-M4). After reset: copy .data from its load address

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * board.c - LD2, the 1 kHz tick (SysTick) and the independent watchdog of
  * the NUCLEO-G474RE port.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * clock.c - 170 MHz from the NUCLEO-G474RE's 24 MHz crystal (RM0440
  * chapter 7, RCC; chapter 6, PWR; chapter 3, flash access control).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * fdcan.c - the three FDCAN controllers of the STM32G474 as the CAN port
  * (sp/port.h). Written from RM0440's FDCAN chapter (registers, message RAM,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * g4_regs.h - the few STM32G474 and Cortex-M4 registers the port uses,
  * written from ST's reference manual RM0440 (STM32G4 series) and ARM's

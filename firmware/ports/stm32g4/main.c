@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_stm32g4 - the controller on the NUCLEO-G474RE: the portable node
  * (sp/node.h) on the three FDCAN buses at 1 kHz, cycle master (it sends

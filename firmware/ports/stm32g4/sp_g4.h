@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_g4.h - the NUCLEO-G474RE port (STM32G474RE, Cortex-M4, 170 MHz): the
  * implementations of sp/port.h (CAN on the three FDCAN controllers, the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * startup.c - vector table, reset handler, fault handlers and the safe state
  * of the NUCLEO-G474RE port.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/bus.h - the drives' side of the CAN protocol (protocol/stewart.dbc) for
  * the simulated plant: plant feedback -> AXIS_FEEDBACK frames (+ SYNC when

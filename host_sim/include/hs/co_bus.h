@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/co_bus.h - the plant's six drives as CiA 408 nodes (hs/co_node.h) on
  * the CANopen buses: the CANopen counterpart of hs/bus.h.

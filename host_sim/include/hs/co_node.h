@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/co_node.h - a simulated drive presenting itself as a CiA 408 node
  * (docs/canopen.md, config/eds/stewart_sim_drive.eds) or as a CiA 402 node

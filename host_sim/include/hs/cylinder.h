@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/cylinder.h - one double-acting hydraulic cylinder with its 4-way servo
  * valve: the right-hand side of its differential equations and the forces

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/drive.h - the axis drive of one cylinder, in the spirit of a CiA 408
  * servo valve in axis-position mode: it receives a setpoint (length,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/ftsensor.h - a six-axis force/torque sensor between the platform and
  * the tool, as force-controlled machines carry one.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/inject.h - the fault injector on the bus (docs/faults.md): frames
  * dropped, delayed, duplicated, reordered or corrupted per bus and per

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/kin.h - rigid-body geometry in double precision for the plant: the
  * orientation in the three forms the plant uses (Euler angles of the paper,

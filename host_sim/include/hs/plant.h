@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/plant.h - the simulated hydraulic hexapod: a 6-DOF rigid body driven by
  * six cylinders (hs/cylinder.h) under their axis drives (hs/drive.h), with

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/rig.h - a single cylinder moving a mass along its own axis: the test
  * rig of one axis (hydraulic natural frequency, valve and drive tuning). It

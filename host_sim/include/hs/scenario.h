@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/scenario.h - the operator scenario language of hs_sim: what the plant
  * plays at exact ticks in a closed-loop run (docs/closed_loop.md, "Scenario

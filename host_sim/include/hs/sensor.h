@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/sensor.h - the sensor models: quantisation and a seeded, portable
  * noise generator (no rand(), no libm in the noise path, so a seed gives the

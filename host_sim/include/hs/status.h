@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/status.h - status codes of the plant simulator (host_sim).
  */

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Analysis of a closed-loop run: a CAN log (candump -L format) in, a per-tick
 CSV, the motion segments, tracking errors, plots and a summary out.
 

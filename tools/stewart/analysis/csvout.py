@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``signals.csv``: one row per tick of a decoded run, SI units, blank where
 a value is missing (columns: :func:`signal_columns`).
 

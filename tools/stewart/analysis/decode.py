@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Decoding a CAN log into a run: one row per control tick (:class:`LogData`).
 
 :func:`read_log` parses the log line by line (:mod:`.logfile`), checks every

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The plain reference of :func:`stewart.analysis.decode.read_log`: the log
 line by line, each frame checked and decoded by :class:`stewart.protocol.Protocol`
 (cantools' per-frame decode, the E2E receiver per frame). It was the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Whole-message decoding: many frames of one message at once, with numpy.
 
 A :class:`MessageLayout` reads the bit layout of every signal of a message

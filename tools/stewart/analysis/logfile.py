@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The CAN log format: candump ``-L`` lines (``(TIME) IFACE ID#DATA``, CAN FD
 ``ID##FDATA``) read and written, and the map from interface names to the
 protocol's buses (``--bus ops=vcan0,axis_a=vcan1,axis_b=vcan2``)."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Figures of a run: the tracking error, per-segment metrics, the summary
 (``summary.json``) and its printed form.
 

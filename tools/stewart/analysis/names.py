@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The vocabulary the analysis modules share: the tick, the pose axes and
 their units, and the names of the controller's states, the drives' states
 and the operator commands.

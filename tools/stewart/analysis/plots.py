@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The figures of a run (matplotlib, Agg): per segment the tracking of the
 moving axis and the six cylinders' stretch and force, and the tracking
 errors of matching segments of several runs overlaid."""

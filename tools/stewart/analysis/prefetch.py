@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Reading a run's inputs beside each other. A log's frames
 (:func:`.logfile.read_frames`, numpy only) and the plant's truth CSV do not
 need the protocol; reading them in a forked process while the caller loads

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``analyze()``: everything ``stewart analyze`` does for one log. Reads the
 log (and the plant's truth), finds the segments, and writes signals.csv,
 summary.json and the plots of each segment."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Motion segments: the RUNNING intervals of a run, each labelled with the
 operator command that started it (OP_COMMAND RUN_TRIG, MOVE_TO, STREAM) and
 the force feed-forward flag, and the pairing of matching segments of two

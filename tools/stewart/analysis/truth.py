@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The plant's truth: ``hs_sim --truth`` writes the platform's true pose, leg
 lengths, cylinder forces and the outside world's wrench on the platform per
 tick; :func:`read_truth` reads that CSV and :func:`attach_truth` puts it on

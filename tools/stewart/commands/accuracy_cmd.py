@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart accuracy``: the fixed-point core's largest errors against the
 float64 model on random poses and motions (a benchmark: prints figures)."""
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart analyze LOG --out DIR``: a closed-loop run's CAN log (candump -L
 format, three buses) to a per-tick CSV, segments, tracking errors, plots and
 a summary (docs/analysis.md).

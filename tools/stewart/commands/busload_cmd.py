@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart busload``: worst-case load of each CAN bus per millisecond, from the DBC.
 
 Bits of one frame: stewart/canframe.py (classic CAN and CAN FD with bit-rate

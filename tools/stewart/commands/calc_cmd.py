@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart calc`` and ``stewart fk``: run the fixed-point firmware core
 over a CSV file.
 

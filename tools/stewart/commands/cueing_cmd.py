@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart cueing --in TELEMETRY.csv --out POSES.csv [--plot PNG]``: vehicle
 telemetry to platform poses through the classical washout filter
 (stewart.cueing, docs/cueing.md).

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart demo``: the main job. The firmware's controller (host build)
 commands the simulated hydraulic hexapod over three CAN FD buses (vcan, in
 user-mode Linux where the kernel has no CAN), in lockstep: engage, the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart drives``: commission CANopen drives (CiA 408 valves and axis
 controllers, CiA 402 electric drives) from the PC, over any python-can adapter.
 

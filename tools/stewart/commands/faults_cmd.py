@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart faults``: the fault-injection campaign (docs/faults.md).
 
     stewart faults [--subset] [--fault NAME ...] [--state STATE ...] [--jobs N]

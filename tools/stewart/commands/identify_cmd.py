@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart identify``: the payload (mass, centre of mass, inertia) and the
 cylinders' friction from a logged run, or the excitation run that makes
 them observable (docs/identification.md).

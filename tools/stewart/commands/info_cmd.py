@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart info``: where things are and what is built."""
 
 from __future__ import annotations

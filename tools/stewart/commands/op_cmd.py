@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart op``: the operator node on any bus python-can opens.
 
 Every command waits for the controller's answer and exits 0 when it came,

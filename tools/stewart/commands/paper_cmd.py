@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart paper``: the paper's Figures 4 and 5, computed by the fixed-point
 firmware core, with the float64 model overlaid.
 

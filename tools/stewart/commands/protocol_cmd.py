@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart protocol``: the CAN protocol's derived files.
 
 ``stewart protocol vectors [--write]``: the shared test vectors

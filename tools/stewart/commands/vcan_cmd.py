@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """``stewart vcan``: run a command with virtual CAN buses up.
 
     stewart vcan [--fd] [--count N] [--timeout S] [--mem 512M] [--host|--uml] -- COMMAND...

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """CANopen drives (CiA 408 servo valves and hydraulic axis controllers, CiA 402
 electric drives): what the controller's CANopen master needs from a drive
 (:mod:`.objects`, the one list), the bus load of a layout (:mod:`.layout`),

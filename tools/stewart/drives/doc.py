@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The generated part of docs/canopen.md: the objects and PDO layouts of
 :mod:`.objects` as Markdown tables (``stewart drives doc``; a test fails when
 the committed page differs)."""

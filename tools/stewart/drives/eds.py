@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Does a drive's EDS offer what the controller's CANopen master needs?
 
 Reads the EDS with the ``canopen`` library and compares it with the one list

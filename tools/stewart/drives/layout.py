@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Which drive is where, and the worst-case load that puts on each CANopen bus.
 
 A layout is the platform config's ``drives`` section after validation

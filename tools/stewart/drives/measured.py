@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The load the CANopen frames of a closed-loop run's CAN log put on each
 drive bus, as if the bus were classic CAN at ``bitrate`` (vcan has no bit
 rate): every CiA 301 frame (``analysis.decode.is_canopen_id``) of the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The one list of what the controller's CANopen master needs from a drive.
 
 Every object the master reads, writes at start-up or maps into a PDO, per

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The SDO writes that configure one CANopen drive, from the platform config.
 
 What the controller's master writes at start-up (in NMT pre-operational),

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The PC side of commissioning: CANopen over python-can with the ``canopen``
 library (any adapter python-can knows).
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """CANopen traffic of a CAN log decoded into signals (``stewart analyze``).
 
 The drive buses of a run with CiA 408 drives carry CiA 301 frames instead

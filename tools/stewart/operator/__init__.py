@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The operator's side: an operator node on any bus python-can opens.
 
 - :mod:`.bus` opens the bus with python-can's conventions;

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Opening the operator's bus with python-can's conventions.
 
 The interface, channel and bit rates come from the command line

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The operator node: interface-agnostic (any python-can bus).
 
 One receive thread reads the controller's frames (CTRL_STATUS and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Pose sources of ``stewart op stream``: a timestamped CSV file, and UDP
 datagrams from motion software (docs/operator.md has the formats).
 

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/admittance.h - admittance (hybrid force/position) control: how far
  * the reference pose yields to the wrench that the world exerts on the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/auth.h - authentication of the operator's commands (docs/security.md).
  *

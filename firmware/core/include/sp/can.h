@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/can.h - a CAN or CAN FD frame as the core and the ports exchange it.
  *

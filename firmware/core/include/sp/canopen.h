@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/canopen.h - CANopen (CiA 301) frames and the CiA 408 device state
  * machine, as pure functions over sp_can_frame_t (docs/canopen.md).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/canopen_link.h - the controller's drives over CANopen: between the
  * controller's step (sp/controller.h) and the CANopen master

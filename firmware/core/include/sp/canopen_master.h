@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/canopen_master.h - the controller as CANopen master of up to six
  * drives (docs/canopen.md), each of device profile CiA 408 (fluid power,

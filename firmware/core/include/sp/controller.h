@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/controller.h - the controller step, called once per control tick
  * (1 ms): feedback supervision, pose estimation by forward kinematics,

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/dynamics.h - the cylinder forces a motion requires (the paper's
  * translational and rotational dynamics, eqs 7 and 8/13-15, with the full

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/e2e.h - end-to-end protection of safety-relevant CAN frames, in the
  * pattern of the AUTOSAR E2E profiles (protocol/stewart.dbc, docs/protocol.md):

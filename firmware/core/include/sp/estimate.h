@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/estimate.h - the pose estimate: forward kinematics of the measured leg
  * lengths once per tick.

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/fixed.h - fixed-point arithmetic of the portable core.
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/force.h - force control as the controller runs it: the admittance
  * (sp/admittance.h) laid over the position reference in the axes a mask

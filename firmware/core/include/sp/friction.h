@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/friction.h - friction observer: the cylinders' seal friction from the
  * measured leg lengths.

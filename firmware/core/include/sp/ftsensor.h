@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/ftsensor.h - a six-axis force/torque sensor between the platform and
  * the tool, as the second source of the external wrench for force control

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/kinematics.h - the paper's leg kinematics (eqs 1, 2, 10), the leg
  * Jacobian, and forward kinematics, in fixed point.

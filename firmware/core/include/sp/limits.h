@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/limits.h - the limits a pose, a reference and a setpoint must keep:
  * the workspace box, the legs' strokes less the controller's margin, the

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/lu6.h - the 6x6 linear solver of the core: Gaussian elimination with
  * partial pivoting in fixed point, as a one-shot solve (sp_solve6) or as a

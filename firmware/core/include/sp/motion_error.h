@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/motion_error.h - the acceleration of the tracking error and the
  * wrench it takes, for the external wrench estimate (sp/wrench.h).

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/node.h - the controller as a CAN node: received frames in, frames to
  * send out, around one sp_ctrl_step per tick. Portable and pure: the port

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/port.h - what a port (an OS or a chip) provides to run the controller:
  * CAN send and receive, a tick source and a watchdog. The host port

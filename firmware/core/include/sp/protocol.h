@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/protocol.h - the CAN protocol (protocol/stewart.dbc) in the core's
  * fixed-point units. Bit packing is generated from the DBC at build time by

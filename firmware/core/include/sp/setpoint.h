@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/setpoint.h - what the controller sends each axis drive every tick: the
  * leg length to follow, its rate as velocity feed-forward, and the cylinder

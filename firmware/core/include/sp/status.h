@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/status.h - status codes returned by every core function that can fail.
  */

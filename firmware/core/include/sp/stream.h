@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/stream.h - the stream filter: the reference that follows target poses
  * streamed by the operator (STREAM), and the test that decides whether a

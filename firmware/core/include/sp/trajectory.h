@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/trajectory.h - reference motions, evaluated once per control tick.
  *

@@ -1,3 +1,4 @@
+/* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/wrench.h - the external wrench estimate: the force and moment that the
  * outside world exerts on the platform (base frame, moment about o'),
