@@ -2,15 +2,16 @@
 # SPDX-License-Identifier: Apache-2.0
 # Installs what the project needs on a fresh Debian bookworm machine:
 # Debian packages (compilers, cmocka, the Cortex-M4 toolchain, QEMU,
-# user-mode Linux and can-utils for the vcan bus) and the Python venv in
-# .venv with the stewart tools. Idempotent: does nothing when all is there.
+# user-mode Linux and can-utils for the vcan bus), the Python venv in .venv
+# with the stewart tools, and a user-mode Linux kernel that boots on this CPU
+# (.cache/uml where Debian's panics). Idempotent: does nothing when all is there.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 apt_packages=(
   cmake ninja-build gcc make pkg-config libcmocka-dev
   gcc-arm-none-eabi libnewlib-arm-none-eabi libnewlib-dev qemu-system-arm
-  user-mode-linux kmod can-utils iproute2
+  user-mode-linux kmod can-utils iproute2 patchelf
   clang libclang-rt-14-dev clang-format
 )
 missing=()
@@ -39,3 +40,9 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   "$venv/bin/pip" install -q --disable-pip-version-check -e "$root/tools[test]"
   echo "$want" > "$stamp"
 fi
+
+# A vcan back end that works on this host (docs/vcan.md): the host kernel's
+# vcan, else Debian's user-mode Linux where it boots on this CPU, else (CPUs
+# with AMX) a newer one fetched from Debian's registry into .cache/uml. The
+# probe's verdict is cached per host, so this is quick after the first time.
+"$venv/bin/stewart" vcan --setup | sed 's/^/setup: /'

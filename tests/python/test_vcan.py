@@ -159,7 +159,11 @@ def test_sigterm_cleans_up():
     p = subprocess.Popen([*CLI, "-v", "--", "sleep", "100"], stdin=subprocess.DEVNULL,
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
-        m = PID_LINE.search(p.stderr.readline())
+        m = None
+        for _ in range(20):  # -v first says which back end and kernel, then the pid
+            m = PID_LINE.search(p.stderr.readline())
+            if m:
+                break
         assert m, "no pid line"
         pgid = int(m.group(1))
         time.sleep(3.0)  # let the UML boot and the command start
@@ -175,7 +179,8 @@ def test_sigterm_cleans_up():
 
 
 def test_missing_uml_is_reported(tmp_path):
-    env = dict(os.environ, PATH=str(tmp_path))  # no linux.uml on this PATH
+    # no linux.uml on this PATH, and only the system's kernel is asked for
+    env = dict(os.environ, PATH=str(tmp_path), STEWART_UML="system")
     r = stewart_vcan("--uml", "--", "true", env=env)
     assert r.returncode == vcan.EXIT_SETUP
     assert "linux.uml is not installed" in r.stderr

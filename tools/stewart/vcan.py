@@ -34,6 +34,7 @@ back end; inside UML the shell reports 127 itself).
 from __future__ import annotations
 
 import ctypes
+import json
 import os
 import re
 import shlex
@@ -44,8 +45,11 @@ import sys
 import tempfile
 import threading
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
+
+from . import uml
 
 #: Exit statuses of our own (the same conventions as timeout(1) and env(1)).
 EXIT_TIMEOUT = 124
@@ -56,8 +60,6 @@ EXIT_NOT_FOUND = 127
 MTU_CLASSIC = 16
 MTU_FD = 72
 
-UML_BINARY = "linux.uml"
-UML_MODULES_ROOT = Path("/usr/lib/uml/modules")
 #: Modules loaded inside the UML, in dependency order (path under kernel/,
 #: without the .ko suffix, which may carry a compression extension).
 UML_MODULES = (
@@ -68,10 +70,16 @@ UML_MODULES = (
 )
 #: Loaded when present; python-can's periodic sending uses the BCM socket.
 UML_OPTIONAL_MODULES = ("net/can/can-bcm",)
+UML_BINARY = uml.SYSTEM_BINARY
 #: Host programs the init script runs inside the UML (through hostfs).
 UML_TOOLS = ("sh", "mount", "insmod", "ip", "stty", "cat")
 INSTALL_HINT = ("install the Debian packages user-mode-linux, kmod and iproute2 "
                 "(apt-get install user-mode-linux kmod iproute2)")
+#: What to do when no back end works (after the list of what was tried).
+FIX_HINT = ("To fix it: run scripts/setup.sh (it installs Debian's user-mode-linux and, "
+            "where that kernel panics on this CPU, fetches a newer one into .cache/uml), "
+            "or `stewart vcan --install-uml`; on a Linux whose kernel has vcan, "
+            "`modprobe vcan` as root lets the buses run on the host.")
 
 #: Environment variables not copied into the UML: set by the shell or by us.
 _ENV_SKIP = {"PWD", "OLDPWD", "SHLVL", "_"}
@@ -133,29 +141,15 @@ def _host_link_mtu(name: str) -> int | None:
         return None
 
 
-def uml_module_dir() -> Path:
-    """The UML kernel's module tree (``.../<version>/kernel``) holding vcan.
-
-    The version is the UML kernel's own, not the host's ``uname -r``.
-    Raises :class:`VcanError` when there is none.
-    """
-    if not UML_MODULES_ROOT.is_dir():
-        raise VcanError(f"{UML_MODULES_ROOT} is missing: {INSTALL_HINT}")
-    found = sorted(d / "kernel" for d in UML_MODULES_ROOT.iterdir()
-                   if list((d / "kernel" / "drivers/net/can").glob("vcan.ko*")))
-    if not found:
-        raise VcanError(f"no vcan module under {UML_MODULES_ROOT}: {INSTALL_HINT}")
-    return found[-1]
-
-
-def _uml_problem() -> str | None:
-    """Why the UML back end cannot work here, or None when it can."""
-    if shutil.which(UML_BINARY) is None:
-        return f"{UML_BINARY} is not installed: {INSTALL_HINT}"
-    try:
-        uml_module_dir()
-    except VcanError as e:
-        return str(e)
+def _uml_problem(k: uml.Kernel) -> str | None:
+    """Why kernel ``k`` cannot be booted at all (missing files or programs),
+    or None."""
+    if not k.exists():
+        if k.kind == "system":
+            return f"{UML_BINARY} is not installed: {INSTALL_HINT}"
+        return f"{k.binary} is not there (`stewart vcan --install-uml` fetches it)"
+    if uml.module_dir(k) is None:
+        return f"no vcan module under {k.modules}: {INSTALL_HINT}"
     path = "/usr/sbin:/usr/bin:/sbin:/bin"
     missing = [t for t in UML_TOOLS if shutil.which(t, path=path) is None]
     if missing:
@@ -180,21 +174,6 @@ def _host_problem(count: int) -> str | None:
         return f"the host cannot create vcan interfaces ({r.stderr.strip() or 'ip failed'})"
     _ip("link", "del", "dev", probe)
     return None
-
-
-def backend_available(count: int = 3) -> str:
-    """The back end :func:`run` would use: ``"host"`` or ``"uml"``.
-
-    Raises :class:`VcanError` naming the reasons (and the Debian package to
-    install) when neither works.
-    """
-    host = _host_problem(count)
-    if host is None:
-        return "host"
-    uml = _uml_problem()
-    if uml is None:
-        return "uml"
-    raise VcanError(f"no vcan back end: {host}; and {uml}")
 
 
 # ------------------------------------------------------ process handling
@@ -479,7 +458,7 @@ def _init_script(argv: Sequence[str], names: list[str], mtu: int, cwd: str,
                   "E=/dev/shm/.stewart-err"]
     lines += [
         "read up idle < /proc/uptime",
-        "echo \"$up\" > \"$S/booted\"",
+        "echo \"$up $V\" > \"$S/booted\"",
         "(",
         "  unset HOME TERM",
     ]
@@ -561,25 +540,40 @@ def _make_state_dir() -> str:
     raise VcanError("cannot make a temporary directory with a plain path")
 
 
-def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict,
-             mem: int, verbose: bool) -> int:
-    problem = _uml_problem()
-    if problem:
-        raise VcanError(problem)
+@dataclass
+class _Boot:
+    """What one boot of a UML left behind."""
+
+    status: int  #: linux.uml's exit status (or ours: 124, 128+N)
+    ended: bool  #: it ended by itself (not the time limit or a signal)
+    state: list[str]  #: words of the init script's status file
+    log: bytes  #: the kernel's console
+    booted: list[str]  #: seconds from kernel start to the buses, UML release
+    wall: float
+
+
+def _boot_uml(k: uml.Kernel, argv: Sequence[str], count: int, fd: bool, timeout: float,
+              env: dict, mem: int, out: Callable[[bytes], None],
+              err: Callable[[bytes], None], verbose: bool = False, quiet: bool = True) -> _Boot:
+    """Boots kernel ``k`` with the buses up and runs ``argv`` in it; its
+    stdout and stderr go to ``out`` and ``err`` as they come. ``quiet``:
+    the kernel logs errors only (else all its boot messages)."""
     names = interface_names(count)
-    cwd = os.getcwd()
     _raise_map_count()
     state = _make_state_dir()
     log: list[bytes] = []
     try:
-        inner_env = {k: v for k, v in env.items()
-                     if _ENV_NAME.match(k) and k not in _ENV_SKIP}
+        inner_env = {k2: v for k2, v in env.items()
+                     if _ENV_NAME.match(k2) and k2 not in _ENV_SKIP}
         inner_env.setdefault("TMPDIR", "/tmp")
         inner_env["STEWART_VCAN"] = "uml"
         init = Path(state) / "init"
-        init.write_text(_init_script(argv, names, MTU_FD if fd else MTU_CLASSIC, cwd,
-                                     inner_env, state, uml_module_dir(),
-                                     _isatty(sys.stdout), _isatty(sys.stderr)),
+        modules = uml.module_dir(k)
+        if modules is None:
+            raise VcanError(f"no vcan module under {k.modules}")
+        init.write_text(_init_script(argv, names, MTU_FD if fd else MTU_CLASSIC, os.getcwd(),
+                                     inner_env, state, modules, _isatty(sys.stdout),
+                                     _isatty(sys.stderr)),
                         encoding="utf-8", errors="surrogateescape")
         init.chmod(0o700)
 
@@ -587,8 +581,8 @@ def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dic
         err_r, err_w = os.pipe()
         log_r, log_w = os.pipe()
         cmd = [
-            shutil.which(UML_BINARY) or UML_BINARY,
-            "quiet", "loglevel=3", f"mem={mem // (1 << 20)}M",
+            str(k.binary),
+            *(("quiet", "loglevel=3") if quiet else ()), f"mem={mem // (1 << 20)}M",
             "root=/dev/root", "rootfstype=hostfs", "hostfs=/", "rw",
             f"init={init}", f"uml_dir={state}",
             "con=null", "con0=null,fd:1", f"con1=null,fd:{out_w}", f"con2=null,fd:{err_w}",
@@ -610,8 +604,8 @@ def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dic
                 print(f"stewart vcan: uml: linux.uml pid {proc.pid} (process group {proc.pid})",
                       file=sys.stderr)
             pumps = [
-                threading.Thread(target=_pump, args=(out_r, _writer(sys.stdout)), daemon=True),
-                threading.Thread(target=_pump, args=(err_r, _writer(sys.stderr)), daemon=True),
+                threading.Thread(target=_pump, args=(out_r, out), daemon=True),
+                threading.Thread(target=_pump, args=(err_r, err), daemon=True),
                 threading.Thread(target=_pump, args=(log_r, log.append), daemon=True),
             ]
             for p in pumps:
@@ -619,30 +613,127 @@ def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dic
             status, ended = _supervise(proc, timeout, grace=0.0)
         for p in pumps:
             p.join(timeout=60.0)
-        wall = time.monotonic() - t0
-
-        result = (Path(state) / "status")
-        text = result.read_text().split() if result.exists() else []
-        if not ended:
-            return status
-        if len(text) == 2 and text[0] == "rc" and text[1].isdigit():
-            rc = int(text[1])
-            if verbose:
-                booted = (Path(state) / "booted").read_text().split()[0]
-                print(f"stewart vcan: uml: buses up {booted} s after kernel start; "
-                      f"{wall:.2f} s in all; exit status {rc}", file=sys.stderr)
-                _show_log(log)
-            return rc
-        print("stewart vcan: the user-mode Linux did not run the command to its end "
-              f"(linux.uml exit status {status}); its log:", file=sys.stderr)
-        _show_log(log)
-        return EXIT_SETUP
+        words = [] if not (Path(state) / "status").exists() else \
+            (Path(state) / "status").read_text().split()
+        booted = [] if not (Path(state) / "booted").exists() else \
+            (Path(state) / "booted").read_text().split()
+        return _Boot(status, ended, words, b"".join(log), booted, time.monotonic() - t0)
     finally:
         shutil.rmtree(state, ignore_errors=True)
 
 
-def _show_log(log: list[bytes]) -> None:
-    text = b"".join(log).decode("utf-8", "replace").replace("\r\n", "\n")
+def _save_log(data: bytes, name: str) -> Path:
+    """Writes a kernel log to a file a message can name."""
+    path = uml.log_file(name)
+    try:
+        path.write_bytes(data.replace(b"\r\n", b"\n"))
+    except OSError:
+        pass
+    return path
+
+
+def _probe_boot(k: uml.Kernel) -> uml.Probe:
+    """Boots ``k`` once with one FD bus and runs ``true`` in it."""
+    sink: list[bytes] = []
+    try:
+        b = _boot_uml(k, ["true"], 1, True, 60.0, {"PATH": "/usr/bin:/bin"}, 256 << 20,
+                      sink.append, sink.append, quiet=False)
+    except (OSError, VcanError) as e:
+        return uml.Probe(uml.MISSING, f"cannot be started ({e})")
+    verdict, reason = uml.classify(b.state, b.log.decode("utf-8", "replace"), b.ended, b.status)
+    log = _save_log(b.log, f"uml-{k.kind}-probe.log")
+    if verdict == uml.PANICS and uml.cpu_has_amx():
+        reason += " on this CPU with AMX"
+    return uml.Probe(verdict, reason, b.booted[1] if len(b.booted) > 1 else "", str(log),
+                     round(b.wall, 2))
+
+
+@dataclass
+class Choice:
+    """The back end :func:`run` uses, and why."""
+
+    backend: str  #: "host" or "uml"
+    kernel: uml.Kernel | None = None  #: the UML kernel (uml back end)
+    probe: uml.Probe | None = None  #: its probe
+    cached: bool = False  #: the probe's verdict came from the cache
+    tried: list[str] = field(default_factory=list)  #: what was tried before, one line each
+
+    def describe(self) -> list[str]:
+        """Lines for a person: the back end, its kernel, where from, why."""
+        if self.backend == "host":
+            return ["back end: host (the host kernel's own vcan)",
+                    f"kernel: Linux {os.uname().release} (the host's)"]
+        assert self.kernel is not None and self.probe is not None
+        lines = ["back end: uml (a user-mode Linux kernel with vcan, run as a process)",
+                 f"kernel: Linux {self.probe.version or '?'} ({self.kernel.binary})",
+                 f"from: {self.kernel.origin}",
+                 f"probe: {self.probe.reason}, {self.probe.seconds:.1f} s to boot"
+                 + (" (cached verdict)" if self.cached else "")]
+        lines += [f"why not: {t}" for t in self.tried]
+        return lines
+
+
+def choose(count: int = 3, backend: str = "auto", uml_kernel: str | None = None,
+           refresh: bool = False, boot: Callable[[uml.Kernel], uml.Probe] | None = None) -> Choice:
+    """Picks the back end: the host's vcan where it works (``auto`` or
+    ``host``), else the first UML kernel (``uml_kernel``, else $STEWART_UML,
+    else the system's then the cache's) whose probe boots with vcan. Probes
+    are cached per host (:mod:`stewart.uml`). Raises :class:`VcanError` with
+    a paragraph naming everything tried and what to do."""
+    if backend not in ("auto", "host", "uml"):
+        raise VcanError(f"unknown back end {backend!r}: use auto, host or uml")
+    tried: list[str] = []
+    if backend in ("auto", "host"):
+        host = _host_problem(count)
+        if host is None:
+            return Choice("host")
+        if backend == "host":
+            raise VcanError(f"host: {host}")
+        tried.append(f"the host kernel: {host}")
+    try:
+        kernels = uml.candidates(uml_kernel)
+    except uml.UmlError as e:
+        raise VcanError(str(e)) from None
+    for k in kernels:
+        problem = _uml_problem(k)
+        if problem:
+            tried.append(f"{k.origin}: {problem}")
+            continue
+        p, cached = uml.probe(k, boot or _probe_boot, refresh)
+        if p.verdict == uml.OK:
+            return Choice("uml", k, p, cached, tried)
+        tried.append(f"{k.origin}: {p.reason}" + (f"; kernel log in {p.log}" if p.log else ""))
+    raise VcanError("no virtual CAN bus can be set up on this host. Tried:\n"
+                    + "\n".join(f"  - {t}" for t in tried) + "\n" + FIX_HINT)
+
+
+def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict,
+             mem: int, verbose: bool, k: uml.Kernel) -> int:
+    problem = _uml_problem(k)
+    if problem:
+        raise VcanError(problem)
+    b = _boot_uml(k, argv, count, fd, timeout, env, mem, _writer(sys.stdout),
+                  _writer(sys.stderr), verbose)
+    if not b.ended:
+        return b.status
+    if len(b.state) == 2 and b.state[0] == "rc" and b.state[1].isdigit():
+        rc = int(b.state[1])
+        if verbose:
+            print(f"stewart vcan: uml: buses up {b.booted[0] if b.booted else '?'} s after "
+                  f"kernel start; {b.wall:.2f} s in all; exit status {rc}", file=sys.stderr)
+            _show_log(b.log)
+        return rc
+    _, reason = uml.classify(b.state, b.log.decode("utf-8", "replace"), b.ended, b.status)
+    path = _save_log(b.log, f"uml-run-{os.getpid()}.log")
+    print(f"stewart vcan: the user-mode Linux ({k.binary}) stopped before the command ended: "
+          f"it {reason}; kernel log in {path}", file=sys.stderr)
+    if verbose:
+        _show_log(b.log)
+    return EXIT_SETUP
+
+
+def _show_log(log: bytes) -> None:
+    text = log.decode("utf-8", "replace").replace("\r\n", "\n")
     for line in text.splitlines()[-60:]:
         print(f"  | {line}", file=sys.stderr)
 
@@ -651,12 +742,15 @@ def _show_log(log: list[bytes]) -> None:
 
 
 def run(argv: Sequence[str], count: int = 3, fd: bool = True, timeout: float = 600,
-        backend: str = "auto", mem: str = "512M", verbose: bool = False) -> int:
+        backend: str = "auto", mem: str = "512M", verbose: bool = False,
+        uml_kernel: str | None = None) -> int:
     """Run ``argv`` with vcan0..vcan<count-1> up; return its exit status.
 
     ``fd``: MTU 72 (CAN FD) instead of 16. ``timeout``: seconds for
     everything (boot included), after which all is killed and 124 returned.
     ``backend``: ``"auto"``, ``"host"`` or ``"uml"``. ``mem``: UML memory.
+    ``uml_kernel``: ``"auto"``, ``"system"`` or ``"cache"`` (default
+    $STEWART_UML, else auto; see :func:`choose`).
     The command inherits the working directory and environment; its stdin is
     /dev/null; its stdout/stderr go to ours as they come. Set-up failures
     print a message and return 125 (``VcanError`` is raised only for bad
@@ -669,8 +763,6 @@ def run(argv: Sequence[str], count: int = 3, fd: bool = True, timeout: float = 6
         raise VcanError("the time limit must be positive")
     interface_names(count)
     mem_bytes = parse_mem(mem)
-    if backend == "auto":
-        backend = backend_available(count)
     env = dict(os.environ)
     if backend == "host":
         try:
@@ -678,9 +770,85 @@ def run(argv: Sequence[str], count: int = 3, fd: bool = True, timeout: float = 6
         except VcanError as e:
             print(f"stewart vcan: host: {e}", file=sys.stderr)
             return EXIT_SETUP
-    if backend == "uml":
-        return _run_uml(argv, count, fd, timeout, env, mem_bytes, verbose)
-    raise VcanError(f"unknown back end {backend!r}: use auto, host or uml")
+    c = choose(count, backend, uml_kernel)
+    if verbose:
+        for line in c.describe():
+            print(f"stewart vcan: {line}", file=sys.stderr)
+    if c.backend == "host":
+        try:
+            return _run_host(argv, count, fd, timeout, env, verbose)
+        except VcanError as e:
+            print(f"stewart vcan: host: {e}", file=sys.stderr)
+            return EXIT_SETUP
+    assert c.kernel is not None
+    return _run_uml(argv, count, fd, timeout, env, mem_bytes, verbose, c.kernel)
+
+
+def _short(k: uml.Kernel) -> str:
+    """A kernel in a few words: ``Debian's 7.2um1 UML from .cache/uml``."""
+    if k.kind == "system":
+        return k.origin
+    try:
+        src = json.loads((k.binary.parents[2] / "SOURCE.json").read_text())
+        where = k.binary.parents[2]
+        root = uml.checkout_root()
+        if root is not None and where.is_relative_to(root):
+            where = where.relative_to(root)
+        return f"Debian {src['suite']}'s {src['user-mode-linux']} UML from {where}"
+    except (OSError, ValueError, KeyError, TypeError):
+        return k.origin
+
+
+def ensure(count: int = 3, uml_kernel: str | None = None) -> str:
+    """Makes sure a back end works here, fetching a newer UML kernel into
+    the cache (:func:`stewart.uml.install_cache`) when the host has no vcan
+    and no installed UML boots, or when ``cache`` is asked for. Returns one
+    line saying what is used and why; raises :class:`VcanError` when nothing
+    works even then."""
+    try:
+        want = uml.wanted(uml_kernel)
+    except uml.UmlError as e:
+        raise VcanError(str(e)) from None
+    fetched = False
+    if want == "cache" and not uml.cached_kernel().exists():
+        _install()
+        fetched = True
+    try:
+        c = choose(count, "auto", want)
+    except VcanError:
+        if want != "auto" or uml.cached_kernel().exists():
+            raise
+        _install()
+        fetched = True
+        c = choose(count, "auto", want)
+    if c.backend == "host":
+        return "the host kernel has vcan: the buses run on the host"
+    assert c.kernel is not None
+    how = "fetched now" if fetched else "already there"
+    if c.kernel.kind == "system":
+        return f"{_short(c.kernel)} boots on this CPU: using it"
+    if want == "cache":
+        return f"STEWART_UML=cache: using {_short(c.kernel)} ({how})"
+    before = "; ".join(t for t in c.tried if "host kernel" not in t)
+    if uml.cpu_has_amx() and "panics" in before:
+        before = "this CPU has AMX: Debian's installed UML panics here"
+    return f"{before}; using {_short(c.kernel)} ({how})"
+
+
+def _install() -> None:
+    try:
+        uml.install_cache()
+    except (uml.UmlError, OSError) as e:
+        raise VcanError(f"cannot fetch a newer UML kernel into {uml.cache_dir()}: {e}") from None
+
+
+def backend_available(count: int = 3) -> str:
+    """The back end :func:`run` would use: ``"host"`` or ``"uml"``.
+
+    Raises :class:`VcanError` naming what was tried and what to install
+    when neither works.
+    """
+    return choose(count).backend
 
 
 def host_has_vcan() -> bool:
