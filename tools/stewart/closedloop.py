@@ -224,7 +224,11 @@ def run(specs: list[RunSpec], out: str | Path, build: str | Path | None = None, 
     if vcan_present():
         subprocess.run(["bash", str(runner)], check=False, timeout=timeout)
     else:
-        rc = vcan.run(["bash", str(runner)], count=3, fd=True, timeout=timeout)
+        try:
+            rc = vcan.run(["bash", str(runner)], count=3, fd=True, timeout=timeout)
+        except vcan.VcanError as e:
+            print(f"closed loop: {e}", file=sys.stderr)
+            rc = vcan.EXIT_SETUP
         if rc != 0:
             print(f"closed loop: stewart vcan exited with {rc}", file=sys.stderr)
     results = []
