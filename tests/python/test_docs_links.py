@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """Every relative link in README.md and docs/**/*.md points at a file that
 exists, and a link's #anchor into a Markdown page names one of its
-headings (GitHub's heading ids)."""
+headings (GitHub's heading ids). The README starts with the two commands
+and stays short; README and docs carry no work-log notes (history goes to
+CHANGELOG.md)."""
 
 import re
 from pathlib import Path
@@ -10,6 +12,9 @@ ROOT = Path(__file__).resolve().parents[2]
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 FENCE = re.compile(r"^\s*(```|~~~)")
 EXTERNAL = ("http://", "https://", "mailto:")
+WORK_LOG = re.compile(r"session [0-9]|next session|issue [0-9]|NOTES\.md", re.IGNORECASE)
+README_START = "# Stewart platform motion controller\n\n```\n./scripts/demo.sh\n./scripts/test.sh\n```\n"
+README_MAX_LINES = 250
 
 
 def heading_ids(text: str) -> set[str]:
@@ -93,3 +98,24 @@ def test_pages_cover_readme_and_nested_docs():
     found = {p.relative_to(ROOT).as_posix() for p in pages()}
     assert "README.md" in found
     assert any(p.count("/") >= 2 for p in found), "docs/ subfolders are searched"
+
+
+def work_log_notes(page: Path) -> list[str]:
+    """'page:line: text' of each line that reads like a work log."""
+    return [f"{page.name}:{no}: {line.strip()}"
+            for no, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1)
+            if WORK_LOG.search(line)]
+
+
+def test_readme_starts_with_the_two_commands_and_is_short():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert text.startswith(README_START)
+    assert len(text.splitlines()) <= README_MAX_LINES
+
+
+def test_no_work_log_notes_in_readme_or_docs(tmp_path):
+    bad = [b for p in pages() for b in work_log_notes(p)]
+    assert not bad, "history belongs in CHANGELOG.md:\n" + "\n".join(bad)
+    page = tmp_path / "p.md"
+    page.write_text("fine\nas in Session 12\nthe --session 1 option\nsee NOTES.md\nissue 14's bound\n")
+    assert [b.split(":")[1] for b in work_log_notes(page)] == ["2", "3", "4", "5"]
