@@ -8,7 +8,7 @@ Prints per step the best wall time and the CPU time of that run (on a
 shared machine the CPU time is the steadier figure), and the peak memory of
 the process. With --reference also the plain path (per-frame cantools
 decode, csv-module writer, row-by-row truth reader), once, and checks that
-both give the same LogData and the same signals.csv. docs/analysis.md
+both give the same LogData and the same signals.csv. docs/reference/analysis.md
 quotes its figures."""
 
 from __future__ import annotations

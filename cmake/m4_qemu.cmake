@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-# The portable core on a Cortex-M4 under QEMU (board mps2-an386; docs/m4.md,
+# The portable core on a Cortex-M4 under QEMU (board mps2-an386; docs/explanation/m4.md,
 # and its Instruction counts section). Included once from the top-level CMakeLists.txt.
 #   cross build (m4-core preset): the port (firmware/ports/qemu_mps2) and the
 #     bench/m4 programs as .elf images: golden vectors, instruction counts

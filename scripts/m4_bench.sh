@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The portable core on a Cortex-M4 (QEMU mps2-an386; docs/m4.md): prints
+# The portable core on a Cortex-M4 (QEMU mps2-an386; docs/explanation/m4.md): prints
 # the instructions executed per IK, inverse dynamics, FK (warm start) and
 # controller tick, fixed point next to the single-precision float reference
 # (the ratio), against the tick budget, each compiled for size (the m4-core
@@ -66,9 +66,9 @@ grep -E '^(budget|force-control budget)' "$out/fixed_os.txt" | sed 's/^/-Os* /'
 grep -E '^(budget|force-control budget)' "$out/fixed_o2.txt" | sed 's/^/-O2 /'
 echo "(* the m4-core preset: the core at -Os, its hot files at -O3 (SP_CORE_FAST_SOURCES in firmware/CMakeLists.txt),"
 echo "   as in the STM32 image; -O2: the whole core and program at -O2)"
-echo "(instructions executed, not cycles: see docs/m4.md)"
+echo "(instructions executed, not cycles: see docs/explanation/m4.md)"
 echo
-# The CANopen master and its link (issue 18, docs/canopen.md): what the
+# The CANopen master and its link (issue 18, docs/reference/canopen.md): what the
 # CiA 408 image's tick adds to the controller's step.
 run co_os "$elf/sp_m4_co_icount.elf"
 cat "$out/co_os.txt"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
-# The NUCLEO-G474RE firmware's figures (docs/stm32g4.md): the image files,
+# The NUCLEO-G474RE firmware's figures (docs/reference/stm32g4.md): the image files,
 # flash and RAM against their budgets (128 KiB, 32 KiB), the flash of each
 # part (portable core per file, libgcc, C library, port), the worst-case
 # stack of the tick path against 2 KiB (GCC's -fcallgraph-info=su call
@@ -8,7 +8,7 @@
 # the heap check. Builds the stm32g4 preset first (incremental).
 # STM32_BUILD_DIR: use an existing build directory instead (not rebuilt).
 # An argument names the preset: stm32g4 (default, the native drive
-# protocol) or stm32g4-cia408 (the CANopen image, docs/canopen.md).
+# protocol) or stm32g4-cia408 (the CANopen image, docs/reference/canopen.md).
 # Exit status: 0 when every budget holds, 1 otherwise.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

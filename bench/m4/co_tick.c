@@ -11,7 +11,7 @@
  * The scenarios of icount.c (surge, yaw, stream: m4_scenario.c) with six
  * CiA 408 drives behind the master (sp_co_link_cfg_default: three drives on
  * each of two buses, pressures in TPDO2, the force feed-forward 0x2120 in
- * RPDO1), SYNC every 3 ticks (the CiA 408 layout of docs/canopen.md) and
+ * RPDO1), SYNC every 3 ticks (the CiA 408 layout of docs/reference/canopen.md) and
  * every tick; and six CiA 402 drives (cyclic synchronous position, the
  * force feed-forward as 0x60B2, no pressures) with SYNC every 2 ticks, the
  * rate at which CiA 402 fits two classic 1 Mbit/s buses (`stewart busload

@@ -2,7 +2,7 @@
 /*
  * float_ref.h - a single-precision float implementation of the core's
  * inverse kinematics and inverse dynamics, written for the Cortex-M4
- * instruction-count comparison only (bench/m4/icount_float.c; docs/m4.md).
+ * instruction-count comparison only (bench/m4/icount_float.c; docs/explanation/m4.md).
  * It follows the fixed-point core step for step (sp_orientation,
  * sp_inverse_kinematics, sp_body_rates, sp_jacobian, sp_solve6,
  * sp_inverse_dynamics): the same sine/cosine (reduction by pi/2, the same
@@ -69,7 +69,7 @@ sp_status_t m4f_body_rates(const float rpy[3], const float rpy_rate[3], const fl
 
 /** Inverse dynamics: the six cylinder forces (N) for the motion, no
  *  external force, with the centre of mass off o' and the leg masses as
- *  the core has them (sp_inverse_dynamics, docs/model.md "Leg masses"). SP_E_ARG (NULL), SP_E_SINGULAR (pivot below 1e-3; forces
+ *  the core has them (sp_inverse_dynamics, docs/explanation/model.md "Leg masses"). SP_E_ARG (NULL), SP_E_SINGULAR (pivot below 1e-3; forces
  *  zeroed), else SP_OK. ik must be the inverse kinematics of the pose. */
 sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motion_t *motion, const m4f_ik_t *ik,
                                  float force[SP_LEGS]);

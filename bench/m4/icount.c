@@ -37,7 +37,7 @@ static sp_ik_t ik;
 static sp_ik_t fk_ik;
 static volatile int32_t sink;
 
-/* The measured calls: never inlined, never analysed across (docs/m4.md, Instruction counts). */
+/* The measured calls: never inlined, never analysed across (docs/explanation/m4.md, Instruction counts). */
 __attribute__((noipa)) static sp_status_t run_ik(const sp_pose_t *pose, sp_ik_t *out)
 {
     return sp_inverse_kinematics(&sp_platform_default, pose, out);

@@ -2,14 +2,14 @@
 /*
  * m4_count.h - instruction counting on QEMU's mps2-an386 for the bench/m4
  * programs (icount.c, icount_float.c): SysTick under
- * `-icount shift=7,sleep=off` (sp_mps2.h, docs/m4.md), with the
+ * `-icount shift=7,sleep=off` (sp_mps2.h, docs/explanation/m4.md), with the
  * cost of the measurement itself calibrated and subtracted, and a
  * self-check on a block of exactly 1000 NOPs.
  *
  * Use:   M4_MEASURE(net16, result = measured_call(...));
  *        m4_stat_add(&stat, net16);
  * with measured_call an __attribute__((noipa)) function.
- * Counts are instructions executed, not cycles (docs/m4.md).
+ * Counts are instructions executed, not cycles (docs/explanation/m4.md).
  */
 #ifndef M4_COUNT_H
 #define M4_COUNT_H

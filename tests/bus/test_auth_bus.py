@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Command authentication on the bus (docs/security.md): a third node on
+"""Command authentication on the bus (docs/explanation/security.md): a third node on
 the ops bus cannot engage or move the platform, while any node can stop it.
 
 sp_controller and hs_sim in lockstep over vcan (inside ``stewart vcan``),

@@ -68,7 +68,7 @@ def test_controller_frames_decode_and_bad_frames_are_rejected():
                 if msg is not None:
                     received[name].append(msg)
         # malformed frames into the controller's ops bus; the good one a
-        # NONE (it needs no authentication code: docs/security.md)
+        # NONE (it needs no authentication code: docs/explanation/security.md)
         good = proto.encode("OP_COMMAND", {"Command": 0, "Axis": 0, "Amplitude": 0, "Frequency": 0,
                                            "FadeTime": 0, "Option": 0}, counter=3)
         unsigned = proto.encode("OP_COMMAND", {"Command": 1}, counter=4)  # ENGAGE without a code

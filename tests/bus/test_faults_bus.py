@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""Faults over vcan (issue 17, docs/faults.md): a drive's latched fault
+"""Faults over vcan (issue 17, docs/explanation/faults.md): a drive's latched fault
 cleared by the controller's RESET over CAN (the setpoints' FaultReset
 edge), a reset refused while the cause stays (reported in CTRL_STATUS with
 the drive's fault bits), and one row of the fault campaign run over vcan

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
-"""OP_FORCE_PARAMS on the bus (issue 15, docs/force_control.md "On the bus";
-signed as docs/security.md says): `stewart op` with the test's machine key
+"""OP_FORCE_PARAMS on the bus (issue 15, docs/explanation/force_control.md "On the bus";
+signed as docs/explanation/security.md says): `stewart op` with the test's machine key
 (conftest.py) sets force control's admittance on a running sp_controller
 and hs_sim (lockstep over vcan, inside ``stewart vcan``; the force/torque
 sensor is the wrench source, as in the default config).

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """A whole operator session through `stewart op` over vcan against the
 simulated platform in real time (sp_controller the cycle master, hs_sim
-following the wall clock; docs/closed_loop.md).
+following the wall clock; docs/explanation/closed_loop.md).
 
 Run inside ``stewart vcan`` (scripts/test.sh does). Inside user-mode Linux
 neither side keeps 1 ms deadlines, so the controller's feedback supervision

@@ -6,7 +6,7 @@ applied at home as a step and removed, park.
 
 The estimate is judged ``WRENCH_SETTLE_TICKS`` (20 ms) after each change of
 the true wrench (stewart.analysis.metrics.wrench_metrics). The bounds below
-are what the estimate achieves today (docs/model.md, "The motion-error
+are what the estimate achieves today (docs/explanation/model.md, "The motion-error
 correction of the wrench estimate") plus a margin for the spread between
 runs; the issue's figures (150 N / 75 N m unloaded; 2 % of the load +
 100 N / 50 N m loaded) are what the demo reports against.
@@ -35,7 +35,7 @@ SCENARIO = ("cmd ENGAGE\n"
 
 # Stated bounds: measured (hs_sim --inproc, the same scenario and log as
 # over vcan) with 0.1 um lengths and the reported estimate's smoother
-# (docs/model.md, "The motion-error correction") unloaded RUNNING 67 N /
+# (docs/explanation/model.md, "The motion-error correction") unloaded RUNNING 67 N /
 # 46 N m, loaded 79 N / 38 N m, 0.58 of the issue's bound (2 % + 100 N /
 # 50 N m; for this 5.4 kN / 2.0 kN m load 160-180 N / 66-80 N m), plus
 # about 35 % margin for the spread between machines; the issue's figures

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 # Bit-exactness of the portable core on a Cortex-M4: runs the golden-vector
 # program (bench/m4/golden.c) built for the host and for QEMU's mps2-an386
-# and compares the two outputs byte for byte (docs/m4.md).
+# and compares the two outputs byte for byte (docs/explanation/m4.md).
 # Usage: golden_compare.sh HOST_EXE M4_ELF QEMU OUT_DIR
 set -uo pipefail
 if [ $# -ne 4 ]; then

@@ -10,7 +10,7 @@
  *
  * - Start-up by SDO, ENGAGE, the paper's surge (90 mm, 0.5 Hz) with SYNC
  *   every 1 and every 3 ms (the layout of two classic buses with pressures,
- *   docs/canopen.md): the tracking error (reference vs the plant's true
+ *   docs/reference/canopen.md): the tracking error (reference vs the plant's true
  *   surge, RMS and max over two periods after the fade-in) is printed for
  *   each next to the native path's; CiA 408 at 1 ms is within 10 % of the
  *   native RMS + 0.02 mm (the position-only setpoint loses the force

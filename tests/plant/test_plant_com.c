@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * Payload centre of mass and loads the config does not know (issue 14;
- * hs/plant.h, docs/plant.md "Centre of mass and loads").
+ * hs/plant.h, docs/explanation/plant.md "Centre of mass and loads").
  *
  * 1. Free fall (ideal mode, zero leg forces, gravity on) of a body whose
  *    centre of mass is 0.3 m off o', spinning: the centre of mass follows

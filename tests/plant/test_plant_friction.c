@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * Cylinder friction with stiction (issue 14; hs/cylinder.h, docs/plant.md
+ * Cylinder friction with stiction (issue 14; hs/cylinder.h, docs/explanation/plant.md
  * "Friction"): LuGre bristles with a Stribeck curve, default config
  * (F_c 400 N, F_s 600 N, v_s 5 mm/s, c_v 3000 N s/m, sigma_0 = F_c / 0.1 mm,
  * sigma_1 critical for a sixth of the moving mass).

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * Optional leg masses of the plant (issue 5; docs/plant.md "Leg masses").
+ * Optional leg masses of the plant (issue 5; docs/explanation/plant.md "Leg masses").
  *
  * Leg masses used here: cylinder body 60 kg at 0.8 m from the base joint,
  * rod + piston 35 kg at 1.0 m from the platform joint (about a default

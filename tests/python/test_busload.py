@@ -54,7 +54,7 @@ def test_shipped_dbc_within_50_percent_per_bus():
     # SYNC 8 + setpoints 32 + 3 x feedback 16 bytes (12 before the 0.1 um lengths, issue 14);
     # pose 32 + status 32 + monitor 64 every 1 ms, + CTRL_WRENCH 24 bytes every 2 ms,
     # + OP_HEARTBEAT 4 bytes every 20 ms, + OP_FORCE 32, OP_COMMAND 20, CTRL_AUTH 16 and
-    # OP_FORCE_PARAMS 24 bytes budgeted every 10 ms (the authenticated frames: docs/security.md);
+    # OP_FORCE_PARAMS 24 bytes budgeted every 10 ms (the authenticated frames: docs/explanation/security.md);
     # axis_b also carries FT_SENSOR, 20 bytes every 1 ms
     assert loads["axis_a"] == pytest.approx((5 * 34 + (113 + 358 + 3 * 193) / 5) / 10, abs=1e-9)
     assert loads["axis_b"] == pytest.approx((6 * 34 + (113 + 358 + 3 * 193 + 238) / 5) / 10, abs=1e-9)

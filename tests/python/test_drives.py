@@ -361,7 +361,7 @@ def test_the_one_list_has_no_duplicates_and_fits_the_pdos():
 def test_docs_tables_are_generated_from_the_one_list():
     from stewart.drives import doc
 
-    page = REPO_ROOT / "docs" / "canopen.md"
+    page = REPO_ROOT / "docs" / "reference" / "canopen.md"
     assert doc.page_is_current(page), "run: .venv/bin/stewart drives doc --write"
     text = page.read_text()
     for prof in ob.PROFILES.values():

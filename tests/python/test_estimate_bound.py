@@ -40,7 +40,7 @@ def test_firmware_limit_within_the_bound(platform):
 
 
 def test_aged_factorisation(platform):
-    """The step through a kept factorisation (docs/model.md's table,
+    """The step through a kept factorisation (docs/explanation/model.md's table,
     `--aged`): age 0 is the fresh step of `check` exactly, and the added
     error grows with the age about linearly (first order in age x speed)."""
     fw = estimate_bound.firmware_limit()

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""ESTOP holds the load by the blocking valves (docs/faults.md, "Load
+"""ESTOP holds the load by the blocking valves (docs/explanation/faults.md, "Load
 holding on ESTOP"): the controller and the simulated hexapod in lockstep in
 one process (``hs_sim --inproc``), engaged at home, ESTOP, then 100 ms
 later a fault the servo loops cannot be trusted with:

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The fault-injection campaign's representative subset (issue 17,
-docs/faults.md): each row run in lockstep with the controller in the
+docs/explanation/faults.md): each row run in lockstep with the controller in the
 plant's process (``hs_sim --inproc``), its detection within its bound and a
 safe end asserted. Needs the host-release build (scripts/test.sh builds it)."""
 

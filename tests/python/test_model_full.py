@@ -95,7 +95,7 @@ def forces(p, q, qd, qdd):
 
 def test_default_config_gives_the_papers_equations(platform):
     """No leg masses, centre of mass at o': eqs (7) and (15) as written in
-    docs/model.md, solved here directly, within 1e-9 relative."""
+    docs/explanation/model.md, solved here directly, within 1e-9 relative."""
     rng = np.random.default_rng(10)
     home = np.array(platform.home)
     inertia = np.asarray(platform.inertia)

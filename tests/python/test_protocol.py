@@ -10,7 +10,7 @@ from stewart import protocol as pr
 from stewart.commands import protocol_cmd
 
 VECTORS = REPO_ROOT / "protocol" / "test_vectors.json"
-DOC = REPO_ROOT / "docs" / "protocol.md"
+DOC = REPO_ROOT / "docs" / "reference" / "protocol.md"
 
 # The spec (ID, length, bus) of each message.
 SPEC = {
@@ -399,7 +399,7 @@ def test_vectors_cli_detects_a_stale_file(tmp_path):
 
 def test_committed_doc_is_the_generated_one():
     assert DOC.read_text() == protocol_cmd.make_doc(), (
-        "docs/protocol.md differs from the DBC: run `stewart protocol doc`")
+        "docs/reference/protocol.md differs from the DBC: run `stewart protocol doc`")
 
 
 def test_doc_lists_every_message_and_signal(proto):

@@ -2,7 +2,7 @@
 /*
  * ref_model.h - the double-precision reference model of the C tests: the
  * paper's equations written plainly in double, in the project's conventions
- * (docs/model.md), to check the fixed-point core against. One copy, used by
+ * (docs/explanation/model.md), to check the fixed-point core against. One copy, used by
  * the unit tests (tests/unit), the plant tests and tests/m4.
  *
  * Conventions: a pose is q = (x, y, z, roll, pitch, yaw) (m, rad); the

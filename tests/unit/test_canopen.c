@@ -13,7 +13,7 @@
  * - CiA 408 status words decode to every state; the drive's state machine
  *   walks INIT -> ACTIVE one step per call, faults, and resets on R's edge.
  * - The plan: 29 writes of which 23 final with pressure feedback, 22/18
- *   without (docs/canopen.md), 28/22 without the master's heartbeat (no
+ *   without (docs/reference/canopen.md), 28/22 without the master's heartbeat (no
  *   0x1016.1), the RPDO event timer, the prefix's byte; CiA 402: 21/17
  *   (0x6060 = 8, 0x60C2, RPDO1 with 0x607A, TPDO1 with 0x6064, no TPDO2).
  * - CiA 402: the statusword table, the controlword towards each target,
@@ -1145,7 +1145,7 @@ static void test_link_wrench_validity(void **state)
  * each target, and the drive's side: the master's words walk the drive's
  * state machine to the target in at most 3 SYNCs from switch on disabled. */
 /* sp_co402_state's lookup against the plain search of the (mask, value)
- * rows of docs/canopen.md, first match, for every statusword. */
+ * rows of docs/reference/canopen.md, first match, for every statusword. */
 static sp_co402_state_t ref_state402(uint16_t status)
 {
     static const struct {

@@ -919,7 +919,7 @@ static void test_force_params_frames(void **state)
     assert_int_equal(why, SP_PROTO_WRONG_BUS);
 }
 
-/* OP_FORCE_PARAMS is authenticated as OP_FORCE (docs/security.md): without
+/* OP_FORCE_PARAMS is authenticated as OP_FORCE (docs/explanation/security.md): without
  * a code, under another key or another session it is a bad tag, a genuine
  * frame sent again is a replay, a keyless node says no-key; each is counted,
  * the admittance keeps its parameters and the genuine operator's next frame
@@ -1013,7 +1013,7 @@ static void test_force_params_auth_over_frames(void **state)
     assert_int_equal(n.node.ctrl.prep.force.admit.axis[2].damping, damping0);
 }
 
-/* Command authentication over frames (docs/security.md): a stranger's
+/* Command authentication over frames (docs/explanation/security.md): a stranger's
  * ENGAGE, MOVE_TO target, STREAM and OP_FORCE (another key, no code, a
  * replay of a genuine frame) are rejected and counted by reason, change
  * nothing the genuine operator sends next, and are reported in CTRL_AUTH;

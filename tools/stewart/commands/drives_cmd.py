@@ -12,10 +12,10 @@ controllers, CiA 402 electric drives) from the PC, over any python-can adapter.
       communication parameters, RPDO event timer, device mode, scaling, from
       the platform config), written by SDO and read back; --dry-run prints it
   stewart drives doc [--write]
-      the object and PDO tables of docs/canopen.md (--write updates the page)
+      the object and PDO tables of docs/reference/canopen.md (--write updates the page)
 
 What the controller needs lives in one place, stewart/drives/objects.py;
-docs/canopen.md has the design. Exit status: 0 ok, 1 the drive or its EDS
+docs/reference/canopen.md has the design. Exit status: 0 ok, 1 the drive or its EDS
 falls short (SDO abort, read-back differs, objects missing, no node), 2 a
 usage problem (bad config, EDS unreadable, CAN adapter cannot be opened).
 """
@@ -169,7 +169,7 @@ def run_config(args) -> int:
 def run_doc(args) -> int:
     from ..drives import doc
 
-    page = REPO_ROOT / "docs" / "canopen.md"
+    page = REPO_ROOT / "docs" / "reference" / "canopen.md"
     if not args.write:
         print(doc.markdown(), end="")
         return 0
@@ -205,8 +205,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     cf.add_argument("--dry-run", action="store_true", help="print the writes, touch no bus")
     _bus_args(cf)
     cf.set_defaults(func=run_config)
-    dc = s.add_parser("doc", help="the object and PDO tables of docs/canopen.md")
-    dc.add_argument("--write", action="store_true", help="update docs/canopen.md in place")
+    dc = s.add_parser("doc", help="the object and PDO tables of docs/reference/canopen.md")
+    dc.add_argument("--write", action="store_true", help="update docs/reference/canopen.md in place")
     dc.set_defaults(func=run_doc)
 
     def no_sub(_args) -> int:

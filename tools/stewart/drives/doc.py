@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The generated part of docs/canopen.md: the objects and PDO layouts of
+"""The generated part of docs/reference/canopen.md: the objects and PDO layouts of
 :mod:`.objects` as Markdown tables (``stewart drives doc``; a test fails when
 the committed page differs)."""
 

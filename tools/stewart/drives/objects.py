@@ -5,13 +5,13 @@ Every object the master reads, writes at start-up or maps into a PDO, per
 device profile (CiA 408 fluid power, axis position control; CiA 402 cyclic
 synchronous position), with its data type, how it is used and why. The
 commands ``stewart drives check`` (does an EDS offer them?) and ``stewart
-drives config`` (what the master would write) read it from here, docs/canopen.md
+drives config`` (what the master would write) read it from here, docs/reference/canopen.md
 describes it, and the firmware's generator is to read it too: nothing else
 may repeat these numbers.
 
 Standard library only. Facts about the profiles that are uncertain (they vary
 between vendors or could not be confirmed from public material) are marked
-``uncertain`` in the entry's purpose and in docs/canopen.md.
+``uncertain`` in the entry's purpose and in docs/reference/canopen.md.
 """
 
 from __future__ import annotations
@@ -231,18 +231,18 @@ POS_ACTUAL_PREFIX = Entry(0x6601, 3, "Axis position actual value: prefix", INTEG
 # drive offers them at 0x2110 (manufacturer range). Optional: without them
 # the controller runs position-only (no measured force).
 PRESSURE_A = Entry(0x2110, 1, "Chamber pressure A", UNSIGNED16, TPDO, False,
-                   "kPa; force feedback (manufacturer-specific index, see docs/canopen.md)")
+                   "kPa; force feedback (manufacturer-specific index, see docs/reference/canopen.md)")
 PRESSURE_B = Entry(0x2110, 2, "Chamber pressure B", UNSIGNED16, TPDO, False,
-                   "kPa; force feedback (manufacturer-specific index, see docs/canopen.md)")
+                   "kPa; force feedback (manufacturer-specific index, see docs/reference/canopen.md)")
 
 # Force feed-forward: CiA 408's axis position setpoint carries the position
 # only, and the native protocol's force feed-forward halves the tracking
-# error (docs/canopen.md). The simulated drive takes it in a manufacturer
+# error (docs/reference/canopen.md). The simulated drive takes it in a manufacturer
 # object, mapped as RPDO1's third entry only where the config asks for it
 # (drives.legs[i].force_feedforward); real valves run without it.
 FORCE_FF = Entry(0x2120, 0, "Force feed-forward", INTEGER16, RPDO, False,
                  "daN along the position count; the inverse dynamics force, where the config asks for it "
-                 "(manufacturer-specific, see docs/canopen.md)")
+                 "(manufacturer-specific, see docs/reference/canopen.md)")
 
 CIA408_DEVICE_MODE_BUS = 1
 CIA408_CONTROL_MODE_AXIS_POSITION = 8
