@@ -46,7 +46,7 @@
 #ifndef SP_WRENCH_H
 #define SP_WRENCH_H
 
-#include "sp/motion/setpoint.h"
+#include "sp/model/dynamics.h"
 
 /** Sections of the wrench filter. */
 #define SP_WRENCH_SECTIONS 4u

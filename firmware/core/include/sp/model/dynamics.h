@@ -138,4 +138,15 @@ sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_mot
                                      const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
                                      sp_lu6_t *lu, sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh);
 
+/** What the model says at the reference: sp_setpoints_of (sp/motion/setpoint.h)
+ *  fills it, the wrench estimate (sp/estimation/wrench.h) reads it. */
+typedef struct {
+    sp_q8_t force[SP_LEGS]; /**< the cylinder forces the reference needs: inverse dynamics + friction, N, Q8 */
+    sp_q8_t rigid[SP_LEGS]; /**< their inverse dynamics part alone (platform and legs, no friction), N, Q8 */
+    sp_jacobian_t jac;      /**< the leg Jacobian at the reference pose (sp_jacobian) */
+    sp_fk_cache_t ref;      /**< the reference pose's leg lengths (m, Q24) and sines (Q30), as its IK
+                                 computed them: the pose estimate's next step starts there (sp/estimation/estimate.h) */
+    sp_rot_t rot;           /**< T at the reference (its IK's, of ref.sc), for the wrench's motion correction */
+} sp_model_t;
+
 #endif /* SP_DYNAMICS_H */

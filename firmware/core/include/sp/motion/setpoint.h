@@ -41,16 +41,6 @@ sp_status_t sp_friction_prepare(const sp_platform_t *platform, sp_friction_t *fr
  *  extending leg). Saturates at the int32 range. */
 sp_q8_t sp_friction_force(const sp_friction_t *fr, unsigned leg, sp_q24_t rate);
 
-/** What the model says at the reference, for the wrench estimate. */
-typedef struct {
-    sp_q8_t force[SP_LEGS]; /**< the cylinder forces the reference needs: inverse dynamics + friction, N, Q8 */
-    sp_q8_t rigid[SP_LEGS]; /**< their inverse dynamics part alone (platform and legs, no friction), N, Q8 */
-    sp_jacobian_t jac;      /**< the leg Jacobian at the reference pose (sp_jacobian) */
-    sp_fk_cache_t ref;      /**< the reference pose's leg lengths (m, Q24) and sines (Q30), as its IK
-                                 computed them: the pose estimate's next step starts there (sp/estimation/estimate.h) */
-    sp_rot_t rot;           /**< T at the reference (its IK's, of ref.sc), for the wrench's motion correction */
-} sp_model_t;
-
 /** Feed-forward switches (sp_setpoints_of's ff). */
 #define SP_FF_DYNAMICS 0x1u /**< send the inverse dynamics forces */
 #define SP_FF_FRICTION 0x2u /**< add the friction compensation */
