@@ -112,6 +112,7 @@
 #include "sp/estimation/ftsensor.h"
 #include "sp/estimation/motion_error.h"
 #include "sp/estimation/wrench.h"
+#include "sp/control/types.h"
 
 typedef enum {
     SP_STATE_IDLE = 0,
@@ -137,26 +138,6 @@ typedef enum {
 #define SP_FAULT_EXCESS_FORCE 0x0400u     /**< force control: the wrench exceeded its limit (retracted first) */
 #define SP_FAULT_FT_SENSOR 0x0800u        /**< force control on the force/torque sensor: the sensor went silent */
 
-/** Operator commands (one per tick; SP_CMD_NONE when none arrived). */
-typedef enum {
-    SP_CMD_NONE = 0,
-    SP_CMD_ENGAGE = 1,
-    SP_CMD_RUN_TRIG = 2, /**< the paper's trigonometric motion about home */
-    SP_CMD_MOVE_TO = 3,  /**< point-to-point move to cmd.target */
-    SP_CMD_STREAM = 4,   /**< follow streamed target poses */
-    SP_CMD_STOP = 5,
-    SP_CMD_PARK = 6,
-    SP_CMD_ESTOP = 7,
-    SP_CMD_RESET = 8,
-    SP_CMD_FORCE = 10,       /**< enter force control (force_mask, force_target), or update its target */
-    SP_CMD_GUIDE = 11,       /**< enter hand guiding (force_mask) */
-    SP_CMD_POSITION = 12,    /**< leave force control smoothly (back onto the position reference) */
-    SP_CMD_TARE = 13,        /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
-                               estimate's at rest (READY, position control) */
-    SP_CMD_FORCE_PARAMS = 14 /**< the admittance's parameters for force_mask (force_params_*): only in position
-                                  control (not on OP_COMMAND: the node makes it from OP_FORCE_PARAMS) */
-} sp_cmd_type_t;
-
 typedef struct {
     sp_cmd_type_t type;
     sp_axis_t axis;                 /**< RUN_TRIG: axis */
@@ -172,12 +153,6 @@ typedef struct {
     int32_t force_params_damping;   /**< FORCE_PARAMS: free-space damping, N s/m or N m s/rad */
     int32_t force_params_stiffness; /**< FORCE_PARAMS: spring to the position reference, N/m or N m/rad */
 } sp_ctrl_cmd_t;
-
-/** Drive modes sent with the setpoints (in the spirit of CiA 408). */
-typedef enum {
-    SP_DRIVE_HOLD = 0,  /**< hold the current position; setpoints ignored */
-    SP_DRIVE_ACTIVE = 1 /**< follow the setpoints */
-} sp_drive_mode_t;
 
 /** Feedback of one axis drive for this tick. */
 typedef struct {

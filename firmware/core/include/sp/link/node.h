@@ -40,6 +40,7 @@
 #ifndef SP_NODE_H
 #define SP_NODE_H
 
+#include "sp/control/controller.h"
 #include "sp/link/protocol.h"
 
 #define SP_NODE_MAX_TX 8u    /**< frames sp_node_tick emits at most */

@@ -24,8 +24,9 @@
 
 #include "sp/link/auth.h"
 #include "sp/link/can.h"
-#include "sp/control/controller.h"
+#include "sp/control/types.h"
 #include "sp/link/e2e.h"
+#include "sp/motion/setpoint.h"
 
 #define SP_ID_SYNC 0x010u
 #define SP_ID_AXIS_SETPOINTS 0x020u
