@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * bench_fixed - prints, for each arithmetic function of sp/fixed.h, the
+ * bench_fixed - prints, for each arithmetic function of sp/math/fixed.h, the
  * maximum error measured against a long double reference over random inputs
  * and the host cost in nanoseconds per call. Not a test: it asserts nothing.
  */
@@ -10,7 +10,7 @@
 #include <stdio.h>
 #include <time.h>
 
-#include "sp/fixed.h"
+#include "sp/math/fixed.h"
 #include "../tests/support/test_util.h"
 
 #define N_ACC 1000000

@@ -13,9 +13,9 @@
 #include <stdio.h>
 #include <time.h>
 
-#include "sp/controller.h"
-#include "sp/dynamics.h"
-#include "sp/kinematics.h"
+#include "sp/control/controller.h"
+#include "sp/model/dynamics.h"
+#include "sp/model/kinematics.h"
 #include "../tests/support/test_util.h"
 
 #define N_POSES 4096

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 # Builds the libFuzzer targets of tests/fuzz with clang (ASan + UBSan, and
 # LeakSanitizer with ASan) and runs them one after the other:
-#   node      the controller's receive path (firmware/core/src/node.c)
+#   node      the controller's receive path (firmware/core/src/link/node.c)
 #   plant_bus the plant's receive path (host_sim/src/bus.c)
 #   scenario  the scenario parser and file reader (host_sim/src/scenario.c, scenario_inject.c)
 #
@@ -38,9 +38,9 @@ mkdir -p "$out/obj"
 cflags=(-std=c99 -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all)
 # the core under its own rules (sp_rules.h), the plant and the targets without them
 core=()
-for src in firmware/core/src/*.c "$gen/stewart_can.c" "$gen/sp_platform_default.c"; do
+for src in firmware/core/src/*/*.c "$gen/stewart_can.c" "$gen/sp_platform_default.c"; do
   obj="$out/obj/$(basename "${src%.c}").o"
-  clang "${cflags[@]}" -include firmware/core/sp_rules.h -Ifirmware/core/include -I"$gen" -c "$src" -o "$obj"
+  clang "${cflags[@]}" -include firmware/core/sp_rules.h -Ifirmware/core/include -Ifirmware/core/src -I"$gen" -c "$src" -o "$obj"
   core+=("$obj")
 done
 link() { # name sources...

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * co_icount.c - instructions per tick of the CANopen master and its link
- * (sp/canopen_master.h, sp/canopen_link.h) on a Cortex-M4 (QEMU mps2-an386,
+ * (sp/canopen/canopen_master.h, sp/canopen/canopen_link.h) on a Cortex-M4 (QEMU mps2-an386,
  * -icount shift=7,sleep=off; m4_count.h), issue 18: six CiA 408 drives
  * running, SYNC every tick, RPDO1 with the force feed-forward object (the
  * 8-byte worst case), 2,000 ticks in steady state. Ends with the budget
@@ -26,8 +26,8 @@
 #include "m4_io.h"
 #include "sp_mps2.h"
 
-#include "sp/canopen_link.h"
-#include "sp/kinematics.h"
+#include "sp/canopen/canopen_link.h"
+#include "sp/model/kinematics.h"
 
 #define TICKS 2000u
 

@@ -6,7 +6,7 @@
  * shift=7,sleep=off; m4_count.h): the drives' frames received
  * (sp_co_master_receive), sp_co_link_feedback into the controller's drive
  * feedback, sp_ctrl_step, sp_co_link_input_due, sp_co_master_step, in the order
- * of firmware/ports/stm32g4/main.c and sp/canopen_link.h, measured as one.
+ * of firmware/ports/stm32g4/main.c and sp/canopen/canopen_link.h, measured as one.
  *
  * The scenarios of icount.c (surge, yaw, stream: m4_scenario.c) with six
  * CiA 408 drives behind the master (sp_co_link_cfg_default: three drives on
@@ -43,8 +43,8 @@
 #include "m4_vectors.h"
 #include "sp_mps2.h"
 
-#include "sp/canopen_link.h"
-#include "sp/kinematics.h"
+#include "sp/canopen/canopen_link.h"
+#include "sp/model/kinematics.h"
 
 #define TICK_BUDGET 10000u
 #define PB_KPA 5000u       /* the drives' rod-side pressure, 50 bar */

@@ -15,8 +15,8 @@
 #ifndef M4_FLOAT_REF_H
 #define M4_FLOAT_REF_H
 
-#include "sp/platform.h"
-#include "sp/status.h"
+#include "sp/model/platform.h"
+#include "sp/math/status.h"
 
 typedef struct {
     float base_joint[SP_LEGS][3];     /**< B_i, base frame, m */

@@ -28,10 +28,10 @@
 #include "m4_io.h"
 #include "m4_vectors.h"
 
-#include "sp/controller.h"
-#include "sp/dynamics.h"
-#include "sp/force.h"
-#include "sp/kinematics.h"
+#include "sp/control/controller.h"
+#include "sp/model/dynamics.h"
+#include "sp/force/force.h"
+#include "sp/model/kinematics.h"
 
 #define M4_POSES 2000u
 #define M4_PRIM_CASES 1000u

@@ -18,13 +18,13 @@
 
 #include <string.h>
 
-#include "sp/auth.h"
-#include "sp/protocol.h"
-#include "sp/controller.h"
-#include "sp/dynamics.h"
-#include "sp/kinematics.h"
-#include "sp/motion_error.h"
-#include "sp/wrench.h"
+#include "sp/link/auth.h"
+#include "sp/link/protocol.h"
+#include "sp/control/controller.h"
+#include "sp/model/dynamics.h"
+#include "sp/model/kinematics.h"
+#include "sp/estimation/motion_error.h"
+#include "sp/estimation/wrench.h"
 
 #define N_MOTIONS 2000u
 #define N_PRIM 1000u
@@ -669,7 +669,7 @@ static void controller(void)
     m4_out_nl();
 }
 
-/* Command authentication (sp/auth.h): checking one authenticated frame, the
+/* Command authentication (sp/link/auth.h): checking one authenticated frame, the
  * payload of OP_TARGET_POSE (24 bytes) and of a short command (12) with an
  * 8-byte tag: the code is computed once when it checks, twice when not. */
 static void auth(m4_rng_t *rng)
@@ -716,7 +716,7 @@ static void auth(m4_rng_t *rng)
 }
 
 /* Command authentication on the frames the node checks (sp_proto_auth_check,
- * sp/protocol.h): a signed OP_TARGET_POSE (what streaming adds to a tick: at
+ * sp/link/protocol.h): a signed OP_TARGET_POSE (what streaming adds to a tick: at
  * most one such frame per tick), a signed OP_COMMAND, a forged
  * OP_TARGET_POSE (another key: one code, rejected), and the CTRL_AUTH frame
  * the node encodes every 10 ticks. */

@@ -5,7 +5,7 @@
  */
 #include "m4_vectors.h"
 
-#include "sp/kinematics.h"
+#include "sp/model/kinematics.h"
 
 sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, uint8_t motion)
 {

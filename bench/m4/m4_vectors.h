@@ -12,7 +12,7 @@
 
 #include <stdint.h>
 
-#include "sp/controller.h"
+#include "sp/control/controller.h"
 
 /** Seed of every run (arbitrary, fixed). */
 #define M4_SEED UINT64_C(0x5354455741525434)

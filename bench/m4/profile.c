@@ -18,7 +18,7 @@
 #include "m4_vectors.h"
 #include "sp_mps2.h"
 
-#include "sp/controller.h"
+#include "sp/control/controller.h"
 
 #ifndef PROFILE_TICKS
 #define PROFILE_TICKS 300u

@@ -110,8 +110,8 @@
 #include "hs/inject.h"
 #include "hs/kin.h"
 #include "hs/scenario.h"
-#include "sp/canopen_link.h"
-#include "sp/node.h"
+#include "sp/canopen/canopen_link.h"
+#include "sp/link/node.h"
 #include "host_os.h"
 #include "socketcan.h"
 

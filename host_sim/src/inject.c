@@ -4,7 +4,7 @@
 
 #include <string.h>
 
-#include "sp/protocol.h"
+#include "sp/link/protocol.h"
 
 hs_status_t hs_inject_init(hs_inject_t *inj, uint64_t seed)
 {

@@ -12,7 +12,7 @@
 #include <string.h>
 #include <strings.h>
 
-#include "sp/protocol.h"
+#include "sp/link/protocol.h"
 
 #define BUS_LIST "ops, axis_a, axis_b"
 #define MSG_LIST "setpoints, feedback, command, target, heartbeat, status, monitor, wrench, any, or 0..0x7ff"

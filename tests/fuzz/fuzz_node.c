@@ -15,7 +15,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "sp/node.h"
+#include "sp/link/node.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

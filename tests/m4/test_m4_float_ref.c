@@ -29,8 +29,8 @@
 #include "float_ref.h"
 #include "m4_vectors.h"
 #include "ref_model.h"
-#include "sp/dynamics.h"
-#include "sp/kinematics.h"
+#include "sp/model/dynamics.h"
+#include "sp/model/kinematics.h"
 
 #define N_MOTIONS 2000u
 #define TOL_TRIG 1e-7

@@ -14,7 +14,7 @@
 #include "hs/kin.h"
 #include "hs/params.h"
 #include "ref_model.h"
-#include "sp/platform.h"
+#include "sp/model/platform.h"
 
 #define PT_TWO_PI 6.283185307179586
 

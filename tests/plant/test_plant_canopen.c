@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * The firmware's CANopen master (sp/canopen_master.h) against the plant's
+ * The firmware's CANopen master (sp/canopen/canopen_master.h) against the plant's
  * CiA 408 nodes (hs/co_node.h), frame by frame on a simulated bus, one call
  * of each per millisecond (issue 18):
  *
@@ -52,7 +52,7 @@
 #include <cmocka.h>
 
 #include "hs/co_node.h"
-#include "sp/canopen_master.h"
+#include "sp/canopen/canopen_master.h"
 
 #define N 6u
 #define QMAX 128u

@@ -2,7 +2,7 @@
 /*
  * Closed loop with CiA 408 drives, in process (issue 18): the firmware's
  * controller (sp_ctrl_step) and CANopen master with its link
- * (sp/canopen_link.h) command the hydraulic plant (hs_plant) through its
+ * (sp/canopen/canopen_link.h) command the hydraulic plant (hs_plant) through its
  * six CiA 408 nodes (hs/co_bus.h), frame by frame, 1 ms per tick. The same
  * motion on the native path (the controller's setpoints straight into the
  * plant's drives, feedback straight back: what the DBC frames carry) is the
@@ -44,9 +44,9 @@
 
 #include "hs/co_bus.h"
 #include "hs/params.h"
-#include "sp/canopen_link.h"
-#include "sp/kinematics.h"
-#include "sp/platform.h"
+#include "sp/canopen/canopen_link.h"
+#include "sp/model/kinematics.h"
+#include "sp/model/platform.h"
 
 #define Q24 16777216.0
 

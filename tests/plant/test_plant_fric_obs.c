@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * test_plant_fric_obs.c - the firmware's friction observer (sp/friction.h)
+ * test_plant_fric_obs.c - the firmware's friction observer (sp/estimation/friction.h)
  * against the plant's continuous LuGre seal friction.
  *
  * 1. One source of truth: the plant's sigma_0, sigma_1 (hs_config, from
@@ -26,8 +26,8 @@
 
 #include "hs/cylinder.h"
 #include "hs/params.h"
-#include "sp/friction.h"
-#include "sp/platform.h"
+#include "sp/estimation/friction.h"
+#include "sp/model/platform.h"
 
 #define PI 3.14159265358979323846
 

@@ -30,7 +30,7 @@
 #include "assert_near.h"
 #include "hs/ftsensor.h"
 #include "hs/kin.h"
-#include "sp/ftsensor.h"
+#include "sp/estimation/ftsensor.h"
 
 /* The plain reference: sp_ft_to_base as first written (the frame made
  * for every reading, 64-bit products). */

@@ -39,8 +39,8 @@
 #include "hs/rig.h"
 #include "assert_near.h"
 #include "plant_test_util.h"
-#include "sp/dynamics.h"
-#include "sp/kinematics.h"
+#include "sp/model/dynamics.h"
+#include "sp/model/kinematics.h"
 
 #define PI 3.14159265358979323846
 

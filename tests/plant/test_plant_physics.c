@@ -54,8 +54,8 @@
 #include "hs/plant.h"
 #include "assert_near.h"
 #include "plant_test_util.h"
-#include "sp/dynamics.h"
-#include "sp/kinematics.h"
+#include "sp/model/dynamics.h"
+#include "sp/model/kinematics.h"
 
 #define DT 1e-3
 

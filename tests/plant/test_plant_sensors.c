@@ -35,7 +35,7 @@
 #include "hs/sensor.h"
 #include "assert_near.h"
 #include "plant_test_util.h"
-#include "sp/kinematics.h"
+#include "sp/model/kinematics.h"
 
 #define PI 3.14159265358979323846
 #define DT 1e-3

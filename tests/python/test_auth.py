@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """Command authentication: the firmware's SipHash-2-4 and frame codes
-(sp/auth.h, through the core library) against the ``siphash24`` package, an
+(sp/link/auth.h, through the core library) against the ``siphash24`` package, an
 implementation we did not write, on many random keys and messages of every
 length the firmware takes; and the key file's checks."""
 

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """The firmware's CANopen master against the ``canopen`` library's node (issue 18).
 
-The master is the core's C code (``sp/canopen_master.h``, loaded from the
+The master is the core's C code (``sp/canopen/canopen_master.h``, loaded from the
 host-release shared library over ctypes); the drives are ``canopen.LocalNode``
 objects built from our EDS, an implementation we did not write, on
 python-can's ``virtual`` interface. A loop moves frames between the bus and

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The firmware's single-step pose estimate stays within its bound
-(tools/stewart/estimate_bound.py; sp/estimate.h, SP_ESTIMATE_STEP_MAX)."""
+(tools/stewart/estimate_bound.py; sp/estimation/estimate.h, SP_ESTIMATE_STEP_MAX)."""
 
 import numpy as np
 import pytest

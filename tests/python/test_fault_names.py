@@ -8,7 +8,7 @@ from stewart import protocol as pr
 
 
 def test_controller_fault_names_match_the_header():
-    header = (REPO_ROOT / "firmware/core/include/sp/controller.h").read_text()
+    header = (REPO_ROOT / "firmware/core/include/sp/control/controller.h").read_text()
     bits = {}
     for name, value in re.findall(r"#define SP_FAULT_(\w+) (0x[0-9A-Fa-f]+)u", header):
         v = int(value, 16)

@@ -6,7 +6,7 @@ CRCs checked like the firmware's node: a new sender's first frame may be
 dropped), runs the controller's state machine in outline, and answers
 every 1 ms with CTRL_STATUS, every 10 ms with CTRL_AUTH, and checks the
 commands' authentication codes with the test's throw-away key (conftest.py)
-as the firmware does (tests/unit/test_node.c holds the firmware to the same
+as the firmware does (tests/unit/link/test_node.c holds the firmware to the same
 codes through sp_proto_sign). The real controller is exercised over vcan in
 tests/bus/test_operator_session.py."""
 

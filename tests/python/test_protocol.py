@@ -431,7 +431,7 @@ def test_decode_cli(capsys, vectors):
 def test_force_params_ranges_are_refused_by_name(proto):
     """OP_FORCE_PARAMS: the tool refuses a parameter outside the DBC's range
     naming it; within range it encodes to the C encoder's bytes
-    (tests/unit/test_node.c sends the same)."""
+    (tests/unit/link/test_node.c sends the same)."""
     assert pr.force_params_check(40.0, 5e5, 0.0) is None
     assert pr.force_params_check(0.5, 5e5, 0.0) == "mass 0.5 kg is out of range (1 .. 5000)"
     assert pr.force_params_check(40.0, 50.0, 0.0).startswith("damping 50 N s/m is out of range")

@@ -17,7 +17,7 @@
 #include <math.h>
 #include <stdint.h>
 
-#include "sp/platform.h"
+#include "sp/model/platform.h"
 
 /* (Two-dimensional inputs are not const: C99 does not convert double
  * (*)[3] to const double (*)[3].) */

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The operator's side of command authentication (firmware sp/auth.h,
+"""The operator's side of command authentication (firmware sp/link/auth.h,
 docs/security.md): the code of a frame is SipHash-2-4 under the machine's
 128-bit key of
 

@@ -52,7 +52,7 @@ class ConfigError(ValueError):
     """A config file that cannot be used; the message names file and key."""
 
 
-# Limits that the firmware's Q formats impose (see firmware/core/include/sp/platform.h).
+# Limits that the firmware's Q formats impose (see firmware/core/include/sp/model/platform.h).
 _Q24_MAX = 127.0          # m, rad (Q24 in int32 holds +-128)
 _MASS_MAX = 32767.0       # kg (Q16)
 _INERTIA_MAX = 32767.0    # kg m^2 (Q16)

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """The bound of the firmware's one-step pose estimate (float64, numpy).
 
-The firmware's estimate (firmware/core/src/estimate.c) takes one chord step
+The firmware's estimate (firmware/core/src/estimation/estimate.c) takes one chord step
 from the reference x_ref of the previous tick, whose leg lengths L_ref and
 factorisation of J^T are known:
 
@@ -185,12 +185,12 @@ AGED_SPEEDS = ((0.28, 0.0), (0.0, 0.28), (0.3, 0.15), (0.5, 0.0), (0.0, 0.3), (0
 
 
 def firmware_limit() -> float:
-    """SP_ESTIMATE_STEP_MAX of sp/estimate.h, m."""
-    text = (REPO_ROOT / "firmware" / "core" / "include" / "sp" / "estimate.h").read_text()
+    """SP_ESTIMATE_STEP_MAX of sp/estimation/estimate.h, m."""
+    text = (REPO_ROOT / "firmware" / "core" / "include" / "sp" / "estimation" / "estimate.h").read_text()
     for line in text.splitlines():
         if line.startswith("#define SP_ESTIMATE_STEP_MAX"):
             return int(line.split("(sp_q24_t)")[1].rstrip(")").strip()) / 2.0**24
-    raise LookupError("SP_ESTIMATE_STEP_MAX not found in sp/estimate.h")
+    raise LookupError("SP_ESTIMATE_STEP_MAX not found in sp/estimation/estimate.h")
 
 
 def main(argv=None) -> int:

@@ -17,7 +17,7 @@ not whole little-endian bytes, the counter is not 16 bits before the tag, or
 the tag is not 4 to 8 bytes.
 
 It then appends to the header the scale ratios of the protocol layer
-(firmware/core/src/protocol.c) between the core's fixed-point values and the
+(firmware/core/src/link/protocol.c) between the core's fixed-point values and the
 raw signals: for each family of signals in :data:`SCALES`, raw = value x
 NUM / DEN with NUM / DEN the reduced fraction (the core's LSB) / (the DBC
 factor), computed exactly from the factor as written in the DBC. The build

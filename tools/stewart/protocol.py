@@ -50,7 +50,7 @@ KINDS = (UNKNOWN_ID, BAD_LENGTH, BAD_CRC, REPEATED, WRONG_SEQUENCE, OUT_OF_RANGE
 #: Encoding only: a signal name the message does not have (or Counter/Crc).
 UNKNOWN_SIGNAL = "unknown-signal"
 
-#: Bits of CTRL_STATUS.Faults (SP_FAULT_* of firmware/core/include/sp/controller.h).
+#: Bits of CTRL_STATUS.Faults (SP_FAULT_* of firmware/core/include/sp/control/controller.h).
 CONTROLLER_FAULTS = ("feedback_timeout", "drive", "fk", "divergence", "reference",
                      "compute", "estop", "leg_limit", "operator_silent", "contact_lost",
                      "excess_force", "ft_sensor")

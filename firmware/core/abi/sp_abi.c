@@ -3,11 +3,11 @@
 
 #include <stddef.h>
 
-#include "sp/can.h"
-#include "sp/dynamics.h"
-#include "sp/kinematics.h"
-#include "sp/limits.h"
-#include "sp/platform.h"
+#include "sp/link/can.h"
+#include "sp/model/dynamics.h"
+#include "sp/model/kinematics.h"
+#include "sp/motion/limits.h"
+#include "sp/model/platform.h"
 
 /* The fields of the row of member m of struct type t (used inside braces). */
 #define SP_ABI_ROW(t, m) #t, (uint32_t)sizeof(t), #m, (uint32_t)offsetof(t, m), (uint32_t)sizeof(((t *)0)->m)

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_controller - the firmware's controller on a Linux host: the portable
- * node (sp/node.h) on SocketCAN, at 1 kHz.
+ * node (sp/link/node.h) on SocketCAN, at 1 kHz.
  *
  *   sp_controller [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep]
  *                 [--ticks N] [--no-feedforward] [--timeout-ms MS] [--timing]
@@ -19,7 +19,7 @@
  * random source (getrandom) at start.
  *
  * --canopen: the drives are CiA 408 nodes configured and driven by the
- * CANopen master (sp/canopen_link.h, docs/canopen.md) instead of the native
+ * CANopen master (sp/canopen/canopen_link.h, docs/canopen.md) instead of the native
  * drive frames: as the platform config's drives section says (then
  * --canopen is the default), else the built-in layout: nodes 1-3 on axis_a
  * and 4-6 on axis_b, 1 um per count, count 0 at the park pose;
@@ -75,9 +75,9 @@
 
 #include "host_os.h"
 #include "socketcan.h"
-#include "sp/canopen_link.h"
-#include "sp/kinematics.h"
-#include "sp/node.h"
+#include "sp/canopen/canopen_link.h"
+#include "sp/model/kinematics.h"
+#include "sp/link/node.h"
 
 static void usage(void)
 {
@@ -99,7 +99,7 @@ typedef struct {
 } run_stats_t;
 
 /* --canopen: the drives are CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)
- * behind the CANopen master (sp/canopen_link.h); the node's own axis
+ * behind the CANopen master (sp/canopen/canopen_link.h); the node's own axis
  * frames are not sent. */
 typedef struct {
     int on;

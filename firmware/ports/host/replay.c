@@ -2,7 +2,7 @@
 /*
  * sp_replay - the controller offline on a recorded lockstep CAN log: what
  * the plant sent (feedback, SYNC, operator commands) goes through the
- * portable node (sp/node.h) as sp_controller would have received it, and
+ * portable node (sp/link/node.h) as sp_controller would have received it, and
  * the controller's external wrench estimate is printed for every tick at
  * full precision (Q8: 1/256 N, N m), where CTRL_WRENCH carries it on even
  * ticks in 0.25 N steps.
@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "sp/node.h"
+#include "sp/link/node.h"
 
 static void usage(void)
 {

@@ -2,7 +2,7 @@
 /*
  * socketcan.h - the host port's CAN: Linux SocketCAN raw sockets, CAN FD,
  * non-blocking, batched with sendmmsg/recvmmsg, one socket per bus.
- * Implements sp_can_port_t (sp/port.h).
+ * Implements sp_can_port_t (sp/link/port.h).
  *
  * One socket serves all three buses: it is bound to every CAN interface
  * (ifindex 0), each received frame names its interface, each sent frame is
@@ -14,7 +14,7 @@
 #ifndef SP_SOCKETCAN_H
 #define SP_SOCKETCAN_H
 
-#include "sp/port.h"
+#include "sp/link/port.h"
 
 #define SP_SOCKETCAN_MAX_FILTERS 20u
 #define SP_SOCKETCAN_BATCH 32u

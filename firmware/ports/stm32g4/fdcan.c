@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * fdcan.c - the three FDCAN controllers of the STM32G474 as the CAN port
- * (sp/port.h). Written from RM0440's FDCAN chapter (registers, message RAM,
+ * (sp/link/port.h). Written from RM0440's FDCAN chapter (registers, message RAM,
  * operating modes). The native buses are polled once per tick, no
  * interrupts. A CANopen drive bus (the CiA 408 image) brings more frames
  * in a tick than its two 3-element Rx FIFOs hold (a SYNC's 3 TPDO1 and 3
@@ -42,7 +42,7 @@
 #include <stddef.h>
 
 #include "g4_regs.h"
-#include "sp/protocol.h" /* the identifiers the filters pass */
+#include "sp/link/protocol.h" /* the identifiers the filters pass */
 #include "sp_g4.h"
 
 /* ---- bit timing ---------------------------------------------------------- */

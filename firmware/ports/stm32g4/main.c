@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_stm32g4 - the controller on the NUCLEO-G474RE: the portable node
- * (sp/node.h) on the three FDCAN buses at 1 kHz, cycle master (it sends
+ * (sp/link/node.h) on the three FDCAN buses at 1 kHz, cycle master (it sends
  * SYNC), as firmware/ports/host/main.c does in real-time mode.
  *
  * Each tick (sp_g4_cycle): cancel transmissions left from the last tick and
@@ -21,7 +21,7 @@
  *
  * SP_DRIVE_CIA408 (CMake SP_DRIVE_PROTOCOL=cia408; docs/canopen.md, one
  * drive protocol per image): the drives are CiA 408 nodes behind the
- * CANopen master (sp/canopen_link.h), laid out as the platform config's
+ * CANopen master (sp/canopen/canopen_link.h), laid out as the platform config's
  * drives section (sp_co_layout_default), else the built-in layout. Frames of
  * the drive buses go to the master; each tick the link fills the node's
  * drive feedback before sp_node_tick, the node's own axis frames are not
@@ -31,12 +31,12 @@
  */
 #include <stddef.h>
 
-#include "sp/node.h"
+#include "sp/link/node.h"
 #include "sp_g4.h"
 #include "sp_machine_key.h" /* generated from the build's key file (tools/stewart/key_header.py) */
 #if SP_DRIVE_CIA408
-#include "sp/canopen_link.h"
-#include "sp/kinematics.h"
+#include "sp/canopen/canopen_link.h"
+#include "sp/model/kinematics.h"
 #define CO_TX_WAIT_US 400u /* > two classic 8-byte frames at 1 Mbit/s (135 us each) */
 #endif
 

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_g4.h - the NUCLEO-G474RE port (STM32G474RE, Cortex-M4, 170 MHz): the
- * implementations of sp/port.h (CAN on the three FDCAN controllers, the
+ * implementations of sp/link/port.h (CAN on the three FDCAN controllers, the
  * 1 kHz tick, the independent watchdog) and the board's clocks, LED and
  * safe state. docs/stm32g4.md describes the board, the pins and the
  * figures.
@@ -14,8 +14,8 @@
 
 #include <stdint.h>
 
-#include "sp/canopen_master.h"
-#include "sp/port.h"
+#include "sp/canopen/canopen_master.h"
+#include "sp/link/port.h"
 
 /* ---- clocks (clock.c) ---- */
 

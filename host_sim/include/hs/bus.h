@@ -4,7 +4,7 @@
  * the simulated plant: plant feedback -> AXIS_FEEDBACK frames (+ SYNC when
  * the plant is the cycle master), AXIS_SETPOINTS frames -> drive setpoints.
  * Frames are packed and checked by the firmware core's protocol layer
- * (sp/protocol.h: the same DBC, the same E2E CRC and alive counters), so the
+ * (sp/link/protocol.h: the same DBC, the same E2E CRC and alive counters), so the
  * plant and the controller cannot disagree on the bit layout.
  *
  * Pure: no sockets, no clock. The executable (host_sim/app/hs_sim.c) moves
@@ -22,7 +22,7 @@
 #include <stdint.h>
 
 #include "hs/plant.h"
-#include "sp/protocol.h"
+#include "sp/link/protocol.h"
 
 #define HS_BUS_MAX_TX 8u /**< frames hs_bus_cycle_frames emits at most: 6 feedback + 2 SYNC */
 

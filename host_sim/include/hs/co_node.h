@@ -26,7 +26,7 @@
 #include <stdint.h>
 
 #include "hs/status.h"
-#include "sp/canopen.h"
+#include "sp/canopen/canopen.h"
 
 #define HS_CO_OD_MAX 96u /**< object dictionary entries */
 #define HS_CO_MAX_TX 4u  /**< frames one call emits, at most */

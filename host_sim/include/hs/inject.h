@@ -27,7 +27,7 @@
 
 #include "hs/sensor.h"
 #include "hs/status.h"
-#include "sp/can.h"
+#include "sp/link/can.h"
 
 #define HS_INJ_RULES 16u /**< frame rules active at once */
 #define HS_INJ_HELD 64u  /**< delayed frames held at once (more are dropped and counted) */

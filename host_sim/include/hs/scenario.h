@@ -133,8 +133,8 @@
 #include <stdio.h>
 
 #include "hs/status.h"
-#include "sp/controller.h"
-#include "sp/protocol.h"
+#include "sp/control/controller.h"
+#include "sp/link/protocol.h"
 
 #define HS_SCENARIO_MAX_ACTIONS 256           /**< actions in one scenario */
 #define HS_SCENARIO_MAX_LINE 510              /**< characters in one line, without its '\n' */

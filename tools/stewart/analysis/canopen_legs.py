@@ -75,7 +75,7 @@ from .names import DRIVE_STATES
 #: from it in time (half a control tick), s.
 SYNC_TOLERANCE_S = 0.5e-3
 #: ``drive_faults`` while the status word shows a fault state:
-#: SP_CO_LINK_FAULT (sp/canopen_link.h), the DBC's Faults bit 7.
+#: SP_CO_LINK_FAULT (sp/canopen/canopen_link.h), the DBC's Faults bit 7.
 FAULT_BIT = 0x80
 #: Device state -> the native drive state (names.DRIVE_STATES), per profile.
 STATE_408 = {"ACTIVE": "ACTIVE", "HOLD": "HOLD", "DISABLED": "INIT", "INIT": "INIT", "NOT_READY": "INIT",

@@ -33,7 +33,7 @@ CLASSIC_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 
 LOAD_LIMIT = 50.0
 CONTROL_TICK_MS = 1.0
 #: The controller's two drive buses: a config's CANopen buses, in leg order,
-#: are these (sp/canopen_link.h; the analysis' axis_a and axis_b).
+#: are these (sp/canopen/canopen_link.h; the analysis' axis_a and axis_b).
 CONTROLLER_BUSES = ("axis_a", "axis_b")
 #: The built-in CANopen layout's resolution (:func:`builtin_canopen`), m per count.
 BUILTIN_POSITION_PER_COUNT = 1e-6

@@ -184,11 +184,11 @@ MASTER_NODE_ID = 127
 
 def _firmware_master_heartbeat_ms() -> int:
     """The period the firmware defines (SP_CO_MASTER_HEARTBEAT_MS in
-    sp/canopen_master.h): the one source, read from the header."""
+    sp/canopen/canopen_master.h): the one source, read from the header."""
     import re
 
     from .. import REPO_ROOT
-    header = REPO_ROOT / "firmware" / "core" / "include" / "sp" / "canopen_master.h"
+    header = REPO_ROOT / "firmware" / "core" / "include" / "sp" / "canopen" / "canopen_master.h"
     m = re.search(r"^#define\s+SP_CO_MASTER_HEARTBEAT_MS\s+(\d+)u?\b", header.read_text(), re.M)
     if m is None:
         raise RuntimeError(f"{header}: no SP_CO_MASTER_HEARTBEAT_MS definition")

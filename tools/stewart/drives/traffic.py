@@ -60,7 +60,7 @@ def state_402(word: int) -> str:
 def profiles_from_drives(drives) -> dict[tuple[str, int], str]:
     """{(bus, node): protocol} of a config's CANopen drives, with the
     config's CANopen buses in order as the controller's axis_a and axis_b
-    (sp/canopen_link.h) and as themselves."""
+    (sp/canopen/canopen_link.h) and as themselves."""
     out: dict[tuple[str, int], str] = {}
     for d in drives.canopen:
         out[(d.bus, d.node_id)] = d.protocol

@@ -43,7 +43,7 @@ STATES = pr.value_names("CTRL_STATUS", "State")
 COMMANDS = pr.value_names("OP_COMMAND", "Command")
 
 #: Where each command is accepted (the controller's state machine,
-#: firmware/core/src/controller.c and node.c).
+#: firmware/core/src/control/controller.c and node.c).
 ACCEPTED_IN = {
     "ENGAGE": ("IDLE",),
     "RUN_TRIG": ("READY",),
