@@ -31,7 +31,7 @@ int sp_host_stop_requested(void);
 int64_t sp_host_now_ns(void);
 
 /**
- * The machine key of command authentication (docs/security.md) from the file
+ * The machine key of command authentication (docs/explanation/security.md) from the file
  * `path`, or, when path is NULL or empty, from the file the environment
  * variable STEWART_KEY names. The file holds 32 hexadecimal digits
  * (whitespace allowed) and may be read by its owner only (mode 600, as an

@@ -11,7 +11,7 @@
  *                 [--key FILE] [--session N]
  *
  * --key FILE (else the file the environment variable STEWART_KEY names):
- * the machine key of command authentication (docs/security.md; 32 hex
+ * the machine key of command authentication (docs/explanation/security.md; 32 hex
  * digits, mode 600). Without one the controller refuses every
  * authenticated command (reason no-key; STOP, PARK and ESTOP still work)
  * and says so at start. --session N sets the authentication session (for
@@ -19,7 +19,7 @@
  * random source (getrandom) at start.
  *
  * --canopen: the drives are CiA 408 nodes configured and driven by the
- * CANopen master (sp/canopen/canopen_link.h, docs/canopen.md) instead of the native
+ * CANopen master (sp/canopen/canopen_link.h, docs/reference/canopen.md) instead of the native
  * drive frames: as the platform config's drives section says (then
  * --canopen is the default), else the built-in layout: nodes 1-3 on axis_a
  * and 4-6 on axis_b, 1 um per count, count 0 at the park pose;
@@ -29,7 +29,7 @@
  * mille of a rated force of HOST_402_RATED_FORCE_N, the simulated drive's
  * 0x6076); --canopen-sync-divider N (1..10, implies --canopen) sends SYNC
  * and the PDOs every N ticks (the layout of two classic buses at 1 Mbit/s
- * with pressures needs 3, docs/canopen.md), the drives' watchdog 3N ms;
+ * with pressures needs 3, docs/reference/canopen.md), the drives' watchdog 3N ms;
  * --cia402 (implies --canopen) drives every leg as a CiA 402 drive in cyclic
  * synchronous position mode (no pressure PDO); the config's drives
  * section may say so per leg.

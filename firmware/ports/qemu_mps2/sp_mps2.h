@@ -3,7 +3,7 @@
  * sp_mps2.h - the port of the portable core to QEMU's `mps2-an386` board
  * (ARM MPS2 with the AN386 Cortex-M4 image), used to run the core on a real
  * Cortex-M4 instruction set: the bit-exactness check against the host build
- * and the instruction counts (docs/m4.md).
+ * and the instruction counts (docs/explanation/m4.md).
  *
  * Memory map (QEMU 7.2): code at 0x00000000 (4 MiB), RAM at 0x20000000
  * (4 MiB). The program talks to the host through ARM semihosting

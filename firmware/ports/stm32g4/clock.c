@@ -59,7 +59,7 @@ sp_status_t sp_g4_clock_init(void)
     (void)RCC_APB1ENR1; /* read back: the enable takes effect before PWR is touched */
 
     /* Crystal (not bypass) by default: the NUCLEO-G474RE has X3 = 24 MHz
-     * (see docs/stm32g4.md). HSEBYP may only change while the HSE is off. */
+     * (see docs/reference/stm32g4.md). HSEBYP may only change while the HSE is off. */
     RCC_CR = (RCC_CR & ~(RCC_CR_HSEBYP | RCC_CR_HSEON)) | HSE_BYPASS;
     RCC_CR |= RCC_CR_HSEON;
     if (!wait_set(&RCC_CR, RCC_CR_HSERDY, RCC_CR_HSERDY, SPIN_HSE)) {

@@ -10,7 +10,7 @@
  * (more than the ~9 classic frames 1 Mbit/s carries in a millisecond),
  * which the tick reads.
  *
- * Bus -> controller -> pins (NUCLEO-G474RE; docs/stm32g4.md):
+ * Bus -> controller -> pins (NUCLEO-G474RE; docs/reference/stm32g4.md):
  *   ops    FDCAN1  PA11 RX, PA12 TX  AF9
  *   axis_a FDCAN2  PB12 RX, PB13 TX  AF9
  *   axis_b FDCAN3  PA8  RX, PA15 TX  AF11

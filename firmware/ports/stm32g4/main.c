@@ -19,7 +19,7 @@
  * sp_g4_stats holds figures for a debugger (ticks, misses, cycles per tick,
  * stack high-water mark); nothing is printed.
  *
- * SP_DRIVE_CIA408 (CMake SP_DRIVE_PROTOCOL=cia408; docs/canopen.md, one
+ * SP_DRIVE_CIA408 (CMake SP_DRIVE_PROTOCOL=cia408; docs/reference/canopen.md, one
  * drive protocol per image): the drives are CiA 408 nodes behind the
  * CANopen master (sp/canopen/canopen_link.h), laid out as the platform config's
  * drives section (sp_co_layout_default), else the built-in layout. Frames of
@@ -185,7 +185,7 @@ int main(void)
         sp_g4_stop(SP_G4_STOP_INIT);
     }
     g_cfg.sync_master = 1u; /* real time: we send SYNC */
-    /* command authentication (docs/security.md): the machine key built in
+    /* command authentication (docs/explanation/security.md): the machine key built in
      * (the build's key file), a session drawn from the RNG; without a
      * session the node starts without its key: motion commands refused */
     static const sp_auth_key_t key = {SP_MACHINE_KEY_BYTES};

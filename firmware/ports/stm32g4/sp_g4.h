@@ -3,7 +3,7 @@
  * sp_g4.h - the NUCLEO-G474RE port (STM32G474RE, Cortex-M4, 170 MHz): the
  * implementations of sp/link/port.h (CAN on the three FDCAN controllers, the
  * 1 kHz tick, the independent watchdog) and the board's clocks, LED and
- * safe state. docs/stm32g4.md describes the board, the pins and the
+ * safe state. docs/reference/stm32g4.md describes the board, the pins and the
  * figures.
  *
  * Every function that can fail returns an sp_status_t; no function blocks
@@ -40,7 +40,7 @@ sp_status_t sp_g4_clock_init(void);
 void sp_g4_led_init(void);
 
 /** A 32-bit value from the RNG peripheral (HSI48-clocked; the session value
- *  of command authentication, docs/security.md). Polls at most about 10^5
+ *  of command authentication, docs/explanation/security.md). Polls at most about 10^5
  *  times: SP_OK, or SP_E_IO when the RNG reports a clock or seed error or
  *  gives no value (the caller starts without authentication: motion refused). */
 sp_status_t sp_g4_random_u32(uint32_t *out);

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_port_template - the controller's main program for a new target
- * (docs/porting.md). It needs only the functions of sp_tpl.h (port.c);
+ * (docs/guides/porting.md). It needs only the functions of sp_tpl.h (port.c);
  * with them filled in it runs the portable node (sp/link/node.h) at
  * SP_TPL_TICK_HZ as cycle master (it sends SYNC), as the STM32 port
  * (firmware/ports/stm32g4/main.c) does. As shipped, every stub fails and
@@ -13,7 +13,7 @@
  * bus, CTRL_STATUS and CTRL_MONITOR on ops); kick the watchdog.
  * sp_tpl_stats keeps the tick's figures for a debugger; nothing is printed.
  *
- * SP_DRIVE_CIA408=1 (one drive protocol per image, docs/canopen.md): the
+ * SP_DRIVE_CIA408=1 (one drive protocol per image, docs/reference/canopen.md): the
  * drives are CiA 408 or CiA 402 nodes behind the CANopen master, laid out
  * as the platform config's drives section (sp_co_layout_default), else
  * the built-in layout. A tick then runs the five steps of
@@ -35,7 +35,7 @@
 #define RX_BATCH 8u  /* frames per receive call */
 #define RX_ROUNDS 8u /* receive calls per tick at most: 64 frames, above what three buses bring in 1 ms */
 
-/* Figures for a debugger (docs/porting.md, "Measuring the tick"). */
+/* Figures for a debugger (docs/guides/porting.md, "Measuring the tick"). */
 typedef struct {
     uint32_t ticks;       /**< cycles run */
     uint32_t misses;      /**< tick edges that passed while a cycle ran */

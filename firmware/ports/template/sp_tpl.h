@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp_tpl.h - the blank port: what a new target provides so that main.c
- * runs the controller on it (docs/porting.md). Each function is a stub in
+ * runs the controller on it (docs/guides/porting.md). Each function is a stub in
  * port.c that fails; fill them in for the chip or OS, keep the contracts
  * written here, and rename the prefix (sp_tpl_) to the port's own
  * (sp_g4_, ...). sp/link/port.h defines the three port structs.
@@ -67,7 +67,7 @@ sp_status_t sp_tpl_tick_start(void);
  */
 sp_tick_port_t sp_tpl_tick_port(void);
 
-/** A free-running cycle counter for measuring the tick (docs/porting.md,
+/** A free-running cycle counter for measuring the tick (docs/guides/porting.md,
  *  "Measuring the tick"); 0 when the target has none. */
 uint32_t sp_tpl_cycles(void);
 
@@ -86,7 +86,7 @@ sp_watchdog_port_t sp_tpl_watchdog_port(void);
 
 /**
  * The machine key and a fresh session value for command authentication
- * (docs/security.md): the key from storage outside the sources, the
+ * (docs/explanation/security.md): the key from storage outside the sources, the
  * session from a hardware random source, new at each start. An error when
  * either is missing: the node then starts without a key and refuses
  * motion commands (stops still work).

@@ -509,7 +509,7 @@ sp_co408_state_t sp_co408_next(sp_co408_state_t s, uint16_t control, uint16_t pr
 
 /* The statusword's state by its six bits that matter (0..3, 5, 6: index
  * bits 0..3, then 4..5), looked up instead of searched: the rows of
- * docs/canopen.md's (mask, value) table in order, the first that matches;
+ * docs/reference/canopen.md's (mask, value) table in order, the first that matches;
  * the unit test compares every word with that search. */
 #define S_NR SP_CO402_NOT_READY
 #define S_SD SP_CO402_SWITCH_ON_DISABLED

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * auth.c - SipHash-2-4 and the freshness check of the operator's commands
- * (sp/link/auth.h, docs/security.md). Written from the algorithm's definition;
+ * (sp/link/auth.h, docs/explanation/security.md). Written from the algorithm's definition;
  * tests/unit/test_auth.c holds it to the reference's published values and
  * tests/python/test_auth.py to an implementation we did not write.
  */

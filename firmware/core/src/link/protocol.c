@@ -958,7 +958,7 @@ sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint
     return SP_OK;
 }
 
-/* ---- command authentication (docs/security.md) ---- */
+/* ---- command authentication (docs/explanation/security.md) ---- */
 /* The authenticated messages, one row each: their fields' offsets are
  * generated from the DBC (gen_can_c.py). A message the table lacks is not
  * authenticated: sp_proto_frame_needs_auth, the signer and the node's check

@@ -188,7 +188,7 @@ SPI_INLINE void legs_sums_done(const int64_t fsum[3], const int64_t msum[3], sp_
 }
 
 /*
- * Leg masses (sp_leg_mass_t; docs/model.md "Leg masses"). Leg i, of unit
+ * Leg masses (sp_leg_mass_t; docs/explanation/model.md "Leg masses"). Leg i, of unit
  * vector u, length L and rate L', with platform joint A (arm r from o',
  * velocity v_A, acceleration a_A), acts on the platform with its cylinder
  * force F_i u minus

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/canopen/canopen.h - CANopen (CiA 301) frames and the CiA 408 device state
- * machine, as pure functions over sp_can_frame_t (docs/canopen.md).
+ * machine, as pure functions over sp_can_frame_t (docs/reference/canopen.md).
  *
  * Classic CAN, 11-bit identifiers, the predefined connection set: COB-ID =
  * function base + node id (1..127). Multi-byte values are little-endian.
@@ -75,7 +75,7 @@ uint8_t sp_co_node_of(const sp_can_frame_t *f, uint32_t base);
  *  SP_E_FRAME unless the identifier is 0x701..0x77F with 1 byte. */
 sp_status_t sp_co_heartbeat_parse(const sp_can_frame_t *f, uint8_t *node, uint8_t *state);
 
-/* ---- PDOs of the CiA 408 axis position layout (docs/canopen.md) ---- */
+/* ---- PDOs of the CiA 408 axis position layout (docs/reference/canopen.md) ---- */
 
 /** RPDO1: control word (0x6040, u16) + axis position setpoint (0x6600.1, i32
  *  in the drive's counts); 6 bytes on 0x200 + node. */
@@ -86,7 +86,7 @@ sp_status_t sp_co_rpdo1_parse(const sp_can_frame_t *f, uint8_t node, uint16_t *c
 
 /** The simulated drive's vendor-specific force feed-forward (0x2120.0,
  *  INTEGER16, daN = 10 N, along the drive's position count), mapped as
- *  RPDO1's third entry where the config asks for it (docs/canopen.md):
+ *  RPDO1's third entry where the config asks for it (docs/reference/canopen.md):
  *  CiA 408's axis position setpoint has no force. */
 #define SP_CO_FORCE_FF_INDEX 0x2120u
 #define SP_CO_FORCE_FF_MAPPING 0x21200010u
@@ -252,7 +252,7 @@ sp_co408_state_t sp_co408_next(sp_co408_state_t s, uint16_t control, uint16_t pr
 #define SP_CO402_PROFILE 402u /**< 0x1000 bits 0..15 */
 #define SP_CO402_MODE_CSP 8   /**< 0x6060 / 0x6061: cyclic synchronous position */
 
-/** CiA 402 device states, from the statusword (mask, value: docs/canopen.md). */
+/** CiA 402 device states, from the statusword (mask, value: docs/reference/canopen.md). */
 typedef enum {
     SP_CO402_NOT_READY = 0,          /**< not ready to switch on (0x4F, 0x00) */
     SP_CO402_SWITCH_ON_DISABLED = 1, /**< (0x4F, 0x40) */
@@ -279,7 +279,7 @@ const char *sp_co402_state_name(sp_co402_state_t s);
 
 /** The device state a request leads to: DISABLED -> READY (ready to switch
  *  on: shutdown), HOLD and ACTIVE -> OPERATION_ENABLED (HOLD: the master
- *  holds the target position, docs/canopen.md). */
+ *  holds the target position, docs/reference/canopen.md). */
 sp_co402_state_t sp_co402_target(sp_co_request_t req);
 
 /**

@@ -3,7 +3,7 @@
  * sp/canopen/canopen_link.h - the controller's drives over CANopen: between the
  * controller's step (sp/control/controller.h) and the CANopen master
  * (sp/canopen/canopen_master.h), the CiA 408 counterpart of what node.c does with
- * the native AXIS_SETPOINTS / AXIS_FEEDBACK frames (docs/canopen.md).
+ * the native AXIS_SETPOINTS / AXIS_FEEDBACK frames (docs/reference/canopen.md).
  *
  * Per tick, in this order:
  *  1. sp_co_master_receive() for the frames received since the last tick
@@ -19,7 +19,7 @@
  * CiA 408's axis position setpoint carries the position only: the drive
  * derives the velocity from consecutive setpoints, and the force
  * feed-forward goes only to drives configured with the vendor object
- * 0x2120 in RPDO1 (force_ff; docs/canopen.md says why); CiA 402 drives
+ * 0x2120 in RPDO1 (force_ff; docs/reference/canopen.md says why); CiA 402 drives
  * with force_ff get it as their torque/force offset 0x60B2. With a SYNC
  * divider d the feedback arrives every d ticks: sp_co_link_ctrl_config
  * makes the controller's config fit (feedback_divider d, a feedback

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/canopen/canopen_master.h - the controller as CANopen master of up to six
- * drives (docs/canopen.md), each of device profile CiA 408 (fluid power,
+ * drives (docs/reference/canopen.md), each of device profile CiA 408 (fluid power,
  * axis position control) or CiA 402 (cyclic synchronous position): NMT,
  * SYNC producer, RPDO1/TPDO1/TPDO2, a heartbeat and an EMCY consumer per
  * node, its own heartbeat producer, and an SDO client that configures each
@@ -35,7 +35,7 @@
  * has a fault, every other running node is asked HOLD (the platform stays
  * still) whatever the controller requests, until sp_co_master_reset().
  *
- * Build-time choice (docs/stm32g4.md): an image carries either the native
+ * Build-time choice (docs/reference/stm32g4.md): an image carries either the native
  * drive protocol or this master, never both.
  */
 #ifndef SP_CANOPEN_MASTER_H
@@ -50,7 +50,7 @@
 #define SP_CO_PLAN_MAX 32u /**< SDO writes of one drive's plan, at most */
 #define SP_CO_MAX_TX 24u   /**< frames one sp_co_master_step emits, at most */
 
-/** Fixed CiA 408 objects the plan writes (docs/canopen.md, objects.py). */
+/** Fixed CiA 408 objects the plan writes (docs/reference/canopen.md, objects.py). */
 #define SP_CO408_PROFILE 408u        /**< 0x1000 bits 0..15 */
 #define SP_CO408_CONTROL_MODE_AXIS 8 /**< 0x6043 axis position control (uncertain: config) */
 #define SP_CO_UNIT_METRE 0x01u       /**< CiA 303-2 SI unit code of 0x6600.2 */
@@ -98,7 +98,7 @@ typedef struct {
     uint8_t master_node_id;        /**< the master's node id for its heartbeat, 1..127, unique on its buses */
 } sp_co_master_cfg_t;
 
-/** The defaults of docs/canopen.md for n nodes: heartbeat 20 ms, timeout 50
+/** The defaults of docs/reference/canopen.md for n nodes: heartbeat 20 ms, timeout 50
  *  ms, setpoint watchdog 3 ms, boot 2000 ms, SDO 100 ms, state 100 ms, PDO
  *  10 ms, divider 1, pressure feedback on, the master's heartbeat every 100
  *  ms as node 127; node i: CiA 408, id i+1 on bus SP_BUS_AXIS_A for legs

@@ -39,17 +39,17 @@
  * factorisation and begins the new one of its own J^T, the second
  * finishes it and refines with it, one tick old; the ticks between refine
  * the last tick's forces with it too (sp_inverse_dynamics_held,
- * hold.lu_keep; docs/model.md, "The factorisation kept over ticks"), and
+ * hold.lu_keep; docs/explanation/model.md, "The factorisation kept over ticks"), and
  * the estimate's chord step uses it too.
  * The two ticks that factorise refresh no leg (the factorisation and a
  * leg's terms are the two heaviest jobs of the feed-forward: never on the
  * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 2
- * ticks. A kept term is at most SP_CTRL_LU_KEEP - 1 ticks old (docs/model.md,
+ * ticks. A kept term is at most SP_CTRL_LU_KEEP - 1 ticks old (docs/explanation/model.md,
  * "Leg masses kept over ticks"). A reference repeated at rest is computed
  * until every leg's terms are its own, and only then reused. The default
  * is six groups (one leg a tick): the M4 tick is about 1,840 instructions
  * shorter than with one group (every leg every tick, nothing kept), and
- * the demo's figures stay within their bounds (docs/m4.md, "Why the leg
+ * the demo's figures stay within their bounds (docs/explanation/m4.md, "Why the leg
  * terms are kept").
  * Values derived once from the config (the limits in absolute coordinates,
  * the stream filter's gains) are prepared by sp_ctrl_init
@@ -306,7 +306,7 @@ typedef struct {
  *  group. The tick's highest count on the Cortex-M4 falls from 10,507 to
  *  10,363 instructions with it (CHANGELOG.md, session 15); the forces of a
  *  kept leg are a tick older and the factorisation up to 8 ticks
- *  (docs/model.md). */
+ *  (docs/explanation/model.md). */
 #define SP_CTRL_LU_KEEP 8u
 
 /** Ticks a FAULT holds by the drives' position loops before the blocking

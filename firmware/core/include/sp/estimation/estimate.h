@@ -25,7 +25,7 @@
  * ticks (sp_leg_hold_t.lu_keep, staged over two ticks): ref_lu is then
  * J^T's at a reference up to eight ticks older, which adds up to
  * |I - J_old^-1 J_ref| |x - x_ref| to the step (the first factor grows
- * with the age). At 0.4 mm, eight ticks (float64, docs/model.md, "The
+ * with the age). At 0.4 mm, eight ticks (float64, docs/explanation/model.md, "The
  * factorisation kept over ticks"): within 1.24 um / 0.67 urad at the
  * surge's 0.28 m/s, up to 2.44 um / 2.83 urad at 0.5 m/s and 0.5 rad/s;
  * the 1 um bound above is for a fresh factorisation (SP_CTRL_LU_KEEP 1).

@@ -3,7 +3,7 @@
  * sp/estimation/friction.h - friction observer: the cylinders' seal friction from the
  * measured leg lengths.
  *
- * The seals have LuGre friction with stiction (docs/plant.md "Friction"): a
+ * The seals have LuGre friction with stiction (docs/explanation/plant.md "Friction"): a
  * bristle deflection z per seal, loaded by the stroke and relaxing towards
  * the Stribeck level g(v). At rest a seal holds up to the break-away force,
  * which the chamber pressures do not show. The observer runs the same
@@ -11,7 +11,7 @@
  * length sensor resolves the presliding deflection (sigma_0 = F_c / 0.1 mm,
  * about 4 N per um with the default seals).
  *
- * Discrete law, per leg and tick (docs/model.md "Friction observer"), with
+ * Discrete law, per leg and tick (docs/explanation/model.md "Friction observer"), with
  * the bristle force phi = sigma_0 z, dx = L - L_prev, v = dx / dt,
  * e = exp(-(v / v_s)^2), g = F_c + (F_s - F_c) e:
  *

@@ -36,7 +36,7 @@
  *    platform (legs ~ 8 % of the moving mass) dW then misses 5.9 % (RMS)
  *    of the inverse dynamics' difference for a translational da and
  *    5.6 % for a rotational one (test_motion_error_wrench_vs_dynamics;
- *    docs/model.md, "The motion-error correction").
+ *    docs/explanation/model.md, "The motion-error correction").
  *    sp_motion_error_body folds the legs' inertia at the home pose into
  *    the rigid body's parameters once (the controller does it at init),
  *    and sp_motion_error_wrench_body_sc computes dW with them at the cost

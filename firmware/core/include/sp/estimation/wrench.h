@@ -14,7 +14,7 @@
  * J the leg Jacobian at the reference (rows [u_i, r_i x u_i]). The model,
  * friction, Jacobian and measured forces are all of one tick: the feedback
  * of tick n is the state sampled for SYNC n, which the reference of tick n
- * describes (docs/analysis.md, "Tracking error and its delay"). When the
+ * describes (docs/reference/analysis.md, "Tracking error and its delay"). When the
  * platform's motion differs from the reference, the correction
  * dW = M6 da of the tracking error's acceleration (sp/estimation/motion_error.h) is
  * added to W_raw. da is a backward double difference, centred on the
@@ -119,7 +119,7 @@ void sp_wrench_step(sp_wrench_t *w, const sp_model_t *model, const sp_q8_t frict
  * sp_wrench_step. While the wrench holds still, smooth is w->wrench through
  * one more first-order section (p->alpha, its value w->slow): less of the
  * pressure sensors' noise, which the 20 ms filter of sp_wrench_step cannot
- * average much further (docs/model.md). A change of the wrench is a jump:
+ * average much further (docs/explanation/model.md). A change of the wrench is a jump:
  * per component, when |wrench - slow| exceeds p->jump (force components
  * 0..2 jump[0], moments 3..5 jump[1]) for p->persist ticks in a row, slow
  * and smooth take wrench's value for p->hold ticks, so a step of the load

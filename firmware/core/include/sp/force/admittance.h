@@ -26,7 +26,7 @@
  * contact was made, both through the same low-pass filter (the wrench
  * filter's delay would otherwise make the secant read low while the axis
  * moves), and then uses D = k_e / w_c: the loop's crossover sits at w_c,
- * whatever the surface (docs/force_control.md).
+ * whatever the surface (docs/explanation/force_control.md).
  *
  * Discretisation (tick dt): backward Euler in the velocity, unconditionally
  * stable for any M > 0, D >= 0:

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * sp/link/auth.h - authentication of the operator's commands (docs/security.md).
+ * sp/link/auth.h - authentication of the operator's commands (docs/explanation/security.md).
  *
  * A command that starts or changes motion carries a message authentication
  * code: SipHash-2-4 (Aumasson and Bernstein, 2012; a 64-bit PRF with a

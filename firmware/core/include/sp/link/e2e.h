@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/link/e2e.h - end-to-end protection of safety-relevant CAN frames, in the
- * pattern of the AUTOSAR E2E profiles (protocol/stewart.dbc, docs/protocol.md):
+ * pattern of the AUTOSAR E2E profiles (protocol/stewart.dbc, docs/reference/protocol.md):
  *
  *  - a 4-bit alive counter (signal Counter), +1 mod 16 per transmission;
  *  - a CRC in the frame's last byte(s): CRC-8 SAE J1850 (poly 0x1D, init and

@@ -24,7 +24,7 @@
  *    by us, or, in lockstep, received from the plant). In lockstep the plant
  *    sends each cycle's feedback just before its SYNC, which closes the cycle:
  *    feedback for the next tick is held until that SYNC arrives.
- *  - Command authentication (sp/link/auth.h, docs/security.md): OP_TARGET_POSE,
+ *  - Command authentication (sp/link/auth.h, docs/explanation/security.md): OP_TARGET_POSE,
  *    OP_FORCE, OP_FORCE_PARAMS and every OP_COMMAND but NONE, STOP, PARK
  *    and ESTOP (sp_proto_frame_needs_auth) must carry a code that checks under the machine key with this session and
  *    a counter after the last accepted; the check comes right after the

@@ -23,7 +23,7 @@
  * A centre of mass c off o' adds m R (dw/dt x c + w x (w x c)) to the force
  * and m c x T (a + g e_z) to the body moment; leg masses
  * (platform->leg_mass) add each leg's reaction at its platform joint: its
- * part along the leg goes to F_i, the rest to the wrench (docs/model.md,
+ * part along the leg goes to F_i, the rest to the wrench (docs/explanation/model.md,
  * "Leg masses"). platform->inertia is about o'.
  * ik must be the inverse kinematics of motion->pose.
  * Errors: SP_E_ARG (NULL), SP_E_SINGULAR (pose at or near a singularity:
@@ -74,7 +74,7 @@ sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_mo
 /**
  * The leg masses' terms kept from one call to the next
  * (sp_inverse_dynamics_held), so that a call need compute only some legs'
- * (docs/model.md, "Leg masses"; the controller refreshes one leg a
+ * (docs/explanation/model.md, "Leg masses"; the controller refreshes one leg a
  * tick: sp/control/controller.h). Per leg: its reaction at the platform joint
  * without the part along the leg, h_i - s_i u_i = mu a_A + c1 v_A +
  * k_g g e_z (base frame, N, Q16), its moment about o' and the axial term
@@ -131,7 +131,7 @@ typedef struct {
  * whole. A hold->lu_age of lu_keep or more with no begun stage
  * (hold->lu_next.begun 0) makes the call factorise whole. The refined forces
  * differ from a fresh solve by at most |I - J_old^-T J^T| |F - fq| plus
- * the solve's rounding (docs/model.md, "The factorisation kept over
+ * the solve's rounding (docs/explanation/model.md, "The factorisation kept over
  * ticks"); *lu then stays the older motion's factorisation.
  */
 sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,

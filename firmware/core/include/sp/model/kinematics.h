@@ -3,7 +3,7 @@
  * sp/model/kinematics.h - the paper's leg kinematics (eqs 1, 2, 10), the leg
  * Jacobian, and forward kinematics, in fixed point.
  *
- * Conventions (docs/model.md, Frames and pose). The paper writes vectors as rows: a point
+ * Conventions (docs/explanation/model.md, Frames and pose). The paper writes vectors as rows: a point
  * with motion-frame coordinates a sits at a T + R in the base frame, so the
  * rows of T are the platform axes in base coordinates, and T^T is the usual
  * column-vector rotation Rz(yaw) Ry(pitch) Rx(roll) from the motion frame to

@@ -5,7 +5,7 @@
  * One source of truth: config/platform_default.json. The build generates
  * sp_platform_default (sp_platform_default.c) from that file with
  * tools/stewart/gen_platform.py, so the firmware and the host tools cannot
- * disagree. Frames and conventions follow the paper (docs/model.md, Frames and pose):
+ * disagree. Frames and conventions follow the paper (docs/explanation/model.md, Frames and pose):
  * base frame at the base centroid o, z up; motion frame at the platform
  * centroid o'.
  */
@@ -66,7 +66,7 @@ typedef struct {
     sp_q8_t viscous_friction[SP_LEGS];   /**< cylinder i's viscous friction, N s/m, Q8 */
     sp_q8_t coulomb_friction[SP_LEGS];   /**< cylinder i's Coulomb friction level, N, Q8 */
     sp_q24_t coulomb_velocity;           /**< |leg rate| at which the Coulomb term is full, m/s, Q24 (> 0) */
-    /* The seals' LuGre friction (the plant's model, docs/plant.md "Friction"),
+    /* The seals' LuGre friction (the plant's model, docs/explanation/plant.md "Friction"),
      * for the friction observer (sp/estimation/friction.h). sigma_0 and sigma_1 are
      * derived by tools/stewart/config.py bristle_parameters, the same numbers
      * the plant simulates. */
