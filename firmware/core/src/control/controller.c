@@ -108,29 +108,12 @@ sp_status_t sp_ctrl_set_wrench_source(sp_ctrl_config_t *cfg, uint8_t source, con
     return SP_OK;
 }
 
-sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
+/* The wrench filters' coefficients and the smoother's jump thresholds and
+ * counts, for a feedback period of div ticks. */
+static sp_status_t prepare_wrench(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg, uint32_t div)
 {
-    const sp_platform_t *p;
-    sp_status_t st;
+    sp_status_t st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
     unsigned i;
-    uint32_t div;
-    if (ctrl == NULL || cfg == NULL || cfg->platform == NULL || cfg->feedback_divider > 255u ||
-        cfg->tick_us > UINT32_MAX / 255u) {
-        return SP_E_ARG;
-    }
-    p = cfg->platform;
-    /* the cylinders' estimate steps once per feedback period (below 1: every tick) */
-    div = (cfg->feedback_divider > 1u) ? cfg->feedback_divider : 1u;
-    ctrl->prep.feedback_us = cfg->tick_us * div;
-    st = sp_friction_prepare(p, &ctrl->prep.friction);
-    /* the observer's parameters, once: a platform it cannot run with
-     * leaves the estimate on the feed-forward's friction, as before */
-    ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
-    /* its slow legs' exps, once (SP_E_ARG: an empty table, not used) */
-    (void)sp_fric_table_prepare(p, ctrl->prep.feedback_us, &ctrl->fric_table);
-    if (st == SP_OK) {
-        st = sp_wrench_alpha(cfg->wrench_cutoff_hz, cfg->tick_us, &ctrl->prep.wrench_alpha);
-    }
     if (st == SP_OK) {
         st = sp_wrench_alpha(cfg->wrench_cutoff_hz, ctrl->prep.feedback_us, &ctrl->prep.cyl_alpha);
     }
@@ -155,6 +138,27 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         ctrl->prep.wrench_smooth.persist = (uint8_t)((cfg->wrench_jump_persist + div - 1u) / div);
         ctrl->prep.wrench_smooth.hold = (uint8_t)((cfg->wrench_jump_hold + div - 1u) / div);
     }
+    return st;
+}
+
+/* What sp_ctrl_init computes once from the configuration (ctrl->prep and
+ * the friction table), checking it: SP_OK or why not. */
+static sp_status_t prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
+{
+    const sp_platform_t *p = cfg->platform;
+    sp_status_t st;
+    /* the cylinders' estimate steps once per feedback period (below 1: every tick) */
+    uint32_t div = (cfg->feedback_divider > 1u) ? cfg->feedback_divider : 1u;
+    ctrl->prep.feedback_us = cfg->tick_us * div;
+    st = sp_friction_prepare(p, &ctrl->prep.friction);
+    /* the observer's parameters, once: a platform it cannot run with
+     * leaves the estimate on the feed-forward's friction, as before */
+    ctrl->prep.fric_obs_ok = (sp_fric_obs_check(p) == SP_OK) ? 1u : 0u;
+    /* its slow legs' exps, once (SP_E_ARG: an empty table, not used) */
+    (void)sp_fric_table_prepare(p, ctrl->prep.feedback_us, &ctrl->fric_table);
+    if (st == SP_OK) {
+        st = prepare_wrench(ctrl, cfg, div);
+    }
     if (st == SP_OK) {
         st = sp_motion_error_init(&ctrl->motion_error, ctrl->prep.feedback_us);
     }
@@ -168,9 +172,15 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
                         cfg->ft_tare_samples < 1u || cfg->ft_tare_samples > 65536u || cfg->ft_timeout_ticks < 1u)) {
         st = SP_E_ARG;
     }
-    if (st != SP_OK) {
-        return st;
-    }
+    return st;
+}
+
+/* The estimate, the wrench, the models and the supervision at park, before
+ * the first tick. */
+static void reset_estimate(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
+{
+    const sp_platform_t *p = cfg->platform;
+    unsigned i;
     ctrl->park_after_release = 0u;
     ctrl->contact_ff_cols = 0u;
     sp_motion_at_rest(&ctrl->pos_ref, &p->park);
@@ -230,6 +240,13 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
         (void)sp_inverse_kinematics_kept(p, &p->park, &ctrl->ref_orient, &park_ik);
         (void)sp_inverse_kinematics_kept(p, &p->park, &ctrl->ref_orient, &park_ik);
     }
+}
+
+/* The setpoints, the motion generators and the link's and drives' state
+ * before the first tick: no motion, nothing pending. */
+static void reset_motion(sp_ctrl_t *ctrl, const sp_platform_t *p)
+{
+    unsigned i;
     for (i = 0u; i < SP_LEGS; ++i) {
         ctrl->sup.missed[i] = 0u;
         ctrl->sup.last_length[i] = 0;
@@ -265,6 +282,21 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->drive_reset.refused_legs = 0u;
     ctrl->drive_reset.refused_cause = 0u;
     ctrl->fault_hold_ticks = 0u;
+}
+
+sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
+{
+    sp_status_t st;
+    if (ctrl == NULL || cfg == NULL || cfg->platform == NULL || cfg->feedback_divider > 255u ||
+        cfg->tick_us > UINT32_MAX / 255u) {
+        return SP_E_ARG;
+    }
+    st = prepare(ctrl, cfg);
+    if (st != SP_OK) {
+        return st;
+    }
+    reset_estimate(ctrl, cfg);
+    reset_motion(ctrl, cfg->platform);
     return SP_OK;
 }
 
