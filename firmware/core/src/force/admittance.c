@@ -255,27 +255,14 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
     return (int32_t)v;
 }
 
-sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit_mode_t mode, uint8_t mask,
-                          const sp_q8_t w_ext[SP_AXES], const sp_q8_t w_target[SP_AXES], const sp_q24_t x_meas[SP_AXES],
-                          uint8_t contact, const sp_q24_t lo[SP_AXES], const sp_q24_t hi[SP_AXES],
-                          sp_admit_report_t *report)
+/* The axes the law runs on this tick: the forced ones and the others
+ * still moving. The axes not forced lose their contact and secant; those
+ * at rest on the position reference stay there (the return to d = 0 and
+ * the brake both leave v = 0, d = 0, inside every bound), so under force
+ * control on one or two axes most are skipped. */
+SPI_INLINE uint8_t admit_work(sp_admit_t *st, uint8_t forced_mask)
 {
-    if (cfg == NULL || st == NULL || w_ext == NULL || w_target == NULL || lo == NULL || hi == NULL ||
-        (mode != SP_ADMIT_FORCE && mode != SP_ADMIT_RELEASE && mode != SP_ADMIT_HOLD)) {
-        return SP_E_ARG;
-    }
-    sp_status_t status = SP_OK;
-    sp_admit_report_t rep = {0u, 0u};
-    const int32_t dt_q38 = st->dt_q38;
-    const int64_t rate_q16 = st->rate_q16;
-    /* the axes not forced: no contact, no secant, not primed; those at
-     * rest on the position reference stay there (the return to d = 0 and
-     * the brake both leave v = 0, d = 0, inside every bound), so the law
-     * runs on the forced axes and the others still moving only (under
-     * force control on one or two axes, most are at rest) */
-    const uint8_t forced_mask = (mode == SP_ADMIT_FORCE) ? (uint8_t)(mask & 0x3Fu) : 0u;
     uint8_t work = forced_mask;
-    st->primed &= forced_mask;
     for (unsigned k = 0; k < SP_AXES; ++k) {
         sp_admit_axis_state_t *s = &st->axis[k];
         if ((forced_mask & (1u << k)) == 0u) {
@@ -288,6 +275,153 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
             }
         }
     }
+    return work;
+}
+
+/* The damping a forced axis should use: the free-space one off contact,
+ * else from the contact's stiffness (have_x: a measured pose, so a secant). */
+SPI_INLINE int32_t axis_damping(const sp_admit_config_t *cfg, sp_admit_axis_state_t *s, int in_contact, sp_q8_t w_ext,
+                                int have_x)
+{
+    int32_t damping = s->free_coef.damping;
+    if (in_contact) {
+        if (!s->in_contact) {
+            s->in_contact = 1u;
+            s->x_contact = s->x_f[3];
+            s->w_contact = w_ext;
+            s->k_hat = 0;
+        }
+        int32_t kc = have_x ? contact_stiffness(cfg, s, w_ext) : 0;
+        const int32_t w = cfg->crossover;
+        if (kc > 0 && w > 0) {
+            /* k / w_c: the windows of k tell whether it is the
+             * free-space damping or within the tolerance of the
+             * one in use; the quotient is taken only when neither
+             * (the law's coefficients are then made from it) */
+            if (w != s->window_w || s->coef.damping != s->window_c || s->free_coef.damping != s->window_f) {
+                make_windows(s, w);
+            }
+            const uint32_t ku = (uint32_t)kc;
+            damping = (ku >= s->free_lo && ku < s->free_hi)
+                          ? s->free_coef.damping
+                          : ((ku >= s->keep_lo && ku < s->keep_hi) ? s->coef.damping : damping_of(kc, w));
+        } else {
+            damping = (kc > 0) ? 1 : ((s->k_hat > 0) ? s->coef.damping : s->free_coef.damping);
+        }
+    } else {
+        s->in_contact = 0u;
+        s->k_hat = 0;
+    }
+    return damping;
+}
+
+/* The law's coefficients for the damping: kept within its tolerance of the
+ * one in use, else made again. Returns 1 when they changed; *status
+ * SP_E_OVERFLOW when they cannot be made (those in use kept). */
+SPI_INLINE unsigned adapt(const sp_admit_config_t *cfg, const sp_admit_axis_t *ax, int64_t dt_q50,
+                          sp_admit_axis_state_t *s, int32_t damping, sp_status_t *status)
+{
+    int32_t diff = damping - s->coef.damping;
+    int32_t tol = s->coef.damping / 16;
+    if (damping == s->free_coef.damping) {
+        if (s->coef.damping != s->free_coef.damping) {
+            s->coef = s->free_coef; /* prepared: what coefficients() would give */
+            return 1u;
+        }
+    } else if (diff > tol || diff < -tol) {
+        sp_admit_coef_t c;
+        if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, dt_q50, &c) == SP_OK) {
+            s->coef = c;
+            return 1u;
+        }
+        *status = SP_E_OVERFLOW;
+    }
+    return 0u;
+}
+
+/* The wrench error f (Q8) with its excess over the boost band counted
+ * boost times, while the force the reference will make once the platform
+ * has caught up with it (k_hat times the reference's lead on the filtered
+ * pose, Q24 x N/m -> Q8) is far from the target too: on a stiff surface
+ * the drives lag and the boost would wind the reference up past the
+ * target. */
+SPI_INLINE int32_t boosted(const sp_admit_config_t *cfg, const sp_admit_axis_state_t *s, int32_t f)
+{
+    int64_t band = cfg->boost_band;
+    int64_t lead = (int64_t)s->d - s->x_f[3];
+    int64_t fp = clamp64(f - (((int64_t)s->k_hat * lead + (INT64_C(1) << 15)) >> 16), WRENCH_MAX);
+    int64_t e1 = (f > band) ? f - band : ((f < -band) ? f + band : 0);
+    int64_t e2 = (fp > band) ? fp - band : ((fp < -band) ? fp + band : 0);
+    int64_t ex = (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
+    return (int32_t)clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
+}
+
+/* The reference's new speed from the law (forced: on the wrench error;
+ * else the release back to d = 0), or braking under SP_ADMIT_HOLD. */
+SPI_INLINE int64_t law_velocity(const sp_admit_config_t *cfg, const sp_admit_axis_state_t *s, sp_admit_mode_t mode,
+                                int forced, int32_t w_ext, int32_t w_target, int have_x)
+{
+    if (mode == SP_ADMIT_HOLD) {
+        /* brake: |v| falls by a_brake dt each tick, never through zero */
+        const int32_t dv = s->dv_brake;
+        return (s->v > dv) ? (int64_t)s->v - dv : ((s->v < -dv) ? (int64_t)s->v + dv : 0);
+    }
+    const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
+    /* held within +-2^30: a 32 x 32-bit product */
+    int32_t f = forced ? (int32_t)clamp64((int64_t)w_ext + w_target, WRENCH_MAX) : 0;
+    if (forced && cfg->boost > 1u && s->k_hat > 0 && have_x) {
+        f = boosted(cfg, s, f);
+    }
+    return (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) + (((int64_t)c->c_f * f + (INT64_C(1) << 21)) >> 22) -
+           (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
+}
+
+/* The axis's new speed v through the bounds and its position integrated:
+ * returns 1 when a bound or the acceleration limit (forced) held it. */
+SPI_INLINE int move_axis(const sp_admit_axis_t *ax, const sp_admit_t *st, sp_admit_axis_state_t *s, int64_t v,
+                         int forced, sp_q24_t lo, sp_q24_t hi)
+{
+    int limited = 0;
+    if (forced) {
+        /* the reference's acceleration held to a_brake: a change of the
+         * adapted damping or a step of the wrench then ramps the speed
+         * instead of stepping it (the cylinders' estimate reads a step
+         * of the reference's speed as a spike of wrench) */
+        const int64_t dv = s->dv_brake;
+        if (v > (int64_t)s->v + dv || v < (int64_t)s->v - dv) {
+            v = (v > s->v) ? (int64_t)s->v + dv : (int64_t)s->v - dv;
+            limited = 1;
+        }
+    }
+    sp_q24_t lo_k = (lo > 0) ? 0 : lo;
+    sp_q24_t hi_k = (hi < 0) ? 0 : hi;
+    int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, st->rate_q16, &limited);
+    int64_t d = (int64_t)s->d + (((int64_t)v_new * st->dt_q38 + (INT64_C(1) << 37)) >> 38);
+    if (d > hi_k || d < lo_k) {
+        d = (d > hi_k) ? hi_k : lo_k;
+        limited = 1;
+    }
+    s->a = clamp32((((int64_t)v_new - s->v) * st->rate_q16 + (INT64_C(1) << 15)) >> 16, INT32_MIN, INT32_MAX);
+    s->v = v_new;
+    s->d = (int32_t)d;
+    return limited;
+}
+
+sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit_mode_t mode, uint8_t mask,
+                          const sp_q8_t w_ext[SP_AXES], const sp_q8_t w_target[SP_AXES], const sp_q24_t x_meas[SP_AXES],
+                          uint8_t contact, const sp_q24_t lo[SP_AXES], const sp_q24_t hi[SP_AXES],
+                          sp_admit_report_t *report)
+{
+    if (cfg == NULL || st == NULL || w_ext == NULL || w_target == NULL || lo == NULL || hi == NULL ||
+        (mode != SP_ADMIT_FORCE && mode != SP_ADMIT_RELEASE && mode != SP_ADMIT_HOLD)) {
+        return SP_E_ARG;
+    }
+    sp_status_t status = SP_OK;
+    sp_admit_report_t rep = {0u, 0u};
+    const int have_x = x_meas != NULL;
+    const uint8_t forced_mask = (mode == SP_ADMIT_FORCE) ? (uint8_t)(mask & 0x3Fu) : 0u;
+    st->primed &= forced_mask;
+    const uint8_t work = admit_work(st, forced_mask);
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &st->axis[k];
@@ -297,7 +431,7 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
         if ((work & bit) == 0u) {
             continue;
         }
-        if (forced && x_meas != NULL) {
+        if (forced && have_x) {
             /* the pose through the wrench filter's sections, for the secant;
              * primed with the measurement the first tick the axis is forced */
             const int primed = (st->primed & bit) != 0u;
@@ -308,106 +442,13 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
             st->primed |= bit;
         }
         if (forced) {
-            /* the damping this axis should use */
-            int32_t damping = s->free_coef.damping;
-            if ((contact & bit) != 0u) {
-                if (!s->in_contact) {
-                    s->in_contact = 1u;
-                    s->x_contact = s->x_f[3];
-                    s->w_contact = w_ext[k];
-                    s->k_hat = 0;
-                }
-                int32_t kc = (x_meas != NULL) ? contact_stiffness(cfg, s, w_ext[k]) : 0;
-                const int32_t w = cfg->crossover;
-                if (kc > 0 && w > 0) {
-                    /* k / w_c: the windows of k tell whether it is the
-                     * free-space damping or within the tolerance of the
-                     * one in use; the quotient is taken only when neither
-                     * (the law's coefficients are then made from it) */
-                    if (w != s->window_w || s->coef.damping != s->window_c || s->free_coef.damping != s->window_f) {
-                        make_windows(s, w);
-                    }
-                    const uint32_t ku = (uint32_t)kc;
-                    damping = (ku >= s->free_lo && ku < s->free_hi)
-                                  ? s->free_coef.damping
-                                  : ((ku >= s->keep_lo && ku < s->keep_hi) ? s->coef.damping : damping_of(kc, w));
-                } else {
-                    damping = (kc > 0) ? 1 : ((s->k_hat > 0) ? s->coef.damping : s->free_coef.damping);
-                }
-            } else {
-                s->in_contact = 0u;
-                s->k_hat = 0;
-            }
-            int32_t diff = damping - s->coef.damping;
-            int32_t tol = s->coef.damping / 16;
-            if (damping == s->free_coef.damping) {
-                if (s->coef.damping != s->free_coef.damping) {
-                    s->coef = s->free_coef; /* prepared: what coefficients() would give */
-                    rep.adapted |= bit;
-                }
-            } else if (diff > tol || diff < -tol) {
-                sp_admit_coef_t c;
-                if (coefficients(ax->mass, damping, ax->stiffness, cfg->tick_us, st->dt_q50, &c) == SP_OK) {
-                    s->coef = c;
-                    rep.adapted |= bit;
-                } else {
-                    status = SP_E_OVERFLOW;
-                }
+            int32_t damping = axis_damping(cfg, s, (contact & bit) != 0u, w_ext[k], have_x);
+            if (adapt(cfg, ax, st->dt_q50, s, damping, &status)) {
+                rep.adapted |= bit;
             }
         }
-        int64_t v;
-        if (mode == SP_ADMIT_HOLD) {
-            /* brake: |v| falls by a_brake dt each tick, never through zero */
-            const int32_t dv = s->dv_brake;
-            v = (s->v > dv) ? (int64_t)s->v - dv : ((s->v < -dv) ? (int64_t)s->v + dv : 0);
-        } else {
-            const sp_admit_coef_t *c = forced ? &s->coef : &s->rel;
-            /* held within +-2^30: a 32 x 32-bit product */
-            int32_t f = forced ? (int32_t)clamp64((int64_t)w_ext[k] + w_target[k], WRENCH_MAX) : 0;
-            if (forced && cfg->boost > 1u && s->k_hat > 0 && x_meas != NULL) {
-                /* far from the target the error counts boost times, while
-                 * the force the reference will make once the platform has
-                 * caught up with it (k_hat times the reference's lead on
-                 * the filtered pose, Q24 x N/m -> Q8) is far from it too:
-                 * on a stiff surface the drives lag and the boost would
-                 * wind the reference up past the target */
-                int64_t band = cfg->boost_band;
-                int64_t lead = (int64_t)s->d - s->x_f[3];
-                int64_t fp = clamp64(f - (((int64_t)s->k_hat * lead + (INT64_C(1) << 15)) >> 16), WRENCH_MAX);
-                int64_t e1 = (f > band) ? f - band : ((f < -band) ? f + band : 0);
-                int64_t e2 = (fp > band) ? fp - band : ((fp < -band) ? fp + band : 0);
-                int64_t ex =
-                    (e1 > 0 && e2 > 0) ? ((e1 < e2) ? e1 : e2) : ((e1 < 0 && e2 < 0) ? ((e1 > e2) ? e1 : e2) : 0);
-                f = (int32_t)clamp64(f + (int64_t)(cfg->boost - 1u) * ex, WRENCH_MAX);
-            }
-            v = (((int64_t)c->c_v * s->v + (INT64_C(1) << 29)) >> 30) +
-                (((int64_t)c->c_f * f + (INT64_C(1) << 21)) >> 22) -
-                (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
-        }
-        int limited = 0;
-        if (forced) {
-            /* the reference's acceleration held to a_brake: a change of the
-             * adapted damping or a step of the wrench then ramps the speed
-             * instead of stepping it (the cylinders' estimate reads a step
-             * of the reference's speed as a spike of wrench) */
-            const int64_t dv = s->dv_brake;
-            if (v > (int64_t)s->v + dv || v < (int64_t)s->v - dv) {
-                v = (v > s->v) ? (int64_t)s->v + dv : (int64_t)s->v - dv;
-                limited = 1;
-            }
-        }
-        sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
-        sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
-        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, st->rate_q16, &limited);
-        int64_t d = (int64_t)s->d + (((int64_t)v_new * dt_q38 + (INT64_C(1) << 37)) >> 38);
-        if (d > hi_k || d < lo_k) {
-            d = (d > hi_k) ? hi_k : lo_k;
-            limited = 1;
-        }
-        s->a = clamp32((((int64_t)v_new - s->v) * rate_q16 + (INT64_C(1) << 15)) >> 16, INT32_MIN, INT32_MAX);
-        s->v = v_new;
-        s->d = (int32_t)d;
-        if (limited) {
+        int64_t v = law_velocity(cfg, s, mode, forced, w_ext[k], w_target[k], have_x);
+        if (move_axis(ax, st, s, v, forced, lo[k], hi[k])) {
             rep.limited |= bit;
         }
     }
