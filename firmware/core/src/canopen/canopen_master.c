@@ -756,10 +756,153 @@ static void node_startup(sp_co_node_t *nd, const sp_co_master_cfg_t *cfg, uint8_
     }
 }
 
+/* Each node's timeouts and start-up (out->fault_mask: the nodes with a
+ * fault latched; *any_fault set when one is). Returns 1 when all run. */
+SPI_INLINE uint8_t step_nodes(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint32_t now,
+                              sp_co_master_output_t *out, uint8_t *any_fault)
+{
+    uint8_t k, all_running = 1u;
+    sp_co_node_t *nd = m->node;
+    uint32_t bit = 1u, mask = 0u;
+    for (k = 0u; k < cfg->n_nodes; k++, nd++, bit <<= 1) {
+        if (nd->phase == SP_CO_PHASE_RUN && nd->nmt_pending == 0u) {
+            run_timeouts(nd, cfg, now); /* running: nothing of the start-up to do */
+        } else {
+            node_startup(nd, cfg, k, now, out);
+        }
+        if (nd->phase != SP_CO_PHASE_RUN) {
+            all_running = 0u;
+        }
+        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+            *any_fault = 1u;
+            mask |= bit;
+        }
+    }
+    out->fault_mask = (uint8_t)mask;
+    return all_running;
+}
+
+/* The request the drives get: the input's, lowered while drives start up
+ * or are faulted. A change restarts every node's state timeout. */
+SPI_INLINE sp_co_request_t effective_request(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint8_t request,
+                                             uint8_t all_running, uint8_t any_fault, uint32_t now)
+{
+    uint8_t k;
+    sp_co_request_t eff = (sp_co_request_t)request;
+    if (eff > SP_CO_REQ_ACTIVE) {
+        eff = SP_CO_REQ_DISABLED;
+    }
+    if (all_running) {
+        m->was_running = 1u;
+    }
+    if (!all_running && !m->was_running) {
+        eff = SP_CO_REQ_DISABLED; /* the first start-up: nothing beyond DISABLED */
+    } else if ((!all_running || any_fault) && eff == SP_CO_REQ_ACTIVE) {
+        eff = SP_CO_REQ_HOLD; /* a drive restarting or faulted: the others hold where they are */
+    }
+    if ((uint8_t)eff != m->last_req) {
+        m->last_req = (uint8_t)eff;
+        for (k = 0u; k < cfg->n_nodes; k++) {
+            m->node[k].req_since = now;
+            m->node[k].state_ok = 0u;
+        }
+    }
+    return eff;
+}
+
+/* Each running node's status word against the request, latching the
+ * faults (added to out->fault_mask; *any_fault set when one is). Returns 1
+ * when every node shows the requested state. */
+SPI_INLINE uint8_t check_nodes(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, sp_co_request_t eff,
+                               const targets_t *targets, uint32_t now, sp_co_master_output_t *out, uint8_t *any_fault)
+{
+    uint8_t k, ready = 1u;
+    sp_co_node_t *nd = m->node;
+    const sp_co_node_cfg_t *nc = cfg->node;
+    uint32_t bit = 1u, mask = out->fault_mask;
+    for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++, bit <<= 1) {
+        if (nd->state_ok && nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE && nd->seen_valid &&
+            nd->seen_status == nd->status && nd->seen_profile == profile_index(nc)) {
+            /* settled: the requested state shown (state_ok; a new request clears it above) by the word
+             * decoded and checked already; until the word changes there is nothing to check */
+            nd->tpdo1_fresh = 0u;
+            nd->tpdo2_fresh = 0u;
+            continue;
+        }
+        decode_status(nd, nc);
+        if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
+            check_state(nd, nc, eff, targets, now);
+            if (!nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
+                now - nd->req_since > cfg->state_timeout_ms) {
+                latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
+                      wanted_bits(nc, eff), now);
+            }
+        }
+        if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
+            mask |= bit;
+            *any_fault = 1u;
+        }
+        ready = (uint8_t)(ready && nd->state_ok);
+        nd->tpdo1_fresh = 0u;
+        nd->tpdo2_fresh = 0u;
+    }
+    out->fault_mask = (uint8_t)mask;
+    return ready;
+}
+
+/* The master's heartbeat on each bus with a node, when due. */
+SPI_INLINE void send_heartbeats(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, uint32_t now,
+                                sp_co_master_output_t *out)
+{
+    uint8_t k;
+    if (cfg->master_heartbeat_ms == 0u || now - m->hb_sent < cfg->master_heartbeat_ms) {
+        return;
+    }
+    uint8_t hb_bus[SP_CAN_BUSES] = {0u};
+    m->hb_sent = now;
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        if (cfg->node[k].bus < SP_CAN_BUSES) {
+            hb_bus[cfg->node[k].bus] = 1u;
+        }
+    }
+    for (k = 0u; k < SP_CAN_BUSES; k++) {
+        if (hb_bus[k] && emit(out)) {
+            (void)sp_co_heartbeat_frame(&out->tx[out->n_tx++], k, cfg->master_node_id,
+                                        m->was_running ? SP_CO_NMT_STATE_OPERATIONAL : SP_CO_NMT_STATE_PREOP);
+        }
+    }
+}
+
+/* A SYNC tick: each running node's RPDO1, then SYNC on each bus with a node. */
+SPI_INLINE void send_sync(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
+                          sp_co_request_t eff, const targets_t *targets, sp_co_master_output_t *out)
+{
+    uint8_t k;
+    uint8_t bus_used[SP_CAN_BUSES] = {0u};
+    uint16_t cw408 = sp_co408_control_word(eff, 0);
+    sp_co_node_t *nd = m->node;
+    const sp_co_node_cfg_t *nc = cfg->node;
+    for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++) {
+        if (nc->bus >= SP_CAN_BUSES) {
+            continue; /* the config changed after the check: never index past the array */
+        }
+        bus_used[nc->bus] = 1u;
+        if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
+            node_rpdo(nd, nc, eff, targets, cw408, in->setpoint[k], in->force_ff[k], &out->tx[out->n_tx++]);
+        }
+    }
+    for (k = 0u; k < SP_CAN_BUSES; k++) {
+        if (bus_used[k] && emit(out)) {
+            (void)sp_co_sync_frame(&out->tx[out->n_tx++], k);
+        }
+    }
+    out->sync = 1u;
+}
+
 sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, const sp_co_master_input_t *in,
                               sp_co_master_output_t *out)
 {
-    uint8_t k, all_running = 1u, any_fault = 0u, ready = 1u, sync_tick;
+    uint8_t all_running, any_fault = 0u, ready, sync_tick;
     uint32_t now;
     sp_co_request_t eff;
     targets_t targets;
@@ -781,113 +924,14 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     if (m->ticks < UINT32_MAX) {
         m->ticks++;
     }
-    {
-        sp_co_node_t *nd = m->node;
-        uint32_t bit = 1u, mask = 0u;
-        for (k = 0u; k < cfg->n_nodes; k++, nd++, bit <<= 1) {
-            if (nd->phase == SP_CO_PHASE_RUN && nd->nmt_pending == 0u) {
-                run_timeouts(nd, cfg, now); /* running: nothing of the start-up to do */
-            } else {
-                node_startup(nd, cfg, k, now, out);
-            }
-            if (nd->phase != SP_CO_PHASE_RUN) {
-                all_running = 0u;
-            }
-            if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
-                any_fault = 1u;
-                mask |= bit;
-            }
-        }
-        out->fault_mask = (uint8_t)mask;
-    }
-    eff = (sp_co_request_t)in->request;
-    if (eff > SP_CO_REQ_ACTIVE) {
-        eff = SP_CO_REQ_DISABLED;
-    }
-    if (all_running) {
-        m->was_running = 1u;
-    }
-    if (!all_running && !m->was_running) {
-        eff = SP_CO_REQ_DISABLED; /* the first start-up: nothing beyond DISABLED */
-    } else if ((!all_running || any_fault) && eff == SP_CO_REQ_ACTIVE) {
-        eff = SP_CO_REQ_HOLD; /* a drive restarting or faulted: the others hold where they are */
-    }
+    all_running = step_nodes(m, cfg, now, out, &any_fault);
+    eff = effective_request(m, cfg, in->request, all_running, any_fault, now);
     targets.state[0] = (uint8_t)sp_co408_target(eff);
     targets.state[1] = (uint8_t)sp_co402_target(eff);
-    if ((uint8_t)eff != m->last_req) {
-        m->last_req = (uint8_t)eff;
-        for (k = 0u; k < cfg->n_nodes; k++) {
-            m->node[k].req_since = now;
-            m->node[k].state_ok = 0u;
-        }
-    }
-    {
-        sp_co_node_t *nd = m->node;
-        const sp_co_node_cfg_t *nc = cfg->node;
-        uint32_t bit = 1u, mask = out->fault_mask;
-        for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++, bit <<= 1) {
-            if (nd->state_ok && nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
-                nd->seen_valid && nd->seen_status == nd->status && nd->seen_profile == profile_index(nc)) {
-                /* settled: the requested state shown (state_ok; a new request clears it above) by the word
-                 * decoded and checked already; until the word changes there is nothing to check */
-                nd->tpdo1_fresh = 0u;
-                nd->tpdo2_fresh = 0u;
-                continue;
-            }
-            decode_status(nd, nc);
-            if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
-                check_state(nd, nc, eff, &targets, now);
-                if (!nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
-                    now - nd->req_since > cfg->state_timeout_ms) {
-                    latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
-                          wanted_bits(nc, eff), now);
-                }
-            }
-            if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
-                mask |= bit;
-                any_fault = 1u;
-            }
-            ready = (uint8_t)(ready && nd->state_ok);
-            nd->tpdo1_fresh = 0u;
-            nd->tpdo2_fresh = 0u;
-        }
-        out->fault_mask = (uint8_t)mask;
-    }
-    if (cfg->master_heartbeat_ms != 0u && now - m->hb_sent >= cfg->master_heartbeat_ms) {
-        uint8_t hb_bus[SP_CAN_BUSES] = {0u};
-        m->hb_sent = now;
-        for (k = 0u; k < cfg->n_nodes; k++) {
-            if (cfg->node[k].bus < SP_CAN_BUSES) {
-                hb_bus[cfg->node[k].bus] = 1u;
-            }
-        }
-        for (k = 0u; k < SP_CAN_BUSES; k++) {
-            if (hb_bus[k] && emit(out)) {
-                (void)sp_co_heartbeat_frame(&out->tx[out->n_tx++], k, cfg->master_node_id,
-                                            m->was_running ? SP_CO_NMT_STATE_OPERATIONAL : SP_CO_NMT_STATE_PREOP);
-            }
-        }
-    }
+    ready = check_nodes(m, cfg, eff, &targets, now, out, &any_fault);
+    send_heartbeats(m, cfg, now, out);
     if (sync_tick) {
-        uint8_t bus_used[SP_CAN_BUSES] = {0u};
-        uint16_t cw408 = sp_co408_control_word(eff, 0);
-        sp_co_node_t *nd = m->node;
-        const sp_co_node_cfg_t *nc = cfg->node;
-        for (k = 0u; k < cfg->n_nodes; k++, nd++, nc++) {
-            if (nc->bus >= SP_CAN_BUSES) {
-                continue; /* the config changed after the check: never index past the array */
-            }
-            bus_used[nc->bus] = 1u;
-            if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
-                node_rpdo(nd, nc, eff, &targets, cw408, in->setpoint[k], in->force_ff[k], &out->tx[out->n_tx++]);
-            }
-        }
-        for (k = 0u; k < SP_CAN_BUSES; k++) {
-            if (bus_used[k] && emit(out)) {
-                (void)sp_co_sync_frame(&out->tx[out->n_tx++], k);
-            }
-        }
-        out->sync = 1u;
+        send_sync(m, cfg, in, eff, &targets, out);
     }
     out->all_running = all_running;
     out->ready = (uint8_t)(all_running && ready && !any_fault);
