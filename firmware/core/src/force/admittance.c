@@ -376,37 +376,6 @@ SPI_INLINE int64_t law_velocity(const sp_admit_config_t *cfg, const sp_admit_axi
            (((int64_t)c->c_k * s->d + (INT64_C(1) << 15)) >> 16);
 }
 
-/* The axis's new speed v through the bounds and its position integrated:
- * returns 1 when a bound or the acceleration limit (forced) held it. */
-SPI_INLINE int move_axis(const sp_admit_axis_t *ax, const sp_admit_t *st, sp_admit_axis_state_t *s, int64_t v,
-                         int forced, sp_q24_t lo, sp_q24_t hi)
-{
-    int limited = 0;
-    if (forced) {
-        /* the reference's acceleration held to a_brake: a change of the
-         * adapted damping or a step of the wrench then ramps the speed
-         * instead of stepping it (the cylinders' estimate reads a step
-         * of the reference's speed as a spike of wrench) */
-        const int64_t dv = s->dv_brake;
-        if (v > (int64_t)s->v + dv || v < (int64_t)s->v - dv) {
-            v = (v > s->v) ? (int64_t)s->v + dv : (int64_t)s->v - dv;
-            limited = 1;
-        }
-    }
-    sp_q24_t lo_k = (lo > 0) ? 0 : lo;
-    sp_q24_t hi_k = (hi < 0) ? 0 : hi;
-    int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, st->rate_q16, &limited);
-    int64_t d = (int64_t)s->d + (((int64_t)v_new * st->dt_q38 + (INT64_C(1) << 37)) >> 38);
-    if (d > hi_k || d < lo_k) {
-        d = (d > hi_k) ? hi_k : lo_k;
-        limited = 1;
-    }
-    s->a = clamp32((((int64_t)v_new - s->v) * st->rate_q16 + (INT64_C(1) << 15)) >> 16, INT32_MIN, INT32_MAX);
-    s->v = v_new;
-    s->d = (int32_t)d;
-    return limited;
-}
-
 sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit_mode_t mode, uint8_t mask,
                           const sp_q8_t w_ext[SP_AXES], const sp_q8_t w_target[SP_AXES], const sp_q24_t x_meas[SP_AXES],
                           uint8_t contact, const sp_q24_t lo[SP_AXES], const sp_q24_t hi[SP_AXES],
@@ -418,6 +387,8 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     }
     sp_status_t status = SP_OK;
     sp_admit_report_t rep = {0u, 0u};
+    const int32_t dt_q38 = st->dt_q38;
+    const int64_t rate_q16 = st->rate_q16;
     const int have_x = x_meas != NULL;
     const uint8_t forced_mask = (mode == SP_ADMIT_FORCE) ? (uint8_t)(mask & 0x3Fu) : 0u;
     st->primed &= forced_mask;
@@ -448,7 +419,30 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
             }
         }
         int64_t v = law_velocity(cfg, s, mode, forced, w_ext[k], w_target[k], have_x);
-        if (move_axis(ax, st, s, v, forced, lo[k], hi[k])) {
+        int limited = 0;
+        if (forced) {
+            /* the reference's acceleration held to a_brake: a change of the
+             * adapted damping or a step of the wrench then ramps the speed
+             * instead of stepping it (the cylinders' estimate reads a step
+             * of the reference's speed as a spike of wrench) */
+            const int64_t dv = s->dv_brake;
+            if (v > (int64_t)s->v + dv || v < (int64_t)s->v - dv) {
+                v = (v > s->v) ? (int64_t)s->v + dv : (int64_t)s->v - dv;
+                limited = 1;
+            }
+        }
+        sp_q24_t lo_k = (lo[k] > 0) ? 0 : lo[k];
+        sp_q24_t hi_k = (hi[k] < 0) ? 0 : hi[k];
+        int32_t v_new = limit_velocity(ax, v, s->d, lo_k, hi_k, st->rate_q16, &limited);
+        int64_t d = (int64_t)s->d + (((int64_t)v_new * dt_q38 + (INT64_C(1) << 37)) >> 38);
+        if (d > hi_k || d < lo_k) {
+            d = (d > hi_k) ? hi_k : lo_k;
+            limited = 1;
+        }
+        s->a = clamp32((((int64_t)v_new - s->v) * rate_q16 + (INT64_C(1) << 15)) >> 16, INT32_MIN, INT32_MAX);
+        s->v = v_new;
+        s->d = (int32_t)d;
+        if (limited) {
             rep.limited |= bit;
         }
     }
