@@ -381,6 +381,113 @@ sp_status_t sp_motion_error_wrench_m6(const sp_me_m6_t *m6, const sp_rot_t *rot,
 /* round(x / 2^s) (ties up) of an int64 below 2^62 in magnitude */
 #define ME_SHR(x, s) (((x) + (INT64_C(1) << ((s)-1u))) >> (s))
 
+/* The envelope that bounds every product of the legs' sums: leg masses
+ * below 512 kg, centres below 8 m, arms below 4 m per component, every leg
+ * longer than its centres (mu then below m_c + m_r). Returns 1 within it,
+ * with the IK at home in *ik. */
+static int me_envelope(const sp_platform_t *platform, const sp_leg_mass_t *lm, sp_ik_t *ik)
+{
+    unsigned i, k;
+    if (lm->cylinder_mass < 0 || lm->rod_mass < 0 || lm->cylinder_mass >= (512 << 16) || lm->rod_mass >= (512 << 16) ||
+        lm->cylinder_com < 0 || lm->rod_com < 0 || lm->cylinder_com >= (8 << 24) || lm->rod_com >= (8 << 24) ||
+        sp_inverse_kinematics(platform, &platform->home, ik) != SP_OK) {
+        return 0;
+    }
+    for (i = 0u; i < SP_LEGS; ++i) {
+        if (ik->length[i] <= lm->cylinder_com || ik->length[i] <= lm->rod_com || ik->length[i] >= (8 << 24)) {
+            return 0;
+        }
+        for (k = 0u; k < 3u; ++k) {
+            if (ik->arm[i][k] <= -(4 << 24) || ik->arm[i][k] >= (4 << 24)) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+/* Leg i's terms added to the sums: K_i to kt, K_i [r_i]x to c and
+ * [r_i]x K_i [r_i]x^T to b (Q16), within me_envelope's bounds. */
+static void me_leg_sums(const sp_leg_mass_t *lm, const sp_ik_t *ik, unsigned i, int64_t kt[3][3], int64_t c[3][3],
+                        int64_t b[3][3])
+{
+    const sp_q30_t *u = ik->unit[i];
+    const sp_q24_t *r = ik->arm[i];
+    int64_t len = ik->length[i];
+    int64_t dr = len - lm->rod_com;
+    unsigned j, k, l;
+    /* mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2, kg, Q16: the squares in
+     * Q24 (lengths below 8 m: < 2^30), times the masses (Q16, < 2^31):
+     * Q40 below 2^61 each; L^2 > 0 (the IK's lengths are positive) */
+    int64_t num = (int64_t)lm->cylinder_mass * ME_SHR((int64_t)lm->cylinder_com * lm->cylinder_com, 24u) +
+                  (int64_t)lm->rod_mass * ME_SHR(dr * dr, 24u);
+    int64_t mu = num / ME_SHR(len * len, 24u);
+    int64_t axial = (int64_t)lm->rod_mass - mu; /* m_r - mu, kg, Q16 */
+    int64_t kk[3][3];                           /* K = mu 1 + (m_r - mu) u u^T, kg, Q16 */
+    int64_t kr[3][3];                           /* K [r]x, kg m, Q16 */
+    int64_t rx[3][3];                           /* [r]x, m, Q24 */
+    rx[0][0] = 0, rx[0][1] = -r[2], rx[0][2] = r[1];
+    rx[1][0] = r[2], rx[1][1] = 0, rx[1][2] = -r[0];
+    rx[2][0] = -r[1], rx[2][1] = r[0], rx[2][2] = 0;
+    for (j = 0u; j < 3u; ++j) {
+        for (k = 0u; k < 3u; ++k) {
+            int64_t uu = ME_SHR((int64_t)u[j] * u[k], 30u); /* Q30 */
+            kk[j][k] = ((j == k) ? mu : 0) + ME_SHR(axial * uu, 30u);
+            kt[j][k] += kk[j][k];
+        }
+    }
+    for (j = 0u; j < 3u; ++j) {
+        for (k = 0u; k < 3u; ++k) {
+            int64_t acc = 0;
+            for (l = 0u; l < 3u; ++l) {
+                acc += kk[j][l] * rx[l][k]; /* Q16 x Q24, below 2^57 each */
+            }
+            kr[j][k] = ME_SHR(acc, 24u);
+            c[j][k] += kr[j][k];
+        }
+    }
+    /* [r]x K [r]x^T = -[r]x (K [r]x) */
+    for (j = 0u; j < 3u; ++j) {
+        for (k = 0u; k < 3u; ++k) {
+            int64_t acc = 0;
+            for (l = 0u; l < 3u; ++l) {
+                acc -= rx[j][l] * kr[l][k]; /* Q24 x Q16 (< 2^35): below 2^61 */
+            }
+            b[j][k] += ME_SHR(acc, 24u);
+        }
+    }
+}
+
+/* The body's centre of mass and inertia with the legs' first moment s
+ * (base frame, kg m, Q16) and inertia b (kg m^2, Q16) moved to the motion
+ * frame: s_b = T s, I_b = T B T^T (T the home's, Q30); m_eff > 0. */
+static void me_to_motion_frame(const sp_platform_t *platform, const sp_q30_t t[3][3], const int64_t s[3],
+                               const int64_t b[3][3], int64_t m_eff, sp_me_body_t *body, sp_flags_t *flags)
+{
+    unsigned j, k, l;
+    for (j = 0u; j < 3u; ++j) {
+        int64_t sb = 0;
+        int64_t first;
+        for (l = 0u; l < 3u; ++l) {
+            sb += (int64_t)t[j][l] * s[l]; /* Q30 x Q16 (< 2^40) */
+        }
+        sb = ME_SHR(sb, 30u);
+        /* c_eff = (m c + s_b) / m_eff, m, Q24 */
+        first = (int64_t)platform->mass * platform->center_of_mass[j] + sb * (INT64_C(1) << 24); /* Q40 */
+        body->center_of_mass[j] = sp_sat32(first / m_eff, flags);
+        for (k = 0u; k < 3u; ++k) {
+            int64_t acc = 0;
+            for (l = 0u; l < 3u; ++l) {
+                /* (T B)_jl, Q16: each Q30 x Q16 product (< 2^61) rounded */
+                int64_t tb = ME_SHR((int64_t)t[j][0] * b[0][l], 30u) + ME_SHR((int64_t)t[j][1] * b[1][l], 30u) +
+                             ME_SHR((int64_t)t[j][2] * b[2][l], 30u);
+                acc += ME_SHR(tb * t[k][l], 30u);
+            }
+            body->inertia[j][k] = sp_sat32((int64_t)platform->inertia[j][k] + acc, flags);
+        }
+    }
+}
+
 sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *body)
 {
     sp_flags_t flags = 0u;
@@ -391,7 +498,7 @@ sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *bo
     int64_t s[3];             /* the legs' first moment, base frame, kg m, Q16 */
     const sp_leg_mass_t *lm;
     int64_t m_eff;
-    unsigned i, j, k, l;
+    unsigned i, j, k;
     if (platform == NULL || body == NULL) {
         return SP_E_ARG;
     }
@@ -406,69 +513,11 @@ sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *bo
     if (lm->cylinder_mass == 0 && lm->rod_mass == 0) {
         return SP_OK; /* massless legs: the rigid body as it is */
     }
-    /* the envelope that bounds every product below: leg masses below
-     * 512 kg, centres below 8 m, arms below 4 m per component, every leg
-     * longer than its centres (mu then below m_c + m_r) */
-    if (lm->cylinder_mass < 0 || lm->rod_mass < 0 || lm->cylinder_mass >= (512 << 16) || lm->rod_mass >= (512 << 16) ||
-        lm->cylinder_com < 0 || lm->rod_com < 0 || lm->cylinder_com >= (8 << 24) || lm->rod_com >= (8 << 24) ||
-        sp_inverse_kinematics(platform, &platform->home, &ik) != SP_OK) {
+    if (!me_envelope(platform, lm, &ik)) {
         return SP_E_RANGE;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        if (ik.length[i] <= lm->cylinder_com || ik.length[i] <= lm->rod_com || ik.length[i] >= (8 << 24)) {
-            return SP_E_RANGE;
-        }
-        for (k = 0u; k < 3u; ++k) {
-            if (ik.arm[i][k] <= -(4 << 24) || ik.arm[i][k] >= (4 << 24)) {
-                return SP_E_RANGE;
-            }
-        }
-    }
-    for (i = 0u; i < SP_LEGS; ++i) {
-        const sp_q30_t *u = ik.unit[i];
-        const sp_q24_t *r = ik.arm[i];
-        int64_t len = ik.length[i];
-        int64_t dr = len - lm->rod_com;
-        /* mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2, kg, Q16: the squares in
-         * Q24 (lengths below 8 m: < 2^30), times the masses (Q16, < 2^31):
-         * Q40 below 2^61 each; L^2 > 0 (the IK's lengths are positive) */
-        int64_t num = (int64_t)lm->cylinder_mass * ME_SHR((int64_t)lm->cylinder_com * lm->cylinder_com, 24u) +
-                      (int64_t)lm->rod_mass * ME_SHR(dr * dr, 24u);
-        int64_t mu = num / ME_SHR(len * len, 24u);
-        int64_t axial = (int64_t)lm->rod_mass - mu; /* m_r - mu, kg, Q16 */
-        int64_t kk[3][3];                           /* K = mu 1 + (m_r - mu) u u^T, kg, Q16 */
-        int64_t kr[3][3];                           /* K [r]x, kg m, Q16 */
-        int64_t rx[3][3];                           /* [r]x, m, Q24 */
-        rx[0][0] = 0, rx[0][1] = -r[2], rx[0][2] = r[1];
-        rx[1][0] = r[2], rx[1][1] = 0, rx[1][2] = -r[0];
-        rx[2][0] = -r[1], rx[2][1] = r[0], rx[2][2] = 0;
-        for (j = 0u; j < 3u; ++j) {
-            for (k = 0u; k < 3u; ++k) {
-                int64_t uu = ME_SHR((int64_t)u[j] * u[k], 30u); /* Q30 */
-                kk[j][k] = ((j == k) ? mu : 0) + ME_SHR(axial * uu, 30u);
-                kt[j][k] += kk[j][k];
-            }
-        }
-        for (j = 0u; j < 3u; ++j) {
-            for (k = 0u; k < 3u; ++k) {
-                int64_t acc = 0;
-                for (l = 0u; l < 3u; ++l) {
-                    acc += kk[j][l] * rx[l][k]; /* Q16 x Q24, below 2^57 each */
-                }
-                kr[j][k] = ME_SHR(acc, 24u);
-                c[j][k] += kr[j][k];
-            }
-        }
-        /* [r]x K [r]x^T = -[r]x (K [r]x) */
-        for (j = 0u; j < 3u; ++j) {
-            for (k = 0u; k < 3u; ++k) {
-                int64_t acc = 0;
-                for (l = 0u; l < 3u; ++l) {
-                    acc -= rx[j][l] * kr[l][k]; /* Q24 x Q16 (< 2^35): below 2^61 */
-                }
-                b[j][k] += ME_SHR(acc, 24u);
-            }
-        }
+        me_leg_sums(lm, &ik, i, kt, c, b);
     }
     for (j = 0u; j < 3u; ++j) {
         for (k = 0u; k < 3u; ++k) {
@@ -487,28 +536,6 @@ sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *bo
     if (m_eff <= 0) {
         return SP_E_RANGE;
     }
-    /* to the motion frame: s_b = T s, I_b = T B T^T (T the home's, Q30) */
-    for (j = 0u; j < 3u; ++j) {
-        int64_t sb = 0;
-        int64_t first;
-        for (l = 0u; l < 3u; ++l) {
-            sb += (int64_t)ik.rot.t[j][l] * s[l]; /* Q30 x Q16 (< 2^40) */
-        }
-        sb = ME_SHR(sb, 30u);
-        /* c_eff = (m c + s_b) / m_eff, m, Q24 */
-        first = (int64_t)platform->mass * platform->center_of_mass[j] + sb * (INT64_C(1) << 24); /* Q40 */
-        body->center_of_mass[j] = sp_sat32(first / m_eff, &flags);
-        for (k = 0u; k < 3u; ++k) {
-            int64_t acc = 0;
-            for (l = 0u; l < 3u; ++l) {
-                /* (T B)_jl, Q16: each Q30 x Q16 product (< 2^61) rounded */
-                int64_t tb = ME_SHR((int64_t)ik.rot.t[j][0] * b[0][l], 30u) +
-                             ME_SHR((int64_t)ik.rot.t[j][1] * b[1][l], 30u) +
-                             ME_SHR((int64_t)ik.rot.t[j][2] * b[2][l], 30u);
-                acc += ME_SHR(tb * ik.rot.t[k][l], 30u);
-            }
-            body->inertia[j][k] = sp_sat32((int64_t)platform->inertia[j][k] + acc, &flags);
-        }
-    }
+    me_to_motion_frame(platform, (const sp_q30_t(*)[3])ik.rot.t, s, (const int64_t(*)[3])b, m_eff, body, &flags);
     return (flags == 0u) ? SP_OK : SP_E_OVERFLOW;
 }
