@@ -198,6 +198,34 @@ static int64_t trig_acc_wide(const sp_trig_t *g, sp_q30_t s, int32_t e, int32_t 
            trig_mul_q30(dde_rr, s, flags);
 }
 
+/* The motion's offset, velocity and acceleration per unit amplitude at
+ * sin and cos of the phase s, c (Q30) under the envelope e (Q30) with
+ * e' = de, E'' du/dt = dde (Q24) and du/dt = rate (0: full amplitude):
+ * offset = s e; velocity = w c e + s e'; acceleration = -w^2 s e + 2 w c
+ * e' + s e''. Sums in Q24 (out[0..2]); each term of a narrow motion's
+ * within int32 (sp_trig_start). */
+SPI_INLINE void trig_terms(const sp_trig_t *g, sp_q30_t s, sp_q30_t c, int32_t e, int32_t de, int32_t dde, int32_t rate,
+                           int64_t out[3], sp_flags_t *flags)
+{
+    int32_t wc = spi_mul_away(g->omega, c, 30u, flags); /* omega cos(theta), rad/s, Q24 */
+    if (rate == 0) {
+        /* at full amplitude, e = 1 (2^30) and e' = e'' = 0: a product by
+         * e is its other factor exactly (round(x 2^30 / 2^30) = x, no
+         * saturation), those by e' and e'' are 0: the same values */
+        out[0] = spi_round_away(s, 6u);
+        out[1] = wc;
+        out[2] =
+            g->wide ? -trig_mul_q30(g->omega2, s, flags) : -(int64_t)spi_mul_away((int32_t)g->omega2, s, 30u, flags);
+    } else {
+        out[0] = spi_round_away((int64_t)spi_mul_away(s, e, 30u, flags), 6u); /* s e, Q24 */
+        out[1] = (int64_t)spi_mul_away(wc, e, 30u, flags) + spi_mul_away(de, s, 30u, flags);
+        out[2] = g->wide ? trig_acc_wide(g, s, e, wc, de, dde, rate, flags)
+                         : -(int64_t)spi_mul_away(spi_mul_away((int32_t)g->omega2, s, 30u, flags), e, 30u, flags) +
+                               2 * (int64_t)spi_mul_away(wc, de, 24u, flags) +
+                               spi_mul_away(spi_mul_away(dde, rate, 24u, flags), s, 30u, flags);
+    }
+}
+
 sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
 {
     sp_flags_t flags = 0u;
@@ -207,12 +235,9 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
     int32_t dde;
     int32_t rate;  /* du/dt, 1/s, Q24 */
     int32_t theta; /* phase, rad, Q24 */
-    int32_t wc;    /* omega cos(theta), rad/s, Q24 */
     sp_q30_t s;
     sp_q30_t c;
-    int64_t pos;
-    int64_t vel;
-    int64_t acc;
+    int64_t m[3]; /* offset, velocity, acceleration per unit amplitude, Q24 */
     unsigned a;
 
     if (g == NULL || out == NULL || tick_us < 1u) {
@@ -255,36 +280,17 @@ sp_status_t sp_trig_step(sp_trig_t *g, uint32_t tick_us, sp_motion_t *out)
 
     theta = (int32_t)spi_round_away((int64_t)(int32_t)g->phase * TWO_PI_Q24, 32u);
     sp_sincos_q24(theta, &s, &c);
+    trig_terms(g, s, c, e, de, dde, rate, m, &flags);
 
-    /* offset = A s e; velocity = A (w c e + s e');
-     * acceleration = A (-w^2 s e + 2 w c e' + s e''). Sums in Q24; each
-     * term of a narrow motion's within int32 (sp_trig_start) */
-    wc = spi_mul_away(g->omega, c, 30u, &flags);
-    if (rate == 0) {
-        /* at full amplitude, e = 1 (2^30) and e' = e'' = 0: a product by
-         * e is its other factor exactly (round(x 2^30 / 2^30) = x, no
-         * saturation), those by e' and e'' are 0: the same values */
-        pos = spi_round_away(s, 6u);
-        vel = wc;
-        acc =
-            g->wide ? -trig_mul_q30(g->omega2, s, &flags) : -(int64_t)spi_mul_away((int32_t)g->omega2, s, 30u, &flags);
-    } else {
-        pos = spi_round_away((int64_t)spi_mul_away(s, e, 30u, &flags), 6u); /* s e, Q24 */
-        vel = (int64_t)spi_mul_away(wc, e, 30u, &flags) + spi_mul_away(de, s, 30u, &flags);
-        acc = g->wide ? trig_acc_wide(g, s, e, wc, de, dde, rate, &flags)
-                      : -(int64_t)spi_mul_away(spi_mul_away((int32_t)g->omega2, s, 30u, &flags), e, 30u, &flags) +
-                            2 * (int64_t)spi_mul_away(wc, de, 24u, &flags) +
-                            spi_mul_away(spi_mul_away(dde, rate, 24u, &flags), s, 30u, &flags);
-    }
-
+    /* times the amplitude A */
     a = (unsigned)g->axis;
     *axis_ref(&out->pose, a) =
-        spi_add(*axis_ref(&out->pose, a), spi_mul_away(g->amplitude, spi_sat(pos, &flags), 24u, &flags), &flags);
-    *vec_ref(out, a, 1) = spi_mul_away(g->amplitude, spi_sat(vel, &flags), 24u, &flags);
+        spi_add(*axis_ref(&out->pose, a), spi_mul_away(g->amplitude, spi_sat(m[0], &flags), 24u, &flags), &flags);
+    *vec_ref(out, a, 1) = spi_mul_away(g->amplitude, spi_sat(m[1], &flags), 24u, &flags);
     /* a wide motion: |A| <= 2^24 and |acc| < 2^38, the product fits; the
      * result below SP_TRIG_ACC_MAX (sp_trig_start) */
-    *vec_ref(out, a, 2) = g->wide ? spi_sat(spi_round_away((int64_t)g->amplitude * acc, 24u), &flags)
-                                  : spi_mul_away(g->amplitude, spi_sat(acc, &flags), 24u, &flags);
+    *vec_ref(out, a, 2) = g->wide ? spi_sat(spi_round_away((int64_t)g->amplitude * m[2], 24u), &flags)
+                                  : spi_mul_away(g->amplitude, spi_sat(m[2], &flags), 24u, &flags);
 
     g->phase += g->phase_step; /* modulo one turn by design */
     /* counts the fade-in and the fade-out only: a tick counting the whole
