@@ -217,6 +217,27 @@ static void bounds(const sp_force_config_t *cfg, const sp_limits_t *lim, const s
     }
 }
 
+/* out (a copy of pos_ref): the position reference plus the admittance's
+ * offsets on the axes that have one (adding zero would leave a field as it
+ * is). */
+SPI_INLINE void add_offsets(const sp_admit_t *st, const sp_motion_t *pos_ref, sp_motion_t *out)
+{
+    for (unsigned k = 0; k < 3u; ++k) {
+        const sp_admit_axis_state_t *a = &st->axis[k];
+        const sp_admit_axis_state_t *r = &st->axis[3u + k];
+        if (a->d != 0 || a->v != 0 || a->a != 0) {
+            out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
+            out->vel[k] = add_sat(pos_ref->vel[k], a->v);
+            out->acc[k] = add_sat(pos_ref->acc[k], a->a);
+        }
+        if (r->d != 0 || r->v != 0 || r->a != 0) {
+            out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
+            out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
+            out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
+        }
+    }
+}
+
 sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_limits_t *lim,
                           const sp_motion_t *pos_ref, const sp_q8_t w_ext[SP_AXES], const sp_pose_t *x_meas,
                           sp_motion_t *out, uint32_t *events)
@@ -273,22 +294,7 @@ sp_status_t sp_force_step(const sp_force_config_t *cfg, sp_force_t *f, const sp_
     uint8_t contact = f->contact.made ? f->mask : 0u;
     sp_status_t st = sp_admit_step(&cfg->admit, &f->st, am, f->mask, (w_ext != NULL) ? w_ext : zero, f->target,
                                    (x_meas != NULL) ? x : NULL, contact, lo, hi, NULL);
-    /* out: the position reference plus the offsets of the axes that have
-     * one (adding zero would leave a field as it is) */
-    for (unsigned k = 0; k < 3u; ++k) {
-        const sp_admit_axis_state_t *a = &f->st.axis[k];
-        const sp_admit_axis_state_t *r = &f->st.axis[3u + k];
-        if (a->d != 0 || a->v != 0 || a->a != 0) {
-            out->pose.pos[k] = add_sat(pos_ref->pose.pos[k], a->d);
-            out->vel[k] = add_sat(pos_ref->vel[k], a->v);
-            out->acc[k] = add_sat(pos_ref->acc[k], a->a);
-        }
-        if (r->d != 0 || r->v != 0 || r->a != 0) {
-            out->pose.rpy[k] = add_sat(pos_ref->pose.rpy[k], r->d);
-            out->rpy_rate[k] = add_sat(pos_ref->rpy_rate[k], r->v);
-            out->rpy_acc[k] = add_sat(pos_ref->rpy_acc[k], r->a);
-        }
-    }
+    add_offsets(&f->st, pos_ref, out);
     if (f->mode == SP_FORCE_RELEASE) {
         int done = 1;
         for (unsigned k = 0; k < SP_AXES; ++k) {
