@@ -178,36 +178,44 @@ static sp_proto_error_t admit(sp_node_t *node, const sp_can_frame_t *f, sp_e2e_r
     return sequence(node, rx, counter);
 }
 
+/* OP_COMMAND: decoded, admitted and queued. */
+static sp_status_t receive_command(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
+{
+    sp_proto_error_t e = SP_PROTO_OK;
+    uint8_t counter = 0u;
+    sp_msg_command_t m;
+    if (sp_proto_decode_command(f, &m, &counter, &e) != SP_OK) {
+        return reject(node, e, why);
+    }
+    e = admit(node, f, &node->rx_command, counter);
+    /* ESTOP, STOP and PARK (a valid CRC) are taken even when their
+     * alive counter repeats or jumps: a second operator process, a
+     * resent emergency stop, any node on the bus (they carry no
+     * authentication code either, so e can only be the counter's).
+     * Refusing a stop is never the safe side. */
+    if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK) {
+        return reject(node, e, why);
+    }
+    if (node->cmd_count >= SP_NODE_CMD_QUEUE) {
+        if (m.command != SP_CMD_ESTOP) {
+            inc(&node->stats.cmd_overflow);
+            return SP_E_BUSY;
+        }
+        /* an emergency stop replaces the newest waiting command */
+        node->cmd_count--;
+    }
+    node->cmd_queue[(node->cmd_head + node->cmd_count) % SP_NODE_CMD_QUEUE] = m;
+    node->cmd_count++;
+    inc(&node->stats.accepted);
+    return SP_OK;
+}
+
 static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
 {
     sp_proto_error_t e = SP_PROTO_OK;
     uint8_t counter = 0u;
     if (f->id == SP_ID_OP_COMMAND) {
-        sp_msg_command_t m;
-        if (sp_proto_decode_command(f, &m, &counter, &e) != SP_OK) {
-            return reject(node, e, why);
-        }
-        e = admit(node, f, &node->rx_command, counter);
-        /* ESTOP, STOP and PARK (a valid CRC) are taken even when their
-         * alive counter repeats or jumps: a second operator process, a
-         * resent emergency stop, any node on the bus (they carry no
-         * authentication code either, so e can only be the counter's).
-         * Refusing a stop is never the safe side. */
-        if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK) {
-            return reject(node, e, why);
-        }
-        if (node->cmd_count >= SP_NODE_CMD_QUEUE) {
-            if (m.command != SP_CMD_ESTOP) {
-                inc(&node->stats.cmd_overflow);
-                return SP_E_BUSY;
-            }
-            /* an emergency stop replaces the newest waiting command */
-            node->cmd_count--;
-        }
-        node->cmd_queue[(node->cmd_head + node->cmd_count) % SP_NODE_CMD_QUEUE] = m;
-        node->cmd_count++;
-        inc(&node->stats.accepted);
-        return SP_OK;
+        return receive_command(node, f, why);
     }
     if (f->id == SP_ID_OP_TARGET_POSE) {
         sp_pose_t pose;
