@@ -44,6 +44,115 @@ SPI_INLINE uint64_t max_abs64(const int64_t b[SP_LEGS])
 
 #define RHS_MAX (INT64_C(1) << 56) /* |b| below this: no overflow in the elimination */
 
+/* The pivot row of column k among the rows r[k..5]: the first largest of
+ * v ^ (v >> 31) (|v|, less 1 when v is negative: one instruction), within
+ * 1 of the largest |a_ik|. */
+SPI_INLINE unsigned lu_pivot(int32_t *const r[SP_LEGS], unsigned k)
+{
+    unsigned p = k;
+    unsigned i;
+    uint32_t best = (uint32_t)(r[k][k] ^ (r[k][k] >> 31));
+    LU_UNROLL
+    for (i = k + 1u; i < SP_LEGS; ++i) {
+        uint32_t v = (uint32_t)(r[i][k] ^ (r[i][k] >> 31));
+        if (v > best) {
+            best = v;
+            p = i;
+        }
+    }
+    return p;
+}
+
+/* One reciprocal per pivot a (|a| = best). With z = clz(|a|) - 1, the
+ * pivot normalised to [2^30, 2^31) is |a| 2^z and inv ~= 2^61 / (|a|
+ * 2^z) in (2^30, 2^31) (never above; 2^-28), the sign folded in. best <
+ * 2^31 unless a saturated entry is the pivot; that case is flagged.
+ * Returns inv, z into *z_out. */
+SPI_INLINE int32_t lu_reciprocal(int32_t a, uint32_t best, unsigned *z_out, sp_flags_t *flags)
+{
+    unsigned z;
+    uint32_t q;
+    if (best > 0x7FFFFFFFu) {
+        *flags |= SP_FLAG_OVERFLOW;
+        best = 0x7FFFFFFFu;
+    }
+    z = spi_clz32(best) - 1u;             /* in [0, 12] for best >= 2^18 */
+    q = spi_recip_norm(best << (z + 1u)); /* 2^62 / (best 2^(z+1)) */
+    if (q > 0x7FFFFFFFu) {
+        q = 0x7FFFFFFFu; /* a power of two: error 2^-31 */
+    }
+    *z_out = z;
+    return (a < 0) ? -(int32_t)q : (int32_t)q;
+}
+
+/* The elimination below the pivot row rk when its entries right of the
+ * pivot are in [-2^29, 2^29): the pivot row times 4 fits int32, and
+ * round(l a_kj / 2^30) = round(l (4 a_kj) / 2^32) = hi + (bit 31 of lo),
+ * the words of one 32x32->64 product (the same bits as lu_eliminate). */
+SPI_INLINE void lu_eliminate_x4(int32_t *const r[SP_LEGS], const int32_t *rk, unsigned k, unsigned z, int32_t inv)
+{
+    int32_t a4[SP_LEGS];
+    unsigned i;
+    unsigned j;
+    LU_UNROLL
+    for (j = k + 1u; j < SP_LEGS; ++j) {
+        a4[j] = (int32_t)((uint32_t)rk[j] << 2);
+    }
+    LU_UNROLL
+    for (i = k + 1u; i < SP_LEGS; ++i) {
+        int32_t *ri = r[i];
+        int32_t l = lu_multiplier(ri[k], z, inv);
+        ri[k] = l;
+        LU_UNROLL
+        for (j = k + 1u; j < SP_LEGS; ++j) {
+            int64_t pr = (int64_t)l * a4[j];
+            /* |hi| <= |a_kj|: no overflow, as below */
+            ri[j] = ri[j] - (int32_t)(pr >> 32) - (int32_t)((uint32_t)pr >> 31);
+        }
+    }
+}
+
+/* The elimination below the pivot row rk when no subtraction can overflow
+ * (the rows' bound plus the pivot row's below 2^31). */
+SPI_INLINE void lu_eliminate(int32_t *const r[SP_LEGS], const int32_t *rk, unsigned k, unsigned z, int32_t inv)
+{
+    unsigned i;
+    unsigned j;
+    LU_UNROLL
+    for (i = k + 1u; i < SP_LEGS; ++i) {
+        int32_t *ri = r[i];
+        /* multiplier l = a_ik / a_kk in Q30 = (a_ik 2^z) inv / 2^31:
+         * |a_ik| <= |a_kk| keeps a_ik 2^z in int32, and inv rounds
+         * toward zero, so |l| <= 2^30. Stored in place of a_ik. */
+        int32_t l = lu_multiplier(ri[k], z, inv);
+        ri[k] = l;
+        LU_UNROLL
+        for (j = k + 1u; j < SP_LEGS; ++j) {
+            /* |round(l a_kj / 2^30)| <= |a_kj| <= umax + 1, |r_ij| <=
+             * the old bound: the difference stays below 2^31 */
+            ri[j] -= (int32_t)(((int64_t)l * rk[j] + (INT64_C(1) << 29)) >> 30);
+        }
+    }
+}
+
+/* The elimination below the pivot row rk when the rows' bound is not
+ * known: each subtraction saturates and flags, with the same rounding. */
+SPI_INLINE void lu_eliminate_sat(int32_t *const r[SP_LEGS], const int32_t *rk, unsigned k, unsigned z, int32_t inv,
+                                 sp_flags_t *flags)
+{
+    unsigned i;
+    unsigned j;
+    for (i = k + 1u; i < SP_LEGS; ++i) {
+        int32_t *ri = r[i];
+        int32_t l = lu_multiplier(ri[k], z, inv);
+        ri[k] = l;
+        for (j = k + 1u; j < SP_LEGS; ++j) {
+            /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
+            ri[j] = spi_sub_sat(ri[j], (int32_t)spi_round_up((int64_t)l * rk[j], 30u), flags);
+        }
+    }
+}
+
 /*
  * Step k of the elimination on the rows r[k..5] (pointers to the rows, in
  * pivot order so far); the pivot's reciprocal and exponent into
@@ -61,49 +170,19 @@ SPI_INLINE uint64_t max_abs64(const int64_t b[SP_LEGS])
 SPI_INLINE int lu_step(int32_t *inv_out, uint8_t *zk_out, int32_t *r[SP_LEGS], unsigned k, uint32_t *bound,
                        sp_flags_t *flags)
 {
-    int32_t *rk;
-    unsigned p = k;
-    unsigned i;
-    unsigned j;
-    uint32_t best = (uint32_t)(r[k][k] ^ (r[k][k] >> 31));
+    unsigned p = lu_pivot(r, k);
+    int32_t *rk = r[p];
+    uint32_t best = mag32(rk[k]);
     uint32_t umax = 0u;
     int32_t inv;
     unsigned z;
-
-    /* the pivot: the first largest of v ^ (v >> 31) (|v|, less 1 when v
-     * is negative: one instruction), within 1 of the largest |a_ik| */
-    LU_UNROLL
-    for (i = k + 1u; i < SP_LEGS; ++i) {
-        uint32_t v = (uint32_t)(r[i][k] ^ (r[i][k] >> 31));
-        if (v > best) {
-            best = v;
-            p = i;
-        }
-    }
-    rk = r[p];
-    best = mag32(rk[k]);
+    unsigned j;
     if (best < (uint32_t)SP_PIVOT_MIN) {
         return 0;
     }
     r[p] = r[k]; /* the rows' pointers swapped, not the rows */
     r[k] = rk;
-    /* One reciprocal per pivot. With z = clz(|a_kk|) - 1, the pivot
-     * normalised to [2^30, 2^31) is |a_kk| 2^z and inv ~= 2^61 /
-     * (|a_kk| 2^z) in (2^30, 2^31) (never above; 2^-28), the sign
-     * folded in. best < 2^31 unless a saturated entry is the pivot;
-     * that case is flagged. */
-    if (best > 0x7FFFFFFFu) {
-        *flags |= SP_FLAG_OVERFLOW;
-        best = 0x7FFFFFFFu;
-    }
-    z = spi_clz32(best) - 1u; /* in [0, 12] for best >= 2^18 */
-    {
-        uint32_t q = spi_recip_norm(best << (z + 1u)); /* 2^62 / (best 2^(z+1)) */
-        if (q > 0x7FFFFFFFu) {
-            q = 0x7FFFFFFFu; /* a power of two: error 2^-31 */
-        }
-        inv = (rk[k] < 0) ? -(int32_t)q : (int32_t)q;
-    }
+    inv = lu_reciprocal(rk[k], best, &z, flags);
     zk_out[k] = (uint8_t)z;
     inv_out[k] = inv;
     if (k + 1u >= SP_LEGS) {
@@ -119,54 +198,13 @@ SPI_INLINE int lu_step(int32_t *inv_out, uint8_t *zk_out, int32_t *r[SP_LEGS], u
     if (*bound < 0x7FFFFFFFu && umax < 0x7FFFFFFFu - *bound) {
         *bound += umax + 1u;
         if (umax < (UINT32_C(1) << 29)) {
-            /* the pivot row times 4 fits int32: round(l a_kj / 2^30) =
-             * round(l (4 a_kj) / 2^32) = hi + (bit 31 of lo), the words
-             * of one 32x32->64 product (the same bits as below) */
-            int32_t a4[SP_LEGS];
-            LU_UNROLL
-            for (j = k + 1u; j < SP_LEGS; ++j) {
-                a4[j] = (int32_t)((uint32_t)rk[j] << 2);
-            }
-            LU_UNROLL
-            for (i = k + 1u; i < SP_LEGS; ++i) {
-                int32_t *ri = r[i];
-                int32_t l = lu_multiplier(ri[k], z, inv);
-                ri[k] = l;
-                LU_UNROLL
-                for (j = k + 1u; j < SP_LEGS; ++j) {
-                    int64_t pr = (int64_t)l * a4[j];
-                    /* |hi| <= |a_kj|: no overflow, as below */
-                    ri[j] = ri[j] - (int32_t)(pr >> 32) - (int32_t)((uint32_t)pr >> 31);
-                }
-            }
-            return 1;
-        }
-        LU_UNROLL
-        for (i = k + 1u; i < SP_LEGS; ++i) {
-            int32_t *ri = r[i];
-            /* multiplier l = a_ik / a_kk in Q30 = (a_ik 2^z) inv / 2^31:
-             * |a_ik| <= |a_kk| keeps a_ik 2^z in int32, and inv rounds
-             * toward zero, so |l| <= 2^30. Stored in place of a_ik. */
-            int32_t l = lu_multiplier(ri[k], z, inv);
-            ri[k] = l;
-            LU_UNROLL
-            for (j = k + 1u; j < SP_LEGS; ++j) {
-                /* |round(l a_kj / 2^30)| <= |a_kj| <= umax + 1, |r_ij| <=
-                 * the old bound: the difference stays below 2^31 */
-                ri[j] -= (int32_t)(((int64_t)l * rk[j] + (INT64_C(1) << 29)) >> 30);
-            }
+            lu_eliminate_x4(r, rk, k, z, inv);
+        } else {
+            lu_eliminate(r, rk, k, z, inv);
         }
     } else {
         *bound = 0x80000000u;
-        for (i = k + 1u; i < SP_LEGS; ++i) {
-            int32_t *ri = r[i];
-            int32_t l = lu_multiplier(ri[k], z, inv);
-            ri[k] = l;
-            for (j = k + 1u; j < SP_LEGS; ++j) {
-                /* |l a_kj| / 2^30 <= |a_kj|: the product fits int32 */
-                ri[j] = spi_sub_sat(ri[j], (int32_t)spi_round_up((int64_t)l * rk[j], 30u), flags);
-            }
-        }
+        lu_eliminate_sat(r, rk, k, z, inv, flags);
     }
     return 1;
 }
