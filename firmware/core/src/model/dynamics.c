@@ -465,53 +465,31 @@ SPI_NOINLINE static void legs_rates_jac(const sp_jacobian_t *jac, const sp_q24_t
     }
 }
 
-SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_jacobian_t *jac,
-                                  const sp_motion_t *m, const sp_q24_t wd[3], int64_t b[SP_LEGS],
-                                  sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned keep,
-                                  sp_flags_t *flags)
+/* leg_terms' envelope (masses and centres are >= 0: checked by the
+ * caller), 0 within it: its global part, w_b,c in [-2^26, 2^26) when wa_c's
+ * high word is in [-2^24, 2^24), m_c + m_r < 2^25 (512 kg in Q16); its
+ * per-leg part for the legs in todo (a kept leg's terms were computed
+ * within it), L in (lmin, 8 m) and |r_c| < 4 m. */
+SPI_INLINE uint32_t legs_outside(const sp_platform_t *p, const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t wd[3],
+                                 const int64_t wa[3], unsigned todo)
 {
     const sp_leg_mass_t *lm = &p->leg_mass;
-    const int32_t mr = lm->rod_mass; /* Q16 */
     const int32_t dc = lm->cylinder_com;
     const int32_t dr = lm->rod_com;
-    int64_t wa[3];                                     /* w_b 2^30, as sp_leg_rates */
-    sp_q24_t wb[3];                                    /* angular velocity, base frame, Q24 */
-    sp_q24_t ab[3];                                    /* angular acceleration, base frame, Q24 */
-    int64_t vb[3];                                     /* v 2^24 + 2^23 (Q48, rounding half), as sp_leg_rates */
-    int64_t ac[3];                                     /* a 2^24 + 2^27 (Q48, rounding half of Q20) */
-    int64_t sums[2][3];                                /* the sums when nothing is kept (hold NULL) */
-    int64_t *fsum = sums[0];                           /* N, Q16 */
-    int64_t *msum = sums[1];                           /* N m, Q40 */
-    int32_t g20 = 0, mcdc = 0, k1 = 0, nn = 0, k2 = 0; /* set when a leg is to compute */
     int32_t lmin;
-    uint32_t out;
-    unsigned todo; /* bit i: leg i's terms still to compute */
     unsigned i;
-    unsigned k;
-
-    /* w_b = roll' (R e_x) + pitch' (Rz e_y) + yaw' e_z exactly as
-     * sp_leg_rates (below 2^63) */
-    wa[0] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][0] - (int64_t)m->rpy_rate[1] * ik->sc[4] + (INT64_C(1) << 29);
-    wa[1] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][1] + (int64_t)m->rpy_rate[1] * ik->sc[5] + (INT64_C(1) << 29);
-    wa[2] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][2] + (int64_t)m->rpy_rate[2] * SP_Q30_ONE + (INT64_C(1) << 29);
-    /* the envelope's global part (masses and centres are >= 0: checked by
-     * the caller): w_b,c in [-2^26, 2^26) when wa_c's high word is in
-     * [-2^24, 2^24); m_c + m_r < 2^25 (512 kg in Q16) */
-    out = out_of((int32_t)(wa[0] >> 32), 24u) | out_of((int32_t)(wa[1] >> 32), 24u) |
-          out_of((int32_t)(wa[2] >> 32), 24u) | out_of(wd[0], 30u) | out_of(wd[1], 30u) | out_of(wd[2], 30u) |
-          out_of(m->vel[0], 26u) | out_of(m->vel[1], 26u) | out_of(m->vel[2], 26u) | out_of(m->acc[0], 30u) |
-          out_of(m->acc[1], 30u) | out_of(m->acc[2], 30u) | out_of(p->gravity, 28u) | out_of(dc, 26u) |
-          out_of(dr, 26u) | (((uint32_t)lm->cylinder_mass + (uint32_t)mr) >> 25);
+    uint32_t out = out_of((int32_t)(wa[0] >> 32), 24u) | out_of((int32_t)(wa[1] >> 32), 24u) |
+                   out_of((int32_t)(wa[2] >> 32), 24u) | out_of(wd[0], 30u) | out_of(wd[1], 30u) | out_of(wd[2], 30u) |
+                   out_of(m->vel[0], 26u) | out_of(m->vel[1], 26u) | out_of(m->vel[2], 26u) | out_of(m->acc[0], 30u) |
+                   out_of(m->acc[1], 30u) | out_of(m->acc[2], 30u) | out_of(p->gravity, 28u) | out_of(dc, 26u) |
+                   out_of(dr, 26u) | (((uint32_t)lm->cylinder_mass + (uint32_t)lm->rod_mass) >> 25);
     if (out != 0u) {
-        return 0;
+        return out;
     }
     lmin = (dc > dr) ? dc : dr;
     if (lmin < (INT32_C(1) << 23)) {
         lmin = INT32_C(1) << 23; /* 0.5 m */
     }
-    todo = SP_ALL_LEG_BITS & ~keep;
-    /* the envelope's per-leg part, for the legs to compute (a kept leg's
-     * terms were computed within it) */
     for (i = 0u; i < SP_LEGS; ++i) {
         const sp_q24_t *r = ik->arm[i];
         if (((todo >> i) & 1u) != 0u) {
@@ -520,8 +498,179 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
                 out_of(r[0], 26u) | out_of(r[1], 26u) | out_of(r[2], 26u);
         }
     }
-    if (out != 0u) {
-        return 0; /* an L outside (lmin, 8 m) or an |r_c| >= 4 m */
+    return out;
+}
+
+/* What the legs leg_terms computes share: the motion's terms, the
+ * angular acceleration in the base frame ab (Q24), v and a with their
+ * roundings' halves vb and ac (Q48, as sp_leg_rates; a's half of Q20). */
+SPI_INLINE void legs_motion(const sp_ik_t *ik, const sp_motion_t *m, const sp_q24_t wd[3], sp_q24_t ab[3],
+                            int64_t vb[3], int64_t ac[3])
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
+         * |.| <= |w'| < 111 rad/s^2 */
+        ab[k] =
+            fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] + (int64_t)ik->rot.t[2][k] * wd[2],
+                30u);
+        vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
+        ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
+    }
+}
+
+/* The leg's moment r x hw (Q40, each below 2^57) into msum, and its
+ * reaction and moment kept in *hold (not NULL), a kept sum dropping the
+ * leg's earlier terms (exact). */
+SPI_INLINE void leg_moment(const sp_q24_t r[3], const int32_t hw[3], unsigned leg, int64_t fsum[3], int64_t msum[3],
+                           sp_leg_hold_t *hold, unsigned keep)
+{
+    int64_t mo[3];
+    unsigned k;
+    mo[0] = (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
+    mo[1] = (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
+    mo[2] = (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
+    for (k = 0u; k < 3u; ++k) {
+        msum[k] += mo[k];
+        if (hold != NULL) {
+            if (keep != 0u) {
+                fsum[k] -= hold->hw[leg][k];
+                msum[k] -= hold->mo[leg][k];
+            }
+            hold->hw[leg][k] = hw[k];
+            hold->mo[leg][k] = mo[k];
+        }
+    }
+}
+
+/* The per-call constants of leg_terms' legs, Q16 (m_c, m_r < 512 kg,
+ * d < 4 m), and g (Q20). */
+typedef struct {
+    int32_t mr;  /* m_r */
+    int32_t g20; /* g, Q20 */
+    int32_t nn;  /* N = m_r d_r < 2048 */
+    int32_t k1;  /* K1 = m_c d_c - N */
+    int32_t k2;  /* K2 = m_c d_c^2 + m_r d_r^2 < 8192 kg m^2 */
+} legs_const_t;
+
+SPI_INLINE void legs_constants(const sp_platform_t *p, legs_const_t *c)
+{
+    const sp_leg_mass_t *lm = &p->leg_mass;
+    const int32_t dc = lm->cylinder_com;
+    const int32_t dr = lm->rod_com;
+    const int32_t mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u); /* m_c d_c < 2048 */
+    c->mr = lm->rod_mass;
+    c->g20 = fit(p->gravity, 4u);
+    c->nn = fit((int64_t)c->mr * dr, 24u);
+    c->k1 = mcdc - c->nn;
+    c->k2 = fit((int64_t)mcdc * dc + (int64_t)c->nn * dr, 24u);
+}
+
+/* One leg's terms (leg_terms): its reaction into fsum and its moment into
+ * msum (and *hold), its axial term; ld its rate L'. It reads v through m:
+ * from a plain int32 pointer GCC would reload it after every store to
+ * *hold and axial (65 instructions an inverse dynamics, QEMU icount). */
+SPI_INLINE void leg_one(const legs_const_t *c, const sp_q24_t wb[3], const sp_q24_t ab[3], const int64_t vb[3],
+                        const int64_t ac[3], const sp_ik_t *ik, const sp_motion_t *m, unsigned leg, int32_t ld,
+                        int64_t fsum[3], int64_t msum[3], sp_q16_t axial[SP_LEGS], sp_leg_hold_t *hold, unsigned keep,
+                        sp_flags_t *flags)
+{
+    const sp_q24_t *r = ik->arm[leg];
+    const sp_q30_t *u = ik->unit[leg];
+    int32_t va[3]; /* v_A, m/s, Q24 */
+    int32_t aa[3]; /* a_A, m/s^2, Q20 */
+    int32_t ua, ld2, vv, q, q2, tq, kq, dmu, mu, cq, c1, nq2, guz, hw[3];
+    unsigned sh;
+    unsigned k;
+
+    /* v_A = v + w_b x r rounded once: products below 2^53, |v_A| <
+     * 55 m/s */
+    va[0] = (int32_t)((vb[0] + (int64_t)wb[1] * r[2] - (int64_t)wb[2] * r[1]) >> 24);
+    va[1] = (int32_t)((vb[1] + (int64_t)wb[2] * r[0] - (int64_t)wb[0] * r[2]) >> 24);
+    va[2] = (int32_t)((vb[2] + (int64_t)wb[0] * r[1] - (int64_t)wb[1] * r[0]) >> 24);
+    /* a_A = a + w_b' x r + w_b x (v_A - v), one Q48 sum (below
+     * 1213 2^48 < 2^59) rounded once to Q20 */
+    {
+        const int32_t t0 = va[0] - m->vel[0];
+        const int32_t t1 = va[1] - m->vel[1];
+        const int32_t t2 = va[2] - m->vel[2];
+        aa[0] = (int32_t)((ac[0] + (int64_t)ab[1] * r[2] - (int64_t)ab[2] * r[1] + (int64_t)wb[1] * t2 -
+                           (int64_t)wb[2] * t1) >>
+                          28);
+        aa[1] = (int32_t)((ac[1] + (int64_t)ab[2] * r[0] - (int64_t)ab[0] * r[2] + (int64_t)wb[2] * t0 -
+                           (int64_t)wb[0] * t2) >>
+                          28);
+        aa[2] = (int32_t)((ac[2] + (int64_t)ab[0] * r[1] - (int64_t)ab[1] * r[0] + (int64_t)wb[0] * t1 -
+                           (int64_t)wb[1] * t0) >>
+                          28);
+    }
+    /* u.a_A (Q20, < 1213), L'^2 and |v_A|^2 - L'^2 (Q16, below
+     * 3025): sums below 2^62 */
+    ua = fit((int64_t)u[0] * aa[0] + (int64_t)u[1] * aa[1] + (int64_t)u[2] * aa[2], 30u);
+    ld2 = fit((int64_t)ld * ld, 32u);
+    vv = fit((int64_t)va[0] * va[0] + (int64_t)va[1] * va[1] + (int64_t)va[2] * va[2], 32u) - ld2;
+    if (vv < 0) {
+        vv = 0; /* |v_A|^2 >= L'^2 up to rounding */
+    }
+    /* the leg's coefficients from q = 1/L (Q30, in (1/8, 2)) */
+    q = spi_recip((uint32_t)ik->length[leg], &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
+    q >>= (sh - 54u);
+    q2 = fit((int64_t)q * q, 32u);                 /* q^2, Q28, < 4 */
+    tq = fit((int64_t)c->k2 * q, 30u);             /* t = K2 q, Q16, < 2048 */
+    kq = fit((int64_t)c->k1 * q, 30u);             /* k_g - m_r = K1 q, |.| < 4096 */
+    dmu = fit((int64_t)q * (tq - 2 * c->nn), 30u); /* mu - m_r */
+    mu = c->mr + dmu;
+    cq = fit((int64_t)q2 * (tq - c->nn), 28u); /* C / L, kg/m, Q16 */
+    nq2 = fit((int64_t)q2 * c->nn, 28u);       /* N q^2, kg/m, Q16 */
+    c1 = -fit((int64_t)cq * ld, 27u);          /* -2 (C / L) L', Q16 x Q24 -> Q12 */
+    guz = fit((int64_t)c->g20 * u[2], 30u);    /* g u_z, Q20 */
+    /* hw = mu a_A + c1 v_A + k_g g e_z: Q16 x Q20, Q12 x Q24, Q16 x Q20,
+     * each below 2^59 (512 1213, 2^17 55, 512 16 in N, times 2^36) */
+    for (k = 0u; k < 3u; ++k) {
+        int64_t v = (int64_t)mu * aa[k] + (int64_t)c1 * va[k];
+        if (k == 2u) {
+            v += (int64_t)(c->mr + kq) * c->g20;
+        }
+        hw[k] = spi_narrow_floor(v + (INT64_C(1) << 19), 20u, flags);
+        fsum[k] += hw[k];
+    }
+    leg_moment(r, hw, leg, fsum, msum, hold, keep);
+    /* s_i, Q36: (m_r - mu) u.a_A, (m_r - k_g) g u_z (each below
+     * 512 1213 2^36, 4096 16 2^36) and (N q^2 vv + 2 (C / L) L'^2) 2^4
+     * (below 3 1024 3025 2^36): below 2^60 */
+    axial[leg] = spi_narrow_floor(((int64_t)nq2 * vv + (int64_t)cq * ld2 * 2) * 16 - (int64_t)dmu * ua -
+                                      (int64_t)kq * guz + (INT64_C(1) << 19),
+                                  20u, flags);
+    if (hold != NULL) {
+        hold->axial[leg] = axial[leg];
+    }
+}
+
+SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, const sp_jacobian_t *jac,
+                                  const sp_motion_t *m, const sp_q24_t wd[3], int64_t b[SP_LEGS],
+                                  sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned keep,
+                                  sp_flags_t *flags)
+{
+    int64_t wa[3];                           /* w_b 2^30, as sp_leg_rates */
+    sp_q24_t wb[3];                          /* angular velocity, base frame, Q24 */
+    sp_q24_t ab[3];                          /* angular acceleration, base frame, Q24 */
+    int64_t vb[3];                           /* v 2^24 + 2^23 */
+    int64_t ac[3];                           /* a 2^24 + 2^27 */
+    legs_const_t c = {0, 0, 0, 0, 0};        /* set when a leg is to compute */
+    int64_t sums[2][3];                      /* the sums when nothing is kept (hold NULL) */
+    int64_t *fsum = sums[0];                 /* N, Q16 */
+    int64_t *msum = sums[1];                 /* N m, Q40 */
+    unsigned todo = SP_ALL_LEG_BITS & ~keep; /* bit i: leg i's terms still to compute */
+    unsigned i;
+    unsigned k;
+
+    /* w_b = roll' (R e_x) + pitch' (Rz e_y) + yaw' e_z exactly as
+     * sp_leg_rates (below 2^63) */
+    wa[0] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][0] - (int64_t)m->rpy_rate[1] * ik->sc[4] + (INT64_C(1) << 29);
+    wa[1] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][1] + (int64_t)m->rpy_rate[1] * ik->sc[5] + (INT64_C(1) << 29);
+    wa[2] = (int64_t)m->rpy_rate[0] * ik->rot.t[0][2] + (int64_t)m->rpy_rate[2] * SP_Q30_ONE + (INT64_C(1) << 29);
+    if (legs_outside(p, ik, m, wd, wa, todo) != 0u) {
+        return 0;
     }
     for (k = 0u; k < 3u; ++k) {
         wb[k] = (int32_t)(wa[k] >> 30);
@@ -545,113 +694,13 @@ SPI_NOINLINE static int leg_terms(const sp_platform_t *p, const sp_ik_t *ik, con
     }
     if (todo != 0u) {
         /* what the legs to compute share (none on a tick that keeps all) */
-        for (k = 0u; k < 3u; ++k) {
-            /* R w': rows of T (|T_rc| <= 2^30 + small) dotted with w':
-             * |.| <= |w'| < 111 rad/s^2 */
-            ab[k] = fit((int64_t)ik->rot.t[0][k] * wd[0] + (int64_t)ik->rot.t[1][k] * wd[1] +
-                            (int64_t)ik->rot.t[2][k] * wd[2],
-                        30u);
-            vb[k] = (int64_t)m->vel[k] * (INT64_C(1) << 24) + (INT64_C(1) << 23);
-            ac[k] = (int64_t)m->acc[k] * (INT64_C(1) << 24) + (INT64_C(1) << 27);
-        }
-        g20 = fit(p->gravity, 4u);
-        /* the per-call constants, Q16 (m_c, m_r < 512 kg, d < 4 m) */
-        mcdc = fit((int64_t)lm->cylinder_mass * dc, 24u);     /* m_c d_c < 2048 */
-        nn = fit((int64_t)mr * dr, 24u);                      /* N = m_r d_r < 2048 */
-        k1 = mcdc - nn;                                       /* K1 */
-        k2 = fit((int64_t)mcdc * dc + (int64_t)nn * dr, 24u); /* K2 < 8192 kg m^2 */
+        legs_motion(ik, m, wd, ab, vb, ac);
+        legs_constants(p, &c);
     }
     for (; todo != 0u; todo &= todo - 1u) {
         /* the legs not kept, lowest first */
         const unsigned leg = 31u - spi_clz32(todo & (0u - todo));
-        const sp_q24_t *r = ik->arm[leg];
-        const sp_q30_t *u = ik->unit[leg];
-        const int32_t len = ik->length[leg];
-        const int32_t ld = rate[leg]; /* L' */
-        int32_t va[3];                /* v_A, m/s, Q24 */
-        int32_t aa[3];                /* a_A, m/s^2, Q20 */
-        int32_t ua, ld2, vv, q, q2, tq, kq, dmu, mu, cq, c1, nq2, guz, hw[3];
-        unsigned sh;
-
-        /* v_A = v + w_b x r rounded once: products below 2^53, |v_A| <
-         * 55 m/s */
-        va[0] = (int32_t)((vb[0] + (int64_t)wb[1] * r[2] - (int64_t)wb[2] * r[1]) >> 24);
-        va[1] = (int32_t)((vb[1] + (int64_t)wb[2] * r[0] - (int64_t)wb[0] * r[2]) >> 24);
-        va[2] = (int32_t)((vb[2] + (int64_t)wb[0] * r[1] - (int64_t)wb[1] * r[0]) >> 24);
-        /* a_A = a + w_b' x r + w_b x (v_A - v), one Q48 sum (below
-         * 1213 2^48 < 2^59) rounded once to Q20 */
-        {
-            const int32_t t0 = va[0] - m->vel[0];
-            const int32_t t1 = va[1] - m->vel[1];
-            const int32_t t2 = va[2] - m->vel[2];
-            aa[0] = (int32_t)((ac[0] + (int64_t)ab[1] * r[2] - (int64_t)ab[2] * r[1] + (int64_t)wb[1] * t2 -
-                               (int64_t)wb[2] * t1) >>
-                              28);
-            aa[1] = (int32_t)((ac[1] + (int64_t)ab[2] * r[0] - (int64_t)ab[0] * r[2] + (int64_t)wb[2] * t0 -
-                               (int64_t)wb[0] * t2) >>
-                              28);
-            aa[2] = (int32_t)((ac[2] + (int64_t)ab[0] * r[1] - (int64_t)ab[1] * r[0] + (int64_t)wb[0] * t1 -
-                               (int64_t)wb[1] * t0) >>
-                              28);
-        }
-        /* u.a_A (Q20, < 1213), L'^2 and |v_A|^2 - L'^2 (Q16, below
-         * 3025): sums below 2^62 */
-        ua = fit((int64_t)u[0] * aa[0] + (int64_t)u[1] * aa[1] + (int64_t)u[2] * aa[2], 30u);
-        ld2 = fit((int64_t)ld * ld, 32u);
-        vv = fit((int64_t)va[0] * va[0] + (int64_t)va[1] * va[1] + (int64_t)va[2] * va[2], 32u) - ld2;
-        if (vv < 0) {
-            vv = 0; /* |v_A|^2 >= L'^2 up to rounding */
-        }
-        /* the leg's coefficients from q = 1/L (Q30, in (1/8, 2)) */
-        q = spi_recip((uint32_t)len, &sh); /* 1/L = q / 2^sh, sh in [54, 57] */
-        q >>= (sh - 54u);
-        q2 = fit((int64_t)q * q, 32u);              /* q^2, Q28, < 4 */
-        tq = fit((int64_t)k2 * q, 30u);             /* t = K2 q, Q16, < 2048 */
-        kq = fit((int64_t)k1 * q, 30u);             /* k_g - m_r = K1 q, |.| < 4096 */
-        dmu = fit((int64_t)q * (tq - 2 * nn), 30u); /* mu - m_r */
-        mu = mr + dmu;
-        cq = fit((int64_t)q2 * (tq - nn), 28u); /* C / L, kg/m, Q16 */
-        nq2 = fit((int64_t)q2 * nn, 28u);       /* N q^2, kg/m, Q16 */
-        c1 = -fit((int64_t)cq * ld, 27u);       /* -2 (C / L) L', Q16 x Q24 -> Q12 */
-        guz = fit((int64_t)g20 * u[2], 30u);    /* g u_z, Q20 */
-        /* hw = mu a_A + c1 v_A + k_g g e_z: Q16 x Q20, Q12 x Q24, Q16 x Q20,
-         * each below 2^59 (512 1213, 2^17 55, 512 16 in N, times 2^36) */
-        for (k = 0u; k < 3u; ++k) {
-            int64_t v = (int64_t)mu * aa[k] + (int64_t)c1 * va[k];
-            if (k == 2u) {
-                v += (int64_t)(mr + kq) * g20;
-            }
-            hw[k] = spi_narrow_floor(v + (INT64_C(1) << 19), 20u, flags);
-            fsum[k] += hw[k];
-        }
-        {
-            /* the leg's moment r x hw, Q40 (each below 2^57) */
-            int64_t mo[3];
-            mo[0] = (int64_t)r[1] * hw[2] - (int64_t)r[2] * hw[1];
-            mo[1] = (int64_t)r[2] * hw[0] - (int64_t)r[0] * hw[2];
-            mo[2] = (int64_t)r[0] * hw[1] - (int64_t)r[1] * hw[0];
-            for (k = 0u; k < 3u; ++k) {
-                msum[k] += mo[k];
-                if (hold != NULL) {
-                    /* a kept sum drops the leg's earlier terms: exact */
-                    if (keep != 0u) {
-                        fsum[k] -= hold->hw[leg][k];
-                        msum[k] -= hold->mo[leg][k];
-                    }
-                    hold->hw[leg][k] = hw[k];
-                    hold->mo[leg][k] = mo[k];
-                }
-            }
-        }
-        /* s_i, Q36: (m_r - mu) u.a_A, (m_r - k_g) g u_z (each below
-         * 512 1213 2^36, 4096 16 2^36) and (N q^2 vv + 2 (C / L) L'^2) 2^4
-         * (below 3 1024 3025 2^36): below 2^60 */
-        axial[leg] = spi_narrow_floor(((int64_t)nq2 * vv + (int64_t)cq * ld2 * 2) * 16 - (int64_t)dmu * ua -
-                                          (int64_t)kq * guz + (INT64_C(1) << 19),
-                                      20u, flags);
-        if (hold != NULL) {
-            hold->axial[leg] = axial[leg];
-        }
+        leg_one(&c, wb, ab, vb, ac, ik, m, leg, rate[leg], fsum, msum, axial, hold, keep, flags);
     }
     legs_sums_done(fsum, msum, NULL, b); /* kept in *hold already */
     return 1;
