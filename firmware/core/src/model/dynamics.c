@@ -805,6 +805,188 @@ SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS
     }
 }
 
+/* The plan for the factorisation kept in *kept_lu (lu_keep > 1) with
+ * *lu the last call's: *refine 1 to refine from kept_lu->fq with *lu;
+ * returns the stage, 1: then begin the staged factorisation, 2: finish it
+ * first. */
+SPI_INLINE unsigned id_lu_plan(sp_leg_hold_t *kept_lu, const sp_lu6_t *lu, int *refine)
+{
+    unsigned stage = 0u;
+    *refine = lu->valid && kept_lu->held == SP_ALL_LEG_BITS;
+    if (kept_lu->lu_next.begun) {
+        stage = 2u; /* the last call began it: finished, it serves this call */
+    } else if (kept_lu->lu_age + 1u >= kept_lu->lu_keep) {
+        /* due: a staged factorisation begins after this call's
+         * refinement (its last with *lu), else one is made now */
+        stage = (kept_lu->lu_staged && kept_lu->lu_age + 1u == kept_lu->lu_keep) ? 1u : 0u;
+        *refine = *refine && stage != 0u;
+    }
+    if (!*refine) {
+        kept_lu->lu_next.begun = 0u; /* not finished: factorised afresh */
+    }
+    return stage;
+}
+
+/* Translation (eq 7): sum F_i u_i = m a - L + m g e_z, N in Q24, into
+ * b[0..2]. Each term is below 2^47 in magnitude (Q16 x Q24 >> 16, Q8 <<
+ * 16): the sum cannot overflow. */
+SPI_INLINE void id_translation(const sp_platform_t *platform, const sp_motion_t *motion, const sp_q8_t ext_force[3],
+                               int64_t b[SP_LEGS])
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        int64_t v = spi_round_away((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
+        if (k == 2u) {
+            v += spi_round_away((int64_t)platform->mass * platform->gravity, 16u);
+        }
+        if (ext_force != NULL) {
+            v -= (int64_t)ext_force[k] * 65536; /* Q8 -> Q24 */
+        }
+        b[k] = v;
+    }
+}
+
+/* One refinement step with the kept factorisation (still in *lu: only
+ * its valid flag was cleared), finishing the staged one first (stage 2)
+ * and beginning the next (stage 1): f = fq 2^16 + LU^-1 (b - J^T fq).
+ * Returns 0 when it cannot (the caller factorises), *st the solve's. */
+SPI_INLINE int id_refine(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_jacobian_t *jac, unsigned stage,
+                         const int64_t b[SP_LEGS], int64_t f[SP_LEGS], sp_status_t *st)
+{
+    int64_t r[SP_LEGS];
+    int64_t df[SP_LEGS];
+    int refine = 1;
+    unsigned k;
+    if (stage == 2u) {
+        /* the factorisation of the last call's J^T: one call old */
+        refine = (sp_lu6_factor_end(&kept_lu->lu_next, lu) == SP_OK);
+        kept_lu->lu_age = 0u;
+    }
+    if (!refine || !id_residual(jac, kept_lu->fq, b, r)) {
+        return 0;
+    }
+    lu->valid = 1u;
+    *st = sp_lu6_solve_grow(lu, r, df);
+    if (*st != SP_OK) {
+        return 0; /* factorise instead */
+    }
+    for (k = 0u; k < SP_LEGS; ++k) {
+        f[k] = (int64_t)kept_lu->fq[k] * 65536 + df[k]; /* below 2^41 + 2^56 */
+    }
+    kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
+    if (stage == 1u) {
+        /* this call's J^T, half factorised (the next call
+         * finishes it); a failure leaves it to a whole one */
+        (void)sp_lu6_factor_begin(jac, 1, &kept_lu->lu_next);
+    }
+    return 1;
+}
+
+/* The forces' solve J^T f = b (SP_E_OVERFLOW for a b beyond sp_solve6's
+ * range): refined with the kept factorisation (refine), else factorised
+ * afresh into *lu. */
+SPI_INLINE sp_status_t id_forces(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_jacobian_t *jac, int refine,
+                                 unsigned stage, const int64_t b[SP_LEGS], int64_t f[SP_LEGS])
+{
+    sp_status_t st = SP_OK;
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        if (b[k] >= (INT64_C(1) << 56) || b[k] <= -(INT64_C(1) << 56)) {
+            return SP_E_OVERFLOW; /* sp_solve6's range */
+        }
+    }
+    if (refine && id_refine(kept_lu, lu, jac, stage, b, f, &st)) {
+        return st;
+    }
+    st = sp_lu6_factor(jac, 1, lu);
+    if (st == SP_OK) {
+        st = sp_lu6_solve(lu, b, f); /* = sp_solve6(&jac, 1, b, f) */
+    }
+    if (kept_lu != NULL) {
+        kept_lu->lu_age = 0u;
+    }
+    return st;
+}
+
+/* The legs' terms into b and axial: the fast ones (at rest or moving;
+ * returns 1, with the legs' rates in rate when it is not NULL), else the
+ * wide ones (returns 0; none kept: *hold set to NULL). */
+SPI_INLINE int id_legs(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                       const sp_jacobian_t *jac, const sp_q24_t omega[3], const sp_q24_t omega_dot[3],
+                       int64_t b[SP_LEGS], sp_q16_t axial[SP_LEGS], sp_q24_t rate[SP_LEGS], sp_leg_hold_t **hold,
+                       unsigned keep, sp_flags_t *flags)
+{
+    sp_q24_t rt[SP_LEGS];
+    sp_q24_t *lr = (rate != NULL) ? rate : rt;
+    if ((SPI_LEG_TERMS_AT_REST && at_rest(motion, omega_dot) &&
+         leg_terms_at_rest(platform, ik, b, axial, lr, *hold, keep, flags)) ||
+        leg_terms(platform, ik, jac, motion, omega_dot, b, axial, lr, *hold, keep, flags)) {
+        return 1;
+    }
+    leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, flags);
+    if (*hold != NULL) {
+        (*hold)->fresh = (uint8_t)SP_ALL_LEG_BITS; /* every leg computed, none kept */
+        *hold = NULL;
+    }
+    return 0;
+}
+
+SPI_INLINE void id_zero(sp_q8_t force[SP_LEGS])
+{
+    unsigned k;
+    for (k = 0u; k < SP_LEGS; ++k) {
+        force[k] = 0;
+    }
+}
+
+/* The call's start: the factorisation's plan when *hold keeps it
+ * (*kept_lu, *stage and *refine: id_lu_plan), the legs whose terms *hold
+ * keeps (returned; none held again until the call succeeds), *lu invalid
+ * and the forces zero until then. */
+SPI_INLINE unsigned id_begin(sp_leg_hold_t *hold, sp_lu6_t *lu, unsigned refresh, sp_q8_t force[SP_LEGS],
+                             sp_leg_hold_t **kept_lu, unsigned *stage, int *refine)
+{
+    unsigned keep = 0u;
+    if (hold != NULL && hold->lu_keep > 1u) {
+        *kept_lu = hold;
+        *stage = id_lu_plan(hold, lu, refine);
+    }
+    if (hold != NULL) {
+        /* nothing computed yet: kept again only on success */
+        keep = (unsigned)hold->held & ~refresh & SP_ALL_LEG_BITS;
+        hold->held = 0u;
+        hold->fresh = (uint8_t)(SP_ALL_LEG_BITS & ~keep);
+    }
+    lu->valid = 0u;
+    id_zero(force);
+    return keep;
+}
+
+/* The forces F = f + axial into force (f's rounding kept in kept_lu->fq
+ * when it is not NULL), then the leg rates into rate when it asks for them
+ * and the legs' terms did not give them: SP_OK, else the error with the
+ * forces zeroed. */
+SPI_INLINE sp_status_t id_end(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS], sp_q8_t force[SP_LEGS],
+                              sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_ik_t *ik, const sp_motion_t *motion,
+                              sp_q24_t rate[SP_LEGS], int have_rates)
+{
+    sp_flags_t flags = 0u;
+    id_finish(f, axial, force, (kept_lu != NULL) ? kept_lu->fq : NULL, &flags);
+    if (flags == 0u && rate != NULL && !have_rates) {
+        sp_status_t st = sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate);
+        if (st != SP_OK) {
+            lu->valid = 0u;
+            id_zero(force);
+            return st;
+        }
+    }
+    if (flags != 0u) {
+        id_zero(force);
+        return sp_flags_status(flags);
+    }
+    return SP_OK;
+}
+
 /* sp_inverse_dynamics_jac, and the leg rates in rate when rate is not NULL
  * (sp_inverse_dynamics_rates). */
 static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -815,17 +997,17 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     sp_flags_t flags = 0u;
     sp_q24_t omega[3];
     sp_q24_t omega_dot[3];
-    int64_t h[3];
-    int64_t i_wdot[3];
-    int64_t torque_body[3];
     int64_t b[SP_LEGS];
     int64_t f[SP_LEGS];
     sp_q16_t axial[SP_LEGS] = {0, 0, 0, 0, 0, 0};
     sp_status_t st;
+    int64_t h[3];
+    int64_t i_wdot[3];
+    int64_t torque_body[3];
     unsigned k;
     int ovf = 0;
     int legs_on;
-    unsigned keep = 0u;
+    unsigned keep;
     sp_leg_hold_t *kept_lu = NULL; /* where the factorisation's age and the forces are kept */
     int refine = 0;                /* 1: refine from hold->fq with the kept *lu */
     unsigned stage = 0u;           /* 1: then begin the staged factorisation; 2: finish it first */
@@ -833,31 +1015,7 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     if (force == NULL || lu == NULL) {
         return SP_E_ARG;
     }
-    if (hold != NULL && hold->lu_keep > 1u) {
-        kept_lu = hold;
-        refine = lu->valid && hold->held == SP_ALL_LEG_BITS;
-        if (hold->lu_next.begun) {
-            stage = 2u; /* the last call began it: finished, it serves this call */
-        } else if (hold->lu_age + 1u >= hold->lu_keep) {
-            /* due: a staged factorisation begins after this call's
-             * refinement (its last with *lu), else one is made now */
-            stage = (hold->lu_staged && hold->lu_age + 1u == hold->lu_keep) ? 1u : 0u;
-            refine = refine && stage != 0u;
-        }
-        if (!refine) {
-            hold->lu_next.begun = 0u; /* not finished: factorised afresh */
-        }
-    }
-    if (hold != NULL) {
-        /* nothing computed yet: kept again only on success */
-        keep = (unsigned)hold->held & ~refresh & SP_ALL_LEG_BITS;
-        hold->held = 0u;
-        hold->fresh = (uint8_t)(SP_ALL_LEG_BITS & ~keep);
-    }
-    lu->valid = 0u;
-    for (k = 0u; k < SP_LEGS; ++k) {
-        force[k] = 0;
-    }
+    keep = id_begin(hold, lu, refresh, force, &kept_lu, &stage, &refine);
     if (platform == NULL || motion == NULL || ik == NULL || jac == NULL) {
         return SP_E_ARG;
     }
@@ -875,24 +1033,14 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
     if (st != SP_OK) {
         return st;
     }
-    /* Translation (eq 7): sum F_i u_i = m a - L + m g e_z, N in Q24. Each
-     * term is below 2^47 in magnitude (Q16 x Q24 >> 16, Q8 << 16): the sum
-     * cannot overflow. */
-    for (k = 0u; k < 3u; ++k) {
-        int64_t v = spi_round_away((int64_t)platform->mass * motion->acc[k], 16u); /* Q40 -> Q24 */
-        if (k == 2u) {
-            v += spi_round_away((int64_t)platform->mass * platform->gravity, 16u);
-        }
-        if (ext_force != NULL) {
-            v -= (int64_t)ext_force[k] * 65536; /* Q8 -> Q24 */
-        }
-        b[k] = v;
-    }
+    id_translation(platform, motion, ext_force, b);
     /* Rotation (eq 8 with the full tensor): I dw/dt + w x (I w), motion
      * frame, N m in Q24, then into the base frame with R = T^T. h and
      * I dw/dt are below 3 2^46, each product term of w x h below 2^55,
      * torque_body below 2^57 and R tau below 3 2^57 (|T| entries <= 1):
-     * exact int64 arithmetic, no saturation needed after inertia_times. */
+     * exact int64 arithmetic, no saturation needed after inertia_times.
+     * Here, not in a helper: out of id_solve it cost 8 instructions a call
+     * (QEMU icount, GCC 12 -O3). */
     inertia_times2(platform->inertia, omega, omega_dot, h, i_wdot, &ovf);
     torque_body[0] = i_wdot[0] + (mul_split_up(h[2], omega[1], 24u) - mul_split_up(h[1], omega[2], 24u));
     torque_body[1] = i_wdot[1] + (mul_split_up(h[0], omega[2], 24u) - mul_split_up(h[2], omega[0], 24u));
@@ -907,90 +1055,20 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
                     mul_split_up(torque_body[2], ik->rot.t[2][k], 30u);
     }
     if (legs_on) {
-        sp_q24_t rt[SP_LEGS];
-        sp_q24_t *lr = (rate != NULL) ? rate : rt;
-        if ((SPI_LEG_TERMS_AT_REST && at_rest(motion, omega_dot) &&
-             leg_terms_at_rest(platform, ik, b, axial, lr, hold, keep, &flags)) ||
-            leg_terms(platform, ik, jac, motion, omega_dot, b, axial, lr, hold, keep, &flags)) {
-            have_rates = 1;
-        } else {
-            leg_terms_wide(platform, ik, motion, omega, omega_dot, b, axial, &flags);
-            if (hold != NULL) {
-                hold->fresh = (uint8_t)SP_ALL_LEG_BITS; /* every leg computed, none kept */
-                hold = NULL;
-            }
-        }
+        have_rates = id_legs(platform, motion, ik, jac, omega, omega_dot, b, axial, rate, &hold, keep, &flags);
     }
     if (ovf || flags != 0u) {
         return SP_E_OVERFLOW;
     }
-    for (k = 0u; k < SP_LEGS; ++k) {
-        if (b[k] >= (INT64_C(1) << 56) || b[k] <= -(INT64_C(1) << 56)) {
-            return SP_E_OVERFLOW; /* sp_solve6's range */
-        }
-    }
-    if (refine) {
-        /* one refinement step with the kept factorisation (still in *lu:
-         * only its valid flag was cleared above) */
-        int64_t r[SP_LEGS];
-        int64_t df[SP_LEGS];
-        if (stage == 2u) {
-            /* the factorisation of the last call's J^T: one call old */
-            refine = (sp_lu6_factor_end(&kept_lu->lu_next, lu) == SP_OK);
-            kept_lu->lu_age = 0u;
-        }
-        refine = refine && id_residual(jac, kept_lu->fq, b, r);
-        if (refine) {
-            lu->valid = 1u;
-            st = sp_lu6_solve_grow(lu, r, df);
-            if (st == SP_OK) {
-                for (k = 0u; k < SP_LEGS; ++k) {
-                    f[k] = (int64_t)kept_lu->fq[k] * 65536 + df[k]; /* below 2^41 + 2^56 */
-                }
-                kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
-                if (stage == 1u) {
-                    /* this call's J^T, half factorised (the next call
-                     * finishes it); a failure leaves it to a whole one */
-                    (void)sp_lu6_factor_begin(jac, 1, &kept_lu->lu_next);
-                }
-            } else {
-                refine = 0; /* factorise instead */
-            }
-        }
-    }
-    if (!refine) {
-        st = sp_lu6_factor(jac, 1, lu);
-        if (st == SP_OK) {
-            st = sp_lu6_solve(lu, b, f); /* = sp_solve6(&jac, 1, b, f) */
-        }
-        if (kept_lu != NULL) {
-            kept_lu->lu_age = 0u;
-        }
-    }
+    st = id_forces(kept_lu, lu, jac, refine, stage, b, f);
     if (st != SP_OK) {
         return st;
     }
-    id_finish(f, axial, force, (kept_lu != NULL) ? kept_lu->fq : NULL, &flags);
-    if (flags == 0u && rate != NULL && !have_rates) {
-        st = sp_leg_rates(ik, motion->vel, motion->rpy_rate, rate);
-        if (st != SP_OK) {
-            lu->valid = 0u;
-            for (k = 0u; k < SP_LEGS; ++k) {
-                force[k] = 0;
-            }
-            return st;
-        }
-    }
-    if (flags != 0u) {
-        for (k = 0u; k < SP_LEGS; ++k) {
-            force[k] = 0;
-        }
-        return sp_flags_status(flags);
-    }
-    if (hold != NULL) {
+    st = id_end(f, axial, force, kept_lu, lu, ik, motion, rate, have_rates);
+    if (st == SP_OK && hold != NULL) {
         hold->held = (uint8_t)SP_ALL_LEG_BITS; /* kept and computed legs alike */
     }
-    return SP_OK;
+    return st;
 }
 
 sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
