@@ -37,6 +37,37 @@ static sp_status_t fail(sp_socketcan_t *p, const char *what, const char *ifname)
     return SP_E_IO;
 }
 
+/* The socket's options: CAN FD frames, the nflt filters flt, error
+ * frames, overflow counts and a large receive buffer. */
+static sp_status_t set_options(sp_socketcan_t *p, int fd, const struct can_filter *flt, uint32_t nflt)
+{
+    int on = 1;
+    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof on) < 0) {
+        return fail(p, "CAN_RAW_FD_FRAMES", "");
+    }
+    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, nflt ? (const void *)flt : NULL,
+                   (socklen_t)(nflt * sizeof flt[0])) < 0) {
+        return fail(p, "CAN_RAW_FILTER", "");
+    }
+    can_err_mask_t errmask = CAN_ERR_MASK;
+    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errmask, sizeof errmask) < 0) {
+        return fail(p, "CAN_RAW_ERR_FILTER", "");
+    }
+    if (setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
+        return fail(p, "SO_RXQ_OVFL", "");
+    }
+    /* Room for about a second of the three buses' traffic, so that a
+     * scheduling gap of a non-real-time host (user-mode Linux: tens of ms
+     * while other processes start) does not drop frames; best effort, the
+     * kernel caps it at net.core.rmem_max (SO_RCVBUFFORCE needs
+     * CAP_NET_ADMIN). Overflows are still counted (SO_RXQ_OVFL). */
+    int rcvbuf = 4 << 20;
+    if (setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof rcvbuf) < 0) {
+        (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    }
+    return SP_OK;
+}
+
 sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cfg[SP_CAN_BUSES])
 {
     if (p == NULL || cfg == NULL) {
@@ -90,28 +121,8 @@ sp_status_t sp_socketcan_open(sp_socketcan_t *p, const sp_socketcan_bus_cfg_t cf
             nflt++;
         }
     }
-    int on = 1;
-    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof on) < 0) {
-        return fail(p, "CAN_RAW_FD_FRAMES", "");
-    }
-    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, nflt ? (void *)flt : NULL, (socklen_t)(nflt * sizeof flt[0])) < 0) {
-        return fail(p, "CAN_RAW_FILTER", "");
-    }
-    can_err_mask_t errmask = CAN_ERR_MASK;
-    if (setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &errmask, sizeof errmask) < 0) {
-        return fail(p, "CAN_RAW_ERR_FILTER", "");
-    }
-    if (setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) {
-        return fail(p, "SO_RXQ_OVFL", "");
-    }
-    /* Room for about a second of the three buses' traffic, so that a
-     * scheduling gap of a non-real-time host (user-mode Linux: tens of ms
-     * while other processes start) does not drop frames; best effort, the
-     * kernel caps it at net.core.rmem_max (SO_RCVBUFFORCE needs
-     * CAP_NET_ADMIN). Overflows are still counted (SO_RXQ_OVFL). */
-    int rcvbuf = 4 << 20;
-    if (setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof rcvbuf) < 0) {
-        (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+    if (set_options(p, fd, flt, nflt) != SP_OK) {
+        return SP_E_IO;
     }
     /* ifindex 0: every CAN interface; frames of interfaces that are not ours
      * are dropped in sc_receive, frames sent name their interface. */
