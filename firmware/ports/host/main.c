@@ -233,120 +233,156 @@ static void tick(sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node, ru
     rs->ticks++;
 }
 
-int main(int argc, char **argv)
+/* The command line's options (the defaults in main). */
+typedef struct {
+    const char *ifs[SP_CAN_BUSES];
+    int lockstep, ff, timing, canopen, co_force_ff, co_cia402;
+    int co_divider;
+    long co_sp_timeout;
+    long fb_timeout;
+    long op_timeout;
+    int op_park;
+    int wrench_source;
+    unsigned long long max_ticks;
+    long timeout_ms;
+    const char *key_path;
+    int session_given;
+    uint32_t session;
+} options_t;
+
+/* An option without a value: 1 when a is one (set in *o), else 0. */
+static int parse_flag(const char *a, options_t *o)
 {
-    const char *ifs[SP_CAN_BUSES] = {"vcan0", "vcan1", "vcan2"};
-    int lockstep = 0, ff = 1, timing = 0, canopen = sp_co_layout_default.present ? 1 : 0, co_force_ff = 0,
-        co_cia402 = 0;
-    int co_divider = 0;
-    long co_sp_timeout = 0;
-    long fb_timeout = 0;
-    long op_timeout = -1;
-    int op_park = 0;
-    int wrench_source = -1;
-    unsigned long long max_ticks = 0;
-    long timeout_ms = 5000;
-    const char *key_path = NULL;
-    int session_given = 0;
-    uint32_t session = 0;
+    if (strcmp(a, "--lockstep") == 0) {
+        o->lockstep = 1;
+    } else if (strcmp(a, "--timing") == 0) {
+        o->timing = 1;
+    } else if (strcmp(a, "--no-feedforward") == 0) {
+        o->ff = 0;
+    } else if (strcmp(a, "--canopen") == 0) {
+        o->canopen = 1;
+    } else if (strcmp(a, "--canopen-force-ff") == 0) {
+        o->canopen = 1, o->co_force_ff = 1;
+    } else if (strcmp(a, "--cia402") == 0) {
+        o->canopen = 1, o->co_cia402 = 1;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* v as a decimal long into *x: 0 when characters follow the number. */
+static int parse_long(const char *v, long *x)
+{
+    char *end;
+    *x = strtol(v, &end, 10);
+    return *end == '\0';
+}
+
+/* An option a with its value v: 1 when a is one and v is valid for it
+ * (set in *o), else 0. */
+static int parse_value(const char *a, const char *v, options_t *o)
+{
+    char *end;
+    long x;
+    if (strcmp(a, "--canopen-sync-divider") == 0) {
+        int ok = parse_long(v, &x);
+        o->co_divider = (int)x, o->canopen = 1;
+        return ok && o->co_divider >= 1 && o->co_divider <= 10;
+    }
+    if (strcmp(a, "--canopen-timeout-ms") == 0) {
+        return parse_long(v, &o->co_sp_timeout) && o->co_sp_timeout >= 1 && o->co_sp_timeout <= 60000;
+    }
+    for (unsigned b = 0; b < SP_CAN_BUSES; b++) {
+        static const char *const names[SP_CAN_BUSES] = {"--ops", "--axis-a", "--axis-b"};
+        if (strcmp(a, names[b]) == 0) {
+            o->ifs[b] = v;
+            return 1;
+        }
+    }
+    if (strcmp(a, "--ticks") == 0) {
+        o->max_ticks = strtoull(v, &end, 10);
+        return *end == '\0';
+    }
+    if (strcmp(a, "--feedback-timeout") == 0) {
+        return parse_long(v, &o->fb_timeout) && o->fb_timeout >= 1 && o->fb_timeout <= 1000;
+    }
+    if (strcmp(a, "--operator-timeout") == 0) {
+        return parse_long(v, &o->op_timeout) && o->op_timeout >= 0 && o->op_timeout <= 600000;
+    }
+    if (strcmp(a, "--operator-reaction") == 0) {
+        o->op_park = (strcmp(v, "park") == 0);
+        return o->op_park || strcmp(v, "stop") == 0;
+    }
+    if (strcmp(a, "--wrench-source") == 0) {
+        o->wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS;
+        return strcmp(v, "sensor") == 0 || strcmp(v, "cylinders") == 0;
+    }
+    if (strcmp(a, "--key") == 0) {
+        o->key_path = v;
+        return 1;
+    }
+    if (strcmp(a, "--session") == 0) {
+        unsigned long long s = strtoull(v, &end, 0);
+        o->session = (uint32_t)s, o->session_given = 1;
+        return *end == '\0' && s <= UINT32_MAX;
+    }
+    if (strcmp(a, "--timeout-ms") == 0) {
+        return parse_long(v, &o->timeout_ms) && o->timeout_ms > 0;
+    }
+    return 0;
+}
+
+/* The command line into *o: 0, or 2 (a usage error, usage printed). */
+static int parse_args(int argc, char **argv, options_t *o)
+{
     for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
         const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
-        if (strcmp(a, "--lockstep") == 0) {
-            lockstep = 1;
-        } else if (strcmp(a, "--timing") == 0) {
-            timing = 1;
-        } else if (strcmp(a, "--no-feedforward") == 0) {
-            ff = 0;
-        } else if (strcmp(a, "--canopen") == 0) {
-            canopen = 1;
-        } else if (strcmp(a, "--canopen-force-ff") == 0) {
-            canopen = 1, co_force_ff = 1;
-        } else if (strcmp(a, "--cia402") == 0) {
-            canopen = 1, co_cia402 = 1;
-        } else if (v != NULL && strcmp(a, "--canopen-sync-divider") == 0) {
-            char *end;
-            co_divider = (int)strtol(v, &end, 10), i++, canopen = 1;
-            if (*end != '\0' || co_divider < 1 || co_divider > 10) {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--canopen-timeout-ms") == 0) {
-            char *end;
-            co_sp_timeout = strtol(v, &end, 10), i++;
-            if (*end != '\0' || co_sp_timeout < 1 || co_sp_timeout > 60000) {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--ops") == 0) {
-            ifs[0] = v, i++;
-        } else if (v != NULL && strcmp(a, "--axis-a") == 0) {
-            ifs[1] = v, i++;
-        } else if (v != NULL && strcmp(a, "--axis-b") == 0) {
-            ifs[2] = v, i++;
-        } else if (v != NULL && strcmp(a, "--ticks") == 0) {
-            char *end;
-            max_ticks = strtoull(v, &end, 10), i++;
-            if (*end != '\0') {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--feedback-timeout") == 0) {
-            char *end;
-            fb_timeout = strtol(v, &end, 10), i++;
-            if (*end != '\0' || fb_timeout < 1 || fb_timeout > 1000) {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--operator-timeout") == 0) {
-            char *end;
-            op_timeout = strtol(v, &end, 10), i++;
-            if (*end != '\0' || op_timeout < 0 || op_timeout > 600000) {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--operator-reaction") == 0) {
-            i++;
-            if (strcmp(v, "stop") == 0 || strcmp(v, "park") == 0) {
-                op_park = (strcmp(v, "park") == 0);
-            } else {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--wrench-source") == 0) {
-            i++;
-            if (strcmp(v, "cylinders") == 0 || strcmp(v, "sensor") == 0) {
-                wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS;
-            } else {
-                usage();
-                return 2;
-            }
-        } else if (v != NULL && strcmp(a, "--key") == 0) {
-            key_path = v, i++;
-        } else if (v != NULL && strcmp(a, "--session") == 0) {
-            char *end;
-            unsigned long long s = strtoull(v, &end, 0);
-            i++;
-            if (*end != '\0' || s > UINT32_MAX) {
-                usage();
-                return 2;
-            }
-            session = (uint32_t)s;
-            session_given = 1;
-        } else if (v != NULL && strcmp(a, "--timeout-ms") == 0) {
-            char *end;
-            timeout_ms = strtol(v, &end, 10), i++;
-            if (*end != '\0' || timeout_ms <= 0) {
-                usage();
-                return 2;
-            }
-        } else {
+        if (parse_flag(argv[i], o)) {
+            continue;
+        }
+        if (v == NULL || !parse_value(argv[i], v, o)) {
             usage();
             return 2;
         }
+        i++;
     }
+    return 0;
+}
 
-    if (canopen && co_setup((uint32_t)co_sp_timeout, co_force_ff, co_divider, co_cia402) != 0) {
+/* The machine key (cfg->auth_key set when there is one) and the
+ * authentication session: 0, or 1 (said why). */
+static int setup_auth(const options_t *o, sp_node_config_t *cfg, sp_auth_key_t *key)
+{
+    const char *key_used = NULL;
+    char key_err[256];
+    uint32_t session = o->session;
+    int have_key = sp_host_load_key(o->key_path, key->k, &key_used, key_err, sizeof key_err);
+    if (have_key < 0) {
+        fprintf(stderr, "sp_controller: %s\n", key_err);
+        return 1;
+    }
+    if (!o->session_given && sp_host_random_u32(&session) != 0) {
+        fprintf(stderr, "sp_controller: no random session value (getrandom: %s)\n", strerror(errno));
+        return 1;
+    }
+    if (have_key) {
+        cfg->auth_key = key;
+        cfg->auth_session = session;
+        printf("sp_controller: machine key from %s, session 0x%08x\n", key_used, (unsigned)session);
+    } else {
+        printf("sp_controller: no machine key (--key FILE or STEWART_KEY): motion commands will be refused "
+               "(no-key); STOP, PARK and ESTOP work\n");
+    }
+    fflush(stdout);
+    return 0;
+}
+
+/* The CANopen master (--canopen) and the node's configuration from the
+ * options: 0, or 1 (said why). */
+static int setup(const options_t *o, sp_node_config_t *cfg, sp_auth_key_t *key)
+{
+    if (o->canopen && co_setup((uint32_t)o->co_sp_timeout, o->co_force_ff, o->co_divider, o->co_cia402) != 0) {
         fprintf(stderr, "sp_controller: the CANopen master's configuration is not usable\n");
         return 1;
     }
@@ -356,70 +392,50 @@ int main(int argc, char **argv)
         fprintf(stderr,
                 "sp_controller: CANopen built-in layout (the config has no drives section), SYNC every %u ms; "
                 "its load on a real bus: stewart busload --builtin %s --sync-divider %u%s\n",
-                div, co_cia402 ? "cia402" : "cia408", div, co_force_ff ? " --force-ff" : "");
+                div, o->co_cia402 ? "cia402" : "cia408", div, o->co_force_ff ? " --force-ff" : "");
     }
-    static sp_node_config_t cfg;
-    static sp_node_t node;
-    if (sp_node_default_config(&cfg, &sp_platform_default) != SP_OK) {
+    if (sp_node_default_config(cfg, &sp_platform_default) != SP_OK) {
         fprintf(stderr, "sp_controller: the default platform is not usable\n");
         return 1;
     }
-    cfg.sync_master = (uint8_t)(lockstep ? 0 : 1);
-    cfg.ctrl.force_feedforward = (uint8_t)ff;
-    if (fb_timeout > 0) {
-        cfg.ctrl.feedback_timeout_ticks = (uint32_t)fb_timeout;
+    cfg->sync_master = (uint8_t)(o->lockstep ? 0 : 1);
+    cfg->ctrl.force_feedforward = (uint8_t)o->ff;
+    if (o->fb_timeout > 0) {
+        cfg->ctrl.feedback_timeout_ticks = (uint32_t)o->fb_timeout;
     }
-    if (co.on && sp_co_link_ctrl_config(&co.link, &cfg.ctrl) != SP_OK) {
+    if (co.on && sp_co_link_ctrl_config(&co.link, &cfg->ctrl) != SP_OK) {
         /* CANopen feedback comes every sync_divider ticks */
         fprintf(stderr, "sp_controller: the CANopen layout's SYNC divider is 0\n");
         return 1;
     }
-    if (op_timeout >= 0) {
-        cfg.ctrl.operator_timeout_ticks = (uint32_t)op_timeout;
+    if (o->op_timeout >= 0) {
+        cfg->ctrl.operator_timeout_ticks = (uint32_t)o->op_timeout;
     }
-    cfg.ctrl.operator_park = (uint8_t)op_park;
-    (void)sp_ctrl_set_wrench_source(&cfg.ctrl, (wrench_source >= 0) ? (uint8_t)wrench_source : sp_wrench_source_default,
+    cfg->ctrl.operator_park = (uint8_t)o->op_park;
+    (void)sp_ctrl_set_wrench_source(&cfg->ctrl,
+                                    (o->wrench_source >= 0) ? (uint8_t)o->wrench_source : sp_wrench_source_default,
                                     &sp_ft_mount_default); /* the config's source was validated when generated */
-    static sp_auth_key_t key;
-    const char *key_used = NULL;
-    char key_err[256];
-    int have_key = sp_host_load_key(key_path, key.k, &key_used, key_err, sizeof key_err);
-    if (have_key < 0) {
-        fprintf(stderr, "sp_controller: %s\n", key_err);
-        return 1;
-    }
-    if (!session_given && sp_host_random_u32(&session) != 0) {
-        fprintf(stderr, "sp_controller: no random session value (getrandom: %s)\n", strerror(errno));
-        return 1;
-    }
-    if (have_key) {
-        cfg.auth_key = &key;
-        cfg.auth_session = session;
-        printf("sp_controller: machine key from %s, session 0x%08x\n", key_used, (unsigned)session);
-    } else {
-        printf("sp_controller: no machine key (--key FILE or STEWART_KEY): motion commands will be refused "
-               "(no-key); STOP, PARK and ESTOP work\n");
-    }
-    fflush(stdout);
-    (void)sp_node_init(&node, &cfg);
+    return setup_auth(o, cfg, key);
+}
 
-    /* The controller listens to what is addressed to it. */
-    sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
-    memset(bc, 0, sizeof bc);
+/* The frames the controller listens to on each bus. */
+static void bus_filters(const options_t *o, sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES])
+{
+    memset(bc, 0, SP_CAN_BUSES * sizeof bc[0]);
     bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
-        ifs[0],
+        o->ifs[0],
         {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS},
         5u};
     for (int b = 1; b <= 2; b++) {
-        bc[b] = (sp_socketcan_bus_cfg_t){ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, lockstep ? 4u : 3u};
-        if (!lockstep) { /* we are the cycle master: only feedback */
+        bc[b] = (sp_socketcan_bus_cfg_t){o->ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, o->lockstep ? 4u : 3u};
+        if (!o->lockstep) { /* we are the cycle master: only feedback */
             bc[b].rx_ids[0] = 0x31u, bc[b].rx_ids[1] = 0x32u, bc[b].rx_ids[2] = 0x33u;
         }
-        if (canopen) { /* per node: EMCY, TPDO1, TPDO2, SDO answers, heartbeat (15 of 16 filters) */
+        if (o->canopen) { /* per node: EMCY, TPDO1, TPDO2, SDO answers, heartbeat (15 of 16 filters) */
             static const uint32_t bases[] = {SP_CO_COB_EMCY, SP_CO_COB_TPDO1, SP_CO_COB_TPDO2, SP_CO_COB_SDO_TX,
                                              SP_CO_COB_HEARTBEAT};
             bc[b].n_rx_ids = 0u;
-            if (lockstep) {
+            if (o->lockstep) {
                 bc[b].rx_ids[bc[b].n_rx_ids++] = SP_ID_SYNC; /* the plant's clock */
             }
             for (uint32_t k = 0; k < co.link.master.n_nodes; k++) {
@@ -433,7 +449,141 @@ int main(int argc, char **argv)
         }
     }
     bc[SP_BUS_AXIS_B].rx_ids[bc[SP_BUS_AXIS_B].n_rx_ids++] = SP_ID_FT_SENSOR;
+}
+
+/* Real-time mode: the controller is the cycle master, an absolute-deadline
+ * clock_nanosleep paces the ticks. */
+static void run_realtime(const options_t *o, sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node,
+                         run_stats_t *rs)
+{
+    struct timespec next;
+    clock_gettime(CLOCK_MONOTONIC, &next);
+    while (!sp_host_stop_requested() && (o->max_ticks == 0 || rs->ticks < o->max_ticks)) {
+        next.tv_nsec += 1000000;
+        if (next.tv_nsec >= 1000000000) {
+            next.tv_nsec -= 1000000000;
+            next.tv_sec++;
+        }
+        int r;
+        do {
+            r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL);
+        } while (r == EINTR && !sp_host_stop_requested());
+        /* late by more than a tick: count the missed deadlines, skip ahead */
+        struct timespec now;
+        clock_gettime(CLOCK_MONOTONIC, &now);
+        int64_t late = ((int64_t)now.tv_sec - next.tv_sec) * 1000000000 + (now.tv_nsec - next.tv_nsec);
+        if (late > 1000000) {
+            uint64_t missed = (uint64_t)(late / 1000000);
+            rs->misses += missed;
+            next = now;
+        }
+        drain(port, node);
+        tick(port, cfg, node, rs, 1);
+    }
+}
+
+/* Lockstep mode: a tick when the plant's SYNC has arrived on both axis
+ * buses. Returns 0, or 1 on an I/O error. */
+static int run_lockstep(const options_t *o, int fd, sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node,
+                        run_stats_t *rs)
+{
+    struct pollfd pfd = {fd, POLLIN, 0}; /* one socket serves all buses */
+    long silent_ms = 0;                  /* no clock reads per tick: inside user-mode Linux each one is a system call */
+    while (!sp_host_stop_requested() && (o->max_ticks == 0 || rs->ticks < o->max_ticks)) {
+        int r = poll(&pfd, 1, 100);
+        if (r < 0 && errno != EINTR) {
+            perror("sp_controller: poll");
+            return 1;
+        }
+        if (r == 0) {
+            silent_ms += 100;
+        }
+        drain(port, node);
+        uint32_t t;
+        if (sp_node_cycle_ready(node, &t)) {
+            /* One socket serves all buses, so frames arrive in the order
+             * they were sent: what the plant sent before this SYNC (an
+             * operator command) has been read already, and a command
+             * always lands in the same tick. */
+            tick(port, cfg, node, rs, o->timing);
+            silent_ms = 0;
+        } else if (silent_ms >= o->timeout_ms && (rs->ticks > 0u || silent_ms >= FIRST_SYNC_TIMEOUT_MS)) {
+            fprintf(stderr, "sp_controller: no SYNC from the plant for %ld ms, stopping\n", silent_ms);
+            break;
+        }
+    }
+    return 0;
+}
+
+/* The CANopen master's nodes at the end (--canopen). */
+static void print_canopen(void)
+{
+    printf("sp_controller canopen: ready %u", (unsigned)co.out.ready);
+    for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
+        const sp_co_node_t *nd = &co.m.node[k];
+        printf(", node %u phase %u status 0x%04x %s", (unsigned)co.link.master.node[k].node_id, (unsigned)nd->phase,
+               (unsigned)nd->status, sp_co_fault_name((sp_co_fault_code_t)nd->fault.code));
+        if (nd->fault.code == SP_CO_F_SDO_ABORT) {
+            printf(" 0x%04X.%u %s", (unsigned)nd->fault.index, (unsigned)nd->fault.sub,
+                   sp_co_sdo_abort_name(nd->fault.detail));
+        } else if (nd->fault.code == SP_CO_F_EMCY) {
+            printf(" 0x%04X (%s)", (unsigned)nd->fault.index, sp_co_emcy_class_name(nd->fault.index));
+        }
+    }
+    printf("\n");
+}
+
+/* The run's summary: ticks and timing, frames, commands, the CANopen
+ * nodes and the buses. */
+static void print_summary(const options_t *o, sp_can_port_t *port, const sp_node_t *node, const run_stats_t *rs)
+{
+    printf("sp_controller summary: ticks %llu, state %s, faults 0x%04x, deadline misses %llu, "
+           "tick compute mean %lld ns worst %lld ns (%llu ticks timed), tx busy %llu\n",
+           (unsigned long long)rs->ticks, sp_state_name(node->out.state), (unsigned)node->out.faults,
+           (unsigned long long)rs->misses, rs->timed ? (long long)(rs->sum_ns / (int64_t)rs->timed) : 0LL,
+           (long long)rs->worst_ns, (unsigned long long)rs->timed, (unsigned long long)rs->tx_busy);
+    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u, ft samples %u", node->stats.accepted,
+           node->stats.lost, node->stats.stale, node->stats.saturated, node->stats.ft_samples);
+    for (int e = 1; e < SP_PROTO_ERRORS; e++) {
+        printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), node->stats.rejected[e]);
+    }
+    printf("\n");
+    printf("sp_controller commands: refused %u, queue overflow %u\n", node->stats.cmd_refused,
+           node->stats.cmd_overflow);
+    if (co.on) {
+        print_canopen();
+    }
+    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
+        sp_bus_status_t bs;
+        (void)port->bus_status(port->ctx, b, &bs);
+        printf("sp_controller bus %s: tx %u rx %u dropped %u overruns %u error frames %u bus-off %u\n", o->ifs[b],
+               bs.tx_frames, bs.rx_frames, bs.tx_dropped, bs.rx_overruns, bs.error_frames, bs.bus_off);
+    }
+}
+
+int main(int argc, char **argv)
+{
+    options_t o = {.ifs = {"vcan0", "vcan1", "vcan2"},
+                   .ff = 1,
+                   .canopen = sp_co_layout_default.present ? 1 : 0,
+                   .op_timeout = -1,
+                   .wrench_source = -1,
+                   .timeout_ms = 5000};
+    static sp_node_config_t cfg;
+    static sp_node_t node;
+    static sp_auth_key_t key;
     static sp_socketcan_t sc;
+    sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
+    if (parse_args(argc, argv, &o) != 0) {
+        return 2;
+    }
+    if (setup(&o, &cfg, &key) != 0) {
+        return 1;
+    }
+    (void)sp_node_init(&node, &cfg);
+
+    /* The controller listens to what is addressed to it. */
+    bus_filters(&o, bc);
     if (sp_socketcan_open(&sc, bc) != SP_OK) {
         fprintf(stderr, "sp_controller: %s\n", sc.error);
         return 1;
@@ -443,104 +593,23 @@ int main(int argc, char **argv)
         perror("sp_controller: cannot catch SIGINT/SIGTERM");
     }
     fprintf(stderr, "sp_controller: %s mode on %s %s %s, force feed-forward %s, wrench source %s%s\n",
-            lockstep ? "lockstep" : "real-time", ifs[0], ifs[1], ifs[2], ff ? "on" : "off",
+            o.lockstep ? "lockstep" : "real-time", o.ifs[0], o.ifs[1], o.ifs[2], o.ff ? "on" : "off",
             cfg.ctrl.wrench_source == SP_WRENCH_SENSOR ? "sensor" : "cylinders",
-            canopen
-                ? (sp_co_layout_default.present ? ", drives: CANopen as the platform config's drives section"
-                                                : (co_cia402 ? ", drives: CiA 402 nodes 1-3 (axis_a) and 4-6 (axis_b)"
-                                                             : ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)"))
-                : "");
+            o.canopen ? (sp_co_layout_default.present
+                             ? ", drives: CANopen as the platform config's drives section"
+                             : (o.co_cia402 ? ", drives: CiA 402 nodes 1-3 (axis_a) and 4-6 (axis_b)"
+                                            : ", drives: CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)"))
+                      : "");
 
     run_stats_t rs;
     memset(&rs, 0, sizeof rs);
     int rc = 0;
-    if (!lockstep) {
-        struct timespec next;
-        clock_gettime(CLOCK_MONOTONIC, &next);
-        while (!sp_host_stop_requested() && (max_ticks == 0 || rs.ticks < max_ticks)) {
-            next.tv_nsec += 1000000;
-            if (next.tv_nsec >= 1000000000) {
-                next.tv_nsec -= 1000000000;
-                next.tv_sec++;
-            }
-            int r;
-            do {
-                r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, NULL);
-            } while (r == EINTR && !sp_host_stop_requested());
-            /* late by more than a tick: count the missed deadlines, skip ahead */
-            struct timespec now;
-            clock_gettime(CLOCK_MONOTONIC, &now);
-            int64_t late = ((int64_t)now.tv_sec - next.tv_sec) * 1000000000 + (now.tv_nsec - next.tv_nsec);
-            if (late > 1000000) {
-                uint64_t missed = (uint64_t)(late / 1000000);
-                rs.misses += missed;
-                next = now;
-            }
-            drain(&port, &node);
-            tick(&port, &cfg, &node, &rs, 1);
-        }
+    if (!o.lockstep) {
+        run_realtime(&o, &port, &cfg, &node, &rs);
     } else {
-        struct pollfd pfd = {sp_socketcan_fd(&sc), POLLIN, 0}; /* one socket serves all buses */
-        long silent_ms = 0; /* no clock reads per tick: inside user-mode Linux each one is a system call */
-        while (!sp_host_stop_requested() && (max_ticks == 0 || rs.ticks < max_ticks)) {
-            int r = poll(&pfd, 1, 100);
-            if (r < 0 && errno != EINTR) {
-                perror("sp_controller: poll");
-                rc = 1;
-                break;
-            }
-            if (r == 0) {
-                silent_ms += 100;
-            }
-            drain(&port, &node);
-            uint32_t t;
-            if (sp_node_cycle_ready(&node, &t)) {
-                /* One socket serves all buses, so frames arrive in the order
-                 * they were sent: what the plant sent before this SYNC (an
-                 * operator command) has been read already, and a command
-                 * always lands in the same tick. */
-                tick(&port, &cfg, &node, &rs, timing);
-                silent_ms = 0;
-            } else if (silent_ms >= timeout_ms && (rs.ticks > 0u || silent_ms >= FIRST_SYNC_TIMEOUT_MS)) {
-                fprintf(stderr, "sp_controller: no SYNC from the plant for %ld ms, stopping\n", silent_ms);
-                break;
-            }
-        }
+        rc = run_lockstep(&o, sp_socketcan_fd(&sc), &port, &cfg, &node, &rs);
     }
-
-    printf("sp_controller summary: ticks %llu, state %s, faults 0x%04x, deadline misses %llu, "
-           "tick compute mean %lld ns worst %lld ns (%llu ticks timed), tx busy %llu\n",
-           (unsigned long long)rs.ticks, sp_state_name(node.out.state), (unsigned)node.out.faults,
-           (unsigned long long)rs.misses, rs.timed ? (long long)(rs.sum_ns / (int64_t)rs.timed) : 0LL,
-           (long long)rs.worst_ns, (unsigned long long)rs.timed, (unsigned long long)rs.tx_busy);
-    printf("sp_controller frames: accepted %u, lost %u, stale %u, saturated %u, ft samples %u", node.stats.accepted,
-           node.stats.lost, node.stats.stale, node.stats.saturated, node.stats.ft_samples);
-    for (int e = 1; e < SP_PROTO_ERRORS; e++) {
-        printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), node.stats.rejected[e]);
-    }
-    printf("\n");
-    printf("sp_controller commands: refused %u, queue overflow %u\n", node.stats.cmd_refused, node.stats.cmd_overflow);
-    if (co.on) {
-        printf("sp_controller canopen: ready %u", (unsigned)co.out.ready);
-        for (uint8_t k = 0; k < co.link.master.n_nodes; k++) {
-            const sp_co_node_t *nd = &co.m.node[k];
-            printf(", node %u phase %u status 0x%04x %s", (unsigned)co.link.master.node[k].node_id, (unsigned)nd->phase,
-                   (unsigned)nd->status, sp_co_fault_name((sp_co_fault_code_t)nd->fault.code));
-            if (nd->fault.code == SP_CO_F_SDO_ABORT) {
-                printf(" 0x%04X.%u %s", (unsigned)nd->fault.index, (unsigned)nd->fault.sub,
-                       sp_co_sdo_abort_name(nd->fault.detail));
-            } else if (nd->fault.code == SP_CO_F_EMCY) {
-                printf(" 0x%04X (%s)", (unsigned)nd->fault.index, sp_co_emcy_class_name(nd->fault.index));
-            }
-        }
-        printf("\n");
-    }
-    for (uint8_t b = 0; b < SP_CAN_BUSES; b++) {
-        sp_bus_status_t bs;
-        (void)port.bus_status(port.ctx, b, &bs);
-        printf("sp_controller bus %s: tx %u rx %u dropped %u overruns %u error frames %u bus-off %u\n", ifs[b],
-               bs.tx_frames, bs.rx_frames, bs.tx_dropped, bs.rx_overruns, bs.error_frames, bs.bus_off);
-    }
+    print_summary(&o, &port, &node, &rs);
     sp_socketcan_close(&sc);
     return rc;
 }
