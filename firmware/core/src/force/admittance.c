@@ -255,27 +255,18 @@ static int32_t limit_velocity(const sp_admit_axis_t *ax, int64_t v, sp_q24_t d, 
     return (int32_t)v;
 }
 
-/* The axes the law runs on this tick: the forced ones and the others
- * still moving. The axes not forced lose their contact and secant; those
- * at rest on the position reference stay there (the return to d = 0 and
- * the brake both leave v = 0, d = 0, inside every bound), so under force
- * control on one or two axes most are skipped. */
-SPI_INLINE uint8_t admit_work(sp_admit_t *st, uint8_t forced_mask)
+/* The pose x (Q24) through the wrench filter's sections into s->x_f, for
+ * the secant; primed with the measurement the first tick the axis (bit)
+ * is forced. */
+SPI_INLINE void filter_pose(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit_axis_state_t *s, uint8_t bit,
+                            sp_q24_t x)
 {
-    uint8_t work = forced_mask;
-    for (unsigned k = 0; k < SP_AXES; ++k) {
-        sp_admit_axis_state_t *s = &st->axis[k];
-        if ((forced_mask & (1u << k)) == 0u) {
-            s->in_contact = 0u;
-            s->k_hat = 0;
-            if (s->d == 0 && s->v == 0) {
-                s->a = 0;
-            } else {
-                work = (uint8_t)(work | (1u << k));
-            }
-        }
+    const int primed = (st->primed & bit) != 0u;
+    for (unsigned n = 0; n < 4u; ++n) {
+        int32_t in = (n == 0u) ? x : s->x_f[n - 1u];
+        s->x_f[n] = primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
     }
-    return work;
+    st->primed |= bit;
 }
 
 /* The damping a forced axis should use: the free-space one off contact,
@@ -390,27 +381,35 @@ sp_status_t sp_admit_step(const sp_admit_config_t *cfg, sp_admit_t *st, sp_admit
     const int32_t dt_q38 = st->dt_q38;
     const int64_t rate_q16 = st->rate_q16;
     const int have_x = x_meas != NULL;
+    /* the axes not forced: no contact, no secant, not primed; those at rest
+     * on the position reference stay there (the return to d = 0 and the
+     * brake both leave v = 0, d = 0, inside every bound), so the law runs on
+     * the forced axes and the others still moving only */
     const uint8_t forced_mask = (mode == SP_ADMIT_FORCE) ? (uint8_t)(mask & 0x3Fu) : 0u;
+    uint8_t work = forced_mask;
     st->primed &= forced_mask;
-    const uint8_t work = admit_work(st, forced_mask);
+    for (unsigned k = 0; k < SP_AXES; ++k) {
+        sp_admit_axis_state_t *s = &st->axis[k];
+        if ((forced_mask & (1u << k)) == 0u) {
+            s->in_contact = 0u;
+            s->k_hat = 0;
+            if (s->d == 0 && s->v == 0) {
+                s->a = 0;
+            } else {
+                work = (uint8_t)(work | (1u << k));
+            }
+        }
+    }
     for (unsigned k = 0; k < SP_AXES; ++k) {
         const sp_admit_axis_t *ax = &cfg->axis[k];
         sp_admit_axis_state_t *s = &st->axis[k];
         const uint8_t bit = (uint8_t)(1u << k);
         const int forced = (forced_mask & bit) != 0u;
-
         if ((work & bit) == 0u) {
             continue;
         }
         if (forced && have_x) {
-            /* the pose through the wrench filter's sections, for the secant;
-             * primed with the measurement the first tick the axis is forced */
-            const int primed = (st->primed & bit) != 0u;
-            for (unsigned n = 0; n < 4u; ++n) {
-                int32_t in = (n == 0u) ? x_meas[k] : s->x_f[n - 1u];
-                s->x_f[n] = primed ? spi_lowpass_section(s->x_f[n], in, cfg->filter_alpha) : in;
-            }
-            st->primed |= bit;
+            filter_pose(cfg, st, s, bit, x_meas[k]);
         }
         if (forced) {
             int32_t damping = axis_damping(cfg, s, (contact & bit) != 0u, w_ext[k], have_x);
