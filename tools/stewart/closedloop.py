@@ -23,10 +23,10 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import REPO_ROOT
 from . import protocol as pr
+from . import resources
 
-DEFAULT_BUILD = REPO_ROOT / "build" / "host-release"
+DEFAULT_BUILD = resources.host_build()
 AXES = pr.axis_names()
 
 

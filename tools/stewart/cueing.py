@@ -47,11 +47,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import REPO_ROOT
 from . import config as cfg
-from . import model
+from . import model, resources
 
-DEFAULT_PLATFORM = REPO_ROOT / "config" / "platform_default.json"
+DEFAULT_PLATFORM = resources.default_platform()
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 #: Telemetry CSV columns (the header line is required).
 TELEMETRY_COLUMNS = ("t", "fx", "fy", "fz", "wx", "wy", "wz")

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from .. import REPO_ROOT
 from .. import config as cfg
+from .. import resources
 from ..protocol import Protocol
 from .csvout import TruthText, write_signals_csv
 from .decode import LogData, read_log
@@ -21,7 +21,7 @@ from .plots import plot_cylinders, plot_tracking
 from .segments import Segment, find_segments
 from .truth import attach_truth, read_truth
 
-DEFAULT_PLATFORM = REPO_ROOT / "config" / "platform_default.json"
+DEFAULT_PLATFORM = resources.default_platform()
 
 
 @dataclass

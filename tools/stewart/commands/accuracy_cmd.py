@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from .. import REPO_ROOT
+from .. import resources
 from .. import config as cfg
 
 
@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("accuracy", help="errors of the fixed-point core against the float64 model")
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"))
+    p.add_argument("--config", default=str(resources.default_platform()))
     p.add_argument("-n", type=int, default=10000, help="number of random poses (default 10000)")
     p.add_argument("--seed", type=int, default=1)
     p.set_defaults(func=run)

@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
 
 def _run_label(summary, fallback: str) -> str:
@@ -120,7 +120,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("log", help="CAN log in candump -L format (vcan0 ops, vcan1 axis_a, vcan2 axis_b)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--truth", help="the plant's truth CSV (tick, pose, leg lengths, forces)")
-    p.add_argument("--platform", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--platform", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--delay-ticks", type=int, default=0,
                    help="tracking error = estimate(t) - reference(t - d); default d = 0 "

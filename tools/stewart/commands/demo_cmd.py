@@ -63,7 +63,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
 
 def _tick_compute(build: Path) -> str | None:
@@ -252,8 +252,8 @@ def run(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the closed-loop demo: controller + simulated hexapod over vcan, plots",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", default=str(REPO_ROOT / "out" / "demo"), help="output directory (default out/demo)")
-    p.add_argument("--build", default=str(REPO_ROOT / "build" / "host-release"),
+    p.add_argument("--out", default=str(resources.source_path("out", "demo")), help="output directory (default out/demo)")
+    p.add_argument("--build", default=str(resources.host_build()),
                    help="build directory with sp_controller and hs_sim (default build/host-release)")
     p.add_argument("--quick", action="store_true", help="two periods per motion instead of four")
     p.add_argument("--no-compare", action="store_true", help="skip the run without force feed-forward")

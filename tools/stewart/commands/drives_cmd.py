@@ -25,7 +25,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .. import REPO_ROOT
+from .. import resources
 
 
 def _err(msg: str) -> None:
@@ -169,7 +169,7 @@ def run_config(args) -> int:
 def run_doc(args) -> int:
     from ..drives import doc
 
-    page = REPO_ROOT / "docs" / "canopen.md"
+    page = resources.source_path("docs", "canopen.md")
     if not args.write:
         print(doc.markdown(), end="")
         return 0
@@ -198,7 +198,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="do not ask for the chamber pressures (position-only CiA 408 drive)")
     ck.set_defaults(func=run_check)
     cf = s.add_parser("config", help="write the controller's configuration to the drives and read it back")
-    cf.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    cf.add_argument("--config", default=str(resources.default_platform()),
                     help="platform config with a drives section")
     cf.add_argument("--bus", help="the config's bus the adapter is on (needed when there are several)")
     cf.add_argument("--node", type=int, help="only this node id")

@@ -31,7 +31,7 @@ import json
 import sys
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
 PROG = "stewart identify"
 
@@ -125,7 +125,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log", help="CAN log of a closed-loop run (candump -L)")
     p.add_argument("--out", help="the identified config to write (JSON)")
     p.add_argument("--scenario", metavar="OUT.txt", help="write an excitation scenario (and its CSV)")
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--config", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--bus", help="interfaces of the buses, as for stewart analyze")
     p.add_argument("--min-leg-rate", type=float, default=None,

@@ -241,10 +241,10 @@ def _prepare(args):
 
 
 def _home() -> list[float]:
-    from .. import REPO_ROOT
     from .. import config as cf
+    from .. import resources
 
-    return list(cf.load(REPO_ROOT / "config" / "platform_default.json").home)
+    return list(cf.load(resources.default_platform()).home)
 
 
 def _report(ans, what: str = "") -> None:

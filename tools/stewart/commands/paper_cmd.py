@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import REPO_ROOT
+from .. import resources
 from .. import config as cfg
 from .. import model
 from ..core import Core
@@ -143,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("paper", help="the paper's Figures 4 and 5 (stretch and force of the six cylinders)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--config", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--out", default="out/paper", help="output directory (default: out/paper)")
     p.set_defaults(func=run)

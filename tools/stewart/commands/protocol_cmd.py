@@ -20,10 +20,10 @@ import sys
 from decimal import Decimal
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
-VECTORS_PATH = REPO_ROOT / "protocol" / "test_vectors.json"
-DOC_PATH = REPO_ROOT / "docs" / "protocol.md"
+VECTORS_PATH = resources.source_path("protocol", "test_vectors.json")
+DOC_PATH = resources.source_path("docs", "protocol.md")
 
 #: Realistic values per message (physical units) for the "typical" vectors.
 TYPICAL = {
@@ -256,7 +256,7 @@ def make_doc(proto=None) -> str:
     db = proto.db
     rel = proto.dbc_path.resolve()
     try:
-        rel = rel.relative_to(REPO_ROOT)
+        rel = rel.relative_to(resources.source_path())
     except ValueError:
         pass
     out: list[str] = []

@@ -32,7 +32,7 @@ import argparse
 
 import numpy as np
 
-from stewart import REPO_ROOT, model
+from stewart import model, resources
 from stewart import config as cfg
 
 
@@ -186,7 +186,7 @@ AGED_SPEEDS = ((0.28, 0.0), (0.0, 0.28), (0.3, 0.15), (0.5, 0.0), (0.0, 0.3), (0
 
 def firmware_limit() -> float:
     """SP_ESTIMATE_STEP_MAX of sp/estimate.h, m."""
-    text = (REPO_ROOT / "firmware" / "core" / "include" / "sp" / "estimate.h").read_text()
+    text = resources.firmware_header("estimate.h").read_text()
     for line in text.splitlines():
         if line.startswith("#define SP_ESTIMATE_STEP_MAX"):
             return int(line.split("(sp_q24_t)")[1].rstrip(")").strip()) / 2.0**24
@@ -202,7 +202,7 @@ def main(argv=None) -> int:
                          "this many ticks old, at the speeds of docs/model.md's table (e.g. --aged 0 5 6)")
     args = ap.parse_args(argv)
     if args.aged:
-        platform = cfg.load(REPO_ROOT / "config" / "platform_default.json")
+        platform = cfg.load(resources.default_platform())
         fw = firmware_limit()
         print(f"|L_meas - L_ref|_inf = {fw * 1e3:.4f} mm (SP_ESTIMATE_STEP_MAX), {args.samples} samples a cell; "
               "worst step error (um, urad) by the factorisation's age")
@@ -214,7 +214,7 @@ def main(argv=None) -> int:
                 cells.append(f"{ep * 1e6:.2f}, {er * 1e6:.2f}")
             print(f"{lin:.2f}, {ang:.2f} | " + " | ".join(cells))
         return 0
-    platform = cfg.load(REPO_ROOT / "config" / "platform_default.json")
+    platform = cfg.load(resources.default_platform())
     b, thr = bound(platform, args.samples, args.seed)
     print(f"1 um / 1 urad bound on |L_meas - L_ref|_inf: {b * 1e3:.4f} mm "
           f"(median threshold {np.median(thr) * 1e3:.3f} mm, {args.samples} samples)")
