@@ -14,6 +14,8 @@ import signal
 import sys
 import time
 
+from .. import busopts
+
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 TICK_S = 0.001
 
@@ -21,16 +23,7 @@ TICK_S = 0.001
 def register(sub) -> None:
     p = sub.add_parser("op", help="operator node: engage, run, move, stream, stop, park, estop, "
                                   "reset, feedforward, force, guide, position, tare, status, watch, record")
-    p.add_argument("-i", "--interface", help="python-can interface (default: python-can's "
-                   "configuration, else socketcan)")
-    p.add_argument("-c", "--channel", help="channel (default: python-can's configuration, else vcan0)")
-    p.add_argument("-b", "--bitrate", type=int, help="nominal (arbitration) bit rate, bit/s")
-    p.add_argument("--data-bitrate", type=int, help="CAN FD data-phase bit rate, bit/s")
-    fd = p.add_mutually_exclusive_group()
-    fd.add_argument("--fd", dest="fd", action="store_true", default=None, help="CAN FD (the default)")
-    fd.add_argument("--no-fd", dest="fd", action="store_false", help="classic CAN (the protocol will not fit)")
-    p.add_argument("--can-config", metavar="FILE", help="python-can configuration file")
-    p.add_argument("--context", help="section of the python-can configuration file")
+    busopts.add_arguments(p, "ops")
     p.add_argument("--timeout", type=float, default=None, help="seconds to wait for the answer")
     p.add_argument("--key", metavar="FILE", help="the machine key (32 hex digits, mode 600) that signs the "
                    "commands that start or change motion (default: the file $STEWART_KEY names; "
@@ -146,7 +139,7 @@ class _Interrupt:
 
 
 def run(args) -> int:
-    from ..operator.bus import BusError, BusOptions, open_bus
+    from ..busopts import BusError, open_bus
     from ..operator.node import OperatorNode, OpError
     from ..operator.sources import SourceError
 
@@ -154,8 +147,7 @@ def run(args) -> int:
         _err("an action is needed: engage, run, move, stream, stop, park, estop, reset, feedforward, "
              "force, guide, position, tare, status, watch, record (stewart op --help)")
         return 2
-    opts = BusOptions(args.interface, args.channel, args.bitrate, args.data_bitrate, args.fd,
-                      args.can_config, args.context)
+    opts = busopts.options(args)
     # files first: a bad file is reported before the bus is touched
     try:
         prepared = _prepare(args)
