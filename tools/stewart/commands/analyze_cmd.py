@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import resources
+from .. import progress, resources
 
 
 def _run_label(summary, fallback: str) -> str:
@@ -34,11 +34,11 @@ def _run_label(summary, fallback: str) -> str:
 
 class _Progress:
     """Prints each step with the time so far on stderr, from the first step
-    that starts after ``quiet_s`` (a short run prints nothing)."""
+    that starts after ``quiet_s`` (a short run prints nothing; --quiet nothing)."""
 
-    def __init__(self, quiet_s: float = 1.0):
+    def __init__(self, quiet: bool, quiet_s: float = 1.0):
         self.t0 = time.monotonic()
-        self.quiet_s = quiet_s
+        self.quiet_s = float("inf") if quiet else quiet_s
 
     def __call__(self, text: str) -> None:
         dt = time.monotonic() - self.t0
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         res = analyze(args.log, args.out, truth=args.truth, platform=args.platform,
                       delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
-                      progress=_Progress(), frames=frames)
+                      progress=_Progress(args.quiet), frames=frames)
     except (cfg.ConfigError, ValueError, OSError) as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             res2 = analyze(args.compare, Path(args.out) / "run2", platform=args.platform,
                            delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
-                           progress=_Progress())
+                           progress=_Progress(args.quiet))
         except (cfg.ConfigError, ValueError, OSError) as exc:
             print(f"stewart analyze: {args.compare}: {exc}", file=sys.stderr)
             return 2
@@ -129,4 +129,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default ops=vcan0,axis_a=vcan1,axis_b=vcan2)")
     p.add_argument("--compare", metavar="LOG2", help="a second run (e.g. feed-forward off) to overlay")
     p.add_argument("--no-plots", action="store_true", help="CSV and summary only")
+    progress.add_quiet(p)
     p.set_defaults(func=run)

@@ -63,7 +63,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import resources
+from .. import progress, resources
 
 
 def _tick_compute(build: Path) -> str | None:
@@ -78,6 +78,12 @@ def _tick_compute(build: Path) -> str | None:
         if line.startswith("controller tick"):
             return line.strip()
     return None
+
+
+def _say(args: argparse.Namespace, text: str) -> None:
+    """A step of the demo (none with --quiet)."""
+    if not args.quiet:
+        print(text, flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -130,10 +136,11 @@ def run(args: argparse.Namespace) -> int:
         (out / "slide.csv").write_text(fc.slide_csv())
         for source in ("sensor", "cylinders"):
             specs.append(cl.RunSpec(f"force_{source}", fc.demo_scenario(), wrench_source=source))
-    print(f"demo: {len(specs)} lockstep run(s) of {cycles / 0.5 + 2:.0f} s of motion each "
-          f"({', '.join(s.name for s in specs)}), output in {out}/", flush=True)
+    _say(args, f"demo: {len(specs)} lockstep run(s) of {cycles / 0.5 + 2:.0f} s of motion each "
+         f"({', '.join(s.name for s in specs)}), output in {out}/")
     t0 = time.monotonic()
-    results = {r.spec.name: r for r in cl.run(specs, out, build=build, progress=True, timeout=args.timeout)}
+    results = {r.spec.name: r for r in cl.run(specs, out, build=build, progress=not args.quiet,
+                                              timeout=args.timeout)}
     t_runs = time.monotonic() - t0
     # the force hold on the cylinders' estimate does not hold yet (docs/force_control.md): its run is
     # reported, not required
@@ -146,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
     if not main.log.exists():
         return 1
 
-    print("demo: decoding the CAN log and drawing the plots", flush=True)
+    _say(args, "demo: decoding the CAN log and drawing the plots")
     res = analyze(main.log, out, truth=main.truth if main.truth.exists() else None)
     lines = [format_summary(res.summary), ""]
     figures: dict = {"runs": {n: r.figures for n, r in results.items()}}
@@ -252,7 +259,8 @@ def run(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the closed-loop demo: controller + simulated hexapod over vcan, plots",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", default=str(resources.source_path("out", "demo")), help="output directory (default out/demo)")
+    p.add_argument("--out", default=str(resources.source_path("out", "demo")),
+                   help="output directory (default out/demo)")
     p.add_argument("--build", default=str(resources.host_build()),
                    help="build directory with sp_controller and hs_sim (default build/host-release)")
     p.add_argument("--quick", action="store_true", help="two periods per motion instead of four")
@@ -265,4 +273,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="the drives as CiA 402 nodes (cyclic synchronous position) behind the CANopen master, "
                         "compared with the native protocol (docs/canopen.md)")
     p.add_argument("--timeout", type=float, default=1800, help="seconds for all runs (default 1800)")
+    progress.add_quiet(p)
     p.set_defaults(func=run)
