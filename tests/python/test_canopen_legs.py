@@ -26,7 +26,7 @@ from stewart import protocol as pr
 from stewart.analysis import canopen_legs as cl
 from stewart.analysis.csvout import write_signals_csv
 from stewart.analysis.decode import hydraulic_areas, read_log
-from stewart.analysis.decode_reference import read_log_reference
+from decode_reference import read_log_reference
 from stewart.analysis.logfile import format_line
 from stewart.analysis.metrics import format_summary, summarize
 from stewart.analysis.names import DRIVE_STATES

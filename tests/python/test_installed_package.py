@@ -52,12 +52,13 @@ def test_wheel_installs_and_runs_outside_the_checkout(tmp_path):
     where = _run([venv / "bin" / "python", "-c",
                   "import importlib.util as u, stewart.resources as r; "
                   "print(r.checkout(), r.core_library(), r.dbc_path(), r.default_platform(), sep='\\n'); "
-                  "print(*(u.find_spec('stewart.' + m) for m in ('gen_platform', 'gen_can_c', 'testkey')))"],
+                  "print(*(u.find_spec('stewart.' + m) for m in "
+                  "('gen_platform', 'gen_can_c', 'testkey', 'analysis.decode_reference')))"],
                  cwd=outside).splitlines()
     site = str(venv / "lib")
     assert where[0] == "None"
     assert all(line.startswith(site) for line in where[1:4]), where
-    assert where[4] == "None None None"
+    assert where[4] == "None None None None"
 
     _poses(outside / "poses.csv")
     _run([stewart, "calc", "--input", "poses.csv", "--output", "installed.csv"], cwd=outside)

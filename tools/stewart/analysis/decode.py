@@ -489,7 +489,7 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     (:func:`.logfile.read_frames`), grouped by ID, checked (CRC, counters,
     ranges, bus) and decoded with the DBC's layout by numpy
     (:mod:`.framedecode`). The same result as the per-frame
-    :func:`.decode_reference.read_log_reference` (tests/python/test_framedecode.py).
+    tools/dev/decode_reference.py (tests/python/test_framedecode.py).
     ``frames``: ``read_frames(source)`` when the caller has it already."""
     from .logfile import read_frames
 
