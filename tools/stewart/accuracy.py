@@ -81,7 +81,7 @@ def random_motions(platform, n: int, seed: int = 1):
 
 
 def measure(platform, n: int = 10000, seed: int = 1, step: Callable[[], None] | None = None) -> Report:
-    """The report over n random motions; ``step`` is called after each."""
+    """The report over n random motions; ``step`` is called as each one starts."""
     core = Core(platform)
     rep = Report(n)
     home_len = np.asarray(model.inverse_kinematics(platform, np.array(platform.home, dtype=float)).lengths)

@@ -123,9 +123,7 @@ def run_config(args) -> int:
                 print(f"| {i} | {w.key} | {w.value_text()} | {w.purpose}{flags} |")
             print()
         return 0
-    from ..drives import session
-
-    from ..drives import layout
+    from ..drives import layout, session
 
     opts = busopts.options(args)
     opts.bus = layout.controller_bus(drives, targets[0]) or opts.bus
