@@ -30,7 +30,7 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
 - ``drives`` (optional; absent = every leg on the native protocol): the
   protocol, bus, CANopen node id and scaling of each leg's drive, the
   CANopen buses' bit rates, the SYNC divider, heartbeat and watchdog times
-  (``_drives``; config/README.md and docs/canopen.md). A layout whose
+  (``_drives``; config/README.md and docs/reference/canopen.md). A layout whose
   CANopen bus load exceeds 50 % is refused, naming the ways out.
 """
 
@@ -82,7 +82,7 @@ HYDRAULIC_KEYS = {
 # dynamics and the float64 model include them; absent = 0 = neglected, the
 # paper's model). Each leg is two point masses on its axis: the cylinder body at
 # cylinder_com from the base joint, the rod + piston at rod_com from the
-# platform joint towards the base (docs/plant.md "Leg masses").
+# platform joint towards the base (docs/explanation/plant.md "Leg masses").
 HYDRAULIC_OPTIONAL_KEYS = {
     "cylinder_mass": (0.0, 1e4, "kg"),
     "cylinder_com": (0.0, _Q24_MAX, "m"),
@@ -158,7 +158,7 @@ SENSOR_KEYS = {
 
 
 #: The force/torque sensor section (``force_sensor``, optional): which wrench
-#: force control uses and where the sensor sits (docs/force_control.md).
+#: force control uses and where the sensor sits (docs/explanation/force_control.md).
 WRENCH_SOURCES = ("cylinders", "sensor")
 FORCE_SENSOR_DEFAULT = {"wrench_source": "cylinders", "mount_pos": [0.0, 0.0, 0.0],
                         "mount_rpy": [0.0, 0.0, 0.0], "rate_hz": 7000.0}

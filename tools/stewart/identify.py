@@ -10,7 +10,7 @@ module computes the pose (forward kinematics), its rates and accelerations
 (zero-phase Savitzky-Golay differentiation), writes every cylinder force as
 a row of a linear regression, and solves it by least squares, with standard
 errors and an observability test. It also plans an excitation that makes
-every parameter observable. Theory and choices: docs/identification.md.
+every parameter observable. Theory and choices: docs/explanation/identification.md.
 
 Python API::
 
@@ -704,7 +704,7 @@ def write_excitation(plan: Plan, scenario_path, csv_path, csv_ref: str, csv_dt: 
         for i in idx:
             fh.write(f"{plan.t[i]:.3f}," + ",".join(f"{round(v, 7) + 0.0:.7f}" for v in plan.pose[i]) + "\n")
     duration = plan.t[-1]
-    text = f"""# Excitation for `stewart identify` (docs/identification.md): a
+    text = f"""# Excitation for `stewart identify` (docs/explanation/identification.md): a
 # {duration:.0f} s multi-axis multi-sine about home, streamed from {csv_ref}.
 # Condition number of the planned (column-scaled) regressor: {plan.report['condition']:.3g}.
 cmd ENGAGE

@@ -5,7 +5,7 @@
  * Two layers:
  *  - hs_config_t mirrors config/platform_default.json key for key (SI units,
  *    radians). hs_config_default is generated from that file at build time by
- *    tools/stewart/gen_plant.py (which validates it with stewart.config), so
+ *    tools/dev/gen_plant.py (which validates it with stewart.config), so
  *    the plant, the firmware and the host tools read the same numbers.
  *  - hs_params_t is what the plant computes with: areas, volumes, valve
  *    coefficients and the drive gains derived from the config by

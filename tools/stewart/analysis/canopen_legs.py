@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The leg columns of a run with CANopen drives (CiA 408 / CiA 402,
-docs/canopen.md): measured length, chamber pressures (so the measured
+docs/reference/canopen.md): measured length, chamber pressures (so the measured
 force), drive state and faults per tick, from the drives' TPDOs.
 
 **Layout** (node -> leg, counts -> metres): the platform config's

@@ -42,7 +42,7 @@ WRONG_BUS = "wrong-bus"
 #: How many warning texts are kept (the counts are always complete).
 MAX_WARNINGS = 50
 #: The drive buses may carry CANopen (CiA 301) frames instead of the native
-#: drive frames (``--canopen``, docs/canopen.md): identifiers the DBC does
+#: drive frames (``--canopen``, docs/reference/canopen.md): identifiers the DBC does
 #: not define in NMT (0x000), SYNC/EMCY (0x080-0x0FF), PDOs (0x181-0x57F),
 #: SDO (0x581-0x67F) and heartbeat (0x701-0x77F) are counted as CANopen
 #: frames there, not as bad ones.
@@ -489,7 +489,7 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     (:func:`.logfile.read_frames`), grouped by ID, checked (CRC, counters,
     ranges, bus) and decoded with the DBC's layout by numpy
     (:mod:`.framedecode`). The same result as the per-frame
-    :func:`.decode_reference.read_log_reference` (tests/python/test_framedecode.py).
+    tools/dev/decode_reference.py (tests/python/test_framedecode.py).
     ``frames``: ``read_frames(source)`` when the caller has it already."""
     from .logfile import read_frames
 

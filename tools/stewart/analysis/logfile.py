@@ -287,7 +287,7 @@ def _name_codes(names: np.ndarray, code_of) -> np.ndarray:
 def _file_bytes(path: str | Path) -> np.ndarray:
     """The file's bytes, line ends made \\n. Mapped rather than read where
     the file can be: a read copies the log into fresh memory, and on the VM
-    of docs/analysis.md faulting in 30 MB of fresh pages costs more than the
+    of docs/reference/analysis.md faulting in 30 MB of fresh pages costs more than the
     read itself."""
     with open(path, "rb") as f:
         try:

@@ -12,7 +12,7 @@ Runs: ``main`` (force feed-forward on), ``ff_off`` (the same without the
 paper's inverse dynamics) and ``main_repeat`` (main again, for the
 determinism check).
 
-With ``--cia408`` the six drives are CiA 408 nodes (docs/canopen.md) driven
+With ``--cia408`` the six drives are CiA 408 nodes (docs/reference/canopen.md) driven
 by the controller's CANopen master, still in lockstep, SYNC every 3 ms (the
 layout of two classic buses at 1 Mbit/s within 50 %): ``main`` maps the
 simulated drive's vendor force feed-forward 0x2120 into RPDO1, ``ff_off``
@@ -22,7 +22,7 @@ are left out; the summary adds each drive bus's CANopen load as if classic
 CAN at 1 Mbit/s.
 
 With ``--cia402`` the six drives are CiA 402 nodes in cyclic synchronous
-position mode (docs/canopen.md "CiA 402"), SYNC every 2 ms (their layout of two
+position mode (docs/reference/canopen.md "CiA 402"), SYNC every 2 ms (their layout of two
 classic buses, with the force object 41.3 %): ``main`` and
 ``main_repeat`` with them (the target position and the force feed-forward
 as the torque/force offset 0x60B2, per mille of the simulated drive's 10 kN
@@ -63,7 +63,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import progress, resources
 
 
 def _tick_compute(build: Path) -> str | None:
@@ -78,6 +78,12 @@ def _tick_compute(build: Path) -> str | None:
         if line.startswith("controller tick"):
             return line.strip()
     return None
+
+
+def _say(args: argparse.Namespace, text: str) -> None:
+    """A step of the demo (none with --quiet)."""
+    if not args.quiet:
+        print(text, flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -97,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     cycles = 2 if args.quick else 4
     scenario = cl.demo_scenario(amplitude=0.09, frequency=0.5, cycles=cycles, fade=1.0)
     # SYNC every 3 ms: six CiA 408 drives on the two classic buses at 1 Mbit/s with pressures and the force
-    # object fit within 50 % only so; six CiA 402 drives (no pressures) at 2 ms (docs/canopen.md, stewart busload)
+    # object fit within 50 % only so; six CiA 402 drives (no pressures) at 2 ms (docs/reference/canopen.md, stewart busload)
     if args.cia408 and args.cia402:
         print("stewart demo: --cia408 or --cia402, not both", file=sys.stderr)
         return 2
@@ -130,12 +136,13 @@ def run(args: argparse.Namespace) -> int:
         (out / "slide.csv").write_text(fc.slide_csv())
         for source in ("sensor", "cylinders"):
             specs.append(cl.RunSpec(f"force_{source}", fc.demo_scenario(), wrench_source=source))
-    print(f"demo: {len(specs)} lockstep run(s) of {cycles / 0.5 + 2:.0f} s of motion each "
-          f"({', '.join(s.name for s in specs)}), output in {out}/", flush=True)
+    _say(args, f"demo: {len(specs)} lockstep run(s) of {cycles / 0.5 + 2:.0f} s of motion each "
+         f"({', '.join(s.name for s in specs)}), output in {out}/")
     t0 = time.monotonic()
-    results = {r.spec.name: r for r in cl.run(specs, out, build=build, progress=True, timeout=args.timeout)}
+    results = {r.spec.name: r for r in cl.run(specs, out, build=build, progress=not args.quiet,
+                                              timeout=args.timeout)}
     t_runs = time.monotonic() - t0
-    # the force hold on the cylinders' estimate does not hold yet (docs/force_control.md): its run is
+    # the force hold on the cylinders' estimate does not hold yet (docs/explanation/force_control.md): its run is
     # reported, not required
     ok = all(r.ok for n, r in results.items() if n != "force_cylinders")
     for r in results.values():
@@ -146,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
     if not main.log.exists():
         return 1
 
-    print("demo: decoding the CAN log and drawing the plots", flush=True)
+    _say(args, "demo: decoding the CAN log and drawing the plots")
     res = analyze(main.log, out, truth=main.truth if main.truth.exists() else None)
     lines = [format_summary(res.summary), ""]
     figures: dict = {"runs": {n: r.figures for n, r in results.items()}}
@@ -252,17 +259,19 @@ def run(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the closed-loop demo: controller + simulated hexapod over vcan, plots",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--out", default=str(REPO_ROOT / "out" / "demo"), help="output directory (default out/demo)")
-    p.add_argument("--build", default=str(REPO_ROOT / "build" / "host-release"),
+    p.add_argument("--out", default=str(resources.source_path("out", "demo")),
+                   help="output directory (default out/demo)")
+    p.add_argument("--build", default=str(resources.host_build()),
                    help="build directory with sp_controller and hs_sim (default build/host-release)")
     p.add_argument("--quick", action="store_true", help="two periods per motion instead of four")
     p.add_argument("--no-compare", action="store_true", help="skip the run without force feed-forward")
     p.add_argument("--no-determinism", action="store_true", help="skip the repeated run")
     p.add_argument("--no-force", action="store_true", help="skip the force-control runs")
     p.add_argument("--cia408", action="store_true",
-                   help="the drives as CiA 408 nodes behind the controller's CANopen master (docs/canopen.md)")
+                   help="the drives as CiA 408 nodes behind the controller's CANopen master (docs/reference/canopen.md)")
     p.add_argument("--cia402", action="store_true",
                    help="the drives as CiA 402 nodes (cyclic synchronous position) behind the CANopen master, "
-                        "compared with the native protocol (docs/canopen.md)")
+                        "compared with the native protocol (docs/reference/canopen.md)")
     p.add_argument("--timeout", type=float, default=1800, help="seconds for all runs (default 1800)")
+    progress.add_quiet(p)
     p.set_defaults(func=run)

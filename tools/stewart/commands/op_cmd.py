@@ -3,7 +3,7 @@
 
 Every command waits for the controller's answer and exits 0 when it came,
 1 when the controller refused (the reason on stderr), 2 for a usage, file
-or bus problem, 3 when no answer came in time. docs/operator.md.
+or bus problem, 3 when no answer came in time. docs/guides/operator.md.
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ import signal
 import sys
 import time
 
+from .. import busopts
+
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 TICK_S = 0.001
 
@@ -21,20 +23,11 @@ TICK_S = 0.001
 def register(sub) -> None:
     p = sub.add_parser("op", help="operator node: engage, run, move, stream, stop, park, estop, "
                                   "reset, feedforward, force, guide, position, tare, status, watch, record")
-    p.add_argument("-i", "--interface", help="python-can interface (default: python-can's "
-                   "configuration, else socketcan)")
-    p.add_argument("-c", "--channel", help="channel (default: python-can's configuration, else vcan0)")
-    p.add_argument("-b", "--bitrate", type=int, help="nominal (arbitration) bit rate, bit/s")
-    p.add_argument("--data-bitrate", type=int, help="CAN FD data-phase bit rate, bit/s")
-    fd = p.add_mutually_exclusive_group()
-    fd.add_argument("--fd", dest="fd", action="store_true", default=None, help="CAN FD (the default)")
-    fd.add_argument("--no-fd", dest="fd", action="store_false", help="classic CAN (the protocol will not fit)")
-    p.add_argument("--can-config", metavar="FILE", help="python-can configuration file")
-    p.add_argument("--context", help="section of the python-can configuration file")
+    busopts.add_arguments(p, "ops")
     p.add_argument("--timeout", type=float, default=None, help="seconds to wait for the answer")
     p.add_argument("--key", metavar="FILE", help="the machine key (32 hex digits, mode 600) that signs the "
                    "commands that start or change motion (default: the file $STEWART_KEY names; "
-                   "docs/security.md); STOP, PARK and ESTOP need none")
+                   "docs/explanation/security.md); STOP, PARK and ESTOP need none")
     ops = p.add_subparsers(dest="op", metavar="ACTION")
     import argparse
 
@@ -62,7 +55,7 @@ def register(sub) -> None:
     s = ops.add_parser("stream", help="stream poses from a timestamped CSV file or UDP")
     src = s.add_mutually_exclusive_group(required=True)
     src.add_argument("--csv", metavar="FILE", help="CSV with t,x,y,z,roll,pitch,yaw")
-    src.add_argument("--udp", metavar="HOST:PORT", help="receive datagrams (docs/operator.md)")
+    src.add_argument("--udp", metavar="HOST:PORT", help="receive datagrams (docs/guides/operator.md)")
     s.add_argument("--absolute", action="store_true", help="poses are absolute (default: offsets from home)")
     s.add_argument("--cueing", action="store_true", help="UDP telemetry (specific force, angular rate) "
                    "through the washout filter (stewart.cueing)")
@@ -146,7 +139,7 @@ class _Interrupt:
 
 
 def run(args) -> int:
-    from ..operator.bus import BusError, BusOptions, open_bus
+    from ..busopts import BusError, open_bus
     from ..operator.node import OperatorNode, OpError
     from ..operator.sources import SourceError
 
@@ -154,8 +147,7 @@ def run(args) -> int:
         _err("an action is needed: engage, run, move, stream, stop, park, estop, reset, feedforward, "
              "force, guide, position, tare, status, watch, record (stewart op --help)")
         return 2
-    opts = BusOptions(args.interface, args.channel, args.bitrate, args.data_bitrate, args.fd,
-                      args.can_config, args.context)
+    opts = busopts.options(args)
     # files first: a bad file is reported before the bus is touched
     try:
         prepared = _prepare(args)
@@ -196,7 +188,7 @@ def run(args) -> int:
         node.close()
 
 
-#: Actions that only listen: no OP_HEARTBEAT (docs/operator.md).
+#: Actions that only listen: no OP_HEARTBEAT (docs/guides/operator.md).
 OBSERVERS = ("status", "watch")
 
 
@@ -241,10 +233,10 @@ def _prepare(args):
 
 
 def _home() -> list[float]:
-    from .. import REPO_ROOT
     from .. import config as cf
+    from .. import resources
 
-    return list(cf.load(REPO_ROOT / "config" / "platform_default.json").home)
+    return list(cf.load(resources.default_platform()).home)
 
 
 def _report(ans, what: str = "") -> None:

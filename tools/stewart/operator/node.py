@@ -5,7 +5,7 @@ One receive thread reads the controller's frames (CTRL_STATUS and
 CTRL_AUTH; CTRL_MONITOR and CTRL_WRENCH too for a node that shows them,
 ``monitor``), checks their CRC and alive counter and keeps the latest of
 each; one thread sends OP_HEARTBEAT every 20 ms (the
-controller's operator-link supervision, docs/operator.md). Commands wait
+controller's operator-link supervision, docs/guides/operator.md). Commands wait
 for the controller's answer: the state it should reach, or a refusal
 (CTRL_STATUS's CmdRejected, or its count of refusals moved), with the
 reason the tool can tell from the state.
@@ -17,7 +17,7 @@ on it and takes the next frame. So a command is preceded by an OP_COMMAND
 NONE (does nothing), and a MOVE_TO target is sent twice; ESTOP is sent
 twice back to back (a second ESTOP is harmless).
 
-Command authentication (docs/security.md): with the machine key
+Command authentication (docs/explanation/security.md): with the machine key
 (``key``), the frames that start or change motion (OP_COMMAND but NONE,
 STOP, PARK and ESTOP; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) are signed with the
 controller's session and a counter that continues from the last one the

@@ -1,11 +1,12 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The plain reference of :func:`stewart.analysis.decode.read_log`: the log
-line by line, each frame checked and decoded by :class:`stewart.protocol.Protocol`
+"""The plain reference of :func:`stewart.analysis.decode.read_log`, a test
+oracle (not installed): the log line by line, each frame checked and
+decoded by :class:`stewart.protocol.Protocol`
 (cantools' per-frame decode, the E2E receiver per frame). It was the
 analysis' decoder until issue 16; the tests hold the whole-message decoder
 to it (tests/python/test_framedecode.py). About 30x slower. The CANopen
 drives' leg columns come from the one whole-log step of both
-(:func:`.canopen_legs.fill_legs`)."""
+(:func:`stewart.analysis.canopen_legs.fill_legs`)."""
 
 from __future__ import annotations
 
@@ -14,11 +15,11 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from .. import protocol as pr
-from .decode import (CANOPEN_BUSES, WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16, force_targets,
-                     is_canopen_id, set_platform)
-from .logfile import parse_bus_map, parse_line
-from .names import COMMANDS
+from stewart import protocol as pr
+from stewart.analysis.decode import (CANOPEN_BUSES, WRONG_BUS, Command, LogData, LogStats, _Scaler, _unwrap16,
+                                     force_targets, is_canopen_id, set_platform)
+from stewart.analysis.logfile import parse_bus_map, parse_line
+from stewart.analysis.names import COMMANDS
 
 
 def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[str, str] | None = None,
@@ -212,8 +213,8 @@ def read_log_reference(source: str | Path | Iterable[str], buses: str | Mapping[
                 d.drive_state[k, j] = fb["State"]
                 d.drive_faults[k, j] = fb["Faults"]
     if stats.canopen and platform is not None:  # CANopen drives: the same step as read_log's
-        from .canopen_legs import TickFrames, fill_legs
-        from .logfile import read_frames
+        from stewart.analysis.canopen_legs import TickFrames, fill_legs
+        from stewart.analysis.logfile import read_frames
 
         at = [i for i in range(n) if known[i] is not None]
         fill_legs(d, read_frames(source), ifmap, TickFrames(
