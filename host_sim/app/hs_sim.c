@@ -60,7 +60,7 @@
  * Scenario file (--scenario): one operator action per line (cmd, target,
  * delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load,
  * play, force, force_target, guide, position, tare, push, ftsensor); the language, its
- * parser and player are in hs/scenario.h (host_sim/src/scenario.c), what
+ * parser and player are in hs/scenario.h (host_sim/src/scenario/scenario.c), what
  * each action does on the bus or to the plant is run_scenario below.
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
  * controller always executes them at the same tick.
