@@ -536,6 +536,194 @@ static int apply_inject(sim_t *s, const hs_scenario_inject_t *in, uint64_t tick)
     return (st == HS_OK) ? 0 : -1;
 }
 
+/* Scenario `cmd`: OP_COMMAND. 0 sent, -1 error. */
+static int action_cmd(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    sp_can_frame_t f;
+    (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f);
+    s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
+    if (s->progress) {
+        fprintf(stderr, "hs_sim: t=%8.3f s  command %s\n", (double)tick / 1000.0,
+                hs_scenario_command_name(a->cmd.command));
+    }
+    return send_frames(s, &f, 1u, t_us);
+}
+
+/* Scenario `wrench`: a new ramp from the wrench acting now (a ramp under
+ * way stops where it is) to the action's. */
+static void action_wrench(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    for (int k = 0; k < 6; k++) { /* the ramp's own value now (a push is not part of it) */
+        double f = (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks)
+                       ? (double)(tick - s->wrench_start) / (double)s->wrench_ticks
+                       : 1.0;
+        s->wrench_from[k] = s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
+    }
+    memcpy(s->wrench_to, a->wrench, sizeof s->wrench_to);
+    s->wrench_start = tick;
+    s->wrench_ticks = a->ticks;
+    wrench_tick(s, tick);
+    printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", tick, a->wrench[0], a->wrench[1],
+           a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0);
+}
+
+/* Scenario `contact`. 0 done, 2 refused. */
+static int action_contact(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    hs_contact_t c;
+    memset(&c, 0, sizeof c);
+    c.kind = (a->contact.kind == 1) ? HS_CONTACT_PLANE : (a->contact.kind == 2) ? HS_CONTACT_POINT : HS_CONTACT_NONE;
+    memcpy(c.point, a->contact.point, sizeof c.point);
+    memcpy(c.normal, a->contact.normal, sizeof c.normal);
+    memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
+    c.offset = a->contact.offset;
+    c.stiffness = a->contact.stiffness;
+    c.damping = a->contact.damping;
+    if (hs_plant_set_contact(&s->plant, &c) != HS_OK) {
+        fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
+        return 2;
+    }
+    printf("hs_sim mark tick %" PRIu64 ": contact %s\n", tick,
+           a->contact.kind == 1 ? "plane" : (a->contact.kind == 2 ? "point" : "off"));
+    return 0;
+}
+
+/* Scenario `load`. 0 done, 2 refused (not a rigid body). */
+static int action_load(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    if (hs_plant_add_mass(&s->plant, a->mass, a->point) != HS_OK) {
+        fprintf(stderr,
+                "hs_sim: scenario line %d: load %g kg at (%g, %g, %g) m refused: the platform would not be a "
+                "rigid body (mass %g kg now)\n",
+                a->line, a->mass, a->point[0], a->point[1], a->point[2], s->plant.par.mass);
+        return 2;
+    }
+    printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", tick, a->mass, a->point[0], a->point[1],
+           a->point[2]);
+    return 0;
+}
+
+/* Scenario `play`: opens the file and sends its first pose. 0 done, 2 the
+ * file refused, -1 I/O. */
+static int action_play(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    hs_scenario_error_t err;
+    hs_play_close(&s->play);
+    if (hs_play_open(&s->play, a->path, &err) != HS_OK) {
+        fprintf(stderr, "hs_sim: scenario line %d: %s\n", a->line, err.message);
+        return 2;
+    }
+    s->play_start = tick;
+    printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", tick, a->path, (double)a->ticks / 1000.0);
+    return play_tick(s, tick, t_us);
+}
+
+/* Scenario `force`, `force_target`, `guide`: OP_FORCE, then OP_COMMAND
+ * unless the action has none. 0 sent, -1 error. */
+static int action_force(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    sp_can_frame_t f[2];
+    uint32_t n = 1u;
+    (void)sp_proto_encode_force(&a->force, s->force_counter, &f[0]);
+    s->force_counter = (uint8_t)((s->force_counter + 1u) & 0x0Fu);
+    if (a->cmd.command != 0u) {
+        (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f[1]);
+        s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
+        n = 2u;
+    }
+    printf("hs_sim mark tick %" PRIu64 ": %s mask 0x%02x target %g %g %g %g %g %g\n", tick,
+           a->cmd.command != 0u ? hs_scenario_command_name(a->cmd.command) : "force_target", (unsigned)a->force.mask,
+           a->force.target[0] / 256.0, a->force.target[1] / 256.0, a->force.target[2] / 256.0,
+           a->force.target[3] / 256.0, a->force.target[4] / 256.0, a->force.target[5] / 256.0);
+    return send_frames(s, f, n, t_us);
+}
+
+/* Scenario `push`: a trapezoid from this tick on (replaces one under way). */
+static void action_push(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    memcpy(s->push, a->wrench, sizeof s->push);
+    s->push_start = tick;
+    s->push_rise = a->ticks;
+    s->push_hold = a->hold;
+    s->push_end = tick + 2u * a->ticks + a->hold;
+    if (s->push_end == tick) {
+        s->push_end = 0u; /* rise and hold 0: nothing */
+    }
+    wrench_tick(s, tick);
+    printf("hs_sim mark tick %" PRIu64 ": push %g %g %g %g %g %g rise %.3f s hold %.3f s\n", tick, a->wrench[0],
+           a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0,
+           (double)a->hold / 1000.0);
+}
+
+/* Scenario `silence`, `unsilence`, `fault`: one leg's drive. */
+static void action_leg(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    const char *what = "fault";
+    if (a->kind == HS_ACTION_SILENCE) {
+        s->bus.silent_mask = (uint8_t)(s->bus.silent_mask | (1u << a->leg));
+        what = "silence";
+    } else if (a->kind == HS_ACTION_UNSILENCE) {
+        s->bus.silent_mask = (uint8_t)(s->bus.silent_mask & ~(1u << a->leg));
+        what = "unsilence";
+    } else {
+        (void)hs_plant_raise_faults(&s->plant, a->leg, a->bits);
+    }
+    printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick, what, a->leg + 1);
+}
+
+/* Carries out one action (what it does on the bus or to the plant).
+ * Returns 0 done, 2 refused, -1 error. */
+static int run_action(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    switch (a->kind) {
+    case HS_ACTION_CMD:
+        return action_cmd(s, a, tick, t_us);
+    case HS_ACTION_TARGET:
+        return send_target(s, &a->target, t_us);
+    case HS_ACTION_WRENCH:
+        action_wrench(s, a, tick);
+        return 0;
+    case HS_ACTION_CONTACT:
+        return action_contact(s, a, tick);
+    case HS_ACTION_LOAD:
+        return action_load(s, a, tick);
+    case HS_ACTION_PLAY:
+        return action_play(s, a, tick, t_us);
+    case HS_ACTION_FORCE:
+        return action_force(s, a, tick, t_us);
+    case HS_ACTION_PUSH:
+        action_push(s, a, tick);
+        return 0;
+    case HS_ACTION_FTSENSOR:
+        s->ft_silent = (a->bits == 0u);
+        printf("hs_sim mark tick %" PRIu64 ": ftsensor %s\n", tick, s->ft_silent ? "off" : "on");
+        return 0;
+    case HS_ACTION_WAIT:
+        if (s->progress) {
+            fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, sp_state_name(a->state));
+        }
+        return 0;
+    case HS_ACTION_SILENCE:
+    case HS_ACTION_UNSILENCE:
+    case HS_ACTION_FAULT:
+        action_leg(s, a, tick);
+        return 0;
+    case HS_ACTION_MARK:
+        printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
+        return 0;
+    case HS_ACTION_INJECT:
+        if (apply_inject(s, &a->inject, tick) != 0) {
+            fprintf(stderr, "hs_sim: scenario line %d: injection refused\n", a->line);
+            return 2;
+        }
+        return 0;
+    case HS_ACTION_DELAY:
+    case HS_ACTION_END:
+        break;
+    }
+    return 0;
+}
+
 /* Carries out the scenario's actions due at `tick` (hs/scenario.h plays it).
  * Returns 0 go on, 1 end, 2 an action refused (load, contact), 4 wait timeout, -1 error. */
 static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
@@ -556,157 +744,9 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
                     (unsigned)s->status_faults);
             return 4;
         }
-        switch (a->kind) {
-        case HS_ACTION_CMD: {
-            sp_can_frame_t f;
-            (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f);
-            s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
-            if (s->progress) {
-                fprintf(stderr, "hs_sim: t=%8.3f s  command %s\n", (double)tick / 1000.0,
-                        hs_scenario_command_name(a->cmd.command));
-            }
-            if (send_frames(s, &f, 1u, t_us) != 0) {
-                return -1;
-            }
-            break;
-        }
-        case HS_ACTION_TARGET:
-            if (send_target(s, &a->target, t_us) != 0) {
-                return -1;
-            }
-            break;
-        case HS_ACTION_WRENCH:
-            /* from the wrench acting now (a ramp under way stops where it is) */
-            for (int k = 0; k < 6; k++) { /* the ramp's own value now (a push is not part of it) */
-                double f = (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks)
-                               ? (double)(tick - s->wrench_start) / (double)s->wrench_ticks
-                               : 1.0;
-                s->wrench_from[k] = s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
-            }
-            memcpy(s->wrench_to, a->wrench, sizeof s->wrench_to);
-            s->wrench_start = tick;
-            s->wrench_ticks = a->ticks;
-            wrench_tick(s, tick);
-            printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", tick, a->wrench[0],
-                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0);
-            break;
-        case HS_ACTION_CONTACT: {
-            hs_contact_t c;
-            memset(&c, 0, sizeof c);
-            c.kind = (a->contact.kind == 1)   ? HS_CONTACT_PLANE
-                     : (a->contact.kind == 2) ? HS_CONTACT_POINT
-                                              : HS_CONTACT_NONE;
-            memcpy(c.point, a->contact.point, sizeof c.point);
-            memcpy(c.normal, a->contact.normal, sizeof c.normal);
-            memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
-            c.offset = a->contact.offset;
-            c.stiffness = a->contact.stiffness;
-            c.damping = a->contact.damping;
-            if (hs_plant_set_contact(&s->plant, &c) != HS_OK) {
-                fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
-                return 2;
-            }
-            printf("hs_sim mark tick %" PRIu64 ": contact %s\n", tick,
-                   a->contact.kind == 1 ? "plane" : (a->contact.kind == 2 ? "point" : "off"));
-            break;
-        }
-        case HS_ACTION_LOAD:
-            if (hs_plant_add_mass(&s->plant, a->mass, a->point) != HS_OK) {
-                fprintf(stderr,
-                        "hs_sim: scenario line %d: load %g kg at (%g, %g, %g) m refused: the platform would not be a "
-                        "rigid body (mass %g kg now)\n",
-                        a->line, a->mass, a->point[0], a->point[1], a->point[2], s->plant.par.mass);
-                return 2;
-            }
-            printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", tick, a->mass, a->point[0], a->point[1],
-                   a->point[2]);
-            break;
-        case HS_ACTION_PLAY: {
-            hs_scenario_error_t err;
-            hs_play_close(&s->play);
-            if (hs_play_open(&s->play, a->path, &err) != HS_OK) {
-                fprintf(stderr, "hs_sim: scenario line %d: %s\n", a->line, err.message);
-                return 2;
-            }
-            s->play_start = tick;
-            printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", tick, a->path, (double)a->ticks / 1000.0);
-            int r = play_tick(s, tick, t_us);
-            if (r != 0) {
-                return r;
-            }
-            break;
-        }
-        case HS_ACTION_FORCE: {
-            sp_can_frame_t f[2];
-            uint32_t n = 1u;
-            (void)sp_proto_encode_force(&a->force, s->force_counter, &f[0]);
-            s->force_counter = (uint8_t)((s->force_counter + 1u) & 0x0Fu);
-            if (a->cmd.command != 0u) {
-                (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f[1]);
-                s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
-                n = 2u;
-            }
-            printf("hs_sim mark tick %" PRIu64 ": %s mask 0x%02x target %g %g %g %g %g %g\n", tick,
-                   a->cmd.command != 0u ? hs_scenario_command_name(a->cmd.command) : "force_target",
-                   (unsigned)a->force.mask, a->force.target[0] / 256.0, a->force.target[1] / 256.0,
-                   a->force.target[2] / 256.0, a->force.target[3] / 256.0, a->force.target[4] / 256.0,
-                   a->force.target[5] / 256.0);
-            if (send_frames(s, f, n, t_us) != 0) {
-                return -1;
-            }
-            break;
-        }
-        case HS_ACTION_PUSH:
-            memcpy(s->push, a->wrench, sizeof s->push);
-            s->push_start = tick;
-            s->push_rise = a->ticks;
-            s->push_hold = a->hold;
-            s->push_end = tick + 2u * a->ticks + a->hold;
-            if (s->push_end == tick) {
-                s->push_end = 0u; /* rise and hold 0: nothing */
-            }
-            wrench_tick(s, tick);
-            printf("hs_sim mark tick %" PRIu64 ": push %g %g %g %g %g %g rise %.3f s hold %.3f s\n", tick, a->wrench[0],
-                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0,
-                   (double)a->hold / 1000.0);
-            break;
-        case HS_ACTION_FTSENSOR:
-            s->ft_silent = (a->bits == 0u);
-            printf("hs_sim mark tick %" PRIu64 ": ftsensor %s\n", tick, s->ft_silent ? "off" : "on");
-            break;
-        case HS_ACTION_WAIT:
-            if (s->progress) {
-                fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, sp_state_name(a->state));
-            }
-            break;
-        case HS_ACTION_SILENCE:
-            s->bus.silent_mask = (uint8_t)(s->bus.silent_mask | (1u << a->leg));
-            break;
-        case HS_ACTION_UNSILENCE:
-            s->bus.silent_mask = (uint8_t)(s->bus.silent_mask & ~(1u << a->leg));
-            break;
-        case HS_ACTION_FAULT:
-            (void)hs_plant_raise_faults(&s->plant, a->leg, a->bits);
-            break;
-        case HS_ACTION_MARK:
-            printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
-            break;
-        case HS_ACTION_INJECT:
-            if (apply_inject(s, &a->inject, tick) != 0) {
-                fprintf(stderr, "hs_sim: scenario line %d: injection refused\n", a->line);
-                return 2;
-            }
-            break;
-        case HS_ACTION_DELAY:
-        case HS_ACTION_END:
-            break;
-        }
-        if (a->kind == HS_ACTION_SILENCE || a->kind == HS_ACTION_UNSILENCE || a->kind == HS_ACTION_FAULT) {
-            printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick,
-                   a->kind == HS_ACTION_SILENCE     ? "silence"
-                   : a->kind == HS_ACTION_UNSILENCE ? "unsilence"
-                                                    : "fault",
-                   a->leg + 1);
+        int r = run_action(s, a, tick, t_us);
+        if (r != 0) {
+            return r;
         }
         fflush(stdout);
     }
