@@ -60,7 +60,7 @@
  * delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load,
  * play, force, force_target, guide, position, tare, push, ftsensor); the language, its
  * parser and player are in hs/scenario.h (host_sim/src/scenario/scenario.c), what
- * each action does on the bus or to the plant is run_scenario below.
+ * each action does on the bus or to the plant is run_action below.
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
  * controller always executes them at the same tick.
  *
@@ -1256,7 +1256,7 @@ static const cli_option_t cli_options[] = {
 #define CLI_OPTIONS (sizeof cli_options / sizeof cli_options[0])
 #define CLI_VAL0 0x100 /* getopt_long's value for cli_options[0]; row i gives CLI_VAL0 + i */
 
-/* --help, from cli_options. */
+/* --help: the table cli_options, then the exit statuses; exits 0. */
 static int print_help(cli_t *c, const char *v)
 {
     (void)c, (void)v;
