@@ -111,7 +111,7 @@ FRICTION_SHAPE_KEYS = {
 }
 
 # max over v of |v| exp(-(v/v_s)^2) / v_s = exp(-1/2) / sqrt(2), rounded up;
-# the plant's dissipativity bound on sigma_1 (host_sim/src/params.c checks it).
+# the plant's dissipativity bound on sigma_1 (host_sim/src/plant/params.c checks it).
 FADE_PEAK = 0.42889
 
 
