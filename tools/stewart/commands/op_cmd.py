@@ -41,6 +41,16 @@ def register(sub) -> None:
 
     ops.add_parser = add_parser
 
+    _add_motion_actions(ops)
+    _add_stream_action(ops)
+    _add_state_actions(ops)
+    _add_force_actions(ops)
+    _add_observer_actions(ops)
+    p.set_defaults(func=run)
+
+
+def _add_motion_actions(ops) -> None:
+    """engage, run, move."""
     ops.add_parser("engage", help="engage: move from park to home (waits for READY)")
     r = ops.add_parser("run", help="the paper's trigonometric motion about home")
     r.add_argument("axis", choices=AXES)
@@ -52,6 +62,10 @@ def register(sub) -> None:
     m = ops.add_parser("move", help="point-to-point move to a pose (waits for READY)")
     m.add_argument("pose", nargs=6, type=float, metavar="V", help="x y z (m) roll pitch yaw (rad)")
     m.add_argument("--relative", action="store_true", help="the pose is an offset from home")
+
+
+def _add_stream_action(ops) -> None:
+    """stream: poses from a CSV file or UDP."""
     s = ops.add_parser("stream", help="stream poses from a timestamped CSV file or UDP")
     src = s.add_mutually_exclusive_group(required=True)
     src.add_argument("--csv", metavar="FILE", help="CSV with t,x,y,z,roll,pitch,yaw")
@@ -64,12 +78,20 @@ def register(sub) -> None:
                    "for it to resume until Ctrl-C)")
     s.add_argument("--wait-source", type=float, default=30.0, help="UDP: s to wait for the first datagram")
     s.add_argument("--stats", metavar="FILE", help="write the stream's figures as JSON")
+
+
+def _add_state_actions(ops) -> None:
+    """stop, park, estop, reset, feedforward."""
     ops.add_parser("stop", help="end the running motion smoothly (waits for READY)")
     ops.add_parser("park", help="park (waits for IDLE)")
     ops.add_parser("estop", help="emergency stop (waits for ESTOP)")
     ops.add_parser("reset", help="clear the faults and re-engage (waits for READY or IDLE)")
     f = ops.add_parser("feedforward", help="force feed-forward on or off (in IDLE or READY)")
     f.add_argument("switch", choices=("on", "off"))
+
+
+def _add_force_actions(ops) -> None:
+    """force, guide, position, tare."""
     fo = ops.add_parser("force", help="force control: push with a target wrench in the masked axes "
                         "(waits for FORCE)")
     fo.add_argument("axes", help="force-controlled axes of the base frame, joined by commas (z, x,z, ...) "
@@ -87,6 +109,10 @@ def register(sub) -> None:
     _param_args(gu, "hand guiding's: a push F moves the platform at F / damping")
     ops.add_parser("position", help="leave force control smoothly (waits for position control)")
     ops.add_parser("tare", help="zero the force/torque sensor's bias (READY, position control, at rest)")
+
+
+def _add_observer_actions(ops) -> None:
+    """status, watch, record."""
     st = ops.add_parser("status", help="one status reading")
     st.add_argument("--json", action="store_true")
     w = ops.add_parser("watch", help="live view (q or Ctrl-C quits)")
@@ -97,7 +123,6 @@ def register(sub) -> None:
     rec = ops.add_parser("record", help="record the bus to a file: .log (candump), .blf, .asc, .mf4, ...")
     rec.add_argument("file")
     rec.add_argument("--duration", type=float, help="s (default: until Ctrl-C)")
-    p.set_defaults(func=run)
 
 
 def _param_args(parser, damping_help: str) -> None:
