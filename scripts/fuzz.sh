@@ -3,8 +3,8 @@
 # Builds the libFuzzer targets of tests/fuzz with clang (ASan + UBSan, and
 # LeakSanitizer with ASan) and runs them one after the other:
 #   node      the controller's receive path (firmware/core/src/link/node.c)
-#   plant_bus the plant's receive path (host_sim/src/bus.c)
-#   scenario  the scenario parser and file reader (host_sim/src/scenario.c, scenario_inject.c)
+#   plant_bus the plant's receive path (host_sim/src/bus/bus.c)
+#   scenario  the scenario parser and file reader (host_sim/src/scenario/scenario.c, scenario_inject.c)
 #
 #   scripts/fuzz.sh [SECONDS]        each target for SECONDS (default 20)
 #   scripts/fuzz.sh --bench [RUNS]   each target to RUNS inputs (default
@@ -50,9 +50,10 @@ link() { # name sources...
     -o "$out/fuzz_$name"
 }
 link node tests/fuzz/fuzz_node.c
-link plant_bus tests/fuzz/fuzz_plant_bus.c host_sim/src/{status,sensor,kin,cylinder,drive,params,plant,rig,bus}.c \
+link plant_bus tests/fuzz/fuzz_plant_bus.c \
+  host_sim/src/plant/{status,sensor,kin,cylinder,drive,params,plant,rig}.c host_sim/src/bus/bus.c \
   build/host-debug/host_sim/generated/hs_config_default.c
-link scenario tests/fuzz/fuzz_scenario.c host_sim/src/{status,scenario,scenario_inject}.c
+link scenario tests/fuzz/fuzz_scenario.c host_sim/src/plant/status.c host_sim/src/scenario/{scenario,scenario_inject}.c
 
 rm -rf "$out/seeds"
 python=.venv/bin/python

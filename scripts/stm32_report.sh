@@ -4,7 +4,7 @@
 # flash and RAM against their budgets (128 KiB, 32 KiB), the flash of each
 # part (portable core per file, libgcc, C library, port), the worst-case
 # stack of the tick path against 2 KiB (GCC's -fcallgraph-info=su call
-# graphs completed by the disassembly; tools/stewart/stack_usage.py), and
+# graphs completed by the disassembly; tools/dev/stack_usage.py), and
 # the heap check. Builds the stm32g4 preset first (incremental).
 # STM32_BUILD_DIR: use an existing build directory instead (not rebuilt).
 # An argument names the preset: stm32g4 (default, the native drive
@@ -57,7 +57,7 @@ printf '  RAM   %6d of %6d bytes (%4.1f %%)  %s   (stack %d, .data %d, .bss %d, 
 echo
 awk -f bench/m4/map_sizes.awk "$out/sp_stm32g4.map" | sed 's/program, port, semihosting/port (ports\/stm32g4)        /'
 echo
-python3 tools/stewart/stack_usage.py --ci-dir "$dir" --elf "$elf" --objdump arm-none-eabi-objdump \
+python3 tools/dev/stack_usage.py --ci-dir "$dir" --elf "$elf" --objdump arm-none-eabi-objdump \
   --root sp_g4_cycle --isr sp_g4_systick_handler --isr sp_g4_nmi --isr sp_g4_fdcan_drive_irq \
   --indirect "sp_g4_cycle=can_send,can_receive,watchdog_kick" --indirect "main=tick_wait" \
   --whole sp_g4_reset --stack-region sp_g4_stack_bottom,sp_g4_stack_top --budget $stack_budget || status=1

@@ -3,13 +3,12 @@
  * hs_sim - the simulated hydraulic hexapod on SocketCAN: the plant
  * (hs/plant.h) behind the drives' side of the protocol (hs/bus.h).
  *
- *   hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]
- *          [--scenario FILE] [--log FILE] [--truth FILE] [--seed N]
- *          [--timeout-ms MS] [--progress] [--load MASS,X,Y,Z]
- *          [--setpoint-timeout CYCLES] [--canopen] [--cia402] [--tick0 N] [--key FILE]
- *          [--session N] [--wrench-source cylinders|sensor] [--sdo-delay-ms MS]
+ *   hs_sim [OPTION]...
  *
- * Command authentication (docs/security.md): the scenario's commands, MOVE_TO
+ * The options are the table cli_options below (one row each: name, value,
+ * help line, setter); --help prints it.
+ *
+ * Command authentication (docs/explanation/security.md): the scenario's commands, MOVE_TO
  * and streamed targets and force targets are signed, as `stewart op` signs
  * them, with the machine key of --key FILE (else the file STEWART_KEY
  * names), the controller's session and the next counter. The session and the
@@ -22,7 +21,7 @@
  * commands do). With --inproc the in-process controller gets the key and
  * the session (default 1).
  *
- * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/canopen.md),
+ * --canopen: the drives are CiA 408 nodes (hs/co_bus.h, docs/reference/canopen.md),
  * as the platform config's drives section says (then --canopen is the
  * default), else node ids 1-3 on axis_a and 4-6 on axis_b, configured and driven by a
  * CANopen master (NMT, SDO, RPDO1 + SYNC); the native drive frames are
@@ -60,8 +59,8 @@
  * Scenario file (--scenario): one operator action per line (cmd, target,
  * delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load,
  * play, force, force_target, guide, position, tare, push, ftsensor); the language, its
- * parser and player are in hs/scenario.h (host_sim/src/scenario.c), what
- * each action does on the bus or to the plant is run_scenario below.
+ * parser and player are in hs/scenario.h (host_sim/src/scenario/scenario.c), what
+ * each action does on the bus or to the plant is run_action below.
  * Commands are sent before the cycle's feedback and SYNC, so in lockstep the
  * controller always executes them at the same tick.
  *
@@ -72,7 +71,7 @@
  * --inproc: lockstep with the controller (the firmware's node, configured as
  * sp_controller --lockstep) in this process instead of on SocketCAN: the
  * frames pass in memory in the order one vcan socket delivers them, so the
- * CAN log is the same byte for byte (docs/faults.md); prints the fault
+ * CAN log is the same byte for byte (docs/explanation/faults.md); prints the fault
  * report with every frame accounted on both sides.
  * --tick0 N (test only): the SYNC tick of cycle 0 (and with --inproc the
  * controller's own tick), to run through the 2^32 and TickEcho wraps.
@@ -86,7 +85,7 @@
  * --truth: per cycle pose, leg lengths, cylinder forces, drive states, the
  * outside world's wrench on the platform (external + contact, base frame,
  * moment about o'), each cylinder's friction and its blocking valves' opening
- * (0 closed .. 1 open, hs/drive.h; docs/closed_loop.md).
+ * (0 closed .. 1 open, hs/drive.h; docs/explanation/closed_loop.md).
  *
  * Exit status: 0 the run ended (ticks done, scenario end, or SIGINT/SIGTERM), 1 I/O or set-up
  * error, 2 usage or scenario syntax error (or a load or play file refused
@@ -96,6 +95,7 @@
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
 #include <poll.h>
@@ -144,6 +144,9 @@ typedef struct {
     int lockstep;
     int progress;
     int64_t t0_ns;
+    int64_t next_ns;   /* real time: the current cycle's deadline */
+    uint32_t answered; /* real time: the last SYNC tick answered */
+    int have_answered;
     double wrench_from[6], wrench_to[6]; /* the external wrench's ramp (scenario `wrench`) */
     uint64_t wrench_start, wrench_ticks;
     hs_play_t play; /* scenario `play` under way (file open) */
@@ -533,6 +536,194 @@ static int apply_inject(sim_t *s, const hs_scenario_inject_t *in, uint64_t tick)
     return (st == HS_OK) ? 0 : -1;
 }
 
+/* Scenario `cmd`: OP_COMMAND. 0 sent, -1 error. */
+static int action_cmd(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    sp_can_frame_t f;
+    (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f);
+    s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
+    if (s->progress) {
+        fprintf(stderr, "hs_sim: t=%8.3f s  command %s\n", (double)tick / 1000.0,
+                hs_scenario_command_name(a->cmd.command));
+    }
+    return send_frames(s, &f, 1u, t_us);
+}
+
+/* Scenario `wrench`: a new ramp from the wrench acting now (a ramp under
+ * way stops where it is) to the action's. */
+static void action_wrench(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    for (int k = 0; k < 6; k++) { /* the ramp's own value now (a push is not part of it) */
+        double f = (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks)
+                       ? (double)(tick - s->wrench_start) / (double)s->wrench_ticks
+                       : 1.0;
+        s->wrench_from[k] = s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
+    }
+    memcpy(s->wrench_to, a->wrench, sizeof s->wrench_to);
+    s->wrench_start = tick;
+    s->wrench_ticks = a->ticks;
+    wrench_tick(s, tick);
+    printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", tick, a->wrench[0], a->wrench[1],
+           a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0);
+}
+
+/* Scenario `contact`. 0 done, 2 refused. */
+static int action_contact(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    hs_contact_t c;
+    memset(&c, 0, sizeof c);
+    c.kind = (a->contact.kind == 1) ? HS_CONTACT_PLANE : (a->contact.kind == 2) ? HS_CONTACT_POINT : HS_CONTACT_NONE;
+    memcpy(c.point, a->contact.point, sizeof c.point);
+    memcpy(c.normal, a->contact.normal, sizeof c.normal);
+    memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
+    c.offset = a->contact.offset;
+    c.stiffness = a->contact.stiffness;
+    c.damping = a->contact.damping;
+    if (hs_plant_set_contact(&s->plant, &c) != HS_OK) {
+        fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
+        return 2;
+    }
+    printf("hs_sim mark tick %" PRIu64 ": contact %s\n", tick,
+           a->contact.kind == 1 ? "plane" : (a->contact.kind == 2 ? "point" : "off"));
+    return 0;
+}
+
+/* Scenario `load`. 0 done, 2 refused (not a rigid body). */
+static int action_load(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    if (hs_plant_add_mass(&s->plant, a->mass, a->point) != HS_OK) {
+        fprintf(stderr,
+                "hs_sim: scenario line %d: load %g kg at (%g, %g, %g) m refused: the platform would not be a "
+                "rigid body (mass %g kg now)\n",
+                a->line, a->mass, a->point[0], a->point[1], a->point[2], s->plant.par.mass);
+        return 2;
+    }
+    printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", tick, a->mass, a->point[0], a->point[1],
+           a->point[2]);
+    return 0;
+}
+
+/* Scenario `play`: opens the file and sends its first pose. 0 done, 2 the
+ * file refused, -1 I/O. */
+static int action_play(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    hs_scenario_error_t err;
+    hs_play_close(&s->play);
+    if (hs_play_open(&s->play, a->path, &err) != HS_OK) {
+        fprintf(stderr, "hs_sim: scenario line %d: %s\n", a->line, err.message);
+        return 2;
+    }
+    s->play_start = tick;
+    printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", tick, a->path, (double)a->ticks / 1000.0);
+    return play_tick(s, tick, t_us);
+}
+
+/* Scenario `force`, `force_target`, `guide`: OP_FORCE, then OP_COMMAND
+ * unless the action has none. 0 sent, -1 error. */
+static int action_force(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    sp_can_frame_t f[2];
+    uint32_t n = 1u;
+    (void)sp_proto_encode_force(&a->force, s->force_counter, &f[0]);
+    s->force_counter = (uint8_t)((s->force_counter + 1u) & 0x0Fu);
+    if (a->cmd.command != 0u) {
+        (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f[1]);
+        s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
+        n = 2u;
+    }
+    printf("hs_sim mark tick %" PRIu64 ": %s mask 0x%02x target %g %g %g %g %g %g\n", tick,
+           a->cmd.command != 0u ? hs_scenario_command_name(a->cmd.command) : "force_target", (unsigned)a->force.mask,
+           a->force.target[0] / 256.0, a->force.target[1] / 256.0, a->force.target[2] / 256.0,
+           a->force.target[3] / 256.0, a->force.target[4] / 256.0, a->force.target[5] / 256.0);
+    return send_frames(s, f, n, t_us);
+}
+
+/* Scenario `push`: a trapezoid from this tick on (replaces one under way). */
+static void action_push(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    memcpy(s->push, a->wrench, sizeof s->push);
+    s->push_start = tick;
+    s->push_rise = a->ticks;
+    s->push_hold = a->hold;
+    s->push_end = tick + 2u * a->ticks + a->hold;
+    if (s->push_end == tick) {
+        s->push_end = 0u; /* rise and hold 0: nothing */
+    }
+    wrench_tick(s, tick);
+    printf("hs_sim mark tick %" PRIu64 ": push %g %g %g %g %g %g rise %.3f s hold %.3f s\n", tick, a->wrench[0],
+           a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0,
+           (double)a->hold / 1000.0);
+}
+
+/* Scenario `silence`, `unsilence`, `fault`: one leg's drive. */
+static void action_leg(sim_t *s, const hs_action_t *a, uint64_t tick)
+{
+    const char *what = "fault";
+    if (a->kind == HS_ACTION_SILENCE) {
+        s->bus.silent_mask = (uint8_t)(s->bus.silent_mask | (1u << a->leg));
+        what = "silence";
+    } else if (a->kind == HS_ACTION_UNSILENCE) {
+        s->bus.silent_mask = (uint8_t)(s->bus.silent_mask & ~(1u << a->leg));
+        what = "unsilence";
+    } else {
+        (void)hs_plant_raise_faults(&s->plant, a->leg, a->bits);
+    }
+    printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick, what, a->leg + 1);
+}
+
+/* Carries out one action (what it does on the bus or to the plant).
+ * Returns 0 done, 2 refused, -1 error. */
+static int run_action(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+    switch (a->kind) {
+    case HS_ACTION_CMD:
+        return action_cmd(s, a, tick, t_us);
+    case HS_ACTION_TARGET:
+        return send_target(s, &a->target, t_us);
+    case HS_ACTION_WRENCH:
+        action_wrench(s, a, tick);
+        return 0;
+    case HS_ACTION_CONTACT:
+        return action_contact(s, a, tick);
+    case HS_ACTION_LOAD:
+        return action_load(s, a, tick);
+    case HS_ACTION_PLAY:
+        return action_play(s, a, tick, t_us);
+    case HS_ACTION_FORCE:
+        return action_force(s, a, tick, t_us);
+    case HS_ACTION_PUSH:
+        action_push(s, a, tick);
+        return 0;
+    case HS_ACTION_FTSENSOR:
+        s->ft_silent = (a->bits == 0u);
+        printf("hs_sim mark tick %" PRIu64 ": ftsensor %s\n", tick, s->ft_silent ? "off" : "on");
+        return 0;
+    case HS_ACTION_WAIT:
+        if (s->progress) {
+            fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, sp_state_name(a->state));
+        }
+        return 0;
+    case HS_ACTION_SILENCE:
+    case HS_ACTION_UNSILENCE:
+    case HS_ACTION_FAULT:
+        action_leg(s, a, tick);
+        return 0;
+    case HS_ACTION_MARK:
+        printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
+        return 0;
+    case HS_ACTION_INJECT:
+        if (apply_inject(s, &a->inject, tick) != 0) {
+            fprintf(stderr, "hs_sim: scenario line %d: injection refused\n", a->line);
+            return 2;
+        }
+        return 0;
+    case HS_ACTION_DELAY:
+    case HS_ACTION_END:
+        break;
+    }
+    return 0;
+}
+
 /* Carries out the scenario's actions due at `tick` (hs/scenario.h plays it).
  * Returns 0 go on, 1 end, 2 an action refused (load, contact), 4 wait timeout, -1 error. */
 static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
@@ -553,157 +744,9 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
                     (unsigned)s->status_faults);
             return 4;
         }
-        switch (a->kind) {
-        case HS_ACTION_CMD: {
-            sp_can_frame_t f;
-            (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f);
-            s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
-            if (s->progress) {
-                fprintf(stderr, "hs_sim: t=%8.3f s  command %s\n", (double)tick / 1000.0,
-                        hs_scenario_command_name(a->cmd.command));
-            }
-            if (send_frames(s, &f, 1u, t_us) != 0) {
-                return -1;
-            }
-            break;
-        }
-        case HS_ACTION_TARGET:
-            if (send_target(s, &a->target, t_us) != 0) {
-                return -1;
-            }
-            break;
-        case HS_ACTION_WRENCH:
-            /* from the wrench acting now (a ramp under way stops where it is) */
-            for (int k = 0; k < 6; k++) { /* the ramp's own value now (a push is not part of it) */
-                double f = (s->wrench_ticks > 0 && tick < s->wrench_start + s->wrench_ticks)
-                               ? (double)(tick - s->wrench_start) / (double)s->wrench_ticks
-                               : 1.0;
-                s->wrench_from[k] = s->wrench_from[k] + f * (s->wrench_to[k] - s->wrench_from[k]);
-            }
-            memcpy(s->wrench_to, a->wrench, sizeof s->wrench_to);
-            s->wrench_start = tick;
-            s->wrench_ticks = a->ticks;
-            wrench_tick(s, tick);
-            printf("hs_sim mark tick %" PRIu64 ": wrench %g %g %g %g %g %g ramp %.3f s\n", tick, a->wrench[0],
-                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0);
-            break;
-        case HS_ACTION_CONTACT: {
-            hs_contact_t c;
-            memset(&c, 0, sizeof c);
-            c.kind = (a->contact.kind == 1)   ? HS_CONTACT_PLANE
-                     : (a->contact.kind == 2) ? HS_CONTACT_POINT
-                                              : HS_CONTACT_NONE;
-            memcpy(c.point, a->contact.point, sizeof c.point);
-            memcpy(c.normal, a->contact.normal, sizeof c.normal);
-            memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
-            c.offset = a->contact.offset;
-            c.stiffness = a->contact.stiffness;
-            c.damping = a->contact.damping;
-            if (hs_plant_set_contact(&s->plant, &c) != HS_OK) {
-                fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
-                return 2;
-            }
-            printf("hs_sim mark tick %" PRIu64 ": contact %s\n", tick,
-                   a->contact.kind == 1 ? "plane" : (a->contact.kind == 2 ? "point" : "off"));
-            break;
-        }
-        case HS_ACTION_LOAD:
-            if (hs_plant_add_mass(&s->plant, a->mass, a->point) != HS_OK) {
-                fprintf(stderr,
-                        "hs_sim: scenario line %d: load %g kg at (%g, %g, %g) m refused: the platform would not be a "
-                        "rigid body (mass %g kg now)\n",
-                        a->line, a->mass, a->point[0], a->point[1], a->point[2], s->plant.par.mass);
-                return 2;
-            }
-            printf("hs_sim mark tick %" PRIu64 ": load %g kg at %g %g %g\n", tick, a->mass, a->point[0], a->point[1],
-                   a->point[2]);
-            break;
-        case HS_ACTION_PLAY: {
-            hs_scenario_error_t err;
-            hs_play_close(&s->play);
-            if (hs_play_open(&s->play, a->path, &err) != HS_OK) {
-                fprintf(stderr, "hs_sim: scenario line %d: %s\n", a->line, err.message);
-                return 2;
-            }
-            s->play_start = tick;
-            printf("hs_sim mark tick %" PRIu64 ": play %s (%.3f s)\n", tick, a->path, (double)a->ticks / 1000.0);
-            int r = play_tick(s, tick, t_us);
-            if (r != 0) {
-                return r;
-            }
-            break;
-        }
-        case HS_ACTION_FORCE: {
-            sp_can_frame_t f[2];
-            uint32_t n = 1u;
-            (void)sp_proto_encode_force(&a->force, s->force_counter, &f[0]);
-            s->force_counter = (uint8_t)((s->force_counter + 1u) & 0x0Fu);
-            if (a->cmd.command != 0u) {
-                (void)sp_proto_encode_command(&a->cmd, s->cmd_counter, &f[1]);
-                s->cmd_counter = (uint8_t)((s->cmd_counter + 1u) & 0x0Fu);
-                n = 2u;
-            }
-            printf("hs_sim mark tick %" PRIu64 ": %s mask 0x%02x target %g %g %g %g %g %g\n", tick,
-                   a->cmd.command != 0u ? hs_scenario_command_name(a->cmd.command) : "force_target",
-                   (unsigned)a->force.mask, a->force.target[0] / 256.0, a->force.target[1] / 256.0,
-                   a->force.target[2] / 256.0, a->force.target[3] / 256.0, a->force.target[4] / 256.0,
-                   a->force.target[5] / 256.0);
-            if (send_frames(s, f, n, t_us) != 0) {
-                return -1;
-            }
-            break;
-        }
-        case HS_ACTION_PUSH:
-            memcpy(s->push, a->wrench, sizeof s->push);
-            s->push_start = tick;
-            s->push_rise = a->ticks;
-            s->push_hold = a->hold;
-            s->push_end = tick + 2u * a->ticks + a->hold;
-            if (s->push_end == tick) {
-                s->push_end = 0u; /* rise and hold 0: nothing */
-            }
-            wrench_tick(s, tick);
-            printf("hs_sim mark tick %" PRIu64 ": push %g %g %g %g %g %g rise %.3f s hold %.3f s\n", tick, a->wrench[0],
-                   a->wrench[1], a->wrench[2], a->wrench[3], a->wrench[4], a->wrench[5], (double)a->ticks / 1000.0,
-                   (double)a->hold / 1000.0);
-            break;
-        case HS_ACTION_FTSENSOR:
-            s->ft_silent = (a->bits == 0u);
-            printf("hs_sim mark tick %" PRIu64 ": ftsensor %s\n", tick, s->ft_silent ? "off" : "on");
-            break;
-        case HS_ACTION_WAIT:
-            if (s->progress) {
-                fprintf(stderr, "hs_sim: t=%8.3f s  state %s\n", (double)tick / 1000.0, sp_state_name(a->state));
-            }
-            break;
-        case HS_ACTION_SILENCE:
-            s->bus.silent_mask = (uint8_t)(s->bus.silent_mask | (1u << a->leg));
-            break;
-        case HS_ACTION_UNSILENCE:
-            s->bus.silent_mask = (uint8_t)(s->bus.silent_mask & ~(1u << a->leg));
-            break;
-        case HS_ACTION_FAULT:
-            (void)hs_plant_raise_faults(&s->plant, a->leg, a->bits);
-            break;
-        case HS_ACTION_MARK:
-            printf("hs_sim mark tick %" PRIu64 ": %s\n", tick, a->text);
-            break;
-        case HS_ACTION_INJECT:
-            if (apply_inject(s, &a->inject, tick) != 0) {
-                fprintf(stderr, "hs_sim: scenario line %d: injection refused\n", a->line);
-                return 2;
-            }
-            break;
-        case HS_ACTION_DELAY:
-        case HS_ACTION_END:
-            break;
-        }
-        if (a->kind == HS_ACTION_SILENCE || a->kind == HS_ACTION_UNSILENCE || a->kind == HS_ACTION_FAULT) {
-            printf("hs_sim mark tick %" PRIu64 ": %s leg %d\n", tick,
-                   a->kind == HS_ACTION_SILENCE     ? "silence"
-                   : a->kind == HS_ACTION_UNSILENCE ? "unsilence"
-                                                    : "fault",
-                   a->leg + 1);
+        int r = run_action(s, a, tick, t_us);
+        if (r != 0) {
+            return r;
         }
         fflush(stdout);
     }
@@ -967,15 +1010,20 @@ static void print_fault_report(sim_t *s)
            s->strokes_ok ? "yes" : "no", unaccounted, (unsigned)s->refused_legs, (unsigned)s->refused_cause);
 }
 
-static void usage(void)
-{
-    fprintf(stderr,
-            "usage: hs_sim [--ops IF] [--axis-a IF] [--axis-b IF] [--lockstep | --inproc] [--ticks N]\n"
-            "              [--scenario FILE] [--log FILE] [--truth FILE] [--seed N] [--timeout-ms MS]\n"
-            "              [--progress] [--load MASS,X,Y,Z] [--setpoint-timeout CYCLES] [--canopen] [--cia402]\n"
-            "              [--tick0 N] [--key FILE] [--session N] [--wrench-source cylinders|sensor]\n"
-            "              [--sdo-delay-ms MS]\n");
-}
+/* ---- command line ------------------------------------------------------- */
+
+/* What the command line sets besides the run state's own fields (s). */
+typedef struct {
+    sim_t *s;
+    const char *scenario, *log_path, *truth_path, *key_path;
+    unsigned long long max_ticks; /* 0: no limit */
+    unsigned long long seed;
+    int have_seed;
+    uint32_t sp_timeout; /* the drives' setpoint watchdog in cycles, 0: the config's */
+    long timeout_ms;
+    double load[4];
+    int have_load;
+} cli_t;
 
 static int parse_u64(const char *v, unsigned long long *out)
 {
@@ -983,6 +1031,12 @@ static int parse_u64(const char *v, unsigned long long *out)
     errno = 0;
     *out = strtoull(v, &end, 0);
     return (errno == 0 && end != v && *end == '\0' && v[0] != '-') ? 0 : -1;
+}
+
+/* An unsigned number lo..hi. 0 ok, -1 not. */
+static int parse_range(const char *v, unsigned long long lo, unsigned long long hi, unsigned long long *out)
+{
+    return (parse_u64(v, out) == 0 && *out >= lo && *out <= hi) ? 0 : -1;
 }
 
 /* "MASS,X,Y,Z": four finite numbers. 0 ok, -1 not. */
@@ -1001,8 +1055,276 @@ static int parse_load(const char *v, double out[4])
     return 0;
 }
 
+/* One setter per option: takes the option's value (NULL for a flag) into
+ * the run; 0 done, -1 the value is not what the option takes. */
+static int set_ops(cli_t *c, const char *v)
+{
+    c->s->ifs[SP_BUS_OPS] = v;
+    return 0;
+}
+
+static int set_axis_a(cli_t *c, const char *v)
+{
+    c->s->ifs[SP_BUS_AXIS_A] = v;
+    return 0;
+}
+
+static int set_axis_b(cli_t *c, const char *v)
+{
+    c->s->ifs[SP_BUS_AXIS_B] = v;
+    return 0;
+}
+
+static int set_lockstep(cli_t *c, const char *v)
+{
+    (void)v;
+    c->s->lockstep = 1;
+    return 0;
+}
+
+static int set_inproc(cli_t *c, const char *v)
+{
+    (void)v;
+    c->s->inproc = 1;
+    c->s->lockstep = 1;
+    return 0;
+}
+
+static int set_ticks(cli_t *c, const char *v)
+{
+    return parse_u64(v, &c->max_ticks);
+}
+
+static int set_scenario(cli_t *c, const char *v)
+{
+    c->scenario = v;
+    return 0;
+}
+
+static int set_log(cli_t *c, const char *v)
+{
+    c->log_path = v;
+    return 0;
+}
+
+static int set_truth(cli_t *c, const char *v)
+{
+    c->truth_path = v;
+    return 0;
+}
+
+static int set_seed(cli_t *c, const char *v)
+{
+    c->have_seed = (parse_u64(v, &c->seed) == 0);
+    return c->have_seed ? 0 : -1;
+}
+
+static int set_timeout_ms(cli_t *c, const char *v)
+{
+    unsigned long long u;
+    if (parse_range(v, 1u, 3599999u, &u) != 0) {
+        return -1;
+    }
+    c->timeout_ms = (long)u;
+    return 0;
+}
+
+static int set_progress(cli_t *c, const char *v)
+{
+    (void)v;
+    c->s->progress = 1;
+    return 0;
+}
+
+static int set_load(cli_t *c, const char *v)
+{
+    c->have_load = (parse_load(v, c->load) == 0);
+    return c->have_load ? 0 : -1;
+}
+
+static int set_setpoint_timeout(cli_t *c, const char *v)
+{
+    unsigned long long u;
+    if (parse_range(v, 1u, 100000u, &u) != 0) {
+        return -1;
+    }
+    c->sp_timeout = (uint32_t)u;
+    return 0;
+}
+
+static int set_canopen(cli_t *c, const char *v)
+{
+    (void)v;
+    c->s->canopen = 1;
+    return 0;
+}
+
+static int set_cia402(cli_t *c, const char *v)
+{
+    (void)v;
+    c->s->canopen = 1;
+    c->s->cia402 = 1;
+    return 0;
+}
+
+static int set_tick0(cli_t *c, const char *v)
+{
+    unsigned long long u;
+    if (parse_range(v, 0u, UINT32_MAX, &u) != 0) {
+        return -1;
+    }
+    c->s->tick0 = (uint32_t)u;
+    return 0;
+}
+
+static int set_key(cli_t *c, const char *v)
+{
+    c->key_path = v;
+    return 0;
+}
+
+static int set_session(cli_t *c, const char *v)
+{
+    unsigned long long u;
+    if (parse_range(v, 0u, UINT32_MAX, &u) != 0) {
+        return -1;
+    }
+    c->s->session = (uint32_t)u;
+    c->s->session_known = 1;
+    return 0;
+}
+
+static int set_wrench_source(cli_t *c, const char *v)
+{
+    if (strcmp(v, "cylinders") == 0) {
+        c->s->wrench_source = (int)SP_WRENCH_CYLINDERS;
+    } else if (strcmp(v, "sensor") == 0) {
+        c->s->wrench_source = (int)SP_WRENCH_SENSOR;
+    } else {
+        return -1;
+    }
+    return 0;
+}
+
+static int set_sdo_delay_ms(cli_t *c, const char *v)
+{
+    unsigned long long u;
+    if (parse_range(v, 0u, 1000u, &u) != 0) {
+        return -1;
+    }
+    c->s->sdo_delay_ms = (uint16_t)u;
+    return 0;
+}
+
+static int print_help(cli_t *c, const char *v);
+
+/* The options: --NAME [ARG] (ARG NULL: a flag), the help line, the setter. */
+typedef struct {
+    const char *name;
+    const char *arg;
+    const char *help;
+    int (*set)(cli_t *c, const char *v);
+} cli_option_t;
+
+static const cli_option_t cli_options[] = {
+    {"ops", "IF", "the ops bus's CAN interface (default vcan0)", set_ops},
+    {"axis-a", "IF", "axis_a's CAN interface (default vcan1)", set_axis_a},
+    {"axis-b", "IF", "axis_b's CAN interface (default vcan2)", set_axis_b},
+    {"lockstep", NULL, "the plant is the time master: deterministic, byte-identical logs", set_lockstep},
+    {"inproc", NULL, "lockstep with the controller in this process, the frames in memory", set_inproc},
+    {"ticks", "N", "end after N cycles of 1 ms (default 0: no limit)", set_ticks},
+    {"scenario", "FILE", "the operator's actions to play (hs/scenario.h)", set_scenario},
+    {"log", "FILE", "every frame on the buses, as a candump log", set_log},
+    {"truth", "FILE", "the plant's true state each cycle (CSV)", set_truth},
+    {"seed", "N", "the sensors' noise seed (default: the config's)", set_seed},
+    {"timeout-ms", "MS", "controller silence that ends the run, 1..3599999 (default 2000)", set_timeout_ms},
+    {"progress", NULL, "a status line each simulated second (stderr)", set_progress},
+    {"load", "MASS,X,Y,Z", "a point mass (kg at m in the motion frame) on the platform", set_load},
+    {"setpoint-timeout", "CYCLES", "the drives' setpoint watchdog, 1..100000 (default: the config's)",
+     set_setpoint_timeout},
+    {"canopen", NULL, "the drives as CiA 408 nodes (the default with a drives section in the config)", set_canopen},
+    {"cia402", NULL, "the drives as CiA 402 nodes (implies --canopen)", set_cia402},
+    {"tick0", "N", "test only: the SYNC tick of cycle 0, 0..4294967295", set_tick0},
+    {"key", "FILE", "the machine key (default: the file STEWART_KEY names)", set_key},
+    {"session", "N", "the controller's session from the start, 0..4294967295", set_session},
+    {"wrench-source", "cylinders|sensor", "force control's wrench source with --inproc (default: the config's)",
+     set_wrench_source},
+    {"sdo-delay-ms", "MS", "with --canopen: each node answers SDO requests MS ms late, 0..1000", set_sdo_delay_ms},
+    {"help", NULL, "print this help and exit", print_help},
+};
+
+#define CLI_OPTIONS (sizeof cli_options / sizeof cli_options[0])
+#define CLI_VAL0 0x100 /* getopt_long's value for cli_options[0]; row i gives CLI_VAL0 + i */
+
+/* --help: the table cli_options, then the exit statuses; exits 0. */
+static int print_help(cli_t *c, const char *v)
+{
+    (void)c, (void)v;
+    int width = 0;
+    for (size_t i = 0; i < CLI_OPTIONS; i++) {
+        const cli_option_t *o = &cli_options[i];
+        int w = (int)strlen(o->name) + (o->arg != NULL ? (int)strlen(o->arg) + 1 : 0);
+        width = (w > width) ? w : width;
+    }
+    printf("usage: hs_sim [OPTION]...\n"
+           "The simulated hydraulic hexapod on SocketCAN (docs/explanation/closed_loop.md).\n\n");
+    for (size_t i = 0; i < CLI_OPTIONS; i++) {
+        const cli_option_t *o = &cli_options[i];
+        int w = (int)strlen(o->name) + (o->arg != NULL ? (int)strlen(o->arg) + 1 : 0);
+        printf("  --%s%s%s%*s  %s\n", o->name, o->arg != NULL ? " " : "", o->arg != NULL ? o->arg : "", width - w, "",
+               o->help);
+    }
+    printf("\nExit status: 0 the run ended, 1 I/O or set-up error, 2 usage or scenario error, 3 the controller\n"
+           "stopped answering, 4 a scenario wait timed out, 5 the plant's state became non-finite.\n");
+    exit(EXIT_SUCCESS);
+}
+
+/* What getopt_long refused (ret ':' or '?'), said on stderr. */
+static void option_error(int ret, char **argv)
+{
+    if (ret == ':' && optopt >= CLI_VAL0) {
+        const cli_option_t *o = &cli_options[optopt - CLI_VAL0];
+        fprintf(stderr, "hs_sim: --%s needs a value: --%s %s: %s\n", o->name, o->name, o->arg, o->help);
+    } else if (optopt >= CLI_VAL0) {
+        fprintf(stderr, "hs_sim: --%s takes no value\n", cli_options[optopt - CLI_VAL0].name);
+    } else if (optopt > 0) {
+        fprintf(stderr, "hs_sim: unknown option -%c\n", optopt);
+    } else {
+        fprintf(stderr, "hs_sim: unknown or ambiguous option %s\n", argv[optind - 1]);
+    }
+}
+
+/* The command line into c (and its run state). 0 ok, 2 a usage error (said on stderr). */
+static int parse_command_line(cli_t *c, int argc, char **argv)
+{
+    struct option longopts[CLI_OPTIONS + 1];
+    for (size_t i = 0; i < CLI_OPTIONS; i++) {
+        longopts[i] = (struct option){cli_options[i].name, cli_options[i].arg != NULL ? required_argument : no_argument,
+                                      NULL, CLI_VAL0 + (int)i};
+    }
+    longopts[CLI_OPTIONS] = (struct option){NULL, 0, NULL, 0};
+    opterr = 0; /* the messages are ours */
+    for (int ret; (ret = getopt_long(argc, argv, ":", longopts, NULL)) != -1;) {
+        if (ret < CLI_VAL0) {
+            option_error(ret, argv);
+            fprintf(stderr, "hs_sim: see hs_sim --help\n");
+            return 2;
+        }
+        const cli_option_t *o = &cli_options[ret - CLI_VAL0];
+        if (o->set(c, optarg) != 0) {
+            fprintf(stderr, "hs_sim: bad value '%s' for --%s %s: %s\n", optarg, o->name, o->arg, o->help);
+            return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "hs_sim: unexpected argument %s (see hs_sim --help)\n", argv[optind]);
+        return 2;
+    }
+    return 0;
+}
+
 /* Real time: answers SYNC(t) from the controller with the feedback of that instant. */
-static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
+static void realtime_frames(sim_t *s)
 {
     sp_can_frame_t rx[RX_BUF];
     uint32_t got = 0;
@@ -1016,14 +1338,15 @@ static void realtime_frames(sim_t *s, uint32_t *answered, int *have_answered)
                 sp_msg_sync_t m;
                 uint8_t ctr;
                 sp_proto_error_t why;
-                if (sp_proto_decode_sync(&rx[k], &m, &ctr, &why) == SP_OK && (!*have_answered || m.tick != *answered)) {
+                if (sp_proto_decode_sync(&rx[k], &m, &ctr, &why) == SP_OK &&
+                    (!s->have_answered || m.tick != s->answered)) {
                     sp_can_frame_t tx[HS_BUS_MAX_TX];
                     uint32_t n = 0;
                     (void)hs_bus_cycle_frames(&s->bus, &s->plant, m.tick, 0u, tx, &n);
                     (void)send_ft(s, t_us);
                     (void)send_frames(s, tx, n, t_us);
-                    *answered = m.tick;
-                    *have_answered = 1;
+                    s->answered = m.tick;
+                    s->have_answered = 1;
                 }
                 continue;
             }
@@ -1167,347 +1490,395 @@ static int canopen_init(sim_t *s, const hs_params_t *par)
     return hs_co_bus_sample(&s->co, &s->plant) == HS_OK ? 0 : -1;
 }
 
-int main(int argc, char **argv)
+/* ---- set-up ------------------------------------------------------------- */
+
+/* The defaults before the command line. */
+static void set_defaults(sim_t *s, cli_t *c)
 {
-    static sim_t s;
-    memset(&s, 0, sizeof s);
-    s.wrench_source = -1;
-    s.ifs[0] = "vcan0", s.ifs[1] = "vcan1", s.ifs[2] = "vcan2";
-    s.status_state = -1;
-    s.canopen = sp_co_layout_default.present ? 1 : 0; /* the platform config's drives are CiA 408 */
-    const char *scenario = NULL, *log_path = NULL, *truth_path = NULL;
-    unsigned long long max_ticks = 0, seed = 0;
-    uint32_t sp_timeout = 0u;
-    int have_seed = 0;
-    long timeout_ms = 2000;
-    double load[4] = {0.0, 0.0, 0.0, 0.0};
-    int have_load = 0;
-    const char *key_path = NULL;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
-        unsigned long long u;
-        if (strcmp(a, "--lockstep") == 0) {
-            s.lockstep = 1;
-        } else if (strcmp(a, "--canopen") == 0) {
-            s.canopen = 1;
-        } else if (strcmp(a, "--cia402") == 0) {
-            s.canopen = 1, s.cia402 = 1;
-        } else if (strcmp(a, "--inproc") == 0) {
-            s.inproc = 1;
-            s.lockstep = 1;
-        } else if (strcmp(a, "--progress") == 0) {
-            s.progress = 1;
-        } else if (v == NULL) {
-            usage();
-            return 2;
-        } else if (strcmp(a, "--ops") == 0) {
-            s.ifs[0] = v, i++;
-        } else if (strcmp(a, "--axis-a") == 0) {
-            s.ifs[1] = v, i++;
-        } else if (strcmp(a, "--axis-b") == 0) {
-            s.ifs[2] = v, i++;
-        } else if (strcmp(a, "--scenario") == 0) {
-            scenario = v, i++;
-        } else if (strcmp(a, "--log") == 0) {
-            log_path = v, i++;
-        } else if (strcmp(a, "--truth") == 0) {
-            truth_path = v, i++;
-        } else if (strcmp(a, "--ticks") == 0 && parse_u64(v, &u) == 0) {
-            max_ticks = u, i++;
-        } else if (strcmp(a, "--seed") == 0 && parse_u64(v, &u) == 0) {
-            seed = u, have_seed = 1, i++;
-        } else if (strcmp(a, "--load") == 0 && parse_load(v, load) == 0) {
-            have_load = 1, i++;
-        } else if (strcmp(a, "--setpoint-timeout") == 0 && parse_u64(v, &u) == 0 && u > 0 && u <= 100000) {
-            sp_timeout = (uint32_t)u, i++;
-        } else if (strcmp(a, "--key") == 0) {
-            key_path = v, i++;
-        } else if (strcmp(a, "--session") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
-            s.session = (uint32_t)u, s.session_known = 1, i++;
-        } else if (strcmp(a, "--wrench-source") == 0 && (strcmp(v, "cylinders") == 0 || strcmp(v, "sensor") == 0)) {
-            s.wrench_source = (strcmp(v, "sensor") == 0) ? (int)SP_WRENCH_SENSOR : (int)SP_WRENCH_CYLINDERS, i++;
-        } else if (strcmp(a, "--tick0") == 0 && parse_u64(v, &u) == 0 && u <= UINT32_MAX) {
-            s.tick0 = (uint32_t)u, i++;
-        } else if (strcmp(a, "--sdo-delay-ms") == 0 && parse_u64(v, &u) == 0 && u <= 1000) {
-            s.sdo_delay_ms = (uint16_t)u, i++;
-        } else if (strcmp(a, "--timeout-ms") == 0 && parse_u64(v, &u) == 0 && u > 0 && u < 3600000) {
-            timeout_ms = (long)u, i++;
-        } else {
-            usage();
+    memset(s, 0, sizeof *s);
+    s->wrench_source = -1;
+    s->ifs[0] = "vcan0", s->ifs[1] = "vcan1", s->ifs[2] = "vcan2";
+    s->status_state = -1;
+    s->canopen = sp_co_layout_default.present ? 1 : 0; /* the platform config's drives are CiA 408 */
+    memset(c, 0, sizeof *c);
+    c->s = s;
+    c->timeout_ms = 2000;
+}
+
+/* The machine key (--key, else STEWART_KEY's file), the scenario, and the
+ * options that do not go together. 0 ok, else the exit status. */
+static int check_run(sim_t *s, const cli_t *c)
+{
+    const char *used = NULL;
+    char err[256];
+    s->have_key = sp_host_load_key(c->key_path, s->key.k, &used, err, sizeof err);
+    if (s->have_key < 0) {
+        fprintf(stderr, "hs_sim: %s\n", err);
+        return 1;
+    }
+    if (s->inproc && !s->session_known) {
+        s->session = 1u, s->session_known = 1;
+    }
+    if (c->scenario != NULL) {
+        hs_scenario_error_t serr;
+        if (hs_scenario_load(&s->scn, c->scenario, &serr) != HS_OK) {
+            fprintf(stderr, "hs_sim: %s\n", serr.message);
             return 2;
         }
+        s->have_scenario = 1;
     }
-    {
-        const char *used = NULL;
-        char err[256];
-        s.have_key = sp_host_load_key(key_path, s.key.k, &used, err, sizeof err);
-        if (s.have_key < 0) {
-            fprintf(stderr, "hs_sim: %s\n", err);
-            return 1;
-        }
-    }
-    if (s.inproc && !s.session_known) {
-        s.session = 1u, s.session_known = 1;
-    }
-    if (scenario != NULL) {
-        hs_scenario_error_t err;
-        if (hs_scenario_load(&s.scn, scenario, &err) != HS_OK) {
-            fprintf(stderr, "hs_sim: %s\n", err.message);
-            return 2;
-        }
-        s.have_scenario = 1;
-    }
-    if (s.canopen && s.inproc) {
+    if (s->canopen && s->inproc) {
         fprintf(stderr, "hs_sim: --canopen runs on SocketCAN (--lockstep or SYNC-driven), not --inproc\n");
         return 2;
     }
-    if (scenario == NULL && max_ticks == 0 && s.lockstep) {
+    if (c->scenario == NULL && c->max_ticks == 0 && s->lockstep) {
         fprintf(stderr, "hs_sim: lockstep needs --ticks or a --scenario that ends\n");
         return 2;
     }
+    return 0;
+}
 
-    hs_params_t par;
-    if (hs_params_default(&par) != HS_OK) {
+/* The plant at the park pose with the options' parameters (*par), its bus
+ * binding, the CANopen nodes, the fault injector. 0 ok, else the exit status. */
+static int setup_plant(sim_t *s, const cli_t *c, hs_params_t *par)
+{
+    if (hs_params_default(par) != HS_OK) {
         fprintf(stderr, "hs_sim: the default plant parameters are not usable\n");
         return 1;
     }
-    if (have_seed) {
-        par.sensors.seed = (uint64_t)seed;
+    if (c->have_seed) {
+        par->sensors.seed = (uint64_t)c->seed;
     }
-    if (sp_timeout > 0u) {
-        par.drive.timeout_cycles = sp_timeout;
+    if (c->sp_timeout > 0u) {
+        par->drive.timeout_cycles = c->sp_timeout;
     }
-    if (have_load && hs_params_add_mass(&par, load[0], &load[1]) != HS_OK) {
-        fprintf(stderr, "hs_sim: --load %g,%g,%g,%g: the platform would not be a rigid body\n", load[0], load[1],
-                load[2], load[3]);
+    if (c->have_load && hs_params_add_mass(par, c->load[0], &c->load[1]) != HS_OK) {
+        fprintf(stderr, "hs_sim: --load %g,%g,%g,%g: the platform would not be a rigid body\n", c->load[0], c->load[1],
+                c->load[2], c->load[3]);
         return 2;
     }
-    hs_status_t hst = hs_plant_init(&s.plant, &par, hs_config_default.park);
+    hs_status_t hst = hs_plant_init(&s->plant, par, hs_config_default.park);
     if (hst != HS_OK) {
         fprintf(stderr, "hs_sim: cannot start the plant at the park pose: %s\n", hs_status_name(hst));
         return 1;
     }
-    (void)hs_bus_init(&s.bus);
-    if (s.canopen && canopen_init(&s, &par) != 0) {
+    (void)hs_bus_init(&s->bus);
+    if (s->canopen && canopen_init(s, par) != 0) {
         fprintf(stderr, "hs_sim: cannot set up the CiA 408 nodes\n");
         return 1;
     }
-    for (int i = 0; s.canopen && i < HS_LEGS; i++) {
-        s.co.node[i].sdo_delay_ms = s.sdo_delay_ms;
+    for (int i = 0; s->canopen && i < HS_LEGS; i++) {
+        s->co.node[i].sdo_delay_ms = s->sdo_delay_ms;
     }
-    (void)hs_inject_init(&s.inj, par.sensors.seed ^ UINT64_C(0x9E3779B97F4A7C15));
-    s.strokes_ok = 1;
-    if (s.inproc) {
-        /* the controller as sp_controller --lockstep runs it: the defaults, the plant's SYNC */
-        if (sp_node_default_config(&s.ncfg, &sp_platform_default) != SP_OK) {
-            fprintf(stderr, "hs_sim: the default platform is not usable\n");
-            return 1;
-        }
-        s.ncfg.sync_master = 0u;
-        s.ncfg.auth_key = s.have_key ? &s.key : NULL;
-        s.ncfg.auth_session = s.session;
-        (void)sp_ctrl_set_wrench_source(&s.ncfg.ctrl,
-                                        (s.wrench_source >= 0) ? (uint8_t)s.wrench_source : sp_wrench_source_default,
-                                        &sp_ft_mount_default); /* as sp_controller */
-        (void)sp_node_init(&s.node, &s.ncfg);
-        s.node.ctrl.tick = s.tick0; /* its own tick through the wrap too (test-only) */
+    (void)hs_inject_init(&s->inj, par->sensors.seed ^ UINT64_C(0x9E3779B97F4A7C15));
+    s->strokes_ok = 1;
+    return 0;
+}
+
+/* --inproc: the controller as sp_controller --lockstep runs it: the
+ * defaults, the plant's SYNC. 0 ok, else the exit status. */
+static int setup_inproc(sim_t *s)
+{
+    if (sp_node_default_config(&s->ncfg, &sp_platform_default) != SP_OK) {
+        fprintf(stderr, "hs_sim: the default platform is not usable\n");
+        return 1;
     }
+    s->ncfg.sync_master = 0u;
+    s->ncfg.auth_key = s->have_key ? &s->key : NULL;
+    s->ncfg.auth_session = s->session;
+    (void)sp_ctrl_set_wrench_source(&s->ncfg.ctrl,
+                                    (s->wrench_source >= 0) ? (uint8_t)s->wrench_source : sp_wrench_source_default,
+                                    &sp_ft_mount_default); /* as sp_controller */
+    (void)sp_node_init(&s->node, &s->ncfg);
+    s->node.ctrl.tick = s->tick0; /* its own tick through the wrap too (test-only) */
+    return 0;
+}
+
+/* The force/torque sensor as the config's force_sensor section mounts it,
+ * at cycle 0. 0 ok, else the exit status. */
+static int setup_ft(sim_t *s, const hs_params_t *par)
+{
     hs_ft_params_t ftp = hs_ft_default_params();
     for (int k = 0; k < 3; k++) {
         ftp.mount_pos[k] = hs_config_default.force_sensor.mount_pos[k];
         ftp.mount_rpy[k] = hs_config_default.force_sensor.mount_rpy[k];
     }
     ftp.rate_hz = hs_config_default.force_sensor.rate_hz;
-    if (hs_ft_init(&s.ft, &ftp, par.sensors.seed + 0x5eed0f7u) != HS_OK) {
+    if (hs_ft_init(&s->ft, &ftp, par->sensors.seed + 0x5eed0f7u) != HS_OK) {
         fprintf(stderr, "hs_sim: the config's force_sensor section is not usable\n");
         return 1;
     }
-    ft_advance(&s, 0u);
+    ft_advance(s, 0u);
+    return 0;
+}
 
+/* The three buses on SocketCAN (not with --inproc), each with the receive
+ * filters of what the plant listens to. 0 ok, else the exit status. */
+static int open_buses(sim_t *s)
+{
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
     bc[SP_BUS_OPS] =
-        (sp_socketcan_bus_cfg_t){s.ifs[0],
+        (sp_socketcan_bus_cfg_t){s->ifs[0],
                                  {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH, SP_ID_CTRL_AUTH,
                                   SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS},
                                  8u};
     for (int b = 1; b <= 2; b++) {
-        bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s.lockstep ? 1u : 2u};
-        if (s.canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */
-            bc[b] = (sp_socketcan_bus_cfg_t){s.ifs[b], {SP_CO_COB_NMT, SP_CO_COB_SYNC}, 2u};
+        bc[b] = (sp_socketcan_bus_cfg_t){s->ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s->lockstep ? 1u : 2u};
+        if (s->canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */
+            bc[b] = (sp_socketcan_bus_cfg_t){s->ifs[b], {SP_CO_COB_NMT, SP_CO_COB_SYNC}, 2u};
             for (uint32_t k = 0u; k < HS_LEGS; k++) {
-                if (s.co.node[k].bus == (uint8_t)b && bc[b].n_rx_ids + 2u <= SP_SOCKETCAN_MAX_FILTERS) {
-                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + s.co.node[k].node_id;
-                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + s.co.node[k].node_id;
+                if (s->co.node[k].bus == (uint8_t)b && bc[b].n_rx_ids + 2u <= SP_SOCKETCAN_MAX_FILTERS) {
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_RPDO1 + s->co.node[k].node_id;
+                    bc[b].rx_ids[bc[b].n_rx_ids++] = SP_CO_COB_SDO_RX + s->co.node[k].node_id;
                 }
             }
         }
     }
-    if (!s.inproc) {
-        if (sp_socketcan_open(&s.sc, bc) != SP_OK) {
-            fprintf(stderr, "hs_sim: %s\n", s.sc.error);
+    if (!s->inproc) {
+        if (sp_socketcan_open(&s->sc, bc) != SP_OK) {
+            fprintf(stderr, "hs_sim: %s\n", s->sc.error);
             return 1;
         }
-        s.port = sp_socketcan_port(&s.sc);
+        s->port = sp_socketcan_port(&s->sc);
     }
-    if (log_path != NULL && (s.log = fopen(log_path, "w")) == NULL) {
-        fprintf(stderr, "hs_sim: cannot write %s: %s\n", log_path, strerror(errno));
+    return 0;
+}
+
+/* --log and --truth (the truth file's header line). 0 ok, else the exit status. */
+static int open_outputs(sim_t *s, const cli_t *c)
+{
+    if (c->log_path != NULL && (s->log = fopen(c->log_path, "w")) == NULL) {
+        fprintf(stderr, "hs_sim: cannot write %s: %s\n", c->log_path, strerror(errno));
         return 1;
     }
     static char log_buf[1 << 20], truth_buf[1 << 20]; /* few write calls: each is slow in user-mode Linux */
-    if (s.log != NULL) {
-        (void)setvbuf(s.log, log_buf, _IOFBF, sizeof log_buf);
+    if (s->log != NULL) {
+        (void)setvbuf(s->log, log_buf, _IOFBF, sizeof log_buf);
     }
-    if (truth_path != NULL) {
-        if ((s.truth = fopen(truth_path, "w")) == NULL) {
-            fprintf(stderr, "hs_sim: cannot write %s: %s\n", truth_path, strerror(errno));
+    if (c->truth_path != NULL) {
+        if ((s->truth = fopen(c->truth_path, "w")) == NULL) {
+            fprintf(stderr, "hs_sim: cannot write %s: %s\n", c->truth_path, strerror(errno));
             return 1;
         }
-        (void)setvbuf(s.truth, truth_buf, _IOFBF, sizeof truth_buf);
-        fprintf(s.truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
-                         "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6,"
-                         "wrench_fx,wrench_fy,wrench_fz,wrench_mx,wrench_my,wrench_mz,"
-                         "friction1,friction2,friction3,friction4,friction5,friction6,"
-                         "block1,block2,block3,block4,block5,block6\n");
+        (void)setvbuf(s->truth, truth_buf, _IOFBF, sizeof truth_buf);
+        fprintf(s->truth, "tick,x,y,z,roll,pitch,yaw,len1,len2,len3,len4,len5,len6,"
+                          "force1,force2,force3,force4,force5,force6,drive1,drive2,drive3,drive4,drive5,drive6,"
+                          "wrench_fx,wrench_fy,wrench_fz,wrench_mx,wrench_my,wrench_mz,"
+                          "friction1,friction2,friction3,friction4,friction5,friction6,"
+                          "block1,block2,block3,block4,block5,block6\n");
     }
-    if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
-        perror("hs_sim: cannot catch SIGINT/SIGTERM");
-    }
-    if (s.inproc) {
+    return 0;
+}
+
+/* The run's mode and set-up, on stderr. */
+static void print_banner(const sim_t *s, const cli_t *c, const hs_params_t *par)
+{
+    if (s->inproc) {
         fprintf(stderr,
                 "hs_sim: lockstep mode in memory with the controller in-process, plant at the park pose, "
                 "%u substeps per 1 ms\n",
-                (unsigned)par.substeps);
+                (unsigned)par->substeps);
     } else {
         fprintf(stderr, "hs_sim: %s mode on %s %s %s, plant at the park pose, %u substeps per 1 ms%s\n",
-                s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), s.ifs[0], s.ifs[1], s.ifs[2],
-                (unsigned)par.substeps,
-                s.canopen ? (s.cia402 ? ", drives as CiA 402 nodes 1-3 (axis_a) and 4-6 (axis_b)"
-                                      : ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)")
-                          : "");
+                s->lockstep ? "lockstep" : (s->canopen ? "SYNC-driven" : "real-time"), s->ifs[0], s->ifs[1], s->ifs[2],
+                (unsigned)par->substeps,
+                s->canopen ? (s->cia402 ? ", drives as CiA 402 nodes 1-3 (axis_a) and 4-6 (axis_b)"
+                                        : ", drives as CiA 408 nodes 1-3 (axis_a) and 4-6 (axis_b)")
+                           : "");
     }
-    if (have_load) {
+    if (c->have_load) {
         fprintf(stderr, "hs_sim: load %g kg at (%g, %g, %g) m: moving mass %g kg, centre of mass (%g, %g, %g) m\n",
-                load[0], load[1], load[2], load[3], par.mass, par.com[0], par.com[1], par.com[2]);
+                c->load[0], c->load[1], c->load[2], c->load[3], par->mass, par->com[0], par->com[1], par->com[2]);
     }
+}
 
+/* Everything before the first cycle. 0 ok, else the exit status. */
+static int setup(sim_t *s, const cli_t *c, hs_params_t *par)
+{
+    int rc = check_run(s, c);
+    if (rc == 0) {
+        rc = setup_plant(s, c, par);
+    }
+    if (rc == 0 && s->inproc) {
+        rc = setup_inproc(s);
+    }
+    if (rc == 0) {
+        rc = setup_ft(s, par);
+    }
+    if (rc == 0) {
+        rc = open_buses(s);
+    }
+    if (rc == 0) {
+        rc = open_outputs(s, c);
+    }
+    return rc;
+}
+
+/* ---- the run ------------------------------------------------------------ */
+
+/* Lockstep: cycle `tick`'s frames out (every drive's feedback and SYNC(t);
+ * with CANopen drives SYNC(t) alone, the lockstep clock), then the
+ * controller's answer in. 0 go on, WAIT_STOPPED on SIGINT/SIGTERM, else the
+ * exit status. */
+static int lockstep_cycle(sim_t *s, uint64_t tick, uint64_t t_us, long timeout_ms)
+{
+    sp_can_frame_t tx[HS_BUS_MAX_TX];
+    uint32_t n = 0;
+    uint32_t sync_tick = (uint32_t)(tick + s->tick0); /* modulo 2^32, as the DBC's Tick */
+    (void)hs_bus_cycle_frames(&s->bus, &s->plant, sync_tick, 1u, tx, &n);
+    if (s->canopen) { /* the drives answer by CANopen: only the cycle's SYNC(t), the lockstep clock */
+        uint32_t k = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            if (tx[i].id == SP_ID_SYNC) {
+                tx[k++] = tx[i];
+            }
+        }
+        n = k;
+    }
+    if (send_ft(s, t_us) != 0 || send_frames(s, tx, n, t_us) != 0) {
+        return 1;
+    }
+    static sp_can_frame_t raw[4 * RX_BUF];
+    uint32_t nraw = 0;
+    int r = 0;
+    if (s->inproc) {
+        nraw = inproc_answer(s, raw);
+    } else {
+        r = lockstep_wait(s, sync_tick, raw, &nraw, 4 * RX_BUF, cycle_timeout_ms(tick, timeout_ms));
+    }
+    if (r == WAIT_STOPPED) {
+        return WAIT_STOPPED;
+    }
+    if (r != 0) {
+        if (r == 3) {
+            fprintf(stderr, "hs_sim: the controller did not answer cycle %" PRIu64 " within %ld ms\n", tick,
+                    cycle_timeout_ms(tick, timeout_ms));
+        }
+        return (r == 3) ? 3 : 1;
+    }
+    if (s->canopen) {
+        canopen_answer(s, raw, nraw, t_us);
+    } else {
+        deliver_answer(s, raw, nraw, t_us);
+    }
+    track_faults(s, tick);
+    return 0;
+}
+
+/* Real time: every SYNC answered at once until the cycle's 1 ms deadline. */
+static void realtime_cycle(sim_t *s)
+{
+    s->next_ns += 1000000;
+    for (;;) {
+        realtime_frames(s);
+        int64_t left = s->next_ns - sp_host_now_ns();
+        if (left <= 0 || sp_host_stop_requested()) {
+            break;
+        }
+        struct pollfd pfd = {sp_socketcan_fd(&s->sc), POLLIN, 0};
+        struct timespec ts = {(time_t)(left / 1000000000), (long)(left % 1000000000)};
+        (void)ppoll(&pfd, 1, &ts, NULL);
+    }
+}
+
+/* The frames of cycle `tick` with the controller, as the mode says. 0 go
+ * on, WAIT_STOPPED on SIGINT/SIGTERM, else the exit status. */
+static int exchange_frames(sim_t *s, uint64_t tick, uint64_t t_us, long timeout_ms)
+{
+    if (s->lockstep) {
+        return lockstep_cycle(s, tick, t_us, timeout_ms);
+    }
+    if (s->canopen) {
+        if (canopen_wait(s, t_us, timeout_ms) != 0) {
+            fprintf(stderr, "hs_sim: no SYNC from the CANopen master for %ld ms at cycle %" PRIu64 "\n", timeout_ms,
+                    tick);
+            return 3;
+        }
+        return 0;
+    }
+    realtime_cycle(s);
+    return 0;
+}
+
+/* The plant's 1 ms of cycle `tick`: the truth row, the CANopen nodes'
+ * setpoints in, the step, the nodes' samples out. 0 ok, 5 the step failed. */
+static int plant_cycle(sim_t *s, uint64_t tick, uint64_t t_us)
+{
+    write_truth(s, tick);
+    if (s->canopen) {
+        (void)hs_co_bus_apply(&s->co, &s->plant);
+    }
+    hs_status_t st = hs_plant_step(&s->plant, 1.0e-3);
+    if (st != HS_OK) {
+        fprintf(stderr, "hs_sim: plant step failed at cycle %" PRIu64 ": %s\n", tick, hs_status_name(st));
+        return 5;
+    }
+    if (s->canopen) {
+        canopen_cycle(s, t_us);
+    }
+    return 0;
+}
+
+/* The cycles until the end (--ticks, the scenario's end, a signal, an
+ * error); *ticks the cycles done. Returns the exit status. */
+static int run(sim_t *s, const cli_t *c, uint64_t *ticks)
+{
     int rc = 0;
     uint64_t tick = 0;
-    s.t0_ns = sp_host_now_ns();
-    int64_t next = s.t0_ns;
-    uint32_t answered = 0;
-    int have_answered = 0;
-    while (!sp_host_stop_requested() && (max_ticks == 0 || tick < max_ticks)) {
-        uint64_t t_us = (s.lockstep || s.canopen) ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s.t0_ns) / 1000);
-        s.tick = tick;
-        if (s.have_scenario) {
-            int r = play_tick(&s, tick, t_us); /* a play under way first: its last pose before what follows it */
+    s->t0_ns = sp_host_now_ns();
+    s->next_ns = s->t0_ns;
+    while (!sp_host_stop_requested() && (c->max_ticks == 0 || tick < c->max_ticks)) {
+        uint64_t t_us = (s->lockstep || s->canopen) ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s->t0_ns) / 1000);
+        s->tick = tick;
+        if (s->have_scenario) {
+            int r = play_tick(s, tick, t_us); /* a play under way first: its last pose before what follows it */
             if (r == 0) {
-                r = run_scenario(&s, tick, t_us);
+                r = run_scenario(s, tick, t_us);
             }
             if (r != 0) {
                 rc = (r == 1) ? 0 : ((r == 4 || r == 2) ? r : 1);
                 break;
             }
-            wrench_tick(&s, tick);
+            wrench_tick(s, tick);
         }
-        if (s.lockstep) {
-            sp_can_frame_t tx[HS_BUS_MAX_TX];
-            uint32_t n = 0;
-            uint32_t sync_tick = (uint32_t)(tick + s.tick0); /* modulo 2^32, as the DBC's Tick */
-            (void)hs_bus_cycle_frames(&s.bus, &s.plant, sync_tick, 1u, tx, &n);
-            if (s.canopen) { /* the drives answer by CANopen: only the cycle's SYNC(t), the lockstep clock */
-                uint32_t k = 0;
-                for (uint32_t i = 0; i < n; i++) {
-                    if (tx[i].id == SP_ID_SYNC) {
-                        tx[k++] = tx[i];
-                    }
-                }
-                n = k;
-            }
-            if (send_ft(&s, t_us) != 0 || send_frames(&s, tx, n, t_us) != 0) {
-                rc = 1;
-                break;
-            }
-            static sp_can_frame_t raw[4 * RX_BUF];
-            uint32_t nraw = 0;
-            int r = 0;
-            if (s.inproc) {
-                nraw = inproc_answer(&s, raw);
-            } else {
-                r = lockstep_wait(&s, sync_tick, raw, &nraw, 4 * RX_BUF, cycle_timeout_ms(tick, timeout_ms));
-            }
-            if (r == WAIT_STOPPED) {
-                break; /* SIGINT/SIGTERM: the run ends as asked (exit 0) */
-            }
-            if (r != 0) {
-                if (r == 3) {
-                    fprintf(stderr, "hs_sim: the controller did not answer cycle %" PRIu64 " within %ld ms\n", tick,
-                            cycle_timeout_ms(tick, timeout_ms));
-                }
-                rc = (r == 3) ? 3 : 1;
-                break;
-            }
-            if (s.canopen) {
-                canopen_answer(&s, raw, nraw, t_us);
-            } else {
-                deliver_answer(&s, raw, nraw, t_us);
-            }
-            track_faults(&s, tick);
-        } else if (s.canopen) {
-            if (canopen_wait(&s, t_us, timeout_ms) != 0) {
-                fprintf(stderr, "hs_sim: no SYNC from the CANopen master for %ld ms at cycle %" PRIu64 "\n", timeout_ms,
-                        tick);
-                rc = 3;
-                break;
-            }
-        } else {
-            next += 1000000;
-            for (;;) {
-                realtime_frames(&s, &answered, &have_answered);
-                int64_t left = next - sp_host_now_ns();
-                if (left <= 0 || sp_host_stop_requested()) {
-                    break;
-                }
-                struct pollfd pfd = {sp_socketcan_fd(&s.sc), POLLIN, 0};
-                struct timespec ts = {(time_t)(left / 1000000000), (long)(left % 1000000000)};
-                (void)ppoll(&pfd, 1, &ts, NULL);
-            }
+        int r = exchange_frames(s, tick, t_us, c->timeout_ms);
+        if (r == WAIT_STOPPED) {
+            break; /* SIGINT/SIGTERM: the run ends as asked (exit 0) */
         }
-        write_truth(&s, tick);
-        if (s.canopen) {
-            (void)hs_co_bus_apply(&s.co, &s.plant);
-        }
-        hs_status_t st = hs_plant_step(&s.plant, 1.0e-3);
-        if (st != HS_OK) {
-            fprintf(stderr, "hs_sim: plant step failed at cycle %" PRIu64 ": %s\n", tick, hs_status_name(st));
-            rc = 5;
+        if (r != 0 || (r = plant_cycle(s, tick, t_us)) != 0) {
+            rc = r;
             break;
         }
-        if (s.canopen) {
-            canopen_cycle(&s, t_us);
-        }
         tick++;
-        ft_advance(&s, tick);
-        if (s.progress && tick % 1000u == 0u) {
-            progress_line(&s, tick);
+        ft_advance(s, tick);
+        if (s->progress && tick % 1000u == 0u) {
+            progress_line(s, tick);
         }
     }
-    double wall = (double)(sp_host_now_ns() - s.t0_ns) * 1e-9;
+    *ticks = tick;
+    return rc;
+}
+
+/* ---- the summary -------------------------------------------------------- */
+
+/* The run, the final pose, authentication, the drives' states. */
+static void print_summary(sim_t *s, uint64_t tick, int rc)
+{
+    double wall = (double)(sp_host_now_ns() - s->t0_ns) * 1e-9;
     double pose[6];
-    (void)hs_plant_pose(&s.plant, pose);
+    (void)hs_plant_pose(&s->plant, pose);
     printf("hs_sim summary: %s, cycles %" PRIu64 ", simulated %.3f s, wall %.3f s, %.2fx real time, exit %d\n",
-           s.lockstep ? "lockstep" : (s.canopen ? "SYNC-driven" : "real-time"), tick, (double)tick / 1000.0, wall,
+           s->lockstep ? "lockstep" : (s->canopen ? "SYNC-driven" : "real-time"), tick, (double)tick / 1000.0, wall,
            wall > 0.0 ? (double)tick / 1000.0 / wall : 0.0, rc);
     printf("hs_sim pose: x %.6f y %.6f z %.6f roll %.6f pitch %.6f yaw %.6f\n", pose[0], pose[1], pose[2], pose[3],
            pose[4], pose[5]);
-    printf("hs_sim auth: signed %" PRIu64 ", unsigned %" PRIu64 ", session 0x%08x, last counter %u\n", s.signed_frames,
-           s.unsigned_frames, (unsigned)s.session, (unsigned)s.auth_counter);
+    printf("hs_sim auth: signed %" PRIu64 ", unsigned %" PRIu64 ", session 0x%08x, last counter %u\n", s->signed_frames,
+           s->unsigned_frames, (unsigned)s->session, (unsigned)s->auth_counter);
     printf("hs_sim drives:");
     for (int i = 0; i < HS_LEGS; i++) {
         hs_feedback_t fb;
-        (void)hs_plant_feedback(&s.plant, i, &fb);
+        (void)hs_plant_feedback(&s->plant, i, &fb);
         printf(" %d:%s/0x%02x", i + 1,
                fb.state == HS_DRIVE_INIT     ? "init"
                : fb.state == HS_DRIVE_HOLD   ? "hold"
@@ -1515,51 +1886,88 @@ int main(int argc, char **argv)
                                              : "fault",
                (unsigned)fb.faults);
     }
-    printf("\nhs_sim frames: setpoints accepted %u, lost %u, stale %u, ignored %u", s.bus.stats.accepted,
-           s.bus.stats.lost, s.bus.stats.stale, s.bus.stats.ignored);
+    printf("\n");
+}
+
+/* The frames the plant took, the CANopen nodes, the controller's last state. */
+static void print_bus_summary(const sim_t *s)
+{
+    printf("hs_sim frames: setpoints accepted %u, lost %u, stale %u, ignored %u", s->bus.stats.accepted,
+           s->bus.stats.lost, s->bus.stats.stale, s->bus.stats.ignored);
     for (int e = 1; e < SP_PROTO_ERRORS; e++) {
-        printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), s.bus.stats.rejected[e]);
+        printf(", %s %u", sp_proto_error_name((sp_proto_error_t)e), s->bus.stats.rejected[e]);
     }
-    printf(", ops rejected %" PRIu64 "\n", s.ops_rejected);
-    if (s.canopen) {
+    printf(", ops rejected %" PRIu64 "\n", s->ops_rejected);
+    if (s->canopen) {
         uint32_t sdo = 0u;
         printf("hs_sim canopen:");
         for (int i = 0; i < HS_LEGS; i++) {
-            const hs_co_node_t *nd = &s.co.node[i];
+            const hs_co_node_t *nd = &s->co.node[i];
             sdo += nd->sdo_count;
             printf(" %u:nmt 0x%02x/%s", (unsigned)nd->node_id, (unsigned)nd->nmt, sp_co408_state_name(nd->state));
         }
-        printf(", SDO requests %u, frames sent %" PRIu64 "\n", (unsigned)sdo, s.co_sent);
+        printf(", SDO requests %u, frames sent %" PRIu64 "\n", (unsigned)sdo, s->co_sent);
     }
-    printf("hs_sim controller: last state %s, faults 0x%04x\n", state_name(s.status_state, "unknown"),
-           (unsigned)s.status_faults);
-    {
-        /* the drives' safety monitors (hs/drive.h): their largest readings on the
-         * drives they did not fault, against their thresholds (the false-alarm margin) */
-        double spool = 0.0, travel = 0.0;
-        for (int i = 0; i < HS_LEGS; i++) {
-            const hs_drive_t *d = &s.plant.drive[i];
-            if ((d->faults & (HS_FAULT_VALVE | HS_FAULT_SENSOR)) == 0u) {
-                spool = fmax(spool, d->spool_error_peak);
-                travel = fmax(travel, d->chk_travel_peak);
-            }
+    printf("hs_sim controller: last state %s, faults 0x%04x\n", state_name(s->status_state, "unknown"),
+           (unsigned)s->status_faults);
+}
+
+/* The drives' safety monitors (hs/drive.h): their largest readings on the
+ * drives they did not fault, against their thresholds (the false-alarm margin). */
+static void print_monitors(const sim_t *s)
+{
+    double spool = 0.0, travel = 0.0;
+    for (int i = 0; i < HS_LEGS; i++) {
+        const hs_drive_t *d = &s->plant.drive[i];
+        if ((d->faults & (HS_FAULT_VALVE | HS_FAULT_SENSOR)) == 0u) {
+            spool = fmax(spool, d->spool_error_peak);
+            travel = fmax(travel, d->chk_travel_peak);
         }
-        printf("hs_sim monitors: healthy drives' spool error peak %.1e (fault above %.2f), sensor balance peak "
-               "%.4f mm (fault above %.2f mm)\n",
-               spool, s.plant.par.drive.spool_error_max, travel * 1e3, s.plant.par.drive.sensor_check_travel * 1e3);
     }
+    printf("hs_sim monitors: healthy drives' spool error peak %.1e (fault above %.2f), sensor balance peak "
+           "%.4f mm (fault above %.2f mm)\n",
+           spool, s->plant.par.drive.spool_error_max, travel * 1e3, s->plant.par.drive.sensor_check_travel * 1e3);
+}
+
+static void close_run(sim_t *s)
+{
+    if (s->log != NULL) {
+        fclose(s->log);
+    }
+    if (s->truth != NULL) {
+        fclose(s->truth);
+    }
+    hs_play_close(&s->play);
+    if (!s->inproc) {
+        sp_socketcan_close(&s->sc);
+    }
+}
+
+int main(int argc, char **argv)
+{
+    static sim_t s;
+    cli_t c;
+    hs_params_t par;
+    set_defaults(&s, &c);
+    int rc = parse_command_line(&c, argc, argv);
+    if (rc == 0) {
+        rc = setup(&s, &c, &par);
+    }
+    if (rc != 0) {
+        return rc;
+    }
+    if (sp_host_stop_on_signals() != 0) { /* then SIGINT/SIGTERM end the program at once, as by default */
+        perror("hs_sim: cannot catch SIGINT/SIGTERM");
+    }
+    print_banner(&s, &c, &par);
+    uint64_t ticks = 0;
+    rc = run(&s, &c, &ticks);
+    print_summary(&s, ticks, rc);
+    print_bus_summary(&s);
+    print_monitors(&s);
     if (s.injected) {
         print_fault_report(&s);
     }
-    if (s.log != NULL) {
-        fclose(s.log);
-    }
-    if (s.truth != NULL) {
-        fclose(s.truth);
-    }
-    hs_play_close(&s.play);
-    if (!s.inproc) {
-        sp_socketcan_close(&s.sc);
-    }
+    close_run(&s);
     return rc;
 }

@@ -31,13 +31,14 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 from typing import Iterable, Iterator
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import closedloop as cl
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 STEWART = [sys.executable, "-m", "stewart.cli"]
 

@@ -29,15 +29,17 @@ from __future__ import annotations
 
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import auth
 from stewart import closedloop as cl
 from stewart import protocol as pr
 
 import busrig
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 

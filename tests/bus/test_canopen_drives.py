@@ -17,12 +17,15 @@ import json
 import re
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT, closedloop as cl
+from stewart import closedloop as cl
 
 import busrig
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 

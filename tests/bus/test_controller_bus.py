@@ -14,8 +14,10 @@ from pathlib import Path
 import can
 import pytest
 
-from stewart import REPO_ROOT, e2e
+from stewart import e2e
 from stewart.protocol import Protocol, value_names
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 NET = Path("/sys/class/net")
 pytestmark = pytest.mark.skipif(not (NET / "vcan0").exists(),

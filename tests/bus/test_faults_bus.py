@@ -12,13 +12,15 @@ Run inside ``stewart vcan`` (scripts/test.sh does).
 from __future__ import annotations
 
 import subprocess
+from pathlib import Path
 
 import cantools
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import closedloop as cl
 from stewart import faults as F
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 

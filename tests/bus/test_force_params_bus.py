@@ -27,17 +27,19 @@ import io
 import signal
 import subprocess
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import auth, cli
 from stewart import closedloop as cl
 from stewart import protocol as pr
 from stewart.operator.node import _Reader as FieldReader
 
 import busrig
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 

@@ -18,14 +18,17 @@ tick, and ``stewart identify`` differentiates over those samples.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT, cli
+from stewart import cli
 from stewart import closedloop as cl
 from stewart import config as cfg
 from stewart import identify as idf
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 

@@ -30,12 +30,13 @@ from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import closedloop as cl
 from stewart import protocol as pr
 from stewart.operator.sources import encode_datagram
 
 import busrig
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
 

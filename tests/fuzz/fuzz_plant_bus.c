@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * libFuzzer target: random bytes become a stream of CAN frames fed to the
- * plant's receive path (host_sim/src/bus.c, hs_bus_receive), as the
+ * plant's receive path (host_sim/src/bus/bus.c, hs_bus_receive), as the
  * simulated drives see the bus: any identifier, length (0..255, beyond the
  * 64-byte payload too), payload, flags and bus number. One header bit asks
  * the harness to seal the frame (a correct E2E CRC over whatever payload)

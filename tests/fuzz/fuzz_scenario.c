@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * libFuzzer target: random bytes as a scenario (host_sim/src/scenario.c),
+ * libFuzzer target: random bytes as a scenario (host_sim/src/scenario/scenario.c),
  * through both readers: hs_scenario_parse on the text up to its first NUL,
  * and hs_scenario_load on all the bytes written to a file (NULs, overlong
  * lines and a last line without '\n' included).

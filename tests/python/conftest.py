@@ -1,4 +1,9 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The suite's throw-away machine key: stewart.testkey's hooks."""
+"""The suite's throw-away machine key: testkey's hooks. The developer tools
+(testkey, the build's generators) live in tools/dev, outside the package."""
 
-from stewart.testkey import pytest_configure, pytest_unconfigure  # noqa: F401
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools" / "dev"))
+from testkey import pytest_configure, pytest_unconfigure  # noqa: E402, F401

@@ -9,11 +9,14 @@ from __future__ import annotations
 import ctypes as C
 import os
 import random
+from pathlib import Path
 
 import pytest
 
 from stewart import auth
 from stewart import core
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -98,15 +101,13 @@ def test_key_files(tmp_path):
 
 
 def test_build_key_header(tmp_path):
-    """tools/stewart/key_header.py (the STM32 build's key): makes a missing
+    """tools/dev/key_header.py (the STM32 build's key): makes a missing
     key file (mode 600) and says so, keeps an existing one, writes the
     header with its bytes, and refuses a readable or malformed file."""
     import subprocess
     import sys
 
-    from stewart import REPO_ROOT
-
-    script = REPO_ROOT / "tools" / "stewart" / "key_header.py"
+    script = REPO_ROOT / "tools" / "dev" / "key_header.py"
     key, hdr = tmp_path / "k" / "machine.key", tmp_path / "h" / "sp_machine_key.h"
     r = subprocess.run([sys.executable, str(script), str(key), str(hdr)], capture_output=True, text=True)
     assert r.returncode == 0 and "made a new random one" in r.stderr and "never commit" in r.stderr

@@ -2,11 +2,14 @@
 """``stewart busload``: frame bit counts and the per-bus load of the shipped DBC."""
 
 import subprocess
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT, cli
+from stewart import cli
 from stewart.commands import busload_cmd as bl
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_classic_formula_matches_notes():

@@ -4,12 +4,15 @@ behind a command line, with bad rows reported in place."""
 
 import csv
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT, cli, model
+from stewart import cli, model
 from stewart import config as cfg
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 CONFIG = str(REPO_ROOT / "config" / "platform_default.json")
 

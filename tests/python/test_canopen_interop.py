@@ -27,12 +27,15 @@ from __future__ import annotations
 import ctypes as C
 import itertools
 import time
+from pathlib import Path
 
 import can
 import canopen
 import pytest
 
-from stewart import REPO_ROOT, core
+from stewart import core
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 EDS = REPO_ROOT / "config" / "eds" / "stewart_sim_drive.eds"
 _channels = itertools.count()

@@ -16,20 +16,23 @@ from __future__ import annotations
 import copy
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT, config, model
+from stewart import config, model
 from stewart import protocol as pr
 from stewart.analysis import canopen_legs as cl
 from stewart.analysis.csvout import write_signals_csv
 from stewart.analysis.decode import hydraulic_areas, read_log
-from stewart.analysis.decode_reference import read_log_reference
+from decode_reference import read_log_reference
 from stewart.analysis.logfile import format_line
 from stewart.analysis.metrics import format_summary, summarize
 from stewart.analysis.names import DRIVE_STATES
 from stewart.drives import layout as lo
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 DEFAULT = json.loads((REPO_ROOT / "config" / "platform_default.json").read_text())
 NATIVE = config.from_dict(DEFAULT)

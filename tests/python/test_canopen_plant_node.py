@@ -41,12 +41,15 @@ import ctypes as C
 import itertools
 import threading
 import time
+from pathlib import Path
 
 import can
 import canopen
 import pytest
 
-from stewart import REPO_ROOT, cli, core
+from stewart import cli, core
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 EDS = REPO_ROOT / "config" / "eds" / "stewart_sim_drive.eds"
 EDS402 = REPO_ROOT / "config" / "eds" / "stewart_sim_drive_402.eds"

@@ -4,8 +4,11 @@
 import pkgutil
 import subprocess
 import sys
+from pathlib import Path
 
-from stewart import REPO_ROOT, cli, commands
+from stewart import cli, commands
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_help_lists_commands(capsys):

@@ -4,12 +4,14 @@ ConfigError naming the key, never another exception."""
 
 import copy
 import json
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import config as cfg
-from stewart import gen_platform
+import gen_platform
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 DEFAULT = REPO_ROOT / "config" / "platform_default.json"
 

@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import copy
 import json
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT, cli, config
+from stewart import cli, config
 from stewart.canframe import classic_frame_bits
 from stewart.drives import layout
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 DEFAULT = json.loads((REPO_ROOT / "config" / "platform_default.json").read_text())
 
@@ -222,7 +225,7 @@ def test_force_feedforward_key():
 
 
 def test_the_firmware_gets_the_config_layout():
-    from stewart import gen_platform
+    import gen_platform
 
     native = gen_platform.c_source(config.load(REPO_ROOT / "config" / "platform_default.json"))
     assert ".present = 0u," in native   # native drives: the master's keys only, for the built-in layout
@@ -243,7 +246,7 @@ def test_the_firmware_gets_the_config_layout():
 def test_the_firmware_gets_a_cia402_layout():
     """CiA 402 drives: the profile per node, no unit prefix written (0x6600
     is CiA 408's), no pressure PDO; CiA 408 and 402 drives may share the master."""
-    from stewart import gen_platform
+    import gen_platform
 
     s = _section(divider=3)
     for leg in s["legs"]:
@@ -271,7 +274,7 @@ def test_the_firmware_gets_a_cia402_layout():
      "drives.legs[0].scaling.position_per_count: 1.5e-09 m is not a whole number of nm per count"),
 ])
 def test_what_the_firmware_cannot_drive_fails_the_build(mutate, message):
-    from stewart import gen_platform
+    import gen_platform
 
     s = _section(divider=3)
     mutate(s)
@@ -285,7 +288,7 @@ def test_what_the_firmware_cannot_drive_fails_the_build(mutate, message):
 
 
 def test_three_canopen_buses_fail_the_build():
-    from stewart import gen_platform
+    import gen_platform
 
     p = config.from_dict(_with(_section(divider=2, per_bus=2)), "t.json")
     with pytest.raises(config.ConfigError) as e:
@@ -297,7 +300,7 @@ def test_master_heartbeat_keys():
     """drives.master_heartbeat_ms and master_node_id: defaults 100 ms and 127
     (the firmware's SP_CO_MASTER_HEARTBEAT_MS); they reach the drives' plan
     (0x1016.1), the bus load, and the firmware's layout, CANopen or native."""
-    from stewart import gen_platform
+    import gen_platform
     from stewart.drives import plan
 
     p = config.from_dict(_with(_section()), "t.json")

@@ -4,12 +4,14 @@ means 0 (off; the default config sets them); bad values are a ConfigError naming
 writes them into hs_config_default."""
 
 import json
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT
 from stewart import config as cfg
-from stewart import gen_plant
+import gen_plant
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 DEFAULT = REPO_ROOT / "config" / "platform_default.json"
 LEG_KEYS = ("cylinder_mass", "cylinder_com", "rod_mass", "rod_com")

@@ -8,9 +8,12 @@ most 3 Newton steps when warm-started from the previous 1 kHz tick.
 """
 
 import pytest
+from pathlib import Path
 
-from stewart import REPO_ROOT, accuracy
+from stewart import accuracy
 from stewart import config as cfg
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -16,15 +16,18 @@ The C decoders are fuzzed by libFuzzer (scripts/fuzz.sh, tests/fuzz/).
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from stewart import REPO_ROOT, e2e
+from stewart import e2e
 from stewart import protocol as pr
 from stewart.analysis import decode
 from stewart.analysis import logfile
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 PROTO = pr.Protocol()

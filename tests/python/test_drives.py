@@ -14,12 +14,15 @@ import copy
 import itertools
 import json
 import subprocess
+from pathlib import Path
 
 import canopen
 import pytest
 
-from stewart import REPO_ROOT, cli, config
+from stewart import cli, config
 from stewart.drives import eds, objects as ob, plan
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 EDS = REPO_ROOT / "config" / "eds" / "stewart_sim_drive.eds"
 DEFAULT = REPO_ROOT / "config" / "platform_default.json"

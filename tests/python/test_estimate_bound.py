@@ -1,12 +1,15 @@
 # SPDX-License-Identifier: Apache-2.0
 """The firmware's single-step pose estimate stays within its bound
-(tools/stewart/estimate_bound.py; sp/estimation/estimate.h, SP_ESTIMATE_STEP_MAX)."""
+(tools/dev/estimate_bound.py; sp/estimation/estimate.h, SP_ESTIMATE_STEP_MAX)."""
 
 import numpy as np
 import pytest
+from pathlib import Path
 
-from stewart import REPO_ROOT, estimate_bound
+import estimate_bound
 from stewart import config as cfg
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -2,9 +2,11 @@
 """The controller's fault names in Python follow the firmware's SP_FAULT_* bits."""
 
 import re
+from pathlib import Path
 
-from stewart import REPO_ROOT
 from stewart import protocol as pr
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_controller_fault_names_match_the_header():

@@ -33,7 +33,11 @@ EXCURSION_MRAD = 5.0
 
 @pytest.fixture(scope="module")
 def rows(tmp_path_factory):
-    return F.campaign(F.select(subset=True), jobs=None, workdir=tmp_path_factory.mktemp("faults"), log=False)
+    ended = []  # each row as it ends: `stewart faults`' progress lines
+    rows = F.campaign(F.select(subset=True), jobs=None, workdir=tmp_path_factory.mktemp("faults"), log=False,
+                      done=ended.append)
+    assert sorted(map(id, ended)) == sorted(map(id, rows))
+    return rows
 
 
 def test_subset_covers_every_state_and_family():

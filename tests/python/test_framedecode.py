@@ -12,7 +12,7 @@
   against :func:`stewart.e2e.crc_ok` / :class:`stewart.e2e.E2EReceiver`.
 * :func:`stewart.analysis.logfile.read_frames` against ``parse_line`` per line.
 * :func:`stewart.analysis.decode.read_log` against the per-frame
-  :func:`stewart.analysis.decode_reference.read_log_reference` (every array,
+  tools/dev/decode_reference.py's ``read_log_reference`` (every array,
   command, count and warning) on the real excerpt, clean and corrupted.
 * ``write_signals_csv`` against the csv-module writer (byte for byte), and
   ``read_truth`` (numpy) against ``read_truth_rows``.
@@ -34,7 +34,7 @@ from stewart import e2e
 from stewart import protocol as pr
 from stewart.analysis.csvout import TruthText, write_signals_csv, write_signals_csv_reference
 from stewart.analysis.decode import read_log
-from stewart.analysis.decode_reference import read_log_reference
+from decode_reference import read_log_reference
 from stewart.analysis.framedecode import MessageLayout
 from stewart.analysis.logfile import parse_line, read_frames
 from stewart.analysis.run import DEFAULT_PLATFORM

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""tools/stewart/gen_can_c.py: the scale ratios of the firmware's protocol
+"""tools/dev/gen_can_c.py: the scale ratios of the firmware's protocol
 layer, generated from the DBC's factors (the C side's bit-exactness is
 checked by test_protocol_c.py on the shared test vectors)."""
 
@@ -7,7 +7,7 @@ from fractions import Fraction
 
 import pytest
 
-from stewart import gen_can_c as gen
+import gen_can_c as gen
 from stewart import protocol as pr
 
 DBC = pr.DBC_PATH.read_text()

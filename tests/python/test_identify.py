@@ -16,16 +16,19 @@ import copy
 import csv
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT, cli, model
+from stewart import cli, model
 from stewart import config as cfg
 from stewart import identify as idf
 from stewart import protocol as pr
 from stewart.analysis.decode import hydraulic_areas
 from stewart.analysis.logfile import format_line
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 CONFIG = REPO_ROOT / "config" / "platform_default.json"
 LEG_MASSES = dict(cylinder_mass=60.0, cylinder_com=0.8, rod_mass=35.0, rod_com=1.0)

@@ -3,12 +3,15 @@
 as the reference for the fixed-point core (tolerances are float64 ones)."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT, model
+from stewart import model
 from stewart import config as cfg
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,15 @@ checked against first principles that do not share its formulae:
 """
 
 import copy
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stewart import REPO_ROOT, model
+from stewart import model
 from stewart import config as cfg
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -24,7 +24,7 @@ import pytest
 
 from stewart import auth, cli, e2e
 from stewart import protocol as pr
-from stewart.operator import bus as opbus
+from stewart import busopts as opbus
 from stewart.operator import node as opnode
 from stewart.operator import sources as src
 
@@ -588,6 +588,29 @@ def test_bus_defaults_and_python_can_config(monkeypatch, tmp_path):
                    "channel = bench-channel\n")
     assert opbus.resolve(opbus.BusOptions(config_file=str(ini)))["channel"] == "from-file"
     assert opbus.resolve(opbus.BusOptions(config_file=str(ini), context="bench"))["channel"] == "bench-channel"
+
+
+
+def test_every_command_takes_the_same_bus_options(monkeypatch, tmp_path):
+    """op (the ops bus, FD) and drives (an axis bus, classic CAN) share one
+    set of options and defaults: python-can's configuration, else SocketCAN
+    on the simulated set-up's interface of the bus."""
+    for k in ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG"):
+        monkeypatch.delenv(k, raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.chdir(tmp_path)
+    parser = cli.build_parser()
+    plain = {"op": ["op", "status"], "scan": ["drives", "scan"], "config": ["drives", "config"]}
+    defaults = {k: opbus.resolve(opbus.options(parser.parse_args(v))) for k, v in plain.items()}
+    assert defaults["op"] == {"interface": "socketcan", "channel": "vcan0", "fd": True}
+    assert defaults["scan"] == defaults["config"] == {"interface": "socketcan", "channel": "vcan1", "fd": False}
+    given = ["-i", "virtual", "-c", "bench", "-b", "500000", "--fd", "--data-bitrate", "2000000"]
+    for argv in (["op", *given, "status"], ["drives", "scan", *given], ["drives", "config", *given]):
+        assert opbus.resolve(opbus.options(parser.parse_args(argv))) == {
+            "interface": "virtual", "channel": "bench", "bitrate": 500000, "data_bitrate": 2000000, "fd": True}
+    monkeypatch.setenv("CAN_INTERFACE", "virtual")
+    monkeypatch.setenv("CAN_CHANNEL", "env-channel")
+    assert opbus.resolve(opbus.options(parser.parse_args(["drives", "scan"])))["channel"] == "env-channel"
 
 
 # -- sources --------------------------------------------------------------------------

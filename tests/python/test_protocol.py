@@ -2,12 +2,15 @@
 """The CAN protocol: DBC, E2E, encoder/decoder, shared test vectors, generated docs."""
 
 import json
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT, cli, e2e
+from stewart import cli, e2e
 from stewart import protocol as pr
 from stewart.commands import protocol_cmd
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 VECTORS = REPO_ROOT / "protocol" / "test_vectors.json"
 DOC = REPO_ROOT / "docs" / "reference" / "protocol.md"

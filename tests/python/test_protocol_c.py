@@ -8,11 +8,13 @@ with the same reason that Python gives."""
 
 import ctypes as C
 import json
+from pathlib import Path
 
 import pytest
 
-from stewart import REPO_ROOT
 from stewart.core import CanFrame, lib
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 VECTORS = json.loads((REPO_ROOT / "protocol" / "test_vectors.json").read_text())
 BUS = {"ops": 0, "axis_a": 1, "axis_b": 2}

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""tools/stewart/stack_usage.py on small Cortex-M4 programs whose worst-case
+"""tools/dev/stack_usage.py on small Cortex-M4 programs whose worst-case
 stack is known: GCC's frames summed along the deepest chain, libgcc calls
 GCC's call graph does not show, and the cases that are not a bound
 (recursion, unresolved indirect call) failing. Needs arm-none-eabi-gcc."""
@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "tools" / "stewart" / "stack_usage.py"
+SCRIPT = ROOT / "tools" / "dev" / "stack_usage.py"
 GCC = shutil.which("arm-none-eabi-gcc")
 pytestmark = pytest.mark.skipif(GCC is None, reason="arm-none-eabi-gcc not installed")
 

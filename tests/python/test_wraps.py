@@ -11,12 +11,14 @@ every run. Needs the host-release build."""
 from __future__ import annotations
 
 import subprocess
+from pathlib import Path
 
 import cantools
 import pytest
 
-from stewart import REPO_ROOT
 from stewart.closedloop import Binaries
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 SCENARIO = ("delay 0.2\ncmd ENGAGE\nwait ready 30\n"
             "cmd RUN_TRIG axis=x amplitude=0.09 frequency=0.5 fade=0.5\ndelay 3\n"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -79,12 +80,15 @@ def random_motions(platform, n: int, seed: int = 1):
     return out
 
 
-def measure(platform, n: int = 10000, seed: int = 1) -> Report:
+def measure(platform, n: int = 10000, seed: int = 1, step: Callable[[], None] | None = None) -> Report:
+    """The report over n random motions; ``step`` is called as each one starts."""
     core = Core(platform)
     rep = Report(n)
     home_len = np.asarray(model.inverse_kinematics(platform, np.array(platform.home, dtype=float)).lengths)
     rng = np.random.default_rng(seed + 1)
     for pose, vel, rate, acc, racc in random_motions(platform, n, seed):
+        if step is not None:
+            step()
         r = core.calc(pose, vel, rate, acc, racc)
         if r.length is None:
             rep.failures += 1

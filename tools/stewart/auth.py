@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The operator's side of command authentication (firmware sp/link/auth.h,
-docs/security.md): the code of a frame is SipHash-2-4 under the machine's
+docs/explanation/security.md): the code of a frame is SipHash-2-4 under the machine's
 128-bit key of
 
     data ID (2 bytes LE) | session (4 bytes LE) | counter (4 bytes LE) | payload

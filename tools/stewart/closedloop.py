@@ -23,10 +23,10 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import REPO_ROOT
 from . import protocol as pr
+from . import resources
 
-DEFAULT_BUILD = REPO_ROOT / "build" / "host-release"
+DEFAULT_BUILD = resources.host_build()
 AXES = pr.axis_names()
 
 
@@ -219,7 +219,7 @@ def run(specs: list[RunSpec], out: str | Path, build: str | Path | None = None, 
     runner = out / "run_closed_loop.sh"
     from . import auth
 
-    # the machine key: $STEWART_KEY's, else a throw-away one in `out` (docs/security.md)
+    # the machine key: $STEWART_KEY's, else a throw-away one in `out` (docs/explanation/security.md)
     runner.write_text(_runner(specs, bins, out, progress, auth.run_key(out).resolve()))
     if vcan_present():
         subprocess.run(["bash", str(runner)], check=False, timeout=timeout)

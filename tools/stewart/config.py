@@ -30,7 +30,7 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
 - ``drives`` (optional; absent = every leg on the native protocol): the
   protocol, bus, CANopen node id and scaling of each leg's drive, the
   CANopen buses' bit rates, the SYNC divider, heartbeat and watchdog times
-  (``_drives``; config/README.md and docs/canopen.md). A layout whose
+  (``_drives``; config/README.md and docs/reference/canopen.md). A layout whose
   CANopen bus load exceeds 50 % is refused, naming the ways out.
 """
 
@@ -82,7 +82,7 @@ HYDRAULIC_KEYS = {
 # dynamics and the float64 model include them; absent = 0 = neglected, the
 # paper's model). Each leg is two point masses on its axis: the cylinder body at
 # cylinder_com from the base joint, the rod + piston at rod_com from the
-# platform joint towards the base (docs/plant.md "Leg masses").
+# platform joint towards the base (docs/explanation/plant.md "Leg masses").
 HYDRAULIC_OPTIONAL_KEYS = {
     "cylinder_mass": (0.0, 1e4, "kg"),
     "cylinder_com": (0.0, _Q24_MAX, "m"),
@@ -111,7 +111,7 @@ FRICTION_SHAPE_KEYS = {
 }
 
 # max over v of |v| exp(-(v/v_s)^2) / v_s = exp(-1/2) / sqrt(2), rounded up;
-# the plant's dissipativity bound on sigma_1 (host_sim/src/params.c checks it).
+# the plant's dissipativity bound on sigma_1 (host_sim/src/plant/params.c checks it).
 FADE_PEAK = 0.42889
 
 
@@ -158,7 +158,7 @@ SENSOR_KEYS = {
 
 
 #: The force/torque sensor section (``force_sensor``, optional): which wrench
-#: force control uses and where the sensor sits (docs/force_control.md).
+#: force control uses and where the sensor sits (docs/explanation/force_control.md).
 WRENCH_SOURCES = ("cylinders", "sensor")
 FORCE_SENSOR_DEFAULT = {"wrench_source": "cylinders", "mount_pos": [0.0, 0.0, 0.0],
                         "mount_rpy": [0.0, 0.0, 0.0], "rate_hz": 7000.0}
@@ -338,6 +338,21 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
     legs_in = _require(s, "legs", "drives.")
     if not isinstance(legs_in, list) or len(legs_in) != LEGS:
         raise ConfigError(f"drives.legs: expected a list of {LEGS} objects, leg 1 first")
+    bitrates = _drive_bitrates(s)
+    divider, hb, hb_timeout, wd = _drive_times(s)
+    pressure = s.get("pressure_feedback", True)
+    if not isinstance(pressure, bool):
+        raise ConfigError("drives.pressure_feedback: expected true or false")
+    legs = []
+    used: dict[tuple[str, int], int] = {}
+    for i, leg in enumerate(legs_in):
+        legs.append(_drive(i, leg, bitrates, master_hb, master_node, used, lmin, lmax))
+    _check_drive_buses(legs, bitrates)
+    return _layout.Drives(tuple(legs), bitrates, divider, hb, hb_timeout, wd, pressure, master_hb, master_node)
+
+
+def _drive_bitrates(s: dict) -> dict[str, int]:
+    """``drives.buses``: the CANopen buses' classic bit rates by bus name."""
     buses_in = s.get("buses", {})
     if not isinstance(buses_in, dict):
         raise ConfigError("drives.buses: expected an object: bus name -> {\"bitrate\": bit/s}")
@@ -351,6 +366,11 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
             raise ConfigError(f"drives.buses.{name}.bitrate: {json.dumps(rate)[:20]} is not a classic CAN "
                               f"bit rate ({', '.join(str(r) for r in _layout.CLASSIC_BITRATES)})")
         bitrates[name] = int(rate)
+    return bitrates
+
+
+def _drive_times(s: dict) -> tuple[int, int, int, int]:
+    """(SYNC divider, heartbeat ms, heartbeat timeout ms, setpoint timeout ms)."""
     divider = _integer("drives.sync_divider", s.get("sync_divider", 1), 1, 10)
     hb = _integer("drives.heartbeat_ms", s.get("heartbeat_ms", 20), 1, 65535)
     hb_timeout = _integer("drives.heartbeat_timeout_ms", s.get("heartbeat_timeout_ms", 50), 1, 65535)
@@ -361,77 +381,89 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
     if wd < 2 * divider:
         raise ConfigError(f"drives.setpoint_timeout_ms: {wd} ms is below two SYNC periods "
                           f"({2 * divider} ms): one late frame would stop the drive")
-    pressure = s.get("pressure_feedback", True)
-    if not isinstance(pressure, bool):
-        raise ConfigError("drives.pressure_feedback: expected true or false")
-    legs = []
-    used: dict[tuple[str, int], int] = {}
-    for i, leg in enumerate(legs_in):
-        w = f"drives.legs[{i}]"
-        if not isinstance(leg, dict):
-            raise ConfigError(f"{w}: expected an object")
-        for key in leg:
-            if key not in _LEG_KEYS:
-                raise ConfigError(f"{w}.{key}: unknown key (known: {', '.join(sorted(_LEG_KEYS))})")
-        proto = leg.get("protocol", "native")
-        if proto not in _objects.PROTOCOLS:
-            raise ConfigError(f"{w}.protocol: {json.dumps(proto)[:30]} is not one of "
-                              f"{', '.join(_objects.PROTOCOLS)}")
-        bus = leg.get("bus", _layout.NATIVE_BUS[i])
-        if not isinstance(bus, str) or not bus:
-            raise ConfigError(f"{w}.bus: expected a bus name")
-        if proto == "native":
-            if bus != _layout.NATIVE_BUS[i]:
-                raise ConfigError(f"{w}.bus: a native drive of leg {i + 1} is on {_layout.NATIVE_BUS[i]} "
-                                  f"(fixed by protocol/stewart.dbc), not {bus}")
-            for key in ("node_id", "scaling", "control_mode", "force_feedforward"):
-                if key in leg:
-                    raise ConfigError(f"{w}.{key}: only for CANopen drives (protocol cia408 or cia402)")
-            legs.append(_layout.Drive(i + 1, proto, bus))
-            continue
-        if bus not in bitrates:
-            raise ConfigError(f"{w}.bus: {bus} has no bit rate in drives.buses")
-        node = _integer(f"{w}.node_id", _require(leg, "node_id", f"{w}."), 1, 127)
-        if master_hb and node == master_node:
-            raise ConfigError(f"{w}.node_id: {node} is the master's own heartbeat id (drives.master_node_id)")
-        if (bus, node) in used:
-            raise ConfigError(f"{w}.node_id: node {node} on bus {bus} is already leg {used[(bus, node)]}'s")
-        used[(bus, node)] = i + 1
-        sc = _require(leg, "scaling", f"{w}.")
-        if not isinstance(sc, dict):
-            raise ConfigError(f"{w}.scaling: expected an object with position_per_count and length_at_zero")
-        for key in sc:
-            if key not in _SCALING_KEYS:
-                raise ConfigError(f"{w}.scaling.{key}: unknown key (known: {', '.join(sorted(_SCALING_KEYS))})")
-        res = _number(f"{w}.scaling.position_per_count", _require(sc, "position_per_count", f"{w}.scaling."),
-                      1e-9, 1e-2)
-        zero = _number(f"{w}.scaling.length_at_zero", _require(sc, "length_at_zero", f"{w}.scaling."),
-                       0.0, _Q24_MAX)
-        direction = sc.get("direction", 1)
-        if direction not in (1, -1) or isinstance(direction, bool):
-            raise ConfigError(f"{w}.scaling.direction: expected 1 or -1")
-        for end in (lmin, lmax):
-            counts = abs(end - zero) / res
-            if counts > 2**31 - 1:
-                raise ConfigError(f"{w}.scaling: leg length {end:g} m is {counts:.3g} counts from "
-                                  "length_at_zero, beyond the drive's 32-bit position")
-        mode = _integer(f"{w}.control_mode", leg.get("control_mode", _objects.CIA408_CONTROL_MODE_AXIS_POSITION),
-                        -128, 127)
-        if proto != "cia408" and "control_mode" in leg:
-            raise ConfigError(f"{w}.control_mode: only for cia408 drives (CiA 402 uses mode 8, CSP)")
-        ff = leg.get("force_feedforward", False)
-        if not isinstance(ff, bool):
-            raise ConfigError(f"{w}.force_feedforward: expected true or false")
-        rated = None
-        if "rated_force" in sc:
-            if proto != "cia402":
-                raise ConfigError(f"{w}.scaling.rated_force: only for cia402 drives (the force of 1000 per mille "
-                                  "of the torque/force offset 0x60B2)")
-            rated = _number(f"{w}.scaling.rated_force", sc["rated_force"], *RATED_FORCE_RANGE)
-        if ff and proto == "cia402" and rated is None:
-            raise ConfigError(f"{w}.force_feedforward: a cia402 drive takes the force as its torque/force offset "
-                              "0x60B2, in per mille of its rated force: give scaling.rated_force (N along the leg)")
-        legs.append(_layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction, rated), mode, ff))
+    return divider, hb, hb_timeout, wd
+
+
+def _drive(i: int, leg, bitrates: dict[str, int], master_hb: int, master_node: int,
+           used: dict[tuple[str, int], int], lmin: float, lmax: float) -> _layout.Drive:
+    """``drives.legs[i]``; ``used``: the (bus, node id) pairs taken so far
+    (this leg's is added)."""
+    w = f"drives.legs[{i}]"
+    if not isinstance(leg, dict):
+        raise ConfigError(f"{w}: expected an object")
+    for key in leg:
+        if key not in _LEG_KEYS:
+            raise ConfigError(f"{w}.{key}: unknown key (known: {', '.join(sorted(_LEG_KEYS))})")
+    proto = leg.get("protocol", "native")
+    if proto not in _objects.PROTOCOLS:
+        raise ConfigError(f"{w}.protocol: {json.dumps(proto)[:30]} is not one of "
+                          f"{', '.join(_objects.PROTOCOLS)}")
+    bus = leg.get("bus", _layout.NATIVE_BUS[i])
+    if not isinstance(bus, str) or not bus:
+        raise ConfigError(f"{w}.bus: expected a bus name")
+    if proto == "native":
+        if bus != _layout.NATIVE_BUS[i]:
+            raise ConfigError(f"{w}.bus: a native drive of leg {i + 1} is on {_layout.NATIVE_BUS[i]} "
+                              f"(fixed by protocol/stewart.dbc), not {bus}")
+        for key in ("node_id", "scaling", "control_mode", "force_feedforward"):
+            if key in leg:
+                raise ConfigError(f"{w}.{key}: only for CANopen drives (protocol cia408 or cia402)")
+        return _layout.Drive(i + 1, proto, bus)
+    if bus not in bitrates:
+        raise ConfigError(f"{w}.bus: {bus} has no bit rate in drives.buses")
+    node = _integer(f"{w}.node_id", _require(leg, "node_id", f"{w}."), 1, 127)
+    if master_hb and node == master_node:
+        raise ConfigError(f"{w}.node_id: {node} is the master's own heartbeat id (drives.master_node_id)")
+    if (bus, node) in used:
+        raise ConfigError(f"{w}.node_id: node {node} on bus {bus} is already leg {used[(bus, node)]}'s")
+    used[(bus, node)] = i + 1
+    sc = _require(leg, "scaling", f"{w}.")
+    res, zero, direction = _drive_position_scaling(w, sc, lmin, lmax)
+    mode = _integer(f"{w}.control_mode", leg.get("control_mode", _objects.CIA408_CONTROL_MODE_AXIS_POSITION),
+                    -128, 127)
+    if proto != "cia408" and "control_mode" in leg:
+        raise ConfigError(f"{w}.control_mode: only for cia408 drives (CiA 402 uses mode 8, CSP)")
+    ff = leg.get("force_feedforward", False)
+    if not isinstance(ff, bool):
+        raise ConfigError(f"{w}.force_feedforward: expected true or false")
+    rated = None
+    if "rated_force" in sc:
+        if proto != "cia402":
+            raise ConfigError(f"{w}.scaling.rated_force: only for cia402 drives (the force of 1000 per mille "
+                              "of the torque/force offset 0x60B2)")
+        rated = _number(f"{w}.scaling.rated_force", sc["rated_force"], *RATED_FORCE_RANGE)
+    if ff and proto == "cia402" and rated is None:
+        raise ConfigError(f"{w}.force_feedforward: a cia402 drive takes the force as its torque/force offset "
+                          "0x60B2, in per mille of its rated force: give scaling.rated_force (N along the leg)")
+    return _layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction, rated), mode, ff)
+
+
+def _drive_position_scaling(w: str, sc, lmin: float, lmax: float) -> tuple[float, float, int]:
+    """(position_per_count, length_at_zero, direction) of a CANopen leg's
+    ``scaling`` (at ``w``); the stroke must fit the drive's 32-bit position."""
+    if not isinstance(sc, dict):
+        raise ConfigError(f"{w}.scaling: expected an object with position_per_count and length_at_zero")
+    for key in sc:
+        if key not in _SCALING_KEYS:
+            raise ConfigError(f"{w}.scaling.{key}: unknown key (known: {', '.join(sorted(_SCALING_KEYS))})")
+    res = _number(f"{w}.scaling.position_per_count", _require(sc, "position_per_count", f"{w}.scaling."),
+                  1e-9, 1e-2)
+    zero = _number(f"{w}.scaling.length_at_zero", _require(sc, "length_at_zero", f"{w}.scaling."),
+                   0.0, _Q24_MAX)
+    direction = sc.get("direction", 1)
+    if direction not in (1, -1) or isinstance(direction, bool):
+        raise ConfigError(f"{w}.scaling.direction: expected 1 or -1")
+    for end in (lmin, lmax):
+        counts = abs(end - zero) / res
+        if counts > 2**31 - 1:
+            raise ConfigError(f"{w}.scaling: leg length {end:g} m is {counts:.3g} counts from "
+                              "length_at_zero, beyond the drive's 32-bit position")
+    return res, zero, direction
+
+
+def _check_drive_buses(legs: list[_layout.Drive], bitrates: dict[str, int]) -> None:
+    """A native drive is not on a CANopen bus; every bus given a bit rate
+    carries a CANopen drive."""
     canopen_buses = {dr.bus for dr in legs if dr.is_canopen}
     for dr in legs:
         if dr.protocol == "native" and dr.bus in canopen_buses:
@@ -440,7 +472,6 @@ def _drives(d, lmin: float, lmax: float) -> _layout.Drives:
     for name in bitrates:
         if name not in canopen_buses:
             raise ConfigError(f"drives.buses.{name}: no CANopen drive is on this bus")
-    return _layout.Drives(tuple(legs), bitrates, divider, hb, hb_timeout, wd, pressure, master_hb, master_node)
 
 
 def _check_bus_load(drives: _layout.Drives) -> None:
@@ -461,12 +492,7 @@ def _from_dict(d) -> Platform:
     base = _matrix("base_joints", _require(d, "base_joints"), LEGS, 3, -_Q24_MAX, _Q24_MAX)
     plat = _matrix("platform_joints", _require(d, "platform_joints"), LEGS, 3, -_Q24_MAX, _Q24_MAX)
     mass = _number("mass", _require(d, "mass"), hi=_MASS_MAX, positive=True)
-    inertia = _matrix("inertia", _require(d, "inertia"), 3, 3, -_INERTIA_MAX, _INERTIA_MAX)
-    if not _symmetric_positive_definite(inertia):
-        raise ConfigError("inertia: must be symmetric and positive definite")
-    ev = [inertia[0][0], inertia[1][1], inertia[2][2]]
-    if ev[0] + ev[1] < ev[2] or ev[1] + ev[2] < ev[0] or ev[0] + ev[2] < ev[1]:
-        raise ConfigError("inertia: diagonal violates the triangle inequality (not a rigid body)")
+    inertia = _inertia(d)
     gravity = _number("gravity", d.get("gravity", 9.80665), 0.0, 100.0)
     com = _vector("center_of_mass", d.get("center_of_mass", [0.0, 0.0, 0.0]), 3, -_COM_MAX, _COM_MAX)
     home = _vector("home", _require(d, "home"), 6, -_Q24_MAX, _Q24_MAX)
@@ -480,53 +506,9 @@ def _from_dict(d) -> Platform:
         raise ConfigError(f"leg_length_max: {lmax:g} must exceed leg_length_min {lmin:g}")
     fmax = _number("force_max", _require(d, "force_max"), hi=_FORCE_MAX, positive=True)
     vmax = _number("leg_velocity_max", d.get("leg_velocity_max", 1.0), hi=100.0, positive=True)
-    ws = d.get("workspace", {"min": [-0.1] * 3 + [-0.1] * 3, "max": [0.1] * 3 + [0.1] * 3})
-    if not isinstance(ws, dict):
-        raise ConfigError("workspace: expected an object with min and max")
-    wmin = _vector("workspace.min", _require(ws, "min", "workspace."), 6, -_Q24_MAX, _Q24_MAX)
-    wmax = _vector("workspace.max", _require(ws, "max", "workspace."), 6, -_Q24_MAX, _Q24_MAX)
-    for k in range(6):
-        if not wmin[k] <= 0.0 <= wmax[k]:
-            raise ConfigError(f"workspace: min[{k}] <= 0 <= max[{k}] is required (limits are relative to home)")
-        if k >= 3 and max(-wmin[k], wmax[k]) > 1.2:
-            raise ConfigError(f"workspace: angle limit {k} beyond 1.2 rad (Euler angles near gimbal lock)")
-    hyd = {}
-    if "hydraulic" in d:
-        h = d["hydraulic"]
-        if not isinstance(h, dict):
-            raise ConfigError("hydraulic: expected an object")
-        for key, (lo, hi, _unit) in HYDRAULIC_KEYS.items():
-            hyd[key] = _number(f"hydraulic.{key}", _require(h, key, "hydraulic."), lo, hi)
-        if hyd["rod_diameter"] >= hyd["piston_diameter"]:
-            raise ConfigError("hydraulic.rod_diameter: must be smaller than piston_diameter")
-        if hyd["tank_pressure"] >= hyd["supply_pressure"]:
-            raise ConfigError("hydraulic.tank_pressure: must be below supply_pressure")
-        for key, (lo, hi, _unit) in HYDRAULIC_OPTIONAL_KEYS.items():
-            hyd[key] = _number(f"hydraulic.{key}", h.get(key, 0.0), lo, hi)
-        for key, (lo, hi, _unit) in FRICTION_KEYS.items():
-            hyd[key] = _per_leg(f"hydraulic.{key}", _require(h, key, "hydraulic."), lo, hi)
-        for key, (lo, hi, _unit) in FRICTION_OPTIONAL_KEYS.items():
-            hyd[key] = _per_leg(f"hydraulic.{key}", h.get(key, hyd["coulomb_friction"]), lo, hi)
-        for i, (fs, fc) in enumerate(zip(hyd["breakaway_friction"], hyd["coulomb_friction"])):
-            if fs < fc:
-                raise ConfigError(f"hydraulic.breakaway_friction: leg {i + 1}: {fs:g} N is below "
-                                  f"its coulomb_friction {fc:g} N")
-        for key, (lo, hi, _unit, default) in FRICTION_SHAPE_KEYS.items():
-            hyd[key] = _number(f"hydraulic.{key}", h.get(key, default), lo, hi)
-        for key in ("cylinder_com", "rod_com"):
-            if hyd[key] > lmax:
-                raise ConfigError(f"hydraulic.{key}: {hyd[key]:g} m is beyond leg_length_max {lmax:g}")
-    sens = {}
-    if "sensors" in d:
-        s = d["sensors"]
-        if not isinstance(s, dict):
-            raise ConfigError("sensors: expected an object")
-        for key, (lo, hi, _unit) in SENSOR_KEYS.items():
-            sens[key] = _number(f"sensors.{key}", _require(s, key, "sensors."), lo, hi)
-        seed = s.get("seed", 1)
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise ConfigError("sensors.seed: expected a non-negative integer")
-        sens["seed"] = seed
+    wmin, wmax = _workspace(d)
+    hyd = _hydraulic(d["hydraulic"], lmax) if "hydraulic" in d else {}
+    sens = _sensors(d["sensors"]) if "sensors" in d else {}
     drives = _drives(d, lmin, lmax)
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
                  wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d))
@@ -537,6 +519,75 @@ def _from_dict(d) -> Platform:
                     f"{label}: leg {i + 1} is {length:.4f} m long there, outside the stroke "
                     f"[leg_length_min {lmin:g}, leg_length_max {lmax:g}]")
     return p
+
+
+def _inertia(d) -> list[list[float]]:
+    """The platform's inertia matrix: symmetric, positive definite, a rigid body's."""
+    inertia = _matrix("inertia", _require(d, "inertia"), 3, 3, -_INERTIA_MAX, _INERTIA_MAX)
+    if not _symmetric_positive_definite(inertia):
+        raise ConfigError("inertia: must be symmetric and positive definite")
+    ev = [inertia[0][0], inertia[1][1], inertia[2][2]]
+    if ev[0] + ev[1] < ev[2] or ev[1] + ev[2] < ev[0] or ev[0] + ev[2] < ev[1]:
+        raise ConfigError("inertia: diagonal violates the triangle inequality (not a rigid body)")
+    return inertia
+
+
+def _workspace(d) -> tuple[list[float], list[float]]:
+    """(min, max) of the ``workspace`` relative to home."""
+    ws = d.get("workspace", {"min": [-0.1] * 3 + [-0.1] * 3, "max": [0.1] * 3 + [0.1] * 3})
+    if not isinstance(ws, dict):
+        raise ConfigError("workspace: expected an object with min and max")
+    wmin = _vector("workspace.min", _require(ws, "min", "workspace."), 6, -_Q24_MAX, _Q24_MAX)
+    wmax = _vector("workspace.max", _require(ws, "max", "workspace."), 6, -_Q24_MAX, _Q24_MAX)
+    for k in range(6):
+        if not wmin[k] <= 0.0 <= wmax[k]:
+            raise ConfigError(f"workspace: min[{k}] <= 0 <= max[{k}] is required (limits are relative to home)")
+        if k >= 3 and max(-wmin[k], wmax[k]) > 1.2:
+            raise ConfigError(f"workspace: angle limit {k} beyond 1.2 rad (Euler angles near gimbal lock)")
+    return wmin, wmax
+
+
+def _hydraulic(h, lmax: float) -> dict:
+    """The ``hydraulic`` section: cylinders, supply, friction per leg."""
+    hyd: dict = {}
+    if not isinstance(h, dict):
+        raise ConfigError("hydraulic: expected an object")
+    for key, (lo, hi, _unit) in HYDRAULIC_KEYS.items():
+        hyd[key] = _number(f"hydraulic.{key}", _require(h, key, "hydraulic."), lo, hi)
+    if hyd["rod_diameter"] >= hyd["piston_diameter"]:
+        raise ConfigError("hydraulic.rod_diameter: must be smaller than piston_diameter")
+    if hyd["tank_pressure"] >= hyd["supply_pressure"]:
+        raise ConfigError("hydraulic.tank_pressure: must be below supply_pressure")
+    for key, (lo, hi, _unit) in HYDRAULIC_OPTIONAL_KEYS.items():
+        hyd[key] = _number(f"hydraulic.{key}", h.get(key, 0.0), lo, hi)
+    for key, (lo, hi, _unit) in FRICTION_KEYS.items():
+        hyd[key] = _per_leg(f"hydraulic.{key}", _require(h, key, "hydraulic."), lo, hi)
+    for key, (lo, hi, _unit) in FRICTION_OPTIONAL_KEYS.items():
+        hyd[key] = _per_leg(f"hydraulic.{key}", h.get(key, hyd["coulomb_friction"]), lo, hi)
+    for i, (fs, fc) in enumerate(zip(hyd["breakaway_friction"], hyd["coulomb_friction"])):
+        if fs < fc:
+            raise ConfigError(f"hydraulic.breakaway_friction: leg {i + 1}: {fs:g} N is below "
+                              f"its coulomb_friction {fc:g} N")
+    for key, (lo, hi, _unit, default) in FRICTION_SHAPE_KEYS.items():
+        hyd[key] = _number(f"hydraulic.{key}", h.get(key, default), lo, hi)
+    for key in ("cylinder_com", "rod_com"):
+        if hyd[key] > lmax:
+            raise ConfigError(f"hydraulic.{key}: {hyd[key]:g} m is beyond leg_length_max {lmax:g}")
+    return hyd
+
+
+def _sensors(s) -> dict:
+    """The ``sensors`` section: the simulated sensors' resolution and noise, and the seed."""
+    if not isinstance(s, dict):
+        raise ConfigError("sensors: expected an object")
+    sens = {}
+    for key, (lo, hi, _unit) in SENSOR_KEYS.items():
+        sens[key] = _number(f"sensors.{key}", _require(s, key, "sensors."), lo, hi)
+    seed = s.get("seed", 1)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError("sensors.seed: expected a non-negative integer")
+    sens["seed"] = seed
+    return sens
 
 
 def load(path, check_bus_load: bool = True) -> Platform:

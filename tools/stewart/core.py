@@ -2,10 +2,12 @@
 """The fixed-point firmware core, called from Python through ctypes.
 
 This is the same C code that runs on the controller (``firmware/core``),
-built as a shared library by the host-release preset
-(``build/host-release/firmware/libsp_core.so``). Values cross the boundary
-in the core's Q formats; this module converts them to and from SI floats.
-Set ``STEWART_CORE_LIB`` to use another build of the library.
+built as a shared library: by the package's build into an installed
+package, by the host-release preset in a checkout
+(``build/host-release/firmware/libsp_core.so``; :mod:`stewart.resources`).
+Values cross the boundary in the core's Q formats; this module converts
+them to and from SI floats. Set ``STEWART_CORE_LIB`` to use another build
+of the library.
 
 The ctypes Structures below mirror the core's C structs (:data:`MIRRORS`).
 The library exports the layout its compiler gave them (sizes, member
@@ -19,11 +21,10 @@ from __future__ import annotations
 
 import ctypes as C
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import REPO_ROOT
+from . import resources
 
 LEGS = 6
 Q24 = float(1 << 24)
@@ -198,10 +199,7 @@ def check_layout(layout: Layout, mirrors: dict[type, str] = MIRRORS) -> None:
 
 
 def library_path() -> Path:
-    env = os.environ.get("STEWART_CORE_LIB")
-    if env:
-        return Path(env)
-    return REPO_ROOT / "build" / "host-release" / "firmware" / "libsp_core.so"
+    return resources.core_library()
 
 
 _LIB = None
@@ -276,9 +274,9 @@ def pose_tuple(p: Pose) -> tuple[float, ...]:
 def platform_struct(platform) -> PlatformStruct:
     """The core's platform struct from a validated config (stewart.config),
     quantized exactly as the firmware's generated default is."""
-    from . import gen_platform
+    from . import fixedpoint
 
-    ints = gen_platform.quantize(platform)
+    ints = fixedpoint.quantize(platform)
     s = PlatformStruct()
     for i in range(LEGS):
         for c in range(3):

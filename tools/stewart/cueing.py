@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """Motion cueing: a classical washout filter from vehicle telemetry to
-platform poses (docs/cueing.md explains the why of each part).
+platform poses (docs/explanation/cueing.md explains the why of each part).
 
 Input per sample (vehicle frame: x forward, y left, z up):
 
@@ -47,11 +47,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import REPO_ROOT
 from . import config as cfg
-from . import model
+from . import model, resources
 
-DEFAULT_PLATFORM = REPO_ROOT / "config" / "platform_default.json"
+DEFAULT_PLATFORM = resources.default_platform()
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 #: Telemetry CSV columns (the header line is required).
 TELEMETRY_COLUMNS = ("t", "fx", "fy", "fz", "wx", "wy", "wz")
@@ -62,7 +61,7 @@ POSE_COLUMNS = ("t", "x", "y", "z", "roll", "pitch", "yaw")
 @dataclass(frozen=True)
 class WashoutParams:
     """Parameters of the classical washout (defaults for the default
-    platform, see docs/cueing.md). Per-axis tuples are (x, y, z) for the
+    platform, see docs/explanation/cueing.md). Per-axis tuples are (x, y, z) for the
     translation and (roll, pitch, yaw) for the rotation."""
 
     #: Scale of the specific force (less gravity) fed to the translation path.
@@ -455,7 +454,7 @@ def write_telemetry(path: str | Path, t, f, w) -> None:
 
 def write_poses(path: str | Path, t, poses) -> None:
     """Pose CSV ``t,x,y,z,roll,pitch,yaw`` (s from the start, absolute pose
-    m / rad, 1 um / 1 urad): hs_sim's ``play`` format (docs/closed_loop.md)."""
+    m / rad, 1 um / 1 urad): hs_sim's ``play`` format (docs/explanation/closed_loop.md)."""
     a = np.column_stack([t, poses])
     np.savetxt(path, a, delimiter=",", header=",".join(POSE_COLUMNS), comments="",
                fmt=["%.4f"] + ["%.6f"] * 6)

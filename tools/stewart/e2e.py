@@ -2,7 +2,7 @@
 """End-to-end protection of the CAN frames: CRCs and the alive-counter check.
 
 The pattern of the AUTOSAR E2E profiles, as fixed for this project
-(docs/protocol.md, section "E2E protection"):
+(docs/reference/protocol.md, section "E2E protection"):
 
 * every message carries a 4-bit ``Counter`` (+1 modulo 16 per transmission of
   that message by its sender) and a ``Crc`` in its last byte(s);

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""The fault-injection campaign (issue 17, docs/faults.md).
+"""The fault-injection campaign (issue 17, docs/explanation/faults.md).
 
 Every injectable fault in each of the states ENGAGING, RUNNING (the paper's
 trigonometric motion, a point-to-point move, a stream of targets) and
@@ -27,9 +27,10 @@ import re
 import subprocess
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from .closedloop import Binaries
 
@@ -235,8 +236,10 @@ def run_row(fault: Fault, state: str, plant: Path, workdir: Path, seed: int = 1,
 
 
 def campaign(pairs: list[tuple[Fault, str]], jobs: int | None = None, build: str | Path | None = None,
-             workdir: str | Path | None = None, log: bool = False) -> list[Row]:
-    """Runs the rows in parallel (``jobs`` workers, default the machine's cores)."""
+             workdir: str | Path | None = None, log: bool = False,
+             done: Callable[[Row], None] | None = None) -> list[Row]:
+    """Runs the rows in parallel (``jobs`` workers, default the machine's cores);
+    ``done`` is called with each row as it ends."""
     bins = Binaries.find(build)
     jobs = jobs or os.cpu_count() or 1
     tmp = None
@@ -250,6 +253,9 @@ def campaign(pairs: list[tuple[Fault, str]], jobs: int | None = None, build: str
     try:
         with ThreadPoolExecutor(max_workers=jobs) as ex:
             futs = [ex.submit(run_row, f, s, bins.plant, wd, 1, log) for f, s in pairs]
+            for fut in as_completed(futs):
+                if done is not None:
+                    done(fut.result())
             return [f.result() for f in futs]
     finally:
         if tmp is not None and not log:

@@ -351,7 +351,7 @@ def demo_figures(name: str, data, plant_out: str, ft, out: Path) -> tuple[dict, 
     if lost.size:
         fig["contact_lost_tick"] = int(status.tick[lost[0]])
         lines.append(f"force hold ({source}): CONTACT_LOST latched at tick {status.tick[lost[0]]} "
-                     "while the surface was there: the hold failed (docs/force_control.md)")
+                     "while the surface was there: the hold failed (docs/explanation/force_control.md)")
         return fig, lines
     if "begin hold" in m and "end hold" in m:
         fig["hold"] = h = hold_figures(tr, m["begin hold"], m["end hold"], 2000.0)

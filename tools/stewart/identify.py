@@ -10,7 +10,7 @@ module computes the pose (forward kinematics), its rates and accelerations
 (zero-phase Savitzky-Golay differentiation), writes every cylinder force as
 a row of a linear regression, and solves it by least squares, with standard
 errors and an observability test. It also plans an excitation that makes
-every parameter observable. Theory and choices: docs/identification.md.
+every parameter observable. Theory and choices: docs/explanation/identification.md.
 
 Python API::
 
@@ -617,8 +617,22 @@ def plan_excitation(platform, duration: float = 60.0, fade: float = 3.0, f_min: 
     lines = np.arange(k0, k1 + 1)
     if lines.size < 12:
         raise IdentifyError("excitation: fewer than two frequency lines per axis; widen the band or lengthen it")
-    # window and its derivatives: w = x^3 (10 - 15 x + 6 x^2), x = tau / fade, on
-    # both ramps (velocity and acceleration start and end at zero)
+    shapes = _excitation_shapes(platform, t, _fade_window(t, duration, fade), lines / period, rng)
+    step = 1 if dt >= 0.005 else int(round(0.005 / dt))    # model checks every 5 ms
+    gain, checks = _excitation_gain(platform, shapes, step)
+    pose = np.asarray(platform.home, float) + gain * shapes[0]
+    rate, acc = gain * shapes[1], gain * shapes[2]
+    res, se_full = _judge_excitation(platform, pose, rate, acc, step, seed, noise)
+    amp = np.max(np.abs(gain * shapes[0]), axis=0)
+    report = dict(checks, gain=gain, condition=res.condition, predicted_se=se_full, amplitude=amp,
+                  lines_hz=[list(lines[a::6] / period) for a in range(6)])
+    return Plan(t, pose, rate, acc, report)
+
+
+def _fade_window(t: np.ndarray, duration: float, fade: float) -> np.ndarray:
+    """(4, N): the fade window and its first three derivatives: w = x^3 (10
+    - 15 x + 6 x^2), x = tau / fade, on both ramps (velocity and
+    acceleration start and end at zero), 1 between them."""
     win = np.zeros((4, t.size))
     win[0] = 1.0
     for sl, tau, sgn in ((t < fade, t, 1.0), (t > duration - fade, duration - t, -1.0)):
@@ -627,12 +641,19 @@ def plan_excitation(platform, duration: float = 60.0, fade: float = 3.0, f_min: 
         win[1, sl] = sgn * 30.0 * x * x * (1.0 - x) ** 2 / fade
         win[2, sl] = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / fade ** 2
         win[3, sl] = sgn * 60.0 * (1.0 - 6.0 * x + 6.0 * x * x) / fade ** 3
+    return win
+
+
+def _excitation_shapes(platform, t: np.ndarray, win: np.ndarray, line_hz: np.ndarray, rng) -> np.ndarray:
+    """(4, N, 6): each axis' windowed multi-sine (the lines ``line_hz`` dealt
+    to the axes in turn) and its derivatives, scaled into LIMIT_SHARE of
+    the workspace and the move limits."""
     ws_lo = np.asarray(platform.workspace_min, float)
     ws_hi = np.asarray(platform.workspace_max, float)
     pos_lim = LIMIT_SHARE * np.minimum(-ws_lo, ws_hi)
     shapes = np.zeros((4, t.size, 6))
     for axis in range(6):
-        f = lines[axis::6] / period
+        f = line_hz[axis::6]
         amps = 1.0 / (2 * np.pi * f)                          # equal velocity per line
         s = _multisine(t, f, rng.uniform(0, 2 * np.pi, f.size), amps)
         # product rule for (window * signal) and its derivatives
@@ -645,15 +666,21 @@ def plan_excitation(platform, duration: float = 60.0, fade: float = 3.0, f_min: 
         scale = min(lim / pk for lim, pk in zip(lims, peaks))
         for k, d in enumerate((d0, d1, d2, d3)):
             shapes[k, :, axis] = scale * d
+    return shapes
+
+
+def _excitation_gain(platform, shapes: np.ndarray, step: int) -> tuple[float, dict[str, float]]:
+    """(gain, the checked extremes): the largest of 1, 0.9, 0.81, ... at
+    which the motion keeps the stroke (less 30 mm), LIMIT_SHARE of
+    leg_velocity_max and of force_max, by the model every ``step`` samples."""
     home = np.asarray(platform.home, float)
     margin = 0.03
     vmax = LIMIT_SHARE * platform.leg_velocity_max
     fmax = LIMIT_SHARE * platform.force_max
-    step = 1 if dt >= 0.005 else int(round(0.005 / dt))    # model checks every 5 ms
+    sub = slice(None, None, step)
     gain = 1.0
     for _ in range(40):
         pose = home + gain * shapes[0]
-        sub = slice(None, None, step)
         jm = model.joint_motion(platform, pose[sub], gain * shapes[1][sub, :3], gain * shapes[1][sub, 3:],
                                 gain * shapes[2][sub, :3], gain * shapes[2][sub, 3:])
         f = model.inverse_dynamics_many(platform, pose[sub], gain * shapes[1][sub, :3], gain * shapes[1][sub, 3:],
@@ -664,12 +691,17 @@ def plan_excitation(platform, duration: float = 60.0, fade: float = 3.0, f_min: 
         if (checks["leg_length_min"] >= platform.leg_length_min + margin
                 and checks["leg_length_max"] <= platform.leg_length_max - margin
                 and checks["leg_rate_max"] <= vmax and checks["force_max"] <= fmax):
-            break
+            return gain, checks
         gain *= 0.9
-    else:
-        raise IdentifyError("excitation: no scale of the motion keeps the stroke, leg rate and force limits")
-    rate, acc = gain * shapes[1], gain * shapes[2]
-    # judge it like a log, with the config's parameters and the assumed noise
+    raise IdentifyError("excitation: no scale of the motion keeps the stroke, leg rate and force limits")
+
+
+def _judge_excitation(platform, pose: np.ndarray, rate: np.ndarray, acc: np.ndarray, step: int, seed: int,
+                      noise: float):
+    """(the solution, its standard errors for every sample) of the motion
+    judged like a log, with the config's parameters and ``noise`` N of force
+    noise; raises Unobservable or IdentifyError if it is not good enough."""
+    sub = slice(None, None, step)
     min_rate = min_leg_rate(platform)
     f_model = model.inverse_dynamics_many(platform, pose[sub], rate[sub, :3], rate[sub, 3:], acc[sub, :3], acc[sub, 3:])
     jm = model.joint_motion(platform, pose[sub], rate[sub, :3], rate[sub, 3:], acc[sub, :3], acc[sub, 3:])
@@ -686,10 +718,7 @@ def plan_excitation(platform, duration: float = 60.0, fade: float = 3.0, f_min: 
                                f"lengthen it or widen its band")
     if res.condition > COND_MAX:
         raise IdentifyError(f"excitation: condition number {res.condition:.3g} of the planned regressor")
-    amp = np.max(np.abs(gain * shapes[0]), axis=0)
-    report = dict(checks, gain=gain, condition=res.condition, predicted_se=se_full, amplitude=amp,
-                  lines_hz=[list(lines[a::6] / period) for a in range(6)])
-    return Plan(t, pose, rate, acc, report)
+    return res, se_full
 
 
 def write_excitation(plan: Plan, scenario_path, csv_path, csv_ref: str, csv_dt: float = 0.01) -> None:
@@ -704,7 +733,7 @@ def write_excitation(plan: Plan, scenario_path, csv_path, csv_ref: str, csv_dt: 
         for i in idx:
             fh.write(f"{plan.t[i]:.3f}," + ",".join(f"{round(v, 7) + 0.0:.7f}" for v in plan.pose[i]) + "\n")
     duration = plan.t[-1]
-    text = f"""# Excitation for `stewart identify` (docs/identification.md): a
+    text = f"""# Excitation for `stewart identify` (docs/explanation/identification.md): a
 # {duration:.0f} s multi-axis multi-sine about home, streamed from {csv_ref}.
 # Condition number of the planned (column-scaled) regressor: {plan.report['condition']:.3g}.
 cmd ENGAGE

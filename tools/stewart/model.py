@@ -2,7 +2,7 @@
 """Independent float64 model of the paper's kinematics and dynamics (numpy).
 
 Written from the paper (Hitaka et al., eqs (1)-(15)) with the conventions of
-docs/model.md (Frames and pose), not from the C code: it is the reference that the
+docs/explanation/model.md (Frames and pose), not from the C code: it is the reference that the
 fixed-point firmware core is checked against, and what the plots overlay.
 
 Conventions: a pose is [x, y, z, roll phi, pitch theta, yaw psi] (m, rad).
@@ -10,7 +10,7 @@ The paper's T (eq 2) has the platform axes as rows; the column-vector
 rotation from the motion frame to the base frame is R = T^T = Rz Ry Rx.
 F_i > 0 pushes the platform away from the base along the leg.
 
-Beyond the paper (derivation in docs/identification.md, "The complete
+Beyond the paper (derivation in docs/explanation/identification.md, "The complete
 model"): the centre of mass off o', the legs' barrels and rods as point
 masses on the leg axes (Newton-Euler with the joint reactions), and the
 cylinders' viscous + smoothed Coulomb friction (``friction_force``). With
@@ -170,7 +170,7 @@ class JointMotion:
 
 
 def joint_motion(platform, pose, vel, rpy_rate, acc, rpy_acc) -> JointMotion:
-    """Kinematics of the platform joints and of the leg axes (docs/identification.md,
+    """Kinematics of the platform joints and of the leg axes (docs/explanation/identification.md,
     "The legs"). Arguments are (..., 6) poses and (..., 3) rates and
     accelerations of the position and of the Euler angles."""
     pose = np.asarray(pose, dtype=float)
@@ -207,7 +207,7 @@ def leg_joint_forces(platform, jm: JointMotion) -> np.ndarray:
     """The force each massive leg exerts on the platform at its joint A_i,
     less the cylinder force F_i u_i: (..., 6, 3), base frame, N. Zero for
     massless legs. From Newton-Euler of the barrel and the rod
-    (docs/identification.md, "The legs"):
+    (docs/explanation/identification.md, "The legs"):
 
         h_i = m_r u u.(g - c2'') + (1/L) P [m_c d_c (g - c1'') + m_r (L - d_r)(g - c2'')]
 

@@ -27,10 +27,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-from . import REPO_ROOT
-from . import e2e
+from . import e2e, resources
 
-DBC_PATH = REPO_ROOT / "protocol" / "stewart.dbc"
+DBC_PATH = resources.dbc_path()
 
 #: The three buses and the SocketCAN interface each runs on (host and vcan).
 BUSES: dict[str, str] = {"ops": "vcan0", "axis_a": "vcan1", "axis_b": "vcan2"}

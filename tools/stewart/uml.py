@@ -42,6 +42,8 @@ import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from . import resources
+
 #: Kinds of kernels, in the order ``auto`` tries them.
 KINDS = ("system", "cache")
 CHOICES = ("auto", *KINDS)
@@ -95,12 +97,6 @@ class Probe:
 # ------------------------------------------------------------ the kernels
 
 
-def checkout_root() -> Path | None:
-    """The source checkout this package runs from, or None when installed."""
-    root = Path(__file__).resolve().parents[2]
-    return root if (root / "tools" / "stewart" / "uml.py").is_file() else None
-
-
 def user_cache_dir() -> Path:
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "stewart"
@@ -112,7 +108,7 @@ def cache_dir() -> Path:
     env = os.environ.get("STEWART_UML_CACHE")
     if env:
         return Path(env).resolve()
-    root = checkout_root()
+    root = resources.checkout()
     return root / ".cache" / "uml" if root else user_cache_dir() / "uml"
 
 

@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from . import uml
+from . import resources, uml
 
 #: Exit statuses of our own (the same conventions as timeout(1) and env(1)).
 EXIT_TIMEOUT = 124
@@ -791,7 +791,7 @@ def _short(k: uml.Kernel) -> str:
     try:
         src = json.loads((k.binary.parents[2] / "SOURCE.json").read_text())
         where = k.binary.parents[2]
-        root = uml.checkout_root()
+        root = resources.checkout()
         if root is not None and where.is_relative_to(root):
             where = where.relative_to(root)
         return f"Debian {src['suite']}'s {src['user-mode-linux']} UML from {where}"

@@ -33,7 +33,7 @@
 
 #include "sp/link/node.h"
 #include "sp_g4.h"
-#include "sp_machine_key.h" /* generated from the build's key file (tools/stewart/key_header.py) */
+#include "sp_machine_key.h" /* generated from the build's key file (tools/dev/key_header.py) */
 #if SP_DRIVE_CIA408
 #include "sp/canopen/canopen_link.h"
 #include "sp/model/kinematics.h"
@@ -119,7 +119,7 @@ static sp_status_t co_init(void)
 #endif
 
 /* One control tick: the root of the tick path of the stack analysis
- * (tools/stewart/stack_usage.py). */
+ * (tools/dev/stack_usage.py). */
 __attribute__((noinline)) void sp_g4_cycle(const sp_g4_ports_t *p)
 {
     uint32_t t0 = sp_g4_cycles();

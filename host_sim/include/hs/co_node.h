@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/co_node.h - a simulated drive presenting itself as a CiA 408 node
- * (docs/canopen.md, config/eds/stewart_sim_drive.eds) or as a CiA 402 node
+ * (docs/reference/canopen.md, config/eds/stewart_sim_drive.eds) or as a CiA 402 node
  * in cyclic synchronous position mode (config/eds/stewart_sim_drive_402.eds;
  * hs_co_node_init_profile): an object dictionary
  * with the objects the master uses, an expedited SDO server, NMT, a

@@ -5,7 +5,7 @@
  * it puts on the platform. Pure functions; the integration is done by the
  * plant (hs/plant.h) and the single-axis rig (hs/rig.h).
  *
- * Model (docs/plant.md). Stroke s = leg length - length_min (0 at the lower
+ * Model (docs/explanation/plant.md). Stroke s = leg length - length_min (0 at the lower
  * stop, `stroke` at the upper), s' its rate. Chamber A (piston side) pushes
  * the leg out, chamber B (rod side) pulls it in.
  *   V_A = V_A0 + A_A s,  V_B = V_B0 + A_B (S - s)   (each >= V0 / 2)

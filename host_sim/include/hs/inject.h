@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
- * hs/inject.h - the fault injector on the bus (docs/faults.md): frames
+ * hs/inject.h - the fault injector on the bus (docs/explanation/faults.md): frames
  * dropped, delayed, duplicated, reordered or corrupted per bus and per
  * message, at a rate or for the next N matching frames, and buses switched
  * off. hs_sim passes every frame it sends (direction HS_INJ_TO_CONTROLLER)

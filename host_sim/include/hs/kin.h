@@ -5,7 +5,7 @@
  * rotation matrix, unit quaternion), body rates (eq 10), leg lengths (eq 1)
  * and a pivoted 6x6 solve.
  *
- * Conventions (docs/model.md, Frames and pose): pose = [x, y, z, roll, pitch, yaw] (m,
+ * Conventions (docs/explanation/model.md, Frames and pose): pose = [x, y, z, roll, pitch, yaw] (m,
  * rad); R = Rz(yaw) Ry(pitch) Rx(roll) is the column rotation from the
  * motion frame to the base frame (R = T^T of the paper). The quaternion
  * q = [w, x, y, z] represents the same rotation: v_base = q v_motion q*.

@@ -5,7 +5,7 @@
  * Two layers:
  *  - hs_config_t mirrors config/platform_default.json key for key (SI units,
  *    radians). hs_config_default is generated from that file at build time by
- *    tools/stewart/gen_plant.py (which validates it with stewart.config), so
+ *    tools/dev/gen_plant.py (which validates it with stewart.config), so
  *    the plant, the firmware and the host tools read the same numbers.
  *  - hs_params_t is what the plant computes with: areas, volumes, valve
  *    coefficients and the drive gains derived from the config by
@@ -13,7 +13,7 @@
  *    field of hs_params_t after deriving it (it is plain data, copied into the
  *    plant by hs_plant_init).
  *
- * Frames (docs/model.md, Frames and pose): base frame at the base centroid o, z up;
+ * Frames (docs/explanation/model.md, Frames and pose): base frame at the base centroid o, z up;
  * motion frame at the platform centroid o'; pose = [x, y, z, roll, pitch,
  * yaw] with the column rotation motion->base R = Rz(yaw) Ry(pitch) Rx(roll).
  */
@@ -53,7 +53,7 @@ typedef struct {
     double end_stop_stiffness;          /**< N/m, beyond the stroke ends */
     double end_stop_damping;            /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
     /* Optional leg masses (config keys may be absent: 0 = off, the default;
-     * docs/plant.md "Leg masses"). Each leg is two point masses on its axis. */
+     * docs/explanation/plant.md "Leg masses"). Each leg is two point masses on its axis. */
     double cylinder_mass; /**< cylinder body (barrel), kg, >= 0 */
     double cylinder_com;  /**< its centre of mass from the base joint B_i along the leg, m, >= 0 */
     double rod_mass;      /**< rod + piston (sliding part), kg, >= 0 */
@@ -127,7 +127,7 @@ typedef struct {
     double cushion_length;     /**< m */
     double stop_stiffness;     /**< N/m */
     double stop_damping;       /**< N s/m */
-    /* Leg masses (docs/plant.md "Leg masses"): all 0 = neglected (default,
+    /* Leg masses (docs/explanation/plant.md "Leg masses"): all 0 = neglected (default,
      * as the firmware's inverse dynamics). Point masses on the leg axis. */
     double cylinder_mass; /**< cylinder body, kg, >= 0 */
     double cylinder_com;  /**< its centre from the base joint along the leg, m, 0..length_min + stroke */
@@ -184,7 +184,7 @@ typedef struct {
  * stay dissipative; none without a Coulomb level), the inertia moved from
  * the centre of mass to o' (parallel axes), and the drive gains from the
  * hydraulic natural frequency at mid stroke with a sixth of the moving mass
- * per cylinder (docs/plant.md: position loop gain w_h / 4, pressure
+ * per cylinder (docs/explanation/plant.md: position loop gain w_h / 4, pressure
  * feedback for a damping ratio of about 0.5). 10 substeps per cycle.
  * Returns HS_E_ARG for NULL or a config that hs_params_check rejects.
  */

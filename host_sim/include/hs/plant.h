@@ -5,7 +5,7 @@
  * gravity, an external constant wrench and a spring-damper contact, and the
  * drives' sensors (hs/sensor.h). Physics only: the bus binding calls this API.
  *
- * Rigid body (docs/plant.md): state p (o' in the base frame), v = p', unit
+ * Rigid body (docs/explanation/plant.md): state p (o' in the base frame), v = p', unit
  * quaternion q (motion -> base), w (angular velocity in the motion frame).
  *   m (v' + R (w' x c + w x (w x c))) = F,   F = sum_i F_i u_i + (0, 0, -m g) + F_ext + F_contact
  *   I w' + w x (I w) + m c x (R^T v') = R^T M,
@@ -20,9 +20,9 @@
  * hash test); with c != 0 each evaluation solves the coupled 6 x 6 system
  * (as with leg masses). Leg masses are neglected
  * by default, as in the paper and in the firmware's inverse dynamics
- * (docs/plant.md says why); with cylinder_mass or rod_mass > 0 in the
+ * (docs/explanation/plant.md says why); with cylinder_mass or rod_mass > 0 in the
  * cylinder params each leg adds two point masses on its axis, coupled to
- * the platform by virtual work (docs/plant.md "Leg masses"), and the static
+ * the platform by virtual work (docs/explanation/plant.md "Leg masses"), and the static
  * forces of init and rebalance include the legs' weight. Integration:
  * classic RK4, `substeps` fixed steps per cycle (default 10: 10 kHz for
  * 1 ms cycles), quaternion renormalised after every step;
@@ -129,7 +129,7 @@ typedef enum {
     HS_SENSOR_NOISE = 3  /**< it reads the true length + `value` (m) x a unit noise sample (seeded) */
 } hs_sensor_fault_t;
 
-/** Faults injected into the plant (the fault injector, docs/faults.md):
+/** Faults injected into the plant (the fault injector, docs/explanation/faults.md):
  *  each stays until removed, and is the cause a drive's fault reset checks. */
 typedef struct {
     hs_sensor_fault_t sensor[HS_LEGS]; /**< length sensor of each leg */

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * hs/scenario.h - the operator scenario language of hs_sim: what the plant
- * plays at exact ticks in a closed-loop run (docs/closed_loop.md, "Scenario
+ * plays at exact ticks in a closed-loop run (docs/explanation/closed_loop.md, "Scenario
  * files"). Parsing (from a string or a file) and playing (which action is
  * due at which tick) are here; what an action does on the bus or to the
  * plant is the program's part (host_sim/app/hs_sim.c).
@@ -85,7 +85,7 @@
  *                                 directory for hs_scenario_parse).
  *
  * Fault injection (its own section; parsed in scenario_inject.c, carried
- * out by hs_sim through hs/inject.h and hs/plant.h; docs/faults.md):
+ * out by hs_sim through hs/inject.h and hs/plant.h; docs/explanation/faults.md):
  *
  *   inject frames BUS MSG FAULT [rate=P] [count=N] [delay=TICKS]
  *          BUS: ops, axis_a, axis_b, any; MSG: setpoints, feedback, command,

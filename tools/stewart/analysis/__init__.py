@@ -4,7 +4,7 @@ CSV, the motion segments, tracking errors, plots and a summary out.
 
 The theory and the reasons behind every choice (tick alignment, the one-tick
 delay of the tracking error, measured force from the chamber pressures) are
-in docs/analysis.md. One module per job:
+in docs/reference/analysis.md. One module per job:
 
 * :mod:`.logfile`: the candump -L line format and the interface -> bus map.
 * :mod:`.decode`: :func:`~.decode.read_log`, frames checked with the

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """The leg columns of a run with CANopen drives (CiA 408 / CiA 402,
-docs/canopen.md): measured length, chamber pressures (so the measured
+docs/reference/canopen.md): measured length, chamber pressures (so the measured
 force), drive state and faults per tick, from the drives' TPDOs.
 
 **Layout** (node -> leg, counts -> metres): the platform config's
@@ -147,11 +147,10 @@ def fill_legs(data, frames, ifaces: dict[str, str], ticks: TickFrames, platform)
     the drive buses of ``ifaces`` ({iface: bus}), with the layout of
     ``platform`` (:func:`layout_of`); counts into
     ``data.stats.canopen_feedback``."""
-    stats = data.stats
     drives, source = layout_of(platform)
     counts = {"layout": source, "syncs": 0, "syncs_unplaced": 0, "answers": 0, "unplaced": 0,
               "unknown_node": 0, "short": 0, "repeated": 0}
-    stats.canopen_feedback = counts
+    data.stats.canopen_feedback = counts
     if len(frames.line_no) == 0:
         return
     bus_of_iface = np.array([_BUSES.index(ifaces[n]) if ifaces.get(n) in _BUSES else -1
@@ -168,8 +167,53 @@ def fill_legs(data, frames, ifaces: dict[str, str], ticks: TickFrames, platform)
     counts["syncs_unplaced"] = int((s_tick < 0).sum())
     if len(ti) == 0:
         return
+    leg_of, by_leg = _legs_by_node(drives)
+    seen = {} if source == "config" else traffic.profiles_in_log(frames, {n: b for n, b in ifaces.items()
+                                                                           if b in _BUSES})
+    tp = _Tpdos(ti, bus[ti], kind[ti], frames.line_no[ti], fid[ti] & 0x7F)
+    tp.leg = leg_of[tp.bus, tp.node]
+    ok = _usable(tp, frames, source, data.stats, counts)
+    # the SYNC each answers: the last one logged before it on its bus
+    sync_of = _answered_sync(tp, bus[si], frames.line_no[si])
+    tick = np.where(sync_of >= 0, s_tick[np.maximum(sync_of, 0)], -1)
+    unplaced = ok & (tick < 0)
+    counts["unplaced"] = int(unplaced.sum())
+    ok &= ~unplaced
+    # the first answer per SYNC, bus, node and kind
+    cand = np.flatnonzero(ok)
+    key = (sync_of[cand] * len(_BUSES) + tp.bus[cand]) * 256 + tp.node[cand] * 2 + (tp.kind[cand] - 1)
+    _, first = np.unique(key, return_index=True)
+    keep = np.zeros(len(ti), dtype=bool)
+    keep[cand[first]] = True
+    counts["repeated"] = int(len(cand) - len(first))
+    row = data.index_of(tick)
+    keep &= row >= 0
+    data_bytes = frames.data[ti, :8]
+    for lg, dr in sorted(by_leg.items()):
+        # the profile: the config's, else the log's device type, else CiA 408
+        prof = seen.get((lo.controller_bus(drives, dr), dr.node_id), dr.protocol)
+        on_leg = keep & (tp.leg == lg)
+        counts["answers"] += _fill_tpdo1(data, dr, prof, row, data_bytes, np.flatnonzero(on_leg & (tp.kind == 1)))
+        if prof == "cia408" and drives.pressure_feedback:
+            counts["answers"] += _fill_tpdo2(data, dr, row, data_bytes, np.flatnonzero(on_leg & (tp.kind == 2)))
 
-    # node -> leg (0: not in the layout), per controller bus
+
+@dataclass
+class _Tpdos:
+    """The TPDO frames on the drive buses: their indices into the log's
+    frames and, per frame, bus, kind (1, 2), line, node and leg (0: a node
+    the layout does not have)."""
+
+    index: np.ndarray
+    bus: np.ndarray
+    kind: np.ndarray
+    line: np.ndarray
+    node: np.ndarray
+    leg: np.ndarray | None = None
+
+
+def _legs_by_node(drives: lo.Drives) -> tuple[np.ndarray, dict[int, lo.Drive]]:
+    """(leg of each node per controller bus, 0 for none; the CANopen drives by leg)."""
     leg_of = np.zeros((len(_BUSES), 128), dtype=np.int64)
     by_leg: dict[int, lo.Drive] = {}
     for dr in drives.canopen:
@@ -177,74 +221,65 @@ def fill_legs(data, frames, ifaces: dict[str, str], ticks: TickFrames, platform)
         if b is not None:
             leg_of[_BUSES.index(b), dr.node_id] = dr.leg
             by_leg[dr.leg] = dr
-    seen = {} if source == "config" else traffic.profiles_in_log(frames, {n: b for n, b in ifaces.items()
-                                                                           if b in _BUSES})
+    return leg_of, by_leg
 
-    def profile(dr: lo.Drive) -> str:   # the config's, else the log's device type, else CiA 408
-        return seen.get((lo.controller_bus(drives, dr), dr.node_id), dr.protocol)
 
-    t_bus, t_kind, t_line = bus[ti], kind[ti], frames.line_no[ti]
-    node = fid[ti] & 0x7F
-    leg = leg_of[t_bus, node]
-    unknown = leg == 0
+def _usable(tp: _Tpdos, frames, source: str, stats, counts: dict) -> np.ndarray:
+    """The TPDOs of a node of the layout with their mapping's bytes; the
+    others are counted and warned about."""
+    unknown = tp.leg == 0
     counts["unknown_node"] = int(unknown.sum())
-    for b, n in sorted({(int(b), int(n)) for b, n in zip(t_bus[unknown], node[unknown])}):
-        first = int(t_line[unknown & (t_bus == b) & (node == n)][0])
+    for b, n in sorted({(int(b), int(n)) for b, n in zip(tp.bus[unknown], tp.node[unknown])}):
+        first = int(tp.line[unknown & (tp.bus == b) & (tp.node == n)][0])
         stats.warn(f"line {first}: {_BUSES[b]}: TPDOs of node {n}, which the {source} CANopen layout does "
                    f"not have: left out")
-    need = np.where(t_kind == 1, TPDO1_BYTES, TPDO2_BYTES)
-    short = ~unknown & (frames.dlc[ti] < need)
+    need = np.where(tp.kind == 1, TPDO1_BYTES, TPDO2_BYTES)
+    short = ~unknown & (frames.dlc[tp.index] < need)
     counts["short"] = int(short.sum())
     for r in np.flatnonzero(short)[:5].tolist():
-        stats.warn(f"line {t_line[r]}: {_BUSES[t_bus[r]]}: TPDO{t_kind[r]} of node {node[r]} has "
-                   f"{frames.dlc[ti[r]]} bytes, its mapping {need[r]}: left out")
-    # the SYNC each answers: the last one logged before it on its bus
-    sync_of = np.full(len(ti), -1, dtype=np.int64)
+        stats.warn(f"line {tp.line[r]}: {_BUSES[tp.bus[r]]}: TPDO{tp.kind[r]} of node {tp.node[r]} has "
+                   f"{frames.dlc[tp.index[r]]} bytes, its mapping {need[r]}: left out")
+    return ~unknown & ~short
+
+
+def _answered_sync(tp: _Tpdos, sync_bus: np.ndarray, sync_line: np.ndarray) -> np.ndarray:
+    """For each TPDO the SYNC (index among the SYNCs) logged last before it
+    on its bus, -1 for none."""
+    sync_of = np.full(len(tp.index), -1, dtype=np.int64)
     for b in range(len(_BUSES)):
-        on_s = np.flatnonzero(bus[si] == b)
-        on_t = np.flatnonzero(t_bus == b)
+        on_s = np.flatnonzero(sync_bus == b)
+        on_t = np.flatnonzero(tp.bus == b)
         if len(on_s) == 0:   # no SYNC on this bus: nothing answered
             continue
-        k = np.searchsorted(frames.line_no[si[on_s]], t_line[on_t]) - 1
+        k = np.searchsorted(sync_line[on_s], tp.line[on_t]) - 1
         sync_of[on_t] = np.where(k >= 0, on_s[np.maximum(k, 0)], -1)
-    tick = np.where(sync_of >= 0, s_tick[np.maximum(sync_of, 0)], -1)
-    ok = ~unknown & ~short
-    unplaced = ok & (tick < 0)
-    counts["unplaced"] = int(unplaced.sum())
-    ok &= ~unplaced
-    # the first answer per SYNC, bus, node and kind
-    cand = np.flatnonzero(ok)
-    key = (sync_of[cand] * len(_BUSES) + t_bus[cand]) * 256 + node[cand] * 2 + (t_kind[cand] - 1)
-    _, first = np.unique(key, return_index=True)
-    keep = np.zeros(len(ti), dtype=bool)
-    keep[cand[first]] = True
-    counts["repeated"] = int(len(cand) - len(first))
-    row = data.index_of(tick)
-    keep &= row >= 0
+    return sync_of
 
+
+def _fill_tpdo1(data, dr: lo.Drive, prof: str, row: np.ndarray, data_bytes: np.ndarray, t1: np.ndarray) -> int:
+    """The length and the drive state of leg ``dr`` from its TPDO1s ``t1``
+    (the status word and the position count); how many."""
+    if len(t1) == 0:
+        return 0
+    j, s, k = dr.leg - 1, dr.scaling, row[t1]
+    count = _i32(data_bytes[t1], 2)
+    data.length[k, j] = s.length_at_zero + s.direction * count * s.position_per_count
+    word = _u16(data_bytes[t1], 0)
+    table, name_of = (STATE_402, traffic.state_402) if prof == "cia402" else (STATE_408, traffic.state_408)
+    uniq, inv = np.unique(word, return_inverse=True)
+    names = [table.get(name_of(int(w))) for w in uniq.tolist()]
     code = {name: DRIVE_STATES.index(name) for name in DRIVE_STATES}
-    data_bytes = frames.data[ti, :8]
-    for lg, dr in sorted(by_leg.items()):
-        j = lg - 1
-        prof = profile(dr)
-        s = dr.scaling
-        t1 = np.flatnonzero(keep & (leg == lg) & (t_kind == 1))
-        if len(t1):
-            k = row[t1]
-            count = _i32(data_bytes[t1], 2)
-            data.length[k, j] = s.length_at_zero + s.direction * count * s.position_per_count
-            word = _u16(data_bytes[t1], 0)
-            table, name_of = (STATE_402, traffic.state_402) if prof == "cia402" else (STATE_408, traffic.state_408)
-            uniq, inv = np.unique(word, return_inverse=True)
-            names = [table.get(name_of(int(w))) for w in uniq.tolist()]
-            state = np.array([code[n] if n is not None else -1 for n in names], dtype=np.int64)[inv]
-            data.drive_state[k, j] = state
-            data.drive_faults[k, j] = np.where(state == code["FAULT"], FAULT_BIT, 0)
-            counts["answers"] += len(t1)
-        if prof == "cia408" and drives.pressure_feedback:
-            t2 = np.flatnonzero(keep & (leg == lg) & (t_kind == 2))
-            if len(t2):
-                k = row[t2]
-                data.pressure_a[k, j] = _u16(data_bytes[t2], 0) * 1000.0
-                data.pressure_b[k, j] = _u16(data_bytes[t2], 2) * 1000.0
-                counts["answers"] += len(t2)
+    state = np.array([code[n] if n is not None else -1 for n in names], dtype=np.int64)[inv]
+    data.drive_state[k, j] = state
+    data.drive_faults[k, j] = np.where(state == code["FAULT"], FAULT_BIT, 0)
+    return len(t1)
+
+
+def _fill_tpdo2(data, dr: lo.Drive, row: np.ndarray, data_bytes: np.ndarray, t2: np.ndarray) -> int:
+    """The chamber pressures of leg ``dr`` from its CiA 408 TPDO2s ``t2``; how many."""
+    if len(t2) == 0:
+        return 0
+    k = row[t2]
+    data.pressure_a[k, dr.leg - 1] = _u16(data_bytes[t2], 0) * 1000.0
+    data.pressure_b[k, dr.leg - 1] = _u16(data_bytes[t2], 2) * 1000.0
+    return len(t2)

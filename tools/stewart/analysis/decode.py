@@ -42,7 +42,7 @@ WRONG_BUS = "wrong-bus"
 #: How many warning texts are kept (the counts are always complete).
 MAX_WARNINGS = 50
 #: The drive buses may carry CANopen (CiA 301) frames instead of the native
-#: drive frames (``--canopen``, docs/canopen.md): identifiers the DBC does
+#: drive frames (``--canopen``, docs/reference/canopen.md): identifiers the DBC does
 #: not define in NMT (0x000), SYNC/EMCY (0x080-0x0FF), PDOs (0x181-0x57F),
 #: SDO (0x581-0x67F) and heartbeat (0x701-0x77F) are counted as CANopen
 #: frames there, not as bad ones.
@@ -354,31 +354,32 @@ def _range_can_fail(signal, lim) -> bool:
     return lim.lo > lo or lim.hi < hi
 
 
+class _Rejections:
+    """Counts rejected frames by kind into the stats and keeps a warning,
+    (line, text), for each of the first ones."""
+
+    def __init__(self, frames, bus: np.ndarray, stats: LogStats, warnings: list[tuple[int, str]]):
+        self.frames, self.bus, self.stats, self.warnings = frames, bus, stats, warnings
+
+    def __call__(self, kind: str, idx: np.ndarray, text) -> None:
+        """Frames ``idx`` (indices into the log's frames) rejected as
+        ``kind``; ``text(k)``: the reason for frame ``k``."""
+        if len(idx) == 0:
+            return
+        self.stats.rejected[kind] = self.stats.rejected.get(kind, 0) + len(idx)
+        for k in idx[:MAX_WARNINGS].tolist():
+            b = _BUS_ORDER[self.bus[k]]
+            self.warnings.append((int(self.frames.line_no[k]), f"line {self.frames.line_no[k]}: {b}: {text(k)}"))
+
+
 def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: LogStats,
                   warnings: list[tuple[int, str]]) -> list[_Accepted]:
     """The checks of :meth:`stewart.protocol.Protocol.receive` and the DBC's
     bus, on whole messages: known interface, known ID, exact length, CRC,
     alive counter per bus and message, value ranges, bus. Counts into
     ``stats``; warnings as (line, text)."""
-    from .framedecode import MessageLayout
-
-    bus_of_iface = np.array([_BUS_ORDER.index(ifmap[n]) if n in ifmap else -1
-                             for n in frames.ifaces], dtype=np.int64)
-    bus = bus_of_iface[frames.iface] if len(frames.ifaces) else np.zeros(0, np.int64)
-    unknown_if = np.flatnonzero(bus < 0)
-    stats.unknown_interface += len(unknown_if)
-    for k in unknown_if[:MAX_WARNINGS].tolist():
-        warnings.append((int(frames.line_no[k]),
-                         f"line {frames.line_no[k]}: unknown interface {frames.ifaces[frames.iface[k]]!r}"))
-
-    def reject(kind: str, idx: np.ndarray, text) -> None:
-        if len(idx) == 0:
-            return
-        stats.rejected[kind] = stats.rejected.get(kind, 0) + len(idx)
-        for k in idx[:MAX_WARNINGS].tolist():
-            b = _BUS_ORDER[bus[k]]
-            warnings.append((int(frames.line_no[k]), f"line {frames.line_no[k]}: {b}: {text(k)}"))
-
+    bus = _bus_of_frames(frames, ifmap, stats, warnings)
+    reject = _Rejections(frames, bus, stats, warnings)
     known_ids = {int(m.frame_id): m for m in proto.db.messages}
     on_bus = bus >= 0
     not_dbc = on_bus & ~np.isin(frames.frame_id, list(known_ids))
@@ -392,86 +393,162 @@ def _check_frames(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: L
     out: list[_Accepted] = []
     for fid, m in known_ids.items():
         sel = np.flatnonzero(on_bus & (frames.frame_id == fid))
-        if len(sel) == 0:
-            continue
-        info = proto.infos[m.name]
-        bad_len = sel[frames.dlc[sel] != m.length]
-        reject(pr.BAD_LENGTH, bad_len, lambda k: str(pr.ProtocolError(
-            pr.BAD_LENGTH, f"{m.name} has {m.length} bytes, got {frames.dlc[k]}", fid)))
-        sel = sel[frames.dlc[sel] == m.length]
-        data = frames.data[sel, :m.length]
-        crc = e2e.crc_ok_many(fid, data)
-        if not crc.all():
-            reject(pr.BAD_CRC, sel[~crc], lambda k: str(pr.ProtocolError(pr.BAD_CRC, f"{m.name}: CRC mismatch", fid)))
-            sel, data = sel[crc], data[crc]
-        layout = MessageLayout(m)
-        raw = _RawValues(layout, data)
-        keep = np.ones(len(sel), dtype=bool)
-        lost = np.zeros(len(sel), dtype=np.int64)
-        bus_sel = bus[sel]
-        for b in range(len(_BUS_ORDER)):
-            on = np.flatnonzero(bus_sel == b)
-            if len(on) == 0:
-                continue
-            codes, lost_b = e2e.check_counters(raw("Counter")[on])
-            lost[on] = lost_b
-            for kind in (pr.REPEATED, pr.WRONG_SEQUENCE):
-                hit = on[codes == e2e.STATUS_CODES.index(kind)]
-                keep[hit] = False
-                reject(kind, sel[hit], lambda k, kind=kind: str(pr.ProtocolError(
-                    kind, f"{m.name} on {_BUS_ORDER[bus[k]]}: counter "
-                    f"{int(raw('Counter')[np.searchsorted(sel, k)])}", fid)))
-        # Value ranges, in the order of the signals (the first one out is
-        # named); a signal whose bits cannot leave its range is not read.
-        first_bad = np.full(len(sel), -1, dtype=np.int64)
-        for j, s in enumerate(m.signals):
-            lim = info.limits[s.name]
-            if not _range_can_fail(s, lim):
-                continue
-            r = raw(s.name)
-            out_of = (r > lim.hi) if lim.lo <= 0 and not s.is_signed else ((r < lim.lo) | (r > lim.hi))
-            if out_of.any():
-                first_bad = np.where((first_bad < 0) & out_of & keep, j, first_bad)
-        bad_rng = np.flatnonzero(first_bad >= 0)
-
-        def range_text(k, bad_rng=bad_rng):
-            i = int(np.searchsorted(sel, k))
-            s = m.signals[int(first_bad[i])]
-            lim = info.limits[s.name]
-            return str(pr.ProtocolError(pr.OUT_OF_RANGE, f"{m.name}.{s.name} raw {int(raw(s.name)[i])} "
-                                        f"outside {lim.lo}..{lim.hi}", fid))
-
-        reject(pr.OUT_OF_RANGE, sel[bad_rng], range_text)
-        keep[bad_rng] = False
-        allowed = np.array([_BUS_ORDER[b] in info.buses for b in range(len(_BUS_ORDER))])
-        wrong = keep & ~allowed[bus_sel]
-        wb = sel[wrong]
-        if len(wb):
-            stats.rejected[WRONG_BUS] = stats.rejected.get(WRONG_BUS, 0) + len(wb)
-            for k in wb[:MAX_WARNINGS].tolist():
-                warnings.append((int(frames.line_no[k]),
-                                 f"line {frames.line_no[k]}: {m.name} on bus {_BUS_ORDER[bus[k]]}, "
-                                 f"the DBC puts it on {', '.join(info.buses)}"))
-        keep &= ~wrong
-        if not keep.any():
-            continue
-        stats.accepted += int(keep.sum())
-        stats.lost += int(lost[keep].sum())
-        stats.per_message[m.name] = stats.per_message.get(m.name, 0) + int(keep.sum())
-        rows = None if keep.all() else np.flatnonzero(keep)   # rows of the payload matrix
-        kept = sel if rows is None else sel[rows]
-        buses_here = bus[kept]
-        for b in range(len(_BUS_ORDER)):
-            on = buses_here == b
-            n_on = int(on.sum())
-            if n_on == len(kept):   # all on one bus: no copies
-                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept], frames.time[kept],
-                                     _Signals(layout, raw, rows)))
-            elif n_on:
-                on_rows = np.flatnonzero(on) if rows is None else rows[on]
-                out.append(_Accepted(m.name, _BUS_ORDER[b], frames.line_no[kept[on]],
-                                     frames.time[kept[on]], _Signals(layout, raw, on_rows)))
+        if len(sel):
+            out += _check_message(m, proto.infos[m.name], sel, frames, reject)
     return out
+
+
+def _bus_of_frames(frames, ifmap: Mapping[str, str], stats: LogStats,
+                   warnings: list[tuple[int, str]]) -> np.ndarray:
+    """Each frame's bus (index in _BUS_ORDER), -1 for an unknown interface
+    (counted and warned)."""
+    bus_of_iface = np.array([_BUS_ORDER.index(ifmap[n]) if n in ifmap else -1
+                             for n in frames.ifaces], dtype=np.int64)
+    bus = bus_of_iface[frames.iface] if len(frames.ifaces) else np.zeros(0, np.int64)
+    unknown_if = np.flatnonzero(bus < 0)
+    stats.unknown_interface += len(unknown_if)
+    for k in unknown_if[:MAX_WARNINGS].tolist():
+        warnings.append((int(frames.line_no[k]),
+                         f"line {frames.line_no[k]}: unknown interface {frames.ifaces[frames.iface[k]]!r}"))
+    return bus
+
+
+def _check_message(m, info, sel: np.ndarray, frames, reject: _Rejections) -> list[_Accepted]:
+    """The checks of one message's frames ``sel`` (indices into the log's
+    frames, on known buses): length, CRC, counters, ranges, bus. The
+    accepted ones by bus."""
+    from .framedecode import MessageLayout
+
+    fid = int(m.frame_id)
+    bad_len = sel[frames.dlc[sel] != m.length]
+    reject(pr.BAD_LENGTH, bad_len, lambda k: str(pr.ProtocolError(
+        pr.BAD_LENGTH, f"{m.name} has {m.length} bytes, got {frames.dlc[k]}", fid)))
+    sel = sel[frames.dlc[sel] == m.length]
+    data = frames.data[sel, :m.length]
+    crc = e2e.crc_ok_many(fid, data)
+    if not crc.all():
+        reject(pr.BAD_CRC, sel[~crc], lambda k: str(pr.ProtocolError(pr.BAD_CRC, f"{m.name}: CRC mismatch", fid)))
+        sel, data = sel[crc], data[crc]
+    layout = MessageLayout(m)
+    raw = _RawValues(layout, data)
+    bus_sel = reject.bus[sel]
+    keep, lost = _check_counters(m, sel, bus_sel, raw, reject)
+    bad_rng = _check_ranges(m, info, sel, raw, keep, reject)
+    keep[bad_rng] = False
+    keep &= ~_wrong_bus(m, info, sel, bus_sel, keep, frames, reject)
+    if not keep.any():
+        return []
+    stats = reject.stats
+    stats.accepted += int(keep.sum())
+    stats.lost += int(lost[keep].sum())
+    stats.per_message[m.name] = stats.per_message.get(m.name, 0) + int(keep.sum())
+    return _by_bus(m.name, layout, raw, sel, keep, frames, reject.bus)
+
+
+def _check_counters(m, sel: np.ndarray, bus_sel: np.ndarray, raw: _RawValues,
+                    reject: _Rejections) -> tuple[np.ndarray, np.ndarray]:
+    """(kept, frames lost before each) of the alive counter check per bus:
+    repeated and out-of-sequence counters are rejected."""
+    keep = np.ones(len(sel), dtype=bool)
+    lost = np.zeros(len(sel), dtype=np.int64)
+    fid = int(m.frame_id)
+    for b in range(len(_BUS_ORDER)):
+        on = np.flatnonzero(bus_sel == b)
+        if len(on) == 0:
+            continue
+        codes, lost_b = e2e.check_counters(raw("Counter")[on])
+        lost[on] = lost_b
+        for kind in (pr.REPEATED, pr.WRONG_SEQUENCE):
+            hit = on[codes == e2e.STATUS_CODES.index(kind)]
+            keep[hit] = False
+            reject(kind, sel[hit], lambda k, kind=kind: str(pr.ProtocolError(
+                kind, f"{m.name} on {_BUS_ORDER[reject.bus[k]]}: counter "
+                f"{int(raw('Counter')[np.searchsorted(sel, k)])}", fid)))
+    return keep, lost
+
+
+def _check_ranges(m, info, sel: np.ndarray, raw: _RawValues, keep: np.ndarray,
+                  reject: _Rejections) -> np.ndarray:
+    """The frames (rows of ``sel``) still kept with a value out of its
+    range, rejected. In the order of the signals (the first one out is
+    named); a signal whose bits cannot leave its range is not read."""
+    first_bad = np.full(len(sel), -1, dtype=np.int64)
+    for j, s in enumerate(m.signals):
+        lim = info.limits[s.name]
+        if not _range_can_fail(s, lim):
+            continue
+        r = raw(s.name)
+        out_of = (r > lim.hi) if lim.lo <= 0 and not s.is_signed else ((r < lim.lo) | (r > lim.hi))
+        if out_of.any():
+            first_bad = np.where((first_bad < 0) & out_of & keep, j, first_bad)
+    bad_rng = np.flatnonzero(first_bad >= 0)
+
+    def range_text(k):
+        i = int(np.searchsorted(sel, k))
+        s = m.signals[int(first_bad[i])]
+        lim = info.limits[s.name]
+        return str(pr.ProtocolError(pr.OUT_OF_RANGE, f"{m.name}.{s.name} raw {int(raw(s.name)[i])} "
+                                    f"outside {lim.lo}..{lim.hi}", int(m.frame_id)))
+
+    reject(pr.OUT_OF_RANGE, sel[bad_rng], range_text)
+    return bad_rng
+
+
+def _wrong_bus(m, info, sel: np.ndarray, bus_sel: np.ndarray, keep: np.ndarray, frames,
+               reject: _Rejections) -> np.ndarray:
+    """Which of the frames still kept are on a bus the DBC does not put the
+    message on (counted, warned)."""
+    allowed = np.array([_BUS_ORDER[b] in info.buses for b in range(len(_BUS_ORDER))])
+    wrong = keep & ~allowed[bus_sel]
+    wb = sel[wrong]
+    if len(wb):
+        stats = reject.stats
+        stats.rejected[WRONG_BUS] = stats.rejected.get(WRONG_BUS, 0) + len(wb)
+        for k in wb[:MAX_WARNINGS].tolist():
+            reject.warnings.append((int(frames.line_no[k]),
+                                    f"line {frames.line_no[k]}: {m.name} on bus {_BUS_ORDER[reject.bus[k]]}, "
+                                    f"the DBC puts it on {', '.join(info.buses)}"))
+    return wrong
+
+
+def _by_bus(name: str, layout, raw: _RawValues, sel: np.ndarray, keep: np.ndarray, frames,
+            bus: np.ndarray) -> list[_Accepted]:
+    """The kept frames of one message, one :class:`_Accepted` per bus."""
+    out = []
+    rows = None if keep.all() else np.flatnonzero(keep)   # rows of the payload matrix
+    kept = sel if rows is None else sel[rows]
+    buses_here = bus[kept]
+    for b in range(len(_BUS_ORDER)):
+        on = buses_here == b
+        n_on = int(on.sum())
+        if n_on == len(kept):   # all on one bus: no copies
+            out.append(_Accepted(name, _BUS_ORDER[b], frames.line_no[kept], frames.time[kept],
+                                 _Signals(layout, raw, rows)))
+        elif n_on:
+            on_rows = np.flatnonzero(on) if rows is None else rows[on]
+            out.append(_Accepted(name, _BUS_ORDER[b], frames.line_no[kept[on]],
+                                 frames.time[kept[on]], _Signals(layout, raw, on_rows)))
+    return out
+
+
+#: CTRL_STATUS's signals in LogData's columns, and AXIS_FEEDBACK_i's in the
+#: leg columns (both decoders write them so).
+STATUS_COLUMNS = (("state", "State"), ("faults", "Faults"), ("drive_mode", "DriveMode"),
+                  ("feedforward", "FeedForward"), ("estimate_valid", "EstimateValid"),
+                  ("fk_iterations", "FkIterations"), ("force_mode", "ForceMode"),
+                  ("cmd_rejected", "CmdRejected"))
+FEEDBACK_COLUMNS = (("length", "Length"), ("pressure_a", "PressureA"), ("pressure_b", "PressureB"),
+                    ("drive_state", "State"), ("drive_faults", "Faults"))
+
+
+def command_from(tick: int | None, time: float, value) -> Command:
+    """The :class:`Command` of one OP_COMMAND frame; ``value(name)``: the
+    frame's signal ``name``."""
+    c = int(value("Command"))
+    return Command(tick=tick, time=float(time), command=COMMANDS[c] if 0 <= c < len(COMMANDS) else str(c),
+                   axis=int(value("Axis")), amplitude=float(value("Amplitude")),
+                   frequency=float(value("Frequency")), fade_time=float(value("FadeTime")),
+                   option=int(value("Option")))
 
 
 def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] | None = None,
@@ -489,7 +566,7 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     (:func:`.logfile.read_frames`), grouped by ID, checked (CRC, counters,
     ranges, bus) and decoded with the DBC's layout by numpy
     (:mod:`.framedecode`). The same result as the per-frame
-    :func:`.decode_reference.read_log_reference` (tests/python/test_framedecode.py).
+    tools/dev/decode_reference.py (tests/python/test_framedecode.py).
     ``frames``: ``read_frames(source)`` when the caller has it already."""
     from .logfile import read_frames
 
@@ -499,6 +576,30 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     label = str(source) if isinstance(source, (str, Path)) else "<lines>"
     if frames is None:
         frames = read_frames(source)
+    groups = _accepted_groups(frames, ifmap, proto, stats)
+    order = _log_order(groups)
+    rows = _rows_of(groups, order, stats)
+    d = LogData.empty(rows.ticks, rows.commands, stats, label)
+    _fill_controller_columns(d, groups, order)
+    _fill_feedback_columns(d, groups, order, rows.feedback)
+    if stats.canopen and platform is not None:  # CANopen drives: their TPDOs into the leg columns
+        from .canopen_legs import TickFrames, fill_legs
+
+        line_at = np.zeros(order.n, dtype=np.int64)
+        time_at = np.zeros(order.n)
+        for k, g in enumerate(groups):
+            line_at[order.pos_in[k]] = g.line_no
+            time_at[order.pos_in[k]] = g.time
+        known = order.known
+        fill_legs(d, frames, ifmap, TickFrames(line_at[known], order.tick_of[known], time_at[known]), platform)
+    d.force_frames = rows.force_frames
+    finish_rows(d, platform)
+    return d
+
+
+def _accepted_groups(frames, ifmap: Mapping[str, str], proto: pr.Protocol, stats: LogStats) -> list[_Accepted]:
+    """The log's accepted frames by message and bus (:func:`_check_frames`);
+    counts and warnings (in line order) into ``stats``."""
     stats.lines = frames.lines
     stats.malformed = len(frames.malformed)
     stats.frames = len(frames.line_no)
@@ -507,10 +608,27 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     warnings.sort(key=lambda w: w[0])
     for _, text in warnings[:MAX_WARNINGS]:
         stats.warn(text)
+    return groups
 
-    # All accepted frames in log order: the tick of each if known. A frame's
-    # position is the rank of its line among the accepted frames' lines (a
-    # group's frames are in log order already).
+
+@dataclass
+class _LogOrder:
+    """All accepted frames in log order (positions 0..n-1) and the ticks
+    known there."""
+
+    n: int
+    pos_in: list[np.ndarray]  #: per group: its frames' positions
+    tick_of: np.ndarray       #: (n,) the frame's tick where ``known``
+    known: np.ndarray         #: (n,) the frame carries its tick
+    prev_i: np.ndarray        #: (n,) the last position <= i with a tick, -1 if none
+    next_i: np.ndarray        #: (n,) the first position >= i with a tick, n if none
+    next_s: np.ndarray        #: (n,) the first CTRL_STATUS at or after i, n if none
+
+
+def _log_order(groups: list[_Accepted]) -> _LogOrder:
+    """The groups' frames in log order, their Tick signals unwrapped (set
+    back into the groups). A frame's position is the rank of its line among
+    the accepted frames' lines (a group's frames are in log order already)."""
     lines = np.concatenate([g.line_no for g in groups]) if groups else np.zeros(0, np.int64)
     n = len(lines)
     accepted = np.zeros(int(lines.max()) + 1 if n else 1, dtype=bool)
@@ -519,8 +637,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     tick_of = np.zeros(n, dtype=np.int64)
     known = np.zeros(n, dtype=bool)
     status_at = np.zeros(n, dtype=bool)
-    pos_in: list[np.ndarray] = []   # per group: positions in log order
-    for k, g in enumerate(groups):
+    pos_in: list[np.ndarray] = []
+    for g in groups:
         pos = rank[g.line_no]
         pos_in.append(pos)
         if g.name in TICK_MESSAGES:
@@ -528,14 +646,8 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
             known[pos] = True
         if g.name == "CTRL_STATUS":
             status_at[pos] = True
-    # The Tick signal is a cycle number modulo 2^32 (it wraps after 49.7
-    # days): unwrapped in log order, a step back by more than half the
-    # range being a lap forward (and the other way round).
     if known.any():
-        kp = np.flatnonzero(known)
-        d = np.diff(tick_of[kp])
-        laps = np.concatenate(([0], np.cumsum((d < -(1 << 31)).astype(np.int64) - (d > (1 << 31)))))
-        tick_of[kp] += laps << 32
+        _unwrap_ticks(tick_of, known)
         for k, g in enumerate(groups):
             if g.name in TICK_MESSAGES:
                 g.values["Tick"] = tick_of[pos_in[k]]
@@ -543,146 +655,175 @@ def read_log(source: str | Path | Iterable[str], buses: str | Mapping[str, str] 
     prev_i = np.maximum.accumulate(np.where(known, ar, -1)) if n else ar
     next_i = np.minimum.accumulate(np.where(known, ar, n)[::-1])[::-1] if n else ar
     next_s = np.minimum.accumulate(np.where(status_at, ar, n)[::-1])[::-1] if n else ar
+    return _LogOrder(n, pos_in, tick_of, known, prev_i, next_i, next_s)
 
+
+def _unwrap_ticks(tick_of: np.ndarray, known: np.ndarray) -> None:
+    """The Tick signal is a cycle number modulo 2^32 (it wraps after 49.7
+    days): unwrapped in log order (in place, where ``known``), a step back
+    by more than half the range being a lap forward (and the other way
+    round)."""
+    kp = np.flatnonzero(known)
+    d = np.diff(tick_of[kp])
+    laps = np.concatenate(([0], np.cumsum((d < -(1 << 31)).astype(np.int64) - (d > (1 << 31)))))
+    tick_of[kp] += laps << 32
+
+
+@dataclass
+class _Rows:
+    """What the groups give the rows: the ticks, the feedback frames and
+    the operator's frames."""
+
+    ticks: np.ndarray
+    #: per AXIS_FEEDBACK group kept: (leg, ticks, group index, rows of the group)
+    feedback: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]
+    commands: list[Command]
+    force_frames: list[tuple[int | None, list[float]]]
+
+
+def _rows_of(groups: list[_Accepted], order: _LogOrder, stats: LogStats) -> _Rows:
+    """The rows' ticks (every tick a frame is placed on), the feedback to
+    place, the commands and the OP_FORCE frames with their executing tick."""
     row_ticks: list[np.ndarray] = []
-    fb_parts: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []  # leg, ticks, group, rows
+    feedback = []
     commands: list[Command] = []
     stale_warn: list[tuple[int, str]] = []
     for k, g in enumerate(groups):
-        pos = pos_in[k]
         if g.name in TICK_MESSAGES:
             row_ticks.append(np.asarray(g.values["Tick"], dtype=np.int64))
         elif g.name.startswith("AXIS_FEEDBACK_"):
-            echo = np.asarray(g.values["TickEcho"], dtype=np.int64)
-            pi, ni = prev_i[pos], next_i[pos]
-            has = (pi >= 0) | (ni < n)
-            near_i = np.where(pi >= 0, pi, np.minimum(ni, max(n - 1, 0)))
-            near = tick_of[near_i] if n else near_i
-            tick = np.where(has, _unwrap16_many(echo, near), echo)
-            stale = has & (np.abs(tick - near) > 1000)
-            stats.stale_feedback += int(stale.sum())
-            for r in np.flatnonzero(stale)[:MAX_WARNINGS].tolist():
-                stale_warn.append((int(g.line_no[r]),
-                                   f"line {g.line_no[r]}: {g.name} on {g.bus}: TickEcho {echo[r]} is "
-                                   f"{tick[r] - near[r]} ticks from the log's tick {near[r]}"))
-            slot = int(g.name[-1])
-            leg = slot + (0 if g.bus == "axis_a" else 3)
-            ok = ~stale
+            tick, ok = _feedback_ticks(g, order.pos_in[k], order, stats, stale_warn)
+            leg = int(g.name[-1]) + (0 if g.bus == "axis_a" else 3)
             row_ticks.append(tick[ok])
-            fb_parts.append((leg, tick[ok], np.full(int(ok.sum()), k), np.flatnonzero(ok)))
+            feedback.append((leg, tick[ok], np.full(int(ok.sum()), k), np.flatnonzero(ok)))
         elif g.name == "OP_COMMAND":
-            for r, p_ in enumerate(pos.tolist()):
-                c = int(g.values["Command"][r])
-                ns = int(next_s[p_])
-                commands.append(Command(
-                    tick=int(tick_of[ns]) if ns < n else None, time=float(g.time[r]),
-                    command=COMMANDS[c] if 0 <= c < len(COMMANDS) else str(c),
-                    axis=int(g.values["Axis"][r]), amplitude=float(g.values["Amplitude"][r]),
-                    frequency=float(g.values["Frequency"][r]), fade_time=float(g.values["FadeTime"][r]),
-                    option=int(g.values["Option"][r])))
-    force_frames: list[tuple[int | None, list[float], int]] = []
-    for k, g in enumerate(groups):
-        if g.name == "OP_FORCE":
-            for r, p_ in enumerate(pos_in[k].tolist()):
-                ns = int(next_s[p_])
-                force_frames.append((int(tick_of[ns]) if ns < n else None,
-                                     [float(g.values[a][r]) for a in pr.WRENCH_SIGNALS], int(g.line_no[r])))
-    force_frames.sort(key=lambda f: f[2])
+            for r, p_ in enumerate(order.pos_in[k].tolist()):
+                commands.append(command_from(_executing_tick(order, p_), g.time[r],
+                                             lambda s, g=g, r=r: g.values[s][r]))
     cmd_lines = [g.line_no for g in groups if g.name == "OP_COMMAND"]
     if len(cmd_lines) > 1:  # accepted on more than one bus: back to log order
         commands = [commands[i] for i in np.argsort(np.concatenate(cmd_lines), kind="stable")]
     stale_warn.sort(key=lambda w: w[0])
     for _, text in stale_warn:
         stats.warn(text)
-
     ticks = _distinct(np.concatenate(row_ticks)) if row_ticks else np.zeros(0, np.int64)
+    return _Rows(ticks, feedback, commands, _force_frames(groups, order))
 
-    d = LogData.empty(ticks, commands, stats, label)
 
-    def merged(name: str, bus: str | None = None):
-        """(row index, values) of the last frame per tick of a message (all
-        buses unless ``bus``), in log order."""
-        parts = [k for k, g in enumerate(groups) if g.name == name and (bus is None or g.bus == bus)]
-        if not parts:
-            return None
-        posv = np.concatenate([pos_in[k] for k in parts])
-        o = np.argsort(posv, kind="stable")
-        t = np.asarray(np.concatenate([groups[k].values["Tick"] for k in parts])[o], dtype=np.int64)
-        last = _last_per_key(t)
-        rows = o[last]   # of the parts' frames one after the other
-        return np.searchsorted(ticks, t[last]), _OnDemand(
-            lambda s: np.concatenate([groups[k].values[s] for k in parts])[rows])
+def _executing_tick(order: _LogOrder, pos: int) -> int | None:
+    """The tick of the first CTRL_STATUS at or after log position ``pos``:
+    the tick that executes an operator's frame there."""
+    ns = int(order.next_s[pos])
+    return int(order.tick_of[ns]) if ns < order.n else None
 
-    got = merged("CTRL_STATUS")
+
+def _feedback_ticks(g: _Accepted, pos: np.ndarray, order: _LogOrder, stats: LogStats,
+                    stale_warn: list[tuple[int, str]]) -> tuple[np.ndarray, np.ndarray]:
+    """(tick, not stale) of an AXIS_FEEDBACK group's frames: TickEcho
+    unwrapped to the nearest tick in the log; more than 1000 ticks from it
+    is stale (counted, warned)."""
+    n = order.n
+    echo = np.asarray(g.values["TickEcho"], dtype=np.int64)
+    pi, ni = order.prev_i[pos], order.next_i[pos]
+    has = (pi >= 0) | (ni < n)
+    near_i = np.where(pi >= 0, pi, np.minimum(ni, max(n - 1, 0)))
+    near = order.tick_of[near_i] if n else near_i
+    tick = np.where(has, _unwrap16_many(echo, near), echo)
+    stale = has & (np.abs(tick - near) > 1000)
+    stats.stale_feedback += int(stale.sum())
+    for r in np.flatnonzero(stale)[:MAX_WARNINGS].tolist():
+        stale_warn.append((int(g.line_no[r]),
+                           f"line {g.line_no[r]}: {g.name} on {g.bus}: TickEcho {echo[r]} is "
+                           f"{tick[r] - near[r]} ticks from the log's tick {near[r]}"))
+    return tick, ~stale
+
+
+def _force_frames(groups: list[_Accepted], order: _LogOrder) -> list[tuple[int | None, list[float]]]:
+    """The OP_FORCE frames in log order: (executing tick, [fx..mz])."""
+    force_frames: list[tuple[int | None, list[float], int]] = []
+    for k, g in enumerate(groups):
+        if g.name == "OP_FORCE":
+            for r, p_ in enumerate(order.pos_in[k].tolist()):
+                force_frames.append((_executing_tick(order, p_),
+                                     [float(g.values[a][r]) for a in pr.WRENCH_SIGNALS], int(g.line_no[r])))
+    force_frames.sort(key=lambda f: f[2])
+    return [(tk, w) for tk, w, _ in force_frames]
+
+
+def _merged(groups: list[_Accepted], order: _LogOrder, ticks: np.ndarray, name: str, bus: str | None = None):
+    """(row index, values) of the last frame per tick of a message (all
+    buses unless ``bus``), in log order; None without such frames."""
+    parts = [k for k, g in enumerate(groups) if g.name == name and (bus is None or g.bus == bus)]
+    if not parts:
+        return None
+    posv = np.concatenate([order.pos_in[k] for k in parts])
+    o = np.argsort(posv, kind="stable")
+    t = np.asarray(np.concatenate([groups[k].values["Tick"] for k in parts])[o], dtype=np.int64)
+    last = _last_per_key(t)
+    rows = o[last]   # of the parts' frames one after the other
+    return np.searchsorted(ticks, t[last]), _OnDemand(
+        lambda s: np.concatenate([groups[k].values[s] for k in parts])[rows])
+
+
+def _fill_controller_columns(d: LogData, groups: list[_Accepted], order: _LogOrder) -> None:
+    """The columns of CTRL_STATUS, CTRL_MONITOR, CTRL_WRENCH and
+    AXIS_SETPOINTS: the last frame of each tick."""
+    got = _merged(groups, order, d.ticks, "CTRL_STATUS")
     if got is not None:
         k, s = got
-        d.state[k] = s["State"]
-        d.faults[k] = s["Faults"]
-        d.drive_mode[k] = s["DriveMode"]
-        d.feedforward[k] = s["FeedForward"]
-        d.estimate_valid[k] = s["EstimateValid"]
-        d.fk_iterations[k] = s["FkIterations"]
-        d.force_mode[k] = s["ForceMode"]
-        d.cmd_rejected[k] = s["CmdRejected"]
+        for column, signal in STATUS_COLUMNS:
+            getattr(d, column)[k] = s[signal]
         v = np.asarray(s["EstimateValid"]) != 0
         d.estimate[k[v]] = np.stack([s[a] for a in pr.POSE_SIGNALS], axis=1)[v]
-    got = merged("CTRL_MONITOR")
+    got = _merged(groups, order, d.ticks, "CTRL_MONITOR")
     if got is not None:
         k, s = got
         d.reference[k] = np.stack([s["Ref" + a] for a in pr.POSE_SIGNALS], axis=1)
         d.length_sp[k] = np.stack([s[f"LengthSp_{i}"] for i in range(1, 7)], axis=1)
         d.force_ff[k] = np.stack([s[f"ForceFf_{i}"] for i in range(1, 7)], axis=1)
-    got = merged("CTRL_WRENCH")
+    got = _merged(groups, order, d.ticks, "CTRL_WRENCH")
     if got is not None:
         k, s = got
         d.est_wrench_valid[k] = s["Valid"]
         v = np.asarray(s["Valid"]) != 0
         d.est_wrench[k[v]] = np.stack([s[a] for a in pr.WRENCH_SIGNALS], axis=1)[v]
     for b, bus in enumerate(("axis_a", "axis_b")):
-        got = merged("AXIS_SETPOINTS", bus)
+        got = _merged(groups, order, d.ticks, "AXIS_SETPOINTS", bus)
         if got is not None:
             k, s = got
             d.axis_mode[k, b] = s["Mode"]
             d.axis_length_sp[k, 3 * b:3 * b + 3] = np.stack([s[f"Length_{j}"] for j in (1, 2, 3)], axis=1)
+
+
+def _fill_feedback_columns(d: LogData, groups: list[_Accepted], order: _LogOrder,
+                           feedback: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]) -> None:
+    """The leg columns of AXIS_FEEDBACK_i: the last frame of each tick and leg."""
     for leg in range(1, 7):
-        parts = [p for p in fb_parts if p[0] == leg]
+        parts = [p for p in feedback if p[0] == leg]
         if not parts:
             continue
         t = np.concatenate([p[1] for p in parts])
-        posv = np.concatenate([pos_in[p[2][0]][p[3]] if len(p[2]) else np.zeros(0, np.int64)
+        posv = np.concatenate([order.pos_in[p[2][0]][p[3]] if len(p[2]) else np.zeros(0, np.int64)
                                for p in parts])
         o = np.argsort(posv, kind="stable")
         t = t[o]
         last = _last_per_key(t)
         rows = o[last]   # of the parts' frames one after the other
-        vals = {}
-        for sname in ("Length", "PressureA", "PressureB", "State", "Faults"):
-            vals[sname] = np.concatenate([groups[p[2][0]].values[sname][p[3]] if len(p[2])
-                                          else np.zeros(0) for p in parts])[rows]
-        k = np.searchsorted(ticks, t[last])
-        j = leg - 1
-        d.length[k, j] = vals["Length"]
-        d.pressure_a[k, j] = vals["PressureA"]
-        d.pressure_b[k, j] = vals["PressureB"]
-        d.drive_state[k, j] = vals["State"]
-        d.drive_faults[k, j] = vals["Faults"]
-    if stats.canopen and platform is not None:  # CANopen drives: their TPDOs into the leg columns
-        from .canopen_legs import TickFrames, fill_legs
+        k = np.searchsorted(d.ticks, t[last])
+        for column, signal in FEEDBACK_COLUMNS:
+            getattr(d, column)[k, leg - 1] = np.concatenate([groups[p[2][0]].values[signal][p[3]] if len(p[2])
+                                                             else np.zeros(0) for p in parts])[rows]
 
-        line_at = np.zeros(n, dtype=np.int64)
-        time_at = np.zeros(n)
-        for k, g in enumerate(groups):
-            line_at[pos_in[k]] = g.line_no
-            time_at[pos_in[k]] = g.time
-        fill_legs(d, frames, ifmap, TickFrames(line_at[known], tick_of[known], time_at[known]), platform)
-    d.force_frames = [(tk, w) for tk, w, _ in force_frames]
+
+def finish_rows(d: LogData, platform) -> None:
+    """What both decoders do last: the force targets, the check of
+    CTRL_MONITOR's length setpoints against AXIS_SETPOINTS', the platform."""
     force_targets(d)
     both = ~np.isnan(d.length_sp).any(axis=1) & ~np.isnan(d.axis_length_sp).any(axis=1)
-    stats.setpoint_checked = int(both.sum())
-    stats.setpoint_mismatch = int((np.abs(d.length_sp - d.axis_length_sp)[both] > 1.5e-6).any(axis=1).sum())
+    d.stats.setpoint_checked = int(both.sum())
+    d.stats.setpoint_mismatch = int((np.abs(d.length_sp - d.axis_length_sp)[both] > 1.5e-6).any(axis=1).sum())
     if platform is not None:
         set_platform(d, platform)
-    return d
 
 
 def set_platform(data: LogData, platform) -> None:

@@ -157,29 +157,27 @@ def _is_digit(a: np.ndarray) -> np.ndarray:
     return (a >= 0x30) & (a <= 0x39)
 
 
-def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
-    """Splits the lines of one length into groups with one column layout and
-    checks each group's columns as :data:`_LINE` would. Yields (rows, fields)
-    of the good rows; the indices of rows that need the line-by-line parser
-    are yielded as (rows, None)."""
-    M = np.lib.stride_tricks.sliding_window_view(buf, length)[starts]
+def _layout_keys(M: np.ndarray, rows: np.ndarray, length: int) -> np.ndarray:
+    """Per row of ``M`` (lines of ``length`` bytes): the columns of ')', the
+    two spaces and '#', and CAN FD, packed into one integer."""
+    head = M[rows, :min(length, _HEAD)]   # time, interface and ID come first
+    cols = np.arange(head.shape[1])[None, :]
+    space = head == 0x20
+    p = np.argmax(head == 0x29, axis=1)                       # ')'
+    s1 = np.argmax(space, axis=1)
+    s2 = np.argmax(space & (cols > s1[:, None]), axis=1)
+    h = np.argmax(head == 0x23, axis=1)                       # '#'
+    nxt = np.minimum(h + 1, length - 1)
+    fd = (M[rows, nxt] == 0x23) & (h + 1 < length)
+    return p + (s1 << 12) + (s2 << 24) + (h << 36) + (fd.astype(np.int64) << 48)
 
-    def layout_keys(rows: np.ndarray) -> np.ndarray:
-        """Per row: the columns of ')', the two spaces and '#', and CAN FD."""
-        head = M[rows, :min(length, _HEAD)]   # time, interface and ID come first
-        cols = np.arange(head.shape[1])[None, :]
-        space = head == 0x20
-        p = np.argmax(head == 0x29, axis=1)                       # ')'
-        s1 = np.argmax(space, axis=1)
-        s2 = np.argmax(space & (cols > s1[:, None]), axis=1)
-        h = np.argmax(head == 0x23, axis=1)                       # '#'
-        nxt = np.minimum(h + 1, length - 1)
-        fd = (M[rows, nxt] == 0x23) & (h + 1 < length)
-        return p + (s1 << 12) + (s2 << 24) + (h << 36) + (fd.astype(np.int64) << 48)
 
+def _layout_groups(M: np.ndarray, length: int) -> tuple[list[list[int]], np.ndarray]:
+    """The column layouts of the rows of ``M``, each as [')', space, space,
+    '#', FD], and each row's layout (index into them)."""
     # The usual case: every line has the first line's layout. Checking its
     # separator columns in all rows is cheaper than finding each row's.
-    k0 = int(layout_keys(np.arange(1))[0])
+    k0 = int(_layout_keys(M, np.arange(1), length)[0])
     p0, a0, b0, h0, f0 = (k0 >> sh & 0xFFF for sh in (0, 12, 24, 36, 48))
     same = (M[:, p0] == 0x29) & (M[:, a0] == 0x20) & (M[:, b0] == 0x20) & (M[:, h0] == 0x23)
     if h0 + 1 < length:
@@ -187,13 +185,21 @@ def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
     key = np.full(len(M), k0, dtype=np.int64)
     if not same.all():
         others = np.flatnonzero(~same)
-        key[others] = layout_keys(others)
+        key[others] = _layout_keys(M, others, length)
     if (key == k0).all():
         uniq_keys, inv = key[:1], np.zeros(len(key), dtype=np.int64)
     else:
         uniq_keys, inv = np.unique(key, return_inverse=True)
-    uniq = [[int(k) >> sh & 0xFFF for sh in (0, 12, 24, 36, 48)] for k in uniq_keys]
-    hexv = _hex_table()
+    return [[int(k) >> sh & 0xFFF for sh in (0, 12, 24, 36, 48)] for k in uniq_keys], inv
+
+
+def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
+    """Splits the lines of one length into groups with one column layout and
+    checks each group's columns as :data:`_LINE` would. Yields (rows, fields)
+    of the good rows; the indices of rows that need the line-by-line parser
+    are yielded as (rows, None)."""
+    M = np.lib.stride_tricks.sliding_window_view(buf, length)[starts]
+    uniq, inv = _layout_groups(M, length)
     for g, (pg, a, b, hg, fg) in enumerate(uniq):
         if len(uniq) == 1:
             rows, S = np.arange(len(M)), M
@@ -207,40 +213,48 @@ def _template_rows(buf: np.ndarray, starts: np.ndarray, length: int):
         if not shape_ok:
             yield rows, None
             continue
-        ts = S[:, 1:pg]
-        dots = (ts == 0x2E).sum(axis=1)
-        ok = (S[:, 0] == 0x28) & _is_digit(S[:, 1]) & (_is_digit(ts) | (ts == 0x2E)).all(axis=1) & (dots <= 1)
-        ifc = S[:, a + 1:b]
-        ok &= ((ifc > 0x20) & (ifc < 0x7F)).all(axis=1)
-        idn = hexv[S[:, b + 1:hg]]
-        ok &= (idn != 255).all(axis=1)
-        if fg:
-            flags = hexv[S[:, hg + 2]]
-            ok &= flags != 255
-        else:
-            flags = np.zeros(len(S), dtype=np.uint8)
-        dn = _pair_table()[np.ascontiguousarray(S[:, d0:]).view("<u2")]  # two digits -> a byte
-        ok &= (dn != 0xFFFF).all(axis=1)
-        if not ok.all():
-            yield rows[~ok], None
-            if not ok.any():
-                continue
-            S, ts, ifc, idn, dn, flags = S[ok], ts[ok], ifc[ok], idn[ok], dn[ok], flags[ok]
-            rows = rows[ok]
-        time = _times(ts)
-        if ifc.shape[1] <= 8:  # names as one integer each: cheaper to sort than bytes
-            wide = np.zeros((len(ifc), 8), dtype=np.uint8)
-            wide[:, :ifc.shape[1]] = ifc
-            names = wide.view("<u8").reshape(-1)
-        else:
-            names = np.ascontiguousarray(ifc).view(f"S{ifc.shape[1]}").reshape(-1)
-        fid = np.zeros(len(S), dtype=np.int64)
-        for j in range(idn.shape[1]):
-            fid = (fid << 4) | idn[:, j]
-        if idn.shape[1] > 3:
-            fid |= 0x80000000
-        data = dn.astype(np.uint8)
-        yield rows, (time, names, fid, bool(fg), flags, data)
+        yield from _group_fields(S, rows, pg, a, b, hg, fg, d0)
+
+
+def _group_fields(S: np.ndarray, rows: np.ndarray, pg: int, a: int, b: int, hg: int, fg: int, d0: int):
+    """The rows ``S`` of one column layout (')' at ``pg``, spaces at ``a``
+    and ``b``, '#' at ``hg``, CAN FD ``fg``, data from ``d0``) checked and
+    parsed: yields (rows, fields) of the good ones, (rows, None) of the others."""
+    hexv = _hex_table()
+    ts = S[:, 1:pg]
+    dots = (ts == 0x2E).sum(axis=1)
+    ok = (S[:, 0] == 0x28) & _is_digit(S[:, 1]) & (_is_digit(ts) | (ts == 0x2E)).all(axis=1) & (dots <= 1)
+    ifc = S[:, a + 1:b]
+    ok &= ((ifc > 0x20) & (ifc < 0x7F)).all(axis=1)
+    idn = hexv[S[:, b + 1:hg]]
+    ok &= (idn != 255).all(axis=1)
+    if fg:
+        flags = hexv[S[:, hg + 2]]
+        ok &= flags != 255
+    else:
+        flags = np.zeros(len(S), dtype=np.uint8)
+    dn = _pair_table()[np.ascontiguousarray(S[:, d0:]).view("<u2")]  # two digits -> a byte
+    ok &= (dn != 0xFFFF).all(axis=1)
+    if not ok.all():
+        yield rows[~ok], None
+        if not ok.any():
+            return
+        S, ts, ifc, idn, dn, flags = S[ok], ts[ok], ifc[ok], idn[ok], dn[ok], flags[ok]
+        rows = rows[ok]
+    time = _times(ts)
+    if ifc.shape[1] <= 8:  # names as one integer each: cheaper to sort than bytes
+        wide = np.zeros((len(ifc), 8), dtype=np.uint8)
+        wide[:, :ifc.shape[1]] = ifc
+        names = wide.view("<u8").reshape(-1)
+    else:
+        names = np.ascontiguousarray(ifc).view(f"S{ifc.shape[1]}").reshape(-1)
+    fid = np.zeros(len(S), dtype=np.int64)
+    for j in range(idn.shape[1]):
+        fid = (fid << 4) | idn[:, j]
+    if idn.shape[1] > 3:
+        fid |= 0x80000000
+    data = dn.astype(np.uint8)
+    yield rows, (time, names, fid, bool(fg), flags, data)
 
 
 def _times(ts: np.ndarray) -> np.ndarray:
@@ -287,7 +301,7 @@ def _name_codes(names: np.ndarray, code_of) -> np.ndarray:
 def _file_bytes(path: str | Path) -> np.ndarray:
     """The file's bytes, line ends made \\n. Mapped rather than read where
     the file can be: a read copies the log into fresh memory, and on the VM
-    of docs/analysis.md faulting in 30 MB of fresh pages costs more than the
+    of docs/reference/analysis.md faulting in 30 MB of fresh pages costs more than the
     read itself."""
     with open(path, "rb") as f:
         try:
@@ -313,64 +327,13 @@ def read_frames(source) -> LogFrames:
     :func:`parse_line` (which gives the reason a line is not a frame). Same
     frames, times, IDs and payloads as :func:`parse_line` line by line
     (tests/python/test_framedecode.py)."""
-    if isinstance(source, (str, Path)):
-        buf = _file_bytes(source)
-    elif isinstance(source, (bytes, bytearray)):
-        buf = np.frombuffer(_unix_line_ends(bytes(source)), dtype=np.uint8)
-    else:
-        lines = [str(s).rstrip("\r\n") for s in source]
-        raw = "\n".join(lines).encode("utf-8", "replace")
-        if lines:  # one newline per line, an empty one included
-            raw += b"\n"
-        buf = np.frombuffer(raw, dtype=np.uint8)
-    nl = np.flatnonzero(buf == 0x0A)
-    starts = np.concatenate(([0], nl + 1)).astype(np.int64)
-    ends = np.concatenate((nl, [len(buf)])).astype(np.int64)
-    if len(buf) == 0 or buf[-1] == 0x0A:
-        starts, ends = starts[:-1], ends[:-1]
-    cr = (ends > starts) & (buf[np.maximum(ends - 1, 0)] == 0x0D) if len(buf) else np.zeros(0, bool)
-    ends = ends - cr
-    n_lines = len(starts)
-    lengths = ends - starts
-
-    parts = []          # (line indices, fields)
-    slow: list[np.ndarray] = []
-    for L in np.unique(lengths).tolist():
-        grp = np.flatnonzero(lengths == L)
-        if L < 8 or L >= 4096:
-            slow.append(grp)
-            continue
-        for c0 in range(0, len(grp), _CHUNK):
-            sub = grp[c0:c0 + _CHUNK]
-            for rows, fields in _template_rows(buf, starts[sub], L):
-                if fields is None:
-                    slow.append(sub[rows])
-                else:
-                    parts.append((sub[rows], fields))
-
-    iface_names: list[str] = []
-    iface_index: dict[str, int] = {}
-
-    def iface_id(name: str) -> int:
-        k = iface_index.get(name)
-        if k is None:
-            k = iface_index[name] = len(iface_names)
-            iface_names.append(name)
-        return k
-
+    buf = _source_bytes(source)
+    starts, ends = _line_bounds(buf)
+    parts, slow = _parse_columnwise(buf, starts, ends - starts)
     # Slow lines first (they may add frames), then every frame goes to its
     # place in log order: position = rank of its line among the frame lines.
-    malformed: list[tuple[int, str]] = []
-    slow_frames: list[tuple[int, LogFrame]] = []
-    if slow:
-        for i in np.sort(np.concatenate(slow)).tolist():
-            line = buf[starts[i]:ends[i]].tobytes().decode("utf-8", "replace")
-            if not line.strip():
-                continue
-            try:
-                slow_frames.append((i, parse_line(line, i + 1)))
-            except ValueError as exc:
-                malformed.append((i + 1, f"line {i + 1}: malformed ({exc}): {line.strip()[:80]}"))
+    slow_frames, malformed = _parse_slow(buf, starts, ends, slow)
+    n_lines = len(starts)
     is_frame = np.zeros(n_lines + 1, dtype=bool)
     for rows, _ in parts:
         is_frame[rows] = True
@@ -385,6 +348,8 @@ def read_frames(source) -> LogFrames:
     fd_a = np.zeros(F, dtype=bool)
     dlc_a = np.zeros(F, dtype=np.int64)
     data_a = np.zeros((F, MAX_DATA), dtype=np.uint8)
+    iface_names: list[str] = []
+    iface_id = _interface_codes(iface_names)
     for rows, (time, names, fid, fd, flags, data) in parts:
         dest = rank[rows]
         time_a[dest] = time
@@ -401,3 +366,80 @@ def read_frames(source) -> LogFrames:
     return LogFrames(line_no=line_no, time=time_a, iface=iface_a, ifaces=iface_names,
                      frame_id=fid_a, fd=fd_a, dlc=dlc_a, data=data_a, lines=n_lines,
                      malformed=malformed)
+
+
+def _source_bytes(source) -> np.ndarray:
+    """The log's bytes with \\n line ends (a path, bytes, or lines)."""
+    if isinstance(source, (str, Path)):
+        return _file_bytes(source)
+    if isinstance(source, (bytes, bytearray)):
+        return np.frombuffer(_unix_line_ends(bytes(source)), dtype=np.uint8)
+    lines = [str(s).rstrip("\r\n") for s in source]
+    raw = "\n".join(lines).encode("utf-8", "replace")
+    if lines:  # one newline per line, an empty one included
+        raw += b"\n"
+    return np.frombuffer(raw, dtype=np.uint8)
+
+
+def _line_bounds(buf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(start, end) offsets of each line, its \\n (and a \\r before it) left out."""
+    nl = np.flatnonzero(buf == 0x0A)
+    starts = np.concatenate(([0], nl + 1)).astype(np.int64)
+    ends = np.concatenate((nl, [len(buf)])).astype(np.int64)
+    if len(buf) == 0 or buf[-1] == 0x0A:
+        starts, ends = starts[:-1], ends[:-1]
+    cr = (ends > starts) & (buf[np.maximum(ends - 1, 0)] == 0x0D) if len(buf) else np.zeros(0, bool)
+    return starts, ends - cr
+
+
+def _parse_columnwise(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray):
+    """(parts, slow): the lines parsed column-wise by length and layout as
+    (line indices, fields), and the indices of the lines left to
+    :func:`parse_line`."""
+    parts = []          # (line indices, fields)
+    slow: list[np.ndarray] = []
+    for L in np.unique(lengths).tolist():
+        grp = np.flatnonzero(lengths == L)
+        if L < 8 or L >= 4096:
+            slow.append(grp)
+            continue
+        for c0 in range(0, len(grp), _CHUNK):
+            sub = grp[c0:c0 + _CHUNK]
+            for rows, fields in _template_rows(buf, starts[sub], L):
+                if fields is None:
+                    slow.append(sub[rows])
+                else:
+                    parts.append((sub[rows], fields))
+    return parts, slow
+
+
+def _parse_slow(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, slow: list[np.ndarray]):
+    """(frames, malformed): the lines ``slow`` through :func:`parse_line`,
+    as (line index, frame) and (line number, warning); blank lines are skipped."""
+    malformed: list[tuple[int, str]] = []
+    slow_frames: list[tuple[int, LogFrame]] = []
+    if slow:
+        for i in np.sort(np.concatenate(slow)).tolist():
+            line = buf[starts[i]:ends[i]].tobytes().decode("utf-8", "replace")
+            if not line.strip():
+                continue
+            try:
+                slow_frames.append((i, parse_line(line, i + 1)))
+            except ValueError as exc:
+                malformed.append((i + 1, f"line {i + 1}: malformed ({exc}): {line.strip()[:80]}"))
+    return slow_frames, malformed
+
+
+def _interface_codes(names: list[str]):
+    """A function giving each interface name its code, the index in
+    ``names`` (appended when new)."""
+    index: dict[str, int] = {}
+
+    def iface_id(name: str) -> int:
+        k = index.get(name)
+        if k is None:
+            k = index[name] = len(names)
+            names.append(name)
+        return k
+
+    return iface_id

@@ -5,7 +5,7 @@
 The tracking error is ``estimate(t) - reference(t - d)`` with d = 0 by
 default: the drives move their target along the setpoint's velocity through
 the cycle, so a perfect servo is at reference(t) when SYNC(t) samples it
-(docs/analysis.md).
+(docs/reference/analysis.md).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from .decode import LogData
 from .names import AXES, STATES, TICK_S, axis_unit
 from .segments import Segment, find_segments
 
-#: Default delay of the tracking error, ticks (docs/analysis.md).
+#: Default delay of the tracking error, ticks (docs/reference/analysis.md).
 DEFAULT_DELAY_TICKS = 0
 
 

@@ -10,7 +10,7 @@ The answer comes back through a pipe as a pickle whose numpy arrays travel
 out of band (pickle protocol 5): their bytes are written to the pipe as they
 are and read into the buffers the arrays are then built on, so a 40 MB log
 costs one copy through the kernel instead of pickling, a queue and
-unpickling (docs/analysis.md, Cost)."""
+unpickling (docs/reference/analysis.md, Cost)."""
 
 from __future__ import annotations
 
@@ -69,7 +69,7 @@ def _read_exact(pipe, n: int):
     """``n`` bytes from the pipe (EOFError if it ends first), in a numpy
     buffer: numpy asks the kernel for huge pages for large arrays, and
     mapping 40 MB in 4 KB pages costs more than reading them (40 ms against
-    6 ms on the VM of docs/analysis.md)."""
+    6 ms on the VM of docs/reference/analysis.md)."""
     import numpy as np
 
     buf = np.empty(n, dtype=np.uint8)

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from .. import REPO_ROOT
 from .. import config as cfg
+from .. import resources
 from ..protocol import Protocol
 from .csvout import TruthText, write_signals_csv
 from .decode import LogData, read_log
@@ -21,7 +21,7 @@ from .plots import plot_cylinders, plot_tracking
 from .segments import Segment, find_segments
 from .truth import attach_truth, read_truth
 
-DEFAULT_PLATFORM = REPO_ROOT / "config" / "platform_default.json"
+DEFAULT_PLATFORM = resources.default_platform()
 
 
 @dataclass
@@ -68,7 +68,7 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
     step(f"writing {files[0]}")
     write_signals_csv(data, files[0], truth_text)
     summary = summarize(data, segs, delay_ticks)
-    if data.stats.canopen:  # CiA 408 drives: their frames decoded into canopen.csv (docs/canopen.md)
+    if data.stats.canopen:  # CiA 408 drives: their frames decoded into canopen.csv (docs/reference/canopen.md)
         from ..drives import traffic
         from .decode import CANOPEN_BUSES
         from .logfile import parse_bus_map

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import argparse
 
-from .. import REPO_ROOT
 from .. import config as cfg
+from .. import progress, resources
 
 
 def run(args: argparse.Namespace) -> int:
@@ -18,14 +18,16 @@ def run(args: argparse.Namespace) -> int:
     except cfg.ConfigError as e:
         print(f"stewart accuracy: {e}")
         return 2
-    rep = measure(platform, args.n, args.seed)
+    bar = progress.Progress("stewart accuracy", "random motions", args.n, quiet=args.quiet)
+    rep = measure(platform, args.n, args.seed, step=bar.advance)
     print("\n".join(rep.lines()))
     return 0 if rep.ok() else 1
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("accuracy", help="errors of the fixed-point core against the float64 model")
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"))
+    p.add_argument("--config", default=str(resources.default_platform()))
     p.add_argument("-n", type=int, default=10000, help="number of random poses (default 10000)")
     p.add_argument("--seed", type=int, default=1)
+    progress.add_quiet(p)
     p.set_defaults(func=run)

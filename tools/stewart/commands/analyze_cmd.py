@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """``stewart analyze LOG --out DIR``: a closed-loop run's CAN log (candump -L
 format, three buses) to a per-tick CSV, segments, tracking errors, plots and
-a summary (docs/analysis.md).
+a summary (docs/reference/analysis.md).
 
 Writes DIR/signals.csv (one row per tick, SI units), DIR/summary.json, and per
 RUNNING segment DIR/segN_tracking.png (reference vs estimate on the moving
@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import progress, resources
 
 
 def _run_label(summary, fallback: str) -> str:
@@ -34,11 +34,11 @@ def _run_label(summary, fallback: str) -> str:
 
 class _Progress:
     """Prints each step with the time so far on stderr, from the first step
-    that starts after ``quiet_s`` (a short run prints nothing)."""
+    that starts after ``quiet_s`` (a short run prints nothing; --quiet nothing)."""
 
-    def __init__(self, quiet_s: float = 1.0):
+    def __init__(self, quiet: bool, quiet_s: float = 1.0):
         self.t0 = time.monotonic()
-        self.quiet_s = quiet_s
+        self.quiet_s = float("inf") if quiet else quiet_s
 
     def __call__(self, text: str) -> None:
         dt = time.monotonic() - self.t0
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         res = analyze(args.log, args.out, truth=args.truth, platform=args.platform,
                       delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
-                      progress=_Progress(), frames=frames)
+                      progress=_Progress(args.quiet), frames=frames)
     except (cfg.ConfigError, ValueError, OSError) as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             res2 = analyze(args.compare, Path(args.out) / "run2", platform=args.platform,
                            delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
-                           progress=_Progress())
+                           progress=_Progress(args.quiet))
         except (cfg.ConfigError, ValueError, OSError) as exc:
             print(f"stewart analyze: {args.compare}: {exc}", file=sys.stderr)
             return 2
@@ -120,13 +120,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("log", help="CAN log in candump -L format (vcan0 ops, vcan1 axis_a, vcan2 axis_b)")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--truth", help="the plant's truth CSV (tick, pose, leg lengths, forces)")
-    p.add_argument("--platform", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--platform", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--delay-ticks", type=int, default=0,
                    help="tracking error = estimate(t) - reference(t - d); default d = 0 "
-                   "(docs/analysis.md says why)")
+                   "(docs/reference/analysis.md says why)")
     p.add_argument("--bus", help="interfaces of the buses, e.g. ops=can0,axis_a=can1,axis_b=can2 "
                    "(default ops=vcan0,axis_a=vcan1,axis_b=vcan2)")
     p.add_argument("--compare", metavar="LOG2", help="a second run (e.g. feed-forward off) to overlay")
     p.add_argument("--no-plots", action="store_true", help="CSV and summary only")
+    progress.add_quiet(p)
     p.set_defaults(func=run)

@@ -27,7 +27,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
 from ..canframe import (  # noqa: F401 (re-exported: the report's formulas)
     FD_LENGTHS,
@@ -189,7 +189,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nominal", type=float, default=1e6, help="arbitration bit rate, bit/s")
     p.add_argument("--data", type=float, default=5e6, help="CAN FD data-phase bit rate, bit/s")
     p.add_argument("--limit", type=float, default=50.0, help="highest acceptable load, %%")
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--config", default=str(resources.default_platform()),
                    help="platform config: its drives section puts drives on CANopen buses")
     p.add_argument("--builtin", choices=("cia408", "cia402"),
                    help="the firmware's built-in CANopen layout (sp_controller --canopen without a drives "

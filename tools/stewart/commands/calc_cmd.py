@@ -18,6 +18,7 @@ import math
 import sys
 
 from .. import config as cfg
+from .. import resources
 from ..core import Core, CoreError
 
 CALC_INPUT = [
@@ -163,14 +164,16 @@ def run_fk(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calc", help="leg lengths, stretch and cylinder forces of poses (fixed-point core)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", required=True, help="platform config JSON")
+    p.add_argument("--config", default=str(resources.default_platform()),
+                   help="platform config JSON (default: the default platform)")
     p.add_argument("--input", required=True, help="CSV with a header row; columns: " + ",".join(CALC_INPUT))
     p.add_argument("--output", required=True, help="CSV to write")
     p.set_defaults(func=run_calc)
 
     p = sub.add_parser("fk", help="poses from six leg lengths (fixed-point forward kinematics)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", required=True, help="platform config JSON")
+    p.add_argument("--config", default=str(resources.default_platform()),
+                   help="platform config JSON (default: the default platform)")
     p.add_argument("--input", required=True,
                    help="CSV with l1..l6 (m) and optionally a starting pose x,y,z,roll,pitch,yaw")
     p.add_argument("--output", required=True, help="CSV to write")

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """``stewart cueing --in TELEMETRY.csv --out POSES.csv [--plot PNG]``: vehicle
 telemetry to platform poses through the classical washout filter
-(stewart.cueing, docs/cueing.md).
+(stewart.cueing, docs/explanation/cueing.md).
 
 TELEMETRY.csv: a header line naming the columns ``t,fx,fy,fz,wx,wy,wz`` (any
 order, other columns ignored), then one row per sample: t in s (strictly
@@ -27,7 +27,7 @@ import json
 import sys
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
 
 def _fmt(v) -> str:
@@ -89,9 +89,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="POSES.csv", help="pose CSV to write")
     p.add_argument("--plot", metavar="PNG", help="vehicle vs platform specific force")
     p.add_argument("--figures", metavar="JSON", help="write the figures as JSON")
-    p.add_argument("--platform", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--platform", default=str(resources.default_platform()),
                    help="platform config (home, gravity, workspace)")
-    p.add_argument("--params", metavar="JSON", help="washout parameters to change (docs/cueing.md)")
+    p.add_argument("--params", metavar="JSON", help="washout parameters to change (docs/explanation/cueing.md)")
     p.add_argument("--dt", type=float, default=0.001, help="output period, s (default 0.001)")
     p.add_argument("--synthetic", action="store_true",
                    help="first write the built-in synthetic drive to TELEMETRY.csv")

@@ -2,7 +2,7 @@
 """``stewart drives``: commission CANopen drives (CiA 408 valves and axis
 controllers, CiA 402 electric drives) from the PC, over any python-can adapter.
 
-  stewart drives scan   [--interface I --channel C --bitrate B]
+  stewart drives scan   [-i INTERFACE -c CHANNEL -b BITRATE]
       the nodes on the bus: device type (0x1000) and identity (0x1018)
   stewart drives check  --eds FILE [--profile cia408|cia402] [--no-pressure]
       does the drive's EDS offer every object and PDO mapping the controller
@@ -25,34 +25,28 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .. import REPO_ROOT
+from .. import busopts, resources
 
 
 def _err(msg: str) -> None:
     print(f"stewart drives: {msg}", file=sys.stderr)
 
 
-def _bus_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--interface", default="socketcan", help="python-can interface (default socketcan)")
-    p.add_argument("--channel", default="can0", help="python-can channel (default can0)")
-    p.add_argument("--bitrate", type=int, default=None,
-                   help="bit/s, for adapters that set it (SocketCAN takes it from `ip link`)")
-
-
 def run_scan(args) -> int:
     from ..drives import session
 
     try:
-        net = session.open_network(args.interface, args.channel, args.bitrate)
+        net = session.open_network(busopts.options(args))
     except session.DriveError as exc:
         _err(str(exc))
         return 2
+    where = getattr(net.bus, "channel_info", "the bus")
     try:
         nodes = session.scan(net, args.wait)
     finally:
         session.close_network(net)
     if not nodes:
-        _err(f"no node answered on {args.interface} {args.channel} within {args.wait:g} s")
+        _err(f"no node answered on {where} within {args.wait:g} s")
         return 1
     print("| node | device type | vendor-ID | product | revision | serial |")
     print("|---|---|---|---|---|---|")
@@ -129,11 +123,12 @@ def run_config(args) -> int:
                 print(f"| {i} | {w.key} | {w.value_text()} | {w.purpose}{flags} |")
             print()
         return 0
-    from ..drives import session
+    from ..drives import layout, session
 
-    bitrate = args.bitrate if args.bitrate is not None else None
+    opts = busopts.options(args)
+    opts.bus = layout.controller_bus(drives, targets[0]) or opts.bus
     try:
-        net = session.open_network(args.interface, args.channel, bitrate)
+        net = session.open_network(opts)
     except session.DriveError as exc:
         _err(str(exc))
         return 2
@@ -169,7 +164,7 @@ def run_config(args) -> int:
 def run_doc(args) -> int:
     from ..drives import doc
 
-    page = REPO_ROOT / "docs" / "reference" / "canopen.md"
+    page = resources.source_path("docs", "reference", "canopen.md")
     if not args.write:
         print(doc.markdown(), end="")
         return 0
@@ -187,7 +182,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     s = p.add_subparsers(dest="drives_command", metavar="SUBCOMMAND")
     sc = s.add_parser("scan", help="the nodes on a bus, their identity and device type")
-    _bus_args(sc)
+    busopts.add_arguments(sc, "axis_a", fd=False)
     sc.add_argument("--wait", type=float, default=0.5, help="seconds to wait for answers (default 0.5)")
     sc.set_defaults(func=run_scan)
     ck = s.add_parser("check", help="does an EDS offer what the controller needs?")
@@ -198,12 +193,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                     help="do not ask for the chamber pressures (position-only CiA 408 drive)")
     ck.set_defaults(func=run_check)
     cf = s.add_parser("config", help="write the controller's configuration to the drives and read it back")
-    cf.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    cf.add_argument("--config", default=str(resources.default_platform()),
                     help="platform config with a drives section")
     cf.add_argument("--bus", help="the config's bus the adapter is on (needed when there are several)")
     cf.add_argument("--node", type=int, help="only this node id")
     cf.add_argument("--dry-run", action="store_true", help="print the writes, touch no bus")
-    _bus_args(cf)
+    busopts.add_arguments(cf, "axis_a", fd=False)
     cf.set_defaults(func=run_config)
     dc = s.add_parser("doc", help="the object and PDO tables of docs/reference/canopen.md")
     dc.add_argument("--write", action="store_true", help="update docs/reference/canopen.md in place")

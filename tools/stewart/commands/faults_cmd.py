@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""``stewart faults``: the fault-injection campaign (docs/faults.md).
+"""``stewart faults``: the fault-injection campaign (docs/explanation/faults.md).
 
     stewart faults [--subset] [--fault NAME ...] [--state STATE ...] [--jobs N]
                    [--out DIR] [--build DIR] [--json FILE] [--check] [--list]
@@ -22,6 +22,7 @@ import json
 import sys
 import time
 
+from .. import progress
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -38,9 +39,11 @@ def _run(args: argparse.Namespace) -> int:
     except (KeyError, ValueError) as e:
         print(f"stewart faults: {e}", file=sys.stderr)
         return 2
+    bar = progress.Progress("stewart faults", "runs", len(pairs), quiet=args.quiet, every=0.0)
     t0 = time.monotonic()
     try:
-        rows = F.campaign(pairs, jobs=args.jobs, build=args.build, workdir=args.out, log=args.out is not None)
+        rows = F.campaign(pairs, jobs=args.jobs, build=args.build, workdir=args.out, log=args.out is not None,
+                          done=lambda r: bar.advance(note=f"{r.fault} in {r.state}"))
     except FileNotFoundError as e:
         print(f"stewart faults: {e}", file=sys.stderr)
         return 1
@@ -74,4 +77,5 @@ def register(sub) -> None:
     p.add_argument("--json", default=None, help="write the rows as JSON")
     p.add_argument("--check", action="store_true", help="exit 1 unless every row meets its bound and ends safe")
     p.add_argument("--list", action="store_true", help="list the faults and states")
+    progress.add_quiet(p)
     p.set_defaults(func=_run)

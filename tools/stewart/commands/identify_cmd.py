@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """``stewart identify``: the payload (mass, centre of mass, inertia) and the
 cylinders' friction from a logged run, or the excitation run that makes
-them observable (docs/identification.md).
+them observable (docs/explanation/identification.md).
 
     stewart identify --log LOG --config CFG --out NEW.json
         Reads the CAN log (candump -L, as ``stewart analyze``), uses the
@@ -31,7 +31,7 @@ import json
 import sys
 from pathlib import Path
 
-from .. import REPO_ROOT
+from .. import resources
 
 PROG = "stewart identify"
 
@@ -125,7 +125,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log", help="CAN log of a closed-loop run (candump -L)")
     p.add_argument("--out", help="the identified config to write (JSON)")
     p.add_argument("--scenario", metavar="OUT.txt", help="write an excitation scenario (and its CSV)")
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--config", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--bus", help="interfaces of the buses, as for stewart analyze")
     p.add_argument("--min-leg-rate", type=float, default=None,

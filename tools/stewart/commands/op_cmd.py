@@ -3,7 +3,7 @@
 
 Every command waits for the controller's answer and exits 0 when it came,
 1 when the controller refused (the reason on stderr), 2 for a usage, file
-or bus problem, 3 when no answer came in time. docs/operator.md.
+or bus problem, 3 when no answer came in time. docs/guides/operator.md.
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ import signal
 import sys
 import time
 
+from .. import busopts
+
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 TICK_S = 0.001
 
@@ -21,20 +23,11 @@ TICK_S = 0.001
 def register(sub) -> None:
     p = sub.add_parser("op", help="operator node: engage, run, move, stream, stop, park, estop, "
                                   "reset, feedforward, force, guide, position, tare, status, watch, record")
-    p.add_argument("-i", "--interface", help="python-can interface (default: python-can's "
-                   "configuration, else socketcan)")
-    p.add_argument("-c", "--channel", help="channel (default: python-can's configuration, else vcan0)")
-    p.add_argument("-b", "--bitrate", type=int, help="nominal (arbitration) bit rate, bit/s")
-    p.add_argument("--data-bitrate", type=int, help="CAN FD data-phase bit rate, bit/s")
-    fd = p.add_mutually_exclusive_group()
-    fd.add_argument("--fd", dest="fd", action="store_true", default=None, help="CAN FD (the default)")
-    fd.add_argument("--no-fd", dest="fd", action="store_false", help="classic CAN (the protocol will not fit)")
-    p.add_argument("--can-config", metavar="FILE", help="python-can configuration file")
-    p.add_argument("--context", help="section of the python-can configuration file")
+    busopts.add_arguments(p, "ops")
     p.add_argument("--timeout", type=float, default=None, help="seconds to wait for the answer")
     p.add_argument("--key", metavar="FILE", help="the machine key (32 hex digits, mode 600) that signs the "
                    "commands that start or change motion (default: the file $STEWART_KEY names; "
-                   "docs/security.md); STOP, PARK and ESTOP need none")
+                   "docs/explanation/security.md); STOP, PARK and ESTOP need none")
     ops = p.add_subparsers(dest="op", metavar="ACTION")
     import argparse
 
@@ -48,6 +41,16 @@ def register(sub) -> None:
 
     ops.add_parser = add_parser
 
+    _add_motion_actions(ops)
+    _add_stream_action(ops)
+    _add_state_actions(ops)
+    _add_force_actions(ops)
+    _add_observer_actions(ops)
+    p.set_defaults(func=run)
+
+
+def _add_motion_actions(ops) -> None:
+    """engage, run, move."""
     ops.add_parser("engage", help="engage: move from park to home (waits for READY)")
     r = ops.add_parser("run", help="the paper's trigonometric motion about home")
     r.add_argument("axis", choices=AXES)
@@ -59,10 +62,14 @@ def register(sub) -> None:
     m = ops.add_parser("move", help="point-to-point move to a pose (waits for READY)")
     m.add_argument("pose", nargs=6, type=float, metavar="V", help="x y z (m) roll pitch yaw (rad)")
     m.add_argument("--relative", action="store_true", help="the pose is an offset from home")
+
+
+def _add_stream_action(ops) -> None:
+    """stream: poses from a CSV file or UDP."""
     s = ops.add_parser("stream", help="stream poses from a timestamped CSV file or UDP")
     src = s.add_mutually_exclusive_group(required=True)
     src.add_argument("--csv", metavar="FILE", help="CSV with t,x,y,z,roll,pitch,yaw")
-    src.add_argument("--udp", metavar="HOST:PORT", help="receive datagrams (docs/operator.md)")
+    src.add_argument("--udp", metavar="HOST:PORT", help="receive datagrams (docs/guides/operator.md)")
     s.add_argument("--absolute", action="store_true", help="poses are absolute (default: offsets from home)")
     s.add_argument("--cueing", action="store_true", help="UDP telemetry (specific force, angular rate) "
                    "through the washout filter (stewart.cueing)")
@@ -71,12 +78,20 @@ def register(sub) -> None:
                    "for it to resume until Ctrl-C)")
     s.add_argument("--wait-source", type=float, default=30.0, help="UDP: s to wait for the first datagram")
     s.add_argument("--stats", metavar="FILE", help="write the stream's figures as JSON")
+
+
+def _add_state_actions(ops) -> None:
+    """stop, park, estop, reset, feedforward."""
     ops.add_parser("stop", help="end the running motion smoothly (waits for READY)")
     ops.add_parser("park", help="park (waits for IDLE)")
     ops.add_parser("estop", help="emergency stop (waits for ESTOP)")
     ops.add_parser("reset", help="clear the faults and re-engage (waits for READY or IDLE)")
     f = ops.add_parser("feedforward", help="force feed-forward on or off (in IDLE or READY)")
     f.add_argument("switch", choices=("on", "off"))
+
+
+def _add_force_actions(ops) -> None:
+    """force, guide, position, tare."""
     fo = ops.add_parser("force", help="force control: push with a target wrench in the masked axes "
                         "(waits for FORCE)")
     fo.add_argument("axes", help="force-controlled axes of the base frame, joined by commas (z, x,z, ...) "
@@ -94,6 +109,10 @@ def register(sub) -> None:
     _param_args(gu, "hand guiding's: a push F moves the platform at F / damping")
     ops.add_parser("position", help="leave force control smoothly (waits for position control)")
     ops.add_parser("tare", help="zero the force/torque sensor's bias (READY, position control, at rest)")
+
+
+def _add_observer_actions(ops) -> None:
+    """status, watch, record."""
     st = ops.add_parser("status", help="one status reading")
     st.add_argument("--json", action="store_true")
     w = ops.add_parser("watch", help="live view (q or Ctrl-C quits)")
@@ -104,7 +123,6 @@ def register(sub) -> None:
     rec = ops.add_parser("record", help="record the bus to a file: .log (candump), .blf, .asc, .mf4, ...")
     rec.add_argument("file")
     rec.add_argument("--duration", type=float, help="s (default: until Ctrl-C)")
-    p.set_defaults(func=run)
 
 
 def _param_args(parser, damping_help: str) -> None:
@@ -146,7 +164,7 @@ class _Interrupt:
 
 
 def run(args) -> int:
-    from ..operator.bus import BusError, BusOptions, open_bus
+    from ..busopts import BusError, open_bus
     from ..operator.node import OperatorNode, OpError
     from ..operator.sources import SourceError
 
@@ -154,8 +172,7 @@ def run(args) -> int:
         _err("an action is needed: engage, run, move, stream, stop, park, estop, reset, feedforward, "
              "force, guide, position, tare, status, watch, record (stewart op --help)")
         return 2
-    opts = BusOptions(args.interface, args.channel, args.bitrate, args.data_bitrate, args.fd,
-                      args.can_config, args.context)
+    opts = busopts.options(args)
     # files first: a bad file is reported before the bus is touched
     try:
         prepared = _prepare(args)
@@ -196,7 +213,7 @@ def run(args) -> int:
         node.close()
 
 
-#: Actions that only listen: no OP_HEARTBEAT (docs/operator.md).
+#: Actions that only listen: no OP_HEARTBEAT (docs/guides/operator.md).
 OBSERVERS = ("status", "watch")
 
 
@@ -241,10 +258,10 @@ def _prepare(args):
 
 
 def _home() -> list[float]:
-    from .. import REPO_ROOT
     from .. import config as cf
+    from .. import resources
 
-    return list(cf.load(REPO_ROOT / "config" / "platform_default.json").home)
+    return list(cf.load(resources.default_platform()).home)
 
 
 def _report(ans, what: str = "") -> None:

@@ -5,7 +5,7 @@ firmware core, with the float64 model overlaid.
 Figure 4: surge, x(t) = x_home + A sin(2 pi f t), A = 90 mm, f = 0.5 Hz.
 Figure 5: yaw, psi(t) = A_yaw sin(2 pi f t), f = 0.5 Hz; the paper gives
 "90 mm" for both motions, and an angle has no millimetres: we read the yaw
-amplitude as 0.09 rad (5.16 deg), see docs/model.md.
+amplitude as 0.09 rad (5.16 deg), see docs/explanation/model.md.
 
 For each motion, one period sampled at 1 kHz: the stretch (length change
 from home) and the force of all six cylinders, plotted against the surge
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import REPO_ROOT
+from .. import resources
 from .. import config as cfg
 from .. import model
 from ..core import Core
@@ -143,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("paper", help="the paper's Figures 4 and 5 (stretch and force of the six cylinders)",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", default=str(REPO_ROOT / "config" / "platform_default.json"),
+    p.add_argument("--config", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--out", default="out/paper", help="output directory (default: out/paper)")
     p.set_defaults(func=run)

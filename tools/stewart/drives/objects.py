@@ -187,8 +187,9 @@ def _firmware_master_heartbeat_ms() -> int:
     sp/canopen/canopen_master.h): the one source, read from the header."""
     import re
 
-    from .. import REPO_ROOT
-    header = REPO_ROOT / "firmware" / "core" / "include" / "sp" / "canopen" / "canopen_master.h"
+    from .. import resources
+
+    header = resources.firmware_header("canopen_master.h")
     m = re.search(r"^#define\s+SP_CO_MASTER_HEARTBEAT_MS\s+(\d+)u?\b", header.read_text(), re.M)
     if m is None:
         raise RuntimeError(f"{header}: no SP_CO_MASTER_HEARTBEAT_MS definition")

@@ -27,17 +27,20 @@ class DriveError(Exception):
     """A commissioning step failed; the message says which and why."""
 
 
-def open_network(interface: str, channel: str | None, bitrate: int | None):
-    """A connected ``canopen.Network`` on a python-can bus; DriveError when the
-    adapter cannot be opened (unknown interface, missing channel, no driver)."""
+def open_network(opts):
+    """A connected ``canopen.Network`` on the python-can bus of the bus
+    options (:mod:`stewart.busopts`); DriveError when the adapter cannot be
+    opened (unknown interface, missing channel, no driver)."""
     import can
     import canopen
 
-    kwargs = {"interface": interface}
-    if channel is not None:
-        kwargs["channel"] = channel
-    if bitrate is not None:
-        kwargs["bitrate"] = bitrate
+    from .. import busopts
+
+    try:
+        kwargs = busopts.resolve(opts)
+    except busopts.BusError as exc:
+        raise DriveError(str(exc)) from None
+    interface, channel = kwargs["interface"], kwargs.get("channel")
     net = canopen.Network()
     try:
         net.connect(**kwargs)

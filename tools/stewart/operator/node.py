@@ -5,7 +5,7 @@ One receive thread reads the controller's frames (CTRL_STATUS and
 CTRL_AUTH; CTRL_MONITOR and CTRL_WRENCH too for a node that shows them,
 ``monitor``), checks their CRC and alive counter and keeps the latest of
 each; one thread sends OP_HEARTBEAT every 20 ms (the
-controller's operator-link supervision, docs/operator.md). Commands wait
+controller's operator-link supervision, docs/guides/operator.md). Commands wait
 for the controller's answer: the state it should reach, or a refusal
 (CTRL_STATUS's CmdRejected, or its count of refusals moved), with the
 reason the tool can tell from the state.
@@ -17,7 +17,7 @@ on it and takes the next frame. So a command is preceded by an OP_COMMAND
 NONE (does nothing), and a MOVE_TO target is sent twice; ESTOP is sent
 twice back to back (a second ESTOP is harmless).
 
-Command authentication (docs/security.md): with the machine key
+Command authentication (docs/explanation/security.md): with the machine key
 (``key``), the frames that start or change motion (OP_COMMAND but NONE,
 STOP, PARK and ESTOP; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) are signed with the
 controller's session and a counter that continues from the last one the
@@ -224,6 +224,52 @@ def _legs(mask: int) -> list[int]:
 
 def _name(names, raw: int) -> str:
     return names[raw] if raw < len(names) else str(raw)
+
+
+@dataclass
+class _Progress:
+    """What :meth:`OperatorNode.wait_for` has seen of the statuses since a
+    command was sent."""
+
+    command: str
+    before: Status | None
+    sent_wall: float
+    sent_after: float            #: statuses stamped at or after this count as after the send
+    signed: int | None           #: the signed command's counter (None: not signed)
+    refusals: int | None         #: the count of refusals before the send
+    prev_tick: int | None        #: Tick of the last status seen (gaps: statuses the queue dropped)
+    first_change: int | None = None
+    k: int = 0                   #: statuses stamped after the send
+    k_after: int = 0
+    taken_k: int | None = None   #: the first status at which the controller had the frame
+    carried_out: bool = False    #: the command queue's depth of statuses after taken_k
+    missed: int = 0
+
+    def advance(self, st: Status, reject_window: int) -> bool:
+        """Counts status ``st``; False if it was stamped before the send.
+        Raises Refused when it tells of a refusal."""
+        if self.prev_tick is not None and st.tick > self.prev_tick + 1:
+            self.missed += st.tick - self.prev_tick - 1
+        self.prev_tick = st.tick
+        if st.stamp < self.sent_wall:
+            self.refusals = st.refusals  # sent before the command was: its count cannot hold the refusal
+            return False
+        self.k += 1
+        self.k_after += st.stamp >= self.sent_after
+        command, before = self.command, self.before
+        if st.cmd_rejected and not self.carried_out and self.k <= reject_window:
+            raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
+        if not self.carried_out and self.refusals is not None and st.refusals != self.refusals:
+            raise Refused(f"{command} refused: {refusal_reason(command, before, st)} (CTRL_STATUS "
+                          f"Refusals went from {self.refusals} to {st.refusals}; the status that said "
+                          f"CmdRejected was not heard: {self.missed} status(es) missed since the send)")
+        if self.first_change is None and before is not None and st.state != before.state:
+            self.first_change = self.k
+        if self.taken_k is None and self.k_after > 0 and (self.signed is None or st.auth_last >= self.signed):
+            self.taken_k = self.k
+        if self.taken_k is not None and self.k >= self.taken_k + COMMAND_QUEUE:
+            self.carried_out = True
+        return True
 
 
 class OperatorNode:
@@ -568,63 +614,51 @@ class OperatorNode:
         statuses the interface stamped after the send count, so a backlog
         of older frames in the receive queue cannot answer for it."""
         end = time.monotonic() + timeout
-        first_change: int | None = None
-        idx = 0
-        k = 0
-        sent_after = max(self._sent_after, sent_wall)
-        k_after = 0
         signed = self._signed_counter if command not in au.Signer.EXEMPT_COMMANDS else None
-        taken_k: int | None = None    # the first status at which the controller had the frame
-        carried_out = False           # the command queue's depth of statuses after taken_k
-        refusals = before.refusals if before is not None else None  # the count before the send
-        prev_tick = self._mark_tick   # Tick of the last status seen (gaps: statuses the queue dropped)
-        missed = 0
+        p = _Progress(command, before, sent_wall, max(self._sent_after, sent_wall), signed,
+                      before.refusals if before is not None else None, self._mark_tick)
+        idx = 0
         while True:
-            with self._cond:
-                while idx >= len(self.statuses):
-                    if self.rx_error:
-                        raise OpError(f"receiving: {self.rx_error}")
-                    left = end - time.monotonic()
-                    if left <= 0:
-                        st = self.status
-                        raise NoAnswer(f"{command}: no answer within {timeout:g} s"
-                                       + (f" (state {st.state}; {missed} status(es) missed since the send)"
-                                          if st else " (no status received)"))
-                    self._cond.wait(left)
-                batch = self.statuses[idx:]
-                idx = len(self.statuses)
+            batch, idx = self._statuses_from(idx, end, command, timeout, p.missed)
             for st in batch:
-                if prev_tick is not None and st.tick > prev_tick + 1:
-                    missed += st.tick - prev_tick - 1
-                prev_tick = st.tick
-                if st.stamp < sent_wall:
-                    refusals = st.refusals  # sent before the command was: its count cannot hold the refusal
+                if not p.advance(st, reject_window):
                     continue
-                k += 1
-                k_after += st.stamp >= sent_after
-                if st.cmd_rejected and not carried_out and k <= reject_window:
-                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)}")
-                if not carried_out and refusals is not None and st.refusals != refusals:
-                    raise Refused(f"{command} refused: {refusal_reason(command, before, st)} (CTRL_STATUS "
-                                  f"Refusals went from {refusals} to {st.refusals}; the status that said "
-                                  f"CmdRejected was not heard: {missed} status(es) missed since the send)")
-                if first_change is None and before is not None and st.state != before.state:
-                    first_change = k
-                if taken_k is None and k_after > 0 and (signed is None or st.auth_last >= signed):
-                    taken_k = k
-                if taken_k is not None and k >= taken_k + COMMAND_QUEUE:
-                    carried_out = True
-                if k_after == reject_window and first_change is None and signed is not None and taken_k is None:
-                    why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
-                    raise Refused(f"{command} rejected: {why}")
-                if k_after == reject_window and first_change is None and signed is not None and not done(st):
-                    why = self.auth_reason()  # another process's counters went past this one's
-                    if why is not None:
-                        raise Refused(f"{command} rejected: {why}")
-                if done(st) and carried_out and k >= settle:
+                if p.k_after == reject_window and p.first_change is None and signed is not None:
+                    self._check_taken(p, st, done)
+                if done(st) and p.carried_out and p.k >= settle:
                     self._keep_statuses = False
-                    return Answer(command, st, first_change if first_change is not None else k,
+                    return Answer(command, st, p.first_change if p.first_change is not None else p.k,
                                   st.t - self._sent_mono)
+
+    def _statuses_from(self, idx: int, end: float, command: str, timeout: float,
+                       missed: int) -> tuple[list[Status], int]:
+        """(the statuses kept from index ``idx`` on, the index after them),
+        waiting for one until ``end`` (monotonic); raises NoAnswer then."""
+        with self._cond:
+            while idx >= len(self.statuses):
+                if self.rx_error:
+                    raise OpError(f"receiving: {self.rx_error}")
+                left = end - time.monotonic()
+                if left <= 0:
+                    st = self.status
+                    raise NoAnswer(f"{command}: no answer within {timeout:g} s"
+                                   + (f" (state {st.state}; {missed} status(es) missed since the send)"
+                                      if st else " (no status received)"))
+                self._cond.wait(left)
+            return self.statuses[idx:], len(self.statuses)
+
+    def _check_taken(self, p: _Progress, st: Status, done: Callable[[Status], bool]) -> None:
+        """At the end of the refusal window, with the state unchanged: a
+        signed command the controller never took, or one whose counter
+        another process's went past, was rejected."""
+        command = p.command
+        if p.taken_k is None:
+            why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
+            raise Refused(f"{command} rejected: {why}")
+        if not done(st):
+            why = self.auth_reason()  # another process's counters went past this one's
+            if why is not None:
+                raise Refused(f"{command} rejected: {why}")
 
     def command(self, command: str, done: Callable[[Status], bool], timeout: float = 10.0,
                 sync: bool = True, **signals) -> Answer:

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """Pose sources of ``stewart op stream``: a timestamped CSV file, and UDP
-datagrams from motion software (docs/operator.md has the formats).
+datagrams from motion software (docs/guides/operator.md has the formats).
 
 UDP datagrams, one per pose (or per telemetry sample in cueing mode), each
 with a 32-bit sequence number that the sender increments by one per

@@ -11,7 +11,7 @@
  * The error of that step is second order in |x - x_ref|. Over the default
  * platform's workspace and tracking errors of every direction, the step is
  * within 1 um and 1 urad (every axis) of the true forward kinematics while
- * |L_meas - L_ref|_inf <= 0.62 mm (float64, tools/stewart/estimate_bound.py,
+ * |L_meas - L_ref|_inf <= 0.62 mm (float64, tools/dev/estimate_bound.py,
  * a random search refined towards its worst cases); SP_ESTIMATE_STEP_MAX
  * takes 0.4 mm, where the second-order error is below 0.45 um, and leaves
  * the rest to the fixed point's rounding (tests/unit/test_ctrl_jobs.c

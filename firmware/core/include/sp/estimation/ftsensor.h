@@ -30,7 +30,7 @@ typedef struct {
 } sp_ft_mount_t;
 
 /** The config's force_sensor section (config/platform_default.json, generated
- *  with sp_platform_default by tools/stewart/gen_platform.py): the mounting
+ *  with sp_platform_default by tools/dev/gen_platform.py): the mounting
  *  (mount_pos, mount_rpy) ... */
 extern const sp_ft_mount_t sp_ft_mount_default;
 /** ... and force control's wrench source (wrench_source: 0 cylinders, 1 sensor;

@@ -53,7 +53,7 @@ typedef enum {
     SP_PROTO_REPEATED = 5,
     SP_PROTO_WRONG_SEQUENCE = 6,
     SP_PROTO_WRONG_BUS = 7,
-    SP_PROTO_AUTH_BAD_TAG = 8,  /**< an authenticated message whose code does not check (docs/explanation/security.md) */
+    SP_PROTO_AUTH_BAD_TAG = 8, /**< an authenticated message whose code does not check (docs/explanation/security.md) */
     SP_PROTO_AUTH_REPLAYED = 9, /**< an authenticated message of this session sent again */
     SP_PROTO_AUTH_NO_KEY = 10,  /**< an authenticated message, and the controller has no key */
     SP_PROTO_ERRORS = 11

@@ -4,7 +4,7 @@
  *
  * One source of truth: config/platform_default.json. The build generates
  * sp_platform_default (sp_platform_default.c) from that file with
- * tools/stewart/gen_platform.py, so the firmware and the host tools cannot
+ * tools/dev/gen_platform.py, so the firmware and the host tools cannot
  * disagree. Frames and conventions follow the paper (docs/explanation/model.md, Frames and pose):
  * base frame at the base centroid o, z up; motion frame at the platform
  * centroid o'.

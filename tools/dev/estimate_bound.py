@@ -23,7 +23,7 @@ every axis: for each (reference, direction) pair it bisects on the size of
 the error, and the bound is the smallest size found. The true pose is known
 exactly (the measured lengths are its IK), so no forward kinematics runs.
 
-    PYTHONPATH=tools python -m stewart.estimate_bound [--samples N] [--seed S]
+    .venv/bin/python tools/dev/estimate_bound.py [--samples N] [--seed S]
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import argparse
 
 import numpy as np
 
-from stewart import REPO_ROOT, model
+from stewart import model, resources
 from stewart import config as cfg
 
 
@@ -180,13 +180,13 @@ def aged_check(platform, limit, age_ticks, lin_speed, ang_speed, samples=4000, s
     return float(np.max(ep)), float(np.max(er))
 
 
-#: the speeds of docs/model.md's table: (m/s, rad/s)
+#: the speeds of docs/explanation/model.md's table: (m/s, rad/s)
 AGED_SPEEDS = ((0.28, 0.0), (0.0, 0.28), (0.3, 0.15), (0.5, 0.0), (0.0, 0.3), (0.5, 0.5))
 
 
 def firmware_limit() -> float:
     """SP_ESTIMATE_STEP_MAX of sp/estimation/estimate.h, m."""
-    text = (REPO_ROOT / "firmware" / "core" / "include" / "sp" / "estimation" / "estimate.h").read_text()
+    text = resources.firmware_header("estimate.h").read_text()
     for line in text.splitlines():
         if line.startswith("#define SP_ESTIMATE_STEP_MAX"):
             return int(line.split("(sp_q24_t)")[1].rstrip(")").strip()) / 2.0**24
@@ -199,10 +199,10 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--aged", type=int, nargs="+", metavar="TICKS",
                     help="instead: the step's worst error at SP_ESTIMATE_STEP_MAX through a factorisation "
-                         "this many ticks old, at the speeds of docs/model.md's table (e.g. --aged 0 5 6)")
+                         "this many ticks old, at the speeds of docs/explanation/model.md's table (e.g. --aged 0 5 6)")
     args = ap.parse_args(argv)
     if args.aged:
-        platform = cfg.load(REPO_ROOT / "config" / "platform_default.json")
+        platform = cfg.load(resources.default_platform())
         fw = firmware_limit()
         print(f"|L_meas - L_ref|_inf = {fw * 1e3:.4f} mm (SP_ESTIMATE_STEP_MAX), {args.samples} samples a cell; "
               "worst step error (um, urad) by the factorisation's age")
@@ -214,7 +214,7 @@ def main(argv=None) -> int:
                 cells.append(f"{ep * 1e6:.2f}, {er * 1e6:.2f}")
             print(f"{lin:.2f}, {ang:.2f} | " + " | ".join(cells))
         return 0
-    platform = cfg.load(REPO_ROOT / "config" / "platform_default.json")
+    platform = cfg.load(resources.default_platform())
     b, thr = bound(platform, args.samples, args.seed)
     print(f"1 um / 1 urad bound on |L_meas - L_ref|_inf: {b * 1e3:.4f} mm "
           f"(median threshold {np.median(thr) * 1e3:.3f} mm, {args.samples} samples)")

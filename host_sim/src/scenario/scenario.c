@@ -712,21 +712,39 @@ static int parse_push(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
     return 1;
 }
 
-static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_LEN])
+/* position, tare: OP_COMMAND with no arguments. */
+static int parse_bare_command(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
 {
-    char *hash = strchr(line, '#');
-    if (hash != NULL) {
-        *hash = '\0';
+    if (nw != 1) {
+        return fail(why, "%s takes no arguments, got %d", w[0], nw - 1);
     }
-    char *w[HS_SCENARIO_MAX_WORDS];
-    int nw = split_words(line, w, HS_SCENARIO_MAX_WORDS);
-    if (nw < 0) {
-        return fail(why, "more than %d words", HS_SCENARIO_MAX_WORDS);
+    a->kind = HS_ACTION_CMD;
+    a->cmd.command = (uint8_t)((strcasecmp(w[0], "tare") == 0) ? SP_CMD_TARE : SP_CMD_POSITION);
+    return 1;
+}
+
+static int parse_ftsensor(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    if (nw != 2 || (strcasecmp(w[1], "off") != 0 && strcasecmp(w[1], "on") != 0)) {
+        return fail(why, "ftsensor takes 'off' or 'on'");
     }
-    if (nw == 0) {
-        return 0;
+    a->kind = HS_ACTION_FTSENSOR;
+    a->bits = (strcasecmp(w[1], "on") == 0) ? 1u : 0u;
+    return 1;
+}
+
+static int parse_end(int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    if (nw != 1) {
+        return fail(why, "end takes no arguments, got %d", nw - 1);
     }
-    memset(a, 0, sizeof *a);
+    a->kind = HS_ACTION_END;
+    return 1;
+}
+
+/* One action's words (nw >= 1) by its keyword w[0]. */
+static int parse_action(char **w, int nw, const char *dir, hs_action_t *a, char why[WHY_LEN])
+{
     const char *kw = w[0];
     if (strcasecmp(kw, "cmd") == 0) {
         return parse_cmd(w, nw, a, why);
@@ -777,32 +795,36 @@ static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_
         return parse_force(w, nw, SP_CMD_GUIDE, a, why);
     }
     if (strcasecmp(kw, "position") == 0 || strcasecmp(kw, "tare") == 0) {
-        if (nw != 1) {
-            return fail(why, "%s takes no arguments, got %d", kw, nw - 1);
-        }
-        a->kind = HS_ACTION_CMD;
-        a->cmd.command = (uint8_t)((strcasecmp(kw, "tare") == 0) ? SP_CMD_TARE : SP_CMD_POSITION);
-        return 1;
+        return parse_bare_command(w, nw, a, why);
     }
     if (strcasecmp(kw, "push") == 0) {
         return parse_push(w, nw, a, why);
     }
     if (strcasecmp(kw, "ftsensor") == 0) {
-        if (nw != 2 || (strcasecmp(w[1], "off") != 0 && strcasecmp(w[1], "on") != 0)) {
-            return fail(why, "ftsensor takes 'off' or 'on'");
-        }
-        a->kind = HS_ACTION_FTSENSOR;
-        a->bits = (strcasecmp(w[1], "on") == 0) ? 1u : 0u;
-        return 1;
+        return parse_ftsensor(w, nw, a, why);
     }
     if (strcasecmp(kw, "end") == 0) {
-        if (nw != 1) {
-            return fail(why, "end takes no arguments, got %d", nw - 1);
-        }
-        a->kind = HS_ACTION_END;
-        return 1;
+        return parse_end(nw, a, why);
     }
     return fail(why, "unknown action '%.40s' (" ACTION_LIST ")", kw);
+}
+
+static int parse_line(char *line, const char *dir, hs_action_t *a, char why[WHY_LEN])
+{
+    char *hash = strchr(line, '#');
+    if (hash != NULL) {
+        *hash = '\0';
+    }
+    char *w[HS_SCENARIO_MAX_WORDS];
+    int nw = split_words(line, w, HS_SCENARIO_MAX_WORDS);
+    if (nw < 0) {
+        return fail(why, "more than %d words", HS_SCENARIO_MAX_WORDS);
+    }
+    if (nw == 0) {
+        return 0;
+    }
+    memset(a, 0, sizeof *a);
+    return parse_action(w, nw, dir, a, why);
 }
 
 /* Fills *err (if any) with "name:line: why" and empties the scenario. Returns status. */

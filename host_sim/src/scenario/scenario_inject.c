@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /* scenario_inject.c - the `inject` actions of the scenario language
- * (hs/scenario.h, "Fault injection"; docs/faults.md). */
+ * (hs/scenario.h, "Fault injection"; docs/explanation/faults.md). */
 #define _POSIX_C_SOURCE 200809L
 #include "scenario_inject.h"
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""A throw-away machine key for the test suites (docs/security.md): unless
+"""A throw-away machine key for the test suites (docs/explanation/security.md): unless
 STEWART_KEY already names one, a fresh key in a temporary directory, named
 by STEWART_KEY for the run, so that sp_controller, hs_sim and `stewart op`
 started by the tests share it. Never a key in the repository.

@@ -86,7 +86,7 @@ static void contact_force(const hs_contact_t *ct, const double pc[3], const doub
     }
 }
 
-/* Leg masses (docs/plant.md "Leg masses"). Leg i is two point masses on
+/* Leg masses (docs/explanation/plant.md "Leg masses"). Leg i is two point masses on
  * its axis u = (A - B)/L: the cylinder body m_c at B + d_c u and the rod
  * m_r at A - d_r u, so its configuration follows from the platform joint A
  * alone. By virtual work the leg acts on the platform at A with
@@ -155,17 +155,10 @@ static void leg_geometry(const hs_plant_t *pl, const double *x, double r[3][3], 
     }
 }
 
-/* With leg masses or a centre of mass off o': solves the coupled platform
- * (+ legs) equations for v' and the base-frame angular acceleration
- * (docs/plant.md). f, tau: the wrench of everything else (base frame, at
- * o', gravity included). Returns 0 if singular. */
-static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3],
-                      double arms[HS_LEGS][3], double uns[HS_LEGS][3], const double lens[HS_LEGS], const double f[3],
-                      const double tau[3], double acc[6])
+/* I_base = R I R^T: the platform's inertia about o' in the base frame. */
+static void inertia_base(const hs_params_t *p, double r[3][3], double ib[3][3])
 {
-    const hs_params_t *p = &pl->par;
-    double a[6][6], rhs[6], ri[3][3], ib[3][3], ibw[3], gyro[3];
-    /* I_base = R I R^T */
+    double ri[3][3];
     for (int j = 0; j < 3; ++j) {
         for (int k = 0; k < 3; ++k) {
             ri[j][k] = r[j][0] * p->inertia[0][k] + r[j][1] * p->inertia[1][k] + r[j][2] * p->inertia[2][k];
@@ -176,6 +169,89 @@ static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], con
             ib[j][k] = ri[j][0] * r[k][0] + ri[j][1] * r[k][1] + ri[j][2] * r[k][2];
         }
     }
+}
+
+/* The centre of mass at R c from o' into the coupled equations a acc = rhs:
+ * m (v' + w' x rc + w x (w x rc)) = f, I w' + w x (I w) + m rc x v' = tau
+ * (about o', base frame). */
+static void add_com_terms(const hs_params_t *p, double r[3][3], const double wb[3], double a[6][6], double rhs[6])
+{
+    double rc[3], wxr[3], cen[3], mm = p->mass;
+    mat_vec(&r[0][0], p->com, rc);
+    a[0][4] += mm * rc[2];
+    a[0][5] -= mm * rc[1];
+    a[1][3] -= mm * rc[2];
+    a[1][5] += mm * rc[0];
+    a[2][3] += mm * rc[1];
+    a[2][4] -= mm * rc[0];
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            a[3 + k][j] = a[j][3 + k];
+        }
+    }
+    cross(wb, rc, wxr);
+    cross(wb, wxr, cen);
+    for (int k = 0; k < 3; ++k) {
+        rhs[k] -= mm * cen[k];
+    }
+}
+
+/* Leg i's mass (leg_mass_terms) into the coupled equations a acc = rhs: it
+ * acts at the platform joint (arm from o', base frame) with
+ * a_A = v' + K w' + w x (w x arm), K = -[arm]x. */
+static void add_leg_terms(const hs_plant_t *pl, int i, const double *x, const double wb[3], const double arm[3],
+                          const double un[3], double len, double a[6][6], double rhs[6])
+{
+    double va[3], mm[3][3], b[3], kk[3][3], mk[3][3], wxa[3], cen[3], fb[3], m[3];
+    cross(wb, arm, wxa);
+    for (int k = 0; k < 3; ++k) {
+        va[k] = x[HS_X_VEL + k] + wxa[k];
+    }
+    leg_mass_terms(&pl->par.cyl[i], un, len, va, pl->par.gravity, mm, b);
+    kk[0][0] = 0.0;
+    kk[0][1] = arm[2];
+    kk[0][2] = -arm[1];
+    kk[1][0] = -arm[2];
+    kk[1][1] = 0.0;
+    kk[1][2] = arm[0];
+    kk[2][0] = arm[1];
+    kk[2][1] = -arm[0];
+    kk[2][2] = 0.0;
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            mk[j][k] = mm[j][0] * kk[0][k] + mm[j][1] * kk[1][k] + mm[j][2] * kk[2][k];
+        }
+    }
+    for (int j = 0; j < 3; ++j) {
+        for (int k = 0; k < 3; ++k) {
+            a[j][k] += mm[j][k];
+            a[j][3 + k] += mk[j][k];
+            a[3 + k][j] += mk[j][k];
+            a[3 + j][3 + k] += kk[0][j] * mk[0][k] + kk[1][j] * mk[1][k] + kk[2][j] * mk[2][k];
+        }
+    }
+    cross(wb, wxa, cen);
+    for (int k = 0; k < 3; ++k) {
+        fb[k] = b[k] - (mm[k][0] * cen[0] + mm[k][1] * cen[1] + mm[k][2] * cen[2]);
+    }
+    cross(arm, fb, m);
+    for (int k = 0; k < 3; ++k) {
+        rhs[k] += fb[k];
+        rhs[3 + k] += m[k];
+    }
+}
+
+/* With leg masses or a centre of mass off o': solves the coupled platform
+ * (+ legs) equations for v' and the base-frame angular acceleration
+ * (docs/explanation/plant.md). f, tau: the wrench of everything else (base frame, at
+ * o', gravity included). Returns 0 if singular. */
+static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3],
+                      double arms[HS_LEGS][3], double uns[HS_LEGS][3], const double lens[HS_LEGS], const double f[3],
+                      const double tau[3], double acc[6])
+{
+    const hs_params_t *p = &pl->par;
+    double a[6][6], rhs[6], ib[3][3], ibw[3], gyro[3];
+    inertia_base(p, r, ib);
     memset(a, 0, sizeof a);
     for (int j = 0; j < 3; ++j) {
         a[j][j] = p->mass;
@@ -190,82 +266,19 @@ static int legs_accel(const hs_plant_t *pl, const double *x, double r[3][3], con
         rhs[3 + k] = tau[k] - gyro[k];
     }
     if (pl->com_on) {
-        /* centre of mass at R c from o': m (v' + w' x rc + w x (w x rc)) = f,
-         * I w' + w x (I w) + m rc x v' = tau (about o', base frame) */
-        double rc[3], wxr[3], cen[3], mm = p->mass;
-        mat_vec(&r[0][0], p->com, rc);
-        a[0][4] += mm * rc[2];
-        a[0][5] -= mm * rc[1];
-        a[1][3] -= mm * rc[2];
-        a[1][5] += mm * rc[0];
-        a[2][3] += mm * rc[1];
-        a[2][4] -= mm * rc[0];
-        for (int j = 0; j < 3; ++j) {
-            for (int k = 0; k < 3; ++k) {
-                a[3 + k][j] = a[j][3 + k];
-            }
-        }
-        cross(wb, rc, wxr);
-        cross(wb, wxr, cen);
-        for (int k = 0; k < 3; ++k) {
-            rhs[k] -= mm * cen[k];
-        }
+        add_com_terms(p, r, wb, a, rhs);
     }
     for (int i = 0; i < HS_LEGS && pl->legs_on; ++i) {
-        const double *arm = arms[i];
-        double va[3], mm[3][3], b[3], kk[3][3], mk[3][3], wxa[3], cen[3], fb[3], m[3];
-        cross(wb, arm, wxa);
-        for (int k = 0; k < 3; ++k) {
-            va[k] = x[HS_X_VEL + k] + wxa[k];
-        }
-        leg_mass_terms(&p->cyl[i], uns[i], lens[i], va, p->gravity, mm, b);
-        /* a_A = v' + K w' + w x (w x arm), K = -[arm]x */
-        kk[0][0] = 0.0;
-        kk[0][1] = arm[2];
-        kk[0][2] = -arm[1];
-        kk[1][0] = -arm[2];
-        kk[1][1] = 0.0;
-        kk[1][2] = arm[0];
-        kk[2][0] = arm[1];
-        kk[2][1] = -arm[0];
-        kk[2][2] = 0.0;
-        for (int j = 0; j < 3; ++j) {
-            for (int k = 0; k < 3; ++k) {
-                mk[j][k] = mm[j][0] * kk[0][k] + mm[j][1] * kk[1][k] + mm[j][2] * kk[2][k];
-            }
-        }
-        for (int j = 0; j < 3; ++j) {
-            for (int k = 0; k < 3; ++k) {
-                a[j][k] += mm[j][k];
-                a[j][3 + k] += mk[j][k];
-                a[3 + k][j] += mk[j][k];
-                a[3 + j][3 + k] += kk[0][j] * mk[0][k] + kk[1][j] * mk[1][k] + kk[2][j] * mk[2][k];
-            }
-        }
-        cross(wb, wxa, cen);
-        for (int k = 0; k < 3; ++k) {
-            fb[k] = b[k] - (mm[k][0] * cen[0] + mm[k][1] * cen[1] + mm[k][2] * cen[2]);
-        }
-        cross(arm, fb, m);
-        for (int k = 0; k < 3; ++k) {
-            rhs[k] += fb[k];
-            rhs[3 + k] += m[k];
-        }
+        add_leg_terms(pl, i, x, wb, arms[i], uns[i], lens[i], a, rhs);
     }
     return hs_solve6(a, rhs, acc) == HS_OK;
 }
 
-/* Right-hand side: dx = f(x) with valve commands u (hydraulic mode). */
-static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS], double *dx, aux_t *aux)
+/* The wrench on the platform without the legs and the contact: the
+ * external one and gravity (at the centre of mass R c); base frame, at o'. */
+static void external_wrench(const hs_plant_t *pl, double r[3][3], double f[3], double tau[3])
 {
     const hs_params_t *p = &pl->par;
-    const double *v = &x[HS_X_VEL];
-    const double *q = &x[HS_X_QUAT];
-    const double *w = &x[HS_X_OMEGA];
-    double r[3][3], wb[3], f[3], tau[3], taub[3], iw[3], gyro[3], rhs[3], dw[3];
-
-    hs_rot_from_quat(q, r);
-    mat_vec(&r[0][0], w, wb);
     f[0] = pl->ext_force[0];
     f[1] = pl->ext_force[1];
     f[2] = pl->ext_force[2] - p->mass * p->gravity;
@@ -279,11 +292,15 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
         tau[0] -= mg * rc[1];
         tau[1] += mg * rc[0];
     }
+}
 
-    /* Three passes over the legs (geometry, cylinders, wrench): the legs are
-     * independent, so the square roots and divisions of different legs
-     * overlap in the processor instead of forming one long chain. */
-    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS], ffr[HS_LEGS];
+/* Each leg's arm R a_i, unit vector, length and extension rate at state x
+ * (base frame). */
+static void legs_kinematics(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3],
+                            double arm[HS_LEGS][3], double un[HS_LEGS][3], double len[HS_LEGS], double ldot[HS_LEGS])
+{
+    const hs_params_t *p = &pl->par;
+    const double *v = &x[HS_X_VEL];
     for (int i = 0; i < HS_LEGS; ++i) {
         double l[3], wxa[3], inv;
         mat_vec(&r[0][0], p->platform_joint[i], arm[i]);
@@ -299,6 +316,14 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
             ldot[i] += un[i][k] * (v[k] + wxa[k]);
         }
     }
+}
+
+/* Each cylinder's force fi and friction ffr and its states' derivatives
+ * (hydraulic mode), or the ideal forces (the cylinder states stand still). */
+static void cylinders(const hs_plant_t *pl, const double *x, const double u[HS_LEGS], const double len[HS_LEGS],
+                      const double ldot[HS_LEGS], double *dx, double fi[HS_LEGS], double ffr[HS_LEGS])
+{
+    const hs_params_t *p = &pl->par;
     if (pl->act == HS_ACT_HYDRAULIC) {
         for (int i = 0; i < HS_LEGS; ++i) {
             const double *xc = &x[HS_X_CYL + 4 * i];
@@ -323,6 +348,95 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
             dx[HS_X_BRISTLE + i] = 0.0;
         }
     }
+}
+
+/* The contact's force and moment about o' added to (f, tau) (base frame);
+ * into aux too if it is not NULL. */
+static void add_contact(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3], double f[3],
+                        double tau[3], aux_t *aux)
+{
+    if (pl->contact.kind != HS_CONTACT_NONE) {
+        double ca[3], pc[3], vc[3], wxa[3], fc[3], m[3];
+        mat_vec(&r[0][0], pl->contact.point, ca);
+        cross(wb, ca, wxa);
+        for (int k = 0; k < 3; ++k) {
+            pc[k] = x[HS_X_POS + k] + ca[k];
+            vc[k] = x[HS_X_VEL + k] + wxa[k];
+        }
+        contact_force(&pl->contact, pc, vc, fc);
+        cross(ca, fc, m);
+        for (int k = 0; k < 3; ++k) {
+            f[k] += fc[k];
+            tau[k] += m[k];
+        }
+        if (aux != NULL) {
+            memcpy(aux->contact, fc, sizeof fc);
+            memcpy(aux->contact_moment, m, sizeof m);
+        }
+    } else if (aux != NULL) {
+        aux->contact[0] = aux->contact[1] = aux->contact[2] = 0.0;
+        aux->contact_moment[0] = aux->contact_moment[1] = aux->contact_moment[2] = 0.0;
+    }
+}
+
+/* The rigid body's derivatives (position, velocity, body rate) under the
+ * wrench (f, tau): the coupled equations with leg masses or a centre of
+ * mass off o', else Newton-Euler about the centre of mass at o'. */
+static void platform_derivs(const hs_plant_t *pl, const double *x, double r[3][3], const double wb[3],
+                            double arm[HS_LEGS][3], double un[HS_LEGS][3], const double len[HS_LEGS], const double f[3],
+                            const double tau[3], double *dx)
+{
+    const double *v = &x[HS_X_VEL];
+    const double *w = &x[HS_X_OMEGA];
+    double dw[3];
+    if (pl->legs_on || pl->com_on) {
+        double acc[6];
+        if (!legs_accel(pl, x, r, wb, arm, un, len, f, tau, acc)) {
+            for (int k = 0; k < 6; ++k) {
+                acc[k] = NAN; /* the step sees a non-finite state: HS_E_NUMERIC */
+            }
+        }
+        for (int k = 0; k < 3; ++k) {
+            dx[HS_X_POS + k] = v[k];
+            dx[HS_X_VEL + k] = acc[k];
+        }
+        mat_t_vec(&r[0][0], &acc[3], dw);
+    } else {
+        double taub[3], iw[3], gyro[3], rhs[3];
+        for (int k = 0; k < 3; ++k) {
+            dx[HS_X_POS + k] = v[k];
+            dx[HS_X_VEL + k] = f[k] * pl->inv_mass;
+        }
+        mat_t_vec(&r[0][0], tau, taub);
+        mat_vec(&pl->par.inertia[0][0], w, iw);
+        cross(w, iw, gyro);
+        for (int k = 0; k < 3; ++k) {
+            rhs[k] = taub[k] - gyro[k];
+        }
+        mat_vec(&pl->inertia_inv[0][0], rhs, dw);
+    }
+    for (int k = 0; k < 3; ++k) {
+        dx[HS_X_OMEGA + k] = dw[k];
+    }
+}
+
+/* Right-hand side: dx = f(x) with valve commands u (hydraulic mode). */
+static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS], double *dx, aux_t *aux)
+{
+    const double *q = &x[HS_X_QUAT];
+    const double *w = &x[HS_X_OMEGA];
+    double r[3][3], wb[3], f[3], tau[3];
+
+    hs_rot_from_quat(q, r);
+    mat_vec(&r[0][0], w, wb);
+    external_wrench(pl, r, f, tau);
+
+    /* Three passes over the legs (geometry, cylinders, wrench): the legs are
+     * independent, so the square roots and divisions of different legs
+     * overlap in the processor instead of forming one long chain. */
+    double arm[HS_LEGS][3], un[HS_LEGS][3], len[HS_LEGS], ldot[HS_LEGS], fi[HS_LEGS], ffr[HS_LEGS];
+    legs_kinematics(pl, x, r, wb, arm, un, len, ldot);
+    cylinders(pl, x, u, len, ldot, dx, fi, ffr);
     for (int i = 0; i < HS_LEGS; ++i) {
         double fv[3], m[3];
         for (int k = 0; k < 3; ++k) {
@@ -342,61 +456,8 @@ static void derivs(const hs_plant_t *pl, const double *x, const double u[HS_LEGS
             aux->friction[i] = ffr[i];
         }
     }
-
-    if (pl->contact.kind != HS_CONTACT_NONE) {
-        double ca[3], pc[3], vc[3], wxa[3], fc[3], m[3];
-        mat_vec(&r[0][0], pl->contact.point, ca);
-        cross(wb, ca, wxa);
-        for (int k = 0; k < 3; ++k) {
-            pc[k] = x[HS_X_POS + k] + ca[k];
-            vc[k] = v[k] + wxa[k];
-        }
-        contact_force(&pl->contact, pc, vc, fc);
-        cross(ca, fc, m);
-        for (int k = 0; k < 3; ++k) {
-            f[k] += fc[k];
-            tau[k] += m[k];
-        }
-        if (aux != NULL) {
-            memcpy(aux->contact, fc, sizeof fc);
-            memcpy(aux->contact_moment, m, sizeof m);
-        }
-    } else if (aux != NULL) {
-        aux->contact[0] = aux->contact[1] = aux->contact[2] = 0.0;
-        aux->contact_moment[0] = aux->contact_moment[1] = aux->contact_moment[2] = 0.0;
-    }
-
-    if (pl->legs_on || pl->com_on) {
-        double acc[6];
-        if (!legs_accel(pl, x, r, wb, arm, un, len, f, tau, acc)) {
-            for (int k = 0; k < 6; ++k) {
-                acc[k] = NAN; /* the step sees a non-finite state: HS_E_NUMERIC */
-            }
-        }
-        for (int k = 0; k < 3; ++k) {
-            dx[HS_X_POS + k] = v[k];
-            dx[HS_X_VEL + k] = acc[k];
-        }
-        mat_t_vec(&r[0][0], &acc[3], dw);
-        for (int k = 0; k < 3; ++k) {
-            dx[HS_X_OMEGA + k] = dw[k];
-        }
-    } else {
-        for (int k = 0; k < 3; ++k) {
-            dx[HS_X_POS + k] = v[k];
-            dx[HS_X_VEL + k] = f[k] * pl->inv_mass;
-        }
-        mat_t_vec(&r[0][0], tau, taub);
-        mat_vec(&p->inertia[0][0], w, iw);
-        cross(w, iw, gyro);
-        for (int k = 0; k < 3; ++k) {
-            rhs[k] = taub[k] - gyro[k];
-        }
-        mat_vec(&pl->inertia_inv[0][0], rhs, dw);
-        for (int k = 0; k < 3; ++k) {
-            dx[HS_X_OMEGA + k] = dw[k];
-        }
-    }
+    add_contact(pl, x, r, wb, f, tau, aux);
+    platform_derivs(pl, x, r, wb, arm, un, len, f, tau, dx);
     dx[HS_X_QUAT + 0] = -0.5 * (q[1] * w[0] + q[2] * w[1] + q[3] * w[2]);
     dx[HS_X_QUAT + 1] = 0.5 * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1]);
     dx[HS_X_QUAT + 2] = 0.5 * (q[0] * w[1] + q[3] * w[0] - q[1] * w[2]);

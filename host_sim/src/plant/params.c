@@ -153,16 +153,10 @@ hs_status_t hs_params_check(const hs_params_t *p)
     return HS_OK;
 }
 
-hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
+/* The rigid body: joints, mass, inertia about o' (the config gives it about
+ * the centre of mass), home pose, leg length range. */
+static void body_from_config(const hs_config_t *cf, hs_params_t *p)
 {
-    const hs_hydraulic_config_t *h;
-    hs_cyl_params_t c;
-    double m_leg, mid, w_h, k_q, a_sum;
-    if (cf == NULL || p == NULL) {
-        return HS_E_ARG;
-    }
-    h = &cf->hydraulic;
-    memset(p, 0, sizeof *p);
     memcpy(p->base_joint, cf->base_joints, sizeof p->base_joint);
     memcpy(p->platform_joint, cf->platform_joints, sizeof p->platform_joint);
     memcpy(p->inertia, cf->inertia, sizeof p->inertia);
@@ -182,41 +176,87 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     p->gravity = cf->gravity;
     p->leg_length_min = cf->leg_length_min;
     p->leg_length_max = cf->leg_length_max;
+}
 
-    memset(&c, 0, sizeof c);
-    c.area_a = 0.25 * HS_PI * h->piston_diameter * h->piston_diameter;
-    c.area_b = c.area_a - 0.25 * HS_PI * h->rod_diameter * h->rod_diameter;
-    c.length_min = cf->leg_length_min;
-    c.stroke = cf->leg_length_max - cf->leg_length_min;
-    c.dead_volume_a = h->dead_volume;
-    c.dead_volume_b = h->dead_volume;
-    c.piston_mass = h->piston_mass;
-    c.bulk_modulus = h->bulk_modulus;
-    c.supply_pressure = h->supply_pressure;
-    c.tank_pressure = h->tank_pressure;
-    c.pressure_max = 1.2 * h->supply_pressure;
-    c.valve_gain =
+/* What all six cylinders share: geometry, oil, valve, end stops, masses. */
+static void cylinder_from_config(const hs_config_t *cf, hs_cyl_params_t *c)
+{
+    const hs_hydraulic_config_t *h = &cf->hydraulic;
+    memset(c, 0, sizeof *c);
+    c->area_a = 0.25 * HS_PI * h->piston_diameter * h->piston_diameter;
+    c->area_b = c->area_a - 0.25 * HS_PI * h->rod_diameter * h->rod_diameter;
+    c->length_min = cf->leg_length_min;
+    c->stroke = cf->leg_length_max - cf->leg_length_min;
+    c->dead_volume_a = h->dead_volume;
+    c->dead_volume_b = h->dead_volume;
+    c->piston_mass = h->piston_mass;
+    c->bulk_modulus = h->bulk_modulus;
+    c->supply_pressure = h->supply_pressure;
+    c->tank_pressure = h->tank_pressure;
+    c->pressure_max = 1.2 * h->supply_pressure;
+    c->valve_gain =
         (h->valve_rated_pressure_drop > 0.0) ? h->valve_rated_flow / sqrt(h->valve_rated_pressure_drop) : 0.0;
-    c.valve_transition = 1.0e5;
-    c.valve_omega = 2.0 * HS_PI * h->valve_natural_frequency;
-    c.valve_damping = h->valve_damping;
-    c.leakage = h->leakage_coefficient;
-    c.coulomb_velocity = h->coulomb_velocity;
-    c.stribeck_velocity = h->stribeck_velocity;
-    c.cushion_length = h->end_cushion_length;
-    c.stop_stiffness = h->end_stop_stiffness;
-    c.stop_damping = h->end_stop_damping;
-    c.cylinder_mass = h->cylinder_mass;
-    c.cylinder_com = h->cylinder_com;
-    c.rod_mass = h->rod_mass;
-    c.rod_com = h->rod_com;
+    c->valve_transition = 1.0e5;
+    c->valve_omega = 2.0 * HS_PI * h->valve_natural_frequency;
+    c->valve_damping = h->valve_damping;
+    c->leakage = h->leakage_coefficient;
+    c->coulomb_velocity = h->coulomb_velocity;
+    c->stribeck_velocity = h->stribeck_velocity;
+    c->cushion_length = h->end_cushion_length;
+    c->stop_stiffness = h->end_stop_stiffness;
+    c->stop_damping = h->end_stop_damping;
+    c->cylinder_mass = h->cylinder_mass;
+    c->cylinder_com = h->cylinder_com;
+    c->rod_mass = h->rod_mass;
+    c->rod_com = h->rod_com;
+}
+
+/* The drives' gains and safety functions, from the cylinder c (docs/explanation/plant.md). */
+static void drive_from_config(const hs_config_t *cf, const hs_cyl_params_t *c, hs_drive_params_t *d)
+{
+    /* Drive gains from the oil-column resonance at mid stroke with a sixth
+     * of the moving mass per cylinder (docs/explanation/plant.md): closed position loop
+     * s^3 + c_f s^2 + w_h^2 s + w_h^2 K_v with pressure feedback c_f = w_h
+     * (damping ratio 0.5) and loop gain K_v = w_h / 4. */
+    double m_leg = cf->mass / HS_LEGS + cf->hydraulic.piston_mass;
+    double mid = 0.5 * c->stroke;
+    double w_h = hs_cyl_natural_frequency(c, mid, m_leg);
+    double k_q = c->valve_gain * sqrt(0.5 * (c->supply_pressure - c->tank_pressure));
+    double a_sum = c->bulk_modulus * (c->area_a / hs_cyl_volume_a(c, mid) + c->area_b / hs_cyl_volume_b(c, mid));
+    d->kp = (k_q > 0.0) ? 0.25 * w_h * c->area_a / k_q : 0.0;
+    d->kf = (k_q > 0.0 && a_sum > 0.0) ? w_h / (a_sum * k_q) : 0.0;
+    d->force_highpass = 2.0 * HS_PI * 1.0;
+    d->ff_gain = 1.0;
+    d->following_error_max = 0.02;
+    d->timeout_cycles = 3u;
+    /* The safety functions below the position loop (hs/drive.h): a valve
+     * fault when the spool is 0.2 off its model for 2 ms, a sensor fault
+     * when the valve flow predicts 1 mm of travel the length reading does
+     * not show, blocking valves closing in 20 ms. */
+    d->spool_error_max = 0.2;
+    d->spool_error_time = 0.002;
+    d->sensor_check_travel = 0.001;
+    d->block_time = 0.02;
+}
+
+hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
+{
+    const hs_hydraulic_config_t *h;
+    hs_cyl_params_t c;
+    if (cf == NULL || p == NULL) {
+        return HS_E_ARG;
+    }
+    h = &cf->hydraulic;
+    memset(p, 0, sizeof *p);
+    body_from_config(cf, p);
+    cylinder_from_config(cf, &c);
     for (int i = 0; i < HS_LEGS; ++i) {
         hs_cyl_params_t *ci = &p->cyl[i];
         *ci = c;
         ci->viscous_friction = h->viscous_friction[i];
         ci->coulomb_friction = h->coulomb_friction[i];
         ci->breakaway_friction = h->breakaway_friction[i];
-        /* LuGre (docs/plant.md "Friction"): sigma_0 and sigma_1 come with the config,
+        /* LuGre (docs/explanation/plant.md "Friction"): sigma_0 and sigma_1 come with the config,
          * derived in one place for the plant and the firmware's friction observer
          * (tools/stewart/config.py bristle_parameters: sigma_0 = F_c / presliding
          * displacement, sigma_1 critical against a sixth of the moving mass, bounded
@@ -230,30 +270,7 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     p->sensors.pressure_resolution = cf->sensors.pressure_resolution;
     p->sensors.pressure_noise = cf->sensors.pressure_noise;
     p->sensors.seed = cf->sensors.seed;
-
-    /* Drive gains from the oil-column resonance at mid stroke with a sixth
-     * of the moving mass per cylinder (docs/plant.md): closed position loop
-     * s^3 + c_f s^2 + w_h^2 s + w_h^2 K_v with pressure feedback c_f = w_h
-     * (damping ratio 0.5) and loop gain K_v = w_h / 4. */
-    m_leg = cf->mass / HS_LEGS + h->piston_mass;
-    mid = 0.5 * c.stroke;
-    w_h = hs_cyl_natural_frequency(&c, mid, m_leg);
-    k_q = c.valve_gain * sqrt(0.5 * (c.supply_pressure - c.tank_pressure));
-    a_sum = c.bulk_modulus * (c.area_a / hs_cyl_volume_a(&c, mid) + c.area_b / hs_cyl_volume_b(&c, mid));
-    p->drive.kp = (k_q > 0.0) ? 0.25 * w_h * c.area_a / k_q : 0.0;
-    p->drive.kf = (k_q > 0.0 && a_sum > 0.0) ? w_h / (a_sum * k_q) : 0.0;
-    p->drive.force_highpass = 2.0 * HS_PI * 1.0;
-    p->drive.ff_gain = 1.0;
-    p->drive.following_error_max = 0.02;
-    p->drive.timeout_cycles = 3u;
-    /* The safety functions below the position loop (hs/drive.h): a valve
-     * fault when the spool is 0.2 off its model for 2 ms, a sensor fault
-     * when the valve flow predicts 1 mm of travel the length reading does
-     * not show, blocking valves closing in 20 ms. */
-    p->drive.spool_error_max = 0.2;
-    p->drive.spool_error_time = 0.002;
-    p->drive.sensor_check_travel = 0.001;
-    p->drive.block_time = 0.02;
+    drive_from_config(cf, &c, &p->drive);
     p->substeps = 10u;
     return hs_params_check(p);
 }
