@@ -349,8 +349,8 @@ static void test_force_params_every_raw_limit(void **state)
         for (size_t k = 0; k < sizeof edges / sizeof edges[0]; k++) {
             struct stewart_can_op_force_params_t s;
             (void)stewart_can_op_force_params_init(&s);
-            s.mask = (uint8_t)((mass + k) % 64u);
-            s.mode = (uint8_t)((mass >> 6) % 4u);
+            s.mask = (uint8_t)(k == 0u ? 0u : 1u + (mass + k) % 63u); /* valid but for k 0 and 1 */
+            s.mode = (uint8_t)(k == 1u ? 3u : 1u + mass % 2u);
             s.mass = (uint16_t)mass;
             s.damping = edges[k];
             s.stiffness = edges[(k + mass) % (sizeof edges / sizeof edges[0])];

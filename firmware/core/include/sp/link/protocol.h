@@ -2,8 +2,10 @@
 /*
  * sp/link/protocol.h - the CAN protocol (protocol/stewart.dbc) in the core's
  * fixed-point units. Bit packing is generated from the DBC at build time by
- * cantools (integer signals only); this layer adds the unit conversions,
- * range checks, and the E2E counter and CRC (sp/link/e2e.h).
+ * cantools (integer signals only); so are the encoders and decoders below
+ * (tools/stewart/gen_proto_c.py): the unit conversions and the range checks
+ * follow each signal's factor and [min|max] in the DBC, and they add the
+ * E2E counter and CRC (sp/link/e2e.h).
  *
  * Encoders: message struct -> sealed frame (counter and CRC filled in).
  * They return SP_OK, or SP_E_RANGE when a value did not fit its signal and
@@ -53,7 +55,7 @@ typedef enum {
     SP_PROTO_REPEATED = 5,
     SP_PROTO_WRONG_SEQUENCE = 6,
     SP_PROTO_WRONG_BUS = 7,
-    SP_PROTO_AUTH_BAD_TAG = 8,  /**< an authenticated message whose code does not check (docs/explanation/security.md) */
+    SP_PROTO_AUTH_BAD_TAG = 8, /**< an authenticated message whose code does not check (docs/explanation/security.md) */
     SP_PROTO_AUTH_REPLAYED = 9, /**< an authenticated message of this session sent again */
     SP_PROTO_AUTH_NO_KEY = 10,  /**< an authenticated message, and the controller has no key */
     SP_PROTO_ERRORS = 11
