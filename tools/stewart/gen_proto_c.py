@@ -326,11 +326,11 @@ def family_helpers(fams: dict[str, Family]) -> list[str]:
         num, den = fam.ratio.numerator, fam.ratio.denominator
         if fam.rule == "sat":
             conv = "v" if num == den == 1 else f"muldiv(v, {n}, {d})"
-            out += [f"static {sig.ctype} enc_{low}(int64_t v, int *sat)", "{",
+            out += [f"static {sig.ctype} enc_{low}({fam.vtype} v, int *sat)", "{",
                     f"    return ({sig.ctype})clamp({conv}, {sig.lo}, {sig.hi}, sat);", "}"]
         else:
             conv = "v" if num == den == 1 else f"muldiv(v, {n}, {d})"
-            out += [f"static {sig.ctype} enc_{low}(int64_t v)", "{", f"    return ({sig.ctype}){conv};", "}"]
+            out += [f"static {sig.ctype} enc_{low}({fam.vtype} v)", "{", f"    return ({sig.ctype}){conv};", "}"]
         # decode: value = raw x DEN / NUM, exact when NUM is 1
         vlo, vhi = TYPE_RANGES[fam.vtype]
         exact = num == 1
