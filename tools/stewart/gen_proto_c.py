@@ -274,6 +274,8 @@ def _mapped(msgs: dict[str, Msg]):
 
 def check_mapping(msgs: dict[str, Msg]) -> None:
     """Every signal mapped once, every rule fitting its signal."""
+    for _ in _mapped(msgs):
+        pass
     for spec in MESSAGES:
         msg = msgs[spec.dbc]
         names = [f.signal for f in spec.fields]
