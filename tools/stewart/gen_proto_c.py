@@ -314,6 +314,22 @@ def _slots(msgs: dict[str, Msg], spec: Message) -> int:
 
 # ---- C code ----------------------------------------------------------------------------------------------------
 
+WIDTH = 120  #: the house's line length (.clang-format)
+
+
+def _wrap(head: str, items: list[str], sep: str, tail: str) -> list[str]:
+    """head + items joined by sep + tail, broken after a separator where a line would pass WIDTH and
+    continued under the first item, as clang-format lays out calls and conditions."""
+    lines, cur, pad = [], head, " " * len(head)
+    for i, item in enumerate(items):
+        last = i == len(items) - 1
+        piece = item + (tail if last else sep.rstrip())
+        if cur not in (head, pad) and len(cur) + len(piece) > WIDTH:
+            lines.append(cur.rstrip())
+            cur = pad
+        cur += piece if last else piece + " "
+    return lines + [cur]
+
 def _u(v: int) -> str:
     """A C literal of v."""
     return f"{v}u" if v >= 0 else f"({v})"
@@ -329,7 +345,8 @@ def family_helpers(fams: dict[str, Family]) -> list[str]:
         if fam.rule == "sat":
             conv = "v" if num == den == 1 else f"muldiv(v, {n}, {d})"
             out += [f"static {sig.ctype} enc_{low}({fam.vtype} v, int *sat)", "{",
-                    f"    return ({sig.ctype})clamp({conv}, {sig.lo}, {sig.hi}, sat);", "}"]
+                    *_wrap(f"    return ({sig.ctype})clamp(", [conv, str(sig.lo), str(sig.hi), "sat"], ", ", ");"),
+                    "}"]
         else:
             conv = "v" if num == den == 1 else f"muldiv(v, {n}, {d})"
             out += [f"static {sig.ctype} enc_{low}({fam.vtype} v)", "{", f"    return ({sig.ctype}){conv};", "}"]
@@ -398,8 +415,8 @@ def encoder(spec: Message, msg: Msg, fams: dict[str, Family]) -> list[str]:
     tests = (["m == NULL"] if spec.ctype else []) + ["f == NULL"] + \
         (["slot < 1u", "slot > SP_AXIS_SLOTS"] if spec.slots else []) + _enc_checks(spec, msg, fams)
     sat = any(f.rule == "sat" for f in spec.fields)
-    out = [f"sp_status_t sp_proto_encode_{spec.name}({', '.join(params)})", "{",
-           f"    if ({' || '.join(tests)}) {{", "        return SP_E_ARG;", "    }"]
+    out = [*_wrap(f"sp_status_t sp_proto_encode_{spec.name}(", params, ", ", ")"), "{",
+           *_wrap("    if (", tests, " || ", ") {"), "        return SP_E_ARG;", "    }"]
     if sat:
         out.append("    int sat = 0;")
     out += [f"    struct {stem}_t s;", f"    (void){stem}_init(&s);"]
@@ -411,8 +428,9 @@ def encoder(spec: Message, msg: Msg, fams: dict[str, Family]) -> list[str]:
             out.append(f"    s.{sig.member} = {_enc_value(fields[sig.name], sig)};")
     frame_id = f"SP_ID_{msg.name} + slot - 1u" if spec.slots else f"SP_ID_{msg.name}"
     out += ["    clear(f);",
-            f"    return finish(f, {frame_id}, {_bus(msg)}, {stem}_pack(f->data, &s, SP_CAN_MAX_DATA),",
-            f"                  {stem.upper()}_LENGTH, {'sat' if sat else '0'});", "}", ""]
+            *_wrap("    return finish(", ["f", frame_id, _bus(msg), f"{stem}_pack(f->data, &s, SP_CAN_MAX_DATA)",
+                                          f"{stem.upper()}_LENGTH", "sat" if sat else "0"], ", ", ");"),
+            "}", ""]
     return out
 
 
@@ -432,8 +450,8 @@ def decoder(spec: Message, msg: Msg) -> list[str]:
     params = ["const sp_can_frame_t *f"] + ([f"{spec.ctype} *m"] if spec.ctype else []) + \
         (["uint8_t *slot"] if spec.slots else []) + ["uint8_t *counter", "sp_proto_error_t *error"]
     nulls = (["m == NULL"] if spec.ctype else []) + (["slot == NULL"] if spec.slots else []) + ["counter == NULL"]
-    out = [f"sp_status_t sp_proto_decode_{spec.name}({', '.join(params)})", "{",
-           f"    if ({' || '.join(nulls)}) {{", "        return SP_E_ARG;", "    }"]
+    out = [*_wrap(f"sp_status_t sp_proto_decode_{spec.name}(", params, ", ", ")"), "{",
+           *_wrap("    if (", nulls, " || ", ") {"), "        return SP_E_ARG;", "    }"]
     frame_id = f"SP_ID_{msg.name}"
     if spec.slots:
         out += [f"    if (f == NULL || f->id < {frame_id} || f->id >= {frame_id} + SP_AXIS_SLOTS) {{",
@@ -445,7 +463,7 @@ def decoder(spec: Message, msg: Msg) -> list[str]:
             f"    (void){stem}_unpack(&s, f->data, f->len); /* cannot fail: precheck checked the length */"]
     tests = _dec_checks(spec, msg)
     if tests:
-        out += [f"    if ({' || '.join(tests)}) {{", "        return reject(error, SP_PROTO_OUT_OF_RANGE);", "    }"]
+        out += [*_wrap("    if (", tests, " || ", ") {"), "        return reject(error, SP_PROTO_OUT_OF_RANGE);", "    }"]
     for f in spec.fields:
         sig = msg.signals[f.signal]
         value = f"dec_{f.family.lower()}(s.{sig.member})" if f.family else f"s.{sig.member}"
