@@ -3,7 +3,7 @@
 
 from pathlib import Path
 
-__version__ = "0.1.0"
+__version__ = "0.3.0"
 
 #: Repository root (tools/stewart/__init__.py -> ../..).
 REPO_ROOT = Path(__file__).resolve().parents[2]
