@@ -273,9 +273,12 @@ def _mapped(msgs: dict[str, Msg]):
 
 
 def check_mapping(msgs: dict[str, Msg]) -> None:
-    """Every signal mapped once, every rule fitting its signal."""
-    for _ in _mapped(msgs):
-        pass
+    """Every message and signal mapped once, every rule fitting its signal."""
+    list(_mapped(msgs))  # every mapped message and signal is in the DBC
+    covered = {m.name for spec in MESSAGES for m in (_group(msgs, spec) if spec.slots else [msgs[spec.dbc]])}
+    for name in msgs:
+        if name not in covered:
+            raise CodecError(f"{name}: a message gen_proto_c.MESSAGES does not map")
     for spec in MESSAGES:
         msg = msgs[spec.dbc]
         names = [f.signal for f in spec.fields]
