@@ -64,7 +64,8 @@ def _tampered(old, new):
     ("SG_ Option : 72|8@1+", "SG_ Opt : 72|8@1+", "OP_COMMAND.Option: no such signal in the DBC"),
     ("BO_ 96 OP_HEARTBEAT:", "BO_ 96 OP_HEART:", "OP_HEARTBEAT: no such message in the DBC"),
     ("BO_ 96 OP_HEARTBEAT: 4 OPERATOR\n",
-     "BO_ 97 OP_SPARE: 4 OPERATOR\n SG_ Counter : 0|4@1+ (1,0) [0|15] \"\" CONTROLLER\n\nBO_ 96 OP_HEARTBEAT: 4 OPERATOR\n",
+     "BO_ 97 OP_SPARE: 4 OPERATOR\n SG_ Counter : 0|4@1+ (1,0) [0|15] \"\" CONTROLLER\n\n"
+     "BO_ 96 OP_HEARTBEAT: 4 OPERATOR\n",
      "OP_SPARE: a message gen_proto_c.MESSAGES does not map"),
     (" SG_ Counter : 120|4@1+ (1,0) [0|15] \"\" CONTROLLER\n",
      " SG_ Counter : 120|4@1+ (1,0) [0|15] \"\" CONTROLLER\n SG_ Spare : 125|3@1+ (1,0) [0|7] \"\" CONTROLLER\n",

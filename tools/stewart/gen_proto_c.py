@@ -466,7 +466,8 @@ def decoder(spec: Message, msg: Msg) -> list[str]:
             f"    (void){stem}_unpack(&s, f->data, f->len); /* cannot fail: precheck checked the length */"]
     tests = _dec_checks(spec, msg)
     if tests:
-        out += [*_wrap("    if (", tests, " || ", ") {"), "        return reject(error, SP_PROTO_OUT_OF_RANGE);", "    }"]
+        out += [*_wrap("    if (", tests, " || ", ") {"), "        return reject(error, SP_PROTO_OUT_OF_RANGE);",
+                "    }"]
     for f in spec.fields:
         sig = msg.signals[f.signal]
         value = f"dec_{f.family.lower()}(s.{sig.member})" if f.family else f"s.{sig.member}"
