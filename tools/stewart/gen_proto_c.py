@@ -19,8 +19,11 @@ every signal whose [min|max] is narrower than its bits (out-of-range), and
 only then write the message. The shared steps (muldiv, clamp, precheck,
 finish) are hand-written in firmware/core/src/link/proto_codec.h.
 
-The build fails, with a message naming the signal, when a DBC signal is not
-mapped or is mapped twice, a rule does not fit its signal (a copy of a
+To change the protocol, edit the DBC: a changed factor or range reaches the
+code by itself; a new signal or message needs its row in :data:`MESSAGES`
+(and its member in sp/link/protocol.h's struct). The build fails, with a
+message naming the signal, when a DBC signal or message is not mapped or a
+signal is mapped twice, a rule does not fit its signal (a copy of a
 narrower range, a boolean wider than one bit), a family's signals differ in
 range or type, or a decoded value could leave its C type. Runs with the
 plain system Python, as gen_can_c.py does.

@@ -3,7 +3,8 @@
  * against the hand-written one it replaced (support/plain/protocol_plain.c):
  * random and boundary values through every encoder give the same status and
  * the same frame; random, mutated and boundary frames through every decoder
- * give the same status, rejection reason, counter and values. */
+ * give the same status, rejection reason, counter and values. A change of
+ * the DBC meant to change the codec changes the plain reference with it. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
