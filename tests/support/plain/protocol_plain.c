@@ -2,30 +2,11 @@
 /* protocol_plain.c - the protocol codec as it was written by hand before
  * tools/stewart/gen_proto_c.py generated it from the DBC: the plain
  * reference test_proto_codec.c holds the generated encoders and decoders
- * to, frame for frame and value for value. */
+ * to, frame for frame and value for value. The shared steps it always had
+ * are the generated codec's (link/proto_codec.h). */
 #include "plain/protocol_plain.h"
 
-#include "stewart_can.h"
-
-/* round(v * num / den) to nearest, ties away from zero; |v * num| < 2^62. */
-static int64_t muldiv(int64_t v, int64_t num, int64_t den)
-{
-    int64_t p = v * num;
-    return p >= 0 ? (p + den / 2) / den : -((-p + den / 2) / den);
-}
-
-static int64_t clamp(int64_t v, int64_t lo, int64_t hi, int *sat)
-{
-    if (v < lo) {
-        *sat = 1;
-        return lo;
-    }
-    if (v > hi) {
-        *sat = 1;
-        return hi;
-    }
-    return v;
-}
+#include "link/proto_codec.h" /* muldiv, clamp, clear, finish, precheck, reject: unchanged */
 
 static sp_q24_t to_q24(int64_t v)
 {
@@ -166,53 +147,6 @@ static int below_i24(const int32_t *v, uint32_t n)
         }
     }
     return 0;
-}
-
-static sp_status_t finish(sp_can_frame_t *f, uint32_t id, uint8_t bus, int packed, uint8_t len, int sat)
-{
-    if (packed != (int)len) {
-        return SP_E_ARG;
-    }
-    f->id = id;
-    f->bus = bus;
-    f->len = len;
-    f->flags = SP_CAN_FLAG_FD | SP_CAN_FLAG_BRS;
-    if (sp_e2e_seal(f) != SP_OK) {
-        return SP_E_ARG;
-    }
-    return sat ? SP_E_RANGE : SP_OK;
-}
-
-static void clear(sp_can_frame_t *f)
-{
-    for (uint32_t i = 0; i < SP_CAN_MAX_DATA; i++) {
-        f->data[i] = 0u;
-    }
-}
-
-/* Identifier, length and CRC: the checks every decoder starts with. */
-static sp_status_t precheck(const sp_can_frame_t *f, uint32_t id, uint8_t len, sp_proto_error_t *error)
-{
-    sp_proto_error_t e = SP_PROTO_OK;
-    if (f == NULL || f->id != id) {
-        e = SP_PROTO_UNKNOWN_ID;
-    } else if (f->len != len) {
-        e = SP_PROTO_BAD_LENGTH;
-    } else if (sp_e2e_check_crc(f) != SP_OK) {
-        e = SP_PROTO_BAD_CRC;
-    }
-    if (error != NULL) {
-        *error = e;
-    }
-    return e == SP_PROTO_OK ? SP_OK : SP_E_FRAME;
-}
-
-static sp_status_t reject(sp_proto_error_t *error, sp_proto_error_t why)
-{
-    if (error != NULL) {
-        *error = why;
-    }
-    return SP_E_FRAME;
 }
 
 static void pose_to_bus(const sp_pose_t *p, int32_t out[6], int *sat)
