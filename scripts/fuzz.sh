@@ -28,17 +28,17 @@ elif [ -n "${1:-}" ]; then
   secs=$1
 fi
 
-# only the generated sources (CAN packing, default platform and plant), not a whole build
+# only the generated sources (CAN packing and codec, default platform and plant), not a whole build
 cmake --preset host-debug >/dev/null
-cmake --build build/host-debug --target firmware/generated/stewart_can.c firmware/generated/sp_platform_default.c \
-  host_sim/generated/hs_config_default.c >/dev/null
+cmake --build build/host-debug --target firmware/generated/stewart_can.c firmware/generated/stewart_proto.c \
+  firmware/generated/sp_platform_default.c host_sim/generated/hs_config_default.c >/dev/null
 gen=build/host-debug/firmware/generated
 out="$root/build/fuzz" # absolute: fuzz_scenario works in a directory of its own
 mkdir -p "$out/obj"
 cflags=(-std=c99 -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all)
 # the core under its own rules (sp_rules.h), the plant and the targets without them
 core=()
-for src in firmware/core/src/*/*.c "$gen/stewart_can.c" "$gen/sp_platform_default.c"; do
+for src in firmware/core/src/*/*.c "$gen/stewart_can.c" "$gen/stewart_proto.c" "$gen/sp_platform_default.c"; do
   obj="$out/obj/$(basename "${src%.c}").o"
   clang "${cflags[@]}" -include firmware/core/sp_rules.h -Ifirmware/core/include -Ifirmware/core/src -I"$gen" -c "$src" -o "$obj"
   core+=("$obj")

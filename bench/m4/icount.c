@@ -775,6 +775,87 @@ static void auth_frames(m4_rng_t *rng)
     m4_stat_print("auth_status", "sp_proto_encode_auth, CTRL_AUTH (every 10 ticks)", &s[3]);
 }
 
+/* The native node's protocol codec in a tick (sp/link/protocol.h): per tick
+ * it encodes two SYNC and two AXIS_SETPOINTS (one per axis bus), CTRL_STATUS
+ * and CTRL_MONITOR, and decodes six AXIS_FEEDBACK; setpoints and feedback
+ * near their signals' limits, so that the saturation and range paths run. */
+static void codec(m4_rng_t *rng)
+{
+    m4_stat_t s[5];
+    sp_can_frame_t f;
+    sp_can_frame_t fb[SP_LEGS];
+    sp_msg_sync_t sync;
+    sp_msg_setpoints_t sp;
+    sp_msg_feedback_t m;
+    sp_msg_status_t st;
+    sp_msg_monitor_t mon;
+    uint8_t slot;
+    uint8_t counter;
+    uint32_t n;
+    uint32_t net;
+    uint32_t sum;
+    unsigned k;
+    for (k = 0u; k < 5u; ++k) {
+        m4_stat_reset(&s[k]);
+    }
+    memset(&st, 0, sizeof st);
+    memset(&mon, 0, sizeof mon);
+    for (n = 1u; n <= 200u; ++n) {
+        sync.tick = n;
+        sync.hold = 0u;
+        sp.tick = n;
+        sp.mode = 1u;
+        sp.fault_reset = 0u;
+        sp.block = 0u;
+        for (k = 0u; k < SP_AXIS_SLOTS; ++k) {
+            sp.setpoint[k].length = (sp_q24_t)(m4_rng_next(rng) % (300u << 24));
+            sp.setpoint[k].velocity = (sp_q24_t)(m4_rng_next(rng) % (2u << 24)) - (1 << 24);
+            sp.setpoint[k].force = (sp_q8_t)(m4_rng_next(rng) % (400000u << 8)) - (200000 << 8);
+        }
+        for (k = 0u; k < SP_LEGS; ++k) {
+            m.length = (sp_q24_t)(m4_rng_next(rng) % (30u << 24));
+            m.pressure_a = m4_rng_next(rng) % 70000000u;
+            m.pressure_b = m4_rng_next(rng) % 70000000u;
+            m.state = 2u;
+            m.faults = 0u;
+            m.tick_echo = (uint16_t)n;
+            (void)sp_proto_encode_feedback(&m, (uint8_t)(k % 3u + 1u), (uint8_t)n, (uint8_t)(1u + k / 3u), &fb[k]);
+            mon.length_sp[k] = sp.setpoint[k % 3u].length;
+            mon.force_ff[k] = sp.setpoint[k % 3u].force;
+        }
+        for (k = 0u; k < 3u; ++k) {
+            st.estimate.pos[k] = (sp_q24_t)(m4_rng_next(rng) % (2u << 24)) - (1 << 24);
+            st.estimate.rpy[k] = (sp_q24_t)(m4_rng_next(rng) % (1u << 24)) - (1 << 23);
+        }
+        mon.reference = st.estimate;
+        sum = 0u;
+        for (k = 0u; k < 2u; ++k) {
+            M4_MEASURE(net, (void)sp_proto_encode_sync(&sync, (uint8_t)n, (uint8_t)(1u + k), &f));
+            sum += net;
+            M4_MEASURE(net, (void)sp_proto_encode_setpoints(&sp, (uint8_t)n, (uint8_t)(1u + k), &f));
+            m4_stat_add(&s[0], net);
+            sum += net;
+        }
+        for (k = 0u; k < SP_LEGS; ++k) {
+            M4_MEASURE(net, (void)sp_proto_decode_feedback(&fb[k], &m, &slot, &counter, NULL));
+            m4_stat_add(&s[1], net);
+            sum += net;
+        }
+        M4_MEASURE(net, (void)sp_proto_encode_status(&st, (uint8_t)n, &f));
+        m4_stat_add(&s[2], net);
+        sum += net;
+        M4_MEASURE(net, (void)sp_proto_encode_monitor(&mon, (uint8_t)n, &f));
+        m4_stat_add(&s[3], net);
+        sum += net;
+        m4_stat_add(&s[4], sum);
+    }
+    m4_stat_print("co_setpoints", "sp_proto_encode_setpoints, AXIS_SETPOINTS", &s[0]);
+    m4_stat_print("co_feedback", "sp_proto_decode_feedback, AXIS_FEEDBACK", &s[1]);
+    m4_stat_print("co_status", "sp_proto_encode_status, CTRL_STATUS", &s[2]);
+    m4_stat_print("co_monitor", "sp_proto_encode_monitor, CTRL_MONITOR", &s[3]);
+    m4_stat_print("co_tick", "the codec of a native tick (2 SYNC, 2 setpoints, 6 feedback, status, monitor)", &s[4]);
+}
+
 int main(void)
 {
     m4_rng_t rng;
@@ -798,6 +879,7 @@ int main(void)
     primitives(&rng);
     auth(&rng);
     auth_frames(&rng);
+    codec(&rng);
     controller();
     return m4_out_flush() == 0 ? 0 : 2;
 }

@@ -32,7 +32,9 @@ def test_ratios_are_the_core_lsb_over_the_factor():
              "VELOCITY": ("AXIS_SETPOINTS", "Velocity_2"), "FORCE": ("CTRL_MONITOR", "ForceFf_6"),
              "PRESSURE": ("AXIS_FEEDBACK_3", "PressureB"), "AMPLITUDE": ("OP_COMMAND", "Amplitude"),
              "FREQUENCY": ("OP_COMMAND", "Frequency"), "FADE_TIME": ("OP_COMMAND", "FadeTime"),
-             "WRENCH": ("CTRL_WRENCH", "Mz"), "FT_WRENCH": ("OP_FORCE", "Fz")}
+             "WRENCH": ("CTRL_WRENCH", "Mz"), "FT_WRENCH": ("OP_FORCE", "Fz"),
+             "MASS": ("OP_FORCE_PARAMS", "Mass"), "DAMPING": ("OP_FORCE_PARAMS", "Damping"),
+             "STIFFNESS": ("OP_FORCE_PARAMS", "Stiffness")}
     proto = pr.Protocol()
     for name, ratio in ratios.items():
         stem = name[len("SP_CAN_"):name.index("_RAW_PER_")]
@@ -44,6 +46,8 @@ def test_ratios_are_the_core_lsb_over_the_factor():
     assert ratios["SP_CAN_PRESSURE_RAW_PER_PA"] == Fraction(1, 1000)  # 1 kPa steps
     assert ratios["SP_CAN_WRENCH_RAW_PER_Q8_N_NM"] == Fraction(1, 64)  # 0.25 N = 64 Q8 LSBs
     assert ratios["SP_CAN_FT_WRENCH_RAW_PER_Q8_N_NM"] == Fraction(1, 8)  # 1/32 N = 8 Q8 LSBs
+    assert ratios["SP_CAN_MASS_RAW_PER_Q16_KG"] == Fraction(5, 32768)  # 0.1 kg = 6553.6 Q16 LSBs
+    assert ratios["SP_CAN_DAMPING_RAW_PER_N_S_PER_M"] == Fraction(1, 10)  # 10 N s/m steps
 
 
 def test_header_has_num_and_den_of_every_family():

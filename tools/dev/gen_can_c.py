@@ -63,6 +63,9 @@ SCALES: tuple[tuple[str, str, Fraction, frozenset[str], tuple[tuple[str, str], .
     ("AMPLITUDE", "Q24_M_RAD", Q24, frozenset({"m|rad"}), (("OP_COMMAND", "Amplitude"),)),
     ("FREQUENCY", "Q24_HZ", Q24, frozenset({"Hz"}), (("OP_COMMAND", "Frequency"),)),
     ("FADE_TIME", "MS", Fraction(1, 1000), frozenset({"s"}), (("OP_COMMAND", "FadeTime"),)),
+    ("MASS", "Q16_KG", Fraction(1, 1 << 16), frozenset({"kg"}), (("OP_FORCE_PARAMS", "Mass"),)),
+    ("DAMPING", "N_S_PER_M", Fraction(1), frozenset({"N s/m"}), (("OP_FORCE_PARAMS", "Damping"),)),
+    ("STIFFNESS", "N_PER_M", Fraction(1), frozenset({"N/m"}), (("OP_FORCE_PARAMS", "Stiffness"),)),
 )
 #: The core's values are int32 and raw signals at most 32 bits; the protocol
 #: layer's muldiv() needs |value x NUM| and |raw x DEN| below 2^62.

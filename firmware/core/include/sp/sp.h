@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 /*
  * sp/sp.h - the whole public API of the portable core in one include, for
- * integrators: #include "sp/sp.h" with firmware/core/include on the
- * include path. The headers follow the core's layers, lowest first
+ * integrators: #include "sp/sp.h" with firmware/core/include and the
+ * build's generated/include (sp/math/version.h) on the include path. The headers follow the core's layers, lowest first
  * (firmware/core/layers.txt); include one of them alone to depend on less.
  * Nothing in the core includes this header.
  */
@@ -12,6 +12,7 @@
 /* math */
 #include "sp/math/fixed.h"
 #include "sp/math/status.h"
+#include "sp/math/version.h"
 /* model */
 #include "sp/model/dynamics.h"
 #include "sp/model/kinematics.h"

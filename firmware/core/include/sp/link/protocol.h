@@ -2,8 +2,10 @@
 /*
  * sp/link/protocol.h - the CAN protocol (protocol/stewart.dbc) in the core's
  * fixed-point units. Bit packing is generated from the DBC at build time by
- * cantools (integer signals only); this layer adds the unit conversions,
- * range checks, and the E2E counter and CRC (sp/link/e2e.h).
+ * cantools (integer signals only); so are the encoders and decoders below
+ * (tools/dev/gen_proto_c.py): the unit conversions and the range checks
+ * follow each signal's factor and [min|max] in the DBC, and they add the
+ * E2E counter and CRC (sp/link/e2e.h).
  *
  * Encoders: message struct -> sealed frame (counter and CRC filled in).
  * They return SP_OK, or SP_E_RANGE when a value did not fit its signal and
