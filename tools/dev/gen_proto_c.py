@@ -6,7 +6,7 @@
 Writes OUTDIR/stewart_proto.c: the encoders and decoders of
 sp/link/protocol.h (sp_proto_encode_<name>, sp_proto_decode_<name>) between
 the core's message structs and cantools' raw-signal structs
-(stewart_can.h, tools/stewart/gen_can_c.py). What the DBC says, the code
+(stewart_can.h, tools/dev/gen_can_c.py). What the DBC says, the code
 follows: each signal's width and sign, its scale (the ratios of gen_can_c's
 families: raw = value x NUM / DEN, rounded to nearest, ties away from
 zero), its [min|max] (the raw range the encoder saturates to or refuses

@@ -15,7 +15,7 @@ static sp_q24_t to_q24(int64_t v)
 }
 
 /* Core units <-> raw signals. The ratios SP_CAN_<family>_RAW_PER_<unit>_NUM / _DEN (raw = value * NUM / DEN)
- * are generated from the DBC's factors into stewart_can.h (tools/stewart/gen_can_c.py). */
+ * are generated from the DBC's factors into stewart_can.h (tools/dev/gen_can_c.py). */
 #define I24_MAX 8388607
 #define I24_MIN (-8388607) /* signed ranges are symmetric: the DBC's minimum */
 static uint32_t q24_to_length(sp_q24_t q, int *sat)
