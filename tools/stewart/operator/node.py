@@ -19,7 +19,7 @@ twice back to back (a second ESTOP is harmless).
 
 Command authentication (docs/explanation/security.md): with the machine key
 (``key``), the frames that start or change motion (OP_COMMAND but NONE,
-STOP, PARK and ESTOP; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) are signed with the
+STOP, PARK, ESTOP and IDENTIFY; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) are signed with the
 controller's session and a counter that continues from the last one the
 controller accepted, both read from its CTRL_AUTH (every 10 ms); without a
 key such a frame is not sent (OpError). A command the controller rejects

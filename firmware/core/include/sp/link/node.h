@@ -25,8 +25,8 @@
  *    sends each cycle's feedback just before its SYNC, which closes the cycle:
  *    feedback for the next tick is held until that SYNC arrives.
  *  - Command authentication (sp/link/auth.h, docs/explanation/security.md): OP_TARGET_POSE,
- *    OP_FORCE, OP_FORCE_PARAMS and every OP_COMMAND but NONE, STOP, PARK
- *    and ESTOP (sp_proto_frame_needs_auth) must carry a code that checks under the machine key with this session and
+ *    OP_FORCE, OP_FORCE_PARAMS and every OP_COMMAND but NONE, STOP, PARK,
+ *    ESTOP and IDENTIFY (sp_proto_frame_needs_auth) must carry a code that checks under the machine key with this session and
  *    a counter after the last accepted; the check comes right after the
  *    CRC and ranges, before the alive counter, so that a stranger's frames
  *    change nothing but the counts. Rejected: SP_PROTO_AUTH_BAD_TAG,
