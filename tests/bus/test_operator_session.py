@@ -7,7 +7,7 @@ Run inside ``stewart vcan`` (scripts/test.sh does). Inside user-mode Linux
 neither side keeps 1 ms deadlines, so the controller's feedback supervision
 and the drives' setpoint watchdog are relaxed (as in
 test_real_time_mode_exchanges_frames) and every timeout is generous; the
-session is: engage, run, move, stream from CSV, stream from UDP, a refused
+session is: identify, engage, run, move, stream from CSV, stream from UDP, a refused
 command, force control (tare, force, a target update, position, guide),
 stop, park, estop, reset, and a silent operator (the process that
 runs the motion killed) latching OPERATOR_SILENT and stopping the platform.
@@ -143,6 +143,12 @@ def latencies(path: Path, command: str, to_state: str) -> list[int | None]:
 
 
 def test_operator_session(rig, tmp_path):
+    # -- identify: this build's version, the host port, the tools' own DBC
+    from stewart import __version__
+
+    ident = json.loads(op("identify", "--json", check=0).stdout)
+    assert (ident["version"], ident["port"], ident["same_protocol"]) == (__version__, "HOST", True)
+
     # -- engage; a second ENGAGE is refused with the reason and exit 1
     r = op("engage", check=0)
     assert "ENGAGE: READY" in r.stdout

@@ -366,6 +366,28 @@ def test_malformed_lines_and_bad_frames_are_counted_not_fatal():
     assert any("line" in w and "malformed" in w for w in st.warnings)
 
 
+def test_an_identify_and_its_answer_change_no_column(run2):
+    """OP_COMMAND IDENTIFY and CTRL_IDENTITY in a log (`stewart op identify`
+    during a run): decoded without a bad frame, the request listed among the
+    commands, every column as without them."""
+    data, _, _ = run2
+    p = pr.Protocol()
+
+    def tweak(tick, out):
+        if tick == 1550:  # after the log's five commands: the next alive counter
+            out.insert(0, format_line(tick * 1e-3, "vcan0", 0x040, p.encode("OP_COMMAND", pr.command_signals(
+                "IDENTIFY"), 5, bus="ops")))
+            out.append(format_line(tick * 1e-3, "vcan0", 0x104, p.encode("CTRL_IDENTITY", {
+                "VersionMajor": 0, "VersionMinor": 3, "VersionPatch": 0, "Port": "HOST",
+                "ProtocolHash": pr.dbc_hash()}, bus="ops")))
+    lines, _ = build_log(range(0, 1600), [SURGE, YAW], skip_feedback={(700, 4)}, tweak=tweak)
+    got = read_log(lines, platform=PLATFORM)
+    assert got.stats.bad_frames == 0 and got.stats.malformed == 0
+    assert np.array_equal(got.length, data.length, equal_nan=True)
+    assert np.array_equal(got.est_wrench, data.est_wrench, equal_nan=True)
+    assert "IDENTIFY" in [c["command"] for c in summarize(got)["commands"]]
+
+
 def test_tick_echo_unwraps_across_65536_and_other_interface_names():
     lines, _ = build_log(range(65500, 65600), [], ifaces=("can0", "can1", "can2"))
     data = read_log(lines, buses="ops=can0,axis_a=can1,axis_b=can2", platform=PLATFORM)

@@ -42,12 +42,24 @@ def test_every_function_of_the_header_is_generated():
     declared = set(re.findall(r"\bsp_status_t (sp_proto_(?:en|de)code_\w+)\(", header))
     code = gen.generate(DBC, "stewart.dbc")
     defined = set(re.findall(r"^sp_status_t (sp_proto_(?:en|de)code_\w+)\(", code, flags=re.M))
-    assert len(declared) == 26 and defined == declared
+    assert len(declared) == 28 and defined == declared
     # what only the DBC says reaches the code: OP_FORCE_PARAMS' mass range, the velocity's excluded -2^15
     code = " ".join(code.split())
     assert "s.mass < 10u || s.mass > 50000u" in code
     assert "s.velocity_1 < -32767" in code
     assert "m->mass < 65536 || m->mass > 327680000" in code
+
+
+def test_the_dbc_hash_is_the_tools_one(tmp_path):
+    """CTRL_IDENTITY's ProtocolHash as the firmware is built with it is the one
+    `stewart op identify` compares with: the same bytes, the same hash; one
+    byte more, another."""
+    code = gen.generate(DBC, "stewart.dbc")
+    assert f"const uint32_t sp_proto_dbc_hash = 0x{pr.dbc_hash():08X}u;" in code
+    other = tmp_path / "other.dbc"
+    other.write_bytes(pr.DBC_PATH.read_bytes() + b"\n")
+    assert pr.dbc_hash(other) != pr.dbc_hash()
+    assert f"0x{pr.dbc_hash(other):08X}u;" in gen.generate(other.read_text(), "other.dbc")
 
 
 def test_the_generated_file_is_written(tmp_path):

@@ -57,6 +57,9 @@ class FakeController:
         self.auth_last = 0          # the last accepted authentication counter
         self.auth_rejected = 0
         self.auth_checker = auth.Signer(self.proto.db, KEY)
+        self.identity_hash = pr.dbc_hash()  # CTRL_IDENTITY ProtocolHash: this DBC's unless a test changes it
+        self.identify_pending = False
+        self.identities = 0         # CTRL_IDENTITY frames sent
         # the counter reference a previous operator process left behind
         if counter_ref is not None:
             self.proto.decode(0x040, self.proto.encode("OP_COMMAND", pr.command_signals("NONE"), counter_ref),
@@ -123,6 +126,10 @@ class FakeController:
                     self.auth_rejected += 1
                     continue
                 r = self.proto.receive(msg.arbitration_id, bytes(msg.data), bus="ops")
+                if msg.arbitration_id == 0x040 and msg.data[0] == CMDS.index("IDENTIFY") and (
+                        r.ok or r.error.kind in (e2e.REPEATED, e2e.WRONG_SEQUENCE)):
+                    self.identify_pending = True  # the node's own: whatever its counter, never queued
+                    continue
                 if not r.ok:
                     continue
                 if r.name == "OP_HEARTBEAT":
@@ -154,6 +161,13 @@ class FakeController:
                 a = self.proto.encode("CTRL_AUTH", {"Session": SESSION, "LastCounter": self.auth_last,
                                                     "BadTag": self.auth_rejected, "KeySet": 1}, bus="ops")
                 self.bus.send(can.Message(arbitration_id=0x103, data=a, is_fd=True, is_extended_id=False))
+            if self.identify_pending and self.tick % 10 != 0:
+                i = self.proto.encode("CTRL_IDENTITY", {"VersionMajor": 0, "VersionMinor": 3, "VersionPatch": 0,
+                                                        "Port": "STM32G474", "ProtocolHash": self.identity_hash},
+                                      bus="ops")
+                self.bus.send(can.Message(arbitration_id=0x104, data=i, is_fd=True, is_extended_id=False))
+                self.identify_pending = False
+                self.identities += 1
             data = self.proto.encode("CTRL_STATUS", sig, bus="ops")
             if not (rejected and self.drop_rejected):
                 self.bus.send(can.Message(arbitration_id=0x100, data=data, is_fd=True, is_extended_id=False))
@@ -479,6 +493,27 @@ def test_observers_send_no_heartbeat(ctrl, capsys):
     assert _op(capsys, ch, "stop")[0] == 0    # a command's process sends them
     time.sleep(0.1)
     assert len(ctrl.heartbeats) > n
+
+
+def test_cli_identify(ctrl, capsys):
+    """`op identify`: one request, one CTRL_IDENTITY, the controller's
+    protocol hash against this DBC's (a warning when they differ); no
+    command reaches the controller's queue and no heartbeat is sent."""
+    ch = ctrl.channel
+    n = len(ctrl.heartbeats)
+    rc, out, err = _op(capsys, ch, "identify")
+    assert rc == 0 and f"firmware 0.3.0 (STM32G474), protocol {pr.dbc_hash():08x}" in out
+    assert f"protocol {pr.dbc_hash():08x}" in out.split(";")[1] and "warning" not in err
+    rc, out, _ = _op(capsys, ch, "identify", "--json")
+    got = json.loads(out)
+    assert rc == 0 and got["version"] == "0.3.0" and got["port"] == "STM32G474" and got["same_protocol"] is True
+    assert ctrl.identities == 2 and "IDENTIFY" not in ctrl.commands and len(ctrl.heartbeats) == n
+    ctrl.identity_hash = pr.dbc_hash() ^ 0x1
+    rc, out, err = _op(capsys, ch, "identify")
+    assert rc == 0 and f"protocol {pr.dbc_hash() ^ 1:08x}" in out
+    assert "warning: the controller speaks another protocol" in err
+    rc, _, err = _op(capsys, "op-test-nobody", "identify", "--timeout", "0.3")
+    assert rc == 3 and "no CTRL_IDENTITY" in err
 
 
 def test_cli_stream_csv(ctrl, capsys, tmp_path):

@@ -32,10 +32,11 @@ SPEC = {
     "CTRL_MONITOR": (0x101, 64, ("ops",)),
     "CTRL_WRENCH": (0x102, 24, ("ops",)),
     "CTRL_AUTH": (0x103, 16, ("ops",)),
+    "CTRL_IDENTITY": (0x104, 12, ("ops",)),
 }
 #: Messages not sent every 1 ms, and their period.
 PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10, "OP_COMMAND": 10, "CTRL_AUTH": 10,
-             "OP_FORCE_PARAMS": 10}
+             "OP_FORCE_PARAMS": 10, "CTRL_IDENTITY": 10}
 
 
 @pytest.fixture()
@@ -105,13 +106,13 @@ def test_dbc_scales_and_ranges_as_specified(proto):
     cmd = proto.message("OP_COMMAND").get_signal_by_name("Command")
     assert str(cmd.choices[9]) == "SET_FEEDFORWARD" and str(cmd.choices[7]) == "ESTOP"
     st = proto.message("CTRL_STATUS").get_signal_by_name("State")
-    assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 13 and st.maximum == 6
+    assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 14 and st.maximum == 6
 
 
 def test_value_names_are_the_dbc_value_tables(tmp_path):
     assert pr.value_names("CTRL_STATUS", "State")[3] == "RUNNING"
     assert pr.value_names("OP_COMMAND", "Command")[9] == "SET_FEEDFORWARD"
-    assert pr.value_names("OP_COMMAND", "Command")[10:] == ("FORCE", "GUIDE", "POSITION", "TARE")
+    assert pr.value_names("OP_COMMAND", "Command")[10:] == ("FORCE", "GUIDE", "POSITION", "TARE", "IDENTIFY")
     assert pr.value_names("AXIS_FEEDBACK_3", "State") == ("INIT", "HOLD", "ACTIVE", "FAULT")
     assert pr.axis_names() == ("x", "y", "z", "roll", "pitch", "yaw")
     with pytest.raises(ValueError, match="SYNC.Tick has no value table"):
@@ -412,7 +413,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "38.0 %" in text and "46.2 %" in text and "46.3 %" in text
+    assert "38.0 %" in text and "46.2 %" in text and "46.9 %" in text
 
 
 def test_doc_cli_check(tmp_path):

@@ -48,6 +48,7 @@ CODECS = {
     "CTRL_MONITOR": ("sp_proto_decode_monitor", "sp_proto_encode_monitor", "ops"),
     "CTRL_WRENCH": ("sp_proto_decode_wrench", "sp_proto_encode_wrench", "ops"),
     "CTRL_AUTH": ("sp_proto_decode_auth", "sp_proto_encode_auth", "ops"),
+    "CTRL_IDENTITY": ("sp_proto_decode_identity", "sp_proto_encode_identity", "ops"),
 }
 
 

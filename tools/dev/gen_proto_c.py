@@ -31,6 +31,7 @@ plain system Python, as gen_can_c.py does.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 import sys
@@ -149,6 +150,9 @@ MESSAGES = (
     Message("CTRL_AUTH", "auth", "sp_msg_auth_t", (
         Field("Session", "session"), Field("LastCounter", "last_counter"), Field("BadTag", "bad_tag", "clip"),
         Field("Replayed", "replayed", "clip"), Field("KeySet", "key_set", "bool"))),
+    Message("CTRL_IDENTITY", "identity", "sp_msg_identity_t", (
+        Field("VersionMajor", "major"), Field("VersionMinor", "minor"), Field("VersionPatch", "patch"),
+        Field("Port", "port", "enum"), Field("ProtocolHash", "protocol_hash"))),
 )
 
 #: Signals of the protocol itself: the E2E counter and CRC, the authentication fields.
@@ -499,6 +503,12 @@ def _asserts(msgs: dict[str, Msg], fams: dict[str, Family]) -> list[str]:
     return out
 
 
+def dbc_hash(dbc_text: str) -> int:
+    """The protocol's identity (CTRL_IDENTITY ProtocolHash): the first 4 bytes, big-endian, of the
+    SHA-256 of the DBC's bytes (UTF-8), as tools/stewart/protocol.py computes it."""
+    return int.from_bytes(hashlib.sha256(dbc_text.encode("utf-8")).digest()[:4], "big")
+
+
 def generate(dbc_text: str, dbc_name: str) -> str:
     msgs = read_messages(dbc_text)
     check_mapping(msgs)
@@ -509,6 +519,8 @@ def generate(dbc_text: str, dbc_name: str) -> str:
              '#include "link/proto_codec.h"', "",
              "#define SP_PROTO_ASSERT(cond, name) typedef char sp_proto_check_##name[(cond) ? 1 : -1]",
              *_asserts(msgs, fams), "",
+             f"/* the DBC's identity (CTRL_IDENTITY ProtocolHash): SHA-256 of {dbc_name}, first 4 bytes */",
+             f"const uint32_t sp_proto_dbc_hash = 0x{dbc_hash(dbc_text):08X}u;", "",
              "/* value <-> raw of each scale family: raw = value x NUM / DEN (stewart_can.h) */",
              *family_helpers(fams)]
     for spec in MESSAGES:
@@ -524,7 +536,7 @@ def main(argv: list[str]) -> int:
         return 2
     dbc, out = argv
     try:
-        text = generate(Path(dbc).read_text(), Path(dbc).name)
+        text = generate(Path(dbc).read_bytes().decode("utf-8"), Path(dbc).name)
     except (CodecError, gen_can_c.ScaleError) as exc:
         print(f"error: {dbc}: {exc}", file=sys.stderr)
         return 1

@@ -117,11 +117,11 @@ def run_key(directory: str | Path) -> Path:
 
 class Signer:
     """Signs the operator's authenticated frames (OP_COMMAND but NONE, STOP,
-    PARK, ESTOP; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) with the machine key, the
+    PARK, ESTOP, IDENTIFY; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) with the machine key, the
     controller's session and the next counter; the layout (AuthCounter,
     AuthTag) comes from the DBC. ``session`` None: not known yet."""
 
-    EXEMPT_COMMANDS = ("NONE", "STOP", "PARK", "ESTOP")
+    EXEMPT_COMMANDS = ("NONE", "STOP", "PARK", "ESTOP", "IDENTIFY")
 
     def __init__(self, db, key: bytes):
         from . import e2e

@@ -31,6 +31,17 @@ from . import e2e, resources
 
 DBC_PATH = resources.dbc_path()
 
+
+def dbc_hash(dbc_path: str | Path | None = None) -> int:
+    """The protocol's identity, as the firmware carries it in CTRL_IDENTITY
+    ProtocolHash (tools/dev/gen_proto_c.py): the first 4 bytes, big-endian,
+    of the SHA-256 of the DBC file's bytes."""
+    import hashlib
+
+    data = Path(dbc_path or DBC_PATH).read_bytes()
+    return int.from_bytes(hashlib.sha256(data).digest()[:4], "big")
+
+
 #: The three buses and the SocketCAN interface each runs on (host and vcan).
 BUSES: dict[str, str] = {"ops": "vcan0", "axis_a": "vcan1", "axis_b": "vcan2"}
 #: Leg (1..6) -> (axis bus, drive slot 1..3).

@@ -185,6 +185,7 @@ int main(void)
         sp_g4_stop(SP_G4_STOP_INIT);
     }
     g_cfg.sync_master = 1u; /* real time: we send SYNC */
+    g_cfg.port = SP_PORT_STM32G474;
     /* command authentication (docs/explanation/security.md): the machine key built in
      * (the build's key file), a session drawn from the RNG; without a
      * session the node starts without its key: motion commands refused */

@@ -13,7 +13,7 @@
 #include <strings.h>
 
 #define WHY_LEN 200        /* what is wrong with a line, without its name and number */
-#define N_COMMANDS 14      /* OP_COMMAND values 0..SP_CMD_WIRE_MAX (TARE) */
+#define N_COMMANDS 14      /* OP_COMMAND values 0..13 (TARE): a scenario has no IDENTIFY (14) */
 #define MAX_SECONDS 1.0e6  /* longest delay or wait timeout */
 #define MAX_TARGET 8.0     /* largest |value| of a target pose, m or rad */
 #define MAX_FADE_S 65.0    /* longest fade, s */

@@ -18,6 +18,7 @@
 
 #include "assert_near.h"
 #include "sp/link/node.h"
+#include "sp/math/version.h"
 #include "test_util.h"
 
 typedef struct {
@@ -30,13 +31,17 @@ typedef struct {
     int silent[SP_LEGS];
     sp_can_frame_t sent[SP_NODE_MAX_TX];
     uint32_t n_sent;
-    uint32_t wrench_frames; /* CTRL_WRENCH frames seen */
-    uint32_t wrench_valid;  /* of which Valid = 1 */
-    uint8_t wrench_counter; /* Counter of the last one */
-    sp_auth_key_t key;      /* the test's throw-away machine key */
-    uint32_t auth_counter;  /* the operator's authentication counter (last used) */
-    uint32_t auth_frames;   /* CTRL_AUTH frames seen */
-    sp_msg_auth_t auth;     /* the last one */
+    uint32_t wrench_frames;     /* CTRL_WRENCH frames seen */
+    uint32_t wrench_valid;      /* of which Valid = 1 */
+    uint8_t wrench_counter;     /* Counter of the last one */
+    sp_auth_key_t key;          /* the test's throw-away machine key */
+    uint32_t auth_counter;      /* the operator's authentication counter (last used) */
+    uint32_t auth_frames;       /* CTRL_AUTH frames seen */
+    sp_msg_auth_t auth;         /* the last one */
+    int identify_asked;         /* an IDENTIFY was sent and not yet answered */
+    uint32_t identity_frames;   /* CTRL_IDENTITY frames seen */
+    sp_msg_identity_t identity; /* the last one */
+    uint8_t identity_counter;   /* its Counter */
 } rig_t;
 
 #define RIG_SESSION 0x5EED1234u
@@ -82,17 +87,26 @@ static void rig_tick(rig_t *r)
 {
     assert_int_equal(sp_node_tick(&r->cfg, &r->node, r->sent, &r->n_sent), SP_OK);
     /* setpoints x2, SYNC x2, status, monitor; + CTRL_WRENCH on even ticks,
-     * + CTRL_AUTH every 10 */
+     * + CTRL_AUTH every 10; + CTRL_IDENTITY once when asked, last */
     uint32_t even = (r->node.out.tick % 2u) == 0u ? 1u : 0u;
     uint32_t tenth = (r->node.out.tick % SP_PROTO_AUTH_PERIOD) == 0u ? 1u : 0u;
-    assert_int_equal(r->n_sent, 6u + even + tenth);
+    uint32_t identity = r->n_sent > 0u && r->sent[r->n_sent - 1u].id == SP_ID_CTRL_IDENTITY ? 1u : 0u;
+    assert_int_equal(r->n_sent, 6u + even + tenth + identity);
     uint32_t sync_tick = 0;
     int syncs = 0;
     for (uint32_t k = 0; k < r->n_sent; k++) {
         const sp_can_frame_t *f = &r->sent[k];
         uint8_t counter;
         sp_proto_error_t e;
-        if (f->id == SP_ID_CTRL_AUTH) {
+        if (f->id == SP_ID_CTRL_IDENTITY) {
+            assert_true(r->identify_asked); /* never unasked */
+            assert_int_equal(tenth, 0u);    /* never beside CTRL_AUTH: at most SP_NODE_MAX_TX frames */
+            assert_int_equal(f->bus, SP_BUS_OPS);
+            assert_int_equal(sp_proto_decode_identity(f, &r->identity, &counter, &e), SP_OK);
+            r->identity_counter = counter;
+            r->identity_frames++;
+            r->identify_asked = 0;
+        } else if (f->id == SP_ID_CTRL_AUTH) {
             assert_int_equal(f->bus, SP_BUS_OPS);
             assert_int_equal(k, 4u); /* ahead of CTRL_STATUS */
             assert_int_equal(sp_proto_decode_auth(f, &r->auth, &counter, &e), SP_OK);
@@ -191,6 +205,46 @@ static sp_msg_status_t last_status(const rig_t *r)
         }
     }
     return s;
+}
+
+/* OP_COMMAND IDENTIFY as any tool sends it: unsigned, with the given alive counter. */
+static void send_identify(rig_t *r, uint8_t counter)
+{
+    sp_msg_command_t c;
+    memset(&c, 0, sizeof c);
+    c.command = SP_CMD_IDENTIFY;
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_command(&c, counter, &f), SP_OK);
+    assert_false(sp_proto_frame_needs_auth(&f));
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
+    r->identify_asked = 1;
+}
+
+/* Asks in the node's present state: one CTRL_IDENTITY on the next tick with
+ * the build's version, the port and the DBC's hash; the state, the
+ * command queue and the refusals untouched. */
+static void identify_now(rig_t *r, uint8_t port)
+{
+    uint32_t frames = r->identity_frames;
+    uint32_t refused = r->node.stats.cmd_refused;
+    sp_state_t before = r->node.out.state;
+    if ((r->node.out.tick + 1u) % SP_PROTO_AUTH_PERIOD == 0u) {
+        rig_tick(r); /* the next tick sends CTRL_AUTH: ask on the one after */
+    }
+    send_identify(r, r->op_counter++);
+    assert_int_equal(r->node.cmd_count, 0u); /* no command slot */
+    rig_tick(r);
+    assert_int_equal(r->identity_frames, frames + 1u);
+    assert_int_equal(r->identity.major, SP_VERSION_MAJOR);
+    assert_int_equal(r->identity.minor, SP_VERSION_MINOR);
+    assert_int_equal(r->identity.patch, SP_VERSION_PATCH);
+    assert_int_equal(r->identity.port, port);
+    assert_int_equal(r->identity.protocol_hash, sp_proto_dbc_hash);
+    assert_false(last_status(r).cmd_rejected);
+    assert_int_equal(r->node.stats.cmd_refused, refused);
+    if (before != SP_STATE_ENGAGING && before != SP_STATE_PARKING) {
+        assert_int_equal(r->node.out.state, before);
+    }
 }
 
 static void run_until(rig_t *r, sp_state_t state, uint32_t max_ticks)
@@ -351,6 +405,68 @@ static void test_operator_heartbeat_over_frames(void **state)
     assert_int_equal(r.node.out.faults, SP_FAULT_OPERATOR_SILENT);
 }
 
+/* OP_COMMAND IDENTIFY: one CTRL_IDENTITY per request in every state,
+ * unsigned, never without a request (rig_tick fails on an unasked one). */
+static void test_identify_over_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    assert_false(sp_proto_command_needs_auth(SP_CMD_IDENTIFY));
+    for (int t = 0; t < 50; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.identity_frames, 0u);
+    identify_now(&r, SP_PORT_UNSPECIFIED);
+    uint8_t c0 = r.identity_counter;
+    for (int t = 0; t < 50; t++) {
+        rig_tick(&r); /* one answer per request */
+    }
+    assert_int_equal(r.identity_frames, 1u);
+
+    r.cfg.port = SP_PORT_STM32G474;
+    send_command(&r, SP_CMD_ENGAGE);
+    rig_tick(&r);
+    identify_now(&r, SP_PORT_STM32G474); /* ENGAGING */
+    run_until(&r, SP_STATE_READY, 10000u);
+    identify_now(&r, SP_PORT_STM32G474);
+    send_command(&r, SP_CMD_RUN_TRIG);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_RUNNING);
+    identify_now(&r, SP_PORT_STM32G474);
+    assert_int_equal(r.identity_counter, (c0 + 3u) & 0x0Fu);
+
+    /* asked just before a CTRL_AUTH tick: answered on the tick after it */
+    while ((r.node.out.tick + 1u) % SP_PROTO_AUTH_PERIOD != 0u) {
+        rig_tick(&r);
+    }
+    send_identify(&r, r.op_counter++);
+    rig_tick(&r);
+    assert_int_equal(r.identity_frames, 4u);
+    rig_tick(&r);
+    assert_int_equal(r.identity_frames, 5u);
+
+    /* two requests before a tick share one answer; an alive counter out of
+     * sequence (another tool) is no reason to refuse */
+    send_identify(&r, r.op_counter);
+    send_identify(&r, r.op_counter);
+    r.op_counter = (uint8_t)(r.op_counter + 7u);
+    send_identify(&r, r.op_counter++);
+    if ((r.node.out.tick + 1u) % SP_PROTO_AUTH_PERIOD == 0u) {
+        rig_tick(&r);
+    }
+    rig_tick(&r);
+    rig_tick(&r);
+    assert_int_equal(r.identity_frames, 6u);
+    assert_int_equal(r.node.out.state, SP_STATE_RUNNING);
+
+    send_command(&r, SP_CMD_ESTOP);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.state, SP_STATE_ESTOP);
+    identify_now(&r, SP_PORT_STM32G474);
+    assert_int_equal(r.identity_frames, 7u);
+}
+
 static void test_engage_run_park_over_frames(void **state)
 {
     (void)state;
@@ -505,9 +621,9 @@ static void test_malformed_frames_are_counted_and_dropped(void **state)
     f.len = 200;
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_BAD_LENGTH);
-    /* out of range: command 14 with a valid CRC (10..13 are force control's) */
+    /* out of range: command 15 with a valid CRC (10..13 are force control's, 14 IDENTIFY) */
     f = good;
-    f.data[0] = 14;
+    f.data[0] = 15;
     assert_int_equal(sp_e2e_seal(&f), SP_OK);
     assert_int_equal(sp_node_receive(&r.node, &f, &why), SP_E_FRAME);
     assert_int_equal(why, SP_PROTO_OUT_OF_RANGE);
@@ -1149,6 +1265,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_engage_run_park_over_frames),
+        cmocka_unit_test(test_identify_over_frames),
         cmocka_unit_test(test_tick_wrap_is_seamless),
         cmocka_unit_test(test_stats_saturate),
         cmocka_unit_test(test_malformed_frames_are_counted_and_dropped),

@@ -4,7 +4,9 @@
  * random and boundary values through every encoder give the same status and
  * the same frame; random, mutated and boundary frames through every decoder
  * give the same status, rejection reason, counter and values. A change of
- * the DBC meant to change the codec changes the plain reference with it. */
+ * the DBC meant to change the codec changes the plain reference with it.
+ * CTRL_IDENTITY came after the plain codec and has no counterpart there:
+ * its frame is held to the DBC's layout byte by byte instead. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -340,6 +342,45 @@ static void test_decoders_match_the_plain_ones(void **state)
     assert_true(ok > DEC_ROUNDS * 12u); /* most kept frames decode: the values are compared, not just the errors */
 }
 
+/* CTRL_IDENTITY against the DBC's layout: version bytes 0-2, Port bits
+ * 24-27, Counter 28-31, ProtocolHash bytes 4-7 little-endian, CRC-8 in byte
+ * 11; round trip for every port, an unknown port refused both ways. */
+static void test_identity_frame_is_the_dbcs_layout(void **state)
+{
+    (void)state;
+    for (uint32_t i = 0; i < 300u; i++) {
+        uint64_t r = tu_next(&rng);
+        sp_msg_identity_t m = {(uint8_t)r, (uint8_t)(r >> 8), (uint8_t)(r >> 16), (uint8_t)(i % 3u),
+                               (uint32_t)(r >> 32)};
+        uint8_t c = (uint8_t)(i % 16u);
+        sp_can_frame_t f;
+        assert_int_equal(sp_proto_encode_identity(&m, c, &f), SP_OK);
+        assert_int_equal(f.id, SP_ID_CTRL_IDENTITY);
+        assert_int_equal(f.bus, SP_BUS_OPS);
+        assert_int_equal(f.len, 12u);
+        assert_int_equal(f.data[0], m.major);
+        assert_int_equal(f.data[1], m.minor);
+        assert_int_equal(f.data[2], m.patch);
+        assert_int_equal(f.data[3], (uint8_t)(m.port | (c << 4)));
+        uint32_t h = (uint32_t)f.data[4] | ((uint32_t)f.data[5] << 8) | ((uint32_t)f.data[6] << 16) |
+                     ((uint32_t)f.data[7] << 24);
+        assert_int_equal(h, m.protocol_hash);
+        assert_int_equal(f.data[8] | f.data[9] | f.data[10], 0);
+        sp_msg_identity_t back;
+        uint8_t cb = 0xEE;
+        sp_proto_error_t e = SP_PROTO_ERRORS;
+        assert_int_equal(sp_proto_decode_identity(&f, &back, &cb, &e), SP_OK);
+        assert_memory_equal(&back, &m, sizeof m);
+        assert_int_equal(cb, c);
+        f.data[3] = (uint8_t)((f.data[3] & 0xF0u) | 3u);
+        assert_int_equal(sp_e2e_seal(&f), SP_OK);
+        assert_int_equal(sp_proto_decode_identity(&f, &back, &cb, &e), SP_E_FRAME);
+        assert_int_equal(e, SP_PROTO_OUT_OF_RANGE);
+        m.port = 3u;
+        assert_int_equal(sp_proto_encode_identity(&m, c, &f), SP_E_ARG);
+    }
+}
+
 /* OP_FORCE_PARAMS's ranges, raw value by raw value around each limit
  * (and every mass). */
 static void test_force_params_every_raw_limit(void **state)
@@ -374,6 +415,7 @@ int main(void)
         cmocka_unit_test(test_encoders_match_the_plain_ones),
         cmocka_unit_test(test_decoders_match_the_plain_ones),
         cmocka_unit_test(test_force_params_every_raw_limit),
+        cmocka_unit_test(test_identity_frame_is_the_dbcs_layout),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -112,9 +112,12 @@ def _add_force_actions(ops) -> None:
 
 
 def _add_observer_actions(ops) -> None:
-    """status, watch, record."""
+    """status, identify, watch, record."""
     st = ops.add_parser("status", help="one status reading")
     st.add_argument("--json", action="store_true")
+    ident = ops.add_parser("identify", help="the controller's firmware version, port and protocol "
+                           "(warns when its protocol is not this DBC)")
+    ident.add_argument("--json", action="store_true")
     w = ops.add_parser("watch", help="live view (q or Ctrl-C quits)")
     w.add_argument("--rate", type=float, default=5.0, help="refreshes per second")
     w.add_argument("--duration", type=float, help="quit after this many s")
@@ -170,7 +173,7 @@ def run(args) -> int:
 
     if not args.op:
         _err("an action is needed: engage, run, move, stream, stop, park, estop, reset, feedforward, "
-             "force, guide, position, tare, status, watch, record (stewart op --help)")
+             "force, guide, position, tare, status, identify, watch, record (stewart op --help)")
         return 2
     opts = busopts.options(args)
     # files first: a bad file is reported before the bus is touched
@@ -214,7 +217,7 @@ def run(args) -> int:
 
 
 #: Actions that only listen: no OP_HEARTBEAT (docs/guides/operator.md).
-OBSERVERS = ("status", "watch")
+OBSERVERS = ("status", "identify", "watch")
 
 
 def _prepare(args):
@@ -504,6 +507,25 @@ def _status(node, args, _):
                           "drives_starting": st.drives_starting, "force_unmeasured": st.force_unmeasured}))
     else:
         print(st.line())
+    return 0
+
+
+def _identify(node, args, _):
+    """The controller's CTRL_IDENTITY; its ProtocolHash against this DBC's."""
+    from .. import __version__
+    from .. import protocol as pr
+
+    ident = node.identify(timeout=_t(args, 2.0))
+    ours = pr.dbc_hash(node.proto.dbc_path)
+    same = ident["protocol_hash"] == ours
+    if args.json:
+        print(json.dumps({**ident, "tools_protocol_hash": ours, "same_protocol": same, "tools_version": __version__}))
+    else:
+        print(f"firmware {ident['version']} ({ident['port']}), protocol {ident['protocol_hash']:08x}; "
+              f"tools {__version__}, protocol {ours:08x}")
+    if not same:
+        _err(f"warning: the controller speaks another protocol ({ident['protocol_hash']:08x}) than this "
+             f"DBC ({ours:08x}, {node.proto.dbc_path}): frames may be misread")
     return 0
 
 
@@ -832,5 +854,6 @@ ACTIONS = {
     "position": _position,
     "tare": _tare,
     "status": _status,
+    "identify": _identify,
     "watch": _watch,
 }

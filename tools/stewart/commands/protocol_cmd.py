@@ -10,6 +10,9 @@ DBC and the encoder (exit 1 when they differ).
 (``docs/reference/protocol.md``), generated from the DBC so it is never written twice.
 
 ``stewart protocol decode ID HEX [--bus BUS]``: checks and decodes one frame.
+
+``stewart protocol hash``: the DBC's hash, as the firmware built from it
+sends it in CTRL_IDENTITY (``stewart op identify``).
 """
 
 from __future__ import annotations
@@ -59,6 +62,8 @@ TYPICAL = {
                      **{f"LengthSp_{i}": 1.7 + 0.05 * i for i in range(1, 7)},
                      **{f"ForceFf_{i}": (-1) ** i * 1000.0 * i for i in range(1, 7)}},
     "CTRL_AUTH": {"Session": 0x5EED0017, "LastCounter": 123456, "BadTag": 3, "Replayed": 1, "KeySet": "ON"},
+    "CTRL_IDENTITY": {"VersionMajor": 0, "VersionMinor": 3, "VersionPatch": 0, "Port": "STM32G474",
+                      "ProtocolHash": 0x5A3C96E1},
     "CTRL_WRENCH": {"Tick": 99998, "Valid": 1, "Fx": 120.25, "Fy": -35.5, "Fz": -2452.75,
                     "Mx": 14.0, "My": -250.25, "Mz": 0.75},
 }
@@ -142,7 +147,7 @@ def _malformed(proto) -> list[dict]:
         ("AXIS_SETPOINTS Force_3 raw -8388608", 0x020,
          with_raw("AXIS_SETPOINTS", Force_3=-8388608), "out-of-range"),
         ("AXIS_FEEDBACK_1 State 4", 0x031, with_raw("AXIS_FEEDBACK_1", State=4), "out-of-range"),
-        ("OP_COMMAND Command 14", 0x040, with_raw("OP_COMMAND", Command=14), "out-of-range"),
+        ("OP_COMMAND Command 15", 0x040, with_raw("OP_COMMAND", Command=15), "out-of-range"),
         ("OP_FORCE Fz raw -524288", 0x048, with_raw("OP_FORCE", Fz=-524288), "out-of-range"),
         ("OP_FORCE as a 36-byte frame", 0x048, typ("OP_FORCE") + bytes(4), "bad-length"),
         ("FT_SENSOR Mx raw -524288", 0x038, with_raw("FT_SENSOR", Mx=-524288), "out-of-range"),
@@ -291,7 +296,8 @@ def _doc_buses(proto, w) -> None:
     w("")
     w(f"Three CAN FD buses, 11-bit identifiers, {proto.nominal_bitrate / 1e6:g} Mbit/s "
       f"arbitration and {proto.data_bitrate / 1e6:g} Mbit/s data phase (bit-rate switch on), "
-      "a 1 ms cycle (CTRL_WRENCH: 2 ms; OP_COMMAND, OP_FORCE and CTRL_AUTH 10 ms; OP_HEARTBEAT 20 ms).")
+      "a 1 ms cycle (CTRL_WRENCH: 2 ms; OP_COMMAND, OP_FORCE, CTRL_AUTH and CTRL_IDENTITY 10 ms; "
+      "OP_HEARTBEAT 20 ms).")
     w("")
     w("| bus | SocketCAN interface | between |")
     w("|---|---|---|")
@@ -480,6 +486,14 @@ def run_decode(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_hash(args: argparse.Namespace) -> int:
+    del args
+    from .. import protocol as pr
+
+    print(f"{pr.dbc_hash():08x}  {pr.DBC_PATH}")
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("protocol", help="CAN protocol: test vectors, documentation, decoding",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -497,6 +511,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.add_argument("hex", help="frame data as hex")
     c.add_argument("--bus", default="default")
     c.set_defaults(func=run_decode)
+    h = ps.add_parser("hash", help="the DBC's hash (CTRL_IDENTITY ProtocolHash)")
+    h.set_defaults(func=run_hash)
 
     def no_action(args: argparse.Namespace) -> int:
         del args

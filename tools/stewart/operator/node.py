@@ -19,11 +19,14 @@ twice back to back (a second ESTOP is harmless).
 
 Command authentication (docs/explanation/security.md): with the machine key
 (``key``), the frames that start or change motion (OP_COMMAND but NONE,
-STOP, PARK and ESTOP; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) are signed with the
+STOP, PARK, ESTOP and IDENTIFY; OP_TARGET_POSE; OP_FORCE; OP_FORCE_PARAMS) are signed with the
 controller's session and a counter that continues from the last one the
 controller accepted, both read from its CTRL_AUTH (every 10 ms); without a
 key such a frame is not sent (OpError). A command the controller rejects
 for its code is reported as refused, with the reason CTRL_AUTH tells.
+
+``identify`` asks the controller what it is (OP_COMMAND IDENTIFY, unsigned,
+taken in any state): one CTRL_IDENTITY answers each request.
 """
 
 from __future__ import annotations
@@ -58,6 +61,7 @@ ACCEPTED_IN = {
     "GUIDE": ("READY", "RUNNING"),
     "POSITION": STATES,
     "TARE": ("READY",),
+    "IDENTIFY": STATES,
     "NONE": STATES,
 }
 MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "FORCE", "GUIDE")
@@ -288,11 +292,13 @@ class OperatorNode:
         self._monitor_r = _Reader(self.proto, "CTRL_MONITOR")
         self._wrench_r = _Reader(self.proto, "CTRL_WRENCH")
         self._auth_r = _Reader(self.proto, "CTRL_AUTH")
+        self._identity_r = _Reader(self.proto, "CTRL_IDENTITY")
         # CTRL_MONITOR (1 kHz) and CTRL_WRENCH (500 Hz) only for a node that
         # shows them (`monitor`): without, the receive queue carries ~1,100
         # frames a second instead of ~2,600, and a loaded machine's reader
         # keeps up with CTRL_STATUS, which every command's answer is read from
-        wanted = (self._status_r, self._auth_r) + ((self._monitor_r, self._wrench_r) if monitor else ())
+        wanted = (self._status_r, self._auth_r, self._identity_r) + (
+            (self._monitor_r, self._wrench_r) if monitor else ())
         self._readers = {r.frame_id: r for r in wanted}
         self.signer = au.Signer(self.proto.db, key) if key is not None else None
         self._unsigned = au.Signer(self.proto.db, bytes(au.KEY_BYTES))  # which frames need a code
@@ -309,6 +315,8 @@ class OperatorNode:
         self._keep_statuses = False
         self.monitor: dict | None = None
         self.wrench: dict | None = None
+        self.identity: dict | None = None      # the last CTRL_IDENTITY
+        self._identity_seq = 0                 # CTRL_IDENTITY frames received
         self.counters = Counters()
         self._seq = 0
         self._stop = threading.Event()
@@ -546,9 +554,47 @@ class OperatorNode:
                 if self.signer is not None:
                     self.signer.follow(a["session"], a["last_counter"])
                 self._cond.notify_all()
+        elif r is self._identity_r:
+            self._take_identity(f, w)
         else:
             self.wrench = {"tick": f["Tick"].raw(w), "valid": bool(f["Valid"].raw(w)),
                            "wrench": [f[n].value(w) for n in pr.WRENCH_SIGNALS]}
+
+    def _take_identity(self, f: dict, w: int) -> None:
+        port = pr.value_names("CTRL_IDENTITY", "Port")
+        p = f["Port"].raw(w)
+        ident = {"version": f"{f['VersionMajor'].raw(w)}.{f['VersionMinor'].raw(w)}.{f['VersionPatch'].raw(w)}",
+                 "port": port[p] if p < len(port) else str(p), "protocol_hash": f["ProtocolHash"].raw(w)}
+        with self._cond:
+            self.identity = ident
+            self._identity_seq += 1
+            self._cond.notify_all()
+
+    def identify(self, timeout: float = 2.0, resend: float = 0.25) -> dict:
+        """Asks the controller what it is (OP_COMMAND IDENTIFY) and returns its
+        answer, CTRL_IDENTITY's values: ``version`` "MAJOR.MINOR.PATCH",
+        ``port`` and ``protocol_hash``. The request is sent again every
+        ``resend`` s until an answer comes (a frame lost on the bus);
+        NoAnswer after ``timeout`` s."""
+        end = time.monotonic() + timeout
+        with self._cond:
+            seen = self._identity_seq
+        while True:
+            self.send_command("IDENTIFY")
+            until = min(end, time.monotonic() + resend)
+            with self._cond:
+                while self._identity_seq == seen:
+                    if self.rx_error:
+                        raise OpError(f"receiving: {self.rx_error}")
+                    left = until - time.monotonic()
+                    if left <= 0:
+                        break
+                    self._cond.wait(left)
+                if self._identity_seq != seen:
+                    return dict(self.identity)
+            if time.monotonic() >= end:
+                raise NoAnswer(f"IDENTIFY: no CTRL_IDENTITY from the controller within {timeout:g} s "
+                               "(is it running, is this the ops bus, and does its firmware know IDENTIFY?)")
 
     # -- waiting -----------------------------------------------------------
     def wait_status(self, timeout: float = 2.0, after: int = 0) -> Status:

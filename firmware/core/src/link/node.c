@@ -3,8 +3,10 @@
 
 #include "link/link_internal.h"
 #include "math/fixed_inline.h"
+#include "sp/math/version.h"
 
-/* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_AUTH + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH. */
+/* Most frames of one tick: 2 AXIS_SETPOINTS + 2 SYNC + CTRL_AUTH + CTRL_STATUS + CTRL_MONITOR + CTRL_WRENCH;
+ * CTRL_IDENTITY goes out on a tick without CTRL_AUTH only. */
 typedef char sp_node_tx_fits[(8u <= SP_NODE_MAX_TX) ? 1 : -1];
 
 static void inc(uint32_t *c)
@@ -192,9 +194,16 @@ static sp_status_t receive_command(sp_node_t *node, const sp_can_frame_t *f, sp_
      * alive counter repeats or jumps: a second operator process, a
      * resent emergency stop, any node on the bus (they carry no
      * authentication code either, so e can only be the counter's).
-     * Refusing a stop is never the safe side. */
-    if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK) {
+     * Refusing a stop is never the safe side. IDENTIFY, which only
+     * reads, is taken so too: any tool may ask what it talks to. */
+    if (e != SP_PROTO_OK && m.command != SP_CMD_ESTOP && m.command != SP_CMD_STOP && m.command != SP_CMD_PARK &&
+        m.command != SP_CMD_IDENTIFY) {
         return reject(node, e, why);
+    }
+    if (m.command == SP_CMD_IDENTIFY) {
+        node->identify_pending = 1u; /* answered by the node: no command slot, nothing for the controller */
+        inc(&node->stats.accepted);
+        return SP_OK;
     }
     if (node->cmd_count >= SP_NODE_CMD_QUEUE) {
         if (m.command != SP_CMD_ESTOP) {
@@ -517,6 +526,21 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     }
 }
 
+/* CTRL_IDENTITY, the answer to IDENTIFY: the firmware's version, its port
+ * and the DBC it was built from. */
+SPI_NOINLINE static void send_identity(const sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[], uint32_t *n)
+{
+    sp_msg_identity_t id;
+    id.major = SP_VERSION_MAJOR;
+    id.minor = SP_VERSION_MINOR;
+    id.patch = SP_VERSION_PATCH;
+    id.port = cfg->port;
+    id.protocol_hash = sp_proto_dbc_hash;
+    count_send(node, sp_proto_encode_identity(&id, node->tx_counter_identity++, &out[*n]), n);
+    node->tx_counter_identity &= 0x0Fu;
+    node->identify_pending = 0u;
+}
+
 sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n)
 {
     if (cfg == NULL || node == NULL || out == NULL || n == NULL || cfg->ctrl.platform == NULL) {
@@ -547,5 +571,8 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
     send_axis_frames(cfg, node, tick, out, n);
     send_ops_frames(cfg, node, tick, out, n);
+    if (node->identify_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
+        send_identity(cfg, node, out, n);
+    }
     return SP_OK;
 }

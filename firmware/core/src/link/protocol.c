@@ -86,7 +86,7 @@ int sp_proto_frame_needs_auth(const sp_can_frame_t *f)
 int sp_proto_command_needs_auth(uint8_t command)
 {
     return command != (uint8_t)SP_CMD_NONE && command != (uint8_t)SP_CMD_STOP && command != (uint8_t)SP_CMD_PARK &&
-           command != (uint8_t)SP_CMD_ESTOP;
+           command != (uint8_t)SP_CMD_ESTOP && command != SP_CMD_IDENTIFY;
 }
 
 sp_status_t sp_proto_sign(sp_can_frame_t *f, const sp_auth_key_t *key, uint32_t session, uint32_t counter)

@@ -25,8 +25,8 @@
  *    sends each cycle's feedback just before its SYNC, which closes the cycle:
  *    feedback for the next tick is held until that SYNC arrives.
  *  - Command authentication (sp/link/auth.h, docs/explanation/security.md): OP_TARGET_POSE,
- *    OP_FORCE, OP_FORCE_PARAMS and every OP_COMMAND but NONE, STOP, PARK
- *    and ESTOP (sp_proto_frame_needs_auth) must carry a code that checks under the machine key with this session and
+ *    OP_FORCE, OP_FORCE_PARAMS and every OP_COMMAND but NONE, STOP, PARK,
+ *    ESTOP and IDENTIFY (sp_proto_frame_needs_auth) must carry a code that checks under the machine key with this session and
  *    a counter after the last accepted; the check comes right after the
  *    CRC and ranges, before the alive counter, so that a stranger's frames
  *    change nothing but the counts. Rejected: SP_PROTO_AUTH_BAD_TAG,
@@ -36,6 +36,12 @@
  *    last accepted counter and the rejection counts, ahead of CTRL_STATUS.
  *  - CTRL_STATUS, CTRL_MONITOR and CTRL_WRENCH carry the tick of the setpoints they go
  *    with (the SYNC tick in lockstep), so that a log lines them up.
+ *  - OP_COMMAND IDENTIFY (any state, no authentication, taken like a stop
+ *    whatever its alive counter) is answered by one CTRL_IDENTITY on the
+ *    next tick, or the one after when the next sends CTRL_AUTH (so that no
+ *    tick sends more than SP_NODE_MAX_TX frames); requests before the
+ *    answer share it. It never reaches the controller: no command slot, no
+ *    refusal. Without a request nothing is sent.
  */
 #ifndef SP_NODE_H
 #define SP_NODE_H
@@ -52,6 +58,7 @@ typedef struct {
     const sp_auth_key_t *auth_key; /**< the machine key (copied by sp_node_init); NULL: none, every
                                         authenticated command is refused (SP_PROTO_AUTH_NO_KEY) */
     uint32_t auth_session;         /**< this session's value (drawn at start-up by the port) */
+    uint8_t port;                  /**< sp_port_id_t: the target CTRL_IDENTITY names (set by the port) */
 } sp_node_config_t;
 
 typedef struct {
@@ -86,6 +93,8 @@ typedef struct {
     uint8_t tx_counter_status;
     uint8_t tx_counter_monitor;
     uint8_t tx_counter_wrench;
+    uint8_t tx_counter_identity;
+    uint8_t identify_pending;           /**< an IDENTIFY came: CTRL_IDENTITY goes out on the next tick that has room */
     uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
     uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
     uint8_t sync_valid;                 /**< a SYNC has been sent or received */
@@ -110,7 +119,8 @@ typedef struct {
 } sp_node_t;
 
 /** Defaults for a platform: sp_ctrl_default_config, sync_master = 1, no
- *  authentication key (auth_key NULL, auth_session 0). */
+ *  authentication key (auth_key NULL, auth_session 0), port
+ *  SP_PORT_UNSPECIFIED. */
 sp_status_t sp_node_default_config(sp_node_config_t *cfg, const sp_platform_t *platform);
 
 /** Resets the node and its controller (IDLE, no faults, counters at 0);
@@ -124,8 +134,8 @@ sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg);
  * NULL); SP_E_ARG for NULL pointers. Frames the controller does not consume
  * (its own transmissions, other nodes' traffic) are SP_PROTO_UNKNOWN_ID.
  * Nothing in a rejected frame reaches the controller. One exception to the
- * alive-counter check: an OP_COMMAND ESTOP, STOP or PARK with a valid CRC
- * is used even when its counter repeats or jumps (a second operator
+ * alive-counter check: an OP_COMMAND ESTOP, STOP, PARK or IDENTIFY with a
+ * valid CRC is used even when its counter repeats or jumps (a second operator
  * process, a resent emergency stop, another node: these carry no
  * authentication code either); refusing a stop is never the safe side.
  */

@@ -43,6 +43,7 @@
 #define SP_ID_CTRL_MONITOR 0x101u
 #define SP_ID_CTRL_WRENCH 0x102u
 #define SP_ID_CTRL_AUTH 0x103u
+#define SP_ID_CTRL_IDENTITY 0x104u
 #define SP_AXIS_SLOTS 3u
 
 /** Why a frame was rejected. */
@@ -97,7 +98,7 @@ typedef struct {
 } sp_msg_feedback_t;
 
 typedef struct {
-    uint8_t command;    /**< sp_cmd_type_t, or 9 = SET_FEEDFORWARD (0..SP_CMD_WIRE_MAX) */
+    uint8_t command;    /**< sp_cmd_type_t, or SET_FEEDFORWARD, IDENTIFY (0..SP_CMD_WIRE_MAX) */
     uint8_t axis;       /**< sp_axis_t */
     sp_q24_t amplitude; /**< m or rad, Q24 */
     sp_q24_t frequency; /**< Hz, Q24 */
@@ -106,8 +107,12 @@ typedef struct {
 } sp_msg_command_t;
 
 #define SP_CMD_SET_FEEDFORWARD 9u
-/** The largest Command value of OP_COMMAND (TARE, 13; FORCE..TARE are sp_cmd_type_t's 10..13). */
-#define SP_CMD_WIRE_MAX 13u
+/** OP_COMMAND IDENTIFY: the node answers it with one CTRL_IDENTITY and hands
+ *  the controller nothing (its value, 14, is no sp_cmd_type_t on the wire:
+ *  SP_CMD_FORCE_PARAMS is the node's own). Needs no authentication. */
+#define SP_CMD_IDENTIFY 14u
+/** The largest Command value of OP_COMMAND (IDENTIFY, 14; FORCE..TARE are sp_cmd_type_t's 10..13). */
+#define SP_CMD_WIRE_MAX 14u
 
 /** OP_FORCE: force control's selection and target (the admittance parameters
  *  are the controller's configured ones). */
@@ -207,6 +212,35 @@ sp_status_t sp_proto_encode_auth(const sp_msg_auth_t *m, uint8_t counter, sp_can
  *  or length and a bad CRC; SP_E_ARG on NULL. */
 sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint8_t *counter, sp_proto_error_t *error);
 
+/** CTRL_IDENTITY Port: the target a port is built for (sp_node_config_t.port). */
+typedef enum {
+    SP_PORT_UNSPECIFIED = 0, /**< a port that does not say */
+    SP_PORT_HOST = 1,        /**< the Linux SocketCAN port (sp_controller) */
+    SP_PORT_STM32G474 = 2    /**< the NUCLEO-G474RE board port */
+} sp_port_id_t;
+
+/** CTRL_IDENTITY: what the controller is, sent once per OP_COMMAND IDENTIFY. */
+typedef struct {
+    uint8_t major;          /**< SP_VERSION_MAJOR (sp/math/version.h) */
+    uint8_t minor;          /**< SP_VERSION_MINOR */
+    uint8_t patch;          /**< SP_VERSION_PATCH */
+    uint8_t port;           /**< sp_port_id_t */
+    uint32_t protocol_hash; /**< sp_proto_dbc_hash of the firmware's DBC */
+} sp_msg_identity_t;
+
+/** The protocol the core was built from: the first 4 bytes, big-endian, of
+ *  the SHA-256 of protocol/stewart.dbc (generated with the codec). */
+extern const uint32_t sp_proto_dbc_hash;
+
+/** CTRL_IDENTITY (ID 0x104, 12 bytes, ops bus, CRC-8). SP_E_ARG on NULL or
+ *  a port outside sp_port_id_t. */
+sp_status_t sp_proto_encode_identity(const sp_msg_identity_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/** CTRL_IDENTITY -> its values. Rejects (SP_E_FRAME, *error) a wrong
+ *  identifier or length, a bad CRC and an unknown port; SP_E_ARG on NULL. */
+sp_status_t sp_proto_decode_identity(const sp_can_frame_t *f, sp_msg_identity_t *m, uint8_t *counter,
+                                     sp_proto_error_t *error);
+
 /** Where an authenticated message (OP_COMMAND, OP_TARGET_POSE, OP_FORCE,
  *  OP_FORCE_PARAMS) keeps its authentication fields: byte offsets generated
  *  from the DBC. */
@@ -223,7 +257,8 @@ sp_status_t sp_proto_auth_layout(uint32_t id, sp_proto_auth_layout_t *lay);
 
 /** 1 when OP_COMMAND's Command `command` must be authenticated: every
  *  command but NONE (does nothing), STOP, PARK and ESTOP (never refused for
- *  authentication: any node may stop the platform); 0 otherwise. */
+ *  authentication: any node may stop the platform) and IDENTIFY (reads
+ *  only); 0 otherwise. */
 int sp_proto_command_needs_auth(uint8_t command);
 
 /** 1 when frame `f` must carry a valid authentication code: its identifier
