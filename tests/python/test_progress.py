@@ -20,7 +20,7 @@ def test_accuracy_shows_progress_unless_quiet(capsys):
 
 def test_the_long_commands_take_quiet():
     commands = cli.build_parser()._subparsers._group_actions[0].choices
-    for name in ("accuracy", "faults", "analyze", "demo"):
+    for name in ("accuracy", "faults", "analyze", "demo", "paper", "identify"):
         assert "--quiet" in commands[name]._option_string_actions and "-q" in commands[name]._option_string_actions
 
 
@@ -42,3 +42,10 @@ def test_a_line_per_step_or_a_bar_on_a_terminal():
     p.advance()
     text = bar.getvalue()
     assert text.count("\r") == 3 and text.endswith("\n") and "[####################] stewart x: runs 2/2" in text
+
+
+def test_paper_figures_counted_on_stderr(tmp_path, capsys):
+    assert cli.main(["paper", "--out", str(tmp_path)]) == 0
+    out, err = capsys.readouterr()
+    assert "figures 0/2" in err and "figures 2/2" in err
+    assert out.count("core vs float64") == 2 and "figures" not in out

@@ -31,7 +31,7 @@ import json
 import sys
 from pathlib import Path
 
-from .. import resources
+from .. import progress, resources
 
 PROG = "stewart identify"
 
@@ -65,6 +65,8 @@ def _identify(args) -> int:
         return _err(str(exc), 2)
     if args.half_window < args.order or args.order < 2:
         return _err("--half-window must be >= --order >= 2", 2)
+    if not args.quiet:
+        print(f"{PROG}: decoding {args.log} and fitting the parameters", file=sys.stderr, flush=True)
     try:
         res = idf.identify_log(args.log, platform, buses=args.bus, min_rate=args.min_leg_rate,
                                half=args.half_window, order=args.order)
@@ -123,6 +125,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("identify", help="payload and friction from a logged run; or an excitation scenario",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--log", help="CAN log of a closed-loop run (candump -L)")
+    progress.add_quiet(p)
     p.add_argument("--out", help="the identified config to write (JSON)")
     p.add_argument("--scenario", metavar="OUT.txt", help="write an excitation scenario (and its CSV)")
     p.add_argument("--config", default=str(resources.default_platform()),

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import resources
+from .. import progress, resources
 from .. import config as cfg
 from .. import model
 from ..core import Core
@@ -129,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
          "Fig. 5: yaw, 0.09 rad, 0.5 Hz (fixed-point core; dashed: float64 model)"),
     ]
     bad = 0
+    steps = progress.Progress("stewart paper", "figures", len(figures), quiet=args.quiet)
     for name, axis, amp, xlabel, xscale, title in figures:
         rows = compute(platform, core, axis, amp)
         bad += sum(1 for r in rows if r["status"] != "ok")
@@ -137,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
         ds, df = max_difference(rows)
         print(f"{name}: {len(rows)} samples -> {out / (name + '.png')}, {out / (name + '.csv')}; "
               f"core vs float64: stretch {ds * 1e6:.3f} um, force {df:.4f} N")
+        steps.advance(note=name)
     return 1 if bad else 0
 
 
@@ -146,4 +148,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--config", default=str(resources.default_platform()),
                    help="platform config JSON (default: config/platform_default.json)")
     p.add_argument("--out", default="out/paper", help="output directory (default: out/paper)")
+    progress.add_quiet(p)
     p.set_defaults(func=run)
