@@ -48,4 +48,4 @@ def test_paper_figures_counted_on_stderr(tmp_path, capsys):
     assert cli.main(["paper", "--out", str(tmp_path)]) == 0
     out, err = capsys.readouterr()
     assert "figures 0/2" in err and "figures 2/2" in err
-    assert out.count("core vs float64") == 2 and "figures" not in out
+    assert out.count("core vs float64") == 2 and "figures 2/2" not in out
