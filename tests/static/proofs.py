@@ -32,12 +32,19 @@ HERE = os.path.join(ROOT, "tests", "static")
 CPP = ("-I{r}/firmware/core/include -I{r}/firmware/core/src -include stdint.h -include stdbool.h "
        "-include stddef.h -include limits.h -include string.h").format(r=ROOT)
 BASE = ["frama-c", "-machdep", "x86_32", f"-cpp-extra-args={CPP}"]
+# Each target: its files (a harness in tests/static/eva/ last) and the EVA
+# options that keep its alarms to the false positives of eva_alarms.json in
+# a few seconds. lu6 is not in ctest yet: its alarms are not all justified.
+SPLIT = ["-eva", "-eva-split-return", "auto", "-eva-precision"]
 EVA = {
-    "fixed": ["firmware/core/src/math/fixed.c", "firmware/core/src/math/status.c", "tests/static/eva/fixed_main.c"],
-    "link": ["firmware/core/src/link/e2e.c", "firmware/core/src/link/auth.c", "firmware/core/src/math/status.c",
-             "tests/static/eva/link_main.c"],
+    "fixed": (["firmware/core/src/math/fixed.c", "firmware/core/src/math/status.c", "tests/static/eva/fixed_main.c"],
+              SPLIT + ["5"]),
+    "link": (["firmware/core/src/link/e2e.c", "firmware/core/src/link/auth.c", "firmware/core/src/math/status.c",
+              "tests/static/eva/link_main.c"],
+             SPLIT + ["1", "-eva-slevel-function", "sp_auth_tag:200,sp_e2e_crc:200"]),
+    "lu6": (["firmware/core/src/model/lu6.c", "firmware/core/src/math/fixed.c", "firmware/core/src/math/status.c",
+             "tests/static/eva/lu6_main.c"], SPLIT + ["3"]),
 }
-EVA_OPTS = ["-eva", "-eva-precision", "5", "-eva-split-return", "auto"]
 WP_FUNCS = "sp_sat32,sp_add,sp_sub,sp_neg,sp_abs"
 ALARM = re.compile(r"^\[eva:alarm\] (\S+?):(\d+): Warning:\s*\n\s*(.+?)\.", re.M)
 
@@ -52,7 +59,8 @@ def run(cmd, limit, env=None):
 
 
 def eva(target, limit):
-    res, dt = run(BASE + EVA[target] + EVA_OPTS, limit)
+    files, opts = EVA[target]
+    res, dt = run(BASE + [os.path.join(ROOT, f) for f in files] + opts, limit)
     out = res.stdout + res.stderr
     if res.returncode != 0 or "ANALYSIS SUMMARY" not in out:
         sys.exit(f"eva {target}: frama-c failed ({res.returncode}):\n{out[-3000:]}")
@@ -63,12 +71,13 @@ def eva(target, limit):
         key = f"{os.path.relpath(os.path.join(ROOT, m.group(1)), ROOT)}:{m.group(2)}: {m.group(3)}"
         found[key] = found.get(key, 0) + 1
     with open(os.path.join(HERE, "eva_alarms.json"), encoding="utf-8") as f:
-        record = json.load(f)[target]
+        record = json.load(f).get(target, {})
     bad = [f"{k}: {n} alarm(s) not justified in eva_alarms.json" for k, n in sorted(found.items())
            if record.get(k, {}).get("count") != n]
     bad += [f"{k}: justified but no longer raised" for k in sorted(record) if k not in found]
     stmts = re.search(r"(\d+) statements reached \(out of (\d+)\)", out)
-    print(f"eva {target}: {sum(found.values())} alarms, {len(found)} places, all justified: {not bad}; "
+    print(f"eva {target}: {sum(found.values())} alarms at {len(found)} places, "
+          f"{sum(e['count'] for e in record.values())} justified as false positives; "
           f"{stmts.group(1)} of {stmts.group(2)} statements reached; {dt:.1f} s")
     for b in bad:
         print(f"eva {target}: {b}")
@@ -79,7 +88,7 @@ def wp(limit):
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, WHY3CONFIG=os.path.join(tmp, "why3.conf"))
         subprocess.run(["why3", "config", "detect"], env=env, capture_output=True, check=True)
-        cmd = BASE + ["firmware/core/src/math/fixed.c", "-inline-calls", "set_flag,spi_round_away", "-wp",
+        cmd = BASE + [os.path.join(ROOT, "firmware/core/src/math/fixed.c"), "-inline-calls", "set_flag,spi_round_away", "-wp",
                       "-wp-fct", WP_FUNCS, "-wp-rte", "-wp-prover", "z3", "-wp-timeout", "20", "-wp-par", "2",
                       "-wp-session", os.path.join(tmp, "wp")]
         res, dt = run(cmd, limit, env)
