@@ -419,8 +419,11 @@ static int64_t mul64_wide(int64_t x, int32_t k, unsigned shift, sp_flags_t *flag
         q = (s2 == 0u) ? hi : (hi >> s2);
         rem = ((s2 == 0u) ? 0u : ((hi & ((UINT64_C(1) << s2) - 1u)) << 32)) | lo32;
     } else {
-        if ((hi >> (32u + shift)) != 0u) {
+        if (shift > 0u && (hi >> (64u - 32u + shift)) != 0u) {
             q = UINT64_MAX; /* product / 2^shift >= 2^64 */
+            rem = 0u;
+        } else if (shift == 0u && (hi >> 32) != 0u) {
+            q = UINT64_MAX;
             rem = 0u;
         } else {
             q = (hi << (32u - shift)) | (lo32 >> shift);
