@@ -13,6 +13,7 @@ apt_packages=(
   gcc-arm-none-eabi libnewlib-arm-none-eabi libnewlib-dev qemu-system-arm
   user-mode-linux kmod can-utils iproute2 patchelf
   clang libclang-rt-14-dev clang-format
+  cppcheck clang-tidy frama-c-base why3 z3
 )
 missing=()
 for p in "${apt_packages[@]}"; do

@@ -64,7 +64,7 @@ __attribute__((section(".vectors"), used)) static const sp_g4_vector_t sp_g4_vec
 /* clang-format off */
     /* device interrupts 0..101 (entries 16..117): only FDCAN2/3 line 0,
      * and only in the CANopen image (fdcan.c); the rest is never enabled */
-#define V4(n) [n] = sp_g4_unexpected, [n + 1] = sp_g4_unexpected, [n + 2] = sp_g4_unexpected, [n + 3] = sp_g4_unexpected
+#define V4(n) [(n)] = sp_g4_unexpected, [(n) + 1] = sp_g4_unexpected, [(n) + 2] = sp_g4_unexpected, [(n) + 3] = sp_g4_unexpected
     V4(16), V4(20), V4(24), V4(28), V4(32), V4(36), V4(40), V4(44), V4(48), V4(52), V4(56), V4(60), V4(64),
     V4(68), V4(72), V4(76), V4(80), V4(84), V4(88), V4(92), V4(96),
     [100] = sp_g4_unexpected, [101] = sp_g4_unexpected,

@@ -28,8 +28,6 @@ static const int32_t fric_exp_table[FRIC_EXP_STEPS] = {
 /* |dphi| (N, Q8) below which the damping term's clamps cannot act: 2^23
  * (32,768 N) */
 #define FRIC_DPHI_SMALL (INT64_C(1) << 23)
-/* largest |bristle deflection step| carried into the damping term, Q36 m (64 m) */
-#define FRIC_DZ_MAX_Q36 (INT64_C(1) << 42)
 
 /* sp_fric_exp_neg's body, inline in the leg step (its two calls a leg
  * are most of a moving tick's exps: no call, no saved registers). */

@@ -66,22 +66,47 @@ typedef uint32_t sp_flags_t;
  */
 sp_status_t sp_flags_status(sp_flags_t flags);
 
+/*@ logic integer SP_SAT32(integer v) = (v > INT32_MAX ? INT32_MAX : (v < INT32_MIN ? INT32_MIN : v));
+  @*/
+
 /**
  * Narrow an int64 to int32. Values outside [INT32_MIN, INT32_MAX] saturate
  * to the nearer extreme and set SP_FLAG_OVERFLOW.
  */
+/*@ requires flags == \null || \valid(flags);
+  @ assigns *flags;
+  @ ensures \result == SP_SAT32(v);
+  @ ensures flags != \null && (v > INT32_MAX || v < INT32_MIN) ==> *flags == (\old(*flags) | SP_FLAG_OVERFLOW);
+  @ ensures flags != \null && INT32_MIN <= v <= INT32_MAX ==> *flags == \old(*flags);
+  @*/
 int32_t sp_sat32(int64_t v, sp_flags_t *flags);
 
 /** a + b, any common Q format. Saturates (SP_FLAG_OVERFLOW) on overflow. */
+/*@ requires flags == \null || \valid(flags);
+  @ assigns *flags;
+  @ ensures \result == SP_SAT32(a + b);
+  @*/
 int32_t sp_add(int32_t a, int32_t b, sp_flags_t *flags);
 
 /** a - b, any common Q format. Saturates (SP_FLAG_OVERFLOW) on overflow. */
+/*@ requires flags == \null || \valid(flags);
+  @ assigns *flags;
+  @ ensures \result == SP_SAT32(a - b);
+  @*/
 int32_t sp_sub(int32_t a, int32_t b, sp_flags_t *flags);
 
 /** -a. -INT32_MIN saturates to INT32_MAX (SP_FLAG_OVERFLOW). */
+/*@ requires flags == \null || \valid(flags);
+  @ assigns *flags;
+  @ ensures \result == SP_SAT32(-a);
+  @*/
 int32_t sp_neg(int32_t a, sp_flags_t *flags);
 
 /** |a|. |INT32_MIN| saturates to INT32_MAX (SP_FLAG_OVERFLOW). */
+/*@ requires flags == \null || \valid(flags);
+  @ assigns *flags;
+  @ ensures \result == SP_SAT32(\abs(a));
+  @*/
 int32_t sp_abs(int32_t a, sp_flags_t *flags);
 
 /**

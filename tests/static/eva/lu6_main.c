@@ -1,0 +1,41 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+/*
+ * EVA harness of the 6x6 solver (firmware/core/src/model/lu6.c): the
+ * factorisation (whole and in two stages) and the three solves of
+ * sp/model/lu6.h, on a Jacobian and a right-hand side of arbitrary entries
+ * (every int32 entry, every int64 value of b), either orientation. EVA
+ * reports any signed overflow, invalid shift, division by zero or
+ * out-of-bounds access it cannot rule out.
+ */
+#include "__fc_builtin.h"
+#include "sp/model/lu6.h"
+
+int main(void)
+{
+    sp_jacobian_t m;
+    sp_lu6_t lu;
+    sp_lu6_stage_t part;
+    int64_t b[SP_LEGS];
+    int64_t x[SP_LEGS];
+    int transpose = Frama_C_nondet(0, 1);
+    volatile int sink;
+    unsigned i;
+    unsigned j;
+
+    for (i = 0u; i < SP_LEGS; ++i) {
+        for (j = 0u; j < 6u; ++j) {
+            m.j[i][j] = Frama_C_int_interval(INT32_MIN, INT32_MAX);
+        }
+        b[i] = Frama_C_long_long_interval(INT64_MIN, INT64_MAX);
+    }
+    sink = sp_solve6(&m, transpose, b, x);
+    if (sp_lu6_factor(&m, transpose, &lu) == SP_OK) {
+        sink = sp_lu6_solve(&lu, b, x);
+        sink = sp_lu6_solve_grow(&lu, b, x);
+        sink = sp_lu6_solve_transposed(&lu, b, x);
+    }
+    if (sp_lu6_factor_begin(&m, transpose, &part) == SP_OK) {
+        sink = sp_lu6_factor_end(&part, &lu);
+    }
+    return 0;
+}
