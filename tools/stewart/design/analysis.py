@@ -81,23 +81,26 @@ def wrench_capacity(platform, duty, poses, static, push_cap, pull_cap) -> dict:
 
 
 def hydraulic_part(platform, duty, poses, ef: dict) -> dict:
+    """Flows (the envelope's and the trajectories' peaks), supply, valve and
+    pressure margins."""
     a_a, a_b = hydraulics.areas(platform)
-    rate = ef["rate_max"]
-    flow_leg = (a_a * rate).max(axis=0)
-    supply = hydraulics.supply_flow(platform, ef["jacobian"], duty.velocity)
-    push = ef["push"].max(axis=0)
-    v = hydraulics.valve(platform, flow_leg, push)
-    h = platform.hydraulic
-    mean = [float(2.0 / math.pi * q) for q in flow_leg]
+    rate = ef["rate_max"].max(axis=0)
+    supply = float(hydraulics.supply_flow(platform, ef["jacobian"], duty.velocity).max())
+    mean = [float(2.0 / math.pi * a_a * r) for r in rate]
     src = "sinusoidal motion at the peak velocity (2/pi of the peak)"
     if duty.trajectories:
-        means = [np.abs(np.where(r > 0, a_a * r, -a_b * r)).mean(axis=0)
-                 for t in duty.trajectories for r in [_traj_rates(platform, t)]]
-        mean = np.max(means, axis=0).tolist()
+        rates = [_traj_rates(platform, t) for t in duty.trajectories]
+        flows = [np.where(r > 0, a_a * r, -a_b * r) for r in rates]
+        rate = np.maximum(rate, np.max([np.abs(r).max(axis=0) for r in rates], axis=0))
+        supply = max(supply, float(max(f.sum(axis=1).max() for f in flows)))
+        mean = np.max([f.mean(axis=0) for f in flows], axis=0).tolist()
         src = "the trajectories (largest mean)"
-    return {"rate_max_per_leg": rate.max(axis=0).tolist(), "flow_peak_per_leg": flow_leg.tolist(),
+    flow_leg = a_a * rate
+    v = hydraulics.valve(platform, flow_leg, ef["push"].max(axis=0))
+    h = platform.hydraulic
+    return {"rate_max_per_leg": rate.tolist(), "flow_peak_per_leg": flow_leg.tolist(),
             "flow_mean_per_leg": mean, "flow_mean_source": src,
-            "supply_flow_peak": float(supply.max()), "supply_power_peak": float(supply.max() * h["supply_pressure"]),
+            "supply_flow_peak": supply, "supply_power_peak": supply * h["supply_pressure"],
             "valve_rated_flow_needed": float(np.max(v["rated_flow_needed"])),
             "valve_rated_flow": h["valve_rated_flow"], "valve_rated_pressure_drop": h["valve_rated_pressure_drop"],
             "pressure_margin_per_leg": v["pressure_margin"].tolist()}
