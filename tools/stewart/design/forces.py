@@ -137,10 +137,16 @@ def friction_bound(platform, rate_max: np.ndarray) -> np.ndarray:
     return np.abs(model.friction_force(platform, rate_max))
 
 
-def envelope_forces(platform, duty, poses: np.ndarray) -> dict:
+def envelope_forces(platform, duty, poses: np.ndarray, chunk: int = 2048) -> dict:
     """Worst push and pull of each cylinder at each pose over the envelope's
     velocities and accelerations, both payload masses: (n, 6) arrays, N;
-    ``push``/``pull`` include friction, the ``static`` forces do not."""
+    ``push``/``pull`` include friction, the ``static`` forces do not.
+    Computed ``chunk`` poses at a time to bound the memory."""
+    parts = [_envelope_chunk(platform, duty, poses[s:s + chunk]) for s in range(0, poses.shape[0], chunk)]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _envelope_chunk(platform, duty, poses: np.ndarray) -> dict:
     jac = rate_jacobian(platform, poses)
     rate_max = linear_max(jac, duty.velocity, duty.combined, "linear_velocity", "angular_velocity")
     fric = friction_bound(platform, rate_max)

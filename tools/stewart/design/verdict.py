@@ -39,7 +39,7 @@ def _force_items(platform, duty, f: dict, traj: list) -> list:
     for t in traj:
         tp = max(t["chamber_max"] / push_cap, -t["chamber_min"] / pull_cap)
         out.append(_item(f"trajectory {t['name']}: forces within the cylinders", _spare(1.0, tp), "relative",
-                         f"peak chamber force {t['chamber_max'] / 1e3:.1f} kN push, {-t['chamber_min'] / 1e3:.1f} kN pull"))
+                         f"peak chamber force {t['chamber_max'] / 1e3:.1f} kN push, {max(0.0, -t['chamber_min']) / 1e3:.1f} kN pull"))
     return out
 
 
