@@ -93,3 +93,12 @@ def test_new_config_keys_are_validated(edit, message):
     edit(d)
     with pytest.raises(cfg.ConfigError, match=message):
         cfg.from_dict(d)
+
+
+def test_the_example_duty_and_sweep_are_valid():
+    from stewart.design import duty as duty_mod
+    from stewart.design import sweep
+
+    d = duty_mod.load(REPO_ROOT / "config" / "duty_example.json")
+    assert d.mass_max == 600 and len(d.trajectories) == 1 and d.trajectories[0].t.size == 201
+    assert len(sweep.read_spec(REPO_ROOT / "config" / "sweep_example.json", cfg.load(CONFIG))) == 720

@@ -114,15 +114,21 @@ def mass_matrix(platform, lg: limits.Legs) -> np.ndarray:
     return mm + np.einsum("...iaj,...iab,...ibk->...jk", g, m_leg, g)
 
 
-def natural_frequencies(platform, poses: np.ndarray) -> np.ndarray:
-    """(..., 6) natural frequencies (Hz, ascending) of the platform on its
-    oil columns: K = A diag(k) A^T through the force transformation A, and
-    the mass matrix, K phi = w^2 M phi."""
+def modes(platform, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Natural frequencies (..., 6) (Hz, ascending) and mode shapes
+    (..., 6, 6) (columns, twists [dx; dtheta], mass-normalised) of the
+    platform on its oil columns: K = A diag(k) A^T through the force
+    transformation A, and the mass matrix, K phi = w^2 M phi."""
     lg = limits.legs(platform, poses)
     a = limits.force_matrix(lg)
     k = column_stiffness(platform, lg.lengths)
     kk = np.einsum("...ij,...j,...kj->...ik", a, k, a)
     chol = np.linalg.cholesky(mass_matrix(platform, lg))
     li = np.linalg.inv(chol)
-    w2 = np.linalg.eigvalsh(li @ kk @ np.swapaxes(li, -1, -2))
-    return np.sqrt(np.maximum(w2, 0.0)) / (2.0 * math.pi)
+    w2, vec = np.linalg.eigh(li @ kk @ np.swapaxes(li, -1, -2))
+    return np.sqrt(np.maximum(w2, 0.0)) / (2.0 * math.pi), np.swapaxes(li, -1, -2) @ vec
+
+
+def natural_frequencies(platform, poses: np.ndarray) -> np.ndarray:
+    """(..., 6) natural frequencies (Hz, ascending): ``modes``' frequencies."""
+    return modes(platform, poses)[0]
