@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         if args.sweep:
             return _sweep(platform, duty, args, Path(args.out))
         return _report(platform, duty, Path(args.out))
-    except (cfg.ConfigError, duty_mod.DutyError, MissingKey, OSError) as e:
+    except (cfg.ConfigError, duty_mod.DutyError, MissingKey, OSError, RuntimeError) as e:
         print(f"stewart design: {e}", file=sys.stderr)
         return 2
 

@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-from . import forces, hydraulics, limits, workspace
+from .. import model
+from . import forces, hydraulics, limits, verdict, workspace
 
 DIRECTIONS = ["+Fx", "-Fx", "+Fy", "-Fy", "+Fz", "-Fz", "+Mx", "-Mx", "+My", "-My", "+Mz", "-Mz"]
 
@@ -107,8 +108,6 @@ def hydraulic_part(platform, duty, poses, ef: dict) -> dict:
 
 
 def _traj_rates(platform, t) -> np.ndarray:
-    from .. import model
-
     return model.joint_motion(platform, t.pose, t.vel[:, :3], t.vel[:, 3:], t.acc[:, :3], t.acc[:, 3:]).rates
 
 
@@ -160,8 +159,6 @@ def run(platform, duty, full: bool = True, points: int | None = None) -> dict:
     anything when the config lacks a key. ``full=False`` leaves out the
     workspace maps (what a sweep's candidate needs), ``points`` overrides
     the envelope grid's points per axis."""
-    from . import verdict
-
     check_config(platform)
     poses = workspace.envelope_poses(platform, duty, points)
     result = {"platform": platform.name, "config": platform.source, "duty": duty.source,

@@ -159,7 +159,10 @@ def _numbers(r: dict) -> list:
         ("lowest natural frequency", f"{s['lowest_hz']:.2f} Hz at pose {s['lowest_pose']}"),
         ("natural frequencies at home", ", ".join(f"{v:.1f}" for v in s["home_hz"]) + " Hz"),
         ("position loop bandwidth (2 zeta f_min)", f"{s['bandwidth_hz']:.2f} Hz with zeta = {s['loop_damping']:g}"),
-        ("condition number, largest (home plane)", f"{r['workspace']['conditioning']['cond_max']:.2f}"),
+        ("condition number, largest (home plane / envelope)",
+         f"{r['workspace']['conditioning']['cond_max']:.2f} / {r['envelope']['cond_max']:.2f}"),
+        ("smallest singular value (home plane / envelope)",
+         f"{r['workspace']['conditioning']['smin_min']:.3f} / {r['envelope']['smin_min']:.3f}"),
     ] + [(f"constant-orientation volume at {sl['rpy']}", f"{sl['volume_m3']:.4f} m^3")
          for sl in r["workspace"]["slices"]]
 

@@ -125,7 +125,7 @@ def envelope_check(platform, duty, poses: np.ndarray) -> dict:
 def conditioning_map(platform, rpy, step: float) -> dict:
     """Condition number and smallest singular value over the reachable
     x-y plane at home height and orientation ``rpy``."""
-    centre = np.concatenate([platform.home[:2], [platform.home[2]], rpy])
+    centre = np.concatenate([platform.home[:3], rpy])
     box = reach_box(platform, centre, range(2), POSITION_REACH, step)
     gx, gy = (axis_grid(lo, hi, step)[0] for lo, hi in box)
     xx, yy = np.meshgrid(gx, gy, indexing="ij")
