@@ -202,3 +202,23 @@ def test_workspace_volume_converges(platform):
     fine = workspace.constant_orientation(platform, [0, 0, 0], 0.04)["volume"]
     assert abs(fine - coarse) <= 0.01 * fine
     assert not workspace.constant_orientation(platform, [0, 0, 0], 0.08)["mask"][0].any()
+
+
+def test_supply_flow_against_sampled_velocities(platform):
+    """The supply's peak flow bounds every sampled velocity's and is
+    reached closely by one."""
+    d = duty_mod.from_dict({"envelope": {"velocity": [0.2, 0.2, 0.15, 0.2, 0.2, 0.2],
+                                         "combined": {"linear_velocity": 0.25, "angular_velocity": 0.2}}})
+    pose = np.array(platform.home) + [0.1, -0.05, 0.05, 0.05, 0.0, 0.1]
+    jac = forces.rate_jacobian(platform, pose[None, :])
+    peak = hydraulics.supply_flow(platform, jac, d)[0]
+    a_a, a_b = hydraulics.areas(platform)
+    rng = np.random.default_rng(11)
+    v = rng.uniform(-1, 1, (400000, 6)) * d.velocity
+    for sl, r in ((slice(0, 3), 0.25), (slice(3, 6), 0.2)):
+        n = np.linalg.norm(v[:, sl], axis=1)
+        v[:, sl] *= np.minimum(1.0, r / n)[:, None]
+    rates = v @ jac[0].T
+    flows = np.where(rates > 0, a_a * rates, -a_b * rates).sum(axis=1)
+    assert flows.max() <= peak + 1e-12
+    assert flows.max() >= 0.97 * peak

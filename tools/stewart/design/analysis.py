@@ -86,7 +86,7 @@ def hydraulic_part(platform, duty, poses, ef: dict) -> dict:
     pressure margins."""
     a_a, a_b = hydraulics.areas(platform)
     rate = ef["rate_max"].max(axis=0)
-    supply = float(hydraulics.supply_flow(platform, ef["jacobian"], duty.velocity).max())
+    supply = float(hydraulics.supply_flow(platform, ef["jacobian"], duty).max())
     mean = [float(2.0 / math.pi * a_a * r) for r in rate]
     src = "sinusoidal motion at the peak velocity (2/pi of the peak)"
     if duty.trajectories:

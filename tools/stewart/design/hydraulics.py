@@ -49,15 +49,17 @@ def sizing(platform, push: float, pull: float, fraction: float) -> dict:
             "bore": h["piston_diameter"], "rod": h["rod_diameter"]}
 
 
-def supply_flow(platform, jac: np.ndarray, vmax) -> np.ndarray:
-    """Largest total flow (m^3/s) at each pose over the velocity box: the
-    flow is convex in the velocity, so its largest value is at a corner."""
+def supply_flow(platform, jac: np.ndarray, duty) -> np.ndarray:
+    """Largest total flow (m^3/s) into the cylinders at each pose over the
+    duty's velocities. Each cylinder takes max(A_A r, -A_B r) at rate r,
+    so the total is the largest over the 64 choices of side of a linear
+    function of the velocity, each maximised exactly (``forces.linear_max``)."""
+    from .forces import linear_max
+
     a_a, a_b = areas(platform)
-    vmax = np.asarray(vmax, dtype=float)
-    corners = np.array(list(itertools.product([-1.0, 1.0], repeat=6))) * vmax
-    rates = np.einsum("nij,cj->nci", jac, corners)
-    q = np.where(rates > 0, a_a * rates, -a_b * rates).sum(axis=-1)
-    return q.max(axis=-1)
+    sides = np.array(list(itertools.product([a_a, -a_b], repeat=6)))
+    coef = np.einsum("sl,nlj->snj", sides, jac)
+    return linear_max(coef, duty.velocity, duty.combined, "linear_velocity", "angular_velocity").max(axis=0)
 
 
 def valve(platform, flow_peak: np.ndarray, push: np.ndarray) -> dict:
