@@ -71,10 +71,11 @@ def ball_box_max(coef: np.ndarray, lim: np.ndarray, radius: float | None) -> np.
     corner = (c * lim).sum(axis=-1)
     if radius is None or np.linalg.norm(lim) <= radius:
         return corner
+    # from lam = hi on every component with c_j > 0 is at its limit
     lo = np.zeros(c.shape[:-1])
-    hi = np.full(c.shape[:-1], 1e12)
-    for _ in range(80):
-        mid = np.sqrt(lo * hi) if np.all(lo > 0) else 0.5 * (lo + hi)
+    hi = np.where(c > 0, lim / np.where(c > 0, c, 1.0), 0.0).max(axis=-1)
+    for _ in range(54):
+        mid = 0.5 * (lo + hi)
         big = np.linalg.norm(np.minimum(mid[..., None] * c, lim), axis=-1) > radius
         hi = np.where(big, mid, hi)
         lo = np.where(big, lo, mid)
