@@ -90,6 +90,19 @@ HYDRAULIC_OPTIONAL_KEYS = {
     "rod_com": (0.0, _Q24_MAX, "m"),
 }
 
+# Optional keys only the designer's tool (``stewart design``) reads: the
+# cylinders' outer diameter, for the legs' clearance from one another.
+HYDRAULIC_DESIGN_KEYS = {
+    "cylinder_outer_diameter": (1e-3, 2.0, "m"),
+}
+
+# Optional ``joints`` section (``stewart design``): the largest angle each
+# passive joint allows between the leg and the leg's direction at home.
+JOINT_KEYS = {
+    "base_cone_max": (1e-3, 1.5, "rad"),
+    "platform_cone_max": (1e-3, 1.5, "rad"),
+}
+
 # Friction per cylinder: one number for all six or a list of six (leg 1
 # first); ``Platform.hydraulic`` holds them as lists of six. The firmware
 # compensates viscous + smoothed Coulomb friction; the plant adds the
@@ -208,6 +221,7 @@ class Platform:
     center_of_mass: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     drives: _layout.Drives = field(default_factory=_layout.native_default)
     force_sensor: dict = field(default_factory=lambda: dict(FORCE_SENSOR_DEFAULT))
+    joints: dict = field(default_factory=dict)
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -511,7 +525,8 @@ def _from_dict(d) -> Platform:
     sens = _sensors(d["sensors"]) if "sensors" in d else {}
     drives = _drives(d, lmin, lmax)
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
-                 wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d))
+                 wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d),
+                 joints=_joints(d.get("joints", {})))
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:
@@ -570,10 +585,25 @@ def _hydraulic(h, lmax: float) -> dict:
                               f"its coulomb_friction {fc:g} N")
     for key, (lo, hi, _unit, default) in FRICTION_SHAPE_KEYS.items():
         hyd[key] = _number(f"hydraulic.{key}", h.get(key, default), lo, hi)
+    for key, (lo, hi, _unit) in HYDRAULIC_DESIGN_KEYS.items():
+        if key in h:
+            hyd[key] = _number(f"hydraulic.{key}", h[key], lo, hi)
+    if hyd.get("cylinder_outer_diameter", math.inf) <= hyd["piston_diameter"]:
+        raise ConfigError("hydraulic.cylinder_outer_diameter: must exceed piston_diameter")
     for key in ("cylinder_com", "rod_com"):
         if hyd[key] > lmax:
             raise ConfigError(f"hydraulic.{key}: {hyd[key]:g} m is beyond leg_length_max {lmax:g}")
     return hyd
+
+
+def _joints(j) -> dict:
+    """The optional ``joints`` section: the joints' cone angles (design only)."""
+    if not isinstance(j, dict):
+        raise ConfigError("joints: expected an object")
+    for key in j:
+        if key not in JOINT_KEYS:
+            raise ConfigError(f"joints.{key}: unknown key (known: {', '.join(sorted(JOINT_KEYS))})")
+    return {key: _number(f"joints.{key}", v, lo, hi) for key, v in j.items() for lo, hi, _u in [JOINT_KEYS[key]]}
 
 
 def _sensors(s) -> dict:
