@@ -40,13 +40,13 @@ cflags=(-std=c99 -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-sanitiz
 core=()
 for src in firmware/core/src/*/*.c "$gen/stewart_can.c" "$gen/stewart_proto.c" "$gen/sp_platform_default.c"; do
   obj="$out/obj/$(basename "${src%.c}").o"
-  clang "${cflags[@]}" -include firmware/core/sp_rules.h -Ifirmware/core/include -Ifirmware/core/src -I"$gen" -c "$src" -o "$obj"
+  clang "${cflags[@]}" -include firmware/core/sp_rules.h -Ifirmware/core/include -I"$gen/include" -Ifirmware/core/src -I"$gen" -c "$src" -o "$obj"
   core+=("$obj")
 done
 link() { # name sources...
   local name=$1
   shift
-  clang "${cflags[@]}" -fsanitize=fuzzer -Ifirmware/core/include -Ihost_sim/include -I"$gen" "$@" "${core[@]}" -lm \
+  clang "${cflags[@]}" -fsanitize=fuzzer -Ifirmware/core/include -I"$gen/include" -Ihost_sim/include -I"$gen" "$@" "${core[@]}" -lm \
     -o "$out/fuzz_$name"
 }
 link node tests/fuzz/fuzz_node.c
