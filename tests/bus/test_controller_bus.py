@@ -77,7 +77,7 @@ def test_controller_frames_decode_and_bad_frames_are_rejected():
         bad_crc = bytearray(good)
         bad_crc[1] ^= 0x40
         out_of_range = bytearray(proto.encode("OP_COMMAND", {"Command": 1}, counter=7))
-        out_of_range[0] = 14  # beyond TARE (13)
+        out_of_range[0] = 15  # beyond IDENTIFY (14), the last command
         out_of_range = e2e.seal(0x40, bytes(out_of_range))
         sends = [bytes(bad_crc), good[:8], good, good, unsigned]  # bad CRC, short, good, repeated, no code
         for data in sends:
