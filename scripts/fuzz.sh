@@ -7,23 +7,31 @@
 #   scenario  the scenario parser and file reader (host_sim/src/scenario/scenario.c, scenario_inject.c)
 #
 #   scripts/fuzz.sh [SECONDS]        each target for SECONDS (default 20)
-#   scripts/fuzz.sh --bench [RUNS]   each target to RUNS inputs (default
-#                                    10^7); prints inputs, time, exec/s,
-#                                    coverage and crashes per target
+#   scripts/fuzz.sh --long [RUNS]    the long run: each target to RUNS inputs
+#                                    (default 10^7); prints inputs, time,
+#                                    exec/s, coverage and crashes per target
+#                                    (--bench is the same)
+#   scripts/fuzz.sh --merge          minimises the kept corpus and what the
+#                                    runs found (libFuzzer -merge=1) into
+#                                    tests/fuzz/corpus/TARGET
 #
-# The corpora start from seeds generated from real inputs (tests/fuzz/
-# make_seeds.py: protocol/test_vectors.json's frames, the demo's scenarios)
-# and grow in build/fuzz/corpus/TARGET. A crash stops its target, leaves the
-# input in build/fuzz/crash-*, and the script fails once every target ran.
+# The corpora start from the kept corpus in the repository
+# (tests/fuzz/corpus/TARGET, read only) and seeds generated from real
+# inputs (tests/fuzz/make_seeds.py: protocol/test_vectors.json's frames,
+# the demo's scenarios), and grow in build/fuzz/corpus/TARGET. A crash
+# stops its target, leaves the input in build/fuzz/crash-*, and the script
+# fails once every target ran.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 mode=time
 secs=20
 runs=10000000
-if [ "${1:-}" = "--bench" ]; then
+if [ "${1:-}" = "--bench" ] || [ "${1:-}" = "--long" ]; then
   mode=bench
   runs=${2:-$runs}
+elif [ "${1:-}" = "--merge" ]; then
+  mode=merge
 elif [ -n "${1:-}" ]; then
   secs=$1
 fi
@@ -68,8 +76,25 @@ declare -A seeds=([node]=frames [plant_bus]=frames [scenario]=scenario)
 declare -A bench_len=([node]=256 [plant_bus]=256 [scenario]=1024)
 failed=0
 table=()
+if [ "$mode" = merge ]; then
+  for t in "${targets[@]}"; do
+    kept="$root/tests/fuzz/corpus/$t"
+    mkdir -p "$kept" "$out/corpus/$t"
+    rm -rf "$out/merge-$t"
+    mkdir -p "$out/merge-$t"
+    "$out/fuzz_$t" -merge=1 -max_len=4096 "$out/merge-$t" "$kept" "$out/corpus/$t" "$out/seeds/${seeds[$t]}" \
+      </dev/null >"$out/merge-$t.log" 2>&1 || {
+      echo "fuzz: merge of $t FAILED: $out/merge-$t.log"
+      exit 1
+    }
+    rm -rf "$kept"
+    mv "$out/merge-$t" "$kept"
+    echo "fuzz: $t: kept corpus $(find "$kept" -type f | wc -l) inputs, $(du -sk "$kept" | cut -f1) KiB on disk"
+  done
+  exit 0
+fi
 for t in "${targets[@]}"; do
-  mkdir -p "$out/corpus/$t"
+  mkdir -p "$out/corpus/$t" "$root/tests/fuzz/corpus/$t"
   if [ "$mode" = bench ]; then
     limit=(-runs="$runs" -max_len="${bench_len[$t]}")
     echo "== fuzz: ${what[$t]} ($t), $runs inputs of at most ${bench_len[$t]} bytes"
@@ -82,7 +107,7 @@ for t in "${targets[@]}"; do
   start=$(date +%s.%N)
   set +e
   "$out/fuzz_$t" "${limit[@]}" -print_final_stats=1 -artifact_prefix="$out/" \
-    "$out/corpus/$t" "$out/seeds/${seeds[$t]}" </dev/null >"$log" 2>&1
+    "$out/corpus/$t" "$root/tests/fuzz/corpus/$t" "$out/seeds/${seeds[$t]}" </dev/null >"$log" 2>&1
   rc=$?
   set -e
   end=$(date +%s.%N)

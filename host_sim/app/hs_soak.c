@@ -721,6 +721,13 @@ static int parse_options(opts_t *o, int argc, char **argv)
     o->ticks = 60000u, o->seed = 1u;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = (i + 1 < argc) ? argv[i + 1] : NULL;
+        if (strcmp(a, "--help") == 0) {
+            printf("usage: hs_soak [--hours H | --seconds S | --ticks N] [--seed S] [--max-wall S] [--wide] "
+                   "[--strict]\n               [--break INVARIANT@TICK] [--trace] [--quiet]\n"
+                   "The randomised soak (docs/explanation/testing.md, \"The soak\"); the options: the head of "
+                   "host_sim/app/hs_soak.c.\n");
+            return -1;
+        }
         int flag = strcmp(a, "--wide") == 0 || strcmp(a, "--trace") == 0 || strcmp(a, "--quiet") == 0 ||
                    strcmp(a, "--strict") == 0;
         if (flag) {
@@ -760,7 +767,7 @@ int main(int argc, char **argv)
     static soak_t s;
     int rc = parse_options(&s.o, argc, argv);
     if (rc != 0 || (rc = setup(&s)) != 0) {
-        return rc;
+        return rc < 0 ? 0 : rc; /* -1: --help */
     }
     (void)sp_host_stop_on_signals(); /* SIGINT/SIGTERM: stop and print the summary */
     int64_t t0 = sp_host_now_ns();
