@@ -82,8 +82,11 @@ typedef struct {
     int ft_silent;
     sp_can_frame_t last_signed; /* the last signed command (soak:replay sends it again) */
     int have_signed;
-    int status_state;  /* CTRL_STATUS's state as the operator sees it, -1 none yet */
-    uint64_t ops_seen; /* controller frames the plant side took (counted, decoded or not) */
+    int status_state;        /* CTRL_STATUS's state as the operator sees it, -1 none yet */
+    uint32_t status_faults;  /* ... and its faults */
+    uint8_t hb_counter;      /* OP_HEARTBEAT's alive counter */
+    uint64_t hb_quiet_until; /* `mark soak:quiet`: no heartbeat before this tick */
+    uint64_t ops_seen;       /* controller frames the plant side took (counted, decoded or not) */
     double wrench_from[6], wrench_to[6], push[6];
     uint64_t wrench_start, wrench_ticks, push_start, push_rise, push_hold, push_end;
     uint64_t latched_ticks; /* ticks the operator has seen FAULT or ESTOP in a row */
@@ -169,18 +172,36 @@ static void take_ops(soak_t *s, const sp_can_frame_t *f)
         sp_proto_error_t why;
         if (sp_proto_decode_status(f, &m, &ctr, &why) == SP_OK) {
             s->status_state = m.state;
+            s->status_faults = m.faults;
         }
     }
 }
 
 /* ---- the operator's actions --------------------------------------------- */
 
-/* `mark soak:forge|replay|unsigned`: an ENGAGE signed with a wrong key,
- * the last signed command again, an unsigned RUN_TRIG. */
+/* The operator's heartbeat every 20 ms (the controller's operator link
+ * supervises it from the first one on), unless `mark soak:quiet` paused it. */
+static void heartbeat(soak_t *s)
+{
+    sp_can_frame_t f;
+    if (s->tick % 20u == 0u && s->tick >= s->hb_quiet_until) {
+        (void)sp_proto_encode_heartbeat(s->hb_counter, &f);
+        s->hb_counter = (uint8_t)((s->hb_counter + 1u) & 0x0Fu);
+        to_controller(s, &f, 1u);
+    }
+}
+
+/* `mark soak:forge|replay|unsigned|quiet`: an ENGAGE signed with a wrong
+ * key, the last signed command again, an unsigned RUN_TRIG; the operator's
+ * heartbeat paused for 0.5 s (the operator link's timeout is 0.2 s). */
 static void soak_mark(soak_t *s, const char *what)
 {
     sp_msg_command_t m = {SP_CMD_ENGAGE, 0u, 0, 0, 0u, 0u};
     sp_can_frame_t f;
+    if (strcmp(what, "soak:quiet") == 0) {
+        s->hb_quiet_until = s->tick + 500u;
+        return;
+    }
     s->forged++;
     if (strcmp(what, "soak:replay") == 0 && s->have_signed) {
         f = s->last_signed;
@@ -391,7 +412,8 @@ static int operate(soak_t *s)
     for (int guard = 0; guard <= HS_SCENARIO_MAX_ACTIONS; guard++) {
         if (!s->have_episode) {
             hs_scenario_error_t err;
-            const char *text = soak_gen_episode(&s->gen, s->status_state < 0 ? SP_STATE_IDLE : s->status_state);
+            const char *text =
+                soak_gen_episode(&s->gen, s->status_state < 0 ? SP_STATE_IDLE : s->status_state, s->status_faults);
             if (hs_scenario_parse(&s->scn, text, "soak episode", &err) != HS_OK) {
                 fprintf(stderr, "hs_soak: %s\n%s", err.message, text);
                 return 3;
@@ -585,6 +607,7 @@ static int cycle(soak_t *s)
         return r;
     }
     wrench_now(s);
+    heartbeat(s);
     send_ft(s);
     (void)hs_bus_cycle_frames(&s->bus, &s->plant, (uint32_t)s->tick, 1u, tx, &n);
     to_controller(s, tx, n);

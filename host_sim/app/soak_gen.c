@@ -256,6 +256,15 @@ static void episode_estop(soak_gen_t *g)
     }
 }
 
+/* The operator falls silent during a motion: the operator link stops it
+ * and latches OPERATOR_SILENT, which RESET clears in READY. */
+static void episode_quiet(soak_gen_t *g)
+{
+    put(g, "cmd RUN_TRIG axis=%s amplitude=0.03 frequency=%.3f\n", axis_name[below(g, 6u)], uniform(g, 0.1, 1.0));
+    put(g, "delay %.3f\nmark soak:quiet\ndelay 1\n", uniform(g, 0.2, 2.0));
+    put(g, "cmd RUN_TRIG axis=x amplitude=0.01 frequency=0.5\nwait ready 20\n"); /* refused: latched */
+}
+
 static void episode_park(soak_gen_t *g)
 {
     put(g, "cmd PARK\n");
@@ -291,17 +300,20 @@ static void episode_recover(soak_gen_t *g, int state)
     }
 }
 
-const char *soak_gen_episode(soak_gen_t *g, int state)
+const char *soak_gen_episode(soak_gen_t *g, int state, uint32_t faults)
 {
     g->len = 0;
     g->text[0] = '\0';
     g->episodes++;
+    if ((faults & SP_FAULT_OPERATOR_SILENT) != 0u && (state == SP_STATE_READY || state == SP_STATE_IDLE)) {
+        put(g, "cmd RESET\ndelay 0.1\n"); /* clears the operator link's fault, nothing else */
+    }
     if (state != SP_STATE_READY) {
         episode_recover(g, state);
     } else {
         static void (*const kinds[])(soak_gen_t *) = {
-            episode_trig, episode_trig,    episode_move,  episode_stream, episode_force, episode_guide,
-            episode_load, episode_invalid, episode_fault, episode_fault,  episode_estop, episode_park,
+            episode_trig,    episode_trig,  episode_move,  episode_stream, episode_force, episode_guide, episode_load,
+            episode_invalid, episode_fault, episode_fault, episode_estop,  episode_park,  episode_quiet,
         };
         kinds[below(g, (uint32_t)(sizeof kinds / sizeof kinds[0]))](g);
     }

@@ -8,7 +8,7 @@
  * ranges refuse (forged, replayed and unsigned ones among them: `mark
  * soak:...` lines hs_soak carries out itself), an injected fault during a
  * motion (tools/stewart/faults.py's list and more), an ESTOP, a park and
- * re-engage; from the other states the way back to READY (RESET after a
+ * re-engage, the operator's heartbeat paused during a motion; from the other states the way back to READY (RESET after a
  * fault, ENGAGE when parked), sometimes interrupted. Deterministic: the
  * same seed and states give the same texts.
  */
@@ -33,8 +33,9 @@ typedef struct {
 /** Seeds the generator; no load. */
 void soak_gen_init(soak_gen_t *g, uint64_t seed);
 
-/** The next episode for a controller in `state` (sp_state_t): a scenario
- *  text ending with `end`, valid until the next call. */
-const char *soak_gen_episode(soak_gen_t *g, int state);
+/** The next episode for a controller in `state` (sp_state_t) with latched
+ *  `faults` (SP_FAULT_*): a scenario text ending with `end`, valid until
+ *  the next call. */
+const char *soak_gen_episode(soak_gen_t *g, int state, uint32_t faults);
 
 #endif /* SOAK_GEN_H */
