@@ -33,8 +33,8 @@
  *
  * A violation prints the invariant, the seed, the tick, what was wrong, the
  * episode's text, and the command that replays the run to that tick; exit
- * 1. Exit 0: no violation; 2: usage; 3: an episode the parser refused (a
- * defect of soak_gen.c).
+ * 1. Exit 0: no violation; 2: usage; 3: an episode the parser or the
+ * plant refused (a defect of soak_gen.c); 5: the plant's step failed.
  */
 #define _GNU_SOURCE
 #include <inttypes.h>
