@@ -123,6 +123,22 @@ def check_interface(kwargs: dict[str, Any]) -> None:
         raise BusError(f"unknown interface {interface!r} (python-can knows: {known})")
 
 
+def _check_socketcand(kwargs: dict[str, Any]) -> None:
+    """A clear error at once where no server listens (python-can's client
+    retries for 10 s, logging each try); its warnings about messages split
+    across reads (normal on TCP) kept quiet."""
+    import logging
+    import socket
+
+    logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.ERROR)
+    host, port = kwargs.get("host"), kwargs.get("port")
+    try:
+        socket.create_connection((host, port), timeout=2.0).close()
+    except (OSError, TypeError, ValueError) as e:
+        raise BusError(f"no socketcand server at {host}:{port} ({e}); is `stewart sim` running "
+                       f"(docs/guides/simulator.md)?") from None
+
+
 def open_bus(opts: BusOptions, receive_own_messages: bool = False):
     """Opens the bus; raises :class:`BusError` with a clear message."""
     import can
@@ -130,6 +146,8 @@ def open_bus(opts: BusOptions, receive_own_messages: bool = False):
     kwargs = resolve(opts)
     check_interface(kwargs)
     interface = kwargs["interface"]
+    if interface == "socketcand":
+        _check_socketcand(kwargs)
     try:
         return can.Bus(receive_own_messages=receive_own_messages, **kwargs)
     except can.CanInterfaceNotImplementedError as e:

@@ -129,7 +129,8 @@ def _status(st: dict, as_json: bool) -> int:
     for e in st.get("events", [])[-5:]:
         print(f"event: {e}")
     r = st.get("relay", {})
-    print(f"relay: {r.get('to_host', 0)} frames to the host, {r.get('from_host', 0)} from it; "
+    print(f"relay: {r.get('to_host', 0)} frames to the host ({r.get('dropped', 0)} dropped), "
+          f"{r.get('from_host', 0)} from it ({st.get('link_dropped', 0)} dropped); "
           f"buses listened to: {', '.join(r.get('subscribed', [])) or 'none'}")
     return 0
 

@@ -14,6 +14,9 @@ One message a line, the first word its kind:
 ``C N JSON`` / ``R N JSON``
     a control request (``{"op": "inject", "line": ...}``, ``{"op":
     "status"}``, ``{"op": "stop"}``) and its reply, matched by N.
+``A TIME``
+    (agent to host) the host's frame before it is on the bus since TIME
+    (one for each ``F`` line the agent got, in order).
 ``READY JSON`` / ``BYE JSON`` / ``L TEXT``
     (agent to host) the simulation runs (what it runs); it has ended (the
     final figures); a line of its log.
