@@ -23,8 +23,10 @@ bus, as on a real bus; a client's own frames do not come back to it. A
 client that does not keep up loses frames (counted) rather than holding
 the others up.
 
-Time stamps: a frame's is when the agent read it from the bus. A client's
-own frame reaches the bus some time after it sent it (the relay into the
+Time stamps: a frame's is when ``stewart sim`` had it from the agent (the
+host's clock; the bus's own time is the user-mode Linux's, which falls
+behind the host's when it is starved). A client's own frame reaches the
+bus some time after it sent it (the relay into the
 user-mode Linux: milliseconds, seconds on a starved machine); the frames
 the bus carried before it arrived are stamped, for that client, before its
 send (HOLD_BACK seconds before the server had it). So a program that
@@ -47,7 +49,7 @@ DEFAULT_PORT = 29536
 CLIENT_QUEUE_BYTES = 4 << 20
 #: How far before the server had a client's frame the frames that preceded
 #: it on the bus are stamped for that client, s.
-HOLD_BACK = 0.25
+HOLD_BACK = 2.0
 _CHANNELS = {**{v: i for i, v in enumerate(pr.BUSES.values())}, **{k: i for i, k in enumerate(pr.BUSES)}}
 
 

@@ -289,24 +289,30 @@ class Host:
             buf += chunk
             *lines, buf = buf.split(b"\n")
             frames = []
+            now = time.time()
             for raw in lines:
-                self._line(raw.decode("ascii", "replace").strip(), frames)
+                self._line(raw.decode("ascii", "replace").strip(), frames, now)
             if frames and self.bridge is not None:
                 self.bridge.deliver(frames)
         with self.cond:
             self.link_closed = True
             self.cond.notify_all()
 
-    def _line(self, line: str, frames: list) -> None:
+    def _line(self, line: str, frames: list, now: float) -> None:
+        """One line from the agent. Frames are stamped with the host's clock
+        when read (the user-mode Linux's clock may fall behind the host's
+        when it is starved), and so are the acknowledgements."""
         kind, _, rest = line.partition(" ")
         if kind == "F":
             try:
-                frames.append(wire.parse_frame(rest.split()))
+                f = wire.parse_frame(rest.split())
             except wire.WireError:
-                pass
+                return
+            f.time = now
+            frames.append(f)
             return
         if kind == "A":
-            self._acknowledged(rest, frames)
+            self._acknowledged(now, frames)
             return
         with self.cond:
             if kind == "R":
@@ -320,7 +326,7 @@ class Host:
                 print(f"stewart sim: {_json(rest).get('text', rest)}", file=sys.stderr)
             self.cond.notify_all()
 
-    def _acknowledged(self, rest: str, frames: list) -> None:
+    def _acknowledged(self, t: float, frames: list) -> None:
         """A frame of a client is on the bus: what came before it goes out
         first (stamped for that client as before its send)."""
         with self.cond:
@@ -330,10 +336,6 @@ class Host:
         if frames:
             self.bridge.deliver(frames)
             frames.clear()
-        try:
-            t = float(rest)
-        except ValueError:
-            t = time.time()
         self.bridge.on_bus(client, t)
 
     def request(self, req: dict, timeout: float = 30.0) -> dict:

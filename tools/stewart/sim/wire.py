@@ -113,6 +113,14 @@ def raw_socket(interface: str, rcvbuf: int = 8 << 20) -> socket.socket:
     return s
 
 
+_CAN_RAW_FILTER = 1
+
+
+def set_receive(s: socket.socket, on: bool) -> None:
+    """Every frame (on) or none (off, an empty filter list) on raw socket ``s``."""
+    s.setsockopt(_SOL_CAN_RAW, _CAN_RAW_FILTER, struct.pack("=II", 0, 0) if on else b"")
+
+
 def unpack_raw(bus: int, raw: bytes, t: float) -> Frame | None:
     """A frame read from a raw socket (16 bytes classic, 72 FD); None for
     error and remote frames."""
