@@ -369,6 +369,7 @@ class Host:
         if op == "status":
             st = self.request({"op": "status"})
             st.update(backend=self.backend, attach=self.attach(), key=str(self.key), pgid=self.pgid,
+                      host_load=[round(x, 2) for x in os.getloadavg()], host_cores=os.cpu_count(),
                       link_dropped=self.out.dropped if self.out is not None else 0)
             if self.bridge is not None:
                 st["bridge"] = {"clients": len(self.bridge.clients), "bad": self.bridge.bad,
