@@ -77,9 +77,17 @@ def sim(tmp_path_factory):
         time.sleep(0.2)
     info = json.loads(state.read_text())
     yield proc, run_dir, info, Path(out.name)
-    if proc.poll() is None:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
+    if proc.poll() is None:  # a test that failed half-way: stopped as a user would, killed if need be
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            for group in (proc.pid, info["pgid"]):
+                try:
+                    os.killpg(group, signal.SIGKILL)
+                except (ProcessLookupError, PermissionError, TypeError):
+                    pass
+            proc.wait()
     out.close()
 
 

@@ -31,6 +31,9 @@ from . import wire
 from .plant import Plant, SimError
 
 BUS_NAMES = tuple(pr.BUSES)  # ops, axis_a, axis_b: vcan0..vcan2
+#: The host says ``K`` every second; silent this long, it is taken for gone
+#: (killed outright) and the simulation stops: the UML would run on alone.
+HOST_SILENCE = 60.0
 #: Frames queued for the host beyond this many are dropped (counted): about
 #: 2 s of the ops bus, which the console carries at up to about 2 MB/s.
 QUEUE_LINES = 5000
@@ -206,7 +209,21 @@ def serve(link: Link, plant: Plant, relay: Relay) -> dict:
             os._exit(1)
 
     threading.Thread(target=watch, daemon=True).start()
+    heard = [time.monotonic()]
+
+    def host_alive() -> None:  # a host killed outright (SIGKILL) leaves no one to stop the UML but us
+        while not stopping.is_set():
+            time.sleep(1.0)
+            if time.monotonic() - heard[0] > HOST_SILENCE and not stopping.is_set():
+                stopping.set()
+                figures = final(plant, relay)
+                link.send(wire.json_line("BYE", dict(figures, ok=False, error="the host went silent")))
+                link.close()
+                os._exit(1)
+
+    threading.Thread(target=host_alive, daemon=True).start()
     for line in link.lines():
+        heard[0] = time.monotonic()
         words = line.split(" ", 2)
         kind = words[0]
         if kind == "F":

@@ -166,6 +166,7 @@ class Host:
             os.close(from_agent_w)
             threading.Thread(target=self._wait_child, daemon=True).start()
         threading.Thread(target=self._read_link, daemon=True).start()
+        threading.Thread(target=self._keepalive, daemon=True).start()
         if o.bridge:
             self.bridge = br.Bridge(self._to_bus, self._subscribe, port=o.port)
         self._wait_ready()
@@ -224,7 +225,7 @@ class Host:
                 self.cond.wait(min(left, 0.2))
 
     def _write_state(self, relax: int | None) -> None:
-        st = {"pid": os.getpid(), "backend": self.backend, "key": str(self.key), "relax": relax,
+        st = {"pid": os.getpid(), "pgid": self.pgid, "backend": self.backend, "key": str(self.key), "relax": relax,
               "control": str(self.files["control"]), "started": time.time(),
               "buses": dict(pr.BUSES), "attach": self.attach()}
         self.files["state"].write_text(json.dumps(st, indent=1) + "\n")
@@ -249,6 +250,13 @@ class Host:
     def _send(self, line: str) -> None:
         if self.out is not None:
             self.out.put(line)
+
+    def _keepalive(self) -> None:
+        """``K`` every second: the agent stops the simulation when the host
+        is gone (killed outright), rather than leave the UML running."""
+        while not self.ended and (self.out is None or not self.out.closed):
+            self._send("K\n")
+            time.sleep(1.0)
 
     def _to_bus(self, f: wire.Frame, client) -> None:
         assert self.out is not None and self.bridge is not None

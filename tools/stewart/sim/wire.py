@@ -11,6 +11,9 @@ One message a line, the first word its kind:
     agent's receive time (s since the epoch; only from the agent).
 ``SUB BUS 0|1``
     (host to agent) relay that bus's frames to the host, or stop.
+``K``
+    (host to agent) every second: the host is there (the agent stops the
+    simulation after a minute without a line from the host).
 ``C N JSON`` / ``R N JSON``
     a control request (``{"op": "inject", "line": ...}``, ``{"op":
     "status"}``, ``{"op": "stop"}``) and its reply, matched by N.
