@@ -237,6 +237,7 @@ async def websocket(request: web.Request) -> web.StreamResponse:
     request.app[CFG]["sockets"].add(ws)
     try:
         await ws.send_json({"type": "hello", "client": c.id, "lease_s": hub.lease_s})
+        await ws.send_str(json.dumps(hub.snapshot(), separators=(",", ":")))  # the page shows it at once
         async for msg in ws:
             if msg.type != WSMsgType.TEXT:
                 continue

@@ -8,11 +8,12 @@ const AXES = ["x", "y", "z", "roll", "pitch", "yaw"];
 const $ = (id) => document.getElementById(id);
 const now = () => performance.timeOrigin + performance.now(); // ms, Unix epoch
 const stats = {
-  loaded: now(), firstUpdate: null, updates: 0, times: [], latencies: [], estopClicks: [], usableAt: null,
+  loaded: now(), firstUpdate: null, updates: 0, times: [], latencies: [], serverAges: [], work: [], renders: [], estopClicks: [], usableAt: null,
 };
 window.consoleStats = stats;
 
 let client = null;
+let pending = null;
 let ws = null;
 let cfg = null;
 let last = null;
@@ -48,7 +49,8 @@ const view = {};
 
 function setup3d() {
   const el = $("view3d");
-  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(1);
   renderer.setSize(el.clientWidth, el.clientHeight);
   el.appendChild(renderer.domElement);
   const scene = new THREE.Scene();
@@ -60,6 +62,7 @@ function setup3d() {
   const controls = new OrbitControls(camera, renderer.domElement);
   controls.target.set(0, 0, 1.3);
   controls.update();
+  controls.addEventListener("change", () => { dirty = true; });
   scene.add(new THREE.AmbientLight(0xffffff, 0.7));
   const sun = new THREE.DirectionalLight(0xffffff, 0.8);
   sun.position.set(3, -4, 8);
@@ -137,10 +140,27 @@ function update3d(s) {
     view.arrow.setLength(Math.min(1.5, 0.2 + n / 2000), 0.15, 0.08);
     view.arrow.visible = true;
   } else view.arrow.visible = false;
+  dirty = true;
 }
 
+function start3d() {
+  try { setup3d(); } catch (e) { say(`3-D view unavailable: ${e.message}`, true); }
+  stats.view3dAt = now();
+  render();
+}
+
+let dirty = true;
+let lastRender = 0;
 function render() {
-  if (view.renderer) view.renderer.render(view.scene, view.camera);
+  // on demand: a new state or a turn of the camera (software WebGL is not free)
+  const t = performance.now();
+  if (view.renderer && dirty && t - lastRender >= 45) { // <= 22 frames a second
+    view.renderer.render(view.scene, view.camera);
+    stats.renders.push(performance.now() - t);
+    if (stats.renders.length > 100) stats.renders.shift();
+    dirty = false;
+    lastRender = t;
+  }
   requestAnimationFrame(render);
 }
 
@@ -212,6 +232,7 @@ function showEvents(events) {
 }
 
 function onState(s) {
+  const t0 = performance.now();
   last = s;
   showState(s);
   update3d(s);
@@ -222,11 +243,20 @@ function onState(s) {
   pushPlot("plot-ft", t, s.ft);
   pushPlot("plot-contact", t, [s.contact ? 1 : 0, s.force_mode && s.force_mode !== "OFF" ? 1 : 0]);
   const shown = now();
+  stats.work.push(performance.now() - t0);
+  if (stats.work.length > 100) stats.work.shift();
   stats.updates += 1;
   stats.times.push(shown);
-  if (s.bus_stamp) stats.latencies.push(shown - s.bus_stamp * 1000);
-  if (stats.times.length > 600) { stats.times.shift(); stats.latencies.shift(); }
-  if (stats.firstUpdate === null) { stats.firstUpdate = shown; stats.usableAt = shown; }
+  if (s.bus_stamp) {
+    stats.latencies.push(shown - s.bus_stamp * 1000);
+    stats.serverAges.push((s.t - s.bus_stamp) * 1000); // of it, in the server: bus frame to the send
+  }
+  if (stats.times.length > 600) { stats.times.shift(); stats.latencies.shift(); stats.serverAges.shift(); }
+  if (stats.firstUpdate === null) {
+    stats.firstUpdate = shown;
+    stats.usableAt = shown;
+    setTimeout(start3d, 0); // after the state is on screen: software WebGL takes a while to start
+  }
   if (stats.updates % 30 === 0) showStats();
 }
 
@@ -245,7 +275,11 @@ function connect() {
   ws = new WebSocket(`${proto}://${location.host}/api/ws?name=browser${client ? "&client=" + client : ""}`);
   ws.onmessage = (ev) => {
     const m = JSON.parse(ev.data);
-    if (m.type === "state") onState(m);
+    if (m.type === "state") {
+      // only the newest state is shown: a page that falls behind skips, it never queues
+      if (pending === null) setTimeout(() => { const s = pending; pending = null; onState(s); }, 0);
+      pending = m;
+    }
     else if (m.type === "hello") client = m.client;
     else if (m.type === "estop") say(m.ok ? `ESTOP: ${m.state}` : `ESTOP: ${m.error}`, !m.ok);
   };
@@ -303,8 +337,9 @@ async function claim() {
 }
 
 async function recordings() {
-  const list = await api("/api/recordings");
-  const items = Array.isArray(list) ? list : [];
+  let items = [];
+  try { items = await (await fetch("/api/recordings")).json(); } catch (e) { items = []; }
+  if (!Array.isArray(items)) items = [];
   $("recordings").innerHTML = items.slice(0, 5).map((r) => `<div>${r.name}: `
     + `<a href="/api/recordings/${r.name}/log" download>candump log</a> `
     + (r.csv ? `<a href="/api/recordings/${r.name}/csv" download>CSV</a> ` : (r.analysing ? "analysing... " : ""))
@@ -349,14 +384,12 @@ function setupControls() {
 async function main() {
   cfg = await api("/api/config");
   setupControls();
-  try { setup3d(); } catch (e) { say(`3-D view unavailable: ${e.message}`, true); }
+  connect(); // the state first: the page is usable once it shows
   mkPlot("plot-error", "tracking error (mm, mrad)", AXES);
   mkPlot("plot-wrench", "wrench estimate (N, N m)", ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]);
   mkPlot("plot-ft", "force/torque sensor (N, N m)", ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]);
   mkPlot("plot-contact", "contact, force control", ["contact", "force control"]);
   setInterval(drawPlots, 100);
-  connect();
-  render();
   recordings();
 }
 
