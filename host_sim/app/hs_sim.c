@@ -87,6 +87,21 @@
  * moment about o'), each cylinder's friction and its blocking valves' opening
  * (0 closed .. 1 open, hs/drive.h; docs/explanation/closed_loop.md).
  *
+ * --control FILE (real time): scenario lines while the run goes on, from
+ * FILE (a FIFO that stewart sim writes; a regular file is read once): one
+ * request a line, each parsed alone as a scenario of one action (the file
+ * scenario's language) and played at once, in order; a `delay` or `wait`
+ * holds the lines after it back. Each line is answered on stdout:
+ * `hs_sim control: accepted: LINE`, `hs_sim control: refused: WHY` (a
+ * parse error, a refused load or injection, a wait that timed out); the run
+ * goes on either way (`end` only ends that request). The external wrench,
+ * contacts, loads, pushes and faults are the plant's (docs/guides/simulator.md).
+ * --stats S (real time): every S seconds of wall clock
+ * `hs_sim stats: cycles N, deadline misses M (P %), worst late X ms` on
+ * stderr, and once at the end. A deadline miss is a cycle that starts more
+ * than one period (1 ms) after its own start time; the plant catches up
+ * (it integrates 1 ms per cycle, the wall clock's time in all).
+ *
  * Exit status: 0 the run ended (ticks done, scenario end, or SIGINT/SIGTERM), 1 I/O or set-up
  * error, 2 usage or scenario syntax error (or a load or play file refused
  * while running), 3 the controller stopped
@@ -95,6 +110,7 @@
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <fcntl.h>
 #include <getopt.h>
 #include <inttypes.h>
 #include <math.h>
@@ -102,7 +118,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "hs/bus.h"
 #include "hs/co_bus.h"
@@ -195,6 +213,18 @@ typedef struct {
     uint8_t force_counter;                               /* OP_FORCE's alive counter */
     double push[6];                                      /* scenario `push`: its peak wrench */
     uint64_t push_start, push_rise, push_hold, push_end; /* ticks; push_end 0: none */
+    /* --control: scenario lines at run time */
+    int live_fd; /* -1: none */
+    char live_buf[16384];
+    size_t live_n;          /* bytes in live_buf, complete lines and a partial one */
+    int live_busy;          /* live_scn holds a request being played */
+    int live_overflow;      /* a line longer than the buffer is being skipped */
+    hs_scenario_t live_scn; /* the request being played */
+    char live_line[HS_SCENARIO_MAX_LINE + 2];
+    /* --stats: the real-time loop's deadline misses */
+    int64_t stats_every_ns, stats_due_ns;
+    uint64_t rt_misses;
+    int64_t rt_worst_late_ns;
 } sim_t;
 
 static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
@@ -726,12 +756,12 @@ static int run_action(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_
 
 /* Carries out the scenario's actions due at `tick` (hs/scenario.h plays it).
  * Returns 0 go on, 1 end, 2 an action refused (load, contact), 4 wait timeout, -1 error. */
-static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
+static int run_scenario(sim_t *s, hs_scenario_t *scn, uint64_t tick, uint64_t t_us)
 {
     /* each round hands over one action: at most all of them, then the end */
     for (int guard = 0; guard <= HS_SCENARIO_MAX_ACTIONS; guard++) {
         const hs_action_t *a = NULL;
-        hs_scenario_next_t next = hs_scenario_next(&s->scn, tick, s->status_state, &a);
+        hs_scenario_next_t next = hs_scenario_next(scn, tick, s->status_state, &a);
         if (next == HS_SCENARIO_PENDING) {
             return 0;
         }
@@ -751,6 +781,142 @@ static int run_scenario(sim_t *s, uint64_t tick, uint64_t t_us)
         fflush(stdout);
     }
     return 0;
+}
+
+/* ---- --control: scenario lines at run time ------------------------------ */
+
+/* Opens the control file without blocking (a FIFO read-write, so that it
+ * never reads as ended when a writer closes it). 0 ok, 1 error (said). */
+static int live_open(sim_t *s, const char *path)
+{
+    struct stat st;
+    int flags = O_NONBLOCK | O_CLOEXEC;
+    flags |= (stat(path, &st) == 0 && S_ISFIFO(st.st_mode)) ? O_RDWR : O_RDONLY;
+    s->live_fd = open(path, flags);
+    if (s->live_fd < 0) {
+        fprintf(stderr, "hs_sim: cannot open --control %s: %s\n", path, strerror(errno));
+        return 1;
+    }
+    return 0;
+}
+
+/* Reads what has come, never blocking. A full buffer without a line end is
+ * a line too long: it is dropped up to its end (answered when that comes). */
+static void live_read(sim_t *s)
+{
+    for (int rounds = 0; rounds < 4; rounds++) {
+        if (s->live_n == sizeof s->live_buf && memchr(s->live_buf, '\n', s->live_n) == NULL) {
+            s->live_n = 0, s->live_overflow = 1;
+        }
+        size_t room = sizeof s->live_buf - s->live_n;
+        if (room == 0) {
+            return;
+        }
+        ssize_t r = read(s->live_fd, s->live_buf + s->live_n, room);
+        if (r <= 0) {
+            return;
+        }
+        s->live_n += (size_t)r;
+    }
+}
+
+/* The next complete line into s->live_line, taken from the buffer.
+ * Returns 1 a line, 0 none yet, 2 a line refused for its length (answered). */
+static int live_next_line(sim_t *s)
+{
+    char *nl = memchr(s->live_buf, '\n', s->live_n);
+    if (nl == NULL) {
+        return 0;
+    }
+    size_t len = (size_t)(nl - s->live_buf);
+    int too_long = s->live_overflow || len > HS_SCENARIO_MAX_LINE;
+    if (!too_long) {
+        memcpy(s->live_line, s->live_buf, len);
+        s->live_line[len] = '\0';
+    }
+    memmove(s->live_buf, nl + 1, s->live_n - len - 1);
+    s->live_n -= len + 1;
+    s->live_overflow = 0;
+    if (too_long) {
+        printf("hs_sim control: refused: a line longer than %d characters\n", HS_SCENARIO_MAX_LINE);
+        return 2;
+    }
+    return 1;
+}
+
+/* Parses the line taken and plays what is due of it now; answers it. */
+static void live_start(sim_t *s, uint64_t tick, uint64_t t_us)
+{
+    hs_scenario_error_t err;
+    if (hs_scenario_parse(&s->live_scn, s->live_line, "control", &err) != HS_OK) {
+        printf("hs_sim control: refused: %s\n", err.message);
+        return;
+    }
+    int r = run_scenario(s, &s->live_scn, tick, t_us);
+    if (r == 0 || r == 1) {
+        printf("hs_sim control: accepted: %s\n", s->live_line);
+        s->live_busy = (r == 0);
+    } else {
+        printf("hs_sim control: refused: %s: %s\n", s->live_line,
+               r == 4 ? "the state was not reached in time" : "the plant refused it (stderr says why)");
+    }
+}
+
+/* --control at `tick`: new lines read, the request under way played, the
+ * next ones started while nothing holds them back. */
+static void live_tick(sim_t *s, uint64_t tick, uint64_t t_us)
+{
+    if (s->live_fd < 0) {
+        return;
+    }
+    live_read(s);
+    for (int guard = 0; guard < 64; guard++) {
+        if (s->live_busy) {
+            int r = run_scenario(s, &s->live_scn, tick, t_us);
+            if (r == 0) {
+                break;
+            }
+            s->live_busy = 0;
+            if (r != 1) {
+                printf("hs_sim control: failed: %s: %s\n", s->live_line,
+                       r == 4 ? "the state was not reached in time" : "the plant refused it");
+            }
+        }
+        int got = live_next_line(s);
+        if (got == 0) {
+            break;
+        }
+        if (got == 1) {
+            live_start(s, tick, t_us);
+        }
+    }
+    fflush(stdout);
+}
+
+/* --stats: the real-time loop's figures so far, on stderr. */
+static void rt_print(const sim_t *s)
+{
+    uint64_t n = s->tick;
+    fprintf(stderr, "hs_sim stats: cycles %" PRIu64 ", deadline misses %" PRIu64 " (%.3f %%), worst late %.3f ms\n", n,
+            s->rt_misses, n ? 100.0 * (double)s->rt_misses / (double)n : 0.0, (double)s->rt_worst_late_ns * 1e-6);
+}
+
+/* Real time, at a cycle's start: a miss when it starts more than a period
+ * after its own start time; the stats line when due. */
+static void rt_account(sim_t *s)
+{
+    int64_t now = sp_host_now_ns();
+    int64_t late = now - s->next_ns;
+    if (late > s->rt_worst_late_ns) {
+        s->rt_worst_late_ns = late;
+    }
+    if (late > 1000000) {
+        s->rt_misses++;
+    }
+    if (s->stats_every_ns > 0 && now >= s->stats_due_ns) {
+        rt_print(s);
+        s->stats_due_ns = now + s->stats_every_ns;
+    }
 }
 
 static void write_truth(sim_t *s, uint64_t tick)
@@ -1015,7 +1181,7 @@ static void print_fault_report(sim_t *s)
 /* What the command line sets besides the run state's own fields (s). */
 typedef struct {
     sim_t *s;
-    const char *scenario, *log_path, *truth_path, *key_path;
+    const char *scenario, *log_path, *truth_path, *key_path, *control;
     unsigned long long max_ticks; /* 0: no limit */
     unsigned long long seed;
     int have_seed;
@@ -1216,6 +1382,22 @@ static int set_sdo_delay_ms(cli_t *c, const char *v)
     return 0;
 }
 
+static int set_control(cli_t *c, const char *v)
+{
+    c->control = v;
+    return 0;
+}
+
+static int set_stats(cli_t *c, const char *v)
+{
+    unsigned long long u;
+    if (parse_range(v, 1u, 3600u, &u) != 0) {
+        return -1;
+    }
+    c->s->stats_every_ns = (int64_t)u * 1000000000;
+    return 0;
+}
+
 static int print_help(cli_t *c, const char *v);
 
 /* The options: --NAME [ARG] (ARG NULL: a flag), the help line, the setter. */
@@ -1250,6 +1432,8 @@ static const cli_option_t cli_options[] = {
     {"wrench-source", "cylinders|sensor", "force control's wrench source with --inproc (default: the config's)",
      set_wrench_source},
     {"sdo-delay-ms", "MS", "with --canopen: each node answers SDO requests MS ms late, 0..1000", set_sdo_delay_ms},
+    {"control", "FILE", "scenario lines while running, one request a line (a FIFO)", set_control},
+    {"stats", "S", "real time: deadline misses on stderr every S s, 1..3600", set_stats},
     {"help", NULL, "print this help and exit", print_help},
 };
 
@@ -1499,6 +1683,7 @@ static void set_defaults(sim_t *s, cli_t *c)
     s->wrench_source = -1;
     s->ifs[0] = "vcan0", s->ifs[1] = "vcan1", s->ifs[2] = "vcan2";
     s->status_state = -1;
+    s->live_fd = -1;
     s->canopen = sp_co_layout_default.present ? 1 : 0; /* the platform config's drives are CiA 408 */
     memset(c, 0, sizeof *c);
     c->s = s;
@@ -1712,6 +1897,10 @@ static int setup(sim_t *s, const cli_t *c, hs_params_t *par)
     if (rc == 0) {
         rc = open_outputs(s, c);
     }
+    if (rc == 0 && c->control != NULL) {
+        rc = live_open(s, c->control);
+    }
+    s->stats_due_ns = sp_host_now_ns() + s->stats_every_ns;
     return rc;
 }
 
@@ -1769,6 +1958,7 @@ static int lockstep_cycle(sim_t *s, uint64_t tick, uint64_t t_us, long timeout_m
 /* Real time: every SYNC answered at once until the cycle's 1 ms deadline. */
 static void realtime_cycle(sim_t *s)
 {
+    rt_account(s);
     s->next_ns += 1000000;
     for (;;) {
         realtime_frames(s);
@@ -1831,10 +2021,13 @@ static int run(sim_t *s, const cli_t *c, uint64_t *ticks)
     while (!sp_host_stop_requested() && (c->max_ticks == 0 || tick < c->max_ticks)) {
         uint64_t t_us = (s->lockstep || s->canopen) ? tick * 1000u : (uint64_t)((sp_host_now_ns() - s->t0_ns) / 1000);
         s->tick = tick;
-        if (s->have_scenario) {
+        if (s->have_scenario || s->live_fd >= 0) {
             int r = play_tick(s, tick, t_us); /* a play under way first: its last pose before what follows it */
+            if (r == 0 && s->have_scenario) {
+                r = run_scenario(s, &s->scn, tick, t_us);
+            }
             if (r == 0) {
-                r = run_scenario(s, tick, t_us);
+                live_tick(s, tick, t_us);
             }
             if (r != 0) {
                 rc = (r == 1) ? 0 : ((r == 4 || r == 2) ? r : 1);
@@ -1938,6 +2131,9 @@ static void close_run(sim_t *s)
         fclose(s->truth);
     }
     hs_play_close(&s->play);
+    if (s->live_fd >= 0) {
+        close(s->live_fd);
+    }
     if (!s->inproc) {
         sp_socketcan_close(&s->sc);
     }
@@ -1963,6 +2159,9 @@ int main(int argc, char **argv)
     uint64_t ticks = 0;
     rc = run(&s, &c, &ticks);
     print_summary(&s, ticks, rc);
+    if (!s.lockstep && !s.canopen && !s.inproc) {
+        rt_print(&s);
+    }
     print_bus_summary(&s);
     print_monitors(&s);
     if (s.injected) {

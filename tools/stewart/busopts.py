@@ -13,7 +13,9 @@ the working directory, the file of ``--can-config``, section ``[default]``
 or ``--context``). With nothing configured: SocketCAN on the simulated
 set-up's interface of the bus the command talks to (:data:`BUSES`: ops
 vcan0, axis_a vcan1, axis_b vcan2), CAN FD on the ops bus (the protocol
-needs it), classic CAN on a CANopen drive bus.
+needs it), classic CAN on a CANopen drive bus. With ``-i socketcand`` and
+no host or port: ``stewart sim``'s server, 127.0.0.1 port 29536, the same
+channel names (docs/guides/simulator.md).
 """
 
 from __future__ import annotations
@@ -23,6 +25,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from .protocol import BUSES
+
+
+#: python-can's socketcand interface without a host or port: `stewart sim`'s
+#: server on loopback (docs/guides/simulator.md).
+SOCKETCAND_HOST = "127.0.0.1"
+SOCKETCAND_PORT = 29536
 
 
 class BusError(Exception):
@@ -93,8 +101,13 @@ def resolve(opts: BusOptions) -> dict[str, Any]:
         raise BusError(f"python-can configuration: {e}") from None
     if not cfg.get("interface"):
         cfg["interface"] = "socketcan"
-    if cfg.get("channel") in (None, "") and cfg["interface"] == "socketcan":
+    if cfg.get("channel") in (None, "") and cfg["interface"] in ("socketcan", "socketcand"):
         cfg["channel"] = BUSES[opts.bus]
+    if cfg["interface"] == "socketcand":  # `stewart sim`'s server on loopback unless configured
+        cfg.setdefault("host", SOCKETCAND_HOST)
+        cfg["port"] = int(cfg.get("port", SOCKETCAND_PORT))
+        cfg.pop("fd", None)  # python-can's socketcand client takes no fd flag; it carries 64-byte frames
+        return cfg
     if "fd" not in cfg:
         cfg["fd"] = opts.fd_default
     return cfg

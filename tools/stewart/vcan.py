@@ -554,10 +554,15 @@ class _Boot:
 
 def _boot_uml(k: uml.Kernel, argv: Sequence[str], count: int, fd: bool, timeout: float,
               env: dict, mem: int, out: Callable[[bytes], None],
-              err: Callable[[bytes], None], verbose: bool = False, quiet: bool = True) -> _Boot:
+              err: Callable[[bytes], None], verbose: bool = False, quiet: bool = True,
+              consoles: Sequence[tuple[int, int]] = (),
+              on_start: Callable[[int], None] | None = None) -> _Boot:
     """Boots kernel ``k`` with the buses up and runs ``argv`` in it; its
     stdout and stderr go to ``out`` and ``err`` as they come. ``quiet``:
-    the kernel logs errors only (else all its boot messages)."""
+    the kernel logs errors only (else all its boot messages). ``consoles``:
+    more consoles, (host fd read, host fd written) each, /dev/tty3 on
+    inside (``stewart sim``'s link). ``on_start(pgid)`` is called once
+    linux.uml runs: its process group, for a caller that stops it."""
     names = interface_names(count)
     _raise_map_count()
     state = _make_state_dir()
@@ -586,12 +591,14 @@ def _boot_uml(k: uml.Kernel, argv: Sequence[str], count: int, fd: bool, timeout:
             "root=/dev/root", "rootfstype=hostfs", "hostfs=/", "rw",
             f"init={init}", f"uml_dir={state}",
             "con=null", "con0=null,fd:1", f"con1=null,fd:{out_w}", f"con2=null,fd:{err_w}",
+            *(f"con{3 + i}=fd:{r},fd:{w}" for i, (r, w) in enumerate(consoles)),
         ]
         t0 = time.monotonic()
         with _Subreaper():
             try:
                 proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=log_w,
-                                        stderr=log_w, pass_fds=(out_w, err_w),
+                                        stderr=log_w,
+                                        pass_fds=(out_w, err_w, *(f for c in consoles for f in c)),
                                         env=_uml_env(mem, state), start_new_session=True)
             except OSError:
                 for r in (out_r, err_r, log_r):
@@ -603,6 +610,8 @@ def _boot_uml(k: uml.Kernel, argv: Sequence[str], count: int, fd: bool, timeout:
             if verbose:
                 print(f"stewart vcan: uml: linux.uml pid {proc.pid} (process group {proc.pid})",
                       file=sys.stderr)
+            if on_start is not None:
+                on_start(proc.pid)
             pumps = [
                 threading.Thread(target=_pump, args=(out_r, out), daemon=True),
                 threading.Thread(target=_pump, args=(err_r, err), daemon=True),
@@ -708,12 +717,13 @@ def choose(count: int = 3, backend: str = "auto", uml_kernel: str | None = None,
 
 
 def _run_uml(argv: Sequence[str], count: int, fd: bool, timeout: float, env: dict,
-             mem: int, verbose: bool, k: uml.Kernel) -> int:
+             mem: int, verbose: bool, k: uml.Kernel, consoles: Sequence[tuple[int, int]] = (),
+             on_start: Callable[[int], None] | None = None) -> int:
     problem = _uml_problem(k)
     if problem:
         raise VcanError(problem)
     b = _boot_uml(k, argv, count, fd, timeout, env, mem, _writer(sys.stdout),
-                  _writer(sys.stderr), verbose)
+                  _writer(sys.stderr), verbose, consoles=consoles, on_start=on_start)
     if not b.ended:
         return b.status
     if len(b.state) == 2 and b.state[0] == "rc" and b.state[1].isdigit():
@@ -854,3 +864,18 @@ def backend_available(count: int = 3) -> str:
 def host_has_vcan() -> bool:
     """True when the host back end works for three buses (used by tests)."""
     return _host_problem(3) is None
+
+
+def run_uml(argv: Sequence[str], consoles: Sequence[tuple[int, int]] = (),
+            on_start: Callable[[int], None] | None = None, count: int = 3, fd: bool = True,
+            timeout: float = 600, mem: str = "512M", uml_kernel: str | None = None) -> int:
+    """As :func:`run` on the uml back end (forced), with more consoles:
+    ``consoles`` (host fd read, host fd written) pairs are /dev/tty3.. inside
+    (``stewart sim`` relays its buses over one); ``on_start(pgid)`` is told
+    linux.uml's process group once it runs, so that a caller can stop it.
+    The caller's signal handlers stay in force when called from a thread
+    other than the main one."""
+    c = choose(count, "uml", uml_kernel)
+    assert c.kernel is not None
+    return _run_uml(list(argv), count, fd, timeout, dict(os.environ), parse_mem(mem), False, c.kernel,
+                    consoles, on_start)

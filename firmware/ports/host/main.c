@@ -8,7 +8,7 @@
  *                 [--feedback-timeout TICKS] [--operator-timeout TICKS]
  *                 [--operator-reaction stop|park] [--wrench-source cylinders|sensor] [--canopen]
  *                 [--canopen-timeout-ms MS] [--canopen-force-ff] [--canopen-sync-divider N] [--cia402]
- *                 [--key FILE] [--session N]
+ *                 [--key FILE] [--session N] [--stats S]
  *
  * --key FILE (else the file the environment variable STEWART_KEY names):
  * the machine key of command authentication (docs/explanation/security.md; 32 hex
@@ -60,6 +60,11 @@
  * config's force_sensor.wrench_source): the cylinders' estimate or the
  * force/torque sensor's FT_SENSOR frames on axis_b (mounted as the config
  * says).
+ * --stats S (1..3600, real-time mode): every S seconds of wall clock a line
+ * `sp_controller stats: ticks N, deadline misses M, worst late X ms` on
+ * stderr (stewart sim reports it while it runs). A deadline miss is a tick
+ * that could not run in its 1 ms period (woken more than a period late:
+ * each period passed is one miss, and the ticks resume from now).
  * The compute time of each tick is measured in real-time mode, and in
  * lockstep only with --timing (two clock reads per tick, which cost a system
  * call each inside user-mode Linux).
@@ -86,12 +91,13 @@ static void usage(void)
                     "                     [--operator-timeout TICKS] [--operator-reaction stop|park]\n"
                     "                     [--wrench-source cylinders|sensor] [--canopen] [--canopen-timeout-ms MS]\n"
                     "                     [--canopen-force-ff] [--canopen-sync-divider N] [--cia402]\n"
-                    "                     [--key FILE] [--session N]\n");
+                    "                     [--key FILE] [--session N] [--stats S]\n");
 }
 
 typedef struct {
     uint64_t ticks;
     uint64_t misses;
+    int64_t worst_late_ns; /* the latest wake-up after a tick's start, ns */
     int64_t worst_ns;
     int64_t sum_ns;
     uint64_t tx_busy;
@@ -248,6 +254,7 @@ typedef struct {
     const char *key_path;
     int session_given;
     uint32_t session;
+    long stats_s; /* --stats: seconds between stats lines (0: none) */
 } options_t;
 
 /* An option without a value: 1 when a is one (set in *o), else 0. */
@@ -329,6 +336,9 @@ static int parse_value(const char *a, const char *v, options_t *o)
     }
     if (strcmp(a, "--timeout-ms") == 0) {
         return parse_long(v, &o->timeout_ms) && o->timeout_ms > 0;
+    }
+    if (strcmp(a, "--stats") == 0) {
+        return parse_long(v, &o->stats_s) && o->stats_s >= 1 && o->stats_s <= 3600;
     }
     return 0;
 }
@@ -452,6 +462,15 @@ static void bus_filters(const options_t *o, sp_socketcan_bus_cfg_t bc[SP_CAN_BUS
     bc[SP_BUS_AXIS_B].rx_ids[bc[SP_BUS_AXIS_B].n_rx_ids++] = SP_ID_FT_SENSOR;
 }
 
+/* The real-time loop's figures so far, on stderr (--stats). */
+static void print_stats(const run_stats_t *rs)
+{
+    uint64_t due = rs->ticks + rs->misses;
+    fprintf(stderr, "sp_controller stats: ticks %llu, deadline misses %llu (%.3f %%), worst late %.3f ms\n",
+            (unsigned long long)rs->ticks, (unsigned long long)rs->misses,
+            due ? 100.0 * (double)rs->misses / (double)due : 0.0, (double)rs->worst_late_ns * 1e-6);
+}
+
 /* Real-time mode: the controller is the cycle master, an absolute-deadline
  * clock_nanosleep paces the ticks. */
 static void run_realtime(const options_t *o, sp_can_port_t *port, sp_node_config_t *cfg, sp_node_t *node,
@@ -459,6 +478,7 @@ static void run_realtime(const options_t *o, sp_can_port_t *port, sp_node_config
 {
     struct timespec next;
     clock_gettime(CLOCK_MONOTONIC, &next);
+    int64_t stats_due = (int64_t)next.tv_sec + o->stats_s;
     while (!sp_host_stop_requested() && (o->max_ticks == 0 || rs->ticks < o->max_ticks)) {
         next.tv_nsec += 1000000;
         if (next.tv_nsec >= 1000000000) {
@@ -473,6 +493,7 @@ static void run_realtime(const options_t *o, sp_can_port_t *port, sp_node_config
         struct timespec now;
         clock_gettime(CLOCK_MONOTONIC, &now);
         int64_t late = ((int64_t)now.tv_sec - next.tv_sec) * 1000000000 + (now.tv_nsec - next.tv_nsec);
+        rs->worst_late_ns = (late > rs->worst_late_ns) ? late : rs->worst_late_ns;
         if (late > 1000000) {
             uint64_t missed = (uint64_t)(late / 1000000);
             rs->misses += missed;
@@ -480,6 +501,10 @@ static void run_realtime(const options_t *o, sp_can_port_t *port, sp_node_config
         }
         drain(port, node);
         tick(port, cfg, node, rs, 1);
+        if (o->stats_s > 0 && (int64_t)now.tv_sec >= stats_due) {
+            print_stats(rs);
+            stats_due = (int64_t)now.tv_sec + o->stats_s;
+        }
     }
 }
 
@@ -611,6 +636,9 @@ int main(int argc, char **argv)
         rc = run_lockstep(&o, sp_socketcan_fd(&sc), &port, &cfg, &node, &rs);
     }
     print_summary(&o, &port, &node, &rs);
+    if (!o.lockstep) {
+        print_stats(&rs);
+    }
     sp_socketcan_close(&sc);
     return rc;
 }

@@ -1,0 +1,274 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The agent beside the buses: runs the simulated platform
+(:class:`stewart.sim.plant.Plant`) and serves ``stewart sim`` over the
+link (:mod:`stewart.sim.wire`): frames both ways on the buses the host
+listens to, control requests, its log.
+
+    python -m stewart.sim.agent --tty /dev/tty3 --out DIR --key FILE [--relax TICKS]
+    python -m stewart.sim.agent --fds 0,1 ...        (pipes: the host back end)
+
+Inside user-mode Linux the link is a console (a tty in raw mode). The agent
+runs at a lower priority than the controller and the plant (they get
+SCHED_FIFO where allowed): a relay that falls behind loses frames to the
+host (counted), never a deadline of the 1 kHz pair.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import queue
+import select
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from .. import protocol as pr
+from . import wire
+from .plant import Plant, SimError
+
+BUS_NAMES = tuple(pr.BUSES)  # ops, axis_a, axis_b: vcan0..vcan2
+
+
+class Link:
+    """Lines out (batched by a thread, a few ms) and in."""
+
+    def __init__(self, fd_in: int, fd_out: int):
+        self.fd_in, self.fd_out = fd_in, fd_out
+        self._out: queue.SimpleQueue[str | None] = queue.SimpleQueue()
+        self._writer = threading.Thread(target=self._write_loop, daemon=True)
+        self._writer.start()
+
+    def send(self, line: str) -> None:
+        self._out.put(line)
+
+    def close(self) -> None:
+        self._out.put(None)
+        self._writer.join(timeout=10)
+
+    def _write_loop(self) -> None:
+        while True:
+            item = self._out.get()
+            batch = [item] if item is not None else []
+            done = item is None
+            while not done and len(batch) < 512:
+                try:
+                    nxt = self._out.get_nowait()
+                except queue.Empty:
+                    break
+                if nxt is None:
+                    done = True
+                else:
+                    batch.append(nxt)
+            if batch:
+                data = "".join(batch).encode("ascii", "replace")
+                try:
+                    while data:
+                        n = os.write(self.fd_out, data)
+                        data = data[n:]
+                except OSError:
+                    return
+            if done:
+                return
+            time.sleep(0.002)  # a few ms of frames in one write: each costs a system call
+
+    def lines(self):
+        """The lines that come in, until the stream ends."""
+        buf = b""
+        while True:
+            try:
+                chunk = os.read(self.fd_in, 65536)
+            except InterruptedError:
+                continue
+            except OSError:
+                return
+            if not chunk:
+                return
+            buf += chunk
+            *whole, buf = buf.split(b"\n")
+            for raw in whole:
+                yield raw.decode("ascii", "replace").strip()
+            if len(buf) > 4 * wire.MAX_LINE:
+                buf = b""
+
+
+class Relay:
+    """A raw socket per bus: frames from the host sent; on a subscribed
+    bus every frame read goes to the host."""
+
+    def __init__(self, link: Link):
+        self.link = link
+        self.socks = [wire.raw_socket(pr.BUSES[name]) for name in BUS_NAMES]
+        self.subscribed = [False] * len(self.socks)
+        self.sent = self.relayed = self.send_errors = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, daemon=True)
+        self._thread.start()
+
+    def subscribe(self, bus: int, on: bool) -> None:
+        if 0 <= bus < len(self.socks):
+            self.subscribed[bus] = on
+
+    def send(self, f: wire.Frame) -> None:
+        try:
+            self.socks[f.bus].send(wire.pack_raw(f))
+            self.sent += 1
+        except (OSError, wire.WireError):
+            self.send_errors += 1
+
+    def _loop(self) -> None:
+        while not self._stop.is_set():
+            ready, _, _ = select.select(self.socks, [], [], 0.1)
+            now = time.time()
+            for s in ready:
+                bus = self.socks.index(s)
+                for _ in range(64):
+                    try:
+                        raw = s.recv(72, socket_dontwait())
+                    except (BlockingIOError, InterruptedError):
+                        break
+                    if self.subscribed[bus]:
+                        f = wire.unpack_raw(bus, raw, now)
+                        if f is not None:
+                            self.link.send(wire.frame_line(f))
+                            self.relayed += 1
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5)
+        for s in self.socks:
+            s.close()
+
+
+def socket_dontwait() -> int:
+    import socket
+
+    return socket.MSG_DONTWAIT
+
+
+def realtime_prefix() -> list[str]:
+    """``chrt -f 10`` where this user may use SCHED_FIFO (root inside UML)."""
+    chrt = shutil.which("chrt")
+    if chrt is None:
+        return []
+    try:
+        ok = subprocess.run([chrt, "-f", "10", "true"], capture_output=True, timeout=10).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        ok = False
+    return [chrt, "-f", "10"] if ok else []
+
+
+def serve(link: Link, plant: Plant, relay: Relay) -> dict:
+    """Handles the host's lines until a stop request or the end of the
+    link or of the simulation; returns the final figures."""
+    stopping = threading.Event()
+
+    def watch() -> None:  # the simulation ending by itself ends the agent
+        while not stopping.is_set() and plant.alive():
+            time.sleep(0.2)
+        if not stopping.is_set():
+            link.send(wire.json_line("L", {"text": "the simulation ended by itself"}))
+            figures = final(plant, relay)
+            link.send(wire.json_line("BYE", dict(figures, ok=False, error="the simulation ended by itself")))
+            link.close()
+            os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+    for line in link.lines():
+        words = line.split(" ", 2)
+        kind = words[0]
+        if kind == "F":
+            try:
+                relay.send(wire.parse_frame(line.split()[1:]))
+            except wire.WireError:
+                relay.send_errors += 1
+        elif kind == "SUB" and len(words) == 3:
+            relay.subscribe(int(words[1]) if words[1].isdigit() else -1, words[2] == "1")
+        elif kind == "C" and len(words) == 3:
+            reply, stop = request(plant, relay, words[2])
+            link.send(wire.json_line("R", reply, int(words[1]) if words[1].isdigit() else 0))
+            if stop:
+                break
+    stopping.set()
+    return final(plant, relay)
+
+
+def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
+    import json
+
+    try:
+        req = json.loads(text)
+        op = req["op"]
+    except (ValueError, KeyError, TypeError):
+        return {"ok": False, "answer": "a request is JSON with an op"}, False
+    if op == "inject":
+        return plant.inject(str(req.get("line", ""))), False
+    if op == "status":
+        st = plant.status()
+        st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
+                       "subscribed": [BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on]}
+        return dict(st, ok=True), False
+    if op == "stop":
+        return {"ok": True, "answer": "stopping"}, True
+    return {"ok": False, "answer": f"unknown op {op!r}"}, False
+
+
+def final(plant: Plant, relay: Relay) -> dict:
+    st = plant.stop()
+    st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors}
+    st["tails"] = {k: list(v)[-12:] for k, v in plant.tails.items()}
+    return st
+
+
+def _open_link(args) -> Link:
+    if args.tty:
+        import tty
+
+        fd = os.open(args.tty, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(fd)
+        return Link(fd, fd)
+    r, w = (int(x) for x in args.fds.split(","))
+    return Link(r, w)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m stewart.sim.agent")
+    g = ap.add_mutually_exclusive_group(required=True)
+    g.add_argument("--tty", help="the link's console (raw mode)")
+    g.add_argument("--fds", help="the link's file descriptors IN,OUT")
+    ap.add_argument("--out", required=True, help="directory for the processes' output")
+    ap.add_argument("--key", required=True, help="the machine key file")
+    ap.add_argument("--build", help="the host build (default: build/host-release)")
+    ap.add_argument("--relax", type=int, help="feedback and setpoint supervision, ticks")
+    ap.add_argument("--operator-timeout", type=int)
+    args = ap.parse_args(argv)
+    link = _open_link(args)
+    try:
+        relay = Relay(link)
+    except OSError as e:
+        link.send(wire.json_line("BYE", {"ok": False, "error": f"cannot open the buses: {e}"}))
+        link.close()
+        return 1
+    prefix = realtime_prefix()
+    try:
+        plant = Plant(Path(args.out), Path(args.key), args.build, args.relax, prefix, args.operator_timeout)
+        plant.start()
+    except (SimError, FileNotFoundError) as e:
+        link.send(wire.json_line("BYE", {"ok": False, "error": str(e)}))
+        link.close()
+        return 1
+    os.nice(5)  # the relay below the pair: it loses frames, never their deadlines
+    link.send(wire.json_line("READY", {"controller": plant.commands()[0], "plant": plant.commands()[1],
+                                       "realtime": bool(prefix), "pid": os.getpid()}))
+    figures = serve(link, plant, relay)
+    relay.close()
+    link.send(wire.json_line("BYE", dict(figures, ok=True)))
+    link.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
