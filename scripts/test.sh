@@ -13,6 +13,8 @@ echo "== ctest (host-debug)"
 ctest --preset host-debug
 echo "== pytest"
 .venv/bin/pytest -q tests/python
+echo "== the console: API tests and headless Chromium (tests/console, about a minute)"
+.venv/bin/pytest -q tests/console
 scripts/fuzz.sh 8 # each of the three targets 8 s
 echo "== bus tests over SocketCAN vcan (user-mode Linux where the kernel has no CAN)"
 # 2 GiB: the identification test decodes a 30 s CAN log inside the UML (~0.4 GB);

@@ -195,3 +195,58 @@ def test_udp_pose(console):
     assert magic == b"SPP1" and valid == 1 and abs(pose[2] - 2.0) < 1e-3  # parked
     assert abs(stamp - time.time()) < 0.5
     assert rate >= 100.0, f"{rate:.0f} datagrams/s"
+
+
+def test_schema_covers_the_routes_and_commands(console):
+    import json as _json
+    from pathlib import Path
+
+    from stewart.console import server, validate
+
+    schema = _json.loads(Path(server.SCHEMA).read_text())
+    app = server.make_app(console.hub)
+    routes = {r.resource.canonical for r in app.router.routes() if r.resource.canonical.startswith("/api/")}
+    assert routes == set(schema["paths"])
+    enum = schema["components"]["schemas"]["Command"]["properties"]["command"]["enum"]
+    assert set(enum) == set(validate.COMMANDS)
+    status, j = console.http("GET", "/api/openapi.json")
+    assert status == 200 and j["openapi"].startswith("3.")
+
+
+def test_commander_page_closed_stops_the_platform(console):
+    """The commander's WebSocket closes while RUNNING: the heartbeat stops and
+    the controller's operator supervision (200 ms) ends the motion."""
+    import asyncio
+
+    import aiohttp
+
+    from fake_platform import BIT
+
+    async def run():
+        async with aiohttp.ClientSession() as s:
+            ws = await s.ws_connect(console.url.replace("http", "ws") + "/api/ws?name=page")
+            cid = (await ws.receive_json())["client"]
+            loop = asyncio.get_running_loop()
+            call = lambda *a, **k: loop.run_in_executor(None, lambda: console.http(*a, **k))  # noqa: E731
+            assert (await call("POST", "/api/control", {"action": "claim"}, client=cid))[0] == 200
+            assert (await call("POST", "/api/command", {"command": "engage"}, client=cid))[0] == 200
+            await loop.run_in_executor(None, wait_state, console, "READY")
+            st, j = await call("POST", "/api/command", {"command": "run", "axis": "z", "amplitude": 0.02,
+                                                       "frequency": 1}, client=cid)
+            assert st == 200, j
+            await asyncio.sleep(0.3)
+            assert not console.fake.fake.faults & BIT["operator_silent"]  # the heartbeat kept it going
+            t0 = time.monotonic()
+            await ws.close()
+            return t0
+
+    t0 = asyncio.run(run())
+    while not console.fake.fake.faults & BIT["operator_silent"] and time.monotonic() - t0 < 3:
+        time.sleep(0.005)
+    dt = time.monotonic() - t0
+    assert console.fake.fake.faults & BIT["operator_silent"], "the platform kept running"
+    import os
+
+    margin = 0.15 if os.getloadavg()[0] <= (os.cpu_count() or 1) else 1.0  # a loaded machine: scheduling
+    assert dt <= 0.2 + margin, f"{dt * 1000:.0f} ms from the page's close to the stop"
+    assert console.http("GET", "/api/state")[1]["control"]["commander"] is None

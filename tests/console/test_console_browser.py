@@ -288,7 +288,8 @@ def _close_browser_while_running(d, fake) -> None:
     line = fake.wait_line("silent", 5).split()
     FIGURES["browser_closed_to_stop_ms"] = round((float(line[1]) - t_close) * 1000, 1)
     FIGURES["browser_closed_heartbeat_age_ms"] = round(float(line[3]) * 1000, 1)
-    assert float(line[1]) - t_close <= 0.2 + 0.3, FIGURES  # the 200 ms timeout, the socket's close
+    # the 200 ms timeout, the socket's close (a loaded machine: its scheduling)
+    assert float(line[1]) - t_close <= 0.2 + (0.3 if not loaded() else 1.5), FIGURES
 
 
 def _engage_run_again(d) -> None:
@@ -350,4 +351,4 @@ def _kill_server_while_running(fake, con, port, tmp, ini) -> None:
     os.kill(con.p.pid, signal.SIGKILL)
     line = fake.wait_line("silent", 5).split()
     FIGURES["server_killed_to_stop_ms"] = round((float(line[1]) - t_kill) * 1000, 1)
-    assert float(line[1]) - t_kill <= 0.2 + 0.1, FIGURES
+    assert float(line[1]) - t_kill <= 0.2 + (0.1 if not loaded() else 1.0), FIGURES

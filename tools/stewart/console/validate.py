@@ -29,7 +29,7 @@ FREQ_MAX_HZ = 10.0
 JOG_STEP_MAX = 0.05  # m or rad per jog step
 
 COMMANDS = ("engage", "park", "stop", "estop", "reset", "move", "run", "jog", "force", "guide",
-            "position", "tare", "feedforward", "force_update")
+            "position", "tare", "feedforward")
 
 
 class BadRequest(ValueError):
@@ -155,10 +155,10 @@ def parse_command(d: Any, platform, current_pose: list[float] | None = None) -> 
         _parse_run(d, r)
     elif name == "jog":
         _parse_jog(d, r, platform, current_pose)
-    elif name in ("force", "guide", "force_update"):
+    elif name in ("force", "guide"):
         r.mask = _mask(d)
-        r.target = _force_target(d) if name != "guide" else [0.0] * 6
-        r.params = _force_params(d) if name != "force_update" else None
+        r.target = _force_target(d) if name == "force" else [0.0] * 6
+        r.params = _force_params(d)
     elif name == "feedforward":
         on = d.get("on")
         if not isinstance(on, bool):
