@@ -132,7 +132,7 @@ class Hub:
         self.axes = {name: AxisListener(bus, name, self.recorder.frame) for name, bus in (axis_buses or {}).items()}
         self._fb = {s: _Reader(self.proto, pr.feedback_name(s)) for s in (1, 2, 3)}
         self._ft = _Reader(self.proto, "FT_SENSOR")
-        self._prev_len: list[tuple[float, float] | None] = [None] * 6
+        self._prev_len: list[tuple[float, float, float | None] | None] = [None] * 6
         self._udp = None
         self.key_loaded = key is not None
 
@@ -383,15 +383,21 @@ class Hub:
                          state=states[s] if s < len(states) else str(s),
                          faults=pr.fault_names(f["Faults"].raw(w), pr.DRIVE_FAULTS),
                          stroke=(ln - p.leg_length_min) / (p.leg_length_max - p.leg_length_min))
-                prev = self._prev_len[leg - 1]
-                if prev is not None and got[1] > prev[1]:
-                    d["speed"] = (ln - prev[0]) / (got[1] - prev[1])
-                if prev is None or got[1] - prev[1] > 0.02:
-                    self._prev_len[leg - 1] = (ln, got[1])
+                d["speed"] = self._speed(leg, ln, got[1])
             elif "length_sp" in d:
                 d["stroke"] = (d["length_sp"] - p.leg_length_min) / (p.leg_length_max - p.leg_length_min)
             legs.append(d)
         return legs
+
+    def _speed(self, leg: int, length: float, stamp: float) -> float | None:
+        """The leg's speed, m/s, from its lengths at least 20 ms apart (the
+        last figure kept between)."""
+        prev = self._prev_len[leg - 1]
+        if prev is None or stamp - prev[1] >= 0.02:
+            speed = (length - prev[0]) / (stamp - prev[1]) if prev is not None and stamp > prev[1] else None
+            self._prev_len[leg - 1] = (length, stamp, speed)
+            return speed
+        return prev[2]
 
     def _ft_values(self) -> list[float] | None:
         a = self.axes.get("axis_b")
