@@ -49,9 +49,9 @@ def check(ok: bool, what: str) -> None:
 class Proc:
     """A child process whose output lines are read into a queue."""
 
-    def __init__(self, argv, log: Path, stdin=False):
+    def __init__(self, argv, log: Path, stdin=False, env=None):
         self.log = open(log, "w")
-        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                                   stdin=subprocess.PIPE if stdin else subprocess.DEVNULL, cwd=ROOT)
         self.lines: queue.Queue = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
@@ -105,10 +105,13 @@ def can_ini(path: Path, ports) -> None:
     path.write_text(text)
 
 
-def start_console(tmp: Path, ini: Path, port: int) -> Proc:
-    c = Proc([str(ROOT / ".venv" / "bin" / "stewart"), "console", "--can-config", str(ini), "--context", "ops",
-              "--axis-contexts", "axa,axb", "--port", str(port), "--record-dir", str(tmp / "rec"),
-              "--udp", "off"], ART / "console.log")
+def start_console(tmp: Path, plat, port: int) -> Proc:
+    env = None
+    if plat.key is not None:
+        env = dict(os.environ, STEWART_KEY=str(plat.key))
+    c = Proc([str(ROOT / ".venv" / "bin" / "stewart"), "console", "--can-config", str(plat.ini), "--context",
+              plat.contexts[0], "--axis-contexts", plat.contexts[1], "--port", str(port), "--record-dir",
+              str(tmp / "rec"), "--udp", "off"], ART / "console.log", env=env)
     c.wait_line("stewart console: http", 30)
     return c
 
@@ -165,23 +168,107 @@ def cmd(d, name):
     return answered(d, name)
 
 
+class FakePlatform(Proc):
+    """The stand-in (fake_platform.py) on udp_multicast: it prints what it receives."""
+
+    def __init__(self, tmp: Path):
+        ports = [free_port() for _ in range(3)]
+        self.ini = tmp / "can.ini"
+        can_ini(self.ini, ports)
+        self.contexts = ("ops", "axa,axb")
+        self.key = None
+        super().__init__([sys.executable, str(Path(__file__).with_name("fake_platform.py")), "--channels",
+                          ",".join(map(str, ports))], ART / "platform.log", stdin=True)
+        self.wait_line("ready", 30)
+
+    def inject_fault(self):
+        self.p.stdin.write("fault drive\n")
+        self.p.stdin.flush()
+
+    def clear_fault(self):
+        pass  # the stand-in's injected fault has no cause that stays
+
+    def close(self):
+        self.p.stdin.write("quit\n")
+        self.p.stdin.flush()
+        self.stop()
+
+
+class SimPlatform:
+    """`stewart sim` (STEWART_CONSOLE_TEST_PLATFORM=sim): a listener on its ops
+    bus tells when the controller shows ESTOP (``estop-rx``) and when it
+    latches operator_silent (``silent``), with the age of the last heartbeat
+    it heard."""
+
+    def __init__(self, tmp: Path):
+        self.run_dir = tmp / "sim"
+        self.port = port = free_port()
+        self.proc = Proc([str(ROOT / ".venv" / "bin" / "stewart"), "sim", "--run-dir", str(self.run_dir),
+                          "--port", str(port)], ART / "platform.log")
+        self.proc.wait_line("  python-can:", 240)
+        self.ini = self.run_dir / "can.ini"
+        self.contexts = ("ops", "axis_a,axis_b")
+        self.key = self.run_dir / "machine.key"
+        self.lines: queue.Queue = queue.Queue()
+        self._stop = threading.Event()
+        threading.Thread(target=self._listen, daemon=True).start()
+
+    def _listen(self):
+        import can
+
+        from stewart import protocol as pr
+        from stewart.operator.node import _Reader
+
+        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=self.port, channel="vcan0")
+        r = _Reader(pr.Protocol(), "CTRL_STATUS")
+        estop, silent = pr.value_names("CTRL_STATUS", "State").index("ESTOP"), 1 << 8
+        last_hb, was = None, {"estop": False, "silent": False}
+        while not self._stop.is_set():
+            m = bus.recv(0.1)
+            if m is None:
+                continue
+            if m.arbitration_id == 0x060:
+                last_hb = time.time()
+            elif m.arbitration_id == r.frame_id:
+                w = r.word(bytes(m.data))
+                now = {"estop": r.fields["State"].raw(w) == estop, "silent": bool(r.fields["Faults"].raw(w) & silent)}
+                if now["estop"] and not was["estop"]:
+                    self.lines.put(f"estop-rx {time.time():.6f}")
+                if now["silent"] and not was["silent"]:
+                    age = time.time() - last_hb if last_hb else float("nan")
+                    self.lines.put(f"silent {time.time():.6f} last-heartbeat-age {age:.4f}")
+                was = now
+        bus.shutdown()
+
+    wait_line = Proc.wait_line
+    drain = Proc.drain
+
+    def inject_fault(self, line="inject drive 3 fault 4"):
+        subprocess.run([str(ROOT / ".venv" / "bin" / "stewart"), "sim", "inject", "--run-dir", str(self.run_dir),
+                        line], check=True, timeout=30)
+
+    def clear_fault(self):
+        self.inject_fault("inject clear")
+
+    def close(self):
+        self._stop.set()
+        subprocess.run([str(ROOT / ".venv" / "bin" / "stewart"), "sim", "stop", "--run-dir", str(self.run_dir)],
+                       timeout=60)
+        self.proc.p.wait(60)
+        self.proc.stop()
+
+
 @pytest.fixture()
 def rig(tmp_path):
     shutil.rmtree(ART, ignore_errors=True)
     ART.mkdir(parents=True)
-    ports = [free_port() for _ in range(3)]
-    ini = tmp_path / "can.ini"
-    can_ini(ini, ports)
-    fake = Proc([sys.executable, str(Path(__file__).with_name("fake_platform.py")), "--channels",
-                 ",".join(map(str, ports))], ART / "platform.log", stdin=True)
-    fake.wait_line("ready", 30)
+    sim = os.environ.get("STEWART_CONSOLE_TEST_PLATFORM") == "sim"
+    plat = SimPlatform(tmp_path) if sim else FakePlatform(tmp_path)
     port = free_port()
-    con = start_console(tmp_path, ini, port)
-    yield fake, con, port, tmp_path, ini
+    con = start_console(tmp_path, plat, port)
+    yield plat, con, port, tmp_path, plat.ini
     con.stop()
-    fake.p.stdin.write("quit\n")
-    fake.p.stdin.flush()
-    fake.stop()
+    plat.close()
     (ART / "figures.json").write_text(json.dumps(FIGURES, indent=1) + "\n")
 
 
@@ -250,10 +337,10 @@ def _estop_and_fault(d, fake) -> None:
     check(rx - clicked <= (150.0 if loaded() else 50.0), "ESTOP click to bus too long")
     click(d, "reset", "reset")
     wait_for(d, "IDLE after reset", state_is(d, "IDLE"))
-    fake.p.stdin.write("fault drive\n")
-    fake.p.stdin.flush()
+    fake.inject_fault()
     wait_for(d, "fault shown", lambda: "drive" in d.find_element("id", "faults").text)
     d.save_screenshot(str(ART / "04-fault.png"))
+    fake.clear_fault()
     click(d, "reset", "reset")
     wait_for(d, "fault reset", lambda: state_is(d, "IDLE")() and d.find_element("id", "faults").text == "")
 
@@ -270,11 +357,18 @@ def _force_hold(d) -> None:
     wait_for(d, "position control", lambda: d.find_element("id", "forcemode").text == "")
 
 
-def _recording(d, download: Path) -> None:
+def _start_recording(d) -> None:
     click(d, "recstart")
     wait_for(d, "recording", lambda: "recording rec-" in d.find_element("id", "recinfo").text)
-    time.sleep(1.0)
+
+
+def _stop_recording(d) -> None:
+    """Stopped after the motion, ESTOP and the fault: analysed while the force hold runs."""
     click(d, "recstop")
+    wait_for(d, "recording stopped", lambda: "stopped" in d.find_element("id", "message").text)
+
+
+def _download_recording(d, download: Path) -> None:
     wait_for(d, "log link", lambda: d.find_elements("link text", "candump log"), 10)
     # the list is redrawn every 3 s: the link is clicked where it is now
     js(d, "document.querySelector('#recordings a[download]').click()")
@@ -282,7 +376,7 @@ def _recording(d, download: Path) -> None:
     lines = got[0].read_text().splitlines()
     FIGURES["recording_frames"] = len(lines)
     assert len(lines) > 1000 and " vcan0 100##" in lines[len(lines) // 2] + "".join(lines[:50])
-    wait_for(d, "analysis", lambda: d.find_elements("link text", "CSV"), 60)
+    wait_for(d, "analysis", lambda: d.find_elements("link text", "CSV"), 90)
     d.save_screenshot(str(ART / "06-recording.png"))
 
 
@@ -315,11 +409,13 @@ def test_console_in_chromium(rig):
     d = browser(download)
     try:
         _load_and_claim(d, port)
+        _start_recording(d)
         _engage_and_run(d)
         _streaming_figures(d, con)
         _estop_and_fault(d, fake)
+        _stop_recording(d)
         _force_hold(d)
-        _recording(d, download)
+        _download_recording(d, download)
         _close_browser_while_running(d, fake)
     finally:
         try:
@@ -342,11 +438,9 @@ def _kill_server_while_running(fake, con, port, tmp, ini) -> None:
         with urllib.request.urlopen(req, timeout=30) as r:
             return json.loads(r.read())
 
-    fake.p.stdin.write("fault drive\n")  # clear the operator-silent latch of the browser's close
-    fake.p.stdin.flush()
-    time.sleep(0.1)
     cid = post("/api/session", {"name": "script"})["client"]
     post("/api/control", {"action": "claim"}, cid)
+    post("/api/estop", {}, cid)  # then reset: clears the operator-silent latch of the browser's close
     post("/api/command", {"command": "reset"}, cid)
     post("/api/command", {"command": "engage"}, cid)
     end = time.monotonic() + 5
