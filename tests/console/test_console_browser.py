@@ -283,8 +283,12 @@ def _load_and_claim(d, port) -> None:
     wait_for(d, "3-D view", lambda: js(d, "window.consoleStats.view3dAt"), 10)
     FIGURES["view3d_ms"] = round(js(d, "window.consoleStats.view3dAt") - nav, 1)
     check(usable <= (6000.0 if loaded() else 2000.0), "page not usable in time")
+    click(d, "run", "run")  # an observer's command: refused on the page, with the reason
+    assert "observes" in d.find_element("id", "message").text
     click(d, "claim")
     wait_for(d, "claim", lambda: d.find_element("id", "role").text == "you command")
+    msg = click(d, "run", "run")  # the controller's refusal (IDLE), with its reason
+    assert "refused" in msg and "READY only" in msg, msg
 
 
 def _engage_and_run(d) -> None:
