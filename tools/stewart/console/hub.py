@@ -479,5 +479,4 @@ _ACTIONS = {
     "tare": lambda h, r: h._cmd("TARE", lambda s: True, 5.0),
     "feedforward": lambda h, r: h._cmd("SET_FEEDFORWARD", lambda s, on=r.on: s.feedforward == on, 2.0,
                                        option=1 if r.on else 0),
-    "estop": lambda h, r: h.estop(None)["state"],
 }

@@ -167,19 +167,16 @@ async def post_command(request: web.Request) -> web.Response:
     cid = _client(request)
     body = await _json(request)
     try:
-        if isinstance(body, dict) and body.get("command") == "estop":
+        if isinstance(body, dict) and body.get("command") == "estop":  # from anyone, never held back
             return web.json_response(await _blocking(request, hub.estop, cid))
         hub.require_commander(cid)
         st = hub.node.status
         req = validate.parse_command(body, hub.platform, st.pose if st and st.estimate_valid else None)
-        if req.command != "estop":
-            res = await _blocking(request, hub.execute, cid, req)
-            return web.json_response(res)
+        return web.json_response(await _blocking(request, hub.execute, cid, req))
     except Exception as e:  # noqa: BLE001 - mapped to the API's errors, the rest re-raised
         if isinstance(e, validate.BadRequest | validate.OutOfRange):
             hub.event("command", f"refused: {e}", ok=False)
         return _mapped(e)
-    return _error(400, "unreachable")
 
 
 async def post_estop(request: web.Request) -> web.Response:
