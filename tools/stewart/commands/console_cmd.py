@@ -37,6 +37,9 @@ def register(sub) -> None:
     p.add_argument("--rate", type=float, default=30.0, help="state updates per second to each page (10..60)")
     p.add_argument("--lease", type=float, default=1.0, help="s an HTTP-only commander stays alive without "
                    "a request (a page's WebSocket keeps it alive)")
+    p.add_argument("--silent-after", type=float, default=0.5, metavar="S",
+                   help="no CTRL_STATUS for this long: the controller is taken for gone and commands but ESTOP "
+                        "are refused (default %(default)s s; more for a simulation on a loaded machine)")
     p.add_argument("--record-dir", default="out/console", help="where recordings go")
     p.set_defaults(func=run)
 
@@ -122,6 +125,8 @@ def run(args) -> int:
         return _err(why)
     if not 100.0 <= args.udp_rate <= 2000.0 or not 10.0 <= args.rate <= 60.0:
         return _err("--udp-rate is 100..2000 and --rate 10..60 per second")
+    if not 0.05 <= args.silent_after <= 60.0 or not 0.1 <= args.lease <= 60.0:
+        return _err("--silent-after is 0.05..60 s and --lease 0.1..60 s")
     udp = None
     if args.udp != "off":
         from ..operator.sources import SourceError, parse_host_port
@@ -158,7 +163,8 @@ def _serve(args, ops, axis, platform, key, token, ssl_ctx, udp) -> int:
     from ..console.hub import Hub
     from ..console.server import make_app
 
-    hub = Hub(ops, platform, key, axis, lease_s=args.lease, record_dir=args.record_dir).start()
+    hub = Hub(ops, platform, key, axis, lease_s=args.lease, record_dir=args.record_dir,
+              stale_s=args.silent_after).start()
     if udp is not None:
         hub.start_udp(udp[0], udp[1], args.udp_rate)
     if key is None:

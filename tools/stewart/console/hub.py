@@ -116,8 +116,10 @@ class Hub:
     """Everything the server serves, independent of HTTP."""
 
     def __init__(self, ops_bus, platform, key: bytes | None, axis_buses: dict | None = None,
-                 lease_s: float = 1.0, record_dir: str | Path = "out/console", proto=None):
+                 lease_s: float = 1.0, record_dir: str | Path = "out/console", proto=None,
+                 stale_s: float = STALE_S):
         self.platform = platform
+        self.stale_s = stale_s
         self.proto = proto or pr.Protocol()
         self.lease_s = lease_s
         self.clients: dict[str, Client] = {}
@@ -243,7 +245,7 @@ class Hub:
         st = self.node.status
         if st is None:
             return "no CTRL_STATUS from the controller yet (is it running, is this the ops bus?)"
-        if time.monotonic() - st.t > STALE_S:
+        if time.monotonic() - st.t > self.stale_s:
             return f"the controller has been silent for {time.monotonic() - st.t:.1f} s (bus or controller gone)"
         return None
 
