@@ -136,6 +136,8 @@ def js(d, expr):
 
 
 def wait_for(d, what, cond, timeout=10.0):
+    if loaded():
+        timeout *= 3  # a page that waits seconds for a core
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         v = cond()
