@@ -106,8 +106,6 @@ def resolve(opts: BusOptions) -> dict[str, Any]:
     if cfg["interface"] == "socketcand":  # `stewart sim`'s server on loopback unless configured
         cfg.setdefault("host", SOCKETCAND_HOST)
         cfg["port"] = int(cfg.get("port", SOCKETCAND_PORT))
-        cfg.pop("fd", None)  # python-can's socketcand client takes no fd flag; it carries 64-byte frames
-        return cfg
     if "fd" not in cfg:
         cfg["fd"] = opts.fd_default
     return cfg
@@ -123,6 +121,40 @@ def check_interface(kwargs: dict[str, Any]) -> None:
         raise BusError(f"unknown interface {interface!r} (python-can knows: {known})")
 
 
+def _check_socketcand(kwargs: dict[str, Any]) -> None:
+    """A clear error at once where no server listens (python-can's client
+    retries for 10 s, logging each try); its warnings about messages split
+    across reads (normal on TCP) kept quiet."""
+    import logging
+    import socket
+
+    logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.ERROR)
+    host, port = kwargs.get("host"), kwargs.get("port")
+    try:
+        socket.create_connection((host, port), timeout=2.0).close()
+    except (OSError, TypeError, ValueError) as e:
+        raise BusError(f"no socketcand server at {host}:{port} ({e}); is `stewart sim` running "
+                       f"(docs/guides/simulator.md)?") from None
+
+
+def _mark_fd(bus) -> None:
+    """python-can's socketcand client marks no frame CAN FD (it carries
+    their 64 bytes all the same): on a CAN FD bus every frame received is
+    marked CAN FD with bit-rate switch, as the bus sent it, so that a
+    recording writes CAN FD frames (candump ``##``) that `stewart analyze`
+    reads."""
+    receive = bus._recv_internal
+
+    def recv_internal(timeout):
+        msg, filtered = receive(timeout)
+        if msg is not None:
+            msg.is_fd = True
+            msg.bitrate_switch = True
+        return msg, filtered
+
+    bus._recv_internal = recv_internal
+
+
 def open_bus(opts: BusOptions, receive_own_messages: bool = False):
     """Opens the bus; raises :class:`BusError` with a clear message."""
     import can
@@ -130,8 +162,15 @@ def open_bus(opts: BusOptions, receive_own_messages: bool = False):
     kwargs = resolve(opts)
     check_interface(kwargs)
     interface = kwargs["interface"]
+    fd_marks = False
+    if interface == "socketcand":
+        _check_socketcand(kwargs)
+        fd_marks = bool(kwargs.pop("fd", False))
     try:
-        return can.Bus(receive_own_messages=receive_own_messages, **kwargs)
+        bus = can.Bus(receive_own_messages=receive_own_messages, **kwargs)
+        if fd_marks:
+            _mark_fd(bus)
+        return bus
     except can.CanInterfaceNotImplementedError as e:
         raise BusError(f"interface {interface!r} is not usable here: {e}") from None
     except (can.CanError, OSError, ValueError, TypeError, ImportError) as e:

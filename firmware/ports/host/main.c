@@ -466,9 +466,9 @@ static void bus_filters(const options_t *o, sp_socketcan_bus_cfg_t bc[SP_CAN_BUS
 static void print_stats(const run_stats_t *rs)
 {
     uint64_t due = rs->ticks + rs->misses;
-    fprintf(stderr, "sp_controller stats: ticks %llu, deadline misses %llu (%.3f %%), worst late %.3f ms\n",
-            (unsigned long long)rs->ticks, (unsigned long long)rs->misses,
-            due ? 100.0 * (double)rs->misses / (double)due : 0.0, (double)rs->worst_late_ns * 1e-6);
+    (void)fprintf(stderr, "sp_controller stats: ticks %llu, deadline misses %llu (%.3f %%), worst late %.3f ms\n",
+                  (unsigned long long)rs->ticks, (unsigned long long)rs->misses,
+                  due ? 100.0 * (double)rs->misses / (double)due : 0.0, (double)rs->worst_late_ns * 1e-6);
 }
 
 /* Real-time mode: the controller is the cycle master, an absolute-deadline

@@ -71,7 +71,10 @@ def _print_ready(host) -> None:
 
 
 def _print_final(bye: dict) -> None:
+    import os
+
     ctl, plant = bye.get("controller", {}), bye.get("plant", {})
+    print(f"stewart sim: host load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     if ctl:
         print(f"stewart sim: controller: {ctl.get('ticks', 0)} ticks, {ctl.get('deadline_misses', 0)} deadline "
               f"misses ({ctl.get('miss_percent', 0):.3f} %), worst {ctl.get('worst_late_ms', 0):.1f} ms late")
@@ -117,8 +120,9 @@ def _status(st: dict, as_json: bool) -> int:
         _err(st.get("answer", "no status"))
         return 1
     prog = st.get("progress", {})
+    load = st.get("host_load") or [0.0]
     print(f"running: {st.get('running')} ({st.get('backend')}), up {st.get('uptime_s', 0):.0f} s; controller "
-          f"state {prog.get('state', '?')}")
+          f"state {prog.get('state', '?')}; host load average {load[0]:.1f} on {st.get('host_cores')} cores")
     for name, unit in (("controller", "ticks"), ("plant", "cycles")):
         s = st.get(name, {})
         print(f"{name}: {s.get(unit, 0)} {unit}, deadline misses {s.get('deadline_misses', 0)} "
@@ -129,7 +133,8 @@ def _status(st: dict, as_json: bool) -> int:
     for e in st.get("events", [])[-5:]:
         print(f"event: {e}")
     r = st.get("relay", {})
-    print(f"relay: {r.get('to_host', 0)} frames to the host, {r.get('from_host', 0)} from it; "
+    print(f"relay: {r.get('to_host', 0)} frames to the host ({r.get('dropped', 0)} dropped), "
+          f"{r.get('from_host', 0)} from it ({st.get('link_dropped', 0)} dropped); "
           f"buses listened to: {', '.join(r.get('subscribed', [])) or 'none'}")
     return 0
 

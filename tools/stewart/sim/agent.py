@@ -8,9 +8,11 @@ listens to, control requests, its log.
     python -m stewart.sim.agent --fds 0,1 ...        (pipes: the host back end)
 
 Inside user-mode Linux the link is a console (a tty in raw mode). The agent
-runs at a lower priority than the controller and the plant (they get
-SCHED_FIFO where allowed): a relay that falls behind loses frames to the
-host (counted), never a deadline of the 1 kHz pair.
+runs at an ordinary priority, below the controller and the plant
+(SCHED_FIFO where allowed): a relay that falls behind loses frames to the
+host (counted), never a deadline of the 1 kHz pair. Inside the UML the
+real-time tasks get at most 80 % of the CPU, so that the relay and a stop
+request still run when the pair cannot keep up.
 """
 
 from __future__ import annotations
@@ -19,8 +21,6 @@ import argparse
 import os
 import queue
 import select
-import shutil
-import subprocess
 import sys
 import threading
 import time
@@ -31,6 +31,12 @@ from . import wire
 from .plant import Plant, SimError
 
 BUS_NAMES = tuple(pr.BUSES)  # ops, axis_a, axis_b: vcan0..vcan2
+#: The host says ``K`` every second; silent this long, it is taken for gone
+#: (killed outright) and the simulation stops: the UML would run on alone.
+HOST_SILENCE = 60.0
+#: Frames queued for the host beyond this many are dropped (counted): about
+#: 2 s of the ops bus, which the console carries at up to about 2 MB/s.
+QUEUE_LINES = 5000
 
 
 class Link:
@@ -42,8 +48,13 @@ class Link:
         self._writer = threading.Thread(target=self._write_loop, daemon=True)
         self._writer.start()
 
-    def send(self, line: str) -> None:
+    def send(self, line: str, droppable: bool = False) -> bool:
+        """Queues a line; a droppable one (a frame) is dropped when the
+        link is that far behind. False when dropped."""
+        if droppable and self._out.qsize() > QUEUE_LINES:
+            return False
         self._out.put(line)
+        return True
 
     def close(self) -> None:
         self._out.put(None)
@@ -102,14 +113,20 @@ class Relay:
     def __init__(self, link: Link):
         self.link = link
         self.socks = [wire.raw_socket(pr.BUSES[name]) for name in BUS_NAMES]
+        for sock in self.socks:
+            wire.set_receive(sock, False)
         self.subscribed = [False] * len(self.socks)
-        self.sent = self.relayed = self.send_errors = 0
+        self.sent = self.relayed = self.send_errors = self.dropped = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, daemon=True)
         self._thread.start()
 
     def subscribe(self, bus: int, on: bool) -> None:
+        """Relays bus ``bus`` or not; an unsubscribed bus's socket takes no
+        frame at all (a filter matching none): the axis buses carry about
+        5,000 frames a second each, not to be read for nothing."""
         if 0 <= bus < len(self.socks):
+            wire.set_receive(self.socks[bus], on)
             self.subscribed[bus] = on
 
     def send(self, f: wire.Frame) -> None:
@@ -132,9 +149,12 @@ class Relay:
                         break
                     if self.subscribed[bus]:
                         f = wire.unpack_raw(bus, raw, now)
-                        if f is not None:
-                            self.link.send(wire.frame_line(f))
+                        if f is None:
+                            continue
+                        if self.link.send(wire.frame_line(f), droppable=True):
                             self.relayed += 1
+                        else:
+                            self.dropped += 1
 
     def close(self) -> None:
         self._stop.set()
@@ -149,16 +169,28 @@ def socket_dontwait() -> int:
     return socket.MSG_DONTWAIT
 
 
-def realtime_prefix() -> list[str]:
-    """``chrt -f 10`` where this user may use SCHED_FIFO (root inside UML)."""
-    chrt = shutil.which("chrt")
-    if chrt is None:
-        return []
+def may_use_realtime() -> bool:
+    """Whether this process may use SCHED_FIFO (root inside user-mode Linux)."""
     try:
-        ok = subprocess.run([chrt, "-f", "10", "true"], capture_output=True, timeout=10).returncode == 0
-    except (OSError, subprocess.TimeoutExpired):
-        ok = False
-    return [chrt, "-f", "10"] if ok else []
+        old = os.sched_getscheduler(0), os.sched_getparam(0)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+        os.sched_setscheduler(0, old[0], old[1])
+        return True
+    except (OSError, AttributeError):
+        return False
+
+
+def leave_time_to_others() -> None:
+    """Inside the UML (its own kernel, never the host's): real-time tasks
+    get at most 80 % of each second, so that the relay and a stop request
+    still run when the pair cannot keep up (the kernel's default: 95 %)."""
+    if os.environ.get("STEWART_VCAN") != "uml":
+        return
+    try:
+        with open("/proc/sys/kernel/sched_rt_runtime_us", "w") as f:
+            f.write("800000\n")
+    except OSError:
+        pass
 
 
 def serve(link: Link, plant: Plant, relay: Relay) -> dict:
@@ -177,7 +209,21 @@ def serve(link: Link, plant: Plant, relay: Relay) -> dict:
             os._exit(1)
 
     threading.Thread(target=watch, daemon=True).start()
+    heard = [time.monotonic()]
+
+    def host_alive() -> None:  # a host killed outright (SIGKILL) leaves no one to stop the UML but us
+        while not stopping.is_set():
+            time.sleep(1.0)
+            if time.monotonic() - heard[0] > HOST_SILENCE and not stopping.is_set():
+                stopping.set()
+                figures = final(plant, relay)
+                link.send(wire.json_line("BYE", dict(figures, ok=False, error="the host went silent")))
+                link.close()
+                os._exit(1)
+
+    threading.Thread(target=host_alive, daemon=True).start()
     for line in link.lines():
+        heard[0] = time.monotonic()
         words = line.split(" ", 2)
         kind = words[0]
         if kind == "F":
@@ -185,6 +231,7 @@ def serve(link: Link, plant: Plant, relay: Relay) -> dict:
                 relay.send(wire.parse_frame(line.split()[1:]))
             except wire.WireError:
                 relay.send_errors += 1
+            link.send(f"A {time.time():.6f}\n")  # on the bus (or refused) by now
         elif kind == "SUB" and len(words) == 3:
             relay.subscribe(int(words[1]) if words[1].isdigit() else -1, words[2] == "1")
         elif kind == "C" and len(words) == 3:
@@ -209,7 +256,7 @@ def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
     if op == "status":
         st = plant.status()
         st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
-                       "subscribed": [BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on]}
+                       "dropped": relay.dropped, "subscribed": [BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on]}
         return dict(st, ok=True), False
     if op == "stop":
         return {"ok": True, "answer": "stopping"}, True
@@ -218,7 +265,8 @@ def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
 
 def final(plant: Plant, relay: Relay) -> dict:
     st = plant.stop()
-    st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors}
+    st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
+                   "dropped": relay.dropped}
     st["tails"] = {k: list(v)[-12:] for k, v in plant.tails.items()}
     return st
 
@@ -252,17 +300,18 @@ def main(argv: list[str] | None = None) -> int:
         link.send(wire.json_line("BYE", {"ok": False, "error": f"cannot open the buses: {e}"}))
         link.close()
         return 1
-    prefix = realtime_prefix()
+    realtime = may_use_realtime()
+    if realtime:
+        leave_time_to_others()
     try:
-        plant = Plant(Path(args.out), Path(args.key), args.build, args.relax, prefix, args.operator_timeout)
+        plant = Plant(Path(args.out), Path(args.key), args.build, args.relax, realtime, args.operator_timeout)
         plant.start()
     except (SimError, FileNotFoundError) as e:
         link.send(wire.json_line("BYE", {"ok": False, "error": str(e)}))
         link.close()
         return 1
-    os.nice(5)  # the relay below the pair: it loses frames, never their deadlines
     link.send(wire.json_line("READY", {"controller": plant.commands()[0], "plant": plant.commands()[1],
-                                       "realtime": bool(prefix), "pid": os.getpid()}))
+                                       "realtime": realtime, "pid": os.getpid()}))
     figures = serve(link, plant, relay)
     relay.close()
     link.send(wire.json_line("BYE", dict(figures, ok=True)))

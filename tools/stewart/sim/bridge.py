@@ -22,6 +22,16 @@ A frame one client sends reaches the bus and every other client of that
 bus, as on a real bus; a client's own frames do not come back to it. A
 client that does not keep up loses frames (counted) rather than holding
 the others up.
+
+Time stamps: a frame's is when ``stewart sim`` had it from the agent (the
+host's clock; the bus's own time is the user-mode Linux's, which falls
+behind the host's when it is starved). A client's own frame reaches the
+bus some time after it sent it (the relay into the
+user-mode Linux: milliseconds, seconds on a starved machine); the frames
+the bus carried before it arrived are stamped, for that client, before its
+send (HOLD_BACK seconds before the server had it). So a program that
+counts the answers stamped after its send (``stewart op`` does) counts
+none that came before its frame was on the bus.
 """
 
 from __future__ import annotations
@@ -37,6 +47,9 @@ from . import wire
 DEFAULT_PORT = 29536
 #: Frames queued for a client that does not read: beyond, frames are dropped.
 CLIENT_QUEUE_BYTES = 4 << 20
+#: How far before the server had a client's frame the frames that preceded
+#: it on the bus are stamped for that client, s.
+HOLD_BACK = 2.0
 _CHANNELS = {**{v: i for i, v in enumerate(pr.BUSES.values())}, **{k: i for i, k in enumerate(pr.BUSES)}}
 
 
@@ -45,9 +58,9 @@ def channel_bus(name: str) -> int | None:
     return _CHANNELS.get(name.strip())
 
 
-def format_frame(f: wire.Frame) -> bytes:
+def format_frame(f: wire.Frame, stamp: float | None = None) -> bytes:
     ident = f"{f.can_id:08X}" if f.extended else f"{f.can_id:03X}"
-    return f"< frame {ident} {f.time:.6f} {f.data.hex().upper()} >".encode()
+    return f"< frame {ident} {f.time if stamp is None else stamp:.6f} {f.data.hex().upper()} >".encode()
 
 
 def parse_send(words: list[str], bus: int) -> wire.Frame:
@@ -102,6 +115,19 @@ class Client:
         self._queued = 0
         self._cond = threading.Condition()
         self._closed = False
+        #: its frames sent: [time the server had it, time on the bus (None: not yet)]
+        self.sends: list[list] = []
+
+    def stamp(self, t: float) -> float:
+        """The time stamp of a frame of bus time ``t`` for this client: held
+        back before its sends that were not on the bus yet at ``t``."""
+        s = t
+        for had, on_bus in self.sends:
+            if on_bus is None or t < on_bus:
+                s = min(s, had - HOLD_BACK)
+        if self.sends and self.sends[0][1] is not None and t - self.sends[0][1] > 0.5:
+            self.sends = [x for x in self.sends if x[1] is None or t - x[1] <= 0.5]
+        return s
 
     def push(self, messages: list[bytes]) -> None:
         with self._cond:
@@ -138,12 +164,12 @@ class Client:
 
 
 class Bridge:
-    """The server: ``send_frame(frame)`` is called with every frame a client
-    sends (to the bus); :meth:`deliver` gives it the bus's frames;
+    """The server: ``send_frame(frame, client)`` is called with every frame a
+    client sends (to the bus; :meth:`on_bus` is to be told when it is there); :meth:`deliver` gives it the bus's frames;
     ``subscribe(bus, on)`` is told when a bus gets its first client or
     loses its last."""
 
-    def __init__(self, send_frame: Callable[[wire.Frame], None], subscribe: Callable[[int, bool], None],
+    def __init__(self, send_frame: Callable[[wire.Frame, "Client"], None], subscribe: Callable[[int, bool], None],
                  host: str = "127.0.0.1", port: int = DEFAULT_PORT):
         self.send_frame, self.subscribe = send_frame, subscribe
         self.server = socket.create_server((host, port), reuse_port=False)
@@ -173,8 +199,23 @@ class Bridge:
             parts.setdefault(f.bus, []).append(format_frame(f))
         with self.lock:
             targets = [c for c in self.clients if c.raw and c.bus in parts and c is not skip]
-        for c in targets:
-            c.push(parts[c.bus])
+            for c in targets:
+                if c.sends:
+                    c.push([format_frame(f, c.stamp(f.time)) for f in frames if f.bus == c.bus])
+                else:
+                    c.push(parts[c.bus])
+
+    def on_bus(self, c: Client, t: float | None) -> None:
+        """Client ``c``'s oldest frame not yet on the bus is there since ``t``
+        (None: it was dropped on the way)."""
+        with self.lock:
+            for entry in c.sends:
+                if entry[1] is None:
+                    if t is None:
+                        c.sends.remove(entry)
+                    else:
+                        entry[1] = t
+                    return
 
     def forget(self, c: Client) -> None:
         with self.lock:
@@ -239,7 +280,9 @@ class Bridge:
             except wire.WireError:
                 self.bad += 1  # counted, not answered: python-can's client takes any "< error" for a frame
                 return
-            self.send_frame(f)
+            with self.lock:
+                c.sends.append([time.time(), None])
+            self.send_frame(f, c)
             self.deliver([f], skip=c)
         elif cmd == "echo":
             c.sock.sendall(b"< echo >")

@@ -7,6 +7,7 @@ SIGTERM or ``stewart sim stop``."""
 
 from __future__ import annotations
 
+import collections
 import json
 import os
 import signal
@@ -22,6 +23,65 @@ from . import bridge as br, control, wire
 
 #: The link's console inside the UML (con3: vcan.run_uml's first extra console).
 UML_TTY = "/dev/tty3"
+#: A bus's relay stays on this long after its last client left, s.
+LINGER = 30.0
+#: Frames queued for the agent beyond this many bytes are dropped (a
+#: starved agent must not block the bridge, nor a stop request behind them).
+LINK_QUEUE_BYTES = 256 << 10
+
+
+class LinkOut:
+    """Lines to the agent, written by a thread on a non-blocking pipe:
+    frames are dropped (counted) when the queue is full; control lines
+    never are."""
+
+    def __init__(self, fd: int):
+        self.fd = fd
+        os.set_blocking(fd, False)
+        self.lines: list[bytes] = []
+        self.queued = 0
+        self.dropped = 0
+        self.closed = False
+        self.cond = threading.Condition()
+        threading.Thread(target=self._loop, daemon=True).start()
+
+    def put(self, line: str, droppable: bool = False) -> bool:
+        data = line.encode()
+        with self.cond:
+            if self.closed or (droppable and self.queued > LINK_QUEUE_BYTES):
+                self.dropped += 1
+                return False
+            self.lines.append(data)
+            self.queued += len(data)
+            self.cond.notify()
+            return True
+
+    def close(self) -> None:
+        with self.cond:
+            self.closed = True
+            self.cond.notify()
+
+    def _loop(self) -> None:
+        import select
+
+        pending = b""
+        while True:
+            with self.cond:
+                while not self.lines and not pending and not self.closed:
+                    self.cond.wait(0.5)
+                if self.closed:
+                    return
+                pending += b"".join(self.lines)
+                self.lines, self.queued = [], 0
+            try:
+                n = os.write(self.fd, pending)
+                pending = pending[n:]
+            except BlockingIOError:
+                select.select([], [self.fd], [], 0.2)
+            except OSError:
+                with self.cond:
+                    self.closed = True
+                return
 
 
 @dataclass
@@ -65,6 +125,9 @@ class Host:
         self.bridge: br.Bridge | None = None
         self.server: control.Server | None = None
         self.stop_asked = threading.Event()
+        self.out: LinkOut | None = None
+        self.sub_gen: dict[int, int] = {}
+        self.sent_order: collections.deque = collections.deque()  # the client of each frame sent
         self.exit_status: int | None = None
         self.link_closed = False
 
@@ -89,7 +152,7 @@ class Host:
             agent += ["--operator-timeout", str(o.operator_timeout)]
         to_agent_r, to_agent_w = os.pipe()
         from_agent_r, from_agent_w = os.pipe()
-        self.link_w, self.link_r = to_agent_w, from_agent_r
+        self.out, self.link_r = LinkOut(to_agent_w), from_agent_r
         if self.backend == "uml":
             agent += ["--tty", UML_TTY]
             threading.Thread(target=self._run_uml, args=(agent, (to_agent_r, from_agent_w)), daemon=True).start()
@@ -103,6 +166,7 @@ class Host:
             os.close(from_agent_w)
             threading.Thread(target=self._wait_child, daemon=True).start()
         threading.Thread(target=self._read_link, daemon=True).start()
+        threading.Thread(target=self._keepalive, daemon=True).start()
         if o.bridge:
             self.bridge = br.Bridge(self._to_bus, self._subscribe, port=o.port)
         self._wait_ready()
@@ -161,7 +225,7 @@ class Host:
                 self.cond.wait(min(left, 0.2))
 
     def _write_state(self, relax: int | None) -> None:
-        st = {"pid": os.getpid(), "backend": self.backend, "key": str(self.key), "relax": relax,
+        st = {"pid": os.getpid(), "pgid": self.pgid, "backend": self.backend, "key": str(self.key), "relax": relax,
               "control": str(self.files["control"]), "started": time.time(),
               "buses": dict(pr.BUSES), "attach": self.attach()}
         self.files["state"].write_text(json.dumps(st, indent=1) + "\n")
@@ -184,16 +248,42 @@ class Host:
     # --------------------------------------------------------------- link
 
     def _send(self, line: str) -> None:
-        try:
-            os.write(self.link_w, line.encode())
-        except OSError:
-            pass
+        if self.out is not None:
+            self.out.put(line)
 
-    def _to_bus(self, f: wire.Frame) -> None:
-        self._send(wire.frame_line(f, with_time=False))
+    def _keepalive(self) -> None:
+        """``K`` every second: the agent stops the simulation when the host
+        is gone (killed outright), rather than leave the UML running."""
+        while not self.ended and (self.out is None or not self.out.closed):
+            self._send("K\n")
+            time.sleep(1.0)
+
+    def _to_bus(self, f: wire.Frame, client) -> None:
+        assert self.out is not None and self.bridge is not None
+        with self.cond:  # the agent acknowledges the frames in the order they are queued
+            if self.out.put(wire.frame_line(f, with_time=False), droppable=True):
+                self.sent_order.append(client)
+                return
+        self.bridge.on_bus(client, None)
 
     def _subscribe(self, bus: int, on: bool) -> None:
-        self._send(f"SUB {bus} {1 if on else 0}\n")
+        """The relay of a bus on with its first client; off LINGER s after
+        its last left (one-shot programs in a row find it warm)."""
+        with self.cond:
+            self.sub_gen[bus] = self.sub_gen.get(bus, 0) + 1
+            gen = self.sub_gen[bus]
+        if on:
+            self._send(f"SUB {bus} 1\n")
+            return
+
+        def later() -> None:
+            time.sleep(LINGER)
+            with self.cond:
+                if self.sub_gen.get(bus) != gen:
+                    return
+            self._send(f"SUB {bus} 0\n")
+
+        threading.Thread(target=later, daemon=True).start()
 
     def _read_link(self) -> None:
         buf = b""
@@ -207,21 +297,30 @@ class Host:
             buf += chunk
             *lines, buf = buf.split(b"\n")
             frames = []
+            now = time.time()
             for raw in lines:
-                self._line(raw.decode("ascii", "replace").strip(), frames)
+                self._line(raw.decode("ascii", "replace").strip(), frames, now)
             if frames and self.bridge is not None:
                 self.bridge.deliver(frames)
         with self.cond:
             self.link_closed = True
             self.cond.notify_all()
 
-    def _line(self, line: str, frames: list) -> None:
+    def _line(self, line: str, frames: list, now: float) -> None:
+        """One line from the agent. Frames are stamped with the host's clock
+        when read (the user-mode Linux's clock may fall behind the host's
+        when it is starved), and so are the acknowledgements."""
         kind, _, rest = line.partition(" ")
         if kind == "F":
             try:
-                frames.append(wire.parse_frame(rest.split()))
+                f = wire.parse_frame(rest.split())
             except wire.WireError:
-                pass
+                return
+            f.time = now
+            frames.append(f)
+            return
+        if kind == "A":
+            self._acknowledged(now, frames)
             return
         with self.cond:
             if kind == "R":
@@ -234,6 +333,18 @@ class Host:
             elif kind == "L":
                 print(f"stewart sim: {_json(rest).get('text', rest)}", file=sys.stderr)
             self.cond.notify_all()
+
+    def _acknowledged(self, t: float, frames: list) -> None:
+        """A frame of a client is on the bus: what came before it goes out
+        first (stamped for that client as before its send)."""
+        with self.cond:
+            client = self.sent_order.popleft() if self.sent_order else None
+        if client is None or self.bridge is None:
+            return
+        if frames:
+            self.bridge.deliver(frames)
+            frames.clear()
+        self.bridge.on_bus(client, t)
 
     def request(self, req: dict, timeout: float = 30.0) -> dict:
         with self.cond:
@@ -265,7 +376,9 @@ class Host:
             return self.request({"op": "inject", "line": line})
         if op == "status":
             st = self.request({"op": "status"})
-            st.update(backend=self.backend, attach=self.attach(), key=str(self.key))
+            st.update(backend=self.backend, attach=self.attach(), key=str(self.key), pgid=self.pgid,
+                      host_load=[round(x, 2) for x in os.getloadavg()], host_cores=os.cpu_count(),
+                      link_dropped=self.out.dropped if self.out is not None else 0)
             if self.bridge is not None:
                 st["bridge"] = {"clients": len(self.bridge.clients), "bad": self.bridge.bad,
                                 "dropped": sum(c.dropped for c in self.bridge.clients)}
@@ -290,16 +403,17 @@ class Host:
             for s, h in old.items():
                 signal.signal(s, h)
 
-    def stop(self, timeout: float = 40.0) -> dict:
+    def stop(self, timeout: float = 30.0) -> dict:
         """Asks the agent to stop (the pair's summaries), waits for the UML
         to halt; kills what is left after ``timeout``. The final figures."""
-        if self.bye is None and not self.ended:
-            self.request({"op": "stop"}, timeout=timeout)
         end = time.monotonic() + timeout
+        if self.bye is None and not self.ended:
+            self.request({"op": "stop"}, timeout=timeout * 0.7)
         with self.cond:
             while not self.ended and time.monotonic() < end:
                 self.cond.wait(0.2)
         if not self.ended and self.pgid is not None:
+            print("stewart sim: the simulation did not end in time: killed", file=sys.stderr)
             try:
                 os.killpg(self.pgid, signal.SIGKILL)
             except (ProcessLookupError, PermissionError):
@@ -318,6 +432,8 @@ class Host:
             self.close()
 
     def close(self) -> None:
+        if self.out is not None:
+            self.out.close()
         if self.bridge is not None:
             self.bridge.close()
         if self.server is not None:  # the run directory is ours: its files go

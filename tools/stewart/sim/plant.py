@@ -33,6 +33,8 @@ _PROGRESS = re.compile(r"^hs_sim: t=\s*([\d.]+) s\s+controller (\S+)\s+pose x ([
 _ANSWER = re.compile(r"^hs_sim control: (accepted|refused): (.*)$")
 _EVENT = re.compile(r"^hs_sim (mark tick \d+: .*|control: failed: .*)$")
 
+#: SCHED_FIFO priority of the pair (the agent's relay runs below it).
+PRIORITY = 10
 #: Seconds an injected line may wait for the plant's answer.
 ANSWER_TIMEOUT = 10.0
 
@@ -50,13 +52,16 @@ class Plant:
     """sp_controller and hs_sim in real time. ``relax``: the controller's
     feedback supervision and the drives' setpoint watchdog in ticks (None:
     the config's; a host that misses 1 ms deadlines, as user-mode Linux,
-    needs more). ``prefix``: put before both commands (chrt)."""
+    needs more). ``realtime``: both get SCHED_FIFO 10 once both have
+    started (not before: a controller that cannot keep up would starve the
+    plant's start)."""
 
     def __init__(self, out: Path, key: Path, build: str | None = None, relax: int | None = None,
-                 prefix: list[str] | None = None, operator_timeout: int | None = None):
+                 realtime: bool = False, operator_timeout: int | None = None):
         self.out, self.key = Path(out), Path(key)
         self.bins = cl.Binaries.find(build)
-        self.relax, self.prefix, self.operator_timeout = relax, list(prefix or []), operator_timeout
+        self.relax, self.realtime, self.operator_timeout = relax, realtime, operator_timeout
+        self.prefix: list[str] = []
         self.procs: dict[str, subprocess.Popen] = {}
         self.tails = {name: collections.deque(maxlen=200) for name in ("controller", "plant")}
         self.stats: dict[str, dict] = {}
@@ -93,6 +98,9 @@ class Plant:
         self._wait_line("controller", "mode on", timeout)
         self._spawn("plant", plant)
         self._wait_line("plant", "mode on", timeout)
+        if self.realtime:
+            for p in self.procs.values():
+                os.sched_setscheduler(p.pid, os.SCHED_FIFO, os.sched_param(PRIORITY))
         # our own writer on the FIFO (hs_sim holds it read-write: never an end of file)
         self._fifo_fd = os.open(self.fifo, os.O_WRONLY | os.O_NONBLOCK)
         self.started = time.time()

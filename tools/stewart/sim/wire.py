@@ -11,9 +11,15 @@ One message a line, the first word its kind:
     agent's receive time (s since the epoch; only from the agent).
 ``SUB BUS 0|1``
     (host to agent) relay that bus's frames to the host, or stop.
+``K``
+    (host to agent) every second: the host is there (the agent stops the
+    simulation after a minute without a line from the host).
 ``C N JSON`` / ``R N JSON``
     a control request (``{"op": "inject", "line": ...}``, ``{"op":
     "status"}``, ``{"op": "stop"}``) and its reply, matched by N.
+``A TIME``
+    (agent to host) the host's frame before it is on the bus since TIME
+    (one for each ``F`` line the agent got, in order).
 ``READY JSON`` / ``BYE JSON`` / ``L TEXT``
     (agent to host) the simulation runs (what it runs); it has ended (the
     final figures); a line of its log.
@@ -108,6 +114,14 @@ def raw_socket(interface: str, rcvbuf: int = 8 << 20) -> socket.socket:
         pass
     s.bind((interface,))
     return s
+
+
+_CAN_RAW_FILTER = 1
+
+
+def set_receive(s: socket.socket, on: bool) -> None:
+    """Every frame (on) or none (off, an empty filter list) on raw socket ``s``."""
+    s.setsockopt(_SOL_CAN_RAW, _CAN_RAW_FILTER, struct.pack("=II", 0, 0) if on else b"")
 
 
 def unpack_raw(bus: int, raw: bytes, t: float) -> Frame | None:
