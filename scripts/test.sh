@@ -15,6 +15,8 @@ echo "== pytest"
 .venv/bin/pytest -q tests/python
 echo "== soak: 1 h of simulated random operation, or as much as 3 minutes of wall time allow"
 .venv/bin/stewart soak --hours 1 --max-wall 180 --seed 2026 --quiet
+echo "== the console: API tests and headless Chromium (tests/console, about a minute)"
+.venv/bin/pytest -q tests/console
 scripts/fuzz.sh 8 # each of the three targets 8 s
 echo "== bus tests over SocketCAN vcan (user-mode Linux where the kernel has no CAN)"
 # 2 GiB: the identification test decodes a 30 s CAN log inside the UML (~0.4 GB);
