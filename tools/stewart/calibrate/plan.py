@@ -73,7 +73,7 @@ def pose_blocks(nominal: Geometry, tracker: Tracker, poses, fit_scale=False):
     prob = Problem(nominal, tracker.targets, data, fit_scale)
     _, jac = prob.residual_jacobian(np.zeros(prob.n), tracker.rot, tracker.pos)
     d, q = _basis(prob)
-    return np.einsum("nkim,mj->nkij", jac * d, q).reshape(len(poses), -1, q.shape[1])
+    return ((jac * d) @ q).reshape(len(poses), -1, q.shape[1])
 
 
 def d_optimal(blocks, count, exchanges=1):

@@ -64,6 +64,8 @@ class Data:
     commanded: np.ndarray
     rows: np.ndarray | None = None
     ticks: np.ndarray | None = None
+    fiducials: np.ndarray | None = None       # (F, 3) base fiducials measured, tracker frame
+    fiducials_base: np.ndarray | None = None  # (F, 3) their coordinates in the base frame
 
 
 @dataclass
@@ -107,6 +109,10 @@ class Problem:
         t = theta[self.n - 6:self.n - 3]
         w = theta[self.n - 3:]
         return Tracker(rodrigues(w) @ rot0, pos0 + t, self.c, noise)
+
+    @property
+    def has_fiducials(self) -> bool:
+        return self.data.fiducials is not None and len(self.data.fiducials) >= 3
 
     def gauge(self) -> np.ndarray:
         """The six base-frame combinations (rows, physical units): the mean
@@ -155,7 +161,22 @@ class Problem:
         world = p[:, None, :] + arm
         jac[..., self.n - 6:self.n - 3] += -rt
         jac[..., self.n - 3:] += np.einsum("ij,nkjm->nkim", rt, skew(world - trk.pos))
+        res = res.reshape(-1, 3)[self.mask.reshape(-1)].reshape(-1)
+        jac = jac.reshape(-1, 3, self.n)[self.mask.reshape(-1)].reshape(-1, self.n)
+        if self.has_fiducials:
+            f = np.asarray(self.data.fiducials_base, float)
+            fres = (f - trk.pos) @ rt.T - self.data.fiducials
+            fjac = np.zeros(fres.shape + (self.n,))
+            fjac[..., self.n - 6:self.n - 3] = -rt
+            fjac[..., self.n - 3:] = np.einsum("ij,fjm->fim", rt, skew(f - trk.pos))
+            res = np.concatenate([res, fres.reshape(-1)])
+            jac = np.concatenate([jac, fjac.reshape(-1, self.n)])
         return res, jac
+
+    def target_errors(self, theta, rot0, pos0):
+        """(N, K) distance of each target reading from its prediction, m."""
+        g, trk, p, r, _ = self.predict(theta, rot0, pos0)
+        return np.linalg.norm(trk.observe(p, r) - self.data.targets, axis=-1)
 
 
 def _guess(commanded):
@@ -169,13 +190,16 @@ def initial_tracker(nominal: Geometry, targets_motion, data: Data):
     p, r = fk(nominal, nominal.length(data.readings), p0, r0)
     world = p[:, None, :] + np.einsum("nij,kj->nki", r, np.asarray(targets_motion, float))
     m = np.isfinite(data.targets).all(-1)
-    rot, pos = kabsch(data.targets[m], world[m])
-    return rot, pos
+    if data.fiducials is not None and len(data.fiducials) >= 3:
+        return kabsch(data.fiducials, data.fiducials_base)
+    return kabsch(data.targets[m], world[m])
 
 
 def _basis(problem: Problem):
     """Scaled coordinates with the base-frame gauge removed: theta = D Q y."""
     d = problem.units
+    if problem.has_fiducials:
+        return d, np.eye(problem.n)
     cg = problem.gauge() * d                     # constraint rows in scaled coordinates
     _, _, vt = np.linalg.svd(cg)
     q = vt[6:].T                                  # (n, n-6) orthonormal null space of the gauge rows
@@ -198,8 +222,9 @@ def identifiability(problem: Problem, jac_flat):
     jr = (jac_flat * d) @ q
     _, s, vt = np.linalg.svd(jr, full_matrices=False)
     keep = s > RANK_TOL * s[0]
-    fixed = ["base frame: mean offset x, y, z and mean rotation about x, y, z of the base joints "
-             "(defined by the drawing; the tracker cannot see them)"]
+    fixed = [] if problem.has_fiducials else [
+        "base frame: mean offset x, y, z and mean rotation about x, y, z of the base joints "
+        "(no base fiducials: the frame is defined by the drawing; the tracker cannot see it)"]
     for v in vt[~keep]:
         phys = d * (q @ v)
         fixed.append(name_combination(phys / d, problem.names))
@@ -223,33 +248,31 @@ def solve(nominal: Geometry, targets_motion, data: Data, fit_scale=False, noise=
     for _round in range(3):
         problem.mask = used
         theta, rot0, pos0, s, fixed, it, res, jac = _gauss_newton(problem, iterations)
-        sigma_hat = _robust_sigma(res[used])
+        err = problem.target_errors(theta, rot0, pos0)
+        sigma_hat = _robust_sigma(err[used])
         lim = outlier_sigma * (noise if noise else sigma_hat)
-        err = np.linalg.norm(res, axis=-1)
         bad = used & (err > lim)
         if not bad.any():
             break
         for n_, k_ in zip(*np.nonzero(bad)):
-            row = int(data.rows[n_, k_]) if data.rows is not None else None
-            where = f"row {row}" if row is not None else f"pose {n_ + 1}"
-            outliers.append(f"{where} (pose {n_ + 1}, target {k_ + 1}): off by {err[n_, k_] * 1e6:.0f} um, "
+            where = f"row {int(data.rows[n_, k_])}" if data.rows is not None else "reading"
+            outliers.append(f"{where} (pose {n_ + 1}, target {k_ + 1}): {err[n_, k_] * 1e6:.0f} um off, "
                             f"{err[n_, k_] / (lim / outlier_sigma):.0f} sigma: outlier, left out")
         used = used & ~bad
-        if bad.sum() > 0.1 * problem.mask.size:
-            raise CalibrationError("more than 10 % of the target readings are outliers:\n  " + "\n  ".join(outliers[:10]))
-    m = used
-    rms = float(np.sqrt(np.mean(res[m] ** 2)))
-    dof = max(1, 3 * int(m.sum()) - (len(s) - len(fixed) + 1))
-    sigma = float(noise) if noise else float(np.sqrt(np.sum(res[m] ** 2) / dof))
-    std = _std(problem, jac[m].reshape(-1, problem.n), sigma)
+        if (~used & np.isfinite(data.targets).all(-1)).sum() > 0.1 * used.size:
+            raise CalibrationError("more than 10 % of the target readings are outliers:\n  "
+                                   + "\n  ".join(outliers[:10]))
+    rms = float(np.sqrt(np.mean(res ** 2)))
+    dof = max(1, len(res) - int(np.sum(s > RANK_TOL * s[0])))
+    sigma = float(noise) if noise else float(np.sqrt(np.sum(res ** 2) / dof))
+    std = _std(problem, jac, sigma)
     g = problem.geometry(theta)
-    return Result(g, problem.tracker(theta, rot0, pos0, sigma), problem.names, _values(problem, theta, rot0, pos0),
+    return Result(g, problem.tracker(theta, rot0, pos0, sigma), problem.names, theta.copy(),
                   std, s, fixed, rms, sigma, outliers, it, time.process_time() - t0, used)
 
 
-def _robust_sigma(res):
+def _robust_sigma(err):
     """Per-coordinate noise from the median target error (chi with 3 dof: median 1.538 sigma)."""
-    err = np.linalg.norm(res.reshape(-1, 3), axis=-1)
     return float(np.median(err) / 1.5382) if len(err) else 0.0
 
 
@@ -263,8 +286,7 @@ def _gauss_newton(problem: Problem, iterations):
             res, jac = problem.residual_jacobian(theta, rot0, pos0)
         except RuntimeError as e:
             raise CalibrationError(f"the geometry diverges: {e}") from None
-        m = problem.mask
-        jf, rf = jac[m].reshape(-1, problem.n), res[m].reshape(-1)
+        jf, rf = jac, res
         if basis is None:
             s, basis, fixed = identifiability(problem, jf)
         a = (jf * d) @ basis
@@ -285,7 +307,3 @@ def _std(problem: Problem, jf, sigma):
     t = d[:, None] * basis
     var = np.einsum("ij,jk,ik->i", t, cov_y, t)
     return np.sqrt(np.maximum(var, 0.0))
-
-
-def _values(problem: Problem, theta, rot0, pos0):
-    return theta.copy()
