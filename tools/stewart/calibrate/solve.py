@@ -245,7 +245,7 @@ def solve(nominal: Geometry, targets_motion, data: Data, fit_scale=False, noise=
             f"({data.targets.shape[1]} targets each); a good calibration takes 40-60")
     used = problem.mask.copy()
     outliers: list[str] = []
-    for _round in range(3):
+    for _round in range(12):   # one reading out per round: an outlier smears into its neighbours
         problem.mask = used
         theta, rot0, pos0, s, fixed, it, res, jac = _gauss_newton(problem, iterations)
         err = problem.target_errors(theta, rot0, pos0)
@@ -254,6 +254,9 @@ def solve(nominal: Geometry, targets_motion, data: Data, fit_scale=False, noise=
         bad = used & (err > lim)
         if not bad.any():
             break
+        worst = np.unravel_index(np.argmax(np.where(used, err, 0.0)), err.shape)
+        bad = np.zeros_like(bad)
+        bad[worst] = True
         for n_, k_ in zip(*np.nonzero(bad)):
             where = f"row {int(data.rows[n_, k_])}" if data.rows is not None else "reading"
             outliers.append(f"{where} (pose {n_ + 1}, target {k_ + 1}): {err[n_, k_] * 1e6:.0f} um off, "
