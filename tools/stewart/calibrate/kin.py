@@ -31,9 +31,9 @@ class Geometry:
 
     @classmethod
     def of_platform(cls, p) -> "Geometry":
-        ls = getattr(p, "length_sensors", None) or {}
+        ls = p.length_sensors
         return cls(np.array(p.base_joints, float), np.array(p.platform_joints, float), float(p.leg_length_min),
-                   np.array(ls.get("zero", [0.0] * LEGS), float), np.array(ls.get("scale", [0.0] * LEGS), float))
+                   np.array(ls["zero"], float), np.array(ls["scale"], float))
 
     def as_built(self, section: dict) -> "Geometry":
         """This geometry with a (parsed) ``as_built`` section applied."""

@@ -49,7 +49,6 @@ def _load(path):
     from ..calibrate.kin import Geometry
     p = cfg.load(path)
     raw = json.loads(Path(path).read_text())
-    p.length_sensors = raw.get("length_sensors", {})
     return p, raw, Geometry.of_platform(p)
 
 

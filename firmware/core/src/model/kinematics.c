@@ -875,3 +875,43 @@ int spi_legs_fit(const sp_platform_t *platform)
 {
     return joints_within(platform->base_joint, 28u) && spi_joints_near(platform); /* b_c within 8 m */
 }
+
+/* lmin + d (1 + k) + zero, d = x - lmin, in int64; flags: saturation. */
+static sp_q24_t sensor_map(sp_q24_t lmin, sp_q30_t k, int64_t zero, int64_t x, sp_flags_t *flags)
+{
+    int64_t d = x - (int64_t)lmin;
+    return sp_sat32((int64_t)lmin + d + sp_mul64(d, k, 30u, flags) + zero, flags);
+}
+
+sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
+                                  sp_q24_t reading, sp_q24_t *length)
+{
+    sp_flags_t flags = 0u;
+    if (platform == NULL || length == NULL || leg >= SP_LEGS) {
+        return SP_E_ARG;
+    }
+    if (sensors == NULL) {
+        *length = reading;
+        return SP_OK;
+    }
+    /* the zero first, then the gain: sp_length_to_sensor's steps reversed */
+    *length = sensor_map(platform->leg_length_min, sensors->scale_inv[leg], 0,
+                         (int64_t)reading - (int64_t)sensors->zero[leg], &flags);
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
+                                 sp_q24_t length, sp_q24_t *reading)
+{
+    sp_flags_t flags = 0u;
+    if (platform == NULL || reading == NULL || leg >= SP_LEGS) {
+        return SP_E_ARG;
+    }
+    if (sensors == NULL) {
+        *reading = length;
+        return SP_OK;
+    }
+    *reading = sensor_map(platform->leg_length_min, sensors->scale[leg], (int64_t)sensors->zero[leg],
+                          (int64_t)length, &flags);
+    return sp_flags_status(flags);
+}

@@ -59,6 +59,8 @@ typedef struct {
                                         authenticated command is refused (SP_PROTO_AUTH_NO_KEY) */
     uint32_t auth_session;         /**< this session's value (drawn at start-up by the port) */
     uint8_t port;                  /**< sp_port_id_t: the target CTRL_IDENTITY names (set by the port) */
+    const sp_length_sensors_t *length_sensors; /**< native drives' length sensors as calibrated
+                                                    (sp_length_from_sensor); NULL: readings are lengths */
 } sp_node_config_t;
 
 typedef struct {
@@ -111,6 +113,7 @@ typedef struct {
     uint8_t force_params_fresh;         /**< it arrived and is not yet handed to the controller */
     sp_node_stats_t stats;
     const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
+    const sp_length_sensors_t *length_sensors; /**< from the config (NULL: readings are lengths) */
     uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */
     uint8_t drives_starting;            /**< set by the port: 1 while the CANopen master is still starting the drives
                                   (not every drive operational); ENGAGE is then refused (cmd_rejected,
