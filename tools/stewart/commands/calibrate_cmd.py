@@ -102,12 +102,22 @@ def _run(args):
     inst = io.read_instrument(args.instrument)
     seed = raw_m.get("as_built", {}).get("seed", 1) if args.tracker_seed is None else args.tracker_seed
     trk = default_tracker(int(seed), inst["noise"], inst["targets"])
-    data = sim.measure(ctrl, truth, trk, poses, np.random.default_rng(args.noise_seed),
-                       inst["fiducials"])
+    rng = np.random.default_rng(args.noise_seed)
+    if args.build:
+        from ..calibrate import loop
+        try:
+            data = loop.measure(p, poses, args.build, Path(args.out).parent / "calibrate_run", trk, rng,
+                                inst["fiducials"])
+        except (RuntimeError, FileNotFoundError) as e:
+            return _err(str(e), 1)
+        where = f"in closed loop ({args.build}: its hs_sim is the machine)"
+    else:
+        data = sim.measure(ctrl, truth, trk, poses, rng, inst["fiducials"])
+        where = f"on the float64 machine ({args.machine})"
     io.write_measurements(args.out, data)
     if args.tracker_csv:
         io.write_tracker(args.tracker_csv, data)
-    print(f"{args.out}: {len(poses)} poses measured on the float64 machine ({args.machine})")
+    print(f"{args.out}: {len(poses)} poses measured {where}")
     return 0
 
 
@@ -188,6 +198,8 @@ def _check(args):
         print(f"{args.plot}: written")
     _, a, b, c, *_ = rows[1]
     ok = a <= CHECK_RMS and b <= CHECK_MAX and c <= CHECK_ROT
+    if args.closed_loop:
+        ok = _check_loop(p, val[:args.loop_poses], args) and ok
     if not ok:
         return _err("check failed: the calibrated config is not accepted", 1)
     if args.accept:
@@ -195,6 +207,26 @@ def _check(args):
         Path(args.accept).write_text(json.dumps(raw_c, indent=2) + "\n")
         print(f"{args.accept}: written")
     return 0
+
+
+def _check_loop(p, val, args) -> bool:
+    from ..calibrate import loop
+    out = Path(args.plot or "calibrate_check").with_suffix("")
+    res = {}
+    for label, build in zip(("nominal on nominal", "before (nominal config)", "after (calibrated)"),
+                            args.closed_loop):
+        res[label] = loop.validate(p, val, build, Path(str(out) + "_loop"), label.split()[0])
+    print(f"closed loop over {len(val)} moves (absolute error at rest; surge 90 mm 0.5 Hz, truth - reference):")
+    print(f"{'':<26}{'pos RMS':>12}{'pos max':>12}{'rot RMS':>12}{'surge RMS':>12}{'surge max':>12}")
+    for label, r in res.items():
+        print(f"{label:<26}{np.sqrt(np.mean(r['pos'] ** 2)) * 1e6:>9.1f} um{r['pos'].max() * 1e6:>9.1f} um"
+              f"{np.sqrt(np.mean(r['rot'] ** 2)) * 1e6:>7.1f} urad{r['surge_rms'] * 1e3:>9.3f} mm"
+              f"{r['surge_max'] * 1e3:>9.3f} mm")
+    after, ref = res["after (calibrated)"], res["nominal on nominal"]
+    ok = after["pos"].max() <= CHECK_MAX and after["surge_rms"] <= 1.1 * ref["surge_rms"]
+    if not ok:
+        print(f"{PROG}: closed loop: the calibrated config does not reach nominal-on-nominal", file=sys.stderr)
+    return ok
 
 
 def run(args) -> int:
@@ -235,6 +267,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--tracker-seed", type=int, default=None, help="the tracker's pose (default: as_built seed)")
     c.add_argument("--noise-seed", type=int, default=1)
     c.add_argument("--tracker-csv", help="also write the tracker's own CSV")
+    c.add_argument("--build", help="closed loop: the build dir whose sp_controller (the config) and hs_sim "
+                   "(built with -DHS_CONFIG=MACHINE.json) drive the poses over vcan")
     c.add_argument("-o", "--out", required=True)
     d = common(w.add_parser("solve", help="least squares: joints, sensor zeros, tracker pose"))
     d.add_argument("measurements")
@@ -244,7 +278,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--calibrated", required=True)
     e.add_argument("--machine", required=True)
     e.add_argument("--poses", type=int, default=50)
+    e.add_argument("--loop-poses", type=int, default=20, help="validation moves in closed loop (default 20)")
     e.add_argument("--seed", type=int, default=1001)
     e.add_argument("--plot")
     e.add_argument("--accept", metavar="OUT.json", help="write the checked config here if the check passes")
+    e.add_argument("--closed-loop", nargs=3, metavar=("NOMINAL", "BEFORE", "AFTER"),
+                   help="also in closed loop: build dirs of nominal-on-nominal, nominal config on the as-built "
+                   "plant, calibrated config on it: absolute error after each move, the surge's tracking")
     p.set_defaults(func=run)
