@@ -62,10 +62,10 @@ typedef struct {
 
 /** config "sensors" section. */
 typedef struct {
-    double length_resolution;   /**< leg length quantum, m */
-    double pressure_resolution; /**< chamber pressure quantum, Pa */
-    double pressure_noise;      /**< standard deviation of the pressure noise, Pa */
-    uint64_t seed;              /**< seed of the noise generator */
+    double length_resolution;     /**< leg length quantum, m */
+    double pressure_resolution;   /**< chamber pressure quantum, Pa */
+    double pressure_noise;        /**< standard deviation of the pressure noise, Pa */
+    uint64_t seed;                /**< seed of the noise generator */
     double length_zero[HS_LEGS];  /**< as built: reading beyond the true length at leg_length_min, m */
     double length_scale[HS_LEGS]; /**< as built: the reading's gain error over the stroke, - */
 } hs_sensor_config_t;

@@ -901,7 +901,7 @@ sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length
 }
 
 sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
-                                 sp_q24_t length, sp_q24_t *reading)
+                                sp_q24_t length, sp_q24_t *reading)
 {
     sp_flags_t flags = 0u;
     if (platform == NULL || reading == NULL || leg >= SP_LEGS) {
@@ -911,7 +911,7 @@ sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_s
         *reading = length;
         return SP_OK;
     }
-    *reading = sensor_map(platform->leg_length_min, sensors->scale[leg], (int64_t)sensors->zero[leg],
-                          (int64_t)length, &flags);
+    *reading =
+        sensor_map(platform->leg_length_min, sensors->scale[leg], (int64_t)sensors->zero[leg], (int64_t)length, &flags);
     return sp_flags_status(flags);
 }

@@ -273,6 +273,6 @@ sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length
  * reading, or leg > 5.
  */
 sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
-                                 sp_q24_t length, sp_q24_t *reading);
+                                sp_q24_t length, sp_q24_t *reading);
 
 #endif /* SP_KINEMATICS_H */
