@@ -153,3 +153,31 @@ def test_five_seeds_meet_the_figures():
         assert np.abs(res.geometry.base - truth.base).max() <= 1e-4, seed
         assert np.abs(res.geometry.plat - truth.plat).max() <= 1e-4, seed
         assert res.seconds <= 10.0
+
+
+def test_plant_reads_as_built(tmp_path):
+    raw = json.loads(Path(resources.default_platform()).read_text())
+    ab = asbuilt.draw(4, 1e-3, 0.5e-3, 1e-4)
+    cfgf = tmp_path / "m.json"
+    cfgf.write_text(json.dumps({**raw, "as_built": ab}))
+    out = tmp_path / "plant.c"
+    subprocess.run([sys.executable, str(ROOT / "tools" / "dev" / "gen_plant.py"), str(cfgf), str(out)], check=True)
+    text = out.read_text()
+    assert repr(raw["base_joints"][0][0] + ab["base_joints"][0][0]) in text
+    assert ".length_zero = {" + repr(ab["length_zero"][0]) in text
+    assert ".length_scale = {" + repr(ab["length_scale"][0]) in text
+    bad = {**raw, "as_built": {**ab, "length_zero": [0.1] * 6}}
+    cfgf.write_text(json.dumps(bad))
+    r = subprocess.run([sys.executable, str(ROOT / "tools" / "dev" / "gen_plant.py"), str(cfgf), str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 1 and "as_built.length_zero[0]" in r.stderr
+
+
+def test_length_sensors_key():
+    raw = json.loads(Path(resources.default_platform()).read_text())
+    p = config.from_dict({**raw, "length_sensors": {"zero": [1e-4] * 6, "scale": [0.0] * 6}})
+    assert p.length_sensors["zero"] == [1e-4] * 6
+    with pytest.raises(config.ConfigError, match=r"length_sensors.scale\[0\]"):
+        config.from_dict({**raw, "length_sensors": {"scale": [0.02] + [0.0] * 5}})
+    with pytest.raises(config.ConfigError, match="length_sensors.gain: unknown key"):
+        config.from_dict({**raw, "length_sensors": {"gain": [0.0] * 6}})
