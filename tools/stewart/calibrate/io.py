@@ -210,11 +210,12 @@ def read_plan(path) -> np.ndarray:
 
 
 def scenario(poses, settle=2.0, fade=3.0) -> str:
-    """hs_sim scenario: engage, each pose by MOVE_TO, rest, a mark per pose, park."""
+    """hs_sim scenario: engage, each pose by MOVE_TO (from READY), rest, a
+    mark per pose, STOP (back to READY, holding the pose), park."""
     out = ["# stewart calibrate plan: static poses, a mark at rest on each", "cmd ENGAGE", "wait ready 60"]
     for i, q in enumerate(poses):
         out += [f"target {' '.join(f'{v:.6f}' for v in q)}", f"cmd MOVE_TO fade={fade:g}",
-                f"delay {fade + settle:g}", f"mark calibrate pose {i + 1}"]
+                f"delay {fade + settle:g}", f"mark calibrate pose {i + 1}", "cmd STOP", "wait ready 10"]
     out += ["cmd PARK", "wait idle 60", "end"]
     return "\n".join(out) + "\n"
 

@@ -19,8 +19,8 @@ from .io import scenario
 from .kin import Tracker, poses_to_pr, rotation_angle
 from .solve import Data
 
-SETTLE = 2.0   # s at rest before each reading
-FADE = 3.0     # s of each MOVE_TO
+SETTLE = 1.5   # s at rest before each reading
+FADE = 2.0     # s of each MOVE_TO
 
 
 def pose_ticks(plant_out: str, n: int, what="calibrate pose") -> np.ndarray:
@@ -76,26 +76,39 @@ def measure(platform, poses, build, out, tracker: Tracker, rng, fiducials=None, 
     return data
 
 
-def validate(platform, poses, build, out, name):
-    """Absolute error at rest after each move (true pose against commanded,
-    the plant's frame = the fiducials') and the surge's tracking error
-    (truth minus reference while RUNNING the paper's surge), from one run."""
-    surge = cl.trig("x", 0.09, 0.5, 8.0, 1.0)
-    res, ticks = run_poses(poses, build, out, name, extra="delay 0.5\n" + surge)
-    true_pose = truth_at(res.truth, ticks)
-    pt, rt = poses_to_pr(true_pose)
+def pose_errors(truth_csv, plant_out, poses):
+    """Absolute position (m) and orientation (rad) error at each marked rest:
+    the plant's true pose against the commanded one, in the plant's frame
+    (the fiducials')."""
+    ticks = pose_ticks(plant_out, len(poses))
+    pt, rt = poses_to_pr(truth_at(truth_csv, ticks))
     pc, rc = poses_to_pr(poses)
-    pos = np.linalg.norm(pt - pc, axis=1)
-    rot = rotation_angle(rt @ np.transpose(rc, (0, 2, 1)))
-    m = cl.marks(res.plant_out)
-    from ..analysis.truth import read_truth
+    return np.linalg.norm(pt - pc, axis=1), rotation_angle(rt @ np.transpose(rc, (0, 2, 1)))
+
+
+def surge_tracking(platform, log, truth_csv, plant_out):
+    """RMS and max of the true surge minus the reference between the marks
+    ``begin x`` and ``end x`` (m)."""
     from ..analysis.decode import read_log
-    d = read_log(res.log, platform=platform)
-    t = read_truth(res.truth)
+    from ..analysis.truth import read_truth
+    m = cl.marks(plant_out)
+    d = read_log(log, platform=platform)
+    t = read_truth(truth_csv)
     sel = (d.ticks >= m["begin x 0.09 0.5"]) & (d.ticks <= m["end x"])
     idx = np.searchsorted(t["tick"], d.ticks[sel])
     ok = idx < len(t["tick"])
     err = t["pose"][idx[ok], 0] - d.reference[sel][ok, 0]
-    ok2 = np.isfinite(err)
-    return {"pos": pos, "rot": rot, "surge_rms": float(np.sqrt(np.mean(err[ok2] ** 2))),
-            "surge_max": float(np.max(np.abs(err[ok2])))}
+    err = err[np.isfinite(err)]
+    return float(np.sqrt(np.mean(err ** 2))), float(np.max(np.abs(err)))
+
+
+def validate(platform, poses, build, out, name):
+    """Absolute error at rest after each move and the paper's surge (from
+    home, truth minus reference), from one run."""
+    home = " ".join(f"{v:.6f}" for v in platform.home)
+    extra = (f"target {home}\ncmd MOVE_TO fade={FADE:g}\ndelay {FADE + SETTLE:g}\ncmd STOP\nwait ready 10\n"
+             + cl.trig("x", 0.09, 0.5, 8.0, 1.0))
+    res, _ = run_poses(poses, build, out, name, extra=extra)
+    pos, rot = pose_errors(res.truth, res.plant_out, poses)
+    rms, peak = surge_tracking(platform, res.log, res.truth, res.plant_out)
+    return {"pos": pos, "rot": rot, "surge_rms": rms, "surge_max": peak}

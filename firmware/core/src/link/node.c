@@ -455,8 +455,9 @@ SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t
         for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
             m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
             /* joint-to-joint length -> what the drive's sensor is to read there */
-            (void)sp_length_to_sensor(node->ctrl_platform, node->length_sensors, b * SP_AXIS_SLOTS + s,
-                                      m.setpoint[s].length, &m.setpoint[s].length);
+            uint32_t leg = ((uint32_t)b * SP_AXIS_SLOTS) + s;
+            (void)sp_length_to_sensor(node->ctrl_platform, node->length_sensors, leg, m.setpoint[s].length,
+                                      &m.setpoint[s].length);
         }
         count_send(
             node,

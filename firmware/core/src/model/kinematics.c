@@ -887,31 +887,33 @@ sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length
                                   sp_q24_t reading, sp_q24_t *length)
 {
     sp_flags_t flags = 0u;
-    if (platform == NULL || length == NULL || leg >= SP_LEGS) {
-        return SP_E_ARG;
+    sp_status_t st = SP_E_ARG;
+    if (platform != NULL && length != NULL && leg < (unsigned)SP_LEGS) {
+        if (sensors == NULL) {
+            *length = reading;
+        } else {
+            /* the zero first, then the gain: sp_length_to_sensor's steps reversed */
+            *length = sensor_map(platform->leg_length_min, sensors->scale_inv[leg], 0,
+                                 (int64_t)reading - (int64_t)sensors->zero[leg], &flags);
+        }
+        st = sp_flags_status(flags);
     }
-    if (sensors == NULL) {
-        *length = reading;
-        return SP_OK;
-    }
-    /* the zero first, then the gain: sp_length_to_sensor's steps reversed */
-    *length = sensor_map(platform->leg_length_min, sensors->scale_inv[leg], 0,
-                         (int64_t)reading - (int64_t)sensors->zero[leg], &flags);
-    return sp_flags_status(flags);
+    return st;
 }
 
 sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
                                 sp_q24_t length, sp_q24_t *reading)
 {
     sp_flags_t flags = 0u;
-    if (platform == NULL || reading == NULL || leg >= SP_LEGS) {
-        return SP_E_ARG;
+    sp_status_t st = SP_E_ARG;
+    if (platform != NULL && reading != NULL && leg < (unsigned)SP_LEGS) {
+        if (sensors == NULL) {
+            *reading = length;
+        } else {
+            *reading = sensor_map(platform->leg_length_min, sensors->scale[leg], (int64_t)sensors->zero[leg],
+                                  (int64_t)length, &flags);
+        }
+        st = sp_flags_status(flags);
     }
-    if (sensors == NULL) {
-        *reading = length;
-        return SP_OK;
-    }
-    *reading =
-        sensor_map(platform->leg_length_min, sensors->scale[leg], (int64_t)sensors->zero[leg], (int64_t)length, &flags);
-    return sp_flags_status(flags);
+    return st;
 }
