@@ -181,3 +181,16 @@ def test_length_sensors_key():
         config.from_dict({**raw, "length_sensors": {"scale": [0.02] + [0.0] * 5}})
     with pytest.raises(config.ConfigError, match="length_sensors.gain: unknown key"):
         config.from_dict({**raw, "length_sensors": {"gain": [0.0] * 6}})
+
+
+def test_scenario_stops_after_each_move_and_waits_for_long_ones():
+    p = config.load(resources.default_platform())
+    poses = np.array([np.array(p.home) + [0.0, 0.0, 0.4, 0.0, 0.0, 0.0],
+                      np.array(p.home) + [0.0, 0.0, -0.5, 0.0, 0.0, 0.0]])
+    times = io.move_times(p, poses, fade=2.0)
+    assert times[0] == 2.0 and times[1] > 2.0       # 0.9 m of heave needs longer than 2 s
+    text = io.scenario(poses, settle=1.5, fade=2.0, times=times)
+    lines = text.splitlines()
+    i = lines.index("mark calibrate pose 2")
+    assert lines[i - 2] == "cmd MOVE_TO fade=2" and lines[i - 1] == f"delay {times[1] + 1.5:.2f}"
+    assert lines[i + 1:i + 3] == ["cmd STOP", "wait ready 10"]   # MOVE_TO is accepted in READY only

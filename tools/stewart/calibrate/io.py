@@ -209,13 +209,26 @@ def read_plan(path) -> np.ndarray:
     return np.array([[_num(path, line, c, rec[j + 1]) for j, c in enumerate(AXES6)] for line, rec in rows])
 
 
-def scenario(poses, settle=2.0, fade=3.0) -> str:
-    """hs_sim scenario: engage, each pose by MOVE_TO (from READY), rest, a
-    mark per pose, STOP (back to READY, holding the pose), park."""
+def move_times(platform, poses, fade=2.0):
+    """Seconds each move needs: the fade, or longer where a leg travels far
+    (the controller stretches a MOVE_TO to keep every leg below
+    leg_velocity_max; a smooth profile peaks near twice the mean rate)."""
+    from .kin import Geometry, ik, poses_to_pr
+    g = Geometry.of_platform(platform)
+    lengths = ik(g, *poses_to_pr(np.vstack([platform.home, poses])))
+    travel = np.max(np.abs(np.diff(lengths, axis=0)), axis=1)
+    return np.maximum(fade, 2.5 * travel / platform.leg_velocity_max)
+
+
+def scenario(poses, settle=2.0, fade=3.0, times=None) -> str:
+    """hs_sim scenario: engage, each pose by MOVE_TO (from READY), the move's
+    time (``times``, default ``fade``) and ``settle`` at rest, a mark per
+    pose, STOP (back to READY, holding the pose), park."""
     out = ["# stewart calibrate plan: static poses, a mark at rest on each", "cmd ENGAGE", "wait ready 60"]
     for i, q in enumerate(poses):
+        t = fade if times is None else float(times[i])
         out += [f"target {' '.join(f'{v:.6f}' for v in q)}", f"cmd MOVE_TO fade={fade:g}",
-                f"delay {fade + settle:g}", f"mark calibrate pose {i + 1}", "cmd STOP", "wait ready 10"]
+                f"delay {t + settle:.2f}", f"mark calibrate pose {i + 1}", "cmd STOP", "wait ready 10"]
     out += ["cmd PARK", "wait idle 60", "end"]
     return "\n".join(out) + "\n"
 

@@ -32,10 +32,11 @@ def pose_ticks(plant_out: str, n: int, what="calibrate pose") -> np.ndarray:
     return np.array([m[f"{what} {i + 1}"] for i in range(n)])
 
 
-def run_poses(poses, build, out, name, extra="", timeout=1800):
+def run_poses(platform, poses, build, out, name, extra="", timeout=1800):
     """One lockstep run through ``poses`` (marks at rest), then ``extra``
     scenario lines before parking. Returns (RunResult, ticks of the marks)."""
-    text = scenario(poses, SETTLE, FADE).replace("cmd PARK\n", extra + "cmd PARK\n", 1)
+    from .io import move_times
+    text = scenario(poses, SETTLE, FADE, move_times(platform, poses, FADE)).replace("cmd PARK\n", extra + "cmd PARK\n", 1)
     spec = cl.RunSpec(name=name, scenario=text, timeout_ms=5000)
     (res,) = cl.run([spec], out, build, progress=False, timeout=timeout)
     if not res.ok:
@@ -63,7 +64,7 @@ def readings_at(log, platform, ticks):
 def measure(platform, poses, build, out, tracker: Tracker, rng, fiducials=None, repeats=20) -> Data:
     """Drives ``poses`` and returns the measurements (readings from the log,
     the tracker's readings from the truth)."""
-    res, ticks = run_poses(poses, build, out, "calibrate")
+    res, ticks = run_poses(platform, poses, build, out, "calibrate")
     true_pose = truth_at(res.truth, ticks)
     readings, _ = readings_at(res.log, platform, ticks)
     p, r = poses_to_pr(true_pose)
@@ -108,7 +109,7 @@ def validate(platform, poses, build, out, name):
     home = " ".join(f"{v:.6f}" for v in platform.home)
     extra = (f"target {home}\ncmd MOVE_TO fade={FADE:g}\ndelay {FADE + SETTLE:g}\ncmd STOP\nwait ready 10\n"
              + cl.trig("x", 0.09, 0.5, 8.0, 1.0))
-    res, _ = run_poses(poses, build, out, name, extra=extra)
+    res, _ = run_poses(platform, poses, build, out, name, extra=extra)
     pos, rot = pose_errors(res.truth, res.plant_out, poses)
     rms, peak = surge_tracking(platform, res.log, res.truth, res.plant_out)
     return {"pos": pos, "rot": rot, "surge_rms": rms, "surge_max": peak}

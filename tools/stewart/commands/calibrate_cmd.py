@@ -82,7 +82,7 @@ def _plan(args):
     poses, logdet = plan.make_plan(p, trk, args.poses, args.candidates, args.seed, args.fit_scale)
     io.write_plan(args.out, poses)
     if args.scenario:
-        Path(args.scenario).write_text(io.scenario(poses))
+        Path(args.scenario).write_text(io.scenario(poses, times=io.move_times(p, poses)))
     print(f"{args.out}: {len(poses)} D-optimal poses of {args.candidates} candidates, log det {logdet:.1f}")
     return 0
 
