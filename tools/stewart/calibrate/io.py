@@ -212,12 +212,13 @@ def read_plan(path) -> np.ndarray:
 def move_times(platform, poses, fade=2.0):
     """Seconds each move needs: the fade, or longer where a leg travels far
     (the controller stretches a MOVE_TO to keep every leg below
-    leg_velocity_max; a smooth profile peaks near twice the mean rate)."""
+    leg_velocity_max; measured on the default platform: up to about 3.5
+    times the travel over leg_velocity_max)."""
     from .kin import Geometry, ik, poses_to_pr
     g = Geometry.of_platform(platform)
     lengths = ik(g, *poses_to_pr(np.vstack([platform.home, poses])))
     travel = np.max(np.abs(np.diff(lengths, axis=0)), axis=1)
-    return np.maximum(fade, 2.5 * travel / platform.leg_velocity_max)
+    return np.maximum(fade, 4.0 * travel / platform.leg_velocity_max)
 
 
 def scenario(poses, settle=2.0, fade=3.0, times=None) -> str:
