@@ -15,12 +15,14 @@ message naming the missing key.
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # gen_platform beside this file
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tools/: this checkout's stewart
 from gen_platform import run_generator  # noqa: E402
+from stewart import asbuilt  # noqa: E402
 from stewart import config as cfg  # noqa: E402
 
 
@@ -51,6 +53,22 @@ def _c_string(s: str) -> str:
     return '"' + "".join(out) + '"'
 
 
+def load_as_built(path) -> cfg.Platform:
+    """The plant's machine: the config with its ``as_built`` section applied
+    (joints moved; the sensors' zero and scale kept on ``Platform.as_built``).
+    The controller's generator (gen_platform.py) never calls this."""
+    p = cfg.load(path)
+    try:
+        raw = json.loads(Path(path).read_text())
+        section = asbuilt.parse(raw)
+        true = cfg.from_dict(asbuilt.true_config(raw), str(path))
+    except asbuilt.AsBuiltError as e:
+        raise cfg.ConfigError(f"{path}: {e}") from None
+    true.source = p.source
+    true.as_built = section
+    return true
+
+
 def c_source(p: cfg.Platform) -> str:
     if not p.hydraulic:
         raise cfg.ConfigError(f"{p.source}: hydraulic: missing (the plant simulator needs it)")
@@ -59,6 +77,7 @@ def c_source(p: cfg.Platform) -> str:
     h = p.hydraulic
     s = p.sensors
     fs = p.force_sensor
+    ab = getattr(p, "as_built", None) or asbuilt.parse({})
     # scalars, then the friction levels per cylinder (lists of six, leg 1
     # first) and the friction curves' shape (with config.py's defaults)
     lines = [f"        .{key} = {_d(h.get(key, 0.0))}"
@@ -98,6 +117,8 @@ const hs_config_t hs_config_default = {{
         .pressure_resolution = {_d(s["pressure_resolution"])},
         .pressure_noise = {_d(s["pressure_noise"])},
         .seed = UINT64_C({int(s["seed"])}),
+        .length_zero = {_vec(ab["length_zero"])},
+        .length_scale = {_vec(ab["length_scale"])},
     }},
     .force_sensor = {{
         .mount_pos = {_vec(fs["mount_pos"])},
@@ -109,7 +130,7 @@ const hs_config_t hs_config_default = {{
 
 
 def main(argv: list[str]) -> int:
-    return run_generator(argv, c_source, "gen_plant.py")
+    return run_generator(argv, c_source, "gen_plant.py", load_as_built)
 
 
 if __name__ == "__main__":

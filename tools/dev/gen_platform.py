@@ -167,17 +167,24 @@ const sp_platform_t sp_platform_default = {{
     .bristle_damping = {{{", ".join(str(v) for v in q["bristle_damping"])}}},
 }};
 
+const sp_length_sensors_t sp_length_sensors_default = {{
+    .zero = {{{", ".join(str(v) for v in q["length_zero"])}}},
+    .scale = {{{", ".join(str(v) for v in q["length_scale"])}}},
+    .scale_inv = {{{", ".join(str(v) for v in q["length_scale_inv"])}}},
+}};
+
 {_layout_c(lay)}"""
 
 
-def run_generator(argv: list[str], c_source, prog: str) -> int:
-    """CONFIG.json OUT.c -> OUT.c = c_source(config), rewritten only when it
-    changes (so the build does not recompile). 2 usage, 1 bad config."""
+def run_generator(argv: list[str], c_source, prog: str, load=None) -> int:
+    """CONFIG.json OUT.c -> OUT.c = c_source(load(config)) (default
+    ``config.load``, which ignores an ``as_built`` section), rewritten only
+    when it changes (so the build does not recompile). 2 usage, 1 bad config."""
     if len(argv) != 2:
         print(f"usage: {prog} CONFIG.json OUT.c", file=sys.stderr)
         return 2
     try:
-        text = c_source(cfg.load(argv[0]))
+        text = c_source((load or cfg.load)(argv[0]))
     except cfg.ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

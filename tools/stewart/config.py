@@ -222,6 +222,7 @@ class Platform:
     drives: _layout.Drives = field(default_factory=_layout.native_default)
     force_sensor: dict = field(default_factory=lambda: dict(FORCE_SENSOR_DEFAULT))
     joints: dict = field(default_factory=dict)
+    length_sensors: dict = field(default_factory=lambda: {"zero": [0.0] * LEGS, "scale": [0.0] * LEGS})
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -526,7 +527,7 @@ def _from_dict(d) -> Platform:
     drives = _drives(d, lmin, lmax)
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
                  wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d),
-                 joints=_joints(d.get("joints", {})))
+                 joints=_joints(d.get("joints", {})), length_sensors=_length_sensors(d.get("length_sensors", {})))
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:
@@ -604,6 +605,23 @@ def _joints(j) -> dict:
         if key not in JOINT_KEYS:
             raise ConfigError(f"joints.{key}: unknown key (known: {', '.join(sorted(JOINT_KEYS))})")
     return {key: _number(f"joints.{key}", v, lo, hi) for key, v in j.items() for lo, hi, _u in [JOINT_KEYS[key]]}
+
+
+#: The optional ``length_sensors`` section (``stewart calibrate solve`` writes
+#: it): leg i's sensor reads leg_length_min + (1 + scale[i]) (l - leg_length_min)
+#: + zero[i] at the joint-to-joint length l; the firmware maps every reading
+#: and setpoint through it (sp_length_from_sensor / sp_length_to_sensor).
+LENGTH_SENSOR_LIMITS = {"zero": 0.05, "scale": 0.01}
+
+
+def _length_sensors(s) -> dict:
+    if not isinstance(s, dict):
+        raise ConfigError("length_sensors: expected an object with zero and scale")
+    for key in s:
+        if key not in LENGTH_SENSOR_LIMITS:
+            raise ConfigError(f"length_sensors.{key}: unknown key (known: zero, scale)")
+    return {key: _vector(f"length_sensors.{key}", s.get(key, [0.0] * LEGS), LEGS, -lim, lim)
+            for key, lim in LENGTH_SENSOR_LIMITS.items()}
 
 
 def _sensors(s) -> dict:

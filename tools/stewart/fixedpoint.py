@@ -62,6 +62,9 @@ def quantize(p: cfg.Platform) -> dict:
                                 Q24, "hydraulic.stribeck_velocity"),
         "bristle_stiffness": [_q(v, 1, "hydraulic.presliding_displacement (bristle stiffness)") for v in sigma0],
         "bristle_damping": [_q(v, Q8, "hydraulic.presliding_displacement (bristle damping)") for v in sigma1],
+        "length_zero": [_q(v, Q24, "length_sensors.zero") for v in p.length_sensors["zero"]],
+        "length_scale": [_q(v, Q30, "length_sensors.scale") for v in p.length_sensors["scale"]],
+        "length_scale_inv": [_q(1.0 / (1.0 + v) - 1.0, Q30, "length_sensors.scale") for v in p.length_sensors["scale"]],
     }
 
 

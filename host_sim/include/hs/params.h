@@ -62,10 +62,12 @@ typedef struct {
 
 /** config "sensors" section. */
 typedef struct {
-    double length_resolution;   /**< leg length quantum, m */
-    double pressure_resolution; /**< chamber pressure quantum, Pa */
-    double pressure_noise;      /**< standard deviation of the pressure noise, Pa */
-    uint64_t seed;              /**< seed of the noise generator */
+    double length_resolution;     /**< leg length quantum, m */
+    double pressure_resolution;   /**< chamber pressure quantum, Pa */
+    double pressure_noise;        /**< standard deviation of the pressure noise, Pa */
+    uint64_t seed;                /**< seed of the noise generator */
+    double length_zero[HS_LEGS];  /**< as built: reading beyond the true length at leg_length_min, m */
+    double length_scale[HS_LEGS]; /**< as built: the reading's gain error over the stroke, - */
 } hs_sensor_config_t;
 
 /** config "force_sensor" section (the plant's sensor; its noise, bias and
@@ -141,6 +143,11 @@ typedef struct {
     double pressure_resolution; /**< Pa, > 0 */
     double pressure_noise;      /**< Pa (standard deviation), >= 0 */
     uint64_t seed;
+    /* as built (config "as_built", tools/stewart/asbuilt.py): leg i reads
+     * length_min + (1 + length_scale[i]) (l - length_min) + length_zero[i] at the
+     * true joint-to-joint length l; all zero: the machine as drawn */
+    double length_zero[HS_LEGS];  /**< m, |.| <= 0.05 */
+    double length_scale[HS_LEGS]; /**< -, |.| <= 0.01 */
 } hs_sensor_params_t;
 
 /** Axis drive (position loop of each cylinder), see hs/drive.h. */

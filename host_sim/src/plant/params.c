@@ -141,6 +141,12 @@ hs_status_t hs_params_check(const hs_params_t *p)
         !finite_nonneg(p->sensors.pressure_noise)) {
         return HS_E_ARG;
     }
+    for (int i = 0; i < HS_LEGS; ++i) {
+        if (!isfinite(p->sensors.length_zero[i]) || !(fabs(p->sensors.length_zero[i]) <= 0.05) ||
+            !isfinite(p->sensors.length_scale[i]) || !(fabs(p->sensors.length_scale[i]) <= 0.01)) {
+            return HS_E_ARG;
+        }
+    }
     if (!finite_nonneg(p->drive.kp) || !finite_nonneg(p->drive.kf) || !finite_nonneg(p->drive.force_highpass) ||
         !finite_nonneg(p->drive.ff_gain) || !finite_pos(p->drive.following_error_max) || p->drive.timeout_cycles < 1u ||
         !finite_pos(p->drive.spool_error_max) || !finite_pos(p->drive.spool_error_time) ||
@@ -270,6 +276,10 @@ hs_status_t hs_params_from_config(const hs_config_t *cf, hs_params_t *p)
     p->sensors.pressure_resolution = cf->sensors.pressure_resolution;
     p->sensors.pressure_noise = cf->sensors.pressure_noise;
     p->sensors.seed = cf->sensors.seed;
+    for (int i = 0; i < HS_LEGS; ++i) {
+        p->sensors.length_zero[i] = cf->sensors.length_zero[i];
+        p->sensors.length_scale[i] = cf->sensors.length_scale[i];
+    }
     drive_from_config(cf, &c, &p->drive);
     p->substeps = 10u;
     return hs_params_check(p);

@@ -473,9 +473,13 @@ static double measure_pressure(hs_plant_t *pl, double p)
     return (m > 0.0) ? m : 0.0;
 }
 
-/* What the length sensor of leg i reads at the true length len (injected faults). */
-static double sensed_length(hs_plant_t *pl, int i, double len)
+/* What the length sensor of leg i reads at the true length len: the sensor as
+ * built (zero and scale, hs_sensor_params_t), then any injected fault. */
+static double sensed_length(hs_plant_t *pl, int i, double true_len)
 {
+    const hs_sensor_params_t *s = &pl->par.sensors;
+    double lmin = pl->par.cyl[i].length_min;
+    double len = lmin + (1.0 + s->length_scale[i]) * (true_len - lmin) + s->length_zero[i];
     switch (pl->inj.sensor[i]) {
     case HS_SENSOR_STICK:
         return pl->inj.sensor_value[i];

@@ -23,6 +23,9 @@
  *                                   from a 1 kHz neighbour, <= 8 cold from home
  *   inverse dynamics                0.05 N: the forces reproduce the wrench
  *                                   the motion needs (checked in double)
+ *   length sensors                  1 LSB of Q24 against the double model,
+ *                                   bit for bit without calibration, the
+ *                                   round trip within 2 LSB
  */
 #include <math.h>
 #include <setjmp.h>
@@ -1652,6 +1655,50 @@ static void test_check_legs(void **state)
     assert_int_equal(sp_check_legs(NULL, l, NULL, NULL, &rep), SP_E_ARG);
 }
 
+/* sp_length_from_sensor / sp_length_to_sensor against the double model on
+ * random zeros, scales and lengths; identity (bit for bit) with zeros and NULL. */
+static void test_length_sensors(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5EED5u;
+    sp_platform_t p = sp_platform_default;
+    sp_length_sensors_t ls;
+    const double q24 = 16777216.0, q30 = 1073741824.0;
+    double lmin = (double)p.leg_length_min / q24;
+    memset(&ls, 0, sizeof ls);
+    for (int n = 0; n < 2000; ++n) {
+        sp_q24_t l = (sp_q24_t)llround(tu_uniform(&rng, 1.5, 3.5) * q24), r, back;
+        unsigned leg = (unsigned)(n % SP_LEGS);
+        assert_int_equal(sp_length_to_sensor(&p, &ls, leg, l, &r), SP_OK);
+        assert_int_equal(r, l);
+        assert_int_equal(sp_length_from_sensor(&p, NULL, leg, l, &r), SP_OK);
+        assert_int_equal(r, l);
+        double zero = tu_uniform(&rng, -0.05, 0.05), k = tu_uniform(&rng, -0.01, 0.01);
+        ls.zero[leg] = (sp_q24_t)llround(zero * q24);
+        ls.scale[leg] = (sp_q30_t)llround(k * q30);
+        ls.scale_inv[leg] = (sp_q30_t)llround((1.0 / (1.0 + k) - 1.0) * q30);
+        double ld = (double)l / q24;
+        double want = lmin + (1.0 + (double)ls.scale[leg] / q30) * (ld - lmin) + (double)ls.zero[leg] / q24;
+        assert_int_equal(sp_length_to_sensor(&p, &ls, leg, l, &r), SP_OK);
+        assert_true(fabs((double)r / q24 - want) <= 1.0 / q24);
+        assert_int_equal(sp_length_from_sensor(&p, &ls, leg, r, &back), SP_OK);
+        assert_true(llabs((long long)back - (long long)l) <= 2);
+        ls.zero[leg] = 0;
+        ls.scale[leg] = 0;
+        ls.scale_inv[leg] = 0;
+    }
+    /* saturation and bad arguments */
+    ls.zero[0] = (sp_q24_t)(0.05 * q24);
+    sp_q24_t r = 7;
+    assert_int_equal(sp_length_to_sensor(&p, &ls, 0, INT32_MAX, &r), SP_E_OVERFLOW);
+    assert_int_equal(r, INT32_MAX);
+    r = 7;
+    assert_int_equal(sp_length_to_sensor(&p, &ls, 6, 0, &r), SP_E_ARG);
+    assert_int_equal(sp_length_from_sensor(NULL, &ls, 0, 0, &r), SP_E_ARG);
+    assert_int_equal(sp_length_from_sensor(&p, &ls, 0, 0, NULL), SP_E_ARG);
+    assert_int_equal(r, 7);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1676,6 +1723,7 @@ int main(void)
         cmocka_unit_test(test_inverse_dynamics_rates_reference),
         cmocka_unit_test(test_inverse_dynamics_held),
         cmocka_unit_test(test_check_legs),
+        cmocka_unit_test(test_length_sensors),
     };
     return cmocka_run_group_tests_name("kinematics", tests, NULL, NULL);
 }

@@ -23,6 +23,8 @@ sp_status_t sp_node_default_config(sp_node_config_t *cfg, const sp_platform_t *p
     }
     memset(cfg, 0, sizeof *cfg);
     cfg->sync_master = 1u;
+    /* the built-in platform's sensors come with it; another platform's readings are lengths */
+    cfg->length_sensors = (platform == &sp_platform_default) ? &sp_length_sensors_default : NULL;
     return sp_ctrl_default_config(&cfg->ctrl, platform);
 }
 
@@ -37,6 +39,7 @@ sp_status_t sp_node_init(sp_node_t *node, const sp_node_config_t *cfg)
     }
     node->target = cfg->ctrl.platform->home;
     node->ctrl_platform = cfg->ctrl.platform;
+    node->length_sensors = cfg->length_sensors;
     node->ctrl_sync_master = cfg->sync_master;
     if (cfg->auth_key != NULL) {
         node->key = *cfg->auth_key;
@@ -119,6 +122,9 @@ static sp_status_t receive_axis(sp_node_t *node, const sp_can_frame_t *f, sp_pro
     sp_drive_feedback_t d;
     d.fresh = 1u;
     d.length = m.length;
+    /* the sensor's reading -> joint-to-joint length (calibrated zero and scale;
+     * identity by default); saturated on overflow, which the limits then catch */
+    (void)sp_length_from_sensor(node->ctrl_platform, node->length_sensors, leg, m.length, &d.length);
     d.force = spi_cylinder_force(node->ctrl_platform, m.pressure_a, m.pressure_b);
     d.no_force = 0u; /* the native feedback carries both chamber pressures */
     /* a drive in FAULT counts as faulty even without bits; bit 8, above the
@@ -448,6 +454,10 @@ SPI_NOINLINE static void send_axis_frames(const sp_node_config_t *cfg, sp_node_t
         m.block = node->out.drive_block;
         for (uint32_t s = 0; s < SP_AXIS_SLOTS; s++) {
             m.setpoint[s] = node->out.setpoint[b * SP_AXIS_SLOTS + s];
+            /* joint-to-joint length -> what the drive's sensor is to read there */
+            uint32_t leg = ((uint32_t)b * SP_AXIS_SLOTS) + s;
+            (void)sp_length_to_sensor(node->ctrl_platform, node->length_sensors, leg, m.setpoint[s].length,
+                                      &m.setpoint[s].length);
         }
         count_send(
             node,
@@ -548,6 +558,7 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     }
     *n = 0u;
     node->ctrl_platform = cfg->ctrl.platform;
+    node->length_sensors = cfg->length_sensors;
     node->ctrl_sync_master = cfg->sync_master;
 
     int ff_rejected = take_command(cfg, node);

@@ -875,3 +875,45 @@ int spi_legs_fit(const sp_platform_t *platform)
 {
     return joints_within(platform->base_joint, 28u) && spi_joints_near(platform); /* b_c within 8 m */
 }
+
+/* lmin + d (1 + k) + zero, d = x - lmin, in int64; flags: saturation. */
+static sp_q24_t sensor_map(sp_q24_t lmin, sp_q30_t k, int64_t zero, int64_t x, sp_flags_t *flags)
+{
+    int64_t d = x - (int64_t)lmin;
+    return sp_sat32((int64_t)lmin + d + sp_mul64(d, k, 30u, flags) + zero, flags);
+}
+
+sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
+                                  sp_q24_t reading, sp_q24_t *length)
+{
+    sp_flags_t flags = 0u;
+    sp_status_t st = SP_E_ARG;
+    if (platform != NULL && length != NULL && leg < (unsigned)SP_LEGS) {
+        if (sensors == NULL) {
+            *length = reading;
+        } else {
+            /* the zero first, then the gain: sp_length_to_sensor's steps reversed */
+            *length = sensor_map(platform->leg_length_min, sensors->scale_inv[leg], 0,
+                                 (int64_t)reading - (int64_t)sensors->zero[leg], &flags);
+        }
+        st = sp_flags_status(flags);
+    }
+    return st;
+}
+
+sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
+                                sp_q24_t length, sp_q24_t *reading)
+{
+    sp_flags_t flags = 0u;
+    sp_status_t st = SP_E_ARG;
+    if (platform != NULL && reading != NULL && leg < (unsigned)SP_LEGS) {
+        if (sensors == NULL) {
+            *reading = length;
+        } else {
+            *reading = sensor_map(platform->leg_length_min, sensors->scale[leg], (int64_t)sensors->zero[leg],
+                                  (int64_t)length, &flags);
+        }
+        st = sp_flags_status(flags);
+    }
+    return st;
+}

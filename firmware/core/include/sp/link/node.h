@@ -53,12 +53,14 @@
 #define SP_NODE_CMD_QUEUE 4u /**< operator commands held (one is executed per tick) */
 
 typedef struct {
-    sp_ctrl_config_t ctrl;         /**< controller tuning (force_feedforward may change by command) */
-    uint8_t sync_master;           /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
-    const sp_auth_key_t *auth_key; /**< the machine key (copied by sp_node_init); NULL: none, every
+    sp_ctrl_config_t ctrl;                     /**< controller tuning (force_feedforward may change by command) */
+    uint8_t sync_master;                       /**< 1: we send SYNC (real time); 0: the plant does (lockstep) */
+    const sp_auth_key_t *auth_key;             /**< the machine key (copied by sp_node_init); NULL: none, every
                                         authenticated command is refused (SP_PROTO_AUTH_NO_KEY) */
-    uint32_t auth_session;         /**< this session's value (drawn at start-up by the port) */
-    uint8_t port;                  /**< sp_port_id_t: the target CTRL_IDENTITY names (set by the port) */
+    uint32_t auth_session;                     /**< this session's value (drawn at start-up by the port) */
+    uint8_t port;                              /**< sp_port_id_t: the target CTRL_IDENTITY names (set by the port) */
+    const sp_length_sensors_t *length_sensors; /**< native drives' length sensors as calibrated
+                                                    (sp_length_from_sensor); NULL: readings are lengths */
 } sp_node_config_t;
 
 typedef struct {
@@ -110,9 +112,10 @@ typedef struct {
     sp_msg_force_params_t force_params; /**< last OP_FORCE_PARAMS */
     uint8_t force_params_fresh;         /**< it arrived and is not yet handed to the controller */
     sp_node_stats_t stats;
-    const sp_platform_t *ctrl_platform; /**< from the config (cylinder areas) */
-    uint8_t ctrl_sync_master;           /**< copy of cfg->sync_master */
-    uint8_t drives_starting;            /**< set by the port: 1 while the CANopen master is still starting the drives
+    const sp_platform_t *ctrl_platform;        /**< from the config (cylinder areas) */
+    const sp_length_sensors_t *length_sensors; /**< from the config (NULL: readings are lengths) */
+    uint8_t ctrl_sync_master;                  /**< copy of cfg->sync_master */
+    uint8_t drives_starting; /**< set by the port: 1 while the CANopen master is still starting the drives
                                   (not every drive operational); ENGAGE is then refused (cmd_rejected,
                                   stats.cmd_refused) and CTRL_STATUS DrivesStarting says why. 0 (native
                                   drives) after sp_node_init. */

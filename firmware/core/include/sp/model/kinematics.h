@@ -253,4 +253,26 @@ sp_status_t sp_fk_chord(const sp_platform_t *platform, const sp_q24_t length[SP_
 sp_status_t sp_fk_chord_step(const sp_lu6_t *lu_t, const sp_pose_t *from, const sp_q30_t sc[6],
                              const sp_q24_t d_length[SP_LEGS], sp_pose_t *pose);
 
+/**
+ * A leg's joint-to-joint length (m, Q24) from its sensor's reading (m, Q24):
+ * l = lmin + (r - zero - lmin) (1 + scale_inv), lmin the platform's
+ * leg_length_min, zero and scale_inv the sensors' of leg `leg` (0..5). With
+ * both zero, or `sensors` NULL, the length is the reading, bit for bit.
+ * Saturates at the Q24 range (SP_E_OVERFLOW, *length saturated); SP_E_ARG
+ * (*length untouched) for a NULL platform or length, or leg > 5.
+ */
+sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
+                                  sp_q24_t reading, sp_q24_t *length);
+
+/**
+ * The sensor reading (m, Q24) at a leg's joint-to-joint length (m, Q24): the
+ * inverse of sp_length_from_sensor (to 1 LSB), r = lmin + (l - lmin) (1 +
+ * scale) + zero, for the drives' setpoints. With both zero, or `sensors`
+ * NULL, the reading is the length, bit for bit. Saturates at the Q24 range
+ * (SP_E_OVERFLOW); SP_E_ARG (*reading untouched) for a NULL platform or
+ * reading, or leg > 5.
+ */
+sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
+                                sp_q24_t length, sp_q24_t *reading);
+
 #endif /* SP_KINEMATICS_H */

@@ -77,8 +77,23 @@ typedef struct {
     sp_q8_t bristle_damping[SP_LEGS];    /**< sigma_1, N s/m, Q8 (< 8.4e6) */
 } sp_platform_t;
 
+/** The legs' length sensors as calibrated (config "length_sensors", written by
+ *  stewart calibrate): leg i reads leg_length_min + (1 + k_i) (l - leg_length_min)
+ *  + zero_i at the joint-to-joint length l. All zero: the sensor reads l. Kept
+ *  apart from sp_platform_t: only the drives' link maps through it
+ *  (sp_length_from_sensor, sp_length_to_sensor). */
+typedef struct {
+    sp_q24_t zero[SP_LEGS];      /**< zero_i, m, Q24, |.| <= 0.05 m */
+    sp_q30_t scale[SP_LEGS];     /**< k_i, Q30, |.| <= 0.01 */
+    sp_q30_t scale_inv[SP_LEGS]; /**< 1 / (1 + k_i) - 1, Q30 (the generator computes it) */
+} sp_length_sensors_t;
+
 /** The default platform, generated at build time from
  *  config/platform_default.json. */
 extern const sp_platform_t sp_platform_default;
+
+/** The default platform's length sensors (its config's "length_sensors";
+ *  all zero without the section). */
+extern const sp_length_sensors_t sp_length_sensors_default;
 
 #endif /* SP_PLATFORM_H */
