@@ -184,6 +184,10 @@ typedef struct {
     uint8_t work_active;            /**< the active work slot */
 } sp_frame_slots_t;
 
+/** The config's frames (config/platform_default.json "frames"), generated
+ *  by tools/dev/gen_platform.py: ports copy them into sp_ctrl_config_t.frames. */
+extern const sp_frame_slots_t sp_frame_slots_default;
+
 /** Why a command or a reach query was refused (sp_ctrl_t.refusals,
  *  sp_ctrl_t.last_refusal; CTRL_FRAMES). */
 typedef enum {
