@@ -638,9 +638,11 @@ class OperatorNode:
             sig.update(pr.pose_to_signals([v if math.isfinite(v) else NOT_FINITE_WIRE for v in values]))
         return self._send("OP_FRAME", sig)
 
-    def frame(self, op: str, kind: str, index: int, values=None, timeout: float = 2.0) -> dict:
-        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken;
-        Refused (naming the reason) when a refusal count rose instead."""
+    def frame(self, op: str, kind: str, index: int, values=None, timeout: float = 10.0) -> dict:
+        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken:
+        the second one after the send (CTRL_FRAMES comes every 100 ticks, the
+        first may predate the command); Refused (naming the reason) when a
+        refusal count rose instead, or when the frames did not change."""
         before = self.wait_frames(timeout=timeout)
         if self.signer is not None:
             self.fresh_auth()
@@ -648,21 +650,21 @@ class OperatorNode:
             seen = self._frames_seq
         self.send_frame(op, kind, index, values)
         end = time.monotonic() + timeout
+        heard = 0
+        key = "tool" if kind == "TOOL" else "work"
         while True:
             fr = self.wait_frames(timeout=max(0.05, end - time.monotonic()), after=seen)
-            seen = self._frames_seq
+            seen += 1
+            heard += 1
             rose = [n for n in FRAME_REFUSALS if fr["refused"][n] > before["refused"][n]]
             if rose:
                 raise Refused(f"FRAME {op} {kind} {index} refused: {', '.join(rose)} "
                               f"({FRAME_REFUSAL_TEXT.get(rose[0], '')})")
-            key = "tool" if kind == "TOOL" else "work"
-            if fr[key] == index and (op == "SELECT" or fr["checksum"] != before["checksum"]
-                                     or before[key] == index):
-                return fr
-            if time.monotonic() >= end:
+            if heard >= 2:
+                if fr[key] == index:
+                    return fr
                 why = self.auth_reason()
-                raise Refused(f"FRAME {op} {kind} {index}: not taken within {timeout:g} s"
-                              + (f" ({why})" if why else ""))
+                raise Refused(f"FRAME {op} {kind} {index}: not taken" + (f" ({why})" if why else ""))
 
     def reach(self, pose, timeout: float = 2.0, resend: float = 0.25) -> dict:
         """The reach query (OP_REACH) for a tool pose in the work frame; the
