@@ -97,6 +97,7 @@ def test_reach_timing_and_agreement(node):
     fr = node.frame("SET", "WORK", 2, TILTED)
     assert fr["tool"] == 2 and fr["work"] == 2 and not fr["identity"]
     home = _tool_home(node)
+    node.reach(home, timeout=5.0)  # this sender's first OP_REACH (the alive-counter check may drop it)
     rng = random.Random(31)
     ticks, agree, reachable = [], 0, 0
     for q in range(N_QUERIES):

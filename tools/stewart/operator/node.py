@@ -646,6 +646,13 @@ class OperatorNode:
         before = self.wait_frames(timeout=timeout)
         if self.signer is not None:
             self.fresh_auth()
+        if not self._tx.get("OP_FRAME"):
+            # this sender's first OP_FRAME: the controller's alive-counter
+            # check may drop it, so a NONE goes first
+            self.send_frame("NONE", kind, 0)
+            self.wait_status(timeout=2.0, after=self.status.seq if self.status else 0)
+            if self.signer is not None:
+                self.fresh_auth()
         with self._cond:
             seen = self._frames_seq
         self.send_frame(op, kind, index, values)
