@@ -253,7 +253,8 @@ static int controller_listens(const sp_can_frame_t *f)
 {
     if (f->bus == SP_BUS_OPS) {
         return f->id == SP_ID_OP_COMMAND || f->id == SP_ID_OP_TARGET_POSE || f->id == SP_ID_OP_HEARTBEAT ||
-               f->id == SP_ID_OP_FORCE || f->id == SP_ID_OP_FORCE_PARAMS;
+               f->id == SP_ID_OP_FORCE || f->id == SP_ID_OP_FORCE_PARAMS || f->id == SP_ID_OP_FRAME ||
+               f->id == SP_ID_OP_REACH;
     }
     if (f->bus == SP_BUS_AXIS_B && f->id == SP_ID_FT_SENSOR) {
         return 1;
@@ -1790,6 +1791,7 @@ static int setup_inproc(sim_t *s)
     (void)sp_ctrl_set_wrench_source(&s->ncfg.ctrl,
                                     (s->wrench_source >= 0) ? (uint8_t)s->wrench_source : sp_wrench_source_default,
                                     &sp_ft_mount_default); /* as sp_controller */
+    s->ncfg.ctrl.frames = sp_frame_slots_default;          /* the config's named frames */
     (void)sp_node_init(&s->node, &s->ncfg);
     s->node.ctrl.tick = s->tick0; /* its own tick through the wrap too (test-only) */
     return 0;
@@ -1819,11 +1821,11 @@ static int open_buses(sim_t *s)
 {
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] =
-        (sp_socketcan_bus_cfg_t){s->ifs[0],
-                                 {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH, SP_ID_CTRL_AUTH,
-                                  SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS},
-                                 8u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s->ifs[0],
+                                              {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH,
+                                               SP_ID_CTRL_AUTH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE,
+                                               SP_ID_OP_FORCE_PARAMS, SP_ID_OP_FRAME, SP_ID_OP_REACH},
+                                              10u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s->ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s->lockstep ? 1u : 2u};
         if (s->canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */
