@@ -631,6 +631,40 @@ static void test_load_file(void **state)
 
 static void expect_next(uint64_t tick, int ctrl_state, hs_scenario_next_t want, const hs_action_t *want_action);
 
+/* `contact surface`: a plane placed by a point on it and its tilt. */
+static void test_contact_surface(void **state)
+{
+    (void)state;
+    const double s20 = sin(0.349066), c20 = cos(0.349066);
+    /* untilted: today's ceiling (free side down) and a floor */
+    const hs_action_t *a = one("contact surface down 0 0 2.6 0 0 0 0 0.05 stiffness=1e6 damping=1000");
+    assert_int_equal(a->kind, HS_ACTION_CONTACT);
+    assert_int_equal(a->contact.kind, 1);
+    assert_true(a->contact.normal[0] == 0.0 && a->contact.normal[2] == -1.0 && a->contact.offset == -2.6);
+    assert_true(a->contact.point[2] == 0.05 && a->contact.stiffness == 1e6 && a->contact.damping == 1000.0);
+    a = one("contact surface UP 1 2 0.5 0 0 0 0 0 stiffness=1 damping=0");
+    assert_true(a->contact.normal[2] == 1.0 && a->contact.offset == 0.5);
+    /* 20 degrees about x: n = (0, sin, -cos), through (0.1, 0.2, 2.6) */
+    a = one("contact surface down 0.1 0.2 2.6 0.349066 0 0 0 0.05 stiffness=1e6 damping=1000");
+    assert_true(fabs(a->contact.normal[0]) < 1e-15 && fabs(a->contact.normal[1] - s20) < 1e-12 &&
+                fabs(a->contact.normal[2] + c20) < 1e-12);
+    assert_true(fabs(a->contact.offset - (0.2 * s20 - 2.6 * c20)) < 1e-12);
+    /* and about y: n = (sin p, 0, cos p) for up; unit length with both */
+    a = one("contact surface up 0 0 0 0 0.349066 0 0 0 stiffness=1 damping=1");
+    assert_true(fabs(a->contact.normal[0] - s20) < 1e-12 && fabs(a->contact.normal[2] - c20) < 1e-12);
+    a = one("contact surface up 0 0 0 0.3 -0.7 0 0 0 stiffness=1 damping=1");
+    assert_true(fabs(a->contact.normal[0] * a->contact.normal[0] + a->contact.normal[1] * a->contact.normal[1] +
+                     a->contact.normal[2] * a->contact.normal[2] - 1.0) < 1e-12);
+    refused("contact surface 0 0 0 0 0 0 0 0 stiffness=1 damping=1", 1, "contact surface needs up or down");
+    refused("contact surface up 0 0 0 0 0 0 0 stiffness=1 damping=1", 1, "contact surface needs 8 numbers");
+    refused("contact surface up 0 0 0 1.6 0 0 0 0 stiffness=1 damping=1", 1,
+            "contact surface tilt value 1.6 is out of range (|v| <= 1.5 rad)");
+    refused("contact surface up 0 0 200 0 0 0 0 0 stiffness=1 damping=1", 1, "contact surface point value 200");
+    refused("contact surface up 0 0 0 0 0 0 0 nan stiffness=1 damping=1", 1,
+            "contact surface tool point value 'nan' is not a number");
+    refused("contact surface up 0 0 0 0 0 0 0 0 stiffness=1", 1, "contact needs stiffness=K");
+}
+
 static void test_wrench_contact_load(void **state)
 {
     (void)state;
@@ -665,8 +699,8 @@ static void test_wrench_contact_load(void **state)
     a = one("contact off");
     assert_int_equal(a->kind, HS_ACTION_CONTACT);
     assert_int_equal(a->contact.kind, 0);
-    refused("contact", 1, "contact needs plane, point or off");
-    refused("contact wall 1 2 3", 1, "unknown contact 'wall' (plane, point, off)");
+    refused("contact", 1, "contact needs plane, surface, point or off");
+    refused("contact wall 1 2 3", 1, "unknown contact 'wall' (plane, surface, point, off)");
     refused("contact off now", 1, "contact off takes no arguments");
     refused("contact plane 0 0 1 1.9 0 0 stiffness=1 damping=1", 1, "contact plane needs 7 numbers");
     refused("contact point 0 0 1 0 0 stiffness=1 damping=1", 1, "contact point needs 6 numbers");
@@ -842,6 +876,7 @@ int main(void)
         cmocka_unit_test(test_action_limit),
         cmocka_unit_test(test_load_file),
         cmocka_unit_test(test_player),
+        cmocka_unit_test(test_contact_surface),
         cmocka_unit_test(test_wrench_contact_load),
         cmocka_unit_test(test_play),
     };

@@ -36,6 +36,13 @@
  *                                 (base frame, n not zero, pointing into free
  *                                 space) touched by the platform point P
  *                                 (motion frame); |values| <= 100 m
+ *   contact surface up|down PX PY PZ ROLL PITCH TX TY TZ stiffness=K damping=D
+ *                                 the same plane placed by a point P on it
+ *                                 (base frame, m) and its tilt: its free side
+ *                                 +z (up) or -z (down), tilted by ROLL about
+ *                                 x then PITCH about y (rad, |v| <= 1.5):
+ *                                 n = Ry(PITCH) Rx(ROLL) (0, 0, +-1), offset
+ *                                 n . P; touched by the platform point T
  *   contact point AX AY AZ PX PY PZ stiffness=K damping=D
  *                                 a spring-damper from the platform point P
  *                                 (motion frame) to the fixed anchor A (base
