@@ -122,6 +122,11 @@ class CanFrame(C.Structure):
 
 
 #: Each ctypes mirror and the C struct it mirrors.
+class FramesStruct(C.Structure):
+    _fields_ = [("tool", Pose), ("work", Pose), ("tool_rot", Rot), ("work_rot", Rot), ("identity", C.c_uint8),
+                ("tool_turned", C.c_uint8), ("work_turned", C.c_uint8), ("reserved", C.c_uint8)]
+
+
 MIRRORS: dict[type, str] = {
     Pose: "sp_pose_t",
     Motion: "sp_motion_t",
@@ -132,6 +137,7 @@ MIRRORS: dict[type, str] = {
     FkInfo: "sp_fk_info_t",
     LegLimits: "sp_leg_limits_t",
     CanFrame: "sp_can_frame_t",
+    FramesStruct: "sp_frames_t",
 }
 
 
@@ -233,6 +239,19 @@ def lib() -> C.CDLL:
     L.sp_fk_default_options.restype = None
     L.sp_check_legs.argtypes = [P(PlatformStruct), P(I32 * LEGS), P(I32 * LEGS), P(I32 * LEGS), P(LegLimits)]
     L.sp_orientation.argtypes = [P(V3), P(Rot)]
+    L.sp_frames_prepare.argtypes = [P(Pose), P(Pose), P(FramesStruct)]
+    L.sp_frames_to_platform.argtypes = [P(FramesStruct), P(Pose), P(Pose), P(Rot)]
+    L.sp_frames_from_platform.argtypes = [P(FramesStruct), P(Pose), P(Pose)]
+    L.sp_frames_motion_to_platform.argtypes = [P(FramesStruct), P(Motion), P(Motion)]
+    L.sp_frames_wrench_to_tool.argtypes = [P(FramesStruct), P(Rot), P(I32 * 6), P(I32 * 6)]
+    L.sp_frames_wrench_from_tool.argtypes = [P(FramesStruct), P(Rot), P(I32 * 6), P(I32 * 6)]
+    L.sp_frames_checksum.argtypes = [P(FramesStruct)]
+    L.sp_frames_checksum.restype = C.c_uint32
+    L.sp_frames_atan2.argtypes = [I32, I32]
+    L.sp_frames_atan2.restype = I32
+    for name in ("sp_frames_prepare", "sp_frames_to_platform", "sp_frames_from_platform",
+                 "sp_frames_motion_to_platform", "sp_frames_wrench_to_tool", "sp_frames_wrench_from_tool"):
+        getattr(L, name).restype = C.c_int
     for name in ("sp_inverse_kinematics", "sp_inverse_dynamics", "sp_leg_rates", "sp_leg_stretch",
                  "sp_body_rates", "sp_forward_kinematics", "sp_check_legs", "sp_orientation"):
         getattr(L, name).restype = C.c_int

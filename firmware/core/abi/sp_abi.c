@@ -5,6 +5,7 @@
 
 #include "sp/link/can.h"
 #include "sp/model/dynamics.h"
+#include "sp/model/frames.h"
 #include "sp/model/kinematics.h"
 #include "sp/motion/limits.h"
 #include "sp/model/platform.h"
@@ -68,6 +69,15 @@ static const sp_abi_member_t sp_abi_table[] = {
     {SP_ABI_ROW(sp_leg_limits_t, too_long)},
     {SP_ABI_ROW(sp_leg_limits_t, too_fast)},
     {SP_ABI_ROW(sp_leg_limits_t, over_force)},
+
+    {SP_ABI_ROW(sp_frames_t, tool)},
+    {SP_ABI_ROW(sp_frames_t, work)},
+    {SP_ABI_ROW(sp_frames_t, tool_rot)},
+    {SP_ABI_ROW(sp_frames_t, work_rot)},
+    {SP_ABI_ROW(sp_frames_t, identity)},
+    {SP_ABI_ROW(sp_frames_t, tool_turned)},
+    {SP_ABI_ROW(sp_frames_t, work_turned)},
+    {SP_ABI_ROW(sp_frames_t, reserved)},
 
     {SP_ABI_ROW(sp_can_frame_t, id)},
     {SP_ABI_ROW(sp_can_frame_t, bus)},

@@ -15,6 +15,7 @@
 #include "sp/math/version.h"
 /* model */
 #include "sp/model/dynamics.h"
+#include "sp/model/frames.h"
 #include "sp/model/kinematics.h"
 #include "sp/model/lu6.h"
 #include "sp/model/platform.h"

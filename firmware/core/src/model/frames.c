@@ -1,0 +1,615 @@
+/* SPDX-License-Identifier: Apache-2.0 */
+#include "sp/model/frames.h"
+
+#include <stddef.h>
+
+#include "model/model_internal.h"
+#include "math/fixed_inline.h"
+
+#define Q24_PI INT32_C(52707179)      /* pi in Q24, rounded */
+#define Q24_HALF_PI INT32_C(26353589) /* pi / 2 in Q24 */
+
+/* ---- rotations (the paper's T: rows = the inner frame's axes in outer coordinates) ---- */
+
+static void rot_identity(sp_rot_t *r)
+{
+    unsigned i, j;
+    for (i = 0u; i < 3u; ++i) {
+        for (j = 0u; j < 3u; ++j) {
+            r->t[i][j] = (i == j) ? SP_Q30_ONE : 0;
+        }
+    }
+}
+
+/* out = a b (at: a^T b; bt: a b^T), Q30, each entry rounded once. */
+static void rot_mul(const sp_rot_t *a, int at, const sp_rot_t *b, int bt, sp_rot_t *out)
+{
+    unsigned i, j, k;
+    sp_flags_t flags = 0u; /* products of rotations stay within [-1 - eps, 1 + eps] */
+    for (i = 0u; i < 3u; ++i) {
+        for (j = 0u; j < 3u; ++j) {
+            int64_t s = 0;
+            for (k = 0u; k < 3u; ++k) {
+                int32_t x = at ? a->t[k][i] : a->t[i][k];
+                int32_t y = bt ? b->t[j][k] : b->t[k][j];
+                s += (int64_t)x * y;
+            }
+            out->t[i][j] = spi_narrow_away(s, 30u, &flags);
+        }
+    }
+}
+
+/* Q54 sum: v (inner coordinates, Q24) turned to outer coordinates, R v =
+ * T^T v: out_c = sum_r T[r][c] v_r. */
+static void acc_out(const sp_rot_t *t, const int32_t v[3], int sign, int64_t acc[3])
+{
+    unsigned r, c;
+    for (c = 0u; c < 3u; ++c) {
+        int64_t s = 0;
+        for (r = 0u; r < 3u; ++r) {
+            s += (int64_t)t->t[r][c] * v[r];
+        }
+        acc[c] += (sign < 0) ? -s : s;
+    }
+}
+
+/* Q54 sum: v (outer coordinates) in inner coordinates, R^T v = T v. */
+static void acc_in(const sp_rot_t *t, const int32_t v[3], int64_t acc[3])
+{
+    unsigned r, c;
+    for (r = 0u; r < 3u; ++r) {
+        int64_t s = 0;
+        for (c = 0u; c < 3u; ++c) {
+            s += (int64_t)t->t[r][c] * v[c];
+        }
+        acc[r] += s;
+    }
+}
+
+/* ---- atan2 ------------------------------------------------------------------------------ */
+
+/* atan(z) for z in [0, 1] (Q16), rad, Q24, within 1.6e-3 rad: pi/4 z +
+ * z (1 - z) (0.2447 + 0.0663 z). */
+static int32_t atan_coarse(int32_t z)
+{
+    int64_t lin = (int64_t)z * 13176795;                  /* pi/4 in Q24: Q40 */
+    int64_t poly = 16037 + (((int64_t)z * 4345) >> 16);   /* 0.2447 + 0.0663 z, Q16 */
+    int64_t bend = ((int64_t)z * (65536 - z)) >> 16;      /* z (1 - z), Q16 */
+    return (int32_t)((lin >> 16) + ((bend * poly) >> 8)); /* Q24 */
+}
+
+sp_q24_t sp_frames_atan2(int32_t y, int32_t x)
+{
+    int64_t ax = (x < 0) ? -(int64_t)x : x;
+    int64_t ay = (y < 0) ? -(int64_t)y : y;
+    int swap = ay > ax;
+    int64_t hi = swap ? ay : ax;
+    int64_t lo = swap ? ax : ay;
+    unsigned sh;
+    int32_t a0, a, num30, den30;
+    sp_q30_t s0, c0;
+    sp_flags_t flags = 0u;
+    if (hi == 0) {
+        return 0;
+    }
+    /* hi into [2^29, 2^30], lo scaled alike */
+    sh = spi_clz64((uint64_t)hi);
+    if (sh > 34u) {
+        hi <<= sh - 34u;
+        lo <<= sh - 34u;
+    } else {
+        hi >>= 34u - sh;
+        lo >>= 34u - sh;
+    }
+    a0 = atan_coarse((int32_t)(lo / (hi >> 16)));
+    /* one Newton step: e = atan2(lo c0 - hi s0, hi c0 + lo s0), |e| < 2e-3, taken as its tangent */
+    sp_sincos_q24(a0, &s0, &c0);
+    num30 = (int32_t)spi_round_away(lo * c0 - hi * s0, 30u);
+    den30 = (int32_t)spi_round_away(hi * c0 + lo * s0, 30u);
+    a = a0 + sp_div(num30, den30, 24u, &flags);
+    if (swap) {
+        a = Q24_HALF_PI - a;
+    }
+    if (x < 0) {
+        a = Q24_PI - a;
+    }
+    return (y < 0) ? -a : a;
+}
+
+/* roll, pitch, yaw of the paper's T (R = T^T = Rz Ry Rx). */
+static void angles_of(const sp_rot_t *t, sp_q24_t rpy[3])
+{
+    int64_t c2 = (int64_t)t->t[0][0] * t->t[0][0] + (int64_t)t->t[0][1] * t->t[0][1];
+    int32_t cp = (int32_t)sp_isqrt64((uint64_t)c2); /* Q30 */
+    rpy[0] = sp_frames_atan2(t->t[1][2], t->t[2][2]);
+    rpy[1] = sp_frames_atan2(-t->t[0][2], cp);
+    rpy[2] = sp_frames_atan2(t->t[0][1], t->t[0][0]);
+}
+
+/* ---- preparing ---------------------------------------------------------------------------- */
+
+static int all_zero(const sp_q24_t v[3])
+{
+    return (v[0] | v[1] | v[2]) == 0;
+}
+
+static int angles_ok(const sp_q24_t rpy[3])
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        if (rpy[k] > SP_FRAME_ANGLE_MAX || rpy[k] < -SP_FRAME_ANGLE_MAX) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static void frames_identity(sp_frames_t *f)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        f->tool.pos[k] = 0;
+        f->tool.rpy[k] = 0;
+        f->work.pos[k] = 0;
+        f->work.rpy[k] = 0;
+    }
+    rot_identity(&f->tool_rot);
+    rot_identity(&f->work_rot);
+    f->identity = 1u;
+    f->tool_turned = 0u;
+    f->work_turned = 0u;
+    f->reserved = 0u;
+}
+
+sp_status_t sp_frames_prepare(const sp_pose_t *tool, const sp_pose_t *work, sp_frames_t *f)
+{
+    sp_q30_t sc[6];
+    uint64_t d2 = 0u;
+    unsigned k;
+    if (f == NULL) {
+        return SP_E_ARG;
+    }
+    frames_identity(f);
+    if (tool != NULL) {
+        for (k = 0u; k < 3u; ++k) {
+            d2 += (uint64_t)((int64_t)tool->pos[k] * tool->pos[k]);
+        }
+        if (d2 > (uint64_t)((int64_t)SP_FRAME_TOOL_REACH_MAX * SP_FRAME_TOOL_REACH_MAX) || !angles_ok(tool->rpy)) {
+            return SP_E_RANGE;
+        }
+    }
+    if (work != NULL) {
+        for (k = 0u; k < 3u; ++k) {
+            if (work->pos[k] > SP_FRAME_WORK_REACH_MAX || work->pos[k] < -SP_FRAME_WORK_REACH_MAX) {
+                return SP_E_RANGE;
+            }
+        }
+        if (!angles_ok(work->rpy)) {
+            return SP_E_RANGE;
+        }
+    }
+    if (tool != NULL) {
+        f->tool = *tool;
+        f->tool_turned = (uint8_t)(all_zero(tool->rpy) ? 0u : 1u);
+        if (f->tool_turned) {
+            spi_orientation_sc(tool->rpy, &f->tool_rot, sc);
+        }
+    }
+    if (work != NULL) {
+        f->work = *work;
+        f->work_turned = (uint8_t)(all_zero(work->rpy) ? 0u : 1u);
+        if (f->work_turned) {
+            spi_orientation_sc(work->rpy, &f->work_rot, sc);
+        }
+    }
+    f->identity = (uint8_t)(all_zero(f->tool.pos) && all_zero(f->work.pos) && !f->tool_turned && !f->work_turned);
+    return SP_OK;
+}
+
+/* ---- poses -------------------------------------------------------------------------------- */
+
+static void copy_pose(const sp_pose_t *in, sp_pose_t *out)
+{
+    *out = *in;
+}
+
+/* T_P of a tool pose whose T_X is given: T_P = T_T^T T_X T_W; angles into
+ * rpy (copied from x when no frame is turned). */
+static void platform_rot(const sp_frames_t *f, const sp_rot_t *tx, const sp_q24_t x_rpy[3], sp_rot_t *tp,
+                         sp_q24_t rpy[3])
+{
+    sp_rot_t m;
+    unsigned k;
+    if (!f->tool_turned && !f->work_turned) {
+        *tp = *tx;
+        for (k = 0u; k < 3u; ++k) {
+            rpy[k] = x_rpy[k];
+        }
+        return;
+    }
+    if (f->tool_turned) {
+        rot_mul(&f->tool_rot, 1, tx, 0, &m);
+    } else {
+        m = *tx;
+    }
+    if (f->work_turned) {
+        rot_mul(&m, 0, &f->work_rot, 0, tp);
+    } else {
+        *tp = m;
+    }
+    angles_of(tp, rpy);
+}
+
+/* p = w + R_W x - R_P t, Q24, saturating. */
+static sp_flags_t platform_pos(const sp_frames_t *f, const sp_rot_t *tp, const sp_q24_t x[3], sp_q24_t p[3])
+{
+    int64_t acc[3] = {0, 0, 0};
+    sp_flags_t flags = 0u;
+    unsigned k;
+    if (f->work_turned) {
+        acc_out(&f->work_rot, x, 1, acc);
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            acc[k] = (int64_t)x[k] * SP_Q30_ONE;
+        }
+    }
+    acc_out(tp, f->tool.pos, -1, acc);
+    for (k = 0u; k < 3u; ++k) {
+        acc[k] += (int64_t)f->work.pos[k] * SP_Q30_ONE;
+        p[k] = spi_narrow_away(acc[k], 30u, &flags);
+    }
+    return flags;
+}
+
+sp_status_t sp_frames_to_platform(const sp_frames_t *f, const sp_pose_t *tool_pose, sp_pose_t *platform, sp_rot_t *rot)
+{
+    sp_rot_t tx, tp;
+    sp_q30_t sc[6];
+    sp_q24_t pos[3];
+    sp_flags_t flags;
+    if (f == NULL || tool_pose == NULL || platform == NULL) {
+        return SP_E_ARG;
+    }
+    if (f->identity && rot == NULL) {
+        copy_pose(tool_pose, platform);
+        return SP_OK;
+    }
+    spi_orientation_sc(tool_pose->rpy, &tx, sc);
+    platform_rot(f, &tx, tool_pose->rpy, &tp, platform->rpy);
+    flags = platform_pos(f, &tp, tool_pose->pos, pos);
+    platform->pos[0] = pos[0];
+    platform->pos[1] = pos[1];
+    platform->pos[2] = pos[2];
+    if (rot != NULL) {
+        *rot = tp;
+    }
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_frames_from_platform(const sp_frames_t *f, const sp_pose_t *platform, sp_pose_t *tool_pose)
+{
+    sp_rot_t tp, m, tx;
+    sp_q30_t sc[6];
+    int64_t acc[3] = {0, 0, 0};
+    int32_t d[3];
+    sp_flags_t flags = 0u;
+    unsigned k;
+    if (f == NULL || tool_pose == NULL || platform == NULL) {
+        return SP_E_ARG;
+    }
+    if (f->identity) {
+        copy_pose(platform, tool_pose);
+        return SP_OK;
+    }
+    spi_orientation_sc(platform->rpy, &tp, sc);
+    /* d = p + R_P t - w (Q24), then x = R_W^T d */
+    acc_out(&tp, f->tool.pos, 1, acc);
+    for (k = 0u; k < 3u; ++k) {
+        acc[k] += ((int64_t)platform->pos[k] - f->work.pos[k]) * SP_Q30_ONE;
+        d[k] = spi_narrow_away(acc[k], 30u, &flags);
+    }
+    if (f->work_turned) {
+        int64_t x[3] = {0, 0, 0};
+        acc_in(&f->work_rot, d, x);
+        for (k = 0u; k < 3u; ++k) {
+            d[k] = spi_narrow_away(x[k], 30u, &flags);
+        }
+    }
+    /* T_X = T_T T_P T_W^T */
+    if (f->tool_turned || f->work_turned) {
+        if (f->tool_turned) {
+            rot_mul(&f->tool_rot, 0, &tp, 0, &m);
+        } else {
+            m = tp;
+        }
+        if (f->work_turned) {
+            rot_mul(&m, 0, &f->work_rot, 1, &tx);
+        } else {
+            tx = m;
+        }
+        angles_of(&tx, tool_pose->rpy);
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            tool_pose->rpy[k] = platform->rpy[k];
+        }
+    }
+    for (k = 0u; k < 3u; ++k) {
+        tool_pose->pos[k] = d[k];
+    }
+    return sp_flags_status(flags);
+}
+
+/* ---- motions ------------------------------------------------------------------------------ */
+
+/* Q24 x Q30 -> Q24 (int64 in, rounded). */
+static int64_t m30(int64_t v, int32_t s)
+{
+    return spi_round_away64(v * s, 30u);
+}
+
+/* Euler rates (rad/s, Q24, int64) from body rates w (motion-frame axes)
+ * with the sines sc of roll, pitch: pitch' = cr wy - sr wz, yaw' = (sr wy
+ * + cr wz) / cp, roll' = wx + sp yaw'. */
+static void euler_of_body(const sp_q30_t sc[6], const int64_t w[3], int64_t r[3], sp_flags_t *flags)
+{
+    int64_t q = m30(w[1], sc[0]) + m30(w[2], sc[1]);
+    r[1] = m30(w[1], sc[1]) - m30(w[2], sc[0]);
+    r[2] = sp_div64(q, sc[3], 30u, flags);
+    r[0] = w[0] + m30(r[2], sc[2]);
+}
+
+/* The platform's Euler rates and accelerations from its body rates w and
+ * accelerations dw (motion-frame axes, Q24) at the sines sc:
+ * rpy'' = E^-1 (dw - E' rpy'). */
+static void platform_euler(const sp_q30_t sc[6], const int64_t w[3], const int64_t dw[3], sp_motion_t *out,
+                           sp_flags_t *flags)
+{
+    int64_t r[3], b[3], a[3];
+    int64_t dr, dp, dy, dpdr, dydr, dydp;
+    unsigned k;
+    sp_q30_t sr = sc[0], cr = sc[1], sp = sc[2], cp = sc[3];
+    euler_of_body(sc, w, r, flags);
+    dr = r[0];
+    dp = r[1];
+    dy = r[2];
+    dpdr = spi_round_away64(dp * dr, 24u);
+    dydr = spi_round_away64(dy * dr, 24u);
+    dydp = spi_round_away64(dy * dp, 24u);
+    b[0] = dw[0] + m30(dydp, cp);
+    b[1] = dw[1] + m30(dpdr, sr) - m30(dydr, spi_mul30_away(cp, cr)) + m30(dydp, spi_mul30_away(sr, sp));
+    b[2] = dw[2] + m30(dpdr, cr) + m30(dydr, spi_mul30_away(sr, cp)) + m30(dydp, spi_mul30_away(cr, sp));
+    euler_of_body(sc, b, a, flags);
+    for (k = 0u; k < 3u; ++k) {
+        out->rpy_rate[k] = spi_sat(r[k], flags);
+        out->rpy_acc[k] = spi_sat(a[k], flags);
+    }
+}
+
+/* a x b, Q24 x Q24 -> Q24 (int64). */
+static void cross24(const int64_t a[3], const int64_t b[3], int64_t out[3])
+{
+    out[0] = spi_round_away64(a[1] * b[2] - a[2] * b[1], 24u);
+    out[1] = spi_round_away64(a[2] * b[0] - a[0] * b[2], 24u);
+    out[2] = spi_round_away64(a[0] * b[1] - a[1] * b[0], 24u);
+}
+
+/* v_P = R_W v_X - R_P (w x t), a_P = R_W a_X - R_P (dw x t + w x (w x t)),
+ * w, dw the body rates (motion-frame axes). */
+static void platform_linear(const sp_frames_t *f, const sp_rot_t *tp, const sp_motion_t *x, const int64_t w[3],
+                            const int64_t dw[3], sp_motion_t *out, sp_flags_t *flags)
+{
+    int64_t t[3], wt[3], dwt[3], wwt[3], v[3] = {0, 0, 0}, a[3] = {0, 0, 0};
+    int32_t lv[3], la[3];
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        t[k] = f->tool.pos[k];
+    }
+    cross24(w, t, wt);
+    cross24(dw, t, dwt);
+    cross24(w, wt, wwt);
+    for (k = 0u; k < 3u; ++k) {
+        lv[k] = spi_sat(wt[k], flags);
+        la[k] = spi_sat(dwt[k] + wwt[k], flags);
+    }
+    acc_out(tp, lv, -1, v);
+    acc_out(tp, la, -1, a);
+    if (f->work_turned) {
+        acc_out(&f->work_rot, x->vel, 1, v);
+        acc_out(&f->work_rot, x->acc, 1, a);
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            v[k] += (int64_t)x->vel[k] * SP_Q30_ONE;
+            a[k] += (int64_t)x->acc[k] * SP_Q30_ONE;
+        }
+    }
+    for (k = 0u; k < 3u; ++k) {
+        out->vel[k] = spi_narrow_away(v[k], 30u, flags);
+        out->acc[k] = spi_narrow_away(a[k], 30u, flags);
+    }
+}
+
+/* The platform's body rates (motion-frame axes, Q24) from the tool's:
+ * w_P = R_T w_X (T's axes to the motion frame's). */
+static void body_to_platform(const sp_frames_t *f, const sp_q24_t in[3], int64_t out[3])
+{
+    unsigned k;
+    if (f->tool_turned) {
+        int64_t acc[3] = {0, 0, 0};
+        acc_out(&f->tool_rot, in, 1, acc);
+        for (k = 0u; k < 3u; ++k) {
+            out[k] = spi_round_away64(acc[k], 30u);
+        }
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            out[k] = in[k];
+        }
+    }
+}
+
+sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t *tool_motion, sp_motion_t *platform)
+{
+    sp_rot_t tx, tp;
+    sp_q30_t sc[6], scp[6];
+    sp_q24_t wx[3], dwx[3];
+    int64_t w[3], dw[3];
+    sp_flags_t flags = 0u;
+    unsigned k;
+    sp_motion_t out;
+    if (f == NULL || tool_motion == NULL || platform == NULL) {
+        return SP_E_ARG;
+    }
+    if (f->identity) {
+        *platform = *tool_motion;
+        return SP_OK;
+    }
+    out = *tool_motion;
+    spi_orientation_sc(tool_motion->pose.rpy, &tx, sc);
+    platform_rot(f, &tx, tool_motion->pose.rpy, &tp, out.pose.rpy);
+    flags |= platform_pos(f, &tp, tool_motion->pose.pos, out.pose.pos);
+    flags |=
+        (sp_body_rates_sc(sc, tool_motion->rpy_rate, tool_motion->rpy_acc, wx, dwx) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+    body_to_platform(f, wx, w);
+    body_to_platform(f, dwx, dw);
+    if (f->tool_turned || f->work_turned) {
+        for (k = 0u; k < 3u; ++k) {
+            sp_sincos_q24(out.pose.rpy[k], &scp[2u * k], &scp[2u * k + 1u]);
+        }
+        if (scp[3] < SP_Q30_MILLI(10) && scp[3] > -SP_Q30_MILLI(10)) {
+            return SP_E_SINGULAR;
+        }
+        platform_euler(scp, w, dw, &out, &flags);
+    }
+    platform_linear(f, &tp, tool_motion, w, dw, &out, &flags);
+    *platform = out;
+    return sp_flags_status(flags);
+}
+
+/* ---- wrenches ----------------------------------------------------------------------------- */
+
+/* r = R_P t (base coordinates, Q24). */
+static void lever(const sp_frames_t *f, const sp_rot_t *rot, int64_t r[3])
+{
+    int64_t acc[3] = {0, 0, 0};
+    unsigned k;
+    acc_out(rot, f->tool.pos, 1, acc);
+    for (k = 0u; k < 3u; ++k) {
+        r[k] = spi_round_away64(acc[k], 30u);
+    }
+}
+
+/* m + sign r x F (Q8, int64): r Q24, F Q8. */
+static void moment_shift(const int64_t r[3], const int64_t fo[3], const int64_t m[3], int sign, int64_t out[3])
+{
+    int64_t c[3];
+    cross24(r, fo, c);
+    out[0] = m[0] + sign * c[0];
+    out[1] = m[1] + sign * c[1];
+    out[2] = m[2] + sign * c[2];
+}
+
+/* v (Q8, int64) turned by W: in (outer to W's axes) or out. */
+static void turn_w(const sp_frames_t *f, int64_t v[3], int to_w, sp_flags_t *flags)
+{
+    int32_t n[3];
+    int64_t acc[3] = {0, 0, 0};
+    unsigned k;
+    if (!f->work_turned) {
+        return;
+    }
+    for (k = 0u; k < 3u; ++k) {
+        n[k] = spi_sat(v[k], flags);
+    }
+    if (to_w) {
+        acc_in(&f->work_rot, n, acc);
+    } else {
+        acc_out(&f->work_rot, n, 1, acc);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        v[k] = spi_round_away64(acc[k], 30u);
+    }
+}
+
+static sp_status_t wrench_move(const sp_frames_t *f, const sp_rot_t *rot, const int32_t in[6], int32_t out[6],
+                               int to_tool)
+{
+    int64_t r[3], fo[3], m[3], mo[3];
+    sp_flags_t flags = 0u;
+    unsigned k;
+    if (f == NULL || rot == NULL || in == NULL || out == NULL) {
+        return SP_E_ARG;
+    }
+    for (k = 0u; k < 3u; ++k) {
+        fo[k] = in[k];
+        m[k] = in[3u + k];
+    }
+    if (f->identity) {
+        for (k = 0u; k < 6u; ++k) {
+            out[k] = in[k];
+        }
+        return SP_OK;
+    }
+    lever(f, rot, r);
+    if (to_tool) {
+        moment_shift(r, fo, m, -1, mo);
+        turn_w(f, fo, 1, &flags);
+        turn_w(f, mo, 1, &flags);
+    } else {
+        turn_w(f, fo, 0, &flags);
+        turn_w(f, m, 0, &flags);
+        moment_shift(r, fo, m, 1, mo);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        out[k] = spi_sat(fo[k], &flags);
+        out[3u + k] = spi_sat(mo[k], &flags);
+    }
+    return sp_flags_status(flags);
+}
+
+sp_status_t sp_frames_wrench_to_tool(const sp_frames_t *f, const sp_rot_t *rot, const int32_t wrench[6],
+                                     int32_t tool_wrench[6])
+{
+    return wrench_move(f, rot, wrench, tool_wrench, 1);
+}
+
+sp_status_t sp_frames_wrench_from_tool(const sp_frames_t *f, const sp_rot_t *rot, const int32_t tool_wrench[6],
+                                       int32_t wrench[6])
+{
+    return wrench_move(f, rot, tool_wrench, wrench, 0);
+}
+
+/* ---- checksum ----------------------------------------------------------------------------- */
+
+static uint32_t crc_word(uint32_t crc, int32_t v)
+{
+    uint32_t u = (uint32_t)v;
+    unsigned b, i;
+    for (b = 0u; b < 4u; ++b) {
+        crc ^= (u >> (8u * b)) & 0xFFu;
+        for (i = 0u; i < 8u; ++i) {
+            crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+        }
+    }
+    return crc;
+}
+
+uint32_t sp_frames_checksum(const sp_frames_t *f)
+{
+    uint32_t crc = 0xFFFFFFFFu;
+    unsigned k;
+    if (f == NULL) {
+        return 0u;
+    }
+    for (k = 0u; k < 3u; ++k) {
+        crc = crc_word(crc, f->tool.pos[k]);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        crc = crc_word(crc, f->tool.rpy[k]);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        crc = crc_word(crc, f->work.pos[k]);
+    }
+    for (k = 0u; k < 3u; ++k) {
+        crc = crc_word(crc, f->work.rpy[k]);
+    }
+    return crc ^ 0xFFFFFFFFu;
+}

@@ -1,0 +1,202 @@
+# SPDX-License-Identifier: Apache-2.0
+"""The fixed-point tool and work frames (firmware/core/src/model/frames.c)
+against the float64 reference (tools/stewart/frames.py), on random frames
+and poses, and the reference against finite differences of itself."""
+
+import ctypes as C
+import math
+
+import numpy as np
+import pytest
+
+from stewart import core
+from stewart.frames import Frames, check_frame
+
+Q24 = float(1 << 24)
+Q8 = 256.0
+RNG_SEED = 31
+N = 2000
+
+# Stated tolerances (sp/model/frames.h): positions 4 LSB of Q24 plus 3e-9 of
+# the lever; angles 8 LSB; motion derivatives 1e-7 relative plus 8 LSB;
+# wrenches 2 LSB of Q8 plus 3e-9 relative.
+POS_TOL = 4 / Q24
+ANG_TOL = 8 / Q24
+
+
+@pytest.fixture(scope="module")
+def L():
+    try:
+        return core.lib()
+    except core.CoreError as e:
+        pytest.skip(str(e))
+
+
+def rand_frame(rng, turned=True):
+    t = rng.uniform(-1.0, 1.0, 3)
+    a = rng.uniform(-0.6, 0.6, 3) if turned else np.zeros(3)
+    return tuple(np.concatenate([t, a]))
+
+
+def rand_pose(rng):
+    return tuple(np.concatenate([rng.uniform(-0.5, 0.5, 3), rng.uniform(-0.4, 0.4, 3)]))
+
+
+def prepared(L, tool, work):
+    f = core.FramesStruct()
+    # quantize as the controller does
+    st = L.sp_frames_prepare(C.byref(core.pose_struct(tool)), C.byref(core.pose_struct(work)), C.byref(f))
+    assert st == 0
+    q_tool = core.pose_tuple(core.pose_struct(tool))
+    q_work = core.pose_tuple(core.pose_struct(work))
+    return f, Frames(q_tool, q_work)
+
+
+def angle_diff(a, b):
+    return np.abs((np.asarray(a) - np.asarray(b) + math.pi) % (2 * math.pi) - math.pi)
+
+
+def test_pose_transforms_match_float64(L):
+    rng = np.random.default_rng(RNG_SEED)
+    worst_p = worst_a = worst_rp = worst_ra = 0.0
+    for i in range(N):
+        f, ref = prepared(L, rand_frame(rng, i % 4 != 0), rand_frame(rng, i % 3 != 0))
+        x = core.pose_struct(rand_pose(rng))
+        xq = np.array(core.pose_tuple(x))
+        out = core.Pose()
+        assert L.sp_frames_to_platform(C.byref(f), C.byref(x), C.byref(out), None) == 0
+        want = ref.to_platform(xq)
+        got = np.array(core.pose_tuple(out))
+        lever = np.linalg.norm(ref.t)
+        worst_p = max(worst_p, np.max(np.abs(got[:3] - want[:3])) - 3e-9 * lever)
+        worst_a = max(worst_a, np.max(angle_diff(got[3:], want[3:])))
+        back = core.Pose()
+        assert L.sp_frames_from_platform(C.byref(f), C.byref(out), C.byref(back)) == 0
+        want_back = ref.from_platform(got)
+        got_back = np.array(core.pose_tuple(back))
+        worst_rp = max(worst_rp, np.max(np.abs(got_back[:3] - want_back[:3])) - 3e-9 * lever)
+        worst_ra = max(worst_ra, np.max(angle_diff(got_back[3:], want_back[3:])))
+    print("worst LSB", worst_p * Q24, worst_a * Q24, worst_rp * Q24, worst_ra * Q24)
+    assert worst_p <= POS_TOL, worst_p * Q24
+    assert worst_a <= ANG_TOL, worst_a * Q24
+    assert worst_rp <= POS_TOL, worst_rp * Q24
+    assert worst_ra <= ANG_TOL, worst_ra * Q24
+
+
+def test_identity_is_a_copy_and_pivot_stays(L):
+    rng = np.random.default_rng(RNG_SEED + 1)
+    f, _ = prepared(L, (0,) * 6, (0,) * 6)
+    assert f.identity == 1
+    for _ in range(200):
+        x = core.pose_struct(rand_pose(rng))
+        out = core.Pose()
+        assert L.sp_frames_to_platform(C.byref(f), C.byref(x), C.byref(out), None) == 0
+        assert list(out.pos) == list(x.pos) and list(out.rpy) == list(x.rpy)
+    # a pivot 0.35 m above o', 0.15 m off its axis: turning T about it keeps the
+    # tool point (by the platform's own forward map) within 4 LSB
+    f, ref = prepared(L, (0.15, 0.0, 0.35, 0, 0, 0), (0, 0, 0, 0, 0, 0))
+    for _ in range(200):
+        x6 = np.concatenate([[0.1, -0.05, 2.2], rng.uniform(-0.08, 0.08, 3)])
+        out = core.Pose()
+        assert L.sp_frames_to_platform(C.byref(f), C.byref(core.pose_struct(x6)), C.byref(out), None) == 0
+        p = np.array(core.pose_tuple(out))
+        from stewart.model import rotation
+        tip = p[:3] + rotation(p[3:]) @ np.array([0.15, 0.0, 0.35])
+        assert np.max(np.abs(tip - np.array(core.pose_tuple(core.pose_struct(x6)))[:3])) < 6 / Q24
+
+
+def motion_struct(x6, vel, rate, acc, racc):
+    m = core.Motion()
+    m.pose = core.pose_struct(x6)
+    for k in range(3):
+        m.vel[k] = core.q24(vel[k])
+        m.rpy_rate[k] = core.q24(rate[k])
+        m.acc[k] = core.q24(acc[k])
+        m.rpy_acc[k] = core.q24(racc[k])
+    return m
+
+
+def test_motion_transform_matches_float64(L):
+    rng = np.random.default_rng(RNG_SEED + 2)
+    worst = np.zeros(4)
+    for i in range(N // 2):
+        f, ref = prepared(L, rand_frame(rng, i % 2 == 0), rand_frame(rng, i % 3 == 0))
+        x6 = rand_pose(rng)
+        vel, rate, acc, racc = (rng.uniform(-1, 1, 3) for _ in range(4))
+        m = motion_struct(x6, vel, rate, acc, racc)
+        q = lambda a: np.array([v / Q24 for v in a])  # noqa: E731
+        want = ref.motion_to_platform(np.array(core.pose_tuple(m.pose)), q(m.vel), q(m.rpy_rate), q(m.acc),
+                                      q(m.rpy_acc))
+        out = core.Motion()
+        assert L.sp_frames_motion_to_platform(C.byref(f), C.byref(m), C.byref(out)) == 0
+        got = (q(out.vel), q(out.rpy_rate), q(out.acc), q(out.rpy_acc))
+        for k, (g, w) in enumerate(zip(got, want[1:])):
+            worst[k] = max(worst[k], np.max(np.abs(g - w) - 1e-7 * np.max(np.abs(w))))
+    print("worst motion LSB", worst * Q24)
+    assert np.all(worst <= 8 / Q24), worst * Q24
+
+
+def test_float64_motion_is_the_derivative_of_the_pose():
+    """The reference's derivatives against central differences of its poses."""
+    rng = np.random.default_rng(RNG_SEED + 3)
+    h = 1e-5
+    for _ in range(100):
+        ref = Frames(rand_frame(rng), rand_frame(rng))
+        c = [rng.uniform(-0.3, 0.3, 6) for _ in range(3)]
+        pose = lambda s: c[0] + c[1] * s + c[2] * s * s  # noqa: E731
+        p0, v, rate, a, racc = ref.motion_to_platform(pose(0), c[1][:3], c[1][3:], 2 * c[2][:3], 2 * c[2][3:])
+        pm, pp = ref.to_platform(pose(-h)), ref.to_platform(pose(h))
+        assert np.allclose((pp - pm) / (2 * h), np.concatenate([v, rate]), atol=1e-6)
+        assert np.allclose((pp - 2 * p0 + pm) / (h * h), np.concatenate([a, racc]), atol=2e-3)
+
+
+def test_wrench_transforms_match_float64(L):
+    rng = np.random.default_rng(RNG_SEED + 4)
+    worst = 0.0
+    for i in range(N):
+        f, ref = prepared(L, rand_frame(rng, i % 2 == 0), rand_frame(rng, i % 3 == 0))
+        prpy = rng.uniform(-0.4, 0.4, 3)
+        rot = core.Rot()
+        assert L.sp_orientation(C.byref(core.V3(*[core.q24(v) for v in prpy])), C.byref(rot)) == 0
+        prpy_q = [core.q24(v) / Q24 for v in prpy]
+        w = rng.uniform(-5000, 5000, 6)
+        wi = (core.I32 * 6)(*[int(round(v * Q8)) for v in w])
+        wq = np.array([v / Q8 for v in wi])
+        out = (core.I32 * 6)()
+        assert L.sp_frames_wrench_to_tool(C.byref(f), C.byref(rot), C.byref(wi), C.byref(out)) == 0
+        want = ref.wrench_to_tool(prpy_q, wq)
+        worst = max(worst, np.max(np.abs(np.array(out[:]) / Q8 - want) - 3e-9 * np.max(np.abs(want))))
+        back = (core.I32 * 6)()
+        assert L.sp_frames_wrench_from_tool(C.byref(f), C.byref(rot), C.byref(out), C.byref(back)) == 0
+        want = ref.wrench_from_tool(prpy_q, np.array(out[:]) / Q8)
+        worst = max(worst, np.max(np.abs(np.array(back[:]) / Q8 - want) - 3e-9 * np.max(np.abs(want))))
+    assert worst <= 2 / Q8, worst * Q8
+
+
+def test_atan2_and_checksum(L):
+    rng = np.random.default_rng(RNG_SEED + 5)
+    worst = 0
+    for _ in range(20000):
+        y, x = (int(v) for v in rng.integers(-(1 << 31), (1 << 31) - 1, 2))
+        if math.hypot(x, y) < (1 << 20):
+            continue
+        got = L.sp_frames_atan2(y, x)
+        worst = max(worst, abs(got - math.atan2(y, x) * Q24))
+    assert worst <= 2.0, worst
+    f, ref = prepared(L, (0.1, -0.2, 0.35, 0.01, -0.02, 0.3), (1.0, 2.0, -0.5, 0.3, 0.0, -0.1))
+    assert L.sp_frames_checksum(C.byref(f)) == ref.checksum()
+
+
+def test_prepare_refuses_bad_frames(L):
+    f = core.FramesStruct()
+    far = core.pose_struct((3.0, 3.0, 3.0, 0, 0, 0))  # 5.2 m
+    assert L.sp_frames_prepare(C.byref(far), None, C.byref(f)) != 0
+    assert f.identity == 1
+    ok = core.pose_struct((3.0, 3.0, 2.0, 0, 0, 0))
+    assert L.sp_frames_prepare(C.byref(ok), None, C.byref(f)) == 0
+    turned = core.pose_struct((0, 0, 0, 3.2, 0, 0))
+    assert L.sp_frames_prepare(None, C.byref(turned), C.byref(f)) != 0
+    with pytest.raises(ValueError, match="tool"):
+        check_frame((3, 3, 3, 0, 0, 0), "tool", "tool")
+    with pytest.raises(ValueError, match="finite"):
+        check_frame((0, 0, float("nan"), 0, 0, 0), "k")
