@@ -12,11 +12,15 @@ roll). The run streams the platform poses (STREAM, ``play``), one per tick.
 The controller's stream filter (sp/motion/stream.h: a critically damped
 follower of bandwidth ``STREAM_OMEGA`` per axis) would lag each axis, and
 the lagged angles with the lagged positions are not a rotation about the
-tip any more; so the streamed targets are the filter's inverse of the
+tip any more (0.19 mm off it at most, in float64); so the streamed targets are the filter's inverse of the
 wanted path, ``T = x + (a + 2 w v) / w^2`` per axis (v, a from the path's
 differences, as the filter integrates them), and the reference the
-controller makes of them is the wanted path. The figure is the tip's
-distance from its fixed point, from the plant's true pose.
+controller makes of them is the wanted path. The path's accelerations
+stay below the stream's limit of 1 m/s^2 and 1 rad/s^2 per axis (fades of
+1.5 s; with 1 s the limit clipped the angles and the tip moved 2.3 mm).
+The figure is the tip's distance from its fixed point, from the plant's
+true pose. Once the controller takes a tool frame (issue 31, w3/frames),
+the same rotation is its own RUN_TRIG about the tool point.
 
 **Tilted surface.** A plane tilted by ``TILT`` about x (free side
 down-and-towards +y: the platform pushes up into it), 2 mm from the force
@@ -72,11 +76,11 @@ def _envelope(t: np.ndarray, length: float, fade: float) -> np.ndarray:
     return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
 
 
-def pivot_schedule(cycles: int = PIVOT_CYCLES) -> list[tuple[str, float, float]]:
+def pivot_schedule(cycles: int = PIVOT_CYCLES, axes=PIVOT_AXES) -> list[tuple[str, float, float]]:
     """(axis, start s, end s) of each rotation from the start of the play."""
     length = cycles / PIVOT_HZ
     out, t = [], PIVOT_REST
-    for axis in PIVOT_AXES:
+    for axis in axes:
         out.append((axis, t, t + length))
         t += length + PIVOT_REST
     return out
@@ -85,8 +89,8 @@ def pivot_schedule(cycles: int = PIVOT_CYCLES) -> list[tuple[str, float, float]]
 def pivot_tool_path(cycles: int = PIVOT_CYCLES, axes=PIVOT_AXES) -> tuple[np.ndarray, np.ndarray]:
     """Times (s, from the play) and the tool's wanted poses in the base
     frame (N, 6): the tip still at home's, the angles of the rotations."""
-    sched = [s for s in pivot_schedule(cycles) if s[0] in axes]
-    t_end = max(s[2] for s in pivot_schedule(cycles)) + PIVOT_REST
+    sched = pivot_schedule(cycles, axes)
+    t_end = sched[-1][2] + PIVOT_REST
     t = np.arange(0.0, t_end + TICK / 2, TICK)
     tool = np.zeros((len(t), 6))
     tool[:, :3] = np.asarray(HOME[:3]) + np.asarray(TOOL_TIP)
@@ -159,14 +163,15 @@ def tip_deviation(truth_pose: np.ndarray) -> np.ndarray:
     return tip - (np.asarray(HOME[:3]) + np.asarray(TOOL_TIP))
 
 
-def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, cycles: int = PIVOT_CYCLES) -> dict:
+def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, cycles: int = PIVOT_CYCLES,
+                  axes=PIVOT_AXES) -> dict:
     """Per rotation and over all three: the tip's distance from its fixed
     point (plant truth) while it rotates, RMS and max, mm; the same
     rotation about o' (mm)."""
     dev = 1000.0 * np.linalg.norm(tip_deviation(truth_pose), axis=1)
     out: dict = {"axes": {}}
     every = np.zeros(len(ticks), dtype=bool)
-    for axis, a, b in pivot_schedule(cycles):
+    for axis, a, b in pivot_schedule(cycles, axes):
         sel = (ticks >= play_tick + round(a / TICK)) & (ticks <= play_tick + round(b / TICK))
         sel &= np.isfinite(dev)
         every |= sel
@@ -181,7 +186,7 @@ def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, cyc
 
 def pivot_lines(f: dict) -> list[str]:
     lines = [f"pivot (tool tip {TOOL_TIP[2]:g} m above o', {TOOL_TIP[0]:g} m off its axis; +-{PIVOT_AMPLITUDE:g} rad "
-             f"at {PIVOT_HZ:g} Hz in roll, pitch, yaw; streamed): the tip within {f['rms_mm']:.4f} mm RMS, "
+             f"at {PIVOT_HZ:g} Hz in roll, pitch, yaw; o' streamed about it): the tip within {f['rms_mm']:.4f} mm RMS, "
              f"{f['max_mm']:.4f} mm max of its fixed point (plant truth; issue {PIVOT_RMS_MM:g} / "
              f"{PIVOT_MAX_MM:g} mm)"]
     for axis, m in f["axes"].items():
@@ -190,7 +195,8 @@ def pivot_lines(f: dict) -> list[str]:
     return lines
 
 
-def plot_pivot(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, path: str | Path, cycles: int = PIVOT_CYCLES) -> None:
+def plot_pivot(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, path: str | Path,
+               cycles: int = PIVOT_CYCLES) -> None:
     """The tip's true path (deviation from its fixed point, x y z in um)
     and the same rotation about o' for scale; the angles."""
     import matplotlib

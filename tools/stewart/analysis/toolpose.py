@@ -9,7 +9,9 @@ base frame: position p, rotation R) puts T at
     p_TW = R_W^T (p + R t - w),     R_TW = R_W^T R R_T
 
 (t, R_T: the tool frame's offset and rotation; w, R_W: the work frame's).
-With both frames identity, T in W is the platform pose itself.
+With both frames identity, T in W is the platform pose itself. This is
+stewart.frames (the core's float64 reference) for many poses at once;
+tests/python/test_toolpose.py checks the two agree.
 
 :func:`attach_tool` computes it for the reference, the controller's
 estimate and the plant's truth of a decoded run (``LogData.tool``), which
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import frames
 from ..model import rotation_many
 
 IDENTITY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -36,14 +39,9 @@ def rpy_of(rot: np.ndarray) -> np.ndarray:
 
 
 def check_frame(frame, name: str) -> tuple[float, ...]:
-    """A frame as six finite floats (ValueError naming it otherwise)."""
-    try:
-        v = tuple(float(x) for x in frame)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} frame: six numbers (x y z roll pitch yaw) expected, got {frame!r}") from None
-    if len(v) != 6 or not all(np.isfinite(v)):
-        raise ValueError(f"{name} frame: six finite numbers (x y z roll pitch yaw) expected, got {frame!r}")
-    return v
+    """A frame as six finite floats within the core's bounds
+    (stewart.frames.check_frame: ValueError naming it otherwise)."""
+    return frames.check_frame(frame, f"{name} frame", name)
 
 
 def tool_in_work(poses: np.ndarray, tool=IDENTITY, work=IDENTITY) -> np.ndarray:
