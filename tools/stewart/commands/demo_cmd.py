@@ -348,14 +348,14 @@ def _frames_runs(results: dict, out: Path, lines: list[str], figures: dict) -> b
     r = results.get("pivot")
     if r is not None and r.log.exists():
         rp = analyze(r.log, out / "pivot", truth=r.truth, plots=False, tool=fd.TOOL_TIP + (0.0, 0.0, 0.0))
-        play = [v for k, v in fc.marks(r.plant_out).items() if k.startswith("play ")]
-        if play:
-            f = fd.pivot_figures(rp.data.ticks, rp.data.truth["pose"], play[0])
+        play = fd.play_tick(fc.marks(r.plant_out))
+        if play is not None:
+            f = fd.pivot_figures(rp.data.ticks, rp.data.truth["pose"], play)
             figures["pivot"] = f
             lines += fd.pivot_lines(f)
-            fd.plot_pivot(rp.data.ticks, rp.data.truth["pose"], play[0], out / "pivot.png")
+            fd.plot_pivot(rp.data.ticks, rp.data.truth["pose"], play, out / "pivot.png")
             lines.append(f"  the tip's true path -> {out / 'pivot.png'}")
-        ok = ok and r.ok and bool(play) and not (rp.summary["bad_frames"] or rp.summary["malformed_lines"])
+        ok = ok and r.ok and play is not None and not (rp.summary["bad_frames"] or rp.summary["malformed_lines"])
     for source in ("sensor", "cylinders"):
         r = results.get(f"tilted_{source}")
         if r is None or not r.log.exists():
