@@ -193,8 +193,9 @@ def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, cyc
 
 
 def pivot_lines(f: dict) -> list[str]:
+    axes = ", ".join(f["axes"])
     lines = [f"pivot (tool tip {TOOL_TIP[2]:g} m above o', {TOOL_TIP[0]:g} m off its axis; +-{PIVOT_AMPLITUDE:g} rad "
-             f"at {PIVOT_HZ:g} Hz in roll, pitch, yaw; o' streamed about it): the tip within {f['rms_mm']:.4f} mm RMS, "
+             f"at {PIVOT_HZ:g} Hz in {axes}; o' streamed about it): the tip within {f['rms_mm']:.4f} mm RMS, "
              f"{f['max_mm']:.4f} mm max of its fixed point (plant truth; issue {PIVOT_RMS_MM:g} / "
              f"{PIVOT_MAX_MM:g} mm)"]
     for axis, m in f["axes"].items():
