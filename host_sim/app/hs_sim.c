@@ -1589,6 +1589,7 @@ static int setup_inproc(sim_t *s)
     (void)sp_ctrl_set_wrench_source(&s->ncfg.ctrl,
                                     (s->wrench_source >= 0) ? (uint8_t)s->wrench_source : sp_wrench_source_default,
                                     &sp_ft_mount_default); /* as sp_controller */
+    s->ncfg.ctrl.frames = sp_frame_slots_default;          /* the config's named frames */
     (void)sp_node_init(&s->node, &s->ncfg);
     s->node.ctrl.tick = s->tick0; /* its own tick through the wrap too (test-only) */
     return 0;

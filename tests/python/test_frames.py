@@ -200,3 +200,61 @@ def test_prepare_refuses_bad_frames(L):
         check_frame((3, 3, 3, 0, 0, 0), "tool", "tool")
     with pytest.raises(ValueError, match="finite"):
         check_frame((0, 0, float("nan"), 0, 0, 0), "k")
+
+
+def _config_with(frames):
+    import json
+    from pathlib import Path
+
+    from stewart import config
+
+    d = json.loads((Path(__file__).resolve().parents[2] / "config" / "platform_default.json").read_text())
+    d["frames"] = frames
+    return config.from_dict(d, check_bus_load=False)
+
+
+def test_config_frames_default_and_bad_ones_refused_by_key():
+    from stewart import config
+
+    p = config.load(Path_default())
+    fr = p.frames
+    assert fr["tool"][fr["active_tool"]]["pose"] == [0.0] * 6
+    assert fr["work"][fr["active_work"]]["pose"] == [0.0] * 6
+    ok = {"tool": [{"name": "a", "pose": [0, 0, 0, 0, 0, 0]}, {"name": "tip", "pose": [0.1, 0, 0.3, 0, 0, 0]}],
+          "active_tool": "tip"}
+    assert _config_with(ok).frames["active_tool"] == 1
+    bad = [
+        ({"tool": [{"name": "far", "pose": [3, 3, 3, 0, 0, 0]}]}, r"frames\.tool\[0\]\.pose"),
+        ({"tool": [{"name": f"t{i}", "pose": [0] * 6} for i in range(5)]}, r"frames\.tool"),
+        ({"work": [{"name": "w", "pose": [0, 0, 0, 0, 3.3, 0]}]}, r"frames\.work\[0\]\.pose"),
+        ({"work": [{"name": "w", "pose": [0, 0, 0]}]}, r"frames\.work\[0\]\.pose"),
+        ({"tool": [{"name": "a", "pose": [0] * 6}], "active_tool": "b"}, r"frames\.active_tool"),
+        ({"tool": [{"name": "a", "pose": [0] * 6}, {"name": "a", "pose": [0] * 6}]}, r"frames\.tool\[1\]\.name"),
+        ({"tools": []}, r"frames\.tools"),
+        ({"tool": [{"name": "n", "pose": [float("nan")] + [0] * 5}]}, r"frames\.tool\[0\]\.pose"),
+    ]
+    for frames, key in bad:
+        with pytest.raises(config.ConfigError, match=key):
+            _config_with(frames)
+
+
+def Path_default():
+    from pathlib import Path
+
+    return Path(__file__).resolve().parents[2] / "config" / "platform_default.json"
+
+
+def test_generated_frame_slots():
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "p.c"
+        subprocess.run([sys.executable, str(root / "tools/dev/gen_platform.py"), str(Path_default()), str(out)],
+                       check=True)
+        text = out.read_text()
+    assert "sp_frame_slots_default" in text
+    assert text.count("3u, 3u, 0u, 0u}") == 1  # two of each defined, flange and base active

@@ -199,6 +199,84 @@ def _force_sensor(d) -> dict:
     }
 
 
+#: Largest distance of the tool point from o', m (SP_FRAME_TOOL_REACH_MAX).
+TOOL_REACH_MAX = 5.0
+#: Largest |component| of the work frame's origin, m (SP_FRAME_WORK_REACH_MAX).
+WORK_REACH_MAX = 16.0
+#: Largest |angle| of a frame, rad (SP_FRAME_ANGLE_MAX).
+ANGLE_MAX = 52707178 / float(1 << 24)
+#: Slots of each kind in the config and on the bus.
+SLOTS = 4
+
+
+
+def check_frame(values, key: str = "frame", kind: str = "tool") -> tuple[float, ...]:
+    """Six finite numbers within the core's bounds, else ValueError naming key."""
+    try:
+        v = tuple(float(x) for x in values)
+    except (TypeError, ValueError):
+        raise ValueError(f"{key}: six numbers x y z roll pitch yaw expected") from None
+    if len(v) != 6:
+        raise ValueError(f"{key}: six numbers x y z roll pitch yaw expected, got {len(v)}")
+    if not all(math.isfinite(x) for x in v):
+        raise ValueError(f"{key}: not a finite number")
+    if kind == "tool" and math.sqrt(sum(x * x for x in v[:3])) > TOOL_REACH_MAX:
+        raise ValueError(f"{key}: the tool point is more than {TOOL_REACH_MAX:g} m from o'")
+    if kind == "work" and any(abs(x) > WORK_REACH_MAX for x in v[:3]):
+        raise ValueError(f"{key}: the work origin is more than {WORK_REACH_MAX:g} m out on an axis")
+    if any(abs(x) > ANGLE_MAX for x in v[3:]):
+        raise ValueError(f"{key}: an angle beyond pi")
+    return v
+
+
+#: The named frames when the config has none: one identity tool and work frame.
+FRAMES_DEFAULT = {"tool": [{"name": "flange", "pose": [0.0] * 6}],
+                  "work": [{"name": "base", "pose": [0.0] * 6}],
+                  "active_tool": "flange", "active_work": "base"}
+_FRAMES_KEYS = set(FRAMES_DEFAULT)
+
+
+def _frame_list(fr: dict, kind: str) -> list[dict]:
+    items = fr.get(kind, FRAMES_DEFAULT[kind])
+    if not isinstance(items, list) or not 1 <= len(items) <= SLOTS:
+        raise ConfigError(f"frames.{kind}: expected a list of 1 to {SLOTS} frames")
+    out, names = [], set()
+    for i, item in enumerate(items):
+        where = f"frames.{kind}[{i}]"
+        if not isinstance(item, dict) or set(item) - {"name", "pose"} or "pose" not in item:
+            raise ConfigError(f"{where}: expected an object with \"name\" and \"pose\" [x, y, z, roll, pitch, yaw]")
+        name = item.get("name", f"{kind}{i}")
+        if not isinstance(name, str) or not name or name in names:
+            raise ConfigError(f"{where}.name: expected a unique non-empty string")
+        names.add(name)
+        try:
+            pose = check_frame(item["pose"], f"{where}.pose", kind)
+        except ValueError as e:
+            raise ConfigError(str(e)) from None
+        out.append({"name": name, "pose": list(pose)})
+    return out
+
+
+def _frames_config(d) -> dict:
+    """The named tool and work frames (sp_frame_slots_t): up to 4 each,
+    validated by stewart.frames.check_frame; the active ones by name."""
+    fr = d.get("frames", FRAMES_DEFAULT)
+    if not isinstance(fr, dict):
+        raise ConfigError("frames: expected an object")
+    for key in fr:
+        if key not in _FRAMES_KEYS:
+            raise ConfigError(f"frames.{key}: unknown key (known: {', '.join(sorted(_FRAMES_KEYS))})")
+    out = {"tool": _frame_list(fr, "tool"), "work": _frame_list(fr, "work")}
+    for kind in ("tool", "work"):
+        key = f"active_{kind}"
+        active = fr.get(key, out[kind][0]["name"])
+        names = [f["name"] for f in out[kind]]
+        if active not in names:
+            raise ConfigError(f"frames.{key}: {json.dumps(active)[:40]} is not one of {', '.join(names)}")
+        out[key] = names.index(active)
+    return out
+
+
 @dataclass
 class Platform:
     name: str
@@ -222,6 +300,7 @@ class Platform:
     drives: _layout.Drives = field(default_factory=_layout.native_default)
     force_sensor: dict = field(default_factory=lambda: dict(FORCE_SENSOR_DEFAULT))
     joints: dict = field(default_factory=dict)
+    frames: dict = field(default_factory=lambda: _frames_config({}))
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -526,7 +605,7 @@ def _from_dict(d) -> Platform:
     drives = _drives(d, lmin, lmax)
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
                  wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d),
-                 joints=_joints(d.get("joints", {})))
+                 joints=_joints(d.get("joints", {})), frames=_frames_config(d))
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:

@@ -22,16 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .config import ANGLE_MAX, SLOTS, TOOL_REACH_MAX, WORK_REACH_MAX, check_frame  # noqa: F401
 from .model import body_rates, rotation
-
-#: Largest distance of the tool point from o', m (SP_FRAME_TOOL_REACH_MAX).
-TOOL_REACH_MAX = 5.0
-#: Largest |component| of the work frame's origin, m (SP_FRAME_WORK_REACH_MAX).
-WORK_REACH_MAX = 16.0
-#: Largest |angle| of a frame, rad (SP_FRAME_ANGLE_MAX).
-ANGLE_MAX = 52707178 / float(1 << 24)
-#: Slots of each kind in the config and on the bus.
-SLOTS = 4
 
 IDENTITY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
@@ -43,25 +35,6 @@ def angles(r: np.ndarray) -> np.ndarray:
         math.atan2(-r[2, 0], math.hypot(r[0, 0], r[1, 0])),
         math.atan2(r[1, 0], r[0, 0]),
     ])
-
-
-def check_frame(values, key: str = "frame", kind: str = "tool") -> tuple[float, ...]:
-    """Six finite numbers within the core's bounds, else ValueError naming key."""
-    try:
-        v = tuple(float(x) for x in values)
-    except (TypeError, ValueError):
-        raise ValueError(f"{key}: six numbers x y z roll pitch yaw expected") from None
-    if len(v) != 6:
-        raise ValueError(f"{key}: six numbers x y z roll pitch yaw expected, got {len(v)}")
-    if not all(math.isfinite(x) for x in v):
-        raise ValueError(f"{key}: not a finite number")
-    if kind == "tool" and math.sqrt(sum(x * x for x in v[:3])) > TOOL_REACH_MAX:
-        raise ValueError(f"{key}: the tool point is more than {TOOL_REACH_MAX:g} m from o'")
-    if kind == "work" and any(abs(x) > WORK_REACH_MAX for x in v[:3]):
-        raise ValueError(f"{key}: the work origin is more than {WORK_REACH_MAX:g} m out on an axis")
-    if any(abs(x) > ANGLE_MAX for x in v[3:]):
-        raise ValueError(f"{key}: an angle beyond pi")
-    return v
 
 
 @dataclass

@@ -416,6 +416,7 @@ static int setup(const options_t *o, sp_node_config_t *cfg, sp_auth_key_t *key)
     (void)sp_ctrl_set_wrench_source(&cfg->ctrl,
                                     (o->wrench_source >= 0) ? (uint8_t)o->wrench_source : sp_wrench_source_default,
                                     &sp_ft_mount_default); /* the config's source was validated when generated */
+    cfg->ctrl.frames = sp_frame_slots_default;             /* the config's named frames */
     return setup_auth(o, cfg, key);
 }
 

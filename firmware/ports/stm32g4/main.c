@@ -186,6 +186,7 @@ int main(void)
     }
     g_cfg.sync_master = 1u; /* real time: we send SYNC */
     g_cfg.port = SP_PORT_STM32G474;
+    g_cfg.ctrl.frames = sp_frame_slots_default; /* the config's named frames */
     /* command authentication (docs/explanation/security.md): the machine key built in
      * (the build's key file), a session drawn from the RNG; without a
      * session the node starts without its key: motion commands refused */

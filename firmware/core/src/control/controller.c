@@ -70,6 +70,19 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->drive_reset_ticks = 20u;
     cfg->operator_park = 0u;
     cfg->feedback_divider = 1u;
+    for (a = 0u; a < SP_FRAME_SLOTS; ++a) {
+        unsigned k;
+        for (k = 0u; k < 3u; ++k) {
+            cfg->frames.tool[a].pos[k] = 0;
+            cfg->frames.tool[a].rpy[k] = 0;
+            cfg->frames.work[a].pos[k] = 0;
+            cfg->frames.work[a].rpy[k] = 0;
+        }
+    }
+    cfg->frames.tool_used = 1u;
+    cfg->frames.work_used = 1u;
+    cfg->frames.tool_active = 0u;
+    cfg->frames.work_active = 0u;
     return SP_OK;
 }
 
@@ -284,6 +297,63 @@ static void reset_motion(sp_ctrl_t *ctrl, const sp_platform_t *p)
     ctrl->fault_hold_ticks = 0u;
 }
 
+/* ---- frames -------------------------------------------------------------- */
+
+/* The frames of the active slots into ctrl->frames, their checksum and
+ * home's tool pose. SP_E_RANGE (ctrl->frames then identity) for a slot
+ * outside sp_frames_prepare's bounds or an active slot not defined. */
+static sp_status_t activate_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
+{
+    const sp_frame_slots_t *sl = &ctrl->slots;
+    sp_status_t st = SP_E_RANGE;
+    if (sl->tool_active < SP_FRAME_SLOTS && sl->work_active < SP_FRAME_SLOTS &&
+        (sl->tool_used & (1u << sl->tool_active)) != 0u && (sl->work_used & (1u << sl->work_active)) != 0u) {
+        st = sp_frames_prepare(&sl->tool[sl->tool_active], &sl->work[sl->work_active], &ctrl->frames);
+    } else {
+        (void)sp_frames_prepare(NULL, NULL, &ctrl->frames);
+    }
+    ctrl->frames_crc = sp_frames_checksum(&ctrl->frames);
+    if (sp_frames_from_platform(&ctrl->frames, &cfg->platform->home, &ctrl->tool_home) != SP_OK) {
+        st = SP_E_RANGE; /* home's tool pose out of range */
+    }
+    return st;
+}
+
+/* The slots from the config, the active frames, no refusals. */
+static sp_status_t reset_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
+{
+    unsigned k;
+    ctrl->slots = cfg->frames;
+    for (k = 0u; k < SP_REFUSE_COUNT; ++k) {
+        ctrl->refusals[k] = 0u;
+    }
+    ctrl->last_refusal = (uint8_t)SP_REFUSE_NONE;
+    ctrl->refusing = (uint8_t)SP_REFUSE_NONE;
+    sp_motion_at_rest(&ctrl->tool_ref, &cfg->platform->park);
+    ctrl->stream_platform = cfg->platform->home;
+    return activate_frames(cfg, ctrl);
+}
+
+void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, sp_refusal_t why)
+{
+    unsigned w = (unsigned)why;
+    if (ctrl == NULL || w >= SP_REFUSE_COUNT || w == 0u) {
+        return;
+    }
+    if (ctrl->refusals[w] < UINT16_MAX) {
+        ++ctrl->refusals[w];
+    }
+    ctrl->last_refusal = (uint8_t)w;
+}
+
+sp_status_t sp_ctrl_tool_pose(const sp_ctrl_t *ctrl, const sp_pose_t *platform, sp_pose_t *tool_pose)
+{
+    if (ctrl == NULL) {
+        return SP_E_ARG;
+    }
+    return sp_frames_from_platform(&ctrl->frames, platform, tool_pose);
+}
+
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
 {
     sp_status_t st;
@@ -297,7 +367,7 @@ sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     }
     reset_estimate(ctrl, cfg);
     reset_motion(ctrl, cfg->platform);
-    return SP_OK;
+    return (reset_frames(cfg, ctrl) == SP_OK) ? SP_OK : SP_E_ARG;
 }
 
 /* ---- faults ------------------------------------------------------------ */
@@ -506,6 +576,125 @@ static int end_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, con
                                          known ? ctrl->model.ref.length : NULL, end);
 }
 
+/* The one reachability check of a tool pose (T in W) that MOVE_TO,
+ * RUN_TRIG and the reach query share: *pp becomes the platform's pose for
+ * it, and the verdict is sp_limits_pose_reachable's (end_reachable: the
+ * same bit for bit). 1 reachable, 0 not, -1 when the transform failed. */
+static int tool_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *tool, sp_pose_t *pp)
+{
+    if (sp_frames_to_platform(&ctrl->frames, tool, pp, NULL) != SP_OK) {
+        return -1;
+    }
+    return end_reachable(cfg, ctrl, pp);
+}
+
+/* The first limit the platform pose r->platform breaks (the workspace box
+ * in axis order, then the legs in order), and the forces at rest there. */
+static void reach_detail(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, sp_reach_t *r)
+{
+    const sp_limits_t *lim = &ctrl->prep.limits;
+    const sp_pose_t *p = &r->platform;
+    static const sp_q8_t no_ext[3] = {0, 0, 0};
+    sp_ik_t ik;
+    sp_motion_t rest;
+    sp_flags_t flags = 0u;
+    unsigned a;
+    for (a = 0u; a < 6u && r->verdict == (uint8_t)SP_REACH_OK; ++a) {
+        int32_t v = (a < 3u) ? p->pos[a] : p->rpy[a - 3u];
+        if (v < lim->ws_lo[a] || v > lim->ws_hi[a]) {
+            r->verdict = (uint8_t)SP_REACH_WORKSPACE;
+            r->which = (uint8_t)a;
+            r->excess = spi_sat((v < lim->ws_lo[a]) ? (int64_t)lim->ws_lo[a] - v : (int64_t)v - lim->ws_hi[a], &flags);
+        }
+    }
+    if (sp_inverse_kinematics(cfg->platform, p, &ik) != SP_OK) {
+        r->verdict = (uint8_t)((r->verdict == (uint8_t)SP_REACH_OK) ? SP_REACH_COMPUTE : r->verdict);
+        return;
+    }
+    for (a = 0u; a < SP_LEGS && r->verdict == (uint8_t)SP_REACH_OK; ++a) {
+        if (ik.length[a] < lim->length_min || ik.length[a] > lim->length_max) {
+            int shortl = ik.length[a] < lim->length_min;
+            r->verdict = (uint8_t)(shortl ? SP_REACH_LEG_SHORT : SP_REACH_LEG_LONG);
+            r->which = (uint8_t)a;
+            r->excess = spi_sat(
+                shortl ? (int64_t)lim->length_min - ik.length[a] : (int64_t)ik.length[a] - lim->length_max, &flags);
+        }
+    }
+    sp_motion_at_rest(&rest, p);
+    if (sp_inverse_dynamics(cfg->platform, &rest, &ik, no_ext, r->force) != SP_OK) {
+        for (a = 0u; a < SP_LEGS; ++a) {
+            r->force[a] = 0;
+        }
+    }
+}
+
+sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *tool_pose,
+                          sp_reach_t *reach)
+{
+    unsigned a;
+    int ok;
+    if (cfg == NULL || ctrl == NULL || tool_pose == NULL || reach == NULL || cfg->platform == NULL) {
+        return SP_E_ARG;
+    }
+    reach->verdict = (uint8_t)SP_REACH_OK;
+    reach->which = 0u;
+    reach->excess = 0;
+    for (a = 0u; a < SP_LEGS; ++a) {
+        reach->force[a] = 0;
+    }
+    ok = tool_reachable(cfg, ctrl, tool_pose, &reach->platform);
+    if (ok < 0) {
+        reach->verdict = (uint8_t)SP_REACH_COMPUTE;
+        reach->platform = *tool_pose;
+        return SP_OK;
+    }
+    reach_detail(cfg, ctrl, reach);
+    if (ok) {
+        reach->verdict = (uint8_t)SP_REACH_OK; /* the shared check's verdict decides */
+        reach->which = 0u;
+        reach->excess = 0;
+    } else if (reach->verdict == (uint8_t)SP_REACH_OK) {
+        reach->verdict = (uint8_t)SP_REACH_COMPUTE;
+    }
+    return SP_OK;
+}
+
+/* A refusal's reason for this tick's count (sp_ctrl_step); returns 0. */
+static int refuse(sp_ctrl_t *ctrl, sp_refusal_t why)
+{
+    ctrl->refusing = (uint8_t)why;
+    return 0;
+}
+
+/* MOVE_TO from READY: to a reachable tool pose, in the tool's space when
+ * frames are set (the tool point moves on a straight line in W). */
+static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+{
+    sp_pose_t pp;
+    sp_pose_t from;
+    if (ctrl->state != SP_STATE_READY) {
+        return 0;
+    }
+    if (ctrl->frames.identity) {
+        if (!end_reachable(cfg, ctrl, &cmd->target)) {
+            return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+        }
+        from = ctrl->pos_ref.pose;
+    } else {
+        if (tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
+            return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+        }
+        if (sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &from) != SP_OK) {
+            return 0;
+        }
+    }
+    if (!start_move(cfg, ctrl, &from, &cmd->target)) {
+        return 0;
+    }
+    start_running(ctrl, SP_MODE_MOVE);
+    return 1;
+}
+
 /* RUN_TRIG from READY: both ends of the motion must be reachable. */
 /* The trig motion runs about home and its first sample is home at rest:
  * from a reference elsewhere (READY after a MOVE_TO) it would be a step
@@ -529,8 +718,11 @@ static int at_home(const sp_pose_t *pose, const sp_pose_t *home)
 static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     const sp_platform_t *p = cfg->platform;
-    sp_pose_t lo = p->home;
-    sp_pose_t hi = p->home;
+    /* about home's tool pose: about the pivot when a tool frame is set */
+    const sp_pose_t *centre = ctrl->frames.identity ? &p->home : &ctrl->tool_home;
+    sp_pose_t lo = *centre;
+    sp_pose_t hi = *centre;
+    sp_pose_t pp;
     unsigned a = (unsigned)cmd->axis;
     sp_q24_t *l;
     sp_q24_t *h;
@@ -541,8 +733,10 @@ static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
     *l = sp_sub(*l, cmd->amplitude, NULL);
     *h = sp_add(*h, cmd->amplitude, NULL);
-    if (!end_reachable(cfg, ctrl, &lo) || !end_reachable(cfg, ctrl, &hi) ||
-        sp_trig_start(&ctrl->trig, &p->home, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
+    if (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1) {
+        return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+    }
+    if (sp_trig_start(&ctrl->trig, centre, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
                       cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) != SP_OK) {
         return 0;
     }
@@ -560,7 +754,8 @@ static int command_stop(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_cmd_typ
         if (ctrl->mode == SP_MODE_TRIG) {
             sp_trig_stop(&ctrl->trig);
         } else if (ctrl->mode == SP_MODE_STREAM) {
-            sp_stream_stop(&ctrl->stream, &p->home); /* settle back to home, then end */
+            /* settle back to home (its tool pose with frames), then end */
+            sp_stream_stop(&ctrl->stream, ctrl->frames.identity ? &p->home : &ctrl->tool_home);
         }
         return 1;
     }
@@ -708,6 +903,52 @@ static void drive_reset_job(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int co
     }
 }
 
+/* FRAME: select a defined slot, or set one (and make it active), at rest
+ * only (IDLE, or READY in position control): nothing moves, the reference
+ * stays the platform's; from then on commands speak of the new frames. */
+static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+{
+    sp_frame_slots_t *sl = &ctrl->slots;
+    sp_frame_slots_t before = *sl;
+    unsigned i = cmd->frame_index;
+    int tool = cmd->frame_kind == SP_FRAME_TOOL;
+    sp_frames_t probe;
+    if ((ctrl->state != SP_STATE_IDLE && ctrl->state != SP_STATE_READY) || ctrl->force.mode != SP_FORCE_OFF) {
+        return refuse(ctrl, SP_REFUSE_MOVING);
+    }
+    if (i >= SP_FRAME_SLOTS || (cmd->frame_kind != SP_FRAME_TOOL && cmd->frame_kind != SP_FRAME_WORK) ||
+        (cmd->frame_op != SP_FRAME_SELECT && cmd->frame_op != SP_FRAME_SET)) {
+        return refuse(ctrl, SP_REFUSE_EMPTY_SLOT);
+    }
+    if (cmd->frame_op == SP_FRAME_SELECT) {
+        if (((tool ? sl->tool_used : sl->work_used) & (1u << i)) == 0u) {
+            return refuse(ctrl, SP_REFUSE_EMPTY_SLOT);
+        }
+    } else {
+        if (sp_frames_prepare(tool ? &cmd->frame_value : NULL, tool ? NULL : &cmd->frame_value, &probe) != SP_OK) {
+            return refuse(ctrl, SP_REFUSE_BAD_FRAME);
+        }
+        if (tool) {
+            sl->tool[i] = cmd->frame_value;
+            sl->tool_used = (uint8_t)(sl->tool_used | (1u << i));
+        } else {
+            sl->work[i] = cmd->frame_value;
+            sl->work_used = (uint8_t)(sl->work_used | (1u << i));
+        }
+    }
+    if (tool) {
+        sl->tool_active = (uint8_t)i;
+    } else {
+        sl->work_active = (uint8_t)i;
+    }
+    if (activate_frames(cfg, ctrl) != SP_OK) {
+        *sl = before; /* home's tool pose out of range with them: the old frames stay */
+        (void)activate_frames(cfg, ctrl);
+        return refuse(ctrl, SP_REFUSE_BAD_FRAME);
+    }
+    return 1;
+}
+
 /* Carries out the operator's command when the state allows it; returns 0
  * when it is refused (the state unchanged). */
 SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd, int comms_ok)
@@ -728,19 +969,26 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_RUN_TRIG:
         return ctrl->force.mode == SP_FORCE_OFF && command_run_trig(cfg, ctrl, cmd);
     case SP_CMD_MOVE_TO:
-        if (ctrl->state != SP_STATE_READY || !end_reachable(cfg, ctrl, &cmd->target) ||
-            !start_move(cfg, ctrl, &ctrl->pos_ref.pose, &cmd->target)) {
-            return 0;
-        }
-        start_running(ctrl, SP_MODE_MOVE);
-        return 1;
+        return command_move(cfg, ctrl, cmd);
     case SP_CMD_STREAM:
         if (ctrl->state != SP_STATE_READY) {
             return 0;
         }
-        sp_stream_start(&ctrl->stream, &ctrl->pos_ref);
+        if (ctrl->frames.identity) {
+            sp_stream_start(&ctrl->stream, &ctrl->pos_ref);
+        } else {
+            sp_motion_t from;
+            if (sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &from.pose) != SP_OK) {
+                return 0;
+            }
+            sp_motion_at_rest(&from, &from.pose);
+            sp_stream_start(&ctrl->stream, &from);
+            ctrl->stream_platform = ctrl->pos_ref.pose;
+        }
         start_running(ctrl, SP_MODE_STREAM);
         return 1;
+    case SP_CMD_FRAME:
+        return command_frame(cfg, ctrl, cmd);
     case SP_CMD_STOP:
         return command_stop(cfg, ctrl, cmd->type);
     case SP_CMD_PARK:
@@ -779,6 +1027,28 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     }
 }
 
+/* A streamed tool target (frames set): its platform pose is offered to
+ * the filter's check (sp_stream_offer, with the platform pose of the
+ * target in force as the filter's target meanwhile), and on success the
+ * tool pose becomes the filter's target. */
+static int take_tool_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *target, int known)
+{
+    sp_pose_t pp;
+    sp_pose_t tool_target = ctrl->stream.target;
+    if (ctrl->stream.stopping || sp_frames_to_platform(&ctrl->frames, target, &pp, NULL) != SP_OK) {
+        return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+    }
+    ctrl->stream.target = ctrl->stream_platform;
+    if (!sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, &pp, &ctrl->model_pose,
+                         known ? ctrl->model.ref.length : NULL)) {
+        ctrl->stream.target = tool_target;
+        return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+    }
+    ctrl->stream_platform = pp;
+    ctrl->stream.target = *target;
+    return 1;
+}
+
 /* A streamed target while streaming: taken when reachable (sp_stream_offer,
  * with the last reference's leg lengths, its IK as the setpoint path kept
  * it in ctrl->model.ref, known while its factorisation is valid). Returns
@@ -786,8 +1056,13 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
 static int take_stream_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *target)
 {
     int known = ctrl->est.ref_lu.valid && ctrl->have_setpoint;
-    return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->model_pose,
-                           known ? ctrl->model.ref.length : NULL);
+    if (ctrl->frames.identity) {
+        return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->model_pose,
+                               known ? ctrl->model.ref.length : NULL)
+                   ? 1
+                   : refuse(ctrl, SP_REFUSE_UNREACHABLE);
+    }
+    return take_tool_target(cfg, ctrl, target, known);
 }
 
 /* ---- 4. the reference of this tick ---------------------------------------- */
@@ -800,12 +1075,42 @@ static int move_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *
     return done;
 }
 
+/* RUNNING with frames: the motion's next sample as a tool motion
+ * (ctrl->tool_ref), turned into the platform's motion *ref; the motion's
+ * end returns to READY (a stream's at home, at rest). */
+SPI_NOINLINE static void tool_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref,
+                                        sp_flags_t *flags)
+{
+    sp_motion_t *x = &ctrl->tool_ref;
+    int done = 0;
+    if (ctrl->mode == SP_MODE_TRIG) {
+        *flags |= (sp_trig_step(&ctrl->trig, cfg->tick_us, x) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+        done = ctrl->trig.finished;
+    } else if (ctrl->mode == SP_MODE_MOVE) {
+        done = move_step(cfg, ctrl, x, flags);
+    } else {
+        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &cfg->move, x, flags);
+        if (ctrl->stream.stopping && sp_stream_settled(x, &ctrl->tool_home)) {
+            sp_motion_at_rest(x, &ctrl->tool_home);
+            sp_motion_at_rest(ref, &cfg->platform->home);
+            ctrl->state = SP_STATE_READY;
+            return;
+        }
+    }
+    *flags |= (sp_frames_motion_to_platform(&ctrl->frames, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+    if (done) {
+        ctrl->state = SP_STATE_READY;
+    }
+}
+
 /* RUNNING: the motion's next sample; the motion's end returns to READY, or
  * starts parking after PARK. */
 static void running_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref, sp_flags_t *flags)
 {
     const sp_platform_t *p = cfg->platform;
-    if (ctrl->mode == SP_MODE_TRIG) {
+    if (!ctrl->frames.identity) {
+        tool_reference(cfg, ctrl, ref, flags); /* out of line: identity frames pay one test */
+    } else if (ctrl->mode == SP_MODE_TRIG) {
         *flags |= (sp_trig_step(&ctrl->trig, cfg->tick_us, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
         if (ctrl->trig.finished) {
             ctrl->state = SP_STATE_READY;
@@ -1172,6 +1477,50 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     ctrl->ft_valid = 1u;
 }
 
+/* Force control with frames: in the tool's space. The position reference
+ * as a tool motion (the generator's while RUNNING one, else the tool pose
+ * of the platform's reference, at rest), the wrench at the tool point in
+ * W's axes, the estimate's tool pose, and the workspace box moved by the
+ * difference between the two poses (exact for frames that do not turn);
+ * force control's result becomes the platform's motion *ref, whose limits
+ * the setpoints check as always. */
+SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_motion_t *ref,
+                                         uint32_t *events)
+{
+    const int32_t *w = force_wrench(cfg, ctrl);
+    int32_t wt[6];
+    sp_motion_t xref;
+    sp_motion_t xout;
+    sp_pose_t xest;
+    sp_limits_t lim = ctrl->prep.limits;
+    sp_rot_t rot;
+    sp_flags_t flags = 0u;
+    unsigned k;
+    if (ctrl->state == SP_STATE_RUNNING) {
+        xref = ctrl->tool_ref;
+    } else {
+        (void)sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &xref.pose);
+        sp_motion_at_rest(&xref, &xref.pose);
+    }
+    for (k = 0u; k < 6u; ++k) {
+        int32_t d = (k < 3u) ? spi_sub_sat(xref.pose.pos[k], ctrl->pos_ref.pose.pos[k], &flags)
+                             : spi_sub_sat(xref.pose.rpy[k - 3u], ctrl->pos_ref.pose.rpy[k - 3u], &flags);
+        lim.ws_lo[k] = spi_add(lim.ws_lo[k], d, &flags);
+        lim.ws_hi[k] = spi_add(lim.ws_hi[k], d, &flags);
+    }
+    (void)sp_orientation(ctrl->pos_ref.pose.rpy, &rot);
+    if (w != NULL && sp_frames_wrench_to_tool(&ctrl->frames, &rot, w, wt) == SP_OK) {
+        w = wt;
+    }
+    if (ctrl->est.valid && sp_frames_from_platform(&ctrl->frames, &ctrl->est.pose, &xest) != SP_OK) {
+        xest = xref.pose;
+    }
+    (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &lim, &xref, w, ctrl->est.valid ? &xest : NULL, &xout, events);
+    if (sp_frames_motion_to_platform(&ctrl->frames, &xout, ref) != SP_OK) {
+        copy_motion(ref, &ctrl->pos_ref); /* the position reference stands */
+    }
+}
+
 /* Force control over this tick's position reference ctrl->pos_ref (READY,
  * RUNNING): *ref becomes the position reference plus force control's
  * offset, and 1 is returned; 0 when force control made no reference (the
@@ -1187,7 +1536,10 @@ SPI_NOINLINE static int force_control(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
         ctrl->park_after_release = 0u;
         return 0;
     }
-    if (ctrl->force.mode != SP_FORCE_OFF) {
+    if (ctrl->force.mode != SP_FORCE_OFF && !ctrl->frames.identity) {
+        force_step_tool(cfg, ctrl, ref, &events);
+        made = 1;
+    } else if (ctrl->force.mode != SP_FORCE_OFF) {
         (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &ctrl->prep.limits, &ctrl->pos_ref,
                             force_wrench(cfg, ctrl), ctrl->est.valid ? &ctrl->est.pose : NULL, ref, &events);
         made = 1; /* sp_force_step writes *ref whatever its status */
@@ -1242,7 +1594,7 @@ SPI_NOINLINE static void contact_ff_prepare(const sp_ctrl_config_t *cfg, sp_ctrl
     int64_t b[SP_LEGS] = {0, 0, 0, 0, 0, 0}, f[SP_LEGS];
     uint8_t todo = (uint8_t)(ctrl->force.mask & (uint8_t)~ctrl->contact_ff_cols);
     if (!cfg->force_feedforward || !ctrl->prep.force.contact_ff || ctrl->force.mode != SP_FORCE_FORCE ||
-        !ctrl->force.contact.made) {
+        !ctrl->force.contact.made || !ctrl->frames.identity) {
         ctrl->contact_ff_cols = 0u;
         return;
     }
@@ -1289,6 +1641,24 @@ SPI_NOINLINE static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_
     }
 }
 
+/* With frames: the reported wrenches at the tool point in W's axes (at the
+ * reference's orientation). */
+SPI_NOINLINE static void tool_wrench_output(const sp_ctrl_t *ctrl, sp_ctrl_output_t *out)
+{
+    int32_t w[6];
+    unsigned k;
+    if (sp_frames_wrench_to_tool(&ctrl->frames, &ctrl->model.rot, out->wrench, w) == SP_OK) {
+        for (k = 0u; k < 6u; ++k) {
+            out->wrench[k] = w[k];
+        }
+    }
+    if (sp_frames_wrench_to_tool(&ctrl->frames, &ctrl->model.rot, out->force_wrench, w) == SP_OK) {
+        for (k = 0u; k < 6u; ++k) {
+            out->force_wrench[k] = w[k];
+        }
+    }
+}
+
 static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uint32_t fk_iterations, int rejected,
                          sp_ctrl_output_t *out)
 {
@@ -1330,9 +1700,21 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
         out->force_target[i] = ctrl->force.target[i];
         out->force_wrench[i] = (w != NULL) ? w[i] : 0;
     }
+    if (!ctrl->frames.identity) {
+        tool_wrench_output(ctrl, out);
+    }
 }
 
 /* ---- the tick -------------------------------------------------------------- */
+
+/* A refused command or target: counted by its reason (OTHER when the
+ * path that refused it named none). */
+SPI_NOINLINE static void count_refusal(sp_ctrl_t *ctrl)
+{
+    sp_refusal_t why = (ctrl->refusing != 0u) ? (sp_refusal_t)ctrl->refusing : SP_REFUSE_OTHER;
+    ctrl->refusing = (uint8_t)SP_REFUSE_NONE;
+    sp_ctrl_count_refusal(ctrl, why);
+}
 
 sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, sp_ctrl_output_t *out)
 {
@@ -1363,6 +1745,9 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     rejected = !command(cfg, ctrl, cmd, comms_ok) || dropped;
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {
         rejected |= !take_stream_target(cfg, ctrl, &in->stream_target);
+    }
+    if (rejected) {
+        count_refusal(ctrl);
     }
     if (reference(cfg, ctrl, &flags)) {
         hold_setpoints(ctrl, ref);

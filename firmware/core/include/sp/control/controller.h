@@ -102,6 +102,7 @@
 #define SP_CONTROLLER_H
 
 #include "sp/model/dynamics.h"
+#include "sp/model/frames.h"
 #include "sp/estimation/estimate.h"
 #include "sp/motion/limits.h"
 #include "sp/motion/setpoint.h"
@@ -144,7 +145,8 @@ typedef struct {
     sp_q24_t amplitude;             /**< RUN_TRIG: m or rad, Q24 */
     sp_q24_t frequency;             /**< RUN_TRIG: Hz, Q24 */
     uint32_t fade_ticks;            /**< RUN_TRIG: fade-in/out, ticks (0: the config's fade_ticks) */
-    sp_pose_t target;               /**< MOVE_TO: absolute pose */
+    sp_pose_t target;               /**< MOVE_TO: the tool pose to go to (T in W; the platform's pose with the
+                                         default identity frames) */
     uint8_t force_mask;             /**< FORCE, GUIDE: the force-controlled axes (bit k: x, y, z, roll, pitch, yaw) */
     sp_q8_t force_target[6];        /**< FORCE: the wrench the platform is to exert on the world, N, N m, base frame,
                                   about o', Q8 */
@@ -152,7 +154,74 @@ typedef struct {
     sp_q16_t force_params_mass;     /**< FORCE_PARAMS: virtual mass, kg or kg m^2, Q16 */
     int32_t force_params_damping;   /**< FORCE_PARAMS: free-space damping, N s/m or N m s/rad */
     int32_t force_params_stiffness; /**< FORCE_PARAMS: spring to the position reference, N/m or N m/rad */
+    uint8_t frame_op;               /**< FRAME: SP_FRAME_SELECT or SP_FRAME_SET */
+    uint8_t frame_kind;             /**< FRAME: SP_FRAME_TOOL or SP_FRAME_WORK */
+    uint8_t frame_index;            /**< FRAME: the slot, 0 .. SP_FRAME_SLOTS - 1 */
+    sp_pose_t frame_value;          /**< FRAME SET: the slot's new values (tool: T in o', work: W in the base
+                                         frame; m, rad, Q24); the slot becomes the active one */
 } sp_ctrl_cmd_t;
+
+/** Slots of each kind of frame (tool, work). */
+#define SP_FRAME_SLOTS 4u
+
+/** sp_ctrl_cmd_t.frame_op */
+#define SP_FRAME_SELECT 0u /**< make slot frame_index the active frame of its kind */
+#define SP_FRAME_SET 1u    /**< set slot frame_index to frame_value and make it active */
+
+/** sp_ctrl_cmd_t.frame_kind */
+#define SP_FRAME_TOOL 0u
+#define SP_FRAME_WORK 1u
+
+/** The named frames of the platform config (config/platform_default.json
+ *  "frames"), and which are active at init. Slot 0 of each kind is the
+ *  identity unless the config says otherwise. */
+typedef struct {
+    sp_pose_t tool[SP_FRAME_SLOTS]; /**< T in o' (m, rad, Q24) */
+    sp_pose_t work[SP_FRAME_SLOTS]; /**< W in the base frame (m, rad, Q24) */
+    uint8_t tool_used;              /**< bit i: tool slot i is defined (a select of another is refused) */
+    uint8_t work_used;              /**< bit i: work slot i is defined */
+    uint8_t tool_active;            /**< the active tool slot */
+    uint8_t work_active;            /**< the active work slot */
+} sp_frame_slots_t;
+
+/** The config's frames (config/platform_default.json "frames"), generated
+ *  by tools/dev/gen_platform.py: ports copy them into sp_ctrl_config_t.frames. */
+extern const sp_frame_slots_t sp_frame_slots_default;
+
+/** Why a command or a reach query was refused (sp_ctrl_t.refusals,
+ *  sp_ctrl_t.last_refusal; CTRL_FRAMES). */
+typedef enum {
+    SP_REFUSE_NONE = 0,
+    SP_REFUSE_MOVING = 1,      /**< a frame change outside rest (IDLE, READY with force control off) */
+    SP_REFUSE_EMPTY_SLOT = 2,  /**< a select of an undefined slot, or an index beyond the slots */
+    SP_REFUSE_BAD_FRAME = 3,   /**< a frame outside sp_frames_prepare's bounds (tool point beyond 5 m, ...) */
+    SP_REFUSE_NOT_FINITE = 4,  /**< a reach query or frame with a value that is not a finite number (the node) */
+    SP_REFUSE_UNREACHABLE = 5, /**< a MOVE_TO or RUN_TRIG whose end the reach check refuses, a streamed
+                                    target beyond the limits */
+    SP_REFUSE_OTHER = 6        /**< any other refused command (the state does not allow it, ...) */
+} sp_refusal_t;
+
+#define SP_REFUSE_COUNT 7u
+
+/** The reach check's verdict (sp_ctrl_reach). */
+typedef enum {
+    SP_REACH_OK = 0,        /**< reachable: a MOVE_TO to it from READY passes the limits */
+    SP_REACH_WORKSPACE = 1, /**< the platform's pose leaves the workspace box on axis `which` (0..5: x, y,
+                                 z, roll, pitch, yaw) by `excess` (m or rad) */
+    SP_REACH_LEG_SHORT = 2, /**< leg `which` (0..5) is shorter than its stroke less the margin by `excess` (m) */
+    SP_REACH_LEG_LONG = 3,  /**< leg `which` is longer than its stroke less the margin by `excess` (m) */
+    SP_REACH_COMPUTE = 4    /**< the transform or the IK failed (a pose far out of range) */
+} sp_reach_verdict_t;
+
+/** The answer to a reach query (sp_ctrl_reach). */
+typedef struct {
+    uint8_t verdict;        /**< sp_reach_verdict_t */
+    uint8_t which;          /**< the axis or the leg of the first limit broken (0 when reachable) */
+    sp_q24_t excess;        /**< by how much, m or rad, Q24, >= 0 (0 when reachable) */
+    sp_pose_t platform;     /**< the platform's pose (o' in the base frame) for the tool pose */
+    sp_q8_t force[SP_LEGS]; /**< the cylinder forces that hold the platform at rest there, N, Q8 (0 when
+                                  the IK failed) */
+} sp_reach_t;
 
 /** Feedback of one axis drive for this tick. */
 typedef struct {
@@ -256,6 +325,8 @@ typedef struct {
                                           divided by it, rounded up, its jump thresholds multiplied by its
                                           square root: one sample a period leaves about that much more
                                           noise); 1..255, else sp_ctrl_init SP_E_ARG */
+    sp_frame_slots_t frames;         /**< the named tool and work frames and the active ones at init (default:
+                                          slot 0 of each, identity, the only one defined) */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
@@ -407,6 +478,17 @@ typedef struct {
     sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
     sp_drive_reset_t drive_reset;              /**< RESET's fault reset of the drives */
     uint32_t fault_hold_ticks;                 /**< ticks of the current holding FAULT (saturates; 0 otherwise) */
+    /** the frames (sp/model/frames.h): commands, streamed targets and force control speak of the tool
+     *  frame in the work frame; identity (the default) skips every transform */
+    sp_frames_t frames;
+    sp_frame_slots_t slots;             /**< the slots (from cfg->frames at init, SET changes one) */
+    uint32_t frames_crc;                /**< sp_frames_checksum(&frames), made when they change */
+    sp_motion_t tool_ref;               /**< RUNNING with frames: the motion generator's reference, a tool motion */
+    sp_pose_t tool_home;                /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
+    sp_pose_t stream_platform;          /**< STREAM with frames: the platform pose of the streamed target in force */
+    uint16_t refusals[SP_REFUSE_COUNT]; /**< refusals by reason (sp_refusal_t), saturating */
+    uint8_t last_refusal;               /**< the reason of the last refusal */
+    uint8_t refusing;                   /**< this tick's refused command's reason (set where it is refused) */
     /** the friction observer's Stribeck table (sp_fric_table_prepare),
      *  made at init like prep; last, so that its 2,704 bytes leave the other members
      *  within a load's reach of the struct's start */
@@ -515,6 +597,30 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
  */
 const sp_ctrl_cmd_t *sp_ctrl_operator_link(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in,
                                            int *dropped);
+
+/**
+ * The reach query ("can it reach?"): the platform pose that puts the tool
+ * frame at `tool_pose` (T in W, with the active frames), whether every
+ * limit a MOVE_TO to it checks holds there (the workspace box and every
+ * leg inside its stroke less the margin: the same check, so a MOVE_TO from
+ * READY to a pose judged reachable is never refused for its limits, and
+ * one to a pose judged unreachable always is), the first limit broken
+ * (workspace axis or leg, and by how much) and the cylinder forces at rest
+ * there (the inverse dynamics at zero velocity, no external wrench).
+ * Pure: nothing moves, nothing changes. Errors: SP_E_ARG (NULL). A pose
+ * that cannot be computed is SP_REACH_COMPUTE, not an error.
+ */
+sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *tool_pose,
+                          sp_reach_t *reach);
+
+/** Counts a refusal (ctrl->refusals[why], saturating; ctrl->last_refusal):
+ *  for the node's own refusals (a non-finite value). Ignores NULL and
+ *  reasons beyond SP_REFUSE_COUNT. */
+void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, sp_refusal_t why);
+
+/** The tool pose (T in W, active frames) of a platform pose (o' in the
+ *  base frame): sp_frames_from_platform. Errors as there. */
+sp_status_t sp_ctrl_tool_pose(const sp_ctrl_t *ctrl, const sp_pose_t *platform, sp_pose_t *tool_pose);
 
 /** Short constant name of a state ("idle", "engaging", ...). */
 const char *sp_state_name(sp_state_t state);

@@ -19,13 +19,15 @@ typedef enum {
     SP_CMD_PARK = 6,
     SP_CMD_ESTOP = 7,
     SP_CMD_RESET = 8,
-    SP_CMD_FORCE = 10,       /**< enter force control (force_mask, force_target), or update its target */
-    SP_CMD_GUIDE = 11,       /**< enter hand guiding (force_mask) */
-    SP_CMD_POSITION = 12,    /**< leave force control smoothly (back onto the position reference) */
-    SP_CMD_TARE = 13,        /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
+    SP_CMD_FORCE = 10,        /**< enter force control (force_mask, force_target), or update its target */
+    SP_CMD_GUIDE = 11,        /**< enter hand guiding (force_mask) */
+    SP_CMD_POSITION = 12,     /**< leave force control smoothly (back onto the position reference) */
+    SP_CMD_TARE = 13,         /**< zero the wrench source's bias: the force/torque sensor's, or the cylinders'
                                estimate's at rest (READY, position control) */
-    SP_CMD_FORCE_PARAMS = 14 /**< the admittance's parameters for force_mask (force_params_*): only in position
+    SP_CMD_FORCE_PARAMS = 14, /**< the admittance's parameters for force_mask (force_params_*): only in position
                                   control (not on OP_COMMAND: the node makes it from OP_FORCE_PARAMS) */
+    SP_CMD_FRAME = 15         /**< select or set a tool or work frame slot (frame_*): only at rest (IDLE or READY,
+                                   force control off; not on OP_COMMAND: the node makes it from OP_FRAME) */
 } sp_cmd_type_t;
 
 /** Drive modes sent with the setpoints (in the spirit of CiA 408). */
