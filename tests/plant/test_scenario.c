@@ -515,7 +515,7 @@ static void test_overlong_and_empty(void **state)
     assert_string_equal(err.message,
                         "scenario:1: unknown action 'frob' "
                         "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, "
-                        "force, force_target, guide, position, tare, push, ftsensor, inject)");
+                        "force, force_target, guide, position, tare, push, ftsensor, inject, frame)");
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, NULL), HS_E_SYNTAX);
     assert_int_equal(hs_scenario_parse(&sc, "end", NULL, NULL), HS_OK);
     assert_int_equal(hs_scenario_load(&sc, NULL, &err), HS_E_ARG);
@@ -663,6 +663,30 @@ static void test_contact_surface(void **state)
     refused("contact surface up 0 0 0 0 0 0 0 nan stiffness=1 damping=1", 1,
             "contact surface tool point value 'nan' is not a number");
     refused("contact surface up 0 0 0 0 0 0 0 0 stiffness=1", 1, "contact needs stiffness=K");
+}
+
+/* `frame`: OP_FRAME's select and set (issue 31). */
+static void test_frame_action(void **state)
+{
+    (void)state;
+    const hs_action_t *a = one("frame tool select 1");
+    assert_int_equal(a->kind, HS_ACTION_FRAME);
+    assert_true(a->frame.op == 0 && a->frame.kind == 0 && a->frame.index == 1);
+    a = one("FRAME work set 3 0.1 -0.2 2.6 0.349066 0 -1.5");
+    assert_true(a->frame.op == 1 && a->frame.kind == 1 && a->frame.index == 3);
+    assert_true(a->frame.value[0] == 0.1 && a->frame.value[2] == 2.6 && a->frame.value[3] == 0.349066 &&
+                a->frame.value[5] == -1.5);
+    a = one("frame tool select 15"); /* the wire's range: the controller refuses it */
+    assert_int_equal(a->frame.index, 15);
+    refused("frame tool", 1, "frame needs tool or work, select or set, and a slot");
+    refused("frame hand select 0", 1, "frame: unknown kind 'hand' (tool, work)");
+    refused("frame tool pick 0", 1, "frame: unknown operation 'pick' (select, set)");
+    refused("frame tool select 16", 1, "frame: slot '16' is not 0..15");
+    refused("frame tool select 1.5", 1, "frame: slot '1.5' is not 0..15");
+    refused("frame tool select 1 2", 1, "frame select takes a slot alone");
+    refused("frame work set 1 0 0 0 0 0", 1, "frame set needs a slot and 6 numbers");
+    refused("frame work set 1 0 0 9 0 0 0", 1, "frame value 9 is out of range (|v| <= 8 m or rad)");
+    refused("frame work set 1 0 0 nan 0 0 0", 1, "frame value 'nan' is not a number");
 }
 
 static void test_wrench_contact_load(void **state)
@@ -877,6 +901,7 @@ int main(void)
         cmocka_unit_test(test_load_file),
         cmocka_unit_test(test_player),
         cmocka_unit_test(test_contact_surface),
+        cmocka_unit_test(test_frame_action),
         cmocka_unit_test(test_wrench_contact_load),
         cmocka_unit_test(test_play),
     };

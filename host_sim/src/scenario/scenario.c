@@ -22,7 +22,7 @@
     "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD, FORCE, GUIDE, POSITION, TARE"
 #define ACTION_LIST                                                                                                    \
     "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, force, "             \
-    "force_target, guide, position, tare, push, ftsensor, inject"
+    "force_target, guide, position, tare, push, ftsensor, inject, frame"
 #define MAX_FT 16383.0     /* largest |value| of an OP_FORCE target, N or N m (the frame's range) */
 #define MAX_WRENCH 1.0e6   /* largest |value| of a wrench, N or N m */
 #define MAX_GEOMETRY 100.0 /* largest |value| of a contact or load position, m */
@@ -780,6 +780,37 @@ static int parse_ftsensor(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
     return 1;
 }
 
+/* `frame tool|work select N` or `frame tool|work set N X Y Z ROLL PITCH YAW`:
+ * OP_FRAME (slot N 0..15 on the wire; values within MAX_TARGET). */
+static int parse_frame(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    double slot;
+    hs_scenario_frame_t *f = &a->frame;
+    a->kind = HS_ACTION_FRAME;
+    if (nw < 4) {
+        return fail(why, "frame needs tool or work, select or set, and a slot");
+    }
+    if (strcasecmp(w[1], "tool") != 0 && strcasecmp(w[1], "work") != 0) {
+        return fail(why, "frame: unknown kind '%.40s' (tool, work)", w[1]);
+    }
+    f->kind = (strcasecmp(w[1], "work") == 0) ? 1 : 0;
+    if (strcasecmp(w[2], "select") != 0 && strcasecmp(w[2], "set") != 0) {
+        return fail(why, "frame: unknown operation '%.40s' (select, set)", w[2]);
+    }
+    f->op = (strcasecmp(w[2], "set") == 0) ? 1 : 0;
+    if (parse_double(w[3], &slot) != 0 || slot < 0.0 || slot > 15.0 || slot != floor(slot)) {
+        return fail(why, "frame: slot '%.40s' is not 0..15", w[3]);
+    }
+    f->index = (int)slot;
+    if (f->op == 0) {
+        return (nw == 4) ? 1 : fail(why, "frame select takes a slot alone, got %d more words", nw - 4);
+    }
+    if (nw != 10) {
+        return fail(why, "frame set needs a slot and 6 numbers (x y z roll pitch yaw), got %d", nw - 4);
+    }
+    return (parse_numbers(w, 4, 6, MAX_TARGET, "frame", "m or rad", f->value, why) != 0) ? -1 : 1;
+}
+
 static int parse_end(int nw, hs_action_t *a, char why[WHY_LEN])
 {
     if (nw != 1) {
@@ -852,6 +883,9 @@ static int parse_action(char **w, int nw, const char *dir, hs_action_t *a, char 
     }
     if (strcasecmp(kw, "end") == 0) {
         return parse_end(nw, a, why);
+    }
+    if (strcasecmp(kw, "frame") == 0) {
+        return parse_frame(w, nw, a, why);
     }
     return fail(why, "unknown action '%.40s' (" ACTION_LIST ")", kw);
 }
