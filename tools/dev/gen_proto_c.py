@@ -59,7 +59,7 @@ VALUE_TYPES = {
     "LENGTH": "sp_q24_t", "FEEDBACK_LENGTH": "sp_q24_t", "POSE": "sp_q24_t", "VELOCITY": "sp_q24_t",
     "FORCE": "sp_q8_t", "PRESSURE": "uint32_t", "WRENCH": "int32_t", "FT_WRENCH": "sp_q8_t",
     "AMPLITUDE": "sp_q24_t", "FREQUENCY": "sp_q24_t", "FADE_TIME": "uint32_t", "MASS": "sp_q16_t",
-    "DAMPING": "int32_t", "STIFFNESS": "int32_t",
+    "DAMPING": "int32_t", "STIFFNESS": "int32_t", "FRAME_POSE": "sp_q24_t", "EXCESS": "sp_q24_t",
 }
 TYPE_RANGES = {"sp_q24_t": (-(1 << 31), (1 << 31) - 1), "sp_q8_t": (-(1 << 31), (1 << 31) - 1),
                "sp_q16_t": (-(1 << 31), (1 << 31) - 1), "int32_t": (-(1 << 31), (1 << 31) - 1),
@@ -150,6 +150,22 @@ MESSAGES = (
     Message("CTRL_AUTH", "auth", "sp_msg_auth_t", (
         Field("Session", "session"), Field("LastCounter", "last_counter"), Field("BadTag", "bad_tag", "clip"),
         Field("Replayed", "replayed", "clip"), Field("KeySet", "key_set", "bool"))),
+    Message("OP_FRAME", "frame", "sp_msg_frame_t", (
+        Field("Op", "op", "enum"), Field("Kind", "kind", "enum"), Field("Index", "index", "mask"),
+        *(Field(f.signal, f.member, "sat", "FRAME_POSE") for f in _pose("", _XYZ, "value.")))),
+    Message("OP_REACH", "reach", "sp_msg_reach_t", (
+        Field("Sequence", "sequence"),
+        *(Field(f.signal, f.member, "sat", "FRAME_POSE") for f in _pose("", _XYZ, "pose.")))),
+    Message("CTRL_REACH", "reach_answer", "sp_msg_reach_answer_t", (
+        Field("Sequence", "sequence"), Field("Verdict", "verdict", "enum"), Field("Which", "which", "enum"),
+        Field("Excess", "excess", "sat", "EXCESS"),
+        *(Field(f"Force_{i}", f"force[{i - 1}]", "sat", "FORCE") for i in range(1, 7)))),
+    Message("CTRL_FRAMES", "frames", "sp_msg_frames_t", (
+        Field("ToolIndex", "tool_index", "mask"), Field("WorkIndex", "work_index", "mask"),
+        Field("Identity", "identity", "bool"), Field("LastRefusal", "last_refusal", "enum"),
+        Field("Checksum", "checksum"),
+        *(Field(f"Refused{n}", f"refused[{k}]", "clip") for k, n in enumerate(
+            ("Moving", "EmptySlot", "BadFrame", "NotFinite", "Unreachable", "Other"))))),
     Message("CTRL_IDENTITY", "identity", "sp_msg_identity_t", (
         Field("VersionMajor", "major"), Field("VersionMinor", "minor"), Field("VersionPatch", "patch"),
         Field("Port", "port", "enum"), Field("ProtocolHash", "protocol_hash"))),

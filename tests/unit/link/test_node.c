@@ -31,17 +31,21 @@ typedef struct {
     int silent[SP_LEGS];
     sp_can_frame_t sent[SP_NODE_MAX_TX];
     uint32_t n_sent;
-    uint32_t wrench_frames;     /* CTRL_WRENCH frames seen */
-    uint32_t wrench_valid;      /* of which Valid = 1 */
-    uint8_t wrench_counter;     /* Counter of the last one */
-    sp_auth_key_t key;          /* the test's throw-away machine key */
-    uint32_t auth_counter;      /* the operator's authentication counter (last used) */
-    uint32_t auth_frames;       /* CTRL_AUTH frames seen */
-    sp_msg_auth_t auth;         /* the last one */
-    int identify_asked;         /* an IDENTIFY was sent and not yet answered */
-    uint32_t identity_frames;   /* CTRL_IDENTITY frames seen */
-    sp_msg_identity_t identity; /* the last one */
-    uint8_t identity_counter;   /* its Counter */
+    uint32_t wrench_frames;      /* CTRL_WRENCH frames seen */
+    uint32_t wrench_valid;       /* of which Valid = 1 */
+    uint8_t wrench_counter;      /* Counter of the last one */
+    sp_auth_key_t key;           /* the test's throw-away machine key */
+    uint32_t auth_counter;       /* the operator's authentication counter (last used) */
+    uint32_t auth_frames;        /* CTRL_AUTH frames seen */
+    sp_msg_auth_t auth;          /* the last one */
+    int identify_asked;          /* an IDENTIFY was sent and not yet answered */
+    uint32_t identity_frames;    /* CTRL_IDENTITY frames seen */
+    sp_msg_identity_t identity;  /* the last one */
+    uint8_t identity_counter;    /* its Counter */
+    uint32_t reach_frames;       /* CTRL_REACH frames seen */
+    sp_msg_reach_answer_t reach; /* the last one */
+    uint32_t frames_frames;      /* CTRL_FRAMES frames seen */
+    sp_msg_frames_t frames;      /* the last one */
 } rig_t;
 
 #define RIG_SESSION 0x5EED1234u
@@ -87,11 +91,16 @@ static void rig_tick(rig_t *r)
 {
     assert_int_equal(sp_node_tick(&r->cfg, &r->node, r->sent, &r->n_sent), SP_OK);
     /* setpoints x2, SYNC x2, status, monitor; + CTRL_WRENCH on even ticks,
-     * + CTRL_AUTH every 10; + CTRL_IDENTITY once when asked, last */
+     * + CTRL_AUTH every 10, + CTRL_FRAMES every 100 (phase 5); + CTRL_REACH
+     * or CTRL_IDENTITY once when asked, last */
     uint32_t even = (r->node.out.tick % 2u) == 0u ? 1u : 0u;
     uint32_t tenth = (r->node.out.tick % SP_PROTO_AUTH_PERIOD) == 0u ? 1u : 0u;
-    uint32_t identity = r->n_sent > 0u && r->sent[r->n_sent - 1u].id == SP_ID_CTRL_IDENTITY ? 1u : 0u;
-    assert_int_equal(r->n_sent, 6u + even + tenth + identity);
+    uint32_t frames = (r->node.out.tick % SP_PROTO_FRAMES_PERIOD) == SP_PROTO_FRAMES_PHASE ? 1u : 0u;
+    uint32_t identity = r->n_sent > 0u && (r->sent[r->n_sent - 1u].id == SP_ID_CTRL_IDENTITY ||
+                                           r->sent[r->n_sent - 1u].id == SP_ID_CTRL_REACH)
+                            ? 1u
+                            : 0u;
+    assert_int_equal(r->n_sent, 6u + even + tenth + frames + identity);
     uint32_t sync_tick = 0;
     int syncs = 0;
     for (uint32_t k = 0; k < r->n_sent; k++) {
@@ -106,6 +115,14 @@ static void rig_tick(rig_t *r)
             r->identity_counter = counter;
             r->identity_frames++;
             r->identify_asked = 0;
+        } else if (f->id == SP_ID_CTRL_REACH) {
+            assert_int_equal(tenth, 0u);
+            assert_int_equal(k, r->n_sent - 1u);
+            assert_int_equal(sp_proto_decode_reach_answer(f, &r->reach, &counter, &e), SP_OK);
+            r->reach_frames++;
+        } else if (f->id == SP_ID_CTRL_FRAMES) {
+            assert_int_equal(sp_proto_decode_frames(f, &r->frames, &counter, &e), SP_OK);
+            r->frames_frames++;
         } else if (f->id == SP_ID_CTRL_AUTH) {
             assert_int_equal(f->bus, SP_BUS_OPS);
             assert_int_equal(k, 4u); /* ahead of CTRL_STATUS */
@@ -465,6 +482,133 @@ static void test_identify_over_frames(void **state)
     assert_int_equal(r.node.out.state, SP_STATE_ESTOP);
     identify_now(&r, SP_PORT_STM32G474);
     assert_int_equal(r.identity_frames, 7u);
+}
+
+static uint8_t frame_counter; /* OP_FRAME's alive counter */
+
+static void send_frame(rig_t *r, uint8_t op, uint8_t kind, uint8_t index, const double v[6], int signed_ok,
+                       sp_status_t want)
+{
+    sp_msg_frame_t m;
+    sp_can_frame_t f;
+    memset(&m, 0, sizeof m);
+    m.op = op;
+    m.kind = kind;
+    m.index = index;
+    for (int k = 0; k < 3; k++) {
+        m.value.pos[k] = v ? (sp_q24_t)llround(v[k] * 16777216.0) : 0;
+        m.value.rpy[k] = v ? (sp_q24_t)llround(v[3 + k] * 16777216.0) : 0;
+    }
+    (void)sp_proto_encode_frame(&m, frame_counter++, &f);
+    frame_counter &= 0x0Fu;
+    if (signed_ok) {
+        sign(r, &f);
+    }
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), want);
+}
+
+static void send_reach(rig_t *r, uint8_t seq, const sp_pose_t *p)
+{
+    sp_msg_reach_t m;
+    sp_can_frame_t f;
+    static uint8_t counter;
+    m.sequence = seq;
+    m.pose = *p;
+    (void)sp_proto_encode_reach(&m, counter++, &f);
+    counter &= 0x0Fu;
+    assert_int_equal(sp_node_receive(&r->node, &f, NULL), SP_OK);
+}
+
+/* OP_FRAME (authenticated, at rest only), CTRL_FRAMES, and OP_REACH
+ * answered within 2 ticks, agreeing with MOVE_TO's refusal. */
+static void test_frames_and_reach_over_frames(void **state)
+{
+    static const double tip[6] = {0.15, 0.0, 0.35, 0.0, 0.0, 0.0};
+    static const double far[6] = {3.0, 3.0, 3.0, 0.0, 0.0, 0.0};
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    for (int t = 0; t < 5; t++) {
+        rig_tick(&r);
+    }
+    send_command(&r, SP_CMD_ENGAGE);
+    rig_tick(&r);
+    run_until(&r, SP_STATE_READY, 10000u);
+    send_frame(&r, SP_FRAME_SET, SP_FRAME_TOOL, 1u, tip, 0, SP_E_FRAME); /* unsigned: refused, nothing changes */
+    send_frame(&r, SP_FRAME_SET, SP_FRAME_TOOL, 1u, tip, 1, SP_OK);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 0);
+    send_frame(&r, SP_FRAME_SET, SP_FRAME_TOOL, 2u, far, 1, SP_OK);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 1);
+    send_frame(&r, SP_FRAME_SELECT, SP_FRAME_WORK, 3u, NULL, 1, SP_OK);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.cmd_rejected, 1);
+    {
+        sp_msg_frame_t nan;
+        sp_can_frame_t f;
+        memset(&nan, 0, sizeof nan);
+        nan.op = SP_FRAME_SET;
+        nan.value.pos[2] = SP_PROTO_NOT_FINITE_Q24;
+        assert_int_equal(sp_proto_encode_frame(&nan, frame_counter++, &f), SP_OK);
+        frame_counter &= 0x0Fu;
+        sign(&r, &f);
+        assert_int_equal(sp_node_receive(&r.node, &f, NULL), SP_OK);
+        rig_tick(&r);
+        assert_int_equal(r.node.out.cmd_rejected, 1);
+    }
+    for (int t = 0; t < 100; t++) {
+        rig_tick(&r);
+    }
+    assert_true(r.frames_frames >= 1u);
+    assert_int_equal(r.frames.tool_index, 1);
+    assert_int_equal(r.frames.work_index, 0);
+    assert_int_equal(r.frames.identity, 0);
+    assert_int_equal(r.frames.checksum, r.node.ctrl.frames_crc);
+    assert_int_equal(r.frames.refused[SP_REFUSE_BAD_FRAME - 1], 1u);
+    assert_int_equal(r.frames.refused[SP_REFUSE_EMPTY_SLOT - 1], 1u);
+    assert_int_equal(r.frames.refused[SP_REFUSE_NOT_FINITE - 1], 1u);
+    /* reach queries: answered within 2 ticks, the same verdict as a MOVE_TO's */
+    for (int q = 0; q < 40; q++) {
+        sp_pose_t x = r.node.ctrl.tool_home;
+        uint32_t before = r.reach_frames;
+        x.pos[q % 3] += (sp_q24_t)((q % 2 ? 1 : -1) * (q * 0.02) * 16777216.0);
+        x.rpy[(q + 1) % 3] += (sp_q24_t)(q * 0.01 * 16777216.0);
+        send_reach(&r, (uint8_t)q, &x);
+        rig_tick(&r);
+        if (r.reach_frames == before) {
+            rig_tick(&r);
+        }
+        assert_int_equal(r.reach_frames, before + 1u);
+        assert_int_equal(r.reach.sequence, q);
+        r.node.target = x;
+        send_command(&r, SP_CMD_MOVE_TO);
+        rig_tick(&r);
+        assert_int_equal(r.node.out.cmd_rejected, r.reach.verdict == SP_REACH_OK ? 0 : 1);
+        if (r.node.out.state == SP_STATE_RUNNING) {
+            /* a frame change while moving is refused */
+            send_frame(&r, SP_FRAME_SELECT, SP_FRAME_TOOL, 0u, NULL, 1, SP_OK);
+            rig_tick(&r);
+            assert_int_equal(r.node.out.cmd_rejected, 1);
+            assert_int_equal(r.node.ctrl.last_refusal, SP_REFUSE_MOVING);
+            run_until(&r, SP_STATE_READY, 20000u);
+            r.node.target = r.node.ctrl.tool_home;
+            send_command(&r, SP_CMD_MOVE_TO);
+            rig_tick(&r);
+            run_until(&r, SP_STATE_READY, 20000u);
+        }
+    }
+    {
+        sp_pose_t x = r.node.ctrl.tool_home;
+        uint32_t before = r.node.ctrl.refusals[SP_REFUSE_NOT_FINITE];
+        x.rpy[1] = SP_PROTO_NOT_FINITE_Q24;
+        send_reach(&r, 77u, &x);
+        rig_tick(&r);
+        rig_tick(&r);
+        assert_int_equal(r.reach.sequence, 77);
+        assert_int_equal(r.reach.verdict, SP_PROTO_REACH_NOT_FINITE);
+        assert_int_equal(r.node.ctrl.refusals[SP_REFUSE_NOT_FINITE], before + 1u);
+    }
 }
 
 static void test_engage_run_park_over_frames(void **state)
@@ -1264,6 +1408,7 @@ static void test_auth_over_frames(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_frames_and_reach_over_frames),
         cmocka_unit_test(test_engage_run_park_over_frames),
         cmocka_unit_test(test_identify_over_frames),
         cmocka_unit_test(test_tick_wrap_is_seamless),

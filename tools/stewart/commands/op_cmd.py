@@ -46,7 +46,40 @@ def register(sub) -> None:
     _add_state_actions(ops)
     _add_force_actions(ops)
     _add_observer_actions(ops)
+    _add_frame_actions(ops)
+    for name in ("move", "stream", "force", "guide"):
+        ops.choices[name].add_argument(
+            "--frame", metavar="T[:W]", type=_frame_arg,
+            help="select tool slot T (and work slot W) first (OP_FRAME): the pose or target is then of the "
+                 "tool frame in the work frame (docs/reference/frames.md)")
     p.set_defaults(func=run)
+
+
+def _frame_arg(text: str) -> tuple[int, int | None]:
+    import argparse
+
+    parts = text.split(":")
+    try:
+        vals = [int(v) for v in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected T or T:W, slot numbers 0..3") from None
+    if len(vals) > 2 or not all(0 <= v <= 3 for v in vals):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected T or T:W, slot numbers 0..3")
+    return vals[0], (vals[1] if len(vals) == 2 else None)
+
+
+def _add_frame_actions(ops) -> None:
+    """frame, reach."""
+    fr = ops.add_parser("frame", help="select or set a tool or work frame (at rest: IDLE or READY)")
+    fr.add_argument("kind", choices=("tool", "work"))
+    fr.add_argument("verb", choices=("select", "set"))
+    fr.add_argument("values", nargs="+", help="select: the slot 0..3; set: x y z (m) roll pitch yaw (rad), "
+                    "into --slot (default 1)")
+    fr.add_argument("--slot", type=int, default=1, choices=range(4), help="set: the slot to write (0..3)")
+    fr.add_argument("--json", action="store_true")
+    re_ = ops.add_parser("reach", help="can the tool frame reach this pose of the work frame? (nothing moves)")
+    re_.add_argument("pose", nargs=6, type=float, metavar="V", help="x y z (m) roll pitch yaw (rad)")
+    re_.add_argument("--json", action="store_true")
 
 
 def _add_motion_actions(ops) -> None:
@@ -173,7 +206,7 @@ def run(args) -> int:
 
     if not args.op:
         _err("an action is needed: engage, run, move, stream, stop, park, estop, reset, feedforward, "
-             "force, guide, position, tare, status, identify, watch, record (stewart op --help)")
+             "force, guide, position, tare, frame, reach, status, identify, watch, record (stewart op --help)")
         return 2
     opts = busopts.options(args)
     # files first: a bad file is reported before the bus is touched
@@ -205,6 +238,8 @@ def run(args) -> int:
                         monitor=args.op == "watch")
     try:
         node.start()
+        if getattr(args, "frame", None) is not None:
+            _select_frames(node, args.frame, args)
         return ACTIONS[args.op](node, args, prepared)
     except OpError as e:
         _err(str(e))
@@ -217,7 +252,7 @@ def run(args) -> int:
 
 
 #: Actions that only listen: no OP_HEARTBEAT (docs/guides/operator.md).
-OBSERVERS = ("status", "identify", "watch")
+OBSERVERS = ("status", "identify", "watch", "reach")
 
 
 def _prepare(args):
@@ -321,6 +356,66 @@ def _run(node, args, _):
         return 0 if st.state in ("READY", "PARKING", "IDLE") else 1
 
 
+def _select_frames(node, frame, args) -> None:
+    tool, work = frame
+    fr = node.frame("SELECT", "TOOL", tool, timeout=_t(args, 2.0))
+    if work is not None:
+        fr = node.frame("SELECT", "WORK", work, timeout=_t(args, 2.0))
+    print(f"frames: tool {fr['tool']}, work {fr['work']} (checksum 0x{fr['checksum']:08X})")
+
+
+def _frames_line(fr: dict) -> str:
+    what = "identity: poses of o' in the base frame" if fr["identity"] else "poses of the tool in the work frame"
+    refused = ", ".join(f"{n} {v}" for n, v in fr["refused"].items() if v)
+    return (f"frames: tool {fr['tool']}, work {fr['work']}, checksum 0x{fr['checksum']:08X} ({what})"
+            + (f"; refused: {refused} (last: {fr['last_refusal']})" if refused else ""))
+
+
+def _frame(node, args, _):
+    kind = args.kind.upper()
+    if args.verb == "select":
+        if len(args.values) != 1 or not args.values[0].isdigit():
+            _err("frame select: one slot number 0..3")
+            return 2
+        op, index, values = "SELECT", int(args.values[0]), None
+    else:
+        try:
+            values = [float(v) for v in args.values]
+        except ValueError:
+            _err("frame set: six numbers x y z roll pitch yaw")
+            return 2
+        if len(values) != 6:
+            _err("frame set: six numbers x y z roll pitch yaw")
+            return 2
+        op, index = "SET", args.slot
+    fr = node.frame(op, kind, index, values, timeout=_t(args, 2.0))
+    print(json.dumps(fr) if args.json else _frames_line(fr))
+    return 0
+
+
+def _reach(node, args, _):
+    a = node.reach(list(args.pose), timeout=_t(args, 2.0))
+    if args.json:
+        print(json.dumps(a))
+    else:
+        forces = " ".join(f"{f / 1000:.2f}" for f in a["force"])
+        if a["verdict"] == "REACHABLE":
+            print(f"reach: REACHABLE; cylinder forces at rest {forces} kN")
+        elif a["verdict"] == "NOT_FINITE":
+            print("reach: refused: a value is not a finite number")
+        elif a["verdict"] == "WORKSPACE":
+            axis = ("x", "y", "z", "roll", "pitch", "yaw")[a["which"]]
+            unit = "mm" if a["which"] < 3 else "mrad"
+            print(f"reach: UNREACHABLE: beyond the workspace in {axis} by {a['excess'] * 1000:.3f} {unit}")
+        elif a["verdict"] in ("LEG_SHORT", "LEG_LONG"):
+            how = "too short" if a["verdict"] == "LEG_SHORT" else "too long"
+            print(f"reach: UNREACHABLE: leg {a['which'] + 1} {how} by {a['excess'] * 1000:.3f} mm; "
+                  f"cylinder forces at rest {forces} kN")
+        else:
+            print(f"reach: UNREACHABLE: {a['verdict']}")
+    return {"REACHABLE": 0, "NOT_FINITE": 2}.get(a["verdict"], 1)
+
+
 def _move(node, args, _):
     pose = list(args.pose)
     if args.relative:
@@ -342,6 +437,9 @@ def _move(node, args, _):
             ans = _stop_and_wait(node, args)
             _report(ans, "stopped")
             return 130 if intr.hit else 3
+        if getattr(args, "frame", None) is not None and node.frames and not node.frames["identity"]:
+            print(f"MOVE_TO: {st.state} (tool pose target in the work frame); {st.line()}")
+            return 0 if st.state == "READY" else 1
         err = max(abs(a - b) for a, b in zip(st.pose, pose))
         print(f"MOVE_TO: {st.state}, largest |estimate - target| {err * 1000:.3f} mm/mrad; {st.line()}")
         return 0 if st.state == "READY" else 1
@@ -507,6 +605,16 @@ def _status(node, args, _):
                           "drives_starting": st.drives_starting, "force_unmeasured": st.force_unmeasured}))
     else:
         print(st.line())
+    from ..operator.node import OpError
+
+    try:
+        fr = node.wait_frames(timeout=1.5)
+    except OpError:
+        fr = None
+    if not args.json and fr is not None:
+        print(_frames_line(fr))
+    elif fr is not None:
+        print(json.dumps({"frames": fr}))
     return 0
 
 
@@ -856,4 +964,6 @@ ACTIONS = {
     "status": _status,
     "identify": _identify,
     "watch": _watch,
+    "frame": _frame,
+    "reach": _reach,
 }

@@ -66,6 +66,14 @@ TYPICAL = {
                       "ProtocolHash": 0x5A3C96E1},
     "CTRL_WRENCH": {"Tick": 99998, "Valid": 1, "Fx": 120.25, "Fy": -35.5, "Fz": -2452.75,
                     "Mx": 14.0, "My": -250.25, "Mz": 0.75},
+    "OP_FRAME": {"Op": "SET", "Kind": "TOOL", "Index": 1, "X": 0.15, "Y": 0.0, "Z": 0.35,
+                 "Roll": 0.0, "Pitch": 0.0, "Yaw": 0.1},
+    "OP_REACH": {"Sequence": 42, "X": 0.15, "Y": -0.02, "Z": 2.5, "Roll": 0.08, "Pitch": 0.0, "Yaw": -0.08},
+    "CTRL_REACH": {"Sequence": 42, "Verdict": "LEG_LONG", "Which": 3, "Excess": 0.012345,
+                   **{f"Force_{i}": 4000.0 + 100.0 * i for i in range(1, 7)}},
+    "CTRL_FRAMES": {"ToolIndex": 1, "WorkIndex": 0, "Identity": 0, "LastRefusal": "MOVING",
+                    "Checksum": 0x1234ABCD, "RefusedMoving": 2, "RefusedEmptySlot": 1, "RefusedBadFrame": 0,
+                    "RefusedNotFinite": 3, "RefusedUnreachable": 4, "RefusedOther": 5},
 }
 
 #: Counter sequences for the receiver state machine, each from a fresh receiver.

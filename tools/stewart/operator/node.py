@@ -31,6 +31,7 @@ taken in any state): one CTRL_IDENTITY answers each request.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from dataclasses import dataclass, field
@@ -66,6 +67,20 @@ ACCEPTED_IN = {
 }
 MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "FORCE", "GUIDE")
 FORCE_MODES = pr.value_names("CTRL_STATUS", "ForceMode")
+
+
+#: CTRL_FRAMES' refusal counts (Refused<Name>) and what each means.
+FRAME_REFUSALS = ("Moving", "EmptySlot", "BadFrame", "NotFinite", "Unreachable", "Other")
+FRAME_REFUSAL_TEXT = {
+    "Moving": "frames change only at rest: IDLE, or READY in position control",
+    "EmptySlot": "no frame is defined in that slot (0..3)",
+    "BadFrame": "the frame is out of bounds: tool point beyond 5 m, work origin beyond 16 m, angle beyond pi",
+    "NotFinite": "a value is not a finite number",
+    "Unreachable": "the pose is beyond the workspace or a stroke",
+    "Other": "the controller's state does not allow it",
+}
+#: The wire's "not a finite number" in OP_FRAME and OP_REACH (raw -2^23).
+NOT_FINITE_WIRE = -8.388608
 
 
 class OpError(Exception):
@@ -293,11 +308,13 @@ class OperatorNode:
         self._wrench_r = _Reader(self.proto, "CTRL_WRENCH")
         self._auth_r = _Reader(self.proto, "CTRL_AUTH")
         self._identity_r = _Reader(self.proto, "CTRL_IDENTITY")
+        self._reach_r = _Reader(self.proto, "CTRL_REACH")
+        self._frames_r = _Reader(self.proto, "CTRL_FRAMES")
         # CTRL_MONITOR (1 kHz) and CTRL_WRENCH (500 Hz) only for a node that
         # shows them (`monitor`): without, the receive queue carries ~1,100
         # frames a second instead of ~2,600, and a loaded machine's reader
         # keeps up with CTRL_STATUS, which every command's answer is read from
-        wanted = (self._status_r, self._auth_r, self._identity_r) + (
+        wanted = (self._status_r, self._auth_r, self._identity_r, self._reach_r, self._frames_r) + (
             (self._monitor_r, self._wrench_r) if monitor else ())
         self._readers = {r.frame_id: r for r in wanted}
         self.signer = au.Signer(self.proto.db, key) if key is not None else None
@@ -317,6 +334,10 @@ class OperatorNode:
         self.wrench: dict | None = None
         self.identity: dict | None = None      # the last CTRL_IDENTITY
         self._identity_seq = 0                 # CTRL_IDENTITY frames received
+        self.frames: dict | None = None        # the last CTRL_FRAMES
+        self._frames_seq = 0                   # CTRL_FRAMES frames received
+        self.reach_answers: dict[int, dict] = {}  # CTRL_REACH by Sequence
+        self._reach_next = 0
         self.counters = Counters()
         self._seq = 0
         self._stop = threading.Event()
@@ -556,6 +577,10 @@ class OperatorNode:
                 self._cond.notify_all()
         elif r is self._identity_r:
             self._take_identity(f, w)
+        elif r is self._reach_r:
+            self._take_reach(f, w)
+        elif r is self._frames_r:
+            self._take_frames(f, w)
         else:
             self.wrench = {"tick": f["Tick"].raw(w), "valid": bool(f["Valid"].raw(w)),
                            "wrench": [f[n].value(w) for n in pr.WRENCH_SIGNALS]}
@@ -569,6 +594,101 @@ class OperatorNode:
             self.identity = ident
             self._identity_seq += 1
             self._cond.notify_all()
+
+    def _take_reach(self, f: dict, w: int) -> None:
+        verdicts = pr.value_names("CTRL_REACH", "Verdict")
+        v = f["Verdict"].raw(w)
+        a = {"sequence": f["Sequence"].raw(w), "verdict": verdicts[v] if v < len(verdicts) else str(v),
+             "which": f["Which"].raw(w), "excess": f["Excess"].value(w),
+             "force": [f[f"Force_{i}"].value(w) for i in range(1, 7)], "t": time.monotonic()}
+        with self._cond:
+            self.reach_answers[a["sequence"]] = a
+            self._cond.notify_all()
+
+    def _take_frames(self, f: dict, w: int) -> None:
+        reasons = pr.value_names("CTRL_FRAMES", "LastRefusal")
+        lr = f["LastRefusal"].raw(w)
+        fr = {"tool": f["ToolIndex"].raw(w), "work": f["WorkIndex"].raw(w), "identity": bool(f["Identity"].raw(w)),
+              "checksum": f["Checksum"].raw(w), "last_refusal": reasons[lr] if lr < len(reasons) else str(lr),
+              "refused": {n: f[f"Refused{n}"].raw(w) for n in FRAME_REFUSALS}}
+        with self._cond:
+            self.frames = fr
+            self._frames_seq += 1
+            self._cond.notify_all()
+
+    def wait_frames(self, timeout: float = 2.0, after: int | None = None) -> dict:
+        """The first CTRL_FRAMES received after the call (or after count ``after``)."""
+        end = time.monotonic() + timeout
+        with self._cond:
+            seen = self._frames_seq if after is None else after
+            while self._frames_seq <= seen:
+                left = end - time.monotonic()
+                if left <= 0 or self.rx_error:
+                    raise NoAnswer(f"no CTRL_FRAMES from the controller within {timeout:g} s "
+                                   "(does its firmware know frames?)")
+                self._cond.wait(left)
+            return dict(self.frames)
+
+    def send_frame(self, op: str, kind: str, index: int, values=None) -> float:
+        """OP_FRAME: SELECT slot ``index`` of ``kind`` ("TOOL" or "WORK"), or
+        SET it to ``values`` [x, y, z, roll, pitch, yaw] (non-finite values go
+        as the wire's not-a-number, which the controller refuses)."""
+        sig = {"Op": op, "Kind": kind, "Index": int(index)}
+        if values is not None:
+            sig.update(pr.pose_to_signals([v if math.isfinite(v) else NOT_FINITE_WIRE for v in values]))
+        return self._send("OP_FRAME", sig)
+
+    def frame(self, op: str, kind: str, index: int, values=None, timeout: float = 2.0) -> dict:
+        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken;
+        Refused (naming the reason) when a refusal count rose instead."""
+        before = self.wait_frames(timeout=timeout)
+        if self.signer is not None:
+            self.fresh_auth()
+        with self._cond:
+            seen = self._frames_seq
+        self.send_frame(op, kind, index, values)
+        end = time.monotonic() + timeout
+        while True:
+            fr = self.wait_frames(timeout=max(0.05, end - time.monotonic()), after=seen)
+            seen = self._frames_seq
+            rose = [n for n in FRAME_REFUSALS if fr["refused"][n] > before["refused"][n]]
+            if rose:
+                raise Refused(f"FRAME {op} {kind} {index} refused: {', '.join(rose)} "
+                              f"({FRAME_REFUSAL_TEXT.get(rose[0], '')})")
+            key = "tool" if kind == "TOOL" else "work"
+            if fr[key] == index and (op == "SELECT" or fr["checksum"] != before["checksum"]
+                                     or before[key] == index):
+                return fr
+            if time.monotonic() >= end:
+                why = self.auth_reason()
+                raise Refused(f"FRAME {op} {kind} {index}: not taken within {timeout:g} s"
+                              + (f" ({why})" if why else ""))
+
+    def reach(self, pose, timeout: float = 2.0, resend: float = 0.25) -> dict:
+        """The reach query (OP_REACH) for a tool pose in the work frame; the
+        controller's answer (CTRL_REACH): verdict, which, excess, force."""
+        seq = self._reach_next
+        self._reach_next = (seq + 1) % 256
+        sig = {"Sequence": seq, **pr.pose_to_signals([v if math.isfinite(v) else NOT_FINITE_WIRE for v in pose])}
+        end = time.monotonic() + timeout
+        with self._cond:
+            self.reach_answers.pop(seq, None)
+        while True:
+            sent = time.monotonic()
+            self._send("OP_REACH", sig)
+            until = min(end, sent + resend)
+            with self._cond:
+                while seq not in self.reach_answers:
+                    left = until - time.monotonic()
+                    if left <= 0 or self.rx_error:
+                        break
+                    self._cond.wait(left)
+                if seq in self.reach_answers:
+                    a = dict(self.reach_answers.pop(seq))
+                    a["latency"] = a["t"] - sent
+                    return a
+            if time.monotonic() >= end:
+                raise NoAnswer(f"REACH: no CTRL_REACH within {timeout:g} s")
 
     def identify(self, timeout: float = 2.0, resend: float = 0.25) -> dict:
         """Asks the controller what it is (OP_COMMAND IDENTIFY) and returns its

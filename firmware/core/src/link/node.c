@@ -219,6 +219,54 @@ static sp_status_t receive_command(sp_node_t *node, const sp_can_frame_t *f, sp_
     return SP_OK;
 }
 
+/* OP_FRAME (authenticated: kept for the controller's next free command
+ * slot) and OP_REACH (a query: answered by the node, the newest wins). */
+static sp_status_t receive_frames(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
+{
+    sp_proto_error_t e = SP_PROTO_OK;
+    uint8_t counter = 0u;
+    if (f->id == SP_ID_OP_FRAME) {
+        sp_msg_frame_t m;
+        if (sp_proto_decode_frame(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = admit(node, f, &node->rx_frame, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        node->frame = m;
+        node->frame_fresh = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
+    if (f->id == SP_ID_OP_REACH) {
+        sp_msg_reach_t m;
+        if (sp_proto_decode_reach(f, &m, &counter, &e) != SP_OK) {
+            return reject(node, e, why);
+        }
+        e = admit(node, f, &node->rx_reach, counter);
+        if (e != SP_PROTO_OK) {
+            return reject(node, e, why);
+        }
+        node->reach = m;
+        node->reach_pending = 1u;
+        inc(&node->stats.accepted);
+        return SP_OK;
+    }
+    return reject(node, SP_PROTO_UNKNOWN_ID, why);
+}
+
+/* 1 when a pose from OP_FRAME or OP_REACH holds the wire's "not a finite number". */
+static int pose_not_finite(const sp_pose_t *p)
+{
+    for (uint32_t k = 0; k < 3u; k++) {
+        if (p->pos[k] < -SP_PROTO_POSE_MAX_Q24 || p->rpy[k] < -SP_PROTO_POSE_MAX_Q24) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_proto_error_t *why)
 {
     sp_proto_error_t e = SP_PROTO_OK;
@@ -281,7 +329,7 @@ static sp_status_t receive_ops(sp_node_t *node, const sp_can_frame_t *f, sp_prot
         inc(&node->stats.accepted);
         return SP_OK;
     }
-    return reject(node, SP_PROTO_UNKNOWN_ID, why);
+    return receive_frames(node, f, why);
 }
 
 /* FT_SENSOR (axis_b): the sensor's newest sample, this tick's reading. */
@@ -338,7 +386,8 @@ sp_status_t sp_node_receive(sp_node_t *node, const sp_can_frame_t *frame, sp_pro
         return receive_ft(node, frame, why);
     }
     if (frame->id == SP_ID_OP_COMMAND || frame->id == SP_ID_OP_TARGET_POSE || frame->id == SP_ID_OP_HEARTBEAT ||
-        frame->id == SP_ID_OP_FORCE || frame->id == SP_ID_OP_FORCE_PARAMS) {
+        frame->id == SP_ID_OP_FORCE || frame->id == SP_ID_OP_FORCE_PARAMS || frame->id == SP_ID_OP_FRAME ||
+        frame->id == SP_ID_OP_REACH) {
         if (frame->bus != SP_BUS_OPS) {
             return reject(node, SP_PROTO_WRONG_BUS, why);
         }
@@ -378,6 +427,23 @@ static void count_send(sp_node_t *node, sp_status_t st, uint32_t *n)
 /* The node's jobs around the controller step stay out of line: their
  * locals must not join sp_node_tick's frame, which is on the tick's deepest
  * stack chain (through sp_ctrl_step). */
+/* OP_FRAME into a FRAME command; one with a value that is not finite is
+ * refused here (counted as NOT_FINITE): returns 1 then. */
+static int take_frame(sp_node_t *node)
+{
+    node->frame_fresh = 0u;
+    if (node->frame.op == SP_FRAME_SET && pose_not_finite(&node->frame.value)) {
+        sp_ctrl_count_refusal(&node->ctrl, SP_REFUSE_NOT_FINITE);
+        return 1;
+    }
+    node->in.cmd.type = SP_CMD_FRAME;
+    node->in.cmd.frame_op = node->frame.op;
+    node->in.cmd.frame_kind = node->frame.kind;
+    node->in.cmd.frame_index = node->frame.index;
+    node->in.cmd.frame_value = node->frame.value;
+    return 0;
+}
+
 SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
 {
     int rejected = 0;
@@ -410,6 +476,8 @@ SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
                 }
             }
         }
+    } else if (node->frame_fresh) {
+        rejected = take_frame(node);
     } else if (node->force_params_fresh) {
         /* new admittance parameters: a command of their own (the controller
          * takes them in position control, refuses them otherwise) */
@@ -526,6 +594,49 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     }
 }
 
+/* CTRL_REACH, the answer to the last OP_REACH: the controller's reach check
+ * (sp_ctrl_reach, the check its MOVE_TO makes), or NOT_FINITE (counted). */
+SPI_NOINLINE static void send_reach(const sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[], uint32_t *n)
+{
+    sp_msg_reach_answer_t a;
+    sp_reach_t r;
+    memset(&a, 0, sizeof a);
+    a.sequence = node->reach.sequence;
+    if (pose_not_finite(&node->reach.pose)) {
+        a.verdict = SP_PROTO_REACH_NOT_FINITE;
+        sp_ctrl_count_refusal(&node->ctrl, SP_REFUSE_NOT_FINITE);
+    } else if (sp_ctrl_reach(&cfg->ctrl, &node->ctrl, &node->reach.pose, &r) == SP_OK) {
+        a.verdict = r.verdict;
+        a.which = r.which;
+        a.excess = r.excess;
+        for (uint32_t i = 0; i < SP_LEGS; i++) {
+            a.force[i] = r.force[i];
+        }
+    } else {
+        a.verdict = (uint8_t)SP_REACH_COMPUTE;
+    }
+    count_send(node, sp_proto_encode_reach_answer(&a, node->tx_counter_reach++, &out[*n]), n);
+    node->tx_counter_reach &= 0x0Fu;
+    node->reach_pending = 0u;
+}
+
+/* CTRL_FRAMES: the active frames, their checksum and the refusals. */
+SPI_NOINLINE static void send_frames(sp_node_t *node, sp_can_frame_t out[], uint32_t *n)
+{
+    sp_msg_frames_t m;
+    const sp_ctrl_t *c = &node->ctrl;
+    m.tool_index = c->slots.tool_active;
+    m.work_index = c->slots.work_active;
+    m.identity = c->frames.identity;
+    m.last_refusal = c->last_refusal;
+    m.checksum = c->frames_crc;
+    for (uint32_t k = 0; k < 6u; k++) {
+        m.refused[k] = c->refusals[k + 1u];
+    }
+    count_send(node, sp_proto_encode_frames(&m, node->tx_counter_frames++, &out[*n]), n);
+    node->tx_counter_frames &= 0x0Fu;
+}
+
 /* CTRL_IDENTITY, the answer to IDENTIFY: the firmware's version, its port
  * and the DBC it was built from. */
 SPI_NOINLINE static void send_identity(const sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[], uint32_t *n)
@@ -571,7 +682,13 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
     send_axis_frames(cfg, node, tick, out, n);
     send_ops_frames(cfg, node, tick, out, n);
-    if (node->identify_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
+    if (tick % SP_PROTO_FRAMES_PERIOD == SP_PROTO_FRAMES_PHASE) {
+        send_frames(node, out, n);
+    }
+    /* one answer a tick besides (never with CTRL_AUTH: SP_NODE_MAX_TX), the reach query's first */
+    if (node->reach_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
+        send_reach(cfg, node, out, n);
+    } else if (node->identify_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
         send_identity(cfg, node, out, n);
     }
     return SP_OK;

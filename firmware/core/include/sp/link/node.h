@@ -84,6 +84,8 @@ typedef struct {
     sp_e2e_rx_t rx_force;
     sp_e2e_rx_t rx_force_params;
     sp_e2e_rx_t rx_ft;
+    sp_e2e_rx_t rx_frame;
+    sp_e2e_rx_t rx_reach;
     sp_auth_rx_t auth; /**< command authentication: session, last counter, counts */
     sp_auth_key_t key; /**< the machine key (when key_set) */
     uint8_t key_set;   /**< 1: a key was configured */
@@ -94,7 +96,13 @@ typedef struct {
     uint8_t tx_counter_monitor;
     uint8_t tx_counter_wrench;
     uint8_t tx_counter_identity;
-    uint8_t identify_pending;           /**< an IDENTIFY came: CTRL_IDENTITY goes out on the next tick that has room */
+    uint8_t identify_pending; /**< an IDENTIFY came: CTRL_IDENTITY goes out on the next tick that has room */
+    uint8_t tx_counter_reach;
+    uint8_t tx_counter_frames;
+    uint8_t frame_fresh;                /**< an OP_FRAME arrived and is not yet handed to the controller */
+    sp_msg_frame_t frame;               /**< that OP_FRAME */
+    uint8_t reach_pending;              /**< an OP_REACH waits for its CTRL_REACH (the newest query wins) */
+    sp_msg_reach_t reach;               /**< that OP_REACH */
     uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
     uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
     uint8_t sync_valid;                 /**< a SYNC has been sent or received */

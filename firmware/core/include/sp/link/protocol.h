@@ -44,6 +44,10 @@
 #define SP_ID_CTRL_WRENCH 0x102u
 #define SP_ID_CTRL_AUTH 0x103u
 #define SP_ID_CTRL_IDENTITY 0x104u
+#define SP_ID_OP_FRAME 0x04Au
+#define SP_ID_OP_REACH 0x04Bu
+#define SP_ID_CTRL_REACH 0x105u
+#define SP_ID_CTRL_FRAMES 0x106u
 #define SP_AXIS_SLOTS 3u
 
 /** Why a frame was rejected. */
@@ -211,6 +215,76 @@ sp_status_t sp_proto_encode_auth(const sp_msg_auth_t *m, uint8_t counter, sp_can
 /** CTRL_AUTH -> its values. Rejects (SP_E_FRAME, *error) a wrong identifier
  *  or length and a bad CRC; SP_E_ARG on NULL. */
 sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint8_t *counter, sp_proto_error_t *error);
+
+/** OP_FRAME: select or set a tool or work frame slot (sp_ctrl_cmd_t's frame_*). */
+typedef struct {
+    uint8_t op;      /**< SP_FRAME_SELECT (0) or SP_FRAME_SET (1) */
+    uint8_t kind;    /**< SP_FRAME_TOOL (0) or SP_FRAME_WORK (1) */
+    uint8_t index;   /**< the slot, 0..15 on the wire (the controller refuses 4 and above) */
+    sp_pose_t value; /**< SET: the frame (m, rad, Q24); a component below -SP_PROTO_POSE_MAX_Q24 is the wire's
+                          "not a finite number" (SP_PROTO_NOT_FINITE_Q24) */
+} sp_msg_frame_t;
+
+/** OP_REACH: the reach query. */
+typedef struct {
+    uint8_t sequence; /**< echoed by CTRL_REACH */
+    sp_pose_t pose;   /**< the tool frame's pose in the work frame (m, rad, Q24); not finite as in OP_FRAME */
+} sp_msg_reach_t;
+
+/** The largest |component| OP_FRAME and OP_REACH carry as a number: 8.388607 m or rad in Q24; the one raw
+ *  value below (-8.388608, decoded as SP_PROTO_NOT_FINITE_Q24) stands for a value that is not finite. */
+#define SP_PROTO_POSE_MAX_Q24 INT32_C(140737472)
+#define SP_PROTO_NOT_FINITE_Q24 INT32_C(-140737488)
+
+/** CTRL_REACH: the answer to one OP_REACH (sp_reach_t, or NOT_FINITE). */
+typedef struct {
+    uint8_t sequence;       /**< OP_REACH's */
+    uint8_t verdict;        /**< sp_reach_verdict_t, or SP_PROTO_REACH_NOT_FINITE */
+    uint8_t which;          /**< the workspace axis or the leg of the first limit broken */
+    sp_q24_t excess;        /**< by how much, m or rad, Q24 */
+    sp_q8_t force[SP_LEGS]; /**< the cylinder forces at rest there, N, Q8 */
+} sp_msg_reach_answer_t;
+
+/** CTRL_REACH Verdict of a query with a value that is not a finite number. */
+#define SP_PROTO_REACH_NOT_FINITE 5u
+
+/** CTRL_FRAMES: the active frames and the refusals (every SP_PROTO_FRAMES_PERIOD ticks). */
+typedef struct {
+    uint8_t tool_index;   /**< the active tool slot */
+    uint8_t work_index;   /**< the active work slot */
+    uint8_t identity;     /**< 1: both active frames identity */
+    uint8_t last_refusal; /**< sp_refusal_t of the last refusal */
+    uint32_t checksum;    /**< sp_frames_checksum of the active frames */
+    uint32_t refused[6];  /**< refusals by reason (sp_refusal_t 1..6: moving, empty slot, bad frame, not finite,
+                               unreachable, other), sent saturated at 65535 */
+} sp_msg_frames_t;
+
+/** CTRL_FRAMES goes out on ticks t with t % SP_PROTO_FRAMES_PERIOD == SP_PROTO_FRAMES_PHASE (the DBC's
+ *  100 ms; phase 5: never beside CTRL_AUTH, whose ticks are multiples of 10). */
+#define SP_PROTO_FRAMES_PERIOD 100u
+#define SP_PROTO_FRAMES_PHASE 5u
+
+/** OP_FRAME (ID 0x04A, 32 bytes, ops bus, CRC-16, authenticated: sign it with sp_proto_sign). Components beyond
+ *  the signal's range are saturated (SP_E_RANGE). SP_E_ARG on NULL or an op or kind outside 0..1. */
+sp_status_t sp_proto_encode_frame(const sp_msg_frame_t *m, uint8_t counter, sp_can_frame_t *f);
+/** OP_FRAME -> its values; rejects (SP_E_FRAME, *error) a wrong identifier or length, a bad CRC, an op or
+ *  kind outside 0..1. SP_E_ARG on NULL. */
+sp_status_t sp_proto_decode_frame(const sp_can_frame_t *f, sp_msg_frame_t *m, uint8_t *counter,
+                                  sp_proto_error_t *error);
+/** OP_REACH (ID 0x04B, 24 bytes, ops bus, CRC-16). As OP_FRAME's, without authentication. */
+sp_status_t sp_proto_encode_reach(const sp_msg_reach_t *m, uint8_t counter, sp_can_frame_t *f);
+sp_status_t sp_proto_decode_reach(const sp_can_frame_t *f, sp_msg_reach_t *m, uint8_t *counter,
+                                  sp_proto_error_t *error);
+/** CTRL_REACH (ID 0x105, 32 bytes, ops bus, CRC-16). SP_E_ARG on NULL or a verdict or leg out of range;
+ *  SP_E_RANGE when a value was saturated. */
+sp_status_t sp_proto_encode_reach_answer(const sp_msg_reach_answer_t *m, uint8_t counter, sp_can_frame_t *f);
+sp_status_t sp_proto_decode_reach_answer(const sp_can_frame_t *f, sp_msg_reach_answer_t *m, uint8_t *counter,
+                                         sp_proto_error_t *error);
+/** CTRL_FRAMES (ID 0x106, 24 bytes, ops bus, CRC-16); counts saturate at 65535. SP_E_ARG on NULL or a
+ *  refusal reason beyond 6. */
+sp_status_t sp_proto_encode_frames(const sp_msg_frames_t *m, uint8_t counter, sp_can_frame_t *f);
+sp_status_t sp_proto_decode_frames(const sp_can_frame_t *f, sp_msg_frames_t *m, uint8_t *counter,
+                                   sp_proto_error_t *error);
 
 /** CTRL_IDENTITY Port: the target a port is built for (sp_node_config_t.port). */
 typedef enum {

@@ -1,0 +1,153 @@
+# SPDX-License-Identifier: Apache-2.0
+"""Tool and work frames and the reach query over vcan (issue 31), against
+the simulated platform in lockstep: `stewart op frame` and `stewart op
+reach` as processes (their bad inputs refused with the reason, nothing
+moving), then an operator node in this process for the many queries:
+
+- every reach query answered within 2 controller ticks (CTRL_REACH after
+  the CTRL_STATUS the query followed; 3 allowed for the status this
+  process heard last being a tick old);
+- the verdict agrees with the controller's own refusal of a MOVE_TO to the
+  same pose from READY on random tool poses with a turned tool and work
+  frame (the 10,000 of the issue are test_frames_ctrl's, on the same
+  shared check: here what fits in about a minute);
+- a frame change while moving refused (RefusedMoving), nothing moves.
+
+Run time: about 60 s in user-mode Linux.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import time
+from pathlib import Path
+
+import pytest
+
+from stewart import auth as au
+from stewart import closedloop as cl
+
+import busrig
+
+pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan2 (run inside stewart vcan)")
+
+TIP = (0.15, 0.0, 0.35, 0.05, -0.1, 0.2)
+TILTED = (0.2, 0.1, 0.0, 0.0, 0.349, 0.0)
+N_QUERIES = 300   # reach queries timed and checked
+N_MOVES = 24      # of which also sent as MOVE_TO
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    out = tmp_path_factory.mktemp("frames_bus")
+    with busrig.controller_and_plant(out, ["--operator-timeout", "5000"]):
+        time.sleep(0.3)
+        yield out
+
+
+@pytest.fixture(scope="module")
+def node(rig):
+    import can
+
+    from stewart.operator.node import OperatorNode
+
+    bus = can.Bus(interface="socketcan", channel="vcan0", fd=True)
+    n = OperatorNode(bus, key=au.read_key(au.key_file(None)), monitor=False).start()
+    yield n
+    n.close()
+    bus.shutdown()
+
+
+def test_cli_bad_inputs_refused(rig):
+    busrig.op("engage", check=0)
+    r = busrig.op("frame", "tool", "set", "3", "3", "3", "0", "0", "0", "--slot", "2")
+    assert r.returncode != 0 and "BadFrame" in r.stderr
+    r = busrig.op("frame", "work", "select", "3")
+    assert r.returncode != 0 and "EmptySlot" in r.stderr
+    r = busrig.op("reach", "0", "0", "nan", "0", "0", "0")
+    assert r.returncode == 2 and "not a finite number" in r.stdout
+    r = busrig.op("frame", "tool", "set", "0", "0", "inf", "0", "0", "0")
+    assert r.returncode != 0 and "NotFinite" in r.stderr
+    r = busrig.op("frame", "tool", "select", "1", check=0)  # the config's "tip"
+    assert "tool 1" in r.stdout
+    r = busrig.op("reach", "0.15", "0", "2.6", "0", "0", "0")
+    assert "reach:" in r.stdout
+    r = busrig.op("status", check=0)
+    assert "frames: tool 1, work 0" in r.stdout
+    for needle in ("BadFrame 1", "EmptySlot 1", "NotFinite 2"):
+        assert needle in r.stdout, needle
+    r = busrig.op("move", "0.15", "0", "30", "0", "0", "0", "--frame", "1:0")  # beyond the workspace
+    assert r.returncode != 0
+    busrig.op("frame", "tool", "select", "0", check=0)
+
+
+def _tool_home(node) -> list[float]:
+    """The tool pose of home with TIP and TILTED (the float64 reference)."""
+    from stewart import config as cf
+    from stewart import resources
+    from stewart.frames import Frames
+
+    home = cf.load(resources.default_platform()).home
+    return list(Frames(TIP, TILTED).from_platform(home))
+
+
+def test_reach_timing_and_agreement(node):
+    node.frame("SET", "TOOL", 2, TIP)
+    fr = node.frame("SET", "WORK", 2, TILTED)
+    assert fr["tool"] == 2 and fr["work"] == 2 and not fr["identity"]
+    home = _tool_home(node)
+    rng = random.Random(31)
+    ticks, agree, reachable = [], 0, 0
+    for q in range(N_QUERIES):
+        pose = [h + rng.uniform(-0.5, 0.5) * (0.8 if k < 3 else 0.6) for k, h in enumerate(home)]
+        st = node.wait_status(timeout=5.0)
+        a = node.reach(pose, timeout=5.0)
+        after = node.wait_status(timeout=5.0, after=st.seq)
+        ticks.append(after.tick - st.tick)
+        reachable += a["verdict"] == "REACHABLE"
+        if q < N_MOVES:
+            node.send_target(pose)
+            node.wait_status(timeout=2.0)
+            node.send_target(pose)
+            ans = node.command("MOVE_TO", lambda s: s.state != "READY" or s.cmd_rejected, timeout=10.0)
+            moved = ans.status.state == "RUNNING"
+            assert moved == (a["verdict"] == "REACHABLE"), (pose, a, ans.status.line())
+            agree += 1
+            if moved:
+                st = node.wait_status(timeout=5.0)
+                end = time.monotonic() + 60
+                while st.state == "RUNNING" and time.monotonic() < end:
+                    st = node.wait_status(timeout=5.0, after=st.seq)
+                assert st.state == "READY", st.line()
+                node.send_target(home)
+                node.wait_status(timeout=2.0)
+                node.send_target(home)
+                node.command("MOVE_TO", lambda s: s.state != "READY", timeout=10.0)
+                st = node.wait_status(timeout=5.0)
+                while st.state == "RUNNING" and time.monotonic() < end + 60:
+                    st = node.wait_status(timeout=5.0, after=st.seq)
+    ticks.sort()
+    print(f"reach: {N_QUERIES} queries, {reachable} reachable; {agree} MOVE_TO agreed; ticks from the "
+          f"status before the query to the one after the answer: median {ticks[len(ticks) // 2]}, "
+          f"max {ticks[-1]}")
+    assert 0 < reachable < N_QUERIES
+    # the answer goes out on the tick after the query, or the one after when that tick sends CTRL_AUTH
+    assert ticks[-1] <= 3
+
+
+def test_frame_change_while_moving_refused(node):
+    from stewart.operator.node import Refused
+
+    node.command("RUN_TRIG", lambda s: s.state == "RUNNING", timeout=10.0, axis="Z", amplitude=0.01,
+                 frequency=0.5, fade_time=0.5)
+    before = node.wait_status()
+    with pytest.raises(Refused, match="Moving"):
+        node.frame("SELECT", "TOOL", 0)
+    fr = node.wait_frames()
+    assert fr["tool"] == 2 and fr["last_refusal"] == "MOVING"
+    node.command("STOP", lambda s: s.state == "READY", timeout=60.0)
+    assert math.isfinite(before.pose[2])
+    node.frame("SELECT", "TOOL", 0)
+    fr = node.frame("SELECT", "WORK", 0)
+    assert fr["identity"]
