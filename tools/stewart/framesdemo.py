@@ -171,16 +171,21 @@ def tip_deviation(truth_pose: np.ndarray) -> np.ndarray:
     return tip - (np.asarray(HOME[:3]) + np.asarray(TOOL_TIP))
 
 
-def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, cycles: int = PIVOT_CYCLES,
-                  axes=PIVOT_AXES) -> dict:
-    """Per rotation and over all three: the tip's distance from its fixed
-    point (plant truth) while it rotates, RMS and max, mm; the same
-    rotation about o' (mm)."""
+def streamed_windows(play_tick: int, cycles: int = PIVOT_CYCLES, axes=PIVOT_AXES) -> list[tuple[str, int, int]]:
+    """(axis, first tick, last tick) of each rotation of the streamed pivot (the play's start tick)."""
+    return [(axis, play_tick + round(a / TICK), play_tick + round(b / TICK))
+            for axis, a, b in pivot_schedule(cycles, axes)]
+
+
+def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, windows: list[tuple[str, int, int]]) -> dict:
+    """Per rotation (``windows``: axis, first and last tick) and over all:
+    the tip's distance from its fixed point (plant truth) while it
+    rotates, RMS and max, mm; the same rotation about o' (mm)."""
     dev = 1000.0 * np.linalg.norm(tip_deviation(truth_pose), axis=1)
     out: dict = {"axes": {}}
     every = np.zeros(len(ticks), dtype=bool)
-    for axis, a, b in pivot_schedule(cycles, axes):
-        sel = (ticks >= play_tick + round(a / TICK)) & (ticks <= play_tick + round(b / TICK))
+    for axis, a, b in windows:
+        sel = (ticks >= a) & (ticks <= b)
         sel &= np.isfinite(dev)
         every |= sel
         d = dev[sel]
@@ -192,10 +197,10 @@ def pivot_figures(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, cyc
     return out
 
 
-def pivot_lines(f: dict) -> list[str]:
+def pivot_lines(f: dict, how: str = "the controller's RUN_TRIG about the tool frame") -> list[str]:
     axes = ", ".join(f["axes"])
     lines = [f"pivot (tool tip {TOOL_TIP[2]:g} m above o', {TOOL_TIP[0]:g} m off its axis; +-{PIVOT_AMPLITUDE:g} rad "
-             f"at {PIVOT_HZ:g} Hz in {axes}; o' streamed about it): the tip within {f['rms_mm']:.4f} mm RMS, "
+             f"at {PIVOT_HZ:g} Hz in {axes}; {how}): the tip within {f['rms_mm']:.4f} mm RMS, "
              f"{f['max_mm']:.4f} mm max of its fixed point (plant truth; issue {PIVOT_RMS_MM:g} / "
              f"{PIVOT_MAX_MM:g} mm)"]
     for axis, m in f["axes"].items():
@@ -204,8 +209,8 @@ def pivot_lines(f: dict) -> list[str]:
     return lines
 
 
-def plot_pivot(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, path: str | Path,
-               cycles: int = PIVOT_CYCLES) -> None:
+def plot_pivot(ticks: np.ndarray, truth_pose: np.ndarray, windows: list[tuple[str, int, int]],
+               path: str | Path) -> None:
     """The tip's true path (deviation from its fixed point, x y z in um)
     and the same rotation about o' for scale; the angles."""
     import matplotlib
@@ -213,11 +218,10 @@ def plot_pivot(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, path: 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sched = pivot_schedule(cycles)
-    t0 = play_tick + round((sched[0][1] - PIVOT_REST) / TICK)
-    t1 = play_tick + round((sched[-1][2] + PIVOT_REST) / TICK)
+    t0 = windows[0][1] - round(PIVOT_REST / TICK)
+    t1 = windows[-1][2] + round(PIVOT_REST / TICK)
     sel = (ticks >= t0) & (ticks <= t1)
-    t = (ticks[sel] - play_tick) * TICK
+    t = (ticks[sel] - windows[0][1]) * TICK
     dev = 1e6 * tip_deviation(truth_pose[sel])
     tip = np.asarray(TOOL_TIP)
     about_o = 1e3 * (rotation_many(truth_pose[sel, 3:]) @ tip - tip)
@@ -236,7 +240,7 @@ def plot_pivot(ticks: np.ndarray, truth_pose: np.ndarray, play_tick: int, path: 
     for k, name in enumerate(PIVOT_AXES):
         ax[2].plot(t, truth_pose[sel, 3 + k], lw=0.8, label=name)
     ax[2].set_ylabel("rad")
-    ax[2].set_xlabel("s from the start of the stream")
+    ax[2].set_xlabel("s from the start of the first rotation")
     ax[2].legend(loc="upper right", fontsize=8)
     for a in ax:
         a.grid(alpha=0.3)
@@ -358,6 +362,13 @@ def tilted_figures(data, m: dict[str, int], force: float = FORCE_N, settle: int 
     return out
 
 
+def frames_ticks(marks: dict[str, int]) -> tuple[int, int] | None:
+    """The ticks the demo's frames were active (from the first `frame ... set` to the last `frame ... select 0`)."""
+    sets = [v for k, v in marks.items() if k.startswith("frame ") and " set " in k]
+    back = [v for k, v in marks.items() if k.startswith("frame ") and " select 0" in k]
+    return (min(sets), max(back)) if sets and back else None
+
+
 def tilted_lines(source: str, f: dict) -> list[str]:
     h = f.get("hold")
     if not h:
@@ -375,10 +386,14 @@ def tilted_lines(source: str, f: dict) -> list[str]:
     return lines
 
 
-def plot_tilted(data, ft, path: str | Path, title: str, window: tuple[float, float] | None = None) -> None:
+def plot_tilted(data, ft, path: str | Path, title: str, window: tuple[float, float] | None = None,
+                work_ticks: tuple[int, int] | None = None) -> None:
     """The push along the surface's normal: commanded, the cylinders'
     estimate, the sensor (less its bias at start) and the truth; the tool
-    point in W against its reference."""
+    point in W against its reference. ``work_ticks``: the ticks with the
+    frames active, where the controller's target and CTRL_WRENCH are in
+    W's axes at the tool point (the push is their z); elsewhere in the
+    base frame."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -388,10 +403,13 @@ def plot_tilted(data, ft, path: str | Path, title: str, window: tuple[float, flo
     t = data.ticks * TICK
     fig, ax = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
     a = ax[0]
-    cmd = data.force_target[:, :3] @ -n
+    in_w = np.zeros(len(t), dtype=bool) if work_ticks is None else \
+        (data.ticks >= work_ticks[0]) & (data.ticks < work_ticks[1])
+    cmd = np.where(in_w, data.force_target[:, 2], data.force_target[:, :3] @ -n)
     a.plot(t, cmd, color="k", lw=1.2, label="commanded (target along -n)")
     ok = np.isfinite(data.est_wrench[:, 2])
-    a.plot(t[ok], data.est_wrench[ok, :3] @ n, lw=0.6, color="tab:orange", label="cylinders' estimate")
+    est = np.where(in_w, -data.est_wrench[:, 2], data.est_wrench[:, :3] @ n)[ok]
+    a.plot(t[ok], est, lw=0.6, color="tab:orange", label="cylinders' estimate")
     if len(ft[0]):
         a.plot(ft[0], (ft[1][:, :3] - np.median(ft[1][:200, :3], axis=0)) @ n, lw=0.6, color="tab:blue",
                label="force/torque sensor (less its bias at start)")
@@ -421,3 +439,100 @@ def plot_tilted(data, ft, path: str | Path, title: str, window: tuple[float, flo
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+# -- with the controller's own frames (OP_FRAME: the scenario's `frame`) ------------------------
+
+#: The slots the demo sets (slot 0 of each kind stays the config's identity).
+SLOT = 1
+
+
+def frame_lines(tool=None, work=None, slot: int = SLOT) -> str:
+    """Scenario lines, at READY: set (and so make active) the tool and/or work frame in ``slot``."""
+    text = ""
+    for kind, fr in (("tool", tool), ("work", work)):
+        if fr is not None:
+            text += f"frame {kind} set {slot} " + " ".join(f"{v:.9f}" for v in fr) + "\n"
+    return text + "delay 0.2\n"
+
+
+def identity_lines() -> str:
+    """Scenario lines, at READY: back to the identity frames (slot 0)."""
+    return "frame tool select 0\nframe work select 0\ndelay 0.2\n"
+
+
+def pivot_segment_core(cycles: int = PIVOT_CYCLES, axes=PIVOT_AXES, fade: float = 1.0) -> str:
+    """Scenario lines, at READY: the tool frame at the tip, then the
+    controller's own RUN_TRIG about it (+-PIVOT_AMPLITUDE at PIVOT_HZ) on
+    each axis in turn, then the identity frames again."""
+    from . import closedloop as cl
+
+    text = "mark begin pivot\n" + frame_lines(tool=TOOL_TIP + (0.0, 0.0, 0.0))
+    for axis in axes:
+        text += cl.trig(axis, PIVOT_AMPLITUDE, PIVOT_HZ, cycles / PIVOT_HZ, fade) + "delay 0.5\n"
+    return text + identity_lines() + "mark end pivot\n"
+
+
+def pivot_windows(marks: dict[str, int], cycles: int = PIVOT_CYCLES, axes=PIVOT_AXES) -> list[tuple[str, int, int]]:
+    """(axis, first tick, last tick) of each RUN_TRIG of :func:`pivot_segment_core` (its marks)."""
+    out = []
+    for axis in axes:
+        b = marks.get(f"begin {axis} {PIVOT_AMPLITUDE:g} {PIVOT_HZ:g}")
+        if b is not None:
+            out.append((axis, b, b + round(cycles / PIVOT_HZ / TICK)))
+    return out
+
+
+def slide_csv_work(tilt: float = TILT, gap: float = GAP) -> str:
+    """The slide as tool poses in the work frame: x from 0 to SLIDE_M at
+    SLIDE_SPEED, then held 1 s; z (force-controlled) at home's, the tool's
+    orientation in W (roll -tilt) held."""
+    return fc.slide_csv(home=(0.0, 0.0, -gap, -tilt, 0.0, 0.0))
+
+
+def tilted_segment_core(stiffness: float = 1e6, force: float = FORCE_N, hold: float = 2.5,
+                        slide: str | None = "slide.csv") -> str:
+    """Scenario lines, at READY: tare, the tilted surface; first the slide
+    (``slide``, forcecontrol.slide_csv, 100 mm along the base x, which is
+    W's x): FORCE on the base y and z along the normal
+    (:func:`tilted_target`), STREAM, release; then the tool frame at the
+    sensor's point and the work frame on the surface, FORCE on W's z with
+    ``force`` N (the controller's force control in W's axes at the tool
+    point), hold, release, the identity frames again, the surface removed.
+    The slide goes first and in the base frame's axes: with w3/frames as of
+    3cd815b, STREAM in FORCE after a frame change (in W, or back at identity)
+    loses the contact at once (the reference runs off at the stream's
+    acceleration limit)."""
+    fy, fz = tilted_target(force)
+    text = fc.tare() + tilted_surface(stiffness)
+    if slide:
+        text += ("mark begin hold base\n"
+                 f"force y,z 0 {fy:.3f} {fz:.3f} 0 0 0\n"
+                 "delay 2.0\n"
+                 "mark begin slide\n"
+                 "cmd STREAM\n"
+                 f"play {slide}\n"
+                 "mark end slide\n"
+                 "position\n"
+                 "delay 1.0\n"
+                 "cmd STOP\n"
+                 "wait ready 20\n"
+                 "delay 0.3\n")
+    return (text + frame_lines(tool=tool_frame(), work=work_frame())
+            + "mark begin hold\n"
+            f"force z 0 0 {force:g} 0 0 0\n"
+            f"delay {1.5 + hold:.3f}\n"
+            "mark end hold\n"
+            "position\n"
+            "delay 0.5\n"
+            + identity_lines()
+            + "contact off\ndelay 0.5\n")
+
+
+def core_scenario(cycles: int = PIVOT_CYCLES) -> str:
+    """The demo's run with the controller's frames: engage, the pivot, park."""
+    return "# generated by stewart.framesdemo.core_scenario\n" + ENGAGE + pivot_segment_core(cycles) + PARK
+
+
+def tilted_core_scenario() -> str:
+    return "# generated by stewart.framesdemo.tilted_core_scenario\n" + ENGAGE + tilted_segment_core() + PARK

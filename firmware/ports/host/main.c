@@ -424,10 +424,10 @@ static int setup(const options_t *o, sp_node_config_t *cfg, sp_auth_key_t *key)
 static void bus_filters(const options_t *o, sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES])
 {
     memset(bc, 0, SP_CAN_BUSES * sizeof bc[0]);
-    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
-        o->ifs[0],
-        {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS},
-        5u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){o->ifs[0],
+                                              {SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_HEARTBEAT,
+                                               SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS, SP_ID_OP_FRAME, SP_ID_OP_REACH},
+                                              7u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){o->ifs[b], {SP_ID_SYNC, 0x31u, 0x32u, 0x33u}, o->lockstep ? 4u : 3u};
         if (!o->lockstep) { /* we are the cycle master: only feedback */

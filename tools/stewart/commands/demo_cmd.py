@@ -148,11 +148,10 @@ def _plan(args: argparse.Namespace, out: Path) -> _Plan:
         from .. import framesdemo as fd
 
         out.mkdir(parents=True, exist_ok=True)
-        (out / "pivot.csv").write_text(fd.pivot_csv())
         (out / "slide.csv").write_text(fc.slide_csv())
-        specs.append(cl.RunSpec("pivot", fd.pivot_scenario()))
+        specs.append(cl.RunSpec("pivot", fd.core_scenario()))
         for source in ("sensor", "cylinders"):
-            specs.append(cl.RunSpec(f"tilted_{source}", fd.tilted_scenario(), wrench_source=source))
+            specs.append(cl.RunSpec(f"tilted_{source}", fd.tilted_core_scenario(), wrench_source=source))
     return _Plan(specs, cycles, co, compare)
 
 
@@ -348,14 +347,14 @@ def _frames_runs(results: dict, out: Path, lines: list[str], figures: dict) -> b
     r = results.get("pivot")
     if r is not None and r.log.exists():
         rp = analyze(r.log, out / "pivot", truth=r.truth, plots=False, tool=fd.TOOL_TIP + (0.0, 0.0, 0.0))
-        play = fd.play_tick(fc.marks(r.plant_out))
-        if play is not None:
-            f = fd.pivot_figures(rp.data.ticks, rp.data.truth["pose"], play)
+        windows = fd.pivot_windows(fc.marks(r.plant_out))
+        if windows:
+            f = fd.pivot_figures(rp.data.ticks, rp.data.truth["pose"], windows)
             figures["pivot"] = f
             lines += fd.pivot_lines(f)
-            fd.plot_pivot(rp.data.ticks, rp.data.truth["pose"], play, out / "pivot.png")
+            fd.plot_pivot(rp.data.ticks, rp.data.truth["pose"], windows, out / "pivot.png")
             lines.append(f"  the tip's true path -> {out / 'pivot.png'}")
-        ok = ok and r.ok and play is not None and not (rp.summary["bad_frames"] or rp.summary["malformed_lines"])
+        ok = ok and r.ok and len(windows) == len(fd.PIVOT_AXES) and not (rp.summary["bad_frames"] or rp.summary["malformed_lines"])
     for source in ("sensor", "cylinders"):
         r = results.get(f"tilted_{source}")
         if r is None or not r.log.exists():
@@ -366,10 +365,12 @@ def _frames_runs(results: dict, out: Path, lines: list[str], figures: dict) -> b
         f = fd.tilted_figures(rt.data, m)
         figures[f"tilted_{source}"] = f
         lines += fd.tilted_lines(source, f)
-        window = ((m["begin hold"] - 1000) * 1e-3, (m["end slide"] + 1500) * 1e-3)
+        t0 = min(v for k, v in m.items() if k.startswith("begin hold"))
+        t1 = max(v for k, v in m.items() if k in ("end hold", "end slide"))
+        window = ((t0 - 1000) * 1e-3, (t1 + 1500) * 1e-3)
         fd.plot_tilted(rt.data, fc.read_ft(r.log), out / f"tilted_{source}.png",
-                       f"2 kN normal to a surface tilted by 20 deg, slide along it ({source} as the wrench source)",
-                       window)
+                       f"2 kN normal to a surface tilted by 20 deg: slide along it, hold in W ({source})",
+                       window, fd.frames_ticks(m))
         lines.append(f"  the force and the tool point in the work frame -> {out / f'tilted_{source}.png'}")
         ok = ok and r.ok and f.get("hold", {}).get("contact_tick") is not None and \
             not (rt.summary["bad_frames"] or rt.summary["malformed_lines"])
