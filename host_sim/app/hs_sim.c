@@ -213,6 +213,7 @@ typedef struct {
     uint8_t ft_counter;                                  /* FT_SENSOR's alive counter */
     int ft_silent;                                       /* scenario `ftsensor off`: the sensor sends nothing */
     uint8_t force_counter;                               /* OP_FORCE's alive counter */
+    uint8_t frame_counter;                               /* OP_FRAME's alive counter */
     double push[6];                                      /* scenario `push`: its peak wrench */
     uint64_t push_start, push_rise, push_hold, push_end; /* ticks; push_end 0: none */
     /* --control: scenario lines at run time */
@@ -672,6 +673,37 @@ static int action_force(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t 
     return send_frames(s, f, n, t_us);
 }
 
+/* Scenario `frame`: OP_FRAME (issue 31), signed like every command that
+ * changes motion. 0 sent, 2 refused (a protocol without OP_FRAME), -1 error. */
+static int action_frame(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
+{
+#ifdef SP_ID_OP_FRAME
+    sp_msg_frame_t m;
+    sp_can_frame_t f;
+    const hs_scenario_frame_t *fr = &a->frame;
+    memset(&m, 0, sizeof m);
+    m.op = (uint8_t)fr->op;
+    m.kind = (uint8_t)fr->kind;
+    m.index = (uint8_t)fr->index;
+    for (int k = 0; k < 3; ++k) { /* |v| <= 8 (the parser): within Q24 */
+        m.value.pos[k] = (sp_q24_t)lround(fr->value[k] * 16777216.0);
+        m.value.rpy[k] = (sp_q24_t)lround(fr->value[3 + k] * 16777216.0);
+    }
+    (void)sp_proto_encode_frame(&m, s->frame_counter, &f);
+    s->frame_counter = (uint8_t)((s->frame_counter + 1u) & 0x0Fu);
+    printf("hs_sim mark tick %" PRIu64 ": frame %s %s %d %g %g %g %g %g %g\n", tick, fr->kind ? "work" : "tool",
+           fr->op ? "set" : "select", fr->index, fr->value[0], fr->value[1], fr->value[2], fr->value[3],
+           fr->value[4], fr->value[5]);
+    return send_frames(s, &f, 1u, t_us);
+#else
+    (void)s;
+    (void)tick;
+    (void)t_us;
+    fprintf(stderr, "hs_sim: scenario line %d: frame: this build's protocol has no OP_FRAME\n", a->line);
+    return 2;
+#endif
+}
+
 /* Scenario `push`: a trapezoid from this tick on (replaces one under way). */
 static void action_push(sim_t *s, const hs_action_t *a, uint64_t tick)
 {
@@ -728,6 +760,8 @@ static int run_action(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_
     case HS_ACTION_PUSH:
         action_push(s, a, tick);
         return 0;
+    case HS_ACTION_FRAME:
+        return action_frame(s, a, tick, t_us);
     case HS_ACTION_FTSENSOR:
         s->ft_silent = (a->bits == 0u);
         printf("hs_sim mark tick %" PRIu64 ": ftsensor %s\n", tick, s->ft_silent ? "off" : "on");

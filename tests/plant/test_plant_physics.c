@@ -512,6 +512,68 @@ static void test_contact(void **state)
     }
 }
 
+/* A tilted surface (the scenario's `contact surface`: 20 degrees about x,
+ * free side up, 1 mm from o' along its normal), touched at o' (no moment),
+ * no gravity, rigid body alone. Pushed into it by F (-F n, at o'): the
+ * platform comes to rest sunk F / k along n, the contact force F n (within
+ * 0.1 %, its part along the surface within 1e-6 of F). Pushed also by f_t
+ * along the surface: the model has no friction, so it slides at f_t / m
+ * along the surface, the normal force unchanged, and no force acts along
+ * the surface (within 1e-6 of F). */
+static void test_contact_tilted(void **state)
+{
+    const double tilt = 20.0 * 3.14159265358979323846 / 180.0, big_f = 2000.0, f_t = 50.0;
+    const double n[3] = {0.0, -sin(tilt), cos(tilt)}, t[3] = {0.0, cos(tilt), sin(tilt)};
+    hs_params_t p;
+    hs_contact_t ct;
+    hs_state_t st;
+    double zero[HS_LEGS] = {0, 0, 0, 0, 0, 0}, pose0[6], pose[6], m0[3] = {0, 0, 0};
+    (void)state;
+    assert_int_equal(hs_params_default(&p), HS_OK);
+    pt_massless_legs(&p);
+    p.gravity = 0.0;
+    memset(&ct, 0, sizeof ct);
+    ct.kind = HS_CONTACT_PLANE;
+    memcpy(ct.normal, n, sizeof n);
+    ct.offset = n[0] * p.home[0] + n[1] * p.home[1] + n[2] * p.home[2] - 0.001; /* 1 mm from o' */
+    ct.stiffness = 1e6;
+    ct.damping = 2e4;
+    for (int slide = 0; slide <= 1; ++slide) {
+        double push[3], fn = 0.0, ft = 0.0, dn = 0.0, dt = 0.0, expect_dt;
+        const double secs = 3.0;
+        for (int k = 0; k < 3; ++k) {
+            push[k] = -big_f * n[k] + (slide ? f_t * t[k] : 0.0);
+        }
+        assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
+        hs_plant_set_actuation(&plant, HS_ACT_IDEAL);
+        hs_plant_set_forces(&plant, zero);
+        assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_OK);
+        assert_int_equal(hs_plant_set_wrench(&plant, push, m0), HS_OK);
+        hs_plant_pose(&plant, pose0);
+        for (int i = 0; i < (int)(secs / DT); ++i) {
+            assert_int_equal(hs_plant_step(&plant, DT), HS_OK);
+        }
+        hs_plant_state(&plant, &st);
+        hs_plant_pose(&plant, pose);
+        for (int k = 0; k < 3; ++k) {
+            fn += st.contact_force[k] * n[k];
+            ft += st.contact_force[k] * t[k];
+            dn += (pose[k] - pose0[k]) * n[k];
+            dt += (pose[k] - pose0[k]) * t[k];
+        }
+        expect_dt = slide ? 0.5 * f_t / p.mass * secs * secs : 0.0;
+        printf("  tilted surface (20 deg)%s: normal force %.2f N, along it %.2e N, sunk %.4f mm, slid %.2f mm "
+               "(frictionless: %.2f)\n",
+               slide ? ", pushed along it" : "", fn, ft, (-dn - 0.001) * 1e3, dt * 1e3, expect_dt * 1e3);
+        assert_near(fn / big_f, 1.0, 1e-3, "normal force / push");
+        assert_near(ft, 0.0, 1e-6 * big_f, "contact force along the surface (N)");
+        assert_near(st.contact_force[0], 0.0, 1e-6 * big_f, "contact force x (N)");
+        assert_near(-dn, big_f / ct.stiffness + 0.001, 1e-6, "moved along the normal (m)");
+        assert_near(dt, expect_dt, 1e-3 * fmax(expect_dt, 1e-6), "slide along the surface (m)");
+        assert_near(st.wrench[3], 0.0, 1e-6, "moment about o' (N m)");
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -527,6 +589,7 @@ int main(void)
         cmocka_unit_test(test_rest_hydraulic_hold),
         cmocka_unit_test(test_rigid_body_laws),
         cmocka_unit_test(test_contact),
+        cmocka_unit_test(test_contact_tilted),
     };
     return cmocka_run_group_tests_name("plant_physics", tests, NULL, NULL);
 }

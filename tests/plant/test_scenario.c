@@ -515,7 +515,7 @@ static void test_overlong_and_empty(void **state)
     assert_string_equal(err.message,
                         "scenario:1: unknown action 'frob' "
                         "(cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, "
-                        "force, force_target, guide, position, tare, push, ftsensor, inject)");
+                        "force, force_target, guide, position, tare, push, ftsensor, inject, frame)");
     assert_int_equal(hs_scenario_parse(&sc, "frob", NULL, NULL), HS_E_SYNTAX);
     assert_int_equal(hs_scenario_parse(&sc, "end", NULL, NULL), HS_OK);
     assert_int_equal(hs_scenario_load(&sc, NULL, &err), HS_E_ARG);
@@ -631,6 +631,64 @@ static void test_load_file(void **state)
 
 static void expect_next(uint64_t tick, int ctrl_state, hs_scenario_next_t want, const hs_action_t *want_action);
 
+/* `contact surface`: a plane placed by a point on it and its tilt. */
+static void test_contact_surface(void **state)
+{
+    (void)state;
+    const double s20 = sin(0.349066), c20 = cos(0.349066);
+    /* untilted: today's ceiling (free side down) and a floor */
+    const hs_action_t *a = one("contact surface down 0 0 2.6 0 0 0 0 0.05 stiffness=1e6 damping=1000");
+    assert_int_equal(a->kind, HS_ACTION_CONTACT);
+    assert_int_equal(a->contact.kind, 1);
+    assert_true(a->contact.normal[0] == 0.0 && a->contact.normal[2] == -1.0 && a->contact.offset == -2.6);
+    assert_true(a->contact.point[2] == 0.05 && a->contact.stiffness == 1e6 && a->contact.damping == 1000.0);
+    a = one("contact surface UP 1 2 0.5 0 0 0 0 0 stiffness=1 damping=0");
+    assert_true(a->contact.normal[2] == 1.0 && a->contact.offset == 0.5);
+    /* 20 degrees about x: n = (0, sin, -cos), through (0.1, 0.2, 2.6) */
+    a = one("contact surface down 0.1 0.2 2.6 0.349066 0 0 0 0.05 stiffness=1e6 damping=1000");
+    assert_true(fabs(a->contact.normal[0]) < 1e-15 && fabs(a->contact.normal[1] - s20) < 1e-12 &&
+                fabs(a->contact.normal[2] + c20) < 1e-12);
+    assert_true(fabs(a->contact.offset - (0.2 * s20 - 2.6 * c20)) < 1e-12);
+    /* and about y: n = (sin p, 0, cos p) for up; unit length with both */
+    a = one("contact surface up 0 0 0 0 0.349066 0 0 0 stiffness=1 damping=1");
+    assert_true(fabs(a->contact.normal[0] - s20) < 1e-12 && fabs(a->contact.normal[2] - c20) < 1e-12);
+    a = one("contact surface up 0 0 0 0.3 -0.7 0 0 0 stiffness=1 damping=1");
+    assert_true(fabs(a->contact.normal[0] * a->contact.normal[0] + a->contact.normal[1] * a->contact.normal[1] +
+                     a->contact.normal[2] * a->contact.normal[2] - 1.0) < 1e-12);
+    refused("contact surface 0 0 0 0 0 0 0 0 stiffness=1 damping=1", 1, "contact surface needs up or down");
+    refused("contact surface up 0 0 0 0 0 0 0 stiffness=1 damping=1", 1, "contact surface needs 8 numbers");
+    refused("contact surface up 0 0 0 1.6 0 0 0 0 stiffness=1 damping=1", 1,
+            "contact surface tilt value 1.6 is out of range (|v| <= 1.5 rad)");
+    refused("contact surface up 0 0 200 0 0 0 0 0 stiffness=1 damping=1", 1, "contact surface point value 200");
+    refused("contact surface up 0 0 0 0 0 0 0 nan stiffness=1 damping=1", 1,
+            "contact surface tool point value 'nan' is not a number");
+    refused("contact surface up 0 0 0 0 0 0 0 0 stiffness=1", 1, "contact needs stiffness=K");
+}
+
+/* `frame`: OP_FRAME's select and set (issue 31). */
+static void test_frame_action(void **state)
+{
+    (void)state;
+    const hs_action_t *a = one("frame tool select 1");
+    assert_int_equal(a->kind, HS_ACTION_FRAME);
+    assert_true(a->frame.op == 0 && a->frame.kind == 0 && a->frame.index == 1);
+    a = one("FRAME work set 3 0.1 -0.2 2.6 0.349066 0 -1.5");
+    assert_true(a->frame.op == 1 && a->frame.kind == 1 && a->frame.index == 3);
+    assert_true(a->frame.value[0] == 0.1 && a->frame.value[2] == 2.6 && a->frame.value[3] == 0.349066 &&
+                a->frame.value[5] == -1.5);
+    a = one("frame tool select 15"); /* the wire's range: the controller refuses it */
+    assert_int_equal(a->frame.index, 15);
+    refused("frame tool", 1, "frame needs tool or work, select or set, and a slot");
+    refused("frame hand select 0", 1, "frame: unknown kind 'hand' (tool, work)");
+    refused("frame tool pick 0", 1, "frame: unknown operation 'pick' (select, set)");
+    refused("frame tool select 16", 1, "frame: slot '16' is not 0..15");
+    refused("frame tool select 1.5", 1, "frame: slot '1.5' is not 0..15");
+    refused("frame tool select 1 2", 1, "frame select takes a slot alone");
+    refused("frame work set 1 0 0 0 0 0", 1, "frame set needs a slot and 6 numbers");
+    refused("frame work set 1 0 0 9 0 0 0", 1, "frame value 9 is out of range (|v| <= 8 m or rad)");
+    refused("frame work set 1 0 0 nan 0 0 0", 1, "frame value 'nan' is not a number");
+}
+
 static void test_wrench_contact_load(void **state)
 {
     (void)state;
@@ -665,8 +723,8 @@ static void test_wrench_contact_load(void **state)
     a = one("contact off");
     assert_int_equal(a->kind, HS_ACTION_CONTACT);
     assert_int_equal(a->contact.kind, 0);
-    refused("contact", 1, "contact needs plane, point or off");
-    refused("contact wall 1 2 3", 1, "unknown contact 'wall' (plane, point, off)");
+    refused("contact", 1, "contact needs plane, surface, point or off");
+    refused("contact wall 1 2 3", 1, "unknown contact 'wall' (plane, surface, point, off)");
     refused("contact off now", 1, "contact off takes no arguments");
     refused("contact plane 0 0 1 1.9 0 0 stiffness=1 damping=1", 1, "contact plane needs 7 numbers");
     refused("contact point 0 0 1 0 0 stiffness=1 damping=1", 1, "contact point needs 6 numbers");
@@ -842,6 +900,8 @@ int main(void)
         cmocka_unit_test(test_action_limit),
         cmocka_unit_test(test_load_file),
         cmocka_unit_test(test_player),
+        cmocka_unit_test(test_contact_surface),
+        cmocka_unit_test(test_frame_action),
         cmocka_unit_test(test_wrench_contact_load),
         cmocka_unit_test(test_play),
     };

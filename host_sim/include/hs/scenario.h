@@ -36,12 +36,26 @@
  *                                 (base frame, n not zero, pointing into free
  *                                 space) touched by the platform point P
  *                                 (motion frame); |values| <= 100 m
+ *   contact surface up|down PX PY PZ ROLL PITCH TX TY TZ stiffness=K damping=D
+ *                                 the same plane placed by a point P on it
+ *                                 (base frame, m) and its tilt: its free side
+ *                                 +z (up) or -z (down), tilted by ROLL about
+ *                                 x then PITCH about y (rad, |v| <= 1.5):
+ *                                 n = Ry(PITCH) Rx(ROLL) (0, 0, +-1), offset
+ *                                 n . P; touched by the platform point T
  *   contact point AX AY AZ PX PY PZ stiffness=K damping=D
  *                                 a spring-damper from the platform point P
  *                                 (motion frame) to the fixed anchor A (base
  *                                 frame); K 0..1e9 N/m, D 0..1e9 N s/m, both
  *                                 keys required, each once
  *   contact off                   removes the contact
+ *   frame tool|work select N      OP_FRAME: makes slot N (0..15) the active
+ *                                 tool or work frame (issue 31)
+ *   frame tool|work set N X Y Z ROLL PITCH YAW
+ *                                 OP_FRAME: sets slot N to the frame (m,
+ *                                 rad, |v| <= 8; a tool frame is T in o', a
+ *                                 work frame W in the base frame) and makes
+ *                                 it active
  *   load MASS X Y Z               attaches a rigid point mass (kg, |MASS| <=
  *                                 1e5, negative removes) at (X, Y, Z) in the
  *                                 motion frame (|v| <= 100 m), from then on;
@@ -161,7 +175,8 @@ typedef enum {
     HS_ACTION_INJECT,    /**< inject the fault `inject` */
     HS_ACTION_FORCE,     /**< send OP_FORCE `force`, then OP_COMMAND `cmd` unless its command is 0 */
     HS_ACTION_PUSH,      /**< a push `wrench`: rise over `ticks`, hold for `hold` */
-    HS_ACTION_FTSENSOR   /**< the force/torque sensor sends (`bits` 1) or not (0) */
+    HS_ACTION_FTSENSOR,  /**< the force/torque sensor sends (`bits` 1) or not (0) */
+    HS_ACTION_FRAME      /**< send OP_FRAME `frame` */
 } hs_action_kind_t;
 
 /** What an `inject` action injects. */
@@ -206,6 +221,14 @@ typedef struct {
     double damping;   /**< N s/m */
 } hs_scenario_contact_t;
 
+/** A `frame` action as written: OP_FRAME's fields (issue 31). */
+typedef struct {
+    int op;          /**< 0 select, 1 set (SP_FRAME_SELECT, SP_FRAME_SET) */
+    int kind;        /**< 0 tool, 1 work (SP_FRAME_TOOL, SP_FRAME_WORK) */
+    int index;       /**< the slot, 0..15 (the controller refuses 4 and above) */
+    double value[6]; /**< set: x y z (m) roll pitch yaw (rad), |v| <= 8 */
+} hs_scenario_frame_t;
+
 /** One parsed action. Only the fields of its kind are set; the others are 0. */
 typedef struct {
     hs_action_kind_t kind;
@@ -226,6 +249,7 @@ typedef struct {
     hs_scenario_inject_t inject;         /**< INJECT */
     sp_msg_force_t force;                /**< FORCE: OP_FORCE's mask and target (Q8) */
     uint64_t hold;                       /**< PUSH: the hold, ticks (the rise is `ticks`) */
+    hs_scenario_frame_t frame;           /**< FRAME */
 } hs_action_t;
 
 /** A parsed scenario and where its player stands. */

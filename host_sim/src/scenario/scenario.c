@@ -22,11 +22,12 @@
     "ENGAGE, RUN_TRIG, MOVE_TO, STREAM, STOP, PARK, ESTOP, RESET, SET_FEEDFORWARD, FORCE, GUIDE, POSITION, TARE"
 #define ACTION_LIST                                                                                                    \
     "cmd, target, delay, wait, silence, unsilence, fault, mark, end, wrench, contact, load, play, force, "             \
-    "force_target, guide, position, tare, push, ftsensor, inject"
+    "force_target, guide, position, tare, push, ftsensor, inject, frame"
 #define MAX_FT 16383.0     /* largest |value| of an OP_FORCE target, N or N m (the frame's range) */
 #define MAX_WRENCH 1.0e6   /* largest |value| of a wrench, N or N m */
 #define MAX_GEOMETRY 100.0 /* largest |value| of a contact or load position, m */
 #define MAX_CONTACT 1.0e9  /* largest contact stiffness (N/m) and damping (N s/m) */
+#define MAX_TILT 1.5       /* largest |tilt| of a contact surface about x or y, rad (below a right angle) */
 #define MAX_LOAD 1.0e5     /* largest |mass| of a load, kg */
 #define PLAY_HEADER "t,x,y,z,roll,pitch,yaw"
 #define KEY_LIST "axis, amplitude, frequency, fade, option"
@@ -425,6 +426,49 @@ static int parse_wrench(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
     return 1;
 }
 
+/* `contact surface up|down PX PY PZ ROLL PITCH TX TY TZ stiffness=K damping=D`:
+ * the plane through P (base frame, m) whose free side is +z (up) or -z
+ * (down) before it is tilted by ROLL about x, then PITCH about y (rad, each
+ * within MAX_TILT): n = Ry(PITCH) Rx(ROLL) (0, 0, +-1), offset n . P; the
+ * platform point T (motion frame) touches it. Stored as the plane it is. */
+static int parse_surface(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    static const char *const keys[2] = {"stiffness", "damping"};
+    static const double max[2] = {MAX_CONTACT, MAX_CONTACT};
+    double v[8], kd[2] = {0.0, 0.0}, side;
+    unsigned seen;
+    hs_scenario_contact_t *c = &a->contact;
+    if (nw < 3 || (strcasecmp(w[2], "up") != 0 && strcasecmp(w[2], "down") != 0)) {
+        return fail(why, "contact surface needs up or down (its free side before the tilt), then 8 numbers");
+    }
+    side = (strcasecmp(w[2], "up") == 0) ? 1.0 : -1.0;
+    for (int i = 0; i < 8; i++) {
+        if (3 + i >= nw || strchr(w[3 + i], '=') != NULL) {
+            return fail(why, "contact surface needs 8 numbers (px py pz roll pitch tx ty tz), got %d", i);
+        }
+    }
+    if (parse_numbers(w, 3, 3, MAX_GEOMETRY, "contact surface point", "m", v, why) != 0 ||
+        parse_numbers(w, 6, 2, MAX_TILT, "contact surface tilt", "rad", &v[3], why) != 0 ||
+        parse_numbers(w, 8, 3, MAX_GEOMETRY, "contact surface tool point", "m", &v[5], why) != 0) {
+        return -1;
+    }
+    if (parse_keys(w, 11, nw, "contact", keys, max, 2, kd, &seen, why) != 0) {
+        return -1;
+    }
+    if (seen != 3u) {
+        return fail(why, "contact needs stiffness=K (N/m) and damping=D (N s/m)");
+    }
+    c->kind = 1;
+    c->normal[0] = side * sin(v[4]) * cos(v[3]);
+    c->normal[1] = -side * sin(v[3]);
+    c->normal[2] = side * cos(v[4]) * cos(v[3]);
+    c->offset = c->normal[0] * v[0] + c->normal[1] * v[1] + c->normal[2] * v[2];
+    memcpy(c->point, &v[5], sizeof c->point);
+    c->stiffness = kd[0];
+    c->damping = kd[1];
+    return 1;
+}
+
 static int parse_contact(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
 {
     static const char *const keys[2] = {"stiffness", "damping"};
@@ -435,7 +479,7 @@ static int parse_contact(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
     hs_scenario_contact_t *c = &a->contact;
     a->kind = HS_ACTION_CONTACT;
     if (nw < 2) {
-        return fail(why, "contact needs plane, point or off");
+        return fail(why, "contact needs plane, surface, point or off");
     }
     if (strcasecmp(w[1], "off") == 0) {
         if (nw != 2) {
@@ -443,9 +487,12 @@ static int parse_contact(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
         }
         return 1;
     }
+    if (strcasecmp(w[1], "surface") == 0) {
+        return parse_surface(w, nw, a, why);
+    }
     plane = strcasecmp(w[1], "plane") == 0;
     if (!plane && strcasecmp(w[1], "point") != 0) {
-        return fail(why, "unknown contact '%.40s' (plane, point, off)", w[1]);
+        return fail(why, "unknown contact '%.40s' (plane, surface, point, off)", w[1]);
     }
     n = plane ? 7 : 6;
     for (int i = 0; i < n; i++) {
@@ -733,6 +780,37 @@ static int parse_ftsensor(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
     return 1;
 }
 
+/* `frame tool|work select N` or `frame tool|work set N X Y Z ROLL PITCH YAW`:
+ * OP_FRAME (slot N 0..15 on the wire; values within MAX_TARGET). */
+static int parse_frame(char **w, int nw, hs_action_t *a, char why[WHY_LEN])
+{
+    double slot;
+    hs_scenario_frame_t *f = &a->frame;
+    a->kind = HS_ACTION_FRAME;
+    if (nw < 4) {
+        return fail(why, "frame needs tool or work, select or set, and a slot");
+    }
+    if (strcasecmp(w[1], "tool") != 0 && strcasecmp(w[1], "work") != 0) {
+        return fail(why, "frame: unknown kind '%.40s' (tool, work)", w[1]);
+    }
+    f->kind = (strcasecmp(w[1], "work") == 0) ? 1 : 0;
+    if (strcasecmp(w[2], "select") != 0 && strcasecmp(w[2], "set") != 0) {
+        return fail(why, "frame: unknown operation '%.40s' (select, set)", w[2]);
+    }
+    f->op = (strcasecmp(w[2], "set") == 0) ? 1 : 0;
+    if (parse_double(w[3], &slot) != 0 || slot < 0.0 || slot > 15.0 || slot != floor(slot)) {
+        return fail(why, "frame: slot '%.40s' is not 0..15", w[3]);
+    }
+    f->index = (int)slot;
+    if (f->op == 0) {
+        return (nw == 4) ? 1 : fail(why, "frame select takes a slot alone, got %d more words", nw - 4);
+    }
+    if (nw != 10) {
+        return fail(why, "frame set needs a slot and 6 numbers (x y z roll pitch yaw), got %d", nw - 4);
+    }
+    return (parse_numbers(w, 4, 6, MAX_TARGET, "frame", "m or rad", f->value, why) != 0) ? -1 : 1;
+}
+
 static int parse_end(int nw, hs_action_t *a, char why[WHY_LEN])
 {
     if (nw != 1) {
@@ -805,6 +883,9 @@ static int parse_action(char **w, int nw, const char *dir, hs_action_t *a, char 
     }
     if (strcasecmp(kw, "end") == 0) {
         return parse_end(nw, a, why);
+    }
+    if (strcasecmp(kw, "frame") == 0) {
+        return parse_frame(w, nw, a, why);
     }
     return fail(why, "unknown action '%.40s' (" ACTION_LIST ")", kw);
 }

@@ -11,7 +11,10 @@ force or guide; RELEASE and HOLD count as position), ``force_target_*``:
 the commanded wrench in force mode (the accepted OP_FORCE, 0 otherwise;
 stewart.analysis.decode.force_targets). ``truth_wrench_*``: the plant's
 true external wrench (external + contact), blank if the truth CSV has no
-wrench columns."""
+wrench columns. With tool and work frames (issue 31; ``LogData.tool``,
+:func:`.toolpose.attach_tool`) the tool's pose in the work frame follows:
+``tool_ref_*``, ``tool_est_*`` and (with the truth) ``tool_truth_*``; with
+identity frames there are no such columns."""
 
 from __future__ import annotations
 
@@ -25,7 +28,7 @@ from .decode import CONTROL_MODES, FORCE_MODES, LogData
 from .names import AXES, DRIVE_MODES, DRIVE_STATES, STATES, TICK_S, WRENCH_AXES
 
 
-def signal_columns(truth: bool) -> list[str]:
+def signal_columns(truth: bool, tool: bool = False) -> list[str]:
     cols = ["tick", "time_s", "state", "faults", "fault_names", "drive_mode", "feedforward",
             "estimate_valid"]
     cols += [f"ref_{a}" for a in AXES] + [f"est_{a}" for a in AXES]
@@ -37,12 +40,23 @@ def signal_columns(truth: bool) -> list[str]:
         cols += [f"truth_{a}" for a in AXES]
         cols += [f"truth_length{i}" for i in range(1, 7)] + [f"truth_force{i}" for i in range(1, 7)]
         cols += [f"truth_wrench_{a}" for a in WRENCH_AXES]
+    if tool:
+        for group in ("tool_ref", "tool_est") + (("tool_truth",) if truth else ()):
+            cols += [f"{group}_{a}" for a in AXES]
     return cols
+
+
+def _tool_arrays(data: LogData) -> list[np.ndarray]:
+    """The tool pose columns' arrays (none without tool frames)."""
+    if data.tool is None:
+        return []
+    return [data.tool[k] for k in ("ref", "est", "truth") if k in data.tool]
 
 
 def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
     """Header and rows (strings; blank where missing) of signals.csv."""
-    cols = signal_columns(data.truth is not None)
+    cols = signal_columns(data.truth is not None, data.tool is not None)
+    tool = _tool_arrays(data)
 
     def f(v, spec):
         return "" if not np.isfinite(v) else format(v, spec)
@@ -77,6 +91,8 @@ def signal_table(data: LogData) -> tuple[list[str], list[list[str]]]:
             r += [f(v, ".9f") for v in data.truth["length"][k]]
             r += [f(v, ".3f") for v in data.truth["force"][k]]
             r += [f(v, ".3f") for v in truth_wrench[k]]
+        for a in tool:
+            r += [f(v, ".9f") for v in a[k]]
         rows.append(r)
     return cols, rows
 
@@ -192,6 +208,9 @@ def _table_blocks(data: LogData, rows: slice, truth_text: "TruthText | None" = N
         cols += [_Picked(chars, truth_rows[rows]) for chars in truth_text.chars]
     elif data.truth is not None:
         cols += _truth_blocks(data.truth, rows)
+    tool = _tool_arrays(data)
+    if tool:
+        cols.append(_Numbers(np.concatenate([a[rows] for a in tool], axis=1), 9))
     return cols
 
 
@@ -258,7 +277,7 @@ def write_signals_csv(data: LogData, path: str | Path, truth_text: TruthText | N
     tests/python/test_framedecode.py), about 40x faster. ``truth_text``:
     the truth's columns formatted beforehand (:class:`TruthText`) from the
     truth attached to ``data``."""
-    cols = signal_columns(data.truth is not None)
+    cols = signal_columns(data.truth is not None, data.tool is not None)
     truth_rows = truth_text.rows_of(data) if truth_text is not None and data.truth is not None else None
     with open(path, "wb") as fh:
         fh.write((",".join(cols) + "\r\n").encode())

@@ -156,6 +156,9 @@ class LogData:
     cmd_rejected: np.ndarray = None  #: (N,) CTRL_STATUS.CmdRejected
     force_target: np.ndarray = None  #: (N, 6) the commanded wrench in FORCE (0 otherwise), N / N m
     force_frames: list = field(default_factory=list)  #: OP_FORCE as (executing tick, [fx..mz])
+    #: the tool's pose in the work frame (.toolpose.attach_tool): "frames", "ref", "est"[, "truth"]; None
+    #: with identity frames
+    tool: dict | None = None
 
     @classmethod
     def empty(cls, ticks: np.ndarray, commands: list[Command], stats: LogStats, source: str) -> "LogData":

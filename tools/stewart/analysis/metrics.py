@@ -209,7 +209,25 @@ def format_summary(summary: Mapping[str, Any]) -> str:
         peak_ff = format_value(_max_or_none(s["peak_force_ff_N"]), ".0f")
         peak_measured = format_value(_max_or_none(s["peak_force_measured_N"]), ".0f")
         lines.append(f"  peak force: feed-forward {peak_ff} N, measured {peak_measured} N")
+    lines += format_tool_tracking(summary.get("tool_tracking"))
     return "\n".join(lines)
+
+
+def format_tool_tracking(tt: Mapping[str, Any] | None) -> list[str]:
+    """The tracking at the tool point (issue 31; .toolpose.tool_tracking) as
+    printed lines; none without tool frames."""
+    if not tt:
+        return []
+    fr = tt["frames"]
+    lines = [f"tool point: tool frame {' '.join(f'{v:g}' for v in fr['tool'])} (in o'), work frame "
+             f"{' '.join(f'{v:g}' for v in fr['work'])} (in the base frame), {tt['ticks']} RUNNING ticks"]
+    for key, name in (("est", "estimate"), ("truth", "truth")):
+        m = tt.get(key)
+        if m:
+            lines.append(f"  tool point vs reference, {name}: position RMS {m['position_rms_mm']:.4f} mm, max "
+                         f"{m['position_max_mm']:.4f} mm; orientation RMS {m['angle_rms_rad']:.2e} rad, max "
+                         f"{m['angle_max_rad']:.2e} rad")
+    return lines
 
 
 #: How long after a change of the true wrench the estimate is judged (issue 14).

@@ -19,6 +19,7 @@ from .metrics import DEFAULT_DELAY_TICKS, jsonable, summarize
 from .prefetch import Beside, read_frames_beside
 from .plots import plot_cylinders, plot_tracking
 from .segments import Segment, find_segments
+from .toolpose import IDENTITY, attach_tool, tool_tracking
 from .truth import attach_truth, read_truth
 
 DEFAULT_PLATFORM = resources.default_platform()
@@ -37,13 +38,18 @@ class Analysis:
 def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
             platform: str | Path | None = None, delay_ticks: int = DEFAULT_DELAY_TICKS,
             buses: str | None = None, plots: bool = True,
-            progress: Callable[[str], None] | None = None, frames: Beside | None = None) -> Analysis:
+            progress: Callable[[str], None] | None = None, frames: Beside | None = None,
+            tool=None, work=None) -> Analysis:
     """Reads ``log`` (and ``truth``), writes signals.csv, summary.json and the
     plots into ``out``; returns the data, segments, summary and files.
     ``progress(text)`` is told each step as it starts (the command prints
     them once a run takes more than a moment). ``frames``: the log's frames
     already being read (:func:`.prefetch.read_frames_beside`); else they
-    are started on here, and the truth CSV is read while they are read."""
+    are started on here, and the truth CSV is read while they are read.
+    ``tool``, ``work``: the run's tool and work frames (x y z roll pitch
+    yaw; issue 31): signals.csv gets the tool's pose in the work frame and
+    the summary the tracking at the tool point (nothing with identity
+    frames or None)."""
     def step(text: str) -> None:
         if progress is not None:
             progress(text)
@@ -63,11 +69,15 @@ def analyze(log: str | Path, out: str | Path, truth: str | Path | None = None,
     data = read_log(log, buses=buses, platform=plat, frames=frames.result())
     if t is not None:
         attach_truth(data, t)
+    if tool is not None or work is not None:
+        attach_tool(data, tool if tool is not None else IDENTITY, work if work is not None else IDENTITY)
     segs = find_segments(data)
     files = [out / "signals.csv", out / "summary.json"]
     step(f"writing {files[0]}")
     write_signals_csv(data, files[0], truth_text)
     summary = summarize(data, segs, delay_ticks)
+    if data.tool is not None:
+        summary["tool_tracking"] = tool_tracking(data, delay_ticks)
     if data.stats.canopen:  # CiA 408 drives: their frames decoded into canopen.csv (docs/reference/canopen.md)
         from ..drives import traffic
         from .decode import CANOPEN_BUSES

@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         res = analyze(args.log, args.out, truth=args.truth, platform=args.platform,
                       delay_ticks=args.delay_ticks, buses=args.bus, plots=not args.no_plots,
-                      progress=_Progress(args.quiet), frames=frames)
+                      progress=_Progress(args.quiet), frames=frames, tool=args.tool, work=args.work)
     except (cfg.ConfigError, ValueError, OSError) as exc:
         print(f"stewart analyze: {exc}", file=sys.stderr)
         return 2
@@ -129,5 +129,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default ops=vcan0,axis_a=vcan1,axis_b=vcan2)")
     p.add_argument("--compare", metavar="LOG2", help="a second run (e.g. feed-forward off) to overlay")
     p.add_argument("--no-plots", action="store_true", help="CSV and summary only")
+    p.add_argument("--tool", type=float, nargs=6, metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
+                   help="the run's tool frame in o' (m, rad): signals.csv gets the tool's pose in the work frame "
+                        "(tool_ref_*, tool_est_*, tool_truth_*), the summary the tracking at the tool point")
+    p.add_argument("--work", type=float, nargs=6, metavar=("X", "Y", "Z", "ROLL", "PITCH", "YAW"),
+                   help="the run's work frame in the base frame (m, rad; default identity)")
     progress.add_quiet(p)
     p.set_defaults(func=run)

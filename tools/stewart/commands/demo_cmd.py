@@ -6,7 +6,11 @@ paper's surge (90 mm, 0.5 Hz), its yaw (0.09 rad, 0.5 Hz), a constant
 load applied at home and removed, park; then force control (issue 15):
 approach a surface, hold 2 kN, slide 100 mm along it at 20 mm/s, release,
 hand guiding with a 200 N push, once with the force/torque sensor and once
-with the cylinders' estimate as the wrench source.
+with the cylinders' estimate as the wrench source; then the work at the
+tool (issue 31, stewart.framesdemo): a rotation of +-0.08 rad in roll,
+pitch and yaw at 0.5 Hz about a tool tip 0.35 m above o' and 0.15 m off
+its axis, and a 2 kN hold normal to a surface tilted by 20 degrees with a
+100 mm slide along it in the work frame (sensor and cylinders).
 
 Runs: ``main`` (force feed-forward on), ``ff_off`` (the same without the
 paper's inverse dynamics) and ``main_repeat`` (main again, for the
@@ -46,6 +50,12 @@ runs are left out, the drive buses' CANopen load is added. Writes into OUT
                         cylinders' estimate, the sensor) and true contact force, the pose
   force_sensor/signals.csv, force_cylinders/signals.csv   their signals, with control_mode
                         and force_target_fx..mz
+  pivot.png             the tool tip's true path during the rotation about it, and the same
+                        rotation about o' for scale
+  tilted_sensor.png, tilted_cylinders.png   the push along the tilted surface's normal
+                        (commanded, estimated, true) and the tool point in the work frame
+  pivot/signals.csv, tilted_*/signals.csv   with the tool's pose in the work frame
+                        (tool_ref_*, tool_est_*, tool_truth_*)
   ff_off/, ff_off.log, main_repeat.log, *.plant.txt, *.controller.txt, *.scenario
                         (native/, native.log with --cia402)
 
@@ -133,6 +143,15 @@ def _plan(args: argparse.Namespace, out: Path) -> _Plan:
         (out / "slide.csv").write_text(fc.slide_csv())
         for source in ("sensor", "cylinders"):
             specs.append(cl.RunSpec(f"force_{source}", fc.demo_scenario(), wrench_source=source))
+    if not args.no_frames and not canopen:
+        from .. import forcecontrol as fc
+        from .. import framesdemo as fd
+
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "slide.csv").write_text(fc.slide_csv())
+        specs.append(cl.RunSpec("pivot", fd.core_scenario()))
+        for source in ("sensor", "cylinders"):
+            specs.append(cl.RunSpec(f"tilted_{source}", fd.tilted_core_scenario(), wrench_source=source))
     return _Plan(specs, cycles, co, compare)
 
 
@@ -192,6 +211,7 @@ def _summarize(args: argparse.Namespace, plan: _Plan, results: dict, t_runs: flo
                      f"(controller + plant + log, 1 kHz)")
     ok = _determinism(results, lines, figures) and ok
     ok = _force_runs(results, out, lines, figures) and ok
+    ok = _frames_runs(results, out, lines, figures) and ok
     if args.cia408 or args.cia402:
         _canopen_load(args, main.log, lines, figures)
     tc = _tick_compute(Path(args.build))
@@ -315,6 +335,48 @@ def _force_runs(results: dict, out: Path, lines: list[str], figures: dict) -> bo
     return ok
 
 
+def _frames_runs(results: dict, out: Path, lines: list[str], figures: dict) -> bool:
+    """The work at the tool (issue 31): the pivot's and the tilted
+    surface's figures and plots; whether their runs ended as planned, with
+    clean logs and the contact kept."""
+    from .. import forcecontrol as fc
+    from .. import framesdemo as fd
+    from ..analysis import analyze
+
+    ok = True
+    r = results.get("pivot")
+    if r is not None and r.log.exists():
+        rp = analyze(r.log, out / "pivot", truth=r.truth, plots=False, tool=fd.TOOL_TIP + (0.0, 0.0, 0.0))
+        windows = fd.pivot_windows(fc.marks(r.plant_out))
+        if windows:
+            f = fd.pivot_figures(rp.data.ticks, rp.data.truth["pose"], windows)
+            figures["pivot"] = f
+            lines += fd.pivot_lines(f)
+            fd.plot_pivot(rp.data.ticks, rp.data.truth["pose"], windows, out / "pivot.png")
+            lines.append(f"  the tip's true path -> {out / 'pivot.png'}")
+        ok = ok and r.ok and len(windows) == len(fd.PIVOT_AXES) and not (rp.summary["bad_frames"] or rp.summary["malformed_lines"])
+    for source in ("sensor", "cylinders"):
+        r = results.get(f"tilted_{source}")
+        if r is None or not r.log.exists():
+            continue
+        rt = analyze(r.log, out / f"tilted_{source}", truth=r.truth, plots=False, tool=fd.tool_frame(),
+                     work=fd.work_frame())
+        m = fc.marks(r.plant_out)
+        f = fd.tilted_figures(rt.data, m)
+        figures[f"tilted_{source}"] = f
+        lines += fd.tilted_lines(source, f)
+        t0 = min(v for k, v in m.items() if k.startswith("begin hold"))
+        t1 = max(v for k, v in m.items() if k in ("end hold", "end slide"))
+        window = ((t0 - 1000) * 1e-3, (t1 + 1500) * 1e-3)
+        fd.plot_tilted(rt.data, fc.read_ft(r.log), out / f"tilted_{source}.png",
+                       f"2 kN normal to a surface tilted by 20 deg: slide along it, hold in W ({source})",
+                       window, fd.frames_ticks(m))
+        lines.append(f"  the force and the tool point in the work frame -> {out / f'tilted_{source}.png'}")
+        ok = ok and r.ok and f.get("hold", {}).get("contact_tick") is not None and \
+            not (rt.summary["bad_frames"] or rt.summary["malformed_lines"])
+    return ok
+
+
 def _canopen_load(args: argparse.Namespace, log: Path, lines: list[str], figures: dict) -> None:
     """Each CANopen drive bus's load as classic CAN at 1 Mbit/s."""
     from ..drives.measured import canopen_load
@@ -340,6 +402,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-compare", action="store_true", help="skip the run without force feed-forward")
     p.add_argument("--no-determinism", action="store_true", help="skip the repeated run")
     p.add_argument("--no-force", action="store_true", help="skip the force-control runs")
+    p.add_argument("--no-frames", action="store_true",
+                   help="skip the work at the tool: the pivot rotation and the tilted-surface force hold")
     p.add_argument("--cia408", action="store_true",
                    help="the drives as CiA 408 nodes behind the controller's CANopen master (docs/reference/canopen.md)")
     p.add_argument("--cia402", action="store_true",
