@@ -25,7 +25,7 @@ def with_hydraulic(**extra):
 
 def test_absent_means_zero(tmp_path):
     d = json.loads(DEFAULT.read_text())
-    for k in LEG_KEYS:
+    for k in LEG_KEYS + ("cylinder_inertia", "rod_inertia"):
         d["hydraulic"].pop(k, None)
     f = tmp_path / "massless.json"
     f.write_text(json.dumps(d))

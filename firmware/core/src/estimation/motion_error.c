@@ -398,8 +398,9 @@ static int me_envelope(const sp_platform_t *platform, const sp_leg_mass_t *lm, s
     unsigned i, k;
     if (lm->cylinder_mass < 0 || lm->rod_mass < 0 || lm->cylinder_mass >= (512 << 16) || lm->rod_mass >= (512 << 16) ||
         lm->cylinder_com < 0 || lm->rod_com < 0 || lm->cylinder_com >= (8 << 24) || lm->rod_com >= (8 << 24) ||
-        lm->cylinder_inertia < 0 || lm->rod_inertia < 0 || lm->cylinder_inertia >= ME_LEG_INERTIA_MAX ||
-        lm->rod_inertia >= ME_LEG_INERTIA_MAX || sp_inverse_kinematics(platform, &platform->home, ik) != SP_OK) {
+        ((lm->cylinder_inertia < 0) || (lm->rod_inertia < 0)) ||
+        ((lm->cylinder_inertia >= ME_LEG_INERTIA_MAX) || (lm->rod_inertia >= ME_LEG_INERTIA_MAX)) ||
+        sp_inverse_kinematics(platform, &platform->home, ik) != SP_OK) {
         return 0;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
