@@ -58,6 +58,7 @@ void m4f_platform_from_fixed(const sp_platform_t *platform, m4f_platform_t *out)
     out->cylinder_com = (float)platform->leg_mass.cylinder_com * Q24_TO_F;
     out->rod_mass = (float)platform->leg_mass.rod_mass * Q16_TO_F;
     out->rod_com = (float)platform->leg_mass.rod_com * Q24_TO_F;
+    out->leg_inertia = ((float)platform->leg_mass.cylinder_inertia + (float)platform->leg_mass.rod_inertia) * Q16_TO_F;
 }
 
 void m4f_motion_from_fixed(const sp_motion_t *motion, m4f_motion_t *out)
@@ -317,9 +318,10 @@ static void leg_terms(const m4f_platform_t *p, const m4f_motion_t *m, const m4f_
         float e = p->cylinder_com * q;
         float y = p->rod_com * q;
         float z = 1.0f - y;
-        float mu = p->cylinder_mass * e * e + p->rod_mass * z * z;
+        float iq2 = p->leg_inertia * q * q; /* the legs' inertia across the leg, I / L^2 */
+        float mu = p->cylinder_mass * e * e + p->rod_mass * z * z + iq2;
         float kg = p->cylinder_mass * e + p->rod_mass * z;
-        float cl = q * (p->cylinder_mass * e * e - p->rod_mass * y * z); /* C / L */
+        float cl = q * (p->cylinder_mass * e * e - p->rod_mass * y * z + iq2); /* C / L */
         float ld, ua, vv, c1, guz;
         cross3(wb, r, wr);
         cross3(ab, r, aa);
@@ -413,7 +415,7 @@ sp_status_t m4f_inverse_dynamics(const m4f_platform_t *platform, const m4f_motio
     for (k = 0u; k < 3u; ++k) {
         b[3u + k] = torque_body[0] * ik->rot[0][k] + torque_body[1] * ik->rot[1][k] + torque_body[2] * ik->rot[2][k];
     }
-    if (platform->cylinder_mass != 0.0f || platform->rod_mass != 0.0f) {
+    if (platform->cylinder_mass != 0.0f || platform->rod_mass != 0.0f || platform->leg_inertia != 0.0f) {
         leg_terms(platform, motion, ik, omega, omega_dot, b, axial);
     }
     /* The leg Jacobian, rows [u_i, (A_im T) x u_i]. */

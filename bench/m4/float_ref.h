@@ -29,6 +29,7 @@ typedef struct {
     float cylinder_com;               /**< its centre from the base joint, m */
     float rod_mass;                   /**< each leg's rod and piston, kg */
     float rod_com;                    /**< its centre from the platform joint, m */
+    float leg_inertia;                /**< barrel's + rod's moments of inertia across the leg, kg m^2 */
 } m4f_platform_t;
 
 typedef struct {

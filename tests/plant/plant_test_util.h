@@ -83,6 +83,8 @@ static inline void pt_massless_legs(hs_params_t *p)
     for (int i = 0; i < HS_LEGS; ++i) {
         p->cyl[i].cylinder_mass = 0.0;
         p->cyl[i].rod_mass = 0.0;
+        p->cyl[i].cylinder_inertia = 0.0;
+        p->cyl[i].rod_inertia = 0.0;
     }
 }
 

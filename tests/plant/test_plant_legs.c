@@ -33,7 +33,13 @@
  *    1e-9 m / 1e-9 rad in 2 s.
  * 6. Newton-Euler cross-check of the leg dynamics (see the test).
  * 7. hs_params_check rejects negative or non-finite leg masses and centres
- *    beyond the longest leg.
+ *    beyond the longest leg, and negative or non-finite moments of inertia.
+ *
+ * Tests 2 and 6 run again with the legs' moments of inertia across the leg
+ * (docs/explanation/model.md "Leg inertia"): 11.25 kg m^2 for the barrel
+ * (60 kg, 1.5 m) and 7.5 kg m^2 for the rod (35 kg, 1.6 m). In 6 the
+ * moment balance of each leg about its base joint then takes in the rate
+ * of the leg's angular momentum, (I_c + I_r) u x u'', u'' by differences.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -55,6 +61,8 @@
 #define D_CYL 0.8
 #define M_ROD 35.0
 #define D_ROD 1.0
+#define I_CYL 11.25
+#define I_ROD 7.5
 
 static hs_plant_t plant;
 static hs_plant_t plant2;
@@ -128,16 +136,24 @@ static void test_default_off_bit_identical(void **state)
     assert_true(h == UINT64_C(0x689033ade62055a7));
 }
 
-static void test_energy_conserved_with_legs(void **state)
+static void with_inertia(hs_params_t *p, double ic, double ir)
+{
+    for (int i = 0; i < HS_LEGS; ++i) {
+        p->cyl[i].cylinder_inertia = ic;
+        p->cyl[i].rod_inertia = ir;
+    }
+}
+
+static void energy_conserved(double ic, double ir)
 {
     hs_params_t p;
     hs_energy_t e0, e;
     double vel[3] = {0.02, -0.01, 0.03}, omega[3] = {0.01, 0.02, -0.015};
     double drift = 0.0, kin_min = 1e30, leg_kin;
-    (void)state;
     assert_int_equal(hs_params_default(&p), HS_OK);
     pt_massless_legs(&p);
     with_legs(&p, M_CYL, D_CYL, M_ROD, D_ROD);
+    with_inertia(&p, ic, ir);
     for (int i = 0; i < HS_LEGS; ++i) {
         p.cyl[i].leakage = 0.0;
     }
@@ -162,12 +178,19 @@ static void test_energy_conserved_with_legs(void **state)
         drift = fmax(drift, fabs(e.total - e0.total));
         kin_min = fmin(kin_min, e.kinetic);
     }
-    printf("  leg masses on, closed valves, 10 s: energy %.3f J (kick %.4f J of which legs %.4f J, kinetic down to "
-           "%.2e J), largest drift %.3e J\n",
-           e0.total, e0.kinetic, leg_kin, kin_min, drift);
+    printf("  leg masses on (inertia %g + %g kg m^2), closed valves, 10 s: energy %.3f J (kick %.4f J of which legs "
+           "%.4f J, kinetic down to %.2e J), largest drift %.3e J\n",
+           ic, ir, e0.total, e0.kinetic, leg_kin, kin_min, drift);
     assert_true(leg_kin > 0.01 * e0.kinetic);
     assert_true(kin_min < 0.1 * e0.kinetic);
     assert_true(drift < 1e-6 * e0.kinetic);
+}
+
+static void test_energy_conserved_with_legs(void **state)
+{
+    (void)state;
+    energy_conserved(0.0, 0.0);
+    energy_conserved(I_CYL, I_ROD);
 }
 
 static void test_rest_with_legs(void **state)
@@ -384,15 +407,15 @@ static void ang_mom(const hs_params_t *p, const double *x, double h[3])
  *    d(R I w)/dt + sum arm_i x G_i = 0 (v', (R I w)' also by differences).
  *    Bound: 1e-4 of the legs' inertial forces sum |m_k c_k''| (measured
  *    about 1e-6: the differences' own error). */
-static void test_newton_euler_cross_check(void **state)
+static void newton_euler_cross_check(double ic, double ir)
 {
     hs_params_t p;
     double f[HS_LEGS], vel[3] = {0.3, -0.2, 0.25}, om[3] = {0.3, -0.4, 0.5};
-    double xs[3][HS_NX], fq[HS_LEGS], h = 5e-4;
-    (void)state;
+    double xs[3][HS_NX], fq[HS_LEGS], h = 5e-4, spin = 0.0;
     assert_int_equal(hs_params_default(&p), HS_OK);
     pt_massless_legs(&p);
     with_legs(&p, M_CYL, D_CYL, M_ROD, D_ROD);
+    with_inertia(&p, ic, ir);
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_OK);
     hs_plant_set_actuation(&plant, HS_ACT_IDEAL);
     for (int i = 0; i < HS_LEGS; ++i) {
@@ -419,9 +442,14 @@ static void test_newton_euler_cross_check(void **state)
         res_f[2] += p.mass * p.gravity;
         for (int i = 0; i < HS_LEGS; ++i) {
             double arm[3], l[3], c1[3][3], c2[3][3], a1[3], a2[3], w1[3], w2[3], mb[3], gp[3], len2, len, u[3];
-            double gax, g[3], m[3], t1[3], t2[3];
+            double gax, g[3], m[3], t1[3], t2[3], un[3][3], udd[3], hd[3];
             for (int n = 0; n < 3; ++n) {
+                double ln;
                 masses_at(&p, xs[n], i, arm, l, c1[n], c2[n]);
+                ln = sqrt(l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+                for (int j = 0; j < 3; ++j) {
+                    un[n][j] = l[j] / ln;
+                }
             }
             masses_at(&p, xs[1], i, arm, l, c1[1], c2[1]);
             len2 = l[0] * l[0] + l[1] * l[1] + l[2] * l[2];
@@ -445,6 +473,17 @@ static void test_newton_euler_cross_check(void **state)
             mb[0] = t1[1] * w1[2] - t1[2] * w1[1] + t2[1] * w2[2] - t2[2] * w2[1];
             mb[1] = t1[2] * w1[0] - t1[0] * w1[2] + t2[2] * w2[0] - t2[0] * w2[2];
             mb[2] = t1[0] * w1[1] - t1[1] * w1[0] + t2[0] * w2[1] - t2[1] * w2[0];
+            /* and the rate of the bodies' own angular momentum (I_c + I_r) u x u'' */
+            for (int j = 0; j < 3; ++j) {
+                udd[j] = (un[2][j] - 2.0 * un[1][j] + un[0][j]) / (h * h);
+            }
+            hd[0] = (ic + ir) * (u[1] * udd[2] - u[2] * udd[1]);
+            hd[1] = (ic + ir) * (u[2] * udd[0] - u[0] * udd[2]);
+            hd[2] = (ic + ir) * (u[0] * udd[1] - u[1] * udd[0]);
+            spin += sqrt(hd[0] * hd[0] + hd[1] * hd[1] + hd[2] * hd[2]) / len;
+            for (int j = 0; j < 3; ++j) {
+                mb[j] += hd[j];
+            }
             gp[0] = (mb[1] * l[2] - mb[2] * l[1]) / len2;
             gp[1] = (mb[2] * l[0] - mb[0] * l[2]) / len2;
             gp[2] = (mb[0] * l[1] - mb[1] * l[0]) / len2;
@@ -462,12 +501,21 @@ static void test_newton_euler_cross_check(void **state)
         }
         rf = sqrt(res_f[0] * res_f[0] + res_f[1] * res_f[1] + res_f[2] * res_f[2]);
         rm = sqrt(res_m[0] * res_m[0] + res_m[1] * res_m[1] + res_m[2] * res_m[2]);
-        printf("  Newton-Euler with leg masses: legs' inertial forces %.2f N in all; residual %.3e N, %.3e N m\n",
-               scale, rf, rm);
+        printf("  Newton-Euler with leg masses (inertia %g + %g kg m^2): legs' inertial forces %.2f N in all, their "
+               "spin's %.2f N; residual %.3e N, %.3e N m\n",
+               ic, ir, scale, spin, rf, rm);
         assert_true(scale > 10.0);
+        assert_true(ic + ir == 0.0 || spin > 1e-3 * scale);
         assert_true(rf < 1e-4 * scale);
         assert_true(rm < 1e-4 * scale);
     }
+}
+
+static void test_newton_euler_cross_check(void **state)
+{
+    (void)state;
+    newton_euler_cross_check(0.0, 0.0);
+    newton_euler_cross_check(I_CYL, I_ROD);
 }
 
 static void test_params_check(void **state)
@@ -488,6 +536,14 @@ static void test_params_check(void **state)
     p.cyl[2].cylinder_com = D_CYL;
     p.cyl[1].rod_com = -0.1;
     assert_int_equal(hs_plant_init(&plant, &p, p.home), HS_E_ARG);
+    p.cyl[1].rod_com = D_ROD;
+    with_inertia(&p, I_CYL, I_ROD);
+    assert_int_equal(hs_params_check(&p), HS_OK);
+    p.cyl[4].cylinder_inertia = -1.0;
+    assert_int_equal(hs_params_check(&p), HS_E_ARG);
+    p.cyl[4].cylinder_inertia = I_CYL;
+    p.cyl[0].rod_inertia = INFINITY;
+    assert_int_equal(hs_params_check(&p), HS_E_ARG);
 }
 
 int main(void)

@@ -25,7 +25,7 @@ def with_hydraulic(**extra):
 
 def test_absent_means_zero(tmp_path):
     d = json.loads(DEFAULT.read_text())
-    for k in LEG_KEYS:
+    for k in LEG_KEYS + ("cylinder_inertia", "rod_inertia"):
         d["hydraulic"].pop(k, None)
     f = tmp_path / "massless.json"
     f.write_text(json.dumps(d))
@@ -61,3 +61,50 @@ def test_bad_leg_values_name_the_key(tmp_path, key, value, needle):
         cfg.load(f)
     assert needle in str(e.value)
     assert "bad.json" in str(e.value)
+
+
+INERTIA_KEYS = ("cylinder_inertia", "rod_inertia")
+
+
+def test_leg_inertia_absent_means_zero_and_reaches_the_generated_c(tmp_path):
+    """The legs' moments of inertia across the leg: absent = 0 (point
+    masses), set values reach the plant's and the firmware's generated C
+    (the firmware's in Q16)."""
+    import gen_platform
+
+    d = json.loads(DEFAULT.read_text())
+    for k in INERTIA_KEYS:
+        d["hydraulic"].pop(k, None)
+    p = cfg.from_dict(d, "point.json")
+    assert all(p.hydraulic[k] == 0.0 for k in INERTIA_KEYS)
+    f = tmp_path / "spun.json"
+    f.write_text(json.dumps(with_hydraulic(cylinder_inertia=11.25, rod_inertia=7.5)))
+    p = cfg.load(f)
+    plant_c = gen_plant.c_source(p)
+    assert ".cylinder_inertia = 11.25," in plant_c and ".rod_inertia = 7.5," in plant_c
+    firmware_c = gen_platform.c_source(p)
+    assert f"{round(11.25 * 65536)}, {round(7.5 * 65536)}}}," in firmware_c
+
+
+@pytest.mark.parametrize("extra,needle", [
+    ({"cylinder_inertia": -0.5}, "hydraulic.cylinder_inertia"),
+    ({"rod_inertia": float("inf")}, "hydraulic.rod_inertia"),
+    ({"rod_inertia": "big"}, "hydraulic.rod_inertia: expected a number"),
+    ({"cylinder_inertia": 1e5}, "hydraulic.cylinder_inertia"),
+    ({"rod_mass": 0.0, "rod_inertia": 2.0}, "hydraulic.rod_inertia: 2 kg m^2 but rod_mass is 0"),
+    # 60 kg no longer than 3.25 m: at most 60 (3.25^2 / 4 + 1/4) = 173 kg m^2
+    ({"cylinder_inertia": 180.0}, "hydraulic.cylinder_inertia: 180 kg m^2 is more than a 60 kg body"),
+])
+def test_bad_leg_inertia_names_the_key(tmp_path, extra, needle):
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps(with_hydraulic(**extra)))
+    with pytest.raises(cfg.ConfigError) as e:
+        cfg.load(f)
+    assert needle in str(e.value)
+    assert "bad.json" in str(e.value)
+
+
+def test_leg_inertia_at_the_plausible_limit_is_accepted(tmp_path):
+    f = tmp_path / "edge.json"
+    f.write_text(json.dumps(with_hydraulic(cylinder_inertia=173.0, rod_inertia=0.0)))
+    assert cfg.load(f).hydraulic["cylinder_inertia"] == 173.0

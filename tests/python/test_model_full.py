@@ -3,7 +3,9 @@
 checked against first principles that do not share its formulae:
 
 * power balance: sum F_i L_i' = d/dt (kinetic + potential energy), with the
-  energies computed from positions only (numerical velocities);
+  energies computed from positions only (numerical velocities), the legs'
+  moments of inertia across the leg included (their kinetic energy
+  I |u x u'|^2 / 2 from the numerical rate of the leg's direction);
 * Lagrange's equations evaluated numerically from the same energies;
 * a rod mass at the platform joint is exactly a heavier rigid platform;
 * with the default config (no leg masses, centre of mass at o') the forces
@@ -29,40 +31,50 @@ def platform():
     return cfg.without_leg_masses(cfg.load(REPO_ROOT / "config" / "platform_default.json"))
 
 
-def heavy(platform, com=(0.12, -0.08, 0.2), legs=(60.0, 0.8, 35.0, 1.0)):
-    """The default platform with a centre-of-mass offset and leg masses."""
+#: Moments of inertia across the leg (kg m^2) of a 60 kg, 1.5 m barrel and a
+#: 35 kg, 1.6 m rod (thin rods: m l^2 / 12).
+LEG_INERTIA = (11.25, 7.5)
+
+
+def heavy(platform, com=(0.12, -0.08, 0.2), legs=(60.0, 0.8, 35.0, 1.0), inertia=(0.0, 0.0)):
+    """The default platform with a centre-of-mass offset, leg masses and
+    the legs' moments of inertia across the leg (barrel, rod)."""
     p = copy.deepcopy(platform)
     p.center_of_mass = list(com)
     p.hydraulic = dict(p.hydraulic)
-    p.hydraulic.update(cylinder_mass=legs[0], cylinder_com=legs[1], rod_mass=legs[2], rod_com=legs[3])
+    p.hydraulic.update(cylinder_mass=legs[0], cylinder_com=legs[1], rod_mass=legs[2], rod_com=legs[3],
+                       cylinder_inertia=inertia[0], rod_inertia=inertia[1])
     return p
 
 
 # -- energies from positions alone -----------------------------------------------
 
 def points(p, q):
-    """Everything with mass at pose q: (centre of mass, R, barrel centres, rod centres)."""
+    """Everything with mass at pose q: (centre of mass, R, barrel centres,
+    rod centres, leg directions)."""
     rot = model.rotation(q[3:])
     a = np.asarray(p.platform_joints, float)
     b = np.asarray(p.base_joints, float)
     m_c, d_c, m_r, d_r = model.leg_masses(p)
     joints = (rot @ a.T).T + q[:3]
     u = (joints - b) / np.linalg.norm(joints - b, axis=1)[:, None]
-    return q[:3] + rot @ np.asarray(p.center_of_mass, float), rot, b + d_c * u, joints - d_r * u
+    return q[:3] + rot @ np.asarray(p.center_of_mass, float), rot, b + d_c * u, joints - d_r * u, u
 
 
 def energies(p, q, qd, h=1e-5):
     """(kinetic, potential) at pose q moving with pose rate qd; velocities by
     central differences along qd (T is not taken from the model)."""
     m_c, _, m_r, _ = model.leg_masses(p)
+    i_legs = p.hydraulic.get("cylinder_inertia", 0.0) + p.hydraulic.get("rod_inertia", 0.0)
     g = p.gravity
     plus, minus = points(p, q + h * qd), points(p, q - h * qd)
     here = points(p, q)
-    v_g, r_dot, v_c, v_r = [(x - y) / (2 * h) for x, y in zip(plus, minus)]
+    v_g, r_dot, v_c, v_r, u_dot = [(x - y) / (2 * h) for x, y in zip(plus, minus)]
     sk = here[1].T @ r_dot
     w_b = np.array([sk[2, 1], sk[0, 2], sk[1, 0]])
+    w_leg = np.cross(here[4], u_dot)  # each leg's angular velocity across its axis
     kin = (0.5 * p.mass * v_g @ v_g + 0.5 * w_b @ np.asarray(p.inertia) @ w_b
-           + 0.5 * m_c * np.sum(v_c * v_c) + 0.5 * m_r * np.sum(v_r * v_r))
+           + 0.5 * m_c * np.sum(v_c * v_c) + 0.5 * m_r * np.sum(v_r * v_r) + 0.5 * i_legs * np.sum(w_leg * w_leg))
     pot = g * (p.mass * here[0][2] + m_c * here[2][:, 2].sum() + m_r * here[3][:, 2].sum())
     return kin, pot
 
@@ -115,10 +127,12 @@ def test_default_config_gives_the_papers_equations(platform):
     assert worst < 1e-9
 
 
-def test_power_balance_with_leg_masses_and_com_offset(platform):
+@pytest.mark.parametrize("inertia", [(0.0, 0.0), LEG_INERTIA])
+def test_power_balance_with_leg_masses_and_com_offset(platform, inertia):
     """sum F_i L_i' = d(T + V)/dt along random smooth motions; T and V from
-    positions only. Measured: the worst mismatch is ~2e-8 of sum |F_i L_i'|."""
-    p = heavy(platform)
+    positions only; point-mass legs, and legs with their moments of inertia.
+    Measured: the worst mismatch is ~2e-8 of sum |F_i L_i'|."""
+    p = heavy(platform, inertia=inertia)
     rng = np.random.default_rng(11)
     ht = 1e-4
     worst = 0.0
@@ -137,7 +151,8 @@ def test_power_balance_with_leg_masses_and_com_offset(platform):
 
 def test_power_balance_fails_without_the_leg_terms(platform):
     """The energy check can see the legs: forces of the model without leg
-    masses miss the legs' power by far more than the tolerance above."""
+    masses miss the legs' power by far more than the tolerance above, and
+    forces without the legs' moments of inertia miss their power too."""
     p = heavy(platform)
     bare = heavy(platform, legs=(0.0, 0.0, 0.0, 0.0))
     traj = Trajectory(p.home, np.random.default_rng(12))
@@ -147,13 +162,22 @@ def test_power_balance_fails_without_the_leg_terms(platform):
     de = energy_rate(p, traj, 1.3, ht)
     f = forces(bare, q, qd, qdd)
     assert abs(f @ rates - de) > 1e-2 * np.abs(f * rates).sum()
+    spun = heavy(platform, inertia=LEG_INERTIA)
+    de = energy_rate(spun, traj, 1.3, ht)
+    f = forces(p, q, qd, qdd)
+    assert abs(f @ rates - de) > 1e-4 * np.abs(f * rates).sum()
+    assert abs(forces(spun, q, qd, qdd) @ rates - de) < 1e-6 * np.abs(f * rates).sum()
 
 
-def test_lagrange_equations_numerically(platform):
+@pytest.mark.parametrize("inertia", [(0.0, 0.0), LEG_INERTIA])
+def test_lagrange_equations_numerically(platform, inertia):
     """d/dt dT/dq' - dT/dq + dV/dq = J^T F with every derivative taken
     numerically from the position-only energies: an independent derivation
-    of the forces. Measured: within 2.2e-7 of the largest force (1e-6 allowed)."""
-    p = heavy(platform)
+    of the forces, with point-mass legs and with the legs' moments of
+    inertia across the leg (their energy from the leg's numerical angular
+    velocity u x u'). Measured: within 2.2e-7 of the largest force (1e-6
+    allowed)."""
+    p = heavy(platform, inertia=inertia)
     rng = np.random.default_rng(13)
     hx, hv, hq, ht = 1e-4, 1e-3, 1e-4, 1e-4
 

@@ -24,7 +24,8 @@ Units are SI and angles radians. Keys (see config/README.md for the default):
 - ``workspace``: {"min": [6], "max": [6]}, pose limits relative to home
 - ``hydraulic``, ``sensors``: plant parameters (host_sim), see config/README.md;
   ``hydraulic`` may add the optional leg masses ``cylinder_mass``,
-  ``cylinder_com``, ``rod_mass``, ``rod_com`` (absent = 0 = neglected);
+  ``cylinder_com``, ``rod_mass``, ``rod_com`` and the legs' moments of
+  inertia ``cylinder_inertia``, ``rod_inertia`` (absent = 0 = neglected);
   the friction keys (``FRICTION_KEYS``) take one number for every cylinder
   or a list of six, one per leg, and are normalised to lists of six
 - ``drives`` (optional; absent = every leg on the native protocol): the
@@ -80,15 +81,26 @@ HYDRAULIC_KEYS = {
 
 # Optional leg masses (the plant simulates them, the firmware's inverse
 # dynamics and the float64 model include them; absent = 0 = neglected, the
-# paper's model). Each leg is two point masses on its axis: the cylinder body at
+# paper's model). Each leg is two bodies on its axis: the cylinder body at
 # cylinder_com from the base joint, the rod + piston at rod_com from the
-# platform joint towards the base (docs/explanation/plant.md "Leg masses").
+# platform joint towards the base (docs/explanation/plant.md "Leg masses"),
+# each with its moment of inertia about its own centre across the leg (any
+# axis through the centre perpendicular to the leg: the bodies are taken
+# symmetric about the leg axis, and the legs' spin about it is neglected;
+# docs/explanation/model.md "Leg inertia"). 0: a point mass.
 HYDRAULIC_OPTIONAL_KEYS = {
     "cylinder_mass": (0.0, 1e4, "kg"),
     "cylinder_com": (0.0, _Q24_MAX, "m"),
     "rod_mass": (0.0, 1e4, "kg"),
     "rod_com": (0.0, _Q24_MAX, "m"),
+    "cylinder_inertia": (0.0, 1e4, "kg m^2"),
+    "rod_inertia": (0.0, 1e4, "kg m^2"),
 }
+# The moments of inertia across the leg that the legs' masses allow: a body
+# of mass m no longer than the longest leg has at most m (leg_length_max /
+# 2)^2 about its centre across its axis (all of it at its two ends), plus
+# the share of its radius (below a metre for any hexapod's cylinder: m / 4).
+LEG_INERTIA_BODIES = {"cylinder_inertia": "cylinder_mass", "rod_inertia": "rod_mass"}
 
 # Optional keys only the designer's tool (``stewart design``) reads: the
 # cylinders' outer diameter, for the legs' clearance from one another.
@@ -674,7 +686,24 @@ def _hydraulic(h, lmax: float) -> dict:
     for key in ("cylinder_com", "rod_com"):
         if hyd[key] > lmax:
             raise ConfigError(f"hydraulic.{key}: {hyd[key]:g} m is beyond leg_length_max {lmax:g}")
+    _leg_inertia(hyd, lmax)
     return hyd
+
+
+def _leg_inertia(hyd: dict, lmax: float) -> None:
+    """The legs' moments of inertia across the leg against their masses
+    (``LEG_INERTIA_BODIES``): none without a mass, none beyond what a body of
+    that mass and length can have."""
+    for key, mass_key in LEG_INERTIA_BODIES.items():
+        inertia, mass = hyd[key], hyd[mass_key]
+        if inertia > 0.0 and mass == 0.0:
+            raise ConfigError(f"hydraulic.{key}: {inertia:g} kg m^2 but {mass_key} is 0 (a body without "
+                              f"mass has no moment of inertia)")
+        most = mass * (0.25 * lmax * lmax + 0.25)
+        if inertia > most:
+            raise ConfigError(f"hydraulic.{key}: {inertia:g} kg m^2 is more than a {mass:g} kg body "
+                              f"no longer than leg_length_max {lmax:g} m can have ({most:.4g} kg m^2: "
+                              f"all of it at both ends)")
 
 
 def _joints(j) -> dict:

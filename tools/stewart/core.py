@@ -68,7 +68,7 @@ class PlatformStruct(C.Structure):
         ("workspace_max", Pose),
         ("piston_area", I32),
         ("annulus_area", I32),
-        ("leg_mass", I32 * 4),
+        ("leg_mass", I32 * 6),
         ("viscous_friction", I32 * LEGS),
         ("coulomb_friction", I32 * LEGS),
         ("coulomb_velocity", I32),
@@ -320,7 +320,8 @@ def platform_struct(platform) -> PlatformStruct:
     s.annulus_area = ints["annulus_area"]
     for k in range(3):
         s.center_of_mass[k] = ints["center_of_mass"][k]
-    for k, key in enumerate(("cylinder_mass", "cylinder_com", "rod_mass", "rod_com")):
+    for k, key in enumerate(("cylinder_mass", "cylinder_com", "rod_mass", "rod_com", "cylinder_inertia",
+                              "rod_inertia")):
         s.leg_mass[k] = ints["leg_mass"][key]
     for i in range(LEGS):
         s.viscous_friction[i] = ints["viscous_friction"][i]

@@ -53,6 +53,8 @@ def quantize(p: cfg.Platform) -> dict:
             "cylinder_com": _q(h.get("cylinder_com", 0.0), Q24, "hydraulic.cylinder_com"),
             "rod_mass": _q(h.get("rod_mass", 0.0), Q16, "hydraulic.rod_mass"),
             "rod_com": _q(h.get("rod_com", 0.0), Q24, "hydraulic.rod_com"),
+            "cylinder_inertia": _q(h.get("cylinder_inertia", 0.0), Q16, "hydraulic.cylinder_inertia"),
+            "rod_inertia": _q(h.get("rod_inertia", 0.0), Q16, "hydraulic.rod_inertia"),
         },
         "viscous_friction": [_q(v, Q8, "hydraulic.viscous_friction") for v in _legs(h, "viscous_friction")],
         "coulomb_friction": [_q(v, Q8, "hydraulic.coulomb_friction") for v in _legs(h, "coulomb_friction")],

@@ -5,7 +5,11 @@ The dynamics of the float64 model (:mod:`stewart.model`) are linear in 22
 parameters once the motion is known: the 10 rigid-body parameters of the
 moving mass (mass m, first moments m c, inertia about o' in the motion
 frame) and per cylinder a viscous and a Coulomb coefficient. The leg masses
-are known (taken from the config). From a run's measured leg lengths this
+are known (taken from the config). The legs' moments of inertia across the
+leg are held at the config's values or, with ``leg_inertia=True``, identified
+as a 23rd parameter: their sum I_c + I_r, the only combination the
+platform's forces see (docs/explanation/identification.md "Leg inertia").
+From a run's measured leg lengths this
 module computes the pose (forward kinematics), its rates and accelerations
 (zero-phase Savitzky-Golay differentiation), writes every cylinder force as
 a row of a linear regression, and solves it by least squares, with standard
@@ -63,6 +67,15 @@ HINTS = (["heave (z) acceleration",
          + [f"leg {i + 1} moving at a range of speeds" for i in range(LEGS)]
          + [f"leg {i + 1} moving in both directions" for i in range(LEGS)])
 
+#: The optional 23rd parameter (``leg_inertia=True``): the barrel's and the
+#: rod's moments of inertia across the leg, summed (the same for every leg).
+LEG_INERTIA_NAME = "leg inertia I_c + I_r"
+LEG_INERTIA_HINT = "the legs swinging (surge, sway and yaw accelerations)"
+#: The standard error accepted for it: this share of a 95 kg leg's (the
+#: default's barrel and rod) inertia as thin rods over the longest leg, at
+#: least 1 kg m^2.
+LEG_INERTIA_SE_SHARE = 0.05
+
 #: Condition number of the column-scaled regressor above which the
 #: regression is called rank deficient.
 COND_MAX = 1.0e6
@@ -98,18 +111,24 @@ def min_leg_rate(platform) -> float:
                2.0 * float(hyd.get("coulomb_velocity", 0.0)))
 
 
-def se_limits(platform) -> np.ndarray:
+def se_limits(platform, leg_inertia: bool = False) -> np.ndarray:
     """The largest standard error each reported parameter may have (same
     order as REPORT_NAMES): 0.5 % of the config's mass, 2.5 mm for the centre
     of mass, 2.5 % of the config's mean principal inertia for every inertia
-    element, 5 % of the config's friction (at least 150 N s/m and 20 N)."""
+    element, 5 % of the config's friction (at least 150 N s/m and 20 N);
+    with ``leg_inertia`` the legs' inertia's (LEG_INERTIA_SE_SHARE)."""
     inertia = np.asarray(platform.inertia, float)
     scale_i = float(np.trace(inertia)) / 3.0
     hyd = getattr(platform, "hydraulic", None) or {}
     cv = np.asarray(hyd.get("viscous_friction", [0.0] * LEGS), float)
     fc = np.asarray(hyd.get("coulomb_friction", [0.0] * LEGS), float)
-    return np.concatenate([[0.005 * platform.mass], [2.5e-3] * 3, [0.025 * scale_i] * 6,
-                           np.maximum(0.05 * cv, 150.0), np.maximum(0.05 * fc, 20.0)])
+    out = np.concatenate([[0.005 * platform.mass], [2.5e-3] * 3, [0.025 * scale_i] * 6,
+                          np.maximum(0.05 * cv, 150.0), np.maximum(0.05 * fc, 20.0)])
+    if not leg_inertia:
+        return out
+    m_c, _, m_r, _ = model.leg_masses(platform)
+    lmax = float(getattr(platform, "leg_length_max", 3.0))
+    return np.append(out, max(LEG_INERTIA_SE_SHARE * (m_c + m_r) * lmax ** 2 / 12.0, 1.0))
 
 
 # -- offline differentiation -------------------------------------------------------
@@ -256,40 +275,58 @@ def wrench_regressor(jm: model.JointMotion, gravity: float) -> np.ndarray:
 @dataclass
 class Regression:
     """The stacked regression y = X theta + noise, one row per (tick, leg)."""
-    x: np.ndarray          #: (rows, 22)
+    x: np.ndarray          #: (rows, 22), or (rows, 23) with the legs' inertia
     y: np.ndarray          #: (rows,)
     tick_index: np.ndarray  #: (rows,) index into the motion arrays
     leg: np.ndarray        #: (rows,) 0..5
     rate: np.ndarray       #: (rows,) leg rate, m/s
 
 
-def build_regression(platform, pose, rate6, acc6, force, min_rate: float) -> Regression:
+def without_leg_inertia(platform):
+    """A shallow copy of ``platform`` whose legs have no moment of inertia."""
+    out = copy.copy(platform)
+    out.hydraulic = dict(getattr(platform, "hydraulic", None) or {}, cylinder_inertia=0.0, rod_inertia=0.0)
+    return out
+
+
+def build_regression(platform, pose, rate6, acc6, force, min_rate: float, leg_inertia: bool = False) -> Regression:
     """Rows of the regression from the motion (N, 6 each: pose, pose rates,
     pose accelerations) and the measured cylinder forces (N, 6, pressure
     force = F_i + friction). A row (tick, leg) is used when everything is
-    finite and |L_i'| > min_rate."""
+    finite and |L_i'| > min_rate. The legs' moments of inertia are the
+    config's (known, like the leg masses) or, with ``leg_inertia``, a 23rd
+    column: the cylinder forces per kg m^2 of I_c + I_r."""
     pose, rate6, acc6, force = (np.asarray(a, float) for a in (pose, rate6, acc6, force))
+    n_theta = N_THETA + int(leg_inertia)
     good_tick = np.all(np.isfinite(np.concatenate([pose, rate6, acc6], axis=1)), axis=1)
     ti = np.nonzero(good_tick)[0]
     if ti.size == 0:
-        return Regression(np.zeros((0, N_THETA)), np.zeros(0), np.zeros(0, int), np.zeros(0, int), np.zeros(0))
+        return Regression(np.zeros((0, n_theta)), np.zeros(0), np.zeros(0, int), np.zeros(0, int), np.zeros(0))
+    if leg_inertia:
+        platform = without_leg_inertia(platform)
     jm = model.joint_motion(platform, pose[ti], rate6[ti, :3], rate6[ti, 3:], acc6[ti, :3], acc6[ti, 3:])
     h = model.leg_joint_forces(platform, jm)
     known = np.concatenate([h.sum(axis=-2), np.cross(jm.arms, h).sum(axis=-2)], axis=-1)
     y_w = wrench_regressor(jm, float(platform.gravity))
-    rhs = np.concatenate([y_w, known[..., None]], axis=-1)            # (n, 6, 11)
-    z = np.linalg.solve(model.force_matrix_of(jm), rhs)                # cylinder space
+    cols = [y_w, known[..., None]]                                      # (n, 6, 11)
+    if leg_inertia:
+        hi = model.leg_inertia_forces(jm)
+        cols.append(np.concatenate([hi.sum(axis=-2), np.cross(jm.arms, hi).sum(axis=-2)], axis=-1)[..., None])
+    z = np.linalg.solve(model.force_matrix_of(jm), np.concatenate(cols, axis=-1))  # cylinder space
     v = jm.rates
     use = (np.abs(v) > min_rate) & np.isfinite(force[ti])
     t_rows, legs = np.nonzero(use)
     rows = t_rows.size
-    x = np.zeros((rows, N_THETA))
+    x = np.zeros((rows, n_theta))
     x[:, :N_RIGID] = z[t_rows, legs, :N_RIGID]
     hyd = getattr(platform, "hydraulic", None) or {}
     vc = float(hyd.get("coulomb_velocity", 1.0e-3))
     vr = v[t_rows, legs]
     x[np.arange(rows), N_RIGID + legs] = vr
     x[np.arange(rows), N_RIGID + LEGS + legs] = model.coulomb_shape(vr / vc)
+    if leg_inertia:
+        # H = H_0 + (I_c + I_r) H_1: its share moves to the regressor
+        x[:, N_THETA] = -z[t_rows, legs, N_RIGID + 1]
     # F_meas = A^-1 (Y theta - H) + friction  ->  F_meas + A^-1 H = X theta
     y = force[ti][t_rows, legs] + z[t_rows, legs, N_RIGID]
     return Regression(x, y, ti[t_rows], legs, vr)
@@ -312,14 +349,16 @@ def inertia_matrix(six) -> np.ndarray:
     return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
 
 
-def theta_of(platform) -> np.ndarray:
-    """theta of a config (inertia moved from the centre of mass to o')."""
+def theta_of(platform, leg_inertia: bool = False) -> np.ndarray:
+    """theta of a config (inertia moved from the centre of mass to o'; with
+    ``leg_inertia`` the legs' I_c + I_r last)."""
     m = float(platform.mass)
     c = np.asarray(getattr(platform, "center_of_mass", None) or [0.0] * 3, float)
     io = np.asarray(platform.inertia, float) + m * (c @ c * np.eye(3) - np.outer(c, c))
     hyd = getattr(platform, "hydraulic", None) or {}
-    return np.concatenate([[m], m * c, io[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]],
-                           hyd.get("viscous_friction", [0.0] * LEGS), hyd.get("coulomb_friction", [0.0] * LEGS)])
+    out = np.concatenate([[m], m * c, io[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]],
+                          hyd.get("viscous_friction", [0.0] * LEGS), hyd.get("coulomb_friction", [0.0] * LEGS)])
+    return np.append(out, sum(model.leg_inertias(platform))) if leg_inertia else out
 
 
 @dataclass
@@ -336,10 +375,15 @@ class Result:
     residual_rms: float          #: N
     min_rate: float
     info: dict[str, Any] = field(default_factory=dict)
+    names: tuple = tuple(REPORT_NAMES)  #: of values (the legs' inertia last when identified)
+    units: tuple = tuple(REPORT_UNITS)
 
 
-def _name_of_theta(j: int) -> str:
-    return REPORT_NAMES[j]
+def _tables(n_theta: int) -> tuple[tuple, tuple, tuple]:
+    """(names, units, hints) of the n_theta parameters (22, or 23 with the legs' inertia)."""
+    extra = n_theta - N_THETA
+    return (tuple(REPORT_NAMES) + (LEG_INERTIA_NAME,) * extra, tuple(REPORT_UNITS) + ("kg m^2",) * extra,
+            tuple(HINTS) + (LEG_INERTIA_HINT,) * extra)
 
 
 def solve(reg: Regression, platform, min_rate: float, check: bool = True) -> Result:
@@ -347,11 +391,12 @@ def solve(reg: Regression, platform, min_rate: float, check: bool = True) -> Res
     the residual variance. With ``check`` raises :class:`Unobservable` for
     the first parameter the data do not determine (rows, rank, condition,
     standard error, in that order)."""
-    n = reg.x.shape[0]
+    n, n_theta = reg.x.shape
+    names, units, hints = _tables(n_theta)
     if check:
-        if n < MIN_ROWS_PER_PARAM * N_THETA:
+        if n < MIN_ROWS_PER_PARAM * n_theta:
             raise IdentifyError(f"only {n} usable rows (ticks x moving legs) in the log; at least "
-                                f"{MIN_ROWS_PER_PARAM * N_THETA} are needed (running, |leg rate| > "
+                                f"{MIN_ROWS_PER_PARAM * n_theta} are needed (running, |leg rate| > "
                                 f"{min_rate:g} m/s)")
         for i in range(LEGS):
             v = reg.rate[reg.leg == i]
@@ -364,7 +409,7 @@ def solve(reg: Regression, platform, min_rate: float, check: bool = True) -> Res
     norms = np.linalg.norm(reg.x, axis=0)
     if check:
         for j in np.nonzero(norms == 0.0)[0]:
-            raise Unobservable(_name_of_theta(j), f"no row of the log depends on it; the log needs {HINTS[j]}")
+            raise Unobservable(names[j], f"no row of the log depends on it; the log needs {hints[j]}")
     norms = np.where(norms == 0.0, 1.0, norms)
     xs = reg.x / norms
     u, s, vt = np.linalg.svd(xs, full_matrices=False)
@@ -374,40 +419,40 @@ def solve(reg: Regression, platform, min_rate: float, check: bool = True) -> Res
         order = np.argsort(-np.abs(null))
         j, k = int(order[0]), int(order[1])
         if abs(null[k]) > 0.2 * abs(null[j]):
-            why = f"the log does not separate it from {_name_of_theta(k)}"
+            why = f"the log does not separate it from {names[k]}"
         else:
             why = "the log hardly excites it"
-        raise Unobservable(_name_of_theta(j), f"{why} (condition number {cond:.3g} of the scaled regressor, "
-                           f"limit {COND_MAX:.0e}); the log needs {HINTS[j]}")
+        raise Unobservable(names[j], f"{why} (condition number {cond:.3g} of the scaled regressor, "
+                           f"limit {COND_MAX:.0e}); the log needs {hints[j]}")
     s_inv = np.where(s > s[0] * 1e-15, 1.0 / s, 0.0)
     ths = vt.T @ (s_inv * (u.T @ reg.y))
     theta = ths / norms
     resid = reg.y - reg.x @ theta
-    dof = max(n - N_THETA, 1)
+    dof = max(n - n_theta, 1)
     sigma2 = float(resid @ resid) / dof
     cov_s = (vt.T * s_inv ** 2) @ vt * sigma2
     cov = cov_s / np.outer(norms, norms)
     values = derived(theta)
-    jac = np.empty((N_THETA, N_THETA))
-    for j in range(N_THETA):
+    jac = np.empty((n_theta, n_theta))
+    for j in range(n_theta):
         step = 1e-7 * max(abs(theta[j]), 1.0)
-        e = np.zeros(N_THETA)
+        e = np.zeros(n_theta)
         e[j] = step
         jac[:, j] = (derived(theta + e) - derived(theta - e)) / (2 * step)
     cov_d = jac @ cov @ jac.T
     se = np.sqrt(np.maximum(np.diag(cov_d), 0.0))
-    limits = se_limits(platform)
+    limits = se_limits(platform, n_theta > N_THETA)
     res = Result(theta, cov, values, se, limits, cond, n, int(np.unique(reg.tick_index).size),
-                 math.sqrt(float(resid @ resid) / max(n, 1)), min_rate)
+                 math.sqrt(float(resid @ resid) / max(n, 1)), min_rate, names=names, units=units)
     if check:
         ratio = np.where(np.isfinite(se), se / limits, np.inf)
         j = int(np.argmax(ratio))
         if not ratio[j] <= 1.0:
-            unit = REPORT_UNITS[j]
+            unit = units[j]
             what = "the log hardly excites it: " if ratio[j] > 100.0 else ""
-            raise Unobservable(REPORT_NAMES[j],
+            raise Unobservable(names[j],
                                f"{what}its standard error {se[j]:.3g} {unit} exceeds {limits[j]:.3g} {unit}; "
-                               f"the log needs more {HINTS[j]}")
+                               f"the log needs more {hints[j]}")
         check_physical(res)
     return res
 
@@ -424,9 +469,9 @@ def check_physical(res: Result) -> None:
                             f"(principal moments {', '.join(f'{e:.4g}' for e in ev)} kg m^2)")
     if ev[0] + ev[1] < ev[2]:
         raise IdentifyError("inertia: the estimate violates the triangle inequality (not a rigid body)")
-    for j in range(N_RIGID, N_THETA):
+    for j in range(N_RIGID, v.size):
         if v[j] < -3.0 * res.se[j]:
-            raise IdentifyError(f"{REPORT_NAMES[j]}: estimated {v[j]:.4g} {REPORT_UNITS[j]} is negative "
+            raise IdentifyError(f"{res.names[j]}: estimated {v[j]:.4g} {res.units[j]} is negative "
                                 f"beyond three standard errors")
 
 
@@ -481,13 +526,15 @@ def motion_from_lengths(platform, ticks, lengths, force, running, guess=None,
     return Motion(ticks, smooth, rate, acc, np.asarray(force, float), np.asarray(running, bool), step)
 
 
-def identify_motion(platform, motion: Motion, min_rate: float | None = None, check: bool = True) -> Result:
-    """Identification from a :class:`Motion` (RUNNING ticks only)."""
+def identify_motion(platform, motion: Motion, min_rate: float | None = None, check: bool = True,
+                    leg_inertia: bool = False) -> Result:
+    """Identification from a :class:`Motion` (RUNNING ticks only); with
+    ``leg_inertia`` the legs' moments of inertia too (else the config's)."""
     if min_rate is None:
         min_rate = min_leg_rate(platform)
     keep = motion.running & np.all(np.isfinite(motion.acc), axis=1)
     pose = np.where(keep[:, None], motion.pose, np.nan)
-    reg = build_regression(platform, pose, motion.rate, motion.acc, motion.force, min_rate)
+    reg = build_regression(platform, pose, motion.rate, motion.acc, motion.force, min_rate, leg_inertia)
     res = solve(reg, platform, min_rate, check)
     res.info.update(running_ticks=int(np.sum(motion.running)), differentiated_ticks=int(np.sum(keep)),
                     feedback_every_ticks=int(motion.step))
@@ -508,7 +555,7 @@ def feedback_step(ticks: np.ndarray, lengths: np.ndarray) -> int:
 
 
 def identify_log(log, platform, buses=None, min_rate: float | None = None,
-                 half: int = SG_HALF, order: int = SG_ORDER) -> Result:
+                 half: int = SG_HALF, order: int = SG_ORDER, leg_inertia: bool = False) -> Result:
     """Reads a CAN log (as ``stewart analyze``) and identifies from its
     RUNNING ticks. Raises IdentifyError (or Unobservable) with the reason."""
     from .analysis.decode import read_log
@@ -528,7 +575,7 @@ def identify_log(log, platform, buses=None, min_rate: float | None = None,
     rows = np.all(np.isfinite(data.length), axis=1) if step > 1 else slice(None)
     motion = motion_from_lengths(platform, data.ticks[rows], data.length[rows], data.force[rows], running[rows],
                                  guess=data.estimate[rows], half=half, order=order, step=step)
-    res = identify_motion(platform, motion, min_rate)
+    res = identify_motion(platform, motion, min_rate, leg_inertia=leg_inertia)
     res.info.update(log=str(log), ticks_in_log=len(data), bad_frames=data.stats.bad_frames)
     return res
 
@@ -537,7 +584,10 @@ def identify_log(log, platform, buses=None, min_rate: float | None = None,
 
 def updated_config(raw: dict, res: Result) -> dict:
     """A copy of the config dict ``raw`` with the identified mass, centre of
-    mass, inertia (about the centre of mass) and friction lists."""
+    mass, inertia (about the centre of mass) and friction lists, and the
+    legs' moments of inertia when identified: their sum (clipped at 0)
+    shared between barrel and rod as in ``raw`` (all to the barrel when
+    ``raw`` has none)."""
     out = copy.deepcopy(raw)
     v = res.values
     out["mass"] = round(float(v[0]), 3)
@@ -546,7 +596,13 @@ def updated_config(raw: dict, res: Result) -> dict:
     out["inertia"] = [[round(float(x), 2) for x in row] for row in ig]
     hyd = out.setdefault("hydraulic", {})
     hyd["viscous_friction"] = [round(float(x), 1) for x in v[N_RIGID:N_RIGID + LEGS]]
-    hyd["coulomb_friction"] = [round(max(float(x), 0.0), 1) for x in v[N_RIGID + LEGS:]]
+    hyd["coulomb_friction"] = [round(max(float(x), 0.0), 1) for x in v[N_RIGID + LEGS:N_THETA]]
+    if v.size > N_THETA:
+        total = max(float(v[N_THETA]), 0.0)
+        ic, ir = float(hyd.get("cylinder_inertia", 0.0)), float(hyd.get("rod_inertia", 0.0))
+        share = ic / (ic + ir) if ic + ir > 0.0 else 1.0
+        hyd["cylinder_inertia"] = round(total * share, 3)
+        hyd["rod_inertia"] = round(total * (1.0 - share), 3)
     hyd["viscous_friction"] = [max(x, 0.0) for x in hyd["viscous_friction"]]
     if "breakaway_friction" in hyd:
         bf = hyd["breakaway_friction"]
@@ -563,8 +619,8 @@ def format_result(res: Result) -> str:
     lines = [f"{res.ticks} running {sampled}, {res.rows} rows (|leg rate| > {res.min_rate:g} m/s); "
              f"residual RMS {res.residual_rms:.1f} N; condition number of the scaled regressor "
              f"{res.condition:.3g}"]
-    w = max(len(n) for n in REPORT_NAMES)
-    for name, unit, v, se in zip(REPORT_NAMES, REPORT_UNITS, res.values, res.se):
+    w = max(len(n) for n in res.names)
+    for name, unit, v, se in zip(res.names, res.units, res.values, res.se):
         lines.append(f"  {name:<{w}}  {v:12.5g} +- {se:9.3g} {unit}")
     return "\n".join(lines)
 

@@ -11,8 +11,10 @@ rotation from the motion frame to the base frame is R = T^T = Rz Ry Rx.
 F_i > 0 pushes the platform away from the base along the leg.
 
 Beyond the paper (derivation in docs/explanation/identification.md, "The complete
-model"): the centre of mass off o', the legs' barrels and rods as point
-masses on the leg axes (Newton-Euler with the joint reactions), and the
+model"): the centre of mass off o', the legs' barrels and rods as bodies on
+the leg axes with their masses and their moments of inertia across the leg
+(Newton-Euler with the joint reactions; docs/explanation/model.md "Leg
+inertia"), and the
 cylinders' viscous + smoothed Coulomb friction (``friction_force``). With
 the default config (no leg masses, centre of mass at o') the forces are the
 paper's. The ``*_many`` functions and ``joint_motion`` take any leading
@@ -149,6 +151,13 @@ def leg_masses(platform) -> tuple[float, float, float, float]:
             float(hyd.get("rod_mass", 0.0)), float(hyd.get("rod_com", 0.0)))
 
 
+def leg_inertias(platform) -> tuple[float, float]:
+    """(I_c, I_r): the barrel's and the rod's moments of inertia about their
+    own centres across the leg (kg m^2); 0 when the config has none."""
+    hyd = getattr(platform, "hydraulic", None) or {}
+    return float(hyd.get("cylinder_inertia", 0.0)), float(hyd.get("rod_inertia", 0.0))
+
+
 @dataclass
 class JointMotion:
     """Position, velocity and acceleration of everything a pose trajectory
@@ -211,9 +220,11 @@ def leg_joint_forces(platform, jm: JointMotion) -> np.ndarray:
 
         h_i = m_r u u.(g - c2'') + (1/L) P [m_c d_c (g - c1'') + m_r (L - d_r)(g - c2'')]
 
-    with g = (0, 0, -g), P = 1 - u u^T, c1'' = d_c u'', c2'' = a_A - d_r u''."""
+    with g = (0, 0, -g), P = 1 - u u^T, c1'' = d_c u'', c2'' = a_A - d_r u'',
+    plus the legs' moments of inertia across the leg (``leg_inertia_forces``)."""
     m_c, d_c, m_r, d_r = leg_masses(platform)
-    if m_c == 0.0 and m_r == 0.0:
+    i_c, i_r = leg_inertias(platform)
+    if m_c == 0.0 and m_r == 0.0 and i_c == 0.0 and i_r == 0.0:
         return np.zeros(jm.arms.shape)
     g = np.array([0.0, 0.0, -float(platform.gravity)])
     u = jm.units
@@ -222,7 +233,27 @@ def leg_joint_forces(platform, jm: JointMotion) -> np.ndarray:
     axial = m_r * np.einsum("...k,...k->...", u, g - c2dd)[..., None] * u
     q = m_c * d_c * (g - c1dd) + m_r * (jm.lengths[..., None] - d_r) * (g - c2dd)
     transverse = (q - np.einsum("...k,...k->...", u, q)[..., None] * u) / jm.lengths[..., None]
+    if i_c != 0.0 or i_r != 0.0:
+        transverse = transverse + (i_c + i_r) * leg_inertia_forces(jm)
     return axial + transverse
+
+
+def leg_inertia_forces(jm: JointMotion) -> np.ndarray:
+    """The force (..., 6, 3) each leg exerts on the platform at A_i per kg m^2
+    of moment of inertia across the leg (the barrel's and the rod's add).
+    The barrel and the rod turn with the leg, at the angular velocity
+    w_L = u x u' (no spin about the axis), so w_L' = u x u''. Symmetric about
+    the axis, each has the angular momentum I w_L about its centre, whose
+    rate I u x u'' the moment of the joint reactions must supply. About the
+    base joint B_i (where the joint gives no moment across the leg) the
+    platform's force -f on the leg at L u gives it: L u x (-f) = I u x u'',
+    and f across the leg (a force along it has no moment about B_i and is
+    the rod's balance) is
+
+        f = -(1/L) P u''    per unit I,  P = 1 - u u^T."""
+    u = jm.units
+    udd = jm.unit_acc
+    return -(udd - np.einsum("...k,...k->...", u, udd)[..., None] * u) / jm.lengths[..., None]
 
 
 def rigid_body_wrench(platform, jm: JointMotion, external=(0.0, 0.0, 0.0)) -> np.ndarray:

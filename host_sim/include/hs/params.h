@@ -53,11 +53,14 @@ typedef struct {
     double end_stop_stiffness;          /**< N/m, beyond the stroke ends */
     double end_stop_damping;            /**< N s/m, beyond the stroke ends (and reached at the end of the cushion) */
     /* Optional leg masses (config keys may be absent: 0 = off, the default;
-     * docs/explanation/plant.md "Leg masses"). Each leg is two point masses on its axis. */
-    double cylinder_mass; /**< cylinder body (barrel), kg, >= 0 */
-    double cylinder_com;  /**< its centre of mass from the base joint B_i along the leg, m, >= 0 */
-    double rod_mass;      /**< rod + piston (sliding part), kg, >= 0 */
-    double rod_com;       /**< its centre of mass from the platform joint towards the base, m, >= 0 */
+     * docs/explanation/plant.md "Leg masses"). Each leg is two rigid bodies on its axis:
+     * a mass at its centre and a moment of inertia across the leg. */
+    double cylinder_mass;    /**< cylinder body (barrel), kg, >= 0 */
+    double cylinder_com;     /**< its centre of mass from the base joint B_i along the leg, m, >= 0 */
+    double rod_mass;         /**< rod + piston (sliding part), kg, >= 0 */
+    double rod_com;          /**< its centre of mass from the platform joint towards the base, m, >= 0 */
+    double cylinder_inertia; /**< barrel's moment of inertia about its centre across the leg, kg m^2, >= 0 */
+    double rod_inertia;      /**< rod + piston's about their centre across the leg, kg m^2, >= 0 */
 } hs_hydraulic_config_t;
 
 /** config "sensors" section. */
@@ -135,6 +138,8 @@ typedef struct {
     double cylinder_com;  /**< its centre from the base joint along the leg, m, 0..length_min + stroke */
     double rod_mass;      /**< rod + piston, kg, >= 0 (independent of piston_mass, which only sets the drive gains) */
     double rod_com;       /**< its centre from the platform joint towards the base, m, 0..length_min + stroke */
+    double cylinder_inertia; /**< barrel's moment of inertia about its centre across the leg, kg m^2, >= 0 */
+    double rod_inertia;      /**< rod + piston's about their centre across the leg, kg m^2, >= 0 */
 } hs_cyl_params_t;
 
 /** Sensor model of every axis. */

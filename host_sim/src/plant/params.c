@@ -34,8 +34,8 @@ static hs_status_t check_cyl(const hs_cyl_params_t *c)
         !finite_pos(c->coulomb_velocity) || !finite_nonneg(c->cushion_length) ||
         !(c->cushion_length < 0.5 * c->stroke) || !finite_pos(c->stop_stiffness) || !finite_nonneg(c->stop_damping) ||
         !finite_nonneg(c->cylinder_mass) || !finite_nonneg(c->cylinder_com) || !finite_nonneg(c->rod_mass) ||
-        !finite_nonneg(c->rod_com) || !(c->cylinder_com <= c->length_min + c->stroke) ||
-        !(c->rod_com <= c->length_min + c->stroke)) {
+        !finite_nonneg(c->rod_com) || !finite_nonneg(c->cylinder_inertia) || !finite_nonneg(c->rod_inertia) ||
+        !(c->cylinder_com <= c->length_min + c->stroke) || !(c->rod_com <= c->length_min + c->stroke)) {
         return HS_E_ARG;
     }
     /* friction: F_s >= F_c; LuGre needs F_c > 0 (g(v) >= F_c keeps z' bounded)
@@ -215,6 +215,8 @@ static void cylinder_from_config(const hs_config_t *cf, hs_cyl_params_t *c)
     c->cylinder_com = h->cylinder_com;
     c->rod_mass = h->rod_mass;
     c->rod_com = h->rod_com;
+    c->cylinder_inertia = h->cylinder_inertia;
+    c->rod_inertia = h->rod_inertia;
 }
 
 /* The drives' gains and safety functions, from the cylinder c (docs/explanation/plant.md). */

@@ -86,21 +86,26 @@ static void contact_force(const hs_contact_t *ct, const double pc[3], const doub
     }
 }
 
-/* Leg masses (docs/explanation/plant.md "Leg masses"). Leg i is two point masses on
+/* Leg masses (docs/explanation/plant.md "Leg masses"). Leg i is two rigid bodies on
  * its axis u = (A - B)/L: the cylinder body m_c at B + d_c u and the rod
- * m_r at A - d_r u, so its configuration follows from the platform joint A
- * alone. By virtual work the leg acts on the platform at A with
- *   F = -M a_A + b,   M = m_r u u^T + mu P,   mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2,
- *   b = -(d_c/L) m_c P (d_c beta + g e_z) - m_r S (-d_r beta + g e_z),
- * P = I - u u^T, S = I - (d_r/L) P, and beta = u'' - P a_A / L the
- * velocity part of u'' = (P a_A - 2 L' u' - (|v_A|^2 - L'^2)/L u) / L.
+ * m_r at A - d_r u, each with its moment of inertia across the leg about
+ * its centre (I_c, I_r; symmetric about the axis, no spin about it), so its
+ * configuration follows from the platform joint A alone. The bodies turn
+ * with the leg's angular velocity u x u', whose rate is u x u''. By virtual
+ * work the leg acts on the platform at A with
+ *   F = -M a_A + b,   M = m_r u u^T + mu P,   mu = (J_c + m_r (L - d_r)^2) / L^2,
+ *   b = -(1/L) P ((J_c) beta + m_c d_c g e_z) - m_r S (-d_r beta + g e_z),
+ * J_c = m_c d_c^2 + I_c + I_r, P = I - u u^T, S = I - (d_r/L) P, and
+ * beta = u'' - P a_A / L the velocity part of
+ * u'' = (P a_A - 2 L' u' - (|v_A|^2 - L'^2)/L u) / L.
  * This function computes M and b from u, L and the joint velocity v_A
  * (base frame); va = NULL means at rest. */
 static void leg_mass_terms(const hs_cyl_params_t *c, const double un[3], double len, const double *va, double g,
                            double mm[3][3], double b[3])
 {
     double mc = c->cylinder_mass, dc = c->cylinder_com, mr = c->rod_mass, dr = c->rod_com;
-    double mu = (mc * dc * dc + mr * (len - dr) * (len - dr)) / (len * len);
+    double jc = mc * dc * dc + c->cylinder_inertia + c->rod_inertia;
+    double mu = (jc + mr * (len - dr) * (len - dr)) / (len * len);
     double beta[3] = {0.0, 0.0, 0.0}, y1[3], y2[3], py1[3], py2[3], d1, d2;
     for (int r = 0; r < 3; ++r) {
         for (int k = 0; k < 3; ++k) {
@@ -127,6 +132,14 @@ static void leg_mass_terms(const hs_cyl_params_t *c, const double un[3], double 
         py1[k] = y1[k] - d1 * un[k];
         py2[k] = y2[k] - d2 * un[k];
         b[k] = -(dc / len) * mc * py1[k] - mr * (y2[k] - (dr / len) * py2[k]);
+    }
+    if (c->cylinder_inertia > 0.0 || c->rod_inertia > 0.0) {
+        /* the inertias' part of J_c: -(I_c + I_r) / L P beta */
+        double ib = (c->cylinder_inertia + c->rod_inertia) / len;
+        double pb = un[0] * beta[0] + un[1] * beta[1] + un[2] * beta[2];
+        for (int k = 0; k < 3; ++k) {
+            b[k] -= ib * (beta[k] - pb * un[k]);
+        }
     }
 }
 
@@ -648,7 +661,8 @@ hs_status_t hs_plant_init(hs_plant_t *pl, const hs_params_t *params, const doubl
     }
     hs_quat_from_rpy(&pose[3], &pl->x[HS_X_QUAT]);
     for (int i = 0; i < HS_LEGS; ++i) {
-        if (pl->par.cyl[i].cylinder_mass > 0.0 || pl->par.cyl[i].rod_mass > 0.0) {
+        if (pl->par.cyl[i].cylinder_mass > 0.0 || pl->par.cyl[i].rod_mass > 0.0 ||
+            pl->par.cyl[i].cylinder_inertia > 0.0 || pl->par.cyl[i].rod_inertia > 0.0) {
             pl->legs_on = 1;
         }
     }

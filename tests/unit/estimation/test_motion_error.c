@@ -682,9 +682,10 @@ static void test_motion_error_wrench_vs_dynamics(void **state)
  * pose's IK (mass within 0.01 kg, centre within 1 um, inertia within
  * 0.01 kg m^2), and against the legs' inertia of the float64 model
  * (tools/stewart/model.py: the inverse dynamics' mass matrix at home with
- * legs minus without: diagonal 137.1, 137.1, 195.7 kg and 126.2, 126.2,
- * 174.4 kg m^2, coupling 32.9 kg m) within 0.5; massless legs and the
- * envelope. */
+ * legs minus without, the default's leg inertias 11.25 + 7.5 kg m^2
+ * included: diagonal 153.0, 153.0, 198.8 kg and 129.3, 129.3, 191.8 kg m^2,
+ * coupling 37.2 kg m; point-mass legs gave 137.1, 137.1, 195.7, 126.2,
+ * 126.2, 174.4 and 32.9) within 0.5; massless legs and the envelope. */
 static void test_motion_error_body(void **state)
 {
     const sp_platform_t *p = &sp_platform_default;
@@ -700,7 +701,8 @@ static void test_motion_error_body(void **state)
         double len = ik.length[i] / Q24;
         double mc = lm->cylinder_mass / 65536.0, dc = lm->cylinder_com / Q24;
         double mr = lm->rod_mass / 65536.0, dr = lm->rod_com / Q24;
-        double mu = (mc * dc * dc + mr * (len - dr) * (len - dr)) / (len * len);
+        double il = (lm->cylinder_inertia + lm->rod_inertia) / 65536.0; /* across the leg */
+        double mu = (mc * dc * dc + il + mr * (len - dr) * (len - dr)) / (len * len);
         for (int k = 0; k < 3; ++k) {
             u[k] = ik.unit[i][k] / 1073741824.0;
             r[k] = ik.arm[i][k] / Q24;
@@ -741,13 +743,13 @@ static void test_motion_error_body(void **state)
             }
         }
         /* the float64 model's leg inertia at home */
-        assert_near(kt[0][0], 137.1, 0.5, "K xx");
-        assert_near(kt[1][1], 137.1, 0.5, "K yy");
-        assert_near(kt[2][2], 195.7, 0.5, "K zz");
-        assert_near(b[0][0], 126.2, 0.5, "B xx");
-        assert_near(b[1][1], 126.2, 0.5, "B yy");
-        assert_near(b[2][2], 174.4, 0.5, "B zz");
-        assert_near(s[2], -32.9, 0.5, "first moment z");
+        assert_near(kt[0][0], 153.0, 0.5, "K xx");
+        assert_near(kt[1][1], 153.0, 0.5, "K yy");
+        assert_near(kt[2][2], 198.8, 0.5, "K zz");
+        assert_near(b[0][0], 129.3, 0.5, "B xx");
+        assert_near(b[1][1], 129.3, 0.5, "B yy");
+        assert_near(b[2][2], 191.8, 0.5, "B zz");
+        assert_near(s[2], -37.2, 0.5, "first moment z");
         printf("legs at home: mass +%.1f kg, first moment (%.1f, %.1f, %.1f) kg m, inertia +%.1f +%.1f +%.1f kg m^2\n",
                m - p->mass / 65536.0, s[0], s[1], s[2], b[0][0], b[1][1], b[2][2]);
     }
@@ -767,6 +769,12 @@ static void test_motion_error_body(void **state)
         assert_memory_equal(body.inertia, q.inertia, sizeof q.inertia);
         q = *p;
         q.leg_mass.cylinder_com = 3 << 24; /* longer than the legs at home */
+        assert_int_equal(sp_motion_error_body(&q, &body), SP_E_RANGE);
+        q = *p;
+        q.leg_mass.rod_inertia = 600 << 16; /* beyond 512 kg m^2 */
+        assert_int_equal(sp_motion_error_body(&q, &body), SP_E_RANGE);
+        q = *p;
+        q.leg_mass.cylinder_inertia = -1; /* negative */
         assert_int_equal(sp_motion_error_body(&q, &body), SP_E_RANGE);
         assert_int_equal(sp_motion_error_body(NULL, &body), SP_E_ARG);
         assert_int_equal(sp_motion_error_body(p, NULL), SP_E_ARG);

@@ -61,6 +61,14 @@ static void random_platform(uint64_t *rng, sp_platform_t *p)
     p->leg_mass.cylinder_com = ref_q24(tu_uniform(rng, 0.1, 1.0));
     p->leg_mass.rod_mass = ref_q16(tu_uniform(rng, 0.0, 60.0));
     p->leg_mass.rod_com = ref_q24(tu_uniform(rng, 0.1, 1.0));
+    /* half the cases with the legs' moments of inertia across the leg */
+    {
+        /* drawn from a stream of their own, so that the cases' other draws
+         * (and what they cover) stay those of the point-mass legs */
+        uint64_t irng = *rng ^ UINT64_C(0x9e3779b97f4a7c15);
+        p->leg_mass.cylinder_inertia = (tu_uniform(&irng, 0.0, 1.0) < 0.5) ? 0 : ref_q16(tu_uniform(&irng, 0.0, 30.0));
+        p->leg_mass.rod_inertia = (p->leg_mass.cylinder_inertia == 0) ? 0 : ref_q16(tu_uniform(&irng, 0.0, 20.0));
+    }
     for (int k = 0; k < 3; ++k) {
         p->center_of_mass[k] = (tu_uniform(rng, 0.0, 1.0) < 0.25) ? 0 : ref_q24(tu_uniform(rng, -0.2, 0.2));
     }

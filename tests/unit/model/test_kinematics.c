@@ -1078,8 +1078,10 @@ static void test_inverse_dynamics(void **state)
 
 /* Energy of the platform and its legs (J) at pose q with pose rates qd:
  * kinetic (about o': m |v|^2 / 2 + m v . (w x R c) + w.I w / 2, with the
- * legs' point masses) plus potential (every mass at its height). Written
- * from the kinematics alone, independently of the dynamics. */
+ * legs' point masses and their moments of inertia across the leg, which
+ * turn at |u'|: (I_c + I_r) |u'|^2 / 2) plus potential (every mass at its
+ * height). Written from the kinematics alone, independently of the
+ * dynamics. */
 static double platform_energy(const sp_platform_t *p, const double q[6], const double qd[6])
 {
     double r[3][3], len[6], unit[6][3], arm[6][3], w[3], wd[3], wb[3], rc[3], wxc[3];
@@ -1087,6 +1089,7 @@ static double platform_energy(const sp_platform_t *p, const double q[6], const d
     double m = ref_f16(p->mass), g = ref_f24(p->gravity);
     double mc = ref_f16(p->leg_mass.cylinder_mass), dc = ref_f24(p->leg_mass.cylinder_com);
     double mr = ref_f16(p->leg_mass.rod_mass), dr = ref_f24(p->leg_mass.rod_com);
+    double il = ref_f16(p->leg_mass.cylinder_inertia) + ref_f16(p->leg_mass.rod_inertia);
     double e = 0.0;
     ref_rot(&q[3], r);
     ref_ik(p, q, len, unit, arm);
@@ -1109,7 +1112,7 @@ static double platform_energy(const sp_platform_t *p, const double q[6], const d
     }
     e += m * g * (q[2] + rc[2]);
     for (int i = 0; i < 6; ++i) {
-        double va[3], ud[3], ld = 0.0, vc2 = 0.0, vr2 = 0.0;
+        double va[3], ud[3], ld = 0.0, vc2 = 0.0, vr2 = 0.0, ud2 = 0.0;
         va[0] = qd[0] + wb[1] * arm[i][2] - wb[2] * arm[i][1];
         va[1] = qd[1] + wb[2] * arm[i][0] - wb[0] * arm[i][2];
         va[2] = qd[2] + wb[0] * arm[i][1] - wb[1] * arm[i][0];
@@ -1120,14 +1123,16 @@ static double platform_energy(const sp_platform_t *p, const double q[6], const d
             ud[k] = (va[k] - ld * unit[i][k]) / len[i];
             vc2 += (dc * ud[k]) * (dc * ud[k]);
             vr2 += (va[k] - dr * ud[k]) * (va[k] - dr * ud[k]);
+            ud2 += ud[k] * ud[k];
         }
-        e += 0.5 * mc * vc2 + 0.5 * mr * vr2;
+        e += 0.5 * mc * vc2 + 0.5 * mr * vr2 + 0.5 * il * ud2;
         e += g * (mc * (ref_f24(p->base_joint[i][2]) + dc * unit[i][2]) + mr * (q[2] + arm[i][2] - dr * unit[i][2]));
     }
     return e;
 }
 
-/* Leg masses and a centre of mass off o': the power of the cylinder forces,
+/* Leg masses (every other motion with the legs' moments of inertia across
+ * the leg) and a centre of mass off o': the power of the cylinder forces,
  * sum F_i L'_i, equals the rate of change of the energy of the platform and
  * its legs (platform_energy, differentiated numerically along the motion
  * q(t) = q + qd t + qdd t^2 / 2). With massless legs and c = 0 the forces
@@ -1150,6 +1155,11 @@ static void test_inverse_dynamics_legs_power(void **state)
         p.leg_mass.cylinder_com = ref_q24(tu_uniform(&rng, 0.1, 1.0));
         p.leg_mass.rod_mass = ref_q16(tu_uniform(&rng, 0.0, 60.0));
         p.leg_mass.rod_com = ref_q24(tu_uniform(&rng, 0.1, 1.0));
+        if (n % 2 == 1) {
+            /* every other motion with the legs' moments of inertia */
+            p.leg_mass.cylinder_inertia = ref_q16(tu_uniform(&rng, 0.0, 30.0));
+            p.leg_mass.rod_inertia = ref_q16(tu_uniform(&rng, 0.0, 20.0));
+        }
         for (int k = 0; k < 3; ++k) {
             p.center_of_mass[k] = ref_q24(tu_uniform(&rng, -0.2, 0.2));
         }

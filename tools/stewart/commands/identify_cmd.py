@@ -8,7 +8,9 @@ them observable (docs/explanation/identification.md).
         RUNNING ticks in which a leg moves faster than --min-leg-rate, fits
         the 22 parameters by least squares, prints each with its standard
         error and the condition number of the scaled regressor, and writes
-        CFG with the identified values to NEW.json. Refuses (exit 1), naming
+        CFG with the identified values to NEW.json. The legs' moments of
+        inertia are held at CFG's, or with --leg-inertia identified too
+        (their sum, shared between barrel and rod as in CFG). Refuses (exit 1), naming
         the parameter and the reason, when the excitation leaves a parameter
         unobservable.
 
@@ -69,7 +71,7 @@ def _identify(args) -> int:
         print(f"{PROG}: decoding {args.log} and fitting the parameters", file=sys.stderr, flush=True)
     try:
         res = idf.identify_log(args.log, platform, buses=args.bus, min_rate=args.min_leg_rate,
-                               half=args.half_window, order=args.order)
+                               half=args.half_window, order=args.order, leg_inertia=args.leg_inertia)
     except idf.IdentifyError as exc:
         return _err(f"{args.log}: refused: {exc}", 1)
     except OSError as exc:
@@ -137,6 +139,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--half-window", type=int, default=50,
                    help="Savitzky-Golay half window for the pose derivatives, ticks (default 50)")
     p.add_argument("--order", type=int, default=4, help="Savitzky-Golay polynomial order (default 4)")
+    p.add_argument("--leg-inertia", action="store_true",
+                   help="identify the legs' moments of inertia across the leg (their sum I_c + I_r, "
+                        "a 23rd parameter; default: hold the config's cylinder_inertia and rod_inertia)")
     p.add_argument("--csv", help="with --scenario: the CSV to write and play (default OUT with .csv)")
     p.add_argument("--duration", type=float, default=60.0, help="with --scenario: length, s (default 60)")
     p.add_argument("--band", type=float, nargs=2, default=(0.1, 0.8), metavar=("FMIN", "FMAX"),

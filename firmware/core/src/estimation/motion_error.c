@@ -382,19 +382,30 @@ sp_status_t sp_motion_error_wrench_m6(const sp_me_m6_t *m6, const sp_rot_t *rot,
 #define ME_SHR(x, s) (((x) + (INT64_C(1) << ((s)-1u))) >> (s))
 
 /* The envelope that bounds every product of the legs' sums: leg masses
- * below 512 kg, centres below 8 m, arms below 4 m per component, every leg
- * longer than its centres (mu then below m_c + m_r). Returns 1 within it,
- * with the IK at home in *ik. */
+ * below 512 kg, their moments of inertia across the leg below 512 kg m^2,
+ * centres below 8 m, arms below 4 m per component, every leg longer than
+ * its centres, and than 0.5 m when an inertia is not 0 (mu then below
+ * m_c + m_r + 4 (I_c + I_r) < 5120 kg). Returns 1 within it, with the IK
+ * at home in *ik. */
+/* me_envelope's bounds of the legs' moments of inertia across the leg,
+ * 512 kg m^2 in Q16, and of the legs' length when they have one, 0.5 m in
+ * Q24 (written out: MISRA 10.1, no shift of a signed constant) */
+#define ME_LEG_INERTIA_MAX INT32_C(33554432)
+#define ME_LEG_SPIN_MIN INT32_C(8388608)
+
 static int me_envelope(const sp_platform_t *platform, const sp_leg_mass_t *lm, sp_ik_t *ik)
 {
     unsigned i, k;
     if (lm->cylinder_mass < 0 || lm->rod_mass < 0 || lm->cylinder_mass >= (512 << 16) || lm->rod_mass >= (512 << 16) ||
         lm->cylinder_com < 0 || lm->rod_com < 0 || lm->cylinder_com >= (8 << 24) || lm->rod_com >= (8 << 24) ||
+        ((lm->cylinder_inertia < 0) || (lm->rod_inertia < 0)) ||
+        ((lm->cylinder_inertia >= ME_LEG_INERTIA_MAX) || (lm->rod_inertia >= ME_LEG_INERTIA_MAX)) ||
         sp_inverse_kinematics(platform, &platform->home, ik) != SP_OK) {
         return 0;
     }
     for (i = 0u; i < SP_LEGS; ++i) {
-        if (ik->length[i] <= lm->cylinder_com || ik->length[i] <= lm->rod_com || ik->length[i] >= (8 << 24)) {
+        if (ik->length[i] <= lm->cylinder_com || ik->length[i] <= lm->rod_com || ik->length[i] >= (8 << 24) ||
+            ((ik->length[i] <= ME_LEG_SPIN_MIN) && ((lm->cylinder_inertia | lm->rod_inertia) != 0))) {
             return 0;
         }
         for (k = 0u; k < 3u; ++k) {
@@ -416,11 +427,14 @@ static void me_leg_sums(const sp_leg_mass_t *lm, const sp_ik_t *ik, unsigned i, 
     int64_t len = ik->length[i];
     int64_t dr = len - lm->rod_com;
     unsigned j, k, l;
-    /* mu = (m_c d_c^2 + m_r (L - d_r)^2) / L^2, kg, Q16: the squares in
-     * Q24 (lengths below 8 m: < 2^30), times the masses (Q16, < 2^31):
-     * Q40 below 2^61 each; L^2 > 0 (the IK's lengths are positive) */
+    /* mu = (m_c d_c^2 + m_r (L - d_r)^2 + I_c + I_r) / L^2, kg, Q16 (the
+     * moments of inertia across the leg, docs/explanation/model.md "Leg
+     * inertia"): the squares in Q24 (lengths below 8 m: < 2^30), times the
+     * masses (Q16, < 2^31): Q40 below 2^61 each, the inertias (Q16, < 2^25)
+     * in Q40 below 2^49; L^2 > 0 (the IK's lengths are positive) */
     int64_t num = (int64_t)lm->cylinder_mass * ME_SHR((int64_t)lm->cylinder_com * lm->cylinder_com, 24u) +
-                  (int64_t)lm->rod_mass * ME_SHR(dr * dr, 24u);
+                  (int64_t)lm->rod_mass * ME_SHR(dr * dr, 24u) +
+                  ((int64_t)lm->cylinder_inertia + lm->rod_inertia) * (INT64_C(1) << 24);
     int64_t mu = num / ME_SHR(len * len, 24u);
     int64_t axial = (int64_t)lm->rod_mass - mu; /* m_r - mu, kg, Q16 */
     int64_t kk[3][3];                           /* K = mu 1 + (m_r - mu) u u^T, kg, Q16 */
@@ -510,7 +524,7 @@ sp_status_t sp_motion_error_body(const sp_platform_t *platform, sp_me_body_t *bo
         }
     }
     lm = &platform->leg_mass;
-    if (lm->cylinder_mass == 0 && lm->rod_mass == 0) {
+    if (lm->cylinder_mass == 0 && lm->rod_mass == 0 && lm->cylinder_inertia == 0 && lm->rod_inertia == 0) {
         return SP_OK; /* massless legs: the rigid body as it is */
     }
     if (!me_envelope(platform, lm, &ik)) {

@@ -193,12 +193,16 @@ SPI_INLINE void legs_sums_done(const int64_t fsum[3], const int64_t msum[3], sp_
  * velocity v_A, acceleration a_A), acts on the platform with its cylinder
  * force F_i u minus
  *   h_i = mu a_A + c1 v_A + (0, 0, k_g g) + s_i u,
- *   mu  = (m_c d_c^2 + m_r (L - d_r)^2) / L^2     (transverse inertia at A)
+ *   mu  = (J_c + m_r (L - d_r)^2) / L^2           (transverse inertia at A)
  *   k_g = (m_c d_c + m_r (L - d_r)) / L           (weight carried at A)
- *   c1  = -2 L' (m_c d_c^2 - m_r d_r (L - d_r)) / L^3
+ *   c1  = -2 L' (J_c - m_r d_r (L - d_r)) / L^3
  *   s_i = m_r (u.a_A + g u_z + d_r |u'|^2) - mu u.a_A - k_g g u_z - c1 L',
- * with |u'|^2 = (|v_A|^2 - L'^2) / L^2 (moment balance of the leg about its
- * base joint, and the rod's balance along its axis). The parts along u add
+ * with |u'|^2 = (|v_A|^2 - L'^2) / L^2 and J_c = m_c d_c^2 + I_c + I_r
+ * (moment balance of the leg about its base joint, and the rod's balance
+ * along its axis). The legs' moments of inertia across the leg, I_c and
+ * I_r, turn with the leg's angular velocity u x u' and so add to the
+ * barrel's m_c d_c^2 wherever it appears (docs/explanation/model.md
+ * "Leg inertia"). The parts along u add
  * to F_i directly (s_i); the rest adds its wrench about o' to b. This
  * function adds sum_i (h_i - s_i u) and sum_i r_i x (h_i - s_i u) to b
  * (N, N m, Q24) and returns s_i in axial (N, Q16). w, wd: the body rates.
@@ -215,7 +219,9 @@ SPI_COLD static void leg_terms_wide(const sp_platform_t *p, const sp_ik_t *ik, c
     int64_t fsum[3] = {0, 0, 0}; /* N, Q16 */
     int64_t msum[3] = {0, 0, 0}; /* N m, Q40 */
     sp_q16_t mcdc = qmul(lm->cylinder_mass, lm->cylinder_com, 24u, flags); /* kg m */
-    sp_q16_t mcdc2 = qmul(mcdc, lm->cylinder_com, 24u, flags);             /* kg m^2 */
+    /* J_c = m_c d_c^2 + I_c + I_r, kg m^2 */
+    sp_q16_t mcdc2 =
+        spi_sat((int64_t)qmul(mcdc, lm->cylinder_com, 24u, flags) + lm->cylinder_inertia + lm->rod_inertia, flags);
     unsigned i;
     unsigned k;
 
@@ -302,7 +308,8 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  * angular acceleration (Q24, sp_body_rates_sc).
  *
  * Envelope (far beyond any hydraulic hexapod):
- *   m_c + m_r < 512 kg, d_c, d_r < 4 m, |g| < 16 m/s^2,
+ *   m_c + m_r + 4 (I_c + I_r) < 512 kg (I_c, I_r in kg m^2, with
+ *   I_c + I_r < 128 kg m^2), d_c, d_r < 4 m, |g| < 16 m/s^2,
  *   |v_c| < 4 m/s, |a_c| < 64 m/s^2, |w_b,c| < 4 rad/s (base frame),
  *   |w'_c| < 64 rad/s^2 (body frame), c = each component,
  *   per leg computed (not kept): max(d_c, d_r, 0.5 m) < L < 8 m and
@@ -312,16 +319,17 @@ SPI_INLINE int32_t fit(int64_t v, unsigned s)
  *   |w_b x r| < 48 m/s, |v_A| < 55 m/s, |L'| <= |v_A|, |v_A|^2 < 3025,
  *   |a_A| < 111 + 111 * 6.93 + 6.93 * 48 < 1213 m/s^2.
  * Coefficients. With q = 1/L and the per-call constants
- *   K1 = m_c d_c - m_r d_r,  N = m_r d_r,  K2 = m_c d_c^2 + m_r d_r^2,
- *   t = K2 q (below m_c d_c + m_r d_r < 2048 kg m as d < L)
+ *   K1 = m_c d_c - m_r d_r,  N = m_r d_r,  K2 = m_c d_c^2 + m_r d_r^2 + I,
+ *   I = I_c + I_r, t = K2 q (below m_c d_c + m_r d_r + 2 I
+ *   < 4 (m_c + m_r) + 2 I < 2048 kg m as d < L and q < 2)
  * the formulas above leg_terms_wide read (e = d_c q, y = d_r q, z = 1 - y)
  *   k_g = m_c e + m_r z           = m_r + K1 q
- *   mu  = m_c e^2 + m_r z^2       = m_r + q (t - 2 N)
+ *   mu  = m_c e^2 + m_r z^2 + I q^2  = m_r + q (t - 2 N)
  *   c1  = -2 L' B / L^3           = -2 L' (C / L),  C / L = q^2 (t - N)
  *   s_i = (m_r - mu) u.a_A + (m_r - k_g) g u_z + (N q^2) (|v_A|^2 - L'^2)
  *         + 2 (C / L) L'^2
- * (C = B / L^2 = m_c e^2 - m_r y z). Each of mu, k_g is in [0, 512) kg,
- * C in (-128, 512) kg, so |C / L| < 1024 kg/m, N q^2 < 1024 kg/m and
+ * (C = B / L^2 = m_c e^2 - m_r y z + I q^2; I q^2 < 4 I). Each of mu, k_g
+ * is in [0, 512) kg, C in (-128, 512) kg, so |C / L| < 1024 kg/m, N q^2 < 1024 kg/m and
  * |c1| < 2 * 55 * 1024 < 2^17 kg/s.
  * Formats: v_A Q24, a_A Q20, L' Q24, u.a_A Q20, |v_A|^2 - L'^2 and L'^2
  * Q16, q Q30, q^2 Q28, masses and coefficients Q16, c1 Q12; hw and s_i
@@ -352,6 +360,22 @@ SPI_INLINE int at_rest(const sp_motion_t *m, const sp_q24_t wd[3])
     return 1;
 }
 
+/* leg_terms' envelope of the legs' masses and inertias (every field >= 0:
+ * checked by the caller), 0 within it: I_c + I_r < 128 kg m^2 (2^23 in
+ * Q16) and m_c + m_r + 4 (I_c + I_r) < 512 kg (2^25), which keeps mu, k_g
+ * and C within the bounds leg_one argues. With no inertia, the masses'
+ * test as before. */
+SPI_INLINE uint32_t legs_mass_outside(const sp_leg_mass_t *lm)
+{
+    const uint32_t in = (uint32_t)lm->cylinder_inertia + (uint32_t)lm->rod_inertia; /* < 2^32: each < 2^31 */
+    uint32_t out = ((uint32_t)lm->cylinder_mass + (uint32_t)lm->rod_mass) >> 25;
+    if (in != 0u) {
+        const uint64_t sum = ((uint64_t)lm->cylinder_mass + (uint64_t)lm->rod_mass) + ((uint64_t)in << 2);
+        out = (in >> 23) | (uint32_t)(sum >> 25);
+    }
+    return out;
+}
+
 /*
  * leg_terms for a motion at rest (v, a, the angle rates and wd all zero:
  * the ENGAGE tick, READY, the first tick of a park; the caller checks
@@ -379,8 +403,7 @@ SPI_NOINLINE static int leg_terms_at_rest(const sp_platform_t *p, const sp_ik_t 
     unsigned k;
 
     /* leg_terms' global envelope, its rates and accelerations 0 */
-    if ((out_of(p->gravity, 28u) | out_of(dc, 26u) | out_of(dr, 26u) |
-         (((uint32_t)lm->cylinder_mass + (uint32_t)mr) >> 25)) != 0u) {
+    if ((out_of(p->gravity, 28u) | out_of(dc, 26u) | out_of(dr, 26u) | legs_mass_outside(lm)) != 0u) {
         return 0;
     }
     lmin = (dc > dr) ? dc : dr;
@@ -482,7 +505,7 @@ SPI_INLINE uint32_t legs_outside(const sp_platform_t *p, const sp_ik_t *ik, cons
                    out_of((int32_t)(wa[2] >> 32), 24u) | out_of(wd[0], 30u) | out_of(wd[1], 30u) | out_of(wd[2], 30u) |
                    out_of(m->vel[0], 26u) | out_of(m->vel[1], 26u) | out_of(m->vel[2], 26u) | out_of(m->acc[0], 30u) |
                    out_of(m->acc[1], 30u) | out_of(m->acc[2], 30u) | out_of(p->gravity, 28u) | out_of(dc, 26u) |
-                   out_of(dr, 26u) | (((uint32_t)lm->cylinder_mass + (uint32_t)lm->rod_mass) >> 25);
+                   out_of(dr, 26u) | legs_mass_outside(lm);
     if (out != 0u) {
         return out;
     }
@@ -544,13 +567,13 @@ SPI_INLINE void leg_moment(const sp_q24_t r[3], const int32_t hw[3], unsigned le
 }
 
 /* The per-call constants of leg_terms' legs, Q16 (m_c, m_r < 512 kg,
- * d < 4 m), and g (Q20). */
+ * d < 4 m, I_c + I_r < 128 kg m^2), and g (Q20). */
 typedef struct {
     int32_t mr;  /* m_r */
     int32_t g20; /* g, Q20 */
     int32_t nn;  /* N = m_r d_r < 2048 */
     int32_t k1;  /* K1 = m_c d_c - N */
-    int32_t k2;  /* K2 = m_c d_c^2 + m_r d_r^2 < 8192 kg m^2 */
+    int32_t k2;  /* K2 = m_c d_c^2 + m_r d_r^2 + I_c + I_r < 8192 kg m^2 */
 } legs_const_t;
 
 SPI_INLINE void legs_constants(const sp_platform_t *p, legs_const_t *c)
@@ -563,7 +586,8 @@ SPI_INLINE void legs_constants(const sp_platform_t *p, legs_const_t *c)
     c->g20 = fit(p->gravity, 4u);
     c->nn = fit((int64_t)c->mr * dr, 24u);
     c->k1 = mcdc - c->nn;
-    c->k2 = fit((int64_t)mcdc * dc + (int64_t)c->nn * dr, 24u);
+    /* K2 < 16 (m_c + m_r) + I < 8192: m_c + m_r + 4 I < 512 */
+    c->k2 = fit((int64_t)mcdc * dc + (int64_t)c->nn * dr, 24u) + lm->cylinder_inertia + lm->rod_inertia;
 }
 
 /* One leg's terms (leg_terms): its reaction into fsum and its moment into
@@ -939,6 +963,19 @@ SPI_INLINE void id_zero(sp_q8_t force[SP_LEGS])
     }
 }
 
+/* 1 when a leg's moment of inertia across the leg is negative (a bad
+ * platform: SP_E_ARG), else 0. */
+SPI_INLINE int leg_inertia_negative(const sp_platform_t *p)
+{
+    return (p->leg_mass.cylinder_inertia < 0) || (p->leg_mass.rod_inertia < 0);
+}
+
+/* 1 when the legs have a moment of inertia across the leg (then they have
+ * leg terms even without mass), else 0. */
+SPI_INLINE int leg_inertia_on(const sp_platform_t *p)
+{
+    return (p->leg_mass.cylinder_inertia != 0) || (p->leg_mass.rod_inertia != 0);
+}
 /* The call's start: the factorisation's plan when *hold keeps it
  * (*kept_lu, *stage and *refine: id_lu_plan), the legs whose terms *hold
  * keeps (returned; none held again until the call succeeds), *lu invalid
@@ -1020,10 +1057,10 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
         return SP_E_ARG;
     }
     if (platform->leg_mass.cylinder_mass < 0 || platform->leg_mass.rod_mass < 0 ||
-        platform->leg_mass.cylinder_com < 0 || platform->leg_mass.rod_com < 0) {
+        platform->leg_mass.cylinder_com < 0 || platform->leg_mass.rod_com < 0 || leg_inertia_negative(platform)) {
         return SP_E_ARG;
     }
-    legs_on = (platform->leg_mass.cylinder_mass != 0 || platform->leg_mass.rod_mass != 0);
+    legs_on = (platform->leg_mass.cylinder_mass != 0 || platform->leg_mass.rod_mass != 0 || leg_inertia_on(platform));
     if (hold != NULL && !legs_on) {
         hold->fresh = (uint8_t)SP_ALL_LEG_BITS; /* no leg terms to keep */
         hold = NULL;

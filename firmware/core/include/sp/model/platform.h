@@ -33,15 +33,23 @@ typedef struct {
     sp_q24_t rpy_acc[3];  /**< d2(roll, pitch, yaw)/dt2, rad/s^2, Q24 */
 } sp_motion_t;
 
-/** The mass of one leg as two point masses on its axis: the barrel, pivoting
- *  about the base joint, and the rod with its piston, sliding in it and
- *  pivoting with it (sp_inverse_dynamics). All zero: massless legs, as in
- *  the paper. */
+/** The mass of one leg: the barrel, pivoting about the base joint, and the
+ *  rod with its piston, sliding in it and pivoting with it
+ *  (sp_inverse_dynamics). Each is a rigid body symmetric about the leg
+ *  axis with its centre on the axis: its mass, its centre, and its moment
+ *  of inertia about its centre across the leg (about any axis through the
+ *  centre perpendicular to the leg; the moment about the leg axis itself
+ *  is not modelled: the legs' spin about their axes is neglected).
+ *  docs/explanation/model.md "Leg inertia". All zero: massless legs, as in
+ *  the paper; inertias zero: point masses. Every field >= 0 (a negative
+ *  one fails sp_inverse_dynamics with SP_E_ARG). */
 typedef struct {
-    sp_q16_t cylinder_mass; /**< barrel, kg, Q16 */
-    sp_q24_t cylinder_com;  /**< barrel's centre from the base joint along the leg, m, Q24 */
-    sp_q16_t rod_mass;      /**< rod and piston, kg, Q16 */
-    sp_q24_t rod_com;       /**< rod's centre from the platform joint towards the base, m, Q24 */
+    sp_q16_t cylinder_mass;    /**< barrel, kg, Q16 */
+    sp_q24_t cylinder_com;     /**< barrel's centre from the base joint along the leg, m, Q24 */
+    sp_q16_t rod_mass;         /**< rod and piston, kg, Q16 */
+    sp_q24_t rod_com;          /**< rod's centre from the platform joint towards the base, m, Q24 */
+    sp_q16_t cylinder_inertia; /**< barrel's moment of inertia about its centre across the leg, kg m^2, Q16 */
+    sp_q16_t rod_inertia;      /**< rod and piston's about their centre across the leg, kg m^2, Q16 */
 } sp_leg_mass_t;
 
 /** Geometry, inertia and limits of one 6-6 platform. */
