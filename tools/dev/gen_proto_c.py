@@ -125,7 +125,7 @@ MESSAGES = (
         Field("FkIterations", "fk_iterations", "sat"), Field("EstimateValid", "estimate_valid", "bool"),
         Field("CmdRejected", "cmd_rejected", "bool"), Field("DriveMode", "drive_mode", "bool"),
         Field("FeedForward", "feedforward", "bool"), *_pose("", _XYZ, "estimate."),
-        Field("ResetRefusedLegs", "reset_refused_legs", "mask"),
+        Field("ResetRefusedLegs", "reset_refused_legs", "mask"), Field("StopReaction", "stop_reaction", "enum"),
         Field("ResetRefusedCause", "reset_refused_cause"), Field("ForceMode", "force_mode", "enum"),
         Field("Contact", "contact", "bool"), Field("DrivesStarting", "drives_starting", "bool"),
         Field("Refusals", "refusals", "mask"), Field("ForceUnmeasured", "force_unmeasured", "mask"))),

@@ -692,6 +692,8 @@ static void test_estop_closes_blocking_valves(void **state)
     int n;
     (void)state;
     rig_init(&r);
+    r.cfg.estop.category = 0u; /* the immediate stop (category 0) */
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
     rig_tick(&r, SP_CMD_NONE);
     assert_int_equal(r.out.state, SP_STATE_IDLE);
     assert_int_equal(r.out.drive_block, 0);
@@ -1299,9 +1301,10 @@ static void test_operator_link_stop(void **state)
     for (uint32_t k = 1; k < timeout; ++k) {
         rig_tick(&r, SP_CMD_NONE);
     }
-    rig_tick(&r, SP_CMD_ESTOP);
-    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    rig_tick(&r, SP_CMD_ESTOP); /* the controlled stop, then ESTOP */
+    assert_int_equal(r.out.state, SP_STATE_STOPPING);
     assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT | SP_FAULT_ESTOP);
+    run_until(&r, SP_STATE_ESTOP, 2000);
     link_tick(&r, SP_CMD_RESET, 1);
     assert_int_equal(r.out.cmd_rejected, 0);
     assert_int_equal(r.out.state, SP_STATE_ENGAGING);

@@ -462,9 +462,10 @@ static void test_identify_over_frames(void **state)
 
     send_command(&r, SP_CMD_ESTOP);
     rig_tick(&r);
-    assert_int_equal(r.node.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.node.out.state, SP_STATE_STOPPING); /* the controlled stop */
     identify_now(&r, SP_PORT_STM32G474);
     assert_int_equal(r.identity_frames, 7u);
+    run_until(&r, SP_STATE_ESTOP, 2000u);
 }
 
 static void test_engage_run_park_over_frames(void **state)

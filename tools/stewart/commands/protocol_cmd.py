@@ -153,7 +153,7 @@ def _malformed(proto) -> list[dict]:
         ("FT_SENSOR Mx raw -524288", 0x038, with_raw("FT_SENSOR", Mx=-524288), "out-of-range"),
         ("CTRL_STATUS ForceMode 5", 0x100, with_raw("CTRL_STATUS", ForceMode=5), "out-of-range"),
         ("OP_COMMAND Axis 6", 0x040, with_raw("OP_COMMAND", Axis=6), "out-of-range"),
-        ("CTRL_STATUS State 7", 0x100, with_raw("CTRL_STATUS", State=7), "out-of-range"),
+        ("CTRL_STATUS State 8", 0x100, with_raw("CTRL_STATUS", State=8), "out-of-range"),
         ("OP_TARGET_POSE Yaw raw -8388608", 0x050,
          with_raw("OP_TARGET_POSE", Yaw=-8388608), "out-of-range"),
         ("CTRL_WRENCH Mz raw -2097152", 0x102, with_raw("CTRL_WRENCH", Mz=-2097152), "out-of-range"),

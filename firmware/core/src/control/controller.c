@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/control/controller.h"
 
+#include "control/control_internal.h"
 #include "estimation/estimation_internal.h"
 #include "model/model_internal.h"
 #include "math/fixed_inline.h"
@@ -22,6 +23,8 @@ const char *sp_state_name(sp_state_t state)
         return "fault";
     case SP_STATE_ESTOP:
         return "estop";
+    case SP_STATE_STOPPING:
+        return "stopping";
     default:
         return "unknown";
     }
@@ -70,6 +73,12 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->drive_reset_ticks = 20u;
     cfg->operator_park = 0u;
     cfg->feedback_divider = 1u;
+    cfg->estop.category = 1u;
+    cfg->estop.limits.decel[0] = 4 * SP_Q24_ONE; /* 4 m/s^2 */
+    cfg->estop.limits.decel[1] = 4 * SP_Q24_ONE; /* 4 rad/s^2 */
+    cfg->estop.limits.jerk[0] = 25 * SP_Q24_ONE; /* 25 m/s^3 */
+    cfg->estop.limits.jerk[1] = 25 * SP_Q24_ONE; /* 25 rad/s^3 */
+    cfg->estop.settle_ticks = 30u;
     return SP_OK;
 }
 
@@ -171,6 +180,9 @@ static sp_status_t prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st == SP_OK && ((cfg->wrench_source != SP_WRENCH_CYLINDERS && cfg->wrench_source != SP_WRENCH_SENSOR) ||
                         cfg->ft_tare_samples < 1u || cfg->ft_tare_samples > 65536u || cfg->ft_timeout_ticks < 1u)) {
         st = SP_E_ARG;
+    }
+    if (st == SP_OK) {
+        st = spi_estop_config_check(&cfg->estop);
     }
     return st;
 }
@@ -282,6 +294,7 @@ static void reset_motion(sp_ctrl_t *ctrl, const sp_platform_t *p)
     ctrl->drive_reset.refused_legs = 0u;
     ctrl->drive_reset.refused_cause = 0u;
     ctrl->fault_hold_ticks = 0u;
+    spi_estop_clear(ctrl);
 }
 
 sp_status_t sp_ctrl_init(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
@@ -308,6 +321,10 @@ static void raise_fault(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, uint32_t f
 {
     uint32_t before = ctrl->faults;
     ctrl->faults |= fault;
+    if (ctrl->state == SP_STATE_STOPPING) {
+        spi_estop_fault(ctrl, fault); /* the controlled stop cannot go on: category 0 */
+        return;
+    }
     if (ctrl->state == SP_STATE_ESTOP || (before != 0u && ctrl->state == SP_STATE_FAULT && ctrl->faults == before)) {
         return;
     }
@@ -331,7 +348,7 @@ static int park_reaction_active(const sp_ctrl_t *ctrl)
 static int drives_active(const sp_ctrl_t *ctrl)
 {
     return ctrl->state == SP_STATE_ENGAGING || ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_RUNNING ||
-           ctrl->state == SP_STATE_PARKING || park_reaction_active(ctrl);
+           ctrl->state == SP_STATE_PARKING || ctrl->state == SP_STATE_STOPPING || park_reaction_active(ctrl);
 }
 
 /* ---- 1. feedback supervision --------------------------------------------- */
@@ -676,6 +693,7 @@ static int finish_reset(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int comms_
         return 0;
     }
     ctrl->faults = 0u;
+    spi_estop_clear(ctrl);
     ctrl->state = SP_STATE_ENGAGING;
     return 1;
 }
@@ -716,8 +734,7 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_NONE:
         return 1;
     case SP_CMD_ESTOP:
-        ctrl->drive_reset.left = 0u; /* a reset under way does not re-engage after an ESTOP */
-        raise_fault(cfg, ctrl, SP_FAULT_ESTOP);
+        spi_estop_take(cfg, ctrl, drives_active(ctrl), comms_ok); /* controlled or immediate (estop.c) */
         return 1;
     case SP_CMD_ENGAGE:
         if (ctrl->state != SP_STATE_IDLE || !comms_ok || !ctrl->est.valid || !start_engage(cfg, ctrl)) {
@@ -867,6 +884,8 @@ static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *f
     case SP_STATE_ESTOP:
         sp_motion_at_rest(ref, &ctrl->reference.pose);
         return 1;
+    case SP_STATE_STOPPING:
+        return spi_estop_reference(cfg, ctrl, ref);
     case SP_STATE_IDLE:
     default:
         sp_motion_at_rest(ref, ctrl->est.valid ? &ctrl->est.pose : &cfg->platform->park);
@@ -1215,7 +1234,7 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     const sp_pose_t *r = &ctrl->reference.pose;
     unsigned i;
     if ((ctrl->state != SP_STATE_ENGAGING && ctrl->state != SP_STATE_READY && ctrl->state != SP_STATE_RUNNING &&
-         ctrl->state != SP_STATE_PARKING) ||
+         ctrl->state != SP_STATE_PARKING && ctrl->state != SP_STATE_STOPPING) ||
         !ctrl->est.valid) {
         return;
     }
@@ -1321,6 +1340,8 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     }
     out->wrench_valid = ctrl->wrench.valid;
     out->drive_fault_reset = ctrl->drive_reset.edge;
+    out->stop_reaction = ctrl->estop.reaction;
+    out->stop_cause = ctrl->estop.cause;
     out->reset_refused_legs = ctrl->drive_reset.refused_legs;
     out->reset_refused_cause = ctrl->drive_reset.refused_cause;
     out->force_unmeasured = (uint8_t)ctrl->sup.no_force_mask;

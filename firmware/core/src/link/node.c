@@ -501,6 +501,7 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     s.drives_starting = node->drives_starting;
     s.force_unmeasured = node->out.force_unmeasured;
     s.refusals = (uint8_t)(node->stats.cmd_refused & 0x07u);
+    s.stop_reaction = (uint8_t)(node->out.stop_reaction > 2u ? 2u : node->out.stop_reaction);
     count_send(node, sp_proto_encode_status(&s, node->tx_counter_status++, &out[*n]), n);
     node->tx_counter_status &= 0x0Fu;
 

@@ -106,6 +106,7 @@
 #include "sp/motion/limits.h"
 #include "sp/motion/setpoint.h"
 #include "sp/motion/stream.h"
+#include "sp/motion/stop.h"
 #include "sp/motion/trajectory.h"
 #include "sp/force/force.h"
 #include "sp/estimation/friction.h"
@@ -121,8 +122,26 @@ typedef enum {
     SP_STATE_RUNNING = 3,
     SP_STATE_PARKING = 4,
     SP_STATE_FAULT = 5,
-    SP_STATE_ESTOP = 6
+    SP_STATE_ESTOP = 6,
+    SP_STATE_STOPPING = 7 /**< ESTOP taken, its controlled stop (category 1) under way; then ESTOP */
 } sp_state_t;
+
+/** The reaction to the last ESTOP (sp_ctrl_output_t.stop_reaction;
+ *  docs/reference/safety.md). */
+#define SP_STOP_NONE 0u       /**< no ESTOP since init or the last RESET */
+#define SP_STOP_CONTROLLED 1u /**< category 1: decelerated along the path by the drives, then blocked */
+#define SP_STOP_IMMEDIATE 2u  /**< category 0: the drives hold and the blocking valves close at once */
+
+/** Why the last ESTOP was (or became) a category-0 stop (stop_cause). */
+#define SP_STOP_CAUSE_NONE 0u     /**< none: a controlled stop, or no ESTOP */
+#define SP_STOP_CAUSE_CONFIG 1u   /**< the config asks for category 0 (estop.category 0) */
+#define SP_STOP_CAUSE_HOLDING 2u  /**< the drives were not following setpoints (IDLE, a holding FAULT) */
+#define SP_STOP_CAUSE_ESTIMATE 3u /**< no pose estimate, or the forward kinematics failed during the stop */
+#define SP_STOP_CAUSE_COMMS 4u    /**< a drive not heard (feedback timeout), at the ESTOP or during the stop */
+#define SP_STOP_CAUSE_DRIVE 5u    /**< a drive reported a fault, at the ESTOP or during the stop */
+#define SP_STOP_CAUSE_SECOND 6u   /**< a second ESTOP during the controlled stop */
+#define SP_STOP_CAUSE_FAULT 7u    /**< another fault during the stop (reference, divergence, leg limit, ...) */
+#define SP_STOP_CAUSE_PLAN 8u     /**< no stop within the limits and 10 s, or its end out of reach */
 
 /* Latched fault bits (sp_ctrl_t.faults). */
 #define SP_FAULT_FEEDBACK_TIMEOUT 0x0001u /**< a drive went silent */
@@ -215,7 +234,18 @@ typedef struct {
                                       cylinders as wrench source are refused for this reason */
     uint8_t drive_block;         /**< 1: the drives' servo valves at null, their blocking valves closed
                                       (ESTOP, FAULT holding; the setpoints' Block), else 0 */
+    uint8_t stop_reaction;       /**< the last ESTOP's reaction: SP_STOP_NONE, _CONTROLLED, _IMMEDIATE */
+    uint8_t stop_cause;          /**< why it is IMMEDIATE: SP_STOP_CAUSE_* (NONE for a controlled stop) */
 } sp_ctrl_output_t;
+
+/** ESTOP's reaction (docs/reference/safety.md). */
+typedef struct {
+    uint8_t category;        /**< 1 (default): the controlled stop of sp/motion/stop.h, then the drives hold
+                                  and block; 0: hold and block at once. Else sp_ctrl_init SP_E_ARG */
+    sp_stop_limits_t limits; /**< the stop's deceleration and jerk (sp_stop_limits_check) */
+    uint32_t settle_ticks;   /**< ticks at rest, the position loops holding, between the stop's end and the
+                                  blocking valves (0 .. 1000) */
+} sp_estop_config_t;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
 typedef struct {
@@ -256,6 +286,7 @@ typedef struct {
                                           divided by it, rounded up, its jump thresholds multiplied by its
                                           square root: one sample a period leaves about that much more
                                           noise); 1..255, else sp_ctrl_init SP_E_ARG */
+    sp_estop_config_t estop;         /**< ESTOP's stop category and its limits */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
@@ -344,6 +375,14 @@ typedef struct {
     uint8_t armed;   /**< 1 once a heartbeat has been heard (until sp_ctrl_init) */
 } sp_operator_link_t;
 
+/** ESTOP's controlled stop under way (STOPPING) and the last reaction. */
+typedef struct {
+    sp_stop_t stop;   /**< the stop (sp/motion/stop.h) */
+    uint32_t settle;  /**< ticks at rest left before the blocking valves close */
+    uint8_t reaction; /**< SP_STOP_NONE, _CONTROLLED, _IMMEDIATE */
+    uint8_t cause;    /**< SP_STOP_CAUSE_* */
+} sp_estop_state_t;
+
 /** Controller state: everything the step remembers between ticks. */
 typedef struct {
     sp_ctrl_prepared_t prep; /**< derived from the config at init */
@@ -407,6 +446,7 @@ typedef struct {
     sp_operator_link_t link;                   /**< the operator's heartbeat supervision */
     sp_drive_reset_t drive_reset;              /**< RESET's fault reset of the drives */
     uint32_t fault_hold_ticks;                 /**< ticks of the current holding FAULT (saturates; 0 otherwise) */
+    sp_estop_state_t estop;                    /**< ESTOP's controlled stop and its reaction */
     /** the friction observer's Stribeck table (sp_fric_table_prepare),
      *  made at init like prep; last, so that its 2,704 bytes leave the other members
      *  within a load's reach of the struct's start */

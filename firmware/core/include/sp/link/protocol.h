@@ -168,6 +168,8 @@ typedef struct {
                                       higher bits are not sent) */
     uint8_t refusals;            /**< Refusals: commands refused since start, modulo 8 (3 bits; higher bits are
                                       not sent), so that a reader missing the CmdRejected status still sees it */
+    uint8_t stop_reaction;       /**< StopReaction: the last ESTOP's reaction, SP_STOP_NONE, _CONTROLLED,
+                                      _IMMEDIATE (0..2) */
 } sp_msg_status_t;
 
 typedef struct {
