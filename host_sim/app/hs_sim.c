@@ -1584,6 +1584,7 @@ static int setup_inproc(sim_t *s)
         return 1;
     }
     s->ncfg.sync_master = 0u;
+    s->ncfg.ctrl.estop = sp_estop_default; /* as sp_controller */
     s->ncfg.auth_key = s->have_key ? &s->key : NULL;
     s->ncfg.auth_session = s->session;
     (void)sp_ctrl_set_wrench_source(&s->ncfg.ctrl,

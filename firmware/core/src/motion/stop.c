@@ -135,7 +135,7 @@ static int stop_coefficients(sp_stop_t *s, const sp_motion_t *from, uint32_t n, 
     }
     s->ticks = n;
     s->tick = 0u;
-    s->step = (int32_t)((Q30_ONE + (int64_t)n / 2) / (int64_t)n);
+    s->step = ((INT64_C(1) << 46) + (int64_t)n / 2) / (int64_t)n;
     stop_sample(s, Q30_ONE, &end, &flags);
     s->to = end.pose;
     return flags == 0u;
@@ -197,7 +197,7 @@ sp_status_t sp_stop_step(sp_stop_t *s, sp_motion_t *out, int *done)
         *done = 1;
         return SP_OK;
     }
-    stop_sample(s, (int64_t)s->step * s->tick, out, &flags);
+    stop_sample(s, spi_round_away(s->step * (int64_t)s->tick, 16u), out, &flags); /* u within 2^-33 */
     *done = 0;
     return SP_OK;
 }

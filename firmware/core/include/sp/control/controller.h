@@ -247,6 +247,11 @@ typedef struct {
                                   blocking valves (0 .. 1000) */
 } sp_estop_config_t;
 
+/** The platform config's `estop` section (generated with sp_platform_default
+ *  by tools/dev/gen_platform.py; validated there): the ports copy it into
+ *  sp_ctrl_config_t.estop. Its settle time is in ticks of 1 ms. */
+extern const sp_estop_config_t sp_estop_default;
+
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
 typedef struct {
     const sp_platform_t *platform;

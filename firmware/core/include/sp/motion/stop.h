@@ -52,7 +52,7 @@ typedef struct {
     int32_t a0[6];      /**< a0, Q24 */
     uint32_t ticks;     /**< T in ticks (0: the motion was at rest: nothing to stop) */
     uint32_t tick;      /**< ticks sampled so far */
-    int32_t step;       /**< 1 / ticks, Q30 */
+    int64_t step;       /**< 1 / ticks, Q46 (u = tick / ticks within 2^-33 at 10 s) */
 } sp_stop_t;
 
 /** SP_OK when every limit lies within its range (sp_stop_limits_t),
