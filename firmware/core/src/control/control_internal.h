@@ -32,4 +32,13 @@ void spi_estop_clear(sp_ctrl_t *ctrl);
 /* The estop config's check for sp_ctrl_init: SP_OK or SP_E_ARG. */
 sp_status_t spi_estop_config_check(const sp_estop_config_t *cfg);
 
+/* The accelerations each axis may command at most (ctrl->prep.acc_cap),
+ * from the inverse dynamics at home (cmd_check.c): made by sp_ctrl_init. */
+void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg);
+
+/* An operator command's parameters, checked before it is taken (READY,
+ * position control: RUN_TRIG and MOVE_TO; other commands and states are
+ * the state machine's): SP_REFUSE_NONE, or why it is refused. */
+uint8_t spi_cmd_check(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd);
+
 #endif /* SP_CONTROL_INTERNAL_H */

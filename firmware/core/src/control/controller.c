@@ -184,6 +184,9 @@ static sp_status_t prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st == SP_OK) {
         st = spi_estop_config_check(&cfg->estop);
     }
+    if (st == SP_OK) {
+        spi_cmd_prepare(ctrl, cfg); /* needs nothing of the above */
+    }
     return st;
 }
 
@@ -1367,6 +1370,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     int heard;
     int rejected;
     int dropped;
+    uint8_t reason = (uint8_t)SP_REFUSE_NONE;
     int have_model = 0;
     const sp_ctrl_cmd_t *cmd;
 
@@ -1381,9 +1385,19 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     ft_sensor(cfg, ctrl, in);
     drive_reset_job(cfg, ctrl, comms_ok);
     cmd = sp_ctrl_operator_link(cfg, ctrl, in, &dropped);
-    rejected = !command(cfg, ctrl, cmd, comms_ok) || dropped;
-    if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {
-        rejected |= !take_stream_target(cfg, ctrl, &in->stream_target);
+    if (dropped) {
+        reason = (uint8_t)SP_REFUSE_LINK;
+    } else if (cmd->type != SP_CMD_NONE) { /* checked before it is taken: no cost on ticks without a command */
+        reason = spi_cmd_check(cfg, ctrl, cmd);
+    }
+    rejected = reason != (uint8_t)SP_REFUSE_NONE || !command(cfg, ctrl, cmd, comms_ok) || dropped;
+    if (rejected && reason == (uint8_t)SP_REFUSE_NONE) {
+        reason = (uint8_t)SP_REFUSE_STATE;
+    }
+    if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh &&
+        !take_stream_target(cfg, ctrl, &in->stream_target)) {
+        rejected = 1;
+        reason = (reason != (uint8_t)SP_REFUSE_NONE) ? reason : (uint8_t)SP_REFUSE_REACH;
     }
     if (reference(cfg, ctrl, &flags)) {
         hold_setpoints(ctrl, ref);
@@ -1416,5 +1430,6 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         ctrl->fault_hold_ticks = 0u;
     }
     write_output(cfg, ctrl, fk_iterations, rejected, out);
+    out->refuse_reason = reason;
     return SP_OK;
 }

@@ -132,6 +132,18 @@ typedef enum {
 #define SP_STOP_CONTROLLED 1u /**< category 1: decelerated along the path by the drives, then blocked */
 #define SP_STOP_IMMEDIATE 2u  /**< category 0: the drives hold and the blocking valves close at once */
 
+/** Why a command was refused (sp_ctrl_output_t.refuse_reason;
+ *  docs/reference/commands.md). */
+#define SP_REFUSE_NONE 0u /**< not refused */
+#define SP_REFUSE_STATE                                                                                                \
+    1u                     /**< not in this state or condition (the state machine above; a missing estimate,
+                                wrench, heard drive, tare; a force-control mode) */
+#define SP_REFUSE_RANGE 2u /**< a parameter outside its range (axis, amplitude, frequency, fade time) */
+#define SP_REFUSE_REACH 3u /**< a target, an end or a point of the path outside the workspace or the strokes */
+#define SP_REFUSE_RATE 4u  /**< the motion's peak speed would drive a leg beyond leg_velocity_max */
+#define SP_REFUSE_FORCE 5u /**< its peak acceleration would need more than the cylinders' force budget */
+#define SP_REFUSE_LINK 6u  /**< dropped by the operator link (a silent operator's fault latched) */
+
 /** Why the last ESTOP was (or became) a category-0 stop (stop_cause). */
 #define SP_STOP_CAUSE_NONE 0u     /**< none: a controlled stop, or no ESTOP */
 #define SP_STOP_CAUSE_CONFIG 1u   /**< the config asks for category 0 (estop.category 0) */
@@ -236,6 +248,7 @@ typedef struct {
                                       (ESTOP, FAULT holding; the setpoints' Block), else 0 */
     uint8_t stop_reaction;       /**< the last ESTOP's reaction: SP_STOP_NONE, _CONTROLLED, _IMMEDIATE */
     uint8_t stop_cause;          /**< why it is IMMEDIATE: SP_STOP_CAUSE_* (NONE for a controlled stop) */
+    uint8_t refuse_reason;       /**< why this tick's command was refused: SP_REFUSE_* (NONE with cmd_rejected 0) */
 } sp_ctrl_output_t;
 
 /** ESTOP's reaction (docs/reference/safety.md). */
@@ -322,6 +335,10 @@ typedef struct {
                                    motion correction (sp_motion_error_body, then sp_motion_error_m6; the
                                    rigid body alone when the legs are outside its envelope) */
     sp_force_config_t force;          /**< cfg->force with the wrench filter's gain and the tick */
+    sp_q24_t acc_cap[6];              /**< per axis, the largest acceleration a command may reach: its
+                                           inverse-dynamics forces at home within half force_max (the other
+                                           half for gravity, poses away from home, the other terms), at most
+                                           64 m/s^2; m/s^2 or rad/s^2, Q24 (0: no motion) */
 } sp_ctrl_prepared_t;
 
 /** Ticks over which every leg's leg-mass terms are refreshed once
