@@ -60,6 +60,24 @@ void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     }
 }
 
+/* Both ends of a trig about home reachable (as command_run_trig checks
+ * them: from the last reference, no IK near it). */
+static uint8_t trig_ends(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+{
+    const sp_q24_t *known = (ctrl->est.ref_lu.valid && ctrl->have_setpoint) ? ctrl->model.ref.length : NULL;
+    unsigned a = (unsigned)cmd->axis;
+    int s;
+    for (s = -1; s <= 1; s += 2) {
+        sp_pose_t end = cfg->platform->home;
+        sp_q24_t *e = (a < 3u) ? &end.pos[a] : &end.rpy[a - 3u];
+        *e = sp_add(*e, (s < 0) ? -cmd->amplitude : cmd->amplitude, NULL); /* |A| <= 1: no saturation */
+        if (!sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &end)) {
+            return (uint8_t)SP_REFUSE_REACH;
+        }
+    }
+    return (uint8_t)SP_REFUSE_NONE;
+}
+
 /* RUN_TRIG's parameters (READY; else the state machine refuses it). */
 static uint8_t check_trig(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
@@ -90,27 +108,27 @@ static uint8_t check_trig(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     if (((amp * (((w * w) >> 24) + 4 * ((w * r) >> 24) + 6 * ((r * r) >> 24))) >> 24) > ctrl->prep.acc_cap[a]) {
         return (uint8_t)SP_REFUSE_FORCE;
     }
-    return (uint8_t)SP_REFUSE_NONE;
+    return trig_ends(cfg, ctrl, cmd);
 }
 
-/* MOVE_TO: the straight path's points at 1/4, 1/2 and 3/4 reachable too
- * (a leg's length along a straight path may dip below its stroke between
- * two reachable ends); the ends are the state machine's check. */
+/* MOVE_TO: the target and the straight path's points at 1/4, 1/2 and 3/4
+ * reachable (a leg's length along a straight path may dip below its
+ * stroke between two reachable ends), each by sp_limits_pose_reachable_from
+ * the last reference (as the state machine's check: no IK for a point
+ * near it). */
 static uint8_t check_move(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     const sp_pose_t *from = &ctrl->pos_ref.pose;
+    const sp_q24_t *known = (ctrl->est.ref_lu.valid && ctrl->have_setpoint) ? ctrl->model.ref.length : NULL;
     unsigned q;
     unsigned k;
-    if (!sp_limits_pose_reachable(&ctrl->prep.limits, cfg->platform, &cmd->target, NULL)) {
-        return (uint8_t)SP_REFUSE_REACH;
-    }
-    for (q = 1u; q < 4u; ++q) {
+    for (q = 1u; q <= 4u; ++q) {
         sp_pose_t mid;
         for (k = 0u; k < 3u; ++k) {
             mid.pos[k] = (sp_q24_t)(from->pos[k] + ((((int64_t)cmd->target.pos[k] - from->pos[k]) * q) >> 2));
             mid.rpy[k] = (sp_q24_t)(from->rpy[k] + ((((int64_t)cmd->target.rpy[k] - from->rpy[k]) * q) >> 2));
         }
-        if (!sp_limits_pose_reachable(&ctrl->prep.limits, cfg->platform, &mid, NULL)) {
+        if (!sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &mid)) {
             return (uint8_t)SP_REFUSE_REACH;
         }
     }
