@@ -84,6 +84,12 @@ static int setup(void **state)
         tick(&ready, SP_CMD_NONE);
     }
     assert_int_equal(ready.out.state, SP_STATE_READY);
+    printf("limits: leg rate %.3f m/s, joints' largest radius %.3f m; acceleration capacity %.1f %.1f %.1f m/s^2 %.1f "
+           "%.1f "
+           "%.1f rad/s^2\n",
+           ready.ctrl.prep.limits.rate_max / Q24, ready.ctrl.prep.arm_max / Q24, ready.ctrl.prep.acc_cap[0] / Q24,
+           ready.ctrl.prep.acc_cap[1] / Q24, ready.ctrl.prep.acc_cap[2] / Q24, ready.ctrl.prep.acc_cap[3] / Q24,
+           ready.ctrl.prep.acc_cap[4] / Q24, ready.ctrl.prep.acc_cap[5] / Q24);
     for (int n = 0; n < 20; ++n) { /* the legs' terms at rest complete */
         tick(&ready, SP_CMD_NONE);
     }
@@ -102,7 +108,7 @@ static int trig_in_range(const rig_t *g, unsigned axis, double amp, double f, do
 {
     const sp_limits_t *lim = &g->ctrl.prep.limits;
     double a = fabs(amp), w = 2.0 * 3.14159265358979323846 * f, rr = 1.0 / fade;
-    double reach = (axis < 3u) ? 1.0 : lim->joint_reach / Q24;
+    double reach = (axis < 3u) ? 1.0 : g->ctrl.prep.arm_max / Q24;
     double q[6]; /* each condition as value / bound: <= 1 inside */
     int n = 0;
     if (axis >= 6u || f <= 0.0) {

@@ -33,6 +33,15 @@ void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     unsigned i;
     int64_t budget = (int64_t)p->force_max >> FORCE_SHARE_SHIFT;
     sp_motion_at_rest(&m, &p->home);
+    ctrl->prep.arm_max = 0;
+    for (i = 0u; i < SP_LEGS; ++i) { /* |a_i| (Q48 sum of squares of Q24 below 2^62: joints within 128 m) */
+        uint64_t s2 = 0u;
+        for (k = 0u; k < 3u; ++k) {
+            s2 += (uint64_t)((int64_t)p->platform_joint[i][k] * p->platform_joint[i][k]);
+        }
+        k = sp_isqrt64(s2);
+        ctrl->prep.arm_max = ((sp_q24_t)k > ctrl->prep.arm_max) ? (sp_q24_t)k : ctrl->prep.arm_max;
+    }
     for (k = 0u; k < 6u; ++k) {
         ctrl->prep.acc_cap[k] = 0; /* no force model at home: every motion refused */
     }
@@ -97,8 +106,9 @@ static uint8_t check_trig(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     r = (int64_t)(((UINT64_C(1) << 24) * (uint64_t)US_PER_S) / fade_us); /* 1/s, Q24, <= 10 */
     /* the peak speed: |A| |w cos(wt) e + sin(wt) e'| <= |A| sqrt(w^2 + (1.875 r)^2) (Cauchy-Schwarz,
      * the envelope e <= 1 and its slope e' <= 1.875 r; Q48 sum below 2^62), and a leg's rate per unit
-     * of it: at most 1 on x, y, z (a unit vector's component), the joints' reach on the angles */
-    reach = (a < 3u) ? SP_Q24_ONE : (int64_t)ctrl->prep.limits.joint_reach;
+     * of it: at most 1 on x, y, z (a unit vector's component), on an angle the largest |a_i| (one
+     * Euler rate turns the platform about one unit axis: |w x R a_i| <= |w| |a_i|) */
+    reach = (a < 3u) ? SP_Q24_ONE : (int64_t)ctrl->prep.arm_max;
     speed = (int64_t)sp_isqrt64((uint64_t)(w * w) + (uint64_t)((15 * r / 8) * (15 * r / 8))); /* Q24 */
     if ((((amp * speed) >> 24) * reach >> 24) > ctrl->prep.limits.rate_max) {
         return (uint8_t)SP_REFUSE_RATE;

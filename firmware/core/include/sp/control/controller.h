@@ -335,6 +335,7 @@ typedef struct {
                                    motion correction (sp_motion_error_body, then sp_motion_error_m6; the
                                    rigid body alone when the legs are outside its envelope) */
     sp_force_config_t force;          /**< cfg->force with the wrench filter's gain and the tick */
+    sp_q24_t arm_max;                 /**< the platform joints' largest distance from o', m, Q24 */
     sp_q24_t acc_cap[6];              /**< per axis, the largest acceleration a command may reach: its
                                            inverse-dynamics forces at home within half force_max (the other
                                            half for gravity, poses away from home, the other terms), at most
