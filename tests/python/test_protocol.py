@@ -33,10 +33,11 @@ SPEC = {
     "CTRL_WRENCH": (0x102, 24, ("ops",)),
     "CTRL_AUTH": (0x103, 16, ("ops",)),
     "CTRL_IDENTITY": (0x104, 12, ("ops",)),
+    "CTRL_REFUSAL": (0x107, 8, ("ops",)),
 }
 #: Messages not sent every 1 ms, and their period.
 PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10, "OP_COMMAND": 10, "CTRL_AUTH": 10,
-             "OP_FORCE_PARAMS": 10, "CTRL_IDENTITY": 10}
+             "OP_FORCE_PARAMS": 10, "CTRL_IDENTITY": 10, "CTRL_REFUSAL": 10}
 
 
 @pytest.fixture()
@@ -413,7 +414,7 @@ def test_doc_lists_every_message_and_signal(proto):
         for s in proto.message(name).signals:
             assert f"| `{s.name}` |" in text
     assert "0x29B1" in text and "0x4B" in text
-    assert "38.0 %" in text and "46.2 %" in text and "46.9 %" in text
+    assert "38.0 %" in text and "46.2 %" in text and "47.5 %" in text
 
 
 def test_doc_cli_check(tmp_path):

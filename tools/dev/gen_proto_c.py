@@ -153,6 +153,8 @@ MESSAGES = (
     Message("CTRL_IDENTITY", "identity", "sp_msg_identity_t", (
         Field("VersionMajor", "major"), Field("VersionMinor", "minor"), Field("VersionPatch", "patch"),
         Field("Port", "port", "enum"), Field("ProtocolHash", "protocol_hash"))),
+    Message("CTRL_REFUSAL", "refusal", "sp_msg_refusal_t", (
+        Field("Tick", "tick"), Field("Command", "command", "enum"), Field("Reason", "reason", "enum"))),
 )
 
 #: Signals of the protocol itself: the E2E counter and CRC, the authentication fields.

@@ -64,6 +64,7 @@ TYPICAL = {
     "CTRL_AUTH": {"Session": 0x5EED0017, "LastCounter": 123456, "BadTag": 3, "Replayed": 1, "KeySet": "ON"},
     "CTRL_IDENTITY": {"VersionMajor": 0, "VersionMinor": 3, "VersionPatch": 0, "Port": "STM32G474",
                       "ProtocolHash": 0x5A3C96E1},
+    "CTRL_REFUSAL": {"Tick": 99997, "Command": "RUN_TRIG", "Reason": "RATE"},
     "CTRL_WRENCH": {"Tick": 99998, "Valid": 1, "Fx": 120.25, "Fy": -35.5, "Fz": -2452.75,
                     "Mx": 14.0, "My": -250.25, "Mz": 0.75},
 }

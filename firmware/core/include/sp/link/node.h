@@ -94,7 +94,13 @@ typedef struct {
     uint8_t tx_counter_monitor;
     uint8_t tx_counter_wrench;
     uint8_t tx_counter_identity;
-    uint8_t identify_pending;           /**< an IDENTIFY came: CTRL_IDENTITY goes out on the next tick that has room */
+    uint8_t identify_pending; /**< an IDENTIFY came: CTRL_IDENTITY goes out on the next tick that has room */
+    uint8_t tx_counter_refusal;
+    uint8_t cmd_now;                    /**< this tick's command as CTRL_REFUSAL names it (0: none) */
+    uint8_t refusal_pending;            /**< a refusal to report: CTRL_REFUSAL on the next tick with room */
+    sp_msg_refusal_t refusal;           /**< the last refusal (its tick, what, why) */
+    uint32_t refusal_sent;              /**< the tick the last CTRL_REFUSAL went out (at most one in 10 ticks) */
+    uint8_t refusal_sent_valid;         /**< 1 once one went out */
     uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
     uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
     uint8_t sync_valid;                 /**< a SYNC has been sent or received */
