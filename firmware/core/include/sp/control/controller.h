@@ -79,9 +79,20 @@
  *             in FAULT and reports the refusing legs and their fault bits
  *             (out->reset_refused_legs, reset_refused_cause) until the next
  *             RESET. ESTOP cancels a reset under way.
- *   ESTOP     emergency stop: drives commanded to HOLD at once; latched until
- *             RESET.
- * Load holding: from the tick ESTOP is taken, and in FAULT once the
+ *   STOPPING  ESTOP taken, its controlled stop (IEC 60204-1 category 1,
+ *             control/estop.c, sp/motion/stop.h) under way: the drives
+ *             ACTIVE decelerate along the path within cfg->estop's limits,
+ *             settle at rest for estop.settle_ticks, then ESTOP. RESET is
+ *             refused; a second ESTOP or any fault makes it immediate.
+ *   ESTOP     emergency stop: drives commanded to HOLD; latched until RESET.
+ *             Reached after STOPPING, or at once (category 0) when the
+ *             config asks, the drives were holding, a drive is silent or
+ *             faulted, or there is no estimate (out->stop_reaction,
+ *             stop_cause; docs/reference/safety.md).
+ * Commands are checked before they are taken (control/cmd_check.c,
+ * docs/reference/commands.md): a refusal reports its reason in
+ * out->refuse_reason.
+ * Load holding: from the tick the state is ESTOP, and in FAULT once the
  * drives have held for SP_CTRL_FAULT_BLOCK_TICKS (every fault but the park
  * reaction under way), out->drive_block is 1: the drives put their servo
  * valves at null and close their blocking (load-holding) valves (the
