@@ -77,6 +77,8 @@
  * controller's own tick), to run through the 2^32 and TickEcho wraps.
  * --wrench-source cylinders|sensor (with --inproc): force control's wrench
  * source, as sp_controller's option (default: the platform config's).
+ * --estop-category 0|1 (with --inproc): ESTOP's stop category, 1 the
+ * controlled stop, 0 the immediate (default: the platform config's estop).
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
  * The force/torque sensor (hs/ftsensor.h, mounted as the config's
@@ -178,10 +180,11 @@ typedef struct {
     uint64_t co_sent;             /* frames the nodes sent */
     sp_can_frame_t co_rx[RX_BUF]; /* frames read, not yet handled (past the cycle's SYNC) */
     uint32_t co_rx_n, co_rx_i;
-    uint64_t tick;     /* the current cycle */
-    int wrench_source; /* --wrench-source (--inproc): SP_WRENCH_*, -1 the config's */
-    uint32_t tick0;    /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
-    hs_inject_t inj;   /* the fault injector on the bus (scenario `inject`) */
+    uint64_t tick;      /* the current cycle */
+    int wrench_source;  /* --wrench-source (--inproc): SP_WRENCH_*, -1 the config's */
+    int estop_category; /* --estop-category (--inproc): 0 or 1, -1 the config's */
+    uint32_t tick0;     /* --tick0: the SYNC tick of cycle 0 (test-only: the wrap tests) */
+    hs_inject_t inj;    /* the fault injector on the bus (scenario `inject`) */
     /* --inproc: the controller (the firmware's node, as sp_controller --lockstep) in this process */
     int inproc;
     sp_node_config_t ncfg;
@@ -1423,6 +1426,15 @@ static int set_wrench_source(cli_t *c, const char *v)
     return 0;
 }
 
+static int set_estop_category(cli_t *c, const char *v)
+{
+    if (strcmp(v, "0") != 0 && strcmp(v, "1") != 0) {
+        return -1;
+    }
+    c->s->estop_category = (v[0] == '1') ? 1 : 0;
+    return 0;
+}
+
 static int set_sdo_delay_ms(cli_t *c, const char *v)
 {
     unsigned long long u;
@@ -1482,6 +1494,8 @@ static const cli_option_t cli_options[] = {
     {"session", "N", "the controller's session from the start, 0..4294967295", set_session},
     {"wrench-source", "cylinders|sensor", "force control's wrench source with --inproc (default: the config's)",
      set_wrench_source},
+    {"estop-category", "0|1", "ESTOP's stop category with --inproc: 1 controlled, 0 immediate (default: the config's)",
+     set_estop_category},
     {"sdo-delay-ms", "MS", "with --canopen: each node answers SDO requests MS ms late, 0..1000", set_sdo_delay_ms},
     {"control", "FILE", "scenario lines while running, one request a line (a FIFO)", set_control},
     {"stats", "S", "real time: deadline misses on stderr every S s, 1..3600", set_stats},
@@ -1732,6 +1746,7 @@ static void set_defaults(sim_t *s, cli_t *c)
 {
     memset(s, 0, sizeof *s);
     s->wrench_source = -1;
+    s->estop_category = -1;
     s->ifs[0] = "vcan0", s->ifs[1] = "vcan1", s->ifs[2] = "vcan2";
     s->status_state = -1;
     s->live_fd = -1;
@@ -1820,6 +1835,10 @@ static int setup_inproc(sim_t *s)
         return 1;
     }
     s->ncfg.sync_master = 0u;
+    s->ncfg.ctrl.estop = sp_estop_default; /* as sp_controller */
+    if (s->estop_category >= 0) {
+        s->ncfg.ctrl.estop.category = (uint8_t)s->estop_category;
+    }
     s->ncfg.auth_key = s->have_key ? &s->key : NULL;
     s->ncfg.auth_session = s->session;
     (void)sp_ctrl_set_wrench_source(&s->ncfg.ctrl,

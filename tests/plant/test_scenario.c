@@ -254,8 +254,9 @@ static void test_delay_and_wait(void **state)
     assert_int_equal(a->state, SP_STATE_ESTOP);
     assert_int_equal(a->ticks, 500);
 
-    static const char *const states[] = {"idle", "engaging", "ready", "running", "parking", "fault", "estop"};
-    for (int i = 0; i < 7; i++) {
+    static const char *const states[] = {"idle",    "engaging", "ready", "running",
+                                         "parking", "fault",    "estop", "stopping"};
+    for (int i = 0; i < 8; i++) {
         char text[32];
         (void)snprintf(text, sizeof text, "wait %s 1", states[i]);
         assert_int_equal(one(text)->state, i);
@@ -468,7 +469,8 @@ static void test_malformed_lines(void **state)
 
     refused("wait", 1, "wait needs a state");
     refused("wait ready 1 2", 1, "got 3 arguments");
-    refused("wait flying", 1, "unknown state 'flying' (idle, engaging, ready, running, parking, fault, estop)");
+    refused("wait flying", 1,
+            "unknown state 'flying' (idle, engaging, ready, running, parking, fault, estop, stopping)");
     refused("wait ready 0", 1, "wait timeout 0 is out of range");
     refused("wait ready -1", 1, "wait timeout -1 is out of range");
     refused("wait ready soon", 1, "wait timeout 'soon' is not a number");

@@ -59,12 +59,13 @@ def test_shipped_dbc_within_50_percent_per_bus():
     # + OP_HEARTBEAT 4 bytes every 20 ms, + OP_FORCE 32, OP_COMMAND 20, CTRL_AUTH 16 and
     # OP_FORCE_PARAMS 24 bytes budgeted every 10 ms (the authenticated frames: docs/explanation/security.md);
     # CTRL_IDENTITY 12 bytes, one per OP_COMMAND IDENTIFY, budgeted as OP_COMMAND;
+    # CTRL_REFUSAL 8 bytes, at most every 10 ms;
     # axis_b also carries FT_SENSOR, 20 bytes every 1 ms
     assert loads["axis_a"] == pytest.approx((5 * 34 + (113 + 358 + 3 * 193) / 5) / 10, abs=1e-9)
     assert loads["axis_b"] == pytest.approx((6 * 34 + (113 + 358 + 3 * 193 + 238) / 5) / 10, abs=1e-9)
     assert loads["ops"] == pytest.approx((3 * 34 + (358 + 358 + 678) / 5 + (34 + 278 / 5) / 2 + (34 + 73 / 5) / 20
                                           + (34 + 358 / 5) / 10 + (34 + 238 / 5) / 10 + (34 + 193 / 5) / 10
-                                          + (34 + 278 / 5) / 10 + (34 + 153 / 5) / 10
+                                          + (34 + 278 / 5) / 10 + (34 + 153 / 5) / 10 + (34 + 113 / 5) / 10
                                           # OP_FRAME 32 and CTRL_FRAMES 24 bytes every 100 ms, OP_REACH 24 and
                                           # CTRL_REACH 32 bytes every 20 ms (issue 31)
                                           + (34 + 358 / 5) / 100 + (34 + 278 / 5) / 100
@@ -101,7 +102,8 @@ def test_slower_bit_rate_overloads(tmp_path):
 
 
 def test_wrench_at_1khz_would_overload_the_ops_bus(tmp_path):
-    # CTRL_WRENCH is budgeted at 2 ms; at 1 ms the ops bus would be at 51.4 %, and with
+    # CTRL_WRENCH is budgeted at 2 ms; at 1 ms the ops bus would be at 52.0 % (51.4 % before
+    # CTRL_REFUSAL), and with
     # OP_COMMAND budgeted at 1 ms as before the authentication codes, at 58.8 %
     text = (REPO_ROOT / "protocol" / "stewart.dbc").read_text()
     assert 'BA_ "GenMsgCycleTime" BO_ 258 2;' in text

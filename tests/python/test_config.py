@@ -57,6 +57,12 @@ def mutate(path, value):
     (("hydraulic", "bulk_modulus"), KeyError, "hydraulic.bulk_modulus: missing"),
     (("sensors", "seed"), -3, "sensors.seed"),
     (("gravity",), float("nan"), "gravity"),
+    (("estop", "category"), 2, "estop.category"),
+    (("estop", "category"), True, "estop.category"),
+    (("estop", "deceleration"), 0.05, "estop.deceleration"),
+    (("estop", "angular_jerk"), 1000.0, "estop.angular_jerk"),
+    (("estop", "settle"), -0.1, "estop.settle"),
+    (("estop", "brake"), 1.0, "estop.brake: unknown key"),
 ])
 def test_bad_values_name_the_key(tmp_path, path, value, needle):
     f = tmp_path / "bad.json"
@@ -116,3 +122,21 @@ def test_fuzzed_configs_never_crash(tmp_path):
             cfg.from_dict(d, "fuzz")
         except cfg.ConfigError:
             pass
+
+
+def test_estop_section_generated(tmp_path):
+    """The estop section reaches the firmware's sp_estop_default (Q24, settle
+    in 1 ms ticks); absent, the defaults (category 1)."""
+    d = mutate(("estop",), {"category": 0, "deceleration": 2.5, "jerk": 40.0, "settle": 0.05})
+    f = tmp_path / "p.json"
+    f.write_text(json.dumps(d))
+    p = cfg.load(f)
+    assert p.estop == {"category": 0, "deceleration": 2.5, "angular_deceleration": 4.0, "jerk": 40.0,
+                       "angular_jerk": 25.0, "settle": 0.05}
+    out = tmp_path / "p.c"
+    assert gen_platform.main([str(f), str(out)]) == 0
+    assert ("const sp_estop_config_t sp_estop_default = {0u, {{41943040, 67108864}, {671088640, 419430400}}, 50u};"
+            in out.read_text())
+    del d["estop"]
+    f.write_text(json.dumps(d))
+    assert cfg.load(f).estop == cfg.ESTOP_DEFAULT

@@ -37,11 +37,12 @@ SPEC = {
     "OP_REACH": (0x04B, 24, ("ops",)),
     "CTRL_REACH": (0x105, 32, ("ops",)),
     "CTRL_FRAMES": (0x106, 24, ("ops",)),
+    "CTRL_REFUSAL": (0x107, 8, ("ops",)),
 }
 #: Messages not sent every 1 ms, and their period.
 PERIOD_MS = {"CTRL_WRENCH": 2, "OP_HEARTBEAT": 20, "OP_FORCE": 10, "OP_COMMAND": 10, "CTRL_AUTH": 10,
              "OP_FORCE_PARAMS": 10, "CTRL_IDENTITY": 10, "OP_FRAME": 100, "OP_REACH": 20, "CTRL_REACH": 20,
-             "CTRL_FRAMES": 100}
+             "CTRL_FRAMES": 100, "CTRL_REFUSAL": 10}
 
 
 @pytest.fixture()
@@ -111,7 +112,7 @@ def test_dbc_scales_and_ranges_as_specified(proto):
     cmd = proto.message("OP_COMMAND").get_signal_by_name("Command")
     assert str(cmd.choices[9]) == "SET_FEEDFORWARD" and str(cmd.choices[7]) == "ESTOP"
     st = proto.message("CTRL_STATUS").get_signal_by_name("State")
-    assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 14 and st.maximum == 6
+    assert str(st.choices[6]) == "ESTOP" and cmd.maximum == 14 and st.maximum == 7 and str(st.choices[7]) == "STOPPING"
 
 
 def test_value_names_are_the_dbc_value_tables(tmp_path):
@@ -123,8 +124,8 @@ def test_value_names_are_the_dbc_value_tables(tmp_path):
     with pytest.raises(ValueError, match="SYNC.Tick has no value table"):
         pr.value_names("SYNC", "Tick")
     gap = tmp_path / "gap.dbc"
-    gap.write_text(pr.DBC_PATH.read_text().replace('VAL_ 256 State 6 "ESTOP" 5 "FAULT"',
-                                                   'VAL_ 256 State 6 "ESTOP"'))
+    gap.write_text(pr.DBC_PATH.read_text().replace('VAL_ 256 State 7 "STOPPING" 6 "ESTOP" 5 "FAULT"',
+                                                   'VAL_ 256 State 7 "STOPPING" 6 "ESTOP"'))
     with pytest.raises(ValueError, match="numbered 0..n-1"):
         pr.value_names("CTRL_STATUS", "State", gap)
 

@@ -125,7 +125,7 @@ MESSAGES = (
         Field("FkIterations", "fk_iterations", "sat"), Field("EstimateValid", "estimate_valid", "bool"),
         Field("CmdRejected", "cmd_rejected", "bool"), Field("DriveMode", "drive_mode", "bool"),
         Field("FeedForward", "feedforward", "bool"), *_pose("", _XYZ, "estimate."),
-        Field("ResetRefusedLegs", "reset_refused_legs", "mask"),
+        Field("ResetRefusedLegs", "reset_refused_legs", "mask"), Field("StopReaction", "stop_reaction", "enum"),
         Field("ResetRefusedCause", "reset_refused_cause"), Field("ForceMode", "force_mode", "enum"),
         Field("Contact", "contact", "bool"), Field("DrivesStarting", "drives_starting", "bool"),
         Field("Refusals", "refusals", "mask"), Field("ForceUnmeasured", "force_unmeasured", "mask"))),
@@ -169,6 +169,8 @@ MESSAGES = (
     Message("CTRL_IDENTITY", "identity", "sp_msg_identity_t", (
         Field("VersionMajor", "major"), Field("VersionMinor", "minor"), Field("VersionPatch", "patch"),
         Field("Port", "port", "enum"), Field("ProtocolHash", "protocol_hash"))),
+    Message("CTRL_REFUSAL", "refusal", "sp_msg_refusal_t", (
+        Field("Tick", "tick"), Field("Command", "command", "enum"), Field("Reason", "reason", "enum"))),
 )
 
 #: Signals of the protocol itself: the E2E counter and CRC, the authentication fields.

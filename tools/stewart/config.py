@@ -289,6 +289,33 @@ def _frames_config(d) -> dict:
     return out
 
 
+#: ESTOP's reaction (``estop``, optional; docs/reference/safety.md): the stop
+#: category (1: decelerate along the path, then hold and block; 0: hold and
+#: block at once), the controlled stop's limits (linear m/s^2, m/s^3;
+#: angular rad/s^2, rad/s^3) and the time at rest before the blocking
+#: valves close (s). The firmware's sp_stop_limits_check ranges.
+ESTOP_DEFAULT = {"category": 1, "deceleration": 4.0, "angular_deceleration": 4.0, "jerk": 25.0,
+                 "angular_jerk": 25.0, "settle": 0.03}
+ESTOP_RANGES = {"deceleration": (0.1, 50.0), "angular_deceleration": (0.1, 50.0), "jerk": (1.0, 100.0),
+                "angular_jerk": (1.0, 100.0), "settle": (0.0, 1.0)}
+
+
+def _estop(d) -> dict:
+    s = d.get("estop", {})
+    if not isinstance(s, dict):
+        raise ConfigError("estop: expected an object")
+    for key in s:
+        if key not in ESTOP_DEFAULT:
+            raise ConfigError(f"estop.{key}: unknown key (known: {', '.join(sorted(ESTOP_DEFAULT))})")
+    cat = s.get("category", ESTOP_DEFAULT["category"])
+    if isinstance(cat, bool) or cat not in (0, 1):
+        raise ConfigError(f"estop.category: {json.dumps(cat)[:40]} is not 0 (immediate) or 1 (controlled stop)")
+    out = {"category": int(cat)}
+    for key, (lo, hi) in ESTOP_RANGES.items():
+        out[key] = _number(f"estop.{key}", s.get(key, ESTOP_DEFAULT[key]), lo, hi)
+    return out
+
+
 @dataclass
 class Platform:
     name: str
@@ -314,6 +341,7 @@ class Platform:
     joints: dict = field(default_factory=dict)
     length_sensors: dict = field(default_factory=lambda: {"zero": [0.0] * LEGS, "scale": [0.0] * LEGS})
     frames: dict = field(default_factory=lambda: _frames_config({}))
+    estop: dict = field(default_factory=lambda: dict(ESTOP_DEFAULT))
 
 
 def _number(where: str, v, lo: float | None = None, hi: float | None = None, positive=False) -> float:
@@ -619,7 +647,7 @@ def _from_dict(d) -> Platform:
     p = Platform(name, base, plat, mass, inertia, gravity, home, park, lmin, lmax, fmax, vmax,
                  wmin, wmax, hyd, sens, center_of_mass=com, drives=drives, force_sensor=_force_sensor(d),
                  joints=_joints(d.get("joints", {})), length_sensors=_length_sensors(d.get("length_sensors", {})),
-                 frames=_frames_config(d))
+                 frames=_frames_config(d), estop=_estop(d))
     for label, pose in (("home", home), ("park", park)):
         for i, length in enumerate(leg_lengths(p, pose)):
             if not lmin <= length <= lmax:

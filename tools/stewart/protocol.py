@@ -398,6 +398,7 @@ def status_to_dict(proto: Protocol, signals: Mapping[str, Any]) -> dict[str, Any
         "estimate_valid": bool(signals["EstimateValid"]),
         "cmd_rejected": bool(signals["CmdRejected"]),
         "refusals": int(signals["Refusals"]),
+        "stop_reaction": _choice(proto, "CTRL_STATUS", "StopReaction", signals["StopReaction"]),
         "drive_mode": _choice(proto, "CTRL_STATUS", "DriveMode", signals["DriveMode"]),
         "feedforward": bool(signals["FeedForward"]),
         "pose": signals_to_pose(signals),

@@ -411,6 +411,7 @@ static int setup(const options_t *o, sp_node_config_t *cfg, sp_auth_key_t *key)
     cfg->sync_master = (uint8_t)(o->lockstep ? 0 : 1);
     cfg->port = SP_PORT_HOST;
     cfg->ctrl.force_feedforward = (uint8_t)o->ff;
+    cfg->ctrl.estop = sp_estop_default; /* the config's ESTOP reaction */
     if (o->fb_timeout > 0) {
         cfg->ctrl.feedback_timeout_ticks = (uint32_t)o->fb_timeout;
     }

@@ -131,6 +131,7 @@ int main(int argc, char **argv)
     }
     cfg.sync_master = 0u;
     cfg.ctrl.force_feedforward = (uint8_t)ff;
+    cfg.ctrl.estop = sp_estop_default; /* as sp_controller */
     (void)sp_node_init(&node, &cfg);
     printf("tick,state,valid,fx,fy,fz,mx,my,mz\n");
     while (fgets(line, (int)sizeof line, in) != NULL) {

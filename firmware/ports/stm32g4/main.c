@@ -184,7 +184,8 @@ int main(void)
     if (sp_node_default_config(&g_cfg, &sp_platform_default) != SP_OK) {
         sp_g4_stop(SP_G4_STOP_INIT);
     }
-    g_cfg.sync_master = 1u; /* real time: we send SYNC */
+    g_cfg.sync_master = 1u;              /* real time: we send SYNC */
+    g_cfg.ctrl.estop = sp_estop_default; /* the config's ESTOP reaction */
     g_cfg.port = SP_PORT_STM32G474;
     g_cfg.ctrl.frames = sp_frame_slots_default; /* the config's named frames */
     /* command authentication (docs/explanation/security.md): the machine key built in

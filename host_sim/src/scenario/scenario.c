@@ -32,7 +32,7 @@
 #define PLAY_HEADER "t,x,y,z,roll,pitch,yaw"
 #define KEY_LIST "axis, amplitude, frequency, fade, option"
 #define AXIS_LIST "x, y, z, roll, pitch, yaw"
-#define STATE_LIST "idle, engaging, ready, running, parking, fault, estop"
+#define STATE_LIST "idle, engaging, ready, running, parking, fault, estop, stopping"
 
 /* Indexed by the OP_COMMAND value. The core names its states (sp_state_name)
  * but not its commands (sp_cmd_type_t, SP_CMD_SET_FEEDFORWARD), and the
@@ -81,7 +81,7 @@ static int lookup(const char *s, const char *const *names, int n)
 
 static int lookup_state(const char *s)
 {
-    for (int i = SP_STATE_IDLE; i <= SP_STATE_ESTOP; i++) {
+    for (int i = SP_STATE_IDLE; i <= SP_STATE_STOPPING; i++) {
         if (strcasecmp(s, sp_state_name((sp_state_t)i)) == 0) {
             return i;
         }

@@ -486,7 +486,7 @@ sp_status_t plain_proto_decode_heartbeat(const sp_can_frame_t *f, uint8_t *count
 /* ---- CTRL_STATUS ---- */
 sp_status_t plain_proto_encode_status(const sp_msg_status_t *m, uint8_t counter, sp_can_frame_t *f)
 {
-    if (m == NULL || f == NULL || m->state > 6u || m->force_mode > 4u) {
+    if (m == NULL || f == NULL || m->state > 7u || m->force_mode > 4u || m->stop_reaction > 2u) {
         return SP_E_ARG;
     }
     int sat = 0;
@@ -516,6 +516,7 @@ sp_status_t plain_proto_encode_status(const sp_msg_status_t *m, uint8_t counter,
     s.reset_refused_cause = m->reset_refused_cause;
     s.force_unmeasured = (uint8_t)(m->force_unmeasured & 0x3Fu);
     s.refusals = (uint8_t)(m->refusals & 0x07u);
+    s.stop_reaction = m->stop_reaction;
     clear(f);
     return finish(f, SP_ID_CTRL_STATUS, SP_BUS_OPS, stewart_can_ctrl_status_pack(f->data, &s, SP_CAN_MAX_DATA),
                   STEWART_CAN_CTRL_STATUS_LENGTH, sat);
@@ -535,7 +536,7 @@ sp_status_t plain_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *
         return reject(error, SP_PROTO_BAD_LENGTH);
     }
     const int32_t v[6] = {s.x, s.y, s.z, s.roll, s.pitch, s.yaw};
-    if (s.state > 6u || s.fk_iterations > 15u || s.force_mode > 4u || below_i24(v, 6u)) {
+    if (s.state > 7u || s.fk_iterations > 15u || s.force_mode > 4u || s.stop_reaction > 2u || below_i24(v, 6u)) {
         return reject(error, SP_PROTO_OUT_OF_RANGE);
     }
     m->tick = s.tick;
@@ -553,6 +554,7 @@ sp_status_t plain_proto_decode_status(const sp_can_frame_t *f, sp_msg_status_t *
     m->drives_starting = s.drives_starting;
     m->force_unmeasured = s.force_unmeasured;
     m->refusals = s.refusals;
+    m->stop_reaction = s.stop_reaction;
     pose_from_bus(v, &m->estimate);
     *counter = s.counter;
     return SP_OK;

@@ -692,6 +692,8 @@ static void test_estop_closes_blocking_valves(void **state)
     int n;
     (void)state;
     rig_init(&r);
+    r.cfg.estop.category = 0u; /* the immediate stop (category 0) */
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
     rig_tick(&r, SP_CMD_NONE);
     assert_int_equal(r.out.state, SP_STATE_IDLE);
     assert_int_equal(r.out.drive_block, 0);
@@ -1232,6 +1234,142 @@ static void start_surge(rig_t *r)
     assert_int_equal(r->out.state, SP_STATE_RUNNING);
 }
 
+/* The surge (90 mm at 0.5 Hz, 0.5 s fade) until its reference moves at
+ * its peak, +0.283 m/s (the zero crossing after one period). */
+static void surge_at_peak(rig_t *r)
+{
+    engage(r);
+    r->in.cmd.axis = SP_AXIS_X;
+    r->in.cmd.amplitude = q24(0.09);
+    r->in.cmd.frequency = q24(0.5);
+    r->in.cmd.fade_ticks = 500u;
+    rig_tick(r, SP_CMD_RUN_TRIG);
+    assert_int_equal(r->out.state, SP_STATE_RUNNING);
+    for (int n = 1; n < 2000; ++n) {
+        rig_tick(r, SP_CMD_NONE);
+    }
+    assert_true(f24(r->out.reference.vel[0]) > 0.28);
+}
+
+/* ESTOP's controlled stop (category 1) in the surge at 0.283 m/s: STOPPING
+ * with the drives ACTIVE and the valves open, the reference decelerating
+ * monotonically within the configured 4 m/s^2 and 25 m/s^3 along x alone,
+ * at rest within 0.3 s; then ESTOP: drives HOLD, valves blocked, the
+ * setpoints where the stop ended. */
+static void test_estop_controlled_stop(void **state)
+{
+    static rig_t r;
+    (void)state;
+    rig_init(&r);
+    surge_at_peak(&r);
+    double v = f24(r.out.reference.vel[0]), a = f24(r.out.reference.acc[0]), v0 = v;
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_STOPPING);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_CONTROLLED);
+    assert_int_equal(r.out.stop_cause, SP_STOP_CAUSE_NONE);
+    assert_int_equal(r.out.faults, SP_FAULT_ESTOP);
+    int ticks = 1, rest = -1;
+    double peak_dec = 0.0, peak_jerk = 0.0;
+    while (r.out.state == SP_STATE_STOPPING && ticks < 1000) {
+        double v1 = f24(r.out.reference.vel[0]), a1 = f24(r.out.reference.acc[0]);
+        assert_int_equal(r.out.drive_mode, SP_DRIVE_ACTIVE);
+        assert_int_equal(r.out.drive_block, 0);
+        assert_true(v1 <= v0 + 1e-4 && v1 >= -1e-6); /* no faster, never back */
+        assert_int_equal(r.out.reference.vel[1] | r.out.reference.vel[2] | r.out.reference.rpy_rate[2], 0);
+        peak_dec = fmax(peak_dec, fabs(a1));
+        peak_jerk = fmax(peak_jerk, fabs(a1 - a) * 1000.0);
+        if (rest < 0 && r.out.reference.vel[0] == 0 && r.out.reference.acc[0] == 0) {
+            rest = ticks;
+        }
+        v = v1, a = a1;
+        rig_tick(&r, SP_CMD_NONE);
+        ++ticks;
+    }
+    printf("controlled stop from 0.283 m/s: at rest after %d ticks, ESTOP after %d, peak %.2f m/s^2 %.1f m/s^3\n", rest,
+           ticks, peak_dec, peak_jerk);
+    assert_true(rest > 0 && rest <= 300);
+    assert_int_equal(ticks, rest + (int)r.cfg.estop.settle_ticks);
+    assert_true(peak_dec <= 4.0 + 1e-3 && peak_jerk <= 25.0 * 1.01 + 1.0);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_mode, SP_DRIVE_HOLD);
+    assert_int_equal(r.out.drive_block, 1);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_CONTROLLED);
+    sp_setpoint_t held[SP_LEGS];
+    memcpy(held, r.out.setpoint, sizeof held);
+    for (int n = 0; n < 50; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+        assert_memory_equal(held, r.out.setpoint, sizeof held);
+    }
+    rig_tick(&r, SP_CMD_RESET); /* RESET re-engages and forgets the reaction */
+    assert_int_equal(r.out.state, SP_STATE_ENGAGING);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_NONE);
+}
+
+/* Category 0 wherever the controller cannot trust its loop, each with its
+ * cause: the config's choice, the drives holding (IDLE), a second ESTOP
+ * during the stop, a drive silent during the stop, a drive's fault at
+ * the ESTOP; at rest (READY) the controlled stop has nothing to do and
+ * blocks at once; RESET is refused while stopping. */
+static void test_estop_immediate_causes(void **state)
+{
+    static rig_t r;
+    (void)state;
+    /* the config's choice */
+    rig_init(&r);
+    r.cfg.estop.category = 0u;
+    assert_int_equal(sp_ctrl_init(&r.ctrl, &r.cfg), SP_OK);
+    surge_at_peak(&r);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_block, 1);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_IMMEDIATE);
+    assert_int_equal(r.out.stop_cause, SP_STOP_CAUSE_CONFIG);
+    /* IDLE: the drives hold already */
+    rig_init(&r);
+    rig_tick(&r, SP_CMD_NONE);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.stop_cause, SP_STOP_CAUSE_HOLDING);
+    /* READY at rest: controlled, nothing to decelerate, blocked at once */
+    rig_init(&r);
+    engage(&r);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_block, 1);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_CONTROLLED);
+    /* a second ESTOP during the stop; RESET refused before */
+    rig_init(&r);
+    surge_at_peak(&r);
+    rig_tick(&r, SP_CMD_ESTOP);
+    rig_tick(&r, SP_CMD_NONE);
+    rig_tick(&r, SP_CMD_RESET);
+    assert_int_equal(r.out.cmd_rejected, 1);
+    assert_int_equal(r.out.state, SP_STATE_STOPPING);
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.drive_block, 1);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_IMMEDIATE);
+    assert_int_equal(r.out.stop_cause, SP_STOP_CAUSE_SECOND);
+    /* a drive silent during the stop */
+    rig_init(&r);
+    surge_at_peak(&r);
+    rig_tick(&r, SP_CMD_ESTOP);
+    r.silent[3] = 1;
+    for (int n = 0; n < 5; ++n) {
+        rig_tick(&r, SP_CMD_NONE);
+    }
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.stop_cause, SP_STOP_CAUSE_COMMS);
+    assert_int_equal(r.out.faults, SP_FAULT_ESTOP | SP_FAULT_FEEDBACK_TIMEOUT);
+    /* a drive reporting a fault on the ESTOP's tick */
+    rig_init(&r);
+    surge_at_peak(&r);
+    r.in.drive[1].faults = 0x10u;
+    rig_tick(&r, SP_CMD_ESTOP);
+    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.out.stop_reaction, SP_STOP_IMMEDIATE);
+}
+
 /* Operator link supervision: never heard, no supervision; heard, a silence
  * of operator_timeout_ticks while RUNNING latches the fault on exactly that
  * tick and stops the motion smoothly; motion commands are refused until
@@ -1299,9 +1437,10 @@ static void test_operator_link_stop(void **state)
     for (uint32_t k = 1; k < timeout; ++k) {
         rig_tick(&r, SP_CMD_NONE);
     }
-    rig_tick(&r, SP_CMD_ESTOP);
-    assert_int_equal(r.out.state, SP_STATE_ESTOP);
+    rig_tick(&r, SP_CMD_ESTOP); /* the controlled stop, then ESTOP */
+    assert_int_equal(r.out.state, SP_STATE_STOPPING);
     assert_int_equal(r.out.faults, SP_FAULT_OPERATOR_SILENT | SP_FAULT_ESTOP);
+    run_until(&r, SP_STATE_ESTOP, 2000);
     link_tick(&r, SP_CMD_RESET, 1);
     assert_int_equal(r.out.cmd_rejected, 0);
     assert_int_equal(r.out.state, SP_STATE_ENGAGING);
@@ -1897,6 +2036,8 @@ int main(void)
         cmocka_unit_test(test_estimate_matches_full_fk),
         cmocka_unit_test(test_estop_and_divergence),
         cmocka_unit_test(test_estop_closes_blocking_valves),
+        cmocka_unit_test(test_estop_controlled_stop),
+        cmocka_unit_test(test_estop_immediate_causes),
         cmocka_unit_test(test_fk_failure_faults),
         cmocka_unit_test(test_ft_frame_before_reference),
         cmocka_unit_test(test_cylinder_estimate_tare),

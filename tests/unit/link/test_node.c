@@ -46,6 +46,8 @@ typedef struct {
     sp_msg_reach_answer_t reach; /* the last one */
     uint32_t frames_frames;      /* CTRL_FRAMES frames seen */
     sp_msg_frames_t frames;      /* the last one */
+    uint32_t refusal_frames;     /* CTRL_REFUSAL frames seen */
+    sp_msg_refusal_t refusal;    /* the last one */
 } rig_t;
 
 #define RIG_SESSION 0x5EED1234u
@@ -97,7 +99,8 @@ static void rig_tick(rig_t *r)
     uint32_t tenth = (r->node.out.tick % SP_PROTO_AUTH_PERIOD) == 0u ? 1u : 0u;
     uint32_t frames = (r->node.out.tick % SP_PROTO_FRAMES_PERIOD) == SP_PROTO_FRAMES_PHASE ? 1u : 0u;
     uint32_t identity = r->n_sent > 0u && (r->sent[r->n_sent - 1u].id == SP_ID_CTRL_IDENTITY ||
-                                           r->sent[r->n_sent - 1u].id == SP_ID_CTRL_REACH)
+                                           r->sent[r->n_sent - 1u].id == SP_ID_CTRL_REACH ||
+                                           r->sent[r->n_sent - 1u].id == SP_ID_CTRL_REFUSAL)
                             ? 1u
                             : 0u;
     assert_int_equal(r->n_sent, 6u + even + tenth + frames + identity);
@@ -123,6 +126,11 @@ static void rig_tick(rig_t *r)
         } else if (f->id == SP_ID_CTRL_FRAMES) {
             assert_int_equal(sp_proto_decode_frames(f, &r->frames, &counter, &e), SP_OK);
             r->frames_frames++;
+        } else if (f->id == SP_ID_CTRL_REFUSAL) {
+            assert_int_equal(tenth, 0u); /* never beside CTRL_AUTH */
+            assert_int_equal(f->bus, SP_BUS_OPS);
+            assert_int_equal(sp_proto_decode_refusal(f, &r->refusal, &counter, &e), SP_OK);
+            r->refusal_frames++;
         } else if (f->id == SP_ID_CTRL_AUTH) {
             assert_int_equal(f->bus, SP_BUS_OPS);
             assert_int_equal(k, 4u); /* ahead of CTRL_STATUS */
@@ -363,6 +371,57 @@ static void test_status_counts_refusals_modulo_8(void **state)
     }
 }
 
+/* CTRL_REFUSAL: the refused command and its reason on the tick after the
+ * refusal, its Tick the CTRL_STATUS tick that said CmdRejected; at most
+ * one in 10 ticks, the latest refusal kept. */
+static void test_refusal_frames(void **state)
+{
+    (void)state;
+    static rig_t r;
+    rig_init(&r);
+    for (uint32_t t = 0; t < 5u; t++) {
+        rig_tick(&r);
+    }
+    send_command(&r, SP_CMD_RUN_TRIG); /* IDLE: the state's */
+    rig_tick(&r);
+    uint32_t refused_at = last_status(&r).tick;
+    assert_int_equal(last_status(&r).cmd_rejected, 1u);
+    for (uint32_t t = 0; t < 3u; t++) {
+        rig_tick(&r);
+    }
+    assert_int_equal(r.refusal_frames, 1u);
+    assert_int_equal(r.refusal.command, SP_CMD_RUN_TRIG);
+    assert_int_equal(r.refusal.reason, SP_REFUSE_STATE);
+    assert_int_equal(r.refusal.tick, refused_at);
+    send_command(&r, SP_CMD_ENGAGE);
+    run_until(&r, SP_STATE_READY, 10000u);
+    uint32_t before = r.refusal_frames;
+    /* READY: 90 mm at 3 Hz drives a leg beyond 0.5 m/s: RATE; then STOP (not RUNNING: the state's) */
+    sp_msg_command_t c;
+    memset(&c, 0, sizeof c);
+    c.command = SP_CMD_RUN_TRIG;
+    c.axis = SP_AXIS_X;
+    c.amplitude = (sp_q24_t)(0.09 * 16777216.0);
+    c.frequency = 3 * SP_Q24_ONE;
+    c.fade_ms = 500u;
+    sp_can_frame_t f;
+    assert_int_equal(sp_proto_encode_command(&c, r.op_counter++, &f), SP_OK);
+    sign(&r, &f);
+    assert_int_equal(sp_node_receive(&r.node, &f, NULL), SP_OK);
+    rig_tick(&r);
+    assert_int_equal(r.node.out.refuse_reason, SP_REFUSE_RATE);
+    send_command(&r, SP_CMD_STOP);
+    rig_tick(&r);
+    for (uint32_t t = 0; t < 25u; t++) {
+        rig_tick(&r);
+    }
+    /* both within 10 ticks: the later one went out, once */
+    assert_true(r.refusal_frames == before + 1u || r.refusal_frames == before + 2u);
+    assert_int_equal(r.refusal.command, SP_CMD_STOP);
+    assert_int_equal(r.refusal.reason, SP_REFUSE_STATE);
+    assert_int_equal(r.node.ctrl.state, SP_STATE_READY);
+}
+
 /* OP_HEARTBEAT over frames: a heartbeat with a bad CRC is dropped and arms
  * nothing; a good one arms the supervision; silent for the timeout while
  * RUNNING, CTRL_STATUS reports the operator-silent fault (bit 8) and the
@@ -479,9 +538,10 @@ static void test_identify_over_frames(void **state)
 
     send_command(&r, SP_CMD_ESTOP);
     rig_tick(&r);
-    assert_int_equal(r.node.out.state, SP_STATE_ESTOP);
+    assert_int_equal(r.node.out.state, SP_STATE_STOPPING); /* the controlled stop */
     identify_now(&r, SP_PORT_STM32G474);
     assert_int_equal(r.identity_frames, 7u);
+    run_until(&r, SP_STATE_ESTOP, 2000u);
 }
 
 static uint8_t frame_counter; /* OP_FRAME's alive counter */
@@ -1411,6 +1471,7 @@ int main(void)
         cmocka_unit_test(test_frames_and_reach_over_frames),
         cmocka_unit_test(test_engage_run_park_over_frames),
         cmocka_unit_test(test_identify_over_frames),
+        cmocka_unit_test(test_refusal_frames),
         cmocka_unit_test(test_tick_wrap_is_seamless),
         cmocka_unit_test(test_stats_saturate),
         cmocka_unit_test(test_malformed_frames_are_counted_and_dropped),

@@ -173,6 +173,7 @@ static void encode_round(uint8_t c, uint8_t bus)
     st.state = small();
     st.force_mode = small();
     st.fk_iterations = small();
+    st.stop_reaction = small();
     pose(&st.estimate);
     ENC(sp_proto_encode_status(&st, c, &fa), plain_proto_encode_status(&st, c, &fb));
 

@@ -954,7 +954,7 @@ ACTIONS = {
     "stream": _stream,
     "stop": _simple("STOP", lambda s: s.state != "RUNNING", 60.0, _stop_pre),
     "park": _simple("PARK", _state_is("IDLE"), 120.0),
-    "estop": _simple("ESTOP", _state_is("ESTOP"), 2.0),
+    "estop": _simple("ESTOP", _state_is("STOPPING", "ESTOP"), 2.0),
     "reset": _simple("RESET", _reset_done, 60.0),
     "feedforward": _feedforward,
     "force": _force,

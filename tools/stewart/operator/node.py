@@ -56,7 +56,7 @@ ACCEPTED_IN = {
     "STOP": ("RUNNING",),
     "PARK": ("READY", "ENGAGING", "RUNNING"),
     "ESTOP": STATES,
-    "RESET": ("FAULT", "ESTOP"),
+    "RESET": ("FAULT", "ESTOP"),  # not STOPPING: RESET waits for the controlled stop's end
     "SET_FEEDFORWARD": ("IDLE", "READY"),
     "FORCE": ("READY", "RUNNING"),
     "GUIDE": ("READY", "RUNNING"),

@@ -22,6 +22,7 @@
 /* motion */
 #include "sp/motion/limits.h"
 #include "sp/motion/setpoint.h"
+#include "sp/motion/stop.h"
 #include "sp/motion/stream.h"
 #include "sp/motion/trajectory.h"
 /* estimation */

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/control/controller.h"
 
+#include "control/control_internal.h"
 #include "estimation/estimation_internal.h"
 #include "model/model_internal.h"
 #include "math/fixed_inline.h"
@@ -22,6 +23,8 @@ const char *sp_state_name(sp_state_t state)
         return "fault";
     case SP_STATE_ESTOP:
         return "estop";
+    case SP_STATE_STOPPING:
+        return "stopping";
     default:
         return "unknown";
     }
@@ -83,6 +86,12 @@ sp_status_t sp_ctrl_default_config(sp_ctrl_config_t *cfg, const sp_platform_t *p
     cfg->frames.work_used = 1u;
     cfg->frames.tool_active = 0u;
     cfg->frames.work_active = 0u;
+    cfg->estop.category = 1u;
+    cfg->estop.limits.decel[0] = 4 * SP_Q24_ONE; /* 4 m/s^2 */
+    cfg->estop.limits.decel[1] = 4 * SP_Q24_ONE; /* 4 rad/s^2 */
+    cfg->estop.limits.jerk[0] = 25 * SP_Q24_ONE; /* 25 m/s^3 */
+    cfg->estop.limits.jerk[1] = 25 * SP_Q24_ONE; /* 25 rad/s^3 */
+    cfg->estop.settle_ticks = 30u;
     return SP_OK;
 }
 
@@ -184,6 +193,12 @@ static sp_status_t prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     if (st == SP_OK && ((cfg->wrench_source != SP_WRENCH_CYLINDERS && cfg->wrench_source != SP_WRENCH_SENSOR) ||
                         cfg->ft_tare_samples < 1u || cfg->ft_tare_samples > 65536u || cfg->ft_timeout_ticks < 1u)) {
         st = SP_E_ARG;
+    }
+    if (st == SP_OK) {
+        st = spi_estop_config_check(&cfg->estop);
+    }
+    if (st == SP_OK) {
+        spi_cmd_prepare(ctrl, cfg); /* needs nothing of the above */
     }
     return st;
 }
@@ -295,6 +310,7 @@ static void reset_motion(sp_ctrl_t *ctrl, const sp_platform_t *p)
     ctrl->drive_reset.refused_legs = 0u;
     ctrl->drive_reset.refused_cause = 0u;
     ctrl->fault_hold_ticks = 0u;
+    spi_estop_clear(ctrl);
 }
 
 /* ---- frames -------------------------------------------------------------- */
@@ -378,6 +394,10 @@ static void raise_fault(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, uint32_t f
 {
     uint32_t before = ctrl->faults;
     ctrl->faults |= fault;
+    if (ctrl->state == SP_STATE_STOPPING) {
+        spi_estop_fault(ctrl, fault); /* the controlled stop cannot go on: category 0 */
+        return;
+    }
     if (ctrl->state == SP_STATE_ESTOP || (before != 0u && ctrl->state == SP_STATE_FAULT && ctrl->faults == before)) {
         return;
     }
@@ -401,7 +421,7 @@ static int park_reaction_active(const sp_ctrl_t *ctrl)
 static int drives_active(const sp_ctrl_t *ctrl)
 {
     return ctrl->state == SP_STATE_ENGAGING || ctrl->state == SP_STATE_READY || ctrl->state == SP_STATE_RUNNING ||
-           ctrl->state == SP_STATE_PARKING || park_reaction_active(ctrl);
+           ctrl->state == SP_STATE_PARKING || ctrl->state == SP_STATE_STOPPING || park_reaction_active(ctrl);
 }
 
 /* ---- 1. feedback supervision --------------------------------------------- */
@@ -872,6 +892,7 @@ static int finish_reset(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int comms_
         return 0;
     }
     ctrl->faults = 0u;
+    spi_estop_clear(ctrl);
     ctrl->state = SP_STATE_ENGAGING;
     return 1;
 }
@@ -958,8 +979,7 @@ SPI_NOINLINE static int command(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, co
     case SP_CMD_NONE:
         return 1;
     case SP_CMD_ESTOP:
-        ctrl->drive_reset.left = 0u; /* a reset under way does not re-engage after an ESTOP */
-        raise_fault(cfg, ctrl, SP_FAULT_ESTOP);
+        spi_estop_take(cfg, ctrl, drives_active(ctrl), comms_ok); /* controlled or immediate (estop.c) */
         return 1;
     case SP_CMD_ENGAGE:
         if (ctrl->state != SP_STATE_IDLE || !comms_ok || !ctrl->est.valid || !start_engage(cfg, ctrl)) {
@@ -1173,6 +1193,8 @@ static int reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_flags_t *f
     case SP_STATE_ESTOP:
         sp_motion_at_rest(ref, &ctrl->reference.pose);
         return 1;
+    case SP_STATE_STOPPING:
+        return spi_estop_reference(cfg, ctrl, ref);
     case SP_STATE_IDLE:
     default:
         sp_motion_at_rest(ref, ctrl->est.valid ? &ctrl->est.pose : &cfg->platform->park);
@@ -1568,7 +1590,7 @@ static void check_divergence(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     const sp_pose_t *r = &ctrl->reference.pose;
     unsigned i;
     if ((ctrl->state != SP_STATE_ENGAGING && ctrl->state != SP_STATE_READY && ctrl->state != SP_STATE_RUNNING &&
-         ctrl->state != SP_STATE_PARKING) ||
+         ctrl->state != SP_STATE_PARKING && ctrl->state != SP_STATE_STOPPING) ||
         !ctrl->est.valid) {
         return;
     }
@@ -1692,6 +1714,8 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     }
     out->wrench_valid = ctrl->wrench.valid;
     out->drive_fault_reset = ctrl->drive_reset.edge;
+    out->stop_reaction = ctrl->estop.reaction;
+    out->stop_cause = ctrl->estop.cause;
     out->reset_refused_legs = ctrl->drive_reset.refused_legs;
     out->reset_refused_cause = ctrl->drive_reset.refused_cause;
     out->force_unmeasured = (uint8_t)ctrl->sup.no_force_mask;
@@ -1729,6 +1753,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     int heard;
     int rejected;
     int dropped;
+    uint8_t reason = (uint8_t)SP_REFUSE_NONE;
     int have_model = 0;
     const sp_ctrl_cmd_t *cmd;
 
@@ -1743,9 +1768,19 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     ft_sensor(cfg, ctrl, in);
     drive_reset_job(cfg, ctrl, comms_ok);
     cmd = sp_ctrl_operator_link(cfg, ctrl, in, &dropped);
-    rejected = !command(cfg, ctrl, cmd, comms_ok) || dropped;
-    if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh) {
-        rejected |= !take_stream_target(cfg, ctrl, &in->stream_target);
+    if (dropped) {
+        reason = (uint8_t)SP_REFUSE_LINK;
+    } else if (cmd->type != SP_CMD_NONE) { /* checked before it is taken: no cost on ticks without a command */
+        reason = spi_cmd_check(cfg, ctrl, cmd);
+    }
+    rejected = reason != (uint8_t)SP_REFUSE_NONE || !command(cfg, ctrl, cmd, comms_ok) || dropped;
+    if (rejected && reason == (uint8_t)SP_REFUSE_NONE) {
+        reason = (uint8_t)SP_REFUSE_STATE;
+    }
+    if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh &&
+        !take_stream_target(cfg, ctrl, &in->stream_target)) {
+        rejected = 1;
+        reason = (reason != (uint8_t)SP_REFUSE_NONE) ? reason : (uint8_t)SP_REFUSE_REACH;
     }
     if (rejected) {
         count_refusal(ctrl);
@@ -1781,5 +1816,6 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         ctrl->fault_hold_ticks = 0u;
     }
     write_output(cfg, ctrl, fk_iterations, rejected, out);
+    out->refuse_reason = reason;
     return SP_OK;
 }

@@ -456,8 +456,10 @@ SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
 {
     int rejected = 0;
     memset(&node->in.cmd, 0, sizeof node->in.cmd);
+    node->cmd_now = (uint8_t)SP_CMD_NONE;
     if (node->cmd_count > 0u) {
         const sp_msg_command_t *c = &node->cmd_queue[node->cmd_head];
+        node->cmd_now = c->command;
         node->cmd_head = (uint8_t)((node->cmd_head + 1u) % SP_NODE_CMD_QUEUE);
         node->cmd_count--;
         if (c->command == SP_CMD_ENGAGE && node->drives_starting) {
@@ -490,6 +492,7 @@ SPI_NOINLINE static int take_command(sp_node_config_t *cfg, sp_node_t *node)
         /* new admittance parameters: a command of their own (the controller
          * takes them in position control, refuses them otherwise) */
         const sp_msg_force_params_t *p = &node->force_params;
+        node->cmd_now = (uint8_t)SP_REFUSED_FORCE_PARAMS;
         node->in.cmd.type = SP_CMD_FORCE_PARAMS;
         node->in.cmd.force_mask = p->mask;
         node->in.cmd.force_params_mode = p->mode;
@@ -581,6 +584,7 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
     s.drives_starting = node->drives_starting;
     s.force_unmeasured = node->out.force_unmeasured;
     s.refusals = (uint8_t)(node->stats.cmd_refused & 0x07u);
+    s.stop_reaction = (uint8_t)(node->out.stop_reaction > 2u ? 2u : node->out.stop_reaction);
     count_send(node, sp_proto_encode_status(&s, node->tx_counter_status++, &out[*n]), n);
     node->tx_counter_status &= 0x0Fu;
 
@@ -664,6 +668,35 @@ SPI_NOINLINE static void send_identity(const sp_node_config_t *cfg, sp_node_t *n
     node->identify_pending = 0u;
 }
 
+/* The refusal of this tick, kept for CTRL_REFUSAL: what (this tick's
+ * command, else a streamed target) and why (the controller's reason; the
+ * node's own refusals, ENGAGE while the drives start and SET_FEEDFORWARD
+ * outside IDLE and READY, are of the state). */
+static void note_refusal(sp_node_t *node, uint32_t tick)
+{
+    node->refusal.tick = tick;
+    node->refusal.command = (node->cmd_now != (uint8_t)SP_CMD_NONE) ? node->cmd_now : (uint8_t)SP_REFUSED_TARGET;
+    node->refusal.reason = (node->out.refuse_reason != (uint8_t)SP_REFUSE_NONE && node->out.refuse_reason <= 6u)
+                               ? node->out.refuse_reason
+                               : (uint8_t)SP_REFUSE_STATE;
+    node->refusal_pending = 1u;
+}
+
+/* CTRL_REFUSAL: on a tick without CTRL_AUTH or CTRL_IDENTITY, at most one
+ * in 10 ticks (a refused stream may refuse a target every tick). */
+static void send_refusal(sp_node_t *node, uint32_t tick, sp_can_frame_t out[], uint32_t *n)
+{
+    if (!node->refusal_pending || tick % SP_PROTO_AUTH_PERIOD == 0u ||
+        (node->refusal_sent_valid && tick - node->refusal_sent < SP_PROTO_AUTH_PERIOD)) {
+        return;
+    }
+    count_send(node, sp_proto_encode_refusal(&node->refusal, node->tx_counter_refusal++, &out[*n]), n);
+    node->tx_counter_refusal &= 0x0Fu;
+    node->refusal_pending = 0u;
+    node->refusal_sent = tick;
+    node->refusal_sent_valid = 1u;
+}
+
 sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t out[SP_NODE_MAX_TX], uint32_t *n)
 {
     if (cfg == NULL || node == NULL || out == NULL || n == NULL || cfg->ctrl.platform == NULL) {
@@ -682,8 +715,10 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     if (ff_rejected) {
         node->out.cmd_rejected = 1u;
     }
+    uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
     if (node->out.cmd_rejected) {
         inc(&node->stats.cmd_refused);
+        note_refusal(node, tick);
     }
     for (uint32_t i = 0; i < SP_LEGS; i++) {
         node->in.drive[i].fresh = 0u;
@@ -692,7 +727,6 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     node->in.operator_heartbeat = 0u;
     node->in.ft_fresh = 0u;
 
-    uint32_t tick = cfg->sync_master ? node->out.tick : node->sync_tick;
     send_axis_frames(cfg, node, tick, out, n);
     send_ops_frames(cfg, node, tick, out, n);
     if (tick % SP_PROTO_FRAMES_PERIOD == SP_PROTO_FRAMES_PHASE) {
@@ -703,6 +737,8 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
         send_reach(cfg, node, out, n);
     } else if (node->identify_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
         send_identity(cfg, node, out, n);
+    } else {
+        send_refusal(node, tick, out, n);
     }
     return SP_OK;
 }

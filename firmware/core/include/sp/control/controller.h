@@ -79,9 +79,20 @@
  *             in FAULT and reports the refusing legs and their fault bits
  *             (out->reset_refused_legs, reset_refused_cause) until the next
  *             RESET. ESTOP cancels a reset under way.
- *   ESTOP     emergency stop: drives commanded to HOLD at once; latched until
- *             RESET.
- * Load holding: from the tick ESTOP is taken, and in FAULT once the
+ *   STOPPING  ESTOP taken, its controlled stop (IEC 60204-1 category 1,
+ *             control/estop.c, sp/motion/stop.h) under way: the drives
+ *             ACTIVE decelerate along the path within cfg->estop's limits,
+ *             settle at rest for estop.settle_ticks, then ESTOP. RESET is
+ *             refused; a second ESTOP or any fault makes it immediate.
+ *   ESTOP     emergency stop: drives commanded to HOLD; latched until RESET.
+ *             Reached after STOPPING, or at once (category 0) when the
+ *             config asks, the drives were holding, a drive is silent or
+ *             faulted, or there is no estimate (out->stop_reaction,
+ *             stop_cause; docs/reference/safety.md).
+ * Commands are checked before they are taken (control/cmd_check.c,
+ * docs/reference/commands.md): a refusal reports its reason in
+ * out->refuse_reason.
+ * Load holding: from the tick the state is ESTOP, and in FAULT once the
  * drives have held for SP_CTRL_FAULT_BLOCK_TICKS (every fault but the park
  * reaction under way), out->drive_block is 1: the drives put their servo
  * valves at null and close their blocking (load-holding) valves (the
@@ -107,6 +118,7 @@
 #include "sp/motion/limits.h"
 #include "sp/motion/setpoint.h"
 #include "sp/motion/stream.h"
+#include "sp/motion/stop.h"
 #include "sp/motion/trajectory.h"
 #include "sp/force/force.h"
 #include "sp/estimation/friction.h"
@@ -122,8 +134,38 @@ typedef enum {
     SP_STATE_RUNNING = 3,
     SP_STATE_PARKING = 4,
     SP_STATE_FAULT = 5,
-    SP_STATE_ESTOP = 6
+    SP_STATE_ESTOP = 6,
+    SP_STATE_STOPPING = 7 /**< ESTOP taken, its controlled stop (category 1) under way; then ESTOP */
 } sp_state_t;
+
+/** The reaction to the last ESTOP (sp_ctrl_output_t.stop_reaction;
+ *  docs/reference/safety.md). */
+#define SP_STOP_NONE 0u       /**< no ESTOP since init or the last RESET */
+#define SP_STOP_CONTROLLED 1u /**< category 1: decelerated along the path by the drives, then blocked */
+#define SP_STOP_IMMEDIATE 2u  /**< category 0: the drives hold and the blocking valves close at once */
+
+/** Why a command was refused (sp_ctrl_output_t.refuse_reason;
+ *  docs/reference/commands.md). */
+#define SP_REFUSE_NONE 0u /**< not refused */
+#define SP_REFUSE_STATE                                                                                                \
+    1u                     /**< not in this state or condition (the state machine above; a missing estimate,
+                                wrench, heard drive, tare; a force-control mode) */
+#define SP_REFUSE_RANGE 2u /**< a parameter outside its range (axis, amplitude, frequency, fade time) */
+#define SP_REFUSE_REACH 3u /**< a target, an end or a point of the path outside the workspace or the strokes */
+#define SP_REFUSE_RATE 4u  /**< the motion's peak speed would drive a leg beyond leg_velocity_max */
+#define SP_REFUSE_FORCE 5u /**< its peak acceleration would need more than the cylinders' force budget */
+#define SP_REFUSE_LINK 6u  /**< dropped by the operator link (a silent operator's fault latched) */
+
+/** Why the last ESTOP was (or became) a category-0 stop (stop_cause). */
+#define SP_STOP_CAUSE_NONE 0u     /**< none: a controlled stop, or no ESTOP */
+#define SP_STOP_CAUSE_CONFIG 1u   /**< the config asks for category 0 (estop.category 0) */
+#define SP_STOP_CAUSE_HOLDING 2u  /**< the drives were not following setpoints (IDLE, a holding FAULT) */
+#define SP_STOP_CAUSE_ESTIMATE 3u /**< no pose estimate, or the forward kinematics failed during the stop */
+#define SP_STOP_CAUSE_COMMS 4u    /**< a drive not heard (feedback timeout), at the ESTOP or during the stop */
+#define SP_STOP_CAUSE_DRIVE 5u    /**< a drive reported a fault, at the ESTOP or during the stop */
+#define SP_STOP_CAUSE_SECOND 6u   /**< a second ESTOP during the controlled stop */
+#define SP_STOP_CAUSE_FAULT 7u    /**< another fault during the stop (reference, divergence, leg limit, ...) */
+#define SP_STOP_CAUSE_PLAN 8u     /**< no stop within the limits and 10 s, or its end out of reach */
 
 /* Latched fault bits (sp_ctrl_t.faults). */
 #define SP_FAULT_FEEDBACK_TIMEOUT 0x0001u /**< a drive went silent */
@@ -284,7 +326,24 @@ typedef struct {
                                       cylinders as wrench source are refused for this reason */
     uint8_t drive_block;         /**< 1: the drives' servo valves at null, their blocking valves closed
                                       (ESTOP, FAULT holding; the setpoints' Block), else 0 */
+    uint8_t stop_reaction;       /**< the last ESTOP's reaction: SP_STOP_NONE, _CONTROLLED, _IMMEDIATE */
+    uint8_t stop_cause;          /**< why it is IMMEDIATE: SP_STOP_CAUSE_* (NONE for a controlled stop) */
+    uint8_t refuse_reason;       /**< why this tick's command was refused: SP_REFUSE_* (NONE with cmd_rejected 0) */
 } sp_ctrl_output_t;
+
+/** ESTOP's reaction (docs/reference/safety.md). */
+typedef struct {
+    uint8_t category;        /**< 1 (default): the controlled stop of sp/motion/stop.h, then the drives hold
+                                  and block; 0: hold and block at once. Else sp_ctrl_init SP_E_ARG */
+    sp_stop_limits_t limits; /**< the stop's deceleration and jerk (sp_stop_limits_check) */
+    uint32_t settle_ticks;   /**< ticks at rest, the position loops holding, between the stop's end and the
+                                  blocking valves (0 .. 1000) */
+} sp_estop_config_t;
+
+/** The platform config's `estop` section (generated with sp_platform_default
+ *  by tools/dev/gen_platform.py; validated there): the ports copy it into
+ *  sp_ctrl_config_t.estop. Its settle time is in ticks of 1 ms. */
+extern const sp_estop_config_t sp_estop_default;
 
 /** Tuning of the controller. sp_ctrl_default_config fills it from the platform. */
 typedef struct {
@@ -327,6 +386,7 @@ typedef struct {
                                           noise); 1..255, else sp_ctrl_init SP_E_ARG */
     sp_frame_slots_t frames;         /**< the named tool and work frames and the active ones at init (default:
                                           slot 0 of each, identity, the only one defined) */
+    sp_estop_config_t estop;         /**< ESTOP's stop category and its limits */
 } sp_ctrl_config_t;
 
 /** Force control's source of the external wrench. */
@@ -357,6 +417,11 @@ typedef struct {
                                    motion correction (sp_motion_error_body, then sp_motion_error_m6; the
                                    rigid body alone when the legs are outside its envelope) */
     sp_force_config_t force;          /**< cfg->force with the wrench filter's gain and the tick */
+    sp_q24_t arm_max;                 /**< the platform joints' largest distance from o', m, Q24 */
+    sp_q24_t acc_cap[6];              /**< per axis, the largest acceleration a command may reach: its
+                                           inverse-dynamics forces at home within half force_max (the other
+                                           half for gravity, poses away from home, the other terms), at most
+                                           64 m/s^2; m/s^2 or rad/s^2, Q24 (0: no motion) */
 } sp_ctrl_prepared_t;
 
 /** Ticks over which every leg's leg-mass terms are refreshed once
@@ -414,6 +479,14 @@ typedef struct {
     uint32_t silent; /**< ticks since the last operator heartbeat (saturates) */
     uint8_t armed;   /**< 1 once a heartbeat has been heard (until sp_ctrl_init) */
 } sp_operator_link_t;
+
+/** ESTOP's controlled stop under way (STOPPING) and the last reaction. */
+typedef struct {
+    sp_stop_t stop;   /**< the stop (sp/motion/stop.h) */
+    uint32_t settle;  /**< ticks at rest left before the blocking valves close */
+    uint8_t reaction; /**< SP_STOP_NONE, _CONTROLLED, _IMMEDIATE */
+    uint8_t cause;    /**< SP_STOP_CAUSE_* */
+} sp_estop_state_t;
 
 /** Controller state: everything the step remembers between ticks. */
 typedef struct {
@@ -489,6 +562,7 @@ typedef struct {
     uint16_t refusals[SP_REFUSE_COUNT]; /**< refusals by reason (sp_refusal_t), saturating */
     uint8_t last_refusal;               /**< the reason of the last refusal */
     uint8_t refusing;                   /**< this tick's refused command's reason (set where it is refused) */
+    sp_estop_state_t estop;                    /**< ESTOP's controlled stop and its reaction */
     /** the friction observer's Stribeck table (sp_fric_table_prepare),
      *  made at init like prep; last, so that its 2,704 bytes leave the other members
      *  within a load's reach of the struct's start */

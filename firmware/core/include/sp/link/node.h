@@ -105,6 +105,12 @@ typedef struct {
     sp_msg_frame_t frame;               /**< that OP_FRAME */
     uint8_t reach_pending;              /**< an OP_REACH waits for its CTRL_REACH (the newest query wins) */
     sp_msg_reach_t reach;               /**< that OP_REACH */
+    uint8_t tx_counter_refusal;
+    uint8_t cmd_now;                    /**< this tick's command as CTRL_REFUSAL names it (0: none) */
+    uint8_t refusal_pending;            /**< a refusal to report: CTRL_REFUSAL on the next tick with room */
+    sp_msg_refusal_t refusal;           /**< the last refusal (its tick, what, why) */
+    uint32_t refusal_sent;              /**< the tick the last CTRL_REFUSAL went out (at most one in 10 ticks) */
+    uint8_t refusal_sent_valid;         /**< 1 once one went out */
     uint32_t sync_tick;                 /**< tick of the last SYNC sent or received */
     uint8_t sync_seen[2];               /**< lockstep: SYNC(sync_tick) received on axis_a / axis_b */
     uint8_t sync_valid;                 /**< a SYNC has been sent or received */

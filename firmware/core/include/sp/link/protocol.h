@@ -48,6 +48,7 @@
 #define SP_ID_OP_REACH 0x04Bu
 #define SP_ID_CTRL_REACH 0x105u
 #define SP_ID_CTRL_FRAMES 0x106u
+#define SP_ID_CTRL_REFUSAL 0x107u
 #define SP_AXIS_SLOTS 3u
 
 /** Why a frame was rejected. */
@@ -172,6 +173,8 @@ typedef struct {
                                       higher bits are not sent) */
     uint8_t refusals;            /**< Refusals: commands refused since start, modulo 8 (3 bits; higher bits are
                                       not sent), so that a reader missing the CmdRejected status still sees it */
+    uint8_t stop_reaction;       /**< StopReaction: the last ESTOP's reaction, SP_STOP_NONE, _CONTROLLED,
+                                      _IMMEDIATE (0..2) */
 } sp_msg_status_t;
 
 typedef struct {
@@ -312,6 +315,26 @@ extern const uint32_t sp_proto_dbc_hash;
 /** CTRL_IDENTITY (ID 0x104, 12 bytes, ops bus, CRC-8). SP_E_ARG on NULL or
  *  a port outside sp_port_id_t. */
 sp_status_t sp_proto_encode_identity(const sp_msg_identity_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/** CTRL_REFUSAL Command beyond OP_COMMAND's: what else the controller refuses. */
+#define SP_REFUSED_FORCE_PARAMS 15u /**< an OP_FORCE_PARAMS (the node's SP_CMD_FORCE_PARAMS) */
+#define SP_REFUSED_TARGET 16u       /**< a streamed OP_TARGET_POSE */
+
+/** CTRL_REFUSAL: a refused command and why (docs/reference/commands.md). */
+typedef struct {
+    uint32_t tick;   /**< the tick that refused it */
+    uint8_t command; /**< OP_COMMAND's value, SP_REFUSED_FORCE_PARAMS or SP_REFUSED_TARGET (0..16) */
+    uint8_t reason;  /**< SP_REFUSE_* of sp/control/controller.h (0..6) */
+} sp_msg_refusal_t;
+
+/** CTRL_REFUSAL (ID 0x107, 8 bytes, ops bus, CRC-8). SP_E_ARG on NULL or
+ *  a command or reason outside its range. */
+sp_status_t sp_proto_encode_refusal(const sp_msg_refusal_t *m, uint8_t counter, sp_can_frame_t *f);
+
+/** CTRL_REFUSAL -> its values. Rejects (SP_E_FRAME, *error) a wrong
+ *  identifier or length, a bad CRC and a value out of range; SP_E_ARG on NULL. */
+sp_status_t sp_proto_decode_refusal(const sp_can_frame_t *f, sp_msg_refusal_t *m, uint8_t *counter,
+                                    sp_proto_error_t *error);
 
 /** CTRL_IDENTITY -> its values. Rejects (SP_E_FRAME, *error) a wrong
  *  identifier or length, a bad CRC and an unknown port; SP_E_ARG on NULL. */
