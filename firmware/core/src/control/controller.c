@@ -340,7 +340,7 @@ static sp_status_t reset_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
     unsigned k;
     ctrl->slots = cfg->frames;
-    for (k = 0u; k < SP_REFUSE_COUNT; ++k) {
+    for (k = 0u; k < SP_TALLY_COUNT; ++k) {
         ctrl->refusals[k] = 0u;
     }
     ctrl->last_refusal = (uint8_t)SP_REFUSE_NONE;
@@ -353,7 +353,7 @@ static sp_status_t reset_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, sp_refusal_t why)
 {
     unsigned w = (unsigned)why;
-    if (ctrl == NULL || w >= SP_REFUSE_COUNT || w == 0u) {
+    if (ctrl == NULL || w >= SP_TALLY_COUNT || w == 0u) {
         return;
     }
     if (ctrl->refusals[w] < UINT16_MAX) {
@@ -698,12 +698,12 @@ static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_c
     }
     if (ctrl->frames.identity) {
         if (!end_reachable(cfg, ctrl, &cmd->target)) {
-            return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+            return refuse(ctrl, SP_TALLY_UNREACHABLE);
         }
         from = ctrl->pos_ref.pose;
     } else {
         if (tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
-            return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+            return refuse(ctrl, SP_TALLY_UNREACHABLE);
         }
         if (sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &from) != SP_OK) {
             return 0;
@@ -755,7 +755,7 @@ static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     *l = sp_sub(*l, cmd->amplitude, NULL);
     *h = sp_add(*h, cmd->amplitude, NULL);
     if (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1) {
-        return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+        return refuse(ctrl, SP_TALLY_UNREACHABLE);
     }
     if (sp_trig_start(&ctrl->trig, centre, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
                       cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) != SP_OK) {
@@ -936,19 +936,19 @@ static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     int tool = cmd->frame_kind == SP_FRAME_TOOL;
     sp_frames_t probe;
     if ((ctrl->state != SP_STATE_IDLE && ctrl->state != SP_STATE_READY) || ctrl->force.mode != SP_FORCE_OFF) {
-        return refuse(ctrl, SP_REFUSE_MOVING);
+        return refuse(ctrl, SP_TALLY_MOVING);
     }
     if (i >= SP_FRAME_SLOTS || (cmd->frame_kind != SP_FRAME_TOOL && cmd->frame_kind != SP_FRAME_WORK) ||
         (cmd->frame_op != SP_FRAME_SELECT && cmd->frame_op != SP_FRAME_SET)) {
-        return refuse(ctrl, SP_REFUSE_EMPTY_SLOT);
+        return refuse(ctrl, SP_TALLY_EMPTY_SLOT);
     }
     if (cmd->frame_op == SP_FRAME_SELECT) {
         if (((tool ? sl->tool_used : sl->work_used) & (1u << i)) == 0u) {
-            return refuse(ctrl, SP_REFUSE_EMPTY_SLOT);
+            return refuse(ctrl, SP_TALLY_EMPTY_SLOT);
         }
     } else {
         if (sp_frames_prepare(tool ? &cmd->frame_value : NULL, tool ? NULL : &cmd->frame_value, &probe) != SP_OK) {
-            return refuse(ctrl, SP_REFUSE_BAD_FRAME);
+            return refuse(ctrl, SP_TALLY_BAD_FRAME);
         }
         if (tool) {
             sl->tool[i] = cmd->frame_value;
@@ -966,7 +966,7 @@ static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     if (activate_frames(cfg, ctrl) != SP_OK) {
         *sl = before; /* home's tool pose out of range with them: the old frames stay */
         (void)activate_frames(cfg, ctrl);
-        return refuse(ctrl, SP_REFUSE_BAD_FRAME);
+        return refuse(ctrl, SP_TALLY_BAD_FRAME);
     }
     return 1;
 }
@@ -1057,13 +1057,13 @@ static int take_tool_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     sp_pose_t pp;
     sp_pose_t tool_target = ctrl->stream.target;
     if (ctrl->stream.stopping || sp_frames_to_platform(&ctrl->frames, target, &pp, NULL) != SP_OK) {
-        return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+        return refuse(ctrl, SP_TALLY_UNREACHABLE);
     }
     ctrl->stream.target = ctrl->stream_platform;
     if (!sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, &pp, &ctrl->model_pose,
                          known ? ctrl->model.ref.length : NULL)) {
         ctrl->stream.target = tool_target;
-        return refuse(ctrl, SP_REFUSE_UNREACHABLE);
+        return refuse(ctrl, SP_TALLY_UNREACHABLE);
     }
     ctrl->stream_platform = pp;
     ctrl->stream.target = *target;
@@ -1081,7 +1081,7 @@ static int take_stream_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, cons
         return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->model_pose,
                                known ? ctrl->model.ref.length : NULL)
                    ? 1
-                   : refuse(ctrl, SP_REFUSE_UNREACHABLE);
+                   : refuse(ctrl, SP_TALLY_UNREACHABLE);
     }
     return take_tool_target(cfg, ctrl, target, known);
 }
@@ -1736,7 +1736,7 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
  * path that refused it named none). */
 SPI_NOINLINE static void count_refusal(sp_ctrl_t *ctrl)
 {
-    sp_refusal_t why = (ctrl->refusing != 0u) ? (sp_refusal_t)ctrl->refusing : SP_REFUSE_OTHER;
+    sp_refusal_t why = (ctrl->refusing != 0u) ? (sp_refusal_t)ctrl->refusing : SP_TALLY_OTHER;
     ctrl->refusing = (uint8_t)SP_REFUSE_NONE;
     sp_ctrl_count_refusal(ctrl, why);
 }

@@ -441,7 +441,7 @@ static int take_frame(sp_node_t *node)
 {
     node->frame_fresh = 0u;
     if (node->frame.op == SP_FRAME_SET && pose_not_finite(&node->frame.value)) {
-        sp_ctrl_count_refusal(&node->ctrl, SP_REFUSE_NOT_FINITE);
+        sp_ctrl_count_refusal(&node->ctrl, SP_TALLY_NOT_FINITE);
         return 1;
     }
     node->in.cmd.type = SP_CMD_FRAME;
@@ -620,7 +620,7 @@ SPI_NOINLINE static void send_reach(const sp_node_config_t *cfg, sp_node_t *node
     a.sequence = node->reach.sequence;
     if (pose_not_finite(&node->reach.pose)) {
         a.verdict = SP_PROTO_REACH_NOT_FINITE;
-        sp_ctrl_count_refusal(&node->ctrl, SP_REFUSE_NOT_FINITE);
+        sp_ctrl_count_refusal(&node->ctrl, SP_TALLY_NOT_FINITE);
     } else if (sp_ctrl_reach(&cfg->ctrl, &node->ctrl, &node->reach.pose, &r) == SP_OK) {
         a.verdict = r.verdict;
         a.which = r.which;

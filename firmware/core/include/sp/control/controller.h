@@ -230,20 +230,22 @@ typedef struct {
  *  by tools/dev/gen_platform.py: ports copy them into sp_ctrl_config_t.frames. */
 extern const sp_frame_slots_t sp_frame_slots_default;
 
-/** Why a command or a reach query was refused (sp_ctrl_t.refusals,
- *  sp_ctrl_t.last_refusal; CTRL_FRAMES). */
+/** The frame and reach refusals as CTRL_FRAMES tallies them
+ *  (sp_ctrl_t.refusals, sp_ctrl_t.last_refusal). A second view of the
+ *  refusals beside SP_REFUSE_* (CTRL_REFUSAL's reasons): the two came from
+ *  parallel work and are to become one list. */
 typedef enum {
-    SP_REFUSE_NONE = 0,
-    SP_REFUSE_MOVING = 1,      /**< a frame change outside rest (IDLE, READY with force control off) */
-    SP_REFUSE_EMPTY_SLOT = 2,  /**< a select of an undefined slot, or an index beyond the slots */
-    SP_REFUSE_BAD_FRAME = 3,   /**< a frame outside sp_frames_prepare's bounds (tool point beyond 5 m, ...) */
-    SP_REFUSE_NOT_FINITE = 4,  /**< a reach query or frame with a value that is not a finite number (the node) */
-    SP_REFUSE_UNREACHABLE = 5, /**< a MOVE_TO or RUN_TRIG whose end the reach check refuses, a streamed
+    SP_TALLY_NONE = 0,
+    SP_TALLY_MOVING = 1,      /**< a frame change outside rest (IDLE, READY with force control off) */
+    SP_TALLY_EMPTY_SLOT = 2,  /**< a select of an undefined slot, or an index beyond the slots */
+    SP_TALLY_BAD_FRAME = 3,   /**< a frame outside sp_frames_prepare's bounds (tool point beyond 5 m, ...) */
+    SP_TALLY_NOT_FINITE = 4,  /**< a reach query or frame with a value that is not a finite number (the node) */
+    SP_TALLY_UNREACHABLE = 5, /**< a MOVE_TO or RUN_TRIG whose end the reach check refuses, a streamed
                                     target beyond the limits */
-    SP_REFUSE_OTHER = 6        /**< any other refused command (the state does not allow it, ...) */
+    SP_TALLY_OTHER = 6        /**< any other refused command (the state does not allow it, ...) */
 } sp_refusal_t;
 
-#define SP_REFUSE_COUNT 7u
+#define SP_TALLY_COUNT 7u
 
 /** The reach check's verdict (sp_ctrl_reach). */
 typedef enum {
@@ -559,7 +561,7 @@ typedef struct {
     sp_motion_t tool_ref;               /**< RUNNING with frames: the motion generator's reference, a tool motion */
     sp_pose_t tool_home;                /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
     sp_pose_t stream_platform;          /**< STREAM with frames: the platform pose of the streamed target in force */
-    uint16_t refusals[SP_REFUSE_COUNT]; /**< refusals by reason (sp_refusal_t), saturating */
+    uint16_t refusals[SP_TALLY_COUNT]; /**< refusals by reason (sp_refusal_t), saturating */
     uint8_t last_refusal;               /**< the reason of the last refusal */
     uint8_t refusing;                   /**< this tick's refused command's reason (set where it is refused) */
     sp_estop_state_t estop;                    /**< ESTOP's controlled stop and its reaction */
@@ -689,7 +691,7 @@ sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
 
 /** Counts a refusal (ctrl->refusals[why], saturating; ctrl->last_refusal):
  *  for the node's own refusals (a non-finite value). Ignores NULL and
- *  reasons beyond SP_REFUSE_COUNT. */
+ *  reasons beyond SP_TALLY_COUNT. */
 void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, sp_refusal_t why);
 
 /** The tool pose (T in W, active frames) of a platform pose (o' in the
