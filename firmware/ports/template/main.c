@@ -171,7 +171,7 @@ static sp_status_t node_config(void)
     }
     g_cfg.sync_master = 1u;
     g_cfg.ctrl.frames = sp_frame_slots_default; /* the config's named frames */
-    g_cfg.ctrl.estop = sp_estop_default; /* the config's ESTOP reaction */
+    g_cfg.ctrl.estop = sp_estop_default;        /* the config's ESTOP reaction */
     if (sp_tpl_auth(&key, &session) == SP_OK) {
         g_cfg.auth_key = key;
         g_cfg.auth_session = session;

@@ -22,6 +22,17 @@ static int64_t abs64(int64_t v)
     return (v < 0) ? -v : v;
 }
 
+/* A command's pose (the tool frame in the work frame) as the platform's
+ * pose; 0 when the transform fails. */
+static int to_platform(const sp_ctrl_t *ctrl, const sp_pose_t *pose, sp_pose_t *platform)
+{
+    if (ctrl->frames.identity) {
+        *platform = *pose;
+        return 1;
+    }
+    return sp_frames_to_platform(&ctrl->frames, pose, platform, NULL) == SP_OK;
+}
+
 void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
 {
     const sp_platform_t *p = cfg->platform;
@@ -77,10 +88,12 @@ static uint8_t trig_ends(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, con
     unsigned a = (unsigned)cmd->axis;
     int s;
     for (s = -1; s <= 1; s += 2) {
-        sp_pose_t end = cfg->platform->home;
+        sp_pose_t end = ctrl->frames.identity ? cfg->platform->home : ctrl->tool_home; /* about the pivot */
+        sp_pose_t pp;
         sp_q24_t *e = (a < 3u) ? &end.pos[a] : &end.rpy[a - 3u];
         *e = sp_add(*e, (s < 0) ? -cmd->amplitude : cmd->amplitude, NULL); /* |A| <= 1: no saturation */
-        if (!sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &end)) {
+        if (!to_platform(ctrl, &end, &pp) ||
+            !sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &pp)) {
             return (uint8_t)SP_REFUSE_REACH;
         }
     }
@@ -128,17 +141,23 @@ static uint8_t check_trig(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
  * near it). */
 static uint8_t check_move(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
-    const sp_pose_t *from = &ctrl->pos_ref.pose;
+    sp_pose_t start = ctrl->pos_ref.pose;
+    const sp_pose_t *from = &start;
     const sp_q24_t *known = (ctrl->est.ref_lu.valid && ctrl->have_setpoint) ? ctrl->model.ref.length : NULL;
     unsigned q;
     unsigned k;
+    if (!ctrl->frames.identity && sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &start) != SP_OK) {
+        return (uint8_t)SP_REFUSE_REACH; /* with frames the tool point moves on a straight line in W */
+    }
     for (q = 1u; q <= 4u; ++q) {
         sp_pose_t mid;
+        sp_pose_t pp;
         for (k = 0u; k < 3u; ++k) {
             mid.pos[k] = (sp_q24_t)(from->pos[k] + ((((int64_t)cmd->target.pos[k] - from->pos[k]) * q) >> 2));
             mid.rpy[k] = (sp_q24_t)(from->rpy[k] + ((((int64_t)cmd->target.rpy[k] - from->rpy[k]) * q) >> 2));
         }
-        if (!sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &mid)) {
+        if (!to_platform(ctrl, &mid, &pp) ||
+            !sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &pp)) {
             return (uint8_t)SP_REFUSE_REACH;
         }
     }

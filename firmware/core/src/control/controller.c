@@ -671,7 +671,13 @@ sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     }
     reach_detail(cfg, ctrl, reach);
     if (ok) {
-        reach->verdict = (uint8_t)SP_REACH_OK; /* the shared check's verdict decides */
+        sp_ctrl_cmd_t move;
+        memset(&move, 0, sizeof move);
+        move.type = SP_CMD_MOVE_TO;
+        move.target = *tool_pose;
+        /* the shared checks decide: the end's, then the path's (spi_cmd_check, READY only) */
+        reach->verdict =
+            (uint8_t)((spi_cmd_check(cfg, ctrl, &move) == (uint8_t)SP_REFUSE_NONE) ? SP_REACH_OK : SP_REACH_PATH);
         reach->which = 0u;
         reach->excess = 0;
     } else if (reach->verdict == (uint8_t)SP_REACH_OK) {
@@ -1734,10 +1740,12 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
 
 /* A refused command or target: counted by its reason (OTHER when the
  * path that refused it named none). */
-SPI_NOINLINE static void count_refusal(sp_ctrl_t *ctrl)
+SPI_NOINLINE static void count_refusal(sp_ctrl_t *ctrl, uint8_t reason)
 {
-    sp_refusal_t why = (ctrl->refusing != 0u) ? (sp_refusal_t)ctrl->refusing : SP_TALLY_OTHER;
-    ctrl->refusing = (uint8_t)SP_REFUSE_NONE;
+    sp_refusal_t why = (ctrl->refusing != 0u)                 ? (sp_refusal_t)ctrl->refusing
+                       : (reason == (uint8_t)SP_REFUSE_REACH) ? SP_TALLY_UNREACHABLE
+                                                              : SP_TALLY_OTHER;
+    ctrl->refusing = (uint8_t)SP_TALLY_NONE;
     sp_ctrl_count_refusal(ctrl, why);
 }
 
@@ -1783,7 +1791,7 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         reason = (reason != (uint8_t)SP_REFUSE_NONE) ? reason : (uint8_t)SP_REFUSE_REACH;
     }
     if (rejected) {
-        count_refusal(ctrl);
+        count_refusal(ctrl, reason);
     }
     if (reference(cfg, ctrl, &flags)) {
         hold_setpoints(ctrl, ref);

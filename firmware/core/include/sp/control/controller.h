@@ -254,7 +254,9 @@ typedef enum {
                                  z, roll, pitch, yaw) by `excess` (m or rad) */
     SP_REACH_LEG_SHORT = 2, /**< leg `which` (0..5) is shorter than its stroke less the margin by `excess` (m) */
     SP_REACH_LEG_LONG = 3,  /**< leg `which` is longer than its stroke less the margin by `excess` (m) */
-    SP_REACH_COMPUTE = 4    /**< the transform or the IK failed (a pose far out of range) */
+    SP_REACH_COMPUTE = 4,   /**< the transform or the IK failed (a pose far out of range) */
+    SP_REACH_PATH = 6       /**< the end is reachable but a point of MOVE_TO's straight path from the
+                                 last reference is not (READY only; 5 is the protocol's NOT_FINITE) */
 } sp_reach_verdict_t;
 
 /** The answer to a reach query (sp_ctrl_reach). */
@@ -556,15 +558,15 @@ typedef struct {
     /** the frames (sp/model/frames.h): commands, streamed targets and force control speak of the tool
      *  frame in the work frame; identity (the default) skips every transform */
     sp_frames_t frames;
-    sp_frame_slots_t slots;             /**< the slots (from cfg->frames at init, SET changes one) */
-    uint32_t frames_crc;                /**< sp_frames_checksum(&frames), made when they change */
-    sp_motion_t tool_ref;               /**< RUNNING with frames: the motion generator's reference, a tool motion */
-    sp_pose_t tool_home;                /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
-    sp_pose_t stream_platform;          /**< STREAM with frames: the platform pose of the streamed target in force */
+    sp_frame_slots_t slots;            /**< the slots (from cfg->frames at init, SET changes one) */
+    uint32_t frames_crc;               /**< sp_frames_checksum(&frames), made when they change */
+    sp_motion_t tool_ref;              /**< RUNNING with frames: the motion generator's reference, a tool motion */
+    sp_pose_t tool_home;               /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
+    sp_pose_t stream_platform;         /**< STREAM with frames: the platform pose of the streamed target in force */
     uint16_t refusals[SP_TALLY_COUNT]; /**< refusals by reason (sp_refusal_t), saturating */
-    uint8_t last_refusal;               /**< the reason of the last refusal */
-    uint8_t refusing;                   /**< this tick's refused command's reason (set where it is refused) */
-    sp_estop_state_t estop;                    /**< ESTOP's controlled stop and its reaction */
+    uint8_t last_refusal;              /**< the reason of the last refusal */
+    uint8_t refusing;                  /**< this tick's refused command's reason (set where it is refused) */
+    sp_estop_state_t estop;            /**< ESTOP's controlled stop and its reaction */
     /** the friction observer's Stribeck table (sp_fric_table_prepare),
      *  made at init like prep; last, so that its 2,704 bytes leave the other members
      *  within a load's reach of the struct's start */

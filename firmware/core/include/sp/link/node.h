@@ -101,10 +101,10 @@ typedef struct {
     uint8_t identify_pending; /**< an IDENTIFY came: CTRL_IDENTITY goes out on the next tick that has room */
     uint8_t tx_counter_reach;
     uint8_t tx_counter_frames;
-    uint8_t frame_fresh;                /**< an OP_FRAME arrived and is not yet handed to the controller */
-    sp_msg_frame_t frame;               /**< that OP_FRAME */
-    uint8_t reach_pending;              /**< an OP_REACH waits for its CTRL_REACH (the newest query wins) */
-    sp_msg_reach_t reach;               /**< that OP_REACH */
+    uint8_t frame_fresh;   /**< an OP_FRAME arrived and is not yet handed to the controller */
+    sp_msg_frame_t frame;  /**< that OP_FRAME */
+    uint8_t reach_pending; /**< an OP_REACH waits for its CTRL_REACH (the newest query wins) */
+    sp_msg_reach_t reach;  /**< that OP_REACH */
     uint8_t tx_counter_refusal;
     uint8_t cmd_now;                    /**< this tick's command as CTRL_REFUSAL names it (0: none) */
     uint8_t refusal_pending;            /**< a refusal to report: CTRL_REFUSAL on the next tick with room */
