@@ -665,8 +665,8 @@ static int action_frame(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t 
     (void)sp_proto_encode_frame(&m, s->frame_counter, &f);
     s->frame_counter = (uint8_t)((s->frame_counter + 1u) & 0x0Fu);
     printf("hs_sim mark tick %" PRIu64 ": frame %s %s %d %g %g %g %g %g %g\n", tick, fr->kind ? "work" : "tool",
-           fr->op ? "set" : "select", fr->index, fr->value[0], fr->value[1], fr->value[2], fr->value[3],
-           fr->value[4], fr->value[5]);
+           fr->op ? "set" : "select", fr->index, fr->value[0], fr->value[1], fr->value[2], fr->value[3], fr->value[4],
+           fr->value[5]);
     return send_frames(s, &f, 1u, t_us);
 #else
     (void)s;
