@@ -550,6 +550,58 @@ static void print_scenario_end(const m4_scenario_t *sc, const scenario_counts_t 
     m4_out_nl();
 }
 
+/* One line of the frames section: a scenario's RUNNING mean and max and
+ * the mean's increase over the identity run. */
+static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t *identity)
+{
+    m4_out_str(what);
+    m4_out_str(" mean ");
+    m4_out_fix16(m4_stat_mean16(with));
+    m4_out_str(" (identity ");
+    m4_out_fix16(m4_stat_mean16(identity));
+    m4_out_str(", +");
+    out_signed16((int64_t)m4_stat_mean16(with) - (int64_t)m4_stat_mean16(identity));
+    m4_out_str("), max ");
+    m4_out_fix16(with->max16);
+    m4_out_nl();
+}
+
+/* Issue 31: the same scenarios with a tool frame (the pivot) and with
+ * turned tool and work frames: what the transforms add to a tick. */
+static void frames_section(m4_scenario_t *sc, const scenario_counts_t *surge, const scenario_counts_t other[2],
+                           const scenario_counts_t *force)
+{
+    static scenario_counts_t r;
+    uint32_t max16 = 0u;
+    uint32_t fmax16 = 0u;
+    for (uint8_t mode = 1u; mode <= 2u; ++mode) {
+        m4_scenario_frames = mode;
+        m4_out_str(mode == 1u ? "frames: a tool tip (0.15, 0, 0.35) m, RUNNING tick:"
+                              : "frames: tool and work frames turned, RUNNING tick:");
+        m4_out_nl();
+        run_scenario(sc, M4_MOTION_SURGE, &r);
+        frames_line("  surge about the pivot", &r.by_state[SP_STATE_RUNNING], &surge->by_state[SP_STATE_RUNNING]);
+        max16 = r.all.max16 > max16 ? r.all.max16 : max16;
+        run_scenario(sc, M4_MOTION_YAW, &r);
+        frames_line("  yaw about the pivot  ", &r.by_state[SP_STATE_RUNNING], &other[0].by_state[SP_STATE_RUNNING]);
+        max16 = r.all.max16 > max16 ? r.all.max16 : max16;
+        run_scenario(sc, M4_MOTION_STREAM, &r);
+        frames_line("  stream of tool poses ", &r.by_state[SP_STATE_RUNNING], &other[1].by_state[SP_STATE_RUNNING]);
+        max16 = r.all.max16 > max16 ? r.all.max16 : max16;
+        run_scenario(sc, M4_MOTION_FORCE, &r);
+        frames_line("  force run at the tool", &r.run, &force->run);
+        fmax16 = r.run.max16 > fmax16 ? r.run.max16 : fmax16;
+    }
+    m4_scenario_frames = 0u;
+    m4_out_str("frames budget: any tick of the position scenarios max ");
+    m4_out_fix16(max16);
+    m4_out_str(" (<= 11000), force run max ");
+    m4_out_fix16(fmax16);
+    m4_out_str(" (<= 12500) -> ");
+    m4_out_str((max16 <= 11000u * 16u && fmax16 <= 12500u * 16u) ? "within budget" : "OVER BUDGET");
+    m4_out_nl();
+}
+
 static void controller(void)
 {
     static m4_scenario_t sc;
@@ -657,6 +709,7 @@ static void controller(void)
     m4_out_u32(stack);
     m4_out_str(" bytes (high-water mark over the five scenarios, call included)");
     m4_out_nl();
+    frames_section(&sc, &surge, other, &force);
     m4_out_str("RAM of the controller: sp_ctrl_t ");
     m4_out_u32((uint32_t)sizeof(sp_ctrl_t));
     m4_out_str(" + sp_ctrl_config_t ");

@@ -7,6 +7,32 @@
 
 #include "sp/model/kinematics.h"
 
+uint8_t m4_scenario_frames;
+
+/* The frames of m4_scenario_frames into the config: slot 1 of each kind, active. */
+static void scenario_frames(sp_ctrl_config_t *cfg)
+{
+    sp_pose_t *t = &cfg->frames.tool[1];
+    sp_pose_t *w = &cfg->frames.work[1];
+    if (m4_scenario_frames == 0u) {
+        return;
+    }
+    t->pos[0] = SP_Q24_MILLI(150);
+    t->pos[2] = SP_Q24_MILLI(350);
+    cfg->frames.tool_used = 3u;
+    cfg->frames.tool_active = 1u;
+    if (m4_scenario_frames == 2u) {
+        t->rpy[0] = SP_Q24_MILLI(50);
+        t->rpy[1] = -SP_Q24_MILLI(100);
+        t->rpy[2] = SP_Q24_MILLI(200);
+        w->pos[0] = SP_Q24_MILLI(200);
+        w->pos[1] = SP_Q24_MILLI(100);
+        w->rpy[1] = SP_Q24_MILLI(349);
+        cfg->frames.work_used = 3u;
+        cfg->frames.work_active = 1u;
+    }
+}
+
 sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, uint8_t motion)
 {
     sp_ik_t park;
@@ -23,6 +49,7 @@ sp_status_t m4_scenario_init(m4_scenario_t *s, const sp_platform_t *platform, ui
         s->cfg.wrench_source = SP_WRENCH_SENSOR;
     }
     if (st == SP_OK) {
+        scenario_frames(&s->cfg);
         st = sp_ctrl_init(&s->ctrl, &s->cfg);
     }
     if (st == SP_OK) {
@@ -57,7 +84,7 @@ static void force_scenario(m4_scenario_t *s)
         s->phase_ticks = 0u;
     } else if (s->phase == 2u && s->phase_ticks > 2000u) {
         s->in.cmd.type = SP_CMD_MOVE_TO;
-        s->in.cmd.target = p->home;
+        s->in.cmd.target = s->ctrl.tool_home;
         s->in.cmd.target.pos[0] += SP_Q24_MILLI(50);
         s->phase = 3u;
         s->phase_ticks = 0u;
@@ -87,7 +114,7 @@ int m4_scenario_prepare(m4_scenario_t *s)
         static const int32_t d20[4] = {0, 335544, 0, -335544};
         uint32_t q = (s->running_ticks / 500u) & 3u;
         s->in.stream_fresh = 1u;
-        s->in.stream_target = s->cfg.platform->home;
+        s->in.stream_target = s->ctrl.tool_home; /* home's tool pose (home itself with identity frames) */
         s->in.stream_target.pos[0] += d40[q] + (int32_t)(s->running_ticks % 500u) * 17; /* + 1 um a tick */
         s->in.stream_target.pos[1] += d40[(q + 1u) & 3u];
         s->in.stream_target.pos[2] += d20[q];

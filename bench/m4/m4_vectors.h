@@ -92,6 +92,13 @@ typedef struct {
     uint32_t phase_ticks; /**< ticks since the phase began */
 } m4_scenario_t;
 
+/** The frames m4_scenario_init sets (issue 31's figures; 0 for the golden
+ *  program): 0 identity; 1 a tool tip 0.35 m above o' and 0.15 m off its
+ *  axis (the pivot); 2 that tool frame turned (0.05, -0.1, 0.2 rad) and a
+ *  work frame tilted 20 deg about y at (0.2, 0.1, 0): every transform
+ *  turns. */
+extern uint8_t m4_scenario_frames;
+
 /** Default config for `platform` and the scenario `motion` (M4_MOTION_*:
  *  FORCE reads the force/torque sensor), controller init, park-pose
  *  feedback. Returns the first failing status of the core calls. */

@@ -216,19 +216,13 @@ static void log_frame(sim_t *s, const sp_can_frame_t *f, uint64_t t_us)
     fputc('\n', s->log);
 }
 
-/* OP_FRAME and OP_REACH (issue 31), where the protocol has them. */
-#ifdef SP_ID_OP_FRAME
-#define HS_OP_FRAME_LISTENED(f) ((f)->id == SP_ID_OP_FRAME || (f)->id == SP_ID_OP_REACH)
-#else
-#define HS_OP_FRAME_LISTENED(f) 0
-#endif
-
 /* Does the controller (sp_controller's socket filters) receive frame f? */
 static int controller_listens(const sp_can_frame_t *f)
 {
     if (f->bus == SP_BUS_OPS) {
         return f->id == SP_ID_OP_COMMAND || f->id == SP_ID_OP_TARGET_POSE || f->id == SP_ID_OP_HEARTBEAT ||
-               f->id == SP_ID_OP_FORCE || f->id == SP_ID_OP_FORCE_PARAMS || HS_OP_FRAME_LISTENED(f);
+               f->id == SP_ID_OP_FORCE || f->id == SP_ID_OP_FORCE_PARAMS || f->id == SP_ID_OP_FRAME ||
+               f->id == SP_ID_OP_REACH;
     }
     if (f->bus == SP_BUS_AXIS_B && f->id == SP_ID_FT_SENSOR) {
         return 1;
@@ -647,10 +641,9 @@ static int action_force(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t 
 }
 
 /* Scenario `frame`: OP_FRAME (issue 31), signed like every command that
- * changes motion. 0 sent, 2 refused (a protocol without OP_FRAME), -1 error. */
+ * changes motion. 0 sent, -1 error. */
 static int action_frame(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
 {
-#ifdef SP_ID_OP_FRAME
     sp_msg_frame_t m;
     sp_can_frame_t f;
     const hs_scenario_frame_t *fr = &a->frame;
@@ -668,13 +661,6 @@ static int action_frame(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t 
            fr->op ? "set" : "select", fr->index, fr->value[0], fr->value[1], fr->value[2], fr->value[3], fr->value[4],
            fr->value[5]);
     return send_frames(s, &f, 1u, t_us);
-#else
-    (void)s;
-    (void)tick;
-    (void)t_us;
-    fprintf(stderr, "hs_sim: scenario line %d: frame: this build's protocol has no OP_FRAME\n", a->line);
-    return 2;
-#endif
 }
 
 /* Scenario `push`: a trapezoid from this tick on (replaces one under way). */
@@ -1660,11 +1646,11 @@ static int open_buses(sim_t *s)
 {
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] =
-        (sp_socketcan_bus_cfg_t){s->ifs[0],
-                                 {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH, SP_ID_CTRL_AUTH,
-                                  SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS},
-                                 8u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s->ifs[0],
+                                              {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH,
+                                               SP_ID_CTRL_AUTH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE,
+                                               SP_ID_OP_FORCE_PARAMS, SP_ID_OP_FRAME, SP_ID_OP_REACH},
+                                              10u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s->ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s->lockstep ? 1u : 2u};
         if (s->canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */

@@ -358,9 +358,9 @@ def _run(node, args, _):
 
 def _select_frames(node, frame, args) -> None:
     tool, work = frame
-    fr = node.frame("SELECT", "TOOL", tool, timeout=_t(args, 2.0))
+    fr = node.frame("SELECT", "TOOL", tool, timeout=_t(args, 10.0))
     if work is not None:
-        fr = node.frame("SELECT", "WORK", work, timeout=_t(args, 2.0))
+        fr = node.frame("SELECT", "WORK", work, timeout=_t(args, 10.0))
     print(f"frames: tool {fr['tool']}, work {fr['work']} (checksum 0x{fr['checksum']:08X})")
 
 
@@ -388,13 +388,13 @@ def _frame(node, args, _):
             _err("frame set: six numbers x y z roll pitch yaw")
             return 2
         op, index = "SET", args.slot
-    fr = node.frame(op, kind, index, values, timeout=_t(args, 2.0))
+    fr = node.frame(op, kind, index, values, timeout=_t(args, 10.0))
     print(json.dumps(fr) if args.json else _frames_line(fr))
     return 0
 
 
 def _reach(node, args, _):
-    a = node.reach(list(args.pose), timeout=_t(args, 2.0))
+    a = node.reach(list(args.pose), timeout=_t(args, 5.0))
     if args.json:
         print(json.dumps(a))
     else:
@@ -608,7 +608,7 @@ def _status(node, args, _):
     from ..operator.node import OpError
 
     try:
-        fr = node.wait_frames(timeout=1.5)
+        fr = node.wait_frames(timeout=3.0)
     except OpError:
         fr = None
     if not args.json and fr is not None:

@@ -638,31 +638,46 @@ class OperatorNode:
             sig.update(pr.pose_to_signals([v if math.isfinite(v) else NOT_FINITE_WIRE for v in values]))
         return self._send("OP_FRAME", sig)
 
-    def frame(self, op: str, kind: str, index: int, values=None, timeout: float = 2.0) -> dict:
-        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken;
-        Refused (naming the reason) when a refusal count rose instead."""
+    def frame(self, op: str, kind: str, index: int, values=None, timeout: float = 10.0) -> dict:
+        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken
+        (CTRL_FRAMES comes every 100 ticks); Refused (naming the reason) when
+        a refusal count rose instead, or when nothing changed within
+        ``timeout`` s."""
         before = self.wait_frames(timeout=timeout)
         if self.signer is not None:
             self.fresh_auth()
+        if not self._tx.get("OP_FRAME"):
+            # this sender's first OP_FRAME: the controller's alive-counter
+            # check may drop it, so a NONE goes first
+            self.send_frame("NONE", kind, 0)
+            self.wait_status(timeout=2.0, after=self.status.seq if self.status else 0)
+            if self.signer is not None:
+                self.fresh_auth()
+        key = "tool" if kind == "TOOL" else "work"
         with self._cond:
             seen = self._frames_seq
         self.send_frame(op, kind, index, values)
         end = time.monotonic() + timeout
+        # this reader may lag (CTRL_FRAMES queued before the send read after
+        # it): a change of the index is proof, an index that was already
+        # right needs three CTRL_FRAMES (300 ticks) without a refusal
+        need = 3 if before[key] == index else 1
+        heard = 0
         while True:
-            fr = self.wait_frames(timeout=max(0.05, end - time.monotonic()), after=seen)
+            try:
+                fr = self.wait_frames(timeout=max(0.05, end - time.monotonic()), after=seen)
+            except NoAnswer:
+                why = self.auth_reason()
+                raise Refused(f"FRAME {op} {kind} {index}: not taken within {timeout:g} s"
+                              + (f" ({why})" if why else "")) from None
             seen = self._frames_seq
+            heard += 1
             rose = [n for n in FRAME_REFUSALS if fr["refused"][n] > before["refused"][n]]
             if rose:
                 raise Refused(f"FRAME {op} {kind} {index} refused: {', '.join(rose)} "
                               f"({FRAME_REFUSAL_TEXT.get(rose[0], '')})")
-            key = "tool" if kind == "TOOL" else "work"
-            if fr[key] == index and (op == "SELECT" or fr["checksum"] != before["checksum"]
-                                     or before[key] == index):
+            if fr[key] == index and heard >= need:
                 return fr
-            if time.monotonic() >= end:
-                why = self.auth_reason()
-                raise Refused(f"FRAME {op} {kind} {index}: not taken within {timeout:g} s"
-                              + (f" ({why})" if why else ""))
 
     def reach(self, pose, timeout: float = 2.0, resend: float = 0.25) -> dict:
         """The reach query (OP_REACH) for a tool pose in the work frame; the

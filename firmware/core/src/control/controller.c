@@ -636,7 +636,8 @@ sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     if (cfg == NULL || ctrl == NULL || tool_pose == NULL || reach == NULL || cfg->platform == NULL) {
         return SP_E_ARG;
     }
-    reach->verdict = (uint8_t)SP_REACH_OK;
+    sp_reach_verdict_t none = SP_REACH_OK;
+    reach->verdict = (uint8_t)none;
     reach->which = 0u;
     reach->excess = 0;
     for (a = 0u; a < SP_LEGS; ++a) {

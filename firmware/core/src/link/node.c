@@ -234,8 +234,10 @@ static sp_status_t receive_frames(sp_node_t *node, const sp_can_frame_t *f, sp_p
         if (e != SP_PROTO_OK) {
             return reject(node, e, why);
         }
-        node->frame = m;
-        node->frame_fresh = 1u;
+        if (m.op != SP_PROTO_FRAME_NONE) {
+            node->frame = m;
+            node->frame_fresh = 1u;
+        }
         inc(&node->stats.accepted);
         return SP_OK;
     }

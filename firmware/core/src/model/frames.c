@@ -386,101 +386,143 @@ static void platform_euler(const sp_q30_t sc[6], const int64_t w[3], const int64
 }
 
 /* a x b, Q24 x Q24 -> Q24 (int64). */
-static void cross24(const int64_t a[3], const int64_t b[3], int64_t out[3])
+static void frame_cross24(const int64_t a[3], const int64_t b[3], int64_t out[3])
 {
     out[0] = spi_round_away64(a[1] * b[2] - a[2] * b[1], 24u);
     out[1] = spi_round_away64(a[2] * b[0] - a[0] * b[2], 24u);
     out[2] = spi_round_away64(a[0] * b[1] - a[1] * b[0], 24u);
 }
 
-/* v_P = R_W v_X - R_P (w x t), a_P = R_W a_X - R_P (dw x t + w x (w x t)),
- * w, dw the body rates (motion-frame axes). */
-static void platform_linear(const sp_frames_t *f, const sp_rot_t *tp, const sp_motion_t *x, const int64_t w[3],
-                            const int64_t dw[3], sp_motion_t *out, sp_flags_t *flags)
+/* a x b for int32 vectors, Q24 x Q24 -> Q24, saturated to int32: each
+ * product 32 x 32 bits, their difference below 2^63. */
+static void cross32(const int32_t a[3], const int32_t b[3], int32_t out[3], sp_flags_t *flags)
 {
-    int64_t t[3], wt[3], dwt[3], wwt[3], v[3] = {0, 0, 0}, a[3] = {0, 0, 0};
-    int32_t lv[3], la[3];
+    out[0] = spi_sat(spi_round_away((int64_t)a[1] * b[2] - (int64_t)a[2] * b[1], 24u), flags);
+    out[1] = spi_sat(spi_round_away((int64_t)a[2] * b[0] - (int64_t)a[0] * b[2], 24u), flags);
+    out[2] = spi_sat(spi_round_away((int64_t)a[0] * b[1] - (int64_t)a[1] * b[0], 24u), flags);
+}
+
+/* v_P = R_W v_X - R_P (w x t), a_P = R_W a_X - R_P (dw x t + w x (w x t)),
+ * w, dw the body rates (motion-frame axes); `turning` 0: w = dw = 0. */
+static void platform_linear(const sp_frames_t *f, const sp_rot_t *tp, const sp_motion_t *x, const int32_t w[3],
+                            const int32_t dw[3], int turning, sp_motion_t *out, sp_flags_t *flags)
+{
+    int64_t v[3] = {0, 0, 0}, a[3] = {0, 0, 0};
     unsigned k;
-    for (k = 0u; k < 3u; ++k) {
-        t[k] = f->tool.pos[k];
+    if (turning) {
+        int32_t wt[3], dwt[3], wwt[3];
+        cross32(w, f->tool.pos, wt, flags);
+        cross32(dw, f->tool.pos, dwt, flags);
+        cross32(w, wt, wwt, flags);
+        for (k = 0u; k < 3u; ++k) {
+            dwt[k] = spi_add(dwt[k], wwt[k], flags);
+        }
+        acc_out(tp, wt, -1, v);
+        acc_out(tp, dwt, -1, a);
     }
-    cross24(w, t, wt);
-    cross24(dw, t, dwt);
-    cross24(w, wt, wwt);
-    for (k = 0u; k < 3u; ++k) {
-        lv[k] = spi_sat(wt[k], flags);
-        la[k] = spi_sat(dwt[k] + wwt[k], flags);
-    }
-    acc_out(tp, lv, -1, v);
-    acc_out(tp, la, -1, a);
     if (f->work_turned) {
         acc_out(&f->work_rot, x->vel, 1, v);
         acc_out(&f->work_rot, x->acc, 1, a);
+        for (k = 0u; k < 3u; ++k) {
+            out->vel[k] = spi_narrow_away(v[k], 30u, flags);
+            out->acc[k] = spi_narrow_away(a[k], 30u, flags);
+        }
+    } else if (turning) {
+        for (k = 0u; k < 3u; ++k) {
+            out->vel[k] = spi_add(x->vel[k], spi_narrow_away(v[k], 30u, flags), flags);
+            out->acc[k] = spi_add(x->acc[k], spi_narrow_away(a[k], 30u, flags), flags);
+        }
     } else {
         for (k = 0u; k < 3u; ++k) {
-            v[k] += (int64_t)x->vel[k] * SP_Q30_ONE;
-            a[k] += (int64_t)x->acc[k] * SP_Q30_ONE;
+            out->vel[k] = x->vel[k];
+            out->acc[k] = x->acc[k];
         }
-    }
-    for (k = 0u; k < 3u; ++k) {
-        out->vel[k] = spi_narrow_away(v[k], 30u, flags);
-        out->acc[k] = spi_narrow_away(a[k], 30u, flags);
     }
 }
 
 /* The platform's body rates (motion-frame axes, Q24) from the tool's:
  * w_P = R_T w_X (T's axes to the motion frame's). */
-static void body_to_platform(const sp_frames_t *f, const sp_q24_t in[3], int64_t out[3])
+static void body_to_platform(const sp_frames_t *f, sp_q24_t v[3], sp_flags_t *flags)
 {
     unsigned k;
     if (f->tool_turned) {
         int64_t acc[3] = {0, 0, 0};
-        acc_out(&f->tool_rot, in, 1, acc);
+        acc_out(&f->tool_rot, v, 1, acc);
         for (k = 0u; k < 3u; ++k) {
-            out[k] = spi_round_away64(acc[k], 30u);
-        }
-    } else {
-        for (k = 0u; k < 3u; ++k) {
-            out[k] = in[k];
+            v[k] = spi_narrow_away(acc[k], 30u, flags);
         }
     }
+}
+
+/* Is a tool motion turning (any Euler rate or acceleration not 0)? */
+static int turning_of(const sp_motion_t *x)
+{
+    return (x->rpy_rate[0] | x->rpy_rate[1] | x->rpy_rate[2] | x->rpy_acc[0] | x->rpy_acc[1] | x->rpy_acc[2]) != 0;
+}
+
+/* The angles' rates with turned frames: through the body rates. */
+static sp_status_t turned_rates(const sp_motion_t *x, const sp_q24_t w[3], const sp_q24_t dw[3], sp_motion_t *out,
+                                sp_flags_t *flags)
+{
+    sp_q30_t scp[6];
+    int64_t w64[3], dw64[3];
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        sp_sincos_q24(out->pose.rpy[k], &scp[2u * k], &scp[2u * k + 1u]);
+        w64[k] = w[k];
+        dw64[k] = dw[k];
+    }
+    if (scp[3] < SP_Q30_MILLI(10) && scp[3] > -SP_Q30_MILLI(10)) {
+        return SP_E_SINGULAR;
+    }
+    if (turning_of(x)) {
+        platform_euler(scp, w64, dw64, out, flags);
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            out->rpy_rate[k] = 0;
+            out->rpy_acc[k] = 0;
+        }
+    }
+    return SP_OK;
 }
 
 sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t *tool_motion, sp_motion_t *platform)
 {
     sp_rot_t tx, tp;
-    sp_q30_t sc[6], scp[6];
-    sp_q24_t wx[3], dwx[3];
-    int64_t w[3], dw[3];
+    sp_q30_t sc[6];
+    sp_q24_t w[3] = {0, 0, 0}, dw[3] = {0, 0, 0};
     sp_flags_t flags = 0u;
     unsigned k;
-    sp_motion_t out;
-    if (f == NULL || tool_motion == NULL || platform == NULL) {
+    int turning;
+    if (f == NULL || tool_motion == NULL || platform == NULL || tool_motion == platform) {
         return SP_E_ARG;
     }
     if (f->identity) {
         *platform = *tool_motion;
         return SP_OK;
     }
-    out = *tool_motion;
+    turning = turning_of(tool_motion);
     spi_orientation_sc(tool_motion->pose.rpy, &tx, sc);
-    platform_rot(f, &tx, tool_motion->pose.rpy, &tp, out.pose.rpy);
-    flags |= platform_pos(f, &tp, tool_motion->pose.pos, out.pose.pos);
-    flags |=
-        (sp_body_rates_sc(sc, tool_motion->rpy_rate, tool_motion->rpy_acc, wx, dwx) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
-    body_to_platform(f, wx, w);
-    body_to_platform(f, dwx, dw);
+    platform_rot(f, &tx, tool_motion->pose.rpy, &tp, platform->pose.rpy);
+    flags |= platform_pos(f, &tp, tool_motion->pose.pos, platform->pose.pos);
+    if (turning) {
+        flags |=
+            (sp_body_rates_sc(sc, tool_motion->rpy_rate, tool_motion->rpy_acc, w, dw) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+        body_to_platform(f, w, &flags);
+        body_to_platform(f, dw, &flags);
+    }
     if (f->tool_turned || f->work_turned) {
-        for (k = 0u; k < 3u; ++k) {
-            sp_sincos_q24(out.pose.rpy[k], &scp[2u * k], &scp[2u * k + 1u]);
-        }
-        if (scp[3] < SP_Q30_MILLI(10) && scp[3] > -SP_Q30_MILLI(10)) {
+        if (turned_rates(tool_motion, w, dw, platform, &flags) != SP_OK) {
             return SP_E_SINGULAR;
         }
-        platform_euler(scp, w, dw, &out, &flags);
+    } else {
+        for (k = 0u; k < 3u; ++k) {
+            platform->rpy_rate[k] = tool_motion->rpy_rate[k];
+            platform->rpy_acc[k] = tool_motion->rpy_acc[k];
+        }
     }
-    platform_linear(f, &tp, tool_motion, w, dw, &out, &flags);
-    *platform = out;
+    platform_linear(f, &tp, tool_motion, w, dw, turning && (f->tool.pos[0] | f->tool.pos[1] | f->tool.pos[2]) != 0,
+                    platform, &flags);
     return sp_flags_status(flags);
 }
 
@@ -501,7 +543,7 @@ static void lever(const sp_frames_t *f, const sp_rot_t *rot, int64_t r[3])
 static void moment_shift(const int64_t r[3], const int64_t fo[3], const int64_t m[3], int sign, int64_t out[3])
 {
     int64_t c[3];
-    cross24(r, fo, c);
+    frame_cross24(r, fo, c);
     out[0] = m[0] + sign * c[0];
     out[1] = m[1] + sign * c[1];
     out[2] = m[2] + sign * c[2];
@@ -579,8 +621,9 @@ sp_status_t sp_frames_wrench_from_tool(const sp_frames_t *f, const sp_rot_t *rot
 
 /* ---- checksum ----------------------------------------------------------------------------- */
 
-static uint32_t crc_word(uint32_t crc, int32_t v)
+static uint32_t crc_word(uint32_t crc_in, int32_t v)
 {
+    uint32_t crc = crc_in;
     uint32_t u = (uint32_t)v;
     unsigned b, i;
     for (b = 0u; b < 4u; ++b) {

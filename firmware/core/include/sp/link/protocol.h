@@ -218,12 +218,15 @@ sp_status_t sp_proto_decode_auth(const sp_can_frame_t *f, sp_msg_auth_t *m, uint
 
 /** OP_FRAME: select or set a tool or work frame slot (sp_ctrl_cmd_t's frame_*). */
 typedef struct {
-    uint8_t op;      /**< SP_FRAME_SELECT (0) or SP_FRAME_SET (1) */
+    uint8_t op;      /**< SP_FRAME_SELECT (0), SP_FRAME_SET (1) or SP_PROTO_FRAME_NONE (2: nothing) */
     uint8_t kind;    /**< SP_FRAME_TOOL (0) or SP_FRAME_WORK (1) */
     uint8_t index;   /**< the slot, 0..15 on the wire (the controller refuses 4 and above) */
     sp_pose_t value; /**< SET: the frame (m, rad, Q24); a component below -SP_PROTO_POSE_MAX_Q24 is the wire's
                           "not a finite number" (SP_PROTO_NOT_FINITE_Q24) */
 } sp_msg_frame_t;
+
+/** OP_FRAME Op NONE: a frame that does nothing (a new sender's first, which the alive-counter check may drop). */
+#define SP_PROTO_FRAME_NONE 2u
 
 /** OP_REACH: the reach query. */
 typedef struct {
@@ -265,10 +268,10 @@ typedef struct {
 #define SP_PROTO_FRAMES_PHASE 5u
 
 /** OP_FRAME (ID 0x04A, 32 bytes, ops bus, CRC-16, authenticated: sign it with sp_proto_sign). Components beyond
- *  the signal's range are saturated (SP_E_RANGE). SP_E_ARG on NULL or an op or kind outside 0..1. */
+ *  the signal's range are saturated (SP_E_RANGE). SP_E_ARG on NULL, an op outside 0..2 or a kind outside 0..1. */
 sp_status_t sp_proto_encode_frame(const sp_msg_frame_t *m, uint8_t counter, sp_can_frame_t *f);
-/** OP_FRAME -> its values; rejects (SP_E_FRAME, *error) a wrong identifier or length, a bad CRC, an op or
- *  kind outside 0..1. SP_E_ARG on NULL. */
+/** OP_FRAME -> its values; rejects (SP_E_FRAME, *error) a wrong identifier or length, a bad CRC, an op
+ *  outside 0..2 or a kind outside 0..1. SP_E_ARG on NULL. */
 sp_status_t sp_proto_decode_frame(const sp_can_frame_t *f, sp_msg_frame_t *m, uint8_t *counter,
                                   sp_proto_error_t *error);
 /** OP_REACH (ID 0x04B, 24 bytes, ops bus, CRC-16). As OP_FRAME's, without authentication. */

@@ -93,9 +93,11 @@ sp_status_t sp_frames_from_platform(const sp_frames_t *f, const sp_pose_t *platf
  * a_P = R_W a_X - dw x r - w x (w x r), r = R_P t, w the angular velocity)
  * and its Euler rates and accelerations (the same body rates: w_P,body =
  * R_T w_X,body). No frame turned: the angles and their rates are copied.
- * identity: a copy. Errors: SP_E_ARG (NULL), SP_E_SINGULAR (the
- * platform's |cos pitch| below 0.01: its Euler rates are undefined),
- * SP_E_OVERFLOW (a value saturated).
+ * identity: a copy. The two motions must be distinct. A motion that does
+ * not turn (Euler rates and accelerations 0) skips the body rates.
+ * Errors: SP_E_ARG (NULL, or the same motion twice), SP_E_SINGULAR (the
+ * platform's |cos pitch| below 0.01: its Euler rates are undefined;
+ * *platform then partly written), SP_E_OVERFLOW (a value saturated).
  */
 sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t *tool_motion, sp_motion_t *platform);
 
