@@ -677,10 +677,9 @@ static int action_force(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t 
 }
 
 /* Scenario `frame`: OP_FRAME (issue 31), signed like every command that
- * changes motion. 0 sent, 2 refused (a protocol without OP_FRAME), -1 error. */
+ * changes motion. 0 sent, -1 error. */
 static int action_frame(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t t_us)
 {
-#ifdef SP_ID_OP_FRAME
     sp_msg_frame_t m;
     sp_can_frame_t f;
     const hs_scenario_frame_t *fr = &a->frame;
@@ -698,13 +697,6 @@ static int action_frame(sim_t *s, const hs_action_t *a, uint64_t tick, uint64_t 
            fr->op ? "set" : "select", fr->index, fr->value[0], fr->value[1], fr->value[2], fr->value[3], fr->value[4],
            fr->value[5]);
     return send_frames(s, &f, 1u, t_us);
-#else
-    (void)s;
-    (void)tick;
-    (void)t_us;
-    fprintf(stderr, "hs_sim: scenario line %d: frame: this build's protocol has no OP_FRAME\n", a->line);
-    return 2;
-#endif
 }
 
 /* Scenario `push`: a trapezoid from this tick on (replaces one under way). */

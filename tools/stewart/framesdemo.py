@@ -499,10 +499,10 @@ def tilted_segment_core(stiffness: float = 1e6, force: float = FORCE_N, hold: fl
     sensor's point and the work frame on the surface, FORCE on W's z with
     ``force`` N (the controller's force control in W's axes at the tool
     point), hold, release, the identity frames again, the surface removed.
-    The slide goes first and in the base frame's axes: with w3/frames as of
-    3cd815b, STREAM in FORCE after a frame change (in W, or back at identity)
-    loses the contact at once (the reference runs off at the stream's
-    acceleration limit)."""
+    The slide goes first and in the base frame's axes: streaming tool poses
+    in W while FORCE holds W's z does not work yet (frames code at 3cd815b:
+    the contact lost at once, even back at identity frames; at 9fb0d69 the
+    slide stalls after 8 mm with the normal force far above its target)."""
     fy, fz = tilted_target(force)
     text = fc.tare() + tilted_surface(stiffness)
     if slide:

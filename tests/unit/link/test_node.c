@@ -598,6 +598,16 @@ static void test_frames_and_reach_over_frames(void **state)
     send_frame(&r, SP_FRAME_SET, SP_FRAME_TOOL, 1u, tip, 1, SP_OK);
     rig_tick(&r);
     assert_int_equal(r.node.out.cmd_rejected, 0);
+    {
+        static const double tilted[6] = {0.2, 0.1, 0.0, 0.0, 0.349, 0.0};
+        send_frame(&r, SP_FRAME_SET, SP_FRAME_WORK, 2u, tilted, 1, SP_OK);
+        rig_tick(&r);
+        assert_int_equal(r.node.out.cmd_rejected, 0);
+        assert_int_equal(r.node.ctrl.slots.work_active, 2);
+        send_frame(&r, SP_FRAME_SELECT, SP_FRAME_WORK, 0u, NULL, 1, SP_OK);
+        rig_tick(&r);
+        assert_int_equal(r.node.ctrl.slots.work_active, 0);
+    }
     send_frame(&r, SP_FRAME_SET, SP_FRAME_TOOL, 2u, far, 1, SP_OK);
     rig_tick(&r);
     assert_int_equal(r.node.out.cmd_rejected, 1);

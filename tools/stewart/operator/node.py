@@ -639,10 +639,10 @@ class OperatorNode:
         return self._send("OP_FRAME", sig)
 
     def frame(self, op: str, kind: str, index: int, values=None, timeout: float = 10.0) -> dict:
-        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken:
-        the second one after the send (CTRL_FRAMES comes every 100 ticks, the
-        first may predate the command); Refused (naming the reason) when a
-        refusal count rose instead, or when the frames did not change."""
+        """Sends OP_FRAME and returns the CTRL_FRAMES that shows it taken
+        (CTRL_FRAMES comes every 100 ticks); Refused (naming the reason) when
+        a refusal count rose instead, or when nothing changed within
+        ``timeout`` s."""
         before = self.wait_frames(timeout=timeout)
         if self.signer is not None:
             self.fresh_auth()
@@ -653,25 +653,31 @@ class OperatorNode:
             self.wait_status(timeout=2.0, after=self.status.seq if self.status else 0)
             if self.signer is not None:
                 self.fresh_auth()
+        key = "tool" if kind == "TOOL" else "work"
         with self._cond:
             seen = self._frames_seq
         self.send_frame(op, kind, index, values)
         end = time.monotonic() + timeout
+        # this reader may lag (CTRL_FRAMES queued before the send read after
+        # it): a change of the index is proof, an index that was already
+        # right needs three CTRL_FRAMES (300 ticks) without a refusal
+        need = 3 if before[key] == index else 1
         heard = 0
-        key = "tool" if kind == "TOOL" else "work"
         while True:
-            fr = self.wait_frames(timeout=max(0.05, end - time.monotonic()), after=seen)
-            seen += 1
+            try:
+                fr = self.wait_frames(timeout=max(0.05, end - time.monotonic()), after=seen)
+            except NoAnswer:
+                why = self.auth_reason()
+                raise Refused(f"FRAME {op} {kind} {index}: not taken within {timeout:g} s"
+                              + (f" ({why})" if why else "")) from None
+            seen = self._frames_seq
             heard += 1
             rose = [n for n in FRAME_REFUSALS if fr["refused"][n] > before["refused"][n]]
             if rose:
                 raise Refused(f"FRAME {op} {kind} {index} refused: {', '.join(rose)} "
                               f"({FRAME_REFUSAL_TEXT.get(rose[0], '')})")
-            if heard >= 2:
-                if fr[key] == index:
-                    return fr
-                why = self.auth_reason()
-                raise Refused(f"FRAME {op} {kind} {index}: not taken" + (f" ({why})" if why else ""))
+            if fr[key] == index and heard >= need:
+                return fr
 
     def reach(self, pose, timeout: float = 2.0, resend: float = 0.25) -> dict:
         """The reach query (OP_REACH) for a tool pose in the work frame; the
