@@ -888,7 +888,7 @@ sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length
 {
     sp_flags_t flags = 0u;
     sp_status_t st = SP_E_ARG;
-    if (platform != NULL && length != NULL && leg < (unsigned)SP_LEGS) {
+    if ((platform != NULL) && (length != NULL) && (leg < (unsigned)SP_LEGS)) {
         if (sensors == NULL) {
             *length = reading;
         } else {
@@ -906,7 +906,7 @@ sp_status_t sp_length_to_sensor(const sp_platform_t *platform, const sp_length_s
 {
     sp_flags_t flags = 0u;
     sp_status_t st = SP_E_ARG;
-    if (platform != NULL && reading != NULL && leg < (unsigned)SP_LEGS) {
+    if ((platform != NULL) && (reading != NULL) && (leg < (unsigned)SP_LEGS)) {
         if (sensors == NULL) {
             *reading = length;
         } else {
