@@ -164,8 +164,8 @@ def test_ignoring_the_leg_masses_would_bias_the_mass(prior, truth, plan60):
     depends on the leg model)."""
     lengths, force = simulate(truth, plan60, np.random.default_rng(3))
     raw = raw_config()
-    for k in LEG_MASSES:
-        raw["hydraulic"].pop(k)
+    for k in list(LEG_MASSES) + ["cylinder_inertia", "rod_inertia"]:
+        raw["hydraulic"].pop(k, None)
     bare = cfg.from_dict(raw, "bare")
     ticks = np.arange(plan60.t.size)
     motion = idf.motion_from_lengths(bare, ticks, lengths, force, np.ones(ticks.size, bool))

@@ -97,7 +97,8 @@ def _skew(v: np.ndarray) -> np.ndarray:
 def mass_matrix(platform, lg: limits.Legs) -> np.ndarray:
     """(..., 6, 6) mass matrix for the twist [v of o'; w] (base frame): the
     rigid body with its centre of mass off o', and each leg's barrel and
-    rod as point masses on its axis (``model.leg_masses``)."""
+    rod as masses on its axis (``model.leg_masses``) with their moments of
+    inertia across the leg (``model.leg_inertias``)."""
     m = float(platform.mass)
     rc = np.einsum("...jk,k->...j", lg.rot, np.asarray(platform.center_of_mass, dtype=float))
     ig = lg.rot @ np.asarray(platform.inertia, dtype=float) @ np.swapaxes(lg.rot, -1, -2)
@@ -107,10 +108,11 @@ def mass_matrix(platform, lg: limits.Legs) -> np.ndarray:
     bottom = np.concatenate([m * s, ig - m * s @ s], axis=-1)
     mm = np.concatenate([top, bottom], axis=-2)
     m_c, d_c, m_r, d_r = model.leg_masses(platform)
-    if m_c == 0.0 and m_r == 0.0:
+    i_legs = sum(model.leg_inertias(platform))
+    if m_c == 0.0 and m_r == 0.0 and i_legs == 0.0:
         return mm
     uu = np.einsum("...i,...j->...ij", lg.units, lg.units)
-    trans = (m_c * d_c ** 2 + m_r * (lg.lengths - d_r) ** 2) / lg.lengths ** 2
+    trans = (m_c * d_c ** 2 + i_legs + m_r * (lg.lengths - d_r) ** 2) / lg.lengths ** 2
     m_leg = m_r * uu + trans[..., None, None] * (np.eye(3) - uu)
     g = np.concatenate([np.broadcast_to(np.eye(3), lg.arms.shape[:-1] + (3, 3)), -_skew(lg.arms)], axis=-1)
     return mm + np.einsum("...iaj,...iab,...ibk->...jk", g, m_leg, g)
