@@ -37,7 +37,7 @@ static int32_t motion_axis(const sp_motion_t *m, unsigned k, int order)
     return (k < 3u) ? m->acc[k] : m->rpy_acc[k - 3u];
 }
 
-static int64_t abs64(int64_t v)
+static int64_t stop_abs64(int64_t v)
 {
     return (v < 0) ? -v : v;
 }
@@ -48,8 +48,8 @@ static int stop_fits(const sp_motion_t *from, const sp_stop_limits_t *lim, int64
     unsigned k;
     for (k = 0u; k < 6u; ++k) {
         unsigned g = (k < 3u) ? 0u : 1u;
-        int64_t v = abs64(motion_axis(from, k, 1)); /* < 2^31 */
-        int64_t a = abs64(motion_axis(from, k, 2));
+        int64_t v = stop_abs64(motion_axis(from, k, 1)); /* < 2^31 */
+        int64_t a = stop_abs64(motion_axis(from, k, 2));
         int64_t d = (int64_t)lim->decel[g] - a;
         int64_t jt2;
         if (d < lim->decel[g] / 4) {
@@ -157,7 +157,12 @@ sp_status_t sp_stop_plan(sp_stop_t *s, const sp_motion_t *from, const sp_stop_li
     s->step = 0;
     for (k = 0u; k < 6u; ++k) {
         moving |= (motion_axis(from, k, 1) != 0 || motion_axis(from, k, 2) != 0) ? 1 : 0;
-        s->reach_v[k] = s->reach_a[k] = s->v0[k] = s->a0t[k] = s->v0_t[k] = s->a0[k] = 0;
+        s->reach_v[k] = 0;
+        s->reach_a[k] = 0;
+        s->v0[k] = 0;
+        s->a0t[k] = 0;
+        s->v0_t[k] = 0;
+        s->a0[k] = 0;
     }
     if (!moving) {
         return SP_OK;
