@@ -207,10 +207,14 @@ class SimPlatform:
         self.port = port = free_port()
         self.proc = Proc([str(ROOT / ".venv" / "bin" / "stewart"), "sim", "--run-dir", str(self.run_dir),
                           "--port", str(port)], ART / "platform.log")
-        self.proc.wait_line("  python-can:", 240)
+        try:
+            self.proc.wait_line("python-can:", 240)
+        except AssertionError:
+            self.close()
+            raise
         self.ini = self.run_dir / "can.ini"
         self.contexts = ("ops", "axis_a,axis_b")
-        self.key = self.run_dir / "machine.key"
+        self.key = Path(os.environ.get("STEWART_KEY") or self.run_dir / "machine.key")  # the sim's
         self.lines: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         threading.Thread(target=self._listen, daemon=True).start()
@@ -253,7 +257,8 @@ class SimPlatform:
         self.inject_fault("inject clear")
 
     def close(self):
-        self._stop.set()
+        if hasattr(self, "_stop"):
+            self._stop.set()
         subprocess.run([str(ROOT / ".venv" / "bin" / "stewart"), "sim", "stop", "--run-dir", str(self.run_dir)],
                        timeout=60)
         self.proc.p.wait(60)
