@@ -5,8 +5,10 @@
  * The legal transitions, derived from firmware/core/src/control/controller.c
  * (every assignment to ctrl->state; one tick may chain two of them, listed
  * here as one): a fault may be raised in any state (raise_fault: FAULT,
- * ESTOP stays ESTOP), ESTOP only by the ESTOP command, and an ESTOP command
- * always ends the tick in ESTOP. The rest, by the state before the tick
+ * ESTOP stays ESTOP), STOPPING only by the ESTOP command, ESTOP by the ESTOP
+ * command or from STOPPING (the controlled stop ended, a fault or a second
+ * ESTOP during it), and an ESTOP command always ends the tick in STOPPING
+ * or ESTOP. The rest, by the state before the tick
  * (docs/explanation/testing.md has the table):
  *   IDLE      -> ENGAGING on ENGAGE
  *   ENGAGING  -> READY (the engage move ended), PARKING on PARK
@@ -27,7 +29,7 @@
 #define BIT(s) (1u << (unsigned)(s))
 
 /* The states each state may reach in one tick without a condition, besides itself. */
-static const unsigned free_next[7] = {
+static const unsigned free_next[8] = {
     [SP_STATE_IDLE] = BIT(SP_STATE_FAULT),
     [SP_STATE_ENGAGING] = BIT(SP_STATE_READY) | BIT(SP_STATE_FAULT),
     [SP_STATE_READY] = BIT(SP_STATE_PARKING) | BIT(SP_STATE_FAULT),
@@ -35,22 +37,23 @@ static const unsigned free_next[7] = {
     [SP_STATE_PARKING] = BIT(SP_STATE_IDLE) | BIT(SP_STATE_FAULT),
     [SP_STATE_FAULT] = 0u,
     [SP_STATE_ESTOP] = 0u,
+    [SP_STATE_STOPPING] = BIT(SP_STATE_ESTOP),
 };
 
 int soak_transition_legal(int from, int to, int cmd, int reset_pending)
 {
     int resetting = (cmd == SP_CMD_RESET) || reset_pending;
-    if (from < 0 || from > SP_STATE_ESTOP || to < 0 || to > SP_STATE_ESTOP) {
+    if (from < 0 || from > SP_STATE_STOPPING || to < 0 || to > SP_STATE_STOPPING) {
         return 0;
     }
     if (cmd == SP_CMD_ESTOP) {
-        return to == SP_STATE_ESTOP;
+        return to == SP_STATE_ESTOP || to == SP_STATE_STOPPING;
     }
     if (to == from) {
         return 1;
     }
-    if (to == SP_STATE_ESTOP) {
-        return 0; /* only by the ESTOP command */
+    if (to == SP_STATE_STOPPING || (to == SP_STATE_ESTOP && from != SP_STATE_STOPPING)) {
+        return 0; /* only by the ESTOP command, or the end of its controlled stop */
     }
     if ((free_next[from] & BIT(to)) != 0u) {
         return 1;

@@ -100,16 +100,23 @@ static void test_each_invariant_is_caught(void **state)
 static void test_transition_table(void **state)
 {
     (void)state;
-    for (int a = 0; a <= SP_STATE_ESTOP; a++) {
+    for (int a = 0; a <= SP_STATE_STOPPING; a++) {
         assert_true(soak_transition_legal(a, a, SP_CMD_NONE, 0));
         assert_true(soak_transition_legal(a, SP_STATE_ESTOP, SP_CMD_ESTOP, 0));
-        for (int b = 0; b <= SP_STATE_ESTOP; b++) {
-            assert_false(soak_transition_legal(a, b, SP_CMD_ESTOP, 0) && b != SP_STATE_ESTOP); /* always taken */
-            if (a != SP_STATE_ESTOP) {
+        assert_true(soak_transition_legal(a, SP_STATE_STOPPING, SP_CMD_ESTOP, 0));
+        for (int b = 0; b <= SP_STATE_STOPPING; b++) {
+            /* an ESTOP command is always taken: STOPPING (the controlled stop) or ESTOP */
+            assert_false(soak_transition_legal(a, b, SP_CMD_ESTOP, 0) && b != SP_STATE_ESTOP && b != SP_STATE_STOPPING);
+            assert_false(soak_transition_legal(a, SP_STATE_STOPPING, b, 1) && b != SP_CMD_ESTOP &&
+                         a != SP_STATE_STOPPING);
+            if (a != SP_STATE_ESTOP && a != SP_STATE_STOPPING) {
                 assert_false(soak_transition_legal(a, SP_STATE_ESTOP, b, 1) && b != SP_CMD_ESTOP);
             }
         }
     }
+    assert_true(soak_transition_legal(SP_STATE_STOPPING, SP_STATE_ESTOP, SP_CMD_NONE, 0)); /* the stop ended */
+    assert_false(soak_transition_legal(SP_STATE_STOPPING, SP_STATE_READY, SP_CMD_NONE, 0));
+    assert_false(soak_transition_legal(SP_STATE_STOPPING, SP_STATE_FAULT, SP_CMD_RESET, 0));
     assert_true(soak_transition_legal(SP_STATE_IDLE, SP_STATE_ENGAGING, SP_CMD_ENGAGE, 0));
     assert_false(soak_transition_legal(SP_STATE_IDLE, SP_STATE_ENGAGING, SP_CMD_NONE, 0));
     assert_false(soak_transition_legal(SP_STATE_IDLE, SP_STATE_READY, SP_CMD_ENGAGE, 0));
@@ -124,7 +131,7 @@ static void test_transition_table(void **state)
     assert_true(soak_transition_legal(SP_STATE_ESTOP, SP_STATE_FAULT, SP_CMD_RESET, 0));
     assert_false(soak_transition_legal(SP_STATE_ESTOP, SP_STATE_FAULT, SP_CMD_NONE, 0));
     assert_false(soak_transition_legal(SP_STATE_ESTOP, SP_STATE_READY, SP_CMD_RESET, 1));
-    assert_false(soak_transition_legal(7, SP_STATE_IDLE, SP_CMD_NONE, 0)); /* an unknown state */
+    assert_false(soak_transition_legal(8, SP_STATE_IDLE, SP_CMD_NONE, 0)); /* an unknown state */
     assert_string_equal(soak_violation_name(SOAK_V_TRANSITION), "transition");
 }
 
