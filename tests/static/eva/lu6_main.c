@@ -2,13 +2,18 @@
 /*
  * EVA harness of the 6x6 solver (firmware/core/src/model/lu6.c): the
  * factorisation (whole and in two stages) and the three solves of
- * sp/model/lu6.h, on a Jacobian and a right-hand side of arbitrary entries
- * (every int32 entry, every int64 value of b), either orientation. EVA
+ * sp/model/lu6.h, on a Jacobian of arbitrary int32 entries (the header
+ * bounds them only by int32: below 8 in Q28) and a right-hand side within
+ * the documented |b| < 2^56 (larger is refused before any arithmetic),
+ * either orientation. EVA
  * reports any signed overflow, invalid shift, division by zero or
  * out-of-bounds access it cannot rule out.
  */
 #include "__fc_builtin.h"
 #include "sp/model/lu6.h"
+
+/* The documented range of b: |b| < 2^56 (sp/model/lu6.h). */
+#define B_MAX ((INT64_C(1) << 56) - 1)
 
 int main(void)
 {
@@ -26,7 +31,7 @@ int main(void)
         for (j = 0u; j < 6u; ++j) {
             m.j[i][j] = Frama_C_int_interval(INT32_MIN, INT32_MAX);
         }
-        b[i] = Frama_C_long_long_interval(INT64_MIN, INT64_MAX);
+        b[i] = Frama_C_long_long_interval(-B_MAX, B_MAX);
     }
     sink = sp_solve6(&m, transpose, b, x);
     if (sp_lu6_factor(&m, transpose, &lu) == SP_OK) {

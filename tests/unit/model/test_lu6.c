@@ -722,12 +722,42 @@ static void test_solve_errors(void **state)
     assert_true(x[0] == 0 && x[2] == 0);
 }
 
+/* A pivot row within the unchecked path's bound whose multiplier is just
+ * above 1 (a_10 = -(a_00 + 1): the pivot search's tie, |l| = 2^30 (1 +
+ * 1/a_00)): the eliminated a_11 = (2^30 - 1) + (2^30 - 2)(1 + 2^-18) is
+ * beyond int32. Before the bound counted the multiplier's excess over 1
+ * (lu_step), the unchecked path wrapped it (signed overflow, found by
+ * Frama-C EVA, tests/static); now the checked path saturates it. */
+static void test_factor_near_tie(void **state)
+{
+    sp_jacobian_t m;
+    sp_lu6_t lu;
+    sp_lu6_stage_t part;
+    (void)state;
+    memset(&m, 0, sizeof m);
+    m.j[0][0] = 268436; /* SP_PIVOT_MIN + 1 */
+    m.j[0][1] = (1 << 30) - 2;
+    m.j[1][0] = -268437;
+    m.j[1][1] = (1 << 30) - 1;
+    for (int i = 2; i < 6; ++i) {
+        m.j[i][i] = 1 << 28;
+    }
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_E_OVERFLOW);
+    assert_int_equal(lu.valid, 0);
+    assert_int_equal(sp_lu6_factor_begin(&m, 0, &part), SP_E_OVERFLOW);
+    assert_int_equal(part.begun, 0);
+    /* 2^12 less in a_11 fits: factorised, a_11 as the exact rounding */
+    m.j[1][1] = (1 << 30) - 1 - 8192;
+    assert_int_equal(sp_lu6_factor(&m, 0, &lu), SP_OK);
+    assert_true(lu.a[1][1] > 2147483647 - 8192 && lu.a[1][1] < 2147483647);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_factor_paths),  cmocka_unit_test(test_solves_reference),
         cmocka_unit_test(test_solves32_bits), cmocka_unit_test(test_solve_fallbacks),
-        cmocka_unit_test(test_solve_errors),
+        cmocka_unit_test(test_solve_errors),  cmocka_unit_test(test_factor_near_tie),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -386,4 +386,20 @@ SPI_INLINE uint32_t spi_sqrt_norm(uint32_t t, uint32_t lo)
     return r;
 }
 
+/* int64 a - b, saturated (any b, INT64_MIN too). */
+SPI_INLINE int64_t spi_sub64(int64_t a, int64_t b, sp_flags_t *flags)
+{
+    int64_t r;
+    if ((b < 0) && (a > (INT64_MAX + b))) {
+        *flags |= SP_FLAG_OVERFLOW;
+        r = INT64_MAX;
+    } else if ((b > 0) && (a < (INT64_MIN + b))) {
+        *flags |= SP_FLAG_OVERFLOW;
+        r = INT64_MIN;
+    } else {
+        r = a - b;
+    }
+    return r;
+}
+
 #endif /* SP_FIXED_INLINE_H */

@@ -106,7 +106,7 @@ SPI_INLINE void lu_eliminate_x4(int32_t *const r[SP_LEGS], const int32_t *rk, un
         LU_UNROLL
         for (j = k + 1u; j < SP_LEGS; ++j) {
             int64_t pr = (int64_t)l * a4[j];
-            /* |hi| <= |a_kj|: no overflow, as below */
+            /* |hi| < inc - 1: no overflow, as below (lu_step) */
             ri[j] = ri[j] - (int32_t)(pr >> 32) - (int32_t)((uint32_t)pr >> 31);
         }
     }
@@ -128,8 +128,8 @@ SPI_INLINE void lu_eliminate(int32_t *const r[SP_LEGS], const int32_t *rk, unsig
         ri[k] = l;
         LU_UNROLL
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            /* |round(l a_kj / 2^30)| <= |a_kj| <= umax + 1, |r_ij| <=
-             * the old bound: the difference stays below 2^31 */
+            /* |round(l a_kj / 2^30)| < inc, |r_ij| <= the old bound:
+             * the difference stays below 2^31 (lu_step) */
             ri[j] -= (int32_t)(((int64_t)l * rk[j] + (INT64_C(1) << 29)) >> 30);
         }
     }
@@ -159,10 +159,15 @@ SPI_INLINE void lu_eliminate_sat(int32_t *const r[SP_LEGS], const int32_t *rk, u
  * inv_out[k] and zk_out[k]. Returns 0 for a pivot below SP_PIVOT_MIN.
  *
  * *bound is at least every |entry| of the rows r[k..5] in the columns
- * k..5 (0x80000000 once it is not known to be below 2^31). With |l| <= 1
- * (Q30) the rounded product round(l a_kj) is at most |a_kj| <= umax + 1,
- * umax bounding the pivot row right of the pivot, so every new entry is
- * at most *bound + umax + 1: when that is below 2^31, no subtraction of this
+ * k..5 (0x80000000 once it is not known to be below 2^31). The pivot is
+ * within 1 of the column's largest |a_ik| (lu_pivot), so |l| <= 2^30 (1 +
+ * 1/|a_kk|) + 1/2 < 2^30 + 2^12 + 1 (Q30, |a_kk| >= SP_PIVOT_MIN > 2^18)
+ * and the rounded product round(l a_kj / 2^30) is below |a_kj| (1 +
+ * 2^-17) + 2 <= umax + 8 + umax / 2^16 - 1 = inc - 1, umax + 1 bounding
+ * the pivot row right of the pivot, so every new entry (and the x4 path's
+ * partial difference) is below *bound + inc: when that is at most 2^31 - 1
+ * (Frama-C EVA found the overflow that umax + 1 in place of inc let
+ * through, tests/unit/test_lu6.c test_factor_near_tie), no subtraction of this
  * step can overflow and the inner loop runs unchecked (32x32->64 product,
  * rounded shift, subtraction); else each subtraction saturates and flags,
  * with the same rounding (the same bits whenever nothing saturates).
@@ -174,6 +179,7 @@ SPI_INLINE int lu_step(int32_t *inv_out, uint8_t *zk_out, int32_t *r[SP_LEGS], u
     int32_t *rk = r[p];
     uint32_t best = mag32(rk[k]);
     uint32_t umax = 0u;
+    uint32_t inc;
     int32_t inv;
     unsigned z;
     unsigned j;
@@ -195,8 +201,9 @@ SPI_INLINE int lu_step(int32_t *inv_out, uint8_t *zk_out, int32_t *r[SP_LEGS], u
     for (j = k + 1u; j < SP_LEGS; ++j) {
         umax |= (uint32_t)(rk[j] ^ (rk[j] >> 31));
     }
-    if (*bound < 0x7FFFFFFFu && umax < 0x7FFFFFFFu - *bound) {
-        *bound += umax + 1u;
+    inc = umax + 8u + (umax >> 16); /* |round(l a_kj / 2^30)| + 1 < inc */
+    if (*bound < 0x7FFFFFFFu && inc <= 0x7FFFFFFFu - *bound) {
+        *bound += inc;
         if (umax < (UINT32_C(1) << 29)) {
             lu_eliminate_x4(r, rk, k, z, inv);
         } else {
@@ -447,7 +454,7 @@ static sp_status_t lu_solve64(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int6
         const int32_t *uk = lu->a[k];
         int64_t s = r[k];
         for (j = k + 1u; j < SP_LEGS; ++j) {
-            s = spi_add64(s, -spi_mul64_up(x[j], uk[j], 28u, &flags), &flags);
+            s = spi_sub64(s, spi_mul64_up(x[j], uk[j], 28u, &flags), &flags); /* INT64_MIN too */
         }
         x[k] = lu_div_pivot(lu, k, s, &flags);
     }
@@ -705,7 +712,7 @@ sp_status_t sp_lu6_solve_transposed(const sp_lu6_t *lu, const int64_t b[SP_LEGS]
     for (k = 0u; k < SP_LEGS; ++k) {
         int64_t s = b[k];
         for (j = 0u; j < k; ++j) {
-            s = spi_add64(s, -spi_mul64_up(y[j], lu->a[j][k], 28u, &flags), &flags);
+            s = spi_sub64(s, spi_mul64_up(y[j], lu->a[j][k], 28u, &flags), &flags);
         }
         y[k] = lu_div_pivot(lu, k, s, &flags);
     }
