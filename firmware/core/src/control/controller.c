@@ -695,7 +695,7 @@ static int refuse(sp_ctrl_t *ctrl, sp_refusal_t why)
 
 /* MOVE_TO from READY: to a reachable tool pose, in the tool's space when
  * frames are set (the tool point moves on a straight line in W). */
-static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+SPI_NOINLINE static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     sp_pose_t pp;
     sp_pose_t from;
@@ -742,7 +742,7 @@ static int at_home(const sp_pose_t *pose, const sp_pose_t *home)
     return 1;
 }
 
-static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+SPI_NOINLINE static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     const sp_platform_t *p = cfg->platform;
     /* about home's tool pose: about the pivot when a tool frame is set */
@@ -934,7 +934,7 @@ static void drive_reset_job(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int co
 /* FRAME: select a defined slot, or set one (and make it active), at rest
  * only (IDLE, or READY in position control): nothing moves, the reference
  * stays the platform's; from then on commands speak of the new frames. */
-static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
+SPI_NOINLINE static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd)
 {
     sp_frame_slots_t *sl = &ctrl->slots;
     sp_frame_slots_t before = *sl;
