@@ -34,7 +34,8 @@ def test_ratios_are_the_core_lsb_over_the_factor():
              "FREQUENCY": ("OP_COMMAND", "Frequency"), "FADE_TIME": ("OP_COMMAND", "FadeTime"),
              "WRENCH": ("CTRL_WRENCH", "Mz"), "FT_WRENCH": ("OP_FORCE", "Fz"),
              "MASS": ("OP_FORCE_PARAMS", "Mass"), "DAMPING": ("OP_FORCE_PARAMS", "Damping"),
-             "STIFFNESS": ("OP_FORCE_PARAMS", "Stiffness")}
+             "STIFFNESS": ("OP_FORCE_PARAMS", "Stiffness"), "FRAME_POSE": ("OP_FRAME", "Yaw"),
+             "EXCESS": ("CTRL_REACH", "Excess")}
     proto = pr.Protocol()
     for name, ratio in ratios.items():
         stem = name[len("SP_CAN_"):name.index("_RAW_PER_")]

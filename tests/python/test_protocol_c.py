@@ -49,6 +49,11 @@ CODECS = {
     "CTRL_WRENCH": ("sp_proto_decode_wrench", "sp_proto_encode_wrench", "ops"),
     "CTRL_AUTH": ("sp_proto_decode_auth", "sp_proto_encode_auth", "ops"),
     "CTRL_IDENTITY": ("sp_proto_decode_identity", "sp_proto_encode_identity", "ops"),
+    "OP_FRAME": ("sp_proto_decode_frame", "sp_proto_encode_frame", "ops"),
+    "OP_REACH": ("sp_proto_decode_reach", "sp_proto_encode_reach", "ops"),
+    "CTRL_REACH": ("sp_proto_decode_reach_answer", "sp_proto_encode_reach_answer", "ops"),
+    "CTRL_FRAMES": ("sp_proto_decode_frames", "sp_proto_encode_frames", "ops"),
+    "CTRL_REFUSAL": ("sp_proto_decode_refusal", "sp_proto_encode_refusal", "ops"),
 }
 
 
@@ -144,7 +149,7 @@ def test_c_signs_like_python():
             assert bytes(f2.data[: f2.len]) != want
             n += 1
             signed.add(vec["message"])
-    assert signed == {"OP_COMMAND", "OP_TARGET_POSE", "OP_FORCE", "OP_FORCE_PARAMS"}
+    assert signed == {"OP_COMMAND", "OP_TARGET_POSE", "OP_FORCE", "OP_FORCE_PARAMS", "OP_FRAME"}
     assert n >= 4 * 3 * 40
     # counter 0 is never valid; a message without the fields is refused
     f = frame(0x060, bytes(4))
