@@ -20,5 +20,5 @@ echo "== the console: API tests and headless Chromium (tests/console, about a mi
 scripts/fuzz.sh 8 # each of the three targets 8 s
 echo "== bus tests over SocketCAN vcan (user-mode Linux where the kernel has no CAN)"
 # 2 GiB: the identification test decodes a 30 s CAN log inside the UML (~0.4 GB);
-# 1200 s: the 26 tests took over 600 s on a loaded 2-core machine
-.venv/bin/stewart vcan --fd --mem 2G --timeout 1200 -- .venv/bin/pytest -q tests/bus
+# 1800 s: the tests took over 600 s on a loaded 2-core machine before the frames
+.venv/bin/stewart vcan --fd --mem 2G --timeout 1800 -- .venv/bin/pytest -q tests/bus
