@@ -648,6 +648,17 @@ static void reach_detail(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, sp_
     }
 }
 
+/* MOVE_TO's path check (spi_cmd_check) for the reach query; out of line, so
+ * that its command does not add to the stack of the query's dynamics. */
+SPI_NOINLINE static int path_reachable(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *tool_pose)
+{
+    sp_ctrl_cmd_t move;
+    memset(&move, 0, sizeof move);
+    move.type = SP_CMD_MOVE_TO;
+    move.target = *tool_pose;
+    return spi_cmd_check(cfg, ctrl, &move) == (uint8_t)SP_REFUSE_NONE;
+}
+
 sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *tool_pose,
                           sp_reach_t *reach)
 {
@@ -671,13 +682,8 @@ sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     }
     reach_detail(cfg, ctrl, reach);
     if (ok) {
-        sp_ctrl_cmd_t move;
-        memset(&move, 0, sizeof move);
-        move.type = SP_CMD_MOVE_TO;
-        move.target = *tool_pose;
         /* the shared checks decide: the end's, then the path's (spi_cmd_check, READY only) */
-        reach->verdict =
-            (uint8_t)((spi_cmd_check(cfg, ctrl, &move) == (uint8_t)SP_REFUSE_NONE) ? SP_REACH_OK : SP_REACH_PATH);
+        reach->verdict = (uint8_t)(path_reachable(cfg, ctrl, tool_pose) ? SP_REACH_OK : SP_REACH_PATH);
         reach->which = 0u;
         reach->excess = 0;
     } else if (reach->verdict == (uint8_t)SP_REACH_OK) {
