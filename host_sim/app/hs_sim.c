@@ -1866,11 +1866,12 @@ static int open_buses(sim_t *s)
 {
     sp_socketcan_bus_cfg_t bc[SP_CAN_BUSES];
     memset(bc, 0, sizeof bc);
-    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){s->ifs[0],
-                                              {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH,
-                                               SP_ID_CTRL_AUTH, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE, SP_ID_OP_FORCE,
-                                               SP_ID_OP_FORCE_PARAMS, SP_ID_OP_FRAME, SP_ID_OP_REACH},
-                                              10u};
+    bc[SP_BUS_OPS] = (sp_socketcan_bus_cfg_t){
+        s->ifs[0],
+        {SP_ID_CTRL_STATUS, SP_ID_CTRL_MONITOR, SP_ID_CTRL_WRENCH, SP_ID_CTRL_AUTH, SP_ID_CTRL_IDENTITY,
+         SP_ID_CTRL_REACH, SP_ID_CTRL_FRAMES, SP_ID_CTRL_REFUSAL, SP_ID_OP_COMMAND, SP_ID_OP_TARGET_POSE,
+         SP_ID_OP_FORCE, SP_ID_OP_FORCE_PARAMS, SP_ID_OP_FRAME, SP_ID_OP_REACH},
+        14u};
     for (int b = 1; b <= 2; b++) {
         bc[b] = (sp_socketcan_bus_cfg_t){s->ifs[b], {SP_ID_AXIS_SETPOINTS, SP_ID_SYNC}, s->lockstep ? 1u : 2u};
         if (s->canopen) { /* NMT, SYNC, and per node of the bus RPDO1 and SDO requests */
