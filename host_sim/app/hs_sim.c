@@ -1015,6 +1015,9 @@ static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick,
 {
     /* with CANopen drives the master's frames (no AXIS_SETPOINTS) come before the ops frames */
     int sp[2] = {canopen, canopen}, st = 0, mon = 0, wr = (tick % SP_PROTO_WRENCH_PERIOD != 0u);
+    /* CTRL_FRAMES (every 100 ticks, after CTRL_MONITOR): waited for like CTRL_WRENCH (native drives: the
+     * controller's tick is this SYNC tick) */
+    int fr = canopen || (tick % SP_PROTO_FRAMES_PERIOD != SP_PROTO_FRAMES_PHASE);
     for (uint32_t k = 0; k < n; k++) {
         const sp_can_frame_t *f = &raw[k];
         uint8_t ctr;
@@ -1033,9 +1036,11 @@ static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick,
         } else if (f->bus == SP_BUS_OPS && f->id == SP_ID_CTRL_WRENCH) {
             sp_msg_wrench_t m;
             wr |= (sp_proto_decode_wrench(f, &m, &ctr, &why) == SP_OK && m.tick == tick);
+        } else if (f->bus == SP_BUS_OPS && f->id == SP_ID_CTRL_FRAMES) {
+            fr = 1;
         }
     }
-    return sp[0] && sp[1] && st && mon && wr;
+    return sp[0] && sp[1] && st && mon && wr && fr;
 }
 
 /* The controller's frames of one cycle through the injector to the plant,
