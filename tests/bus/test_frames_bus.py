@@ -34,7 +34,7 @@ pytestmark = pytest.mark.skipif(not cl.vcan_present(), reason="needs vcan0..vcan
 
 TIP = (0.15, 0.0, 0.35, 0.05, -0.1, 0.2)
 TILTED = (0.2, 0.1, 0.0, 0.0, 0.349, 0.0)
-N_QUERIES = 60    # reach queries timed and checked (10,000 in test_frames_ctrl, in C)
+N_QUERIES = 20    # reach queries timed and checked (10,000 in test_frames_ctrl, in C)
 N_MOVES = 12      # of which also sent as MOVE_TO
 
 
