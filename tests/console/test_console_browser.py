@@ -308,7 +308,14 @@ def _engage_and_run(d) -> None:
     wait_for(d, "RUNNING", state_is(d, "RUNNING"))
 
 
-def _streaming_figures(d, con) -> None:
+def _lost_frames(port: int) -> int:
+    import urllib.request
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/state", timeout=10) as r:
+        return int(json.loads(r.read())["counters"]["lost"])
+
+
+def _streaming_figures(d, con, port) -> None:
+    lost0 = _lost_frames(port)
     js(d, "(window.consoleStats.times.length = 0, window.consoleStats.latencies.length = 0, "
           "window.consoleStats.serverAges.length = 0)")
     c0, t0 = cpu_seconds(con.p.pid), time.monotonic()
@@ -325,6 +332,9 @@ def _streaming_figures(d, con) -> None:
                    server_cpu_percent=round(cpu * 100, 1))
     d.save_screenshot(str(ART / "02-running.png"))
     check(cpu <= 0.25, "server CPU > 25 %")
+    # its receive threads take the frames in batches (console/hub.py RX_BATCH_S): none may be lost
+    FIGURES["ops_frames_lost"] = _lost_frames(port) - lost0
+    check(FIGURES["ops_frames_lost"] == 0, "ops frames lost by the server")
     if loaded():  # the browser's processes wait for a core: the page skips states rather than queue them
         FIGURES["note"] = (f"machine loaded (load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores): "
                            "latency and update rate reported, the strict bounds asserted only on an idle machine")
@@ -422,7 +432,7 @@ def test_console_in_chromium(rig):
         _load_and_claim(d, port)
         _start_recording(d)
         _engage_and_run(d)
-        _streaming_figures(d, con)
+        _streaming_figures(d, con, port)
         _estop_and_fault(d, fake)
         _stop_recording(d)
         _force_hold(d)

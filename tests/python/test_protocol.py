@@ -4,6 +4,7 @@
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from stewart import cli, e2e
@@ -144,6 +145,18 @@ def test_crc_check_values():
     assert e2e.crc16_ccitt_false(b"123456789") == 0x29B1
     assert e2e.crc8_j1850(b"") == 0x00  # init 0xFF xor 0xFF
     assert e2e.crc16_ccitt_false(b"") == 0xFFFF
+
+
+def test_crc16_equals_the_table_loop():
+    """e2e's CRC-16 is the standard library's C routine: the plain byte loop
+    over the same table, on random payloads of every frame length."""
+    rng = np.random.default_rng(16)
+    for n in list(range(0, 70)) + [rng.integers(0, 200) for _ in range(200)]:
+        data = rng.integers(0, 256, int(n), dtype=np.uint8).tobytes()
+        c = 0xFFFF
+        for b in data:
+            c = ((c << 8) & 0xFFFF) ^ e2e._T16[((c >> 8) ^ b) & 0xFF]
+        assert e2e.crc16_ccitt_false(data) == c, data.hex()
 
 
 def test_crc_covers_the_data_id():

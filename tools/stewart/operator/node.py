@@ -295,7 +295,8 @@ class OperatorNode:
     """The operator node on an open python-can bus."""
 
     def __init__(self, bus, proto: pr.Protocol | None = None, heartbeat: bool = True,
-                 on_frame: Callable | None = None, key: bytes | None = None, monitor: bool = True):
+                 on_frame: Callable | None = None, key: bytes | None = None, monitor: bool = True,
+                 rx_batch_s: float = 0.0):
         import can
 
         self._can = can
@@ -303,6 +304,11 @@ class OperatorNode:
         self.proto = proto or pr.Protocol()
         self.heartbeat_enabled = heartbeat
         self.on_frame = on_frame
+        # > 0: the receive thread sleeps this long after each frame and then
+        # takes what queued meanwhile in one go. A thread woken for every
+        # frame of a 1 kHz bus spends most of its CPU time being woken; a
+        # display (the console) does not need the frames sooner than this.
+        self.rx_batch_s = float(rx_batch_s)
         self._status_r = _Reader(self.proto, "CTRL_STATUS")
         self._monitor_r = _Reader(self.proto, "CTRL_MONITOR")
         self._wrench_r = _Reader(self.proto, "CTRL_WRENCH")
@@ -493,9 +499,10 @@ class OperatorNode:
         self.counters.bad[reason] = self.counters.bad.get(reason, 0) + 1
 
     def _receive_loop(self) -> None:
+        timeout = 0.05
         while not self._stop.is_set():
             try:
-                msg = self.bus.recv(timeout=0.05)
+                msg = self.bus.recv(timeout=timeout)
             except (self._can.CanError, OSError, ValueError) as e:
                 self.rx_error = str(e)
                 with self._cond:
@@ -503,10 +510,15 @@ class OperatorNode:
                 self._stop.wait(0.1)
                 continue
             if msg is None:
+                if timeout == 0.0:  # took all that had queued: let the next ones queue
+                    timeout = 0.05
+                    self._stop.wait(self.rx_batch_s)
                 continue
             if self.on_frame is not None:
                 self.on_frame(msg)
             self.handle(msg)
+            if self.rx_batch_s > 0.0:
+                timeout = 0.0
 
     def handle(self, msg) -> None:
         """Takes one received frame (the receive thread calls it)."""
