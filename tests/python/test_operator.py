@@ -466,6 +466,7 @@ def test_cli_session_and_exit_codes(ctrl, capsys):
     assert rc == 0 and ctrl.ff == 0
     rc, out, _ = _op(capsys, ch, "status", "--json")
     assert rc == 0 and json.loads(out)["feedforward"] is False
+    assert json.loads(out)["frames"] is None  # one object; this stand-in sends no CTRL_FRAMES
     rc, out, _ = _op(capsys, ch, "estop")
     assert rc == 0 and "ESTOP" in out
     rc, out, _ = _op(capsys, ch, "reset")

@@ -596,25 +596,27 @@ def _tare(node, args, _):
 
 
 def _status(node, args, _):
+    """One status; the active frames too when the controller reports them
+    (CTRL_FRAMES comes every 100 ms: waited for up to 3 s). --json: one
+    object, its "frames" null for a controller without frames."""
+    from ..operator.node import OpError
+
     st = node.wait_status(timeout=_t(args, 2.0))
+    try:
+        fr = node.wait_frames(timeout=3.0)
+    except OpError:
+        fr = None
     if args.json:
         print(json.dumps({"tick": st.tick, "state": st.state, "faults": st.faults,
                           "drive_mode": st.drive_mode, "feedforward": st.feedforward,
                           "estimate_valid": st.estimate_valid, "pose": st.pose,
                           "force_mode": st.force_mode, "contact": st.contact,
-                          "drives_starting": st.drives_starting, "force_unmeasured": st.force_unmeasured}))
-    else:
-        print(st.line())
-    from ..operator.node import OpError
-
-    try:
-        fr = node.wait_frames(timeout=3.0)
-    except OpError:
-        fr = None
-    if not args.json and fr is not None:
+                          "drives_starting": st.drives_starting, "force_unmeasured": st.force_unmeasured,
+                          "frames": fr}))
+        return 0
+    print(st.line())
+    if fr is not None:
         print(_frames_line(fr))
-    elif fr is not None:
-        print(json.dumps({"frames": fr}))
     return 0
 
 
