@@ -62,7 +62,10 @@ async def guard(request: web.Request, handler):
             return _error(403, f"cross-origin request from {origin} refused")
     if request.method == "POST" and request.content_type != "application/json":
         return _error(415, "POST bodies are JSON (Content-Type: application/json)")
-    resp = await handler(request)
+    try:
+        resp = await handler(request)
+    except MAPPED as e:  # the API's errors (_mapped): one place for every handler
+        return _mapped(e)
     if token and request.query.get("token") and isinstance(resp, web.StreamResponse):
         resp.set_cookie(COOKIE, token, httponly=True, samesite="Strict", secure=bool(cfg.get("tls")))
     return resp
@@ -85,6 +88,9 @@ def _client(request: web.Request) -> str | None:
 async def _blocking(request: web.Request, fn, *args):
     loop = asyncio.get_running_loop()
     return await loop.run_in_executor(request.app[CFG]["pool"], fn, *args)
+
+
+MAPPED = (validate.BadRequest, validate.OutOfRange, Forbidden, Conflict, BusDown, OpError)
 
 
 def _mapped(e: Exception) -> web.Response:
@@ -150,40 +156,33 @@ async def post_control(request: web.Request) -> web.Response:
     takeover = body.get("takeover", False)
     if not isinstance(takeover, bool):
         return _error(400, "takeover: expected true or false", kind="bad_request")
-    try:
-        if body["action"] == "claim":
-            return web.json_response({"ok": True, **hub.claim(cid, takeover)})
-        if hub.touch(cid) is None:
-            raise Forbidden("unknown client: open a session first")
-        if body["action"] == "release":
-            return web.json_response({"ok": True, **hub.release(cid)})
-        return web.json_response({"ok": True, **hub.control()})
-    except (Forbidden, Conflict) as e:
-        return _mapped(e)
+    if body["action"] == "claim":
+        return web.json_response({"ok": True, **hub.claim(cid, takeover)})
+    if hub.touch(cid) is None:
+        raise Forbidden("unknown client: open a session first")
+    if body["action"] == "release":
+        return web.json_response({"ok": True, **hub.release(cid)})
+    return web.json_response({"ok": True, **hub.control()})
 
 
 async def post_command(request: web.Request) -> web.Response:
     hub = request.app[HUB]
     cid = _client(request)
     body = await _json(request)
+    if isinstance(body, dict) and body.get("command") == "estop":  # from anyone, never held back
+        return web.json_response(await _blocking(request, hub.estop, cid))
+    hub.require_commander(cid)
+    st = hub.node.status
     try:
-        if isinstance(body, dict) and body.get("command") == "estop":  # from anyone, never held back
-            return web.json_response(await _blocking(request, hub.estop, cid))
-        hub.require_commander(cid)
-        st = hub.node.status
         req = validate.parse_command(body, hub.platform, st.pose if st and st.estimate_valid else None)
-        return web.json_response(await _blocking(request, hub.execute, cid, req))
-    except Exception as e:  # noqa: BLE001 - mapped to the API's errors, the rest re-raised
-        if isinstance(e, validate.BadRequest | validate.OutOfRange):
-            hub.event("command", f"refused: {e}", ok=False)
-        return _mapped(e)
+    except (validate.BadRequest, validate.OutOfRange) as e:
+        hub.event("command", f"refused: {e}", ok=False)
+        raise
+    return web.json_response(await _blocking(request, hub.execute, cid, req))
 
 
 async def post_estop(request: web.Request) -> web.Response:
-    try:
-        return web.json_response(await _blocking(request, request.app[HUB].estop, _client(request)))
-    except (BusDown, NoAnswer) as e:
-        return _mapped(e)
+    return web.json_response(await _blocking(request, request.app[HUB].estop, _client(request)))
 
 
 async def post_recording(request: web.Request) -> web.Response:
@@ -193,10 +192,7 @@ async def post_recording(request: web.Request) -> web.Response:
     action = body.get("action") if isinstance(body, dict) else None
     if action not in ("start", "stop"):
         return _error(400, "action: start or stop", kind="bad_request")
-    try:
-        hub.require_commander(cid)
-    except Forbidden as e:
-        return _mapped(e)
+    hub.require_commander(cid)
     if action == "start":
         try:
             info = hub.recorder.start()
