@@ -100,6 +100,13 @@ def key_file(path: str | Path | None = None) -> Path | None:
     return Path(env) if env else None
 
 
+def machine_key(path: str | Path | None = None) -> bytes | None:
+    """The key of :func:`key_file` read (None: no key given); AuthError for
+    a file that cannot be read or is not a key."""
+    k = key_file(path)
+    return None if k is None else read_key(k)
+
+
 def run_key(directory: str | Path) -> Path:
     """The key of a closed-loop run, the demo or a test: the file STEWART_KEY
     names, else a throw-away key ``machine.key`` in ``directory`` (made once,

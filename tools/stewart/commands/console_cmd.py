@@ -79,27 +79,22 @@ def _open_buses(args):
 
     opts = busopts.options(args)
     ops = open_bus(opts)
+    if args.axis_contexts:  # two sections of python-can's configuration
+        attr, option, names = "context", "--axis-contexts: two sections, A,B", args.axis_contexts.split(",")
+    else:  # two channels of the ops bus's interface (SocketCAN: vcan1,vcan2 unless told)
+        chans = args.axis_channels
+        if chans is None and resolve(opts)["interface"] == "socketcan":
+            chans = "vcan1,vcan2"
+        attr, option = "channel", "--axis-channels: two channels, A,B"
+        names = chans.split(",") if chans and chans != "none" else []
+    if names and len(names) != 2:
+        raise BusError(option)
     axis = {}
-    if args.axis_contexts:
-        names = args.axis_contexts.split(",")
-        if len(names) != 2:
-            raise BusError("--axis-contexts: two sections, A,B")
-        for bus, ctx in zip(("axis_a", "axis_b"), names):
-            o = busopts.options(args)
-            o.context, o.bus = ctx, bus
-            axis[bus] = open_bus(o)
-        return ops, axis
-    chans = args.axis_channels
-    if chans is None and resolve(opts)["interface"] == "socketcan":
-        chans = "vcan1,vcan2"
-    if chans and chans != "none":
-        names = chans.split(",")
-        if len(names) != 2:
-            raise BusError("--axis-channels: two channels, A,B")
-        for bus, ch in zip(("axis_a", "axis_b"), names):
-            o = busopts.options(args)
-            o.channel, o.bus = ch, bus
-            axis[bus] = open_bus(o)
+    for bus, name in zip(("axis_a", "axis_b"), names):
+        o = busopts.options(args)
+        setattr(o, attr, name)
+        o.bus = bus
+        axis[bus] = open_bus(o)
     return ops, axis
 
 
@@ -135,13 +130,10 @@ def run(args) -> int:
             udp = parse_host_port(args.udp)
         except SourceError as e:
             return _err(f"--udp: {e}")
-    key = None
-    path = au.key_file(args.key)
-    if path is not None:
-        try:
-            key = au.read_key(path)
-        except au.AuthError as e:
-            return _err(str(e))
+    try:
+        key = au.machine_key(args.key)
+    except au.AuthError as e:
+        return _err(str(e))
     try:
         ssl_ctx = _ssl(args)
     except (OSError, ValueError) as e:

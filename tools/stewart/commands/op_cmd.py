@@ -217,14 +217,11 @@ def run(args) -> int:
         return 2
     from .. import auth as au
 
-    key = None
-    key_path = au.key_file(args.key)
-    if key_path is not None:
-        try:
-            key = au.read_key(key_path)
-        except au.AuthError as e:
-            _err(str(e))
-            return 2
+    try:
+        key = au.machine_key(args.key)
+    except au.AuthError as e:
+        _err(str(e))
+        return 2
     try:
         bus = open_bus(opts)
     except BusError as e:
