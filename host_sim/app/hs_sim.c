@@ -617,7 +617,15 @@ static int action_contact(sim_t *s, const hs_action_t *a, uint64_t tick)
     c.offset = a->contact.offset;
     c.stiffness = a->contact.stiffness;
     c.damping = a->contact.damping;
-    if (hs_plant_set_contact(&s->plant, &c) != HS_OK) {
+    hs_status_t st = hs_plant_set_contact(&s->plant, &c);
+    if (st == HS_E_RANGE) {
+        fprintf(stderr,
+                "hs_sim: scenario line %d: contact refused: it would push with %.0f kN the moment it is placed "
+                "(at most %.0f kN): place the surface at the platform's point, not through it\n",
+                a->line, hs_contact_start_force(&s->plant, &c) / 1000.0, HS_CONTACT_START_FORCE_MAX / 1000.0);
+        return 2;
+    }
+    if (st != HS_OK) {
         fprintf(stderr, "hs_sim: scenario line %d: contact refused\n", a->line);
         return 2;
     }

@@ -156,6 +156,9 @@ static void episode_force(soak_gen_t *g)
 {
     double gap = uniform(g, 0.001, 0.004), k = chance(g, 0.5) ? 1e6 : uniform(g, 1e5, 1e7);
     double f = chance(g, 0.1) ? 12000.0 : uniform(g, 300.0, 6000.0);
+    /* the surface is placed a few mm from the tool point at home: be there (a motion before may have
+     * ended anywhere; a surface through the platform is refused by the plant) */
+    put_home_move(g);
     put(g, "tare\ndelay 0.8\n");
     put(g, "contact plane 0 0 -1 %.6f 0 0 0.05 stiffness=%.0f damping=1000\n", -(home_z + 0.05 + gap), k);
     put(g, "force z 0 0 %.1f 0 0 0\ndelay %.3f\n", f, uniform(g, 1.0, 5.0));

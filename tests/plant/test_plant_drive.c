@@ -337,6 +337,22 @@ static void test_arguments(void **state)
     ct.normal[2] = 1.0;
     ct.stiffness = -1.0;
     assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_E_ARG);
+    /* a surface through the platform (its point 0.2 m inside, 9e6 N/m: 1.8 MN at once) is refused and
+     * not installed; the same surface 10 mm inside (90 kN) is taken */
+    {
+        double pose[6];
+        hs_plant_pose(&plant, pose);
+        ct.normal[2] = -1.0; /* free space below the plane z = pose z - 0.2 */
+        ct.offset = -(pose[2] - 0.2);
+        ct.stiffness = 9e6;
+        assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_E_RANGE);
+        assert_true(fabs(hs_contact_start_force(&plant, &ct) - 1.8e6) < 1.0);
+        assert_int_equal(plant.contact.kind, HS_CONTACT_NONE);
+        ct.offset = -(pose[2] - 0.01);
+        assert_int_equal(hs_plant_set_contact(&plant, &ct), HS_OK);
+        assert_int_equal(plant.contact.kind, HS_CONTACT_PLANE);
+        assert_int_equal(hs_plant_set_contact(&plant, NULL), HS_OK);
+    }
     params.mass = -1.0;
     assert_int_equal(hs_plant_init(&plant, &params, params.home), HS_E_ARG);
     assert_int_equal(hs_params_check(&params), HS_E_ARG);

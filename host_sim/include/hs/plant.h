@@ -188,9 +188,22 @@ hs_status_t hs_plant_set_twist(hs_plant_t *plant, const double vel[3], const dou
  *  either may be NULL for zero. HS_E_ARG on non-finite values. */
 hs_status_t hs_plant_set_wrench(hs_plant_t *plant, const double force[3], const double moment[3]);
 
+/** The most elastic force a contact may exert the moment it is installed
+ *  (N): a surface placed through the platform's path rather than at it
+ *  (0.2 m deep at 9e6 N/m is 1.8 MN at once) is an impact, which this
+ *  model is not made for: its state went non-finite within 10 ms. */
+#define HS_CONTACT_START_FORCE_MAX 1.0e5
+
 /** Installs a contact (NULL or kind NONE removes it). HS_E_ARG for a
- *  negative stiffness/damping, a zero normal or non-finite values. */
+ *  negative stiffness/damping, a zero normal or non-finite values;
+ *  HS_E_RANGE when its elastic force at the present pose would exceed
+ *  HS_CONTACT_START_FORCE_MAX (the contact is then not installed). */
 hs_status_t hs_plant_set_contact(hs_plant_t *plant, const hs_contact_t *contact);
+
+/** The magnitude of the elastic force (N) contact `c` would exert at the
+ *  plant's present pose (a plane's normal taken at unit length); 0 for
+ *  NULL or kind NONE. */
+double hs_contact_start_force(const hs_plant_t *plant, const hs_contact_t *c);
 
 /**
  * Re-computes the static forces at the current pose for gravity (at the

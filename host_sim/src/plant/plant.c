@@ -753,8 +753,34 @@ hs_status_t hs_plant_set_contact(hs_plant_t *pl, const hs_contact_t *ct)
             c.normal[k] /= n;
         }
     }
+    if (hs_contact_start_force(pl, &c) > HS_CONTACT_START_FORCE_MAX) {
+        return HS_E_RANGE;
+    }
     pl->contact = c;
     return HS_OK;
+}
+
+double hs_contact_start_force(const hs_plant_t *pl, const hs_contact_t *c)
+{
+    double r[3][3], arm[3], pc[3], fc[3], n;
+    hs_contact_t u;
+    if (pl == NULL || c == NULL || c->kind == HS_CONTACT_NONE) {
+        return 0.0;
+    }
+    u = *c;
+    n = sqrt(u.normal[0] * u.normal[0] + u.normal[1] * u.normal[1] + u.normal[2] * u.normal[2]);
+    if (u.kind == HS_CONTACT_PLANE && n > 0.0) {
+        for (int k = 0; k < 3; ++k) {
+            u.normal[k] /= n;
+        }
+    }
+    hs_rot_from_quat(&pl->x[HS_X_QUAT], r);
+    mat_vec(&r[0][0], u.point, arm);
+    for (int k = 0; k < 3; ++k) {
+        pc[k] = pl->x[HS_X_POS + k] + arm[k];
+    }
+    contact_force(&u, pc, NULL, fc);
+    return sqrt(fc[0] * fc[0] + fc[1] * fc[1] + fc[2] * fc[2]);
 }
 
 hs_status_t hs_plant_rebalance(hs_plant_t *pl)
