@@ -88,7 +88,7 @@ def _plan(args):
         poses = plan.candidates(p, args.poses, np.random.default_rng(args.seed), scale=0.9)
         io.write_plan(args.out, poses)
         if args.scenario:
-            Path(args.scenario).write_text(io.scenario(poses, times=io.move_times(p, poses)))
+            Path(args.scenario).write_text(io.scenario(poses, times=io.move_times(p, poses), home=p.home))
         print(f"{args.out}: {len(poses)} random validation poses (seed {args.seed}, 90 % of the workspace)")
         return 0
     inst = io.read_instrument(args.instrument)
@@ -96,7 +96,7 @@ def _plan(args):
     poses, logdet = plan.make_plan(p, trk, args.poses, args.candidates, args.seed, args.fit_scale)
     io.write_plan(args.out, poses)
     if args.scenario:
-        Path(args.scenario).write_text(io.scenario(poses, times=io.move_times(p, poses)))
+        Path(args.scenario).write_text(io.scenario(poses, times=io.move_times(p, poses), home=p.home))
     print(f"{args.out}: {len(poses)} D-optimal poses of {args.candidates} candidates, log det {logdet:.1f}")
     return 0
 
@@ -119,12 +119,14 @@ def _run(args):
     rng = np.random.default_rng(args.noise_seed)
     if args.build:
         from ..calibrate import loop
+        work = Path(args.out).parent / (Path(args.out).stem + "_run")
         try:
-            data = loop.measure(p, poses, args.build, Path(args.out).parent / "calibrate_run", trk, rng,
-                                inst["fiducials"])
+            data = loop.measure(p, poses, args.build, work, trk, rng, inst["fiducials"],
+                                plant_args=_plant_args(args, raw_m, work), inproc=args.inproc)
         except (RuntimeError, FileNotFoundError) as e:
             return _err(str(e), 1)
-        where = f"in closed loop ({args.build}: its hs_sim is the machine)"
+        plant = "the machine given to hs_sim --as-built" if args.as_built_plant else "its hs_sim is the machine"
+        where = f"in closed loop ({args.build}: {plant}{', in one process' if args.inproc else ', over vcan'})"
     else:
         data = sim.measure(ctrl, truth, trk, poses, rng, inst["fiducials"])
         where = f"on the float64 machine ({args.machine})"
@@ -133,6 +135,19 @@ def _run(args):
         io.write_tracker(args.tracker_csv, data)
     print(f"{args.out}: {len(poses)} poses measured {where}")
     return 0
+
+
+def _plant_args(args, raw_m, work) -> tuple[str, ...]:
+    """hs_sim's options for the as-built machine: ``--as-built FILE`` from
+    the machine's section (--as-built-plant), else none (the build's hs_sim
+    was made with -DHS_CONFIG=MACHINE.json)."""
+    if not getattr(args, "as_built_plant", False):
+        return ()
+    from .. import asbuilt
+    Path(work).mkdir(parents=True, exist_ok=True)
+    f = Path(work).resolve() / "as_built.txt"
+    f.write_text(asbuilt.plant_file(asbuilt.parse(raw_m)))
+    return ("--as-built", str(f))
 
 
 def _report(res, names_units=True):
@@ -288,7 +303,10 @@ def _check_loop(p, val, args) -> bool:
     res = {}
     for label, build in zip(("nominal on nominal", "before (nominal config)", "after (calibrated)"),
                             args.closed_loop):
-        res[label] = loop.validate(p, val, build, Path(str(out) + "_loop"), label.split()[0])
+        work = Path(str(out) + "_loop")
+        plant = () if label.startswith("nominal on") or not args.machine else \
+            _plant_args(args, json.loads(Path(args.machine).read_text()), work)
+        res[label] = loop.validate(p, val, build, work, label.split()[0], plant_args=plant, inproc=args.inproc)
     print(f"closed loop over {len(val)} moves (absolute error at rest; surge 90 mm 0.5 Hz, truth - reference):")
     print(f"{'':<26}{'pos RMS':>12}{'pos max':>12}{'rot RMS':>12}{'surge RMS':>12}{'surge max':>12}")
     for label, r in res.items():
@@ -343,7 +361,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--noise-seed", type=int, default=1)
     c.add_argument("--tracker-csv", help="also write the tracker's own CSV")
     c.add_argument("--build", help="closed loop: the build dir whose sp_controller (the config) and hs_sim "
-                   "(built with -DHS_CONFIG=MACHINE.json) drive the poses over vcan")
+                   "(built with -DHS_CONFIG=MACHINE.json, or see --as-built-plant) drive the poses over vcan")
+    c.add_argument("--as-built-plant", action="store_true",
+                   help="with --build: hand hs_sim the machine's as_built section at run time (hs_sim --as-built), "
+                   "so that any build's plant is the as-built machine")
+    c.add_argument("--inproc", action="store_true",
+                   help="with --build: the controller in hs_sim's process (hs_sim --inproc, no vcan; same frames)")
     c.add_argument("-o", "--out", required=True)
     d = common(w.add_parser("solve", help="least squares: joints, sensor zeros, tracker pose"))
     d.add_argument("measurements")
@@ -362,4 +385,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--closed-loop", nargs=3, metavar=("NOMINAL", "BEFORE", "AFTER"),
                    help="also in closed loop: build dirs of nominal-on-nominal, nominal config on the as-built "
                    "plant, calibrated config on it: absolute error after each move, the surge's tracking")
+    e.add_argument("--as-built-plant", action="store_true",
+                   help="with --closed-loop: BEFORE's and AFTER's hs_sim get --machine's as_built at run time")
+    e.add_argument("--inproc", action="store_true", help="with --closed-loop: hs_sim --inproc, no vcan")
     p.set_defaults(func=run)
