@@ -213,6 +213,23 @@ def _passes(f) -> bool:
     return f["pos_rms"] <= CHECK_RMS and f["pos_max"] <= CHECK_MAX and f["rot_rms"] <= CHECK_ROT
 
 
+def _plot(path, curves):
+    """Position error per validation pose, one curve per (label, errors)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for label, ep in curves:
+        ax.semilogy(np.arange(1, len(ep) + 1), ep * 1e6, "o-", ms=3, label=label)
+    ax.axhline(CHECK_MAX * 1e6, color="k", lw=0.8, ls="--", label="50 um")
+    ax.set_xlabel("validation pose")
+    ax.set_ylabel("position error, um")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    print(f"{path}: written")
+
+
 def _check(args):
     """The calibrated config's accuracy on fresh poses: from a check run's
     measurements (``--measurements``: what a real machine has), and in
@@ -269,19 +286,7 @@ def _check(args):
         figures["truth"] = {"poses": int(len(val)), **rows[1][1]}
         ok = _passes(rows[1][1]) and ok
     if args.plot:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(7, 3.5))
-        for label, ep in curves:
-            ax.semilogy(np.arange(1, len(ep) + 1), ep * 1e6, "o-", ms=3, label=label)
-        ax.axhline(CHECK_MAX * 1e6, color="k", lw=0.8, ls="--", label="50 um")
-        ax.set_xlabel("validation pose")
-        ax.set_ylabel("position error, um")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(args.plot, dpi=100)
-        print(f"{args.plot}: written")
+        _plot(args.plot, curves)
     if args.closed_loop:
         if val is None:
             val = plan.candidates(p, args.poses, np.random.default_rng(args.seed), scale=0.9)
