@@ -1840,8 +1840,10 @@ static int as_built_params(const char *path, hs_params_t *par)
         return 2;
     }
     if (n != HS_AS_BUILT_N) {
-        fprintf(stderr, "hs_sim: --as-built %s: %d numbers, expected 48 (base_joints 18, platform_joints 18, "
-                "length_zero 6, length_scale 6)\n", path, n);
+        fprintf(stderr,
+                "hs_sim: --as-built %s: %d numbers, expected 48 (base_joints 18, platform_joints 18, "
+                "length_zero 6, length_scale 6)\n",
+                path, n);
         return 2;
     }
     hs_config_t cfg = hs_config_default;

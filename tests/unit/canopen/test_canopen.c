@@ -794,9 +794,9 @@ static void test_link_length_sensors(void **state)
     assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
     assert_ptr_equal(cfg.length_sensors, &sp_length_sensors_default); /* the built-in platform's */
     memset(&sens, 0, sizeof sens);
-    sens.zero[1] = 8389;           /* 0.5 mm */
-    sens.scale[1] = 107374;        /* 100 ppm, Q30 */
-    sens.scale_inv[1] = -107363;   /* 1 / (1 + 1e-4) - 1, Q30 */
+    sens.zero[1] = 8389;         /* 0.5 mm */
+    sens.scale[1] = 107374;      /* 100 ppm, Q30 */
+    sens.scale_inv[1] = -107363; /* 1 / (1 + 1e-4) - 1, Q30 */
     cfg.length_sensors = &sens;
     memset(&m, 0, sizeof m);
     memset(fb, 0, sizeof fb);
@@ -810,7 +810,7 @@ static void test_link_length_sensors(void **state)
     /* l = lmin + (r - zero - lmin) / (1 + k): 0.5 mm and 100 ppm of the stroke shorter */
     int64_t want = r - 8389 - (((r - 8389 - lmin) * 107374) >> 30);
     assert_true(llabs((int64_t)fb[1].length - want) <= 2);
-    assert_true(r - fb[1].length > 8389); /* the correction is there */
+    assert_true(r - fb[1].length > 8389);                 /* the correction is there */
     assert_int_equal(fb[2].length, zero[2] + 0x00100000); /* identity where zero and scale are 0 */
 
     /* the setpoint at that length goes out as the count the drive reported */

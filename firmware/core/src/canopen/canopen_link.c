@@ -156,11 +156,10 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
             (void)spi_co_force_to_permille(&cfg->scaling[leg], out->setpoint[leg].force, &in->force_ff[k]);
         }
         /* joint-to-joint length -> what the leg's sensor reads there -> counts */
-        if (leg < SP_LEGS &&
-            (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
-             sp_length_to_sensor(cfg->platform, cfg->length_sensors, (unsigned)leg, out->setpoint[leg].length,
-                                 &reading) != SP_OK ||
-             spi_co_length_to_count(&cfg->scaling[leg], reading, &in->setpoint[k]) != SP_OK)) {
+        if (leg < SP_LEGS && (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
+                              sp_length_to_sensor(cfg->platform, cfg->length_sensors, (unsigned)leg,
+                                                  out->setpoint[leg].length, &reading) != SP_OK ||
+                              spi_co_length_to_count(&cfg->scaling[leg], reading, &in->setpoint[k]) != SP_OK)) {
             st = SP_E_OVERFLOW;
         }
     }
