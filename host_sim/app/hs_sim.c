@@ -81,6 +81,9 @@
  * controlled stop, 0 the immediate (default: the platform config's estop).
  * --load MASS,X,Y,Z: a point mass (kg, m in the motion frame) the config
  * does not know, part of the platform from the start (hs_params_add_mass).
+ * --as-built FILE: the machine as built without a rebuild: the 48 offsets of
+ * an as_built section (joints, sensor zeros and scales; as_built_params) on
+ * the compiled-in config, added to its own (none in the default build).
  * The force/torque sensor (hs/ftsensor.h, mounted as the config's
  * force_sensor section) sends its newest sample as FT_SENSOR on axis_b each
  * cycle, before the cycle's SYNC.
@@ -1248,6 +1251,7 @@ typedef struct {
     long timeout_ms;
     double load[4];
     int have_load;
+    const char *as_built; /* --as-built FILE: the machine as built, NULL: as the config's */
 } cli_t;
 
 static int parse_u64(const char *v, unsigned long long *out)
@@ -1365,6 +1369,12 @@ static int set_load(cli_t *c, const char *v)
 {
     c->have_load = (parse_load(v, c->load) == 0);
     return c->have_load ? 0 : -1;
+}
+
+static int set_as_built(cli_t *c, const char *v)
+{
+    c->as_built = v;
+    return 0;
 }
 
 static int set_setpoint_timeout(cli_t *c, const char *v)
@@ -1490,6 +1500,8 @@ static const cli_option_t cli_options[] = {
     {"timeout-ms", "MS", "controller silence that ends the run, 1..3599999 (default 2000)", set_timeout_ms},
     {"progress", NULL, "a status line each simulated second (stderr)", set_progress},
     {"load", "MASS,X,Y,Z", "a point mass (kg at m in the motion frame) on the platform", set_load},
+    {"as-built", "FILE", "the machine as built: 48 offsets (joints, sensor zeros and scales) on the config's",
+     set_as_built},
     {"setpoint-timeout", "CYCLES", "the drives' setpoint watchdog, 1..100000 (default: the config's)",
      set_setpoint_timeout},
     {"canopen", NULL, "the drives as CiA 408 nodes (the default with a drives section in the config)", set_canopen},
@@ -1794,11 +1806,80 @@ static int check_run(sim_t *s, const cli_t *c)
     return 0;
 }
 
+/* --as-built FILE: HS_AS_BUILT_N numbers (whitespace or commas, '#' to the
+ * end of a line a comment): base_joints 6 x 3 and platform_joints 6 x 3
+ * (m, added to the config's), length_zero 6 (m), length_scale 6 (-), the
+ * order and limits of the config's as_built section (tools/stewart/asbuilt.py;
+ * `stewart calibrate as-built --plant-file` writes one). The plant's
+ * parameters from the compiled-in config with them applied (*par).
+ * 0 ok; else the message is printed and the exit status returned. */
+#define HS_AS_BUILT_N 48
+static int as_built_params(const char *path, hs_params_t *par)
+{
+    FILE *f = fopen(path, "r");
+    if (f == NULL) {
+        fprintf(stderr, "hs_sim: --as-built %s: cannot open it\n", path);
+        return 2;
+    }
+    double v[HS_AS_BUILT_N];
+    int n = 0, bad = 0;
+    char line[512];
+    while (!bad && fgets(line, (int)sizeof line, f) != NULL) {
+        char *hash = strchr(line, '#');
+        if (hash != NULL) {
+            *hash = '\0';
+        }
+        for (char *tok = strtok(line, " \t\r\n,"); tok != NULL && !bad; tok = strtok(NULL, " \t\r\n,")) {
+            char *end;
+            errno = 0;
+            double x = strtod(tok, &end);
+            double lim = (n >= 42) ? 0.01 : 0.05; /* scale 1 %, joints and zeros 5 cm */
+            if (errno != 0 || *end != '\0' || !isfinite(x) || fabs(x) > lim || n >= HS_AS_BUILT_N) {
+                fprintf(stderr, "hs_sim: --as-built %s: number %d (%s): %s\n", path, n + 1, tok,
+                        n >= HS_AS_BUILT_N ? "more than 48 numbers" : "not a finite number within its limit");
+                bad = 1;
+            } else {
+                v[n++] = x;
+            }
+        }
+    }
+    (void)fclose(f);
+    if (bad) {
+        return 2;
+    }
+    if (n != HS_AS_BUILT_N) {
+        fprintf(stderr,
+                "hs_sim: --as-built %s: %d numbers, expected 48 (base_joints 18, platform_joints 18, "
+                "length_zero 6, length_scale 6)\n",
+                path, n);
+        return 2;
+    }
+    hs_config_t cfg = hs_config_default;
+    for (int i = 0; i < HS_LEGS; i++) {
+        for (int k = 0; k < 3; k++) {
+            cfg.base_joints[i][k] += v[3 * i + k];
+            cfg.platform_joints[i][k] += v[18 + 3 * i + k];
+        }
+        cfg.sensors.length_zero[i] += v[36 + i];
+        cfg.sensors.length_scale[i] += v[42 + i];
+    }
+    if (hs_params_from_config(&cfg, par) != HS_OK) {
+        fprintf(stderr, "hs_sim: --as-built %s: the machine as built is not a usable plant\n", path);
+        return 1;
+    }
+    return 0;
+}
+
 /* The plant at the park pose with the options' parameters (*par), its bus
  * binding, the CANopen nodes, the fault injector. 0 ok, else the exit status. */
 static int setup_plant(sim_t *s, const cli_t *c, hs_params_t *par)
 {
-    if (hs_params_default(par) != HS_OK) {
+    if (c->as_built != NULL) {
+        int rc = as_built_params(c->as_built, par);
+        if (rc != 0) {
+            return rc;
+        }
+    } else if (hs_params_default(par) != HS_OK) {
         fprintf(stderr, "hs_sim: the default plant parameters are not usable\n");
         return 1;
     }

@@ -194,3 +194,105 @@ def test_scenario_stops_after_each_move_and_waits_for_long_ones():
     i = lines.index("mark calibrate pose 2")
     assert lines[i - 2] == "cmd MOVE_TO fade=2" and lines[i - 1] == f"delay {times[1] + 1.5:.2f}"
     assert lines[i + 1:i + 3] == ["cmd STOP", "wait ready 10"]   # MOVE_TO is accepted in READY only
+
+
+def _stewart(*argv) -> int:
+    from stewart import cli
+    return cli.main(["calibrate", *[str(a) for a in argv]])
+
+
+@pytest.fixture(scope="module")
+def solved(tmp_path_factory):
+    """The commands on the float64 machine: as-built seed 3, a 40-pose plan,
+    its run, solve; a 30-pose validation plan and its check run."""
+    d = tmp_path_factory.mktemp("cal")
+    assert _stewart("as-built", "--seed", 3, "-o", d / "m.json") == 0
+    assert _stewart("plan", "-n", 40, "--candidates", 150, "--seed", 2, "-o", d / "plan.csv") == 0
+    assert _stewart("run", "--plan", d / "plan.csv", "--machine", d / "m.json", "-o", d / "meas.csv") == 0
+    assert _stewart("solve", d / "meas.csv", "-o", d / "cal.json") == 0
+    assert _stewart("plan", "--validation", "-n", 30, "--seed", 1001, "-o", d / "val.csv") == 0
+    assert _stewart("run", "--plan", d / "val.csv", "--machine", d / "m.json", "--noise-seed", 9,
+                    "-o", d / "check.csv") == 0
+    return d
+
+
+def _gen(cfgf, out):
+    return subprocess.run([sys.executable, str(ROOT / "tools" / "dev" / "gen_platform.py"), str(cfgf), str(out)],
+                          capture_output=True, text=True)
+
+
+def test_firmware_refuses_a_solved_config_until_check_accepts_it(solved, tmp_path):
+    d = solved
+    assert json.loads((d / "cal.json").read_text())["calibration"]["status"] == config.CALIBRATION_SOLVED
+    r = _gen(d / "cal.json", tmp_path / "a.c")
+    assert r.returncode == 1 and "calibration.status" in r.stderr and "check --accept" in r.stderr
+    assert not (tmp_path / "a.c").exists()
+    # check from the measurements alone (no truth) accepts it
+    assert _stewart("check", "--calibrated", d / "cal.json", "--measurements", d / "check.csv",
+                    "--accept", tmp_path / "final.json") == 0
+    final = json.loads((tmp_path / "final.json").read_text())
+    assert final["calibration"]["status"] == config.CALIBRATION_ACCEPTED
+    assert final["calibration"]["check"]["measured"]["pos_rms"] <= 20e-6
+    r = _gen(tmp_path / "final.json", tmp_path / "b.c")
+    assert r.returncode == 0, r.stderr
+    text = (tmp_path / "b.c").read_text()
+    zero_q = round(final["length_sensors"]["zero"][0] * (1 << 24))
+    assert f".zero = {{{zero_q}," in text          # the calibrated zeros are compiled in
+    # an accepted config edited afterwards is refused again, naming the digest
+    final["base_joints"][2][1] += 1e-4
+    (tmp_path / "edited.json").write_text(json.dumps(final))
+    r = _gen(tmp_path / "edited.json", tmp_path / "c.c")
+    assert r.returncode == 1 and "calibration.digest" in r.stderr
+    # a config with no calibration record builds as before
+    assert _gen(resources.default_platform(), tmp_path / "d.c").returncode == 0
+
+
+def test_check_refuses_bad_calibrations_and_writes_nothing(solved, tmp_path):
+    d = solved
+    # the solve's own measurements are not a check
+    assert _stewart("check", "--calibrated", d / "cal.json", "--measurements", d / "meas.csv",
+                    "--accept", tmp_path / "x.json") == 1
+    # neither measurements nor truth: usage error
+    assert _stewart("check", "--calibrated", d / "cal.json") == 2
+    # a calibration that is off by 0.2 mm on one joint fails the measured check
+    bad = json.loads((d / "cal.json").read_text())
+    bad["platform_joints"][0][2] += 2e-4
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    assert _stewart("check", "--calibrated", tmp_path / "bad.json", "--measurements", d / "check.csv",
+                    "--accept", tmp_path / "y.json") == 1
+    assert not (tmp_path / "x.json").exists() and not (tmp_path / "y.json").exists()
+
+
+def test_check_from_measurements_agrees_with_the_truth(solved):
+    """The check without truth sees what the truth shows: before, the same
+    millimetres (within 1 %); after, the truth's error plus the instrument's
+    share in quadrature (within 3 um)."""
+    from stewart.calibrate import check
+    d = solved
+    p, nom = config.load(resources.default_platform()), None
+    nom = Geometry.of_platform(p)
+    cal = Geometry.of_platform(config.load(d / "cal.json"))
+    truth = nom.as_built(asbuilt.parse(json.loads((d / "m.json").read_text())))
+    inst = io.read_instrument()
+    data = io.read_measurements(d / "check.csv", 4, inst["fiducials"])
+    meas = check.measured_poses(data, inst["targets"], inst["noise"])
+    assert meas.tracker.startswith("from the check run's")
+    floor = float(np.sqrt(np.mean(meas.pos_floor ** 2)))
+    assert 5e-6 < floor < 12e-6                           # 10 um per coordinate, 4 targets
+    for g, tol in ((nom, None), (cal, 3e-6)):
+        ep, _ = check.config_errors(g, data, meas)
+        tp, _ = sim.pose_errors(g, truth, nom, data.commanded)
+        m_rms, t_rms = np.sqrt(np.mean(ep ** 2)), np.sqrt(np.mean(tp ** 2))
+        if tol is None:
+            assert t_rms > 1e-3 and abs(m_rms - t_rms) < 0.01 * t_rms
+        else:
+            assert t_rms < 10e-6 and abs(np.sqrt(max(m_rms ** 2 - floor ** 2, 0.0)) - t_rms) < tol
+
+
+def test_check_names_an_outlier_pose(solved, tmp_path):
+    from stewart.calibrate import check
+    inst = io.read_instrument()
+    data = io.read_measurements(solved / "check.csv", 4, inst["fiducials"])
+    data.targets[4, 1] += [0.0, 0.0, 0.4e-3]
+    with pytest.raises(check.CheckError, match=r"pose 5 \(rows .*\): the targets fit a rigid platform to"):
+        check.measured_poses(data, inst["targets"], inst["noise"])

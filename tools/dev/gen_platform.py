@@ -6,8 +6,10 @@ Run by the firmware build (standard library only, before any venv exists):
     python3 tools/dev/gen_platform.py config/platform_default.json OUT.c
 
 A bad config fails the build with the validator's message, which names the
-key. The numbers come from ``stewart.fixedpoint``, which the host tools use
-too (stewart.core), so the struct that the tools hand to the core is
+key; so does a config that ``stewart calibrate solve`` wrote and ``stewart
+calibrate check --accept`` has not accepted (``calibration.status``).
+The numbers come from ``stewart.fixedpoint``, which the host tools use too
+(stewart.core), so the struct that the tools hand to the core is
 bit-identical to the one compiled into the firmware.
 """
 
@@ -219,8 +221,18 @@ def run_generator(argv: list[str], c_source, prog: str, load=None) -> int:
     return 0
 
 
+def load_controller_config(path) -> cfg.Platform:
+    """``config.load``, and refused (ConfigError naming the key) when the
+    file is a calibrated config that ``stewart calibrate check --accept`` has
+    not accepted, or whose calibrated keys changed after it did."""
+    import json
+    p = cfg.load(path)
+    cfg.require_accepted_calibration(json.loads(Path(path).read_text()), str(path))
+    return p
+
+
 def main(argv: list[str]) -> int:
-    return run_generator(argv, c_source, "gen_platform.py")
+    return run_generator(argv, c_source, "gen_platform.py", load_controller_config)
 
 
 if __name__ == "__main__":

@@ -81,6 +81,17 @@ def true_config(d: dict) -> dict:
     return out
 
 
+def plant_file(section: dict) -> str:
+    """The text ``hs_sim --as-built FILE`` reads: the 48 numbers of a parsed
+    section (base_joints, platform_joints, length_zero, length_scale), the
+    machine as built without rebuilding the plant."""
+    rows = ["# as built: base_joints 6x3 m, platform_joints 6x3 m, length_zero 6 m, length_scale 6 (hs_sim --as-built)"]
+    for key in ("base_joints", "platform_joints"):
+        rows += [" ".join(repr(float(x)) for x in r) for r in section[key]]
+    rows += [" ".join(repr(float(x)) for x in section[key]) for key in ("length_zero", "length_scale")]
+    return "\n".join(rows) + "\n"
+
+
 def reading(length: float, zero: float, scale: float, lmin: float) -> float:
     """What a length sensor reads at the joint-to-joint length (m)."""
     return lmin + (1.0 + scale) * (length - lmin) + zero

@@ -761,6 +761,47 @@ def _length_sensors(s) -> dict:
             for key, lim in LENGTH_SENSOR_LIMITS.items()}
 
 
+#: The ``calibration`` record ``stewart calibrate`` writes: ``status`` is
+#: ``CALIBRATION_SOLVED`` after ``solve`` and ``CALIBRATION_ACCEPTED`` after
+#: ``check --accept``, which also stores ``digest`` (:func:`calibration_digest`).
+#: The firmware's generator builds only from a config without the record or
+#: with an accepted one whose calibrated keys are unchanged
+#: (:func:`require_accepted_calibration`); the tools read either.
+CALIBRATION_SOLVED = "solved, not checked"
+CALIBRATION_ACCEPTED = "accepted"
+CALIBRATED_KEYS = ("base_joints", "platform_joints", "length_sensors")
+
+
+def calibration_digest(d: dict) -> str:
+    """SHA-256 (hex) of the calibrated keys of a raw config dict, as JSON
+    with sorted keys: what ``check --accept`` accepted."""
+    import hashlib
+    text = json.dumps({k: d.get(k) for k in CALIBRATED_KEYS}, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def require_accepted_calibration(d, source: str = "<dict>") -> None:
+    """Raises ConfigError (naming the key) unless the raw config ``d`` has
+    no ``calibration`` record, or one that ``stewart calibrate check
+    --accept`` accepted and whose base_joints, platform_joints and
+    length_sensors are still the ones it checked."""
+    if not isinstance(d, dict) or "calibration" not in d:
+        return
+    c = d["calibration"]
+    how = "run `stewart calibrate check --measurements CHECK.csv --calibrated FILE --accept OUT.json` " \
+          "and build from OUT.json"
+    if not isinstance(c, dict):
+        raise ConfigError(f"{source}: calibration: expected an object (the record stewart calibrate writes)")
+    status = c.get("status")
+    if status != CALIBRATION_ACCEPTED:
+        raise ConfigError(f"{source}: calibration.status: {json.dumps(status)[:60]}: a calibrated config that "
+                          f"has not passed `stewart calibrate check --accept`; the firmware is not built from it: "
+                          + how)
+    if c.get("digest") != calibration_digest(d):
+        raise ConfigError(f"{source}: calibration.digest: base_joints, platform_joints or length_sensors "
+                          "differ from what `stewart calibrate check --accept` accepted; " + how)
+
+
 def _sensors(s) -> dict:
     """The ``sensors`` section: the simulated sensors' resolution and noise, and the seed."""
     if not isinstance(s, dict):

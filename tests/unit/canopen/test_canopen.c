@@ -773,6 +773,63 @@ static void test_master_pdo_reference(void **state)
     assert_int_equal(m.node[0].fault.code, SP_CO_F_DEVICE_FAULT);
 }
 
+/* The legs' calibrated length sensors (config "length_sensors") apply to
+ * CANopen legs as to native ones: a drive's position (by its scaling) is the
+ * sensor's reading; the feedback maps it to the joint-to-joint length and
+ * the setpoint back, to one count. */
+static void test_link_length_sensors(void **state)
+{
+    sp_co_link_cfg_t cfg;
+    sp_co_master_t m;
+    sp_co_master_input_t in;
+    sp_ctrl_output_t out;
+    sp_drive_feedback_t fb[SP_LEGS];
+    sp_q24_t zero[SP_LEGS];
+    sp_length_sensors_t sens;
+    uint32_t i;
+    (void)state;
+    for (i = 0u; i < SP_LEGS; i++) {
+        zero[i] = (sp_q24_t)(0x02000000 + (int32_t)i * 0x10000); /* 2 m + i/256 m */
+    }
+    assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
+    assert_ptr_equal(cfg.length_sensors, &sp_length_sensors_default); /* the built-in platform's */
+    memset(&sens, 0, sizeof sens);
+    sens.zero[1] = 8389;         /* 0.5 mm */
+    sens.scale[1] = 107374;      /* 100 ppm, Q30 */
+    sens.scale_inv[1] = -107363; /* 1 / (1 + 1e-4) - 1, Q30 */
+    cfg.length_sensors = &sens;
+    memset(&m, 0, sizeof m);
+    memset(fb, 0, sizeof fb);
+    m.node[1].tpdo1_fresh = 1u; /* node 1 moves leg 2 */
+    m.node[1].actual = 62500;   /* um: the sensor reads zero[1] + 62.5 mm */
+    m.node[2].tpdo1_fresh = 1u; /* leg 3: its sensor as drawn */
+    m.node[2].actual = 62500;
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    int64_t r = (int64_t)zero[1] + 0x00100000;
+    int64_t lmin = sp_platform_default.leg_length_min;
+    /* l = lmin + (r - zero - lmin) / (1 + k): 0.5 mm and 100 ppm of the stroke shorter */
+    int64_t want = r - 8389 - (((r - 8389 - lmin) * 107374) >> 30);
+    assert_true(llabs((int64_t)fb[1].length - want) <= 2);
+    assert_true(r - fb[1].length > 8389);                 /* the correction is there */
+    assert_int_equal(fb[2].length, zero[2] + 0x00100000); /* identity where zero and scale are 0 */
+
+    /* the setpoint at that length goes out as the count the drive reported */
+    memset(&out, 0, sizeof out);
+    for (i = 0u; i < SP_LEGS; i++) {
+        out.setpoint[i].length = fb[i].length != 0 ? fb[i].length : zero[i];
+    }
+    out.drive_mode = SP_DRIVE_ACTIVE;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 5u, &in), SP_OK);
+    assert_true(llabs((int64_t)in.setpoint[1] - 62500) <= 1);
+    assert_int_equal(in.setpoint[2], 62500);
+    /* without sensors the reading is the length: the setpoint 0.5 mm and 100 ppm off */
+    cfg.length_sensors = NULL;
+    assert_int_equal(sp_co_link_input(&cfg, &out, 5u, &in), SP_OK);
+    assert_true(in.setpoint[1] < 62500 - 500);
+    assert_int_equal(sp_co_link_feedback(&m, &cfg, fb), SP_OK);
+    assert_int_equal(fb[1].length, (sp_q24_t)r);
+}
+
 static void test_link(void **state)
 {
     sp_co_link_cfg_t cfg;
@@ -1249,6 +1306,7 @@ int main(void)
         cmocka_unit_test(test_master_pdo_reference),
         cmocka_unit_test(test_master_input_checks),
         cmocka_unit_test(test_link),
+        cmocka_unit_test(test_link_length_sensors),
         cmocka_unit_test(test_link_wrench_validity),
         cmocka_unit_test(test_link_input_due),
         cmocka_unit_test(test_link_ctrl_config),

@@ -221,15 +221,21 @@ def move_times(platform, poses, fade=2.0):
     return np.maximum(fade, 4.0 * travel / platform.leg_velocity_max)
 
 
-def scenario(poses, settle=2.0, fade=3.0, times=None) -> str:
+def scenario(poses, settle=2.0, fade=3.0, times=None, home=None) -> str:
     """hs_sim scenario: engage, each pose by MOVE_TO (from READY), the move's
     time (``times``, default ``fade``) and ``settle`` at rest, a mark per
-    pose, STOP (back to READY, holding the pose), park."""
+    pose, STOP (back to READY, holding the pose); back to ``home`` when
+    given (PARK's straight path from a pose at the workspace's corner can
+    leave the limits: the controller faults), park."""
     out = ["# stewart calibrate plan: static poses, a mark at rest on each", "cmd ENGAGE", "wait ready 60"]
     for i, q in enumerate(poses):
         t = fade if times is None else float(times[i])
         out += [f"target {' '.join(f'{v:.6f}' for v in q)}", f"cmd MOVE_TO fade={fade:g}",
                 f"delay {t + settle:.2f}", f"mark calibrate pose {i + 1}", "cmd STOP", "wait ready 10"]
+    if home is not None:
+        t = fade if times is None else float(np.max(times))
+        out += [f"target {' '.join(f'{v:.6f}' for v in home)}", f"cmd MOVE_TO fade={fade:g}",
+                f"delay {t + settle:.2f}", "cmd STOP", "wait ready 10"]
     out += ["cmd PARK", "wait idle 60", "end"]
     return "\n".join(out) + "\n"
 

@@ -32,16 +32,45 @@ def pose_ticks(plant_out: str, n: int, what="calibrate pose") -> np.ndarray:
     return np.array([m[f"{what} {i + 1}"] for i in range(n)])
 
 
-def run_poses(platform, poses, build, out, name, extra="", timeout=1800):
+def _run_inproc(spec: cl.RunSpec, out: Path, build, timeout):
+    """One lockstep run in one process (``hs_sim --inproc``: the firmware's
+    node linked into the plant, the CAN frames passed in memory in the order
+    one vcan socket delivers them, the same log byte for byte): no vcan."""
+    import subprocess
+
+    from .. import auth
+    bins = cl.Binaries.find(build)
+    out = Path(out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    scn = out / f"{spec.name}.scenario"
+    scn.write_text(spec.scenario)
+    log, truth = out / f"{spec.name}.log", out / f"{spec.name}.truth.csv"
+    argv = [str(bins.plant), "--inproc", "--scenario", str(scn), "--log", str(log), "--truth", str(truth),
+            "--key", str(auth.run_key(out).resolve()), "--session", str(cl.LOCKSTEP_SESSION),
+            *spec.plant_args]
+    r = subprocess.run(argv, capture_output=True, text=True, timeout=timeout)
+    (out / f"{spec.name}.plant.txt").write_text(r.stdout + r.stderr)
+    return cl.RunResult(spec, log, truth, r.returncode, r.stdout + r.stderr, "")
+
+
+def run_poses(platform, poses, build, out, name, extra="", timeout=1800, plant_args=(), inproc=False):
     """One lockstep run through ``poses`` (marks at rest), then ``extra``
-    scenario lines before parking. Returns (RunResult, ticks of the marks)."""
+    scenario lines before parking. ``plant_args``: more hs_sim options (the
+    as-built machine: ``--as-built FILE``); ``inproc``: the controller in the
+    plant's process (``hs_sim --inproc``), else sp_controller over vcan.
+    Returns (RunResult, ticks of the marks)."""
     from .io import move_times
-    text = scenario(poses, SETTLE, FADE, move_times(platform, poses, FADE)).replace("cmd PARK\n", extra + "cmd PARK\n", 1)
-    spec = cl.RunSpec(name=name, scenario=text, timeout_ms=5000)
-    (res,) = cl.run([spec], out, build, progress=False, timeout=timeout)
+    text = scenario(poses, SETTLE, FADE, move_times(platform, poses, FADE), home=platform.home)
+    text = text.replace("cmd PARK\n", extra + "cmd PARK\n", 1)
+    spec = cl.RunSpec(name=name, scenario=text, timeout_ms=5000, plant_args=tuple(plant_args))
+    if inproc:
+        res = _run_inproc(spec, out, build, timeout)
+    else:
+        (res,) = cl.run([spec], out, build, progress=False, timeout=timeout)
     if not res.ok:
+        last = res.plant_out.strip().splitlines()[-1:]
         raise RuntimeError(f"{name}: the closed loop failed (hs_sim exit {res.plant_rc}): "
-                           + res.plant_out.strip().splitlines()[-1:][0] if res.plant_out.strip() else "no output")
+                           + (last[0] if last else "no output"))
     return res, pose_ticks(res.plant_out, len(poses))
 
 
@@ -61,10 +90,11 @@ def readings_at(log, platform, ticks):
     return d.length[np.minimum(idx, len(d.ticks) - 1)], d
 
 
-def measure(platform, poses, build, out, tracker: Tracker, rng, fiducials=None, repeats=20) -> Data:
+def measure(platform, poses, build, out, tracker: Tracker, rng, fiducials=None, repeats=20, name="calibrate",
+            plant_args=(), inproc=False) -> Data:
     """Drives ``poses`` and returns the measurements (readings from the log,
     the tracker's readings from the truth)."""
-    res, ticks = run_poses(platform, poses, build, out, "calibrate")
+    res, ticks = run_poses(platform, poses, build, out, name, plant_args=plant_args, inproc=inproc)
     true_pose = truth_at(res.truth, ticks)
     readings, _ = readings_at(res.log, platform, ticks)
     p, r = poses_to_pr(true_pose)
@@ -103,13 +133,11 @@ def surge_tracking(platform, log, truth_csv, plant_out):
     return float(np.sqrt(np.mean(err ** 2))), float(np.max(np.abs(err)))
 
 
-def validate(platform, poses, build, out, name):
+def validate(platform, poses, build, out, name, plant_args=(), inproc=False):
     """Absolute error at rest after each move and the paper's surge (from
     home, truth minus reference), from one run."""
-    home = " ".join(f"{v:.6f}" for v in platform.home)
-    extra = (f"target {home}\ncmd MOVE_TO fade={FADE:g}\ndelay {FADE + SETTLE:g}\ncmd STOP\nwait ready 10\n"
-             + cl.trig("x", 0.09, 0.5, 8.0, 1.0))
-    res, _ = run_poses(platform, poses, build, out, name, extra=extra)
+    extra = cl.trig("x", 0.09, 0.5, 8.0, 1.0)   # from home (the scenario returns there first)
+    res, _ = run_poses(platform, poses, build, out, name, extra=extra, plant_args=plant_args, inproc=inproc)
     pos, rot = pose_errors(res.truth, res.plant_out, poses)
     rms, peak = surge_tracking(platform, res.log, res.truth, res.plant_out)
     return {"pos": pos, "rot": rot, "surge_rms": rms, "surge_max": peak}

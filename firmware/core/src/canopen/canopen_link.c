@@ -4,6 +4,14 @@
 
 #include "canopen/canopen_scaling.h"
 #include "link/link_internal.h"
+#include "sp/model/kinematics.h"
+
+/* The built-in platform's sensors come with it; another platform's readings
+ * are lengths (as sp_node_default_config). */
+static const sp_length_sensors_t *link_sensors(const sp_platform_t *platform)
+{
+    return (platform == &sp_platform_default) ? &sp_length_sensors_default : NULL;
+}
 
 sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *platform,
                                    const sp_q24_t zero_q24[SP_LEGS])
@@ -23,6 +31,7 @@ sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *p
         (void)sp_co_scaling_prepare(&cfg->scaling[i]);
     }
     cfg->platform = platform;
+    cfg->length_sensors = link_sensors(platform);
     return SP_OK;
 }
 
@@ -42,6 +51,7 @@ sp_status_t sp_co_link_cfg_from_layout(sp_co_link_cfg_t *cfg, const sp_co_layout
         }
     }
     cfg->platform = platform;
+    cfg->length_sensors = link_sensors(platform);
     return sp_co_link_cfg_check(cfg);
 }
 
@@ -88,8 +98,11 @@ sp_status_t sp_co_link_feedback(const sp_co_master_t *m, const sp_co_link_cfg_t 
             continue;
         }
         d = &fb[leg];
+        /* the drive's position is the sensor's reading: -> joint-to-joint length
+         * (calibrated zero and gain; identity by default), saturated on overflow */
         if (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
-            spi_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK) {
+            spi_co_count_to_length(&cfg->scaling[leg], nd->actual, &d->length) != SP_OK ||
+            sp_length_from_sensor(cfg->platform, cfg->length_sensors, (unsigned)leg, d->length, &d->length) != SP_OK) {
             st = SP_E_OVERFLOW;
         }
         if (cfg->master.pressure_feedback && cfg->master.node[k].profile != (uint8_t)SP_CO_PROFILE_402) {
@@ -127,6 +140,7 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
 {
     sp_status_t st = SP_OK;
     uint32_t k;
+    sp_q24_t reading = 0;
     if (cfg == NULL || out == NULL || in == NULL || cfg->master.n_nodes > SP_CO_MAX_NODES) {
         return SP_E_ARG;
     }
@@ -141,9 +155,11 @@ sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t
             /* saturated at INT16 (a force beyond 32.767 times the rated one): the setpoint still goes out */
             (void)spi_co_force_to_permille(&cfg->scaling[leg], out->setpoint[leg].force, &in->force_ff[k]);
         }
-        if (leg < SP_LEGS &&
-            (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
-             spi_co_length_to_count(&cfg->scaling[leg], out->setpoint[leg].length, &in->setpoint[k]) != SP_OK)) {
+        /* joint-to-joint length -> what the leg's sensor reads there -> counts */
+        if (leg < SP_LEGS && (!spi_co_scaling_ok(&cfg->scaling[leg]) ||
+                              sp_length_to_sensor(cfg->platform, cfg->length_sensors, (unsigned)leg,
+                                                  out->setpoint[leg].length, &reading) != SP_OK ||
+                              spi_co_length_to_count(&cfg->scaling[leg], reading, &in->setpoint[k]) != SP_OK)) {
             st = SP_E_OVERFLOW;
         }
     }

@@ -37,6 +37,13 @@ typedef struct {
     sp_co_master_cfg_t master;        /**< the drives (node k moves leg master.node[k].leg) */
     sp_co_scaling_t scaling[SP_LEGS]; /**< per leg (index leg - 1) */
     const sp_platform_t *platform;    /**< cylinder areas for the force from the pressures */
+    /** the legs' length sensors as calibrated: a drive's position (by its
+     *  scaling) is the sensor's reading, mapped to the joint-to-joint length
+     *  and back as on the native link (sp_length_from_sensor,
+     *  sp_length_to_sensor); NULL: the reading is the length. The
+     *  constructors set sp_length_sensors_default for sp_platform_default,
+     *  else NULL (as sp_node_default_config). */
+    const sp_length_sensors_t *length_sensors;
 } sp_co_link_cfg_t;
 
 /**
@@ -87,7 +94,8 @@ sp_status_t sp_co_link_cfg_check(const sp_co_link_cfg_t *cfg);
 /**
  * The controller's drive feedback from the master's nodes: fresh when the
  * node's TPDO1 arrived since the master's last step, the length from its
- * actual position (scaling), the force from its TPDO2 pressures (the last
+ * actual position (scaling, then the length sensors' zero and gain: cfg->
+ * length_sensors), the force from its TPDO2 pressures (the last
  * ones; 0 N before any) with no_force 0 on a CiA 408 drive with pressure
  * feedback, else (a CiA 402 drive, or pressure_feedback off: no pressures
  * mapped) force 0 with no_force 1, which makes the controller's wrench
