@@ -14,7 +14,7 @@ ctest --preset host-debug
 echo "== pytest"
 .venv/bin/pytest -q tests/python
 echo "== soak: 1 h of simulated random operation, or as much as 3 minutes of wall time allow"
-.venv/bin/stewart soak --hours 1 --max-wall 180 --seed 2026 --quiet
+.venv/bin/stewart soak --hours 1 --max-wall 180 --seed 2026 --strict --quiet
 echo "== the console: API tests and headless Chromium (tests/console, about a minute)"
 .venv/bin/pytest -q tests/console
 scripts/fuzz.sh 8 # each of the three targets 8 s

@@ -25,9 +25,9 @@
  * passes; the summary says how far it got); --seed: the generator's seed
  * (default 1); the same seed gives the same run, tick for tick. --wide
  * draws RUN_TRIG frequencies up to 3 Hz (today's controller takes some it
- * cannot compute: issue 35). --strict: a REFERENCE fault while RUNNING
- * an accepted motion is a violation (known_reference below; without it, a
- * known defect that is counted). --break NAME@TICK (the checker's own test)
+ * cannot compute: issue 35). --strict (the test command's): a REFERENCE
+ * fault while RUNNING an accepted motion is a violation (known_reference
+ * below; without it such a fault is counted, not a violation). --break NAME@TICK (the checker's own test)
  * corrupts that tick's snapshot so that invariant NAME fails. --trace
  * prints every episode's text and every state change.
  *
@@ -54,6 +54,8 @@
 #include "soak_gen.h"
 
 #define MAX_FRAMES (4u * HS_INJ_MAX_OUT + 64u)
+/* The states the figures count: IDLE .. STOPPING (sp_state_t, 0 .. 7) */
+#define SOAK_STATES 8
 
 typedef struct {
     uint64_t ticks, seed;
@@ -93,7 +95,8 @@ typedef struct {
     int injected;           /* a fault injected since the controller last left FAULT/ESTOP */
     uint32_t saturated_last;
     /* figures */
-    uint64_t checks, state_ticks[7], transitions[7][7], commands, refused, forged, timeouts, injections;
+    uint64_t checks, state_ticks[SOAK_STATES], transitions[SOAK_STATES][SOAK_STATES], commands, refused, forged,
+        timeouts, injections;
     uint64_t known, known_first; /* REFERENCE faults while RUNNING an accepted motion (known_reference) */
     double peak_force, peak_sp_force, min_margin_len;
     uint32_t in_last, dup_last, drop_last, busoff_last; /* the injector's counters at the last tick */
@@ -555,9 +558,9 @@ static void report_violation(const soak_t *s, soak_violation_t v, const char *wh
 static void tally(soak_t *s, const soak_snap_t *sn)
 {
     s->checks += SOAK_INVARIANTS;
-    s->state_ticks[sn->state & 7]++;
+    s->state_ticks[sn->state & (SOAK_STATES - 1)]++;
     if (sn->prev_state != sn->state) {
-        s->transitions[sn->prev_state & 7][sn->state & 7]++;
+        s->transitions[sn->prev_state & (SOAK_STATES - 1)][sn->state & (SOAK_STATES - 1)]++;
         if (s->o.trace) {
             printf("hs_soak: tick %" PRIu64 " %s -> %s faults 0x%04x\n", s->tick, sp_state_name(sn->prev_state),
                    sp_state_name(sn->state), (unsigned)sn->faults);
@@ -577,12 +580,11 @@ static void tally(soak_t *s, const soak_snap_t *sn)
     }
 }
 
-/* A known defect (issue 35, "commands checked before they are taken"):
- * MOVE_TO, RUN_TRIG and streamed targets are accepted when the motion's
- * ends are reachable, but the path between (the legs' rates, a trig's
- * frequency, the stream filter's path) is not checked, and the tick's
- * limits then fault it (REFERENCE) while RUNNING. Without --strict such a
- * fault is counted and reported, not a violation. */
+/* A REFERENCE fault while RUNNING an accepted motion (issue 35): once a
+ * known defect (a stream's STOP or a six-axis MOVE_TO drove a leg beyond
+ * its rate limit, each axis within its own), fixed in the controller
+ * (spi_move_plan_legs, spi_stream_limits); --strict makes one a
+ * violation. Without --strict such a fault is counted and reported. */
 static void known_reference(soak_t *s, soak_snap_t *sn, int moving)
 {
     if (!s->o.strict && moving && (sn->faults & ~sn->prev_faults) == SP_FAULT_REFERENCE) {
@@ -710,12 +712,12 @@ static void summary(const soak_t *s, double wall, int rc)
            "%.0f N, closest true leg to its stroke end %.2f mm inside the tolerance\n",
            s->peak_force, s->lim.plant_force_max, s->peak_sp_force, s->min_margin_len * 1e3);
     printf("hs_soak states (s):");
-    for (int k = 0; k < 7; k++) {
+    for (int k = 0; k < SOAK_STATES; k++) {
         printf(" %s %.1f", sp_state_name((sp_state_t)k), (double)s->state_ticks[k] / 1000.0);
     }
     printf("\nhs_soak transitions:");
-    for (int a = 0; a < 7; a++) {
-        for (int b = 0; b < 7; b++) {
+    for (int a = 0; a < SOAK_STATES; a++) {
+        for (int b = 0; b < SOAK_STATES; b++) {
             if (s->transitions[a][b] != 0u) {
                 printf(" %s>%s %" PRIu64, sp_state_name((sp_state_t)a), sp_state_name((sp_state_t)b),
                        s->transitions[a][b]);

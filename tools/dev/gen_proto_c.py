@@ -165,7 +165,7 @@ MESSAGES = (
         Field("Identity", "identity", "bool"), Field("LastRefusal", "last_refusal", "enum"),
         Field("Checksum", "checksum"),
         *(Field(f"Refused{n}", f"refused[{k}]", "clip") for k, n in enumerate(
-            ("Moving", "EmptySlot", "BadFrame", "NotFinite", "Unreachable", "Other"))))),
+            ("State", "Range", "Reach", "Rate", "Force", "EmptySlot", "BadFrame", "NotFinite"))))),
     Message("CTRL_IDENTITY", "identity", "sp_msg_identity_t", (
         Field("VersionMajor", "major"), Field("VersionMinor", "minor"), Field("VersionPatch", "patch"),
         Field("Port", "port", "enum"), Field("ProtocolHash", "protocol_hash"))),

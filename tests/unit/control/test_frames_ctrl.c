@@ -200,12 +200,14 @@ static void test_frame_refusals(void **state)
     before = r->out.reference.pose;
     frame_cmd(r, SP_FRAME_SET, SP_FRAME_TOOL, 1u, far);
     assert_int_equal(r->out.cmd_rejected, 1);
-    assert_int_equal(r->ctrl.refusals[SP_TALLY_BAD_FRAME], 1);
+    assert_int_equal(r->ctrl.refusals[SP_REFUSE_BAD_FRAME], 1);
+    assert_int_equal(r->out.refuse_reason, SP_REFUSE_BAD_FRAME); /* one list: CTRL_REFUSAL says the same */
     frame_cmd(r, SP_FRAME_SELECT, SP_FRAME_WORK, 3u, NULL);
     assert_int_equal(r->out.cmd_rejected, 1);
-    assert_int_equal(r->ctrl.refusals[SP_TALLY_EMPTY_SLOT], 1);
+    assert_int_equal(r->ctrl.refusals[SP_REFUSE_EMPTY_SLOT], 1);
+    assert_int_equal(r->out.refuse_reason, SP_REFUSE_EMPTY_SLOT);
     frame_cmd(r, SP_FRAME_SELECT, SP_FRAME_TOOL, 9u, NULL);
-    assert_int_equal(r->ctrl.refusals[SP_TALLY_EMPTY_SLOT], 2);
+    assert_int_equal(r->ctrl.refusals[SP_REFUSE_EMPTY_SLOT], 2);
     assert_int_equal(r->ctrl.frames.identity, 1);
     assert_memory_equal(&before, &r->out.reference.pose, sizeof before);
     /* while moving */
@@ -216,9 +218,10 @@ static void test_frame_refusals(void **state)
     assert_int_equal(r->out.state, SP_STATE_RUNNING);
     frame_cmd(r, SP_FRAME_SET, SP_FRAME_TOOL, 1u, tool);
     assert_int_equal(r->out.cmd_rejected, 1);
-    assert_int_equal(r->ctrl.refusals[SP_TALLY_MOVING], 1);
+    assert_int_equal(r->ctrl.refusals[SP_REFUSE_STATE], 1);
     assert_int_equal(r->ctrl.frames.identity, 1);
-    assert_int_equal(r->ctrl.last_refusal, SP_TALLY_MOVING);
+    assert_int_equal(r->ctrl.last_refusal, SP_REFUSE_STATE);
+    assert_int_equal(r->out.refuse_reason, SP_REFUSE_STATE);
     rig_tick(r, SP_CMD_STOP);
     run_until(r, SP_STATE_READY, 10000);
     /* at rest it is taken, and a select of slot 0 returns to identity */
@@ -272,7 +275,7 @@ static void test_reach_agrees_with_refusal(void **state)
                 assert_true(reach.force[i] != 0); /* the legs carry the platform */
             }
         } else {
-            assert_int_equal(r->ctrl.refusals[SP_TALLY_UNREACHABLE], 1);
+            assert_int_equal(r->ctrl.refusals[SP_REFUSE_REACH], 1);
             assert_true(reach.excess > 0 || reach.verdict == SP_REACH_COMPUTE);
             legs += (reach.verdict == SP_REACH_LEG_SHORT || reach.verdict == SP_REACH_LEG_LONG) ? 1u : 0u;
             box += (reach.verdict == SP_REACH_WORKSPACE) ? 1u : 0u;

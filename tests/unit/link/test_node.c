@@ -635,9 +635,9 @@ static void test_frames_and_reach_over_frames(void **state)
     assert_int_equal(r.frames.work_index, 0);
     assert_int_equal(r.frames.identity, 0);
     assert_int_equal(r.frames.checksum, r.node.ctrl.frames_crc);
-    assert_int_equal(r.frames.refused[SP_TALLY_BAD_FRAME - 1], 1u);
-    assert_int_equal(r.frames.refused[SP_TALLY_EMPTY_SLOT - 1], 1u);
-    assert_int_equal(r.frames.refused[SP_TALLY_NOT_FINITE - 1], 1u);
+    assert_int_equal(r.frames.refused[6], 1u);
+    assert_int_equal(r.frames.refused[5], 1u);
+    assert_int_equal(r.frames.refused[7], 1u);
     /* reach queries: answered within 2 ticks, the same verdict as a MOVE_TO's */
     for (int q = 0; q < 40; q++) {
         sp_pose_t x = r.node.ctrl.tool_home;
@@ -660,7 +660,7 @@ static void test_frames_and_reach_over_frames(void **state)
             send_frame(&r, SP_FRAME_SELECT, SP_FRAME_TOOL, 0u, NULL, 1, SP_OK);
             rig_tick(&r);
             assert_int_equal(r.node.out.cmd_rejected, 1);
-            assert_int_equal(r.node.ctrl.last_refusal, SP_TALLY_MOVING);
+            assert_int_equal(r.node.ctrl.last_refusal, SP_REFUSE_STATE);
             run_until(&r, SP_STATE_READY, 20000u);
             r.node.target = r.node.ctrl.tool_home;
             send_command(&r, SP_CMD_MOVE_TO);
@@ -670,14 +670,14 @@ static void test_frames_and_reach_over_frames(void **state)
     }
     {
         sp_pose_t x = r.node.ctrl.tool_home;
-        uint32_t before = r.node.ctrl.refusals[SP_TALLY_NOT_FINITE];
+        uint32_t before = r.node.ctrl.refusals[SP_REFUSE_NOT_FINITE];
         x.rpy[1] = SP_PROTO_NOT_FINITE_Q24;
         send_reach(&r, 77u, &x);
         rig_tick(&r);
         rig_tick(&r);
         assert_int_equal(r.reach.sequence, 77);
         assert_int_equal(r.reach.verdict, SP_PROTO_REACH_NOT_FINITE);
-        assert_int_equal(r.node.ctrl.refusals[SP_TALLY_NOT_FINITE], before + 1u);
+        assert_int_equal(r.node.ctrl.refusals[SP_REFUSE_NOT_FINITE], before + 1u);
     }
 }
 

@@ -72,9 +72,10 @@ TYPICAL = {
     "OP_REACH": {"Sequence": 42, "X": 0.15, "Y": -0.02, "Z": 2.5, "Roll": 0.08, "Pitch": 0.0, "Yaw": -0.08},
     "CTRL_REACH": {"Sequence": 42, "Verdict": "LEG_LONG", "Which": 3, "Excess": 0.012345,
                    **{f"Force_{i}": 4000.0 + 100.0 * i for i in range(1, 7)}},
-    "CTRL_FRAMES": {"ToolIndex": 1, "WorkIndex": 0, "Identity": 0, "LastRefusal": "MOVING",
-                    "Checksum": 0x1234ABCD, "RefusedMoving": 2, "RefusedEmptySlot": 1, "RefusedBadFrame": 0,
-                    "RefusedNotFinite": 3, "RefusedUnreachable": 4, "RefusedOther": 5},
+    "CTRL_FRAMES": {"ToolIndex": 1, "WorkIndex": 0, "Identity": 0, "LastRefusal": "EMPTY_SLOT",
+                    "Checksum": 0x1234ABCD, "RefusedState": 2, "RefusedRange": 6, "RefusedReach": 4,
+                    "RefusedRate": 7, "RefusedForce": 8, "RefusedEmptySlot": 1, "RefusedBadFrame": 0,
+                    "RefusedNotFinite": 3},
 }
 
 #: Counter sequences for the receiver state machine, each from a fresh receiver.

@@ -106,7 +106,7 @@ def register(sub) -> None:
     p.add_argument("--max-wall", type=float, default=None, metavar="SECONDS",
                    help="stop once this much wall time has passed (the run still passes)")
     p.add_argument("--strict", action="store_true",
-                   help="a REFERENCE fault while RUNNING an accepted motion is a violation (issue 35)")
+                   help="a REFERENCE fault while RUNNING an accepted motion is a violation (the test command's)")
     p.add_argument("--wide", action="store_true", help="RUN_TRIG frequencies up to 3 Hz")
     p.add_argument("--break", dest="break_at", default=None, metavar="INVARIANT@TICK",
                    help="make that tick violate INVARIANT (the checker's own test)")

@@ -69,15 +69,20 @@ MOTION = ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM", "FORCE", "GUIDE")
 FORCE_MODES = pr.value_names("CTRL_STATUS", "ForceMode")
 
 
-#: CTRL_FRAMES' refusal counts (Refused<Name>) and what each means.
-FRAME_REFUSALS = ("Moving", "EmptySlot", "BadFrame", "NotFinite", "Unreachable", "Other")
+#: CTRL_FRAMES' refusal counts (Refused<Name>), one per reason of the one
+#: list of refusal reasons (CTRL_REFUSAL Reason, CTRL_FRAMES LastRefusal)
+#: but NONE and LINK, and what each means.
+FRAME_REFUSALS = ("State", "Range", "Reach", "Rate", "Force", "EmptySlot", "BadFrame", "NotFinite")
 FRAME_REFUSAL_TEXT = {
-    "Moving": "frames change only at rest: IDLE, or READY in position control",
+    "State": "the controller's state does not allow it (frames change only at rest: IDLE, or READY in position "
+             "control)",
+    "Range": "a parameter is outside its range",
+    "Reach": "the pose is beyond the workspace or a stroke",
+    "Rate": "the motion would drive a leg beyond its rate limit",
+    "Force": "the motion would need more than the cylinders' force budget",
     "EmptySlot": "no frame is defined in that slot (0..3)",
     "BadFrame": "the frame is out of bounds: tool point beyond 5 m, work origin beyond 16 m, angle beyond pi",
     "NotFinite": "a value is not a finite number",
-    "Unreachable": "the pose is beyond the workspace or a stroke",
-    "Other": "the controller's state does not allow it",
 }
 #: The wire's "not a finite number" in OP_FRAME and OP_REACH (raw -2^23).
 NOT_FINITE_WIRE = -8.388608

@@ -41,4 +41,17 @@ void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg);
  * the state machine's): SP_REFUSE_NONE, or why it is refused. */
 uint8_t spi_cmd_check(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd);
 
+/* A move from `from` to `to` planned into ctrl->move (sp_move_plan) with
+ * the speed limits of cfg->move lowered where the axes' peak speeds
+ * together could drive a leg beyond rate_max (less 1/64): the move takes
+ * longer, never faster (cmd_check.c). Errors as sp_move_plan's. */
+sp_status_t spi_move_plan_legs(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *from,
+                               const sp_pose_t *to);
+
+/* STREAM: this tick's limits for sp_stream_step into ctrl->stream_lim, cfg->move's with each
+ * axis's speed limit lowered to its velocity now plus its share of the
+ * legs' rate budget left, so that the six axes together never drive a
+ * leg beyond rate_max (less 1/64) (cmd_check.c). */
+void spi_stream_limits(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl);
+
 #endif /* SP_CONTROL_INTERNAL_H */

@@ -340,7 +340,7 @@ static sp_status_t reset_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
     unsigned k;
     ctrl->slots = cfg->frames;
-    for (k = 0u; k < SP_TALLY_COUNT; ++k) {
+    for (k = 0u; k < SP_REFUSE_COUNT; ++k) {
         ctrl->refusals[k] = 0u;
     }
     ctrl->last_refusal = (uint8_t)SP_REFUSE_NONE;
@@ -350,10 +350,10 @@ static sp_status_t reset_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     return activate_frames(cfg, ctrl);
 }
 
-void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, sp_refusal_t why)
+void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, uint8_t why)
 {
     unsigned w = (unsigned)why;
-    if (ctrl == NULL || w >= SP_TALLY_COUNT || w == 0u) {
+    if (ctrl == NULL || w >= SP_REFUSE_COUNT || w == 0u) {
         return;
     }
     if (ctrl->refusals[w] < UINT16_MAX) {
@@ -406,7 +406,7 @@ static void raise_fault(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, uint32_t f
     ctrl->move.tick = 0u;
     if (ctrl->faults == SP_FAULT_REFERENCE && ctrl->est.valid) {
         /* controlled park from where the platform is commanded to be */
-        if (sp_move_plan(&ctrl->move, &ctrl->reference.pose, &cfg->platform->park, &cfg->move, cfg->tick_us) != SP_OK) {
+        if (spi_move_plan_legs(cfg, ctrl, &ctrl->reference.pose, &cfg->platform->park) != SP_OK) {
             ctrl->move.duration_ticks = 0u;
         }
     }
@@ -543,7 +543,7 @@ SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
 
 static int start_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *from, const sp_pose_t *to)
 {
-    return sp_move_plan(&ctrl->move, from, to, &cfg->move, cfg->tick_us) == SP_OK;
+    return spi_move_plan_legs(cfg, ctrl, from, to) == SP_OK;
 }
 
 /* ENGAGE and RESET move to home from where the platform stands. A platform
@@ -693,9 +693,9 @@ sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
 }
 
 /* A refusal's reason for this tick's count (sp_ctrl_step); returns 0. */
-static int refuse(sp_ctrl_t *ctrl, sp_refusal_t why)
+static int refuse(sp_ctrl_t *ctrl, uint8_t why)
 {
-    ctrl->refusing = (uint8_t)why;
+    ctrl->refusing = why;
     return 0;
 }
 
@@ -710,12 +710,12 @@ SPI_NOINLINE static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctr
     }
     if (ctrl->frames.identity) {
         if (!end_reachable(cfg, ctrl, &cmd->target)) {
-            return refuse(ctrl, SP_TALLY_UNREACHABLE);
+            return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
         }
         from = ctrl->pos_ref.pose;
     } else {
         if (tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
-            return refuse(ctrl, SP_TALLY_UNREACHABLE);
+            return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
         }
         if (sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &from) != SP_OK) {
             return 0;
@@ -767,7 +767,7 @@ SPI_NOINLINE static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t 
     *l = sp_sub(*l, cmd->amplitude, NULL);
     *h = sp_add(*h, cmd->amplitude, NULL);
     if (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1) {
-        return refuse(ctrl, SP_TALLY_UNREACHABLE);
+        return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
     }
     if (sp_trig_start(&ctrl->trig, centre, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
                       cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks) != SP_OK) {
@@ -948,19 +948,19 @@ SPI_NOINLINE static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
     int tool = cmd->frame_kind == SP_FRAME_TOOL;
     sp_frames_t probe;
     if ((ctrl->state != SP_STATE_IDLE && ctrl->state != SP_STATE_READY) || ctrl->force.mode != SP_FORCE_OFF) {
-        return refuse(ctrl, SP_TALLY_MOVING);
+        return refuse(ctrl, (uint8_t)SP_REFUSE_STATE);
     }
     if (i >= SP_FRAME_SLOTS || (cmd->frame_kind != SP_FRAME_TOOL && cmd->frame_kind != SP_FRAME_WORK) ||
         (cmd->frame_op != SP_FRAME_SELECT && cmd->frame_op != SP_FRAME_SET)) {
-        return refuse(ctrl, SP_TALLY_EMPTY_SLOT);
+        return refuse(ctrl, (uint8_t)SP_REFUSE_EMPTY_SLOT);
     }
     if (cmd->frame_op == SP_FRAME_SELECT) {
         if (((tool ? sl->tool_used : sl->work_used) & (1u << i)) == 0u) {
-            return refuse(ctrl, SP_TALLY_EMPTY_SLOT);
+            return refuse(ctrl, (uint8_t)SP_REFUSE_EMPTY_SLOT);
         }
     } else {
         if (sp_frames_prepare(tool ? &cmd->frame_value : NULL, tool ? NULL : &cmd->frame_value, &probe) != SP_OK) {
-            return refuse(ctrl, SP_TALLY_BAD_FRAME);
+            return refuse(ctrl, (uint8_t)SP_REFUSE_BAD_FRAME);
         }
         if (tool) {
             sl->tool[i] = cmd->frame_value;
@@ -978,7 +978,7 @@ SPI_NOINLINE static int command_frame(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
     if (activate_frames(cfg, ctrl) != SP_OK) {
         *sl = before; /* home's tool pose out of range with them: the old frames stay */
         (void)activate_frames(cfg, ctrl);
-        return refuse(ctrl, SP_TALLY_BAD_FRAME);
+        return refuse(ctrl, (uint8_t)SP_REFUSE_BAD_FRAME);
     }
     return 1;
 }
@@ -1069,13 +1069,13 @@ static int take_tool_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     sp_pose_t pp;
     sp_pose_t tool_target = ctrl->stream.target;
     if (ctrl->stream.stopping || sp_frames_to_platform(&ctrl->frames, target, &pp, NULL) != SP_OK) {
-        return refuse(ctrl, SP_TALLY_UNREACHABLE);
+        return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
     }
     ctrl->stream.target = ctrl->stream_platform;
     if (!sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, &pp, &ctrl->model_pose,
                          known ? ctrl->model.ref.length : NULL)) {
         ctrl->stream.target = tool_target;
-        return refuse(ctrl, SP_TALLY_UNREACHABLE);
+        return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
     }
     ctrl->stream_platform = pp;
     ctrl->stream.target = *target;
@@ -1093,7 +1093,7 @@ static int take_stream_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, cons
         return sp_stream_offer(&ctrl->stream, &ctrl->prep.limits, cfg->platform, target, &ctrl->model_pose,
                                known ? ctrl->model.ref.length : NULL)
                    ? 1
-                   : refuse(ctrl, SP_TALLY_UNREACHABLE);
+                   : refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
     }
     return take_tool_target(cfg, ctrl, target, known);
 }
@@ -1122,7 +1122,8 @@ SPI_NOINLINE static void tool_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *
     } else if (ctrl->mode == SP_MODE_MOVE) {
         done = move_step(cfg, ctrl, x, flags);
     } else {
-        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &cfg->move, x, flags);
+        spi_stream_limits(cfg, ctrl);
+        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &ctrl->stream_lim, x, flags);
         if (ctrl->stream.stopping && sp_stream_settled(x, &ctrl->tool_home)) {
             sp_motion_at_rest(x, &ctrl->tool_home);
             sp_motion_at_rest(ref, &cfg->platform->home);
@@ -1153,7 +1154,8 @@ static void running_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, sp_m
             ctrl->state = SP_STATE_READY;
         }
     } else {
-        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &cfg->move, ref, flags);
+        spi_stream_limits(cfg, ctrl);
+        sp_stream_step(&ctrl->stream, &ctrl->prep.stream, &ctrl->stream_lim, ref, flags);
         if (ctrl->stream.stopping && sp_stream_settled(ref, &p->home)) {
             sp_motion_at_rest(ref, &p->home);
             ctrl->state = SP_STATE_READY;
@@ -1744,15 +1746,12 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
 
 /* ---- the tick -------------------------------------------------------------- */
 
-/* A refused command or target: counted by its reason (OTHER when the
- * path that refused it named none). */
+/* A refused command or target: counted by its reason, the one this tick
+ * reports (sp_ctrl_output_t.refuse_reason). */
 SPI_NOINLINE static void count_refusal(sp_ctrl_t *ctrl, uint8_t reason)
 {
-    sp_refusal_t why = (ctrl->refusing != 0u)                 ? (sp_refusal_t)ctrl->refusing
-                       : (reason == (uint8_t)SP_REFUSE_REACH) ? SP_TALLY_UNREACHABLE
-                                                              : SP_TALLY_OTHER;
-    ctrl->refusing = (uint8_t)SP_TALLY_NONE;
-    sp_ctrl_count_refusal(ctrl, why);
+    ctrl->refusing = (uint8_t)SP_REFUSE_NONE;
+    sp_ctrl_count_refusal(ctrl, reason);
 }
 
 sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_ctrl_input_t *in, sp_ctrl_output_t *out)
@@ -1789,7 +1788,8 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     }
     rejected = reason != (uint8_t)SP_REFUSE_NONE || !command(cfg, ctrl, cmd, comms_ok) || dropped;
     if (rejected && reason == (uint8_t)SP_REFUSE_NONE) {
-        reason = (uint8_t)SP_REFUSE_STATE;
+        /* the path that refused it named its reason, else the state's */
+        reason = (ctrl->refusing != (uint8_t)SP_REFUSE_NONE) ? ctrl->refusing : (uint8_t)SP_REFUSE_STATE;
     }
     if (ctrl->state == SP_STATE_RUNNING && ctrl->mode == SP_MODE_STREAM && in->stream_fresh &&
         !take_stream_target(cfg, ctrl, &in->stream_target)) {

@@ -441,7 +441,7 @@ static int take_frame(sp_node_t *node)
 {
     node->frame_fresh = 0u;
     if (node->frame.op == SP_FRAME_SET && pose_not_finite(&node->frame.value)) {
-        sp_ctrl_count_refusal(&node->ctrl, SP_TALLY_NOT_FINITE);
+        sp_ctrl_count_refusal(&node->ctrl, (uint8_t)SP_REFUSE_NOT_FINITE);
         return 1;
     }
     node->in.cmd.type = SP_CMD_FRAME;
@@ -620,7 +620,7 @@ SPI_NOINLINE static void send_reach(const sp_node_config_t *cfg, sp_node_t *node
     a.sequence = node->reach.sequence;
     if (pose_not_finite(&node->reach.pose)) {
         a.verdict = SP_PROTO_REACH_NOT_FINITE;
-        sp_ctrl_count_refusal(&node->ctrl, SP_TALLY_NOT_FINITE);
+        sp_ctrl_count_refusal(&node->ctrl, (uint8_t)SP_REFUSE_NOT_FINITE);
     } else if (sp_ctrl_reach(&cfg->ctrl, &node->ctrl, &node->reach.pose, &r) == SP_OK) {
         a.verdict = r.verdict;
         a.which = r.which;
@@ -646,8 +646,12 @@ SPI_NOINLINE static void send_frames(sp_node_t *node, sp_can_frame_t out[], uint
     m.identity = c->frames.identity;
     m.last_refusal = c->last_refusal;
     m.checksum = c->frames_crc;
-    for (uint32_t k = 0; k < 6u; k++) {
-        m.refused[k] = c->refusals[k + 1u];
+    /* every reason but LINK (CTRL_STATUS Refusals counts it with the others) */
+    static const uint8_t sent[SP_PROTO_FRAMES_REFUSED] = {
+        SP_REFUSE_STATE, SP_REFUSE_RANGE,      SP_REFUSE_REACH,     SP_REFUSE_RATE,
+        SP_REFUSE_FORCE, SP_REFUSE_EMPTY_SLOT, SP_REFUSE_BAD_FRAME, SP_REFUSE_NOT_FINITE};
+    for (uint32_t k = 0; k < SP_PROTO_FRAMES_REFUSED; k++) {
+        m.refused[k] = c->refusals[sent[k]];
     }
     count_send(node, sp_proto_encode_frames(&m, node->tx_counter_frames++, &out[*n]), n);
     node->tx_counter_frames &= 0x0Fu;
@@ -676,9 +680,10 @@ static void note_refusal(sp_node_t *node, uint32_t tick)
 {
     node->refusal.tick = tick;
     node->refusal.command = (node->cmd_now != (uint8_t)SP_CMD_NONE) ? node->cmd_now : (uint8_t)SP_REFUSED_TARGET;
-    node->refusal.reason = (node->out.refuse_reason != (uint8_t)SP_REFUSE_NONE && node->out.refuse_reason <= 6u)
-                               ? node->out.refuse_reason
-                               : (uint8_t)SP_REFUSE_STATE;
+    node->refusal.reason =
+        (node->out.refuse_reason != (uint8_t)SP_REFUSE_NONE && node->out.refuse_reason < SP_REFUSE_COUNT)
+            ? node->out.refuse_reason
+            : (uint8_t)SP_REFUSE_STATE;
     node->refusal_pending = 1u;
 }
 

@@ -144,17 +144,24 @@ typedef enum {
 #define SP_STOP_CONTROLLED 1u /**< category 1: decelerated along the path by the drives, then blocked */
 #define SP_STOP_IMMEDIATE 2u  /**< category 0: the drives hold and the blocking valves close at once */
 
-/** Why a command was refused (sp_ctrl_output_t.refuse_reason;
- *  docs/reference/commands.md). */
+/** Why a command was refused: the one list of refusal reasons
+ *  (sp_ctrl_output_t.refuse_reason, sp_ctrl_t.refusals and last_refusal;
+ *  docs/reference/commands.md). On the bus as CTRL_REFUSAL Reason and
+ *  CTRL_FRAMES LastRefusal, whose value tables in protocol/stewart.dbc are
+ *  this list (tests/python/test_refusal_reasons.py holds them equal). */
 #define SP_REFUSE_NONE 0u /**< not refused */
 #define SP_REFUSE_STATE                                                                                                \
-    1u                     /**< not in this state or condition (the state machine above; a missing estimate,
-                                wrench, heard drive, tare; a force-control mode) */
-#define SP_REFUSE_RANGE 2u /**< a parameter outside its range (axis, amplitude, frequency, fade time) */
-#define SP_REFUSE_REACH 3u /**< a target, an end or a point of the path outside the workspace or the strokes */
-#define SP_REFUSE_RATE 4u  /**< the motion's peak speed would drive a leg beyond leg_velocity_max */
-#define SP_REFUSE_FORCE 5u /**< its peak acceleration would need more than the cylinders' force budget */
-#define SP_REFUSE_LINK 6u  /**< dropped by the operator link (a silent operator's fault latched) */
+    1u                          /**< not in this state or condition (the state machine above; a missing estimate,
+                                wrench, heard drive, tare; a force-control mode; a frame change outside rest) */
+#define SP_REFUSE_RANGE 2u      /**< a parameter outside its range (axis, amplitude, frequency, fade time) */
+#define SP_REFUSE_REACH 3u      /**< a target, an end or a point of the path outside the workspace or the strokes */
+#define SP_REFUSE_RATE 4u       /**< the motion's peak speed would drive a leg beyond leg_velocity_max */
+#define SP_REFUSE_FORCE 5u      /**< its peak acceleration would need more than the cylinders' force budget */
+#define SP_REFUSE_LINK 6u       /**< dropped by the operator link (a silent operator's fault latched) */
+#define SP_REFUSE_EMPTY_SLOT 7u /**< a frame select of an undefined slot, or an index beyond the slots */
+#define SP_REFUSE_BAD_FRAME 8u  /**< a frame outside sp_frames_prepare's bounds (tool point beyond 5 m, ...) */
+#define SP_REFUSE_NOT_FINITE 9u /**< a reach query or frame with a value that is not a finite number (the node) */
+#define SP_REFUSE_COUNT 10u     /**< the number of values, NONE included */
 
 /** Why the last ESTOP was (or became) a category-0 stop (stop_cause). */
 #define SP_STOP_CAUSE_NONE 0u     /**< none: a controlled stop, or no ESTOP */
@@ -229,23 +236,6 @@ typedef struct {
 /** The config's frames (config/platform_default.json "frames"), generated
  *  by tools/dev/gen_platform.py: ports copy them into sp_ctrl_config_t.frames. */
 extern const sp_frame_slots_t sp_frame_slots_default;
-
-/** The frame and reach refusals as CTRL_FRAMES tallies them
- *  (sp_ctrl_t.refusals, sp_ctrl_t.last_refusal). A second view of the
- *  refusals beside SP_REFUSE_* (CTRL_REFUSAL's reasons): the two came from
- *  parallel work and are to become one list. */
-typedef enum {
-    SP_TALLY_NONE = 0,
-    SP_TALLY_MOVING = 1,      /**< a frame change outside rest (IDLE, READY with force control off) */
-    SP_TALLY_EMPTY_SLOT = 2,  /**< a select of an undefined slot, or an index beyond the slots */
-    SP_TALLY_BAD_FRAME = 3,   /**< a frame outside sp_frames_prepare's bounds (tool point beyond 5 m, ...) */
-    SP_TALLY_NOT_FINITE = 4,  /**< a reach query or frame with a value that is not a finite number (the node) */
-    SP_TALLY_UNREACHABLE = 5, /**< a MOVE_TO or RUN_TRIG whose end the reach check refuses, a streamed
-                                    target beyond the limits */
-    SP_TALLY_OTHER = 6        /**< any other refused command (the state does not allow it, ...) */
-} sp_refusal_t;
-
-#define SP_TALLY_COUNT 7u
 
 /** The reach check's verdict (sp_ctrl_reach). */
 typedef enum {
@@ -514,6 +504,8 @@ typedef struct {
     sp_trig_t trig;                  /**< RUN_TRIG's generator */
     sp_move_t move;                  /**< engage, park, MOVE_TO and the fault reaction's park move */
     sp_stream_t stream;              /**< STREAM's filter */
+    sp_move_limits_t stream_lim;     /**< STREAM: this tick's limits of the filter (spi_stream_limits; kept here,
+                                          not on the tick's stack) */
     sp_motion_t reference;           /**< the last accepted reference (advances on setpoints_idle ticks too) */
     sp_pose_t model_pose;            /**< the reference pose that model, est.ref_lu and the setpoints were made
                                           at: reference.pose but after setpoints_idle ticks */
@@ -558,15 +550,16 @@ typedef struct {
     /** the frames (sp/model/frames.h): commands, streamed targets and force control speak of the tool
      *  frame in the work frame; identity (the default) skips every transform */
     sp_frames_t frames;
-    sp_frame_slots_t slots;            /**< the slots (from cfg->frames at init, SET changes one) */
-    uint32_t frames_crc;               /**< sp_frames_checksum(&frames), made when they change */
-    sp_motion_t tool_ref;              /**< RUNNING with frames: the motion generator's reference, a tool motion */
-    sp_pose_t tool_home;               /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
-    sp_pose_t stream_platform;         /**< STREAM with frames: the platform pose of the streamed target in force */
-    uint16_t refusals[SP_TALLY_COUNT]; /**< refusals by reason (sp_refusal_t), saturating */
-    uint8_t last_refusal;              /**< the reason of the last refusal */
-    uint8_t refusing;                  /**< this tick's refused command's reason (set where it is refused) */
-    sp_estop_state_t estop;            /**< ESTOP's controlled stop and its reaction */
+    sp_frame_slots_t slots;             /**< the slots (from cfg->frames at init, SET changes one) */
+    uint32_t frames_crc;                /**< sp_frames_checksum(&frames), made when they change */
+    sp_motion_t tool_ref;               /**< RUNNING with frames: the motion generator's reference, a tool motion */
+    sp_pose_t tool_home;                /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
+    sp_pose_t stream_platform;          /**< STREAM with frames: the platform pose of the streamed target in force */
+    uint16_t refusals[SP_REFUSE_COUNT]; /**< refusals by reason (SP_REFUSE_*), saturating */
+    uint8_t last_refusal;               /**< the reason of the last refusal (SP_REFUSE_*) */
+    uint8_t
+        refusing; /**< this tick's refused command's reason where the path that refused it named one (SP_REFUSE_*) */
+    sp_estop_state_t estop; /**< ESTOP's controlled stop and its reaction */
     /** the friction observer's Stribeck table (sp_fric_table_prepare),
      *  made at init like prep; last, so that its 2,704 bytes leave the other members
      *  within a load's reach of the struct's start */
@@ -692,9 +685,10 @@ sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
                           sp_reach_t *reach);
 
 /** Counts a refusal (ctrl->refusals[why], saturating; ctrl->last_refusal):
- *  for the node's own refusals (a non-finite value). Ignores NULL and
- *  reasons beyond SP_TALLY_COUNT. */
-void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, sp_refusal_t why);
+ *  for the node's own refusals (a non-finite value). `why` is an
+ *  SP_REFUSE_* value; ignores NULL, SP_REFUSE_NONE and values from
+ *  SP_REFUSE_COUNT on. */
+void sp_ctrl_count_refusal(sp_ctrl_t *ctrl, uint8_t why);
 
 /** The tool pose (T in W, active frames) of a platform pose (o' in the
  *  base frame): sp_frames_from_platform. Errors as there. */

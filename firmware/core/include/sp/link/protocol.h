@@ -254,15 +254,19 @@ typedef struct {
 /** CTRL_REACH Verdict of a query with a value that is not a finite number. */
 #define SP_PROTO_REACH_NOT_FINITE 5u
 
+/** CTRL_FRAMES's refusal counts: every reason of SP_REFUSE_* but NONE and LINK. */
+#define SP_PROTO_FRAMES_REFUSED 8u
+
 /** CTRL_FRAMES: the active frames and the refusals (every SP_PROTO_FRAMES_PERIOD ticks). */
 typedef struct {
     uint8_t tool_index;   /**< the active tool slot */
     uint8_t work_index;   /**< the active work slot */
     uint8_t identity;     /**< 1: both active frames identity */
-    uint8_t last_refusal; /**< sp_refusal_t of the last refusal */
+    uint8_t last_refusal; /**< the reason of the last refusal (SP_REFUSE_* of sp/control/controller.h) */
     uint32_t checksum;    /**< sp_frames_checksum of the active frames */
-    uint32_t refused[6];  /**< refusals by reason (sp_refusal_t 1..6: moving, empty slot, bad frame, not finite,
-                               unreachable, other), sent saturated at 65535 */
+    uint32_t refused[SP_PROTO_FRAMES_REFUSED]; /**< refusals by reason, SP_REFUSE_STATE, RANGE, REACH, RATE, FORCE,
+                                                    EMPTY_SLOT, BAD_FRAME, NOT_FINITE (every one but LINK), sent
+                                                    saturated at 65535 */
 } sp_msg_frames_t;
 
 /** CTRL_FRAMES goes out on ticks t with t % SP_PROTO_FRAMES_PERIOD == SP_PROTO_FRAMES_PHASE (the DBC's
@@ -324,7 +328,7 @@ sp_status_t sp_proto_encode_identity(const sp_msg_identity_t *m, uint8_t counter
 typedef struct {
     uint32_t tick;   /**< the tick that refused it */
     uint8_t command; /**< OP_COMMAND's value, SP_REFUSED_FORCE_PARAMS or SP_REFUSED_TARGET (0..16) */
-    uint8_t reason;  /**< SP_REFUSE_* of sp/control/controller.h (0..6) */
+    uint8_t reason;  /**< SP_REFUSE_* of sp/control/controller.h (1 .. SP_REFUSE_COUNT - 1) */
 } sp_msg_refusal_t;
 
 /** CTRL_REFUSAL (ID 0x107, 8 bytes, ops bus, CRC-8). SP_E_ARG on NULL or
