@@ -329,6 +329,9 @@ static sp_status_t activate_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
         (void)sp_frames_prepare(NULL, NULL, &ctrl->frames);
     }
     ctrl->frames_crc = sp_frames_checksum(&ctrl->frames);
+    ctrl->ref_keep.valid = 0u; /* the kept orientations belong to the old frames */
+    ctrl->target_keep.valid = 0u;
+    ctrl->ready_valid = 0u;
     if (sp_frames_from_platform(&ctrl->frames, &cfg->platform->home, &ctrl->tool_home) != SP_OK) {
         st = SP_E_RANGE; /* home's tool pose out of range */
     }
@@ -1068,7 +1071,7 @@ static int take_tool_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 {
     sp_pose_t pp;
     sp_pose_t tool_target = ctrl->stream.target;
-    if (ctrl->stream.stopping || sp_frames_to_platform(&ctrl->frames, target, &pp, NULL) != SP_OK) {
+    if (ctrl->stream.stopping || sp_frames_to_platform_kept(&ctrl->frames, &ctrl->target_keep, target, &pp) != SP_OK) {
         return refuse(ctrl, SP_TALLY_UNREACHABLE);
     }
     ctrl->stream.target = ctrl->stream_platform;
@@ -1130,7 +1133,7 @@ SPI_NOINLINE static void tool_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *
             return;
         }
     }
-    *flags |= (sp_frames_motion_to_platform(&ctrl->frames, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+    *flags |= (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
     if (done) {
         ctrl->state = SP_STATE_READY;
     }
@@ -1512,6 +1515,16 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     ctrl->ft_valid = 1u;
 }
 
+static int same_angles(const sp_q24_t a[3], const sp_q24_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
+{
+    return same_angles(a->pos, b->pos) && same_angles(a->rpy, b->rpy);
+}
+
 /* Force control with frames: in the tool's space. The position reference
  * as a tool motion (the generator's while RUNNING one, else the tool pose
  * of the platform's reference, at rest), the wrench at the tool point in
@@ -1534,8 +1547,13 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
     if (ctrl->state == SP_STATE_RUNNING) {
         xref = ctrl->tool_ref;
     } else {
-        (void)sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &xref.pose);
-        sp_motion_at_rest(&xref, &xref.pose);
+        if (!ctrl->ready_valid || !same_pose(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+            /* at rest the reference holds: its tool pose made once */
+            (void)sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &ctrl->ready_tool);
+            ctrl->ready_platform = ctrl->pos_ref.pose;
+            ctrl->ready_valid = 1u;
+        }
+        sp_motion_at_rest(&xref, &ctrl->ready_tool);
     }
     for (k = 0u; k < 6u; ++k) {
         int32_t d = (k < 3u) ? spi_sub_sat(xref.pose.pos[k], ctrl->pos_ref.pose.pos[k], &flags)
@@ -1543,7 +1561,11 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
         lim.ws_lo[k] = spi_add(lim.ws_lo[k], d, &flags);
         lim.ws_hi[k] = spi_add(lim.ws_hi[k], d, &flags);
     }
-    (void)sp_orientation(ctrl->pos_ref.pose.rpy, &rot);
+    if (ctrl->ref_orient.valid && same_angles(ctrl->ref_orient.rpy, ctrl->pos_ref.pose.rpy)) {
+        rot = ctrl->ref_orient.rot; /* the IK's T of these angles: sp_orientation's, bit for bit */
+    } else {
+        (void)sp_orientation(ctrl->pos_ref.pose.rpy, &rot);
+    }
     if (w != NULL && sp_frames_wrench_to_tool(&ctrl->frames, &rot, w, wt) == SP_OK) {
         w = wt;
     }
@@ -1551,7 +1573,7 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
         xest = xref.pose;
     }
     (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &lim, &xref, w, ctrl->est.valid ? &xest : NULL, &xout, events);
-    if (sp_frames_motion_to_platform(&ctrl->frames, &xout, ref) != SP_OK) {
+    if (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, &xout, ref) != SP_OK) {
         copy_motion(ref, &ctrl->pos_ref); /* the position reference stands */
     }
 }
@@ -1681,13 +1703,15 @@ SPI_NOINLINE static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_
 SPI_NOINLINE static void tool_wrench_output(const sp_ctrl_t *ctrl, sp_ctrl_output_t *out)
 {
     int32_t w[6];
+    sp_q24_t r[3];
     unsigned k;
-    if (sp_frames_wrench_to_tool(&ctrl->frames, &ctrl->model.rot, out->wrench, w) == SP_OK) {
+    (void)sp_frames_lever(&ctrl->frames, &ctrl->model.rot, r); /* one lever for both */
+    if (sp_frames_wrench_to_tool_at(&ctrl->frames, r, out->wrench, w) == SP_OK) {
         for (k = 0u; k < 6u; ++k) {
             out->wrench[k] = w[k];
         }
     }
-    if (sp_frames_wrench_to_tool(&ctrl->frames, &ctrl->model.rot, out->force_wrench, w) == SP_OK) {
+    if (sp_frames_wrench_to_tool_at(&ctrl->frames, r, out->force_wrench, w) == SP_OK) {
         for (k = 0u; k < 6u; ++k) {
             out->force_wrench[k] = w[k];
         }
