@@ -41,4 +41,9 @@ void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg);
  * the state machine's): SP_REFUSE_NONE, or why it is refused. */
 uint8_t spi_cmd_check(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_ctrl_cmd_t *cmd);
 
+/* The tool pose of the position reference's pose (frames not identity):
+ * ctrl->ready_tool when it is kept for that pose, else
+ * sp_frames_from_platform's (not kept: ctrl is const). Errors as there. */
+sp_status_t spi_ready_tool_pose(const sp_ctrl_t *ctrl, sp_pose_t *tool_pose);
+
 #endif /* SP_CONTROL_INTERNAL_H */

@@ -338,6 +338,39 @@ static sp_status_t activate_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     return st;
 }
 
+static int same_angles(const sp_q24_t a[3], const sp_q24_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
+{
+    return same_angles(a->pos, b->pos) && same_angles(a->rpy, b->rpy);
+}
+
+sp_status_t spi_ready_tool_pose(const sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
+{
+    if (ctrl->ready_valid && same_pose(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+        *tool_pose = ctrl->ready_tool;
+        return SP_OK;
+    }
+    return sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, tool_pose);
+}
+
+/* spi_ready_tool_pose, kept in ctrl->ready_tool for the ticks the
+ * reference's pose holds (at rest). */
+static sp_status_t ready_tool_keep(sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
+{
+    sp_status_t st = SP_OK;
+    if (!ctrl->ready_valid || !same_pose(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+        st = sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &ctrl->ready_tool);
+        ctrl->ready_platform = ctrl->pos_ref.pose;
+        ctrl->ready_valid = (uint8_t)(st == SP_OK);
+    }
+    *tool_pose = ctrl->ready_tool;
+    return st;
+}
+
 /* The slots from the config, the active frames, no refusals. */
 static sp_status_t reset_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
 {
@@ -717,10 +750,12 @@ SPI_NOINLINE static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctr
         }
         from = ctrl->pos_ref.pose;
     } else {
-        if (tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
+        /* force control off: spi_cmd_check has checked the end (and the
+         * path) on this tick already, the same check */
+        if (ctrl->force.mode != SP_FORCE_OFF && tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
             return refuse(ctrl, SP_TALLY_UNREACHABLE);
         }
-        if (sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &from) != SP_OK) {
+        if (ready_tool_keep(ctrl, &from) != SP_OK) {
             return 0;
         }
     }
@@ -769,7 +804,11 @@ SPI_NOINLINE static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t 
     h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
     *l = sp_sub(*l, cmd->amplitude, NULL);
     *h = sp_add(*h, cmd->amplitude, NULL);
-    if (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1) {
+    /* both ends: spi_cmd_check's trig_ends checked them on this tick (READY,
+     * force control off: RUN_TRIG's only case), the same check; identity
+     * frames check them here again as ever (bit for bit the same tick) */
+    if (ctrl->frames.identity &&
+        (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1)) {
         return refuse(ctrl, SP_TALLY_UNREACHABLE);
     }
     if (sp_trig_start(&ctrl->trig, centre, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
@@ -1515,16 +1554,6 @@ SPI_NOINLINE static void ft_sensor(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl,
     ctrl->ft_valid = 1u;
 }
 
-static int same_angles(const sp_q24_t a[3], const sp_q24_t b[3])
-{
-    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
-}
-
-static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
-{
-    return same_angles(a->pos, b->pos) && same_angles(a->rpy, b->rpy);
-}
-
 /* Force control with frames: in the tool's space. The position reference
  * as a tool motion (the generator's while RUNNING one, else the tool pose
  * of the platform's reference, at rest), the wrench at the tool point in
@@ -1547,13 +1576,8 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
     if (ctrl->state == SP_STATE_RUNNING) {
         xref = ctrl->tool_ref;
     } else {
-        if (!ctrl->ready_valid || !same_pose(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
-            /* at rest the reference holds: its tool pose made once */
-            (void)sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &ctrl->ready_tool);
-            ctrl->ready_platform = ctrl->pos_ref.pose;
-            ctrl->ready_valid = 1u;
-        }
-        sp_motion_at_rest(&xref, &ctrl->ready_tool);
+        (void)ready_tool_keep(ctrl, &xref.pose); /* at rest the reference holds: its tool pose made once */
+        sp_motion_at_rest(&xref, &xref.pose);
     }
     for (k = 0u; k < 6u; ++k) {
         int32_t d = (k < 3u) ? spi_sub_sat(xref.pose.pos[k], ctrl->pos_ref.pose.pos[k], &flags)
