@@ -553,8 +553,7 @@ static void print_scenario_end(const m4_scenario_t *sc, const scenario_counts_t 
 /* One line of the frames section: a scenario's RUNNING mean and max, the
  * mean's increase over the identity run, and the scenario's highest tick
  * in any state (the state it began in, its command). */
-static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t *identity,
-                        const scenario_counts_t *r)
+static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t *identity, const scenario_counts_t *r)
 {
     m4_out_str(what);
     m4_out_str(" mean ");

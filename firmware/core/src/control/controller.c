@@ -338,19 +338,19 @@ static sp_status_t activate_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     return st;
 }
 
-static int same_angles(const sp_q24_t a[3], const sp_q24_t b[3])
+static int angles_held(const sp_q24_t a[3], const sp_q24_t b[3])
 {
     return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
 }
 
-static int same_pose(const sp_pose_t *a, const sp_pose_t *b)
+static int pose_held(const sp_pose_t *a, const sp_pose_t *b)
 {
-    return same_angles(a->pos, b->pos) && same_angles(a->rpy, b->rpy);
+    return angles_held(a->pos, b->pos) && angles_held(a->rpy, b->rpy);
 }
 
 sp_status_t spi_ready_tool_pose(const sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
 {
-    if (ctrl->ready_valid && same_pose(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+    if (ctrl->ready_valid && pose_held(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
         *tool_pose = ctrl->ready_tool;
         return SP_OK;
     }
@@ -362,7 +362,7 @@ sp_status_t spi_ready_tool_pose(const sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
 static sp_status_t ready_tool_keep(sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
 {
     sp_status_t st = SP_OK;
-    if (!ctrl->ready_valid || !same_pose(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+    if (!ctrl->ready_valid || !pose_held(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
         st = sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &ctrl->ready_tool);
         ctrl->ready_platform = ctrl->pos_ref.pose;
         ctrl->ready_valid = (uint8_t)(st == SP_OK);
@@ -1172,7 +1172,8 @@ SPI_NOINLINE static void tool_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *
             return;
         }
     }
-    *flags |= (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+    *flags |=
+        (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
     if (done) {
         ctrl->state = SP_STATE_READY;
     }
@@ -1585,7 +1586,7 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
         lim.ws_lo[k] = spi_add(lim.ws_lo[k], d, &flags);
         lim.ws_hi[k] = spi_add(lim.ws_hi[k], d, &flags);
     }
-    if (ctrl->ref_orient.valid && same_angles(ctrl->ref_orient.rpy, ctrl->pos_ref.pose.rpy)) {
+    if (ctrl->ref_orient.valid && angles_held(ctrl->ref_orient.rpy, ctrl->pos_ref.pose.rpy)) {
         rot = ctrl->ref_orient.rot; /* the IK's T of these angles: sp_orientation's, bit for bit */
     } else {
         (void)sp_orientation(ctrl->pos_ref.pose.rpy, &rot);
