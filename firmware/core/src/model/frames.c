@@ -459,6 +459,12 @@ static int turning_of(const sp_motion_t *x)
     return (x->rpy_rate[0] | x->rpy_rate[1] | x->rpy_rate[2] | x->rpy_acc[0] | x->rpy_acc[1] | x->rpy_acc[2]) != 0;
 }
 
+/* The sine and cosine of angle a into sc[j], sc[j + 1]. */
+static void sincos_into(sp_q24_t a, sp_q30_t *sc, unsigned j)
+{
+    sp_sincos_q24(a, &sc[j], &sc[j + 1u]);
+}
+
 /* The angles' rates with turned frames: through the body rates, at the
  * platform angles' sines scp. */
 static sp_status_t turned_rates(const sp_motion_t *x, const sp_q30_t scp[6], const sp_q24_t w[3], const sp_q24_t dw[3],
@@ -541,7 +547,7 @@ sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t
     platform_rot(f, &tx, tool_motion->pose.rpy, &tp, rpy);
     if (f->tool_turned || f->work_turned) {
         for (k = 0u; k < 3u; ++k) {
-            sp_sincos_q24(rpy[k], &scp[2u * k], &scp[2u * k + 1u]);
+            sincos_into(rpy[k], scp, k + k);
         }
     }
     o.sc = sc;
@@ -561,7 +567,7 @@ static void keep_update(const sp_frames_t *f, const sp_q24_t rpy[3], sp_frames_k
     int changed = !keep->valid;
     for (k = 0u; k < 3u; ++k) {
         if (!keep->valid || rpy[k] != keep->tool_rpy[k]) {
-            sp_sincos_q24(rpy[k], &keep->sc[2u * k], &keep->sc[2u * k + 1u]);
+            sincos_into(rpy[k], keep->sc, k + k);
             keep->tool_rpy[k] = rpy[k];
             changed = 1;
         }
@@ -574,7 +580,7 @@ static void keep_update(const sp_frames_t *f, const sp_q24_t rpy[3], sp_frames_k
     if (f->tool_turned || f->work_turned) {
         for (k = 0u; k < 3u; ++k) {
             if (!keep->valid || keep->rpy[k] != keep->prpy_of[k]) {
-                sp_sincos_q24(keep->rpy[k], &keep->scp[2u * k], &keep->scp[2u * k + 1u]);
+                sincos_into(keep->rpy[k], keep->scp, k + k);
                 keep->prpy_of[k] = keep->rpy[k];
             }
         }
