@@ -550,9 +550,10 @@ static void print_scenario_end(const m4_scenario_t *sc, const scenario_counts_t 
     m4_out_nl();
 }
 
-/* One line of the frames section: a scenario's RUNNING mean and max and
- * the mean's increase over the identity run. */
-static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t *identity)
+/* One line of the frames section: a scenario's RUNNING mean and max, the
+ * mean's increase over the identity run, and the scenario's highest tick
+ * in any state (the state it began in, its command). */
+static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t *identity, const scenario_counts_t *r)
 {
     m4_out_str(what);
     m4_out_str(" mean ");
@@ -563,6 +564,13 @@ static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t
     out_signed16((int64_t)m4_stat_mean16(with) - (int64_t)m4_stat_mean16(identity));
     m4_out_str("), max ");
     m4_out_fix16(with->max16);
+    m4_out_str("; highest tick ");
+    m4_out_fix16(r->all.max16);
+    m4_out_str(" (");
+    m4_out_str(sp_state_name((sp_state_t)r->worst_state));
+    m4_out_str(", command ");
+    m4_out_u32(r->worst_cmd);
+    m4_out_str(")");
     m4_out_nl();
 }
 
@@ -580,16 +588,16 @@ static void frames_section(m4_scenario_t *sc, const scenario_counts_t *surge, co
                               : "frames: tool and work frames turned, RUNNING tick:");
         m4_out_nl();
         run_scenario(sc, M4_MOTION_SURGE, &r);
-        frames_line("  surge about the pivot", &r.by_state[SP_STATE_RUNNING], &surge->by_state[SP_STATE_RUNNING]);
+        frames_line("  surge about the pivot", &r.by_state[SP_STATE_RUNNING], &surge->by_state[SP_STATE_RUNNING], &r);
         max16 = r.all.max16 > max16 ? r.all.max16 : max16;
         run_scenario(sc, M4_MOTION_YAW, &r);
-        frames_line("  yaw about the pivot  ", &r.by_state[SP_STATE_RUNNING], &other[0].by_state[SP_STATE_RUNNING]);
+        frames_line("  yaw about the pivot  ", &r.by_state[SP_STATE_RUNNING], &other[0].by_state[SP_STATE_RUNNING], &r);
         max16 = r.all.max16 > max16 ? r.all.max16 : max16;
         run_scenario(sc, M4_MOTION_STREAM, &r);
-        frames_line("  stream of tool poses ", &r.by_state[SP_STATE_RUNNING], &other[1].by_state[SP_STATE_RUNNING]);
+        frames_line("  stream of tool poses ", &r.by_state[SP_STATE_RUNNING], &other[1].by_state[SP_STATE_RUNNING], &r);
         max16 = r.all.max16 > max16 ? r.all.max16 : max16;
         run_scenario(sc, M4_MOTION_FORCE, &r);
-        frames_line("  force run at the tool", &r.run, &force->run);
+        frames_line("  force run at the tool", &r.run, &force->run, &r);
         fmax16 = r.run.max16 > fmax16 ? r.run.max16 : fmax16;
     }
     m4_scenario_frames = 0u;

@@ -53,6 +53,9 @@ int main(void)
 {
     uint32_t n = 0u;
     int started = 0;
+#ifdef PROFILE_FRAMES
+    m4_scenario_frames = PROFILE_FRAMES; /* 1: a tool tip, 2: turned tool and work frames */
+#endif
     if (m4_scenario_init(&scenario, &sp_platform_default, PROFILE_MOTION) != SP_OK) {
         return 1;
     }

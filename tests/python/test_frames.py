@@ -258,3 +258,107 @@ def test_generated_frame_slots():
         text = out.read_text()
     assert "sp_frame_slots_default" in text
     assert text.count("3u, 3u, 0u, 0u}") == 1  # two of each defined, flange and base active
+
+
+# ---- the kept transforms and the shared lever (the tick's optimised paths) ----
+
+def motion_bytes(m):
+    return bytes(memoryview(m))
+
+
+def test_kept_transforms_equal_the_plain_ones(L):
+    """sp_frames_motion_to_platform_kept and sp_frames_to_platform_kept, on
+    sequences of tool motions whose angles repeat, change one at a time or
+    all at once (as a tick's reference does), give the plain calls' results
+    bit for bit; the plain calls are held to the float64 model above."""
+    rng = np.random.default_rng(RNG_SEED + 10)
+    for i in range(200):
+        f, _ = prepared(L, rand_frame(rng, i % 2 == 0), rand_frame(rng, i % 3 == 0))
+        keep = (C.c_uint8 * core.FRAMES_KEEP_BYTES)()
+        pkeep = (C.c_uint8 * core.FRAMES_KEEP_BYTES)()
+        x6 = np.array(rand_pose(rng))
+        for n in range(20):
+            step = n % 4
+            if step == 1:  # one angle changes
+                x6[3 + rng.integers(3)] += rng.uniform(-1e-3, 1e-3)
+            elif step == 2:  # all change
+                x6[3:] += rng.uniform(-1e-3, 1e-3, 3)
+            x6[:3] += rng.uniform(-1e-3, 1e-3, 3)  # the position always moves; step 0, 3: angles repeat
+            vel, rate, acc, racc = (rng.uniform(-1, 1, 3) * (n % 5 != 0) for _ in range(4))
+            m = motion_struct(tuple(x6), vel, rate, acc, racc)
+            plain, kept = core.Motion(), core.Motion()
+            st_plain = L.sp_frames_motion_to_platform(C.byref(f), C.byref(m), C.byref(plain))
+            st_kept = L.sp_frames_motion_to_platform_kept(C.byref(f), keep, C.byref(m), C.byref(kept))
+            assert st_plain == st_kept
+            assert motion_bytes(plain) == motion_bytes(kept), (i, n)
+            pp, pk = core.Pose(), core.Pose()
+            assert L.sp_frames_to_platform(C.byref(f), C.byref(m.pose), C.byref(pp), None) == \
+                L.sp_frames_to_platform_kept(C.byref(f), pkeep, C.byref(m.pose), C.byref(pk))
+            assert bytes(memoryview(pp)) == bytes(memoryview(pk)), (i, n)
+    # NULL keep: the plain call
+    m = motion_struct(rand_pose(rng), *(rng.uniform(-1, 1, 3) for _ in range(4)))
+    a, b = core.Motion(), core.Motion()
+    assert L.sp_frames_motion_to_platform(C.byref(f), C.byref(m), C.byref(a)) == 0
+    assert L.sp_frames_motion_to_platform_kept(C.byref(f), None, C.byref(m), C.byref(b)) == 0
+    assert motion_bytes(a) == motion_bytes(b)
+
+
+def _round_away(v, s):
+    return (v + (1 << (s - 1)) - (1 if v < 0 else 0)) >> s
+
+
+_SATURATED = []
+
+
+def _sat(v):
+    if not -(1 << 31) <= v < (1 << 31):
+        _SATURATED.append(v)
+    return max(-(1 << 31), min((1 << 31) - 1, v))
+
+
+def straightforward_wrench_to_tool(f, rot, w):
+    """The wrench at the tool point in W's axes as the plain formulas say it,
+    in exact integers with the core's roundings: r = R_P t (Q24), M - r x F,
+    both turned by R_W^T (Q30 rounded once), saturated to int32."""
+    t = [f.tool.pos[k] for k in range(3)]
+    r = [_round_away(sum(rot.t[j][c] * t[j] for j in range(3)), 30) for c in range(3)]
+    F, M = list(w[:3]), list(w[3:])
+    c = [_round_away(r[1] * F[2] - r[2] * F[1], 24), _round_away(r[2] * F[0] - r[0] * F[2], 24),
+         _round_away(r[0] * F[1] - r[1] * F[0], 24)]
+    mo = [M[k] - c[k] for k in range(3)]
+    if f.work_turned:
+        W = f.work_rot.t
+        n = [_sat(v) for v in mo]
+        F = [_round_away(sum(W[i][j] * F[j] for j in range(3)), 30) for i in range(3)]
+        mo = [_round_away(sum(W[i][j] * n[j] for j in range(3)), 30) for i in range(3)]
+    return [_sat(v) for v in F + mo]
+
+
+def test_wrench_lever_once_equals_straightforward(L):
+    """sp_frames_lever + sp_frames_wrench_to_tool_at (the tick's two reported
+    wrenches, one lever) and sp_frames_wrench_to_tool equal the straightforward
+    integer formulas bit for bit, saturating wrenches included; the float64
+    model holds them (test_wrench_transforms_match_float64)."""
+    rng = np.random.default_rng(RNG_SEED + 11)
+    saturated = 0
+    for i in range(1000):
+        f, _ = prepared(L, rand_frame(rng, i % 2 == 0), rand_frame(rng, i % 3 == 0))
+        if f.identity:
+            continue
+        rot = core.Rot()
+        assert L.sp_orientation(C.byref(core.V3(*[core.q24(v) for v in rng.uniform(-0.4, 0.4, 3)])),
+                                C.byref(rot)) == 0
+        scale = 5000 if i % 10 else 2e7  # the last: near the int32 range of Q8
+        wi = (core.I32 * 6)(*[int(round(v * Q8)) for v in rng.uniform(-scale, scale, 6)])
+        lever = core.V3()
+        assert L.sp_frames_lever(C.byref(f), C.byref(rot), lever) == 0
+        at, plain = (core.I32 * 6)(), (core.I32 * 6)()
+        st_at = L.sp_frames_wrench_to_tool_at(C.byref(f), lever, C.byref(wi), C.byref(at))
+        st_plain = L.sp_frames_wrench_to_tool(C.byref(f), C.byref(rot), C.byref(wi), C.byref(plain))
+        assert st_at == st_plain
+        _SATURATED.clear()
+        want = straightforward_wrench_to_tool(f, rot, list(wi))
+        assert list(at) == want and list(plain) == want, i
+        assert (st_at == 0) == (not _SATURATED), (i, st_at)  # SP_E_OVERFLOW exactly when a value saturated
+        saturated += bool(_SATURATED)
+    assert saturated > 0  # the saturating case was met

@@ -121,6 +121,11 @@ class CanFrame(C.Structure):
                 ("data", C.c_uint8 * 64)]
 
 
+#: Bytes enough for an sp_frames_keep_t (124 on the hosts built): the tests
+#: pass a zeroed buffer of this size as the kept orientation.
+FRAMES_KEEP_BYTES = 256
+
+
 #: Each ctypes mirror and the C struct it mirrors.
 class FramesStruct(C.Structure):
     _fields_ = [("tool", Pose), ("work", Pose), ("tool_rot", Rot), ("work_rot", Rot), ("identity", C.c_uint8),
@@ -245,12 +250,19 @@ def lib() -> C.CDLL:
     L.sp_frames_motion_to_platform.argtypes = [P(FramesStruct), P(Motion), P(Motion)]
     L.sp_frames_wrench_to_tool.argtypes = [P(FramesStruct), P(Rot), P(I32 * 6), P(I32 * 6)]
     L.sp_frames_wrench_from_tool.argtypes = [P(FramesStruct), P(Rot), P(I32 * 6), P(I32 * 6)]
+    # sp_frames_keep_t is opaque here: a zeroed buffer of FRAMES_KEEP_BYTES (valid 0)
+    L.sp_frames_motion_to_platform_kept.argtypes = [P(FramesStruct), C.c_void_p, P(Motion), P(Motion)]
+    L.sp_frames_to_platform_kept.argtypes = [P(FramesStruct), C.c_void_p, P(Pose), P(Pose)]
+    L.sp_frames_lever.argtypes = [P(FramesStruct), P(Rot), P(V3)]
+    L.sp_frames_wrench_to_tool_at.argtypes = [P(FramesStruct), P(V3), P(I32 * 6), P(I32 * 6)]
     L.sp_frames_checksum.argtypes = [P(FramesStruct)]
     L.sp_frames_checksum.restype = C.c_uint32
     L.sp_frames_atan2.argtypes = [I32, I32]
     L.sp_frames_atan2.restype = I32
     for name in ("sp_frames_prepare", "sp_frames_to_platform", "sp_frames_from_platform",
-                 "sp_frames_motion_to_platform", "sp_frames_wrench_to_tool", "sp_frames_wrench_from_tool"):
+                 "sp_frames_motion_to_platform", "sp_frames_wrench_to_tool", "sp_frames_wrench_from_tool",
+                 "sp_frames_motion_to_platform_kept", "sp_frames_to_platform_kept", "sp_frames_lever",
+                 "sp_frames_wrench_to_tool_at"):
         getattr(L, name).restype = C.c_int
     for name in ("sp_inverse_kinematics", "sp_inverse_dynamics", "sp_leg_rates", "sp_leg_stretch",
                  "sp_body_rates", "sp_forward_kinematics", "sp_check_legs", "sp_orientation"):

@@ -23,14 +23,17 @@ static int64_t cmd_abs64(int64_t v)
 }
 
 /* A command's pose (the tool frame in the work frame) as the platform's
- * pose; 0 when the transform fails. */
-static int to_platform(const sp_ctrl_t *ctrl, const sp_pose_t *pose, sp_pose_t *platform)
+ * pose; 0 when the transform fails. The poses one check transforms share
+ * their orientation in *keep (valid 0 at first): a trig's two ends on a
+ * translation axis, a straight move that does not turn, cost one
+ * orientation. */
+static int to_platform(const sp_ctrl_t *ctrl, sp_frames_keep_t *keep, const sp_pose_t *pose, sp_pose_t *platform)
 {
     if (ctrl->frames.identity) {
         *platform = *pose;
         return 1;
     }
-    return sp_frames_to_platform(&ctrl->frames, pose, platform, NULL) == SP_OK;
+    return sp_frames_to_platform_kept(&ctrl->frames, keep, pose, platform) == SP_OK;
 }
 
 void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
@@ -87,12 +90,14 @@ static uint8_t trig_ends(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, con
     const sp_q24_t *known = (ctrl->est.ref_lu.valid && ctrl->have_setpoint) ? ctrl->model.ref.length : NULL;
     unsigned a = (unsigned)cmd->axis;
     int s;
+    sp_frames_keep_t keep;
+    keep.valid = 0u;
     for (s = -1; s <= 1; s += 2) {
         sp_pose_t end = ctrl->frames.identity ? cfg->platform->home : ctrl->tool_home; /* about the pivot */
         sp_pose_t pp;
         sp_q24_t *e = (a < 3u) ? &end.pos[a] : &end.rpy[a - 3u];
         *e = sp_add(*e, (s < 0) ? -cmd->amplitude : cmd->amplitude, NULL); /* |A| <= 1: no saturation */
-        if (!to_platform(ctrl, &end, &pp) ||
+        if (!to_platform(ctrl, &keep, &end, &pp) ||
             !sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &pp)) {
             return (uint8_t)SP_REFUSE_REACH;
         }
@@ -146,7 +151,9 @@ static uint8_t check_move(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     const sp_q24_t *known = (ctrl->est.ref_lu.valid && ctrl->have_setpoint) ? ctrl->model.ref.length : NULL;
     unsigned q;
     unsigned k;
-    if (!ctrl->frames.identity && sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &start) != SP_OK) {
+    sp_frames_keep_t keep;
+    keep.valid = 0u;
+    if (!ctrl->frames.identity && spi_ready_tool_pose(ctrl, &start) != SP_OK) {
         return (uint8_t)SP_REFUSE_REACH; /* with frames the tool point moves on a straight line in W */
     }
     for (q = 1u; q <= 4u; ++q) {
@@ -156,7 +163,7 @@ static uint8_t check_move(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
             mid.pos[k] = (sp_q24_t)(from->pos[k] + ((((int64_t)cmd->target.pos[k] - from->pos[k]) * q) >> 2));
             mid.rpy[k] = (sp_q24_t)(from->rpy[k] + ((((int64_t)cmd->target.rpy[k] - from->rpy[k]) * q) >> 2));
         }
-        if (!to_platform(ctrl, &mid, &pp) ||
+        if (!to_platform(ctrl, &keep, &mid, &pp) ||
             !sp_limits_pose_reachable_from(&ctrl->prep.limits, cfg->platform, &ctrl->model_pose, known, &pp)) {
             return (uint8_t)SP_REFUSE_REACH;
         }

@@ -329,9 +329,45 @@ static sp_status_t activate_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
         (void)sp_frames_prepare(NULL, NULL, &ctrl->frames);
     }
     ctrl->frames_crc = sp_frames_checksum(&ctrl->frames);
+    ctrl->ref_keep.valid = 0u; /* the kept orientations belong to the old frames */
+    ctrl->target_keep.valid = 0u;
+    ctrl->ready_valid = 0u;
     if (sp_frames_from_platform(&ctrl->frames, &cfg->platform->home, &ctrl->tool_home) != SP_OK) {
         st = SP_E_RANGE; /* home's tool pose out of range */
     }
+    return st;
+}
+
+static int angles_held(const sp_q24_t a[3], const sp_q24_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+static int pose_held(const sp_pose_t *a, const sp_pose_t *b)
+{
+    return angles_held(a->pos, b->pos) && angles_held(a->rpy, b->rpy);
+}
+
+sp_status_t spi_ready_tool_pose(const sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
+{
+    if (ctrl->ready_valid && pose_held(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+        *tool_pose = ctrl->ready_tool;
+        return SP_OK;
+    }
+    return sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, tool_pose);
+}
+
+/* spi_ready_tool_pose, kept in ctrl->ready_tool for the ticks the
+ * reference's pose holds (at rest). */
+static sp_status_t ready_tool_keep(sp_ctrl_t *ctrl, sp_pose_t *tool_pose)
+{
+    sp_status_t st = SP_OK;
+    if (!ctrl->ready_valid || !pose_held(&ctrl->ready_platform, &ctrl->pos_ref.pose)) {
+        st = sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &ctrl->ready_tool);
+        ctrl->ready_platform = ctrl->pos_ref.pose;
+        ctrl->ready_valid = (uint8_t)(st == SP_OK);
+    }
+    *tool_pose = ctrl->ready_tool;
     return st;
 }
 
@@ -714,10 +750,12 @@ SPI_NOINLINE static int command_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctr
         }
         from = ctrl->pos_ref.pose;
     } else {
-        if (tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
+        /* force control off: spi_cmd_check has checked the end (and the
+         * path) on this tick already, the same check */
+        if (ctrl->force.mode != SP_FORCE_OFF && tool_reachable(cfg, ctrl, &cmd->target, &pp) != 1) {
             return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
         }
-        if (sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &from) != SP_OK) {
+        if (ready_tool_keep(ctrl, &from) != SP_OK) {
             return 0;
         }
     }
@@ -766,7 +804,11 @@ SPI_NOINLINE static int command_run_trig(const sp_ctrl_config_t *cfg, sp_ctrl_t 
     h = (a < 3u) ? &hi.pos[a] : &hi.rpy[a - 3u];
     *l = sp_sub(*l, cmd->amplitude, NULL);
     *h = sp_add(*h, cmd->amplitude, NULL);
-    if (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1) {
+    /* both ends: spi_cmd_check's trig_ends checked them on this tick (READY,
+     * force control off: RUN_TRIG's only case), the same check; identity
+     * frames check them here again as ever (bit for bit the same tick) */
+    if (ctrl->frames.identity &&
+        (tool_reachable(cfg, ctrl, &lo, &pp) != 1 || tool_reachable(cfg, ctrl, &hi, &pp) != 1)) {
         return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
     }
     if (sp_trig_start(&ctrl->trig, centre, cmd->axis, cmd->amplitude, cmd->frequency, cfg->tick_us,
@@ -1068,7 +1110,7 @@ static int take_tool_target(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
 {
     sp_pose_t pp;
     sp_pose_t tool_target = ctrl->stream.target;
-    if (ctrl->stream.stopping || sp_frames_to_platform(&ctrl->frames, target, &pp, NULL) != SP_OK) {
+    if (ctrl->stream.stopping || sp_frames_to_platform_kept(&ctrl->frames, &ctrl->target_keep, target, &pp) != SP_OK) {
         return refuse(ctrl, (uint8_t)SP_REFUSE_REACH);
     }
     ctrl->stream.target = ctrl->stream_platform;
@@ -1131,7 +1173,8 @@ SPI_NOINLINE static void tool_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *
             return;
         }
     }
-    *flags |= (sp_frames_motion_to_platform(&ctrl->frames, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+    *flags |=
+        (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
     if (done) {
         ctrl->state = SP_STATE_READY;
     }
@@ -1536,7 +1579,7 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
     if (ctrl->state == SP_STATE_RUNNING) {
         xref = ctrl->tool_ref;
     } else {
-        (void)sp_frames_from_platform(&ctrl->frames, &ctrl->pos_ref.pose, &xref.pose);
+        (void)ready_tool_keep(ctrl, &xref.pose); /* at rest the reference holds: its tool pose made once */
         sp_motion_at_rest(&xref, &xref.pose);
     }
     for (k = 0u; k < 6u; ++k) {
@@ -1545,7 +1588,11 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
         lim.ws_lo[k] = spi_add(lim.ws_lo[k], d, &flags);
         lim.ws_hi[k] = spi_add(lim.ws_hi[k], d, &flags);
     }
-    (void)sp_orientation(ctrl->pos_ref.pose.rpy, &rot);
+    if (ctrl->ref_orient.valid && angles_held(ctrl->ref_orient.rpy, ctrl->pos_ref.pose.rpy)) {
+        rot = ctrl->ref_orient.rot; /* the IK's T of these angles: sp_orientation's, bit for bit */
+    } else {
+        (void)sp_orientation(ctrl->pos_ref.pose.rpy, &rot);
+    }
     if (w != NULL && sp_frames_wrench_to_tool(&ctrl->frames, &rot, w, wt) == SP_OK) {
         w = wt;
     }
@@ -1553,7 +1600,7 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
         xest = xref.pose;
     }
     (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &lim, &xref, w, ctrl->est.valid ? &xest : NULL, &xout, events);
-    if (sp_frames_motion_to_platform(&ctrl->frames, &xout, ref) != SP_OK) {
+    if (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, &xout, ref) != SP_OK) {
         copy_motion(ref, &ctrl->pos_ref); /* the position reference stands */
     }
 }
@@ -1683,13 +1730,15 @@ SPI_NOINLINE static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_
 SPI_NOINLINE static void tool_wrench_output(const sp_ctrl_t *ctrl, sp_ctrl_output_t *out)
 {
     int32_t w[6];
+    sp_q24_t r[3];
     unsigned k;
-    if (sp_frames_wrench_to_tool(&ctrl->frames, &ctrl->model.rot, out->wrench, w) == SP_OK) {
+    (void)sp_frames_lever(&ctrl->frames, &ctrl->model.rot, r); /* one lever for both */
+    if (sp_frames_wrench_to_tool_at(&ctrl->frames, r, out->wrench, w) == SP_OK) {
         for (k = 0u; k < 6u; ++k) {
             out->wrench[k] = w[k];
         }
     }
-    if (sp_frames_wrench_to_tool(&ctrl->frames, &ctrl->model.rot, out->force_wrench, w) == SP_OK) {
+    if (sp_frames_wrench_to_tool_at(&ctrl->frames, r, out->force_wrench, w) == SP_OK) {
         for (k = 0u; k < 6u; ++k) {
             out->force_wrench[k] = w[k];
         }

@@ -213,6 +213,15 @@ static void copy_pose(const sp_pose_t *in, sp_pose_t *out)
     *out = *in;
 }
 
+/* out = in for three values, written out: -Os makes a loop of three a
+ * call of memmove, which costs more than the copy. */
+static void copy3(int32_t out[3], const int32_t in[3])
+{
+    out[0] = in[0];
+    out[1] = in[1];
+    out[2] = in[2];
+}
+
 /* T_P of a tool pose whose T_X is given: T_P = T_T^T T_X T_W; angles into
  * rpy (copied from x when no frame is turned). */
 static void platform_rot(const sp_frames_t *f, const sp_rot_t *tx, const sp_q24_t x_rpy[3], sp_rot_t *tp,
@@ -385,14 +394,6 @@ static void platform_euler(const sp_q30_t sc[6], const int64_t w[3], const int64
     }
 }
 
-/* a x b, Q24 x Q24 -> Q24 (int64). */
-static void frame_cross24(const int64_t a[3], const int64_t b[3], int64_t out[3])
-{
-    out[0] = spi_round_away64(a[1] * b[2] - a[2] * b[1], 24u);
-    out[1] = spi_round_away64(a[2] * b[0] - a[0] * b[2], 24u);
-    out[2] = spi_round_away64(a[0] * b[1] - a[1] * b[0], 24u);
-}
-
 /* a x b for int32 vectors, Q24 x Q24 -> Q24, saturated to int32: each
  * product 32 x 32 bits, their difference below 2^63. */
 static void cross32(const int32_t a[3], const int32_t b[3], int32_t out[3], sp_flags_t *flags)
@@ -433,10 +434,8 @@ static void platform_linear(const sp_frames_t *f, const sp_rot_t *tp, const sp_m
             out->acc[k] = spi_add(x->acc[k], spi_narrow_away(a[k], 30u, flags), flags);
         }
     } else {
-        for (k = 0u; k < 3u; ++k) {
-            out->vel[k] = x->vel[k];
-            out->acc[k] = x->acc[k];
-        }
+        copy3(out->vel, x->vel);
+        copy3(out->acc, x->acc);
     }
 }
 
@@ -460,22 +459,27 @@ static int turning_of(const sp_motion_t *x)
     return (x->rpy_rate[0] | x->rpy_rate[1] | x->rpy_rate[2] | x->rpy_acc[0] | x->rpy_acc[1] | x->rpy_acc[2]) != 0;
 }
 
-/* The angles' rates with turned frames: through the body rates. */
-static sp_status_t turned_rates(const sp_motion_t *x, const sp_q24_t w[3], const sp_q24_t dw[3], sp_motion_t *out,
-                                sp_flags_t *flags)
+/* The sine and cosine of angle a into sc[j], sc[j + 1]. */
+static void sincos_into(sp_q24_t a, sp_q30_t *sc, unsigned j)
 {
-    sp_q30_t scp[6];
+    sp_sincos_q24(a, &sc[j], &sc[j + 1u]);
+}
+
+/* The angles' rates with turned frames: through the body rates, at the
+ * platform angles' sines scp. */
+static sp_status_t turned_rates(const sp_motion_t *x, const sp_q30_t scp[6], const sp_q24_t w[3], const sp_q24_t dw[3],
+                                sp_motion_t *out, sp_flags_t *flags)
+{
     int64_t w64[3], dw64[3];
     unsigned k;
-    for (k = 0u; k < 3u; ++k) {
-        sp_sincos_q24(out->pose.rpy[k], &scp[2u * k], &scp[2u * k + 1u]);
-        w64[k] = w[k];
-        dw64[k] = dw[k];
-    }
     if (scp[3] < SP_Q30_MILLI(10) && scp[3] > -SP_Q30_MILLI(10)) {
         return SP_E_SINGULAR;
     }
     if (turning_of(x)) {
+        for (k = 0u; k < 3u; ++k) {
+            w64[k] = w[k];
+            dw64[k] = dw[k];
+        }
         platform_euler(scp, w64, dw64, out, flags);
     } else {
         for (k = 0u; k < 3u; ++k) {
@@ -486,14 +490,52 @@ static sp_status_t turned_rates(const sp_motion_t *x, const sp_q24_t w[3], const
     return SP_OK;
 }
 
+/* What a tool motion's transform needs of its orientation: sc the sines
+ * of the tool angles, tp the paper's T of the platform, rpy the
+ * platform's angles and scp their sines (turned frames only). */
+typedef struct {
+    const sp_q30_t *sc;
+    const sp_rot_t *tp;
+    const sp_q24_t *rpy;
+    const sp_q30_t *scp;
+} motion_orient_t;
+
+/* sp_frames_motion_to_platform past its orientation (f not identity). */
+static sp_status_t motion_core(const sp_frames_t *f, const motion_orient_t *o, const sp_motion_t *tool_motion,
+                               sp_motion_t *platform)
+{
+    sp_q24_t w[3] = {0, 0, 0}, dw[3] = {0, 0, 0};
+    sp_flags_t flags = 0u;
+    int turning = turning_of(tool_motion);
+    copy3(platform->pose.rpy, o->rpy);
+    flags |= platform_pos(f, o->tp, tool_motion->pose.pos, platform->pose.pos);
+    if (turning) {
+        flags |= (sp_body_rates_sc(o->sc, tool_motion->rpy_rate, tool_motion->rpy_acc, w, dw) == SP_OK)
+                     ? 0u
+                     : SP_FLAG_OVERFLOW;
+        body_to_platform(f, w, &flags);
+        body_to_platform(f, dw, &flags);
+    }
+    if (f->tool_turned || f->work_turned) {
+        if (turned_rates(tool_motion, o->scp, w, dw, platform, &flags) != SP_OK) {
+            return SP_E_SINGULAR;
+        }
+    } else {
+        copy3(platform->rpy_rate, tool_motion->rpy_rate);
+        copy3(platform->rpy_acc, tool_motion->rpy_acc);
+    }
+    platform_linear(f, o->tp, tool_motion, w, dw, turning && (f->tool.pos[0] | f->tool.pos[1] | f->tool.pos[2]) != 0,
+                    platform, &flags);
+    return sp_flags_status(flags);
+}
+
 sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t *tool_motion, sp_motion_t *platform)
 {
     sp_rot_t tx, tp;
-    sp_q30_t sc[6];
-    sp_q24_t w[3] = {0, 0, 0}, dw[3] = {0, 0, 0};
-    sp_flags_t flags = 0u;
+    sp_q30_t sc[6], scp[6];
+    sp_q24_t rpy[3];
+    motion_orient_t o;
     unsigned k;
-    int turning;
     if (f == NULL || tool_motion == NULL || platform == NULL || tool_motion == platform) {
         return SP_E_ARG;
     }
@@ -501,52 +543,121 @@ sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t
         *platform = *tool_motion;
         return SP_OK;
     }
-    turning = turning_of(tool_motion);
     spi_orientation_sc(tool_motion->pose.rpy, &tx, sc);
-    platform_rot(f, &tx, tool_motion->pose.rpy, &tp, platform->pose.rpy);
-    flags |= platform_pos(f, &tp, tool_motion->pose.pos, platform->pose.pos);
-    if (turning) {
-        flags |=
-            (sp_body_rates_sc(sc, tool_motion->rpy_rate, tool_motion->rpy_acc, w, dw) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
-        body_to_platform(f, w, &flags);
-        body_to_platform(f, dw, &flags);
-    }
+    platform_rot(f, &tx, tool_motion->pose.rpy, &tp, rpy);
     if (f->tool_turned || f->work_turned) {
-        if (turned_rates(tool_motion, w, dw, platform, &flags) != SP_OK) {
-            return SP_E_SINGULAR;
-        }
-    } else {
         for (k = 0u; k < 3u; ++k) {
-            platform->rpy_rate[k] = tool_motion->rpy_rate[k];
-            platform->rpy_acc[k] = tool_motion->rpy_acc[k];
+            sincos_into(rpy[k], scp, k + k);
         }
     }
-    platform_linear(f, &tp, tool_motion, w, dw, turning && (f->tool.pos[0] | f->tool.pos[1] | f->tool.pos[2]) != 0,
-                    platform, &flags);
+    o.sc = sc;
+    o.tp = &tp;
+    o.rpy = rpy;
+    o.scp = scp;
+    return motion_core(f, &o, tool_motion, platform);
+}
+
+/* keep brought to the tool angles rpy: each angle that changed gets its
+ * sine, and any change remakes T_X, T_P, the platform's angles and (turned
+ * frames) their sines; nothing when no angle changed. */
+static void keep_update(const sp_frames_t *f, const sp_q24_t rpy[3], sp_frames_keep_t *keep)
+{
+    sp_rot_t tx;
+    unsigned k;
+    int changed = !keep->valid;
+    for (k = 0u; k < 3u; ++k) {
+        if (!keep->valid || rpy[k] != keep->tool_rpy[k]) {
+            sincos_into(rpy[k], keep->sc, k + k);
+            keep->tool_rpy[k] = rpy[k];
+            changed = 1;
+        }
+    }
+    if (!changed) {
+        return;
+    }
+    spi_rot_from_sincos(keep->sc, &tx);
+    platform_rot(f, &tx, rpy, &keep->tp, keep->rpy);
+    if (f->tool_turned || f->work_turned) {
+        for (k = 0u; k < 3u; ++k) {
+            if (!keep->valid || keep->rpy[k] != keep->prpy_of[k]) {
+                sincos_into(keep->rpy[k], keep->scp, k + k);
+                keep->prpy_of[k] = keep->rpy[k];
+            }
+        }
+    }
+    keep->valid = 1u;
+}
+
+sp_status_t sp_frames_motion_to_platform_kept(const sp_frames_t *f, sp_frames_keep_t *keep,
+                                              const sp_motion_t *tool_motion, sp_motion_t *platform)
+{
+    motion_orient_t o;
+    if (keep == NULL) {
+        return sp_frames_motion_to_platform(f, tool_motion, platform);
+    }
+    if (f == NULL || tool_motion == NULL || platform == NULL || tool_motion == platform) {
+        return SP_E_ARG;
+    }
+    if (f->identity) {
+        *platform = *tool_motion;
+        return SP_OK;
+    }
+    keep_update(f, tool_motion->pose.rpy, keep);
+    o.sc = keep->sc;
+    o.tp = &keep->tp;
+    o.rpy = keep->rpy;
+    o.scp = keep->scp;
+    return motion_core(f, &o, tool_motion, platform);
+}
+
+sp_status_t sp_frames_to_platform_kept(const sp_frames_t *f, sp_frames_keep_t *keep, const sp_pose_t *tool_pose,
+                                       sp_pose_t *platform)
+{
+    sp_q24_t pos[3];
+    sp_flags_t flags;
+    unsigned k;
+    if (keep == NULL) {
+        return sp_frames_to_platform(f, tool_pose, platform, NULL);
+    }
+    if (f == NULL || tool_pose == NULL || platform == NULL) {
+        return SP_E_ARG;
+    }
+    if (f->identity) {
+        copy_pose(tool_pose, platform);
+        return SP_OK;
+    }
+    keep_update(f, tool_pose->rpy, keep);
+    flags = platform_pos(f, &keep->tp, tool_pose->pos, pos);
+    for (k = 0u; k < 3u; ++k) {
+        platform->pos[k] = pos[k];
+        platform->rpy[k] = keep->rpy[k];
+    }
     return sp_flags_status(flags);
 }
 
 /* ---- wrenches ----------------------------------------------------------------------------- */
 
-/* r = R_P t (base coordinates, Q24). */
-static void lever(const sp_frames_t *f, const sp_rot_t *rot, int64_t r[3])
+/* r = R_P t (base coordinates, Q24): |r| <= |t| (1 + 2^-27) < 2^27, an int32. */
+static void lever(const sp_frames_t *f, const sp_rot_t *rot, int32_t r[3])
 {
     int64_t acc[3] = {0, 0, 0};
     unsigned k;
     acc_out(rot, f->tool.pos, 1, acc);
     for (k = 0u; k < 3u; ++k) {
-        r[k] = spi_round_away64(acc[k], 30u);
+        r[k] = (int32_t)spi_round_away64(acc[k], 30u);
     }
 }
 
-/* m + sign r x F (Q8, int64): r Q24, F Q8. */
-static void moment_shift(const int64_t r[3], const int64_t fo[3], const int64_t m[3], int sign, int64_t out[3])
+/* m + sign r x F (Q8, int64): r Q24 (an int32), F Q8 (|F| < 2^33): each
+ * product below 2^60. */
+static void moment_shift(const int32_t r[3], const int64_t fo[3], const int64_t m[3], int sign, int64_t out[3])
 {
-    int64_t c[3];
-    frame_cross24(r, fo, c);
-    out[0] = m[0] + sign * c[0];
-    out[1] = m[1] + sign * c[1];
-    out[2] = m[2] + sign * c[2];
+    int64_t c0 = spi_round_away64((int64_t)r[1] * fo[2] - (int64_t)r[2] * fo[1], 24u);
+    int64_t c1 = spi_round_away64((int64_t)r[2] * fo[0] - (int64_t)r[0] * fo[2], 24u);
+    int64_t c2 = spi_round_away64((int64_t)r[0] * fo[1] - (int64_t)r[1] * fo[0], 24u);
+    out[0] = m[0] + sign * c0;
+    out[1] = m[1] + sign * c1;
+    out[2] = m[2] + sign * c2;
 }
 
 /* v (Q8, int64) turned by W: in (outer to W's axes) or out. */
@@ -555,9 +666,6 @@ static void turn_w(const sp_frames_t *f, int64_t v[3], int to_w, sp_flags_t *fla
     int32_t n[3];
     int64_t acc[3] = {0, 0, 0};
     unsigned k;
-    if (!f->work_turned) {
-        return;
-    }
     for (k = 0u; k < 3u; ++k) {
         n[k] = spi_sat(v[k], flags);
     }
@@ -571,33 +679,55 @@ static void turn_w(const sp_frames_t *f, int64_t v[3], int to_w, sp_flags_t *fla
     }
 }
 
-static sp_status_t wrench_move(const sp_frames_t *f, const sp_rot_t *rot, const int32_t in[6], int32_t out[6],
+/* The wrench at the tool point, W's axes, of one about o' (f not identity):
+ * wrench_move(.., 1) in 32-bit operands (F an int32, |r| < 2^27: each
+ * product below 2^58), the same values. */
+static sp_status_t wrench_to(const sp_frames_t *f, const int32_t r[3], const int32_t in[6], int32_t out[6])
+{
+    sp_flags_t flags = 0u;
+    int32_t n[3];
+    int64_t a[3] = {0, 0, 0};
+    int64_t b[3] = {0, 0, 0};
+    unsigned k;
+    n[0] = spi_sat((int64_t)in[3] - spi_round_away((int64_t)r[1] * in[2] - (int64_t)r[2] * in[1], 24u), &flags);
+    n[1] = spi_sat((int64_t)in[4] - spi_round_away((int64_t)r[2] * in[0] - (int64_t)r[0] * in[2], 24u), &flags);
+    n[2] = spi_sat((int64_t)in[5] - spi_round_away((int64_t)r[0] * in[1] - (int64_t)r[1] * in[0], 24u), &flags);
+    if (!f->work_turned) {
+        copy3(out, in);
+        copy3(&out[3], n);
+        return sp_flags_status(flags);
+    }
+    acc_in(&f->work_rot, in, a);
+    acc_in(&f->work_rot, n, b);
+    for (k = 0u; k < 3u; ++k) {
+        out[k] = spi_narrow_away(a[k], 30u, &flags);
+        out[3u + k] = spi_narrow_away(b[k], 30u, &flags);
+    }
+    return sp_flags_status(flags);
+}
+
+/* The wrench moved with the lever r (f not identity). */
+static sp_status_t wrench_move(const sp_frames_t *f, const int32_t r[3], const int32_t in[6], int32_t out[6],
                                int to_tool)
 {
-    int64_t r[3], fo[3], m[3], mo[3];
+    int64_t fo[3], m[3], mo[3];
     sp_flags_t flags = 0u;
     unsigned k;
-    if (f == NULL || rot == NULL || in == NULL || out == NULL) {
-        return SP_E_ARG;
-    }
     for (k = 0u; k < 3u; ++k) {
         fo[k] = in[k];
         m[k] = in[3u + k];
     }
-    if (f->identity) {
-        for (k = 0u; k < 6u; ++k) {
-            out[k] = in[k];
-        }
-        return SP_OK;
-    }
-    lever(f, rot, r);
     if (to_tool) {
         moment_shift(r, fo, m, -1, mo);
-        turn_w(f, fo, 1, &flags);
-        turn_w(f, mo, 1, &flags);
+        if (f->work_turned) {
+            turn_w(f, fo, 1, &flags);
+            turn_w(f, mo, 1, &flags);
+        }
     } else {
-        turn_w(f, fo, 0, &flags);
-        turn_w(f, m, 0, &flags);
+        if (f->work_turned) {
+            turn_w(f, fo, 0, &flags);
+            turn_w(f, m, 0, &flags);
+        }
         moment_shift(r, fo, m, 1, mo);
     }
     for (k = 0u; k < 3u; ++k) {
@@ -607,16 +737,62 @@ static sp_status_t wrench_move(const sp_frames_t *f, const sp_rot_t *rot, const 
     return sp_flags_status(flags);
 }
 
+static int copy_wrench(const sp_frames_t *f, const int32_t in[6], int32_t out[6])
+{
+    unsigned k;
+    if (!f->identity) {
+        return 0;
+    }
+    for (k = 0u; k < 6u; ++k) {
+        out[k] = in[k];
+    }
+    return 1;
+}
+
+sp_status_t sp_frames_lever(const sp_frames_t *f, const sp_rot_t *rot, sp_q24_t r[3])
+{
+    if (f == NULL || rot == NULL || r == NULL) {
+        return SP_E_ARG;
+    }
+    lever(f, rot, r);
+    return SP_OK;
+}
+
+sp_status_t sp_frames_wrench_to_tool_at(const sp_frames_t *f, const sp_q24_t r[3], const int32_t wrench[6],
+                                        int32_t tool_wrench[6])
+{
+    if (f == NULL || r == NULL || wrench == NULL || tool_wrench == NULL) {
+        return SP_E_ARG;
+    }
+    return copy_wrench(f, wrench, tool_wrench) ? SP_OK : wrench_to(f, r, wrench, tool_wrench);
+}
+
 sp_status_t sp_frames_wrench_to_tool(const sp_frames_t *f, const sp_rot_t *rot, const int32_t wrench[6],
                                      int32_t tool_wrench[6])
 {
-    return wrench_move(f, rot, wrench, tool_wrench, 1);
+    int32_t r[3];
+    if (f == NULL || rot == NULL || wrench == NULL || tool_wrench == NULL) {
+        return SP_E_ARG;
+    }
+    if (copy_wrench(f, wrench, tool_wrench)) {
+        return SP_OK;
+    }
+    lever(f, rot, r);
+    return wrench_to(f, r, wrench, tool_wrench);
 }
 
 sp_status_t sp_frames_wrench_from_tool(const sp_frames_t *f, const sp_rot_t *rot, const int32_t tool_wrench[6],
                                        int32_t wrench[6])
 {
-    return wrench_move(f, rot, tool_wrench, wrench, 0);
+    int32_t r[3];
+    if (f == NULL || rot == NULL || wrench == NULL || tool_wrench == NULL) {
+        return SP_E_ARG;
+    }
+    if (copy_wrench(f, tool_wrench, wrench)) {
+        return SP_OK;
+    }
+    lever(f, rot, r);
+    return wrench_move(f, r, tool_wrench, wrench, 0);
 }
 
 /* ---- checksum ----------------------------------------------------------------------------- */

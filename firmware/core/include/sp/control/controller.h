@@ -555,6 +555,12 @@ typedef struct {
     sp_motion_t tool_ref;               /**< RUNNING with frames: the motion generator's reference, a tool motion */
     sp_pose_t tool_home;                /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
     sp_pose_t stream_platform;          /**< STREAM with frames: the platform pose of the streamed target in force */
+    sp_frames_keep_t ref_keep;          /**< the orientation of the last tool reference's transform (RUNNING,
+                                            force control's result), made again when its angles change */
+    sp_frames_keep_t target_keep;       /**< the same for the streamed tool targets */
+    sp_pose_t ready_platform;           /**< force control at rest with frames: the platform pose ready_tool is of */
+    sp_pose_t ready_tool;               /**< its tool pose (sp_frames_from_platform), kept while it holds */
+    uint8_t ready_valid;                /**< 1 when ready_tool belongs to ready_platform and the frames */
     uint16_t refusals[SP_REFUSE_COUNT]; /**< refusals by reason (SP_REFUSE_*), saturating */
     uint8_t last_refusal;               /**< the reason of the last refusal (SP_REFUSE_*) */
     uint8_t

@@ -102,6 +102,60 @@ sp_status_t sp_frames_from_platform(const sp_frames_t *f, const sp_pose_t *platf
 sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t *tool_motion, sp_motion_t *platform);
 
 /**
+ * What a tool motion's transform keeps between calls (set valid to 0
+ * before the first call and whenever the frames change): the tool angles
+ * of the last call, their sines, the platform's T (T_P = T_T^T T_X T_W),
+ * its angles and (turned frames) their sines. A call whose tool angles
+ * are those of the last one takes them as they are: no sine, no product
+ * of rotations, no arc tangent; a call with other angles makes the sines
+ * of the angles that changed only. Every kept value is a pure function of
+ * the tool angles and the frames, so a kept call's result is the plain
+ * call's bit for bit (tests/unit/test_frames.c).
+ */
+typedef struct {
+    sp_q24_t tool_rpy[3]; /**< the tool angles the rest belongs to, rad, Q24 */
+    sp_q30_t sc[6];       /**< sin, cos of tool_rpy, Q30 */
+    sp_rot_t tp;          /**< the paper's T of the platform's orientation, Q30 */
+    sp_q24_t rpy[3];      /**< the platform's angles, rad, Q24 */
+    sp_q24_t prpy_of[3];  /**< the platform angles scp belongs to (turned frames), rad, Q24 */
+    sp_q30_t scp[6];      /**< sin, cos of the platform's angles (turned frames only), Q30 */
+    uint8_t valid;        /**< 1 when the values above belong together and to the frames */
+    uint8_t reserved[3];  /**< 0 */
+} sp_frames_keep_t;
+
+/**
+ * sp_frames_motion_to_platform with its orientation kept in *keep
+ * (sp_frames_keep_t): the same result and errors, bit for bit, and work
+ * only for the angles that changed since the last call. keep NULL: the
+ * plain call. A platform pose's T is keep->tp after the call (f not
+ * identity).
+ */
+sp_status_t sp_frames_motion_to_platform_kept(const sp_frames_t *f, sp_frames_keep_t *keep,
+                                              const sp_motion_t *tool_motion, sp_motion_t *platform);
+
+/**
+ * sp_frames_to_platform (rot NULL) with its orientation kept in *keep:
+ * the same pose and errors, bit for bit. keep NULL: the plain call.
+ */
+sp_status_t sp_frames_to_platform_kept(const sp_frames_t *f, sp_frames_keep_t *keep, const sp_pose_t *tool_pose,
+                                       sp_pose_t *platform);
+
+/**
+ * The lever r = R_P t of the tool point at the platform orientation rot
+ * (the paper's T), base coordinates, m, Q24 (|r| <= |t| (1 + 2^-27):
+ * cannot overflow). Errors: SP_E_ARG (NULL).
+ */
+sp_status_t sp_frames_lever(const sp_frames_t *f, const sp_rot_t *rot, sp_q24_t r[3]);
+
+/**
+ * sp_frames_wrench_to_tool with its lever r given (sp_frames_lever of the
+ * same orientation): the same result bit for bit; one lever serves every
+ * wrench of a tick. Errors as sp_frames_wrench_to_tool.
+ */
+sp_status_t sp_frames_wrench_to_tool_at(const sp_frames_t *f, const sp_q24_t r[3], const int32_t wrench[6],
+                                        int32_t tool_wrench[6]);
+
+/**
  * A wrench about o' in base axes (the controller's convention: force N,
  * moment N m, Q8) at the platform's orientation `rot` (the paper's T of
  * the platform's pose) taken to the tool point, in W's axes:
