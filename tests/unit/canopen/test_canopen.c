@@ -792,7 +792,13 @@ static void test_link_length_sensors(void **state)
         zero[i] = (sp_q24_t)(0x02000000 + (int32_t)i * 0x10000); /* 2 m + i/256 m */
     }
     assert_int_equal(sp_co_link_cfg_default(&cfg, &sp_platform_default, zero), SP_OK);
-    assert_ptr_equal(cfg.length_sensors, &sp_length_sensors_default); /* the built-in platform's */
+    /* the built-in platform's, or none when they are all zero (the maps are then identity, bit for bit) */
+    assert_ptr_equal(cfg.length_sensors, sp_length_sensors_in_use(&sp_length_sensors_default));
+    assert_null(sp_length_sensors_in_use(NULL));
+    memset(&sens, 0, sizeof sens);
+    assert_null(sp_length_sensors_in_use(&sens));
+    sens.scale_inv[5] = 1;
+    assert_ptr_equal(sp_length_sensors_in_use(&sens), &sens);
     memset(&sens, 0, sizeof sens);
     sens.zero[1] = 8389;         /* 0.5 mm */
     sens.scale[1] = 107374;      /* 100 ppm, Q30 */

@@ -10,7 +10,7 @@
  * are lengths (as sp_node_default_config). */
 static const sp_length_sensors_t *link_sensors(const sp_platform_t *platform)
 {
-    return (platform == &sp_platform_default) ? &sp_length_sensors_default : NULL;
+    return (platform == &sp_platform_default) ? sp_length_sensors_in_use(&sp_length_sensors_default) : NULL;
 }
 
 sp_status_t sp_co_link_cfg_default(sp_co_link_cfg_t *cfg, const sp_platform_t *platform,

@@ -24,7 +24,8 @@ sp_status_t sp_node_default_config(sp_node_config_t *cfg, const sp_platform_t *p
     memset(cfg, 0, sizeof *cfg);
     cfg->sync_master = 1u;
     /* the built-in platform's sensors come with it; another platform's readings are lengths */
-    cfg->length_sensors = (platform == &sp_platform_default) ? &sp_length_sensors_default : NULL;
+    cfg->length_sensors =
+        (platform == &sp_platform_default) ? sp_length_sensors_in_use(&sp_length_sensors_default) : NULL;
     return sp_ctrl_default_config(&cfg->ctrl, platform);
 }
 

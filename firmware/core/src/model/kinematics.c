@@ -883,6 +883,18 @@ static sp_q24_t sensor_map(sp_q24_t lmin, sp_q30_t k, int64_t zero, int64_t x, s
     return sp_sat32((int64_t)lmin + d + sp_mul64(d, k, 30u, flags) + zero, flags);
 }
 
+const sp_length_sensors_t *sp_length_sensors_in_use(const sp_length_sensors_t *sensors)
+{
+    const sp_length_sensors_t *used = NULL;
+    unsigned i;
+    for (i = 0u; (sensors != NULL) && (i < (unsigned)SP_LEGS); ++i) {
+        if ((sensors->zero[i] != 0) || (sensors->scale[i] != 0) || (sensors->scale_inv[i] != 0)) {
+            used = sensors;
+        }
+    }
+    return used;
+}
+
 sp_status_t sp_length_from_sensor(const sp_platform_t *platform, const sp_length_sensors_t *sensors, unsigned leg,
                                   sp_q24_t reading, sp_q24_t *length)
 {

@@ -254,6 +254,15 @@ sp_status_t sp_fk_chord_step(const sp_lu6_t *lu_t, const sp_pose_t *from, const 
                              const sp_q24_t d_length[SP_LEGS], sp_pose_t *pose);
 
 /**
+ * The sensors a drive link maps through: `sensors` when one of its legs has
+ * a zero or a gain, NULL when all are zero (or `sensors` is NULL). The maps
+ * below give the same lengths bit for bit either way; with NULL a tick pays
+ * a copy instead of twelve 64-bit maps (a link's configuration calls this
+ * once). Never fails.
+ */
+const sp_length_sensors_t *sp_length_sensors_in_use(const sp_length_sensors_t *sensors);
+
+/**
  * A leg's joint-to-joint length (m, Q24) from its sensor's reading (m, Q24):
  * l = lmin + (r - zero - lmin) (1 + scale_inv), lmin the platform's
  * leg_length_min, zero and scale_inv the sensors' of leg `leg` (0..5). With
