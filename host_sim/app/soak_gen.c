@@ -99,9 +99,12 @@ static void put_target(soak_gen_t *g, double share)
     put(g, "target %.5f %.5f %.5f %.5f %.5f %.5f\n", p[0], p[1], home_z + p[2], p[3], p[4], p[5]);
 }
 
+/* "wait ready" right after a command can pass on a status sent before the
+ * controller took it: 50 ms later a taken MOVE_TO shows RUNNING, and the
+ * wait lasts until the move's end. */
 static void put_home_move(soak_gen_t *g)
 {
-    put(g, "target 0 0 %.5f 0 0 0\ncmd MOVE_TO\nwait ready 60\n", home_z);
+    put(g, "target 0 0 %.5f 0 0 0\ncmd MOVE_TO\ndelay 0.05\nwait ready 60\n", home_z);
 }
 
 static void episode_trig(soak_gen_t *g)

@@ -258,6 +258,7 @@ void spi_stream_limits(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     int64_t used = 0; /* Q24 m/s: the bound above at the filter's last velocities */
     int64_t room;
     int64_t grow[2];
+    int32_t sixth;
     unsigned a;
     *lim = cfg->move;
     for (a = 0u; a < 6u; ++a) {
@@ -269,7 +270,8 @@ void spi_stream_limits(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
      * axis is made slower than it goes */
     room = leg_budget(ctrl) - used;
     room = (room > 0) ? room : 0;
-    grow[0] = (int64_t)((int32_t)room / 6); /* room < 2^31: the M4's divide, not a 64-bit library call */
+    sixth = (int32_t)room / 6; /* room < 2^31: the M4's divide, not a 64-bit library call */
+    grow[0] = sixth;
     grow[1] = (w > 0) ? ((room << 24) / (6 * w)) : (int64_t)INT32_MAX; /* room < 2^31 */
     for (a = 0u; a < 6u; ++a) {
         int64_t l = cmd_abs64((int64_t)ctrl->stream.vq[a]) + grow[(a < 3u) ? 0u : 1u];
