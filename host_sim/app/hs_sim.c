@@ -1021,7 +1021,10 @@ static void progress_line(sim_t *s, uint64_t tick)
 
 /* Is the controller's answer to cycle `tick` complete in raw[0..n) (as it
  * sent it, before the injector): AXIS_SETPOINTS(tick) on both axis buses,
- * CTRL_STATUS(tick), CTRL_MONITOR(tick), and on even ticks CTRL_WRENCH(tick)? */
+ * CTRL_STATUS(tick), CTRL_MONITOR(tick), and on even ticks CTRL_WRENCH(tick)?
+ * The frames a tick sends only when due (CTRL_REACH, CTRL_IDENTITY,
+ * CTRL_REFUSAL) come before its CTRL_STATUS on the ops bus (sp/link/node.h),
+ * so once it is here they are too: the log's order is the same every run. */
 static int answer_complete(const sp_can_frame_t *raw, uint32_t n, uint32_t tick, int canopen)
 {
     /* with CANopen drives the master's frames (no AXIS_SETPOINTS) come before the ops frames */

@@ -113,19 +113,24 @@ def ops_socket(ids: Iterable[int], rcvbuf: int | None = RCVBUF):
     its receive queue rcvbuf: SO_RCVBUFFORCE where allowed (root, as inside
     user-mode Linux: beyond net.core.rmem_max), else SO_RCVBUF (capped);
     None: the system's default queue."""
-    import socket
-
     import can
 
     bus = can.Bus(interface="socketcan", channel="vcan0", fd=True,
                   can_filters=[{"can_id": i, "can_mask": 0x7FF, "extended": False} for i in ids])
-    if rcvbuf is None:
-        return bus
+    if rcvbuf is not None:
+        force_rcvbuf(bus, rcvbuf)
+    return bus
+
+
+def force_rcvbuf(bus, rcvbuf: int = RCVBUF) -> None:
+    """A python-can SocketCAN bus's receive queue set to rcvbuf bytes:
+    SO_RCVBUFFORCE where allowed, else SO_RCVBUF (capped by rmem_max)."""
+    import socket
+
     try:
         bus.socket.setsockopt(socket.SOL_SOCKET, getattr(socket, "SO_RCVBUFFORCE", 33), rcvbuf)
     except OSError:
         bus.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
-    return bus
 
 
 class Listener:

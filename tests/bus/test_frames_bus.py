@@ -60,8 +60,9 @@ class BusOrder:
 
     def ticks_to_answer(self) -> dict[int, int]:
         """Per query sequence: the controller's statuses on the bus from its
-        first OP_REACH to its first CTRL_REACH (1: answered in the tick that
-        took it)."""
+        first OP_REACH to its first CTRL_REACH, the answer's own tick counted
+        (1: answered in the tick that took it; the answer precedes its tick's
+        CTRL_STATUS)."""
         asked: dict[int, int] = {}
         answered: dict[int, int] = {}
         statuses = 0
@@ -74,7 +75,7 @@ class BusOrder:
             if name == "OP_REACH":
                 asked.setdefault(seq, statuses)
             elif seq in asked:
-                answered.setdefault(seq, statuses - asked[seq])
+                answered.setdefault(seq, statuses - asked[seq] + 1)
         return answered
 
 
@@ -97,6 +98,10 @@ def node(rig):
 
     bus = can.Bus(interface="socketcan", channel="vcan0", fd=True, receive_own_messages=True)
     n = OperatorNode(bus, key=au.read_key(au.key_file(None)), monitor=False, on_frame=ON_BUS.take).start()
+    # the order on the bus is measured, not the reader's pace: a queue of seconds (SO_RCVBUFFORCE, root in
+    # user-mode Linux), so that a reader held up on a loaded machine loses no frame (CI lost an answer and
+    # a query's echo to the node's 2 MB cap: retries after 65-192 ticks, one query unseen)
+    busrig.force_rcvbuf(bus)
     # the node's kernel filter passes the controller's frames only: its own OP_REACH too
     bus.set_filters([{"can_id": ON_BUS.proto.message(m).frame_id, "can_mask": 0x7FF, "extended": False}
                      for m in ("CTRL_STATUS", "CTRL_AUTH", "CTRL_IDENTITY", "CTRL_REACH", "CTRL_FRAMES", "OP_REACH")])

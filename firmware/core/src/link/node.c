@@ -734,17 +734,20 @@ sp_status_t sp_node_tick(sp_node_config_t *cfg, sp_node_t *node, sp_can_frame_t 
     node->in.ft_fresh = 0u;
 
     send_axis_frames(cfg, node, tick, out, n);
-    send_ops_frames(cfg, node, tick, out, n);
-    if (tick % SP_PROTO_FRAMES_PERIOD == SP_PROTO_FRAMES_PHASE) {
-        send_frames(node, out, n);
-    }
-    /* one answer a tick besides (never with CTRL_AUTH: SP_NODE_MAX_TX), the reach query's first */
+    /* one answer a tick besides (never with CTRL_AUTH: SP_NODE_MAX_TX), the
+     * reach query's first; ahead of CTRL_STATUS, so that a reader holding a
+     * tick's CTRL_STATUS holds every optional frame of that tick (the
+     * plant's lockstep logs the same order over vcan as in memory) */
     if (node->reach_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
         send_reach(cfg, node, out, n);
     } else if (node->identify_pending && tick % SP_PROTO_AUTH_PERIOD != 0u) {
         send_identity(cfg, node, out, n);
     } else {
         send_refusal(node, tick, out, n);
+    }
+    send_ops_frames(cfg, node, tick, out, n);
+    if (tick % SP_PROTO_FRAMES_PERIOD == SP_PROTO_FRAMES_PHASE) {
+        send_frames(node, out, n);
     }
     return SP_OK;
 }

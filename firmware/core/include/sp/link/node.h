@@ -36,6 +36,13 @@
  *    last accepted counter and the rejection counts, ahead of CTRL_STATUS.
  *  - CTRL_STATUS, CTRL_MONITOR and CTRL_WRENCH carry the tick of the setpoints they go
  *    with (the SYNC tick in lockstep), so that a log lines them up.
+ *  - Order of a tick's frames: AXIS_SETPOINTS (and SYNC) on each axis bus;
+ *    then on the ops bus the tick's one answer (CTRL_REACH, CTRL_IDENTITY
+ *    or CTRL_REFUSAL) or CTRL_AUTH, CTRL_STATUS, CTRL_MONITOR, CTRL_WRENCH
+ *    (even ticks), CTRL_FRAMES (every SP_PROTO_FRAMES_PERIOD ticks). Every
+ *    frame a tick may or may not send comes before CTRL_STATUS or is on a
+ *    fixed schedule, so a reader that waits for the scheduled frames holds
+ *    the whole tick (the plant's lockstep relies on it).
  *  - OP_COMMAND IDENTIFY (any state, no authentication, taken like a stop
  *    whatever its alive counter) is answered by one CTRL_IDENTITY on the
  *    next tick, or the one after when the next sends CTRL_AUTH (so that no
