@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: Apache-2.0
-"""What the bus tests share: the operator tool run as a process, the
+"""What the bus tests share: the operator tool (`stewart op`), the
 controller and the plant started in order, and a listener on the ops bus
 that cannot lose the frames a test counts.
 
@@ -43,16 +43,55 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 STEWART = [sys.executable, "-m", "stewart.cli"]
 
 
-def op(*args, check: int | None = None, timeout: float = 120, prefix: Iterable[str] = ()):
-    """`stewart op ARGS` as its own process (printed, no traceback allowed;
-    `check`: the exit code it must have)."""
-    r = subprocess.run([*prefix, *STEWART, "op", *map(str, args)], capture_output=True, text=True, timeout=timeout,
-                       cwd=REPO_ROOT)
-    print(f"$ stewart op {' '.join(map(str, args))} -> {r.returncode}\n{r.stdout}{r.stderr}")
+def op(*args, check: int | None = None, timeout: float = 120, prefix: Iterable[str] = (),
+       process: bool = True):
+    """`stewart op ARGS`, printed with its exit code and time; no traceback
+    allowed; `check`: the exit code it must have. As a process of its own,
+    or with `process=False` the CLI's entry point (stewart.cli.main: the
+    installed command's argument parsing and command code, its own bus
+    socket and node) in this process: a new Python costs seconds of CPU
+    inside user-mode Linux (the operator session's 35 commands took 6
+    minutes as processes, 1 in process). Not for a test that keeps its own
+    readers in this process: they share the interpreter with the command's
+    and fall seconds behind the 1 kHz status (the auth test's listener
+    lost 10 s during an in-process `op stream`). `timeout` bounds a process
+    only (each command has its own)."""
+    t0 = time.monotonic()
+    argv = ["op", *map(str, args)]
+    if process or prefix:
+        r = subprocess.run([*prefix, *STEWART, *argv], capture_output=True, text=True, timeout=timeout,
+                           cwd=REPO_ROOT)
+    else:
+        r = _in_process(argv)
+    print(f"$ stewart op {' '.join(map(str, args))} -> {r.returncode} in {time.monotonic() - t0:.1f} s"
+          f"{'' if process or prefix else ' (in process)'}\n{r.stdout}{r.stderr}")
     if check is not None:
         assert r.returncode == check, r.stderr
     assert "Traceback" not in r.stderr
     return r
+
+
+def _in_process(argv: list[str]) -> subprocess.CompletedProcess:
+    """stewart.cli.main(argv) here, its stdout and stderr captured, its
+    exit code as a process's (SystemExit from argparse included; an
+    exception becomes exit 1 and its traceback on stderr)."""
+    import io
+    import traceback
+
+    from stewart import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            rc = cli.main(argv)
+        except SystemExit as e:
+            rc = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
+            if not isinstance(e.code, (int, type(None))):
+                print(e.code, file=sys.stderr)
+        except Exception:  # noqa: BLE001 - reported as a process would: a traceback, exit 1
+            traceback.print_exc()
+            rc = 1
+    return subprocess.CompletedProcess(argv, rc, out.getvalue(), err.getvalue())
 
 
 def wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: float = 30.0) -> None:

@@ -50,8 +50,9 @@ LATENCY_TICKS = 3            # the issue's bound: state change at most 3 ticks a
 HOME_MM = 1.0                # back at home after a stream, per axis (mm / mrad)
 
 
-def op(*args, timeout=120, check=None):
-    return busrig.op(*args, timeout=timeout, check=check, prefix=PREFIX)
+def op(*args, timeout=120, check=None, process=False):
+    """`stewart op` in this process (busrig.op: no reader of this test's shares it) or as a process."""
+    return busrig.op(*args, timeout=timeout, check=check, prefix=PREFIX, process=process)
 
 
 def status():
@@ -146,7 +147,9 @@ def test_operator_session(rig, tmp_path):
     # -- identify: this build's version, the host port, the tools' own DBC
     from stewart import __version__
 
-    ident = json.loads(op("identify", "--json", check=0).stdout)
+    # (as a process of its own: the installed entry point; the other one-shot commands run the
+    # same entry point in this process, busrig.op, and the motions below are processes)
+    ident = json.loads(op("identify", "--json", check=0, process=True).stdout)
     assert (ident["version"], ident["port"], ident["same_protocol"]) == (__version__, "HOST", True)
 
     # -- engage; a second ENGAGE is refused with the reason and exit 1

@@ -347,6 +347,7 @@ class OperatorNode:
         self._identity_seq = 0                 # CTRL_IDENTITY frames received
         self.frames: dict | None = None        # the last CTRL_FRAMES
         self._frames_seq = 0                   # CTRL_FRAMES frames received
+        self._frames_stamp = 0.0               # when the last one reached the socket (time.time())
         self.reach_answers: dict[int, dict] = {}  # CTRL_REACH by Sequence
         self._reach_next = 0
         self.counters = Counters()
@@ -597,7 +598,7 @@ class OperatorNode:
         elif r is self._reach_r:
             self._take_reach(f, w)
         elif r is self._frames_r:
-            self._take_frames(f, w)
+            self._take_frames(f, w, float(msg.timestamp) if msg.timestamp else time.time())
         else:
             self.wrench = {"tick": f["Tick"].raw(w), "valid": bool(f["Valid"].raw(w)),
                            "wrench": [f[n].value(w) for n in pr.WRENCH_SIGNALS]}
@@ -622,7 +623,7 @@ class OperatorNode:
             self.reach_answers[a["sequence"]] = a
             self._cond.notify_all()
 
-    def _take_frames(self, f: dict, w: int) -> None:
+    def _take_frames(self, f: dict, w: int, stamp: float) -> None:
         reasons = pr.value_names("CTRL_FRAMES", "LastRefusal")
         lr = f["LastRefusal"].raw(w)
         fr = {"tool": f["ToolIndex"].raw(w), "work": f["WorkIndex"].raw(w), "identity": bool(f["Identity"].raw(w)),
@@ -631,14 +632,18 @@ class OperatorNode:
         with self._cond:
             self.frames = fr
             self._frames_seq += 1
+            self._frames_stamp = stamp
             self._cond.notify_all()
 
     def wait_frames(self, timeout: float = 2.0, after: int | None = None) -> dict:
-        """The first CTRL_FRAMES received after the call (or after count ``after``)."""
-        end = time.monotonic() + timeout
+        """The first CTRL_FRAMES that reached the socket after the call (its
+        kernel time stamp: a reader behind on a loaded machine still holds
+        older ones in its queue, which are passed over), or the first after
+        count ``after``."""
+        now, end = time.time(), time.monotonic() + timeout
         with self._cond:
             seen = self._frames_seq if after is None else after
-            while self._frames_seq <= seen:
+            while self._frames_seq <= seen or (after is None and self._frames_stamp < now):
                 left = end - time.monotonic()
                 if left <= 0 or self.rx_error:
                     raise NoAnswer(f"no CTRL_FRAMES from the controller within {timeout:g} s "
