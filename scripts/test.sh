@@ -44,7 +44,7 @@ trap finish EXIT
 bus_tests() {
   # 2 GiB: the identification test decodes a 30 s CAN log inside the UML (~0.4 GB);
   # 1800 s: a bound, not an estimate (a slow shared machine took 26 minutes)
-  exec .venv/bin/stewart vcan --fd --mem 2G --timeout 1800 -- .venv/bin/pytest -q tests/bus
+  exec .venv/bin/stewart vcan --fd --mem 2G --timeout 1800 -- .venv/bin/pytest -q --durations=12 tests/bus
 }
 
 run_stage "set-up" scripts/setup.sh

@@ -139,6 +139,7 @@
 #include "sp/link/node.h"
 #include "host_os.h"
 #include "socketcan.h"
+#include "scenario_plant.h"
 
 #define RX_BUF 64
 
@@ -611,21 +612,13 @@ static void action_wrench(sim_t *s, const hs_action_t *a, uint64_t tick)
 /* Scenario `contact`. 0 done, 2 refused. */
 static int action_contact(sim_t *s, const hs_action_t *a, uint64_t tick)
 {
-    hs_contact_t c;
-    memset(&c, 0, sizeof c);
-    c.kind = (a->contact.kind == 1) ? HS_CONTACT_PLANE : (a->contact.kind == 2) ? HS_CONTACT_POINT : HS_CONTACT_NONE;
-    memcpy(c.point, a->contact.point, sizeof c.point);
-    memcpy(c.normal, a->contact.normal, sizeof c.normal);
-    memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
-    c.offset = a->contact.offset;
-    c.stiffness = a->contact.stiffness;
-    c.damping = a->contact.damping;
-    hs_status_t st = hs_plant_set_contact(&s->plant, &c);
+    double start_force = 0.0;
+    hs_status_t st = hs_scenario_set_contact(&s->plant, &a->contact, &start_force);
     if (st == HS_E_RANGE) {
         fprintf(stderr,
                 "hs_sim: scenario line %d: contact refused: it would push with %.0f kN the moment it is placed "
                 "(at most %.0f kN): place the surface at the platform's point, not through it\n",
-                a->line, hs_contact_start_force(&s->plant, &c) / 1000.0, HS_CONTACT_START_FORCE_MAX / 1000.0);
+                a->line, start_force / 1000.0, HS_CONTACT_START_FORCE_MAX / 1000.0);
         return 2;
     }
     if (st != HS_OK) {

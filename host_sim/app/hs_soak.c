@@ -50,6 +50,7 @@
 #include "hs/scenario.h"
 #include "sp/link/node.h"
 #include "host_os.h"
+#include "scenario_plant.h"
 #include "soak_check.h"
 #include "soak_gen.h"
 
@@ -261,14 +262,7 @@ static void act_push(soak_t *s, const hs_action_t *a)
 
 static int act_contact(soak_t *s, const hs_action_t *a)
 {
-    hs_contact_t c;
-    memset(&c, 0, sizeof c);
-    c.kind = (a->contact.kind == 1) ? HS_CONTACT_PLANE : (a->contact.kind == 2) ? HS_CONTACT_POINT : HS_CONTACT_NONE;
-    memcpy(c.point, a->contact.point, sizeof c.point);
-    memcpy(c.normal, a->contact.normal, sizeof c.normal);
-    memcpy(c.anchor, a->contact.anchor, sizeof c.anchor);
-    c.offset = a->contact.offset, c.stiffness = a->contact.stiffness, c.damping = a->contact.damping;
-    hs_status_t st = hs_plant_set_contact(&s->plant, &c);
+    hs_status_t st = hs_scenario_set_contact(&s->plant, &a->contact, NULL);
     if (st == HS_E_RANGE) { /* placed through the platform (a motion before ended elsewhere): refused, as
                                hs_sim refuses it, and counted; the episode goes on without it */
         s->contacts_refused++;

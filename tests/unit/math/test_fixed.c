@@ -514,6 +514,51 @@ static void test_lowpass_section30(void **state)
     }
 }
 
+/* sp_recip_div against the plain 64-bit division it replaces, bit for bit:
+ * divisors from 1 to 2^62 (log-spread: those below about 2^23 take the
+ * division path), numerators over [0, 2^31) and the edges, n at 2^31 and
+ * above clamped; bad divisors refused. */
+static void test_recip_div(void **state)
+{
+    static const int64_t edge_d[] = {1,
+                                     3,
+                                     (INT64_C(1) << 23) - 1,
+                                     INT64_C(1) << 23,
+                                     (INT64_C(1) << 23) + 1,
+                                     6 * 9395240,
+                                     INT64_C(1) << 40,
+                                     (INT64_C(1) << 62) - 1};
+    static const uint32_t edge_n[] = {0u, 1u, 6u, 0x7FFFFFFFu, 0x7FFFFFFEu, 0x80000000u, UINT32_MAX};
+    uint64_t rng = 12;
+    sp_recip_t rec;
+    unsigned fast = 0u;
+    (void)state;
+    assert_int_equal(sp_recip_prepare(0, &rec), SP_E_ARG);
+    assert_int_equal(sp_recip_div(5u, &rec), (int64_t)5 << 24); /* refused: divides by 1 */
+    assert_int_equal(sp_recip_prepare(-5, &rec), SP_E_ARG);
+    assert_int_equal(sp_recip_prepare(INT64_C(1) << 62, &rec), SP_E_ARG);
+    assert_int_equal(sp_recip_prepare(7, NULL), SP_E_ARG);
+    for (int i = 0; i < N_RANDOM; ++i) {
+        int e = i % (int)(sizeof edge_d / sizeof edge_d[0]);
+        int64_t d = (i < 64) ? edge_d[e] : (int64_t)(tu_next(&rng) >> (2u + (unsigned)(tu_next(&rng) % 62u)));
+        uint32_t n = (i < 64) ? edge_n[i % (int)(sizeof edge_n / sizeof edge_n[0])]
+                              : (uint32_t)(tu_next(&rng) >> (33u + (unsigned)(tu_next(&rng) % 31u)));
+        uint64_t nn = (n < 0x80000000u) ? n : 0x7FFFFFFFu;
+        if (d <= 0) {
+            d = 1;
+        }
+        assert_int_equal(sp_recip_prepare(d, &rec), SP_OK);
+        fast += (rec.r != 0u) ? 1u : 0u;
+        int64_t want = (int64_t)((nn << 24) / (uint64_t)d);
+        int64_t got = sp_recip_div(n, &rec);
+        if (got != want) {
+            fail_msg("recip_div(%lu, %lld) = %lld, want %lld (r %lu, shift %u)", (unsigned long)n, (long long)d,
+                     (long long)got, (long long)want, (unsigned long)rec.r, (unsigned)rec.shift);
+        }
+    }
+    assert_true(fast > (unsigned)N_RANDOM / 2u); /* most divisors above 2^23: the multiply path is what is tested */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -530,6 +575,7 @@ int main(void)
         cmocka_unit_test(test_mul64),
         cmocka_unit_test(test_div64),
         cmocka_unit_test(test_add64_narrow),
+        cmocka_unit_test(test_recip_div),
     };
     return cmocka_run_group_tests_name("fixed", tests, NULL, NULL);
 }

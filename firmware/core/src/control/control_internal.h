@@ -54,6 +54,10 @@ sp_status_t spi_move_plan_legs(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, con
  * leg beyond rate_max (less 1/64) (cmd_check.c). */
 void spi_stream_limits(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl);
 
+/* ctrl->rate_weight and ctrl->rate_grow for the active frames (after
+ * spi_cmd_prepare, whenever the frames change). */
+void spi_rate_prepare(sp_ctrl_t *ctrl);
+
 /* The tool pose of the position reference's pose (frames not identity):
  * ctrl->ready_tool when it is kept for that pose, else
  * sp_frames_from_platform's (not kept: ctrl is const). Errors as there. */

@@ -329,6 +329,7 @@ static sp_status_t activate_frames(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
         (void)sp_frames_prepare(NULL, NULL, &ctrl->frames);
     }
     ctrl->frames_crc = sp_frames_checksum(&ctrl->frames);
+    spi_rate_prepare(ctrl);
     ctrl->ref_keep.valid = 0u; /* the kept orientations belong to the old frames */
     ctrl->target_keep.valid = 0u;
     ctrl->ready_valid = 0u;

@@ -508,3 +508,48 @@ int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags)
     }
     return sat_signed_mag(q, neg, flags);
 }
+
+sp_status_t sp_recip_prepare(int64_t d, sp_recip_t *rec)
+{
+    sp_status_t st = SP_E_ARG;
+    unsigned s;
+    if (rec != NULL) {
+        rec->d = 1;
+        rec->r = 0u;
+        rec->shift = 31u;
+        if ((d > 0) && (d < (INT64_C(1) << 62))) {
+            rec->d = d;
+            for (s = 39u; s >= 31u; --s) { /* 2^(24 + s) <= 2^63: no overflow */
+                uint64_t r = (UINT64_C(1) << (24u + s)) / (uint64_t)d;
+                if (r <= (uint64_t)UINT32_MAX) {
+                    rec->r = (uint32_t)r;
+                    rec->shift = (uint8_t)s;
+                    break;
+                }
+            }
+            st = SP_OK;
+        }
+    }
+    return st;
+}
+
+/* With N = n 2^24 and E = floor(N / d): r <= 2^(24+s) / d gives
+ * q = floor(n r / 2^s) <= E, and r > 2^(24+s) / d - 1 gives n r / 2^s >
+ * N / d - n / 2^s > N / d - 1 (n < 2^31 <= 2^s): q is E or E - 1, and
+ * E exactly when (q + 1) d > N. (q + 1) d <= N + d < 2^55 + 2^62. */
+int64_t sp_recip_div(uint32_t n, const sp_recip_t *rec)
+{
+    uint64_t nn = (n <= (uint32_t)INT32_MAX) ? (uint64_t)n : (uint64_t)INT32_MAX;
+    uint64_t num = nn << 24;
+    uint64_t d = (rec->d > 0) ? (uint64_t)rec->d : 1u; /* a structure never prepared: divide by 1 */
+    uint64_t q;
+    if (rec->r == 0u) {
+        q = num / d;
+    } else {
+        q = (nn * rec->r) >> rec->shift;
+        if (((q + 1u) * d) <= num) {
+            q += 1u;
+        }
+    }
+    return (int64_t)q;
+}

@@ -552,6 +552,11 @@ typedef struct {
     sp_frames_t frames;
     sp_frame_slots_t slots;             /**< the slots (from cfg->frames at init, SET changes one) */
     uint32_t frames_crc;                /**< sp_frames_checksum(&frames), made when they change */
+    int64_t rate_weight;                /**< the legs' rate bound's weight on the angle rates: prep.arm_max
+                                             plus the tool point's distance from o' (rounded up), m, Q24,
+                                             below 2^27; made when the frames change (spi_rate_prepare) */
+    sp_recip_t rate_grow;               /**< 6 rate_weight prepared for sp_recip_div: the stream filter's
+                                             growth of an angle rate, each STREAM tick without a division */
     sp_motion_t tool_ref;               /**< RUNNING with frames: the motion generator's reference, a tool motion */
     sp_pose_t tool_home;                /**< the tool pose of the platform's home (RUN_TRIG's centre, STREAM's end) */
     sp_pose_t stream_platform;          /**< STREAM with frames: the platform pose of the streamed target in force */

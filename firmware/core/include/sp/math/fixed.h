@@ -210,6 +210,33 @@ int64_t sp_mul64(int64_t x, int32_t k, unsigned shift, sp_flags_t *flags);
  */
 int64_t sp_div64(int64_t num, int32_t den, unsigned shift, sp_flags_t *flags);
 
+/**
+ * A divisor prepared for sp_recip_div: d itself and r = floor(2^(24 + shift)
+ * / d), shift the largest in [31, 39] that keeps r below 2^32. r is 0 when
+ * no such shift exists (d at most about 2^23): sp_recip_div then divides.
+ */
+typedef struct {
+    int64_t d;     /**< the divisor, > 0 */
+    uint32_t r;    /**< floor(2^(24 + shift) / d); 0: sp_recip_div divides */
+    uint8_t shift; /**< 31..39 */
+} sp_recip_t;
+
+/**
+ * Prepares d (in (0, 2^62)) for sp_recip_div, with 64-bit divisions: for
+ * a divisor that changes seldom and a quotient wanted often. SP_E_ARG for
+ * d outside that range or rec NULL (rec, if given, then divides by 1).
+ */
+sp_status_t sp_recip_prepare(int64_t d, sp_recip_t *rec);
+
+/**
+ * floor(n 2^24 / d) for n in [0, 2^31) and rec prepared for d, exactly:
+ * one 32 x 32 multiply, a shift and one correcting step instead of a
+ * 64-bit division (a library call on a Cortex-M4). n 2^24 < 2^55 cannot
+ * overflow; n at 2^31 or above is taken as 2^31 - 1. The Q format is n's
+ * plus 24 less d's.
+ */
+int64_t sp_recip_div(uint32_t n, const sp_recip_t *rec);
+
 /** Narrow an int64 to int32 after a rounding right shift (0..62), saturating
  *  (SP_FLAG_OVERFLOW): sp_sat32(sp_rshift_round(v, shift)). */
 int32_t sp_narrow(int64_t v, unsigned shift, sp_flags_t *flags);
