@@ -1,8 +1,10 @@
 # SPDX-License-Identifier: Apache-2.0
 """Tool and work frames and the reach query over vcan (issue 31), against
 the simulated platform in lockstep: `stewart op frame` and `stewart op
-reach` as processes (their bad inputs refused with the reason, nothing
-moving), then an operator node in this process for the many queries:
+reach` (their bad inputs refused with the reason, nothing moving; the
+CLI's entry point in this process, then as processes once this module's
+own reader runs), then an operator node in this process for the many
+queries:
 
 - every reach query answered within 2 controller ticks on the bus (3
   statuses when it lands while a tick is under way): the order of
@@ -21,6 +23,7 @@ Run time: about 3 minutes in user-mode Linux on a loaded 2-core machine.
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 import time
@@ -131,26 +134,28 @@ def node(rig):
 
 
 def test_cli_bad_inputs_refused(rig):
-    busrig.op("engage", check=0)
-    r = busrig.op("frame", "tool", "set", "3", "3", "3", "0", "0", "0", "--slot", "2")
+    # the CLI in this process (busrig.op process=False): no reader of this module's runs yet
+    op = functools.partial(busrig.op, process=False)
+    op("engage", check=0)
+    r = op("frame", "tool", "set", "3", "3", "3", "0", "0", "0", "--slot", "2")
     assert r.returncode != 0 and "BadFrame" in r.stderr
-    r = busrig.op("frame", "work", "select", "3")
+    r = op("frame", "work", "select", "3")
     assert r.returncode != 0 and "EmptySlot" in r.stderr
-    r = busrig.op("reach", "0", "0", "nan", "0", "0", "0")
+    r = op("reach", "0", "0", "nan", "0", "0", "0")
     assert r.returncode == 2 and "not a finite number" in r.stdout
-    r = busrig.op("frame", "tool", "set", "0", "0", "inf", "0", "0", "0")
+    r = op("frame", "tool", "set", "0", "0", "inf", "0", "0", "0")
     assert r.returncode != 0 and "NotFinite" in r.stderr
-    r = busrig.op("frame", "tool", "select", "1", check=0)  # the config's "tip"
+    r = op("frame", "tool", "select", "1", check=0)  # the config's "tip"
     assert "tool 1" in r.stdout
-    r = busrig.op("reach", "0.15", "0", "2.6", "0", "0", "0")
+    r = op("reach", "0.15", "0", "2.6", "0", "0", "0")
     assert "reach:" in r.stdout
-    r = busrig.op("status", check=0)
+    r = op("status", check=0)
     assert "frames: tool 1, work 0" in r.stdout
     for needle in ("BadFrame 1", "EmptySlot 1", "NotFinite 2"):
         assert needle in r.stdout, needle  # each refusal counted once
-    r = busrig.op("move", "0.15", "0", "5", "0", "0", "0", "--frame", "1:0")  # beyond the workspace
+    r = op("move", "0.15", "0", "5", "0", "0", "0", "--frame", "1:0")  # beyond the workspace
     assert r.returncode != 0
-    busrig.op("frame", "tool", "select", "0", check=0)
+    op("frame", "tool", "select", "0", check=0)
 
 
 def _tool_home(node) -> list[float]:
