@@ -17,11 +17,6 @@
  * feed-forward's other terms. */
 #define FORCE_SHARE_SHIFT 1u
 
-static int64_t cmd_abs64(int64_t v)
-{
-    return (v < 0) ? -v : v;
-}
-
 /* A command's pose (the tool frame in the work frame) as the platform's
  * pose; 0 when the transform fails. The poses one check transforms share
  * their orientation in *keep (valid 0 at first): a trig's two ends on a
@@ -74,8 +69,8 @@ void spi_cmd_prepare(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
             continue;
         }
         for (i = 0u; i < SP_LEGS; ++i) {
-            int64_t per = cmd_abs64((int64_t)f1[i] - f0[i]); /* N per m/s^2, Q8 */
-            int64_t room = budget - cmd_abs64(f0[i]);
+            int64_t per = spi_abs64((int64_t)f1[i] - f0[i]); /* N per m/s^2, Q8 */
+            int64_t room = budget - spi_abs64(f0[i]);
             int64_t c = (room <= 0) ? 0 : ((per == 0) ? cap : (room << 24) / per);
             cap = (c < cap) ? c : cap;
         }
@@ -111,7 +106,7 @@ static uint8_t check_trig(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, co
     unsigned a = (unsigned)cmd->axis;
     uint32_t fade = cmd->fade_ticks ? cmd->fade_ticks : cfg->fade_ticks;
     uint64_t fade_us = (uint64_t)fade * cfg->tick_us;
-    int64_t amp = cmd_abs64(cmd->amplitude);
+    int64_t amp = spi_abs64(cmd->amplitude);
     int64_t w;
     int64_t r;
     int64_t reach;

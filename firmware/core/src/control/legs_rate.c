@@ -10,11 +10,6 @@
 
 #include "math/fixed_inline.h"
 
-static int64_t rate_abs64(int64_t v)
-{
-    return (v < 0) ? -v : v;
-}
-
 /* A leg's rate is n . (v + w x R a) (n the leg's unit direction, a its
  * platform joint), at most |v| + |w| |a|, and |w| <= |roll'| + |pitch'| +
  * |yaw'| (each Euler rate turns the platform about a unit axis): so
@@ -61,7 +56,7 @@ sp_status_t spi_move_plan_legs(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, con
     uint64_t sum = 0u; /* Q24 m: sum of |D| on x, y, z and w |D| on the angles, below 2^37 */
     unsigned a;
     for (a = 0u; a < 6u; ++a) {
-        d[a] = (uint64_t)rate_abs64(axis_value(to, a) - axis_value(from, a)); /* below 2^32 */
+        d[a] = (uint64_t)spi_abs64(axis_value(to, a) - axis_value(from, a)); /* below 2^32 */
         sum += (a < 3u) ? d[a] : ((d[a] * (uint64_t)w + ((UINT64_C(1) << 24) - 1u)) >> 24);
     }
     /* The quintic's peak speed 1.875 D / T on every axis at once: the
@@ -91,7 +86,7 @@ void spi_stream_limits(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     unsigned a;
     *lim = cfg->move;
     for (a = 0u; a < 6u; ++a) {
-        int64_t v = rate_abs64((int64_t)ctrl->stream.vq[a]); /* below 2^31 */
+        int64_t v = spi_abs64((int64_t)ctrl->stream.vq[a]); /* below 2^31 */
         used += (a < 3u) ? v : ((v * w + ((INT64_C(1) << 24) - 1)) >> 24);
     }
     /* each axis may grow its speed by a sixth of the room left (an angle:
@@ -104,7 +99,7 @@ void spi_stream_limits(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl)
     /* (room 2^24) / (6 w) exactly, room < 2^31 (sp_recip_div: no 64-bit division each tick) */
     grow[1] = (w > 0) ? sp_recip_div((uint32_t)room, &ctrl->rate_grow) : (int64_t)INT32_MAX;
     for (a = 0u; a < 6u; ++a) {
-        int64_t l = rate_abs64((int64_t)ctrl->stream.vq[a]) + grow[(a < 3u) ? 0u : 1u];
+        int64_t l = spi_abs64((int64_t)ctrl->stream.vq[a]) + grow[(a < 3u) ? 0u : 1u];
         if (l < (int64_t)lim->vel_max[a]) {
             lim->vel_max[a] = (sp_q24_t)l;
         }

@@ -402,4 +402,10 @@ SPI_INLINE int64_t spi_sub64(int64_t a, int64_t b, sp_flags_t *flags)
     return r;
 }
 
+/* |v| for v > INT64_MIN (the core's 64-bit intermediates stay far inside). */
+SPI_INLINE int64_t spi_abs64(int64_t v)
+{
+    return (v < 0) ? -v : v;
+}
+
 #endif /* SP_FIXED_INLINE_H */

@@ -37,19 +37,14 @@ static int32_t motion_axis(const sp_motion_t *m, unsigned k, int order)
     return (k < 3u) ? m->acc[k] : m->rpy_acc[k - 3u];
 }
 
-static int64_t stop_abs64(int64_t v)
-{
-    return (v < 0) ? -v : v;
-}
-
 /* Does a stop of T (s, Q24, at most 10 s) keep every axis's limits? */
 static int stop_fits(const sp_motion_t *from, const sp_stop_limits_t *lim, int64_t t_q24)
 {
     unsigned k;
     for (k = 0u; k < 6u; ++k) {
         unsigned g = (k < 3u) ? 0u : 1u;
-        int64_t v = stop_abs64(motion_axis(from, k, 1)); /* < 2^31 */
-        int64_t a = stop_abs64(motion_axis(from, k, 2));
+        int64_t v = spi_abs64(motion_axis(from, k, 1)); /* < 2^31 */
+        int64_t a = spi_abs64(motion_axis(from, k, 2));
         int64_t d = (int64_t)lim->decel[g] - a;
         int64_t jt2;
         if (d < lim->decel[g] / 4) {
