@@ -101,8 +101,9 @@ class Fake:
         if name == "ESTOP":
             self.state, self.faults, self.motion, self.force_mode = "ESTOP", self.faults | BIT["estop"], None, "OFF"
             return True
-        if name == "RESET" and st in ("FAULT", "ESTOP"):
-            self.faults, self.state = 0, "IDLE"
+        if name == "RESET" and st in ("FAULT", "ESTOP"):  # as the controller: RESET re-engages, home
+            self.faults, self.state = 0, "ENGAGING"
+            self._ramp(self.home, 0.4, "READY")
             return True
         if self.faults & BIT["operator_silent"] and name in ("ENGAGE", "RUN_TRIG", "MOVE_TO", "STREAM"):
             return False

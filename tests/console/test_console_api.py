@@ -51,7 +51,7 @@ def test_engage_run_stop_estop_reset(console):
     status, j = console.http("POST", "/api/estop", {}, client=observer)  # ESTOP from anyone
     assert status == 200 and j["state"] == "ESTOP", j
     status, j = console.http("POST", "/api/command", {"command": "reset"}, client=cid)
-    assert status == 200 and j["state"] == "IDLE", j
+    assert status == 200 and j["state"] == "READY", j  # RESET re-engages, as the controller does
 
 
 def test_observer_and_second_commander_are_refused(console):

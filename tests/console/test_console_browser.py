@@ -356,19 +356,18 @@ def _estop_and_fault(d, fake) -> None:
     wait_for(d, "ESTOP", state_is(d, "ESTOP"))
     d.save_screenshot(str(ART / "03-estop.png"))
     check(rx - clicked <= (150.0 if loaded() else 50.0), "ESTOP click to bus too long")
-    click(d, "reset", "reset")
-    wait_for(d, "IDLE after reset", state_is(d, "IDLE"))
+    click(d, "reset", "reset")  # RESET re-engages: the platform goes home, READY
+    wait_for(d, "READY after reset", state_is(d, "READY"))
     fake.inject_fault()
     wait_for(d, "fault shown", lambda: "drive" in d.find_element("id", "faults").text)
     d.save_screenshot(str(ART / "04-fault.png"))
     fake.clear_fault()
     click(d, "reset", "reset")
-    wait_for(d, "fault reset", lambda: state_is(d, "IDLE")() and d.find_element("id", "faults").text == "")
+    wait_for(d, "fault reset", lambda: state_is(d, "READY")() and d.find_element("id", "faults").text == "")
 
 
 def _force_hold(d) -> None:
-    cmd(d, "engage")
-    wait_for(d, "READY", state_is(d, "READY"))
+    wait_for(d, "READY", state_is(d, "READY"))  # the fault's RESET re-engaged
     d.find_element("id", "ft-z").clear()
     d.find_element("id", "ft-z").send_keys("-400")
     assert "refused" not in click(d, "force", "force")
@@ -462,8 +461,7 @@ def _kill_server_while_running(fake, con, port, tmp, ini) -> None:
     cid = post("/api/session", {"name": "script"})["client"]
     post("/api/control", {"action": "claim"}, cid)
     post("/api/estop", {}, cid)  # then reset: clears the operator-silent latch of the browser's close
-    post("/api/command", {"command": "reset"}, cid)
-    post("/api/command", {"command": "engage"}, cid)
+    post("/api/command", {"command": "reset"}, cid)  # re-engages: READY
     end = time.monotonic() + 5
     while post("/api/control", {"action": "keepalive"}, cid) and time.monotonic() < end:
         try:
