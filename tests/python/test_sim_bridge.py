@@ -2,7 +2,7 @@
 """The parts of `stewart sim` that need no bus: the link's lines, the raw
 SocketCAN frame layout, and the socketcand server against python-can's own
 socketcand client (64-byte frames both ways, whole blocks, the sender's
-time stamps held back until its frame is on the bus, bad input counted).
+time stamps held back until its command is on the bus, bad input counted).
 A few seconds (22 s at a load average of 20 on 2 cores)."""
 
 from __future__ import annotations
@@ -115,12 +115,23 @@ def test_a_senders_view_holds_back_what_preceded_its_frame(server):
     other = _client(b)
     try:
         _wait(lambda: len([c for c in b.clients if c.raw]) == 2)
-        before = time.time()
-        bus.send(can.Message(arbitration_id=0x41, data=b"\x01" * 8, is_extended_id=False))
+        # a heartbeat is answered by nothing: no stamp is held back for it
+        bus.send(can.Message(arbitration_id=0x60, data=b"\x01" * 4, is_extended_id=False))
         _wait(lambda: len(sim.sent) == 1)
-        seen_by_other = other.recv(2.0)  # the other client hears the frame, not its sender
-        assert seen_by_other.arbitration_id == 0x41
+        assert other.recv(2.0).arbitration_id == 0x60
         client = sim.sent[0][1]
+        now = time.time()
+        b.deliver([wire.Frame(0, 0x100, wire.FD, b"\x04" * 16, now)])  # before the heartbeat is on the bus
+        assert bus.recv(2.0).timestamp == pytest.approx(now)
+        assert other.recv(2.0).timestamp == pytest.approx(now)
+        b.on_bus(client, now + 0.001)
+        assert client.sends == [], "an acknowledged heartbeat is forgotten"
+        # a command (OP_COMMAND, an event frame) is answered: what preceded it is held back
+        before = time.time()
+        bus.send(can.Message(arbitration_id=0x40, data=b"\x01" * 20, is_extended_id=False, is_fd=True))
+        _wait(lambda: len(sim.sent) == 2)
+        seen_by_other = other.recv(2.0)  # the other client hears the frame, not its sender
+        assert seen_by_other.arbitration_id == 0x40
         now = time.time()
         b.deliver([wire.Frame(0, 0x100, wire.FD, b"\x02" * 16, now)])  # before the frame is on the bus
         early = bus.recv(2.0)

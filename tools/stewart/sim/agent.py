@@ -108,33 +108,82 @@ class Link:
 
 class Relay:
     """A raw socket per bus: frames from the host sent; on a subscribed
-    bus every frame read goes to the host."""
+    bus every frame read goes to the host.
+
+    Each frame from the host is acknowledged (``A BUS TIME``). On a
+    subscribed bus the socket reads its own frames back when they are on
+    the bus (CAN_RAW_RECV_OWN_MSGS), and the acknowledgement is queued
+    there, in the bus's order among the frames relayed: the relay may run
+    behind the bus (it yields to the 1 kHz pair), and an acknowledgement
+    sent when the frame was written would come before frames that were on
+    the bus before it. On a bus not subscribed (nothing relayed to order
+    against), and for a frame the bus refused, it is queued at once; a
+    frame not read back within ``CONFIRM_TIMEOUT`` s is acknowledged then
+    (counted)."""
+
+    CONFIRM_TIMEOUT = 1.0
 
     def __init__(self, link: Link):
         self.link = link
         self.socks = [wire.raw_socket(pr.BUSES[name]) for name in BUS_NAMES]
         for sock in self.socks:
             wire.set_receive(sock, False)
+            wire.receive_own(sock)
         self.subscribed = [False] * len(self.socks)
-        self.sent = self.relayed = self.send_errors = self.dropped = 0
+        #: per bus, the send times of the host's frames not read back yet
+        self.pending: list[list[float]] = [[] for _ in self.socks]
+        self._lock = threading.Lock()
+        self.sent = self.relayed = self.send_errors = self.dropped = self.unconfirmed = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, daemon=True)
         self._thread.start()
 
+    def _ack(self, bus: int) -> None:
+        self.link.send(f"A {bus} {time.time():.6f}\n")
+
     def subscribe(self, bus: int, on: bool) -> None:
         """Relays bus ``bus`` or not; an unsubscribed bus's socket takes no
         frame at all (a filter matching none): the axis buses carry about
-        5,000 frames a second each, not to be read for nothing."""
+        5,000 frames a second each, not to be read for nothing. Frames of
+        the host's not read back yet are acknowledged when it goes off."""
         if 0 <= bus < len(self.socks):
-            wire.set_receive(self.socks[bus], on)
-            self.subscribed[bus] = on
+            with self._lock:
+                wire.set_receive(self.socks[bus], on)
+                self.subscribed[bus] = on
+                if not on:
+                    for _ in self.pending[bus]:
+                        self._ack(bus)
+                    self.pending[bus].clear()
 
     def send(self, f: wire.Frame) -> None:
-        try:
-            self.socks[f.bus].send(wire.pack_raw(f))
-            self.sent += 1
-        except (OSError, wire.WireError):
-            self.send_errors += 1
+        """Puts ``f`` on its bus; its acknowledgement follows (see the class)."""
+        with self._lock:
+            try:
+                self.socks[f.bus].send(wire.pack_raw(f))
+                self.sent += 1
+            except (OSError, wire.WireError):
+                self.send_errors += 1
+                self._ack(f.bus)
+                return
+            if self.subscribed[f.bus]:
+                self.pending[f.bus].append(time.monotonic())
+            else:
+                self._ack(f.bus)
+
+    def _confirmed(self, bus: int) -> None:
+        with self._lock:
+            if self.pending[bus]:
+                self.pending[bus].pop(0)
+                self._ack(bus)
+
+    def _overdue(self) -> None:
+        old = time.monotonic() - self.CONFIRM_TIMEOUT
+        with self._lock:
+            for bus, waiting in enumerate(self.pending):
+                while waiting and waiting[0] < old:
+                    waiting.pop(0)
+                    self.unconfirmed += 1
+                    self._ack(bus)
 
     def _loop(self) -> None:
         while not self._stop.is_set():
@@ -144,9 +193,12 @@ class Relay:
                 bus = self.socks.index(s)
                 for _ in range(64):
                     try:
-                        raw = s.recv(72, socket_dontwait())
+                        raw, _, flags, _ = s.recvmsg(72, 0, socket_dontwait())
                     except (BlockingIOError, InterruptedError):
                         break
+                    if flags & wire.MSG_CONFIRM:  # the host's own frame, now on the bus
+                        self._confirmed(bus)
+                        continue
                     if self.subscribed[bus]:
                         f = wire.unpack_raw(bus, raw, now)
                         if f is None:
@@ -155,6 +207,7 @@ class Relay:
                             self.relayed += 1
                         else:
                             self.dropped += 1
+            self._overdue()
 
     def close(self) -> None:
         self._stop.set()
@@ -228,10 +281,12 @@ def serve(link: Link, plant: Plant, relay: Relay) -> dict:
         kind = words[0]
         if kind == "F":
             try:
-                relay.send(wire.parse_frame(line.split()[1:]))
-            except wire.WireError:
+                f = wire.parse_frame(line.split()[1:])
+            except wire.WireError:  # the host sends only frames it parsed: the line was damaged
                 relay.send_errors += 1
-            link.send(f"A {time.time():.6f}\n")  # on the bus (or refused) by now
+                link.send(f"A -1 {time.time():.6f}\n")
+                continue
+            relay.send(f)
         elif kind == "SUB" and len(words) == 3:
             relay.subscribe(int(words[1]) if words[1].isdigit() else -1, words[2] == "1")
         elif kind == "C" and len(words) == 3:
@@ -256,7 +311,7 @@ def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
     if op == "status":
         st = plant.status()
         st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
-                       "dropped": relay.dropped, "subscribed": [BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on]}
+                       "dropped": relay.dropped, "unconfirmed": relay.unconfirmed, "subscribed": [BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on]}
         return dict(st, ok=True), False
     if op == "stop":
         return {"ok": True, "answer": "stopping"}, True
@@ -266,7 +321,7 @@ def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
 def final(plant: Plant, relay: Relay) -> dict:
     st = plant.stop()
     st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
-                   "dropped": relay.dropped}
+                   "dropped": relay.dropped, "unconfirmed": relay.unconfirmed}
     st["tails"] = {k: list(v)[-12:] for k, v in plant.tails.items()}
     return st
 

@@ -31,7 +31,11 @@ user-mode Linux: milliseconds, seconds on a starved machine); the frames
 the bus carried before it arrived are stamped, for that client, before its
 send (HOLD_BACK seconds before the server had it). So a program that
 counts the answers stamped after its send (``stewart op`` does) counts
-none that came before its frame was on the bus.
+none that came before its frame was on the bus. Only frames that are
+answered hold stamps back: those the DBC sends on an event (commands,
+frames, reach queries). A heartbeat or a streamed target is answered by
+nothing; had they held stamps back, a client that sends one every 20 ms
+(the console) would see every frame two seconds old, its answers too.
 """
 
 from __future__ import annotations
@@ -50,6 +54,8 @@ CLIENT_QUEUE_BYTES = 4 << 20
 #: How far before the server had a client's frame the frames that preceded
 #: it on the bus are stamped for that client, s.
 HOLD_BACK = 2.0
+#: IDs of the frames a client may wait an answer to: the DBC's event frames.
+ANSWERED_IDS = frozenset(m.frame_id for m in pr.Protocol().db.messages if m.send_type == "Event")
 _CHANNELS = {**{v: i for i, v in enumerate(pr.BUSES.values())}, **{k: i for i, k in enumerate(pr.BUSES)}}
 
 
@@ -115,15 +121,19 @@ class Client:
         self._queued = 0
         self._cond = threading.Condition()
         self._closed = False
-        #: its frames sent: [time the server had it, time on the bus (None: not yet)]
+        #: its frames sent, in order: [time the server had it, time on the
+        #: bus (None: not yet), whether it is answered (ANSWERED_IDS)]
         self.sends: list[list] = []
+
+    def holds_back(self) -> bool:
+        return any(answered for _, _, answered in self.sends)
 
     def stamp(self, t: float) -> float:
         """The time stamp of a frame of bus time ``t`` for this client: held
-        back before its sends that were not on the bus yet at ``t``."""
+        back before its answered sends that were not on the bus yet at ``t``."""
         s = t
-        for had, on_bus in self.sends:
-            if on_bus is None or t < on_bus:
+        for had, on_bus, answered in self.sends:
+            if answered and (on_bus is None or t < on_bus):
                 s = min(s, had - HOLD_BACK)
         if self.sends and self.sends[0][1] is not None and t - self.sends[0][1] > 0.5:
             self.sends = [x for x in self.sends if x[1] is None or t - x[1] <= 0.5]
@@ -200,7 +210,7 @@ class Bridge:
         with self.lock:
             targets = [c for c in self.clients if c.raw and c.bus in parts and c is not skip]
             for c in targets:
-                if c.sends:
+                if c.holds_back():
                     c.push([format_frame(f, c.stamp(f.time)) for f in frames if f.bus == c.bus])
                 else:
                     c.push(parts[c.bus])
@@ -211,7 +221,7 @@ class Bridge:
         with self.lock:
             for entry in c.sends:
                 if entry[1] is None:
-                    if t is None:
+                    if t is None or not entry[2]:  # dropped, or no answer to tell from what came before
                         c.sends.remove(entry)
                     else:
                         entry[1] = t
@@ -281,7 +291,7 @@ class Bridge:
                 self.bad += 1  # counted, not answered: python-can's client takes any "< error" for a frame
                 return
             with self.lock:
-                c.sends.append([time.time(), None])
+                c.sends.append([time.time(), None, f.can_id in ANSWERED_IDS])
             self.send_frame(f, c)
             self.deliver([f], skip=c)
         elif cmd == "echo":

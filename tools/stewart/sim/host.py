@@ -127,7 +127,7 @@ class Host:
         self.stop_asked = threading.Event()
         self.out: LinkOut | None = None
         self.sub_gen: dict[int, int] = {}
-        self.sent_order: collections.deque = collections.deque()  # the client of each frame sent
+        self.sent_order: collections.deque = collections.deque()  # (bus, client) of each frame sent
         self.exit_status: int | None = None
         self.link_closed = False
 
@@ -262,7 +262,7 @@ class Host:
         assert self.out is not None and self.bridge is not None
         with self.cond:  # the agent acknowledges the frames in the order they are queued
             if self.out.put(wire.frame_line(f, with_time=False), droppable=True):
-                self.sent_order.append(client)
+                self.sent_order.append((f.bus, client))
                 return
         self.bridge.on_bus(client, None)
 
@@ -320,7 +320,8 @@ class Host:
             frames.append(f)
             return
         if kind == "A":
-            self._acknowledged(now, frames)
+            bus = rest.split()[0] if rest else ""
+            self._acknowledged(int(bus) if bus.lstrip("-").isdigit() else -1, now, frames)
             return
         with self.cond:
             if kind == "R":
@@ -334,11 +335,17 @@ class Host:
                 print(f"stewart sim: {_json(rest).get('text', rest)}", file=sys.stderr)
             self.cond.notify_all()
 
-    def _acknowledged(self, t: float, frames: list) -> None:
-        """A frame of a client is on the bus: what came before it goes out
-        first (stamped for that client as before its send)."""
+    def _acknowledged(self, bus: int, t: float, frames: list) -> None:
+        """The oldest frame sent to bus ``bus`` (-1: whichever is oldest) is
+        on it: what came before it goes out first (stamped for its client as
+        before its send)."""
+        client = None
         with self.cond:
-            client = self.sent_order.popleft() if self.sent_order else None
+            for i, (b, c) in enumerate(self.sent_order):
+                if bus in (b, -1):
+                    client = c
+                    del self.sent_order[i]
+                    break
         if client is None or self.bridge is None:
             return
         if frames:

@@ -17,9 +17,13 @@ One message a line, the first word its kind:
 ``C N JSON`` / ``R N JSON``
     a control request (``{"op": "inject", "line": ...}``, ``{"op":
     "status"}``, ``{"op": "stop"}``) and its reply, matched by N.
-``A TIME``
-    (agent to host) the host's frame before it is on the bus since TIME
-    (one for each ``F`` line the agent got, in order).
+``A BUS TIME``
+    (agent to host) the host's oldest frame for bus BUS not acknowledged yet
+    is on that bus since TIME, or was refused (one for each ``F`` line the
+    agent got, in order per bus). On a bus the host listens to, the ``A``
+    comes in the bus's order among its ``F`` lines: every frame relayed
+    before it was on the bus before the host's frame, every one after it
+    came later.
 ``READY JSON`` / ``BYE JSON`` / ``L TEXT``
     (agent to host) the simulation runs (what it runs); it has ended (the
     final figures); a line of its log.
@@ -117,6 +121,15 @@ def raw_socket(interface: str, rcvbuf: int = 8 << 20) -> socket.socket:
 
 
 _CAN_RAW_FILTER = 1
+_CAN_RAW_RECV_OWN_MSGS = 4
+#: recvmsg's flag on a frame this very socket sent (CAN_RAW_RECV_OWN_MSGS on).
+MSG_CONFIRM = getattr(socket, "MSG_CONFIRM", 0x800)
+
+
+def receive_own(s: socket.socket) -> None:
+    """Raw socket ``s`` also reads the frames it sends, when they are on the
+    bus (flagged MSG_CONFIRM), in the bus's order (when its filter takes them)."""
+    s.setsockopt(_SOL_CAN_RAW, _CAN_RAW_RECV_OWN_MSGS, 1)
 
 
 def set_receive(s: socket.socket, on: bool) -> None:
