@@ -216,6 +216,7 @@ class SimPlatform:
         self.contexts = ("ops", "axis_a,axis_b")
         self.key = Path(os.environ.get("STEWART_KEY") or self.run_dir / "machine.key")  # the sim's
         self.lines: queue.Queue = queue.Queue()
+        self.log = self.proc.log  # named in wait_line's message
         self._stop = threading.Event()
         threading.Thread(target=self._listen, daemon=True).start()
 
