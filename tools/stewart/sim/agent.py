@@ -209,6 +209,11 @@ class Relay:
                             self.dropped += 1
             self._overdue()
 
+    def figures(self) -> dict:
+        """The relay's counts, for ``status`` and the final figures."""
+        return {"to_host": self.relayed, "from_host": self.sent, "errors": self.send_errors,
+                "dropped": self.dropped, "unconfirmed": self.unconfirmed}
+
     def close(self) -> None:
         self._stop.set()
         self._thread.join(timeout=5)
@@ -310,8 +315,7 @@ def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
         return plant.inject(str(req.get("line", ""))), False
     if op == "status":
         st = plant.status()
-        st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
-                       "dropped": relay.dropped, "unconfirmed": relay.unconfirmed, "subscribed": [BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on]}
+        st["relay"] = dict(relay.figures(), subscribed=[BUS_NAMES[i] for i, on in enumerate(relay.subscribed) if on])
         return dict(st, ok=True), False
     if op == "stop":
         return {"ok": True, "answer": "stopping"}, True
@@ -320,8 +324,7 @@ def request(plant: Plant, relay: Relay, text: str) -> tuple[dict, bool]:
 
 def final(plant: Plant, relay: Relay) -> dict:
     st = plant.stop()
-    st["relay"] = {"to_host": relay.relayed, "from_host": relay.sent, "errors": relay.send_errors,
-                   "dropped": relay.dropped, "unconfirmed": relay.unconfirmed}
+    st["relay"] = relay.figures()
     st["tails"] = {k: list(v)[-12:] for k, v in plant.tails.items()}
     return st
 
