@@ -42,6 +42,26 @@ def test_raw_frames_pack_and_unpack():
     assert [wire.fd_length(n) for n in (0, 8, 9, 33, 64)] == [0, 8, 12, 48, 64]
 
 
+def test_batch_reader_takes_many_datagrams_in_one_call():
+    import socket
+
+    a, b = socket.socketpair(socket.AF_UNIX, socket.SOCK_DGRAM)
+    try:
+        reader = wire.BatchReader(b, batch=4)
+        assert reader.read() == []  # nothing waits: no block, no error
+        sent = [bytes([i]) * (16 if i % 2 else 72) for i in range(6)]
+        for d in sent:
+            a.send(d)
+        first, second = reader.read(), reader.read()
+        assert [raw for raw, _ in first] == sent[:4]  # at most a batch, in order, each its own length
+        assert [raw for raw, _ in second] == sent[4:]
+        assert all(flags == 0 for _, flags in first + second)
+        assert reader.read() == []
+    finally:
+        a.close()
+        b.close()
+
+
 def test_blocks_end_with_whole_messages():
     msgs = [br.format_frame(wire.Frame(0, 0x100 + i, wire.FD, bytes(64), 1.0)) for i in range(20)]
     out = br.blocks(msgs)

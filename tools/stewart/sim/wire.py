@@ -35,6 +35,7 @@ it (the agent puts its tty in raw mode anyway).
 from __future__ import annotations
 
 import json
+import os
 import socket
 import struct
 from dataclasses import dataclass
@@ -160,3 +161,52 @@ def pack_raw(f: Frame) -> bytes:
         return struct.pack("=IBBBB64s", can_id, n, CANFD_BRS if f.flags & BRS else 0, 0, 0,
                            f.data.ljust(n, b"\0"))
     return struct.pack("=IBBBB8s", can_id, len(f.data), 0, 0, 0, f.data)
+
+
+class BatchReader:
+    """Reads up to ``batch`` frames from a raw socket in one system call
+    (Linux's recvmmsg, through ctypes: Python's socket module has none).
+    Inside user-mode Linux a system call costs tens of microseconds of a
+    CPU the 1 kHz pair shares: the three buses carry about 13,000 frames a
+    second, one recvmsg each would take most of it."""
+
+    def __init__(self, sock: socket.socket, batch: int = 64):
+        import ctypes
+
+        class IoVec(ctypes.Structure):
+            _fields_ = [("base", ctypes.c_void_p), ("len", ctypes.c_size_t)]
+
+        class MsgHdr(ctypes.Structure):
+            _fields_ = [("name", ctypes.c_void_p), ("namelen", ctypes.c_uint32),
+                        ("iov", ctypes.POINTER(IoVec)), ("iovlen", ctypes.c_size_t),
+                        ("control", ctypes.c_void_p), ("controllen", ctypes.c_size_t),
+                        ("flags", ctypes.c_int)]
+
+        class MMsgHdr(ctypes.Structure):
+            _fields_ = [("hdr", MsgHdr), ("len", ctypes.c_uint)]
+
+        self._ctypes = ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        self._call = libc.recvmmsg
+        self._call.argtypes = [ctypes.c_int, ctypes.POINTER(MMsgHdr), ctypes.c_uint, ctypes.c_int, ctypes.c_void_p]
+        self._call.restype = ctypes.c_int
+        self.sock, self.batch = sock, batch
+        self._bufs = [ctypes.create_string_buffer(72) for _ in range(batch)]
+        self._iovs = (IoVec * batch)()
+        self._msgs = (MMsgHdr * batch)()
+        for i in range(batch):
+            self._iovs[i].base = ctypes.addressof(self._bufs[i])
+            self._iovs[i].len = 72
+            self._msgs[i].hdr.iov = ctypes.pointer(self._iovs[i])
+            self._msgs[i].hdr.iovlen = 1
+
+    def read(self) -> list[tuple[bytes, int]]:
+        """The frames waiting (at most ``batch``), each as (raw bytes,
+        recvmsg flags); none when nothing waits. OSError on a failure."""
+        n = self._call(self.sock.fileno(), self._msgs, self.batch, socket.MSG_DONTWAIT, None)
+        if n < 0:
+            err = self._ctypes.get_errno()
+            if err in (11, 4):  # EAGAIN, EINTR
+                return []
+            raise OSError(err, os.strerror(err))
+        return [(self._bufs[i].raw[:self._msgs[i].len], self._msgs[i].hdr.flags) for i in range(n)]
