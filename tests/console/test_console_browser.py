@@ -170,6 +170,11 @@ def cmd(d, name):
     return answered(d, name)
 
 
+#: The simulated platform's floor for the force hold: 2 mm below the tool
+#: point (o') at home (z 2.55 m, config/platform_default.json), stiff.
+SURFACE = "contact plane 0 0 1 2.548 0 0 0 stiffness=1e6 damping=1000"
+
+
 class FakePlatform(Proc):
     """The stand-in (fake_platform.py) on udp_multicast: it prints what it receives."""
 
@@ -189,6 +194,11 @@ class FakePlatform(Proc):
 
     def clear_fault(self):
         pass  # the stand-in's injected fault has no cause that stays
+
+    def place_surface(self):
+        pass  # the stand-in reports contact on FORCE by itself
+
+    remove_surface = place_surface
 
     def close(self):
         self.p.stdin.write("quit\n")
@@ -251,11 +261,24 @@ class SimPlatform:
     drain = Proc.drain
 
     def inject_fault(self, line="inject drive 3 fault 4"):
-        subprocess.run([str(ROOT / ".venv" / "bin" / "stewart"), "sim", "inject", "--run-dir", str(self.run_dir),
-                        line], check=True, timeout=30)
+        """A scenario line played at once: `stewart sim inject`'s request,
+        from this process (a new Python process's start-up takes a core for
+        a second, which the user-mode Linux's 1 kHz pair misses)."""
+        from stewart.sim import control
+
+        reply = control.call(self.run_dir / "control.sock", {"op": "inject", "line": line})
+        assert reply.get("ok"), f"inject {line!r}: {reply}"
 
     def clear_fault(self):
         self.inject_fault("inject clear")
+
+    def place_surface(self):
+        """A stiff floor 2 mm below the tool point at home (the controller's
+        FORCE on -z presses on it): the simulated platform needs something to push."""
+        self.inject_fault(SURFACE)
+
+    def remove_surface(self):
+        self.inject_fault("contact off")
 
     def close(self):
         if hasattr(self, "_stop"):
@@ -367,8 +390,12 @@ def _estop_and_fault(d, fake) -> None:
     wait_for(d, "fault reset", lambda: state_is(d, "READY")() and d.find_element("id", "faults").text == "")
 
 
-def _force_hold(d) -> None:
+def _force_hold(d, plat) -> None:
     wait_for(d, "READY", state_is(d, "READY"))  # the fault's RESET re-engaged
+    assert "refused" not in cmd(d, "tare")
+    time.sleep(1.0)  # the controller's 500 readings at 1 kHz, and some
+    plat.place_surface()
+    wait_for(d, "the controller heard", lambda: d.find_element("id", "bus").text == "")
     d.find_element("id", "ft-z").clear()
     d.find_element("id", "ft-z").send_keys("-400")
     assert "refused" not in click(d, "force", "force")
@@ -376,6 +403,7 @@ def _force_hold(d) -> None:
     d.save_screenshot(str(ART / "05-force.png"))
     cmd(d, "position")
     wait_for(d, "position control", lambda: d.find_element("id", "forcemode").text == "")
+    plat.remove_surface()
 
 
 def _start_recording(d) -> None:
@@ -396,7 +424,10 @@ def _download_recording(d, download: Path) -> None:
     got = wait_for(d, "download", lambda: [p for p in download.glob("*bus.log") if p.stat().st_size > 0], 10)
     lines = got[0].read_text().splitlines()
     FIGURES["recording_frames"] = len(lines)
-    assert len(lines) > 1000 and " vcan0 100##" in lines[len(lines) // 2] + "".join(lines[:50])
+    assert len(lines) > 1000, f"the recording holds {len(lines)} frames"
+    assert any(" vcan0 100##" in line for line in lines), "no CTRL_STATUS (ops 0x100) in the recording"
+    assert all(any(f" {bus} " in line for line in lines) for bus in ("vcan0", "vcan1", "vcan2")), \
+        "the recording lacks a bus"
     wait_for(d, "analysis", lambda: d.find_elements("link text", "CSV"), 90)
     d.save_screenshot(str(ART / "06-recording.png"))
 
@@ -435,7 +466,7 @@ def test_console_in_chromium(rig):
         _streaming_figures(d, con, port)
         _estop_and_fault(d, fake)
         _stop_recording(d)
-        _force_hold(d)
+        _force_hold(d, fake)
         _download_recording(d, download)
         _close_browser_while_running(d, fake)
     finally:
