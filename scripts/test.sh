@@ -8,7 +8,8 @@
 # Two lanes share the machine's two cores: the bus tests run inside
 # user-mode Linux, which uses one core whatever it runs, so they start as
 # soon as the host-release build and the venv are there and run beside the
-# rest (the real-time simulator's tests run just before they start). Every
+# rest (the real-time simulator's tests, and the console's browser test
+# against it, run just before they start). Every
 # test stage runs even when one before it failed; the exit
 # status is 1 if any failed. The end of the output is the bus tests' output
 # and a table of each stage's wall time.
@@ -58,6 +59,8 @@ run_stage "build: host-release" scripts/build.sh host-release
 # tests' one its relaxed watchdogs still tripped (a drive fault, CI)
 run_stage "pytest: the real-time simulator (tests/python/test_sim.py), before the bus tests start" \
   .venv/bin/pytest -q tests/python/test_sim.py
+run_stage "the console in headless Chromium against stewart sim, before the bus tests start" \
+  env STEWART_CONSOLE_TEST_PLATFORM=sim .venv/bin/pytest -q tests/console/test_console_browser.py
 
 bus_t0=$SECONDS
 (bus_tests >"$logs/bus.txt" 2>&1) &

@@ -4,12 +4,16 @@ with Debian's chromedriver; no browser is downloaded) against a platform in
 another process: engage, the paper's motion, stop, ESTOP and reset, a fault
 injected and reset, a force hold, a recording downloaded; then the browser
 closed, and the server killed, while RUNNING. The figures are asserted and
-written, with the screenshots, to build/artifacts/console/.
+written, with the screenshots, to build/artifacts/console/ (console-sim/
+against the simulated platform).
 
-The platform is the stand-in (fake_platform.py) on python-can's
-``udp_multicast`` interface, which crosses processes like the buses of
-`stewart sim` will; the console runs as `stewart console`, its own
-process, so that its CPU time is its own."""
+Two platforms: by default the stand-in (fake_platform.py) on python-can's
+``udp_multicast`` interface, which crosses processes as the buses of
+`stewart sim` do; with STEWART_CONSOLE_TEST_PLATFORM=sim, `stewart sim`
+itself (the controller and the plant in real time inside user-mode Linux,
+its buses over socketcand), which the test command runs before the bus
+tests start. The console runs as `stewart console`, its own process, so
+that its CPU time is its own."""
 
 from __future__ import annotations
 
@@ -29,7 +33,9 @@ import pytest
 from conftest import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
-ART = ROOT / "build" / "artifacts" / "console"
+SIM = os.environ.get("STEWART_CONSOLE_TEST_PLATFORM") == "sim"
+#: screenshots, logs and figures.json; against the simulated platform apart
+ART = ROOT / "build" / "artifacts" / ("console-sim" if SIM else "console")
 CHROMIUM, DRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 BUNDLE = ROOT / "tools" / "stewart" / "console" / "static" / "dist" / "app.js"
 
@@ -293,8 +299,7 @@ class SimPlatform:
 def rig(tmp_path):
     shutil.rmtree(ART, ignore_errors=True)
     ART.mkdir(parents=True)
-    sim = os.environ.get("STEWART_CONSOLE_TEST_PLATFORM") == "sim"
-    plat = SimPlatform(tmp_path) if sim else FakePlatform(tmp_path)
+    plat = SimPlatform(tmp_path) if SIM else FakePlatform(tmp_path)
     port = free_port()
     con = start_console(tmp_path, plat, port)
     yield plat, con, port, tmp_path, plat.ini

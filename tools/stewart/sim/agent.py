@@ -240,6 +240,23 @@ def may_use_realtime() -> bool:
         return False
 
 
+#: SCHED_FIFO priority of the agent's thread that reads the host's lines
+#: and puts its frames on the buses (heartbeats, commands, ESTOP): above
+#: the pair's (plant.PRIORITY), so that an operator's frame waits for no
+#: tick. It wakes for a line and sleeps again. The relay to the host stays
+#: at an ordinary priority, below the pair.
+URGENT_PRIORITY = 20
+
+
+def raise_priority() -> None:
+    """The calling thread at SCHED_FIFO URGENT_PRIORITY (Linux: 0 is the
+    calling thread); left as it is where not allowed."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(URGENT_PRIORITY))
+    except (OSError, AttributeError):
+        pass
+
+
 def leave_time_to_others() -> None:
     """Inside the UML (its own kernel, never the host's): real-time tasks
     get at most 80 % of each second, so that the relay and a stop request
@@ -370,6 +387,8 @@ def main(argv: list[str] | None = None) -> int:
         link.send(wire.json_line("BYE", {"ok": False, "error": str(e)}))
         link.close()
         return 1
+    if realtime:  # after the pair's start: the processes it started do not inherit it
+        raise_priority()
     link.send(wire.json_line("READY", {"controller": plant.commands()[0], "plant": plant.commands()[1],
                                        "realtime": realtime, "pid": os.getpid()}))
     figures = serve(link, plant, relay)
