@@ -208,3 +208,31 @@ def test_cli_check_names_back_end_kernel_and_origin():
     first = r.stdout.splitlines()[0]
     assert first.startswith("back end: host") or first.startswith("back end: uml")
     assert "kernel: Linux " in r.stdout
+
+
+# ---------------------------------------------------------------- one host CPU
+
+
+def test_uml_is_held_to_a_core_another_uml_does_not_hold(monkeypatch):
+    monkeypatch.delenv(vcan.PIN_ENV, raising=False)
+    monkeypatch.setattr(vcan.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
+    monkeypatch.setattr(vcan, "_uml_cpus", lambda: [])
+    assert vcan.pin_cpu() == 3  # the last allowed
+    monkeypatch.setattr(vcan, "_uml_cpus", lambda: [3, 3, 3, 2])
+    assert vcan.pin_cpu() == 1  # the bus tests' UML on 3, a sim's on 2
+    monkeypatch.setattr(vcan, "_uml_cpus", lambda: [0, 1, 2, 3, 3])
+    assert vcan.pin_cpu() == 2  # all taken: the least taken, the last first
+    monkeypatch.setattr(vcan.os, "sched_getaffinity", lambda pid: {5})
+    assert vcan.pin_cpu() is None  # one core: nothing to choose
+
+
+def test_uml_core_from_the_environment(monkeypatch):
+    monkeypatch.setattr(vcan.os, "sched_getaffinity", lambda pid: {0, 1})
+    monkeypatch.setenv(vcan.PIN_ENV, "none")
+    assert vcan.pin_cpu() is None and vcan.pin_prefix() == []
+    monkeypatch.setenv(vcan.PIN_ENV, "0")
+    assert vcan.pin_cpu() == 0
+    for bad in ("7", "first"):
+        monkeypatch.setenv(vcan.PIN_ENV, bad)
+        with pytest.raises(vcan.VcanError, match=vcan.PIN_ENV):
+            vcan.pin_cpu()

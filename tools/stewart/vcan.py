@@ -491,7 +491,8 @@ PIN_ENV = "STEWART_UML_CPU"
 
 
 def pin_cpu() -> int | None:
-    """The host CPU to hold the user-mode Linux to, or None.
+    """The host CPU to hold the user-mode Linux to, or None: the last one
+    allowed that no other running UML is held to (else the least taken).
 
     The UML kernel and the host process of each of its processes hand the
     CPU to each other (ptrace) at every system call and switch. Left to the
@@ -515,7 +516,28 @@ def pin_cpu() -> int | None:
         if cpu not in allowed:
             raise VcanError(f"{PIN_ENV}={cpu}: not one of this process's CPUs {allowed}")
         return cpu
-    return allowed[-1] if len(allowed) > 1 else None
+    if len(allowed) < 2:
+        return None
+    taken = _uml_cpus()  # another run's UML (the bus tests beside `stewart sim`): another core
+    return min(reversed(allowed), key=lambda c: taken.count(c))
+
+
+def _uml_cpus() -> list[int]:
+    """The host CPUs that running linux.uml processes are held to, one
+    entry a process held to a single CPU."""
+    out: list[int] = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            if not (d / "comm").read_text().startswith("linux.uml"):
+                continue
+            cpus = os.sched_getaffinity(int(d.name))
+        except OSError:
+            continue
+        if len(cpus) == 1:
+            out.append(next(iter(cpus)))
+    return out
 
 
 def pin_prefix() -> list[str]:
