@@ -28,6 +28,8 @@
  *   error against issue 14's bound, natively (within from 20 ms on) and
  *   with CiA 408 at SYNC every 3 ms (later and noisier: within 1.5 times
  *   from 40 ms on; test_wrench_load_native_vs_cia408 says why).
+ * - ESTOP while RUNNING with two drives configured disable_on_block: they
+ *   go DISABLED once the stop is done, the others HOLD; RESET re-engages.
  * - A drive's heartbeat lost while RUNNING: the master's fault reaches the
  *   controller as a drive fault in the next tick, every drive is asked HOLD
  *   and the platform stops: its speed below 5 mm/s for good within 300 ms.
@@ -463,6 +465,71 @@ static void test_wrench_load_native_vs_cia408(void **state)
     assert_true(late[0][0] <= 1.5 && late[0][1] <= 1.5);
 }
 
+/* ESTOP while RUNNING with CiA 408 drives, two of them (legs 2 and 5)
+ * configured to be disabled when the controller blocks its drives
+ * (disable_on_block: a valve with a fail-safe spool position): the
+ * category-1 stop decelerates by the drives' loops, then those two drives
+ * go DISABLED (the plant's valve at its fail-safe position: blocking valves
+ * closed) and the other four HOLD (open: they hold by their own loop), no
+ * master fault, the platform at rest; RESET brings every drive back to
+ * HOLD and the controller to READY. */
+static void test_estop_disables_the_drives_the_config_names(void **state)
+{
+    static const int disabled[SP_LEGS] = {0, 1, 0, 0, 1, 0};
+    uint32_t k, t_block;
+    hs_state_t st;
+    double speed;
+    int i;
+    (void)state;
+    init(&L, 0, 1u);
+    for (i = 0; i < SP_LEGS; i++) {
+        L.link.master.node[i].disable_on_block = (uint8_t)disabled[i];
+    }
+    assert_int_equal(sp_co_link_cfg_check(&L.link), SP_OK);
+    bring_up(&L);
+    tick(&L, SP_CMD_RUN_TRIG);
+    for (k = 0u; k < 1500u; k++) {
+        tick(&L, SP_CMD_NONE);
+    }
+    tick(&L, SP_CMD_ESTOP);
+    assert_int_equal(L.out.state, SP_STATE_STOPPING); /* category 1: the controlled stop first */
+    for (k = 0u; k < 3000u && !L.out.drive_block; k++) {
+        tick(&L, SP_CMD_NONE);
+    }
+    assert_true(L.out.drive_block);
+    assert_int_equal(L.out.state, SP_STATE_ESTOP);
+    t_block = k;
+    for (k = 0u; k < 300u; k++) { /* the state changes at SYNC, the blocking valves in 20 ms */
+        tick(&L, SP_CMD_NONE);
+    }
+    assert_int_equal(L.mout.fault_mask, 0u);
+    assert_int_equal(L.out.faults, SP_FAULT_ESTOP); /* no drive fault beside it */
+    for (i = 0; i < SP_LEGS; i++) {
+        assert_int_equal(L.bus.node[i].state, disabled[i] ? SP_CO408_DISABLED : SP_CO408_HOLD);
+        if (disabled[i]) {
+            assert_true(L.plant.drive[i].block < 0.01);
+        } else {
+            assert_true(L.plant.drive[i].block > 0.99);
+        }
+    }
+    assert_int_equal(hs_plant_state(&L.plant, &st), HS_OK);
+    speed = sqrt(st.vel[0] * st.vel[0] + st.vel[1] * st.vel[1] + st.vel[2] * st.vel[2]);
+    printf("canopen ESTOP while RUNNING: drives blocked %u ms after the ESTOP; legs 2 and 5 DISABLED (fail-safe "
+           "spool: blocking valves closed), the others HOLD; %.5f m/s 300 ms later\n",
+           (unsigned)t_block, speed);
+    assert_true(speed < 0.005);
+    tick(&L, SP_CMD_RESET);
+    run_until_state(&L, SP_STATE_READY, 20000u);
+    for (k = 0u; k < 50u; k++) {
+        tick(&L, SP_CMD_NONE);
+    }
+    assert_int_equal(L.mout.fault_mask, 0u);
+    for (i = 0; i < SP_LEGS; i++) {
+        assert_int_equal(L.bus.node[i].state, SP_CO408_ACTIVE);
+        assert_true(L.plant.drive[i].block > 0.99);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -470,6 +537,7 @@ int main(void)
         cmocka_unit_test(test_yaw_native_vs_cia408),
         cmocka_unit_test(test_heartbeat_lost_stops_the_platform),
         cmocka_unit_test(test_wrench_load_native_vs_cia408),
+        cmocka_unit_test(test_estop_disables_the_drives_the_config_names),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

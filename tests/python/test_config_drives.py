@@ -50,6 +50,10 @@ def test_default_config_is_all_native():
 
 def test_a_valid_cia408_layout():
     p = config.from_dict(_with(_section()))
+    assert [d.on_block for d in p.drives.legs] == ["hold"] * 6   # the default
+    s = _section()
+    s["legs"][4]["on_block"] = "disabled"
+    assert [d.on_block for d in config.from_dict(_with(s)).drives.legs] == ["hold"] * 4 + ["disabled", "hold"]
     assert [d.node_id for d in p.drives.legs] == [10, 11, 12, 10, 11, 12]
     assert p.drives.buses() == ["can_0", "can_1"]
     assert p.drives.setpoint_timeout_ms == 9 and p.drives.heartbeat_ms == 20
@@ -96,6 +100,11 @@ def test_a_valid_cia408_layout():
     (lambda s: s.update(master_heartbeat_ms=21846), "t.json: drives.master_heartbeat_ms: 21846 is outside 0..21845"),
     (lambda s: s.update(master_heartbeat_ms=-1), "t.json: drives.master_heartbeat_ms: -1 is outside 0..21845"),
     (lambda s: s.update(master_heartbeat_ms=50.5), "t.json: drives.master_heartbeat_ms: expected an integer"),
+    (lambda s: s["legs"][3].update(on_block="open"),
+     "t.json: drives.legs[3].on_block: \"open\" is not one of hold, disabled"),
+    (lambda s: (s["legs"][3].update(protocol="native", bus="axis_b", on_block="hold"), s["legs"][3].pop("node_id"),
+                s["legs"][3].pop("scaling")),
+     "drives.legs[3].on_block: only for CANopen drives"),
     (lambda s: s.update(master_node_id=0), "t.json: drives.master_node_id: 0 is outside 1..127"),
     (lambda s: s.update(master_node_id=128), "t.json: drives.master_node_id: 128 is outside 1..127"),
     (lambda s: s.update(master_node_id=12),
@@ -233,10 +242,12 @@ def test_the_firmware_gets_the_config_layout():
     s = _section(divider=3)
     s["legs"][4]["force_feedforward"] = True
     s["legs"][5]["scaling"] = {"position_per_count": 2e-6, "length_at_zero": 1.5, "direction": -1}
+    s["legs"][1]["on_block"] = "disabled"
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
     assert ".present = 1u," in text and ".n_nodes = 6u," in text and ".sync_divider = 3u," in text
-    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408}" in text   # can_0 -> axis_a
-    assert "{11u, SP_BUS_AXIS_B, 5u, 8, 1u, -6, 1u, SP_CO_PROFILE_408}" in text   # can_1 -> axis_b, force ff
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408, 0u}" in text   # can_0 -> axis_a
+    assert "{11u, SP_BUS_AXIS_B, 5u, 8, 1u, -6, 1u, SP_CO_PROFILE_408, 0u}" in text   # can_1 -> axis_b, force ff
+    assert ", SP_CO_PROFILE_408, 1u}" in text and text.count(", 1u}") == 1  # leg 2 disabled once blocked
     assert "{2000u, 25165824, -1, 0u, 0u, 0u, 0u, 0}" in text        # 2 um, 1.5 m in Q24, counting down
     assert ".setpoint_timeout_ms = 9u," in text and ".pdo_timeout_ms = 10u," in text
     assert "[SP_BUS_AXIS_A] = 1000000u, [SP_BUS_AXIS_B] = 1000000u" in text
@@ -252,19 +263,19 @@ def test_the_firmware_gets_a_cia402_layout():
     for leg in s["legs"]:
         leg["protocol"] = "cia402"
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
-    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 0u, 0, 0u, SP_CO_PROFILE_402}" in text
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 0u, 0, 0u, SP_CO_PROFILE_402, 0u}" in text
     assert ".pressure_feedback = 0u," in text
     s["legs"][1].update(force_feedforward=True)   # the torque/force offset 0x60B2, per mille of 8 kN
     s["legs"][1]["scaling"]["rated_force"] = 8000
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
-    assert "SP_BUS_AXIS_A, 2u, 8, 0u, 0, 1u, SP_CO_PROFILE_402}" in text
+    assert "SP_BUS_AXIS_A, 2u, 8, 0u, 0, 1u, SP_CO_PROFILE_402, 0u}" in text
     assert ", 8000u, 0u, 0u, 0u, 0}" in text
     s["legs"][1].update(force_feedforward=False)
     del s["legs"][1]["scaling"]["rated_force"]
     s["legs"][0]["protocol"] = "cia408"
     text = gen_platform.c_source(config.from_dict(_with(s), "t.json"))
-    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408}" in text
-    assert "SP_CO_PROFILE_402}" in text and ".pressure_feedback = 1u," in text
+    assert "{10u, SP_BUS_AXIS_A, 1u, 8, 1u, -6, 0u, SP_CO_PROFILE_408, 0u}" in text
+    assert "SP_CO_PROFILE_402, 0u}" in text and ".pressure_feedback = 1u," in text
 
 
 @pytest.mark.parametrize("mutate, message", [

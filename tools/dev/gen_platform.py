@@ -73,7 +73,8 @@ def canopen_layout(p: cfg.Platform) -> dict:
         nodes.append({"node_id": leg.node_id, "bus": _DRIVE_BUSES[buses.index(leg.bus)], "leg": leg.leg,
                       "control_mode": leg.control_mode, "write_prefix": int(prefix is not None),
                       "unit_prefix": prefix if prefix is not None else 0,
-                      "force_ff": int(leg.force_feedforward), "profile": _PROFILE[leg.protocol]})
+                      "force_ff": int(leg.force_feedforward), "profile": _PROFILE[leg.protocol],
+                      "disable_on_block": int(leg.on_block == "disabled")})
         scaling.append({"nm_per_count": int(round(nm)), "zero_q24": _q(leg.scaling.length_at_zero, Q24,
                                                                        f"{w}.scaling.length_at_zero"),
                         "direction": leg.scaling.direction,
@@ -96,7 +97,7 @@ const sp_co_layout_t sp_co_layout_default = {{
 """
     nodes = ",\n".join(
         f"            {{{n['node_id']}u, {n['bus']}, {n['leg']}u, {n['control_mode']}, {n['write_prefix']}u, "
-        f"{n['unit_prefix']}, {n['force_ff']}u, {n['profile']}}}" for n in lay["nodes"])
+        f"{n['unit_prefix']}, {n['force_ff']}u, {n['profile']}, {n['disable_on_block']}u}}" for n in lay["nodes"])
     scal = ",\n".join(f"        {{{s['nm_per_count']}u, {s['zero_q24']}, {s['direction']}, {s['rated_force_n']}u, "
                        "0u, 0u, 0u, 0}"
                        for s in lay["scaling"])

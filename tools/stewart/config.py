@@ -445,7 +445,9 @@ _DRIVES_KEYS = {"legs", "buses", "sync_divider", "heartbeat_ms", "heartbeat_time
 #: The master's heartbeat period's ceiling (ms): a drive's consumer time,
 #: three periods, must fit 0x1016.1's 16 bits.
 MASTER_HEARTBEAT_MAX_MS = 0xFFFF // 3
-_LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode", "force_feedforward"}
+_LEG_KEYS = {"protocol", "bus", "node_id", "scaling", "control_mode", "force_feedforward", "on_block"}
+#: A CANopen drive's state once the controller blocks its drives (a stop done, a FAULT holding).
+ON_BLOCK = ("hold", "disabled")
 _SCALING_KEYS = {"position_per_count", "length_at_zero", "direction", "rated_force"}
 #: CiA 402's rated force along the leg (N at 1000 per mille of 0x60B2): the firmware's bounds.
 RATED_FORCE_RANGE = (100.0, 10_000_000.0)
@@ -539,7 +541,7 @@ def _drive(i: int, leg, bitrates: dict[str, int], master_hb: int, master_node: i
         if bus != _layout.NATIVE_BUS[i]:
             raise ConfigError(f"{w}.bus: a native drive of leg {i + 1} is on {_layout.NATIVE_BUS[i]} "
                               f"(fixed by protocol/stewart.dbc), not {bus}")
-        for key in ("node_id", "scaling", "control_mode", "force_feedforward"):
+        for key in ("node_id", "scaling", "control_mode", "force_feedforward", "on_block"):
             if key in leg:
                 raise ConfigError(f"{w}.{key}: only for CANopen drives (protocol cia408 or cia402)")
         return _layout.Drive(i + 1, proto, bus)
@@ -569,7 +571,12 @@ def _drive(i: int, leg, bitrates: dict[str, int], master_hb: int, master_node: i
     if ff and proto == "cia402" and rated is None:
         raise ConfigError(f"{w}.force_feedforward: a cia402 drive takes the force as its torque/force offset "
                           "0x60B2, in per mille of its rated force: give scaling.rated_force (N along the leg)")
-    return _layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction, rated), mode, ff)
+    on_block = leg.get("on_block", "hold")
+    if on_block not in ON_BLOCK:
+        raise ConfigError(f"{w}.on_block: {json.dumps(on_block)[:30]} is not one of {', '.join(ON_BLOCK)} (the "
+                          "drive's state once a stop is done: hold by its own loop, or disabled, its valve's "
+                          "fail-safe spool position)")
+    return _layout.Drive(i + 1, proto, bus, node, _layout.Scaling(res, zero, direction, rated), mode, ff, on_block)
 
 
 def _drive_position_scaling(w: str, sc, lmin: float, lmax: float) -> tuple[float, float, int]:

@@ -8,7 +8,9 @@
  *    SYNC); at SYNC each node applies its setpoint and answers with its
  *    TPDOs (the position and pressures sampled at the last hs_co_bus_sample);
  *  - hs_co_bus_apply(): each drive of the plant gets its node's setpoint
- *    (ACTIVE while the node follows, else HOLD);
+ *    (ACTIVE while the node follows, else HOLD); a CiA 408 node DISABLED
+ *    while operational blocks its drive (valve at null, blocking valves
+ *    closed: a valve's fail-safe spool position);
  *  - hs_plant_step();
  *  - hs_co_bus_sample(): each node's actual position (counts) and pressures
  *    (kPa) from the plant's feedback;

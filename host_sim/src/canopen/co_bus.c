@@ -90,6 +90,10 @@ hs_status_t hs_co_bus_apply(hs_co_bus_t *b, hs_plant_t *plant)
         double force = follows ? hs_co_node_force_n(n) : 0.0;
         (void)hs_plant_set_setpoint(plant, i, length + v * t + 0.5 * a * t * t, v + a * t, force,
                                     follows ? HS_REQ_ACTIVE : HS_REQ_HOLD);
+        /* a CiA 408 valve disabled while operational: its spool at the fail-safe position, modelled as
+         * the valve at null and the blocking valves closed (the native drive's Block) */
+        (void)hs_plant_set_block(
+            plant, i, n->profile != 1u && n->nmt == SP_CO_NMT_STATE_OPERATIONAL && n->state == SP_CO408_DISABLED);
     }
     return HS_OK;
 }

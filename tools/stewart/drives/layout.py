@@ -61,6 +61,7 @@ class Drive:
     scaling: Scaling | None = None
     control_mode: int = ob.CIA408_CONTROL_MODE_AXIS_POSITION
     force_feedforward: bool = False   # RPDO1 also maps CiA 408's vendor 0x2120 / CiA 402's 0x60B2 (8 bytes)
+    on_block: str = "hold"            # the drive's state once a stop is done (ESTOP, FAULT): hold or disabled
 
     @property
     def is_canopen(self) -> bool:

@@ -128,11 +128,13 @@ static int16_t force_dan(sp_q8_t force_q8, int8_t direction)
 }
 
 /* The master's request (ACTIVE while the controller's drive mode is
- * ACTIVE, else HOLD) and the time: every tick's part of the input. */
+ * ACTIVE, else HOLD), whether the controller blocks its drives, and the
+ * time: every tick's part of the input. */
 static void link_request(const sp_ctrl_output_t *out, uint32_t now_ms, sp_co_master_input_t *in)
 {
     in->now_ms = now_ms;
     in->request = out->drive_mode == SP_DRIVE_ACTIVE ? (uint8_t)SP_CO_REQ_ACTIVE : (uint8_t)SP_CO_REQ_HOLD;
+    in->block = (out->drive_block != 0u) ? 1u : 0u;
 }
 
 sp_status_t sp_co_link_input(const sp_co_link_cfg_t *cfg, const sp_ctrl_output_t *out, uint32_t now_ms,

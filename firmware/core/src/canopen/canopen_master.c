@@ -620,6 +620,10 @@ typedef struct {
     uint8_t state[2];
 } targets_t;
 
+static void node_targets(sp_co_request_t eff, targets_t *t);
+static void node_requests(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, sp_co_request_t eff, uint8_t block,
+                          uint32_t now);
+
 SPI_INLINE int shows_target(const sp_co_node_t *nd, const targets_t *t)
 {
     return nd->seen_state == t->state[nd->seen_profile == (uint8_t)SP_CO_PROFILE_402 ? 1 : 0];
@@ -831,11 +835,14 @@ SPI_INLINE uint8_t check_nodes(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
         }
         decode_status(nd, nc);
         if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
-            check_state(nd, nc, eff, targets, now);
+            sp_co_request_t e = (sp_co_request_t)nd->eff;
+            targets_t own;
+            node_targets(e, &own);
+            check_state(nd, nc, e, ((uint8_t)e == (uint8_t)eff) ? targets : &own, now);
             if (!nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
                 now - nd->req_since > cfg->state_timeout_ms) {
                 latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
-                      wanted_bits(nc, eff), now);
+                      wanted_bits(nc, e), now);
             }
         }
         if (nd->fault.code != (uint8_t)SP_CO_F_NONE) {
@@ -888,7 +895,16 @@ SPI_INLINE void send_sync(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, cons
         }
         bus_used[nc->bus] = 1u;
         if (nd->phase == SP_CO_PHASE_RUN && emit(out)) {
-            node_rpdo(nd, nc, eff, targets, cw408, in->setpoint[k], in->force_ff[k], &out->tx[out->n_tx++]);
+            sp_co_request_t e = (sp_co_request_t)nd->eff;
+            targets_t own;
+            const targets_t *t = targets;
+            uint16_t cw = cw408;
+            if ((uint8_t)e != (uint8_t)eff) {
+                node_targets(e, &own);
+                t = &own;
+                cw = sp_co408_control_word(e, 0);
+            }
+            node_rpdo(nd, nc, e, t, cw, in->setpoint[k], in->force_ff[k], &out->tx[out->n_tx++]);
         }
     }
     for (k = 0u; k < SP_CAN_BUSES; k++) {
@@ -926,8 +942,8 @@ sp_status_t sp_co_master_step(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, 
     }
     all_running = step_nodes(m, cfg, now, out, &any_fault);
     eff = effective_request(m, cfg, in->request, all_running, any_fault, now);
-    targets.state[0] = (uint8_t)sp_co408_target(eff);
-    targets.state[1] = (uint8_t)sp_co402_target(eff);
+    node_requests(m, cfg, eff, in->block, now);
+    node_targets(eff, &targets);
     ready = check_nodes(m, cfg, eff, &targets, now, out, &any_fault);
     send_heartbeats(m, cfg, now, out);
     if (sync_tick) {
@@ -1013,4 +1029,34 @@ sp_status_t sp_co_force_to_permille(const sp_co_scaling_t *s, sp_q8_t force_q8, 
         return SP_E_ARG;
     }
     return spi_co_force_to_permille(s, force_q8, permille);
+}
+
+/* ---- the request per node ---- */
+
+/* The states request eff leads to, per profile. */
+static void node_targets(sp_co_request_t eff, targets_t *t)
+{
+    t->state[0] = (uint8_t)sp_co408_target(eff);
+    t->state[1] = (uint8_t)sp_co402_target(eff);
+}
+
+/* Each node's request of this step: the master's eff, or DISABLED instead
+ * of HOLD while the controller blocks its drives (block) for a node whose
+ * config says so (its valve's spool then takes its fail-safe position). A
+ * node whose request changes starts its state timeout again. */
+static void node_requests(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, sp_co_request_t eff, uint8_t block,
+                          uint32_t now)
+{
+    uint8_t k;
+    for (k = 0u; k < cfg->n_nodes; k++) {
+        sp_co_request_t e = eff;
+        if ((block != 0u) && (cfg->node[k].disable_on_block != 0u) && (eff == SP_CO_REQ_HOLD)) {
+            e = SP_CO_REQ_DISABLED;
+        }
+        if (m->node[k].eff != (uint8_t)e) {
+            m->node[k].eff = (uint8_t)e;
+            m->node[k].req_since = now;
+            m->node[k].state_ok = 0u;
+        }
+    }
 }

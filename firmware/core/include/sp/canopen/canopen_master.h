@@ -68,16 +68,20 @@ typedef enum {
 
 /** One drive on the master's buses. */
 typedef struct {
-    uint8_t node_id;      /**< 1..127, unique per bus */
-    uint8_t bus;          /**< index of the frame's bus (< SP_CAN_BUSES) */
-    uint8_t leg;          /**< 1..6: the leg it moves (names the fault) */
-    int8_t control_mode;  /**< 0x6043 value of axis position control (default 8) */
-    uint8_t write_prefix; /**< 1: write unit metre and the prefix below to 0x6600.2/.3 */
-    int8_t unit_prefix;   /**< decimal exponent of the drive's count (-6: 1 um) */
-    uint8_t force_ff;     /**< 1: RPDO1 also maps a force feed-forward (8 bytes): CiA 408, the vendor object
+    uint8_t node_id;          /**< 1..127, unique per bus */
+    uint8_t bus;              /**< index of the frame's bus (< SP_CAN_BUSES) */
+    uint8_t leg;              /**< 1..6: the leg it moves (names the fault) */
+    int8_t control_mode;      /**< 0x6043 value of axis position control (default 8) */
+    uint8_t write_prefix;     /**< 1: write unit metre and the prefix below to 0x6600.2/.3 */
+    int8_t unit_prefix;       /**< decimal exponent of the drive's count (-6: 1 um) */
+    uint8_t force_ff;         /**< 1: RPDO1 also maps a force feed-forward (8 bytes): CiA 408, the vendor object
                                0x2120.0 (daN); CiA 402, the torque/force offset 0x60B2.0 (per mille of the
                                rated force: the leg's sp_co_scaling_t.rated_force_n, which must be set) */
-    uint8_t profile;      /**< sp_co_profile_t (0 = CiA 408) */
+    uint8_t profile;          /**< sp_co_profile_t (0 = CiA 408) */
+    uint8_t disable_on_block; /**< 1: asked DISABLED rather than HOLD while the controller blocks its drives
+                                   (sp_co_master_input_t.block: a stop completed, a FAULT holding): a valve
+                                   whose spool then takes its fail-safe position; 0: HOLD (the drive holds
+                                   its position by its own loop) */
 } sp_co_node_cfg_t;
 
 /** The master's configuration (from the platform config's `drives`). */
@@ -199,6 +203,8 @@ typedef struct {
     uint32_t hb_last;     /**< now_ms of the last heartbeat */
     uint32_t tpdo1_last;  /**< now_ms of the last TPDO1 */
     uint32_t req_since;   /**< now_ms the current request began */
+    uint8_t eff;          /**< sp_co_request_t: the request this node got at the last step (the master's, or
+                               DISABLED while blocked where the node's config says so) */
     uint16_t status;      /**< last status word (0x6041) */
     int32_t actual;       /**< last actual position, drive counts */
     uint16_t pa_kpa;      /**< last chamber pressure A, kPa */
@@ -264,6 +270,8 @@ sp_status_t sp_co_master_receive(sp_co_master_t *m, const sp_co_master_cfg_t *cf
 typedef struct {
     uint32_t now_ms;
     uint8_t request;                   /**< sp_co_request_t: what the controller's state asks of all drives */
+    uint8_t block;                     /**< 1: the controller blocks its drives (sp_ctrl_output_t.drive_block):
+                                            a HOLD becomes DISABLED for the nodes with disable_on_block */
     int32_t setpoint[SP_CO_MAX_NODES]; /**< drive counts, per node (see sp_co_length_to_count) */
     int16_t force_ff[SP_CO_MAX_NODES]; /**< force feed-forward in the drive's unit, per node (sent where
                                              force_ff): daN (CiA 408, 0x2120), per mille of the rated force
@@ -289,7 +297,8 @@ typedef struct {
  * setpoint) and one SYNC per bus in use, after the RPDOs. The effective
  * request is DISABLED until every node has run for the first time; after
  * that at most HOLD while any node has a fault or is starting again; else
- * in->request.
+ * in->request. While in->block, a node with disable_on_block is asked
+ * DISABLED where the others are asked HOLD (its state timeout restarts).
  *
  * CiA 408: the control word of the request (the drive holds by itself in
  * HOLD). CiA 402: the controlword moves the drive one step per SYNC towards
