@@ -246,6 +246,8 @@ sp_status_t sp_co_master_start(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
     m->started = 1u;
     m->hb_sent = now_ms; /* the master's first heartbeat one period after the start */
     m->last_req = SP_CO_REQ_DISABLED;
+    m->nodes_req = 0xFFu; /* no request yet: the first step sets every node's */
+    m->nodes_block = 0u;
     return SP_OK;
 }
 
@@ -836,9 +838,13 @@ SPI_INLINE uint8_t check_nodes(sp_co_master_t *m, const sp_co_master_cfg_t *cfg,
         decode_status(nd, nc);
         if (nd->phase == SP_CO_PHASE_RUN && nd->fault.code == (uint8_t)SP_CO_F_NONE) {
             sp_co_request_t e = (sp_co_request_t)nd->eff;
+            const targets_t *t = targets;
             targets_t own;
-            node_targets(e, &own);
-            check_state(nd, nc, e, ((uint8_t)e == (uint8_t)eff) ? targets : &own, now);
+            if ((uint8_t)e != (uint8_t)eff) {
+                node_targets(e, &own);
+                t = &own;
+            }
+            check_state(nd, nc, e, t, now);
             if (!nd->state_ok && nd->fault.code == (uint8_t)SP_CO_F_NONE &&
                 now - nd->req_since > cfg->state_timeout_ms) {
                 latch(nd, nd->seen_fault ? SP_CO_F_DEVICE_FAULT : SP_CO_F_DEVICE_STATE, 0u, 0u, nd->status,
@@ -1043,11 +1049,17 @@ static void node_targets(sp_co_request_t eff, targets_t *t)
 /* Each node's request of this step: the master's eff, or DISABLED instead
  * of HOLD while the controller blocks its drives (block) for a node whose
  * config says so (its valve's spool then takes its fail-safe position). A
- * node whose request changes starts its state timeout again. */
+ * node whose request changes starts its state timeout again. Nothing to do
+ * (a test) while eff and block are the last step's. */
 static void node_requests(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, sp_co_request_t eff, uint8_t block,
                           uint32_t now)
 {
     uint8_t k;
+    if (m->nodes_req == (uint8_t)eff && m->nodes_block == block) {
+        return; /* as at the last step: every node's request stands */
+    }
+    m->nodes_req = (uint8_t)eff;
+    m->nodes_block = block;
     for (k = 0u; k < cfg->n_nodes; k++) {
         sp_co_request_t e = eff;
         if ((block != 0u) && (cfg->node[k].disable_on_block != 0u) && (eff == SP_CO_REQ_HOLD)) {

@@ -230,10 +230,12 @@ typedef struct {
     sp_co_node_t node[SP_CO_MAX_NODES];
     uint8_t started; /**< 1 after sp_co_master_start */
     uint8_t
-        was_running;  /**< 1 once every node has run (a later restart of one asks HOLD of the others, not DISABLED) */
-    uint8_t last_req; /**< the request of the last step */
-    uint32_t ticks;   /**< steps since start (the SYNC divider counts these) */
-    uint32_t hb_sent; /**< now_ms of the master's last heartbeat */
+        was_running;   /**< 1 once every node has run (a later restart of one asks HOLD of the others, not DISABLED) */
+    uint8_t last_req;  /**< the request of the last step */
+    uint8_t nodes_req; /**< the request the nodes' own (sp_co_node_t.eff) were made from (0xFF: none yet) */
+    uint8_t nodes_block; /**< the block they were made with */
+    uint32_t ticks;      /**< steps since start (the SYNC divider counts these) */
+    uint32_t hb_sent;    /**< now_ms of the master's last heartbeat */
     /** Derived at sp_co_master_start: 1 + the node k with (bus, node id),
      *  0 = none, so that a received frame finds its node without a search
      *  (checked against the config on use: a config changed since the start
