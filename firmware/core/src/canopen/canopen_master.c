@@ -1055,20 +1055,19 @@ static void node_requests(sp_co_master_t *m, const sp_co_master_cfg_t *cfg, sp_c
                           uint32_t now)
 {
     uint8_t k;
-    if (m->nodes_req == (uint8_t)eff && m->nodes_block == block) {
-        return; /* as at the last step: every node's request stands */
-    }
-    m->nodes_req = (uint8_t)eff;
-    m->nodes_block = block;
-    for (k = 0u; k < cfg->n_nodes; k++) {
-        sp_co_request_t e = eff;
-        if ((block != 0u) && (cfg->node[k].disable_on_block != 0u) && (eff == SP_CO_REQ_HOLD)) {
-            e = SP_CO_REQ_DISABLED;
-        }
-        if (m->node[k].eff != (uint8_t)e) {
-            m->node[k].eff = (uint8_t)e;
-            m->node[k].req_since = now;
-            m->node[k].state_ok = 0u;
+    if ((m->nodes_req != (uint8_t)eff) || (m->nodes_block != block)) { /* else every node's request stands */
+        m->nodes_req = (uint8_t)eff;
+        m->nodes_block = block;
+        for (k = 0u; k < cfg->n_nodes; k++) {
+            sp_co_request_t e = eff;
+            if ((block != 0u) && (cfg->node[k].disable_on_block != 0u) && (eff == SP_CO_REQ_HOLD)) {
+                e = SP_CO_REQ_DISABLED;
+            }
+            if (m->node[k].eff != (uint8_t)e) {
+                m->node[k].eff = (uint8_t)e;
+                m->node[k].req_since = now;
+                m->node[k].state_ok = 0u;
+            }
         }
     }
 }
