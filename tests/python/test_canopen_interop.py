@@ -55,7 +55,7 @@ class Frame(C.Structure):
 class NodeCfg(C.Structure):
     _fields_ = [("node_id", C.c_uint8), ("bus", C.c_uint8), ("leg", C.c_uint8), ("control_mode", C.c_int8),
                 ("write_prefix", C.c_uint8), ("unit_prefix", C.c_int8), ("force_ff", C.c_uint8),
-                ("profile", C.c_uint8)]
+                ("profile", C.c_uint8), ("disable_on_block", C.c_uint8)]
 
 
 class Cfg(C.Structure):
@@ -68,7 +68,7 @@ class Cfg(C.Structure):
 
 
 class Input(C.Structure):
-    _fields_ = [("now_ms", C.c_uint32), ("request", C.c_uint8), ("setpoint", C.c_int32 * MAX_NODES),
+    _fields_ = [("now_ms", C.c_uint32), ("request", C.c_uint8), ("block", C.c_uint8), ("setpoint", C.c_int32 * MAX_NODES),
                 ("force_ff", C.c_int16 * MAX_NODES)]
 
 
