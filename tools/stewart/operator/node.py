@@ -792,7 +792,7 @@ class OperatorNode:
 
     def wait_for(self, command: str, done: Callable[[Status], bool], timeout: float,
                  mark: int, before: Status | None, sent_wall: float,
-                 reject_window: int = 50, settle: int = 5) -> Answer:
+                 reject_window: int = 50, settle: int = 5, taken_window: int = 1000) -> Answer:
         """Waits until `done(status)` holds once the controller has carried
         the command out, or a refusal.
 
@@ -826,8 +826,9 @@ class OperatorNode:
             for st in batch:
                 if not p.advance(st, reject_window):
                     continue
-                if p.k_after == reject_window and p.first_change is None and signed is not None:
-                    self._check_taken(p, st, done)
+                if p.first_change is None and signed is not None and p.k_after >= reject_window and (
+                        p.taken_k is None or p.k_after == reject_window):
+                    self._check_taken(p, st, done, final=p.k_after >= taken_window)
                 if done(st) and p.carried_out and p.k >= settle:
                     self._keep_statuses = False
                     return Answer(command, st, p.first_change if p.first_change is not None else p.k,
@@ -850,14 +851,24 @@ class OperatorNode:
                 self._cond.wait(left)
             return self.statuses[idx:], len(self.statuses)
 
-    def _check_taken(self, p: _Progress, st: Status, done: Callable[[Status], bool]) -> None:
-        """At the end of the refusal window, with the state unchanged: a
-        signed command the controller never took, or one whose counter
-        another process's went past, was rejected."""
+    def _check_taken(self, p: _Progress, st: Status, done: Callable[[Status], bool], final: bool) -> None:
+        """With the state unchanged, from the end of the refusal window on: a
+        signed command whose code CTRL_AUTH counted as bad or replayed, or
+        one whose counter another process's went past, was rejected. At the
+        end of the (longer) taken window: a signed command the controller
+        never showed taken was lost. The two differ because a bridged bus
+        (`stewart sim` through socketcand, a loaded machine) can take longer
+        than the refusal window for the frame to reach the controller and
+        its status to come back; only a reason CTRL_AUTH gives ends the wait
+        early."""
         command = p.command
         if p.taken_k is None:
-            why = self.auth_reason() or "the controller did not take it (CTRL_AUTH never showed its counter)"
-            raise Refused(f"{command} rejected: {why}")
+            why = self.auth_reason()
+            if why is None and final:
+                why = "the controller did not take it (CTRL_AUTH never showed its counter)"
+            if why is not None:
+                raise Refused(f"{command} rejected: {why}")
+            return
         if not done(st):
             why = self.auth_reason()  # another process's counters went past this one's
             if why is not None:
