@@ -17,7 +17,8 @@
 # stream_start: the STREAM command's tick alone;
 # slide: the force scenario's 50 mm slide in FORCE, the MOVE_TO tick and
 # the 843 after it;
-# tip: the surge with a tool tip (0.15, 0, 0.35) m; frames, frames_stream,
+# tip: the surge with a tool tip (0.15, 0, 0.35) m (tip_yaw, tip_stream,
+# tip_force: the yaw, the stream and the force run with it); frames, frames_stream,
 # frames_force: the surge, the stream and the force run with turned tool
 # and work frames, issue 31)
 # PROFILE_TICKS=n divides by n ticks for an ELF built with -DPROFILE_TICKS=n.
@@ -41,6 +42,8 @@ elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ "${3:-}" = stream_start ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = slide ] && : "${PROFILE_TICKS:=844}"
 [ "${3:-}" = frames_stream ] && : "${PROFILE_TICKS:=2000}"
+[ "${3:-}" = tip_stream ] && : "${PROFILE_TICKS:=2000}"
+[ "${3:-}" = tip_force ] && : "${PROFILE_TICKS:=2001}"
 [ "${3:-}" = frames_force ] && : "${PROFILE_TICKS:=2001}"
 [ -f "$elf" ] || { echo "profile: $elf is missing (build the m4-core preset)" >&2; exit 1; }
 log=$(mktemp -d)

@@ -303,6 +303,48 @@ def test_kept_transforms_equal_the_plain_ones(L):
     assert motion_bytes(a) == motion_bytes(b)
 
 
+def test_shared_orientation_equals_the_plain_transform_and_ik(L):
+    """sp_frames_motion_to_platform_shared keeps a tool tip's orientation
+    (no frame turned) in the IK's own sp_orient_keep_t: on sequences whose
+    angles repeat, change one at a time or all at once, its platform
+    motion is the plain call's bit for bit, and the IK that follows with
+    the same keep gives the plain IK's legs, rotation and unit vectors bit
+    for bit (a keep changed by the frames is taken as a turning reference).
+    With a turned frame it is the kept call."""
+    from stewart import config
+
+    ps = core.platform_struct(config.load(Path_default()))
+    rng = np.random.default_rng(RNG_SEED + 11)
+    for i in range(120):
+        turned = i % 4 == 3
+        tool = rand_frame(rng, turned)
+        f, _ = prepared(L, tool, rand_frame(rng, False) if i % 2 else (0.0,) * 6)
+        keep = (C.c_uint8 * core.FRAMES_KEEP_BYTES)()
+        orient = (C.c_uint8 * core.ORIENT_KEEP_BYTES)()
+        x6 = np.array(rand_pose(rng)) * 0.3
+        for n in range(16):
+            step = n % 4
+            if step == 1:
+                x6[3 + rng.integers(3)] += rng.uniform(-1e-3, 1e-3)
+            elif step == 2:
+                x6[3:] += rng.uniform(-1e-3, 1e-3, 3)
+            x6[:3] += rng.uniform(-1e-3, 1e-3, 3)
+            vel, rate, acc, racc = (rng.uniform(-1, 1, 3) * (n % 5 != 0) for _ in range(4))
+            m = motion_struct(tuple(x6), vel, rate, acc, racc)
+            plain, shared = core.Motion(), core.Motion()
+            st_plain = L.sp_frames_motion_to_platform(C.byref(f), C.byref(m), C.byref(plain))
+            st_shared = L.sp_frames_motion_to_platform_shared(C.byref(f), keep, orient, C.byref(m), C.byref(shared))
+            assert st_plain == st_shared, (i, n)
+            assert motion_bytes(plain) == motion_bytes(shared), (i, n)
+            if n % 3 == 2:
+                continue  # the IK skips a tick (a CANopen tick that sends no setpoints)
+            ik_plain, ik_kept = core.IK(), core.IK()
+            st_a = L.sp_inverse_kinematics(C.byref(ps), C.byref(shared.pose), C.byref(ik_plain))
+            st_b = L.sp_inverse_kinematics_kept(C.byref(ps), C.byref(shared.pose), orient, C.byref(ik_kept))
+            assert st_a == st_b, (i, n)
+            assert bytes(memoryview(ik_plain)) == bytes(memoryview(ik_kept)), (i, n)
+
+
 def _round_away(v, s):
     return (v + (1 << (s - 1)) - (1 if v < 0 else 0)) >> s
 

@@ -125,6 +125,10 @@ class CanFrame(C.Structure):
 #: pass a zeroed buffer of this size as the kept orientation.
 FRAMES_KEEP_BYTES = 256
 
+#: Bytes enough for an sp_orient_keep_t (the IK's kept orientation): a
+#: zeroed buffer of this size is one with valid 0.
+ORIENT_KEEP_BYTES = 512
+
 
 #: Each ctypes mirror and the C struct it mirrors.
 class FramesStruct(C.Structure):
@@ -253,6 +257,9 @@ def lib() -> C.CDLL:
     # sp_frames_keep_t is opaque here: a zeroed buffer of FRAMES_KEEP_BYTES (valid 0)
     L.sp_frames_motion_to_platform_kept.argtypes = [P(FramesStruct), C.c_void_p, P(Motion), P(Motion)]
     L.sp_frames_to_platform_kept.argtypes = [P(FramesStruct), C.c_void_p, P(Pose), P(Pose)]
+    # sp_orient_keep_t is opaque too: ORIENT_KEEP_BYTES zeroed
+    L.sp_frames_motion_to_platform_shared.argtypes = [P(FramesStruct), C.c_void_p, C.c_void_p, P(Motion), P(Motion)]
+    L.sp_inverse_kinematics_kept.argtypes = [P(PlatformStruct), P(Pose), C.c_void_p, P(IK)]
     L.sp_frames_lever.argtypes = [P(FramesStruct), P(Rot), P(V3)]
     L.sp_frames_wrench_to_tool_at.argtypes = [P(FramesStruct), P(V3), P(I32 * 6), P(I32 * 6)]
     L.sp_frames_checksum.argtypes = [P(FramesStruct)]
@@ -262,7 +269,8 @@ def lib() -> C.CDLL:
     for name in ("sp_frames_prepare", "sp_frames_to_platform", "sp_frames_from_platform",
                  "sp_frames_motion_to_platform", "sp_frames_wrench_to_tool", "sp_frames_wrench_from_tool",
                  "sp_frames_motion_to_platform_kept", "sp_frames_to_platform_kept", "sp_frames_lever",
-                 "sp_frames_wrench_to_tool_at"):
+                 "sp_frames_wrench_to_tool_at", "sp_frames_motion_to_platform_shared",
+                 "sp_inverse_kinematics_kept"):
         getattr(L, name).restype = C.c_int
     for name in ("sp_inverse_kinematics", "sp_inverse_dynamics", "sp_leg_rates", "sp_leg_stretch",
                  "sp_body_rates", "sp_forward_kinematics", "sp_check_legs", "sp_orientation"):

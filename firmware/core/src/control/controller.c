@@ -1174,8 +1174,9 @@ SPI_NOINLINE static void tool_reference(const sp_ctrl_config_t *cfg, sp_ctrl_t *
             return;
         }
     }
-    *flags |=
-        (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, x, ref) == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+    *flags |= (sp_frames_motion_to_platform_shared(&ctrl->frames, &ctrl->ref_keep, &ctrl->ref_orient, x, ref) == SP_OK)
+                  ? 0u
+                  : SP_FLAG_OVERFLOW;
     if (done) {
         ctrl->state = SP_STATE_READY;
     }
@@ -1601,7 +1602,7 @@ SPI_NOINLINE static void force_step_tool(const sp_ctrl_config_t *cfg, sp_ctrl_t 
         xest = xref.pose;
     }
     (void)sp_force_step(&ctrl->prep.force, &ctrl->force, &lim, &xref, w, ctrl->est.valid ? &xest : NULL, &xout, events);
-    if (sp_frames_motion_to_platform_kept(&ctrl->frames, &ctrl->ref_keep, &xout, ref) != SP_OK) {
+    if (sp_frames_motion_to_platform_shared(&ctrl->frames, &ctrl->ref_keep, &ctrl->ref_orient, &xout, ref) != SP_OK) {
         copy_motion(ref, &ctrl->pos_ref); /* the position reference stands */
     }
 }

@@ -610,6 +610,33 @@ sp_status_t sp_frames_motion_to_platform_kept(const sp_frames_t *f, sp_frames_ke
     return motion_core(f, &o, tool_motion, platform);
 }
 
+sp_status_t sp_frames_motion_to_platform_shared(const sp_frames_t *f, sp_frames_keep_t *keep, sp_orient_keep_t *orient,
+                                                const sp_motion_t *tool_motion, sp_motion_t *platform)
+{
+    motion_orient_t o;
+    int flat;
+    if (orient == NULL || f == NULL || f->tool_turned || f->work_turned) {
+        return sp_frames_motion_to_platform_kept(f, keep, tool_motion, platform);
+    }
+    if (tool_motion == NULL || platform == NULL || tool_motion == platform) {
+        return SP_E_ARG;
+    }
+    if (f->identity) {
+        *platform = *tool_motion;
+        return SP_OK;
+    }
+    /* no frame turned: the platform's angles are the tool's, and T_P = T_X
+     * (platform_rot) is the IK's T of them */
+    if (spi_orient_update(orient, tool_motion->pose.rpy, &flat)) {
+        orient->fresh = 1u;
+    }
+    o.sc = orient->sc;
+    o.tp = &orient->rot;
+    o.rpy = tool_motion->pose.rpy;
+    o.scp = orient->sc; /* not read: no frame turned */
+    return motion_core(f, &o, tool_motion, platform);
+}
+
 sp_status_t sp_frames_to_platform_kept(const sp_frames_t *f, sp_frames_keep_t *keep, const sp_pose_t *tool_pose,
                                        sp_pose_t *platform)
 {

@@ -18,6 +18,15 @@ void spi_orientation_sc(const sp_q24_t rpy[3], sp_rot_t *rot, sp_q30_t sc[6]);
  * sp_sincos_q24 gives them); two-term entries rounded once. */
 void spi_rot_from_sincos(const sp_q30_t sc[6], sp_rot_t *rot);
 
+/* keep brought to the angles rpy (rad, Q24): each angle that changed gets
+ * its sine and cosine (sp_sincos_q24), T is made again when one did (its
+ * roll and pitch products only when roll or pitch did), as
+ * spi_rot_from_sincos makes it, bit for bit; valid is set and the kept
+ * arms are dropped when it changed. Returns 1 when
+ * an angle changed (or keep was not valid), 0 otherwise; *flat is 1 when
+ * the angles changed to roll = pitch = 0. Cannot fail. */
+int spi_orient_update(sp_orient_keep_t *keep, const sp_q24_t rpy[3], int *flat);
+
 /* Inverse kinematics of a pose whose orientation ik->rot is already set:
  * arms, legs and lengths (not the unit vectors). SP_E_RANGE for a leg
  * component of 64 m or more or a leg shorter than 1 mm, SP_E_OVERFLOW if an

@@ -134,6 +134,20 @@ sp_status_t sp_frames_motion_to_platform_kept(const sp_frames_t *f, sp_frames_ke
                                               const sp_motion_t *tool_motion, sp_motion_t *platform);
 
 /**
+ * sp_frames_motion_to_platform_kept whose orientation, when no frame is
+ * turned (the platform's angles are the tool's), is kept in the IK's
+ * *orient instead (sp_inverse_kinematics_kept's keep): one sine and one T
+ * a tick for the frames and the IK of the platform motion that follows,
+ * where each would make its own. The same result and errors, bit for bit;
+ * *orient is left as sp_inverse_kinematics_kept would leave it for these
+ * angles, with fresh set when they changed. orient NULL, or a frame
+ * turned: sp_frames_motion_to_platform_kept. *keep is not used when
+ * *orient is.
+ */
+sp_status_t sp_frames_motion_to_platform_shared(const sp_frames_t *f, sp_frames_keep_t *keep, sp_orient_keep_t *orient,
+                                                const sp_motion_t *tool_motion, sp_motion_t *platform);
+
+/**
  * sp_frames_to_platform (rot NULL) with its orientation kept in *keep:
  * the same pose and errors, bit for bit. keep NULL: the plain call.
  */

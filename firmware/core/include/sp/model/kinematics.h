@@ -78,6 +78,9 @@ typedef struct {
                                         legs of a pose within 16 m cannot overflow (the IK skips those tests) */
     uint8_t arms_valid;            /**< 1 when arm, arm_flags and platform belong to rot */
     uint8_t valid;                 /**< 1 when rpy, sc and rot belong together */
+    uint8_t fresh;                 /**< 1 when another user of the keep (sp_frames_motion_to_platform_shared)
+                                        changed the orientation since the IK's last call: the IK takes it as
+                                        changed (a turning reference keeps no arms) */
 } sp_orient_keep_t;
 
 /**
