@@ -40,6 +40,10 @@ from .validate import Request
 #: each of ~4,000 frames a second, they cost more CPU than all else.
 RX_BATCH_S = 0.004
 STALE_S = 0.5          # no CTRL_STATUS for this long: the controller (or the bus) is gone
+#: A command that finds the status stale waits this long for a fresh one
+#: before it is refused: a relayed bus (``stewart sim`` through socketcand
+#: into user-mode Linux) can pause for half a second on a busy machine (CI).
+STALE_GRACE_S = 2.0
 UDP_MAGIC = b"SPP1"
 #: The UDP pose datagram (docs/reference/console-api.md): magic, sequence,
 #: controller tick, bus time of the status (s, Unix), pose x y z (m) roll
@@ -261,6 +265,19 @@ class Hub:
             return f"the controller has been silent for {time.monotonic() - st.t:.1f} s (bus or controller gone)"
         return None
 
+    def _bus_problem_after_grace(self) -> str | None:
+        """bus_problem(), but a status that is only late is waited for
+        (STALE_GRACE_S) rather than refused at once."""
+        why = self.bus_problem()
+        st = self.node.status
+        if why is None or st is None or self.node.rx_error:
+            return why
+        try:
+            self.node.wait_status(timeout=STALE_GRACE_S, after=st.seq)
+        except OpError:
+            pass
+        return self.bus_problem()
+
     # -- commands ----------------------------------------------------------------
     def estop(self, cid: str | None) -> dict:
         """ESTOP from any client: sent at once (twice, the E2E resync), then
@@ -299,7 +316,7 @@ class Hub:
         """Carries out a checked request for the commander (blocking: a
         worker thread calls it). Raises Forbidden, BusDown, Refused, NoAnswer."""
         self.require_commander(cid)
-        why = self.bus_problem()
+        why = self._bus_problem_after_grace()
         if why:
             raise BusDown(why)
         if not self._cmd_lock.acquire(timeout=0.5):
