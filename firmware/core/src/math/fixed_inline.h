@@ -94,7 +94,13 @@ SPI_INLINE unsigned spi_clz64(uint64_t v)
 }
 
 /* round(v / 2^s), ties away from zero, for 1 <= s <= 62 and
- * |v| <= 2^63 - 2^(s-1) (every product of two int32 qualifies). */
+ * v < 2^63 - 2^(s-1) (every product of two int32 qualifies). WP proves the
+ * contract one shift at a time (tests/static/proofs.py wp-round). */
+/*@ requires 1 <= s <= 62;
+  @ requires v <= INT64_MAX - (1 << (s - 1));
+  @ assigns \nothing;
+  @ ensures \result == SP_ROUND(v, 1 << s);
+  @*/
 SPI_INLINE int64_t spi_round_away(int64_t v, unsigned s)
 {
     return (v + ((INT64_C(1) << (s - 1u)) - (v < 0 ? 1 : 0))) >> s;
@@ -112,7 +118,7 @@ SPI_INLINE int32_t spi_sat(int64_t v, sp_flags_t *flags)
 }
 
 /* round(v / 2^s) with ties rounded up, for 1 <= s <= 62 and
- * v <= 2^63 - 2^(s-1): cheaper than spi_round_away where the direction of exact
+ * v < 2^63 - 2^(s-1): cheaper than spi_round_away where the direction of exact
  * ties does not matter (inside the linear solve). */
 SPI_INLINE int64_t spi_round_up(int64_t v, unsigned s)
 {

@@ -67,6 +67,8 @@ typedef uint32_t sp_flags_t;
 sp_status_t sp_flags_status(sp_flags_t flags);
 
 /*@ logic integer SP_SAT32(integer v) = (v > INT32_MAX ? INT32_MAX : (v < INT32_MIN ? INT32_MIN : v));
+  @ // v / p rounded to nearest, ties away from zero (p > 0; ACSL's / truncates)
+  @ logic integer SP_ROUND(integer v, integer p) = (v >= 0 ? (v + p / 2) / p : -((-v + p / 2) / p));
   @*/
 
 /**
@@ -110,17 +112,25 @@ int32_t sp_neg(int32_t a, sp_flags_t *flags);
 int32_t sp_abs(int32_t a, sp_flags_t *flags);
 
 /**
- * v / 2^shift rounded to nearest (ties away from zero), 0 <= shift <= 62.
- * Exact for every int64 input; cannot overflow.
+ * v / 2^shift rounded to nearest (ties away from zero), 0 <= shift <= 62
+ * (a larger shift is taken as 62). Exact for every int64 input; cannot
+ * overflow. WP proves the contract one shift at a time (proofs.py wp-round).
  */
+/*@ assigns \nothing;
+  @ ensures \result == SP_ROUND(v, 1 << (shift > 62 ? 62 : shift));
+  @*/
 int64_t sp_rshift_round(int64_t v, unsigned shift);
 
 /**
  * Product of Qa and Qb, returned in Q(a+b-shift): round(a * b / 2^shift).
  * The 64-bit product is exact; only the final narrowing can saturate
- * (SP_FLAG_OVERFLOW). shift must be <= 62.
- * Error: at most 0.5 LSB of the result.
+ * (SP_FLAG_OVERFLOW). shift must be <= 62 (a larger one is taken as 62).
+ * Error: at most 0.5 LSB of the result (ties away from zero).
  */
+/*@ requires flags == \null || \valid(flags);
+  @ assigns *flags;
+  @ ensures \result == SP_SAT32(SP_ROUND(a * b, 1 << (shift > 62 ? 62 : shift)));
+  @*/
 int32_t sp_mul(int32_t a, int32_t b, unsigned shift, sp_flags_t *flags);
 
 /** Q30 x Q30 -> Q30. Saturates outside [-2, 2). Error <= 0.5 LSB. */
