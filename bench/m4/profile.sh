@@ -10,7 +10,7 @@
 # force: the force scenario's FORCE command and the 2000 ticks after it;
 # engage: the surge's ENGAGE tick alone, sp_m4_profile_engage.elf;
 # trig: the surge's RUN_TRIG tick alone, sp_m4_profile_trig.elf;
-# stream_all: the STREAM scenario's whole RUNNING phase (5655 ticks, the
+# stream_all: the STREAM scenario's whole RUNNING phase (5658 ticks, the
 # settling tail after PARK included), sp_m4_profile_stream_all.elf;
 # twin: the force scenario's position-control twin, every tick from ENGAGE
 # (13866 ticks), sp_m4_profile_twin.elf;
@@ -35,7 +35,7 @@ top=${2:-25}
 elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 [ "${3:-}" = force ] && : "${PROFILE_TICKS:=2001}"
 [ "${3:-}" = stream ] && : "${PROFILE_TICKS:=2000}"
-[ "${3:-}" = stream_all ] && : "${PROFILE_TICKS:=5655}"
+[ "${3:-}" = stream_all ] && : "${PROFILE_TICKS:=5658}"
 [ "${3:-}" = twin ] && : "${PROFILE_TICKS:=13866}"
 [ "${3:-}" = engage ] && : "${PROFILE_TICKS:=1}"
 [ "${3:-}" = trig ] && : "${PROFILE_TICKS:=1}"
