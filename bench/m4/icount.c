@@ -64,6 +64,11 @@ __attribute__((noipa)) static sp_status_t run_tick(m4_scenario_t *s)
     return sp_ctrl_step(&s->cfg, &s->ctrl, &s->in, &s->out);
 }
 
+__attribute__((noipa)) static sp_status_t run_wrench_at_tool(const sp_ctrl_t *c, const int32_t *w, int32_t *t)
+{
+    return sp_ctrl_wrench_at_tool(c, w, t);
+}
+
 __attribute__((noipa)) static sp_status_t run_force_step(sp_ctrl_t *c, sp_force_t *f, const sp_q8_t *w,
                                                          const sp_pose_t *x, sp_motion_t *out, uint32_t *events)
 {
@@ -389,6 +394,8 @@ typedef struct {
     m4_stat_t own;          /* force control's own step (sp_force_step), again on a copy, in the run's ticks */
     uint32_t own_mismatch;  /* copies whose step did not reproduce the tick's (not counted in `own`) */
     m4_stat_t kind[KINDS];  /* ticks by kind (kind_names): which kind makes the maximum */
+    m4_stat_t report;       /* with frames: the wrench report at the tool point (sp_ctrl_wrench_at_tool,
+                               the node's on its CTRL_WRENCH ticks), RUNNING ticks */
     uint32_t worst_tick;    /* the highest tick: its index, */
     uint8_t worst_state;    /* the state it began in, */
     uint8_t worst_cmd;      /* its command (SP_CMD_NONE: none) */
@@ -425,6 +432,7 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
     for (k = 0u; k < KINDS; ++k) {
         m4_stat_reset(&r->kind[k]);
     }
+    m4_stat_reset(&r->report);
     r->worst_tick = 0u;
     r->worst_state = 0u;
     r->worst_cmd = 0u;
@@ -465,6 +473,12 @@ static void run_scenario(m4_scenario_t *sc, uint8_t motion, scenario_counts_t *r
             kind = KIND_REST;
         }
         m4_stat_add(&r->kind[kind], net);
+        if (m4_scenario_frames != 0u && before == SP_STATE_RUNNING) {
+            static int32_t wt[6];
+            uint32_t rep;
+            M4_MEASURE(rep, sink = (int32_t)run_wrench_at_tool(&sc->ctrl, sc->out.wrench, wt));
+            m4_stat_add(&r->report, rep);
+        }
         if (net > r->all.max16) {
             r->worst_tick = tick;
             r->worst_state = (uint8_t)before;
@@ -570,7 +584,11 @@ static void frames_line(const char *what, const m4_stat_t *with, const m4_stat_t
     m4_out_str(sp_state_name((sp_state_t)r->worst_state));
     m4_out_str(", command ");
     m4_out_u32(r->worst_cmd);
-    m4_out_str(")");
+    m4_out_str("); the node's wrench report ");
+    m4_out_fix16(m4_stat_mean16(&r->report));
+    m4_out_str(" every ");
+    m4_out_u32(SP_PROTO_WRENCH_PERIOD);
+    m4_out_str(" ticks");
     m4_out_nl();
 }
 

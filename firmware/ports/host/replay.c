@@ -145,9 +145,11 @@ int main(int argc, char **argv)
             sp_can_frame_t tx[SP_NODE_MAX_TX];
             uint32_t n = 0;
             (void)sp_node_tick(&cfg, &node, tx, &n);
+            int32_t w[6];
+            (void)sp_ctrl_wrench_at_tool(&node.ctrl, node.out.wrench, w); /* as CTRL_WRENCH reports it */
             printf("%lu,%s,%u", (unsigned long)t, sp_state_name(node.out.state), (unsigned)node.out.wrench_valid);
             for (int k = 0; k < 6; k++) {
-                printf(",%.4f", (double)node.out.wrench[k] / 256.0);
+                printf(",%.4f", (double)w[k] / 256.0);
             }
             printf("\n");
         }

@@ -142,9 +142,11 @@ static void rig_tick(rig_t *r)
             assert_int_equal(sp_proto_decode_wrench(f, &w, &counter, &e), SP_OK);
             assert_int_equal(w.tick, r->node.out.tick);
             assert_int_equal(w.valid, r->node.out.wrench_valid);
+            int32_t at_tool[6]; /* with frames, at the tool point: what the frame carries */
+            assert_int_equal(sp_ctrl_wrench_at_tool(&r->node.ctrl, r->node.out.wrench, at_tool), SP_OK);
             for (uint32_t c = 0; c < 6u; c++) {
                 /* 0.25 N steps = 64 Q8 LSBs: within half a step */
-                int64_t d = (int64_t)w.wrench[c] - r->node.out.wrench[c];
+                int64_t d = (int64_t)w.wrench[c] - at_tool[c];
                 assert_true(d >= -32 && d <= 32);
             }
             if (r->wrench_frames > 0u) {

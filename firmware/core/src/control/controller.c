@@ -1727,24 +1727,27 @@ SPI_NOINLINE static void contact_feedforward(const sp_ctrl_t *ctrl, const int32_
     }
 }
 
-/* With frames: the reported wrenches at the tool point in W's axes (at the
- * reference's orientation). */
-SPI_NOINLINE static void tool_wrench_output(const sp_ctrl_t *ctrl, sp_ctrl_output_t *out)
+sp_status_t sp_ctrl_wrench_at_tool(const sp_ctrl_t *ctrl, const int32_t w[6], int32_t w_tool[6])
 {
-    int32_t w[6];
+    int32_t t[6] = {0, 0, 0, 0, 0, 0};
     sp_q24_t r[3];
+    sp_status_t st = SP_E_ARG;
     unsigned k;
-    (void)sp_frames_lever(&ctrl->frames, &ctrl->model.rot, r); /* one lever for both */
-    if (sp_frames_wrench_to_tool_at(&ctrl->frames, r, out->wrench, w) == SP_OK) {
+    if ((ctrl != NULL) && (w != NULL) && (w_tool != NULL)) {
+        st = SP_OK;
+        if (!ctrl->frames.identity) {
+            /* the lever of the reference's orientation (the tick's model) */
+            st = sp_frames_lever(&ctrl->frames, &ctrl->model.rot, r);
+            if (st == SP_OK) {
+                st = sp_frames_wrench_to_tool_at(&ctrl->frames, r, w, t);
+            }
+        }
         for (k = 0u; k < 6u; ++k) {
-            out->wrench[k] = w[k];
+            /* identity frames, or a moved component that saturated: unmoved */
+            w_tool[k] = (ctrl->frames.identity || (st != SP_OK)) ? w[k] : t[k];
         }
     }
-    if (sp_frames_wrench_to_tool_at(&ctrl->frames, r, out->force_wrench, w) == SP_OK) {
-        for (k = 0u; k < 6u; ++k) {
-            out->force_wrench[k] = w[k];
-        }
-    }
+    return st;
 }
 
 static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uint32_t fk_iterations, int rejected,
@@ -1789,9 +1792,6 @@ static void write_output(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, uin
     for (i = 0u; i < 6u; ++i) {
         out->force_target[i] = ctrl->force.target[i];
         out->force_wrench[i] = (w != NULL) ? w[i] : 0;
-    }
-    if (!ctrl->frames.identity) {
-        tool_wrench_output(ctrl, out);
     }
 }
 

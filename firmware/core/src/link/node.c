@@ -603,9 +603,8 @@ SPI_NOINLINE static void send_ops_frames(const sp_node_config_t *cfg, sp_node_t 
         sp_msg_wrench_t w;
         w.tick = tick;
         w.valid = node->out.wrench_valid;
-        for (uint32_t k = 0; k < 6u; k++) {
-            w.wrench[k] = node->out.wrench[k];
-        }
+        /* at the tool point with frames (on this tick only: not every tick) */
+        (void)sp_ctrl_wrench_at_tool(&node->ctrl, node->out.wrench, w.wrench);
         count_send(node, sp_proto_encode_wrench(&w, node->tx_counter_wrench++, &out[*n]), n);
         node->tx_counter_wrench &= 0x0Fu;
     }

@@ -296,13 +296,14 @@ typedef struct {
     sp_setpoint_t setpoint[SP_LEGS];
     sp_drive_mode_t drive_mode;
     sp_state_t state;
-    uint32_t faults;        /**< latched SP_FAULT_* bits */
-    uint32_t tick;          /**< ticks since init, modulo 2^32 (sp_ctrl_t.tick) */
-    sp_pose_t estimate;     /**< pose by forward kinematics */
-    sp_motion_t reference;  /**< the reference of this tick */
-    uint32_t fk_iterations; /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
-    int32_t wrench
-        [6]; /**< external wrench estimate, as reported (sp_wrench_smooth): force N, moment about o' N m, base frame, Q8 */
+    uint32_t faults;             /**< latched SP_FAULT_* bits */
+    uint32_t tick;               /**< ticks since init, modulo 2^32 (sp_ctrl_t.tick) */
+    sp_pose_t estimate;          /**< pose by forward kinematics */
+    sp_motion_t reference;       /**< the reference of this tick */
+    uint32_t fk_iterations;      /**< this tick's FK steps (linear solves, sp_estimate_step): 1 for the single step */
+    int32_t wrench[6];           /**< external wrench estimate, as reported (sp_wrench_smooth): force N, moment about o'
+                            N m, base frame, Q8 (with frames the node reports it at the tool point:
+                            sp_ctrl_wrench_at_tool) */
     uint8_t estimate_valid;      /**< 1 once FK has a pose */
     uint8_t cmd_rejected;        /**< 1 if this tick's command was refused */
     uint8_t wrench_valid;        /**< 1 while the wrench estimate follows the measurements (engaged, every drive heard,
@@ -310,7 +311,8 @@ typedef struct {
     uint8_t force_mode;          /**< sp_force_mode_t: OFF (position control), FORCE, GUIDE, RELEASE, HOLD */
     uint8_t contact;             /**< 1 while force control is in contact */
     sp_q8_t force_target[6];     /**< the commanded wrench (0 outside FORCE), N, N m, Q8 */
-    int32_t force_wrench[6];     /**< the wrench force control uses (the source of the config), N, N m, Q8 */
+    int32_t force_wrench[6];     /**< the wrench force control uses (the source of the config), force N, moment
+                                      about o' N m, base frame, Q8 (at the tool point: sp_ctrl_wrench_at_tool) */
     uint8_t drive_fault_reset;   /**< 1 on the tick RESET asks the drives to clear their faults (the
                                       setpoints' FaultReset), else 0 */
     uint8_t reset_refused_legs;  /**< bit i: leg i's drive refused the last fault reset (0: none refused) */
@@ -694,6 +696,17 @@ const sp_ctrl_cmd_t *sp_ctrl_operator_link(const sp_ctrl_config_t *cfg, sp_ctrl_
  */
 sp_status_t sp_ctrl_reach(const sp_ctrl_config_t *cfg, const sp_ctrl_t *ctrl, const sp_pose_t *tool_pose,
                           sp_reach_t *reach);
+
+/**
+ * A wrench of this tick's output (out->wrench or out->force_wrench: force
+ * N, moment about o' N m, base frame, Q8) at the tool point in W's axes, at
+ * the orientation of the tick's reference (the active frames; identity
+ * frames: w copied). Computed on demand, not every tick: the node moves the
+ * wrench it reports on the ticks it reports it. Call it after the tick's
+ * sp_ctrl_step, before the next. w_tool may be w. Errors: SP_E_ARG (NULL),
+ * SP_E_OVERFLOW (a component saturated: w_tool is w, unmoved).
+ */
+sp_status_t sp_ctrl_wrench_at_tool(const sp_ctrl_t *ctrl, const int32_t w[6], int32_t w_tool[6]);
 
 /** Counts a refusal (ctrl->refusals[why], saturating; ctrl->last_refusal):
  *  for the node's own refusals (a non-finite value). `why` is an
