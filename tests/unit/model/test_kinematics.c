@@ -43,6 +43,7 @@
 #include "assert_near.h"
 #include "ref_model.h"
 #include "sp/model/dynamics.h"
+#include "sp/model/frames.h"
 #include "sp/model/kinematics.h"
 #include "sp/motion/limits.h"
 #include "test_util.h"
@@ -1491,6 +1492,68 @@ static void test_inverse_dynamics_rates_reference(void **state)
                   worst_lsb);
 }
 
+/* A tool tip (no frame turned) shares its orientation with the IK's keep,
+ * and the frames keep there the body rates they made of the tool motion
+ * (sp_setpoints_held hands them to the inverse dynamics instead of making
+ * them again): whenever rates_valid, they are sp_body_rates_sc of the
+ * keep's sines and the platform's Euler rates bit for bit, and an angle
+ * the IK alone changes clears them. */
+static void test_frames_keep_body_rates(void **state)
+{
+    (void)state;
+    uint64_t rng = 0x5eed0b0d7ea7e5ULL;
+    sp_pose_t tool = {{ref_q24(0.15), 0, ref_q24(0.35)}, {0, 0, 0}};
+    sp_pose_t work = {{0, 0, 0}, {0, 0, 0}};
+    sp_frames_t f;
+    sp_frames_keep_t fk;
+    sp_orient_keep_t keep;
+    unsigned kept = 0u;
+    assert_int_equal(sp_frames_prepare(&tool, &work, &f), SP_OK);
+    memset(&fk, 0, sizeof fk);
+    memset(&keep, 0, sizeof keep);
+    for (int n = 0; n < 4000; ++n) {
+        sp_motion_t m;
+        sp_motion_t plat;
+        sp_q24_t w[3];
+        sp_q24_t dw[3];
+        memset(&m, 0, sizeof m);
+        for (int k = 0; k < 3; ++k) {
+            m.pose.pos[k] = ref_q24(tu_uniform(&rng, -0.1, 0.1));
+            m.pose.rpy[k] = (n % 3 == 1) ? keep.rpy[k] : ref_q24(tu_uniform(&rng, -0.3, 0.3));
+            m.rpy_rate[k] = (n % 5 == 0) ? 0 : ref_q24(tu_uniform(&rng, -1.0, 1.0));
+            m.rpy_acc[k] = (n % 5 == 0) ? 0 : ref_q24(tu_uniform(&rng, -5.0, 5.0));
+        }
+        if (n % 7 == 3) {
+            m.rpy_rate[0] = 0; /* a turn about z alone */
+            m.rpy_rate[1] = 0;
+            m.rpy_acc[0] = 0;
+            m.rpy_acc[1] = 0;
+        }
+        assert_int_equal(sp_frames_motion_to_platform_shared(&f, &fk, &keep, &m, &plat), SP_OK);
+        if (keep.rates_valid) {
+            /* the body rates of the rates they are of, at the keep's sines
+             * (the consumer takes them only for equal rates) */
+            int same = 1;
+            assert_int_equal(sp_body_rates_sc(keep.sc, &keep.rates_of[0], &keep.rates_of[3], w, dw), SP_OK);
+            for (int k = 0; k < 3; ++k) {
+                assert_int_equal(keep.body[k], w[k]);
+                assert_int_equal(keep.body[k + 3], dw[k]);
+                same = same && keep.rates_of[k] == plat.rpy_rate[k] && keep.rates_of[k + 3] == plat.rpy_acc[k];
+            }
+            kept += (unsigned)same;
+        }
+        if (n % 11 == 5) {
+            /* the IK alone at other angles: the kept body rates go */
+            sp_ik_t ik;
+            sp_pose_t other = plat.pose;
+            other.rpy[2] = sp_add(other.rpy[2], 1, NULL);
+            (void)sp_inverse_kinematics_kept(&sp_platform_default, &other, &keep, &ik);
+            assert_int_equal(keep.rates_valid, 0u);
+        }
+    }
+    assert_true(kept > 2000u); /* this motion's rates were kept: the check ran */
+}
+
 static void test_inverse_dynamics_held(void **state)
 {
     uint64_t rng = 29;
@@ -1732,6 +1795,7 @@ int main(void)
         cmocka_unit_test(test_legs_fit),
         cmocka_unit_test(test_inverse_dynamics_rates_reference),
         cmocka_unit_test(test_inverse_dynamics_held),
+        cmocka_unit_test(test_frames_keep_body_rates),
         cmocka_unit_test(test_check_legs),
         cmocka_unit_test(test_length_sensors),
     };

@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: Apache-2.0 */
 #include "sp/model/dynamics.h"
+#include "model/model_internal.h"
 
 #include "math/fixed_inline.h"
 
@@ -1028,7 +1029,7 @@ SPI_INLINE sp_status_t id_end(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_
  * (sp_inverse_dynamics_rates). */
 static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
                             const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS], sp_lu6_t *lu,
-                            sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh)
+                            sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh, const sp_q24_t body[6])
 {
     int have_rates = 0;
     sp_flags_t flags = 0u;
@@ -1066,9 +1067,17 @@ static sp_status_t id_solve(const sp_platform_t *platform, const sp_motion_t *mo
         hold = NULL;
         keep = 0u;
     }
-    st = sp_body_rates_sc(ik->sc, motion->rpy_rate, motion->rpy_acc, omega, omega_dot);
-    if (st != SP_OK) {
-        return st;
+    if (body != NULL) {
+        /* made by the frames from the same sines and rates, bit for bit */
+        for (unsigned c = 0u; c < 3u; ++c) {
+            omega[c] = body[c];
+            omega_dot[c] = body[c + 3u];
+        }
+    } else {
+        st = sp_body_rates_sc(ik->sc, motion->rpy_rate, motion->rpy_acc, omega, omega_dot);
+        if (st != SP_OK) {
+            return st;
+        }
     }
     id_translation(platform, motion, ext_force, b);
     /* Rotation (eq 8 with the full tensor): I dw/dt + w x (I w), motion
@@ -1112,7 +1121,7 @@ sp_status_t sp_inverse_dynamics_jac(const sp_platform_t *platform, const sp_moti
                                     const sp_jacobian_t *jac, const sp_q8_t ext_force[3], sp_q8_t force[SP_LEGS],
                                     sp_lu6_t *lu)
 {
-    return id_solve(platform, motion, ik, jac, ext_force, force, lu, NULL, NULL, SP_ALL_LEG_BITS);
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, NULL, NULL, SP_ALL_LEG_BITS, NULL);
 }
 
 sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -1131,7 +1140,7 @@ sp_status_t sp_inverse_dynamics_rates(const sp_platform_t *platform, const sp_mo
         }
         return SP_E_ARG;
     }
-    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate, NULL, SP_ALL_LEG_BITS);
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate, NULL, SP_ALL_LEG_BITS, NULL);
 }
 
 sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
@@ -1146,5 +1155,19 @@ sp_status_t sp_inverse_dynamics_held(const sp_platform_t *platform, const sp_mot
         hold->fresh = (uint8_t)SP_ALL_LEG_BITS;
         return sp_inverse_dynamics_rates(platform, motion, ik, jac, ext_force, force, lu, rate); /* SP_E_ARG */
     }
-    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate, hold, refresh);
+    return id_solve(platform, motion, ik, jac, ext_force, force, lu, rate, hold, refresh, NULL);
+}
+
+sp_status_t spi_inverse_dynamics_held_body(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                           const sp_jacobian_t *jac, sp_q8_t force[SP_LEGS], sp_lu6_t *lu,
+                                           sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh,
+                                           const sp_q24_t body[6])
+{
+    sp_status_t st;
+    if ((hold == NULL) || (rate == NULL) || (body == NULL)) {
+        st = sp_inverse_dynamics_held(platform, motion, ik, jac, NULL, force, lu, rate, hold, refresh);
+    } else {
+        st = id_solve(platform, motion, ik, jac, NULL, force, lu, rate, hold, refresh, body);
+    }
+    return st;
 }

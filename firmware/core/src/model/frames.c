@@ -500,9 +500,27 @@ typedef struct {
     const sp_q30_t *scp;
 } motion_orient_t;
 
-/* sp_frames_motion_to_platform past its orientation (f not identity). */
+/* The body rates w, dw of a tool motion's Euler rates (st: how
+ * sp_body_rates_sc made them) into the IK's keep, for the inverse
+ * dynamics. */
+static void keep_body_rates(sp_orient_keep_t *keep, const sp_motion_t *m, const sp_q24_t w[3], const sp_q24_t dw[3],
+                            sp_status_t st)
+{
+    unsigned k;
+    for (k = 0u; k < 3u; ++k) {
+        keep->rates_of[k] = m->rpy_rate[k];
+        keep->rates_of[k + 3u] = m->rpy_acc[k];
+        keep->body[k] = w[k];
+        keep->body[k + 3u] = dw[k];
+    }
+    keep->rates_valid = (st == SP_OK) ? 1u : 0u;
+}
+
+/* sp_frames_motion_to_platform past its orientation (f not identity);
+ * body: the IK's keep that shares the orientation (no frame turned), where
+ * the body rates are kept, else NULL. */
 static sp_status_t motion_core(const sp_frames_t *f, const motion_orient_t *o, const sp_motion_t *tool_motion,
-                               sp_motion_t *platform)
+                               sp_motion_t *platform, sp_orient_keep_t *body)
 {
     sp_q24_t w[3] = {0, 0, 0}, dw[3] = {0, 0, 0};
     sp_flags_t flags = 0u;
@@ -510,9 +528,13 @@ static sp_status_t motion_core(const sp_frames_t *f, const motion_orient_t *o, c
     copy3(platform->pose.rpy, o->rpy);
     flags |= platform_pos(f, o->tp, tool_motion->pose.pos, platform->pose.pos);
     if (turning) {
-        flags |= (sp_body_rates_sc(o->sc, tool_motion->rpy_rate, tool_motion->rpy_acc, w, dw) == SP_OK)
-                     ? 0u
-                     : SP_FLAG_OVERFLOW;
+        sp_status_t st = sp_body_rates_sc(o->sc, tool_motion->rpy_rate, tool_motion->rpy_acc, w, dw);
+        flags |= (st == SP_OK) ? 0u : SP_FLAG_OVERFLOW;
+        if (body != NULL) {
+            /* the platform's Euler rates are the tool's and o->sc its
+             * sines: the inverse dynamics' body rates, made once */
+            keep_body_rates(body, tool_motion, w, dw, st);
+        }
         body_to_platform(f, w, &flags);
         body_to_platform(f, dw, &flags);
     }
@@ -554,7 +576,7 @@ sp_status_t sp_frames_motion_to_platform(const sp_frames_t *f, const sp_motion_t
     o.tp = &tp;
     o.rpy = rpy;
     o.scp = scp;
-    return motion_core(f, &o, tool_motion, platform);
+    return motion_core(f, &o, tool_motion, platform, NULL);
 }
 
 /* keep brought to the tool angles rpy: each angle that changed gets its
@@ -607,7 +629,7 @@ sp_status_t sp_frames_motion_to_platform_kept(const sp_frames_t *f, sp_frames_ke
     o.tp = &keep->tp;
     o.rpy = keep->rpy;
     o.scp = keep->scp;
-    return motion_core(f, &o, tool_motion, platform);
+    return motion_core(f, &o, tool_motion, platform, NULL);
 }
 
 sp_status_t sp_frames_motion_to_platform_shared(const sp_frames_t *f, sp_frames_keep_t *keep, sp_orient_keep_t *orient,
@@ -634,7 +656,7 @@ sp_status_t sp_frames_motion_to_platform_shared(const sp_frames_t *f, sp_frames_
     o.tp = &orient->rot;
     o.rpy = tool_motion->pose.rpy;
     o.scp = orient->sc; /* not read: no frame turned */
-    return motion_core(f, &o, tool_motion, platform);
+    return motion_core(f, &o, tool_motion, platform, orient);
 }
 
 sp_status_t sp_frames_to_platform_kept(const sp_frames_t *f, sp_frames_keep_t *keep, const sp_pose_t *tool_pose,

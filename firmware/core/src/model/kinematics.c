@@ -418,7 +418,8 @@ SPI_INLINE int orient_update(sp_orient_keep_t *keep, const sp_q24_t rpy[3], int 
             rot_yaw(keep->sc, keep->tilt, &keep->rot);
         }
         keep->valid = 1u;
-        keep->arms_valid = 0u; /* the arms were of the old T */
+        keep->arms_valid = 0u;  /* the arms were of the old T */
+        keep->rates_valid = 0u; /* the body rates were of the old sines */
     }
     return changed;
 }

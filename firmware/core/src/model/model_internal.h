@@ -9,6 +9,7 @@
 #define SP_MODEL_INTERNAL_H
 
 #include "sp/model/kinematics.h"
+#include "sp/model/dynamics.h"
 
 /* T of the angles (rad, Q24), keeping their sines and cosines in sc =
  * {sin, cos} of roll, pitch, yaw (Q30). Cannot fail. */
@@ -73,5 +74,15 @@ void spi_jacobian_near(const sp_ik_t *ik, sp_jacobian_t *jac);
  * leave the 32-bit range or b is 0 or out of range: the caller then uses
  * the int64 solve. */
 int spi_lu6_solve_t32(const sp_lu6_t *lu, const int64_t b[SP_LEGS], int64_t x[SP_LEGS]);
+
+/* sp_inverse_dynamics_held (no external force) with the body rates given:
+ * body = omega, omega_dot (Q24) as sp_body_rates_sc makes them from
+ * ik->sc and motion's Euler rates (the frames' shared path keeps them in
+ * the IK's sp_orient_keep_t), so that they are not made twice; the same
+ * result bit for bit. NULL hold, rate or body: sp_inverse_dynamics_held. */
+sp_status_t spi_inverse_dynamics_held_body(const sp_platform_t *platform, const sp_motion_t *motion, const sp_ik_t *ik,
+                                           const sp_jacobian_t *jac, sp_q8_t force[SP_LEGS], sp_lu6_t *lu,
+                                           sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh,
+                                           const sp_q24_t body[6]);
 
 #endif /* SP_MODEL_INTERNAL_H */

@@ -50,6 +50,24 @@ sp_status_t sp_setpoints_of(const sp_platform_t *platform, const sp_limits_t *li
     return sp_setpoints_held(platform, lim, fr, ref, ff, sp, lu, model, NULL, 0u, NULL);
 }
 
+/* The body rates of ref kept in orient by the frames (their Euler rates
+ * equal ref's, their sines the IK's: an angle changed clears them), else
+ * NULL. */
+static const sp_q24_t *body_rates_kept(const sp_orient_keep_t *orient, const sp_motion_t *ref)
+{
+    const sp_q24_t *body = NULL;
+    if ((orient != NULL) && (orient->rates_valid != 0u)) {
+        unsigned k;
+        body = orient->body;
+        for (k = 0u; k < 3u; ++k) {
+            if ((orient->rates_of[k] != ref->rpy_rate[k]) || (orient->rates_of[k + 3u] != ref->rpy_acc[k])) {
+                body = NULL; /* of other rates */
+            }
+        }
+    }
+    return body;
+}
+
 sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *lim, const sp_friction_t *fr,
                               const sp_motion_t *ref, unsigned ff, sp_setpoint_t sp[SP_LEGS], sp_lu6_t *lu,
                               sp_model_t *model, sp_leg_hold_t *hold, unsigned refresh, sp_orient_keep_t *orient)
@@ -71,7 +89,8 @@ sp_status_t sp_setpoints_held(const sp_platform_t *platform, const sp_limits_t *
     }
     if (st == SP_OK) {
         /* the forces and the leg rates (sp_leg_rates) in one pass */
-        st = sp_inverse_dynamics_held(platform, ref, &ik, &model->jac, NULL, force, lu, rate, hold, refresh);
+        st = spi_inverse_dynamics_held_body(platform, ref, &ik, &model->jac, force, lu, rate, hold, refresh,
+                                            body_rates_kept(orient, ref));
     }
     if (st != SP_OK) {
         return st;

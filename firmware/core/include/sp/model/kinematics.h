@@ -81,6 +81,11 @@ typedef struct {
     uint8_t fresh;                 /**< 1 when another user of the keep (sp_frames_motion_to_platform_shared)
                                         changed the orientation since the IK's last call: the IK takes it as
                                         changed (a turning reference keeps no arms) */
+    uint8_t rates_valid;           /**< 1 when body is sp_body_rates_sc(sc, rates_of): set by
+                                        sp_frames_motion_to_platform_shared, cleared when an angle changes */
+    sp_q24_t rates_of[6];          /**< the Euler rates (rad/s) and accelerations (rad/s^2) body is of, Q24 */
+    sp_q24_t body[6];              /**< their body rates omega (rad/s) and omega_dot (rad/s^2), Q24: the inverse
+                                        dynamics of the same motion takes them instead of making them again */
 } sp_orient_keep_t;
 
 /**
