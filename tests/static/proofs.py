@@ -120,24 +120,30 @@ def eva(target, limit, build):
     return 1 if bad else 0
 
 
-def wp(limit):
+def run_wp(label, files, inline, funcs, what, limit):
+    """Frama-C WP with Z3 over files (-wp-rte, functions funcs, inline the
+    calls named): prints the goals proved and fails unless all are."""
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, WHY3CONFIG=os.path.join(tmp, "why3.conf"))
         subprocess.run(["why3", "config", "detect"], env=env, capture_output=True, check=True)
-        cmd = BASE + [os.path.join(ROOT, "firmware/core/src/math/fixed.c"), "-inline-calls", "set_flag,spi_round_away", "-wp",
-                      "-wp-fct", WP_FUNCS, "-wp-rte", "-wp-prover", "z3", "-wp-timeout", "20", "-wp-par", "2",
-                      "-wp-session", os.path.join(tmp, "wp")]
+        cmd = BASE + files(tmp) + ["-inline-calls", inline, "-wp", "-wp-fct", funcs, "-wp-rte", "-wp-prover", "z3",
+                                   "-wp-timeout", "20", "-wp-par", "2", "-wp-session", os.path.join(tmp, "wp")]
         res, dt = run(cmd, limit, env)
     out = res.stdout + res.stderr
     m = re.search(r"Proved goals:\s+(\d+) / (\d+)", out)
     if res.returncode != 0 or m is None:
-        sys.exit(f"wp: frama-c failed ({res.returncode}):\n{out[-3000:]}")
+        sys.exit(f"{label}: frama-c failed ({res.returncode}):\n{out[-3000:]}")
     post = len(re.findall(r"Goal typed_\w+_ensures\w* : Valid", out))
-    print(f"wp: {m.group(1)} of {m.group(2)} goals proved ({post} postconditions) for {WP_FUNCS}; {dt:.1f} s")
+    print(f"{label}: {m.group(1)} of {m.group(2)} goals proved ({post} postconditions) for {what}; {dt:.1f} s")
     if m.group(1) != m.group(2):
         print("\n".join(line for line in out.splitlines() if "Goal" in line and "Valid" not in line))
         return 1
     return 0
+
+
+def wp(limit):
+    return run_wp("wp", lambda tmp: [os.path.join(ROOT, "firmware/core/src/math/fixed.c")],
+                  "set_flag,spi_round_away", WP_FUNCS, WP_FUNCS, limit)
 
 
 def shifts_in_sources():
@@ -215,30 +221,17 @@ def wp_round(which, limit):
         shifts = sorted({int(k) for k in which.split(",")})
         if not all(0 <= k <= 63 for k in shifts):
             sys.exit("wp-round: shifts are 0..63 (63: any shift above 62)")
-    with tempfile.TemporaryDirectory() as tmp:
+
+    def files(tmp):
         harness = os.path.join(tmp, "round_main.c")
         with open(harness, "w", encoding="utf-8") as f:
             f.write(round_harness(shifts))
-        env = dict(os.environ, WHY3CONFIG=os.path.join(tmp, "why3.conf"))
-        subprocess.run(["why3", "config", "detect"], env=env, capture_output=True, check=True)
-        funcs = ",".join(f"wp_{n}_{k}" for k in shifts for n in ("round_away", "rshift_round", "mul")
-                         if n != "round_away" or 1 <= k <= 62)
-        cmd = BASE + [os.path.join(ROOT, "firmware/core/src/math/fixed.c"), harness,
-                      "-inline-calls", "set_flag,spi_round_away,sp_rshift_round,sp_mul", "-wp", "-wp-fct", funcs,
-                      "-wp-rte", "-wp-prover", "z3", "-wp-timeout", "20", "-wp-par", "2",
-                      "-wp-session", os.path.join(tmp, "wp")]
-        res, dt = run(cmd, limit, env)
-    out = res.stdout + res.stderr
-    m = re.search(r"Proved goals:\s+(\d+) / (\d+)", out)
-    if res.returncode != 0 or m is None:
-        sys.exit(f"wp-round: frama-c failed ({res.returncode}):\n{out[-3000:]}")
-    post = len(re.findall(r"Goal typed_\w+_ensures\w* : Valid", out))
-    print(f"wp-round: {m.group(1)} of {m.group(2)} goals proved ({post} postconditions) for spi_round_away, "
-          f"sp_rshift_round and sp_mul at the shifts {','.join(map(str, shifts))}; {dt:.1f} s")
-    if m.group(1) != m.group(2):
-        print("\n".join(line for line in out.splitlines() if "Goal" in line and "Valid" not in line))
-        return 1
-    return 0
+        return [os.path.join(ROOT, "firmware/core/src/math/fixed.c"), harness]
+
+    funcs = ",".join(f"wp_{n}_{k}" for k in shifts for n in ("round_away", "rshift_round", "mul")
+                     if n != "round_away" or 1 <= k <= 62)
+    return run_wp("wp-round", files, "set_flag,spi_round_away,sp_rshift_round,sp_mul", funcs,
+                  f"spi_round_away, sp_rshift_round and sp_mul at the shifts {','.join(map(str, shifts))}", limit)
 
 
 def main():
