@@ -247,12 +247,15 @@ static void test_rest_reuses_setpoints(void **state)
     (void)state;
     rig_init(&r);
     engage(&r);
-    for (int n = 0; n < (int)SP_CTRL_LEG_GROUPS + 4; ++n) {
+    for (int n = 0; n < (int)SP_CTRL_LU_KEEP + 4; ++n) {
         /* READY's first ticks complete the legs' terms (the engage move's
-         * last ones, at most 1 N off), then bit for bit */
+         * last ones, at most 1 N off): SP_CTRL_LEG_GROUPS ticks that
+         * refresh, the two of a staged factorisation among them at most
+         * (SP_CTRL_LU_KEEP in all), then one that factorises (refreshing
+         * no leg); bit for bit from there on */
         rig_tick(&r, SP_CMD_NONE);
         assert_int_equal(r.out.state, SP_STATE_READY);
-        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, (n + 1 < (int)SP_CTRL_LEG_GROUPS) ? 1.0 : 0.0);
+        check_fresh_setpoints(&r, SP_FF_DYNAMICS | SP_FF_FRICTION, (n < (int)SP_CTRL_LU_KEEP) ? 1.0 : 0.0);
     }
     r.cfg.friction_compensation = 0u;
     rig_tick(&r, SP_CMD_NONE);

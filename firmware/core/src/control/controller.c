@@ -1338,24 +1338,23 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
     }
     if (flags == 0u) {
         /* this tick's group: SP_LEGS / SP_CTRL_LEG_GROUPS consecutive legs
-         * (one group: every leg, nothing kept); none on a tick that is due
-         * to factorise J^T (its age, not a repeated reference; staged: the
-         * two ticks that begin and finish it), so that the factorisation
-         * and a leg's terms never share a tick: the turn's other
-         * SP_CTRL_LU_KEEP - 1 (staged: - 2) ticks refresh the groups */
+         * (one group: every leg, nothing kept); none on a tick that
+         * factorises J^T (due by its age, staged: the two ticks that begin
+         * and finish it; or a repeated reference's, below), so that the
+         * factorisation and a leg's terms never share a tick: the turn's
+         * other SP_CTRL_LU_KEEP - 1 (staged: - 2) ticks refresh the groups */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
         unsigned refresh = 0u;
-        if (same &&
-            ((ctrl->legs_exact | (((1u << per) - 1u) << (ctrl->leg_group * per))) & SP_ALL_LEGS) == SP_ALL_LEGS) {
-            /* a repeated reference whose legs this tick's group completes:
-             * factorised afresh, so that its forces become
-             * sp_setpoints_of's (the ticks before refine, as a moving
-             * reference's do: one factorisation, not one a tick) */
+        if (same && (ctrl->legs_exact & SP_ALL_LEGS) == SP_ALL_LEGS) {
+            /* a repeated reference whose legs the ticks before completed:
+             * factorised afresh, refreshing no leg, so that its forces
+             * become sp_setpoints_of's (the ticks before refine, as a
+             * moving reference's do: one factorisation, not one a tick) */
             ctrl->legs.lu_age = ctrl->legs.lu_keep;
             ctrl->legs.lu_next.begun = 0u;
         }
-        if (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || same ||
-            ctrl->legs.held != SP_ALL_LEGS || ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep) {
+        if (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || ctrl->legs.held != SP_ALL_LEGS ||
+            ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep) {
             refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
             ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
         }
