@@ -1554,6 +1554,85 @@ static void test_frames_keep_body_rates(void **state)
     assert_true(kept > 2000u); /* this motion's rates were kept: the check ran */
 }
 
+/* A call that waits (sp_leg_hold_t.lu_wait, a controller tick busy with
+ * a command): it only refines, taking no step of the staged
+ * factorisation and leaving its age, once per factorisation; the step it
+ * put off is the next call's, and a factorisation overdue (age lu_keep,
+ * no stage begun) is made whatever lu_wait says. The forces at one
+ * motion stay those of a fresh solve within 0.05 N throughout. */
+static void held_call(const sp_motion_t *m, const sp_ik_t *ik, const sp_jacobian_t *jac, sp_lu6_t *luk,
+                      sp_leg_hold_t *hk, unsigned wait, const sp_q8_t f[6])
+{
+    sp_q8_t fh[6];
+    sp_q24_t rt[6];
+    hk->lu_wait = (uint8_t)wait;
+    assert_int_equal(sp_inverse_dynamics_held(&sp_platform_default, m, ik, jac, NULL, fh, luk, rt, hk, 0x3Fu), SP_OK);
+    for (int i = 0; i < 6; ++i) {
+        assert_near(ref_f8(fh[i]), ref_f8(f[i]), 0.05, "leg %d", i);
+    }
+}
+
+static void test_inverse_dynamics_held_waits(void **state)
+{
+    const sp_platform_t *p = &sp_platform_default;
+    sp_motion_t m;
+    sp_ik_t ik;
+    sp_jacobian_t jac;
+    sp_lu6_t lu;
+    sp_lu6_t luk;
+    sp_leg_hold_t hk;
+    sp_q8_t f[6];
+    sp_q24_t rt[6];
+    (void)state;
+    memset(&m, 0, sizeof m);
+    m.pose = p->home;
+    m.vel[0] = ref_q24(0.2);
+    m.rpy_rate[2] = ref_q24(0.1);
+    m.acc[2] = ref_q24(1.0);
+    assert_int_equal(sp_inverse_kinematics(p, &m.pose, &ik), SP_OK);
+    assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
+    assert_int_equal(sp_inverse_dynamics_rates(p, &m, &ik, &jac, NULL, f, &lu, rt), SP_OK);
+    memset(&hk, 0, sizeof hk);
+    memset(&luk, 0, sizeof luk);
+    hk.lu_keep = 8u;
+    hk.lu_staged = 1u;
+    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* nothing to refine from: factorised */
+    assert_int_equal(hk.lu_age, 0);
+    assert_int_equal(hk.lu_waited, 0);
+    for (int j = 1; j <= 7; ++j) {
+        held_call(&m, &ik, &jac, &luk, &hk, 0u, f);
+        assert_int_equal(hk.lu_age, j); /* at 7: due to begin with the next call */
+    }
+    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* due to begin: waits */
+    assert_int_equal(hk.lu_next.begun, 0);
+    assert_int_equal(hk.lu_age, 7);
+    assert_int_equal(hk.lu_waited, 1);
+    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* a second wait on one factorisation: begins */
+    assert_int_equal(hk.lu_next.begun, 1);
+    assert_int_equal(hk.lu_age, 8);
+    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* finishes: the next factorisation */
+    assert_int_equal(hk.lu_next.begun, 0);
+    assert_int_equal(hk.lu_age, 1);
+    assert_int_equal(hk.lu_waited, 0);
+    for (int j = 2; j <= 8; ++j) {
+        held_call(&m, &ik, &jac, &luk, &hk, 0u, f); /* the last begins */
+    }
+    assert_int_equal(hk.lu_next.begun, 1);
+    assert_int_equal(hk.lu_age, 8);
+    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* due to finish: waits, the stage kept */
+    assert_int_equal(hk.lu_next.begun, 1);
+    assert_int_equal(hk.lu_age, 8);
+    assert_int_equal(hk.lu_waited, 1);
+    held_call(&m, &ik, &jac, &luk, &hk, 0u, f); /* finishes it */
+    assert_int_equal(hk.lu_next.begun, 0);
+    assert_int_equal(hk.lu_age, 1);
+    /* overdue (the controller's repeated reference): factorised, no wait */
+    hk.lu_age = hk.lu_keep;
+    held_call(&m, &ik, &jac, &luk, &hk, 1u, f);
+    assert_int_equal(hk.lu_age, 0);
+    assert_int_equal(hk.lu_waited, 0);
+}
+
 static void test_inverse_dynamics_held(void **state)
 {
     uint64_t rng = 29;
@@ -1796,6 +1875,7 @@ int main(void)
         cmocka_unit_test(test_inverse_dynamics_rates_reference),
         cmocka_unit_test(test_inverse_dynamics_held),
         cmocka_unit_test(test_frames_keep_body_rates),
+        cmocka_unit_test(test_inverse_dynamics_held_waits),
         cmocka_unit_test(test_check_legs),
         cmocka_unit_test(test_length_sensors),
     };

@@ -1326,7 +1326,8 @@ static int same_motion(const sp_motion_t *a, const sp_motion_t *b)
  * for as long as it lasts (its first SP_CTRL_LEG_GROUPS ticks complete the
  * legs' terms), and the RUN_TRIG tick starts from it (the trig generator's
  * first sample is the centre at rest). */
-static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags)
+static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags,
+                            int busy)
 {
     sp_status_t st = SP_E_OVERFLOW;
     unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
@@ -1345,6 +1346,11 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
          * other SP_CTRL_LU_KEEP - 1 (staged: - 2) ticks refresh the groups */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
         unsigned refresh = 0u;
+        /* a tick busy with an operator command (its check and plan: up
+         * to ~900 instructions) waits: no group, no factorisation step;
+         * once a factorisation at most (sp_leg_hold_t.lu_wait) */
+        int wait = busy && SP_CTRL_LEG_GROUPS > 1u && !ctrl->legs.lu_waited;
+        ctrl->legs.lu_wait = (uint8_t)wait;
         if (same && (ctrl->legs_exact & SP_ALL_LEGS) == SP_ALL_LEGS) {
             /* a repeated reference whose legs the ticks before completed:
              * factorised afresh, refreshing no leg, so that its forces
@@ -1353,8 +1359,8 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
             ctrl->legs.lu_age = ctrl->legs.lu_keep;
             ctrl->legs.lu_next.begun = 0u;
         }
-        if (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || ctrl->legs.held != SP_ALL_LEGS ||
-            ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep) {
+        if (!wait && (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS ||
+                      ctrl->legs.held != SP_ALL_LEGS || ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep)) {
             refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
             ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
         }
@@ -1417,11 +1423,12 @@ static int idle_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
  * (the legs' terms at rest cost a third of a moving reference's, which a
  * held tick would leave to the next sending tick). Returns whether a
  * model of the tick's or a kept reference is valid. */
-static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, int idle, int heard)
+static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, int idle, int heard,
+                             int busy)
 {
     int fresh = ctrl->est.ref_lu.valid;
     if (idle) {
-        return (!fresh && !heard) ? motion_setpoints(cfg, ctrl, ref, 0u) : idle_setpoints(ctrl, ref);
+        return (!fresh && !heard) ? motion_setpoints(cfg, ctrl, ref, 0u, busy) : idle_setpoints(ctrl, ref);
     }
     if (!fresh && !ctrl->setpoints_deferred && cfg->feedback_divider > 2u) {
         ctrl->setpoints_deferred = 1u;
@@ -1429,7 +1436,7 @@ static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const
         return 0;
     }
     ctrl->setpoints_deferred = 0u;
-    return motion_setpoints(cfg, ctrl, ref, 0u);
+    return motion_setpoints(cfg, ctrl, ref, 0u, busy);
 }
 
 /* ---- 6. the external wrench ------------------------------------------------ */
@@ -1859,11 +1866,12 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         if ((ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) && force_control(cfg, ctrl, &forced)) {
             ref = &forced;
         }
+        int busy = cmd->type != SP_CMD_NONE;
         if (flags == 0u && cfg->feedback_divider > 1u) {
-            have_model = divided_setpoints(cfg, ctrl, ref, in->setpoints_idle, heard);
+            have_model = divided_setpoints(cfg, ctrl, ref, in->setpoints_idle, heard, busy);
         } else {
             have_model = (in->setpoints_idle && flags == 0u) ? idle_setpoints(ctrl, ref)
-                                                             : motion_setpoints(cfg, ctrl, ref, flags);
+                                                             : motion_setpoints(cfg, ctrl, ref, flags, busy);
         }
     }
     if ((ctrl->prep.force.contact_ff && ctrl->force.mode == SP_FORCE_FORCE) || ctrl->contact_ff_cols != 0u) {

@@ -6,6 +6,8 @@
 
 /* bit i for each leg i */
 #define SP_ALL_LEG_BITS ((1u << SP_LEGS) - 1u)
+/* id_lu_plan's stage of a waiting call (sp_leg_hold_t.lu_wait) */
+#define ID_LU_WAIT 3u
 
 #if defined(__GNUC__)
 #define SPI_COLD __attribute__((cold, noinline))
@@ -833,12 +835,16 @@ SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS
 /* The plan for the factorisation kept in *kept_lu (lu_keep > 1) with
  * *lu the last call's: *refine 1 to refine from kept_lu->fq with *lu;
  * returns the stage, 1: then begin the staged factorisation, 2: finish it
- * first. */
+ * first, ID_LU_WAIT: neither (a waiting call: its age not counted). */
 SPI_INLINE unsigned id_lu_plan(sp_leg_hold_t *kept_lu, const sp_lu6_t *lu, int *refine)
 {
     unsigned stage = 0u;
     *refine = lu->valid && kept_lu->held == SP_ALL_LEG_BITS;
-    if (kept_lu->lu_next.begun) {
+    if (kept_lu->lu_wait && *refine && !kept_lu->lu_waited &&
+        (kept_lu->lu_next.begun || (kept_lu->lu_age < kept_lu->lu_keep))) {
+        kept_lu->lu_waited = 1u;
+        stage = ID_LU_WAIT;
+    } else if (kept_lu->lu_next.begun) {
         stage = 2u; /* the last call began it: finished, it serves this call */
     } else if (kept_lu->lu_age + 1u >= kept_lu->lu_keep) {
         /* due: a staged factorisation begins after this call's
@@ -883,9 +889,11 @@ SPI_INLINE int id_refine(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_jacobian
     int refine = 1;
     unsigned k;
     if (stage == 2u) {
-        /* the factorisation of the last call's J^T: one call old */
+        /* the factorisation of the J^T of the call that began it: one
+         * call old (two after a waiting call) */
         refine = (sp_lu6_factor_end(&kept_lu->lu_next, lu) == SP_OK);
         kept_lu->lu_age = 0u;
+        kept_lu->lu_waited = 0u;
     }
     if (!refine || !id_residual(jac, kept_lu->fq, b, r)) {
         return 0;
@@ -898,7 +906,9 @@ SPI_INLINE int id_refine(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_jacobian
     for (k = 0u; k < SP_LEGS; ++k) {
         f[k] = (int64_t)kept_lu->fq[k] * 65536 + df[k]; /* below 2^41 + 2^56 */
     }
-    kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
+    if (stage != ID_LU_WAIT) {
+        kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
+    }
     if (stage == 1u) {
         /* this call's J^T, half factorised (the next call
          * finishes it); a failure leaves it to a whole one */
@@ -929,6 +939,7 @@ SPI_INLINE sp_status_t id_forces(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_
     }
     if (kept_lu != NULL) {
         kept_lu->lu_age = 0u;
+        kept_lu->lu_waited = 0u;
     }
     return st;
 }

@@ -45,8 +45,12 @@
  * leg's terms are the two heaviest jobs of the feed-forward: never on the
  * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 2
  * ticks. A kept term is at most SP_CTRL_LU_KEEP - 1 ticks old (docs/explanation/model.md,
- * "Leg masses kept over ticks"). A reference repeated at rest is computed
- * until every leg's terms are its own, and only then reused. The default
+ * "Leg masses kept over ticks"). A tick with an operator command (its
+ * check and plan) refreshes no leg and takes no step of the factorisation,
+ * once a turn at most (sp_leg_hold_t.lu_wait): a command's cost never
+ * meets the turn's heaviest work; that turn is a tick longer. A reference
+ * repeated at rest is computed until every leg's terms are its own, then
+ * factorised on the next tick (refreshing none), and only then reused. The default
  * is six groups (one leg a tick): the M4 tick is about 1,840 instructions
  * shorter than with one group (every leg every tick, nothing kept), and
  * the demo's figures stay within their bounds (docs/explanation/m4.md, "Why the leg

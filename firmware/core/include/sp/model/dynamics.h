@@ -96,6 +96,8 @@ typedef struct {
     uint8_t lu_age;      /**< in/out: calls since *lu was factorised (0: by this call); lu_keep - 1 or more
                                   makes the next call factorise (staged: begin to) */
     uint8_t lu_staged;   /**< in: 1: the factorisation is staged over two calls (below) */
+    uint8_t lu_wait;     /**< in: 1: this call takes no step of the factorisation if it may refine (below) */
+    uint8_t lu_waited;   /**< in/out: 1 once a call waited since *lu was factorised */
     sp_lu6_stage_t lu_next; /**< in/out: the last call's J^T, half factorised, while lu_next.begun is 1 */
 } sp_leg_hold_t;
 
@@ -129,7 +131,15 @@ typedef struct {
  * the exact factorisation of the last call's J^T) and refines with it,
  * hold->lu_age 1; a call that may not refine drops it and factorises
  * whole. A hold->lu_age of lu_keep or more with no begun stage
- * (hold->lu_next.begun 0) makes the call factorise whole. The refined forces
+ * (hold->lu_next.begun 0) makes the call factorise whole.
+ * Waiting (hold->lu_wait 1, a call busy with other work): a call that may
+ * refine, is not overdue (hold->lu_age below lu_keep, or a stage begun)
+ * and whose *lu no call has waited on yet (hold->lu_waited 0) only
+ * refines: it neither begins, finishes nor makes a factorisation,
+ * leaves hold->lu_age as it was and sets hold->lu_waited, which the next
+ * factorisation clears. So at most one call a factorisation waits, and
+ * *lu serves at most lu_keep + 1 calls; a stage begun before the wait is
+ * finished by the call after it (the J^T of the call that began it). The refined forces
  * differ from a fresh solve by at most |I - J_old^-T J^T| |F - fq| plus
  * the solve's rounding (docs/explanation/model.md, "The factorisation kept over
  * ticks"); *lu then stays the older motion's factorisation.
