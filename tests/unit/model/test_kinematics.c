@@ -1579,8 +1579,6 @@ static void test_inverse_dynamics_held_waits(void **state)
     sp_ik_t ik;
     sp_jacobian_t jac;
     sp_lu6_t lu;
-    sp_lu6_t luk;
-    sp_leg_hold_t hk;
     sp_q8_t f[6];
     sp_q24_t rt[6];
     (void)state;
@@ -1592,45 +1590,64 @@ static void test_inverse_dynamics_held_waits(void **state)
     assert_int_equal(sp_inverse_kinematics(p, &m.pose, &ik), SP_OK);
     assert_int_equal(sp_jacobian(&ik, &jac), SP_OK);
     assert_int_equal(sp_inverse_dynamics_rates(p, &m, &ik, &jac, NULL, f, &lu, rt), SP_OK);
-    memset(&hk, 0, sizeof hk);
-    memset(&luk, 0, sizeof luk);
-    hk.lu_keep = 8u;
-    hk.lu_staged = 1u;
-    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* nothing to refine from: factorised */
-    assert_int_equal(hk.lu_age, 0);
-    assert_int_equal(hk.lu_waited, 0);
-    for (int j = 1; j <= 7; ++j) {
-        held_call(&m, &ik, &jac, &luk, &hk, 0u, f);
-        assert_int_equal(hk.lu_age, j); /* at 7: due to begin with the next call */
+    for (int calls = 2; calls <= 3; ++calls) {
+        /* staged over two calls (lu_keep 8) and over three (9, as the
+         * controller): begun at age lu_keep - lead */
+        sp_lu6_t luk;
+        sp_leg_hold_t hk;
+        int lead = calls - 1;
+        int due;
+        memset(&hk, 0, sizeof hk);
+        memset(&luk, 0, sizeof luk);
+        hk.lu_keep = (uint8_t)(6 + calls);
+        hk.lu_staged = (uint8_t)calls;
+        due = hk.lu_keep - lead;
+        held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* nothing to refine from: factorised */
+        assert_int_equal(hk.lu_age, 0);
+        assert_int_equal(hk.lu_waited, 0);
+        for (int j = 1; j <= due; ++j) {
+            held_call(&m, &ik, &jac, &luk, &hk, 0u, f);
+            assert_int_equal(hk.lu_age, j);
+        }
+        held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* due to begin: waits */
+        assert_int_equal(hk.lu_next.begun, 0);
+        assert_int_equal(hk.lu_age, due);
+        assert_int_equal(hk.lu_waited, 1);
+        held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* a second wait on one factorisation: begins */
+        assert_int_equal(hk.lu_next.begun, 1);
+        assert_int_equal(hk.lu_next.steps, 1);
+        assert_int_equal(hk.lu_age, due + 1);
+        if (calls == 3) {
+            held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* its middle step */
+            assert_int_equal(hk.lu_next.begun, 1);
+            assert_int_equal(hk.lu_next.steps, 2);
+            assert_int_equal(hk.lu_age, due + 2);
+        }
+        held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* finishes: the next factorisation */
+        assert_int_equal(hk.lu_next.begun, 0);
+        assert_int_equal(hk.lu_age, 1);
+        assert_int_equal(hk.lu_waited, 0);
+        for (int j = 2; j <= due + 1; ++j) {
+            held_call(&m, &ik, &jac, &luk, &hk, 0u, f); /* the last begins */
+        }
+        assert_int_equal(hk.lu_next.begun, 1);
+        assert_int_equal(hk.lu_age, due + 1);
+        held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* due to step or finish: waits, the stage kept */
+        assert_int_equal(hk.lu_next.begun, 1);
+        assert_int_equal(hk.lu_next.steps, 1);
+        assert_int_equal(hk.lu_age, due + 1);
+        assert_int_equal(hk.lu_waited, 1);
+        for (int j = 1; j < calls; ++j) {
+            held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* the wait used up: steps, finishes */
+        }
+        assert_int_equal(hk.lu_next.begun, 0);
+        assert_int_equal(hk.lu_age, 1);
+        /* overdue (the controller's repeated reference): factorised, no wait */
+        hk.lu_age = hk.lu_keep;
+        held_call(&m, &ik, &jac, &luk, &hk, 1u, f);
+        assert_int_equal(hk.lu_age, 0);
+        assert_int_equal(hk.lu_waited, 0);
     }
-    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* due to begin: waits */
-    assert_int_equal(hk.lu_next.begun, 0);
-    assert_int_equal(hk.lu_age, 7);
-    assert_int_equal(hk.lu_waited, 1);
-    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* a second wait on one factorisation: begins */
-    assert_int_equal(hk.lu_next.begun, 1);
-    assert_int_equal(hk.lu_age, 8);
-    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* finishes: the next factorisation */
-    assert_int_equal(hk.lu_next.begun, 0);
-    assert_int_equal(hk.lu_age, 1);
-    assert_int_equal(hk.lu_waited, 0);
-    for (int j = 2; j <= 8; ++j) {
-        held_call(&m, &ik, &jac, &luk, &hk, 0u, f); /* the last begins */
-    }
-    assert_int_equal(hk.lu_next.begun, 1);
-    assert_int_equal(hk.lu_age, 8);
-    held_call(&m, &ik, &jac, &luk, &hk, 1u, f); /* due to finish: waits, the stage kept */
-    assert_int_equal(hk.lu_next.begun, 1);
-    assert_int_equal(hk.lu_age, 8);
-    assert_int_equal(hk.lu_waited, 1);
-    held_call(&m, &ik, &jac, &luk, &hk, 0u, f); /* finishes it */
-    assert_int_equal(hk.lu_next.begun, 0);
-    assert_int_equal(hk.lu_age, 1);
-    /* overdue (the controller's repeated reference): factorised, no wait */
-    hk.lu_age = hk.lu_keep;
-    held_call(&m, &ik, &jac, &luk, &hk, 1u, f);
-    assert_int_equal(hk.lu_age, 0);
-    assert_int_equal(hk.lu_waited, 0);
 }
 
 static void test_inverse_dynamics_held(void **state)
@@ -1714,7 +1731,7 @@ static void test_inverse_dynamics_held(void **state)
             memset(&hk, 0, sizeof hk);
             memset(&luk, 0, sizeof luk);
             hk.lu_keep = staged ? 8u : 6u;
-            hk.lu_staged = (uint8_t)staged;
+            hk.lu_staged = (uint8_t)(staged ? 2 : 0);
             for (int j = 0; j <= (staged ? 9 : 5); ++j) {
                 sp_ik_t ikj;
                 sp_jacobian_t jacj;

@@ -118,11 +118,12 @@ static void random_matrix(uint64_t *rng, double scale, int shift, sp_jacobian_t 
     }
 }
 
-/* The staged factorisation (sp_lu6_factor_begin, then _end) against the
- * whole one: the same bits and status; an error of begin is one of the
- * whole factorisation's (a singular pivot, or a saturated entry where
- * a later pivot may yet be singular). */
-static void check_staged(const sp_jacobian_t *m, int transpose, const sp_lu6_t *lu, sp_status_t st)
+/* The staged factorisation against the whole one, in two calls
+ * (sp_lu6_factor_begin, then _end) and in three (_begin, _step, _end):
+ * the same bits and status; an error of an early call is one of the
+ * whole factorisation's (a singular pivot, or a saturated entry where a
+ * later pivot may yet be singular). */
+static void check_staged_calls(const sp_jacobian_t *m, int transpose, const sp_lu6_t *lu, sp_status_t st, int calls)
 {
     sp_lu6_stage_t part;
     sp_lu6_t staged;
@@ -130,9 +131,21 @@ static void check_staged(const sp_jacobian_t *m, int transpose, const sp_lu6_t *
     memset(&staged, 0x5A, sizeof staged);
     sb = sp_lu6_factor_begin(m, transpose, &part);
     assert_int_equal(part.begun, sb == SP_OK);
+    if (sb == SP_OK && calls == 3) {
+        assert_int_equal(part.steps, 1);
+        sb = sp_lu6_factor_step(&part);
+        assert_int_equal(part.begun, sb == SP_OK);
+        if (sb == SP_OK) {
+            assert_int_equal(part.steps, SP_LU6_STAGE_STEPS);
+            sp_lu6_stage_t twice = part;
+            assert_int_equal(sp_lu6_factor_step(&twice), SP_E_ARG); /* a second step: refused */
+        }
+    }
     if (sb != SP_OK) {
         assert_int_not_equal(st, SP_OK);
         assert_true(sb == st || (sb == SP_E_OVERFLOW && st == SP_E_SINGULAR));
+        assert_int_equal(sp_lu6_factor_end(&part, &staged), SP_E_ARG); /* nothing begun to end */
+        assert_int_equal(staged.valid, 0);
         return;
     }
     assert_int_equal(sp_lu6_factor_end(&part, &staged), st);
@@ -144,6 +157,13 @@ static void check_staged(const sp_jacobian_t *m, int transpose, const sp_lu6_t *
         assert_memory_equal(staged.zk, lu->zk, sizeof lu->zk);
         assert_memory_equal(staged.perm, lu->perm, sizeof lu->perm);
     }
+    assert_int_equal(sp_lu6_factor_step(&part), SP_E_ARG); /* used up */
+}
+
+static void check_staged(const sp_jacobian_t *m, int transpose, const sp_lu6_t *lu, sp_status_t st)
+{
+    check_staged_calls(m, transpose, lu, st, 2);
+    check_staged_calls(m, transpose, lu, st, 3);
 }
 
 static void check_factor(const sp_jacobian_t *m, int transpose)

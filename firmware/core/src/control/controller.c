@@ -6,6 +6,12 @@
 #include "model/model_internal.h"
 #include "math/fixed_inline.h"
 
+/* The ticks the factorisation of J^T is staged over (sp_leg_hold_t.
+ * lu_staged, sp/control/controller.h SP_CTRL_LU_KEEP): three from
+ * SP_CTRL_LEG_GROUPS + 3 on, two at + 2, else none. */
+#define CTRL_LU_STAGED                                                                                                 \
+    ((SP_CTRL_LU_KEEP > SP_CTRL_LEG_GROUPS + 2u) ? 3u : ((SP_CTRL_LU_KEEP > SP_CTRL_LEG_GROUPS + 1u) ? 2u : 0u))
+
 const char *sp_state_name(sp_state_t state)
 {
     switch (state) {
@@ -245,13 +251,14 @@ static void reset_estimate(sp_ctrl_t *ctrl, const sp_ctrl_config_t *cfg)
     ctrl->model_pose = p->park;
     ctrl->model_current = 1u;
     ctrl->setpoints_deferred = 0u;
+    ctrl->busy = 0u;
     ctrl->legs.held = 0u; /* no leg terms kept: the first setpoints compute every leg */
     ctrl->legs.fresh = 0u;
     /* the forces' factorisation made every SP_CTRL_LU_KEEP ticks, the
      * ticks between refining from the last forces (sp_inverse_dynamics_held;
      * only with the leg terms kept: SP_CTRL_LEG_GROUPS > 1) */
     ctrl->legs.lu_keep = (uint8_t)SP_CTRL_LU_KEEP;
-    ctrl->legs.lu_staged = (uint8_t)(SP_CTRL_LU_KEEP > SP_CTRL_LEG_GROUPS + 1u);
+    ctrl->legs.lu_staged = (uint8_t)CTRL_LU_STAGED;
     ctrl->legs.lu_age = 0u;
     ctrl->legs.lu_next.begun = 0u; /* no factorisation staged */
     ctrl->legs_exact = 0u;
@@ -443,6 +450,7 @@ static void raise_fault(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, uint32_t f
     ctrl->move.tick = 0u;
     if (ctrl->faults == SP_FAULT_REFERENCE && ctrl->est.valid) {
         /* controlled park from where the platform is commanded to be */
+        ctrl->busy = 1u;
         if (spi_move_plan_legs(cfg, ctrl, &ctrl->reference.pose, &cfg->platform->park) != SP_OK) {
             ctrl->move.duration_ticks = 0u;
         }
@@ -580,6 +588,7 @@ SPI_NOINLINE static uint32_t estimate(const sp_ctrl_config_t *cfg, sp_ctrl_t *ct
 
 static int start_move(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_pose_t *from, const sp_pose_t *to)
 {
+    ctrl->busy = 1u; /* the plan's cost: this tick's model work waits */
     return spi_move_plan_legs(cfg, ctrl, from, to) == SP_OK;
 }
 
@@ -1326,8 +1335,7 @@ static int same_motion(const sp_motion_t *a, const sp_motion_t *b)
  * for as long as it lasts (its first SP_CTRL_LEG_GROUPS ticks complete the
  * legs' terms), and the RUN_TRIG tick starts from it (the trig generator's
  * first sample is the centre at rest). */
-static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags,
-                            int busy)
+static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, sp_flags_t flags)
 {
     sp_status_t st = SP_E_OVERFLOW;
     unsigned ff = (cfg->force_feedforward ? SP_FF_DYNAMICS : 0u) | (cfg->friction_compensation ? SP_FF_FRICTION : 0u);
@@ -1346,10 +1354,10 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
          * other SP_CTRL_LU_KEEP - 1 (staged: - 2) ticks refresh the groups */
         unsigned per = SP_LEGS / SP_CTRL_LEG_GROUPS;
         unsigned refresh = 0u;
-        /* a tick busy with an operator command (its check and plan: up
-         * to ~900 instructions) waits: no group, no factorisation step;
+        /* a tick busy with an operator command or a move's plan (up to
+         * ~900 instructions) waits: no group, no factorisation step;
          * once a factorisation at most (sp_leg_hold_t.lu_wait) */
-        int wait = busy && SP_CTRL_LEG_GROUPS > 1u && !ctrl->legs.lu_waited;
+        int wait = ctrl->busy && SP_CTRL_LEG_GROUPS > 1u && !ctrl->legs.lu_waited;
         ctrl->legs.lu_wait = (uint8_t)wait;
         if (same && (ctrl->legs_exact & SP_ALL_LEGS) == SP_ALL_LEGS) {
             /* a repeated reference whose legs the ticks before completed:
@@ -1359,8 +1367,9 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
             ctrl->legs.lu_age = ctrl->legs.lu_keep;
             ctrl->legs.lu_next.begun = 0u;
         }
-        if (!wait && (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS ||
-                      ctrl->legs.held != SP_ALL_LEGS || ctrl->legs.lu_age + 1u < ctrl->legs.lu_keep)) {
+        if (!wait &&
+            (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || ctrl->legs.held != SP_ALL_LEGS ||
+             ctrl->legs.lu_age + ((CTRL_LU_STAGED >= 3u) ? 2u : 1u) < ctrl->legs.lu_keep)) {
             refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
             ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
         }
@@ -1423,12 +1432,11 @@ static int idle_setpoints(sp_ctrl_t *ctrl, const sp_motion_t *ref)
  * (the legs' terms at rest cost a third of a moving reference's, which a
  * held tick would leave to the next sending tick). Returns whether a
  * model of the tick's or a kept reference is valid. */
-static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, int idle, int heard,
-                             int busy)
+static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_motion_t *ref, int idle, int heard)
 {
     int fresh = ctrl->est.ref_lu.valid;
     if (idle) {
-        return (!fresh && !heard) ? motion_setpoints(cfg, ctrl, ref, 0u, busy) : idle_setpoints(ctrl, ref);
+        return (!fresh && !heard) ? motion_setpoints(cfg, ctrl, ref, 0u) : idle_setpoints(ctrl, ref);
     }
     if (!fresh && !ctrl->setpoints_deferred && cfg->feedback_divider > 2u) {
         ctrl->setpoints_deferred = 1u;
@@ -1436,7 +1444,7 @@ static int divided_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const
         return 0;
     }
     ctrl->setpoints_deferred = 0u;
-    return motion_setpoints(cfg, ctrl, ref, 0u, busy);
+    return motion_setpoints(cfg, ctrl, ref, 0u);
 }
 
 /* ---- 6. the external wrench ------------------------------------------------ */
@@ -1838,9 +1846,11 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
     ft_sensor(cfg, ctrl, in);
     drive_reset_job(cfg, ctrl, comms_ok);
     cmd = sp_ctrl_operator_link(cfg, ctrl, in, &dropped);
+    ctrl->busy = 0u;
     if (dropped) {
         reason = (uint8_t)SP_REFUSE_LINK;
     } else if (cmd->type != SP_CMD_NONE) { /* checked before it is taken: no cost on ticks without a command */
+        ctrl->busy = 1u;
         reason = spi_cmd_check(cfg, ctrl, cmd);
     }
     rejected = reason != (uint8_t)SP_REFUSE_NONE || !command(cfg, ctrl, cmd, comms_ok) || dropped;
@@ -1866,12 +1876,11 @@ sp_status_t sp_ctrl_step(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const sp_
         if ((ctrl->force.mode != SP_FORCE_OFF || ctrl->park_after_release) && force_control(cfg, ctrl, &forced)) {
             ref = &forced;
         }
-        int busy = cmd->type != SP_CMD_NONE;
         if (flags == 0u && cfg->feedback_divider > 1u) {
-            have_model = divided_setpoints(cfg, ctrl, ref, in->setpoints_idle, heard, busy);
+            have_model = divided_setpoints(cfg, ctrl, ref, in->setpoints_idle, heard);
         } else {
             have_model = (in->setpoints_idle && flags == 0u) ? idle_setpoints(ctrl, ref)
-                                                             : motion_setpoints(cfg, ctrl, ref, flags, busy);
+                                                             : motion_setpoints(cfg, ctrl, ref, flags);
         }
     }
     if ((ctrl->prep.force.contact_ff && ctrl->force.mode == SP_FORCE_FORCE) || ctrl->contact_ff_cols != 0u) {

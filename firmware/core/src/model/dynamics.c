@@ -6,8 +6,11 @@
 
 /* bit i for each leg i */
 #define SP_ALL_LEG_BITS ((1u << SP_LEGS) - 1u)
-/* id_lu_plan's stage of a waiting call (sp_leg_hold_t.lu_wait) */
+/* id_lu_plan's stages besides 0 (factorise whole), 1 (begin) and 2
+ * (finish): a waiting call (sp_leg_hold_t.lu_wait), and the middle step
+ * of a factorisation staged over three calls */
 #define ID_LU_WAIT 3u
+#define ID_LU_STEP 4u
 
 #if defined(__GNUC__)
 #define SPI_COLD __attribute__((cold, noinline))
@@ -832,24 +835,36 @@ SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS
     }
 }
 
+/* The calls before a staged factorisation's last that precede its due
+ * age: 1 unstaged (the call due makes it whole) or in two calls, 2 in
+ * three (sp_leg_hold_t.lu_staged). */
+SPI_INLINE unsigned id_lu_lead(const sp_leg_hold_t *kept_lu)
+{
+    return (kept_lu->lu_staged >= 3u) ? 2u : 1u;
+}
+
 /* The plan for the factorisation kept in *kept_lu (lu_keep > 1) with
  * *lu the last call's: *refine 1 to refine from kept_lu->fq with *lu;
- * returns the stage, 1: then begin the staged factorisation, 2: finish it
- * first, ID_LU_WAIT: neither (a waiting call: its age not counted). */
+ * returns the stage, 1: then begin the staged factorisation, ID_LU_STEP:
+ * then take its middle step, 2: finish it first, ID_LU_WAIT: none (a
+ * waiting call: its age not counted). */
 SPI_INLINE unsigned id_lu_plan(sp_leg_hold_t *kept_lu, const sp_lu6_t *lu, int *refine)
 {
     unsigned stage = 0u;
+    unsigned lead = id_lu_lead(kept_lu);
     *refine = lu->valid && kept_lu->held == SP_ALL_LEG_BITS;
     if (kept_lu->lu_wait && *refine && !kept_lu->lu_waited &&
         (kept_lu->lu_next.begun || (kept_lu->lu_age < kept_lu->lu_keep))) {
         kept_lu->lu_waited = 1u;
         stage = ID_LU_WAIT;
     } else if (kept_lu->lu_next.begun) {
-        stage = 2u; /* the last call began it: finished, it serves this call */
-    } else if (kept_lu->lu_age + 1u >= kept_lu->lu_keep) {
+        /* begun by an earlier call: its middle step (three calls), else
+         * finished, it serves this call */
+        stage = (kept_lu->lu_staged >= 3u && kept_lu->lu_next.steps < SP_LU6_STAGE_STEPS) ? ID_LU_STEP : 2u;
+    } else if (kept_lu->lu_age + lead >= kept_lu->lu_keep) {
         /* due: a staged factorisation begins after this call's
-         * refinement (its last with *lu), else one is made now */
-        stage = (kept_lu->lu_staged && kept_lu->lu_age + 1u == kept_lu->lu_keep) ? 1u : 0u;
+         * refinement, else one is made now */
+        stage = (kept_lu->lu_staged >= 2u && kept_lu->lu_age + lead == kept_lu->lu_keep) ? 1u : 0u;
         *refine = *refine && stage != 0u;
     }
     if (!*refine) {
@@ -878,8 +893,9 @@ SPI_INLINE void id_translation(const sp_platform_t *platform, const sp_motion_t 
 }
 
 /* One refinement step with the kept factorisation (still in *lu: only
- * its valid flag was cleared), finishing the staged one first (stage 2)
- * and beginning the next (stage 1): f = fq 2^16 + LU^-1 (b - J^T fq).
+ * its valid flag was cleared), finishing the staged one first (stage 2),
+ * beginning the next (stage 1) or taking its middle step (ID_LU_STEP)
+ * after: f = fq 2^16 + LU^-1 (b - J^T fq).
  * Returns 0 when it cannot (the caller factorises), *st the solve's. */
 SPI_INLINE int id_refine(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_jacobian_t *jac, unsigned stage,
                          const int64_t b[SP_LEGS], int64_t f[SP_LEGS], sp_status_t *st)
@@ -910,9 +926,12 @@ SPI_INLINE int id_refine(sp_leg_hold_t *kept_lu, sp_lu6_t *lu, const sp_jacobian
         kept_lu->lu_age = (uint8_t)(kept_lu->lu_age + 1u);
     }
     if (stage == 1u) {
-        /* this call's J^T, half factorised (the next call
-         * finishes it); a failure leaves it to a whole one */
+        /* this call's J^T, its first pivot step taken (the next calls
+         * take the others); a failure leaves it to a whole one */
         (void)sp_lu6_factor_begin(jac, 1, &kept_lu->lu_next);
+    }
+    if (stage == ID_LU_STEP) {
+        (void)sp_lu6_factor_step(&kept_lu->lu_next); /* likewise */
     }
     return 1;
 }

@@ -258,7 +258,7 @@ SPI_INLINE void lu_order(int32_t *const r[SP_LEGS], const int32_t *w0, uint8_t o
 
 /* The factorisation's pivot steps in two groups, the first
  * SP_LU6_STAGE_STEPS (0 and 1) and the others (2 to 5), out of line:
- * sp_lu6_factor and the staged factorisation share them. Each returns 0
+ * sp_lu6_factor and the staged factorisation's end share them. Each returns 0
  * at a pivot below SP_PIVOT_MIN. */
 SPI_NOINLINE static int lu_steps_first(int32_t *inv, uint8_t *zk, int32_t *r[SP_LEGS], uint32_t *bound,
                                        sp_flags_t *flags)
@@ -320,6 +320,36 @@ sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu)
     return SP_OK;
 }
 
+/* The rows of a staged factorisation, in pivot order so far. */
+SPI_INLINE void lu_stage_rows(sp_lu6_stage_t *part, int32_t *r[SP_LEGS])
+{
+    unsigned i;
+    LU_UNROLL
+    for (i = 0u; i < SP_LEGS; ++i) {
+        r[i] = part->a[part->order[i]];
+    }
+}
+
+/* A bound of the entries left after `from` pivot steps (rows and columns
+ * from..5 in pivot order), from the entries themselves: not the running
+ * one sp_lu6_factor carries to that step, so a step may take the other
+ * path, with the same bits, as neither saturates where that bound rules
+ * it out. */
+SPI_INLINE uint32_t lu_stage_bound(int32_t *const r[SP_LEGS], unsigned from)
+{
+    uint32_t bound = 0u;
+    unsigned i;
+    unsigned j;
+    LU_UNROLL
+    for (i = from; i < SP_LEGS; ++i) {
+        LU_UNROLL
+        for (j = from; j < SP_LEGS; ++j) {
+            bound |= (uint32_t)(r[i][j] ^ (r[i][j] >> 31));
+        }
+    }
+    return bound + 1u;
+}
+
 sp_status_t sp_lu6_factor_begin(const sp_jacobian_t *m, int transpose, sp_lu6_stage_t *part)
 {
     int32_t *r[SP_LEGS];
@@ -331,18 +361,44 @@ sp_status_t sp_lu6_factor_begin(const sp_jacobian_t *m, int transpose, sp_lu6_st
         return SP_E_ARG;
     }
     part->begun = 0u;
+    part->steps = 0u;
     bound = lu_copy_in(m, transpose, part->a);
     LU_UNROLL
     for (i = 0u; i < SP_LEGS; ++i) {
         r[i] = part->a[i];
     }
-    if (!lu_steps_first(part->inv, part->zk, r, &bound, &flags)) {
+    if (!lu_step(part->inv, part->zk, r, 0u, &bound, &flags)) {
         return SP_E_SINGULAR;
     }
     lu_order(r, &part->a[0][0], part->order); /* the rows themselves stay where they are */
     if (flags != 0u) {
         return sp_flags_status(flags);
     }
+    part->steps = 1u;
+    part->begun = 1u;
+    return SP_OK;
+}
+
+sp_status_t sp_lu6_factor_step(sp_lu6_stage_t *part)
+{
+    int32_t *r[SP_LEGS];
+    sp_flags_t flags = 0u;
+    uint32_t bound;
+
+    if (part == NULL || !part->begun || part->steps != 1u) {
+        return SP_E_ARG;
+    }
+    part->begun = 0u; /* its rows are changed below: begun again once done */
+    lu_stage_rows(part, r);
+    bound = lu_stage_bound(r, 1u);
+    if (!lu_step(part->inv, part->zk, r, 1u, &bound, &flags)) {
+        return SP_E_SINGULAR;
+    }
+    lu_order(r, &part->a[0][0], part->order);
+    if (flags != 0u) {
+        return sp_flags_status(flags);
+    }
+    part->steps = SP_LU6_STAGE_STEPS;
     part->begun = 1u;
     return SP_OK;
 }
@@ -351,34 +407,25 @@ sp_status_t sp_lu6_factor_end(sp_lu6_stage_t *part, sp_lu6_t *lu)
 {
     int32_t *r[SP_LEGS];
     sp_flags_t flags = 0u;
-    uint32_t bound = 0u;
+    uint32_t bound;
     unsigned i;
-    unsigned j;
 
     if (part == NULL || lu == NULL) {
         return SP_E_ARG;
     }
     lu->valid = 0u;
+    if (part->begun && part->steps != SP_LU6_STAGE_STEPS) {
+        sp_status_t st = sp_lu6_factor_step(part); /* two calls: the second step here */
+        if (st != SP_OK) {
+            return st;
+        }
+    }
     if (!part->begun) {
         return SP_E_ARG;
     }
     part->begun = 0u; /* its rows are changed below */
-    LU_UNROLL
-    for (i = 0u; i < SP_LEGS; ++i) {
-        r[i] = part->a[part->order[i]];
-    }
-    /* a bound of the rows left from their entries (not the running one
-     * sp_lu6_factor carries to this step: a step may then take the other
-     * path, with the same bits, as neither saturates where that bound
-     * rules it out) */
-    LU_UNROLL
-    for (i = SP_LU6_STAGE_STEPS; i < SP_LEGS; ++i) {
-        LU_UNROLL
-        for (j = SP_LU6_STAGE_STEPS; j < SP_LEGS; ++j) {
-            bound |= (uint32_t)(r[i][j] ^ (r[i][j] >> 31));
-        }
-    }
-    bound += 1u;
+    lu_stage_rows(part, r);
+    bound = lu_stage_bound(r, SP_LU6_STAGE_STEPS);
     if (!lu_steps_rest(lu->inv, lu->zk, r, &bound, &flags)) {
         return SP_E_SINGULAR;
     }

@@ -34,16 +34,16 @@
  * (sp_setpoints_held), the other legs' reactions, moments and axial terms
  * kept from the tick that last refreshed them; the rest of the inverse
  * dynamics and the leg rates are always this tick's. The forces' solve
- * factorises J^T once every SP_CTRL_LU_KEEP ticks, in two halves on two
- * ticks (hold.lu_staged): the first refines its forces with the old
- * factorisation and begins the new one of its own J^T, the second
- * finishes it and refines with it, one tick old; the ticks between refine
- * the last tick's forces with it too (sp_inverse_dynamics_held,
+ * factorises J^T once every SP_CTRL_LU_KEEP ticks, in three parts on
+ * three ticks (hold.lu_staged): the first refines its forces with the old
+ * factorisation and begins the new one of its own J^T, the second takes
+ * its middle step, the third finishes it and refines with it, two ticks
+ * old; the ticks between refine the last tick's forces with it too (sp_inverse_dynamics_held,
  * hold.lu_keep; docs/explanation/model.md, "The factorisation kept over ticks"), and
  * the estimate's chord step uses it too.
- * The two ticks that factorise refresh no leg (the factorisation and a
+ * The three ticks that factorise refresh no leg (the factorisation and a
  * leg's terms are the two heaviest jobs of the feed-forward: never on the
- * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 2
+ * same tick), so a turn is SP_CTRL_LU_KEEP = SP_CTRL_LEG_GROUPS + 3
  * ticks. A kept term is at most SP_CTRL_LU_KEEP - 1 ticks old (docs/explanation/model.md,
  * "Leg masses kept over ticks"). A tick with an operator command (its
  * check and plan) refreshes no leg and takes no step of the factorisation,
@@ -437,13 +437,15 @@ typedef struct {
  *  SP_CTRL_LEG_GROUPS (> 1), the tick that factorises refreshes no leg
  *  (motion_setpoints): SP_CTRL_LEG_GROUPS + 1 gives each of the turn's
  *  other ticks one group. Above that, the factorisation is staged over two
- *  ticks, neither refreshing a leg (sp_leg_hold_t.lu_staged):
- *  SP_CTRL_LEG_GROUPS + 2 (the default) gives each of the other ticks one
- *  group. The tick's highest count on the Cortex-M4 falls from 10,507 to
- *  10,363 instructions with it (CHANGELOG.md, session 15); the forces of a
- *  kept leg are a tick older and the factorisation up to 8 ticks
- *  (docs/explanation/model.md). */
-#define SP_CTRL_LU_KEEP 8u
+ *  ticks, neither refreshing a leg (sp_leg_hold_t.lu_staged 2):
+ *  SP_CTRL_LEG_GROUPS + 2 gives each of the other ticks one group; from
+ *  SP_CTRL_LEG_GROUPS + 3 (the default) over three (lu_staged 3: pivot
+ *  step 0, step 1, the other four), so that no tick of the factorisation
+ *  costs more than a leg's terms (Cortex-M4, -Os: the stream scenario's
+ *  highest tick 10,085 -> 9,988 instructions, CHANGELOG.md); the forces
+ *  of a kept leg are then up to 8 ticks old and the factorisation up to
+ *  9 (docs/explanation/model.md). */
+#define SP_CTRL_LU_KEEP 9u
 
 /** Ticks a FAULT holds by the drives' position loops before the blocking
  *  valves close (out->drive_block): the loops first bring a moving
@@ -518,6 +520,8 @@ typedef struct {
     uint8_t model_current;           /**< 1: model is of reference (no setpoints_idle tick moved it since) */
     uint8_t setpoints_deferred;      /**< divided feedback: 1 when the last sending tick held, leaving the
                                           first setpoints after a hold to a quiet tick */
+    uint8_t busy;                    /**< 1 on a tick that checked an operator command or planned a move:
+                                          the model's work that may wait, waits (motion_setpoints) */
     sp_setpoint_t setpoint[SP_LEGS]; /**< the last setpoints sent */
     uint8_t have_setpoint;           /**< 1 once a reference passed every limit */
     uint8_t setpoint_ff;             /**< the feed-forward switches (SP_FF_*) the last setpoints were made with */

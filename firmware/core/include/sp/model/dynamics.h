@@ -95,7 +95,7 @@ typedef struct {
     uint8_t lu_keep;     /**< in: calls over which one factorisation may serve (0 or 1: a fresh one every call) */
     uint8_t lu_age;      /**< in/out: calls since *lu was factorised (0: by this call); lu_keep - 1 or more
                                   makes the next call factorise (staged: begin to) */
-    uint8_t lu_staged;   /**< in: 1: the factorisation is staged over two calls (below) */
+    uint8_t lu_staged;   /**< in: the calls a factorisation is staged over: 2 or 3 (below); 0 or 1: none */
     uint8_t lu_wait;     /**< in: 1: this call takes no step of the factorisation if it may refine (below) */
     uint8_t lu_waited;   /**< in/out: 1 once a call waited since *lu was factorised */
     sp_lu6_stage_t lu_next; /**< in/out: the last call's J^T, half factorised, while lu_next.begun is 1 */
@@ -123,14 +123,17 @@ typedef struct {
  * rounded once to Q24), F = fq + LU^-1 r, and counts hold->lu_age up;
  * otherwise (also when |fq| >= 2^24 Q8 or r leaves the solve's range)
  * it factorises into *lu and sets hold->lu_age to 0.
- * Staged (hold->lu_staged 1): the call due to factorise with
- * hold->lu_age + 1 == hold->lu_keep refines once more with *lu (its age
- * becomes lu_keep) and begins the factorisation of its J^T in
+ * Staged over two calls (hold->lu_staged 2): the call due to factorise
+ * with hold->lu_age + 1 == hold->lu_keep refines once more with *lu (its
+ * age becomes lu_keep) and begins the factorisation of its J^T in
  * hold->lu_next (sp_lu6_factor_begin); the next call, when it may refine
  * (as above, whatever the age), finishes it into *lu (sp_lu6_factor_end:
  * the exact factorisation of the last call's J^T) and refines with it,
  * hold->lu_age 1; a call that may not refine drops it and factorises
- * whole. A hold->lu_age of lu_keep or more with no begun stage
+ * whole. Over three (hold->lu_staged 3): the call with hold->lu_age + 2
+ * == hold->lu_keep begins it, the next refines with *lu and takes its
+ * middle step (sp_lu6_factor_step), the one after finishes it (its J^T
+ * two calls old) and refines with it. A hold->lu_age of lu_keep or more with no begun stage
  * (hold->lu_next.begun 0) makes the call factorise whole.
  * Waiting (hold->lu_wait 1, a call busy with other work): a call that may
  * refine, is not overdue (hold->lu_age below lu_keep, or a stage begun)

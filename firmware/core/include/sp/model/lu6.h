@@ -67,36 +67,41 @@ typedef struct {
  */
 sp_status_t sp_lu6_factor(const sp_jacobian_t *m, int transpose, sp_lu6_t *lu);
 
-/** The pivot steps the first call of the staged factorisation takes
- *  (sp_lu6_factor_begin): columns 0 and 1, about half the work (step k
- *  updates (5 - k)^2 entries). */
+/** The pivot steps a staged factorisation takes before its last call
+ *  (sp_lu6_factor_end): columns 0 (sp_lu6_factor_begin) and 1
+ *  (sp_lu6_factor_step, or the end itself); step k updates (5 - k)^2
+ *  entries, so the first two are about half the work. */
 #define SP_LU6_STAGE_STEPS 2u
 
 /** A factorisation in progress (sp_lu6_factor_begin): the rows of A
- *  after the first SP_LU6_STAGE_STEPS pivot steps, in place (not moved:
- *  row order[i] of a is the i-th in pivot order so far), and those
- *  steps' reciprocals. Not a factorisation: the solves do not take it. */
+ *  after the pivot steps taken so far, in place (not moved: row order[i]
+ *  of a is the i-th in pivot order so far), and those steps' reciprocals.
+ *  Not a factorisation: the solves do not take it. */
 typedef struct {
     int32_t a[SP_LEGS][SP_LEGS];
     int32_t inv[SP_LU6_STAGE_STEPS];
     uint8_t zk[SP_LU6_STAGE_STEPS];
     uint8_t order[SP_LEGS];
-    uint8_t begun; /**< 1 after a successful sp_lu6_factor_begin, until sp_lu6_factor_end */
+    uint8_t steps; /**< pivot steps taken: 1 after sp_lu6_factor_begin, SP_LU6_STAGE_STEPS after sp_lu6_factor_step */
+    uint8_t begun; /**< 1 after a successful sp_lu6_factor_begin, until sp_lu6_factor_end or a failed step */
 } sp_lu6_stage_t;
 
 /**
- * sp_lu6_factor in two calls (the controller spreads it over two ticks):
- * sp_lu6_factor_begin copies A (as sp_lu6_factor) into *part and takes
- * the first SP_LU6_STAGE_STEPS pivot steps; sp_lu6_factor_end takes the
- * others on *part (used up: part->begun 0) and writes the factorisation
- * into *lu, bit-identical to sp_lu6_factor's of the same A
- * (tests/unit/test_lu6.c). Errors: SP_E_ARG (NULL, or end without a
- * successful begin), SP_E_SINGULAR (a pivot below SP_PIVOT_MIN, in either
- * call), SP_E_OVERFLOW (an entry saturated: reported by the call that
- * saturated it, so that a begin's SP_E_OVERFLOW may be a matrix that
- * sp_lu6_factor finds singular); part->begun or lu->valid is then 0.
+ * sp_lu6_factor in two or three calls (the controller spreads it over
+ * three ticks): sp_lu6_factor_begin copies A (as sp_lu6_factor) into
+ * *part and takes pivot step 0; sp_lu6_factor_step, when called, takes
+ * step 1; sp_lu6_factor_end takes the others (step 1 too when no
+ * sp_lu6_factor_step took it) on *part (used up: part->begun 0) and
+ * writes the factorisation into *lu, bit-identical to sp_lu6_factor's of
+ * the same A (tests/unit/test_lu6.c). Errors: SP_E_ARG (NULL, a step or
+ * an end without a successful begin, a second step), SP_E_SINGULAR (a
+ * pivot below SP_PIVOT_MIN, in any call), SP_E_OVERFLOW (an entry
+ * saturated: reported by the call that saturated it, so that an earlier
+ * call's SP_E_OVERFLOW may be a matrix that sp_lu6_factor finds
+ * singular); part->begun or lu->valid is then 0.
  */
 sp_status_t sp_lu6_factor_begin(const sp_jacobian_t *m, int transpose, sp_lu6_stage_t *part);
+sp_status_t sp_lu6_factor_step(sp_lu6_stage_t *part);
 sp_status_t sp_lu6_factor_end(sp_lu6_stage_t *part, sp_lu6_t *lu);
 
 /**
