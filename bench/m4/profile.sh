@@ -26,7 +26,9 @@
 # profile.c's tick markers) executed more than n instructions, and divides
 # by their number: what the highest ticks spend their instructions in;
 # PROFILE_LIST=1 with it also lists each kept tick (its index from the
-# first counted tick, 1 first, and its instructions) on stderr.
+# first counted tick, 1 first, and its instructions) on stderr;
+# PROFILE_TICK=i with it keeps tick i alone (PROFILE_ABOVE=1
+# PROFILE_TICK=i: what that one tick spends its instructions in).
 # PROFILE_FUNC=name (with PROFILE_ABOVE, 1 for every tick) lists that
 # function's translation blocks by start address instead (objdump -d).
 set -euo pipefail
@@ -49,7 +51,7 @@ elf=$dir/bench/m4/sp_m4_profile${3:+_$3}.elf
 log=$(mktemp -d)
 trap 'rm -rf "$log"' EXIT
 mkfifo "$log/fifo"
-awk -v above="${PROFILE_ABOVE:-0}" -v only="${PROFILE_FUNC:-}" -v list="${PROFILE_LIST:-0}" '
+awk -v above="${PROFILE_ABOVE:-0}" -v pick="${PROFILE_TICK:-}" -v only="${PROFILE_FUNC:-}" -v list="${PROFILE_LIST:-0}" '
   /^IN:/ { intb = 1; start = ""; n = 0; fn = $2; next }
   /^Trace/ && !on { split($0, f, "/"); if (func["0x" f[2]] == "profile_begin") on = 1; else next }
   intb && /^0x[0-9a-f]+:/ { if (start == "") start = substr($1, 1, length($1) - 1); n++; next }
@@ -60,7 +62,7 @@ awk -v above="${PROFILE_ABOVE:-0}" -v only="${PROFILE_FUNC:-}" -v list="${PROFIL
     if (k == "profile_tick_end") {
       intick = 0
       ticks++
-      if (tt > above) {
+      if (tt > above && (pick == "" || ticks == pick)) {
         for (j in tc) per[j] += tc[j]
         tot += tt; kept++
         if (list) printf "tick %d: %d\n", ticks, tt > "/dev/stderr"
