@@ -55,6 +55,7 @@ void spi_estop_take(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, int active, in
 {
     uint8_t cause = (uint8_t)SP_STOP_CAUSE_NONE;
     ctrl->drive_reset.left = 0u; /* a reset under way does not re-engage after an ESTOP */
+    ctrl->busy = 1u;             /* the stop's plan and its end's reach check: this tick's model work waits */
     if (ctrl->state == SP_STATE_ESTOP) {
         ctrl->faults |= SP_FAULT_ESTOP;
         return;
