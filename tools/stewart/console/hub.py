@@ -37,8 +37,10 @@ from .validate import Request
 
 #: The receive threads wake at most every RX_BATCH_S and take the frames that
 #: queued meanwhile (their bus timestamps are the interface's): woken for
-#: each of ~4,000 frames a second, they cost more CPU than all else.
-RX_BATCH_S = 0.004
+#: each of ~4,000 frames a second, they cost more CPU than all else; every
+#: 4 ms the server still took 23-26 % of a core on a lightly loaded machine
+#: (the bound is 25 %), every 10 ms 15-18 % (docs/guides/console.md).
+RX_BATCH_S = 0.010
 STALE_S = 0.5          # no CTRL_STATUS for this long: the controller (or the bus) is gone
 #: A command that finds the status stale waits this long for a fresh one
 #: before it is refused: a relayed bus (``stewart sim`` through socketcand
