@@ -1369,7 +1369,7 @@ static int motion_setpoints(const sp_ctrl_config_t *cfg, sp_ctrl_t *ctrl, const 
         }
         if (!wait &&
             (SP_CTRL_LEG_GROUPS == 1u || SP_CTRL_LU_KEEP <= SP_CTRL_LEG_GROUPS || ctrl->legs.held != SP_ALL_LEGS ||
-             ctrl->legs.lu_age + ((CTRL_LU_STAGED >= 3u) ? 2u : 1u) < ctrl->legs.lu_keep)) {
+             ctrl->legs.lu_age + SPI_LU_LEAD(CTRL_LU_STAGED) < ctrl->legs.lu_keep)) {
             refresh = ((1u << per) - 1u) << (ctrl->leg_group * per);
             ctrl->leg_group = (uint8_t)((ctrl->leg_group + 1u < SP_CTRL_LEG_GROUPS) ? ctrl->leg_group + 1u : 0u);
         }

@@ -835,14 +835,6 @@ SPI_INLINE void id_finish(const int64_t f[SP_LEGS], const sp_q16_t axial[SP_LEGS
     }
 }
 
-/* The calls before a staged factorisation's last that precede its due
- * age: 1 unstaged (the call due makes it whole) or in two calls, 2 in
- * three (sp_leg_hold_t.lu_staged). */
-SPI_INLINE unsigned id_lu_lead(const sp_leg_hold_t *kept_lu)
-{
-    return (kept_lu->lu_staged >= 3u) ? 2u : 1u;
-}
-
 /* The plan for the factorisation kept in *kept_lu (lu_keep > 1) with
  * *lu the last call's: *refine 1 to refine from kept_lu->fq with *lu;
  * returns the stage, 1: then begin the staged factorisation, ID_LU_STEP:
@@ -851,7 +843,7 @@ SPI_INLINE unsigned id_lu_lead(const sp_leg_hold_t *kept_lu)
 SPI_INLINE unsigned id_lu_plan(sp_leg_hold_t *kept_lu, const sp_lu6_t *lu, int *refine)
 {
     unsigned stage = 0u;
-    unsigned lead = id_lu_lead(kept_lu);
+    unsigned lead = SPI_LU_LEAD((unsigned)kept_lu->lu_staged);
     *refine = lu->valid && kept_lu->held == SP_ALL_LEG_BITS;
     if (kept_lu->lu_wait && *refine && !kept_lu->lu_waited &&
         (kept_lu->lu_next.begun || (kept_lu->lu_age < kept_lu->lu_keep))) {

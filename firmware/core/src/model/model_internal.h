@@ -85,4 +85,10 @@ sp_status_t spi_inverse_dynamics_held_body(const sp_platform_t *platform, const 
                                            sp_q24_t rate[SP_LEGS], sp_leg_hold_t *hold, unsigned refresh,
                                            const sp_q24_t body[6]);
 
+/* The calls a factorisation staged over `staged` calls (sp_leg_hold_t.
+ * lu_staged) begins before its due age: 2 over three calls, else 1 (over
+ * two, or unstaged: the due call makes it whole). The controller's turn
+ * refreshes no leg from that age on (motion_setpoints). */
+#define SPI_LU_LEAD(staged) (((staged) >= 3u) ? 2u : 1u)
+
 #endif /* SP_MODEL_INTERNAL_H */
